@@ -1,0 +1,236 @@
+"""Kinematic analysis: Newton-Raphson assembly, then positions, velocities and accelerations in time.
+
+For a mechanism whose drivers leave no degree of freedom, at each time t (course notes, ch. 4):
+
+1. position:      solve Psi(q, t) = 0 by Newton-Raphson,  Psi_q dq = -Psi,  q <- q + dq   (eq. 4.8)
+2. velocity:      Psi_q q' = -Psi_t                                                        (eq. 4.5)
+3. acceleration:  Psi_q q'' = gamma                                                        (eq. 4.6)
+
+The Jacobian factored for the last Newton step is reused for steps 2 and 3. A kinematic run needs
+no mass matrix and no forces, and builds neither.
+"""
+
+from __future__ import annotations
+
+import time as _time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+from .assembly import System
+from .diagnostics import AnalysisError, rank_report, singular_joints
+from .planar.bodies import rotation, rotation_derivative
+from .results import Result
+
+LOCKUP_CONDITION = 1e10
+"""Condition number of Psi_q above which a configuration counts as locked (a singular position)."""
+
+
+@dataclass
+class NewtonResult:
+    q: np.ndarray
+    iterations: int
+    residual: float
+
+
+def newton_raphson(
+    system: System, q: np.ndarray, t: float, tol: float = 1e-12, max_iterations: int = 25
+) -> NewtonResult:
+    """Solve Psi(q, t) = 0 for q from the estimate ``q`` (eq. 4.8).
+
+    Iterates Psi_q dq = -Psi, q <- q + dq until max|Psi| < tol. A square Jacobian is solved
+    directly; a non-square one (assembly with free degrees of freedom, or redundant constraints)
+    takes the least-squares, minimum-norm correction.
+
+    Raises
+    ------
+    AnalysisError
+        If it does not converge, naming the residual and the worst constraint.
+    """
+    q = np.array(q, dtype=float)
+    ### BEGIN SOLUTION hw1
+    for iteration in range(max_iterations + 1):
+        psi = system.constraints(q, t)
+        residual = float(np.max(np.abs(psi), initial=0.0))
+        if residual < tol:
+            return NewtonResult(q, iteration, residual)
+        if not np.isfinite(residual) or iteration == max_iterations:
+            break
+        jac = system.jacobian(q, t)
+        if jac.shape[0] == jac.shape[1]:
+            try:
+                dq = np.linalg.solve(jac, -psi)
+            except np.linalg.LinAlgError:
+                dq = np.linalg.lstsq(jac, -psi, rcond=None)[0]
+        else:
+            dq = np.linalg.lstsq(jac, -psi, rcond=None)[0]
+        q = q + dq
+    ### END SOLUTION
+    worst = int(np.nanargmax(np.abs(psi))) if np.any(np.isfinite(psi)) else 0
+    raise AnalysisError(
+        f"Newton-Raphson did not converge at t = {t:.6g} s: residual {residual:.3g} after "
+        f"{max_iterations} iterations, worst constraint {system.labels[worst]}"
+    )
+
+
+def velocity_analysis(system: System, q: np.ndarray, t: float, lu=None) -> np.ndarray:
+    """q' from Psi_q q' = -Psi_t (eq. 4.5); ``lu`` is a factorization of Psi_q to reuse."""
+    ### BEGIN SOLUTION hw1
+    lu = lu if lu is not None else scipy.linalg.lu_factor(system.jacobian(q, t))
+    return scipy.linalg.lu_solve(lu, -system.psi_t(q, t))
+    ### END SOLUTION
+
+
+def acceleration_analysis(system: System, q: np.ndarray, qd: np.ndarray, t: float, lu=None) -> np.ndarray:
+    """q'' from Psi_q q'' = gamma (eq. 4.6); ``lu`` is a factorization of Psi_q to reuse."""
+    ### BEGIN SOLUTION hw1
+    lu = lu if lu is not None else scipy.linalg.lu_factor(system.jacobian(q, t))
+    return scipy.linalg.lu_solve(lu, system.gamma(q, qd, t))
+    ### END SOLUTION
+
+
+def assemble(system: System, q0: np.ndarray, t: float = 0.0) -> tuple[np.ndarray, dict]:
+    """Make the file's approximate configuration consistent: Psi(q, t) = 0 by Newton-Raphson.
+
+    Returns the assembled q and a report of how far each body moved (translation and rotation).
+    """
+    try:
+        solution = newton_raphson(system, q0, t)
+    except AnalysisError as err:
+        raise AnalysisError(f"the mechanism cannot be assembled: {err}") from None
+    moved = {}
+    for k, name in enumerate(b.name for b in system.model.bodies):
+        dq = solution.q[3 * k : 3 * k + 3] - q0[3 * k : 3 * k + 3]
+        moved[name] = {"translation": float(np.hypot(dq[0], dq[1])), "rotation": float(abs(dq[2]))}
+    report = {"iterations": solution.iterations, "residual": solution.residual, "moved": moved}
+    return solution.q, report
+
+
+def require_no_freedom(system: System, q: np.ndarray, t: float = 0.0) -> None:
+    """Refuse, by name, what a kinematic analysis cannot run: free or redundant constraints."""
+    report = rank_report(system.jacobian(q, t), system.row_owners)
+    if report.n_redundant:
+        raise AnalysisError(
+            f"{report.n_redundant} redundant constraint equation(s) among joints "
+            f"{', '.join(report.redundant_joints)}: remove one of them or replace it by a joint with "
+            "fewer equations (e.g. revolute-revolute for revolute)"
+        )
+    if report.degrees_of_freedom:
+        raise AnalysisError(
+            f"the drivers leave {report.degrees_of_freedom} degree(s) of freedom: a kinematic analysis "
+            f"needs {report.degrees_of_freedom} more motor(s), or run --analysis dynamic"
+        )
+
+
+def _factor_checked(system: System, q: np.ndarray, t: float):
+    """LU of Psi_q, refusing a locked (singular) configuration with time, condition and joints."""
+    jac = system.jacobian(q, t)
+    lu, piv = scipy.linalg.lu_factor(jac, check_finite=False)
+    pivots = np.abs(np.diag(lu))
+    if pivots.min() <= pivots.max() / LOCKUP_CONDITION:
+        cond, joints = singular_joints(jac, system.row_owners)
+        if cond > LOCKUP_CONDITION:
+            raise AnalysisError(
+                f"lock-up or branch point at t = {t:.6g} s: Psi_q is singular (condition number "
+                f"{cond:.3g}); joints involved: {', '.join(joints)}"
+            )
+    return lu, piv
+
+
+def kinematic_analysis(
+    system: System,
+    q0: np.ndarray,
+    t_end: float,
+    steps: int,
+    points: dict[str, tuple[int, np.ndarray]] | None = None,
+) -> Result:
+    """Positions, velocities and accelerations on the grid t = 0, t_end/steps, ..., t_end.
+
+    Parameters
+    ----------
+    system : the assembled planar system; its drivers must leave no degree of freedom
+    q0 : approximate configuration at t = 0 (assembled first)
+    t_end, steps : output grid
+    points : optional {label: (body index, body-frame point)} whose position, velocity and
+        acceleration are added to the result as columns 'label.x', 'label.x_d', ...
+
+    Raises
+    ------
+    AnalysisError
+        Degrees of freedom left, redundant constraints, lock-up, non-convergence: by name.
+    """
+    start = _time.perf_counter()
+    q, assembly = assemble(system, q0, 0.0)
+    require_no_freedom(system, q, 0.0)
+    times = np.linspace(0.0, t_end, steps + 1)
+    n = system.n_coordinates
+    Q, QD, QDD = (np.empty((times.size, n)) for _ in range(3))
+    qd = np.zeros(n)
+    qdd = np.zeros(n)
+    iterations = 0
+    max_residual = 0.0
+    for k, t in enumerate(times):
+        if k > 0:  # second-order predictor from the previous step
+            dt = t - times[k - 1]
+            q = q + qd * dt + 0.5 * qdd * dt * dt
+        try:
+            solution = newton_raphson(system, q, t)
+        except AnalysisError as err:
+            cond, joints = singular_joints(system.jacobian(q, t), system.row_owners)
+            raise AnalysisError(
+                f"lock-up or branch point near t = {t:.6g} s: {err}; Psi_q condition number {cond:.3g}, "
+                f"joints involved: {', '.join(joints)}"
+            ) from None
+        q = solution.q
+        iterations += solution.iterations
+        max_residual = max(max_residual, solution.residual)
+        lu = _factor_checked(system, q, t)
+        qd = velocity_analysis(system, q, t, lu)
+        qdd = acceleration_analysis(system, q, qd, t, lu)
+        Q[k], QD[k], QDD[k] = q, qd, qdd
+    result = Result(
+        t=times,
+        q=Q,
+        qd=QD,
+        qdd=QDD,
+        coordinate_names=system.coordinate_names,
+        body_names=[b.name for b in system.model.bodies],
+        info={
+            "analysis": "kinematic",
+            "steps": steps,
+            "newton_iterations": iterations,
+            "max_constraint_residual": max_residual,
+            "assembly": assembly,
+            "wall_time": _time.perf_counter() - start,
+        },
+    )
+    for label, (body, point) in (points or {}).items():
+        result.points.update(point_columns(result, label, body, point))
+    return result
+
+
+def point_kinematics(q, qd, qdd, body: int, point: np.ndarray):
+    """Position, velocity and acceleration of a body-fixed point over time (eq. 2.10-2.12):
+
+    r^P = r + A s',  r^P' = r' + B s' phi',  r^P'' = r'' + B s' phi'' - A s' phi'^2.
+    """
+    cols = slice(3 * body, 3 * body + 3)
+    r, rd, rdd = q[:, cols], qd[:, cols], qdd[:, cols]
+    A = np.array([rotation(phi) for phi in r[:, 2]])
+    B = np.array([rotation_derivative(phi) for phi in r[:, 2]])
+    As, Bs = A @ point, B @ point
+    position = r[:, :2] + As
+    velocity = rd[:, :2] + Bs * rd[:, 2:3]
+    acceleration = rdd[:, :2] + Bs * rdd[:, 2:3] - As * rd[:, 2:3] ** 2
+    return position, velocity, acceleration
+
+
+def point_columns(result: Result, label: str, body: int, point: np.ndarray) -> dict[str, np.ndarray]:
+    """Columns 'label.x', 'label.y' and their _d, _dd for a body point."""
+    position, velocity, acceleration = point_kinematics(result.q, result.qd, result.qdd, body, point)
+    columns = {}
+    for suffix, values in (("", position), ("_d", velocity), ("_dd", acceleration)):
+        columns[f"{label}.x{suffix}"] = values[:, 0]
+        columns[f"{label}.y{suffix}"] = values[:, 1]
+    return columns
