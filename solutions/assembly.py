@@ -15,26 +15,36 @@ from .io.model import Model
 from .planar.build import build_elements, initial_coordinates
 from .planar.joints import PlanarElement
 
-COORDINATES_PER_BODY = 3
+COORDINATES_PER_BODY = {2: 3, 3: 7}
+"""Planar bodies have q_i = (x, y, phi); spatial bodies q_i = (x, y, z, e0, e1, e2, e3)."""
+
+GROUND_COORDINATES = {2: np.zeros(3), 3: np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])}
+COORDINATE_NAMES = {2: ("x", "y", "phi"), 3: ("x", "y", "z", "e0", "e1", "e2", "e3")}
 
 
 @dataclass
 class System:
-    """A planar multibody system: its bodies' coordinates and its constraint elements."""
+    """A multibody system: its bodies' coordinates and its constraint elements.
+
+    Planar and spatial systems share this assembly; only the elements (and the number of
+    coordinates per body) differ.
+    """
 
     model: Model
     elements: list[PlanarElement]
 
     def __post_init__(self):
         self.n_bodies = len(self.model.bodies)
-        self.n_coordinates = COORDINATES_PER_BODY * self.n_bodies
+        self.coordinates_per_body = COORDINATES_PER_BODY[self.model.dimension]
+        self.n_coordinates = self.coordinates_per_body * self.n_bodies
         self.rows: list[slice] = []
         start = 0
         for element in self.elements:
             self.rows.append(slice(start, start + element.n_equations))
             start += element.n_equations
         self.n_constraints = start
-        self._ground = np.zeros(COORDINATES_PER_BODY)
+        self._ground = GROUND_COORDINATES[self.model.dimension]
+        self._ground_velocity = np.zeros(self.coordinates_per_body)
         self._columns = (
             [self._body_columns(e.i) for e in self.elements],
             [self._body_columns(e.j) for e in self.elements],
@@ -53,7 +63,8 @@ class System:
 
     @property
     def coordinate_names(self) -> list[str]:
-        return [f"{b.name}.{c}" for b in self.model.bodies for c in ("x", "y", "phi")]
+        names = COORDINATE_NAMES[self.model.dimension]
+        return [f"{b.name}.{c}" for b in self.model.bodies for c in names]
 
     @property
     def degrees_of_freedom(self) -> int:
@@ -63,11 +74,13 @@ class System:
     def _body_columns(self, body: int) -> slice | None:
         if body < 0:
             return None
-        return slice(COORDINATES_PER_BODY * body, COORDINATES_PER_BODY * (body + 1))
+        return slice(self.coordinates_per_body * body, self.coordinates_per_body * (body + 1))
 
-    def _pair(self, k: int, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _pair(self, k: int, x: np.ndarray, ground: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Coordinates (or velocities) of the two bodies of element k; ground's are constant."""
+        ground = self._ground if ground is None else ground
         ci, cj = self._columns[0][k], self._columns[1][k]
-        return (self._ground if ci is None else x[ci]), (self._ground if cj is None else x[cj])
+        return (ground if ci is None else x[ci]), (ground if cj is None else x[cj])
 
     # -- the system arrays ---------------------------------------------------------------------
     def constraints(self, q: np.ndarray, t: float) -> np.ndarray:
@@ -104,7 +117,7 @@ class System:
         out = np.empty(self.n_constraints)
         for k, element in enumerate(self.elements):
             qi, qj = self._pair(k, q)
-            qdi, qdj = self._pair(k, qd)
+            qdi, qdj = self._pair(k, qd, self._ground_velocity)
             out[self.rows[k]] = element.gamma(qi, qj, qdi, qdj, t)
         return out
 
