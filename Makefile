@@ -13,7 +13,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	MPLBACKEND=Agg $(BIN)/python -m solutions.demo
+	MPLBACKEND=Agg $(BIN)/python -m course.demo
 
 test: $(STAMP)
 	$(BIN)/ruff check solutions tests benchmarks

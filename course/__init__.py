@@ -1,0 +1,1 @@
+"""Course material and the instructor's tools (release, grading, demo)."""

@@ -1,0 +1,121 @@
+"""The `mbd` command line: results files, refusals with exit code 2 and one clear message."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from solutions.cli import main
+from solutions.io.results import read_csv
+
+ROOT = Path(__file__).resolve().parents[2]
+SLIDER_CRANK = ROOT / "course" / "models" / "slider_crank.yaml"
+
+PENDULUM_FREE = """
+model:
+  name: free-pendulum
+  bodies:
+    - {name: bob, mass: 1.0, inertia: 0.01, location: [0.5, 0.0]}
+  joints:
+    - {name: O, type: revolute, body1: ground, body2: bob, location: [0.0, 0.0]}
+"""
+
+
+def test_run_writes_design_columns_and_matches_closed_form(tmp_path):
+    out = tmp_path / "r.csv"
+    assert main(["run", str(SLIDER_CRANK), "--out", str(out)]) == 0
+    columns = read_csv(out)
+    names = list(columns)
+    assert names[:4] == ["t", "crank.x", "crank.y", "crank.phi"]
+    for body in ("crank", "rod", "slider"):
+        for suffix in ("", "_d", "_dd"):
+            assert f"{body}.phi{suffix}" in names
+    t = columns["t"]
+    theta = 10.0 * t  # the crank is driven at 10 rad/s from 0
+    r, l = 0.1, 0.3
+    x_closed = r * np.cos(theta) + np.sqrt(l**2 - (r * np.sin(theta)) ** 2)
+    assert np.max(np.abs(columns["slider.x"] - x_closed)) < 1e-9
+
+
+def test_run_npz_holds_the_same_arrays(tmp_path):
+    out = tmp_path / "r.npz"
+    assert main(["run", str(SLIDER_CRANK), "--steps", "20", "--out", str(out)]) == 0
+    data = np.load(out)
+    assert data["q"].shape == (21, 9)
+    np.testing.assert_array_equal(data["slider.x"], data["q"][:, 6])
+
+
+def test_kinematic_run_of_a_free_model_is_refused(tmp_path, capsys):
+    model = tmp_path / "free.yaml"
+    model.write_text(PENDULUM_FREE)
+    assert main(["run", str(model), "--analysis", "kinematic"]) == 2
+    err = capsys.readouterr().err
+    assert "1 degree(s) of freedom" in err and "motor" in err
+    assert "Traceback" not in err
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("", "the file is empty"),
+        ("model: [unclosed", "malformed YAML"),
+        (
+            "model:\n  bodies:\n    - {name: a, mass: 1.0, inertia: 1.0, location: [0, 0]}\n"
+            "  joints:\n    - {type: revolute, body1: ground, body2: couplr, location: [0, 0]}\n",
+            "model.joints[0].body2: no body named 'couplr'",
+        ),
+        ("model:\n  bodies:\n    - {name: a, mass: -1.0, inertia: 1.0, location: [0, 0]}\n", "mass: must be > 0"),
+    ],
+)
+def test_bad_model_file_exits_2_with_one_message(tmp_path, text, expected):
+    model = tmp_path / "bad.yaml"
+    model.write_text(text)
+    proc = subprocess.run(
+        [sys.executable, "-m", "solutions.cli", "run", str(model)], capture_output=True, text=True, cwd=tmp_path
+    )
+    assert proc.returncode == 2
+    assert expected in proc.stderr
+    assert "bad.yaml" in proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_missing_file_and_bad_option_exit_2(tmp_path, capsys):
+    assert main(["run", str(tmp_path / "nope.yaml")]) == 2
+    assert "cannot read" in capsys.readouterr().err
+    assert main(["run", str(SLIDER_CRANK), "--point", "nobody:0,0"]) == 2
+    assert "no body named 'nobody'" in capsys.readouterr().err
+
+
+def test_check_reports_dof_and_redundancy(capsys):
+    assert main(["check", str(SLIDER_CRANK)]) == 0
+    out = capsys.readouterr().out
+    assert "degrees of freedom: 0" in out
+    assert "redundant equations: none" in out
+
+
+def test_plot_and_points(tmp_path):
+    png = tmp_path / "p.png"
+    out = tmp_path / "p.csv"
+    code = main(
+        [
+            "run",
+            str(SLIDER_CRANK),
+            "--steps",
+            "50",
+            "--plot",
+            str(png),
+            "--point",
+            "pin=crank:0.1,0.0",
+            "--out",
+            str(out),
+        ]
+    )
+    assert code == 0
+    assert png.stat().st_size > 10_000
+    columns = read_csv(out)
+    theta = 10.0 * columns["t"]
+    np.testing.assert_allclose(columns["pin.x"], 0.1 * np.cos(theta), atol=1e-12)
+    np.testing.assert_allclose(columns["pin.y_d"], 1.0 * np.cos(theta), atol=1e-10)
