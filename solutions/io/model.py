@@ -67,6 +67,31 @@ class Model:
         raise KeyError(name)
 
 
+KEY_EXAMPLES = {
+    "location": "[0.0, 0.0]",
+    "point1": "[0.0, 0.0]",
+    "point2": "[0.1, 0.0]",
+    "axis": "[1.0, 0.0]",
+    "radius": "0.05",
+    "radius1": "0.05",
+    "radius2": "0.1",
+    "follower": "roller",
+    "profile": "{type: eccentric_circle, radius: 0.06, eccentricity: 0.01}",
+    "joint": "O",
+    "body": "crank",
+    "coordinate": "x",
+    "function": "{type: polynomial, coefficients: [0.0, 1.0]}",
+    "type": "revolute",
+    "body1": "ground",
+    "body2": "crank",
+    "bodies": "[{name: crank, mass: 1.0, inertia: 0.01, location: [0.0, 0.0]}]",
+    "model": "{name: ..., bodies: [...], joints: [...]}",
+    "name": "crank",
+    "value": "1.0",
+}
+"""Examples shown with a missing key, when the schema gives none."""
+
+
 def _schema() -> dict:
     text = resources.files("solutions.io").joinpath("schema.json").read_text()
     return json.loads(text)
@@ -87,8 +112,12 @@ def _schema_message(error: jsonschema.ValidationError) -> str:
     if kind == "required":
         missing = error.message.split("'")[1]
         examples = error.schema.get("properties", {}).get(missing, {}).get("examples")
-        hint = f" (write e.g. {missing}: {examples[0]})" if examples else ""
-        return f"{_key_path([*error.absolute_path, missing])}: missing key '{missing}'{hint}"
+        example = examples[0] if examples else KEY_EXAMPLES.get(missing)
+        hint = f" (write e.g. {missing}: {example})" if example is not None else ""
+        section = next((p for p in reversed(error.absolute_path) if isinstance(p, str)), "")
+        element = {"joints": "joint", "motors": "motor", "spring_dampers": "spring-damper", "forces": "load"}
+        kind = f" a {value['type']} {element.get(section, 'element')} needs it" if "type" in value else ""
+        return f"{_key_path([*error.absolute_path, missing])}: missing key '{missing}'{hint}{';' if kind else ''}{kind}"
     if kind == "additionalProperties":
         known = sorted(error.schema.get("properties", {}))
         unknown = [k for k in value if k not in known]
@@ -292,9 +321,8 @@ def _check_references(model: Model, label: str) -> None:
             if joint is None:
                 close = difflib.get_close_matches(motor["joint"], list(joints), n=1)
                 hint = f"did you mean '{close[0]}'? " if close else ""
-                raise ModelError(
-                    f"{label}: {where}.joint: no joint named '{motor['joint']}' ({hint}joints: {', '.join(joints)})"
-                )
+                known = f"joints: {', '.join(joints)}" if joints else "the model has no joints"
+                raise ModelError(f"{label}: {where}.joint: no joint named '{motor['joint']}' ({hint}{known})")
             if joint["type"] != wanted:
                 raise ModelError(
                     f"{label}: {where}.joint: an {motor['type']} motor drives a {wanted} joint, "
