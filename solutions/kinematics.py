@@ -100,9 +100,16 @@ def assemble(system: System, q0: np.ndarray, t: float = 0.0) -> tuple[np.ndarray
     except AnalysisError as err:
         raise AnalysisError(f"the mechanism cannot be assembled: {err}") from None
     moved = {}
+    n, dim = system.coordinates_per_body, system.model.dimension
     for k, name in enumerate(b.name for b in system.model.bodies):
-        dq = solution.q[3 * k : 3 * k + 3] - q0[3 * k : 3 * k + 3]
-        moved[name] = {"translation": float(np.hypot(dq[0], dq[1])), "rotation": float(abs(dq[2]))}
+        old, new = q0[n * k : n * k + n], solution.q[n * k : n * k + n]
+        if dim == 3:  # the angle of the relative rotation conj(p0) p
+            from .rotations import conjugate, normalized, quaternion_product, to_axis_angle
+
+            rotation = to_axis_angle(quaternion_product(conjugate(normalized(old[3:])), normalized(new[3:])))[1]
+        else:
+            rotation = abs(new[2] - old[2])
+        moved[name] = {"translation": float(np.linalg.norm(new[:dim] - old[:dim])), "rotation": float(rotation)}
     report = {"iterations": solution.iterations, "residual": solution.residual, "moved": moved}
     return solution.q, report
 
@@ -177,10 +184,12 @@ def kinematic_analysis(
         try:
             solution = newton_raphson(system, q, t)
         except AnalysisError as err:
-            cond, joints = singular_joints(system.jacobian(q, t), system.row_owners)
+            # judge the last position found, next to the singular one (not the predictor beyond it)
+            last, t_last = (Q[k - 1], times[k - 1]) if k > 0 else (q, t)
+            cond, joints = singular_joints(system.jacobian(last, t_last), system.row_owners)
             raise AnalysisError(
-                f"lock-up or branch point near t = {t:.6g} s: {err}; Psi_q condition number {cond:.3g}, "
-                f"joints involved: {', '.join(joints)}"
+                f"lock-up or branch point near t = {t:.6g} s: {err}; Psi_q condition number {cond:.3g} "
+                f"at t = {t_last:.6g} s, joints involved: {', '.join(joints)}"
             ) from None
         q = solution.q
         iterations += solution.iterations

@@ -280,6 +280,8 @@ class Gear(PlanarElement):
     for an internal (ring) gear j. theta' = n^T d' / |d|^2 with n = R90 d, so
     Psi_q = [0, 0, R_i] for i, [0, 0, sigma R_j] for j, minus (R_i + sigma R_j) theta_q, and
     gamma = (R_i + sigma R_j) (n^T (A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2) - 2 theta' d^T d') / |d|^2.
+    atan2 gives theta only modulo 2 pi, while the line of centres of a planetary gear turns without
+    bound, so Psi is taken modulo 2 pi (R_i + sigma R_j): continuous where Psi is near zero.
     """
 
     si: np.ndarray = None
@@ -299,7 +301,8 @@ class Gear(PlanarElement):
         ### BEGIN SOLUTION hw1
         theta = self._theta(point_vector(qi, self.si, qj, self.sj))
         value = self.radius_i * (qi[2] - theta) + self.sigma * self.radius_j * (qj[2] - theta) - self.c0
-        return np.array([value])
+        k = self.radius_i + self.sigma * self.radius_j
+        return np.array([k * math.remainder(value / k, 2.0 * math.pi) if k else value])
         ### END SOLUTION
 
     def jacobian(self, qi, qj, t):

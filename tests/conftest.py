@@ -1,0 +1,178 @@
+"""Shared fixture: a planar four-bar linkage with its closed-form kinematics (loop closure).
+
+Ground pivots O2 = (0, 0) and O4 = (d, 0); crank a (angle theta2), coupler b (theta3), rocker c (theta4):
+    a e(theta2) + b e(theta3) - c e(theta4) - d e_x = 0,   e(theta) = (cos theta, sin theta).
+Position: B is where the circle of radius b about A = a e(theta2) meets the circle of radius c about O4,
+on the "open" branch (B to the left of A -> O4):  theta3 = angle(O4 - A) + acos((b^2 + f^2 - c^2) / (2 b f)),
+f = |O4 - A|. Velocity and acceleration: the loop equation differentiated once and twice, dotted with
+e(theta4) and e(theta3) to eliminate one unknown at a time (e_perp(i) . e(j) = sin(theta_j - theta_i)):
+    w3 = a w2 sin(t4 - t2) / (b sin(t3 - t4)),   w4 = a w2 sin(t3 - t2) / (c sin(t3 - t4))
+    al3 = (a al2 sin(t4 - t2) - a w2^2 cos(t2 - t4) - b w3^2 cos(t3 - t4) + c w4^2) / (b sin(t3 - t4))
+    al4 = (a al2 sin(t3 - t2) - a w2^2 cos(t2 - t3) - b w3^2 + c w4^2 cos(t4 - t3)) / (c sin(t3 - t4))
+Bodies have their centres of mass at the link midpoints and phi equal to the link angle.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+
+def e(theta):
+    return np.array([np.cos(theta), np.sin(theta)])
+
+
+def e_perp(theta):
+    return np.array([-np.sin(theta), np.cos(theta)])
+
+
+@dataclass
+class FourBar:
+    a: float = 0.1  # crank
+    b: float = 0.35  # coupler
+    c: float = 0.3  # rocker
+    d: float = 0.4  # ground
+
+    def angles(self, theta2: float) -> tuple[float, float]:
+        """theta3, theta4 on the open branch."""
+        A = self.a * e(theta2)
+        D = np.array([self.d, 0.0]) - A
+        f = float(np.hypot(*D))
+        theta3 = math.atan2(D[1], D[0]) + math.acos((self.b**2 + f**2 - self.c**2) / (2 * self.b * f))
+        B = A + self.b * e(theta3)
+        theta4 = math.atan2(B[1], B[0] - self.d)
+        return theta3, theta4
+
+    def link_rates(self, theta2, w2, al2):
+        """(theta, w, alpha) of crank, coupler and rocker."""
+        t3, t4 = self.angles(theta2)
+        a, b, c = self.a, self.b, self.c
+        s34 = math.sin(t3 - t4)
+        w3 = a * w2 * math.sin(t4 - theta2) / (b * s34)
+        w4 = a * w2 * math.sin(t3 - theta2) / (c * s34)
+        al3 = (
+            a * al2 * math.sin(t4 - theta2)
+            - a * w2**2 * math.cos(theta2 - t4)
+            - b * w3**2 * math.cos(t3 - t4)
+            + c * w4**2
+        ) / (b * s34)
+        al4 = (
+            a * al2 * math.sin(t3 - theta2)
+            - a * w2**2 * math.cos(theta2 - t3)
+            - b * w3**2
+            + c * w4**2 * math.cos(t4 - t3)
+        ) / (c * s34)
+        return (theta2, w2, al2), (t3, w3, al3), (t4, w4, al4)
+
+    def body_states(self, theta2, w2=0.0, al2=0.0):
+        """q, q', q'' (9 each: crank, coupler, rocker) from the closed form."""
+        crank, coupler, rocker = self.link_rates(theta2, w2, al2)
+
+        def along(base, link, length):  # point at distance ``length`` along a link from a moving base point
+            (p, v, acc), (th, w, al) = base, link
+            return (
+                p + length * e(th),
+                v + length * w * e_perp(th),
+                acc + length * al * e_perp(th) - length * w**2 * e(th),
+            )
+
+        origin = (np.zeros(2), np.zeros(2), np.zeros(2))
+        pivot4 = (np.array([self.d, 0.0]), np.zeros(2), np.zeros(2))
+        joint_a = along(origin, crank, self.a)
+        centres = [
+            along(origin, crank, self.a / 2),
+            along(joint_a, coupler, self.b / 2),
+            along(pivot4, rocker, self.c / 2),
+        ]
+        q, qd, qdd = (
+            np.concatenate([[*centres[k][n], link[n]] for k, link in enumerate((crank, coupler, rocker))])
+            for n in range(3)
+        )
+        return q, qd, qdd
+
+    def model(self, theta2: float = 0.0, motor: str | None = "angle", function=None, frame: str = "global") -> dict:
+        """The four-bar as a model mapping, assembled at crank angle theta2.
+
+        motor: 'angle' (revolute O, relative to the file's configuration), 'coordinate' (crank phi,
+        absolute), 'rocker' (angle motor on the rocker's pivot D), or None. frame: 'global' gives
+        joint locations; 'body' gives each joint's points in the body frames (link lengths).
+        """
+        q, _, _ = self.body_states(theta2)
+        names = ("crank", "coupler", "rocker")
+        bodies = [
+            {
+                "name": n,
+                "mass": 1.0,
+                "inertia": 0.01,
+                "location": [float(q[3 * k]), float(q[3 * k + 1])],
+                "orientation": float(q[3 * k + 2]),
+            }
+            for k, n in enumerate(names)
+        ]
+        t3, t4 = self.angles(theta2)
+        A = self.a * e(theta2)
+        B = A + self.b * e(t3)
+        if frame == "global":
+            joints = [
+                {"name": "O", "type": "revolute", "body1": "ground", "body2": "crank", "location": [0.0, 0.0]},
+                {"name": "A", "type": "revolute", "body1": "crank", "body2": "coupler", "location": A.tolist()},
+                {"name": "B", "type": "revolute", "body1": "coupler", "body2": "rocker", "location": B.tolist()},
+                {"name": "D", "type": "revolute", "body1": "ground", "body2": "rocker", "location": [self.d, 0.0]},
+            ]
+        else:
+            a, b, c = self.a / 2, self.b / 2, self.c / 2
+            joints = [
+                {
+                    "name": "O",
+                    "type": "revolute",
+                    "body1": "ground",
+                    "body2": "crank",
+                    "point1": [0.0, 0.0],
+                    "point2": [-a, 0.0],
+                },
+                {
+                    "name": "A",
+                    "type": "revolute",
+                    "body1": "crank",
+                    "body2": "coupler",
+                    "point1": [a, 0.0],
+                    "point2": [-b, 0.0],
+                },
+                {
+                    "name": "B",
+                    "type": "revolute",
+                    "body1": "coupler",
+                    "body2": "rocker",
+                    "point1": [b, 0.0],
+                    "point2": [c, 0.0],
+                },
+                {
+                    "name": "D",
+                    "type": "revolute",
+                    "body1": "ground",
+                    "body2": "rocker",
+                    "point1": [self.d, 0.0],
+                    "point2": [-c, 0.0],
+                },
+            ]
+            for joint in joints:
+                joint["frame"] = "body"
+        function = function if function is not None else {"type": "polynomial", "coefficients": [0.0, 1.0]}
+        motors = {
+            None: [],
+            "angle": [{"name": "drive", "type": "angle", "joint": "O", "function": function}],
+            "coordinate": [
+                {"name": "drive", "type": "coordinate", "body": "crank", "coordinate": "phi", "function": function}
+            ],
+            "rocker": [{"name": "drive", "type": "angle", "joint": "D", "function": function}],
+        }[motor]
+        return {"model": {"name": "four-bar", "bodies": bodies, "joints": joints, "motors": motors}}
+
+
+@pytest.fixture
+def four_bar() -> FourBar:
+    """A Grashof crank-rocker: crank 0.1, coupler 0.35, rocker 0.3, ground 0.4 (s + l = 0.5 < p + q = 0.65)."""
+    return FourBar()
