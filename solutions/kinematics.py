@@ -145,6 +145,14 @@ def _factor_checked(system: System, q: np.ndarray, t: float):
     return lu, piv
 
 
+def determinant_sign(lu) -> float:
+    """Sign of det(Psi_q) from its LU factors: the sign of the product of U's diagonal, flipped once per
+    row swap. A change of sign between two steps means the mechanism went through a singular position."""
+    factors, pivots = lu
+    swaps = np.count_nonzero(pivots != np.arange(pivots.size))
+    return float((-1) ** swaps * np.prod(np.sign(np.diag(factors))))
+
+
 def kinematic_analysis(
     system: System,
     q0: np.ndarray,
@@ -177,6 +185,7 @@ def kinematic_analysis(
     qdd = np.zeros(n)
     iterations = 0
     max_residual = 0.0
+    previous_sign = None
     for k, t in enumerate(times):
         if k > 0:  # second-order predictor from the previous step
             dt = t - times[k - 1]
@@ -195,6 +204,15 @@ def kinematic_analysis(
         iterations += solution.iterations
         max_residual = max(max_residual, solution.residual)
         lu = _factor_checked(system, q, t)
+        sign = determinant_sign(lu)
+        if previous_sign is not None and sign != previous_sign:
+            _, joints = singular_joints(system.jacobian(q, t), system.row_owners)
+            raise AnalysisError(
+                f"branch point passed between t = {times[k - 1]:.6g} s and t = {t:.6g} s: det(Psi_q) changed "
+                "sign, so the mechanism went through a singular position where it can switch assembly "
+                f"branch; joints involved: {', '.join(joints)}"
+            )
+        previous_sign = sign
         qd = velocity_analysis(system, q, t, lu)
         qdd = acceleration_analysis(system, q, qd, t, lu)
         Q[k], QD[k], QDD[k] = q, qd, qdd

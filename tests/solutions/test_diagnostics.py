@@ -265,3 +265,51 @@ def test_rank_report_counts():
     assert (report.rank, report.n_redundant, report.degrees_of_freedom) == (3, 1, 2)
     assert report.redundant_joints == ["p", "q", "r"]
     assert report.condition_number > 1e12
+
+
+def test_branch_point_between_output_steps_is_reported():
+    """A parallelogram four-bar passes its change point (all links collinear) when the crank angle is pi;
+    the grid never lands on it, yet det(Psi_q) changes sign between two steps and the run says so."""
+    crank, ground, phi0 = 0.1, 0.4, 0.3
+    a = [crank * math.cos(phi0), crank * math.sin(phi0)]
+    spec = {
+        "model": {
+            "bodies": [
+                {"name": "crank", "mass": 1, "inertia": 0.01, "location": [a[0] / 2, a[1] / 2], "orientation": phi0},
+                {"name": "coupler", "mass": 1, "inertia": 0.01, "location": [a[0] + ground / 2, a[1]]},
+                {
+                    "name": "rocker",
+                    "mass": 1,
+                    "inertia": 0.01,
+                    "location": [ground + a[0] / 2, a[1] / 2],
+                    "orientation": phi0,
+                },
+            ],
+            "joints": [
+                {"name": "O", "type": "revolute", "body1": "ground", "body2": "crank", "location": [0, 0]},
+                {"name": "A", "type": "revolute", "body1": "crank", "body2": "coupler", "location": a},
+                {
+                    "name": "B",
+                    "type": "revolute",
+                    "body1": "coupler",
+                    "body2": "rocker",
+                    "location": [a[0] + ground, a[1]],
+                },
+                {"name": "C", "type": "revolute", "body1": "rocker", "body2": "ground", "location": [ground, 0]},
+            ],
+            "motors": [
+                {
+                    "name": "drive",
+                    "type": "angle",
+                    "joint": "O",
+                    "function": {"type": "polynomial", "coefficients": [0, 10.0]},
+                }
+            ],
+        }
+    }
+    system, q0, _ = build_system(load_model(spec))
+    t_change = (math.pi - phi0) / 10.0
+    with pytest.raises(AnalysisError, match="branch point passed between") as info:
+        kinematic_analysis(system, q0, t_end=0.6, steps=97)
+    first, second = (float(x) for x in re.findall(r"t = ([0-9.]+) s", str(info.value)))
+    assert first < t_change < second
