@@ -3,6 +3,9 @@ PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
+# small dense matrices: one BLAS thread is fastest (see solutions/__init__.py)
+export OPENBLAS_NUM_THREADS ?= 1
+export OMP_NUM_THREADS ?= 1
 
 .PHONY: demo test lint bench clean
 
@@ -18,6 +21,11 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/ruff check solutions tests benchmarks
 	MPLBACKEND=Agg $(BIN)/python -m pytest
+
+# modules/ is generated from solutions/ (every homework stubbed), committed, never edited by hand.
+.PHONY: modules
+modules: $(STAMP)
+	$(BIN)/python -m course.release modules
 
 bench: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python benchmarks/kinematics.py

@@ -1,0 +1,237 @@
+"""Benchmark of the kinematic analysis: microseconds per time step, and how they grow with size.
+
+Two Markdown tables:
+
+1. every kinematic example model in course/models/ (drivers leave no degree of freedom) over the
+   time grid of its ``simulation`` block;
+2. a chain of N four-bar loops, N = 1, 2, 4, ..., 64, built here as a model mapping.
+
+A time step of ``kinematic_analysis`` is one Newton-Raphson position solve (from a second-order
+predictor), one LU factorization of Psi_q and the velocity and acceleration solves. The one-time set-up
+(assembly of the file's configuration and the SVD rank check) is timed separately and subtracted:
+
+    us/step = (median time of a whole run - median set-up time) / number of time points
+
+Medians over ``--repeats`` runs, wall time by time.perf_counter. This is a benchmark, not a test: the
+numbers depend on the machine. Run::
+
+    .venv/bin/python benchmarks/kinematics.py            # full run, about a minute
+    .venv/bin/python benchmarks/kinematics.py --quick    # smoke run, a few seconds
+
+BLAS runs single-threaded unless OPENBLAS_NUM_THREADS (or OMP_NUM_THREADS) is set: the matrices of a
+time step are small (n <= 387 here) and a multi-threaded OpenBLAS on a busy machine spends far more
+time waiting for its threads than computing (an LU of a 195 x 195 Psi_q took 94 ms instead of 0.7 ms).
+"""
+
+from __future__ import annotations
+
+import os
+
+for _variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")  # must be set before NumPy is imported
+
+import argparse  # noqa: E402
+import math  # noqa: E402
+import platform  # noqa: E402
+import statistics  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+import scipy  # noqa: E402
+
+from solutions.assembly import System, build_system  # noqa: E402
+from solutions.diagnostics import AnalysisError  # noqa: E402
+from solutions.io.model import load_model  # noqa: E402
+from solutions.kinematics import assemble, kinematic_analysis, require_no_freedom  # noqa: E402
+
+MODELS = Path(__file__).resolve().parents[1] / "course" / "models"
+
+# One loop of the chain: a drag link (Grashof double crank, the ground link is the shortest), so that
+# every lever turns fully and a full crank turn is a full cycle of the whole chain.
+GROUND = 0.10  # distance between neighbouring ground pivots O_{k-1}, O_k
+ARM_IN = 0.25  # input arm of loop 1 (the crank)
+COUPLER = 0.30
+ARM_OUT = 0.28  # output arm of loop 1
+SPEED = 10.0  # crank speed, rad/s
+THETA0 = 0.4  # crank angle of the generated configuration, rad
+
+
+def _bar(name: str, p: np.ndarray, q: np.ndarray, pivot: np.ndarray | None = None) -> dict:
+    """A steel bar 20 x 10 mm from p to q (centred at ``pivot`` if given: a lever with two arms)."""
+    length = float(np.linalg.norm(q - p))
+    mass = 7850.0 * length * 0.02 * 0.01
+    centre = (p + q) / 2 if pivot is None else pivot
+    return {
+        "name": name,
+        "mass": mass,
+        "inertia": mass * (length**2 + 0.02**2) / 12.0,
+        "location": [float(centre[0]), float(centre[1])],
+        "orientation": math.atan2(q[1] - p[1], q[0] - p[0]),
+    }
+
+
+def _circle_intersection(p: np.ndarray, rp: float, q: np.ndarray, rq: float) -> np.ndarray:
+    """The intersection of the circles (p, rp) and (q, rq) on the left of the line p -> q."""
+    d = q - p
+    distance = float(np.linalg.norm(d))
+    along = (rp**2 - rq**2 + distance**2) / (2.0 * distance)
+    e = d / distance
+    return p + along * e + math.sqrt(rp**2 - along**2) * np.array([-e[1], e[0]])
+
+
+def four_bar_chain(n_loops: int, steps: int = 200) -> dict:
+    """A model mapping of ``n_loops`` four-bar loops in series, driven by one motor on the crank.
+
+    Ground pivots O_k = (k GROUND, 0), k = 0..N. Loop k is ground O_{k-1} O_k, an input arm pivoted
+    at O_{k-1} (the crank for k = 1, else lever k-1), coupler k and the output arm of lever k pivoted
+    at O_k: each loop shares its output lever with the next loop's input. Odd loops are copies of
+    loop 1; even loops are loop 1 run backwards and turned by 180 deg (input arm ARM_OUT, output
+    arm ARM_IN), so that a pair of loops passes the crank's rotation on unchanged. (Identical loops
+    in series would compound the drag link's speed ratio, between 0.6 and 1.7, into extreme lever speeds.)
+    The levers are straight bars with their two arms on opposite sides of the pivot.
+    """
+    pivots = [np.array([k * GROUND, 0.0]) for k in range(n_loops + 1)]
+    a = ARM_IN * np.array([math.cos(THETA0), math.sin(THETA0)])  # loop 1's pins relative to O_0
+    b = _circle_intersection(a, COUPLER, pivots[1], ARM_OUT)
+    bodies = [_bar("crank", pivots[0], pivots[0] + a)]
+    joints = [{"name": "O0", "type": "revolute", "body1": "ground", "body2": "crank", "location": [0.0, 0.0]}]
+    driver = "crank"
+    for k in range(1, n_loops + 1):
+        if k % 2:  # a copy of loop 1
+            pin_in, pin_out = pivots[k - 1] + a, pivots[k - 1] + b
+        else:  # loop 1 reversed and turned by 180 deg about O_{k-1}
+            pin_in, pin_out = pivots[k - 1] + (pivots[1] - b), pivots[k] - a
+        arm = pin_out - pivots[k]
+        bodies.append(_bar(f"coupler{k}", pin_in, pin_out))
+        bodies.append(_bar(f"lever{k}", pivots[k] - arm, pivots[k] + arm, pivot=pivots[k]))
+        for name, body1, body2, point in (
+            (f"A{k}", driver, f"coupler{k}", pin_in),
+            (f"B{k}", f"coupler{k}", f"lever{k}", pin_out),
+            (f"O{k}", "ground", f"lever{k}", pivots[k]),
+        ):
+            joints.append({"name": name, "type": "revolute", "body1": body1, "body2": body2, "location": list(point)})
+        driver = f"lever{k}"
+    motor = {
+        "name": "drive",
+        "type": "angle",
+        "joint": "O0",
+        "function": {"type": "polynomial", "coefficients": [0.0, SPEED]},
+    }
+    return {
+        "model": {
+            "name": f"four-bar chain x{n_loops}",
+            "dimension": 2,
+            "bodies": bodies,
+            "joints": joints,
+            "motors": [motor],
+        },
+        "simulation": {"end_time": 2.0 * math.pi / SPEED, "output_steps": steps},
+    }
+
+
+def measure(system: System, q0: np.ndarray, t_end: float, steps: int, repeats: int) -> dict:
+    """Median wall (and CPU) times of ``repeats`` kinematic analyses minus set-up; Newton iterations per step."""
+    setup, runs = [], []
+    result = None
+    for _ in range(repeats):
+        wall, cpu = time.perf_counter(), time.process_time()
+        q, _ = assemble(system, q0, 0.0)
+        require_no_freedom(system, q, 0.0)
+        setup.append((time.perf_counter() - wall, time.process_time() - cpu))
+        wall, cpu = time.perf_counter(), time.process_time()
+        result = kinematic_analysis(system, q0, t_end, steps)
+        runs.append((time.perf_counter() - wall, time.process_time() - cpu))
+    points = steps + 1
+
+    def per_step(k: int) -> float:
+        run, prep = statistics.median(r[k] for r in runs), statistics.median(s[k] for s in setup)
+        return 1e6 * max(run - prep, 0.0) / points
+
+    return {
+        "us_per_step": per_step(0),
+        "cpu_us_per_step": per_step(1),
+        "newton_per_step": result.info["newton_iterations"] / points,
+        "setup_ms": 1e3 * statistics.median(s[0] for s in setup),
+        "residual": result.info["max_constraint_residual"],
+    }
+
+
+def example_table(steps: int | None, repeats: int) -> list[str]:
+    lines = [
+        "| model | bodies | n | m | steps | us/step | CPU us/step | Newton it/step | set-up ms | max residual |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    skipped = []
+    for path in sorted(MODELS.glob("*.yaml")):
+        model = load_model(path)
+        system, q0, _ = build_system(model)
+        if system.degrees_of_freedom != 0:
+            skipped.append(f"{path.name} ({system.degrees_of_freedom})")
+            continue
+        n_steps = steps or int(model.simulation.get("output_steps", 200))
+        try:
+            m = measure(system, q0, float(model.simulation["end_time"]), n_steps, repeats)
+        except AnalysisError as err:
+            lines.append(
+                f"| {path.name} | {system.n_bodies} | {system.n_coordinates} | {system.n_constraints} | "
+                f"{n_steps} | failed: {err} | | | | |"
+            )
+            continue
+        lines.append(
+            f"| {path.name} | {system.n_bodies} | {system.n_coordinates} | {system.n_constraints} | {n_steps} | "
+            f"{m['us_per_step']:.0f} | {m['cpu_us_per_step']:.0f} | {m['newton_per_step']:.2f} | {m['setup_ms']:.2f} | "
+            f"{m['residual']:.1e} |"
+        )
+    if skipped:
+        lines += ["", "Skipped, drivers leave degrees of freedom (a dynamics model): " + ", ".join(skipped)]
+    return lines
+
+
+def chain_table(sizes: list[int], steps: int, repeats: int) -> list[str]:
+    lines = [
+        "| loops N | bodies | n | us/step | CPU us/step | us/step per body | x previous N | Newton it/step | "
+        "set-up ms | max residual |",
+        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    previous = None
+    for size in sizes:
+        model = load_model(four_bar_chain(size, steps))
+        system, q0, _ = build_system(model)
+        m = measure(system, q0, float(model.simulation["end_time"]), steps, repeats)
+        growth = f"{m['us_per_step'] / previous:.2f}" if previous else "-"
+        previous = m["us_per_step"]
+        lines.append(
+            f"| {size} | {system.n_bodies} | {system.n_coordinates} | {m['us_per_step']:.0f} | "
+            f"{m['cpu_us_per_step']:.0f} | "
+            f"{m['us_per_step'] / system.n_bodies:.1f} | {growth} | {m['newton_per_step']:.2f} | "
+            f"{m['setup_ms']:.1f} | {m['residual']:.1e} |"
+        )
+    return lines
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="smoke run: 20 steps, one repeat, chains up to N = 4")
+    parser.add_argument("--repeats", type=int, help="runs per entry, the median is reported (default 5; quick 1)")
+    args = parser.parse_args(argv)
+    repeats = args.repeats or (1 if args.quick else 5)
+    steps = 20 if args.quick else None
+    sizes = [1, 2, 4] if args.quick else [1, 2, 4, 8, 16, 32, 64]
+    print(
+        f"Kinematic analysis, wall time per time step (median of {repeats}); Python {platform.python_version()}, "
+        f"NumPy {np.__version__}, SciPy {scipy.__version__}, {platform.machine()}, {os.cpu_count()} CPUs, "
+        f"OPENBLAS_NUM_THREADS={os.environ['OPENBLAS_NUM_THREADS']}."
+    )
+    print(
+        "us/step: wall time (time.perf_counter), CPU us/step: process time (time.process_time, less sensitive to\n"
+        "a busy machine); both exclude the one-time set-up (assembly and rank check), shown separately.\n"
+    )
+    print("Example models (course/models), one full crank or cam turn:\n")
+    print("\n".join(example_table(steps, repeats)))
+    print(f"\nChain of N four-bar loops (drag links) driven by one crank, one crank turn in {steps or 200} steps:\n")
+    print("\n".join(chain_table(sizes, steps or 200, repeats)))
+
+
+if __name__ == "__main__":
+    main()
