@@ -170,6 +170,15 @@ def command_check(args) -> int:
     return 0
 
 
+def command_release(args) -> int:
+    # instructor tooling lives outside the package students receive: import it only when asked
+    try:
+        from course.release import command
+    except ImportError:
+        raise UsageError("mbd release is the instructor's command: run it in the course repository") from None
+    return command(args.homework)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="mbd", description="Multibody dynamics course: reference solver.")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -196,6 +205,9 @@ def build_parser() -> argparse.ArgumentParser:
     check = sub.add_parser("check", help="validate and assemble a model; report DOF and redundancies")
     check.add_argument("model", help="model file (YAML or JSON)")
     check.set_defaults(handler=command_check)
+    release = sub.add_parser("release", help="build and release homework hwN to students (instructor)")
+    release.add_argument("homework", help="hw1, hw2 or hw3")
+    release.set_defaults(handler=command_release)
     return parser
 
 

@@ -93,7 +93,7 @@ KEY_EXAMPLES = {
 
 
 def _schema() -> dict:
-    text = resources.files("solutions.io").joinpath("schema.json").read_text()
+    text = resources.files(__package__).joinpath("schema.json").read_text()
     return json.loads(text)
 
 
@@ -200,17 +200,57 @@ def _vector(value, size: int, where: str, label: str) -> np.ndarray:
     return np.asarray(value, dtype=float)
 
 
+def _spatial_body(b: dict, where: str, label: str) -> Body:
+    """A spatial body: inertia about the centre of mass in the body frame (3 principal moments or a 3x3
+    matrix), orientation as Euler parameters [e0, e1, e2, e3] (normalised here), angular velocity global."""
+    inertia = b["inertia"]
+    if isinstance(inertia, int | float):
+        raise ModelError(
+            f"{label}: {where}.inertia: a spatial body takes 3 principal moments [Jxx, Jyy, Jzz] or a 3x3 matrix"
+        )
+    inertia = np.asarray(inertia, dtype=float)
+    inertia = np.diag(inertia) if inertia.ndim == 1 else inertia
+    if not np.allclose(inertia, inertia.T) or np.any(np.linalg.eigvalsh(0.5 * (inertia + inertia.T)) <= 0):
+        raise ModelError(f"{label}: {where}.inertia: must be symmetric and positive definite, got {inertia.tolist()}")
+    orientation = b.get("orientation", [1.0, 0.0, 0.0, 0.0])
+    if isinstance(orientation, int | float):
+        raise ModelError(
+            f"{label}: {where}.orientation: a spatial body takes 4 Euler parameters [e0, e1, e2, e3], "
+            "e.g. [1.0, 0.0, 0.0, 0.0] for the global orientation"
+        )
+    orientation = np.asarray(orientation, dtype=float)
+    size = float(np.linalg.norm(orientation))
+    if size < 1e-12:
+        raise ModelError(
+            f"{label}: {where}.orientation: the Euler parameters are zero; write [cos(a/2), u sin(a/2)] "
+            "for a rotation a about the unit axis u, e.g. [1.0, 0.0, 0.0, 0.0]"
+        )
+    angular_velocity = b.get("angular_velocity", [0.0] * 3)
+    if isinstance(angular_velocity, int | float):
+        raise ModelError(f"{label}: {where}.angular_velocity: a spatial body takes a 3-vector (global frame)")
+    return Body(
+        name=b["name"],
+        mass=float(b["mass"]),
+        inertia=inertia,
+        location=_vector(b["location"], 3, f"{where}.location", label),
+        orientation=orientation / size,
+        velocity=_vector(b.get("velocity", [0.0] * 3), 3, f"{where}.velocity", label),
+        angular_velocity=_vector(angular_velocity, 3, f"{where}.angular_velocity", label),
+    )
+
+
 def _build(data: dict, label: str) -> Model:
     spec = data["model"]
     dim = spec.get("dimension", 2)
-    if dim == 3:
-        raise ModelError(f"{label}: model.dimension: spatial (3D) models are not supported by this version; use 2")
     gravity = _vector(spec.get("gravity", [0.0] * dim), dim, "model.gravity", label)
     bodies = []
     for k, b in enumerate(spec["bodies"]):
         where = f"model.bodies[{k}]"
         if b["name"] == GROUND:
             raise ModelError(f"{label}: {where}.name: 'ground' is reserved for the fixed frame; rename the body")
+        if dim == 3:
+            bodies.append(_spatial_body(b, where, label))
+            continue
         if not isinstance(b["inertia"], int | float):
             raise ModelError(
                 f"{label}: {where}.inertia: a planar body takes one number (moment about its centre of mass)"
@@ -254,7 +294,8 @@ PLANAR_JOINTS = (
     "rack_pinion",
     "cam",
 )
-VECTOR_KEYS = ("location", "point1", "point2", "axis", "point")
+SPATIAL_JOINTS = ("spherical", "revolute", "prismatic", "cylindrical", "universal", "rigid")
+VECTOR_KEYS = ("location", "point1", "point2", "axis", "axis2", "point")
 
 
 def _unique_names(items: list[dict], kind: str, section: str, label: str, taken: set[str]) -> None:
@@ -305,31 +346,41 @@ def _check_references(model: Model, label: str) -> None:
             for key in VECTOR_KEYS:
                 if key in item:
                     vec = _vector(item[key], model.dimension, f"{where}.{key}", label)
-                    if key == "axis" and not np.any(vec):
-                        raise ModelError(f"{label}: {where}.axis: the axis is zero; give a direction, e.g. [1.0, 0.0]")
-            if section == "joints" and item["type"] not in PLANAR_JOINTS:
+                    if key.startswith("axis") and not np.any(vec):
+                        example = "[1.0, 0.0]" if model.dimension == 2 else "[0.0, 0.0, 1.0]"
+                        raise ModelError(f"{label}: {where}.{key}: the axis is zero; give a direction, e.g. {example}")
+            allowed = PLANAR_JOINTS if model.dimension == 2 else SPATIAL_JOINTS
+            if section == "joints" and item["type"] not in allowed:
+                kind = "a spatial" if model.dimension == 2 else "a planar"
                 raise ModelError(
-                    f"{label}: {where}.type: '{item['type']}' is a spatial joint; "
-                    f"planar joints are {', '.join(PLANAR_JOINTS)}"
+                    f"{label}: {where}.type: '{item['type']}' is {kind} joint; "
+                    f"{'planar' if model.dimension == 2 else 'spatial'} joints are {', '.join(allowed)}"
                 )
     joints = {j["name"]: j for j in model.joints}
     for k, motor in enumerate(model.motors):
         where = f"model.motors[{k}]"
         if motor["type"] in ("angle", "linear"):
-            wanted = "revolute" if motor["type"] == "angle" else "prismatic"
+            wanted = ("revolute",) if motor["type"] == "angle" else ("prismatic",)
+            if model.dimension == 3:  # a spatial cylindrical joint takes either motor
+                wanted += ("cylindrical",)
             joint = joints.get(motor["joint"])
             if joint is None:
                 close = difflib.get_close_matches(motor["joint"], list(joints), n=1)
                 hint = f"did you mean '{close[0]}'? " if close else ""
                 known = f"joints: {', '.join(joints)}" if joints else "the model has no joints"
                 raise ModelError(f"{label}: {where}.joint: no joint named '{motor['joint']}' ({hint}{known})")
-            if joint["type"] != wanted:
+            if joint["type"] not in wanted:
                 raise ModelError(
-                    f"{label}: {where}.joint: an {motor['type']} motor drives a {wanted} joint, "
+                    f"{label}: {where}.joint: an {motor['type']} motor drives a {' or '.join(wanted)} joint, "
                     f"but '{motor['joint']}' is {joint['type']}"
                 )
         if motor["type"] == "coordinate":
             if motor["body"] == GROUND:
                 raise ModelError(f"{label}: {where}.body: ground cannot be driven; name a moving body")
-            if motor["coordinate"] == "z":
+            if motor["coordinate"] == "z" and model.dimension == 2:
                 raise ModelError(f"{label}: {where}.coordinate: a planar body has x, y and phi")
+            if motor["coordinate"] == "phi" and model.dimension == 3:
+                raise ModelError(
+                    f"{label}: {where}.coordinate: a spatial body's driven coordinate is x, y or z; "
+                    "drive a rotation with an angle motor on a revolute or cylindrical joint"
+                )

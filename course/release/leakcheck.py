@@ -1,0 +1,185 @@
+"""Leak check of a release folder: what a student receives must hold nothing they should not see.
+
+For a release of homework N, a leak is
+
+- the text of a solution region of hwN or later: any non-trivial line of one (whitespace ignored) that
+  is not also public -- a line that appears outside those regions is public anyway;
+- a solution marker (``### BEGIN SOLUTION`` / ``### END SOLUTION``): a region was not cut;
+- a hidden scene (``autograder/scenes/hidden/``) or a stored reference run (``autograder/reference/``):
+  found by the hash of its bytes, of its text with whitespace normalized, or embedded in a text file;
+- a file of ``solutions/`` that holds a region of hwN or later, byte for byte, or any folder named
+  ``solutions``, ``autograder`` or ``reference``;
+- compiled Python (``*.pyc``, ``__pycache__``): it carries the code it was compiled from.
+
+Notebooks are read as JSON: every string in them (sources, outputs, metadata) is scanned.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from .generator import BEGIN, END, REPO, build_source, homework_index, scan_regions, source_files
+
+HIDDEN_SCENES = Path("autograder", "scenes", "hidden")
+REFERENCE_RUNS = Path("autograder", "reference")
+FORBIDDEN_FOLDERS = ("solutions", "autograder", "reference")
+MIN_LINE = 16
+"""A region line shorter than this (whitespace removed) is trivial: ``return value``, ``else:``, ``q = q + dq``."""
+MIN_EMBEDDED = 64
+"""A grader file shorter than this (whitespace normalized) is not searched for inside other files."""
+
+
+@dataclass(frozen=True)
+class Leak:
+    """One thing found in a release folder that must not be there."""
+
+    path: str
+    kind: str
+    detail: str
+
+    def __str__(self) -> str:
+        return f"{self.path}: {self.kind}: {self.detail}"
+
+
+def _squeeze(text: str) -> str:
+    """A line with all whitespace removed: the form in which lines are compared."""
+    return "".join(text.split())
+
+
+def _normalize(text: str) -> str:
+    return "\n".join(" ".join(line.split()) for line in text.splitlines() if line.strip())
+
+
+def _sha(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def secret_lines(homework: str, solutions: Path) -> dict[str, str]:
+    """{squeezed line: 'file:line (function)'} of every non-trivial line of a region of hwN or later
+    that appears nowhere, not even inside a longer line, in the public part of the reference (the student
+    package of hwN)."""
+    first = homework_index(homework)
+    secret, public = {}, set()
+    for rel in source_files(solutions):
+        if rel.suffix != ".py":
+            continue
+        text = (solutions / rel).read_text(encoding="utf-8")
+        built, _, _ = build_source(text, rel.as_posix(), homework)
+        public.update(_squeeze(line) for line in built.splitlines())
+        for region in scan_regions(text, rel.as_posix()):
+            if region.homework < first:
+                continue
+            for offset, line in enumerate(region.text, start=region.begin + 1):
+                squeezed = _squeeze(line)
+                if len(squeezed) >= MIN_LINE:
+                    secret.setdefault(squeezed, f"solutions/{rel.as_posix()}:{offset} ({region.function})")
+    public_text = "\n".join(public)
+    return {line: where for line, where in secret.items() if line not in public_text}
+
+
+def _grader_files(course: Path) -> list[Path]:
+    files = []
+    for folder in (HIDDEN_SCENES, REFERENCE_RUNS):
+        root = course / folder
+        if root.is_dir():
+            files += sorted(p for p in root.rglob("*") if p.is_file())
+    return files
+
+
+def _strings(value) -> list[str]:
+    """Every string inside a JSON value."""
+    if isinstance(value, str):
+        return [value]
+    if isinstance(value, dict):
+        return [s for k, v in value.items() for s in (*_strings(k), *_strings(v))]
+    if isinstance(value, list):
+        return [s for item in value for s in _strings(item)]
+    return []
+
+
+def _text_of(path: Path, data: bytes) -> str | None:
+    """The scannable text of a release file, or None for a binary file."""
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError:
+        return None
+    if path.suffix == ".ipynb":
+        try:
+            return "\n".join(_strings(json.loads(text)))
+        except json.JSONDecodeError:
+            return text
+    return text
+
+
+def find_leaks(folder: Path, homework: str, course: Path | None = None) -> list[Leak]:
+    """Every leak in the release folder of ``homework``; [] when it is clean.
+
+    ``course`` is the repository root holding ``solutions/`` and ``autograder/`` (this course by default).
+    """
+    folder, course = Path(folder), Path(course or REPO)
+    solutions = course / "solutions"
+    secret = secret_lines(homework, solutions)
+    first = homework_index(homework)
+
+    forbidden_hashes = {}  # sha256 -> what it is
+    embedded = {}  # normalized text -> what it is
+    for path in _grader_files(course):
+        data = path.read_bytes()
+        what = f"grader data {path.relative_to(course).as_posix()}"
+        forbidden_hashes[_sha(data)] = what
+        text = _text_of(path, data)
+        if text is not None:
+            normalized = _normalize(text)
+            forbidden_hashes[_sha(normalized.encode())] = what
+            if len(normalized) >= MIN_EMBEDDED:
+                embedded[normalized] = what
+    for rel in source_files(solutions):
+        if rel.suffix == ".py":
+            text = (solutions / rel).read_text(encoding="utf-8")
+            if any(r.homework >= first for r in scan_regions(text, rel.as_posix())):
+                forbidden_hashes[_sha(text.encode())] = f"reference file solutions/{rel.as_posix()}"
+
+    leaks = []
+    for current, dirs, names in os.walk(folder):
+        here = Path(current)
+        for name in sorted(dirs):
+            rel = (here / name).relative_to(folder).as_posix()
+            if name in FORBIDDEN_FOLDERS:
+                leaks.append(Leak(rel, "forbidden folder", f"a folder named {name!r} does not belong in a release"))
+            if name == "__pycache__":
+                leaks.append(Leak(rel, "compiled code", "__pycache__ carries the code it was compiled from"))
+        for name in sorted(names):
+            path = here / name
+            rel = path.relative_to(folder).as_posix()
+            data = path.read_bytes()
+            if path.suffix in (".pyc", ".pyo"):
+                leaks.append(Leak(rel, "compiled code", "compiled Python carries the code it was compiled from"))
+            if _sha(data) in forbidden_hashes:
+                leaks.append(Leak(rel, "copied file", f"identical to {forbidden_hashes[_sha(data)]}"))
+                continue
+            text = _text_of(path, data)
+            if text is None:
+                continue
+            normalized = _normalize(text)
+            if _sha(normalized.encode()) in forbidden_hashes:
+                leaks.append(Leak(rel, "copied file", f"same text as {forbidden_hashes[_sha(normalized.encode())]}"))
+                continue
+            for content, what in embedded.items():
+                if content in normalized:
+                    leaks.append(Leak(rel, "embedded file", f"contains the whole of {what}"))
+            for number, line in enumerate(text.splitlines(), start=1):
+                if BEGIN in line or END in line:
+                    leaks.append(Leak(f"{rel}:{number}", "solution marker", line.strip()))
+            squeezed_text = _squeeze(text)
+            found = {}  # one leak per region function, naming its first leaked line
+            for line, where in secret.items():
+                if line in squeezed_text:
+                    found.setdefault((where.split(":")[0], where.rsplit(" ", 1)[1]), []).append(where)
+            for wheres in found.values():
+                more = f" and {len(wheres) - 1} more of its lines" if len(wheres) > 1 else ""
+                leaks.append(Leak(rel, "solution text", f"line {wheres[0]}{more}"))
+    return leaks

@@ -1,0 +1,128 @@
+"""The leak check finds every kind of planted leak, and nothing in a clean release."""
+
+from __future__ import annotations
+
+import shutil
+
+import nbformat
+import numpy as np
+import pytest
+
+from course.release.generator import HOMEWORKS, REPO, all_regions, build_package
+from course.release.leakcheck import MIN_LINE, find_leaks, secret_lines
+
+HIDDEN_SCENE = """\
+# hidden variation of the slider-crank: longer rod, heavier slider
+model:
+  name: slider-crank-hidden
+  bodies:
+    - {name: crank,  mass: 1.3, inertia: 9.1e-4, location: [0.05, 0.0], orientation: 0.0}
+    - {name: rod,    mass: 1.7, inertia: 1.1e-2, location: [0.27, 0.0], orientation: 0.0}
+"""
+
+
+@pytest.fixture(scope="module")
+def course(tmp_path_factory):
+    """A course tree with the real solutions/ and planted grader data."""
+    root = tmp_path_factory.mktemp("course")
+    shutil.copytree(REPO / "solutions", root / "solutions", ignore=shutil.ignore_patterns("__pycache__"))
+    hidden = root / "autograder" / "scenes" / "hidden"
+    hidden.mkdir(parents=True)
+    (hidden / "slider_crank_long.yaml").write_text(HIDDEN_SCENE)
+    reference = root / "autograder" / "reference"
+    reference.mkdir(parents=True)
+    rng = np.random.default_rng(5)
+    np.savez(reference / "slider_crank_long.npz", t=np.linspace(0, 1, 11), q=rng.normal(size=(11, 9)))
+    return root
+
+
+def clean_release(tmp_path, homework: str):
+    folder = tmp_path / homework
+    build_package(folder / "modules", homework)
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_markdown_cell("# Homework")])
+    nbformat.write(nb, folder / f"{homework}.ipynb")
+    return folder
+
+
+@pytest.mark.parametrize("homework", HOMEWORKS)
+def test_a_clean_release_has_no_leak(tmp_path, course, homework):
+    assert find_leaks(clean_release(tmp_path, homework), homework, course) == []
+
+
+def test_secret_lines_are_non_trivial_and_not_public():
+    secret = secret_lines("hw2", REPO / "solutions")
+    assert secret, "hw2 has solution regions: some of their lines are secret"
+    assert all(len(line) >= MIN_LINE for line in secret)
+    hw1 = {(f"solutions/{r.path}", r.function) for r in all_regions() if r.tag == "hw1"}
+    places = {(where.split(":")[0], where.rsplit(" ", 1)[1].strip("()")) for where in secret.values()}
+    assert places and not places & hw1
+
+
+def _hw2_line():
+    region = next(r for r in all_regions() if r.tag == "hw2" and any(len("".join(x.split())) >= 30 for x in r.text))
+    return region, next(x for x in region.text if len("".join(x.split())) >= 30)
+
+
+def test_a_solution_line_pasted_into_a_notebook_is_a_leak(tmp_path, course):
+    folder = clean_release(tmp_path, "hw2")
+    region, line = _hw2_line()
+    nb = nbformat.read(folder / "hw2.ipynb", as_version=4)
+    nb.cells.append(nbformat.v4.new_markdown_cell(f"Hint: try\n\n    {line.strip()}\n"))
+    nbformat.write(nb, folder / "hw2.ipynb")
+    leaks = find_leaks(folder, "hw2", course)
+    assert [(leak.path, leak.kind) for leak in leaks] == [("hw2.ipynb", "solution text")]
+    assert f"({region.function})" in leaks[0].detail
+
+
+def test_the_same_line_is_public_once_its_homework_is_past(tmp_path, course):
+    folder = clean_release(tmp_path, "hw3")
+    _, line = _hw2_line()
+    (folder / "notes.md").write_text(f"Recall from hw2: {line.strip()}\n")
+    assert find_leaks(folder, "hw3", course) == []
+
+
+def test_a_solutions_file_or_an_unstubbed_package_is_a_leak(tmp_path, course):
+    folder = clean_release(tmp_path, "hw1")
+    shutil.copy(REPO / "solutions" / "kinematics.py", folder / "kinematics.py")
+    build_package(folder / "answers", None, header=None)
+    leaks = find_leaks(folder, "hw1", course)
+    assert any(leak.path == "kinematics.py" and leak.kind == "copied file" for leak in leaks)
+    assert {leak.path for leak in leaks if leak.kind == "solution text"} >= {
+        "answers/kinematics.py",
+        "answers/planar/joints.py",
+    }
+
+
+def test_markers_compiled_code_and_forbidden_folders_are_leaks(tmp_path, course):
+    folder = clean_release(tmp_path, "hw2")
+    (folder / "stub.py").write_text("def f():\n    ### BEGIN SOLUTION hw2\n    pass\n    ### END SOLUTION\n")
+    (folder / "modules" / "__pycache__").mkdir()
+    (folder / "modules" / "__pycache__" / "kinematics.cpython-311.pyc").write_bytes(b"\x00\x01")
+    (folder / "solutions").mkdir()
+    kinds = {(leak.path, leak.kind) for leak in find_leaks(folder, "hw2", course)}
+    assert kinds == {
+        ("stub.py:2", "solution marker"),
+        ("stub.py:4", "solution marker"),
+        ("modules/__pycache__", "compiled code"),
+        ("modules/__pycache__/kinematics.cpython-311.pyc", "compiled code"),
+        ("solutions", "forbidden folder"),
+    }
+
+
+def test_a_hidden_scene_is_found_copied_renamed_reformatted_or_embedded(tmp_path, course):
+    folder = clean_release(tmp_path, "hw1")
+    (folder / "scene.yaml").write_text(HIDDEN_SCENE)
+    (folder / "crlf.yml").write_bytes(HIDDEN_SCENE.replace("\n", "\r\n").encode())
+    nb = nbformat.read(folder / "hw1.ipynb", as_version=4)
+    nb.cells.append(nbformat.v4.new_code_cell(f'SCENE = """\n{HIDDEN_SCENE}"""'))
+    nbformat.write(nb, folder / "hw1.ipynb")
+    leaks = {(leak.path, leak.kind) for leak in find_leaks(folder, "hw1", course)}
+    assert leaks == {("scene.yaml", "copied file"), ("crlf.yml", "copied file"), ("hw1.ipynb", "embedded file")}
+
+
+def test_a_reference_run_is_a_leak(tmp_path, course):
+    folder = clean_release(tmp_path, "hw1")
+    shutil.copy(course / "autograder" / "reference" / "slider_crank_long.npz", folder / "data.npz")
+    leaks = find_leaks(folder, "hw1", course)
+    assert [(leak.path, leak.kind) for leak in leaks] == [("data.npz", "copied file")]
+    assert "autograder/reference/slider_crank_long.npz" in leaks[0].detail
