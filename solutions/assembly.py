@@ -124,5 +124,10 @@ class System:
 
 def build_system(model: Model) -> tuple[System, np.ndarray, np.ndarray]:
     """The assembled system of a model with the file's (approximate) q0 and q0'."""
+    if model.dimension == 3:  # spatial elements; a planar scene never imports them
+        from .spatial import build as spatial
+
+        q0, qd0 = spatial.initial_coordinates(model)
+        return System(model, spatial.build_elements(model)), q0, qd0
     q0, qd0 = initial_coordinates(model)
     return System(model, build_elements(model)), q0, qd0

@@ -1,0 +1,1 @@
+"""Spatial (3D) multibody systems: bodies with q_i = (x, y, z, e0, e1, e2, e3), joints, mass and forces."""
