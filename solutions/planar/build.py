@@ -13,6 +13,7 @@ import numpy as np
 from ..functions import Constant, function_from_spec
 from ..io.model import GROUND, Model, ModelError
 from .bodies import R90, point_vector, rotation
+from .forces import RSDA, TSDA, ForceElement, PointForce, TimeActuator, Torque, no_actuator
 from .joints import (
     BodyCoordinate,
     Distance,
@@ -176,3 +177,57 @@ def build_elements(model: Model) -> list[PlanarElement]:
 
 
 __all__ = ["GROUND", "build_elements", "initial_coordinates"]
+
+
+# -- force elements (homework 2) ------------------------------------------------------------------
+def spring_damper_element(spec: dict, where: str, model: Model, frames: _Frames) -> ForceElement:
+    """A TSDA or RSDA of the file. A missing free length or free angle is the file configuration's."""
+    name, frame = spec["name"], spec.get("frame", "global")
+    i, j = model.body_index(spec["body1"]), model.body_index(spec["body2"])
+    actuator = TimeActuator(function_from_spec(spec["actuator"])) if "actuator" in spec else no_actuator
+    stiffness = float(spec.get("spring_coefficient", 0.0))
+    damping = float(spec.get("damping_coefficient", 0.0))
+    if spec["type"] == "RSDA":
+        free_angle = float(spec.get("free_angle", _phi0(frames, i, j)))
+        return RSDA(name, i, j, stiffness=stiffness, damping=damping, free_angle=free_angle, actuator=actuator)
+    si = frames.local_point(i, spec["point1"], frame)
+    sj = frames.local_point(j, spec["point2"], frame)
+    length = float(np.linalg.norm(point_vector(frames.q(i), si, frames.q(j), sj)))
+    if length < 1e-12:
+        raise ModelError(f"{model.source}: {where}.point2: coincides with point1; a TSDA needs two distinct points")
+    free_length = float(spec.get("free_length", length))
+    return TSDA(
+        name, i, j, si=si, sj=sj, stiffness=stiffness, damping=damping, free_length=free_length, actuator=actuator
+    )
+
+
+def load_element(spec: dict, where: str, model: Model, frames: _Frames) -> ForceElement:
+    """A point force or a torque of the file (``value``: constant numbers or functions of time)."""
+    name, frame = spec["name"], spec.get("frame", "global")
+    i = model.body_index(spec["body"])
+    if i < 0:
+        raise ModelError(f"{model.source}: {where}.body: a load on ground does nothing; name a moving body")
+    value = spec["value"]
+    if spec["type"] == "torque":
+        if isinstance(value, list):
+            raise ModelError(f"{model.source}: {where}.value: a planar torque is one number or function, e.g. 0.5")
+        return Torque(name, i, -1, function=function_from_spec(value))
+    if not isinstance(value, list) or len(value) != 2:
+        raise ModelError(f"{model.source}: {where}.value: a planar force takes two components, e.g. [0.0, -20.0]")
+    point = frames.local_point(i, spec.get("point", frames.origin(i) if frame == "global" else [0.0, 0.0]), frame)
+    components = (function_from_spec(value[0]), function_from_spec(value[1]))
+    return PointForce(name, i, -1, point=point, components=components, body_fixed=frame == "body")
+
+
+def force_elements(model: Model) -> list[ForceElement]:
+    """All force elements of a planar model: spring-damper-actuators, then point forces and torques."""
+    frames = _Frames(model)
+    elements = [
+        spring_damper_element(spec, f"model.spring_dampers[{k}]", model, frames)
+        for k, spec in enumerate(model.spring_dampers)
+    ]
+    elements += [load_element(spec, f"model.forces[{k}]", model, frames) for k, spec in enumerate(model.forces)]
+    return elements
+
+
+__all__ += ["force_elements"]
