@@ -30,6 +30,7 @@ from .generalized_forces import ForceModel, build_forces
 from .integrators import INTEGRATORS, integrate
 from .kinematics import assemble, point_columns
 from .mass_matrix import mass_at, mass_matrix
+from .reactions import joint_reactions
 from .results import Result
 
 INDEX3_INTEGRATORS = ("hht", "generalized-alpha")
@@ -158,6 +159,7 @@ def forward_dynamics(
         )
         for label, (body, point) in (points or {}).items():
             result.points.update(point_columns(result, label, body, point))
+        result.reactions.update(joint_reactions(system, result.q, result.lam, result.t))
         result.info.update(assembly=initial["assembly"], initial_conditions=initial)
         result.info["wall_time"] = _time.perf_counter() - start
         return result
@@ -208,6 +210,7 @@ def forward_dynamics(
     result.points.update(energies.columns())
     for label, (body, point) in (points or {}).items():
         result.points.update(point_columns(result, label, body, point))
+    result.reactions.update(joint_reactions(system, history.q, history.lam, times))
     result.info = {
         "analysis": "dynamic",
         "formulation": formulation,

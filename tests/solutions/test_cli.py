@@ -119,3 +119,20 @@ def test_plot_and_points(tmp_path):
     theta = 10.0 * columns["t"]
     np.testing.assert_allclose(columns["pin.x"], 0.1 * np.cos(theta), atol=1e-12)
     np.testing.assert_allclose(columns["pin.y_d"], 1.0 * np.cos(theta), atol=1e-10)
+
+
+def test_dynamic_run_writes_reactions_that_satisfy_newtons_law(tmp_path):
+    """The pin reaction of the simple pendulum is F = m a - m g on the only body (no other force acts)."""
+    out = tmp_path / "pendulum.csv"
+    model = ROOT / "course" / "models" / "simple_pendulum.yaml"
+    assert main(["run", str(model), "--analysis", "dynamic", "--t-end", "1", "--steps", "50", "--out", str(out)]) == 0
+    columns = read_csv(out)
+    from solutions.io.model import load_model
+
+    spec = load_model(model)
+    (body,) = spec.bodies
+    fx = body.mass * columns[f"{body.name}.x_dd"] - body.mass * spec.gravity[0]
+    fy = body.mass * columns[f"{body.name}.y_dd"] - body.mass * spec.gravity[1]
+    joint = spec.joints[0]["name"]
+    np.testing.assert_allclose(columns[f"{joint}.Fx"], fx, atol=1e-6 * body.mass * 9.81)
+    np.testing.assert_allclose(columns[f"{joint}.Fy"], fy, atol=1e-6 * body.mass * 9.81)
