@@ -380,6 +380,15 @@ class Partitioning(Formulation):
     def state_derivative(self, q, qd, qdd):
         return np.concatenate([qd[self.v], qdd[self.v]])
 
+    def rhs(self, t, y):
+        """y' = (v', v''). A trial state of the integrator whose v admits no u (an independent coordinate
+        pushed beyond the mechanism's reach by a large step) gives NaN, so an adaptive integrator rejects
+        the step and retries a shorter one instead of stopping."""
+        try:
+            return super().rhs(t, y)
+        except AnalysisError:
+            return np.full(y.size, np.nan)
+
     def accelerations(self, q, qd, t):
         jacobian = self._jacobian if q is self._q else self.system.jacobian(q, t)  # q just made by coordinates()
         return augmented_accelerations(

@@ -118,8 +118,15 @@ def _integrate_rk4(f, y, t_out, record, step, after_step, stats) -> None:
         substeps = max(1, math.ceil(span / step - 1e-9)) if step else 1
         h = span / substeps
         for s in range(substeps):
-            y = rk4_step(f, t + s * h, y, h)
+            with np.errstate(over="ignore", invalid="ignore"):  # a blow-up is reported just below
+                y = rk4_step(f, t + s * h, y, h)
             stats.steps += 1
+            if not np.all(np.isfinite(y)):
+                raise AnalysisError(
+                    f"rk4: the state is no longer finite at t = {t + (s + 1) * h:.6g} s with step {h:.3g} s: the "
+                    "step is beyond the scene's stability limit (or left the mechanism's reach); use a smaller "
+                    "--step or an adaptive integrator"
+                )
             if after_step is not None:
                 corrected = after_step(t + (s + 1) * h, y)
                 y = y if corrected is None else corrected

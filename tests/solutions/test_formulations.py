@@ -210,3 +210,49 @@ def test_unknown_formulation_and_option():
         forward_dynamics(system, q0, qd0, 1.0, 10, formulation="baumgarten")
     with pytest.raises(AnalysisError, match="formulation 'qr'"):
         forward_dynamics(system, q0, qd0, 1.0, 10, formulation="qr", colour="red")
+
+
+def test_partitioning_survives_loose_tolerances():
+    """At rtol 1e-4 DOP853 tries steps that push an independent coordinate beyond the pendulum's reach; the
+    dependent Newton then has no solution, the step is rejected and retried shorter instead of stopping."""
+    model = load_model(REPO / "course/models/double_pendulum.yaml")
+    system, q0, qd0 = build_system(model)
+    loose = forward_dynamics(system, q0, qd0, 2.0, 20, "partitioning", "DOP853", rtol=1e-4, atol=1e-6)
+    tight = forward_dynamics(system, q0, qd0, 2.0, 20, "qr", "DOP853", rtol=1e-11, atol=1e-13)
+    assert np.max(np.abs(loose.q[-1] - tight.q[-1])) < 1e-2
+    assert loose.info["max_constraint_residual"] < 1e-10
+
+
+def test_rk4_beyond_its_stability_limit_stops_with_a_diagnostic():
+    """A stiff spring (k = 1e8 N/m on 1 kg: period 0.6 ms) integrated by RK4 with 10 ms steps blows up;
+    the run must stop and say so, not return NaN or garbage."""
+    spec = {
+        "model": {
+            "gravity": [0.0, -9.81],
+            "bodies": [{"name": "bob", "mass": 1.0, "inertia": 0.01, "location": [0.0, -1.0]}],
+            "joints": [
+                {
+                    "name": "slide",
+                    "type": "prismatic",
+                    "body1": "ground",
+                    "body2": "bob",
+                    "location": [0.0, -1.0],
+                    "axis": [0.0, 1.0],
+                }
+            ],
+            "spring_dampers": [
+                {
+                    "type": "TSDA",
+                    "body1": "ground",
+                    "body2": "bob",
+                    "point1": [0.0, 0.0],
+                    "point2": [0.0, -1.0],
+                    "spring_coefficient": 1.0e8,
+                    "free_length": 0.999,
+                }
+            ],
+        }
+    }
+    system, q0, qd0 = build_system(load_model(spec))
+    with pytest.raises(AnalysisError, match="stability limit"):
+        forward_dynamics(system, q0, qd0, 1.0, 100, "baumgarte", "rk4", step=0.01)
