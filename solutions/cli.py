@@ -220,6 +220,9 @@ def main(argv: list[str] | None = None) -> int:
     except (ModelError, AnalysisError, UsageError) as err:
         print(f"mbd: error: {err}", file=sys.stderr)
         return USER_ERROR
+    except BrokenPipeError:  # output piped into a command that stopped reading (e.g. `| head`)
+        sys.stderr.close()
+        return 0
 
 
 if __name__ == "__main__":

@@ -156,6 +156,8 @@ def _read_text(path: Path) -> dict:
         where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
         problem = getattr(err, "problem", None) or str(err)
         raise ModelError(f"{path.name}: {where}malformed YAML ({problem}); check indentation and brackets") from None
+    if data is None:
+        raise ModelError(f"{path.name}: the file holds only comments; a model file starts with 'model:'")
     if not isinstance(data, dict):
         raise ModelError(f"{path.name}: expected a mapping with the key 'model', got {type(data).__name__}")
     return data
@@ -190,8 +192,9 @@ def load_model(source: str | Path | Mapping) -> Model:
 
 
 def _error_rank(error: jsonschema.ValidationError):
-    # prefer deep, specific errors (a missing key, a bad value) to the generic 'oneOf' of a parent
-    return (-len(error.absolute_path), error.validator == "oneOf")
+    # jsonschema's best_match keeps the error with the highest key. A misspelt key is reported as the unknown
+    # key it is (with 'did you mean'), rather than as the required key it hides.
+    return (-len(error.absolute_path), error.validator == "oneOf", error.validator == "additionalProperties")
 
 
 def _vector(value, size: int, where: str, label: str) -> np.ndarray:

@@ -233,3 +233,14 @@ model:
     result = kinematic_analysis(system, q0, 1.0, 4)
     np.testing.assert_allclose(result.coordinate("slider.y"), 0.3 + 0.5 * result.t, atol=1e-12)
     np.testing.assert_allclose(result.coordinate("slider.x"), 0.0, atol=1e-12)
+
+
+def test_a_misspelt_key_is_named_with_the_right_spelling(tmp_path):
+    text = slider_crank_with("{name: crank,  mass: 1.0,", "{name: crank,  mas: 1.0,")
+    message = error_of(tmp_path, text)
+    assert "model.bodies[0].mas: unknown key 'mas' (did you mean 'mass'?)" in message
+
+
+def test_a_file_of_comments_only_is_called_empty(tmp_path):
+    message = error_of(tmp_path, "# a model will go here\n# soon\n")
+    assert "only comments" in message and "model:" in message
