@@ -179,6 +179,22 @@ def command_release(args) -> int:
     return command(args.homework)
 
 
+def command_grade(args) -> int:
+    try:
+        from autograder.cli import grade_command
+    except ImportError:
+        raise UsageError("mbd grade is the instructor's command: run it in the course repository") from None
+    return grade_command(args.homework, args.submissions, out=args.out, jobs=args.jobs)
+
+
+def command_selfcheck(args) -> int:
+    try:
+        from autograder.cli import selfcheck_command
+    except ImportError:
+        raise UsageError("mbd selfcheck needs the course's autograder package (pip install mbd-course)") from None
+    return selfcheck_command(args.homework, args.path)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="mbd", description="Multibody dynamics course: reference solver.")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -208,6 +224,16 @@ def build_parser() -> argparse.ArgumentParser:
     release = sub.add_parser("release", help="build and release homework hwN to students (instructor)")
     release.add_argument("homework", help="hw1, hw2 or hw3")
     release.set_defaults(handler=command_release)
+    grade = sub.add_parser("grade", help="grade every submission of homework hwN (instructor)")
+    grade.add_argument("homework", help="hw1, hw2 or hw3")
+    grade.add_argument("submissions", help="nbgrader's submitted/ folder, or a folder of student folders")
+    grade.add_argument("--out", help="folder for the gradebook, results and feedback (default: grades-hwN)")
+    grade.add_argument("--jobs", type=int, help="submissions graded in parallel (default: the number of cores)")
+    grade.set_defaults(handler=command_grade)
+    selfcheck = sub.add_parser("selfcheck", help="run the public checks of hwN on your own modules/ (students)")
+    selfcheck.add_argument("homework", help="hw1, hw2 or hw3")
+    selfcheck.add_argument("path", nargs="?", help="folder holding your modules/ (default: the current folder)")
+    selfcheck.set_defaults(handler=command_selfcheck)
     return parser
 
 

@@ -1,0 +1,429 @@
+"""Grade a folder of submissions: ``grade("hw1", "submitted", "grades")``.
+
+A submission is a folder holding the student's package ``modules/`` (beside their notebook). Accepted
+layouts: nbgrader's ``submitted/{student}/{assignment}/`` (the course root or its ``submitted`` folder),
+or a plain folder of student folders. Students are graded in parallel over ``jobs`` worker processes;
+each worker runs one student's checks in a sandbox (``sandbox``), one probe at a time.
+
+Written to ``out_dir`` as each student finishes, so an interrupted run resumes where it stopped:
+
+- ``results/{student}.json``  Gradescope-like: score, max_score, output, tests (name, score, max_score,
+  status, output, visibility); a result is reused when the submission, the checks and the reference
+  are unchanged (its fingerprint);
+- ``feedback/{student}.html`` every check with its message, plots of failed runs (never hidden data);
+- ``gradebook.csv``           one row per student, a column per check (points), LMS-friendly.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import json
+import os
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from importlib.util import find_spec
+from multiprocessing import get_context
+from pathlib import Path
+
+from .checks import Outcome, evaluate
+from .feedback import feedback_html
+from .homework import CheckSpec, Homework, load_homework
+from .probes import Job
+from .reference import (
+    HERE,
+    Reference,
+    job_key,
+    load_reference,
+    probe_specs,
+    reference_dir,
+    reference_file,
+    student_reference,
+)
+from .sandbox import SANDBOX_ENV, Limits, Reply, Sandbox, without_main
+from .scenes import HIDDEN, STUDENT, hidden_dir, load_scene, scene_kind
+
+GRADER_VERSION = "1"
+PACKAGE = "modules"
+
+
+@dataclass
+class Submission:
+    """One student's folder (it should hold ``modules/``)."""
+
+    student: str
+    path: Path
+
+    @property
+    def package(self) -> Path:
+        return self.path / PACKAGE
+
+
+@dataclass
+class Gradebook:
+    """The grades of one run: per student the total and the points of every check."""
+
+    homework: str
+    checks: list[str]
+    max_points: dict[str, float]
+    rows: dict[str, dict] = field(default_factory=dict)
+    out_dir: Path | None = None
+
+    @property
+    def max_score(self) -> float:
+        return sum(self.max_points.values())
+
+    def score(self, student: str) -> float:
+        return self.rows[student]["score"]
+
+    def points(self, student: str) -> dict[str, float]:
+        return self.rows[student]["checks"]
+
+    @property
+    def csv_path(self) -> Path | None:
+        return None if self.out_dir is None else self.out_dir / "gradebook.csv"
+
+    def write_csv(self) -> None:
+        """The gradebook: student, score, max_score, percent, then one column per check."""
+        if self.out_dir is None:
+            return
+        path = self.csv_path
+        tmp = path.with_suffix(".csv.tmp")
+        with open(tmp, "w", newline="") as f:
+            writer = csv.writer(f)
+            writer.writerow(["student", "score", "max_score", "percent", *self.checks])
+            for student in sorted(self.rows):
+                row = self.rows[student]
+                percent = 100.0 * row["score"] / self.max_score if self.max_score else 0.0
+                points = [row["checks"].get(name, 0.0) for name in self.checks]
+                writer.writerow(
+                    [student, f"{row['score']:g}", f"{self.max_score:g}", f"{percent:.1f}", *[f"{p:g}" for p in points]]
+                )
+        os.replace(tmp, path)
+
+
+# -- finding submissions ---------------------------------------------------------------------------------
+def find_submissions(submissions_dir: Path, homework: str) -> list[Submission]:
+    """The submissions in a folder: nbgrader's ``submitted/{student}/{homework}/``, a plain folder of
+    student folders (each holding ``modules/`` or ``{homework}/modules/``), or one submission."""
+    root = Path(submissions_dir)
+    if not root.is_dir():
+        raise FileNotFoundError(f"no folder {root}")
+    if (root / "submitted").is_dir():
+        root = root / "submitted"
+    if (root / PACKAGE).is_dir():
+        return [Submission(root.resolve().name, root.resolve())]
+    found = []
+    for folder in sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith((".", "_"))):
+        nested = folder / homework
+        found.append(Submission(folder.name, (nested if nested.is_dir() else folder).resolve()))
+    return found
+
+
+# -- fingerprints and protected paths ----------------------------------------------------------------------
+def _reference_fingerprint(homework: Homework) -> str:
+    digest = hashlib.sha256()
+    for scene in sorted({c.scene for c in homework.checks}):
+        if scene_kind(scene) == STUDENT:
+            scene = scene.split("/", 1)[1]
+            path = HERE / "scenes" / f"{scene}.yaml"
+        else:
+            path = reference_file(scene)
+        digest.update(scene.encode())
+        if path.is_file():
+            stat = path.stat()
+            digest.update(f"{stat.st_size}:{stat.st_mtime_ns}".encode())
+    return digest.hexdigest()[:16]
+
+
+def submission_fingerprint(submission: Submission, homework: Homework, limits: Limits) -> str:
+    """Changes when the student's package, the checks, the reference or the grader change."""
+    digest = hashlib.sha256(f"{GRADER_VERSION}|{homework.fingerprint()}|{_reference_fingerprint(homework)}".encode())
+    digest.update(repr(sorted(vars(limits).items())).encode())
+    digest.update(submission.student.encode())
+    if submission.package.is_dir():
+        for path in sorted(submission.package.rglob("*")):
+            if path.is_file() and "__pycache__" not in path.parts:
+                digest.update(str(path.relative_to(submission.path)).encode())
+                digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+def protected_paths(extra: tuple[Path, ...] = ()) -> tuple[list[Path], list[Path]]:
+    """(folders a sandbox may not read, folders removed from its import path)."""
+    forbidden = [HERE, hidden_dir(), reference_dir(HIDDEN), reference_dir("public")]
+    spec = find_spec("solutions")
+    if spec is not None and spec.submodule_search_locations:
+        forbidden += [Path(p) for p in spec.submodule_search_locations]
+    forbidden += [Path(p) for p in extra]
+    hide = [HERE.parent] if (HERE.parent / "solutions").is_dir() else []
+    return forbidden, hide
+
+
+# -- running the checks of one submission ---------------------------------------------------------------------
+_STORED: dict[str, Reference] = {}
+
+
+def stored_reference(scene: str) -> Reference:
+    """A public or hidden scene's stored reference (read once per process)."""
+    path = reference_file(scene)
+    stamp = f"{path}:{path.stat().st_mtime_ns if path.is_file() else 0}"
+    if stamp not in _STORED:
+        _STORED[stamp] = load_reference(scene)
+    return _STORED[stamp]
+
+
+def _title(scene: str) -> str:
+    kind = scene_kind(scene)
+    if kind == STUDENT:
+        return f"{scene.split('/', 1)[1]} (your own variant)"
+    if kind == HIDDEN:
+        return f"{scene} (hidden scene)"
+    return scene
+
+
+def _order(checks: list[CheckSpec]) -> list[tuple[str, str]]:
+    """Probe calls (scene, probe key): function checks first, then runs; public scenes first."""
+    rank = {"public": 0, "student": 1, "hidden": 2}
+    calls = dict.fromkeys((c.scene, c.probe_key) for c in checks)
+    kinds = {(c.scene, c.probe_key): (c.probe.endswith("_run"), rank[c.kind]) for c in checks}
+    return sorted(calls, key=lambda call: kinds[call])
+
+
+def _redact(reply: Reply) -> Reply:
+    """A hidden scene's reply without the student's own text (an exception's message could echo hidden
+    inputs); the grader's own messages (timeouts, crashes, skipped functions) stay."""
+    if reply.error and reply.status == "error" and reply.error.get("type") != "HungEarlier":
+        reply.error = {**reply.error, "message": ""}
+    for error in reply.element_errors:
+        error["message"] = ""
+    reply.output_head = ""
+    return reply
+
+
+def run_checks(
+    checks: list[CheckSpec],
+    folder: Path,
+    homework: str,
+    student: str | None = None,
+    limits: Limits | None = None,
+    forbidden: tuple[Path, ...] = (),
+) -> list[Outcome]:
+    """Run ``checks`` on the package in ``folder`` (``folder/modules``), in one sandbox; outcomes in order."""
+    limits = limits or Limits()
+    folder = Path(folder).resolve()
+    if not (folder / PACKAGE / "__init__.py").is_file():
+        message = f"no package {PACKAGE}/ (with __init__.py) in the submission folder {folder.name}"
+        return [_failed(c, message) for c in checks]
+    blocked, hide = protected_paths(forbidden)
+    references: dict[str, Reference] = {}
+    specs = probe_specs(checks)
+    outcomes: dict[str, Outcome] = {}
+    with Sandbox(folder, PACKAGE, forbidden=tuple(blocked), hide=tuple(hide), limits=limits) as sandbox:
+        for scene_name, key in _order(checks):
+            group = [c for c in checks if c.scene == scene_name and c.probe_key == key]
+            if scene_name not in references:
+                if scene_kind(scene_name) == STUDENT:
+                    references[scene_name] = student_reference(scene_name, student or "", homework, specs[scene_name])
+                else:
+                    references[scene_name] = stored_reference(scene_name)
+            reference = references[scene_name]
+            scene = load_scene(scene_name, student=student or "", homework=homework)
+            first = group[0]
+            if not reference.has(key):
+                for c in group:
+                    outcomes[c.name] = _failed(
+                        c, f"grader configuration: no reference for {key} (run python -m autograder.reference)"
+                    )
+                continue
+            job = Job(job_key(scene), scene.data, reference.inputs, dict(first.options))
+            reply = sandbox.run(
+                first.probe, job.key, scene.data, reference.inputs, first.options, max(c.timeout for c in group)
+            )
+            if scene.kind == HIDDEN:
+                reply = _redact(reply)
+            for c in group:
+                outcomes[c.name] = evaluate(c, reply, reference, job, scene.data, limits, _title(scene_name))
+    return [outcomes[c.name] for c in checks]
+
+
+def _failed(check: CheckSpec, message: str) -> Outcome:
+    return Outcome(
+        check.name, check.group, check.scene, check.kind, 0.0, check.points, False, message, check.visibility
+    )
+
+
+# -- one student, with its outputs -----------------------------------------------------------------------------
+def result_json(homework: Homework, student: str, outcomes: list[Outcome], fingerprint: str, seconds: float) -> dict:
+    score = sum(o.points for o in outcomes)
+    failed = [o for o in outcomes if not o.passed]
+    return {
+        "score": score,
+        "max_score": homework.max_score,
+        "output": f"{homework.name}: {score:g} / {homework.max_score:g} points; "
+        f"{len(failed)} of {len(outcomes)} checks failed",
+        "visibility": "visible",
+        "stdout_visibility": "hidden",
+        "tests": [o.to_test() for o in outcomes],
+        "extra_data": {
+            "student": student,
+            "homework": homework.name,
+            "fingerprint": fingerprint,
+            "grader_version": GRADER_VERSION,
+            "seconds": round(seconds, 3),
+        },
+    }
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
+def _summary(result: dict, resumed: bool) -> dict:
+    return {
+        "student": result["extra_data"]["student"],
+        "score": result["score"],
+        "checks": {t["name"]: t["score"] for t in result["tests"]},
+        "resumed": resumed,
+        "seconds": result["extra_data"].get("seconds", 0.0),
+    }
+
+
+def grade_submission(
+    homework: Homework, submission: Submission, out_dir: Path, limits: Limits, forbidden: tuple[Path, ...] = ()
+) -> dict:
+    """Grade one submission and write its result JSON and feedback page; returns its gradebook row."""
+    start = time.perf_counter()
+    fingerprint = submission_fingerprint(submission, homework, limits)
+    outcomes = run_checks(homework.checks, submission.path, homework.name, submission.student, limits, forbidden)
+    result = result_json(homework, submission.student, outcomes, fingerprint, time.perf_counter() - start)
+    _write_atomic(
+        out_dir / "feedback" / f"{submission.student}.html",
+        feedback_html(submission.student, homework.name, homework.title, outcomes),
+    )
+    _write_atomic(out_dir / "results" / f"{submission.student}.json", json.dumps(result, indent=1))
+    return _summary(result, resumed=False)
+
+
+def _resumable(path: Path, fingerprint: str) -> dict | None:
+    try:
+        result = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    if result.get("extra_data", {}).get("fingerprint") != fingerprint:
+        return None
+    return result
+
+
+def _worker_init() -> None:
+    for key, value in SANDBOX_ENV.items():
+        os.environ.setdefault(key, value)
+
+
+def _grade_task(homework: Homework, submission: Submission, out_dir: Path, limits: Limits, forbidden: tuple) -> dict:
+    return grade_submission(homework, submission, out_dir, limits, forbidden)
+
+
+class Progress:
+    """A progress bar on stderr: [#####.....] 12/50 students (3 resumed), elapsed and remaining time."""
+
+    def __init__(self, total: int, enabled: bool = True, stream=None):
+        self.total, self.done, self.resumed = total, 0, 0
+        self.enabled = enabled and total > 0
+        self.stream = stream or sys.stderr
+        self.start = time.perf_counter()
+        self.show()
+
+    def update(self, resumed: bool = False) -> None:
+        self.done += 1
+        self.resumed += resumed
+        self.show()
+
+    def show(self) -> None:
+        if not self.enabled:
+            return
+        width = 30
+        filled = int(width * self.done / self.total)
+        elapsed = time.perf_counter() - self.start
+        graded = self.done - self.resumed
+        left = (self.total - self.done) * elapsed / graded if graded else 0.0
+        resumed = f" ({self.resumed} resumed)" if self.resumed else ""
+        line = f"\rgrading [{'#' * filled}{'.' * (width - filled)}] {self.done}/{self.total}{resumed}  {elapsed:.0f} s"
+        if self.done < self.total and graded:
+            line += f", ~{left:.0f} s left"
+        self.stream.write(line + ("\n" if self.done == self.total else ""))
+        self.stream.flush()
+
+
+def grade(
+    homework: str | Homework,
+    submissions_dir: str | Path,
+    out_dir: str | Path,
+    jobs: int = 2,
+    *,
+    limits: Limits | None = None,
+    progress: bool = True,
+    resume: bool = True,
+) -> Gradebook:
+    """Grade every submission in ``submissions_dir`` for ``homework``; write results to ``out_dir``.
+
+    Parameters
+    ----------
+    homework : 'hw1', 'hw2', 'hw3' (the checks of autograder/hwN.toml), or a ``Homework``
+    submissions_dir : nbgrader's course root or ``submitted/`` folder, or a folder of student folders
+    out_dir : where results/, feedback/ and gradebook.csv go (created)
+    jobs : worker processes (students graded at the same time); 1 grades one by one in this process
+    limits : the sandbox's resource limits (defaults: ``Limits()``)
+    progress : a progress bar on stderr
+    resume : reuse the result of a student whose submission, checks and reference did not change
+
+    Returns
+    -------
+    Gradebook
+        Also written as ``out_dir/gradebook.csv``.
+    """
+    homework = homework if isinstance(homework, Homework) else load_homework(homework)
+    limits = limits or Limits()
+    out_dir = Path(out_dir).resolve()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    submissions = find_submissions(Path(submissions_dir), homework.name)
+    for scene in {c.scene for c in homework.checks if c.kind != STUDENT}:
+        stored_reference(scene)  # fail early, with the command to run, when a reference is missing
+    forbidden = (out_dir, Path(submissions_dir).resolve())
+    book = Gradebook(
+        homework.name, [c.name for c in homework.checks], {c.name: c.points for c in homework.checks}, out_dir=out_dir
+    )
+    bar = Progress(len(submissions), enabled=progress)
+    todo = []
+    for submission in submissions:
+        result = None
+        if resume:
+            fingerprint = submission_fingerprint(submission, homework, limits)
+            result = _resumable(out_dir / "results" / f"{submission.student}.json", fingerprint)
+        if result is not None:
+            book.rows[submission.student] = _summary(result, resumed=True)
+            bar.update(resumed=True)
+        else:
+            todo.append(submission)
+    book.write_csv()
+    if jobs <= 1 or len(todo) <= 1:
+        for submission in todo:
+            book.rows[submission.student] = grade_submission(homework, submission, out_dir, limits, forbidden)
+            book.write_csv()
+            bar.update()
+        return book
+    _worker_init()  # one BLAS thread in the workers and their sandboxes: set before they start
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn"), initializer=_worker_init) as pool:
+        with without_main():
+            futures = {pool.submit(_grade_task, homework, s, out_dir, limits, forbidden): s for s in todo}
+        for future in as_completed(futures):
+            row = future.result()
+            book.rows[row["student"]] = row
+            book.write_csv()
+            bar.update()
+    return book

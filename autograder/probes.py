@@ -1,0 +1,403 @@
+"""Probes: what the grader asks a package to compute on a scene.
+
+A probe ``probe(pkg, job) -> {output: array}`` runs one part of the course's API on a scene. The same
+probe runs the reference package (``solutions``, inside the grader, to make the reference data) and a
+student's package (``modules``, inside the sandbox child), so both are asked exactly the same thing.
+
+This module is loaded into the sandbox before any student code: it imports nothing but the standard
+library and numpy, and it never imports ``solutions``; the package is a parameter.
+
+Function probes evaluate one element at a time, so a joint that raises costs only the rows it owns
+(the others are still compared); the element's error is kept in ``job.errors``. Every output has named
+axes (``AXES``) so that a message can say "state 2, row A.y, column rod.phi".
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+class Package:
+    """A course package by name: ``pkg["kinematics"]`` imports ``<name>.kinematics``."""
+
+    def __init__(self, name: str):
+        self.name = name
+
+    def __getitem__(self, dotted: str):
+        return importlib.import_module(f"{self.name}.{dotted}")
+
+    def has(self, dotted: str) -> bool:
+        """True when the package has this module (checked without running student code)."""
+        return importlib.util.find_spec(f"{self.name}.{dotted}") is not None
+
+
+@dataclass
+class Job:
+    """One probe on one scene: the model file's content, the input states and the options."""
+
+    key: str
+    model: dict
+    inputs: dict[str, np.ndarray] = field(default_factory=dict)
+    options: dict = field(default_factory=dict)
+    errors: list[tuple[str, str, BaseException]] = field(default_factory=list)
+
+    def error(self, element: str, method: str, exc: BaseException) -> None:
+        """Keep the first error of each element and method."""
+        if not any(e == element and m == method for e, m, _ in self.errors):
+            self.errors.append((element, method, exc))
+
+    def setting(self, option: str, key: str, default=None):
+        """An option of the check, else the model file's simulation block, else the default."""
+        if option in self.options:
+            return self.options[option]
+        return self.model.get("simulation", {}).get(key, default)
+
+
+PROBES: dict[str, Callable[[Package, Job], dict]] = {}
+"""Probe name -> function."""
+
+AXES: dict[str, tuple[str, ...]] = {}
+"""'probe.output' -> names of its axes: state, row (a constraint), coordinate, time, reaction."""
+
+REQUIRES: dict[str, tuple[str, ...]] = {}
+"""Probe name -> modules of the reference package it needs (a probe is offered only when they exist)."""
+
+
+def probe(name: str, axes: dict[str, tuple[str, ...]], requires: tuple[str, ...] = ()):
+    """Register a probe with the axes of each of its outputs."""
+
+    def register(function):
+        PROBES[name] = function
+        REQUIRES[name] = requires
+        for output, names in axes.items():
+            AXES[f"{name}.{output}"] = names
+        return function
+
+    return register
+
+
+_MODELS: dict[tuple[str, str], object] = {}
+
+
+def build(pkg: Package, job: Job):
+    """The package's system of the scene: (system, q0, qd0). The validated model is cached per scene."""
+    return pkg["assembly"].build_system(model_of(pkg, job))
+
+
+def _body_coordinates(pkg: Package, system, body: int, x: np.ndarray, velocity: bool) -> np.ndarray:
+    size = system.coordinates_per_body
+    if body >= 0:
+        return x[size * body : size * (body + 1)]
+    if velocity:
+        return np.zeros(size)
+    return np.asarray(pkg["assembly"].GROUND_COORDINATES[system.model.dimension], dtype=float)
+
+
+def _element_rows(pkg: Package, job: Job, method: str) -> np.ndarray:
+    """Psi, Psi_t, gamma or Psi_q of every element at every input state, element by element.
+
+    Rows of an element that raises (or returns the wrong size) are NaN; the error is kept in job.errors.
+    Function probes run at perturbed states (q_pert, qd_pert): off the constraint manifold, where every
+    term of Psi shows.
+    """
+    system, _, _ = build(pkg, job)
+    t, q, qd = job.inputs["t"], job.inputs["q_pert"], job.inputs["qd_pert"]
+    m, n, size = system.n_constraints, system.n_coordinates, system.coordinates_per_body
+    out = np.full((t.size, m, n) if method == "jacobian" else (t.size, m), np.nan)
+    for k in range(t.size):
+        for index, element in enumerate(system.elements):
+            rows = system.rows[index]
+            qi = _body_coordinates(pkg, system, element.i, q[k], False)
+            qj = _body_coordinates(pkg, system, element.j, q[k], False)
+            try:
+                if method == "jacobian":
+                    block = np.zeros((rows.stop - rows.start, n))
+                    jac_i, jac_j = element.jacobian(qi, qj, float(t[k]))
+                    if element.i >= 0:
+                        block[:, size * element.i : size * (element.i + 1)] += np.asarray(jac_i, dtype=float)
+                    if element.j >= 0:
+                        block[:, size * element.j : size * (element.j + 1)] += np.asarray(jac_j, dtype=float)
+                    out[k, rows] = block
+                elif method == "gamma":
+                    qdi = _body_coordinates(pkg, system, element.i, qd[k], True)
+                    qdj = _body_coordinates(pkg, system, element.j, qd[k], True)
+                    out[k, rows] = np.asarray(element.gamma(qi, qj, qdi, qdj, float(t[k])), dtype=float)
+                else:
+                    out[k, rows] = np.asarray(getattr(element, method)(qi, qj, float(t[k])), dtype=float)
+            except Exception as exc:  # one element's error costs only its rows
+                job.error(element.name, method, exc)
+    return out
+
+
+# -- hw1: planar kinematics ----------------------------------------------------------------------------
+@probe("constraints", {"psi": ("state", "row")})
+def constraints(pkg: Package, job: Job) -> dict:
+    """Psi(q, t) element by element at the perturbed states."""
+    return {"psi": _element_rows(pkg, job, "constraints")}
+
+
+@probe("jacobian", {"jacobian": ("state", "row", "coordinate")})
+def jacobian(pkg: Package, job: Job) -> dict:
+    """Psi_q(q, t) element by element at the perturbed states."""
+    return {"jacobian": _element_rows(pkg, job, "jacobian")}
+
+
+@probe("psi_t", {"psi_t": ("state", "row")})
+def psi_t(pkg: Package, job: Job) -> dict:
+    """Psi_t(q, t) element by element at the perturbed states."""
+    return {"psi_t": _element_rows(pkg, job, "psi_t")}
+
+
+@probe("gamma", {"gamma": ("state", "row")})
+def gamma(pkg: Package, job: Job) -> dict:
+    """gamma(q, q', t) element by element at the perturbed states."""
+    return {"gamma": _element_rows(pkg, job, "gamma")}
+
+
+@probe("newton", {"q": ("state", "coordinate")})
+def newton(pkg: Package, job: Job) -> dict:
+    """newton_raphson from the perturbed positions: the assembled q at each state's time."""
+    system, _, _ = build(pkg, job)
+    solve = pkg["kinematics"].newton_raphson
+    t, q = job.inputs["t"], job.inputs["q_pert"]
+    return {"q": np.array([np.asarray(solve(system, q[k], float(t[k])).q, dtype=float) for k in range(t.size)])}
+
+
+@probe("velocity", {"qd": ("state", "coordinate")})
+def velocity(pkg: Package, job: Job) -> dict:
+    """velocity_analysis at consistent states: q' from Psi_q q' = -Psi_t."""
+    system, _, _ = build(pkg, job)
+    solve = pkg["kinematics"].velocity_analysis
+    t, q = job.inputs["t"], job.inputs["q"]
+    return {"qd": np.array([np.asarray(solve(system, q[k], float(t[k])), dtype=float) for k in range(t.size)])}
+
+
+@probe("acceleration", {"qdd": ("state", "coordinate")})
+def acceleration(pkg: Package, job: Job) -> dict:
+    """acceleration_analysis at consistent states: q'' from Psi_q q'' = gamma."""
+    system, _, _ = build(pkg, job)
+    solve = pkg["kinematics"].acceleration_analysis
+    t, q, qd = job.inputs["t"], job.inputs["q"], job.inputs["qd"]
+    return {"qdd": np.array([np.asarray(solve(system, q[k], qd[k], float(t[k])), dtype=float) for k in range(t.size)])}
+
+
+@probe(
+    "kinematic_run",
+    {"t": ("time",), "q": ("time", "coordinate"), "qd": ("time", "coordinate"), "qdd": ("time", "coordinate")},
+)
+def kinematic_run(pkg: Package, job: Job) -> dict:
+    """kinematic_analysis over the scene's grid (or the check's t_end and steps)."""
+    system, q0, _ = build(pkg, job)
+    result = pkg["kinematics"].kinematic_analysis(
+        system, q0, float(job.setting("t_end", "end_time", 1.0)), int(job.setting("steps", "output_steps", 100))
+    )
+    return {"t": result.t, "q": result.q, "qd": result.qd, "qdd": result.qdd}
+
+
+# -- hw2: planar forward dynamics ----------------------------------------------------------------------
+def model_of(pkg: Package, job: Job):
+    """The package's validated Model of the scene (cached per scene)."""
+    key = (pkg.name, job.key)
+    if key not in _MODELS:
+        _MODELS[key] = pkg["io.model"].load_model(job.model)
+    return _MODELS[key]
+
+
+def _states(job: Job, perturbed: bool = True):
+    t = job.inputs["t"]
+    q = job.inputs["q_pert" if perturbed else "q"]
+    qd = job.inputs["qd_pert" if perturbed else "qd"]
+    return [(float(t[k]), q[k], qd[k]) for k in range(t.size)]
+
+
+@probe("mass_matrix", {"M": ("coordinate", "coordinate")}, requires=("mass_matrix",))
+def mass_matrix(pkg: Package, job: Job) -> dict:
+    """The planar model's (constant) mass matrix."""
+    return {"M": pkg["mass_matrix"].mass_matrix(model_of(pkg, job))}
+
+
+@probe("generalized_forces", {"Q": ("state", "coordinate")}, requires=("generalized_forces",))
+def generalized_forces(pkg: Package, job: Job) -> dict:
+    """Q(q, q', t) at the perturbed states (every force element contributes)."""
+    forces = pkg["generalized_forces"].build_forces(model_of(pkg, job))
+    return {"Q": np.array([np.asarray(forces.generalized_forces(q, qd, t), dtype=float) for t, q, qd in _states(job)])}
+
+
+@probe("baumgarte_gamma", {"gamma_bar": ("state", "row")}, requires=("formulations",))
+def baumgarte_gamma(pkg: Package, job: Job) -> dict:
+    """gamma_bar from the reference's gamma, Psi and Psi' at the perturbed states."""
+    f = pkg["formulations"].baumgarte_gamma
+    alpha, beta = float(job.options.get("alpha", 5.0)), float(job.options.get("beta", 5.0))
+    g, psi, psi_dot = job.inputs["gamma_pert"], job.inputs["psi_pert"], job.inputs["psi_dot_pert"]
+    return {
+        "gamma_bar": np.array(
+            [
+                np.asarray(f(g[k].copy(), psi[k].copy(), psi_dot[k].copy(), alpha, beta), dtype=float)
+                for k in range(len(g))
+            ]
+        )
+    }
+
+
+@probe(
+    "augmented_accelerations",
+    {"qdd": ("state", "coordinate"), "lam": ("state", "row")},
+    requires=("formulations",),
+)
+def augmented_accelerations(pkg: Package, job: Job) -> dict:
+    """q'' and lambda of the augmented system from the reference's M, Psi_q, Q and gamma."""
+    f = pkg["formulations"].augmented_accelerations
+    M, J, Q, g = job.inputs["M_pert"], job.inputs["jacobian_pert"], job.inputs["Q_pert"], job.inputs["gamma_pert"]
+    pairs = [f(M[k].copy(), J[k].copy(), Q[k].copy(), g[k].copy()) for k in range(len(g))]
+    return {
+        "qdd": np.array([np.asarray(p[0], dtype=float) for p in pairs]),
+        "lam": np.array([np.asarray(p[1], dtype=float) for p in pairs]),
+    }
+
+
+@probe(
+    "accelerations",
+    {"qdd": ("state", "coordinate"), "lam": ("state", "row")},
+    requires=("formulations", "mass_matrix", "generalized_forces"),
+)
+def accelerations(pkg: Package, job: Job) -> dict:
+    """A formulation's (q'', lambda) at the perturbed states, with the package's own M and Q."""
+    model = model_of(pkg, job)
+    system, _, _ = build(pkg, job)
+    options = dict(job.options)
+    name = options.pop("formulation", job.setting("formulation", "formulation", "baumgarte"))
+    formulation = pkg["formulations"].make_formulation(
+        name, system, pkg["mass_matrix"].mass_matrix(model), pkg["generalized_forces"].build_forces(model), **options
+    )
+    pairs = [formulation.accelerations(q.copy(), qd.copy(), t) for t, q, qd in _states(job)]
+    return {
+        "qdd": np.array([np.asarray(p[0], dtype=float) for p in pairs]),
+        "lam": np.array([np.asarray(p[1], dtype=float) for p in pairs]),
+    }
+
+
+RK4_STEPS = (4, 8, 16, 32)
+RK4_SPAN = 2.0
+
+
+def rk4_test_rhs(t: float, y: np.ndarray) -> np.ndarray:
+    """y'' + y = sin 2t as a first-order system; from y(0) = 1, y'(0) = 0 the exact solution is
+    y = cos t + 2/3 sin t - 1/3 sin 2t (so every stage time matters)."""
+    return np.array([y[1], -y[0] + np.sin(2.0 * t)])
+
+
+def rk4_test_exact(t: float) -> np.ndarray:
+    return np.array(
+        [
+            np.cos(t) + 2.0 / 3.0 * np.sin(t) - np.sin(2.0 * t) / 3.0,
+            -np.sin(t) + 2.0 / 3.0 * np.cos(t) - 2.0 / 3.0 * np.cos(2.0 * t),
+        ]
+    )
+
+
+@probe("rk4", {"y": ("steps", "component")}, requires=("integrators",))
+def rk4(pkg: Package, job: Job) -> dict:
+    """y(2) of y'' + y = sin 2t by N = 4, 8, 16, 32 steps of the package's rk4_step."""
+    step = pkg["integrators"].rk4_step
+    finals = []
+    for n in RK4_STEPS:
+        h, y = RK4_SPAN / n, np.array([1.0, 0.0])
+        for k in range(n):
+            y = np.asarray(step(rk4_test_rhs, k * h, y, h), dtype=float)
+        finals.append(y)
+    return {"y": np.array(finals)}
+
+
+def reaction_labels(row_owners: list[str], dimension: int) -> list[str]:
+    """Columns of the reactions probe: per joint or driver (in row order) its force and moment components."""
+    parts = ("Fx", "Fy", "Mz") if dimension == 2 else ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
+    return [f"{owner}.{p}" for owner in dict.fromkeys(row_owners) for p in parts]
+
+
+@probe("reactions", {"reactions": ("state", "reaction")}, requires=("reactions",))
+def reactions(pkg: Package, job: Job) -> dict:
+    """Joint and driver reactions at the consistent states, from the reference's lambda."""
+    system, _, _ = build(pkg, job)
+    t, q, lam = job.inputs["t"], job.inputs["q"], job.inputs["lam"]
+    columns = pkg["reactions"].joint_reactions(system, q.copy(), lam.copy(), t.copy())
+    labels = reaction_labels(list(system.row_owners), system.model.dimension)
+    return {
+        "reactions": np.array(
+            [np.asarray(columns.get(label, np.full(t.size, np.nan)), dtype=float) for label in labels]
+        ).T
+    }
+
+
+@probe(
+    "dynamic_run",
+    {"t": ("time",), "q": ("time", "coordinate"), "qd": ("time", "coordinate"), "lam": ("time", "row")},
+    requires=("dynamics",),
+)
+def dynamic_run(pkg: Package, job: Job) -> dict:
+    """forward_dynamics over the scene's grid with the check's formulation, integrator and tolerances."""
+    system, q0, qd0 = build(pkg, job)
+    extra = {
+        k: v
+        for k, v in job.options.items()
+        if k not in ("formulation", "integrator", "rtol", "atol", "step", "t_end", "steps")
+    }
+    result = pkg["dynamics"].forward_dynamics(
+        system,
+        q0,
+        qd0,
+        float(job.setting("t_end", "end_time", 1.0)),
+        int(job.setting("steps", "output_steps", 100)),
+        formulation=job.setting("formulation", "formulation", "baumgarte"),
+        integrator=job.setting("integrator", "integrator", "RK45"),
+        rtol=float(job.setting("rtol", "rtol", 1e-8)),
+        atol=float(job.setting("atol", "atol", 1e-10)),
+        step=job.setting("step", "step", None),
+        **extra,
+    )
+    outputs = {"t": result.t, "q": result.q, "qd": result.qd}
+    if result.lam is not None:
+        outputs["lam"] = result.lam
+    return outputs
+
+
+# -- hw3: spatial two-body dynamics --------------------------------------------------------------------
+def _euler_parameters(job: Job) -> np.ndarray:
+    """(K, bodies, 4) unit Euler parameters of the perturbed states."""
+    q = job.inputs["q_pert"]
+    return q.reshape(q.shape[0], -1, 7)[:, :, 3:]
+
+
+@probe(
+    "rotation_matrices",
+    {"A": ("state", "body", "i", "j"), "G": ("state", "body", "i", "j"), "L": ("state", "body", "i", "j")},
+    requires=("rotations",),
+)
+def rotation_matrices(pkg: Package, job: Job) -> dict:
+    """A(p), G(p), L(p) of every body at the perturbed states."""
+    rotations = pkg["rotations"]
+    p = _euler_parameters(job)
+    return {
+        name: np.array([[np.asarray(f(pb.copy()), dtype=float) for pb in pk] for pk in p])
+        for name, f in (("A", rotations.rotation_matrix), ("G", rotations.g_matrix), ("L", rotations.l_matrix))
+    }
+
+
+@probe("spatial_mass_matrix", {"M": ("state", "coordinate", "coordinate")}, requires=("spatial.mass",))
+def spatial_mass_matrix(pkg: Package, job: Job) -> dict:
+    """The spatial mass matrix M(q) = diag(m I, 4 L^T J' L) at the perturbed states."""
+    model = model_of(pkg, job)
+    f = pkg["spatial.mass"].mass_matrix
+    return {"M": np.array([np.asarray(f(model, q.copy()), dtype=float) for _, q, _ in _states(job)])}
+
+
+@probe("quadratic_velocity", {"Qv": ("state", "coordinate")}, requires=("spatial.mass",))
+def quadratic_velocity(pkg: Package, job: Job) -> dict:
+    """The quadratic-velocity force Q_v = 8 L(p')^T J' L(p') p at the perturbed states."""
+    model = model_of(pkg, job)
+    f = pkg["spatial.mass"].quadratic_velocity_vector
+    return {"Qv": np.array([np.asarray(f(model, q.copy(), qd.copy()), dtype=float) for _, q, qd in _states(job)])}

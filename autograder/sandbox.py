@@ -1,0 +1,371 @@
+"""The grader's side of the sandbox: run a student's package in a child process, one probe at a time.
+
+``Sandbox(submission).run(...)`` sends one request to a child process (see ``_child``) and waits for the
+reply at most the request's wall-clock timeout. Whatever goes wrong in the child costs that request only:
+
+- an exception (also ``sys.exit``, ``MemoryError`` at the address-space limit) is an ``error`` reply;
+- a timeout: the grader asks the child for its stack a few times (SIGUSR1, faulthandler), kills it,
+  and names the function that was stuck; a fresh child runs the next request with that function
+  replaced by one that fails at once, so a hang costs one timeout per submission, not one per check;
+- CPU limit, ``os._exit``, a crash: the reply says so, a fresh child runs the next request.
+
+Children are forked from a forkserver that has preloaded numpy, scipy, yaml and jsonschema (and never
+the reference package), so a fresh child costs milliseconds, not the seconds of importing them.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import os
+import re
+import shutil
+import signal
+import tempfile
+import time
+from dataclasses import dataclass, field
+from multiprocessing import spawn
+from pathlib import Path
+
+from . import _child, wire
+
+PRELOAD = [
+    "autograder._child",
+    "numpy",
+    "scipy.linalg",
+    "scipy.integrate",
+    "scipy.optimize",
+    "scipy.sparse",
+    "yaml",
+    "jsonschema",
+]
+"""Modules the forkserver imports once; children inherit them. Never the reference package."""
+
+SANDBOX_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+STARTUP_TIMEOUT = 120.0
+SAMPLES = 3
+"""Stack dumps taken from a child that timed out (when it cannot answer itself where it is stuck)."""
+STUCK_WINDOW = 0.3
+"""Seconds during which a child that timed out counts calls, to tell where it is stuck."""
+
+
+@dataclass
+class Limits:
+    """Resource limits of a sandbox process."""
+
+    memory: int = 3 * 2**30
+    """Address space (RLIMIT_AS), bytes: an allocation beyond it raises MemoryError in the child."""
+    file_size: int = 16 * 2**20
+    """Largest file the child may write (RLIMIT_FSIZE), which bounds the capture of its output."""
+    output: int = 256 * 2**10
+    """Output (stdout + stderr) one request may print before its checks fail."""
+    cpu_total: int = 3600
+    """CPU seconds one child process may use over all its requests (hard RLIMIT_CPU)."""
+    timeout_scale: float = 1.0
+    """Multiplies every wall-clock timeout (for a slow machine)."""
+    isolate_network: bool = True
+    """Run the child in a new network namespace when the kernel allows it."""
+
+
+@dataclass
+class Reply:
+    """What a probe in the sandbox gave: outputs, or how it failed."""
+
+    status: str
+    """ok | error | timeout | cpu | died | sandbox"""
+    outputs: dict = field(default_factory=dict)
+    error: dict | None = None
+    element_errors: list = field(default_factory=list)
+    printed: int = 0
+    output_head: str = ""
+    seconds: float = 0.0
+    stuck_in: str = ""
+    """For a timeout: 'modules/file.py:line in function', where the code was stuck."""
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+
+class SandboxError(RuntimeError):
+    """The sandbox itself could not run (not the student's fault)."""
+
+
+def _context():
+    for key, value in SANDBOX_ENV.items():
+        os.environ.setdefault(key, value)
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(PRELOAD)
+    return context
+
+
+@contextlib.contextmanager
+def without_main():
+    """Start multiprocessing children (spawn, forkserver) without re-running the main module in them.
+
+    multiprocessing imports ``__main__`` (the ``mbd`` script, pytest, a script without the
+    ``if __name__ == "__main__"`` guard) in every child it starts; that module may import the
+    reference package, which must never be in a sandbox's memory, and may not be safe to re-run.
+    """
+    original = spawn.get_preparation_data
+
+    def without(name):
+        data = original(name)
+        data.pop("init_main_from_path", None)
+        data.pop("init_main_from_name", None)
+        return data
+
+    spawn.get_preparation_data = without
+    try:
+        yield
+    finally:
+        spawn.get_preparation_data = original
+
+
+_FRAME = re.compile(r'^\s*File "(?P<file>.+)", line (?P<line>\d+) in (?P<name>\S+)')
+
+
+def _stuck_line(text: str) -> tuple[str, int, str] | None:
+    """The child's own answer to where it is stuck (see ``_child._find_stuck``), if it gave one."""
+    for line in text.splitlines():
+        parts = line.split("\t")
+        if len(parts) == 4 and parts[0] == "STUCK" and parts[2].isdigit():
+            return parts[1], int(parts[2]), parts[3]
+    return None
+
+
+def stack_samples(text: str) -> list[list[tuple[str, int, str]]]:
+    """The stacks in a faulthandler dump, each as [(file, line, function)] from the outermost call in."""
+    samples, current = [], None
+    for line in text.splitlines():
+        if "most recent call first" in line:
+            current = []
+            samples.append(current)
+            continue
+        match = _FRAME.match(line)
+        if match and current is not None:
+            current.append((match["file"], int(match["line"]), match["name"]))
+    return [list(reversed(s)) for s in samples if s]
+
+
+def stuck_function(samples: list[list[tuple[str, int, str]]], root: str) -> tuple[str, int, str] | None:
+    """The deepest function of the student's package present in every sample: where a loop spins.
+
+    (A loop in F that calls G shows F in every sample and G in some; F is the one to blame.)
+    """
+    stacks = [[frame for frame in s if os.path.realpath(frame[0]).startswith(root + os.sep)] for s in samples]
+    stacks = [s for s in stacks if s]
+    if not stacks:
+        return None
+    common = None
+    for depth in range(min(len(s) for s in stacks)):
+        frames = {(os.path.realpath(s[depth][0]), s[depth][2]) for s in stacks}
+        if len(frames) != 1:
+            break
+        common = depth
+    if common is None:
+        return None
+    file, line, name = stacks[0][common]
+    return os.path.realpath(file), line, name
+
+
+class Sandbox:
+    """A student's package, run in a child process under ``limits``; one request at a time.
+
+    Parameters
+    ----------
+    submission : folder holding the student's package (``modules/``)
+    forbidden : folders the child may not read (the grader, the reference, other submissions, outputs)
+    """
+
+    def __init__(
+        self,
+        submission: Path,
+        package: str = "modules",
+        forbidden: tuple[Path, ...] = (),
+        hide: tuple[Path, ...] = (),
+        limits: Limits | None = None,
+    ):
+        self.submission = os.path.realpath(submission)
+        self.package = package
+        self.limits = limits or Limits()
+        self.forbidden = [os.path.realpath(p) for p in forbidden]
+        self.hide = [os.path.realpath(p) for p in hide]
+        self.tmp = tempfile.mkdtemp(prefix="mbd-sandbox-")
+        self.hung: list[dict] = []
+        self.process = None
+        self.connection = None
+        self.network_isolated = None
+        self.starts = 0
+
+    # -- life cycle -------------------------------------------------------------------------------
+    def _config(self) -> dict:
+        work = os.path.join(self.tmp, "work")
+        os.makedirs(work, exist_ok=True)
+        return {
+            "submission": self.submission,
+            "package": self.package,
+            "package_root": os.path.join(self.submission, self.package),
+            "tmp": work,
+            "capture": os.path.join(self.tmp, "output.txt"),
+            "hang_file": os.path.join(self.tmp, "stack.txt"),
+            "forbidden": self.forbidden,
+            "hide_paths": self.hide,
+            "memory": int(self.limits.memory),
+            "file_size": int(self.limits.file_size),
+            "cpu_total": int(self.limits.cpu_total),
+            "isolate_network": self.limits.isolate_network,
+            "hung": list(self.hung),
+        }
+
+    def _start(self) -> None:
+        context = _context()
+        ours, theirs = context.Pipe(duplex=True)
+        self.process = context.Process(target=_child.serve, args=(theirs, self._config()), daemon=True)
+        with without_main():
+            self.process.start()
+        theirs.close()
+        self.connection = ours
+        self.starts += 1
+        if not ours.poll(STARTUP_TIMEOUT):
+            self._kill()
+            raise SandboxError("the sandbox process did not start")
+        try:
+            ready = wire.loads(ours.recv_bytes(wire.MAX_MESSAGE))
+        except (EOFError, OSError, wire.WireError) as err:
+            self._kill()
+            raise SandboxError(f"the sandbox process failed to start: {err}") from None
+        if ready.get("status") != "ready":
+            self._kill()
+            raise SandboxError(f"the sandbox process failed to start: {ready.get('message')}")
+        self.network_isolated = ready.get("network_isolated")
+
+    def _kill(self) -> int | None:
+        if self.process is None or self.process._popen is None:
+            self.process = None
+            return None
+        if self.process.is_alive():
+            self.process.kill()
+        self.process.join(10)
+        code = self.process.exitcode
+        if self.connection is not None:
+            self.connection.close()
+        self.process = self.connection = None
+        return code
+
+    def close(self) -> None:
+        """Stop the child and remove its temporary folder."""
+        if self.process is not None and self.process.is_alive():
+            try:
+                self.connection.send_bytes(wire.dumps({"op": "exit"}))
+                self.process.join(2)
+            except OSError:
+                pass
+        self._kill()
+        shutil.rmtree(self.tmp, ignore_errors=True)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    # -- one request --------------------------------------------------------------------------------
+    def _read(self, name: str) -> str:
+        try:
+            with open(os.path.join(self.tmp, name), "rb") as f:
+                return f.read(2**20).decode("utf-8", "replace")
+        except OSError:
+            return ""
+
+    def run(self, probe: str, key: str, model: dict, inputs: dict, options: dict, timeout: float) -> Reply:
+        """Run ``probe`` on the scene in the child; the reply says how it went, it never raises for the
+        student's code (only SandboxError when the sandbox itself cannot run)."""
+        timeout = float(timeout) * self.limits.timeout_scale
+        if self.process is None or not self.process.is_alive():
+            self._start()
+        request = {
+            "op": "probe",
+            "probe": probe,
+            "key": key,
+            "model": model,
+            "inputs": inputs,
+            "options": options,
+            "timeout": timeout,
+            "cpu": 2.0 * timeout + 1.0,
+        }
+        start = time.perf_counter()
+        try:
+            self.connection.send_bytes(wire.dumps(request))
+            if self.connection.poll(timeout):
+                data = self.connection.recv_bytes(wire.MAX_MESSAGE)
+            else:
+                return self._timed_out(timeout, time.perf_counter() - start)
+        except (EOFError, OSError):
+            return self._died(time.perf_counter() - start)
+        try:
+            message = wire.loads(data)
+        except wire.WireError as err:
+            self._kill()
+            return Reply("error", error={"type": "BadReply", "message": f"the sandbox reply was unreadable: {err}"})
+        outputs = message.get("outputs") or {}
+        if not isinstance(outputs, dict):
+            outputs = {}
+        return Reply(
+            status="ok" if message.get("status") == "ok" else "error",
+            outputs={k: v for k, v in outputs.items() if hasattr(v, "shape")},
+            error=message.get("error") if isinstance(message.get("error"), dict) else None,
+            element_errors=[e for e in message.get("element_errors") or [] if isinstance(e, dict)],
+            printed=int(message.get("printed") or 0),
+            output_head=str(message.get("output_head") or "")[:400],
+            seconds=float(message.get("seconds") or 0.0),
+        )
+
+    def _timed_out(self, timeout: float, seconds: float) -> Reply:
+        pid = self.process.pid if self.process is not None else None
+        signals = [(signal.SIGUSR2, STUCK_WINDOW), (signal.SIGUSR2, 0.1)] + [(signal.SIGUSR1, 0.05)] * SAMPLES
+        for number, pause in signals:
+            try:
+                os.kill(pid, number)
+            except (OSError, TypeError):
+                break
+            time.sleep(pause)
+        self._kill()
+        root = os.path.join(self.submission, self.package)
+        text = self._read("stack.txt")
+        stuck = _stuck_line(text) or stuck_function(stack_samples(text), root)
+        where = ""
+        if stuck is not None:
+            file, line, name = stuck
+            self.hung.append({"file": file, "line": line, "name": name})
+            where = f"{os.path.relpath(file, self.submission)}:{line} in {name}"
+        return Reply("timeout", seconds=seconds, stuck_in=where, printed=self._captured())
+
+    def _captured(self) -> int:
+        try:
+            return os.path.getsize(os.path.join(self.tmp, "output.txt"))
+        except OSError:
+            return 0
+
+    def _died(self, seconds: float) -> Reply:
+        printed = self._captured()
+        code = self._kill()
+        stack = self._read("stack.txt")
+        samples = stack_samples(stack)
+        root = os.path.join(self.submission, self.package)
+        frames = [f for s in samples[-1:] for f in s if os.path.realpath(f[0]).startswith(root + os.sep)]
+        where = (
+            f"{os.path.relpath(frames[-1][0], self.submission)}:{frames[-1][1]} in {frames[-1][2]}" if frames else ""
+        )
+        if code is not None and code < 0 and -code == signal.SIGXCPU:
+            status, message = "cpu", "used up its CPU time (an endless loop?)"
+        elif code is not None and code < 0:
+            name = signal.Signals(-code).name if -code in signal.Signals._value2member_map_ else str(-code)
+            status, message = "died", f"the process was killed by signal {name}"
+            if "Fatal Python error" in stack:
+                message = stack.split("\n", 1)[0].strip()
+        else:
+            status, message = "died", f"the process ended with exit code {code} (os._exit or a crash)"
+        return Reply(
+            status, error={"type": status, "message": message, "where": where}, seconds=seconds, printed=printed
+        )

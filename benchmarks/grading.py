@@ -1,0 +1,103 @@
+"""Grading throughput: submissions graded per minute, per homework, with ``autograder.grading.grade``.
+
+For each homework a folder of N submissions is made in a temporary directory: copies of the reference
+(every check runs to the end and passes), the untouched skeleton (every check fails fast) and a mutant
+(checks fail with numbers, so the grader replays known mistakes to name the cause), in the proportions
+6 : 2 : 2 by default. The whole ``grade`` call is timed, start-up of the worker processes and their
+sandbox forkservers included, and reported with the mean time per student that the results record.
+
+    .venv/bin/python benchmarks/grading.py [--jobs 2] [--n 20] [hw1 hw2 hw3]
+
+Prints a Markdown table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from autograder.grading import grade  # noqa: E402
+from autograder.homework import available_homeworks  # noqa: E402
+
+MUTANTS = {  # one typical mistake per homework: (file in solutions/, text, replacement)
+    "hw1": (
+        "planar/joints.py",
+        "return point_vector_quadratic(qi, self.si",
+        "return -point_vector_quadratic(qi, self.si",
+    ),  # noqa: E501
+    "hw2": (
+        "formulations.py",
+        "return gamma - 2.0 * alpha * psi_dot - beta**2 * psi",
+        "return gamma + 2.0 * alpha * psi_dot + beta**2 * psi",
+    ),
+    "hw3": ("spatial/mass.py", "return 8.0 * Ld.T @ (inertia @ (Ld @ p))", "return 0.0 * Ld.T @ (inertia @ (Ld @ p))"),
+}
+
+
+def make_submissions(root: Path, homework: str, n: int) -> dict[str, str]:
+    """n student folders: 60 % reference, 20 % skeleton, 20 % mutant. Returns {student: kind}."""
+    from course.release.generator import build_package
+
+    kinds = {}
+    for k in range(n):
+        kind = ("reference", "reference", "reference", "skeleton", "mutant")[k % 5]
+        kind = "reference" if k % 10 == 9 else kind
+        folder = root / f"student{k:03d}"
+        if kind == "skeleton":
+            build_package(folder / "modules", homework, header=None)
+        else:
+            shutil.copytree(REPO / "solutions", folder / "modules", ignore=shutil.ignore_patterns("__pycache__"))
+            if kind == "mutant":
+                relpath, old, new = MUTANTS[homework]
+                path = folder / "modules" / relpath
+                path.write_text(path.read_text().replace(old, new, 1))
+        kinds[folder.name] = kind
+    return kinds
+
+
+def bench(homework: str, n: int, jobs: int) -> dict:
+    with tempfile.TemporaryDirectory(prefix=f"bench-{homework}-") as tmp:
+        root = Path(tmp)
+        kinds = make_submissions(root / "submitted", homework, n)
+        start = time.perf_counter()
+        book = grade(homework, root / "submitted", root / "out", jobs=jobs, progress=False, resume=False)
+        wall = time.perf_counter() - start
+        seconds = {
+            kind: [
+                json.loads((root / "out" / "results" / f"{s}.json").read_text())["extra_data"]["seconds"]
+                for s, k in kinds.items()
+                if k == kind
+            ]
+            for kind in ("reference", "skeleton", "mutant")
+        }
+        scores = {kind: sorted({book.score(s) for s, k in kinds.items() if k == kind}) for kind in seconds}
+    return {"homework": homework, "n": n, "wall": wall, "seconds": seconds, "scores": scores}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("homeworks", nargs="*", default=available_homeworks())
+    parser.add_argument("--n", type=int, default=20, help="submissions per homework")
+    parser.add_argument("--jobs", type=int, default=2, help="worker processes")
+    args = parser.parse_args(argv)
+    print(f"Grading throughput, {args.jobs} worker processes, {args.n} submissions per homework\n")
+    print("| homework | submissions | wall [s] | per minute | s per student (reference / skeleton / mutant) |")
+    print("|---|---|---|---|---|")
+    for homework in args.homeworks:
+        r = bench(homework, args.n, args.jobs)
+        mean = " / ".join(f"{statistics.mean(v):.2f}" if v else "-" for v in r["seconds"].values())
+        print(f"| {homework} | {r['n']} | {r['wall']:.1f} | {60 * r['n'] / r['wall']:.0f} | {mean} |", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,46 @@
+"""The notebook API: public checks with the grader's messages, nothing on stderr."""
+
+from __future__ import annotations
+
+import pytest
+
+from autograder.api import check, selfcheck
+from autograder.cli import grade_command, selfcheck_command
+
+
+@pytest.fixture(scope="module")
+def students(make_submissions):
+    return make_submissions("api", {"good": "reference", "bad": "gamma_sign", "empty": "skeleton"}, "hw1")
+
+
+def test_check_passes_quietly(students, capfd):
+    check("hw1", "revolute", students / "good")
+    out, err = capfd.readouterr()
+    assert err == "" and "hw1 revolute: all" in out
+
+
+def test_check_raises_with_the_graders_message(students, capfd):
+    with pytest.raises(AssertionError) as failure:
+        check("hw1", "revolute", students / "bad" / "modules")
+    message = str(failure.value)
+    assert "four_bar.gamma.revolute" in message and "a sign error" in message
+    assert "four_bar.jacobian.revolute" not in message
+    assert capfd.readouterr().err == ""
+
+
+def test_unknown_group(students):
+    with pytest.raises(ValueError, match="groups: "):
+        check("hw1", "no-such-group", students / "good")
+
+
+def test_selfcheck_reports_every_public_check(students, capsys):
+    assert selfcheck("hw1", students / "empty") == 1
+    report = capsys.readouterr().out
+    assert "FAIL four_bar.constraints.revolute" in report and "hidden" not in report.split("\n\n")[0]
+    assert selfcheck_command("hw9", students / "good") == 2
+
+
+def test_grade_command_user_errors(tmp_path, capsys):
+    assert grade_command("hw9", tmp_path) == 2
+    assert grade_command("hw1", tmp_path / "missing", tmp_path / "out") == 2
+    assert "no folder" in capsys.readouterr().err
