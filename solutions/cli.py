@@ -136,6 +136,16 @@ def command_run(args) -> int:
         except OSError as err:
             raise UsageError(f"--out {args.out}: cannot write ({err.strerror})") from None
         print(f"results written to {path}")
+    if args.animate:
+        from .animation import animate_result
+
+        try:
+            animate_result(model, system, result, args.animate)
+        except ValueError as err:
+            raise UsageError(f"--animate {args.animate}: {err}") from None
+        except OSError as err:
+            raise UsageError(f"--animate {args.animate}: cannot write ({err.strerror})") from None
+        print(f"animation written to {args.animate}")
     if args.plot:
         from .plotting import plot_result
 
@@ -210,6 +220,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--step", type=float, help="fixed step size for fixed-step integrators")
     run.add_argument("--out", help="write results to FILE.csv or FILE.npz")
     run.add_argument("--plot", help="plot coordinates and points against time to FILE.png")
+    run.add_argument("--animate", help="animate the mechanism to FILE.gif (or .mp4 with ffmpeg, .html)")
     run.add_argument("--coords", nargs="+", metavar="NAME", help="coordinates to plot, e.g. slider.x crank.phi")
     run.add_argument(
         "--point",

@@ -136,3 +136,11 @@ def test_dynamic_run_writes_reactions_that_satisfy_newtons_law(tmp_path):
     joint = spec.joints[0]["name"]
     np.testing.assert_allclose(columns[f"{joint}.Fx"], fx, atol=1e-6 * body.mass * 9.81)
     np.testing.assert_allclose(columns[f"{joint}.Fy"], fy, atol=1e-6 * body.mass * 9.81)
+
+
+def test_animate_writes_a_gif_and_refuses_an_unknown_format(tmp_path, capsys):
+    gif = tmp_path / "crank.gif"
+    assert main(["run", str(SLIDER_CRANK), "--steps", "10", "--animate", str(gif)]) == 0
+    assert gif.read_bytes()[:6] in (b"GIF87a", b"GIF89a")
+    assert main(["run", str(SLIDER_CRANK), "--steps", "10", "--animate", str(tmp_path / "crank.xyz")]) == 2
+    assert ".gif" in capsys.readouterr().err

@@ -1,0 +1,223 @@
+"""The course's notebooks: the three homework (source and released) and the lectures, executed headless.
+
+- every source notebook (``assignments/hwN``) runs with the reference as the student's package and passes
+  every graded cell;
+- every released notebook with its untouched skeleton package runs to the end, and every graded cell
+  fails cleanly (an AssertionError with the grader's message, never a crash or a hang);
+- every lecture notebook (``course/lectures``) runs without an error.
+
+Each notebook is executed once (module-scoped fixtures), two at a time, in a kernel of this venv.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import nbformat
+import pytest
+from nbclient import NotebookClient
+
+from autograder.homework import load_homework
+from course.release import HOMEWORKS, build_package, release
+from course.release.generator import REPO
+
+LECTURES = sorted((REPO / "course" / "lectures").glob("*.ipynb"))
+NOT_ASKED = ("planar/batched.py", "spatial/batched.py")
+"""Array versions of the element formulas, stubbed in a release but not asked for: the system falls back to
+the element methods the student writes (the notebook says so)."""
+SKELETON_ERRORS = {"NotImplementedError", "NameError", "AssertionError"}
+"""What a released notebook may raise on the skeleton: a stub, a result never computed, a failed check."""
+
+
+def execute(notebook: Path, folder: Path, **env: str) -> nbformat.NotebookNode:
+    """Run every cell (on to the end after an error) with ``folder`` as the working directory."""
+    nb = nbformat.read(notebook, as_version=4)
+    environment = {k: v for k, v in os.environ.items() if not k.startswith("NBGRADER")}
+    environment.update(env)
+    client = NotebookClient(
+        nb, timeout=300, kernel_name="python3", allow_errors=True, resources={"metadata": {"path": str(folder)}}
+    )
+    client.execute(env=environment)
+    return nb
+
+
+def execute_all(jobs: dict) -> dict:
+    """Execute several notebooks, two kernels at a time."""
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        futures = {
+            key: pool.submit(execute, *args[:2], **(args[2] if len(args) > 2 else {})) for key, args in jobs.items()
+        }
+        return {key: future.result() for key, future in futures.items()}
+
+
+def graded_cells(nb) -> list:
+    return [c for c in nb.cells if c.cell_type == "code" and c.metadata.get("nbgrader", {}).get("grade")]
+
+
+def errors(cell) -> list:
+    return [o for o in cell.get("outputs", []) if o.output_type == "error"]
+
+
+def stderr(cell) -> str:
+    return "".join(o.text for o in cell.get("outputs", []) if o.output_type == "stream" and o.name == "stderr")
+
+
+def group_of(cell) -> str:
+    """The group a graded cell checks: the second argument of its check("hwN", "group") call."""
+    call = cell.source.strip().splitlines()[-1]
+    assert call.startswith("check(") and call.count('"') == 4, call
+    return call.split('"')[3]
+
+
+# -- fixtures ------------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    """Every notebook executed once, two kernels at a time: {("source" | "skeleton" | "lecture", name): notebook}.
+
+    source: each homework's source notebook beside the reference packaged as ``modules`` (animations on);
+    skeleton: each homework released (`mbd release hwN` on a scratch copy of the course), with its skeleton;
+    lecture: each lecture notebook, in course/lectures.
+    """
+    from course.demo import scratch_course
+
+    course = scratch_course(tmp_path_factory.mktemp("course") / "course")
+    jobs = {}
+    for homework in HOMEWORKS:
+        folder = tmp_path_factory.mktemp(f"source-{homework}") / homework
+        shutil.copytree(REPO / "assignments" / homework, folder)
+        build_package(folder / "modules", None, header=None)
+        jobs["source", homework] = (folder / f"{homework}.ipynb", folder, {"MBD_ANIMATIONS": "1"})
+        released = release(homework, course).folder
+        jobs["skeleton", homework] = (released / f"{homework}.ipynb", released)
+    for path in LECTURES:
+        jobs["lecture", path.stem] = (path, path.parent)
+    return execute_all(jobs)
+
+
+@pytest.fixture(scope="module")
+def source_runs(runs):
+    return {name: nb for (kind, name), nb in runs.items() if kind == "source"}
+
+
+@pytest.fixture(scope="module")
+def skeleton_runs(runs):
+    return {name: nb for (kind, name), nb in runs.items() if kind == "skeleton"}
+
+
+@pytest.fixture(scope="module")
+def lecture_runs(runs):
+    return {name: nb for (kind, name), nb in runs.items() if kind == "lecture"}
+
+
+# -- the source notebooks --------------------------------------------------------------------------------------
+@pytest.mark.parametrize("homework", HOMEWORKS)
+def test_source_notebook_passes_every_graded_cell_with_the_reference(source_runs, homework):
+    nb = source_runs[homework]
+    code = [c for c in nb.cells if c.cell_type == "code"]
+    assert all(c.execution_count is not None for c in code)
+    failures = [(c.source.splitlines()[0], errors(c)[0].evalue[:300]) for c in code if errors(c)]
+    assert failures == []
+    assert all(stderr(c) == "" for c in code), [stderr(c) for c in code if stderr(c)]
+    for cell in graded_cells(nb):
+        out = "".join(o.get("text", "") for o in cell.outputs if o.output_type == "stream")
+        assert "checks passed" in out or "checked when the instructor grades" in out, (cell.source, out)
+    data = [o.get("data", {}) for c in code for o in c.outputs]
+    assert sum("image/png" in d for d in data) >= 3  # plots
+    assert any("<script" in d.get("text/html", "") for d in data)  # an animation player
+
+
+@pytest.mark.parametrize("homework", HOMEWORKS)
+def test_graded_cells_are_the_homeworks_check_groups_with_their_points(homework):
+    nb = nbformat.read(REPO / "assignments" / homework / f"{homework}.ipynb", as_version=4)
+    spec = load_homework(homework)
+    groups: dict[str, float] = {}
+    for check in spec.checks:
+        groups[check.group] = groups.get(check.group, 0.0) + check.points
+    ids = [c.metadata["nbgrader"]["grade_id"] for c in nb.cells if "nbgrader" in c.metadata]
+    assert len(ids) == len(set(ids)) and all(
+        c.metadata["nbgrader"]["schema_version"] == 3 for c in nb.cells if "nbgrader" in c.metadata
+    )
+    cells = {group_of(c): c for c in graded_cells(nb)}
+    assert sorted(cells) == sorted(groups), "one graded cell per group of autograder/" + homework + ".toml"
+    for group, cell in cells.items():
+        meta = cell.metadata["nbgrader"]
+        assert meta["points"] == pytest.approx(groups[group]), group
+        assert (
+            meta["locked"] and not meta["solution"] and cell.source.strip().endswith(f'check("{homework}", "{group}")')
+        )
+    answers = [c for c in nb.cells if c.metadata.get("nbgrader", {}).get("solution")]
+    assert answers and all(c.cell_type == "markdown" and c.metadata["nbgrader"]["grade"] for c in answers)
+    assert all(c.metadata["nbgrader"]["points"] > 0 for c in answers)
+
+
+@pytest.mark.parametrize("homework", HOMEWORKS)
+def test_the_statement_lists_every_function_to_write(homework, tmp_path):
+    report = build_package(tmp_path / "modules", homework)
+    index = HOMEWORKS.index(homework) + 1
+    nb = nbformat.read(REPO / "assignments" / homework / f"{homework}.ipynb", as_version=4)
+    text = "\n".join(c.source for c in nb.cells if c.cell_type == "markdown")
+    asked = [r for r in report.stubbed if r.homework == index and r.path not in NOT_ASKED]
+    assert asked
+    assert sorted({f"{r.path}: {r.function}" for r in asked if f"`{r.function}`" not in text}) == []
+    assert all(f"`modules/{path}`" in text for path in {r.path for r in report.stubbed if r.homework == index})
+
+
+@pytest.mark.parametrize("homework", HOMEWORKS)
+def test_the_public_scenes_ship_with_the_assignment_as_the_grader_has_them(homework):
+    shipped = {p.name: p.read_bytes() for p in (REPO / "assignments" / homework / "scenes").glob("*.yaml")}
+    public = {c.scene for c in load_homework(homework).checks if c.kind == "public"}
+    assert sorted(shipped) == sorted(f"{scene}.yaml" for scene in public)
+    for name, data in shipped.items():
+        assert data == (REPO / "autograder" / "scenes" / name).read_bytes(), (
+            f"assignments/{homework}/scenes/{name} is stale"
+        )
+
+
+@pytest.mark.parametrize("homework", HOMEWORKS)
+def test_source_notebook_has_no_outputs_and_runs_the_python3_kernel(homework):
+    data = json.loads((REPO / "assignments" / homework / f"{homework}.ipynb").read_text())
+    assert data["metadata"]["kernelspec"]["name"] == "python3"
+    assert all(
+        not c.get("outputs") and c.get("execution_count") is None for c in data["cells"] if c["cell_type"] == "code"
+    )
+
+
+# -- the released notebooks on the skeleton --------------------------------------------------------------------
+@pytest.mark.parametrize("homework", HOMEWORKS)
+def test_released_notebook_with_the_skeleton_runs_to_the_end_and_fails_cleanly(skeleton_runs, homework):
+    nb = skeleton_runs[homework]
+    code = [c for c in nb.cells if c.cell_type == "code"]
+    assert all(c.execution_count is not None for c in code)  # to the end: nothing hung or killed the kernel
+    raised = {e.ename for c in code for e in errors(c)}
+    assert raised <= SKELETON_ERRORS, raised
+    assert all(stderr(c) == "" for c in code)
+    public = {c.group for c in load_homework(homework).public()}
+    for cell in graded_cells(nb):
+        group = group_of(cell)
+        if group in public:
+            assert [e.ename for e in errors(cell)] == ["AssertionError"], cell.source
+            assert "not implemented yet" in errors(cell)[0].evalue  # the grader's message names the stub
+        else:
+            assert not errors(cell) and "checked when the instructor grades" in cell.outputs[0].text
+    answers = [c for c in nb.cells if c.metadata.get("nbgrader", {}).get("solution")]
+    assert answers and all("Model answer" not in c.source for c in answers)
+
+
+# -- the lectures ---------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("lecture", [p.stem for p in LECTURES])
+def test_lecture_notebook_executes(lecture_runs, lecture):
+    nb = lecture_runs[lecture]
+    code = [c for c in nb.cells if c.cell_type == "code"]
+    assert code and all(c.execution_count is not None for c in code)
+    failures = [(c.source.splitlines()[0], errors(c)[0].evalue[:300]) for c in code if errors(c)]
+    assert failures == []
+
+
+def test_the_schedule_lists_every_lecture_notebook():
+    schedule = (REPO / "course" / "schedule.md").read_text()
+    assert len(LECTURES) >= 6
+    assert all(f"`{path.name}`" in schedule for path in LECTURES)
