@@ -3,6 +3,17 @@
 The constraint vector, its Jacobian, Psi_t and gamma of the whole system stack those of the elements
 (course notes, eq. 4.1-4.4): element k owns rows ``rows[k]`` and writes its blocks into the columns of
 its two bodies. Ground has no columns: its coordinates are the constant zero vector.
+
+Two ways to evaluate them, with the same results:
+
+- the element loop (``System(model, elements, vectorized=False)``): one call of each element's method,
+  its blocks added into the Jacobian by slices -- the definition, and the straightforward path;
+- per type in one pass (the default): the elements of one type are evaluated together with array
+  operations (``planar/batched.py``, ``spatial/batched.py``), and the Jacobian is scattered into place
+  through index arrays found once from the sparsity pattern (which rows and columns each block
+  fills). Each group is checked once against the element methods at a random state; a group that
+  disagrees, or is not implemented, is evaluated by the element loop instead. Elements without a
+  batched form (gears, cams, drivers of spatial joints) always are.
 """
 
 from __future__ import annotations
@@ -32,6 +43,7 @@ class System:
 
     model: Model
     elements: list[PlanarElement]
+    vectorized: bool = True
 
     def __post_init__(self):
         self.n_bodies = len(self.model.bodies)
@@ -49,6 +61,12 @@ class System:
             [self._body_columns(e.i) for e in self.elements],
             [self._body_columns(e.j) for e in self.elements],
         )
+        self.groups: list = []  # batched element groups, with their scatter indices
+        self._timed_groups: list = []
+        self._last = None  # (q, its configuration): the one-entry cache of _configuration
+        self._loop = list(range(len(self.elements)))  # elements evaluated one by one
+        if self.vectorized:
+            self._make_groups()
 
     # -- bookkeeping -------------------------------------------------------------------------
     @property
@@ -85,14 +103,84 @@ class System:
     # -- the system arrays ---------------------------------------------------------------------
     def constraints(self, q: np.ndarray, t: float) -> np.ndarray:
         """Psi(q, t), the stacked constraint equations (eq. 4.1)."""
-        psi = np.empty(self.n_constraints)
-        for k, element in enumerate(self.elements):
-            qi, qj = self._pair(k, q)
-            psi[self.rows[k]] = element.constraints(qi, qj, t)
-        return psi
+        return self._constraints(q, t, self._configuration(q))
 
     def jacobian(self, q: np.ndarray, t: float) -> np.ndarray:
         """Psi_q(q, t), the constraint Jacobian (m x n) (eq. 4.2)."""
+        if not self.vectorized:
+            return self._jacobian_by_slices(q, t)
+        return self._jacobian(q, t, self._configuration(q))
+
+    def psi_t(self, q: np.ndarray, t: float) -> np.ndarray:
+        """Psi_t(q, t): nonzero only in driver rows (eq. 4.3)."""
+        return self._psi_t(q, t)
+
+    def gamma(self, q: np.ndarray, qd: np.ndarray, t: float) -> np.ndarray:
+        """gamma(q, q', t), right side of the acceleration equation Psi_q q'' = gamma (eq. 4.4)."""
+        return self._gamma(q, qd, t, self._configuration(q))
+
+    def evaluate(
+        self, q: np.ndarray, qd: np.ndarray, t: float, constraints: bool = True, psi_t: bool = True
+    ) -> tuple[np.ndarray | None, np.ndarray, np.ndarray | None, np.ndarray]:
+        """(Psi, Psi_q, Psi_t, gamma) at one state in one pass: what the groups share at q (rotated body
+        vectors) is computed once. Psi and Psi_t are skipped (None) when not asked for."""
+        if not self.vectorized:
+            return (
+                self.constraints(q, t) if constraints else None,
+                self.jacobian(q, t),
+                self.psi_t(q, t) if psi_t else None,
+                self.gamma(q, qd, t),
+            )
+        state = self._configuration(q)
+        return (
+            self._constraints(q, t, state) if constraints else None,
+            self._jacobian(q, t, state),
+            self._psi_t(q, t) if psi_t else None,
+            self._gamma(q, qd, t, state),
+        )
+
+    # -- one pass over the groups, then the elements left ------------------------------------------
+    def _configuration(self, q: np.ndarray):
+        """(X, terms of every group) at q, or None without groups. The last one is kept: Newton-Raphson, the
+        velocity and the acceleration analysis ask for Psi, Psi_q, Psi_t and gamma at the same q in turn."""
+        if not self.groups:
+            return None
+        if self._last is not None and np.array_equal(self._last[0], q):
+            return self._last[1]
+        X = self._bodies(q, self._ground)
+        state = (X, [group.terms(X) for group in self.groups])
+        self._last = (np.array(q, dtype=float), state)
+        return state
+
+    def _constraints(self, q, t, state) -> np.ndarray:
+        psi = np.empty(self.n_constraints)
+        if state is not None:
+            X, terms = state
+            for group, shared in zip(self.groups, terms, strict=True):
+                psi[group.rows] = group.constraints(X, shared, t)
+        for k in self._loop:
+            qi, qj = self._pair(k, q)
+            psi[self.rows[k]] = self.elements[k].constraints(qi, qj, t)
+        return psi
+
+    def _jacobian(self, q, t, state) -> np.ndarray:
+        """Psi_q scattered into place through the index arrays of the sparsity pattern (found once)."""
+        flat = np.zeros(self.n_constraints * self.n_coordinates + 1)  # the last entry takes ground's columns
+        if state is not None:
+            X, terms = state
+            for group, shared in zip(self.groups, terms, strict=True):
+                jac_i, jac_j = group.jacobian(X, shared, t)
+                flat[group.index_i] = jac_i.ravel()
+                flat[group.index_j] = jac_j.ravel()
+        for k in self._loop:
+            qi, qj = self._pair(k, q)
+            jac_i, jac_j = self.elements[k].jacobian(qi, qj, t)
+            flat[self._index[k][0]] = np.ravel(jac_i)
+            flat[self._index[k][1]] = np.ravel(jac_j)
+        return flat[:-1].reshape(self.n_constraints, self.n_coordinates)
+
+    def _jacobian_by_slices(self, q: np.ndarray, t: float) -> np.ndarray:
+        """Psi_q element by element, each block added into its rows and body columns (the plain loop)."""
         jac = np.zeros((self.n_constraints, self.n_coordinates))
         for k, element in enumerate(self.elements):
             qi, qj = self._pair(k, q)
@@ -104,22 +192,116 @@ class System:
                 jac[self.rows[k], cj] += jac_j
         return jac
 
-    def psi_t(self, q: np.ndarray, t: float) -> np.ndarray:
-        """Psi_t(q, t): nonzero only in driver rows (eq. 4.3)."""
-        out = np.empty(self.n_constraints)
-        for k, element in enumerate(self.elements):
+    def _psi_t(self, q, t) -> np.ndarray:
+        out = np.zeros(self.n_constraints)
+        for group in self._timed_groups:  # the groups' Psi_t depends on t alone (drivers)
+            out[group.rows] = group.psi_t(None, None, t)
+        for k in self._loop:
             qi, qj = self._pair(k, q)
-            out[self.rows[k]] = element.psi_t(qi, qj, t)
+            out[self.rows[k]] = self.elements[k].psi_t(qi, qj, t)
         return out
 
-    def gamma(self, q: np.ndarray, qd: np.ndarray, t: float) -> np.ndarray:
-        """gamma(q, q', t), right side of the acceleration equation Psi_q q'' = gamma (eq. 4.4)."""
+    def _gamma(self, q, qd, t, state) -> np.ndarray:
         out = np.empty(self.n_constraints)
-        for k, element in enumerate(self.elements):
+        if state is not None:
+            X, terms = state
+            V = self._bodies(qd, self._ground_velocity)
+            for group, shared in zip(self.groups, terms, strict=True):
+                out[group.rows] = group.gamma(X, V, shared, t)
+        for k in self._loop:
             qi, qj = self._pair(k, q)
             qdi, qdj = self._pair(k, qd, self._ground_velocity)
-            out[self.rows[k]] = element.gamma(qi, qj, qdi, qdj, t)
+            out[self.rows[k]] = self.elements[k].gamma(qi, qj, qdi, qdj, t)
         return out
+
+    # -- structure, found once -------------------------------------------------------------------
+    def _bodies(self, x: np.ndarray, ground: np.ndarray) -> np.ndarray:
+        """The (nb + 1, c) array of body coordinates (or velocities), ground's in the last row (index -1)."""
+        X = np.empty((self.n_bodies + 1, self.coordinates_per_body))
+        X[:-1] = x.reshape(self.n_bodies, self.coordinates_per_body)
+        X[-1] = ground
+        return X
+
+    def _scatter_index(self, rows: np.ndarray, bodies: np.ndarray) -> np.ndarray:
+        """Flat indices into the (m x n) Jacobian of a (len(rows), c) block of rows for the given bodies.
+
+        Entry (r, k) goes to row rows[r], column c * bodies[r] + k; ground's entries (body -1) go to the
+        spare last entry of the flat array, which is dropped.
+        """
+        c, n = self.coordinates_per_body, self.n_coordinates
+        index = rows[:, None] * n + c * bodies[:, None] + np.arange(c)[None, :]
+        index[bodies < 0] = self.n_constraints * n
+        return index.ravel()
+
+    def _make_groups(self) -> None:
+        """Group the elements by type, find their scatter indices, and keep each group that agrees with the
+        element methods at a random state; the other elements are evaluated one by one."""
+        if self.model.dimension == 3:
+            from .spatial.batched import make_groups
+        else:
+            from .planar.batched import make_groups
+        try:
+            groups, _ = make_groups(self.elements)
+        except Exception:  # noqa: BLE001 -- stubs of a student package (NotImplementedError): the element loop
+            groups = []
+        rng = np.random.default_rng(20240607)
+        q = self._random_coordinates(rng)
+        qd, t = rng.standard_normal(self.n_coordinates), 0.3183
+        self._index = []
+        for k, element in enumerate(self.elements):
+            rows = np.arange(self.rows[k].start, self.rows[k].stop)
+            self._index.append(
+                (
+                    self._scatter_index(rows, np.full(rows.size, element.i)),
+                    self._scatter_index(rows, np.full(rows.size, element.j)),
+                )
+            )
+        kept, batched = [], set()
+        for group, members in groups:
+            group.rows = np.concatenate([np.arange(self.rows[k].start, self.rows[k].stop) for k in members])
+            per_row = [k for k in members for _ in range(self.elements[k].n_equations)]
+            group.index_i = self._scatter_index(group.rows, np.array([self.elements[k].i for k in per_row]))
+            group.index_j = self._scatter_index(group.rows, np.array([self.elements[k].j for k in per_row]))
+            group.time_dependent = bool(getattr(group, "timed", ()))  # Psi_t nonzero somewhere
+            if self._agrees(group, members, q, qd, t):
+                kept.append(group)
+                batched.update(members)
+        self.groups = kept
+        self._timed_groups = [group for group in kept if group.time_dependent]
+        self._loop = [k for k in range(len(self.elements)) if k not in batched]
+
+    def _random_coordinates(self, rng: np.random.Generator) -> np.ndarray:
+        q = rng.standard_normal(self.n_coordinates)
+        if self.model.dimension == 3:  # unit Euler parameters, as on the constraint manifold
+            p = q.reshape(self.n_bodies, 7)[:, 3:]
+            p /= np.linalg.norm(p, axis=1, keepdims=True)
+        return q
+
+    def _agrees(self, group, members: list[int], q: np.ndarray, qd: np.ndarray, t: float) -> bool:
+        """True when the group's Psi, Psi_q, Psi_t and gamma equal the element methods' at (q, q', t)."""
+        try:
+            X, V = self._bodies(q, self._ground), self._bodies(qd, self._ground_velocity)
+            terms = group.terms(X)
+            jac_i, jac_j = group.jacobian(X, terms, t)
+            got = [group.constraints(X, terms, t), jac_i, jac_j, group.psi_t(X, terms, t), group.gamma(X, V, terms, t)]
+            expected = [[], [], [], [], []]
+            for k in members:
+                element = self.elements[k]
+                qi, qj = self._pair(k, q)
+                qdi, qdj = self._pair(k, qd, self._ground_velocity)
+                blocks = element.jacobian(qi, qj, t)
+                expected[0].append(element.constraints(qi, qj, t))
+                expected[1].append(np.atleast_2d(blocks[0]))
+                expected[2].append(np.atleast_2d(blocks[1]))
+                expected[3].append(element.psi_t(qi, qj, t))
+                expected[4].append(element.gamma(qi, qj, qdi, qdj, t))
+            expected = [np.concatenate(e) for e in expected]
+            return all(
+                np.shape(a) == np.shape(b) and np.allclose(a, b, rtol=1e-9, atol=1e-9)
+                for a, b in zip(got, expected, strict=True)
+            )
+        except Exception:  # noqa: BLE001 -- a stub (NotImplementedError) or a broken group: use the element loop
+            return False
 
 
 def build_system(model: Model) -> tuple[System, np.ndarray, np.ndarray]:

@@ -36,6 +36,9 @@ from .assembly import System
 from .diagnostics import AnalysisError
 from .generalized_forces import ForceModel
 
+SINGULAR_CONDITION = 1e12
+"""Condition number of Psi_u above which coordinate partitioning refuses a partition."""
+
 DEFAULT_ALPHA = 5.0
 DEFAULT_BETA = 5.0
 """Baumgarte's alpha = beta = 5 1/s (Nikravesh 1988, sec. 13.4): critically damped constraint error
@@ -98,6 +101,11 @@ class Formulation:
         self.system, self.M, self.forces = system, M, forces
         self.n = system.n_coordinates
         self.alpha, self.beta = float(alpha), float(beta)
+        if not (self.alpha >= 0.0 and self.beta >= 0.0):
+            raise AnalysisError(
+                f"Baumgarte parameters alpha = {alpha}, beta = {beta}: both must be >= 0; a negative one makes the "
+                "constraint error grow as exp(|alpha| t) instead of dying out (eq. 5.29)"
+            )
         self._mass = M if callable(M) else None  # a spatial model's M(q): evaluated at every state
         if self._mass is None:
             self.factor_mass(M)
@@ -107,23 +115,24 @@ class Formulation:
 
     # -- pieces every formulation uses
     def factor_mass(self, M: np.ndarray) -> None:
-        """Keep M and factor it for ``mass_solve``."""
+        """Keep M; ``mass_solve`` factors it when first asked (formulations that only assemble M never do)."""
         self.M = M
-        diagonal = np.diag(M)
-        if np.array_equal(M, np.diag(diagonal)):
-            self._inverse_diagonal = 1.0 / diagonal  # planar body coordinates: M^-1 is diagonal too
-        else:
-            self._inverse_diagonal = None
-            self._cholesky = scipy.linalg.cho_factor(M)
+        self._inverse_diagonal = self._cholesky = None
 
     def mass(self, q: np.ndarray) -> np.ndarray:
-        """M at q: the constant matrix of a planar model; a spatial model's M(q), factored anew."""
+        """M at q: the constant matrix of a planar model; a spatial model's M(q), evaluated anew."""
         if self._mass is not None:
             self.factor_mass(self._mass(q))
         return self.M
 
     def mass_solve(self, x: np.ndarray) -> np.ndarray:
-        """M^-1 x for a vector or the columns of a matrix (M factored once)."""
+        """M^-1 x for a vector or the columns of a matrix (M factored once per M: once for a planar model)."""
+        if self._inverse_diagonal is None and self._cholesky is None:
+            diagonal = np.diag(self.M)
+            if np.array_equal(self.M, np.diag(diagonal)):
+                self._inverse_diagonal = 1.0 / diagonal  # planar body coordinates: M^-1 is diagonal too
+            else:
+                self._cholesky = scipy.linalg.cho_factor(self.M)
         if self._inverse_diagonal is not None:
             return (x.T * self._inverse_diagonal).T
         return scipy.linalg.cho_solve(self._cholesky, x)
@@ -133,6 +142,18 @@ class Formulation:
         if self.forces.is_constant:
             return self._Q_constant
         return self.forces.generalized_forces(q, qd, t)
+
+    def constraint_terms(self, q: np.ndarray, qd: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """(Psi_q, gamma), gamma stabilized to gamma_bar when alpha or beta is set (eq. 5.29).
+
+        The system evaluates what it needs in one pass (``System.evaluate``): Psi and Psi_t only for
+        the stabilization.
+        """
+        stabilized = self.alpha != 0.0 or self.beta != 0.0
+        psi, jacobian, psi_t, gamma = self.system.evaluate(q, qd, t, constraints=stabilized, psi_t=stabilized)
+        if stabilized:
+            gamma = baumgarte_gamma(gamma, psi, jacobian @ qd + psi_t, self.alpha, self.beta)
+        return jacobian, gamma
 
     def stabilized_gamma(self, q: np.ndarray, qd: np.ndarray, t: float, jacobian: np.ndarray) -> np.ndarray:
         """gamma, or gamma_bar when alpha or beta is set (eq. 5.29)."""
@@ -181,8 +202,7 @@ class Baumgarte(Formulation):
         super().__init__(system, M, forces, alpha, beta)
 
     def accelerations(self, q, qd, t):
-        jacobian = self.system.jacobian(q, t)
-        gamma = self.stabilized_gamma(q, qd, t, jacobian)
+        jacobian, gamma = self.constraint_terms(q, qd, t)
         return augmented_accelerations(self.mass(q), jacobian, self.applied_forces(q, qd, t), gamma)
 
 
@@ -198,8 +218,7 @@ class NullSpaceQR(Formulation):
     name = "qr"
 
     def accelerations(self, q, qd, t):
-        jacobian = self.system.jacobian(q, t)
-        gamma = self.stabilized_gamma(q, qd, t, jacobian)
+        jacobian, gamma = self.constraint_terms(q, qd, t)
         Q = self.applied_forces(q, qd, t)
         m = jacobian.shape[0]
         basis, R = np.linalg.qr(jacobian.T, mode="complete")
@@ -227,8 +246,7 @@ class NullSpaceSVD(Formulation):
         self.rank_tol = rank_tol
 
     def accelerations(self, q, qd, t):
-        jacobian = self.system.jacobian(q, t)
-        gamma = self.stabilized_gamma(q, qd, t, jacobian)
+        jacobian, gamma = self.constraint_terms(q, qd, t)
         Q = self.applied_forces(q, qd, t)
         U, s, Vt = np.linalg.svd(jacobian)
         r = int(np.sum(s > self.rank_tol * s[0])) if s.size else 0
@@ -260,10 +278,8 @@ class Projection(Formulation):
         self.projections = 0
 
     def accelerations(self, q, qd, t):
-        jacobian = self.system.jacobian(q, t)
-        return augmented_accelerations(
-            self.mass(q), jacobian, self.applied_forces(q, qd, t), self.system.gamma(q, qd, t)
-        )
+        jacobian, gamma = self.constraint_terms(q, qd, t)
+        return augmented_accelerations(self.mass(q), jacobian, self.applied_forces(q, qd, t), gamma)
 
     def after_step(self, t, y):
         q, qd = project_positions(self, y[: self.n], t, self.tol, self.max_iterations)
@@ -348,6 +364,13 @@ class Partitioning(Formulation):
         if self.u.size != m:
             raise AnalysisError(f"partitioning: {self.u.size} dependent coordinates for {m} constraints")
         self.condition = np.linalg.cond(jacobian[:, self.u])
+        if not self.condition < SINGULAR_CONDITION:
+            names = ", ".join(self.system.coordinate_names[k] for k in self.v)
+            raise AnalysisError(
+                f"partitioning at t = {t:.6g} s: Psi_u of the dependent coordinates is singular with {names} "
+                f"independent (condition number {self.condition:.3g}): the constraints do not fix the others "
+                "there; choose other independent coordinates (or none, to let the pivots choose)"
+            )
         self.partitions.append((t, [self.system.coordinate_names[k] for k in self.v]))
         self._q, self._jacobian = q.copy(), jacobian
 
@@ -365,7 +388,7 @@ class Partitioning(Formulation):
             jacobian = self.system.jacobian(q, t)
             if np.max(np.abs(psi), initial=0.0) < self.tol:
                 break
-            q[self.u] -= np.linalg.solve(jacobian[:, self.u], psi)
+            q[self.u] -= _solve(jacobian[:, self.u], psi, t)
         else:
             raise AnalysisError(
                 f"partitioning: Newton-Raphson for the dependent coordinates did not converge at t = {t:.6g} s "
@@ -374,7 +397,7 @@ class Partitioning(Formulation):
         self._q, self._jacobian = q, jacobian  # kept for the next Newton start and for ``accelerations``
         qd = np.empty(self.n)
         qd[self.v] = y[k:]
-        qd[self.u] = np.linalg.solve(jacobian[:, self.u], -jacobian[:, self.v] @ y[k:] - self.system.psi_t(q, t))
+        qd[self.u] = _solve(jacobian[:, self.u], -jacobian[:, self.v] @ y[k:] - self.system.psi_t(q, t), t)
         return q, qd
 
     def state_derivative(self, q, qd, qdd):
@@ -402,6 +425,14 @@ class Partitioning(Formulation):
             return None
         self.repartitions += 1
         return self.initial_state(q, qd, t)
+
+
+def _solve(matrix: np.ndarray, rhs: np.ndarray, t: float) -> np.ndarray:
+    """matrix^-1 rhs, a singular matrix reported as an AnalysisError (with the time) instead of LinAlgError."""
+    try:
+        return np.linalg.solve(matrix, rhs)
+    except np.linalg.LinAlgError:
+        raise AnalysisError(f"partitioning at t = {t:.6g} s: Psi_u is singular") from None
 
 
 FORMULATIONS = {

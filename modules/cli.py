@@ -1,0 +1,267 @@
+# Generated from solutions/cli.py by `make modules` (every homework stubbed): do not edit by hand.
+"""The ``mbd`` command line: run and check models (DESIGN section 6).
+
+A user error (a bad file, a bad option, a mechanism that cannot be assembled or analysed) prints one
+message and exits with code 2; it never shows a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+
+from .assembly import System, build_system
+from .diagnostics import AnalysisError, rank_report
+from .io.model import Model, ModelError, load_model
+from .kinematics import assemble, kinematic_analysis
+from .results import Result
+
+USER_ERROR = 2
+
+
+class UsageError(ValueError):
+    """A command-line option that does not fit the model."""
+
+
+def _parse_point(text: str, model: Model, number: int) -> tuple[str, int, np.ndarray]:
+    """'[LABEL=]BODY:x,y' -> (label, body index, body-frame point).
+
+    x, y are global, in the file's configuration; the label defaults to 'BODY.pN'.
+    """
+    if model.dimension != 2:
+        raise UsageError("--point is available for planar models")
+    label, _, spec = text.rpartition("=")
+    try:
+        body, coords = spec.split(":")
+        values = np.array([float(v) for v in coords.split(",")])
+    except ValueError:
+        raise UsageError(
+            f"--point {text!r}: write [LABEL=]BODY:x,y (a global point in the file's configuration)"
+        ) from None
+    try:
+        index = model.body_index(body)
+    except KeyError:
+        names = ", ".join(b.name for b in model.bodies)
+        raise UsageError(f"--point {text!r}: no body named '{body}' (bodies: {names})") from None
+    if values.size != model.dimension or index < 0:
+        raise UsageError(f"--point {text!r}: give {model.dimension} coordinates of a point of a moving body")
+    b = model.bodies[index]
+    c, s = np.cos(b.orientation), np.sin(b.orientation)
+    local = np.array([[c, s], [-s, c]]) @ (values - b.location)
+    return label or f"{body}.p{number}", index, local
+
+
+SETTINGS = {  # option -> (key of the model file's simulation block, default)
+    "analysis": ("analysis", "auto"),
+    "t_end": ("end_time", 1.0),
+    "steps": ("output_steps", 100),
+    "formulation": ("formulation", None),
+    "integrator": ("integrator", None),
+    "rtol": ("rtol", None),
+    "atol": ("atol", None),
+    "step": ("step", None),
+}
+
+
+def analysis_settings(model: Model, **options) -> dict:
+    """The model file's simulation block, overridden by any option that is not None."""
+    settings = {}
+    for option, (key, default) in SETTINGS.items():
+        value = options.get(option)
+        settings[option] = value if value is not None else model.simulation.get(key, default)
+    return settings
+
+
+def choose_analysis(system: System, q: np.ndarray) -> str:
+    """``--analysis auto``: kinematic when the drivers leave no degree of freedom, dynamic otherwise."""
+    report = rank_report(system.jacobian(q, 0.0), system.row_owners)
+    return "kinematic" if report.degrees_of_freedom == 0 else "dynamic"
+
+
+def run_analysis(system: System, q0: np.ndarray, qd0: np.ndarray, settings: dict, points=None) -> Result:
+    """Dispatch to the analysis the settings name."""
+    analysis = settings["analysis"]
+    if settings["steps"] < 1 or settings["t_end"] <= 0:
+        raise UsageError("--t-end must be > 0 and --steps >= 1")
+    if analysis == "auto":
+        q, _ = assemble(system, q0)
+        analysis = choose_analysis(system, q)
+    if analysis == "kinematic":
+        return kinematic_analysis(system, q0, settings["t_end"], settings["steps"], points=points)
+    options = {k: settings[k] for k in ("formulation", "integrator", "rtol", "atol", "step") if settings[k] is not None}
+    if analysis == "dynamic":
+        from .dynamics import forward_dynamics
+
+        return forward_dynamics(system, q0, qd0, settings["t_end"], settings["steps"], **options)
+    if analysis == "inverse":
+        from .inverse_dynamics import inverse_dynamics
+
+        return inverse_dynamics(system, q0, settings["t_end"], settings["steps"])
+    raise UsageError(f"--analysis {analysis}: not available (choose auto, kinematic, dynamic or inverse)")
+
+
+def _summary(result: Result) -> str:
+    info = result.info
+    lines = [f"{info.get('analysis', 'analysis')} analysis: {result.t.size} output points to t = {result.t[-1]:g} s"]
+    moved = info.get("assembly", {}).get("moved", {})
+    shifted = {k: v for k, v in moved.items() if v["translation"] > 1e-9 or v["rotation"] > 1e-9}
+    if shifted:
+        parts = [f"{k} {v['translation']:.3g} m / {v['rotation']:.3g} rad" for k, v in shifted.items()]
+        lines.append("assembly moved " + ", ".join(parts))
+    for key in ("formulation", "integrator", "newton_iterations", "rhs_evaluations", "max_constraint_residual"):
+        if key in info:
+            value = info[key]
+            lines.append(f"{key.replace('_', ' ')}: {value:.3g}" if isinstance(value, float) else f"{key}: {value}")
+    if "wall_time" in info:
+        lines.append(f"wall time: {info['wall_time']:.3g} s")
+    return "\n".join(lines)
+
+
+def command_run(args) -> int:
+    model = load_model(args.model)
+    system, q0, qd0 = build_system(model)
+    points = {}
+    for number, text in enumerate(args.point or [], start=1):
+        label, body, local = _parse_point(text, model, number)
+        points[label] = (body, local)
+    settings = analysis_settings(model, **{k: getattr(args, k) for k in SETTINGS})
+    result = run_analysis(system, q0, qd0, settings, points=points)
+    print(_summary(result))
+    if args.out:
+        from .io.results import write_result
+
+        try:
+            path = write_result(result, args.out)
+        except OSError as err:
+            raise UsageError(f"--out {args.out}: cannot write ({err.strerror})") from None
+        print(f"results written to {path}")
+    if args.animate:
+        from .animation import animate_result
+
+        try:
+            animate_result(model, system, result, args.animate)
+        except ValueError as err:
+            raise UsageError(f"--animate {args.animate}: {err}") from None
+        except OSError as err:
+            raise UsageError(f"--animate {args.animate}: cannot write ({err.strerror})") from None
+        print(f"animation written to {args.animate}")
+    if args.plot:
+        from .plotting import plot_result
+
+        try:
+            path = plot_result(result, args.plot, coordinates=args.coords)
+        except OSError as err:
+            raise UsageError(f"--plot {args.plot}: cannot write ({err.strerror})") from None
+        print(f"plot written to {path}")
+    return 0
+
+
+def command_check(args) -> int:
+    model = load_model(args.model)
+    system, q0, _ = build_system(model)
+    print(f"model {model.name} ({model.source}): {model.dimension}D")
+    print(f"bodies ({len(model.bodies)}): " + ", ".join(b.name for b in model.bodies))
+    for joint in model.joints:
+        print(f"  joint {joint['name']}: {joint['type']} {joint['body1']} - {joint['body2']}")
+    for motor in model.motors:
+        print(f"  motor {motor['name']}: {motor['type']}")
+    q, assembly = assemble(system, q0)
+    report = rank_report(system.jacobian(q, 0.0), system.row_owners)
+    print(f"coordinates: {system.n_coordinates}, constraint equations: {system.n_constraints}, rank: {report.rank}")
+    print(f"degrees of freedom: {report.degrees_of_freedom}")
+    if report.n_redundant:
+        print(f"redundant equations: {report.n_redundant} (joints: {', '.join(report.redundant_joints)})")
+    else:
+        print("redundant equations: none")
+    print(f"assembly: residual {assembly['residual']:.3g} after {assembly['iterations']} Newton iteration(s)")
+    for name, moved in assembly["moved"].items():
+        print(f"  {name} moved {moved['translation']:.3g} m, {moved['rotation']:.3g} rad")
+    return 0
+
+
+def command_release(args) -> int:
+    # instructor tooling lives outside the package students receive: import it only when asked
+    try:
+        from course.release import command
+    except ImportError:
+        raise UsageError("mbd release is the instructor's command: run it in the course repository") from None
+    return command(args.homework)
+
+
+def command_grade(args) -> int:
+    try:
+        from autograder.cli import grade_command
+    except ImportError:
+        raise UsageError("mbd grade is the instructor's command: run it in the course repository") from None
+    return grade_command(args.homework, args.submissions, out=args.out, jobs=args.jobs)
+
+
+def command_selfcheck(args) -> int:
+    try:
+        from autograder.cli import selfcheck_command
+    except ImportError:
+        raise UsageError("mbd selfcheck needs the course's autograder package (pip install mbd-course)") from None
+    return selfcheck_command(args.homework, args.path)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="mbd", description="Multibody dynamics course: reference solver.")
+    sub = parser.add_subparsers(dest="command", required=True)
+    run = sub.add_parser("run", help="run an analysis of a model file")
+    run.add_argument("model", help="model file (YAML or JSON)")
+    run.add_argument("--analysis", choices=["auto", "kinematic", "dynamic", "inverse"])
+    run.add_argument("--t-end", type=float, help="end time in s (default: the file's simulation.end_time)")
+    run.add_argument("--steps", type=int, help="number of output intervals (default: simulation.output_steps)")
+    run.add_argument("--formulation", help="dynamic formulation (baumgarte, partitioning, qr, svd, projection)")
+    run.add_argument("--integrator", help="integrator (RK45, DOP853, Radau, BDF, LSODA, rk4, ...)")
+    run.add_argument("--rtol", type=float, help="relative tolerance of the integrator")
+    run.add_argument("--atol", type=float, help="absolute tolerance of the integrator")
+    run.add_argument("--step", type=float, help="fixed step size for fixed-step integrators")
+    run.add_argument("--out", help="write results to FILE.csv or FILE.npz")
+    run.add_argument("--plot", help="plot coordinates and points against time to FILE.png")
+    run.add_argument("--animate", help="animate the mechanism to FILE.gif (or .mp4 with ffmpeg, .html)")
+    run.add_argument("--coords", nargs="+", metavar="NAME", help="coordinates to plot, e.g. slider.x crank.phi")
+    run.add_argument(
+        "--point",
+        action="append",
+        metavar="[LABEL=]BODY:x,y",
+        help="also report a body point given globally in the file's configuration (repeatable)",
+    )
+    run.set_defaults(handler=command_run)
+    check = sub.add_parser("check", help="validate and assemble a model; report DOF and redundancies")
+    check.add_argument("model", help="model file (YAML or JSON)")
+    check.set_defaults(handler=command_check)
+    release = sub.add_parser("release", help="build and release homework hwN to students (instructor)")
+    release.add_argument("homework", help="hw1, hw2 or hw3")
+    release.set_defaults(handler=command_release)
+    grade = sub.add_parser("grade", help="grade every submission of homework hwN (instructor)")
+    grade.add_argument("homework", help="hw1, hw2 or hw3")
+    grade.add_argument("submissions", help="nbgrader's submitted/ folder, or a folder of student folders")
+    grade.add_argument("--out", help="folder for the gradebook, results and feedback (default: grades-hwN)")
+    grade.add_argument("--jobs", type=int, help="submissions graded in parallel (default: the number of cores)")
+    grade.set_defaults(handler=command_grade)
+    selfcheck = sub.add_parser("selfcheck", help="run the public checks of hwN on your own modules/ (students)")
+    selfcheck.add_argument("homework", help="hw1, hw2 or hw3")
+    selfcheck.add_argument("path", nargs="?", help="folder holding your modules/ (default: the current folder)")
+    selfcheck.set_defaults(handler=command_selfcheck)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``mbd``; returns the exit code (0 success, 2 user error)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.handler(args)
+    except (ModelError, AnalysisError, UsageError) as err:
+        print(f"mbd: error: {err}", file=sys.stderr)
+        return USER_ERROR
+    except BrokenPipeError:  # output piped into a command that stopped reading (e.g. `| head`)
+        sys.stderr.close()
+        return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,494 @@
+# Generated from solutions/dynamics.py by `make modules` (every homework stubbed): do not edit by hand.
+"""Forward dynamics: the motion of a mechanism under forces, from consistent initial conditions.
+
+A run (course notes, chapter 6):
+
+1. **Consistent initial conditions.** The file's configuration is assembled, Psi(q0, 0) = 0, by
+   Newton-Raphson; the file's velocities are projected onto Psi_q q' = -Psi_t with the correction
+   of least kinetic-energy norm. The result's info reports how far both moved.
+2. **Integration.** The chosen formulation (``formulations.py``) turns M q'' + Psi_q^T lambda = Q,
+   Psi_q q'' = gamma into a first-order ODE y' = f(t, y), which the chosen integrator
+   (``integrators.py``) advances. When the scene has dampers, actuators, loads or drivers, the
+   dissipated energy and the work put in are integrated with it as three extra states, for the
+   energy balance (``energy.py``).
+3. **Output.** At every output time: q, q', q'', lambda, the constraint residuals |Psi| and
+   |Psi_q q' + Psi_t|, the energies and the balance error E(t) - E(0).
+
+4. **Guards.** No run returns a wrong answer silently: the integrators stop on their evaluation
+   budget and report stiffness (``integrators.py``); ``Guard`` stops a run whose positions leave the
+   constraints or that passes a singular configuration, each with the time and the condition.
+
+The mass matrix is built once and the force loop is skipped for a scene with gravity only.
+``formulation="auto"`` and ``integrator="auto"`` pick the cheapest adequate method (``choose_method``).
+"""
+
+from __future__ import annotations
+
+import time as _time
+
+import numpy as np
+
+from .assembly import System
+from .diagnostics import AnalysisError, rank_report
+from .energy import driver_power, energy_history
+from .formulations import FORMULATIONS, Formulation, make_formulation
+from .generalized_forces import ForceModel, build_forces
+from .integrators import (
+    DEFAULT_MAX_EVALUATIONS,
+    FIXED_STEP_METHODS,
+    INTEGRATORS,
+    STABILITY_LIMIT,
+    integrate,
+    spectral_radius,
+    stiffness_message,
+)
+from .kinematics import assemble, point_columns
+from .mass_matrix import mass_at, mass_matrix
+from .reactions import joint_reactions
+from .results import Result
+
+INDEX3_INTEGRATORS = ("hht", "generalized-alpha")
+"""Implicit integrators of the index-3 form (``implicit.py``); they take the place of formulation + ODE."""
+MULTISTEP_INTEGRATORS = ("BDF", "LSODA")
+DRIFT_LIMIT = 1e-3
+"""Default ``drift_limit``: positions off the constraints by a thousandth of the mechanism's size are a wrong answer."""
+SINGULAR_RATIO = 1e-8
+"""Default ``singular_ratio``: sigma_min / sigma_max of Psi_q below which a configuration counts as singular."""
+
+
+def consistent_initial_conditions(
+    system: System, M: np.ndarray, q0: np.ndarray, qd0: np.ndarray, t: float = 0.0
+) -> tuple[np.ndarray, np.ndarray, dict]:
+    """q on Psi(q, t) = 0 (assembly) and q' on Psi_q q' + Psi_t = 0, with a report of the corrections.
+
+    The velocity correction is the one of least kinetic-energy norm (eq. 6.2):
+
+        q' = q0' - M^-1 Psi_q^T x,   (Psi_q M^-1 Psi_q^T) x = Psi_q q0' + Psi_t
+
+    solved in the least-squares sense, so redundant constraints are fine.
+    """
+    q, assembly = assemble(system, q0, t)
+    jacobian = system.jacobian(q, t)
+    residual = jacobian @ qd0 + system.psi_t(q, t)
+    weighted = np.linalg.solve(mass_at(M, q), jacobian.T)
+    x = np.linalg.lstsq(jacobian @ weighted, residual, rcond=None)[0]
+    qd = qd0 - weighted @ x
+    report = {
+        "assembly": assembly,
+        "velocity_residual_before": float(np.max(np.abs(residual), initial=0.0)),
+        "velocity_correction": float(np.max(np.abs(qd - qd0), initial=0.0)),
+        "velocity_residual": float(np.max(np.abs(jacobian @ qd + system.psi_t(q, t)), initial=0.0)),
+    }
+    return q, qd, report
+
+
+class EquationsOfMotion:
+    """The ODE an integrator advances: the formulation's state, plus (when the scene needs them) three
+    accumulated energies z = (y, D, W_applied, W_drivers) with D' = P_dissipated, W' = P (eq. 5.60)."""
+
+    def __init__(self, formulation: Formulation, forces: ForceModel, has_drivers: bool):
+        self.formulation, self.forces = formulation, forces
+        self.has_drivers = has_drivers
+        self.extra = 0 if forces.is_conservative and not has_drivers else 3
+
+    def initial_state(self, q: np.ndarray, qd: np.ndarray, t: float) -> np.ndarray:
+        return np.concatenate([self.formulation.initial_state(q, qd, t), np.zeros(self.extra)])
+
+    def split(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        k = z.size - self.extra
+        return z[:k], z[k:]
+
+    def powers(self, q, qd, lam, t) -> list[float]:
+        """(P_dissipated, P_applied, P_drivers) at one state."""
+        drivers = driver_power(self.formulation.system, q, lam, t) if self.has_drivers else 0.0
+        return [*self.forces.powers(q, qd, t), drivers]
+
+    def rhs(self, t: float, z: np.ndarray) -> np.ndarray:
+        if not self.extra:
+            return self.formulation.rhs(t, z)
+        y, _ = self.split(z)
+        q, qd = self.formulation.coordinates(t, y)
+        qdd, lam = self.formulation.accelerations(q, qd, t)
+        return np.concatenate([self.formulation.state_derivative(q, qd, qdd), self.powers(q, qd, lam, t)])
+
+    def after_step(self, t: float, z: np.ndarray) -> np.ndarray | None:
+        y, energies = self.split(z)
+        corrected = self.formulation.after_step(t, y)
+        return None if corrected is None else np.concatenate([corrected, energies])
+
+
+def forward_dynamics(
+    system: System,
+    q0: np.ndarray,
+    qd0: np.ndarray,
+    t_end: float,
+    steps: int,
+    formulation: str = "baumgarte",
+    integrator: str = "RK45",
+    rtol: float = 1e-8,
+    atol: float = 1e-10,
+    step: float | None = None,
+    *,
+    masses: np.ndarray | None = None,
+    forces: ForceModel | None = None,
+    points: dict[str, tuple[int, np.ndarray]] | None = None,
+    max_evaluations: int | None = DEFAULT_MAX_EVALUATIONS,
+    stiffness: str = "report",
+    drift_limit: float | None = DRIFT_LIMIT,
+    singular_ratio: float | None = SINGULAR_RATIO,
+    **options,
+) -> Result:
+    """The motion on the output grid t = 0, t_end/steps, ..., t_end.
+
+    Parameters
+    ----------
+    system : the assembled system; q0, qd0 its (approximate) initial coordinates and velocities
+    formulation : one of ``baumgarte``, ``partitioning``, ``qr``, ``svd``, ``projection``, or ``auto``
+        (``choose_method``: svd for redundant constraints, baumgarte otherwise)
+    integrator : a ``solve_ivp`` method (RK45, RK23, DOP853, Radau, BDF, LSODA), ``rk4``, this package's
+        own loop around the same pairs (``rk45``, ``dop853``: less overhead per step), an implicit
+        index-3 method (``hht``, ``generalized-alpha``), or ``auto`` (``choose_method``)
+    rtol, atol : tolerances of the adaptive integrators
+    step : the fixed step of rk4 (default: the output spacing); the largest step of the others
+    masses, forces : the mass matrix and ``ForceModel`` to use instead of the model's (e.g. with user
+        forces added: ``build_forces(model).add(f)``)
+    points : optional {label: (body index, body-frame point)} to add as result columns
+    max_evaluations : budget of right-hand-side evaluations of an ODE integrator (None: none); past it
+        the run stops with an AnalysisError naming the time reached and, when found, the stiffness
+    stiffness : what the explicit methods do when their step is bounded by stability: "report" (in
+        ``info['stiffness']``), "error" (stop with an AnalysisError at once) or "off"
+    drift_limit : how far the positions may be off the constraints at an output time, as a fraction of the
+        mechanism's size (``Guard``; at least 100 rtol; None: no limit); beyond it the run stops with an
+        AnalysisError
+    singular_ratio : after every step of an ODE integrator, the run stops with an AnalysisError when the
+        smallest (non-redundant) singular value of Psi_q falls below this fraction of the largest: a
+        singular configuration, where the motion may switch assembly branch (None: no check)
+    options : the formulation's options, e.g. ``alpha=10, beta=10`` (baumgarte), ``repartition_ratio``
+        (partitioning), ``rank_tol`` (svd)
+
+    Returns
+    -------
+    Result
+        q, q', q'', lambda on the grid; ``points`` holds the histories 'residual.position' (max |Psi|),
+        'residual.velocity' (max |Psi_q q' + Psi_t|), 'energy.kinetic', 'energy.potential',
+        'energy.dissipated', 'energy.applied', 'energy.drivers' and 'energy.error' (E(t) - E(0));
+        ``info`` says how it was obtained (DESIGN section 5) and how far the initial state was corrected.
+
+    Raises
+    ------
+    AnalysisError
+        Assembly failure, redundant constraints with a formulation that cannot take them, an
+        unknown formulation or integrator, an integrator failure: by name.
+    """
+    start = _time.perf_counter()
+    model = system.model
+    M = mass_matrix(model) if masses is None else masses
+    forces = build_forces(model) if forces is None else forces
+    q, qd, initial = consistent_initial_conditions(system, M, q0, qd0)
+    chosen = None
+    if "auto" in (formulation, integrator):
+        chosen = choose_method(system, M, forces, q, qd, t_end, rtol, formulation, integrator, **options)
+        formulation, integrator = chosen["formulation"], chosen["integrator"]
+    if integrator in INDEX3_INTEGRATORS:
+        from .implicit import integrate_index3  # the implicit index-3 integrators (HHT-alpha, generalized-alpha)
+
+        result = integrate_index3(
+            system, M, forces, q, qd, t_end, steps, rtol, atol, step, method=integrator, **options
+        )
+        for label, (body, point) in (points or {}).items():
+            result.points.update(point_columns(result, label, body, point))
+        result.reactions.update(joint_reactions(system, result.q, result.lam, result.t))
+        result.info.update(assembly=initial["assembly"], initial_conditions=initial)
+        result.info["wall_time"] = _time.perf_counter() - start
+        return result
+    if integrator not in INTEGRATORS:
+        known = ", ".join((*INTEGRATORS, *INDEX3_INTEGRATORS))
+        raise AnalysisError(f"unknown integrator {integrator!r} (one of: {known})")
+    _check_redundancy(system, q, formulation)
+    if formulation == "projection" and integrator in MULTISTEP_INTEGRATORS:
+        raise AnalysisError(
+            f"the projection formulation restarts the integrator after every step, which a multistep method "
+            f"({integrator}) cannot afford: use rk4, RK45, DOP853 or Radau"
+        )
+    equations = EquationsOfMotion(
+        make_formulation(formulation, system, M, forces, **options), forces, has_drivers=bool(model.motors)
+    )
+    times = np.linspace(0.0, t_end, steps + 1)
+    history = _History(times.size, system.n_coordinates, system.n_constraints, equations.extra)
+
+    loose = 100.0 * rtol if integrator not in FIXED_STEP_METHODS else 0.0  # a loose tolerance may drift further
+    guard = Guard(system, q, None if drift_limit is None else max(drift_limit, loose), singular_ratio)
+
+    def record(k: int, t: float, z: np.ndarray) -> None:
+        y, energies = equations.split(z)
+        q, qd = equations.formulation.coordinates(t, y)
+        guard.check_drift(q, t)
+        history.store(k, q, qd, *equations.formulation.accelerations(q, qd, t), energies)
+
+    def after_step(t: float, z: np.ndarray) -> np.ndarray | None:
+        corrected = equations.after_step(t, z)
+        guard.check_configuration(equations.formulation, t, equations.split(z if corrected is None else corrected)[0])
+        return corrected
+
+    stats = integrate(
+        equations.rhs,
+        equations.initial_state(q, qd, 0.0),
+        times,
+        record,
+        method=integrator,
+        rtol=rtol,
+        atol=atol,
+        step=step,
+        after_step=after_step if guard.singular_ratio else equations.after_step,
+        max_evaluations=max_evaluations,
+        stiffness=stiffness,
+    )
+    result = Result(
+        t=times,
+        q=history.q,
+        qd=history.qd,
+        qdd=history.qdd,
+        coordinate_names=system.coordinate_names,
+        body_names=[b.name for b in model.bodies],
+        lam=history.lam,
+    )
+    residuals = constraint_residuals(system, times, history.q, history.qd)
+    accumulated = history.energies.T if equations.extra else ()
+    energies = energy_history(M, forces, history.q, history.qd, *accumulated)
+    result.points.update(residuals)
+    result.points.update(energies.columns())
+    for label, (body, point) in (points or {}).items():
+        result.points.update(point_columns(result, label, body, point))
+    result.reactions.update(joint_reactions(system, history.q, history.lam, times))
+    result.info = {
+        "analysis": "dynamic",
+        "formulation": formulation,
+        "integrator": integrator,
+        "rtol": rtol,
+        "atol": atol,
+        "step": step,
+        "steps": steps,
+        "rhs_evaluations": stats.rhs_evaluations,
+        "integrator_steps": stats.steps,
+        "rejected_steps": stats.rejected,
+        "restarts": stats.restarts,
+        "stiffness": None if stats.stiffness is None else stiffness_message(integrator, stats.stiffness),
+        "closest_singularity": guard.closest,
+        "max_constraint_residual": float(residuals["residual.position"].max()),
+        "max_velocity_residual": float(residuals["residual.velocity"].max()),
+        "energy_drift": float(np.max(np.abs(energies.error))),
+        "energy_drift_relative": float(np.max(np.abs(energies.error)) / energies.scale),
+        "assembly": initial["assembly"],
+        "initial_conditions": initial,
+        **_formulation_info(equations.formulation),
+        "wall_time": _time.perf_counter() - start,
+    }
+    if chosen is not None:
+        result.info["chosen"] = chosen
+    return result
+
+
+STIFF_STEPS = 20_000
+"""``choose_method`` takes an implicit method when an explicit one would need more steps than this for
+stability alone (t_end rho / stability limit)."""
+
+
+def choose_method(
+    system: System,
+    M,
+    forces: ForceModel,
+    q: np.ndarray,
+    qd: np.ndarray,
+    t_end: float,
+    rtol: float,
+    formulation: str = "auto",
+    integrator: str = "auto",
+    **options,
+) -> dict:
+    """The cheapest adequate formulation and integrator for a scene (``auto``), and why.
+
+    - formulation: ``svd`` when the constraints are redundant (the only one that takes them),
+      otherwise ``baumgarte``: one linear solve per evaluation, the cheapest of the five;
+    - integrator: the spectral radius rho of the ODE's Jacobian at the start (``spectral_radius``)
+      says how many steps an explicit method needs for stability alone, t_end rho / 6 for DOP853;
+      beyond STIFF_STEPS the scene is stiff and ``Radau`` (implicit, L-stable) is taken. Otherwise
+      this package's ``dop853`` at rtol <= 1e-5 (eighth order: the fewest evaluations at tight
+      tolerances) and ``rk45`` at looser ones.
+    """
+    reasons = []
+    if formulation == "auto":
+        redundant = rank_report(system.jacobian(q, 0.0), system.row_owners).n_redundant
+        formulation = "svd" if redundant else "baumgarte"
+        reasons.append(f"{formulation}: {'redundant' if redundant else 'independent'} constraints")
+    if integrator == "auto":
+        equations = EquationsOfMotion(
+            make_formulation(formulation, system, M, forces, **options), forces, bool(system.model.motors)
+        )
+        y = equations.initial_state(q, qd, 0.0)
+        rho = spectral_radius(equations.rhs, 0.0, y, equations.rhs(0.0, y))
+        stability_steps = t_end * rho / STABILITY_LIMIT["dop853"]
+        if stability_steps > STIFF_STEPS:
+            integrator = "Radau"
+        else:
+            integrator = "dop853" if rtol <= 1e-5 else "rk45"
+        reasons.append(f"{integrator}: spectral radius {rho:.3g} 1/s, {stability_steps:.3g} steps for stability alone")
+    return {"formulation": formulation, "integrator": integrator, "why": "; ".join(reasons)}
+
+
+ALIGNED = 0.9
+"""|det(T_prev^T T)| above which two steps' null spaces are close enough for the sign test of ``Guard``."""
+
+
+class Guard:
+    """Keeps a run from returning a wrong answer silently (two checks, each with the time and the condition):
+
+    - constraint drift: at every output time, how far q is off each constraint, |Psi_i| / |grad Psi_i| (with
+      angles measured as arc lengths L phi, so every row gives metres), must stay below drift_limit L, with
+      L the mechanism's size (the largest distance of a body centre or joint point from the origin, at least
+      1 mm);
+      a formulation that lets the positions leave the constraints (no stabilization, bad Baumgarte
+      parameters) stops here instead of returning a mechanism that has come apart;
+    - singular configurations: near a rank loss of Psi_q (a change point, a toggle) the multipliers grow
+      without bound and the integrator can leave the assembly branch with no error it could see; the
+      motion there is not decided by the equations. After every step the run stops when the sign of
+      det [Psi_q; T^T] flips, T the null-space basis of Psi_q at the step before: a rank loss lies
+      between the two steps (the test function of continuation methods for bifurcation points), or when
+      sigma_r / sigma_1 of Psi_q falls below singular_ratio (r the rank at the start, so redundant
+      constraints do not count; angle columns divided by the mechanism's size and rows to unit length,
+      so the ratio does not depend on units).
+    The smallest ratio met is reported (``info['closest_singularity']``).
+    """
+
+    def __init__(self, system: System, q: np.ndarray, drift_limit: float | None, singular_ratio: float | None):
+        self.system, self.singular_ratio = system, singular_ratio
+        size = max(float(np.max(np.abs(body_positions(system, q)), initial=0.0)), _joint_extent(system.model), 1e-3)
+        self.drift_limit = None if drift_limit is None else drift_limit * size
+        self.rank = rank_report(system.jacobian(q, 0.0), system.row_owners).rank
+        self.closest: dict | None = None
+        self._tangent, self._t, self._sign = None, 0.0, 1.0
+        per, dim = system.coordinates_per_body, system.model.dimension
+        columns = np.ones(per)
+        columns[dim:] = 1.0 / size  # derivatives by an angle (Euler parameter) times its arc length, in 1/m
+        self._columns = np.tile(columns, system.n_bodies)
+
+    def _scaled(self, jacobian: np.ndarray) -> np.ndarray:
+        """Psi_q made free of units and size: derivatives by angles per arc length (divided by the mechanism's
+        size), rows to unit length, so that its singular values measure nearness to a rank loss alone."""
+        scaled = jacobian * self._columns
+        norms = np.linalg.norm(scaled, axis=1, keepdims=True)
+        return scaled / np.where(norms > 0, norms, 1.0)
+
+    def check_drift(self, q: np.ndarray, t: float) -> None:
+        if self.drift_limit is None:
+            return
+        psi = self.system.constraints(q, t)
+        norms = np.linalg.norm(self.system.jacobian(q, t) * self._columns, axis=1)
+        distance = np.abs(psi) / np.where(norms > 0, norms, 1.0)  # |Psi_i| / |grad Psi_i|: how far q is off, in m
+        worst = int(np.nanargmax(distance)) if np.any(np.isfinite(distance)) else 0
+        if not float(np.max(distance, initial=0.0)) <= self.drift_limit:
+            raise AnalysisError(
+                f"constraint drift at t = {t:.6g} s: the positions are {distance[worst]:.3g} m off constraint "
+                f"{self.system.labels[worst]} (|Psi| = {abs(psi[worst]):.3g}), more than {self.drift_limit:.3g} m, "
+                "a thousandth of the mechanism's size: the positions have left the constraints; use baumgarte "
+                "with alpha, beta > 0, or the projection formulation"
+            )
+
+    def check_configuration(self, formulation, t: float, y: np.ndarray) -> None:
+        if not self.singular_ratio or self.rank == 0:
+            return
+        q, _ = formulation.coordinates(t, y)
+        jacobian = self._scaled(self.system.jacobian(q, t))
+        _, s, vt = np.linalg.svd(jacobian)
+        ratio = float(s[self.rank - 1] / s[0]) if s[0] > 0 else 0.0
+        if self.closest is None or ratio < self.closest["ratio"]:
+            self.closest = {"t": float(t), "ratio": ratio}
+        passed = False
+        tangent = vt[self.rank :].T
+        if self._tangent is not None and jacobian.shape[0] == self.rank:
+            # the sign of det [Psi_q; T^T] with the previous step's null-space basis T flips when a rank loss
+            # lies between the two steps (the test function of continuation methods for bifurcation points);
+            # it says so only while the null space has turned little over the step (|det T^T T_new| near 1)
+            aligned = abs(np.linalg.det(self._tangent.T @ tangent)) > ALIGNED
+            passed = aligned and np.linalg.det(np.vstack([jacobian, self._tangent.T])) * self._sign < 0
+        if passed or not ratio >= self.singular_ratio:
+            from .diagnostics import singular_joints
+
+            _, joints = singular_joints(self.system.jacobian(q, t), self.system.row_owners)
+            where = f"between t = {self._t:.6g} s and t = {t:.6g} s" if passed else f"at t = {t:.6g} s"
+            raise AnalysisError(
+                f"singular configuration {where}: Psi_q {'lost rank there' if passed else 'is about to lose rank'} "
+                f"(smallest singular value {ratio:.2g} of the largest, condition number {1 / max(ratio, 1e-300):.3g}); "
+                f"joints involved: {', '.join(joints)}. The mechanism can switch assembly branch there (a change "
+                "point or a toggle), which the equations of motion do not decide; singular_ratio=None runs on"
+            )
+        self._tangent, self._t = tangent, t
+        if jacobian.shape[0] == self.rank:
+            self._sign = np.sign(np.linalg.det(np.vstack([jacobian, self._tangent.T])))
+
+
+def body_positions(system: System, q: np.ndarray) -> np.ndarray:
+    """The body centres' coordinates in q (planar x, y; spatial x, y, z)."""
+    per, dim = system.coordinates_per_body, system.model.dimension
+    return q.reshape(-1, per)[:, :dim]
+
+
+def _joint_extent(model) -> float:
+    points = [np.asarray(j["location"], dtype=float) for j in model.joints if "location" in j]
+    return max((float(np.max(np.abs(p))) for p in points), default=0.0)
+
+
+class _History:
+    """Output arrays filled as the integrator passes the output times."""
+
+    def __init__(self, size: int, n: int, m: int, extra: int):
+        self.q, self.qd, self.qdd = (np.empty((size, n)) for _ in range(3))
+        self.lam = np.empty((size, m))
+        self.energies = np.zeros((size, extra))
+
+    def store(self, k, q, qd, qdd, lam, energies) -> None:
+        self.q[k], self.qd[k], self.qdd[k] = q, qd, qdd
+        self.lam[k] = lam
+        self.energies[k] = energies
+
+
+def constraint_residuals(system: System, t: np.ndarray, q: np.ndarray, qd: np.ndarray) -> dict[str, np.ndarray]:
+    """Histories of max |Psi(q, t)| and max |Psi_q q' + Psi_t| (columns 'residual.position', 'residual.velocity')."""
+    position, velocity = np.empty(t.size), np.empty(t.size)
+    for k, time in enumerate(t):
+        position[k] = np.max(np.abs(system.constraints(q[k], time)), initial=0.0)
+        jacobian = system.jacobian(q[k], time)
+        velocity[k] = np.max(np.abs(jacobian @ qd[k] + system.psi_t(q[k], time)), initial=0.0)
+    return {"residual.position": position, "residual.velocity": velocity}
+
+
+def _check_redundancy(system: System, q: np.ndarray, formulation: str) -> None:
+    """Only the SVD formulation copes with redundant constraints: refuse the others by name."""
+    report = rank_report(system.jacobian(q, 0.0), system.row_owners)
+    if report.n_redundant and formulation != "svd":
+        raise AnalysisError(
+            f"{report.n_redundant} redundant constraint equation(s) among joints "
+            f"{', '.join(report.redundant_joints)}: the {formulation} formulation needs independent "
+            "constraints; use --formulation svd, or remove the redundant joint"
+        )
+
+
+def _formulation_info(formulation: Formulation) -> dict:
+    info = {}
+    if hasattr(formulation, "alpha") and (formulation.alpha or formulation.beta):
+        info.update(alpha=formulation.alpha, beta=formulation.beta)
+    if hasattr(formulation, "repartitions"):
+        info.update(repartitions=formulation.repartitions, partitions=formulation.partitions)
+    if hasattr(formulation, "projections"):
+        info["projections"] = formulation.projections
+    return info
+
+
+__all__ = [
+    "FORMULATIONS",
+    "INDEX3_INTEGRATORS",
+    "EquationsOfMotion",
+    "choose_method",
+    "consistent_initial_conditions",
+    "constraint_residuals",
+    "forward_dynamics",
+]

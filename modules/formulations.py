@@ -1,0 +1,467 @@
+# Generated from solutions/formulations.py by `make modules` (every homework stubbed): do not edit by hand.
+"""Forward-dynamics formulations: from the state (q, q') to the accelerations q'' and multipliers lambda.
+
+Every formulation solves the same equations of motion with constraints (course notes, chapter 5)
+
+    M q'' + Psi_q^T lambda = Q(q, q', t),      Psi_q q'' = gamma          (eq. 5.25, 5.26)
+
+and differs in how it keeps the positions and velocities on the constraint manifold Psi = 0,
+Psi' = Psi_q q' + Psi_t = 0 while an ODE integrator advances them:
+
+=================  ==============================================================================
+``baumgarte``      augmented Lagrange-multiplier system, gamma stabilized (eq. 5.30)
+``partitioning``   coordinate partitioning (Wehage-Haug): integrate the independent coordinates,
+                   Newton-correct the dependent ones, repartition when Psi_u degrades (eq. 5.40)
+``qr``             null-space projection with a QR basis of Psi_q^T (eq. 5.45)
+``svd``            null-space projection with an SVD basis; copes with redundant constraints (eq. 5.47)
+``projection``     unstabilized augmented system, then mass-orthogonal projection of q and q'
+                   onto Psi = 0 and Psi' = 0 after each step (eq. 5.50)
+=================  ==============================================================================
+
+A formulation is an object made once per run. The integrator sees only its state vector y:
+
+- ``initial_state(q, q', t) -> y``  and  ``coordinates(t, y) -> (q, q')``
+- ``accelerations(q, q', t) -> (q'', lambda)``  (the formulation's equation)
+- ``state_derivative(q, q', q'') -> y'``,  so ``rhs(t, y)`` = the three above in a row
+- ``after_step(t, y) -> y or None``: a new state to restart from (projection, repartitioning)
+
+The mass matrix is constant (planar body coordinates), so its inverse is made once.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg
+
+from .assembly import System
+from .diagnostics import AnalysisError
+from .generalized_forces import ForceModel
+
+SINGULAR_CONDITION = 1e12
+"""Condition number of Psi_u above which coordinate partitioning refuses a partition."""
+
+DEFAULT_ALPHA = 5.0
+DEFAULT_BETA = 5.0
+"""Baumgarte's alpha = beta = 5 1/s (Nikravesh 1988, sec. 13.4): critically damped constraint error
+Psi'' + 2 alpha Psi' + beta^2 Psi = 0 with a time constant of 0.2 s, slow beside the integrator's steps."""
+
+
+# -- the course's equations --------------------------------------------------------------------------
+def baumgarte_gamma(gamma: np.ndarray, psi: np.ndarray, psi_dot: np.ndarray, alpha: float, beta: float) -> np.ndarray:
+    """gamma_bar = gamma - 2 alpha Psi' - beta^2 Psi (eq. 5.29, DESIGN section 3).
+
+    Asking Psi_q q'' = gamma_bar instead of gamma makes the constraint error obey the damped
+    oscillator Psi'' + 2 alpha Psi' + beta^2 Psi = 0 instead of Psi'' = 0 (Baumgarte 1972).
+    """
+    raise NotImplementedError("baumgarte_gamma: gamma_bar = gamma - 2 alpha Psi' - beta^2 Psi, see eq. 5.29")
+
+
+def augmented_accelerations(
+    M: np.ndarray, jacobian: np.ndarray, Q: np.ndarray, gamma: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Solve the augmented system for q'' and lambda (eq. 5.30):
+
+    [ M      Psi_q^T ] [ q''    ]   [ Q     ]
+    [ Psi_q  0       ] [ lambda ] = [ gamma ]
+    """
+    n = M.shape[0]
+    raise NotImplementedError("augmented_accelerations: Solve the augmented system for q'' and lambda, see eq. 5.30")
+    return solution[:n], solution[n:]
+
+
+def null_space_accelerations(
+    M: np.ndarray, Q: np.ndarray, gamma: np.ndarray, Z: np.ndarray, particular: np.ndarray
+) -> np.ndarray:
+    """q'' = q''_p + Z z with Z^T M Z z = Z^T (Q - M q''_p) (eq. 5.44).
+
+    Z spans the null space of Psi_q (Psi_q Z = 0), q''_p is any solution of Psi_q q''_p = gamma: the
+    constraint forces Psi_q^T lambda do no work along Z, so projecting the equations of motion onto
+    Z removes lambda.
+    """
+    Zt = Z.T
+    z = np.linalg.solve(Zt @ M @ Z, Zt @ (Q - M @ particular))
+    return particular + Z @ z
+
+
+# -- common machinery ----------------------------------------------------------------------------------
+class Formulation:
+    """Base: state y = (q, q'); subclasses give ``accelerations``."""
+
+    name = ""
+
+    def __init__(self, system: System, M: np.ndarray, forces: ForceModel, alpha: float = 0.0, beta: float = 0.0):
+        self.system, self.M, self.forces = system, M, forces
+        self.n = system.n_coordinates
+        self.alpha, self.beta = float(alpha), float(beta)
+        if not (self.alpha >= 0.0 and self.beta >= 0.0):
+            raise AnalysisError(
+                f"Baumgarte parameters alpha = {alpha}, beta = {beta}: both must be >= 0; a negative one makes the "
+                "constraint error grow as exp(|alpha| t) instead of dying out (eq. 5.29)"
+            )
+        self._mass = M if callable(M) else None  # a spatial model's M(q): evaluated at every state
+        if self._mass is None:
+            self.factor_mass(M)
+        self._Q_constant = (
+            forces.generalized_forces(np.zeros(self.n), np.zeros(self.n), 0.0) if forces.is_constant else None
+        )
+
+    # -- pieces every formulation uses
+    def factor_mass(self, M: np.ndarray) -> None:
+        """Keep M; ``mass_solve`` factors it when first asked (formulations that only assemble M never do)."""
+        self.M = M
+        self._inverse_diagonal = self._cholesky = None
+
+    def mass(self, q: np.ndarray) -> np.ndarray:
+        """M at q: the constant matrix of a planar model; a spatial model's M(q), evaluated anew."""
+        if self._mass is not None:
+            self.factor_mass(self._mass(q))
+        return self.M
+
+    def mass_solve(self, x: np.ndarray) -> np.ndarray:
+        """M^-1 x for a vector or the columns of a matrix (M factored once per M: once for a planar model)."""
+        if self._inverse_diagonal is None and self._cholesky is None:
+            diagonal = np.diag(self.M)
+            if np.array_equal(self.M, np.diag(diagonal)):
+                self._inverse_diagonal = 1.0 / diagonal  # planar body coordinates: M^-1 is diagonal too
+            else:
+                self._cholesky = scipy.linalg.cho_factor(self.M)
+        if self._inverse_diagonal is not None:
+            return (x.T * self._inverse_diagonal).T
+        return scipy.linalg.cho_solve(self._cholesky, x)
+
+    def applied_forces(self, q: np.ndarray, qd: np.ndarray, t: float) -> np.ndarray:
+        """Q(q, q', t); gravity alone (or nothing) is a constant vector computed once."""
+        if self.forces.is_constant:
+            return self._Q_constant
+        return self.forces.generalized_forces(q, qd, t)
+
+    def constraint_terms(self, q: np.ndarray, qd: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """(Psi_q, gamma), gamma stabilized to gamma_bar when alpha or beta is set (eq. 5.29).
+
+        The system evaluates what it needs in one pass (``System.evaluate``): Psi and Psi_t only for
+        the stabilization.
+        """
+        stabilized = self.alpha != 0.0 or self.beta != 0.0
+        psi, jacobian, psi_t, gamma = self.system.evaluate(q, qd, t, constraints=stabilized, psi_t=stabilized)
+        if stabilized:
+            gamma = baumgarte_gamma(gamma, psi, jacobian @ qd + psi_t, self.alpha, self.beta)
+        return jacobian, gamma
+
+    def stabilized_gamma(self, q: np.ndarray, qd: np.ndarray, t: float, jacobian: np.ndarray) -> np.ndarray:
+        """gamma, or gamma_bar when alpha or beta is set (eq. 5.29)."""
+        gamma = self.system.gamma(q, qd, t)
+        if self.alpha == 0.0 and self.beta == 0.0:
+            return gamma
+        psi = self.system.constraints(q, t)
+        psi_dot = jacobian @ qd + self.system.psi_t(q, t)
+        return baumgarte_gamma(gamma, psi, psi_dot, self.alpha, self.beta)
+
+    # -- the integrator's view
+    def initial_state(self, q: np.ndarray, qd: np.ndarray, t: float) -> np.ndarray:
+        return np.concatenate([q, qd])
+
+    def coordinates(self, t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return y[: self.n], y[self.n :]
+
+    def state_derivative(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+        return np.concatenate([qd, qdd])
+
+    def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
+        """y' = f(t, y): the first-order form the integrator advances."""
+        q, qd = self.coordinates(t, y)
+        qdd, _ = self.accelerations(q, qd, t)
+        return self.state_derivative(q, qd, qdd)
+
+    def after_step(self, t: float, y: np.ndarray) -> np.ndarray | None:
+        return None
+
+    def accelerations(self, q: np.ndarray, qd: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
+        raise NotImplementedError
+
+
+class Baumgarte(Formulation):
+    """Augmented Lagrange-multiplier system with Baumgarte stabilization (eq. 5.30).
+
+        [ M      Psi_q^T ] [ q''    ]   [ Q                                  ]
+        [ Psi_q  0       ] [ lambda ] = [ gamma - 2 alpha Psi' - beta^2 Psi  ]
+
+    alpha = beta = 0 is the plain index-1 system, whose constraint error drifts.
+    """
+
+    name = "baumgarte"
+
+    def __init__(self, system, M, forces, alpha: float = DEFAULT_ALPHA, beta: float = DEFAULT_BETA):
+        super().__init__(system, M, forces, alpha, beta)
+
+    def accelerations(self, q, qd, t):
+        jacobian, gamma = self.constraint_terms(q, qd, t)
+        return augmented_accelerations(self.mass(q), jacobian, self.applied_forces(q, qd, t), gamma)
+
+
+class NullSpaceQR(Formulation):
+    """Null-space projection with QR (eq. 5.45).
+
+    Psi_q^T = [Y Z] [R; 0] (full QR, R m x m upper triangular): Z (n x (n-m)) spans the null space of
+    Psi_q, and q''_p = Y R^-T gamma solves Psi_q q''_p = gamma. Then lambda = R^-1 Y^T (Q - M q'').
+    Psi_q must have full row rank (use ``svd`` for redundant constraints). Optional alpha, beta
+    stabilize gamma as in ``baumgarte`` (default 0: the pure method).
+    """
+
+    name = "qr"
+
+    def accelerations(self, q, qd, t):
+        jacobian, gamma = self.constraint_terms(q, qd, t)
+        Q = self.applied_forces(q, qd, t)
+        m = jacobian.shape[0]
+        basis, R = np.linalg.qr(jacobian.T, mode="complete")
+        Y, Z, R = basis[:, :m], basis[:, m:], R[:m]
+        particular = Y @ scipy.linalg.solve_triangular(R, gamma, trans="T")
+        qdd = null_space_accelerations(self.mass(q), Q, gamma, Z, particular)
+        lam = scipy.linalg.solve_triangular(R, Y.T @ (Q - self.M @ qdd))
+        return qdd, lam
+
+
+class NullSpaceSVD(Formulation):
+    """Null-space projection with the SVD Psi_q = U S V^T (eq. 5.47).
+
+    With r the numerical rank (singular values above ``rank_tol`` times the largest), V_2 = V[:, r:]
+    spans the null space and q''_p = V_1 S_1^-1 U_1^T gamma is the minimum-norm solution of
+    Psi_q q''_p = gamma. Redundant constraints (r < m) are fine: the multipliers are then not unique
+    and lambda = U_1 S_1^-1 V_1^T (Q - M q'') is the minimum-norm set, which gives the same
+    constraint forces Psi_q^T lambda as any other.
+    """
+
+    name = "svd"
+
+    def __init__(self, system, M, forces, alpha: float = 0.0, beta: float = 0.0, rank_tol: float = 1e-9):
+        super().__init__(system, M, forces, alpha, beta)
+        self.rank_tol = rank_tol
+
+    def accelerations(self, q, qd, t):
+        jacobian, gamma = self.constraint_terms(q, qd, t)
+        Q = self.applied_forces(q, qd, t)
+        U, s, Vt = np.linalg.svd(jacobian)
+        r = int(np.sum(s > self.rank_tol * s[0])) if s.size else 0
+        U1, s1, V1, Z = U[:, :r], s[:r], Vt[:r].T, Vt[r:].T
+        particular = V1 @ ((U1.T @ gamma) / s1)
+        qdd = null_space_accelerations(self.mass(q), Q, gamma, Z, particular)
+        lam = U1 @ ((V1.T @ (Q - self.M @ qdd)) / s1)
+        return qdd, lam
+
+
+class Projection(Formulation):
+    """Unstabilized augmented system, then projection after each step (eq. 5.50).
+
+    After each integrator step the positions and velocities are moved back onto the constraints by
+    the corrections of least kinetic-energy norm (mass-orthogonal projection; Bayo and Ledesma 1996):
+
+        q  <- q  - M^-1 Psi_q^T (Psi_q M^-1 Psi_q^T)^-1 Psi          (Newton iterations until |Psi| < tol)
+        q' <- q' - M^-1 Psi_q^T (Psi_q M^-1 Psi_q^T)^-1 (Psi_q q' + Psi_t)
+
+    The integrator restarts from the projected state, so use it with one-step methods (rk4, RK45,
+    DOP853): a multistep method (BDF, LSODA) would lose its history at every step.
+    """
+
+    name = "projection"
+
+    def __init__(self, system, M, forces, tol: float = 1e-12, max_iterations: int = 10):
+        super().__init__(system, M, forces)
+        self.tol, self.max_iterations = tol, max_iterations
+        self.projections = 0
+
+    def accelerations(self, q, qd, t):
+        jacobian, gamma = self.constraint_terms(q, qd, t)
+        return augmented_accelerations(self.mass(q), jacobian, self.applied_forces(q, qd, t), gamma)
+
+    def after_step(self, t, y):
+        q, qd = project_positions(self, y[: self.n], t, self.tol, self.max_iterations)
+        qd = project_velocities(self, q, y[self.n :], t)
+        self.projections += 1
+        return np.concatenate([q, qd])
+
+
+def project_positions(
+    formulation: Formulation, q: np.ndarray, t: float, tol: float = 1e-12, max_iterations: int = 10
+) -> tuple[np.ndarray, np.ndarray]:
+    """Mass-orthogonal projection of q onto Psi(q, t) = 0 (eq. 5.50); returns (q, Psi_q at q)."""
+    system = formulation.system
+    for _ in range(max_iterations):
+        psi = system.constraints(q, t)
+        jacobian = system.jacobian(q, t)
+        if np.max(np.abs(psi), initial=0.0) < tol:
+            return q, jacobian
+        weighted = formulation.mass_solve(jacobian.T)  # M^-1 Psi_q^T
+        q = q - weighted @ np.linalg.solve(jacobian @ weighted, psi)
+    raise AnalysisError(f"position projection did not converge at t = {t:.6g} s (residual {np.abs(psi).max():.3g})")
+
+
+def project_velocities(formulation: Formulation, q: np.ndarray, qd: np.ndarray, t: float) -> np.ndarray:
+    """Mass-orthogonal projection of q' onto Psi_q q' + Psi_t = 0 (eq. 5.50)."""
+    system = formulation.system
+    jacobian = system.jacobian(q, t)
+    weighted = formulation.mass_solve(jacobian.T)
+    residual = jacobian @ qd + system.psi_t(q, t)
+    return qd - weighted @ np.linalg.solve(jacobian @ weighted, residual)
+
+
+class Partitioning(Formulation):
+    """Coordinate partitioning (Wehage and Haug 1982) (eq. 5.40).
+
+    q is split into m dependent coordinates u and n - m independent ones v, chosen as the pivot
+    columns of a column-pivoted QR of Psi_q (the best-conditioned block Psi_u). The integrator
+    advances only y = (v, v'); at every evaluation
+
+    1. u from Psi(u, v, t) = 0 by Newton-Raphson, Psi_u du = -Psi  (starting from the last u)
+    2. u' from Psi_u u' = -Psi_v v' - Psi_t
+    3. q'' and lambda from the augmented system (eq. 5.30, unstabilized), of which v'' is kept.
+
+    After each step the condition number of Psi_u is checked: when it has grown by more than
+    ``repartition_ratio`` since the partition was chosen, a new partition is chosen and the
+    integrator restarts (``after_step``). ``independent`` forces the first partition (coordinate
+    names such as 'crank.phi').
+    """
+
+    name = "partitioning"
+
+    def __init__(
+        self,
+        system,
+        M,
+        forces,
+        tol: float = 1e-12,
+        max_iterations: int = 20,
+        repartition_ratio: float = 10.0,
+        independent: list[str] | None = None,
+    ):
+        super().__init__(system, M, forces)
+        self.tol, self.max_iterations, self.repartition_ratio = tol, max_iterations, repartition_ratio
+        self._forced = list(independent) if independent else None
+        self.repartitions = 0
+        self.partitions: list[tuple[float, list[str]]] = []
+
+    # -- choosing the partition
+    def partition(self, q: np.ndarray, t: float) -> None:
+        """Choose dependent columns u (pivots of a column-pivoted QR of Psi_q) and independent v."""
+        jacobian = self.system.jacobian(q, t)
+        m = jacobian.shape[0]
+        if self._forced is not None:
+            names = self.system.coordinate_names
+            independent = sorted(names.index(name) for name in self._forced)
+            self._forced = None
+        else:
+            _, _, pivots = scipy.linalg.qr(jacobian, pivoting=True, mode="economic")
+            independent = sorted(pivots[m:])
+        self.v = np.array(independent, dtype=int)
+        self.u = np.array(sorted(set(range(self.n)) - set(independent)), dtype=int)
+        if self.u.size != m:
+            raise AnalysisError(f"partitioning: {self.u.size} dependent coordinates for {m} constraints")
+        self.condition = np.linalg.cond(jacobian[:, self.u])
+        if not self.condition < SINGULAR_CONDITION:
+            names = ", ".join(self.system.coordinate_names[k] for k in self.v)
+            raise AnalysisError(
+                f"partitioning at t = {t:.6g} s: Psi_u of the dependent coordinates is singular with {names} "
+                f"independent (condition number {self.condition:.3g}): the constraints do not fix the others "
+                "there; choose other independent coordinates (or none, to let the pivots choose)"
+            )
+        self.partitions.append((t, [self.system.coordinate_names[k] for k in self.v]))
+        self._q, self._jacobian = q.copy(), jacobian
+
+    def initial_state(self, q, qd, t):
+        self.partition(q, t)
+        return np.concatenate([q[self.v], qd[self.v]])
+
+    # -- from (v, v') to (q, q')
+    def coordinates(self, t, y):
+        k = self.v.size
+        q = self._q.copy()
+        q[self.v] = y[:k]
+        for _ in range(self.max_iterations):
+            psi = self.system.constraints(q, t)
+            jacobian = self.system.jacobian(q, t)
+            if np.max(np.abs(psi), initial=0.0) < self.tol:
+                break
+            q[self.u] -= _solve(jacobian[:, self.u], psi, t)
+        else:
+            raise AnalysisError(
+                f"partitioning: Newton-Raphson for the dependent coordinates did not converge at t = {t:.6g} s "
+                f"(residual {np.abs(psi).max():.3g})"
+            )
+        self._q, self._jacobian = q, jacobian  # kept for the next Newton start and for ``accelerations``
+        qd = np.empty(self.n)
+        qd[self.v] = y[k:]
+        qd[self.u] = _solve(jacobian[:, self.u], -jacobian[:, self.v] @ y[k:] - self.system.psi_t(q, t), t)
+        return q, qd
+
+    def state_derivative(self, q, qd, qdd):
+        return np.concatenate([qd[self.v], qdd[self.v]])
+
+    def rhs(self, t, y):
+        """y' = (v', v''). A trial state of the integrator whose v admits no u (an independent coordinate
+        pushed beyond the mechanism's reach by a large step) gives NaN, so an adaptive integrator rejects
+        the step and retries a shorter one instead of stopping."""
+        try:
+            return super().rhs(t, y)
+        except AnalysisError:
+            return np.full(y.size, np.nan)
+
+    def accelerations(self, q, qd, t):
+        jacobian = self._jacobian if q is self._q else self.system.jacobian(q, t)  # q just made by coordinates()
+        return augmented_accelerations(
+            self.mass(q), jacobian, self.applied_forces(q, qd, t), self.system.gamma(q, qd, t)
+        )
+
+    def after_step(self, t, y):
+        q, qd = self.coordinates(t, y)
+        condition = np.linalg.cond(self.system.jacobian(q, t)[:, self.u])
+        if condition <= self.repartition_ratio * self.condition:
+            return None
+        self.repartitions += 1
+        return self.initial_state(q, qd, t)
+
+
+def _solve(matrix: np.ndarray, rhs: np.ndarray, t: float) -> np.ndarray:
+    """matrix^-1 rhs, a singular matrix reported as an AnalysisError (with the time) instead of LinAlgError."""
+    try:
+        return np.linalg.solve(matrix, rhs)
+    except np.linalg.LinAlgError:
+        raise AnalysisError(f"partitioning at t = {t:.6g} s: Psi_u is singular") from None
+
+
+FORMULATIONS = {
+    "baumgarte": Baumgarte,
+    "partitioning": Partitioning,
+    "qr": NullSpaceQR,
+    "svd": NullSpaceSVD,
+    "projection": Projection,
+}
+
+
+def make_formulation(name: str, system: System, M: np.ndarray, forces: ForceModel, **options) -> Formulation:
+    """The formulation called ``name`` (one of FORMULATIONS) with its options (alpha, beta, tol, ...)."""
+    try:
+        cls = FORMULATIONS[name]
+    except KeyError:
+        raise AnalysisError(f"unknown formulation {name!r} (one of: {', '.join(FORMULATIONS)})") from None
+    try:
+        return cls(system, M, forces, **options)
+    except TypeError as err:
+        raise AnalysisError(f"formulation {name!r}: {err}") from None
+
+
+__all__ = [
+    "DEFAULT_ALPHA",
+    "DEFAULT_BETA",
+    "FORMULATIONS",
+    "Baumgarte",
+    "Formulation",
+    "NullSpaceQR",
+    "NullSpaceSVD",
+    "Partitioning",
+    "Projection",
+    "augmented_accelerations",
+    "baumgarte_gamma",
+    "make_formulation",
+    "null_space_accelerations",
+    "project_positions",
+    "project_velocities",
+]

@@ -1,0 +1,471 @@
+# Generated from solutions/implicit.py by `make modules` (every homework stubbed): do not edit by hand.
+"""Implicit integration of the index-3 equations of motion: the generalized-alpha method.
+
+Commercial multibody codes (Adams, Chrono, Simpack, Abaqus) integrate the equations of motion in their
+original index-3 form, positions on the constraints and no Baumgarte terms, with an implicit
+Newmark-type method: stiff springs and fast modes do not limit the step, and numerical damping
+removes the high frequencies a coarse step cannot resolve. At every step t_n -> t_n+1 = t_n + h the
+unknowns q'', lambda at t_n+1 solve (course notes, sec. 6.5, eq. 6.50-6.53; Arnold and Bruels 2007)
+
+    M q''_n+1 + Psi_q(q_n+1)^T lambda_n+1 = Q(q_n+1, q'_n+1, t_n+1)      equations of motion
+    Psi(q_n+1, t_n+1) = 0                                                 constraints (index 3)
+    q_n+1  = q_n + h q'_n + h^2 (1/2 - beta) a_n + h^2 beta a_n+1          Newmark formulas
+    q'_n+1 = q'_n + h (1 - gamma) a_n + h gamma a_n+1
+    (1 - alpha_m) a_n+1 + alpha_m a_n = (1 - alpha_f) q''_n+1 + alpha_f q''_n
+
+with an auxiliary "acceleration" a (a_0 = q''_0). The parameters follow from the spectral radius
+rho_inf of the method at infinite step (Chung and Hulbert 1993):
+
+    generalized-alpha   alpha_m = (2 rho_inf - 1) / (rho_inf + 1),  alpha_f = rho_inf / (rho_inf + 1)
+    hht                 alpha_m = 0,  alpha_f = (1 - rho_inf) / (1 + rho_inf),  rho_inf in [1/2, 1]
+                        (Hilber-Hughes-Taylor in the form of Arnold and Bruels)
+    both                gamma = 1/2 - alpha_m + alpha_f,  beta = (gamma + 1/2)^2 / 4
+
+Both are second-order accurate and unconditionally stable for linear problems; rho_inf = 1 keeps every
+frequency (no damping), smaller values damp the frequencies that the step cannot resolve.
+
+Newton iterations (eq. 6.56). q_n+1 and q'_n+1 depend linearly on q''_n+1, with
+dq/dq'' = h^2 beta' and dq'/dq'' = h gamma', beta' = beta (1 - alpha_f) / (1 - alpha_m), gamma' likewise.
+The residual, with the constraints scaled by 1/(h^2 beta') so the iteration matrix does not degrade for
+small h (Bottasso, Bauchau and Cardona 2008), and the iteration matrix are
+
+    r = [ M q'' + Psi_q^T lambda - Q ;  Psi / (h^2 beta') ]
+    S = [ M + h^2 beta' K + h gamma' C    Psi_q^T ]      K = d(Psi_q^T lambda - Q)/dq  tangent stiffness
+        [ Psi_q                           0       ]      C = -dQ/dq'                   tangent damping
+
+and each iteration solves S [dq''; dlambda] = -r. K and C, formed by forward differences (2n evaluations
+of Q and n of Psi_q), are kept from step to step (modified Newton) and recomputed only when the
+iterations stall or diverge; S itself is refactored at every step with the step's h and Psi_q at the
+predictor (q'' and lambda of the last step). The iterations stop when the position correction
+h^2 beta' dq'' is below ``newton_tol`` in the weighted norm below.
+
+Step control (eq. 6.58). With an output grid and no fixed ``step``, the step adapts to the local error
+of the positions, estimated from the change of a over the step. a_n approximates q'' at the shifted
+time t_n + (alpha_m - alpha_f) h, and the Taylor expansion of the q formula then leaves the local
+error h^3 (beta - gamma/2 + 1/12) q''' (Zienkiewicz and Xie 1991 for Newmark, gamma = 1/2), so
+
+    e = h^2 (beta - gamma/2 + 1/12) (a_n+1 - a_n),    err = sqrt(mean((e / (atol + rtol |q|))^2))
+
+A step with err <= 1 is accepted; the next step is h min(2, max(0.2, 0.9 err^(-1/3))) (the method is
+second order, the error is O(h^3)). A rejected step or a failed Newton iteration is retried with a
+smaller h. Steps end on every output time. With ``step`` given the step is fixed (each output interval
+is split into equal steps no longer than ``step``) and there is no error control.
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg
+
+from .assembly import System
+from .diagnostics import AnalysisError
+from .dynamics import constraint_residuals
+from .energy import constraint_power, energy_history
+from .formulations import augmented_accelerations
+from .generalized_forces import ForceModel
+from .mass_matrix import mass_at
+from .results import Result
+
+METHODS = ("generalized-alpha", "hht")
+DEFAULT_RHO = 0.9
+"""rho_inf = 0.9: little damping of the resolved motion, the unresolved high frequencies die out."""
+
+
+@dataclass(frozen=True)
+class AlphaParameters:
+    """alpha_m, alpha_f, gamma, beta of the generalized-alpha family (eq. 6.54)."""
+
+    alpha_m: float
+    alpha_f: float
+    gamma: float
+    beta: float
+
+    @property
+    def beta_prime(self) -> float:
+        """beta' = dq_n+1/dq''_n+1 / h^2 = beta (1 - alpha_f) / (1 - alpha_m)."""
+        return self.beta * (1.0 - self.alpha_f) / (1.0 - self.alpha_m)
+
+    @property
+    def gamma_prime(self) -> float:
+        """gamma' = dq'_n+1/dq''_n+1 / h = gamma (1 - alpha_f) / (1 - alpha_m)."""
+        return self.gamma * (1.0 - self.alpha_f) / (1.0 - self.alpha_m)
+
+    @property
+    def error_constant(self) -> float:
+        """C in the local position error C h^2 (a_n+1 - a_n) (eq. 6.58)."""
+        return self.beta - self.gamma / 2.0 + 1.0 / 12.0
+
+
+def alpha_parameters(method: str = "generalized-alpha", rho_inf: float = DEFAULT_RHO) -> AlphaParameters:
+    """The parameters of ``method`` ('generalized-alpha' or 'hht') for spectral radius rho_inf (eq. 6.54)."""
+    if method == "generalized-alpha":
+        if not 0.0 <= rho_inf <= 1.0:
+            raise AnalysisError(f"generalized-alpha: rho_inf = {rho_inf} must lie in [0, 1]")
+        alpha_m = (2.0 * rho_inf - 1.0) / (rho_inf + 1.0)
+        alpha_f = rho_inf / (rho_inf + 1.0)
+    elif method == "hht":
+        if not 0.5 <= rho_inf <= 1.0:
+            raise AnalysisError(f"hht: rho_inf = {rho_inf} must lie in [0.5, 1] (alpha in [0, 1/3])")
+        alpha_m, alpha_f = 0.0, (1.0 - rho_inf) / (1.0 + rho_inf)
+    else:
+        raise AnalysisError(f"unknown implicit method {method!r} (one of: {', '.join(METHODS)})")
+    gamma = 0.5 - alpha_m + alpha_f
+    return AlphaParameters(alpha_m, alpha_f, gamma, 0.25 * (gamma + 0.5) ** 2)
+
+
+def weighted_norm(x: np.ndarray, q: np.ndarray, rtol: float, atol: float) -> float:
+    """sqrt(mean((x / (atol + rtol |q|))^2)): the error norm of step control and Newton iterations."""
+    return float(np.sqrt(np.mean((x / (atol + rtol * np.abs(q))) ** 2)))
+
+
+@dataclass
+class Counters:
+    """Work done by a run: residual (right-hand-side) evaluations, iteration matrices, steps."""
+
+    rhs_evaluations: int = 0
+    tangent_updates: int = 0
+    factorizations: int = 0
+    newton_iterations: int = 0
+    accepted_steps: int = 0
+    rejected_steps: int = 0
+    newton_failures: int = 0
+
+
+@dataclass
+class Index3Stepper:
+    """One step of the generalized-alpha method on M q'' + Psi_q^T lambda = Q, Psi = 0."""
+
+    system: System
+    M: np.ndarray
+    forces: ForceModel
+    parameters: AlphaParameters
+    rtol: float
+    atol: float
+    newton_tol: float = 1e-3
+    max_iterations: int = 8
+    counters: Counters = field(default_factory=Counters)
+
+    def __post_init__(self):
+        self._tangent = None  # (K, C), kept while the Newton iterations converge fast
+        self._lu = None  # factored iteration matrix and the h it was made for
+        self._lu_h = 0.0
+
+    # -- the pieces of the residual ------------------------------------------------------------
+    def _generalized_forces(self, q: np.ndarray, qd: np.ndarray, t: float) -> np.ndarray:
+        self.counters.rhs_evaluations += 1
+        return self.forces.generalized_forces(q, qd, t)
+
+    def _constraint_term(self, q: np.ndarray, lam: np.ndarray, t: float) -> np.ndarray:
+        """Psi_q(q)^T lambda."""
+        return self.system.jacobian(q, t).T @ lam
+
+    def tangent_matrices(self, q, qd, lam, t) -> tuple[np.ndarray, np.ndarray]:
+        """K = d(Psi_q^T lambda - Q)/dq and C = -dQ/dq' by forward differences (eq. 6.56)."""
+        n = q.size
+        base_force = self._generalized_forces(q, qd, t)
+        base = self._constraint_term(q, lam, t) - base_force
+        K, C = np.empty((n, n)), np.zeros((n, n))
+        for k in range(n):
+            delta = math.sqrt(np.finfo(float).eps) * max(1.0, abs(q[k]))
+            shifted = q.copy()
+            shifted[k] += delta
+            force = base_force if self.forces.is_constant else self._generalized_forces(shifted, qd, t)
+            K[:, k] = (self._constraint_term(shifted, lam, t) - force - base) / delta
+            if not self.forces.is_constant:
+                delta = math.sqrt(np.finfo(float).eps) * max(1.0, abs(qd[k]))
+                shifted = qd.copy()
+                shifted[k] += delta
+                C[:, k] = -(self._generalized_forces(q, shifted, t) - base_force) / delta
+        return K, C
+
+    def update_tangent(self, q, qd, lam, t) -> None:
+        """Recompute K and C at (q, q', lambda, t); the iteration matrix is refactored next."""
+        self._tangent = self.tangent_matrices(q, qd, lam, t)
+        self._lu = None
+        self.counters.tangent_updates += 1
+
+    def factor_iteration_matrix(self, q: np.ndarray, t: float, h: float) -> None:
+        """S = [[M + h^2 beta' K + h gamma' C, Psi_q^T], [Psi_q, 0]] with the kept K, C; LU-factored (eq. 6.56)."""
+        p = self.parameters
+        K, C = self._tangent
+        jacobian = self.system.jacobian(q, t)
+        m = jacobian.shape[0]
+        S = np.block(
+            [
+                [mass_at(self.M, q) + h * h * p.beta_prime * K + h * p.gamma_prime * C, jacobian.T],
+                [jacobian, np.zeros((m, m))],
+            ]
+        )
+        self._lu = scipy.linalg.lu_factor(S, check_finite=False)
+        self._lu_h = h
+        self.counters.factorizations += 1
+
+    # -- one step -----------------------------------------------------------------------------
+    def step(self, t, h, q, qd, qdd, a, lam):
+        """Advance (q, q', q'', a, lambda) from t to t + h.
+
+        Returns (q, q', q'', a, lambda, error) at t + h, ``error`` the weighted local error estimate
+        (eq. 6.58), or None when the Newton iterations do not converge.
+        """
+        p = self.parameters
+        # the parts of a_n+1, q_n+1 and q'_n+1 that do not depend on q''_n+1 (eq. 6.52, 6.53)
+        a_known = (p.alpha_f * qdd - p.alpha_m * a) / (1.0 - p.alpha_m)
+        q_known = q + h * qd + h * h * ((0.5 - p.beta) * a + p.beta * a_known)
+        qd_known = qd + h * ((1.0 - p.gamma) * a + p.gamma * a_known)
+        known = (t + h, h, q_known, qd_known)
+        # predictor: q'' and lambda of the last step
+        q_pred, qd_pred = q_known + h * h * p.beta_prime * qdd, qd_known + h * p.gamma_prime * qdd
+        fresh = self._tangent is None
+        if fresh:
+            self.update_tangent(q_pred, qd_pred, lam, t + h)
+        self.factor_iteration_matrix(q_pred, t + h, h)  # cheap: the kept K, C and Psi_q at the predictor
+        solution = self.newton(known, qdd.copy(), lam.copy())
+        if solution is None and not fresh:  # the kept K, C are stale: update them and try again
+            self.update_tangent(q_pred, qd_pred, lam, t + h)
+            self.factor_iteration_matrix(q_pred, t + h, h)
+            solution = self.newton(known, qdd.copy(), lam.copy())
+        if solution is None:
+            self.counters.newton_failures += 1
+            return None
+        q_new, qd_new, qdd_new, lam_new = solution
+        a_new = a_known + (1.0 - p.alpha_f) / (1.0 - p.alpha_m) * qdd_new
+        error = weighted_norm(h * h * p.error_constant * (a_new - a), q_new, self.rtol, self.atol)
+        return q_new, qd_new, qdd_new, a_new, lam_new, error
+
+    def newton(self, known, qdd, lam):
+        """Modified Newton iterations S [dq''; dlambda] = -r (eq. 6.56); None if they stall or diverge."""
+        t_new, h, q_known, qd_known = known
+        p = self.parameters
+        n = qdd.size
+        scale = h * h * p.beta_prime
+        previous = None
+        for _ in range(self.max_iterations):
+            q = q_known + scale * qdd
+            qd = qd_known + h * p.gamma_prime * qdd
+            jacobian = self.system.jacobian(q, t_new)
+            Q = self._generalized_forces(q, qd, t_new)
+            residual = np.concatenate(
+                [mass_at(self.M, q) @ qdd + jacobian.T @ lam - Q, self.system.constraints(q, t_new) / scale]
+            )
+            correction = scipy.linalg.lu_solve(self._lu, -residual, check_finite=False)
+            qdd = qdd + correction[:n]
+            lam = lam + correction[n:]
+            self.counters.newton_iterations += 1
+            size = weighted_norm(scale * correction[:n], q, self.rtol, self.atol)
+            if size <= self.newton_tol:
+                return q_known + scale * qdd, qd_known + h * p.gamma_prime * qdd, qdd, lam
+            if not np.isfinite(size) or (previous is not None and size > 0.5 * previous):
+                return None  # diverging, or converging too slowly for this matrix
+            previous = size
+        return None
+
+
+def fixed_steps(t0: float, t1: float, h: float) -> list[float]:
+    """Fixed steps: [t0, t1] split into the fewest equal steps no longer than h."""
+    count = max(1, math.ceil((t1 - t0) / h - 1e-9))
+    return [(t1 - t0) / count] * count
+
+
+def initial_step(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, rtol: float, atol: float, t_end: float) -> float:
+    """A first trial step: h = 0.1 / sqrt(|q'|_w + |q''|_w) in the weighted norm, at most 1 % of the run.
+
+    Step control corrects a poor guess within a few steps; this one only avoids absurd first steps.
+    """
+    scale = atol + rtol * np.abs(q)
+    rate = float(np.sqrt(np.mean((qd / scale) ** 2)) + np.sqrt(np.mean((qdd / scale) ** 2)))
+    guess = 0.01 * t_end if rate == 0.0 else 0.1 / rate**0.5
+    return float(min(guess, 0.01 * t_end))
+
+
+@dataclass
+class EnergyAccount:
+    """Dissipated energy and the work of loads and drivers, by the trapezoidal rule over each step.
+
+    The same three integrals as the ODE integrators carry as extra states (``dynamics.py``); the
+    trapezoidal rule is second order, like the method.
+    """
+
+    system: System
+    forces: ForceModel
+    active: bool
+    totals: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    _last: np.ndarray | None = None
+
+    def powers(self, q, qd, lam, t) -> np.ndarray:
+        """(P_dissipated, P_applied, P_drivers) (eq. 5.60)."""
+        drivers = constraint_power(self.system.jacobian(q, t), qd, lam) if self.system.model.motors else 0.0
+        return np.array([self.forces.dissipated_power(q, qd, t), self.forces.actuator_power(q, qd, t), drivers])
+
+    def start(self, q, qd, lam, t) -> None:
+        if self.active:
+            self._last = self.powers(q, qd, lam, t)
+
+    def advance(self, h: float, q, qd, lam, t) -> None:
+        if self.active:
+            new = self.powers(q, qd, lam, t)
+            self.totals = self.totals + 0.5 * h * (self._last + new)
+            self._last = new
+
+
+def integrate_index3(
+    system: System,
+    masses: np.ndarray,
+    forces: ForceModel,
+    q0: np.ndarray,
+    qd0: np.ndarray,
+    t_end: float,
+    steps: int,
+    rtol: float = 1e-6,
+    atol: float = 1e-8,
+    step: float | None = None,
+    method: str = "generalized-alpha",
+    rho_inf: float = DEFAULT_RHO,
+    first_step: float | None = None,
+    min_step: float = 1e-12,
+    newton_tol: float = 1e-3,
+    max_iterations: int = 8,
+) -> Result:
+    """Integrate the index-3 DAE with generalized-alpha or HHT from a consistent (q0, q0') at t = 0.
+
+    Parameters
+    ----------
+    system, masses, forces : the assembled system, its mass matrix M and its applied forces
+    q0, qd0 : consistent initial positions and velocities (Psi = 0, Psi_q q' + Psi_t = 0)
+    t_end, steps : output grid t = 0, t_end/steps, ..., t_end (every step ends on it)
+    rtol, atol : local error tolerances of the positions (step control and Newton iterations)
+    step : fixed step size instead of step control
+    method : 'generalized-alpha' or 'hht'
+    rho_inf : spectral radius at infinity (numerical damping: 1 none, smaller more)
+    first_step : first trial step with step control (default: from the initial accelerations)
+    min_step : below this step the run stops with an AnalysisError
+    newton_tol, max_iterations : Newton stops when the weighted position correction is below newton_tol
+
+    Returns
+    -------
+    Result
+        q, q', q'', lambda on the output grid; the columns 'residual.position', 'residual.velocity'
+        and 'energy.*' as ``forward_dynamics`` gives them; ``info`` with the method, its parameters
+        and the counts: steps accepted and rejected, Newton iterations, tangent updates,
+        factorizations, residual evaluations (``rhs_evaluations``).
+    """
+    start = _time.perf_counter()
+    parameters = alpha_parameters(method, rho_inf)
+    stepper = Index3Stepper(system, masses, forces, parameters, rtol, atol, newton_tol, max_iterations)
+    energy = EnergyAccount(system, forces, active=not forces.is_conservative or bool(system.model.motors))
+    times = np.linspace(0.0, t_end, steps + 1)
+    n, m = system.n_coordinates, system.n_constraints
+    out_q, out_qd, out_qdd, out_lam = (np.empty((times.size, k)) for k in (n, n, n, m))
+    accumulated = np.zeros((times.size, 3))
+    q, qd = np.array(q0, dtype=float), np.array(qd0, dtype=float)
+    Q = forces.generalized_forces(q, qd, 0.0)
+    qdd, lam = augmented_accelerations(mass_at(masses, q), system.jacobian(q, 0.0), Q, system.gamma(q, qd, 0.0))
+    state = (q, qd, qdd, qdd.copy(), lam)  # (q, q', q'', a, lambda), a_0 = q''_0
+    energy.start(q, qd, lam, 0.0)
+    out_q[0], out_qd[0], out_qdd[0], out_lam[0] = q, qd, qdd, lam
+    h = step if step is not None else (first_step or initial_step(q, qd, qdd, rtol, atol, t_end))
+    t = 0.0
+    for k in range(1, times.size):
+        if step is not None:
+            for h_fixed in fixed_steps(t, times[k], step):
+                new = stepper.step(t, h_fixed, *state)
+                if new is None:
+                    raise AnalysisError(
+                        f"{method}: Newton iterations did not converge at t = {t:.6g} s with step {h_fixed:.3g} s; "
+                        "use a smaller --step"
+                    )
+                state, t = new[:5], t + h_fixed
+                stepper.counters.accepted_steps += 1
+                energy.advance(h_fixed, state[0], state[1], state[4], t)
+            t = times[k]
+        else:
+            t, h, state = _adaptive_interval(stepper, energy, t, times[k], h, state, min_step)
+        out_q[k], out_qd[k], out_qdd[k], out_lam[k] = state[0], state[1], state[2], state[4]
+        accumulated[k] = energy.totals
+    result = Result(
+        t=times,
+        q=out_q,
+        qd=out_qd,
+        qdd=out_qdd,
+        lam=out_lam,
+        coordinate_names=system.coordinate_names,
+        body_names=[b.name for b in system.model.bodies],
+    )
+    residuals = constraint_residuals(system, times, out_q, out_qd)
+    energies = energy_history(masses, forces, out_q, out_qd, *accumulated.T)
+    result.points.update(residuals)
+    result.points.update(energies.columns())
+    counters = stepper.counters
+    result.info = {
+        "analysis": "dynamic",
+        "formulation": "index-3",
+        "integrator": method,
+        "rtol": rtol,
+        "atol": atol,
+        "step": step,
+        "steps": steps,
+        "rho_inf": rho_inf,
+        "alpha_m": parameters.alpha_m,
+        "alpha_f": parameters.alpha_f,
+        "gamma": parameters.gamma,
+        "beta": parameters.beta,
+        "rhs_evaluations": counters.rhs_evaluations,
+        "integrator_steps": counters.accepted_steps,
+        "rejected_steps": counters.rejected_steps,
+        "newton_iterations": counters.newton_iterations,
+        "newton_failures": counters.newton_failures,
+        "tangent_updates": counters.tangent_updates,
+        "factorizations": counters.factorizations,
+        "max_constraint_residual": float(residuals["residual.position"].max()),
+        "max_velocity_residual": float(residuals["residual.velocity"].max()),
+        "energy_drift": float(np.max(np.abs(energies.error))),
+        "energy_drift_relative": float(np.max(np.abs(energies.error)) / energies.scale),
+        "wall_time": _time.perf_counter() - start,
+    }
+    return result
+
+
+def _adaptive_interval(
+    stepper: Index3Stepper, energy: EnergyAccount, t: float, t_out: float, h: float, state, min_step: float
+):
+    """Steps with error control from t to the output time t_out (eq. 6.58); returns (t_out, next h, state)."""
+    while t < t_out:
+        remaining = t_out - t
+        last = remaining <= h * (1.0 + 1e-9)
+        h_try = remaining if last else (0.5 * remaining if remaining < 2.0 * h else h)  # no sliver steps
+        new = stepper.step(t, h_try, *state)
+        if new is None:  # Newton failed: a much smaller step
+            h = 0.25 * h_try
+        elif new[5] > 1.0:  # error too large: reject, retry smaller
+            stepper.counters.rejected_steps += 1
+            h = h_try * max(0.2, 0.9 * new[5] ** (-1.0 / 3.0))
+        else:
+            stepper.counters.accepted_steps += 1
+            state = new[:5]
+            t = t_out if last else t + h_try
+            energy.advance(h_try, state[0], state[1], state[4], t)
+            grow = 2.0 if new[5] == 0.0 else min(2.0, max(0.2, 0.9 * new[5] ** (-1.0 / 3.0)))
+            h = max(h, h_try * grow) if h_try < h else h_try * grow
+            continue
+        if h < min_step:
+            what = "Newton iterations" if new is None else "error control"
+            raise AnalysisError(
+                f"{what} failed at t = {t:.6g} s: the step fell below {min_step:.3g} s; "
+                "loosen the tolerances or check the model"
+            )
+    return t, h, state
+
+
+__all__ = [
+    "DEFAULT_RHO",
+    "METHODS",
+    "AlphaParameters",
+    "EnergyAccount",
+    "Index3Stepper",
+    "alpha_parameters",
+    "integrate_index3",
+    "weighted_norm",
+]

@@ -1,0 +1,241 @@
+# Generated from solutions/kinematics.py by `make modules` (every homework stubbed): do not edit by hand.
+"""Kinematic analysis: Newton-Raphson assembly, then positions, velocities and accelerations in time.
+
+For a mechanism whose drivers leave no degree of freedom, at each time t (course notes, ch. 4):
+
+1. position:      solve Psi(q, t) = 0 by Newton-Raphson,  Psi_q dq = -Psi,  q <- q + dq   (eq. 4.8)
+2. velocity:      Psi_q q' = -Psi_t                                                        (eq. 4.5)
+3. acceleration:  Psi_q q'' = gamma                                                        (eq. 4.6)
+
+The Jacobian factored for the last Newton step is reused for steps 2 and 3. A kinematic run needs
+no mass matrix and no forces, and builds neither.
+"""
+
+from __future__ import annotations
+
+import time as _time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+from .assembly import System
+from .diagnostics import AnalysisError, rank_report, singular_joints
+from .planar.bodies import rotation, rotation_derivative
+from .results import Result
+
+LOCKUP_CONDITION = 1e10
+"""Condition number of Psi_q above which a configuration counts as locked (a singular position)."""
+
+
+@dataclass
+class NewtonResult:
+    q: np.ndarray
+    iterations: int
+    residual: float
+
+
+def newton_raphson(
+    system: System, q: np.ndarray, t: float, tol: float = 1e-12, max_iterations: int = 25
+) -> NewtonResult:
+    """Solve Psi(q, t) = 0 for q from the estimate ``q`` (eq. 4.8).
+
+    Iterates Psi_q dq = -Psi, q <- q + dq until max|Psi| < tol. A square Jacobian is solved
+    directly; a non-square one (assembly with free degrees of freedom, or redundant constraints)
+    takes the least-squares, minimum-norm correction.
+
+    Raises
+    ------
+    AnalysisError
+        If it does not converge, naming the residual and the worst constraint.
+    """
+    q = np.array(q, dtype=float)
+    raise NotImplementedError('newton_raphson: Solve Psi(q, t) = 0 for q from the estimate q, see eq. 4.8')
+    worst = int(np.nanargmax(np.abs(psi))) if np.any(np.isfinite(psi)) else 0
+    raise AnalysisError(
+        f"Newton-Raphson did not converge at t = {t:.6g} s: residual {residual:.3g} after "
+        f"{max_iterations} iterations, worst constraint {system.labels[worst]}"
+    )
+
+
+def velocity_analysis(system: System, q: np.ndarray, t: float, lu=None) -> np.ndarray:
+    """q' from Psi_q q' = -Psi_t (eq. 4.5); ``lu`` is a factorization of Psi_q to reuse."""
+    raise NotImplementedError("velocity_analysis: q' from Psi_q q' = -Psi_t, see eq. 4.5")
+
+
+def acceleration_analysis(system: System, q: np.ndarray, qd: np.ndarray, t: float, lu=None) -> np.ndarray:
+    """q'' from Psi_q q'' = gamma (eq. 4.6); ``lu`` is a factorization of Psi_q to reuse."""
+    raise NotImplementedError("acceleration_analysis: q'' from Psi_q q'' = gamma, see eq. 4.6")
+
+
+def assemble(system: System, q0: np.ndarray, t: float = 0.0) -> tuple[np.ndarray, dict]:
+    """Make the file's approximate configuration consistent: Psi(q, t) = 0 by Newton-Raphson.
+
+    Returns the assembled q and a report of how far each body moved (translation and rotation).
+    """
+    try:
+        solution = newton_raphson(system, q0, t)
+    except AnalysisError as err:
+        raise AnalysisError(f"the mechanism cannot be assembled: {err}") from None
+    moved = {}
+    n, dim = system.coordinates_per_body, system.model.dimension
+    for k, name in enumerate(b.name for b in system.model.bodies):
+        old, new = q0[n * k : n * k + n], solution.q[n * k : n * k + n]
+        if dim == 3:  # the angle of the relative rotation conj(p0) p
+            from .rotations import conjugate, normalized, quaternion_product, to_axis_angle
+
+            rotation = to_axis_angle(quaternion_product(conjugate(normalized(old[3:])), normalized(new[3:])))[1]
+        else:
+            rotation = abs(new[2] - old[2])
+        moved[name] = {"translation": float(np.linalg.norm(new[:dim] - old[:dim])), "rotation": float(rotation)}
+    report = {"iterations": solution.iterations, "residual": solution.residual, "moved": moved}
+    return solution.q, report
+
+
+def require_no_freedom(system: System, q: np.ndarray, t: float = 0.0) -> None:
+    """Refuse, by name, what a kinematic analysis cannot run: free or redundant constraints."""
+    report = rank_report(system.jacobian(q, t), system.row_owners)
+    if report.n_redundant:
+        raise AnalysisError(
+            f"{report.n_redundant} redundant constraint equation(s) among joints "
+            f"{', '.join(report.redundant_joints)}: remove one of them or replace it by a joint with "
+            "fewer equations (e.g. revolute-revolute for revolute)"
+        )
+    if report.degrees_of_freedom:
+        raise AnalysisError(
+            f"the drivers leave {report.degrees_of_freedom} degree(s) of freedom: a kinematic analysis "
+            f"needs {report.degrees_of_freedom} more motor(s), or run --analysis dynamic"
+        )
+
+
+def _factor_checked(system: System, q: np.ndarray, t: float):
+    """LU of Psi_q, refusing a locked (singular) configuration with time, condition and joints."""
+    jac = system.jacobian(q, t)
+    lu, piv = scipy.linalg.lu_factor(jac, check_finite=False)
+    pivots = np.abs(np.diag(lu))
+    if pivots.min() <= pivots.max() / LOCKUP_CONDITION:
+        cond, joints = singular_joints(jac, system.row_owners)
+        if cond > LOCKUP_CONDITION:
+            raise AnalysisError(
+                f"lock-up or branch point at t = {t:.6g} s: Psi_q is singular (condition number "
+                f"{cond:.3g}); joints involved: {', '.join(joints)}"
+            )
+    return lu, piv
+
+
+def determinant_sign(lu) -> float:
+    """Sign of det(Psi_q) from its LU factors: the sign of the product of U's diagonal, flipped once per
+    row swap. A change of sign between two steps means the mechanism went through a singular position."""
+    factors, pivots = lu
+    swaps = np.count_nonzero(pivots != np.arange(pivots.size))
+    return float((-1) ** swaps * np.prod(np.sign(np.diag(factors))))
+
+
+def kinematic_analysis(
+    system: System,
+    q0: np.ndarray,
+    t_end: float,
+    steps: int,
+    points: dict[str, tuple[int, np.ndarray]] | None = None,
+) -> Result:
+    """Positions, velocities and accelerations on the grid t = 0, t_end/steps, ..., t_end.
+
+    Parameters
+    ----------
+    system : the assembled planar system; its drivers must leave no degree of freedom
+    q0 : approximate configuration at t = 0 (assembled first)
+    t_end, steps : output grid
+    points : optional {label: (body index, body-frame point)} whose position, velocity and
+        acceleration are added to the result as columns 'label.x', 'label.x_d', ...
+
+    Raises
+    ------
+    AnalysisError
+        Degrees of freedom left, redundant constraints, lock-up, non-convergence: by name.
+    """
+    start = _time.perf_counter()
+    q, assembly = assemble(system, q0, 0.0)
+    require_no_freedom(system, q, 0.0)
+    times = np.linspace(0.0, t_end, steps + 1)
+    n = system.n_coordinates
+    Q, QD, QDD = (np.empty((times.size, n)) for _ in range(3))
+    qd = np.zeros(n)
+    qdd = np.zeros(n)
+    iterations = 0
+    max_residual = 0.0
+    previous_sign = None
+    for k, t in enumerate(times):
+        if k > 0:  # second-order predictor from the previous step
+            dt = t - times[k - 1]
+            q = q + qd * dt + 0.5 * qdd * dt * dt
+        try:
+            solution = newton_raphson(system, q, t)
+        except AnalysisError as err:
+            # judge the last position found, next to the singular one (not the predictor beyond it)
+            last, t_last = (Q[k - 1], times[k - 1]) if k > 0 else (q, t)
+            cond, joints = singular_joints(system.jacobian(last, t_last), system.row_owners)
+            raise AnalysisError(
+                f"lock-up or branch point near t = {t:.6g} s: {err}; Psi_q condition number {cond:.3g} "
+                f"at t = {t_last:.6g} s, joints involved: {', '.join(joints)}"
+            ) from None
+        q = solution.q
+        iterations += solution.iterations
+        max_residual = max(max_residual, solution.residual)
+        lu = _factor_checked(system, q, t)
+        sign = determinant_sign(lu)
+        if previous_sign is not None and sign != previous_sign:
+            _, joints = singular_joints(system.jacobian(q, t), system.row_owners)
+            raise AnalysisError(
+                f"branch point passed between t = {times[k - 1]:.6g} s and t = {t:.6g} s: det(Psi_q) changed "
+                "sign, so the mechanism went through a singular position where it can switch assembly "
+                f"branch; joints involved: {', '.join(joints)}"
+            )
+        previous_sign = sign
+        qd = velocity_analysis(system, q, t, lu)
+        qdd = acceleration_analysis(system, q, qd, t, lu)
+        Q[k], QD[k], QDD[k] = q, qd, qdd
+    result = Result(
+        t=times,
+        q=Q,
+        qd=QD,
+        qdd=QDD,
+        coordinate_names=system.coordinate_names,
+        body_names=[b.name for b in system.model.bodies],
+        info={
+            "analysis": "kinematic",
+            "steps": steps,
+            "newton_iterations": iterations,
+            "max_constraint_residual": max_residual,
+            "assembly": assembly,
+            "wall_time": _time.perf_counter() - start,
+        },
+    )
+    for label, (body, point) in (points or {}).items():
+        result.points.update(point_columns(result, label, body, point))
+    return result
+
+
+def point_kinematics(q, qd, qdd, body: int, point: np.ndarray):
+    """Position, velocity and acceleration of a body-fixed point over time (eq. 2.10-2.12):
+
+    r^P = r + A s',  r^P' = r' + B s' phi',  r^P'' = r'' + B s' phi'' - A s' phi'^2.
+    """
+    cols = slice(3 * body, 3 * body + 3)
+    r, rd, rdd = q[:, cols], qd[:, cols], qdd[:, cols]
+    A = np.array([rotation(phi) for phi in r[:, 2]])
+    B = np.array([rotation_derivative(phi) for phi in r[:, 2]])
+    As, Bs = A @ point, B @ point
+    position = r[:, :2] + As
+    velocity = rd[:, :2] + Bs * rd[:, 2:3]
+    acceleration = rdd[:, :2] + Bs * rdd[:, 2:3] - As * rd[:, 2:3] ** 2
+    return position, velocity, acceleration
+
+
+def point_columns(result: Result, label: str, body: int, point: np.ndarray) -> dict[str, np.ndarray]:
+    """Columns 'label.x', 'label.y' and their _d, _dd for a body point."""
+    position, velocity, acceleration = point_kinematics(result.q, result.qd, result.qdd, body, point)
+    columns = {}
+    for suffix, values in (("", position), ("_d", velocity), ("_dd", acceleration)):
+        columns[f"{label}.x{suffix}"] = values[:, 0]
+        columns[f"{label}.y{suffix}"] = values[:, 1]
+    return columns

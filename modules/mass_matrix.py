@@ -1,0 +1,46 @@
+# Generated from solutions/mass_matrix.py by `make modules` (every homework stubbed): do not edit by hand.
+"""The mass matrix M of the equations of motion M q'' + Psi_q^T lambda = Q.
+
+In planar body coordinates q_i = (x_i, y_i, phi_i) of the centre of mass the kinetic energy of body i
+is T_i = 1/2 m_i (x_i'^2 + y_i'^2) + 1/2 J_i phi_i'^2, so its mass matrix is the constant diagonal block
+M_i = diag(m_i, m_i, J_i) (course notes, eq. 5.3), and the system's is block diagonal (eq. 5.4):
+
+    M = diag(M_1, M_2, ..., M_nb)
+
+It does not depend on q, so a dynamic analysis builds it once. A kinematic analysis never needs it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .io.model import Model
+
+
+def body_mass_matrix(mass: float, inertia: float) -> np.ndarray:
+    """M_i = diag(m_i, m_i, J_i): one planar body, J_i the polar moment about its centre of mass (eq. 5.3)."""
+    raise NotImplementedError('body_mass_matrix: M_i = diag(m_i, m_i, J_i): one planar body, J_i the polar moment about its centre of mass, see eq. 5.3')
+
+
+def mass_matrix(model: Model) -> np.ndarray:
+    """The (n x n) mass matrix of a planar model, n = 3 nb: body blocks on the diagonal (eq. 5.4).
+
+    A spatial model's mass matrix depends on the orientations: for one this returns the callable
+    M(q) of ``spatial.mass.SpatialMassMatrix``; ``mass_at(M, q)`` gives the matrix at q either way.
+    """
+    if model.dimension == 3:
+        from .spatial.mass import SpatialMassMatrix
+
+        return SpatialMassMatrix(model)
+    n = 3 * len(model.bodies)
+    M = np.zeros((n, n))
+    raise NotImplementedError('mass_matrix: The (n x n) mass matrix of a planar model, n = 3 nb: body blocks on the diagonal, see eq. 5.4')
+    return M
+
+
+def mass_at(M, q: np.ndarray) -> np.ndarray:
+    """The mass matrix at q: the constant array of a planar model, M(q) of a spatial one."""
+    return M(q) if callable(M) else M
+
+
+__all__ = ["body_mass_matrix", "mass_at", "mass_matrix"]

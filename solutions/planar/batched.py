@@ -1,0 +1,334 @@
+"""Planar joints evaluated per type in one pass: every revolute joint of a system at once, and so on.
+
+The element methods of ``joints.py`` define the constraint equations, one joint at a time. Here the
+same rows are computed for all the elements of one type together, with array operations over the
+elements (one cos and sin per joint end, no Python call per joint): a mechanism with many joints of
+few types costs a few dozen array operations per evaluation instead of a few Python calls per joint.
+The formulas are those of ``joints.py`` (course notes, ch. 3), written for arrays: revolute eq. 3.17,
+relative angle eq. 3.21, pin in a slot eq. 3.24, distance eq. 3.27, drivers eq. 3.34-3.35.
+
+Each group is built once from the elements of its type (``make_groups``) and evaluated from
+
+    X   the (nb + 1, 3) array of body coordinates, row b = (x_b, y_b, phi_b), last row ground (zeros),
+        so the body index -1 of ground picks it (numpy's negative indexing)
+    V   the same for the velocities
+
+and gives its rows in element order: ``terms(X)``, what the formulas share at one configuration
+(the rotated body vectors A s' and B s'), computed once, then ``constraints(X, terms, t)``,
+``jacobian(X, terms, t) -> (Psi_qi, Psi_qj)`` (each (rows, 3)), ``psi_t(X, terms, t)`` and
+``gamma(X, V, terms, t)``. ``assembly.System`` scatters them into the
+system arrays and checks them once against the element methods; it falls back to the element loop for
+any group that disagrees or is not implemented. (You do not write these in homework 1: your element
+methods are what the System uses while these stubs raise NotImplementedError.)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..functions import Constant
+from .joints import BodyCoordinate, Distance, PinInSlot, RelativeAngle, Revolute, Translation
+
+R90 = np.array([[0.0, -1.0], [1.0, 0.0]])
+
+
+def _column(values) -> np.ndarray:
+    return np.asarray(values, dtype=float)
+
+
+def _perpendicular(s: np.ndarray) -> np.ndarray:
+    """R90 s' for every row of s' (K, 2)."""
+    return s @ R90.T
+
+
+def rotated(X: np.ndarray, bodies: np.ndarray, s: np.ndarray, s_perp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A_b s' and B_b s' = A_b R90 s' for body-frame vectors s' (K, 2) of bodies b (K,) (eq. 2.1, 2.5).
+
+    With c = cos(phi_b), s = sin(phi_b): A s' = c s' + s R90 s',  B s' = c R90 s' - s s'.
+    """
+    ### BEGIN SOLUTION hw1
+    phi = X[bodies, 2]
+    c, sn = np.cos(phi)[:, None], np.sin(phi)[:, None]
+    return c * s + sn * s_perp, c * s_perp - sn * s
+    ### END SOLUTION
+
+
+class Group:
+    """The elements of one type, with the data of every element stacked in arrays."""
+
+    kind: type = object
+    rows_per_element = 1
+
+    def __init__(self, elements: list):
+        self.elements = elements
+        self.i = np.array([e.i for e in elements], dtype=int)
+        self.j = np.array([e.j for e in elements], dtype=int)
+        self.size = len(elements)
+
+    def terms(self, X: np.ndarray):
+        """What the element formulas share at one configuration (rotated body vectors), computed once."""
+        return None
+
+    def psi_t(self, X: np.ndarray, terms, t: float) -> np.ndarray:
+        """Psi_t = 0: joints do not depend on time."""
+        return np.zeros(self.size * self.rows_per_element)
+
+    def _blocks(self, last_i: np.ndarray, last_j: np.ndarray, first_i=None, first_j=None):
+        """(K, 3) Jacobian rows for bodies i and j from their phi column and (optionally) x, y columns."""
+        block_i, block_j = np.zeros((self.size, 3)), np.zeros((self.size, 3))
+        if first_i is not None:
+            block_i[:, :2], block_j[:, :2] = first_i, first_j
+        block_i[:, 2], block_j[:, 2] = last_i, last_j
+        return block_i, block_j
+
+
+class RevoluteGroup(Group):
+    """Revolute joints (eq. 3.17): Psi = r_i + A_i s_i' - r_j - A_j s_j',  Psi_q = [I, B_i s_i', -I, -B_j s_j'],
+    gamma = A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2; two rows (x, y) per joint."""
+
+    kind = Revolute
+    rows_per_element = 2
+
+    def __init__(self, elements):
+        super().__init__(elements)
+        self.ends = np.concatenate([self.i, self.j])  # s_i' of every joint, then s_j': one rotation for all
+        self.s = np.concatenate([_column([e.si for e in elements]), _column([e.sj for e in elements])])
+        self.s_perp = _perpendicular(self.s)
+        self._block_i = np.zeros((self.size, 2, 3))
+        self._block_i[:, 0, 0] = self._block_i[:, 1, 1] = 1.0
+        self._block_j = -self._block_i
+
+    def terms(self, X):
+        """A_i s_i', B_i s_i', A_j s_j', B_j s_j' of every joint: what Psi, Psi_q and gamma are made of."""
+        ### BEGIN SOLUTION hw1
+        As, Bs = rotated(X, self.ends, self.s, self.s_perp)
+        K = self.size
+        return As[:K], Bs[:K], As[K:], Bs[K:]
+        ### END SOLUTION
+
+    def constraints(self, X, terms, t):
+        ### BEGIN SOLUTION hw1
+        Asi, _, Asj, _ = terms
+        return (X[self.i, :2] + Asi - X[self.j, :2] - Asj).ravel()
+        ### END SOLUTION
+
+    def jacobian(self, X, terms, t):
+        ### BEGIN SOLUTION hw1
+        _, Bsi, _, Bsj = terms
+        block_i, block_j = self._block_i.copy(), self._block_j.copy()
+        block_i[:, :, 2], block_j[:, :, 2] = Bsi, -Bsj
+        return block_i.reshape(-1, 3), block_j.reshape(-1, 3)
+        ### END SOLUTION
+
+    def gamma(self, X, V, terms, t):
+        ### BEGIN SOLUTION hw1
+        Asi, _, Asj, _ = terms
+        return (Asi * V[self.i, 2:3] ** 2 - Asj * V[self.j, 2:3] ** 2).ravel()
+        ### END SOLUTION
+
+
+class _TimedGroup(Group):
+    """Elements with a function of time f(t) each: f, f', f'' evaluated element by element (scalars)."""
+
+    def __init__(self, elements, functions):
+        super().__init__(elements)
+        self.functions = functions
+        self.timed = [k for k, f in enumerate(functions) if not isinstance(f, Constant)]
+        self._values = np.array([f.value(0.0) for f in functions], dtype=float)
+
+    def values(self, t: float) -> np.ndarray:
+        out = self._values.copy()
+        for k in self.timed:
+            out[k] = self.functions[k].value(t)
+        return out
+
+    def derivatives(self, t: float, order: int) -> np.ndarray:
+        out = np.zeros(self.size)
+        for k in self.timed:
+            f = self.functions[k]
+            out[k] = f.first(t) if order == 1 else f.second(t)
+        return out
+
+    def psi_t(self, X, terms, t):
+        return -self.derivatives(t, 1)
+
+
+class RelativeAngleGroup(_TimedGroup):
+    """phi_j - phi_i - phi0 - f(t) = 0 (eq. 3.21, 3.34): constant Jacobian rows, Psi_t = -f', gamma = f''."""
+
+    kind = RelativeAngle
+
+    def __init__(self, elements):
+        super().__init__(elements, [e.function for e in elements])
+        self.phi0 = _column([e.phi0 for e in elements])
+        self._rows = self._blocks(-np.ones(self.size), np.ones(self.size))
+
+    def constraints(self, X, terms, t):
+        ### BEGIN SOLUTION hw1
+        return X[self.j, 2] - X[self.i, 2] - self.phi0 - self.values(t)
+        ### END SOLUTION
+
+    def jacobian(self, X, terms, t):
+        ### BEGIN SOLUTION hw1
+        return self._rows
+        ### END SOLUTION
+
+    def gamma(self, X, V, terms, t):
+        ### BEGIN SOLUTION hw1
+        return self.derivatives(t, 2)
+        ### END SOLUTION
+
+
+class BodyCoordinateGroup(_TimedGroup):
+    """q_j[k] - f(t) = 0 (eq. 3.34): a unit Jacobian row, Psi_t = -f', gamma = f''."""
+
+    kind = BodyCoordinate
+
+    def __init__(self, elements):
+        super().__init__(elements, [e.function for e in elements])
+        self.index = np.array([e.index for e in elements], dtype=int)
+        block_j = np.zeros((self.size, 3))
+        block_j[np.arange(self.size), self.index] = 1.0
+        self._rows = np.zeros((self.size, 3)), block_j
+
+    def constraints(self, X, terms, t):
+        ### BEGIN SOLUTION hw1
+        return X[self.j, self.index] - self.values(t)
+        ### END SOLUTION
+
+    def jacobian(self, X, terms, t):
+        ### BEGIN SOLUTION hw1
+        return self._rows
+        ### END SOLUTION
+
+    def gamma(self, X, V, terms, t):
+        ### BEGIN SOLUTION hw1
+        return self.derivatives(t, 2)
+        ### END SOLUTION
+
+
+class AlongDirectionGroup(_TimedGroup):
+    """u_i^T d_ij + rolling (phi_j - phi_i) - d0 - f(t) = 0 with u_i = A_i u_i' (eq. 3.13): the pin in a slot
+    (u' the slot normal, eq. 3.24), the prismatic driver (eq. 3.35) and the rack and pinion (eq. 3.31).
+
+    Psi_qi = [-u^T, (B_i u_i')^T d - u^T B_i s_i' - rolling],  Psi_qj = [u^T, u^T B_j s_j' + rolling]
+    gamma = u^T d phi_i'^2 - 2 phi_i' (B_i u_i')^T d' - u^T (A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2) + f''
+    """
+
+    kind = (PinInSlot, Translation)
+
+    def __init__(self, elements):
+        slot = [isinstance(e, PinInSlot) for e in elements]
+        zero = Constant(0.0)
+        super().__init__(elements, [zero if s else e.function for e, s in zip(elements, slot, strict=True)])
+        u = _column([e._normal if s else e.axis for e, s in zip(elements, slot, strict=True)])
+        self.ends = np.concatenate([self.i, self.i, self.j])  # u_i', s_i', s_j': one rotation for all
+        self.vectors = np.concatenate([u, _column([e.si for e in elements]), _column([e.sj for e in elements])])
+        self.vectors_perp = _perpendicular(self.vectors)
+        self.rolling = _column([0.0 if s else e.side * e.pinion_radius for e, s in zip(elements, slot, strict=True)])
+        self.d0 = _column([0.0 if s else e.d0 for e, s in zip(elements, slot, strict=True)])
+
+    def terms(self, X):
+        """u = A_i u_i', w = B_i u_i', A_i s_i', B_i s_i', A_j s_j', B_j s_j' and d_ij of every element."""
+        ### BEGIN SOLUTION hw1
+        A, B = rotated(X, self.ends, self.vectors, self.vectors_perp)
+        K = self.size
+        u, w, Asi, Bsi, Asj, Bsj = A[:K], B[:K], A[K : 2 * K], B[K : 2 * K], A[2 * K :], B[2 * K :]
+        d = X[self.j, :2] + Asj - X[self.i, :2] - Asi
+        return u, w, Asi, Bsi, Asj, Bsj, d
+        ### END SOLUTION
+
+    def constraints(self, X, terms, t):
+        ### BEGIN SOLUTION hw1
+        u, _, _, _, _, _, d = terms
+        rolling = self.rolling * (X[self.j, 2] - X[self.i, 2])
+        return np.einsum("ki,ki->k", u, d) + rolling - self.d0 - self.values(t)
+        ### END SOLUTION
+
+    def jacobian(self, X, terms, t):
+        ### BEGIN SOLUTION hw1
+        u, w, _, Bsi, _, Bsj, d = terms
+        angle_i = np.einsum("ki,ki->k", w, d) - np.einsum("ki,ki->k", u, Bsi) - self.rolling
+        angle_j = np.einsum("ki,ki->k", u, Bsj) + self.rolling
+        return self._blocks(angle_i, angle_j, -u, u)
+        ### END SOLUTION
+
+    def gamma(self, X, V, terms, t):
+        ### BEGIN SOLUTION hw1
+        u, w, Asi, Bsi, Asj, Bsj, d = terms
+        wi, wj = V[self.i, 2:3], V[self.j, 2:3]
+        d_dot = V[self.j, :2] + Bsj * wj - V[self.i, :2] - Bsi * wi
+        quadratic = Asi * wi**2 - Asj * wj**2
+        value = np.einsum("ki,ki->k", u, d)
+        wi = wi[:, 0]
+        gamma = value * wi**2 - 2.0 * wi * np.einsum("ki,ki->k", w, d_dot) - np.einsum("ki,ki->k", u, quadratic)
+        return gamma + self.derivatives(t, 2)
+        ### END SOLUTION
+
+
+class DistanceGroup(_TimedGroup):
+    """(d^T d - L(t)^2) / 2 = 0 (eq. 3.27): Psi_q = d^T [-I, -B_i s_i', I, B_j s_j'], Psi_t = -L L',
+    gamma = -d'^T d' - d^T (A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2) + L'^2 + L L''."""
+
+    kind = Distance
+
+    def __init__(self, elements):
+        super().__init__(elements, [e.length for e in elements])
+        self.ends = np.concatenate([self.i, self.j])
+        self.s = np.concatenate([_column([e.si for e in elements]), _column([e.sj for e in elements])])
+        self.s_perp = _perpendicular(self.s)
+
+    def terms(self, X):
+        """A_i s_i', B_i s_i', A_j s_j', B_j s_j' and d_ij of every element."""
+        ### BEGIN SOLUTION hw1
+        As, Bs = rotated(X, self.ends, self.s, self.s_perp)
+        K = self.size
+        Asi, Bsi, Asj, Bsj = As[:K], Bs[:K], As[K:], Bs[K:]
+        return Asi, Bsi, Asj, Bsj, X[self.j, :2] + Asj - X[self.i, :2] - Asi
+        ### END SOLUTION
+
+    def psi_t(self, X, terms, t):
+        return -self.values(t) * self.derivatives(t, 1)
+
+    def constraints(self, X, terms, t):
+        ### BEGIN SOLUTION hw1
+        d = terms[4]
+        return 0.5 * (np.einsum("ki,ki->k", d, d) - self.values(t) ** 2)
+        ### END SOLUTION
+
+    def jacobian(self, X, terms, t):
+        ### BEGIN SOLUTION hw1
+        _, Bsi, _, Bsj, d = terms
+        return self._blocks(-np.einsum("ki,ki->k", d, Bsi), np.einsum("ki,ki->k", d, Bsj), -d, d)
+        ### END SOLUTION
+
+    def gamma(self, X, V, terms, t):
+        ### BEGIN SOLUTION hw1
+        Asi, Bsi, Asj, Bsj, d = terms
+        wi, wj = V[self.i, 2:3], V[self.j, 2:3]
+        d_dot = V[self.j, :2] + Bsj * wj - V[self.i, :2] - Bsi * wi
+        quadratic = Asi * wi**2 - Asj * wj**2
+        L, Ld, Ldd = self.values(t), self.derivatives(t, 1), self.derivatives(t, 2)
+        return -np.einsum("ki,ki->k", d_dot, d_dot) - np.einsum("ki,ki->k", d, quadratic) + Ld * Ld + L * Ldd
+        ### END SOLUTION
+
+
+GROUPS = (RevoluteGroup, RelativeAngleGroup, BodyCoordinateGroup, AlongDirectionGroup, DistanceGroup)
+"""Element types with a batched form; the others (gears, cams) are evaluated element by element."""
+
+
+def make_groups(elements: list) -> tuple[list[tuple[Group, list[int]]], list[int]]:
+    """Sort the elements by type: [(group, element indices)] for the types above, and the indices of the rest."""
+    groups, rest = [], []
+    taken = set()
+    for cls in GROUPS:
+        kinds = cls.kind if isinstance(cls.kind, tuple) else (cls.kind,)
+        members = [k for k, e in enumerate(elements) if type(e) in kinds]
+        if members:
+            groups.append((cls([elements[k] for k in members]), members))
+            taken.update(members)
+    rest = [k for k in range(len(elements)) if k not in taken]
+    return groups, rest
+
+
+__all__ = ["GROUPS", "Group", "make_groups", "rotated"]

@@ -1,0 +1,48 @@
+"""Smoke runs of the benchmark and the stress study: they run and write their tables (no timing is judged)."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from benchmarks import bench, stress  # noqa: E402
+
+
+def test_bench_quick_writes_its_tables_and_diagrams(tmp_path, capsys):
+    assert bench.main(["--quick", "--no-peers", "--no-progress", "--repeats", "1", "--out", str(tmp_path)]) == 0
+    text = (tmp_path / "bench.md").read_text()
+    assert "## Summary: fastest configuration at equal error" in text
+    assert "## Microseconds per right-hand side" in text
+    assert "straightforward: element loop + solve_ivp RK45" in text
+    for key in ("double_pendulum", "heavy_top"):
+        assert (tmp_path / f"{key}.png").stat().st_size > 1000
+    runs = json.loads((tmp_path / "bench.json").read_text())["runs"]
+    assert runs and all(r["failure"] == "" for r in runs)
+    # the references are independent of the solver and the runs are judged against them: errors are small
+    assert all(r["error"] < 1e-3 for r in runs)
+    assert "Summary" in capsys.readouterr().out
+
+
+def test_bench_references_agree_with_a_tight_run():
+    """The minimal-coordinate references (written in bench.py) and the solver agree: neither is copied."""
+    for scene in bench.scenes():
+        if scene.key in ("double_pendulum", "heavy_top", "carriage_pendulum"):
+            scene.t_end, scene.outputs = 0.5, 10
+            bench.prepare_reference(scene, quick=True)
+            difference = float(scene.ref_note.rsplit("differs by ", 1)[1].split()[0])
+            assert difference < 1e-8, (scene.key, scene.ref_note)
+
+
+@pytest.mark.parametrize("study", ["redundant", "mass", "singular"])
+def test_stress_quick_studies_end_passed_or_diagnosed(tmp_path, study):
+    assert stress.main(["--quick", "--study", study, "--out", str(tmp_path)]) == 0
+    text = (tmp_path / "stress_quick.md").read_text()
+    assert "| study | case | method | outcome |" in text
+    assert "SILENT WRONG ANSWER |" not in text
