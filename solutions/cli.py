@@ -205,6 +205,21 @@ def command_selfcheck(args) -> int:
     return selfcheck_command(args.homework, args.path)
 
 
+def command_bench(args) -> int:
+    """Run benchmarks/bench.py of the course repository (run time against error, with peers if installed)."""
+    import importlib.util
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parents[1] / "benchmarks" / "bench.py"
+    if not script.is_file():
+        raise UsageError("mbd bench runs the course repository's benchmarks/bench.py: run it in the repository")
+    spec = importlib.util.spec_from_file_location("mbd_bench", script)
+    bench = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = bench  # its dataclasses look their module up there
+    spec.loader.exec_module(bench)
+    return bench.main(args.options)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="mbd", description="Multibody dynamics course: reference solver.")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -245,13 +260,21 @@ def build_parser() -> argparse.ArgumentParser:
     selfcheck.add_argument("homework", help="hw1, hw2 or hw3")
     selfcheck.add_argument("path", nargs="?", help="folder holding your modules/ (default: the current folder)")
     selfcheck.set_defaults(handler=command_selfcheck)
+    bench = sub.add_parser(
+        "bench", help="run time against error per scene, formulation and integrator (see benchmarks/README.md)"
+    )
+    bench.set_defaults(handler=command_bench)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``mbd``; returns the exit code (0 success, 2 user error)."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
+    if args.command == "bench":
+        args.options = extra  # the benchmark's own options (benchmarks/bench.py --help)
+    elif extra:
+        parser.error(f"unrecognized arguments: {' '.join(extra)}")
     try:
         return args.handler(args)
     except (ModelError, AnalysisError, UsageError) as err:

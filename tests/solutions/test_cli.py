@@ -144,3 +144,16 @@ def test_animate_writes_a_gif_and_refuses_an_unknown_format(tmp_path, capsys):
     assert gif.read_bytes()[:6] in (b"GIF87a", b"GIF89a")
     assert main(["run", str(SLIDER_CRANK), "--steps", "10", "--animate", str(tmp_path / "crank.xyz")]) == 2
     assert ".gif" in capsys.readouterr().err
+
+
+def test_bench_quick_writes_its_table(tmp_path):
+    out = tmp_path / "bench"
+    assert main(["bench", "--quick", "--no-progress", "--no-peers", "--out", str(out)]) == 0
+    table = (out / "bench.md").read_text()
+    assert "straightforward" in table
+
+
+def test_unknown_option_outside_bench_is_a_usage_error(capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["run", str(SLIDER_CRANK), "--bogus"])
+    assert info.value.code == 2
