@@ -36,6 +36,7 @@ import numpy as np
 
 from ..functions import ScalarFunction, function_from_spec
 from ..io.model import Model, ModelError
+from ..planar.forces import ForceElement  # the common data and default powers of every force element
 from ..rotations import g_matrix, l_matrix, rotation_matrix, skew
 from .bodies import body_vector, point_vector, point_vector_dot
 from .build import FileFrames, joint_axes, joint_frames
@@ -97,33 +98,6 @@ def angular_velocity(q: np.ndarray, qd: np.ndarray) -> np.ndarray:
 
 
 # -- the elements ---------------------------------------------------------------------------------
-@dataclass
-class ForceElement:
-    """Common data of every force element: its name and the two bodies it acts on (-1 is ground)."""
-
-    name: str
-    i: int
-    j: int
-
-    @property
-    def is_conservative(self) -> bool:
-        """True when the element has a potential and neither damps nor puts work in."""
-        return False
-
-    def potential(self, qi: np.ndarray, qj: np.ndarray) -> float:
-        return 0.0
-
-    def dissipated_power(self, qi, qj, qdi, qdj, t) -> float:
-        return 0.0
-
-    def applied_power(self, qi, qj, qdi, qdj, t) -> float:
-        return 0.0
-
-    def powers(self, qi, qj, qdi, qdj, t) -> tuple[float, float]:
-        """(dissipated power, applied power) in one evaluation."""
-        return self.dissipated_power(qi, qj, qdi, qdj, t), self.applied_power(qi, qj, qdi, qdj, t)
-
-
 @dataclass
 class PointForce(ForceElement):
     """A force F(t) at body point s' of body i; ``body_fixed`` turns it with the body (F = A_i F')."""
