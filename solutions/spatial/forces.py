@@ -34,9 +34,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..functions import ScalarFunction, function_from_spec
+from ..functions import function_from_spec
 from ..io.model import Model, ModelError
-from ..planar.forces import ForceElement  # the common data and default powers of every force element
+from ..planar.forces import (  # shared with the planar force elements
+    Actuator,
+    ForceElement,
+    TimeActuator,
+    no_actuator,
+)
 from ..rotations import g_matrix, l_matrix, rotation_matrix, skew
 from .bodies import body_vector, point_vector, point_vector_dot
 from .build import FileFrames, joint_axes, joint_frames
@@ -44,24 +49,6 @@ from .mass import quadratic_velocity_vector
 
 ZERO7 = np.zeros(7)
 GROUND = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
-
-Actuator = Callable[[float, float, float], float]
-"""An actuator force (or torque) f_a(t, length, length') -- of time and, through the API, of the state."""
-
-
-@dataclass(frozen=True)
-class TimeActuator:
-    """f_a(t): an actuator that is a function of time only (what a model file gives)."""
-
-    function: ScalarFunction
-
-    def __call__(self, t: float, length: float, velocity: float) -> float:
-        return self.function.value(t)
-
-
-def no_actuator(t: float, length: float, velocity: float) -> float:
-    """f_a = 0."""
-    return 0.0
 
 
 # -- the generalized forces of the course ----------------------------------------------------------
