@@ -9,8 +9,9 @@ does not come from the configuration under test:
   equations in the joint angles (double pendulum), the crank-angle equation (slider-crank), the cart
   position and pendulum angle (carriage pendulum), the Euler angles of the heavy symmetric top;
 - the published solution at t = 0.03 s (Andrews' mechanism, IVP Test Set);
-- otherwise two different formulations at rtol = atol = 1e-12 (partitioning and qr, DOP853): a run is
-  judged against the one that is not its own formulation, and their difference is reported.
+- otherwise two different formulations at rtol = atol = 1e-12: the joint-coordinate formulation (minimal
+  coordinates, open trees) or partitioning, and qr (DOP853); a run is judged against the one that is not
+  its own formulation, and their difference is reported.
 
 The error of a run is the largest position error of any body centre on the output grid (m); Andrews' is
 the largest error of its seven published angles at the end (rad). Per run: the error, the wall time of
@@ -20,10 +21,11 @@ Cholesky, QR, SVD and lstsq, counted in the first run) and peak memory (tracemal
 more run over a tenth of the time span, with the same output grid, at the loosest and the tightest setting of
 each configuration).
 
-Configurations: every formulation with dop853; baumgarte with solve_ivp's RK45, DOP853 and Radau, this
-package's rk45 and dop853, fixed-step rk4 and the implicit index-3 HHT; ``auto`` (the method
-``choose_method`` picks); and the straightforward path -- the element loop (``System(...,
-vectorized=False)``) with solve_ivp's RK45 -- against which the structural gains are shown. Peers
+Configurations: every formulation with dop853 (joint-coordinates on the scenes that are open trees);
+baumgarte with solve_ivp's RK45, DOP853 and Radau, this package's rk45 and dop853, fixed-step rk4 and the
+implicit index-3 HHT; ``auto`` (the method ``choose_method`` picks); and the straightforward path -- the
+element loop (``System(..., vectorized=False)``) with solve_ivp's RK45 -- against which the structural gains
+are shown. Peers
 (``peers.py``: MuJoCo, Exudyn, when installed) run the same scenes in the same run.
 
 Output: ``benchmarks/results/bench.md`` (tables), ``benchmarks/results/<scene>.png`` (work-precision
@@ -71,6 +73,7 @@ from solutions.dynamics import EquationsOfMotion, consistent_initial_conditions,
 from solutions.formulations import make_formulation  # noqa: E402
 from solutions.generalized_forces import build_forces  # noqa: E402
 from solutions.io.model import Model, load_model  # noqa: E402
+from solutions.joint_coordinates import supports as joint_coordinates_supports  # noqa: E402
 from solutions.kinematics import kinematic_analysis  # noqa: E402
 from solutions.mass_matrix import mass_matrix  # noqa: E402
 from solutions.rotations import rotation_matrix  # noqa: E402
@@ -98,7 +101,13 @@ class Scene:
     ref_times: np.ndarray | None = None
     ref_positions: np.ndarray | None = None  # (outputs + 1, bodies, dim), or Andrews' 7 end angles
     ref_alternative: np.ndarray | None = None  # the second formulation's reference
+    ref_formulation: str = ""  # the formulation of ref_positions, when it is a formulation's run
     ref_note: str = ""
+
+    @property
+    def tree(self) -> bool:
+        """An open tree of joints: the joint-coordinate formulation takes it."""
+        return joint_coordinates_supports(build_system(self.load())[0]) is None
 
     def load(self) -> Model:
         if self.model is None:
@@ -373,10 +382,15 @@ def prepare_reference(scene: Scene, quick: bool) -> None:
         )
     else:
         tol = 1e-10 if quick else 1e-12
-        scene.ref_positions = run_positions(scene, "partitioning", "DOP853", tol)
+        scene.ref_formulation = "joint-coordinates" if scene.tree else "partitioning"
+        first = 1e-13 if scene.tree and not quick else tol  # minimal coordinates: no constraint error to floor it
+        scene.ref_positions = run_positions(scene, scene.ref_formulation, "DOP853", first)
         scene.ref_alternative = run_positions(scene, "qr", "DOP853", tol)
         difference = float(np.max(np.abs(scene.ref_positions - scene.ref_alternative)))
-        scene.ref_note = f"partitioning and qr, DOP853 at rtol = atol = {tol:.0e}; they differ by {difference:.1e} m"
+        scene.ref_note = (
+            f"{scene.ref_formulation} (DOP853 at rtol = atol = {first:.0e}) and qr (at {tol:.0e}); "
+            f"they differ by {difference:.1e} m"
+        )
 
 
 def run_positions(scene: Scene, formulation: str, integrator: str, tol: float) -> np.ndarray:
@@ -390,7 +404,7 @@ def run_error(scene: Scene, formulation: str, q: np.ndarray) -> float:
     if scene.reference == "published":
         return float(np.max(np.abs(andrews_angles(q[-1]) - scene.ref_positions)))
     reference = scene.ref_positions
-    if formulation == "partitioning" and scene.ref_alternative is not None:
+    if formulation == scene.ref_formulation and scene.ref_alternative is not None:
         reference = scene.ref_alternative  # never judge a formulation against itself
     return float(np.max(np.abs(body_positions(q, scene.dimension) - reference)))
 
@@ -525,6 +539,9 @@ def plan(scene: Scene, quick: bool) -> list[tuple[Config, tuple[float, ...]]]:
         ),
         (Config("auto", "auto", "auto", family="auto"), two),
     ]
+    if scene.tree:
+        joint = Config("joint-coordinates dop853", "joint-coordinates", "dop853", family="formulation")
+        entries.insert(1, (joint, main))
     if quick:
         return entries
     entries += [(Config(f"{f} dop853", f, "dop853", family="formulation"), two) for f in FORMULATIONS[1:]]
@@ -570,7 +587,8 @@ def rhs_costs(scene: Scene, quick: bool) -> dict:
     q, qd, _ = consistent_initial_conditions(system, M, q0, qd0)
     out = {"formulations": {}}
     minimum = 0.01 if quick else 0.05
-    for name in ("baumgarte",) if quick else FORMULATIONS:
+    names = ("baumgarte",) if quick else FORMULATIONS
+    for name in names + (("joint-coordinates",) if scene.tree else ()):
         for label, sys_ in (("loop", loop), ("vectorized", system)):
             equations = EquationsOfMotion(make_formulation(name, sys_, M, forces), forces, bool(model.motors))
             y = equations.initial_state(q, qd, 0.0)

@@ -1,10 +1,12 @@
 """Benchmark of the kinematic analysis: microseconds per time step, and how they grow with size.
 
-Two Markdown tables:
+Three Markdown tables:
 
 1. every kinematic example model in course/models/ (drivers leave no degree of freedom) over the
    time grid of its ``simulation`` block;
-2. a chain of N four-bar loops, N = 1, 2, 4, ..., 64, built here as a model mapping.
+2. where a time step of the driven slider-crank (slider_crank.yaml) spends its time: each part timed
+   alone at the states of the run, times the number of calls per step;
+3. a chain of N four-bar loops, N = 1, 2, 4, ..., 64, built here as a model mapping.
 
 A time step of ``kinematic_analysis`` is one Newton-Raphson position solve (from a second-order
 predictor), one LU factorization of Psi_q and the velocity and acceleration solves. The one-time set-up
@@ -43,7 +45,8 @@ import scipy  # noqa: E402
 from solutions.assembly import System, build_system  # noqa: E402
 from solutions.diagnostics import AnalysisError  # noqa: E402
 from solutions.io.model import load_model  # noqa: E402
-from solutions.kinematics import assemble, kinematic_analysis, require_no_freedom  # noqa: E402
+from solutions.kinematics import assemble, determinant_sign, kinematic_analysis, require_no_freedom  # noqa: E402
+from solutions.linalg import lu_factor, lu_solve, solve  # noqa: E402
 
 MODELS = Path(__file__).resolve().parents[1] / "course" / "models"
 
@@ -188,6 +191,82 @@ def example_table(steps: int | None, repeats: int) -> list[str]:
     return lines
 
 
+def _best_us(fn, states: list, repeats: int) -> float:
+    """Best over ``repeats`` of the mean time of fn(state) over the states (us)."""
+    best = float("inf")
+    for _ in range(repeats):
+        start = time.perf_counter()
+        for state in states:
+            fn(state)
+        best = min(best, (time.perf_counter() - start) / len(states))
+    return 1e6 * best
+
+
+def step_breakdown(repeats: int) -> list[str]:
+    """Where a kinematic time step of the driven slider-crank spends its time (us per step).
+
+    Each part is timed over the states of the run, at a new q each call (as in the run: Newton-Raphson
+    moves q, so the configuration -- the rotated body vectors -- is computed again), and the parts that
+    reuse the configuration at the same q (Psi_q, gamma) as the difference with and without them.
+    """
+    model = load_model(MODELS / "slider_crank.yaml")
+    system, q0, _ = build_system(model)
+    t_end, steps = float(model.simulation["end_time"]), int(model.simulation["output_steps"])
+    result = kinematic_analysis(system, q0, t_end, steps)
+    newton = result.info["newton_iterations"] / result.t.size
+    states = []
+    for k, (t, q, qd) in enumerate(zip(result.t, result.q, result.qd, strict=True)):
+        moved = q * (1 + 1e-12 * (k % 2 + 1))  # a new q at every call, never the cached one
+        jac = system.jacobian(q, t)
+        states.append((t, moved, qd, jac, system.constraints(q, t), lu_factor(jac)))
+
+    def psi(s):
+        return system.constraints(s[1], s[0])
+
+    def psi_and_jacobian(s):
+        return system.constraints(s[1], s[0]), system.jacobian(s[1], s[0])
+
+    def psi_and_gamma(s):
+        return system.constraints(s[1], s[0]), system.gamma(s[1], s[2], s[0])
+
+    def lu_and_tests(s):
+        lu = lu_factor(s[3])
+        pivots = np.abs(lu[0].diagonal())
+        return pivots.min() > pivots.max() / 1e10, determinant_sign(lu)
+
+    alone = {
+        "psi": _best_us(psi, states, repeats),
+        "psi_jac": _best_us(psi_and_jacobian, states, repeats),
+        "psi_gamma": _best_us(psi_and_gamma, states, repeats),
+    }
+
+    def timed(fn) -> float:
+        return _best_us(fn, states, repeats)
+
+    parts = [
+        ("Psi at a new q (rotations + Psi)", newton + 1, alone["psi"]),
+        ("Psi_q at the same q", newton + 1, alone["psi_jac"] - alone["psi"]),
+        ("max |Psi| (convergence test)", newton + 1, timed(lambda s: np.max(np.abs(s[4]), initial=0.0))),
+        ("Newton solve Psi_q dq = -Psi", newton, timed(lambda s: solve(s[3], s[4]))),
+        ("LU of Psi_q, lock-up and branch tests", 1, timed(lu_and_tests)),
+        ("velocity: Psi_t + LU solve", 1, timed(lambda s: lu_solve(s[5], -system.psi_t(s[1], s[0])))),
+        (
+            "acceleration: gamma (same q) + LU solve",
+            1,
+            alone["psi_gamma"] - alone["psi"] + timed(lambda s: lu_solve(s[5], s[4])),
+        ),
+    ]
+    lines = ["| part | calls per step | us per call | us per step |", "|---|---:|---:|---:|"]
+    total = 0.0
+    for label, calls, us in parts:
+        total += calls * us
+        lines.append(f"| {label} | {calls:.2f} | {us:.1f} | {calls * us:.1f} |")
+    measured = measure(system, q0, t_end, steps, repeats)["us_per_step"]
+    lines.append(f"| sum of the parts | | | {total:.0f} |")
+    lines.append(f"| whole step, measured (the rest: predictor, storing, Python calls) | | | {measured:.0f} |")
+    return lines
+
+
 def chain_table(sizes: list[int], steps: int, repeats: int) -> list[str]:
     lines = [
         "| loops N | bodies | n | us/step | CPU us/step | us/step per body | x previous N | Newton it/step | "
@@ -229,6 +308,8 @@ def main(argv: list[str] | None = None) -> None:
     )
     print("Example models (course/models), one full crank or cam turn:\n")
     print("\n".join(example_table(steps, repeats)))
+    print("\nOne time step of the driven slider-crank (slider_crank.yaml), part by part:\n")
+    print("\n".join(step_breakdown(repeats)))
     print(f"\nChain of N four-bar loops (drag links) driven by one crank, one crank turn in {steps or 200} steps:\n")
     print("\n".join(chain_table(sizes, steps or 200, repeats)))
 

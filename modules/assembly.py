@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .io.model import Model
+from .planar import batched as planar_batched
 from .planar.build import build_elements, initial_coordinates
 from .planar.joints import PlanarElement
 
@@ -64,7 +65,8 @@ class System:
         )
         self.groups: list = []  # batched element groups, with their scatter indices
         self._timed_groups: list = []
-        self._last = None  # (q, its configuration): the one-entry cache of _configuration
+        self._last = None  # (bytes of q, its configuration): the one-entry cache of _configuration
+        self._rotation = None  # planar groups: their body-frame vectors, rotated together (_shared_rotation)
         self._loop = list(range(len(self.elements)))  # elements evaluated one by one
         if self.vectorized:
             self._make_groups()
@@ -143,14 +145,26 @@ class System:
     # -- one pass over the groups, then the elements left ------------------------------------------
     def _configuration(self, q: np.ndarray):
         """(X, terms of every group) at q, or None without groups. The last one is kept: Newton-Raphson, the
-        velocity and the acceleration analysis ask for Psi, Psi_q, Psi_t and gamma at the same q in turn."""
+        velocity and the acceleration analysis ask for Psi, Psi_q, Psi_t and gamma at the same q in turn.
+
+        The cache key is q's bytes: equal bytes are equal values, and comparing them costs far less than
+        np.array_equal. Planar groups have their body-frame vectors rotated together, once for all groups
+        (``_rotation``)."""
         if not self.groups:
             return None
-        if self._last is not None and np.array_equal(self._last[0], q):
+        key = np.asarray(q, dtype=float).tobytes()
+        if self._last is not None and self._last[0] == key:
             return self._last[1]
         X = self._bodies(q, self._ground)
-        state = (X, [group.terms(X) for group in self.groups])
-        self._last = (np.array(q, dtype=float), state)
+        if self._rotation is None:
+            terms = [group.terms(X) for group in self.groups]
+        else:
+            ends, pairs, pairs_perp, parts = self._rotation
+            AB = planar_batched.rotate(X, ends, pairs, pairs_perp)  # [A s', A R90 s'] = [A s', B s'] per row
+            A, B = AB[:, :2], AB[:, 2:]
+            terms = [group.terms_from(X, A[part], B[part]) for group, part in zip(self.groups, parts, strict=True)]
+        state = (X, terms)
+        self._last = (key, state)
         return state
 
     def _constraints(self, q, t, state) -> np.ndarray:
@@ -269,7 +283,24 @@ class System:
                 batched.update(members)
         self.groups = kept
         self._timed_groups = [group for group in kept if group.time_dependent]
+        self._rotation = self._shared_rotation(kept)
         self._loop = [k for k in range(len(self.elements)) if k not in batched]
+
+    @staticmethod
+    def _shared_rotation(groups: list):
+        """The body-frame vectors s' of all planar groups stacked as rows [s', R90 s'] (with R90 of each,
+        [R90 s', -s']), and each group's slice of them, so that one ``rotate`` call per configuration gives
+        A s' and B s' = A R90 s' for every group (eq. 2.1, 2.5); None for spatial groups."""
+        if not groups or not all(hasattr(group, "terms_from") for group in groups):
+            return None
+        parts, start = [], 0
+        for group in groups:
+            parts.append(slice(start, start + group.ends.size))
+            start += group.ends.size
+        ends = np.concatenate([group.ends for group in groups])
+        vectors = np.concatenate([group.vectors for group in groups]).reshape(-1, 2)
+        perp = np.concatenate([group.vectors_perp for group in groups]).reshape(-1, 2)
+        return ends, np.hstack([vectors, perp]), np.hstack([perp, -vectors]), parts
 
     def _random_coordinates(self, rng: np.random.Generator) -> np.ndarray:
         q = rng.standard_normal(self.n_coordinates)

@@ -107,6 +107,10 @@ class EquationsOfMotion:
         if not self.extra:
             return self.formulation.rhs(t, z)
         y, _ = self.split(z)
+        if not self.has_drivers:  # lambda enters only the drivers' power: the formulation's own rhs will do
+            derivative = self.formulation.rhs(t, y)
+            q, qd = self.formulation.coordinates(t, y)
+            return np.concatenate([derivative, self.forces.powers(q, qd, t), [0.0]])
         q, qd = self.formulation.coordinates(t, y)
         qdd, lam = self.formulation.accelerations(q, qd, t)
         return np.concatenate([self.formulation.state_derivative(q, qd, qdd), self.powers(q, qd, lam, t)])
@@ -123,8 +127,8 @@ def forward_dynamics(
     qd0: np.ndarray,
     t_end: float,
     steps: int,
-    formulation: str = "baumgarte",
-    integrator: str = "RK45",
+    formulation: str = "auto",
+    integrator: str = "auto",
     rtol: float = 1e-8,
     atol: float = 1e-10,
     step: float | None = None,
@@ -144,10 +148,10 @@ def forward_dynamics(
     ----------
     system : the assembled system; q0, qd0 its (approximate) initial coordinates and velocities
     formulation : one of ``baumgarte``, ``partitioning``, ``qr``, ``svd``, ``projection``, or ``auto``
-        (``choose_method``: svd for redundant constraints, baumgarte otherwise)
+        (the default: ``choose_method`` picks the cheapest adequate one for the scene)
     integrator : a ``solve_ivp`` method (RK45, RK23, DOP853, Radau, BDF, LSODA), ``rk4``, this package's
         own loop around the same pairs (``rk45``, ``dop853``: less overhead per step), an implicit
-        index-3 method (``hht``, ``generalized-alpha``), or ``auto`` (``choose_method``)
+        index-3 method (``hht``, ``generalized-alpha``), or ``auto`` (the default: ``choose_method``)
     rtol, atol : tolerances of the adaptive integrators
     step : the fixed step of rk4 (default: the output spacing); the largest step of the others
     masses, forces : the mass matrix and ``ForceModel`` to use instead of the model's (e.g. with user
@@ -186,6 +190,8 @@ def forward_dynamics(
     forces = build_forces(model) if forces is None else forces
     q, qd, initial = consistent_initial_conditions(system, M, q0, qd0)
     chosen = None
+    if formulation != "auto" and integrator not in INDEX3_INTEGRATORS:
+        _check_redundancy(system, q, formulation)  # before ``auto`` evaluates the equations of motion
     if "auto" in (formulation, integrator):
         chosen = choose_method(system, M, forces, q, qd, t_end, rtol, formulation, integrator, **options)
         formulation, integrator = chosen["formulation"], chosen["integrator"]
@@ -217,6 +223,8 @@ def forward_dynamics(
     history = _History(times.size, system.n_coordinates, system.n_constraints, equations.extra)
 
     loose = 100.0 * rtol if integrator not in FIXED_STEP_METHODS else 0.0  # a loose tolerance may drift further
+    if formulation == "joint-coordinates":  # an open tree in minimal coordinates: on the constraints by construction,
+        drift_limit = singular_ratio = None  # and its Psi_q has full rank everywhere: nothing for the Guard to see
     guard = Guard(system, q, None if drift_limit is None else max(drift_limit, loose), singular_ratio)
 
     def record(k: int, t: float, z: np.ndarray) -> None:
@@ -285,7 +293,32 @@ def forward_dynamics(
     }
     if chosen is not None:
         result.info["chosen"] = chosen
+    result.info["warnings"] = drift_warnings(result.info, guard.size, formulation, options)
     return result
+
+
+DRIFT_WARNING = 1e-6
+"""Largest constraint residual, as a fraction of the mechanism's size, that a run returns without a warning
+(between it and the Guard's drift limit a run goes on, and its result says how far it drifted, and why)."""
+
+
+def drift_warnings(info: dict, size: float, formulation: str, options: dict) -> list[str]:
+    """One line for a result whose positions or velocities have drifted off the constraints (info['warnings'])."""
+    residual = info["max_constraint_residual"]
+    if residual <= DRIFT_WARNING * size:
+        return []
+    unstabilized = formulation in ("qr", "svd") or (
+        formulation == "baumgarte" and options.get("alpha", 1.0) == 0.0 and options.get("beta", 1.0) == 0.0
+    )
+    why = (
+        f"{formulation} without stabilization lets the constraint error grow (eq. 5.44); "
+        if unstabilized
+        else "the integrator's error reaches the constraints; "
+    )
+    return [
+        f"constraint drift: max |Psi| = {residual:.2g}, above {DRIFT_WARNING:g} of the mechanism's size "
+        f"({size:.3g} m): {why}use baumgarte (alpha, beta > 0), projection or a tighter tolerance"
+    ]
 
 
 STIFF_STEPS = 20_000
@@ -307,8 +340,11 @@ def choose_method(
 ) -> dict:
     """The cheapest adequate formulation and integrator for a scene (``auto``), and why.
 
-    - formulation: ``svd`` when the constraints are redundant (the only one that takes them),
-      otherwise ``baumgarte``: one linear solve per evaluation, the cheapest of the five;
+    - formulation: ``joint-coordinates`` when the joints form an open tree it takes (minimal
+      coordinates: a k x k system per evaluation, nothing to stabilize; ``joint_coordinates.supports``),
+      ``svd`` when the constraints are redundant (the only one that takes them), otherwise
+      ``baumgarte``: one linear solve per evaluation, the cheapest of the others. Formulation options
+      (``alpha``, ``rank_tol``, ...) keep the choice among the formulations that take them;
     - integrator: the spectral radius rho of the ODE's Jacobian at the start (``spectral_radius``)
       says how many steps an explicit method needs for stability alone, t_end rho / 6 for DOP853;
       beyond STIFF_STEPS the scene is stiff and ``Radau`` (implicit, L-stable) is taken. Otherwise
@@ -317,9 +353,17 @@ def choose_method(
     """
     reasons = []
     if formulation == "auto":
+        from .joint_coordinates import supports  # the tree formulation is built on the others
+
+        not_a_tree = "formulation options given" if options else supports(system)
         redundant = rank_report(system.jacobian(q, 0.0), system.row_owners).n_redundant
-        formulation = "svd" if redundant else "baumgarte"
-        reasons.append(f"{formulation}: {'redundant' if redundant else 'independent'} constraints")
+        if not_a_tree is None:
+            formulation = "joint-coordinates"
+            reasons.append("joint-coordinates: an open tree of joints (minimal coordinates)")
+        else:
+            formulation = "svd" if redundant else "baumgarte"
+            kind = "redundant" if redundant else "independent"
+            reasons.append(f"{formulation}: {kind} constraints; not joint-coordinates: {not_a_tree}")
     if integrator == "auto":
         equations = EquationsOfMotion(
             make_formulation(formulation, system, M, forces, **options), forces, bool(system.model.motors)
@@ -362,6 +406,7 @@ class Guard:
     def __init__(self, system: System, q: np.ndarray, drift_limit: float | None, singular_ratio: float | None):
         self.system, self.singular_ratio = system, singular_ratio
         size = max(float(np.max(np.abs(body_positions(system, q)), initial=0.0)), _joint_extent(system.model), 1e-3)
+        self.size = size
         self.drift_limit = None if drift_limit is None else drift_limit * size
         self.rank = rank_report(system.jacobian(q, 0.0), system.row_owners).rank
         self.closest: dict | None = None
@@ -404,12 +449,16 @@ class Guard:
             self.closest = {"t": float(t), "ratio": ratio}
         passed = False
         tangent = vt[self.rank :].T
-        if self._tangent is not None and jacobian.shape[0] == self.rank:
+        square = jacobian.shape[0] == self.rank
+        sign = np.sign(np.linalg.det(np.vstack([jacobian, tangent.T]))) if square else self._sign
+        if self._tangent is not None and square:
             # the sign of det [Psi_q; T^T] with the previous step's null-space basis T flips when a rank loss
             # lies between the two steps (the test function of continuation methods for bifurcation points);
-            # it says so only while the null space has turned little over the step (|det T^T T_new| near 1)
-            aligned = abs(np.linalg.det(self._tangent.T @ tangent)) > ALIGNED
-            passed = aligned and np.linalg.det(np.vstack([jacobian, self._tangent.T])) * self._sign < 0
+            # it says so only while the null space has turned little over the step (|det T^T T_new| near 1).
+            # With C = T^T T_new, T^T = C T_new^T + Y Psi_q for some Y, so det [Psi_q; T^T] = det C det [Psi_q;
+            # T_new^T]: the sign comes from C, already needed for the alignment, and this step's own sign.
+            turn = np.linalg.det(self._tangent.T @ tangent)
+            passed = abs(turn) > ALIGNED and turn * sign * self._sign < 0
         if passed or not ratio >= self.singular_ratio:
             from .diagnostics import singular_joints
 
@@ -421,9 +470,7 @@ class Guard:
                 f"joints involved: {', '.join(joints)}. The mechanism can switch assembly branch there (a change "
                 "point or a toggle), which the equations of motion do not decide; singular_ratio=None runs on"
             )
-        self._tangent, self._t = tangent, t
-        if jacobian.shape[0] == self.rank:
-            self._sign = np.sign(np.linalg.det(np.vstack([jacobian, self._tangent.T])))
+        self._tangent, self._t, self._sign = tangent, t, sign
 
 
 def body_positions(system: System, q: np.ndarray) -> np.ndarray:

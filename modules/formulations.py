@@ -36,6 +36,7 @@ import scipy.linalg
 from .assembly import System
 from .diagnostics import AnalysisError
 from .generalized_forces import ForceModel
+from .linalg import solve
 
 SINGULAR_CONDITION = 1e12
 """Condition number of Psi_u above which coordinate partitioning refuses a partition."""
@@ -465,3 +466,7 @@ __all__ = [
     "project_positions",
     "project_velocities",
 ]
+
+from .joint_coordinates import JointCoordinates  # noqa: E402  (it builds on Formulation, defined above)
+
+FORMULATIONS[JointCoordinates.name] = JointCoordinates  # open trees: joint coordinates, no constraints to keep

@@ -115,6 +115,7 @@ def _summary(result: Result) -> str:
             lines.append(f"{key.replace('_', ' ')}: {value:.3g}" if isinstance(value, float) else f"{key}: {value}")
     if "wall_time" in info:
         lines.append(f"wall time: {info['wall_time']:.3g} s")
+    lines += [f"warning: {warning}" for warning in info.get("warnings", [])]
     return "\n".join(lines)
 
 
@@ -228,8 +229,14 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--analysis", choices=["auto", "kinematic", "dynamic", "inverse"])
     run.add_argument("--t-end", type=float, help="end time in s (default: the file's simulation.end_time)")
     run.add_argument("--steps", type=int, help="number of output intervals (default: simulation.output_steps)")
-    run.add_argument("--formulation", help="dynamic formulation (baumgarte, partitioning, qr, svd, projection)")
-    run.add_argument("--integrator", help="integrator (RK45, DOP853, Radau, BDF, LSODA, rk4, ...)")
+    run.add_argument(
+        "--formulation",
+        help="dynamic formulation: auto (default: the cheapest adequate one), baumgarte, partitioning, qr, svd, "
+        "projection, joint-coordinates (open trees)",
+    )
+    run.add_argument(
+        "--integrator", help="integrator: auto (default), dop853, rk45, RK45, DOP853, Radau, BDF, LSODA, rk4, hht, ..."
+    )
     run.add_argument("--rtol", type=float, help="relative tolerance of the integrator")
     run.add_argument("--atol", type=float, help="absolute tolerance of the integrator")
     run.add_argument("--step", type=float, help="fixed step size for fixed-step integrators")

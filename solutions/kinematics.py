@@ -6,8 +6,9 @@ For a mechanism whose drivers leave no degree of freedom, at each time t (course
 2. velocity:      Psi_q q' = -Psi_t                                                        (eq. 4.5)
 3. acceleration:  Psi_q q'' = gamma                                                        (eq. 4.6)
 
-The Jacobian factored for the last Newton step is reused for steps 2 and 3. A kinematic run needs
-no mass matrix and no forces, and builds neither.
+The Jacobian at the converged positions is factored once (LU) and the factors serve steps 2 and 3
+and the diagnostics (the lock-up test and the sign of det Psi_q come from U's diagonal). A kinematic
+run needs no mass matrix and no forces, and builds neither.
 """
 
 from __future__ import annotations
@@ -16,10 +17,10 @@ import time as _time
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 
 from .assembly import System
 from .diagnostics import AnalysisError, rank_report, singular_joints
+from .linalg import lu_factor, lu_solve, solve
 from .planar.bodies import rotation, rotation_derivative
 from .results import Result
 
@@ -60,7 +61,7 @@ def newton_raphson(
         jac = system.jacobian(q, t)
         if jac.shape[0] == jac.shape[1]:
             try:
-                dq = np.linalg.solve(jac, -psi)
+                dq = solve(jac, -psi)
             except np.linalg.LinAlgError:
                 dq = np.linalg.lstsq(jac, -psi, rcond=None)[0]
         else:
@@ -77,16 +78,16 @@ def newton_raphson(
 def velocity_analysis(system: System, q: np.ndarray, t: float, lu=None) -> np.ndarray:
     """q' from Psi_q q' = -Psi_t (eq. 4.5); ``lu`` is a factorization of Psi_q to reuse."""
     ### BEGIN SOLUTION hw1
-    lu = lu if lu is not None else scipy.linalg.lu_factor(system.jacobian(q, t))
-    return scipy.linalg.lu_solve(lu, -system.psi_t(q, t))
+    lu = lu if lu is not None else lu_factor(system.jacobian(q, t))
+    return lu_solve(lu, -system.psi_t(q, t))
     ### END SOLUTION
 
 
 def acceleration_analysis(system: System, q: np.ndarray, qd: np.ndarray, t: float, lu=None) -> np.ndarray:
     """q'' from Psi_q q'' = gamma (eq. 4.6); ``lu`` is a factorization of Psi_q to reuse."""
     ### BEGIN SOLUTION hw1
-    lu = lu if lu is not None else scipy.linalg.lu_factor(system.jacobian(q, t))
-    return scipy.linalg.lu_solve(lu, system.gamma(q, qd, t))
+    lu = lu if lu is not None else lu_factor(system.jacobian(q, t))
+    return lu_solve(lu, system.gamma(q, qd, t))
     ### END SOLUTION
 
 
@@ -131,26 +132,30 @@ def require_no_freedom(system: System, q: np.ndarray, t: float = 0.0) -> None:
 
 
 def _factor_checked(system: System, q: np.ndarray, t: float):
-    """LU of Psi_q, refusing a locked (singular) configuration with time, condition and joints."""
+    """LU of Psi_q, refusing a locked (singular) configuration with time, condition and joints.
+
+    The cheap test first: U's diagonal (the pivots) spans less than LOCKUP_CONDITION unless Psi_q is
+    nearly singular; only then is the condition number computed (an SVD) to decide and to name the joints.
+    """
     jac = system.jacobian(q, t)
-    lu, piv = scipy.linalg.lu_factor(jac, check_finite=False)
-    pivots = np.abs(np.diag(lu))
-    if pivots.min() <= pivots.max() / LOCKUP_CONDITION:
+    lu = lu_factor(jac)
+    pivots = np.abs(lu[0].diagonal())
+    if not pivots.min() > pivots.max() / LOCKUP_CONDITION:  # also a NaN
         cond, joints = singular_joints(jac, system.row_owners)
-        if cond > LOCKUP_CONDITION:
+        if not cond <= LOCKUP_CONDITION:
             raise AnalysisError(
                 f"lock-up or branch point at t = {t:.6g} s: Psi_q is singular (condition number "
                 f"{cond:.3g}); joints involved: {', '.join(joints)}"
             )
-    return lu, piv
+    return lu
 
 
 def determinant_sign(lu) -> float:
     """Sign of det(Psi_q) from its LU factors: the sign of the product of U's diagonal, flipped once per
     row swap. A change of sign between two steps means the mechanism went through a singular position."""
     factors, pivots = lu
-    swaps = np.count_nonzero(pivots != np.arange(pivots.size))
-    return float((-1) ** swaps * np.prod(np.sign(np.diag(factors))))
+    negative = np.count_nonzero(factors.diagonal() < 0.0) + np.count_nonzero(pivots != np.arange(pivots.size))
+    return -1.0 if negative % 2 else 1.0
 
 
 def kinematic_analysis(

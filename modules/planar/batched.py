@@ -42,6 +42,33 @@ def _perpendicular(s: np.ndarray) -> np.ndarray:
     return s @ R90.T
 
 
+def rows(X: np.ndarray, bodies: np.ndarray) -> np.ndarray:
+    """The (K, 3) rows (x_b, y_b, phi_b) of X (or (x_b', y_b', phi_b') of V) of bodies b (K,): ``X[bodies]``."""
+    return X.take(bodies, axis=0)
+
+
+def positions(X: np.ndarray, bodies: np.ndarray) -> np.ndarray:
+    """r_b = (x_b, y_b) of bodies b (K,) as a (K, 2) array: the rows of X, then their first two columns.
+
+    (``X.take(bodies, axis=0)[:, :2]`` is ``X[bodies, :2]``; gathering whole rows first is several
+    times cheaper for small arrays, and a system is evaluated thousands of times.)
+    """
+    return X.take(bodies, axis=0)[:, :2]
+
+
+def angles(X: np.ndarray, bodies: np.ndarray) -> np.ndarray:
+    """phi_b (or phi_b' from V) of bodies b (K,): the phi column of X, then its entries (``X[bodies, 2]``)."""
+    return X[:, 2].take(bodies)
+
+
+def dot_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a_k^T b_k for every row k of two (K, 2) arrays."""
+    return _vecdot(a, b)
+
+
+_vecdot = getattr(np, "vecdot", None) or (lambda a, b: np.einsum("ki,ki->k", a, b))  # np.vecdot: NumPy >= 2.0
+
+
 def rotated(X: np.ndarray, bodies: np.ndarray, s: np.ndarray, s_perp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """A_b s' and B_b s' = A_b R90 s' for body-frame vectors s' (K, 2) of bodies b (K,) (eq. 2.1, 2.5).
 
@@ -50,8 +77,24 @@ def rotated(X: np.ndarray, bodies: np.ndarray, s: np.ndarray, s_perp: np.ndarray
     raise NotImplementedError("rotated: A_b s' and B_b s' = A_b R90 s' for body-frame vectors s' (K, 2) of bodies b (K,), see eq. 2.1, 2.5")
 
 
+def rotate(X: np.ndarray, bodies: np.ndarray, v: np.ndarray, v_perp: np.ndarray) -> np.ndarray:
+    """A_b v' = cos(phi_b) v' + sin(phi_b) R90 v' (eq. 2.1) for rows v' of body-frame vectors of bodies b (K,).
+
+    A row may hold several vectors side by side, (K, 2k) with R90 of each in ``v_perp``: the System rotates
+    [s', R90 s'] of every vector of every group in one call, which gives A s' and B s' = A R90 s' together.
+    """
+    phi = angles(X, bodies)
+    return np.cos(phi)[:, None] * v + np.sin(phi)[:, None] * v_perp
+
+
 class Group:
-    """The elements of one type, with the data of every element stacked in arrays."""
+    """The elements of one type, with the data of every element stacked in arrays.
+
+    ``vectors`` are the body-frame vectors v' (s_i', s_j', slot normals, ...) the formulas need rotated, and
+    ``ends`` the body each belongs to: ``terms`` rotates them (A_b v' and B_b v'), and ``terms_from`` makes what
+    the formulas share from them. The System rotates the vectors of all its groups at once (one cos and sin per
+    vector for the whole system) and calls ``terms_from`` with each group's part.
+    """
 
     kind: type = object
     rows_per_element = 1
@@ -61,9 +104,21 @@ class Group:
         self.i = np.array([e.i for e in elements], dtype=int)
         self.j = np.array([e.j for e in elements], dtype=int)
         self.size = len(elements)
+        self.ends = np.zeros(0, dtype=int)
+        self.vectors = self.vectors_perp = np.zeros((0, 2))
+
+    def _rotate(self, ends: np.ndarray, vectors: np.ndarray) -> None:
+        """Set the body-frame vectors (K, 2) to rotate, and the bodies (K,) they belong to."""
+        self.ends, self.vectors, self.vectors_perp = ends, vectors, _perpendicular(vectors)
 
     def terms(self, X: np.ndarray):
         """What the element formulas share at one configuration (rotated body vectors), computed once."""
+        if not self.ends.size:
+            return self.terms_from(X, None, None)
+        return self.terms_from(X, *rotated(X, self.ends, self.vectors, self.vectors_perp))
+
+    def terms_from(self, X: np.ndarray, A: np.ndarray | None, B: np.ndarray | None):
+        """The shared terms from A = A_b v' and B = B_b v' of the group's ``vectors`` (None without vectors)."""
         return None
 
     def psi_t(self, X: np.ndarray, terms, t: float) -> np.ndarray:
@@ -88,16 +143,18 @@ class RevoluteGroup(Group):
 
     def __init__(self, elements):
         super().__init__(elements)
-        self.ends = np.concatenate([self.i, self.j])  # s_i' of every joint, then s_j': one rotation for all
-        self.s = np.concatenate([_column([e.si for e in elements]), _column([e.sj for e in elements])])
-        self.s_perp = _perpendicular(self.s)
+        # s_i' of every joint, then s_j': one rotation for all
+        self._rotate(
+            np.concatenate([self.i, self.j]),
+            np.concatenate([_column([e.si for e in elements]), _column([e.sj for e in elements])]),
+        )
         self._block_i = np.zeros((self.size, 2, 3))
         self._block_i[:, 0, 0] = self._block_i[:, 1, 1] = 1.0
         self._block_j = -self._block_i
 
-    def terms(self, X):
+    def terms_from(self, X, As, Bs):
         """A_i s_i', B_i s_i', A_j s_j', B_j s_j' of every joint: what Psi, Psi_q and gamma are made of."""
-        raise NotImplementedError("RevoluteGroup.terms: A_i s_i', B_i s_i', A_j s_j', B_j s_j' of every joint: what Psi, Psi_q and gamma are made of, see eq. 3.17")
+        raise NotImplementedError("RevoluteGroup.terms_from: A_i s_i', B_i s_i', A_j s_j', B_j s_j' of every joint: what Psi, Psi_q and gamma are made of, see eq. 3.17")
 
     def constraints(self, X, terms, t):
         raise NotImplementedError('RevoluteGroup.constraints: the constraint equations Psi (Revolute joints), see eq. 3.17')
@@ -192,15 +249,18 @@ class AlongDirectionGroup(_TimedGroup):
         zero = Constant(0.0)
         super().__init__(elements, [zero if s else e.function for e, s in zip(elements, slot, strict=True)])
         u = _column([e._normal if s else e.axis for e, s in zip(elements, slot, strict=True)])
-        self.ends = np.concatenate([self.i, self.i, self.j])  # u_i', s_i', s_j': one rotation for all
-        self.vectors = np.concatenate([u, _column([e.si for e in elements]), _column([e.sj for e in elements])])
-        self.vectors_perp = _perpendicular(self.vectors)
+        # u_i', s_i', s_j': one rotation for all
+        self._rotate(
+            np.concatenate([self.i, self.i, self.j]),
+            np.concatenate([u, _column([e.si for e in elements]), _column([e.sj for e in elements])]),
+        )
         self.rolling = _column([0.0 if s else e.side * e.pinion_radius for e, s in zip(elements, slot, strict=True)])
         self.d0 = _column([0.0 if s else e.d0 for e, s in zip(elements, slot, strict=True)])
+        self.rolls = bool(np.any(self.rolling))  # a rack and pinion among them: the rolling terms are needed
 
-    def terms(self, X):
+    def terms_from(self, X, A, B):
         """u = A_i u_i', w = B_i u_i', A_i s_i', B_i s_i', A_j s_j', B_j s_j' and d_ij of every element."""
-        raise NotImplementedError("AlongDirectionGroup.terms: u = A_i u_i', w = B_i u_i', A_i s_i', B_i s_i', A_j s_j', B_j s_j' and d_ij of every element, see eq. 3.13")
+        raise NotImplementedError("AlongDirectionGroup.terms_from: u = A_i u_i', w = B_i u_i', A_i s_i', B_i s_i', A_j s_j', B_j s_j' and d_ij of every element, see eq. 3.13")
 
     def constraints(self, X, terms, t):
         raise NotImplementedError("AlongDirectionGroup.constraints: the constraint equations Psi (u_i^T d_ij + rolling (phi_j - phi_i) - d0 - f(t) = 0 with u_i = A_i u_i'), see eq. 3.13")
@@ -220,13 +280,14 @@ class DistanceGroup(_TimedGroup):
 
     def __init__(self, elements):
         super().__init__(elements, [e.length for e in elements])
-        self.ends = np.concatenate([self.i, self.j])
-        self.s = np.concatenate([_column([e.si for e in elements]), _column([e.sj for e in elements])])
-        self.s_perp = _perpendicular(self.s)
+        self._rotate(
+            np.concatenate([self.i, self.j]),
+            np.concatenate([_column([e.si for e in elements]), _column([e.sj for e in elements])]),
+        )
 
-    def terms(self, X):
+    def terms_from(self, X, As, Bs):
         """A_i s_i', B_i s_i', A_j s_j', B_j s_j' and d_ij of every element."""
-        raise NotImplementedError("DistanceGroup.terms: A_i s_i', B_i s_i', A_j s_j', B_j s_j' and d_ij of every element, see eq. 3.27")
+        raise NotImplementedError("DistanceGroup.terms_from: A_i s_i', B_i s_i', A_j s_j', B_j s_j' and d_ij of every element, see eq. 3.27")
 
     def psi_t(self, X, terms, t):
         return -self.values(t) * self.derivatives(t, 1)
@@ -259,4 +320,4 @@ def make_groups(elements: list) -> tuple[list[tuple[Group, list[int]]], list[int
     return groups, rest
 
 
-__all__ = ["GROUPS", "Group", "make_groups", "rotated"]
+__all__ = ["GROUPS", "Group", "angles", "dot_rows", "make_groups", "positions", "rotate", "rotated", "rows"]

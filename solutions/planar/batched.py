@@ -41,20 +41,63 @@ def _perpendicular(s: np.ndarray) -> np.ndarray:
     return s @ R90.T
 
 
+def rows(X: np.ndarray, bodies: np.ndarray) -> np.ndarray:
+    """The (K, 3) rows (x_b, y_b, phi_b) of X (or (x_b', y_b', phi_b') of V) of bodies b (K,): ``X[bodies]``."""
+    return X.take(bodies, axis=0)
+
+
+def positions(X: np.ndarray, bodies: np.ndarray) -> np.ndarray:
+    """r_b = (x_b, y_b) of bodies b (K,) as a (K, 2) array: the rows of X, then their first two columns.
+
+    (``X.take(bodies, axis=0)[:, :2]`` is ``X[bodies, :2]``; gathering whole rows first is several
+    times cheaper for small arrays, and a system is evaluated thousands of times.)
+    """
+    return X.take(bodies, axis=0)[:, :2]
+
+
+def angles(X: np.ndarray, bodies: np.ndarray) -> np.ndarray:
+    """phi_b (or phi_b' from V) of bodies b (K,): the phi column of X, then its entries (``X[bodies, 2]``)."""
+    return X[:, 2].take(bodies)
+
+
+def dot_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a_k^T b_k for every row k of two (K, 2) arrays."""
+    return _vecdot(a, b)
+
+
+_vecdot = getattr(np, "vecdot", None) or (lambda a, b: np.einsum("ki,ki->k", a, b))  # np.vecdot: NumPy >= 2.0
+
+
 def rotated(X: np.ndarray, bodies: np.ndarray, s: np.ndarray, s_perp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """A_b s' and B_b s' = A_b R90 s' for body-frame vectors s' (K, 2) of bodies b (K,) (eq. 2.1, 2.5).
 
     With c = cos(phi_b), s = sin(phi_b): A s' = c s' + s R90 s',  B s' = c R90 s' - s s'.
     """
     ### BEGIN SOLUTION hw1
-    phi = X[bodies, 2]
+    phi = angles(X, bodies)
     c, sn = np.cos(phi)[:, None], np.sin(phi)[:, None]
     return c * s + sn * s_perp, c * s_perp - sn * s
     ### END SOLUTION
 
 
+def rotate(X: np.ndarray, bodies: np.ndarray, v: np.ndarray, v_perp: np.ndarray) -> np.ndarray:
+    """A_b v' = cos(phi_b) v' + sin(phi_b) R90 v' (eq. 2.1) for rows v' of body-frame vectors of bodies b (K,).
+
+    A row may hold several vectors side by side, (K, 2k) with R90 of each in ``v_perp``: the System rotates
+    [s', R90 s'] of every vector of every group in one call, which gives A s' and B s' = A R90 s' together.
+    """
+    phi = angles(X, bodies)
+    return np.cos(phi)[:, None] * v + np.sin(phi)[:, None] * v_perp
+
+
 class Group:
-    """The elements of one type, with the data of every element stacked in arrays."""
+    """The elements of one type, with the data of every element stacked in arrays.
+
+    ``vectors`` are the body-frame vectors v' (s_i', s_j', slot normals, ...) the formulas need rotated, and
+    ``ends`` the body each belongs to: ``terms`` rotates them (A_b v' and B_b v'), and ``terms_from`` makes what
+    the formulas share from them. The System rotates the vectors of all its groups at once (one cos and sin per
+    vector for the whole system) and calls ``terms_from`` with each group's part.
+    """
 
     kind: type = object
     rows_per_element = 1
@@ -64,9 +107,21 @@ class Group:
         self.i = np.array([e.i for e in elements], dtype=int)
         self.j = np.array([e.j for e in elements], dtype=int)
         self.size = len(elements)
+        self.ends = np.zeros(0, dtype=int)
+        self.vectors = self.vectors_perp = np.zeros((0, 2))
+
+    def _rotate(self, ends: np.ndarray, vectors: np.ndarray) -> None:
+        """Set the body-frame vectors (K, 2) to rotate, and the bodies (K,) they belong to."""
+        self.ends, self.vectors, self.vectors_perp = ends, vectors, _perpendicular(vectors)
 
     def terms(self, X: np.ndarray):
         """What the element formulas share at one configuration (rotated body vectors), computed once."""
+        if not self.ends.size:
+            return self.terms_from(X, None, None)
+        return self.terms_from(X, *rotated(X, self.ends, self.vectors, self.vectors_perp))
+
+    def terms_from(self, X: np.ndarray, A: np.ndarray | None, B: np.ndarray | None):
+        """The shared terms from A = A_b v' and B = B_b v' of the group's ``vectors`` (None without vectors)."""
         return None
 
     def psi_t(self, X: np.ndarray, terms, t: float) -> np.ndarray:
@@ -91,17 +146,18 @@ class RevoluteGroup(Group):
 
     def __init__(self, elements):
         super().__init__(elements)
-        self.ends = np.concatenate([self.i, self.j])  # s_i' of every joint, then s_j': one rotation for all
-        self.s = np.concatenate([_column([e.si for e in elements]), _column([e.sj for e in elements])])
-        self.s_perp = _perpendicular(self.s)
+        # s_i' of every joint, then s_j': one rotation for all
+        self._rotate(
+            np.concatenate([self.i, self.j]),
+            np.concatenate([_column([e.si for e in elements]), _column([e.sj for e in elements])]),
+        )
         self._block_i = np.zeros((self.size, 2, 3))
         self._block_i[:, 0, 0] = self._block_i[:, 1, 1] = 1.0
         self._block_j = -self._block_i
 
-    def terms(self, X):
+    def terms_from(self, X, As, Bs):
         """A_i s_i', B_i s_i', A_j s_j', B_j s_j' of every joint: what Psi, Psi_q and gamma are made of."""
         ### BEGIN SOLUTION hw1
-        As, Bs = rotated(X, self.ends, self.s, self.s_perp)
         K = self.size
         return As[:K], Bs[:K], As[K:], Bs[K:]
         ### END SOLUTION
@@ -109,7 +165,7 @@ class RevoluteGroup(Group):
     def constraints(self, X, terms, t):
         ### BEGIN SOLUTION hw1
         Asi, _, Asj, _ = terms
-        return (X[self.i, :2] + Asi - X[self.j, :2] - Asj).ravel()
+        return (positions(X, self.i) + Asi - positions(X, self.j) - Asj).ravel()
         ### END SOLUTION
 
     def jacobian(self, X, terms, t):
@@ -123,7 +179,8 @@ class RevoluteGroup(Group):
     def gamma(self, X, V, terms, t):
         ### BEGIN SOLUTION hw1
         Asi, _, Asj, _ = terms
-        return (Asi * V[self.i, 2:3] ** 2 - Asj * V[self.j, 2:3] ** 2).ravel()
+        wi, wj = rows(V, self.i)[:, 2:], rows(V, self.j)[:, 2:]  # phi_i', phi_j' as (K, 1) columns
+        return (Asi * (wi * wi) - Asj * (wj * wj)).ravel()
         ### END SOLUTION
 
 
@@ -165,7 +222,7 @@ class RelativeAngleGroup(_TimedGroup):
 
     def constraints(self, X, terms, t):
         ### BEGIN SOLUTION hw1
-        return X[self.j, 2] - X[self.i, 2] - self.phi0 - self.values(t)
+        return angles(X, self.j) - angles(X, self.i) - self.phi0 - self.values(t)
         ### END SOLUTION
 
     def jacobian(self, X, terms, t):
@@ -222,46 +279,51 @@ class AlongDirectionGroup(_TimedGroup):
         zero = Constant(0.0)
         super().__init__(elements, [zero if s else e.function for e, s in zip(elements, slot, strict=True)])
         u = _column([e._normal if s else e.axis for e, s in zip(elements, slot, strict=True)])
-        self.ends = np.concatenate([self.i, self.i, self.j])  # u_i', s_i', s_j': one rotation for all
-        self.vectors = np.concatenate([u, _column([e.si for e in elements]), _column([e.sj for e in elements])])
-        self.vectors_perp = _perpendicular(self.vectors)
+        # u_i', s_i', s_j': one rotation for all
+        self._rotate(
+            np.concatenate([self.i, self.i, self.j]),
+            np.concatenate([u, _column([e.si for e in elements]), _column([e.sj for e in elements])]),
+        )
         self.rolling = _column([0.0 if s else e.side * e.pinion_radius for e, s in zip(elements, slot, strict=True)])
         self.d0 = _column([0.0 if s else e.d0 for e, s in zip(elements, slot, strict=True)])
+        self.rolls = bool(np.any(self.rolling))  # a rack and pinion among them: the rolling terms are needed
 
-    def terms(self, X):
+    def terms_from(self, X, A, B):
         """u = A_i u_i', w = B_i u_i', A_i s_i', B_i s_i', A_j s_j', B_j s_j' and d_ij of every element."""
         ### BEGIN SOLUTION hw1
-        A, B = rotated(X, self.ends, self.vectors, self.vectors_perp)
         K = self.size
         u, w, Asi, Bsi, Asj, Bsj = A[:K], B[:K], A[K : 2 * K], B[K : 2 * K], A[2 * K :], B[2 * K :]
-        d = X[self.j, :2] + Asj - X[self.i, :2] - Asi
+        d = positions(X, self.j) + Asj - positions(X, self.i) - Asi
         return u, w, Asi, Bsi, Asj, Bsj, d
         ### END SOLUTION
 
     def constraints(self, X, terms, t):
         ### BEGIN SOLUTION hw1
         u, _, _, _, _, _, d = terms
-        rolling = self.rolling * (X[self.j, 2] - X[self.i, 2])
-        return np.einsum("ki,ki->k", u, d) + rolling - self.d0 - self.values(t)
+        psi = dot_rows(u, d) - self.d0 - self.values(t)
+        if self.rolls:
+            psi += self.rolling * (angles(X, self.j) - angles(X, self.i))
+        return psi
         ### END SOLUTION
 
     def jacobian(self, X, terms, t):
         ### BEGIN SOLUTION hw1
-        u, w, _, Bsi, _, Bsj, d = terms
-        angle_i = np.einsum("ki,ki->k", w, d) - np.einsum("ki,ki->k", u, Bsi) - self.rolling
-        angle_j = np.einsum("ki,ki->k", u, Bsj) + self.rolling
+        u, w, Asi, _, _, Bsj, d = terms
+        # w^T d - u^T B_i s_i' = w^T (d + A_i s_i'), since u^T B_i s_i' = u_i'^T R90 s_i' = -w^T A_i s_i'
+        angle_i = dot_rows(w, d + Asi) - self.rolling
+        angle_j = dot_rows(u, Bsj) + self.rolling
         return self._blocks(angle_i, angle_j, -u, u)
         ### END SOLUTION
 
     def gamma(self, X, V, terms, t):
         ### BEGIN SOLUTION hw1
         u, w, Asi, Bsi, Asj, Bsj, d = terms
-        wi, wj = V[self.i, 2:3], V[self.j, 2:3]
-        d_dot = V[self.j, :2] + Bsj * wj - V[self.i, :2] - Bsi * wi
-        quadratic = Asi * wi**2 - Asj * wj**2
-        value = np.einsum("ki,ki->k", u, d)
-        wi = wi[:, 0]
-        gamma = value * wi**2 - 2.0 * wi * np.einsum("ki,ki->k", w, d_dot) - np.einsum("ki,ki->k", u, quadratic)
+        Vi, Vj = rows(V, self.i), rows(V, self.j)
+        wi, wj = Vi[:, 2:], Vj[:, 2:]  # phi_i', phi_j' as (K, 1) columns
+        d_dot = Vj[:, :2] + Bsj * wj - Vi[:, :2] - Bsi * wi
+        # u^T d phi_i'^2 - u^T (A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2) in one product
+        quadratic = dot_rows(u, (d - Asi) * (wi * wi) + Asj * (wj * wj))
+        gamma = quadratic - 2.0 * wi[:, 0] * dot_rows(w, d_dot)
         return gamma + self.derivatives(t, 2)
         ### END SOLUTION
 
@@ -274,17 +336,17 @@ class DistanceGroup(_TimedGroup):
 
     def __init__(self, elements):
         super().__init__(elements, [e.length for e in elements])
-        self.ends = np.concatenate([self.i, self.j])
-        self.s = np.concatenate([_column([e.si for e in elements]), _column([e.sj for e in elements])])
-        self.s_perp = _perpendicular(self.s)
+        self._rotate(
+            np.concatenate([self.i, self.j]),
+            np.concatenate([_column([e.si for e in elements]), _column([e.sj for e in elements])]),
+        )
 
-    def terms(self, X):
+    def terms_from(self, X, As, Bs):
         """A_i s_i', B_i s_i', A_j s_j', B_j s_j' and d_ij of every element."""
         ### BEGIN SOLUTION hw1
-        As, Bs = rotated(X, self.ends, self.s, self.s_perp)
         K = self.size
         Asi, Bsi, Asj, Bsj = As[:K], Bs[:K], As[K:], Bs[K:]
-        return Asi, Bsi, Asj, Bsj, X[self.j, :2] + Asj - X[self.i, :2] - Asi
+        return Asi, Bsi, Asj, Bsj, positions(X, self.j) + Asj - positions(X, self.i) - Asi
         ### END SOLUTION
 
     def psi_t(self, X, terms, t):
@@ -293,23 +355,24 @@ class DistanceGroup(_TimedGroup):
     def constraints(self, X, terms, t):
         ### BEGIN SOLUTION hw1
         d = terms[4]
-        return 0.5 * (np.einsum("ki,ki->k", d, d) - self.values(t) ** 2)
+        return 0.5 * (dot_rows(d, d) - self.values(t) ** 2)
         ### END SOLUTION
 
     def jacobian(self, X, terms, t):
         ### BEGIN SOLUTION hw1
         _, Bsi, _, Bsj, d = terms
-        return self._blocks(-np.einsum("ki,ki->k", d, Bsi), np.einsum("ki,ki->k", d, Bsj), -d, d)
+        return self._blocks(-dot_rows(d, Bsi), dot_rows(d, Bsj), -d, d)
         ### END SOLUTION
 
     def gamma(self, X, V, terms, t):
         ### BEGIN SOLUTION hw1
         Asi, Bsi, Asj, Bsj, d = terms
-        wi, wj = V[self.i, 2:3], V[self.j, 2:3]
-        d_dot = V[self.j, :2] + Bsj * wj - V[self.i, :2] - Bsi * wi
-        quadratic = Asi * wi**2 - Asj * wj**2
+        Vi, Vj = rows(V, self.i), rows(V, self.j)
+        wi, wj = Vi[:, 2:], Vj[:, 2:]
+        d_dot = Vj[:, :2] + Bsj * wj - Vi[:, :2] - Bsi * wi
+        quadratic = Asi * (wi * wi) - Asj * (wj * wj)
         L, Ld, Ldd = self.values(t), self.derivatives(t, 1), self.derivatives(t, 2)
-        return -np.einsum("ki,ki->k", d_dot, d_dot) - np.einsum("ki,ki->k", d, quadratic) + Ld * Ld + L * Ldd
+        return -dot_rows(d_dot, d_dot) - dot_rows(d, quadratic) + Ld * Ld + L * Ldd
         ### END SOLUTION
 
 
@@ -331,4 +394,4 @@ def make_groups(elements: list) -> tuple[list[tuple[Group, list[int]]], list[int
     return groups, rest
 
 
-__all__ = ["GROUPS", "Group", "make_groups", "rotated"]
+__all__ = ["GROUPS", "Group", "angles", "dot_rows", "make_groups", "positions", "rotate", "rotated", "rows"]

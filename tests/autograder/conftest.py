@@ -35,17 +35,17 @@ MUTANTS: dict[str, list[tuple[str, str, str]]] = {
     "hang": [
         (
             "kinematics.py",
-            "    lu = lu if lu is not None else scipy.linalg.lu_factor(system.jacobian(q, t))\n"
-            "    return scipy.linalg.lu_solve(lu, -system.psi_t(q, t))",
+            "    lu = lu if lu is not None else lu_factor(system.jacobian(q, t))\n"
+            "    return lu_solve(lu, -system.psi_t(q, t))",
             "    while True:\n        system.jacobian(q, t)",
         )
     ],
     "memory": [
         (
             "kinematics.py",
-            "    return scipy.linalg.lu_solve(lu, system.gamma(q, qd, t))",
+            "    return lu_solve(lu, system.gamma(q, qd, t))",
             "    work = np.ones(1_250_000_000)  # 10 GB\n"
-            "    return scipy.linalg.lu_solve(lu, system.gamma(q, qd, t)) + work[:1]",
+            "    return lu_solve(lu, system.gamma(q, qd, t)) + work[:1]",
         )
     ],
     "exit": [
@@ -58,8 +58,8 @@ MUTANTS: dict[str, list[tuple[str, str, str]]] = {
     "flood": [
         (
             "kinematics.py",
-            "    return scipy.linalg.lu_solve(lu, -system.psi_t(q, t))",
-            "    print('x' * 2**20)\n    return scipy.linalg.lu_solve(lu, -system.psi_t(q, t))",
+            "    return lu_solve(lu, -system.psi_t(q, t))",
+            "    print('x' * 2**20)\n    return lu_solve(lu, -system.psi_t(q, t))",
         )
     ],
     # hw2

@@ -227,7 +227,11 @@ def test_auto_takes_an_explicit_method_for_a_smooth_scene_and_radau_for_a_stiff_
     model = load_model(MODELS / "double_pendulum.yaml")
     system, q0, qd0 = build_system(model)
     chosen = choose_method(system, mass_matrix(model), build_forces(model), q0, qd0, 10.0, 1e-8)
-    assert chosen["formulation"] == "baumgarte" and chosen["integrator"] == "dop853"
+    assert chosen["formulation"] == "joint-coordinates" and chosen["integrator"] == "dop853"  # an open tree
+    closed = load_model(MODELS / "four_bar_spring.yaml")
+    system, q0, qd0 = build_system(closed)
+    chosen = choose_method(system, mass_matrix(closed), build_forces(closed), q0, qd0, 2.0, 1e-8)
+    assert chosen["formulation"] == "baumgarte" and "closed loop" in chosen["why"], chosen
     data = load_model(MODELS / "four_bar_spring.yaml")
     data.spring_dampers[0]["spring_coefficient"] = 1e9
     system, q0, qd0 = build_system(data)
@@ -238,5 +242,9 @@ def test_auto_takes_an_explicit_method_for_a_smooth_scene_and_radau_for_a_stiff_
 def test_auto_runs_and_says_what_it_chose():
     system, q0, qd0 = build_system(load_model(MODELS / "double_pendulum.yaml"))
     result = forward_dynamics(system, q0, qd0, 0.5, 10, "auto", "auto", rtol=1e-8, atol=1e-8)
-    assert result.info["formulation"] == "baumgarte" and result.info["integrator"] == "dop853"
+    assert result.info["formulation"] == "joint-coordinates" and result.info["integrator"] == "dop853"
+    default = forward_dynamics(system, q0, qd0, 0.5, 10, rtol=1e-8, atol=1e-8)  # auto is the default
+    assert default.info["formulation"] == "joint-coordinates" and default.info["chosen"] == result.info["chosen"]
+    with_options = forward_dynamics(system, q0, qd0, 0.5, 10, rtol=1e-8, atol=1e-8, alpha=10.0, beta=10.0)
+    assert with_options.info["formulation"] == "baumgarte"  # options of a formulation keep it among those taking them
     assert "spectral radius" in result.info["chosen"]["why"]
