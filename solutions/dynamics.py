@@ -189,10 +189,18 @@ def forward_dynamics(
     forces = build_forces(model) if forces is None else forces
     q, qd, initial = consistent_initial_conditions(system, M, q0, qd0)
     chosen = None
+    if formulation == "joint-coordinates" and masses is not None and model.dimension == 3:
+        raise AnalysisError(
+            "the joint-coordinates formulation takes a spatial model's masses and inertias from the model: "
+            "drop masses=, or choose another formulation"
+        )
     if formulation != "auto" and integrator not in INDEX3_INTEGRATORS:
         _check_redundancy(system, q, formulation)  # before ``auto`` evaluates the equations of motion
     if "auto" in (formulation, integrator):
-        chosen = choose_method(system, M, forces, q, qd, t_end, rtol, formulation, integrator, **options)
+        own_masses = masses is not None and model.dimension == 3  # the spatial tree takes the model's masses
+        chosen = choose_method(
+            system, M, forces, q, qd, t_end, rtol, formulation, integrator, trees=not own_masses, **options
+        )
         formulation, integrator = chosen["formulation"], chosen["integrator"]
     if integrator in INDEX3_INTEGRATORS:
         from .implicit import integrate_index3  # the implicit index-3 integrators (HHT-alpha, generalized-alpha)
@@ -335,6 +343,8 @@ def choose_method(
     rtol: float,
     formulation: str = "auto",
     integrator: str = "auto",
+    *,
+    trees: bool = True,
     **options,
 ) -> dict:
     """The cheapest adequate formulation and integrator for a scene (``auto``), and why.
@@ -343,7 +353,8 @@ def choose_method(
       coordinates: a k x k system per evaluation, nothing to stabilize; ``joint_coordinates.supports``),
       ``svd`` when the constraints are redundant (the only one that takes them), otherwise
       ``baumgarte``: one linear solve per evaluation, the cheapest of the others. Formulation options
-      (``alpha``, ``rank_tol``, ...) keep the choice among the formulations that take them;
+      (``alpha``, ``rank_tol``, ...) keep the choice among the formulations that take them, and so does
+      ``trees=False`` (a spatial run given its own masses: the tree takes the model's);
     - integrator: the spectral radius rho of the ODE's Jacobian at the start (``spectral_radius``)
       says how many steps an explicit method needs for stability alone, t_end rho / 6 for DOP853;
       beyond STIFF_STEPS the scene is stiff and ``Radau`` (implicit, L-stable) is taken. Otherwise
@@ -354,7 +365,7 @@ def choose_method(
     if formulation == "auto":
         from .joint_coordinates import supports  # the tree formulation is built on the others
 
-        not_a_tree = "formulation options given" if options else supports(system)
+        not_a_tree = "formulation options given" if options else supports(system) if trees else "masses given"
         redundant = rank_report(system.jacobian(q, 0.0), system.row_owners).n_redundant
         if not_a_tree is None:
             formulation = "joint-coordinates"

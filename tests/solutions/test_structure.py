@@ -248,3 +248,15 @@ def test_auto_runs_and_says_what_it_chose():
     with_options = forward_dynamics(system, q0, qd0, 0.5, 10, rtol=1e-8, atol=1e-8, alpha=10.0, beta=10.0)
     assert with_options.info["formulation"] == "baumgarte"  # options of a formulation keep it among those taking them
     assert "spectral radius" in result.info["chosen"]["why"]
+
+
+def test_a_spatial_run_with_its_own_masses_is_not_given_to_the_tree_formulation():
+    """The spatial joint-coordinate formulation takes masses and inertias from the model, so a run given
+    ``masses=`` keeps to the formulations that use them: ``auto`` passes it by, an explicit request is refused."""
+    model = load_model(MODELS / "revolute_revolute_skew.yaml")
+    system, q0, qd0 = build_system(model)
+    masses = mass_matrix(model)
+    result = forward_dynamics(system, q0, qd0, 0.1, 2, masses=masses, rtol=1e-8, atol=1e-8)
+    assert result.info["formulation"] == "baumgarte" and "masses given" in result.info["chosen"]["why"]
+    with pytest.raises(AnalysisError, match="joint-coordinates.*masses"):
+        forward_dynamics(system, q0, qd0, 0.1, 2, "joint-coordinates", masses=masses)
