@@ -705,6 +705,7 @@ def work_precision_plot(scene: Scene, runs: list[Run], peer_runs: list, path: Pa
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(8, 5.5))
+    ax.set_prop_cycle(color=plt.get_cmap("tab20").colors)  # a colour per configuration: there are up to 20
     series: dict[str, list] = {}
     for r in runs:
         if r.ok and r.error > 0:
