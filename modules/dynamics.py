@@ -318,8 +318,9 @@ def drift_warnings(info: dict, size: float, formulation: str, options: dict) -> 
     unstabilized = formulation in ("qr", "svd") or (
         formulation == "baumgarte" and options.get("alpha", 1.0) == 0.0 and options.get("beta", 1.0) == 0.0
     )
+    equation = {"qr": "5.45", "svd": "5.47"}.get(formulation, "5.29 with alpha = beta = 0")
     why = (
-        f"{formulation} without stabilization lets the constraint error grow (eq. 5.44); "
+        f"{formulation} without stabilization lets the constraint error grow (eq. {equation}); "
         if unstabilized
         else "the integrator's error reaches the constraints; "
     )
