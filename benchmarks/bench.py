@@ -35,6 +35,7 @@ a progress bar to standard error::
     .venv/bin/python benchmarks/bench.py             # everything, under 10 minutes
     .venv/bin/python benchmarks/bench.py --quick     # smoke run, seconds
     .venv/bin/python benchmarks/bench.py --scene double_pendulum --no-peers
+    .venv/bin/python benchmarks/bench.py --stress      # and stress.py beside it, on the second core
 """
 
 from __future__ import annotations
@@ -776,7 +777,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-peers", action="store_true", help="skip MuJoCo and Exudyn even when installed")
     parser.add_argument("--out", type=Path, default=RESULTS, help="folder for bench.md, bench.json and the PNGs")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar on standard error")
+    parser.add_argument(
+        "--stress",
+        action="store_true",
+        help="also run the stress study (stress.py -> stress.md) in a second process, on the other core",
+    )
     args = parser.parse_args(argv)
+    stress = start_stress_study(args.out, args.quick) if args.stress else None
 
     chosen = [s for s in scenes() if not args.scene or s.key in args.scene]
     if args.scene and not chosen:
@@ -845,7 +852,28 @@ def main(argv: list[str] | None = None) -> int:
     }
     (args.out / "bench.json").write_text(json.dumps(raw, indent=1, default=float))
     print(text)
-    return 0
+    return finish_stress_study(stress, args.out, args.quick) if stress is not None else 0
+
+
+def start_stress_study(out: Path, quick: bool, studies: tuple[str, ...] = ()):
+    """stress.py (all studies, or ``studies``) in a child process: one core each, as every timing of the bench
+    is single-threaded."""
+    import subprocess
+
+    command = [sys.executable, str(Path(__file__).with_name("stress.py")), "--out", str(out)]
+    command += ["--quick"] if quick else []
+    for study in studies:
+        command += ["--study", study]
+    return subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=ROOT)
+
+
+def finish_stress_study(child, out: Path, quick: bool) -> int:
+    """Wait for the stress study; print its summary line; its exit code (1 when a case is a silent wrong answer)."""
+    code = child.wait()
+    table = out / ("stress_quick.md" if quick else "stress.md")
+    summary = table.read_text().splitlines()[2] if table.is_file() else "no table written"
+    print(f"Stress study ({table.name}): {summary}")
+    return code
 
 
 def report(chosen, runs_by_scene, peers_by_scene, costs, kinematic, peers, args, elapsed) -> list[str]:

@@ -46,3 +46,12 @@ def test_stress_quick_studies_end_passed_or_diagnosed(tmp_path, study):
     text = (tmp_path / "stress_quick.md").read_text()
     assert "| study | case | method | outcome |" in text
     assert "SILENT WRONG ANSWER |" not in text
+
+
+def test_bench_runs_the_stress_study_beside_it(tmp_path, capsys):
+    """``mbd bench --stress`` starts stress.py in a second process and reports its summary line at the end."""
+    child = bench.start_stress_study(tmp_path, quick=True, studies=("redundant",))
+    assert bench.finish_stress_study(child, tmp_path, quick=True) == 0
+    summary = capsys.readouterr().out
+    assert summary.startswith("Stress study (stress_quick.md): quick run") and "0 SILENT" in summary
+    assert "| redundant |" in (tmp_path / "stress_quick.md").read_text()
