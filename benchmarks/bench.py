@@ -74,6 +74,7 @@ from solutions.dynamics import EquationsOfMotion, consistent_initial_conditions,
 from solutions.formulations import make_formulation  # noqa: E402
 from solutions.generalized_forces import build_forces  # noqa: E402
 from solutions.io.model import Model, load_model  # noqa: E402
+from solutions.joint_coordinates import open_tree as joint_coordinates_open_tree  # noqa: E402
 from solutions.joint_coordinates import supports as joint_coordinates_supports  # noqa: E402
 from solutions.kinematics import kinematic_analysis  # noqa: E402
 from solutions.mass_matrix import mass_matrix  # noqa: E402
@@ -107,8 +108,8 @@ class Scene:
 
     @property
     def tree(self) -> bool:
-        """An open tree of joints: the joint-coordinate formulation takes it."""
-        return joint_coordinates_supports(build_system(self.load())[0]) is None
+        """An open tree of joints: the joint-coordinate formulation takes it with no cut constraint."""
+        return joint_coordinates_open_tree(build_system(self.load())[0]) is None
 
     def load(self) -> Model:
         if self.model is None:
@@ -552,7 +553,7 @@ def plan(scene: Scene, quick: bool) -> list[tuple[Config, tuple[float, ...]]]:
         ),
         (Config("auto", "auto", "auto", family="auto"), two),
     ]
-    if scene.tree:
+    if joint_coordinates_supports(build_system(scene.load())[0]) is None:  # a tree, or closed loops cut
         joint = Config("joint-coordinates dop853", "joint-coordinates", "dop853", family="formulation")
         entries.insert(1, (joint, main))
     if quick:

@@ -163,7 +163,7 @@ def drift_study(quick: bool) -> list[Row]:
     ):
         system, q0, qd0 = build_system(model)
         settings = [(f, "dop853", {}) for f in FORMULATIONS] + [("baumgarte", "dop853", {"alpha": 0.0, "beta": 0.0})]
-        if joint_coordinates_supports(system) is None:  # an open tree: minimal coordinates cannot drift
+        if joint_coordinates_supports(system) is None:  # a tree cannot drift; cut loops are stabilized
             settings.append(("joint-coordinates", "dop853", {}))
         for formulation, integrator, options in settings:
             name = f"{formulation}{' alpha = beta = 0' if options else ''}, {integrator} 1e-8"

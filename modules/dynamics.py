@@ -231,8 +231,8 @@ def forward_dynamics(
     history = _History(times.size, system.n_coordinates, system.n_constraints, equations.extra)
 
     loose = 100.0 * rtol if integrator not in FIXED_STEP_METHODS else 0.0  # a loose tolerance may drift further
-    if formulation == "joint-coordinates":  # an open tree in minimal coordinates: on the constraints by construction,
-        drift_limit = singular_ratio = None  # and its Psi_q has full rank everywhere: nothing for the Guard to see
+    if formulation == "joint-coordinates" and not equations.formulation.cut_rows:  # an open tree: on the constraints
+        drift_limit = singular_ratio = None  # by construction, full-rank Psi_q everywhere: nothing for the Guard to see
     guard = Guard(system, q, None if drift_limit is None else max(drift_limit, loose), singular_ratio)
 
     def record(k: int, t: float, z: np.ndarray) -> None:
@@ -352,7 +352,8 @@ def choose_method(
     """The cheapest adequate formulation and integrator for a scene (``auto``), and why.
 
     - formulation: ``joint-coordinates`` when the joints form an open tree it takes (minimal
-      coordinates: a k x k system per evaluation, nothing to stabilize; ``joint_coordinates.supports``),
+      coordinates: a k x k system per evaluation, nothing to stabilize; ``joint_coordinates.open_tree``;
+      closed loops, which it takes with cut joints, measured slower than baumgarte),
       ``svd`` when the constraints are redundant (the only one that takes them), otherwise
       ``baumgarte``: one linear solve per evaluation, the cheapest of the others. Formulation options
       (``alpha``, ``rank_tol``, ...) keep the choice among the formulations that take them, and so does
@@ -365,9 +366,9 @@ def choose_method(
     """
     reasons = []
     if formulation == "auto":
-        from .joint_coordinates import supports  # the tree formulation is built on the others
+        from .joint_coordinates import open_tree  # the tree formulation is built on the others
 
-        not_a_tree = "formulation options given" if options else supports(system) if trees else "masses given"
+        not_a_tree = "formulation options given" if options else open_tree(system) if trees else "masses given"
         redundant = rank_report(system.jacobian(q, 0.0), system.row_owners).n_redundant
         if not_a_tree is None:
             formulation = "joint-coordinates"

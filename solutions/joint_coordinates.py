@@ -1,4 +1,4 @@
-"""Joint coordinates of an open tree: the velocity-transformation (embedding) method.
+"""Joint coordinates of a spanning tree: the velocity-transformation (embedding) method; loops by cut joints.
 
 When every body is reached from ground by exactly one chain of joints (an open tree, no closed loop),
 the joint coordinates theta -- a revolute joint's angle, a prismatic joint's slide, a spherical joint's
@@ -43,8 +43,21 @@ The state is y = (positions, velocities) of the joints in topological order:
   where the global one does not (a spinning top: about 100 times smaller errors at the same rtol).
 
 No multiplier is computed on the way (``rhs``); ``accelerations`` also gives lambda of the model's
-constraint rows, from Psi_q^T lambda = Q - M q'' (normal equations: a tree's rows are independent),
+constraint rows, from Psi_q^T lambda = Q - M q'' (normal equations: independent rows),
 with the same M and Q as the other formulations, so that reactions are the same.
+
+Closed loops and drivers: cut joints (Nikravesh 1988, 'joint coordinates' of closed chains; Garcia de
+Jalon and Bayo 1994). A spanning tree of the supported joints is chosen breadth-first from ground (each
+body reached exactly once); every other joint (a loop's closing joint, a gear, a cam) and every driver
+is kept as a cut constraint Psi_c(q(theta), t) = 0, evaluated by a ``System`` of those elements only.
+With Psi_theta = Psi_c,q D, the velocity equation Psi_theta theta' = -Psi_c,t and the acceleration
+equation Psi_theta theta'' = gamma_c - Psi_c,q xi join the embedded equations as an augmented system
+(eq. 5.30 in joint coordinates), stabilized on the cut rows only (Baumgarte, eq. 5.29):
+
+    [ D^T M D    Psi_theta^T ] [ theta'' ]   [ D^T (Q - M xi)                                  ]
+    [ Psi_theta  0           ] [ mu      ] = [ gamma_c - Psi_c,q xi - 2 alpha Psi_c' - beta^2 Psi_c ]
+
+An open tree has no cut rows, and this is (D^T M D) theta'' = D^T (Q - M xi) above.
 """
 
 from __future__ import annotations
@@ -56,8 +69,8 @@ import numpy as np
 import scipy.linalg
 
 from .assembly import System
-from .diagnostics import AnalysisError
-from .formulations import Formulation
+from .diagnostics import AnalysisError, rank_report
+from .formulations import DEFAULT_ALPHA, DEFAULT_BETA, Formulation, augmented_accelerations, baumgarte_gamma
 from .generalized_forces import ForceModel
 from .io.model import GROUND
 
@@ -68,44 +81,71 @@ R90 = np.array([[0.0, -1.0], [1.0, 0.0]])
 """Rotation by +90 degrees in the plane: omega x r = omega R90 r."""
 
 
-# -- the tree ---------------------------------------------------------------------------------------
+# -- the tree and the cut --------------------------------------------------------------------------
 def tree_order(system: System) -> tuple[list[tuple[dict, bool]], str | None]:
-    """The model's joints in topological order from ground, each with ``reversed`` (body2 is the parent),
-    or a one-line reason why the scene is not an open tree of supported joints without drivers."""
+    """The joints of a spanning tree in topological order from ground, each with ``reversed`` (body2 is
+    the parent), or a one-line reason why the bodies cannot all be reached by supported joints.
+
+    Breadth-first from ground over the supported joints (``SUPPORTED_JOINTS``): a joint to a body not yet
+    reached joins the tree; one between two reached bodies closes a loop and is cut (``cut_elements``).
+    """
     model = system.model
-    if model.motors:
-        return [], f"drivers ({', '.join(m['name'] for m in model.motors)}): joint coordinates take free joints only"
     supported = SUPPORTED_JOINTS[model.dimension]
-    for spec in model.joints:
-        if spec["type"] not in supported:
-            return [], f"joint '{spec['name']}' of type {spec['type']} is not supported (only {', '.join(supported)})"
-    names = {spec["name"] for spec in model.joints} | {f"{b.name}.p" for b in model.bodies}
-    for element in system.elements:
-        if element.name not in names:
-            return [], f"constraint '{element.name}' is not a joint of the model"
-    reached, order, pending = {GROUND}, [], list(model.joints)
-    while pending:
-        progress = False
-        for spec in list(pending):
-            ends = spec["body1"] in reached, spec["body2"] in reached
-            if ends == (True, True):
-                return [], f"closed loop through joint '{spec['name']}'"
-            if any(ends):
-                order.append((spec, not ends[0]))
-                reached.add(spec["body2"] if ends[0] else spec["body1"])
-                pending.remove(spec)
-                progress = True
-        if not progress:
-            break
+    pending = [spec for spec in model.joints if spec["type"] in supported]
+    reached, order, queue = {GROUND}, [], [GROUND]
+    while queue:
+        body = queue.pop(0)
+        for spec in [spec for spec in pending if body in (spec["body1"], spec["body2"])]:
+            pending.remove(spec)
+            other = spec["body2"] if spec["body1"] == body else spec["body1"]
+            if other not in reached:
+                order.append((spec, spec["body1"] != body))
+                reached.add(other)
+                queue.append(other)
     for body in model.bodies:
         if body.name not in reached:
-            return [], f"body '{body.name}' is not connected to ground by joints"
+            return [], (
+                f"body '{body.name}' is not reached from ground by {'/'.join(supported)} joints "
+                "(the joint coordinates of a spanning tree)"
+            )
     return order, None
 
 
+def cut_elements(system: System, order: list[tuple[dict, bool]]) -> list:
+    """The system's elements that are not joints of the tree: loop-closing joints, gears, cams and
+    drivers, kept as constraints. (A spatial body's Euler-parameter normalization holds by construction.)"""
+    tree = {spec["name"] for spec, _ in order} | {f"{b.name}.p" for b in system.model.bodies}
+    return [element for element in system.elements if element.name not in tree]
+
+
+def open_tree(system: System) -> str | None:
+    """None when the scene is an open tree of supported joints (no cut constraint: nothing to stabilize),
+    else a one-line reason. ``auto`` picks joint coordinates only then: with cut joints it measured slower
+    than baumgarte (benchmarks: the free slider-crank, the four-bar with spring, Andrews' mechanism)."""
+    order, reason = tree_order(system)
+    cut = dict.fromkeys(element.name for element in cut_elements(system, order))
+    return reason or (f"closed loops or drivers, cut at {', '.join(cut)} (then slower than baumgarte)" if cut else None)
+
+
 def supports(system: System) -> str | None:
-    """None when the scene is an open tree of supported joints with no drivers, else a one-line reason."""
-    return tree_order(system)[1]
+    """None when joint coordinates can take the scene, else a one-line reason: a body not reached from
+    ground by supported joints, or redundant constraints (the cut rows' augmented system needs
+    independent rows; the model's q0 from its file is where they are counted)."""
+    order, reason = tree_order(system)
+    if reason is not None or not cut_elements(system, order):
+        return reason
+    model = system.model
+    if model.dimension == 3:
+        from .spatial.build import initial_coordinates
+    else:
+        from .planar.build import initial_coordinates
+    report = rank_report(system.jacobian(initial_coordinates(model)[0], 0.0), system.row_owners)
+    if report.n_redundant:
+        return (
+            f"{report.n_redundant} redundant constraint equation(s) among joints {', '.join(report.redundant_joints)}: "
+            "the cut joints' augmented system needs independent constraints; use --formulation svd"
+        )
+    return None
 
 
 @dataclass
@@ -602,21 +642,28 @@ def cholesky_solve(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
 
 # -- the formulation --------------------------------------------------------------------------------
 class JointCoordinates(Formulation):
-    """The embedding (velocity-transformation) method in joint coordinates of an open tree (module docstring).
+    """The embedding (velocity-transformation) method in the joint coordinates of a spanning tree (module
+    docstring).
 
     State y = (joint positions, joint velocities); ``rhs`` solves (D^T M D) theta'' = D^T (Q - M xi)
-    (k x k) without multipliers; ``accelerations`` adds lambda, for the reactions.
+    (k x k) without multipliers for an open tree, and with the cut constraints' rows (``cut``: a System of
+    the cut joints and drivers, None for an open tree; stabilized with alpha, beta) for closed loops;
+    ``accelerations`` adds lambda of every row, for the reactions.
     """
 
     name = "joint-coordinates"
 
-    def __init__(self, system: System, M, forces: ForceModel):
+    def __init__(self, system: System, M, forces: ForceModel, alpha: float = DEFAULT_ALPHA, beta: float = DEFAULT_BETA):
         reason = supports(system)
         if reason is not None:
             raise AnalysisError(f"the joint-coordinates formulation cannot take this scene: {reason}")
-        super().__init__(system, M, forces)
+        super().__init__(system, M, forces, alpha, beta)
         self.joints = build_tree(system)
         model = system.model
+        cut = cut_elements(system, tree_order(system)[0])
+        self.cut = System(model, cut, vectorized=system.vectorized) if cut else None
+        if self.cut is None:
+            self.alpha = self.beta = 0.0  # an open tree: no constraint to stabilize
         nb = len(model.bodies)
         self.tree = (PlanarTree if model.dimension == 2 else SpatialTree)(self.joints, nb)
         self.n_positions = self.tree.n_positions
@@ -659,15 +706,46 @@ class JointCoordinates(Formulation):
         motion = self.motion(y)
         return self.tree.coordinate_accelerations(motion, np.zeros(self.tree.k))
 
+    @property
+    def cut_rows(self) -> int:
+        """The number of cut constraint rows (0 for an open tree: then nothing can drift or turn singular)."""
+        return 0 if self.cut is None else self.cut.n_constraints
+
     # -- the equations of motion in joint coordinates
     def joint_accelerations(self, motion: TreeMotion, t: float) -> np.ndarray:
-        """theta'' from (D^T M D) theta'' = D^T (Q - M xi) (eq. 5.44 with Z = D)."""
+        """theta'' of the tree (eq. 5.44 with Z = D), or of the augmented system with the cut rows."""
+        matrix, rhs = self.embedded_equations(motion, t)
+        if self.cut is None:
+            return cholesky_solve(matrix, rhs)
+        psi_theta, gamma = self.cut_equations(motion, t)
+        try:
+            return augmented_accelerations(matrix, psi_theta, rhs, gamma)[0]
+        except np.linalg.LinAlgError:
+            raise AnalysisError(
+                f"joint coordinates at t = {t:.6g} s: the cut constraints' augmented matrix is singular "
+                f"(cut rows of {', '.join(dict.fromkeys(self.cut.row_owners))}): a singular configuration"
+            ) from None
+
+    def embedded_equations(self, motion: TreeMotion, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """(D^T M D, D^T (Q - M xi)): the tree's equations of motion (eq. 5.44 with Z = D)."""
         D = motion.D
         if self.system.model.dimension == 2:
             Q = self.applied_forces(motion.q, motion.qd, t)
             DtM = D.T * self._m if self._m is not None else D.T @ self.M
-            return cholesky_solve(DtM @ D, D.T @ Q - DtM @ motion.xi)
-        return cholesky_solve(D.T @ (self._body_mass @ D), D.T @ self.spatial_forces(motion, t))
+            return DtM @ D, D.T @ Q - DtM @ motion.xi
+        return D.T @ (self._body_mass @ D), D.T @ self.spatial_forces(motion, t)
+
+    def cut_equations(self, motion: TreeMotion, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """(Psi_theta, gamma_theta): the cut rows' acceleration equation Psi_theta theta'' = gamma_theta with
+        Psi_theta = Psi_c,q D and gamma_theta = gamma_c - Psi_c,q xi - 2 alpha Psi_c' - beta^2 Psi_c
+        (q'' = D theta'' + xi, eq. 5.29), D and xi here as dq/dtheta and q'' at theta'' = 0."""
+        q, qd = motion.q, motion.qd
+        psi, jacobian, psi_t, gamma = self.cut.evaluate(q, qd, t)
+        gamma = baumgarte_gamma(gamma, psi, jacobian @ qd + psi_t, self.alpha, self.beta)
+        if self.system.model.dimension == 2:
+            return jacobian @ motion.D, gamma - jacobian @ motion.xi
+        xi = self.tree.coordinate_accelerations(motion, np.zeros(self.tree.k))
+        return jacobian @ self.tree.joint_matrix(motion), gamma - jacobian @ xi
 
     def spatial_forces(self, motion: TreeMotion, t: float) -> np.ndarray:
         """Q - M xi per body in (v, omega') form: (F - m a, n' - J' omega'' - omega' x J' omega') (Euler's
@@ -720,4 +798,13 @@ class JointCoordinates(Formulation):
         return np.concatenate([motion.rates, theta_dd])
 
 
-__all__ = ["SUPPORTED_JOINTS", "JointCoordinates", "TreeJoint", "build_tree", "supports", "tree_order"]
+__all__ = [
+    "SUPPORTED_JOINTS",
+    "JointCoordinates",
+    "TreeJoint",
+    "build_tree",
+    "cut_elements",
+    "open_tree",
+    "supports",
+    "tree_order",
+]

@@ -44,8 +44,7 @@ MUTANTS: dict[str, list[tuple[str, str, str]]] = {
         (
             "kinematics.py",
             "    return lu_solve(lu, system.gamma(q, qd, t))",
-            "    work = np.ones(1_250_000_000)  # 10 GB\n"
-            "    return lu_solve(lu, system.gamma(q, qd, t)) + work[:1]",
+            "    work = np.ones(1_250_000_000)  # 10 GB\n    return lu_solve(lu, system.gamma(q, qd, t)) + work[:1]",
         )
     ],
     "exit": [
