@@ -656,7 +656,10 @@ class JointCoordinates(Formulation):
     def __init__(self, system: System, M, forces: ForceModel, alpha: float = DEFAULT_ALPHA, beta: float = DEFAULT_BETA):
         reason = supports(system)
         if reason is not None:
-            raise AnalysisError(f"the joint-coordinates formulation cannot take this scene: {reason}")
+            raise AnalysisError(
+                f"the joint-coordinates formulation cannot take this scene: {reason}; "
+                "choose another formulation (or auto, which picks one that can)"
+            )
         super().__init__(system, M, forces, alpha, beta)
         self.joints = build_tree(system)
         model = system.model
