@@ -42,6 +42,7 @@ from .integrators import (
     spectral_radius,
     stiffness_message,
 )
+from .joint_coordinates import open_tree
 from .kinematics import assemble, point_columns
 from .mass_matrix import mass_at, mass_matrix
 from .reactions import joint_reactions
@@ -108,8 +109,7 @@ class EquationsOfMotion:
             return self.formulation.rhs(t, z)
         y, _ = self.split(z)
         if not self.has_drivers:  # lambda enters only the drivers' power: the formulation's own rhs will do
-            derivative = self.formulation.rhs(t, y)
-            q, qd = self.formulation.coordinates(t, y)
+            derivative, q, qd = self.formulation.derivative(t, y)
             return np.concatenate([derivative, self.forces.powers(q, qd, t), [0.0]])
         q, qd = self.formulation.coordinates(t, y)
         qdd, lam = self.formulation.accelerations(q, qd, t)
@@ -366,8 +366,6 @@ def choose_method(
     """
     reasons = []
     if formulation == "auto":
-        from .joint_coordinates import open_tree  # the tree formulation is built on the others
-
         not_a_tree = "formulation options given" if options else open_tree(system) if trees else "masses given"
         redundant = rank_report(system.jacobian(q, 0.0), system.row_owners).n_redundant
         if not_a_tree is None:

@@ -169,9 +169,13 @@ class Formulation:
 
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
         """y' = f(t, y): the first-order form the integrator advances."""
+        return self.derivative(t, y)[0]
+
+    def derivative(self, t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(y', q, q') at y: the right-hand side and the coordinates it was evaluated at."""
         q, qd = self.coordinates(t, y)
         qdd, _ = self.accelerations(q, qd, t)
-        return self.state_derivative(q, qd, qdd)
+        return self.state_derivative(q, qd, qdd), q, qd
 
     def after_step(self, t: float, y: np.ndarray) -> np.ndarray | None:
         return None

@@ -73,6 +73,7 @@ from .diagnostics import AnalysisError, rank_report
 from .formulations import DEFAULT_ALPHA, DEFAULT_BETA, Formulation, augmented_accelerations, baumgarte_gamma
 from .generalized_forces import ForceModel
 from .io.model import GROUND
+from .linalg import cholesky_solve
 
 SUPPORTED_JOINTS = {2: ("revolute", "prismatic"), 3: ("revolute", "prismatic", "spherical")}
 """Joint types with joint coordinates, by dimension."""
@@ -629,17 +630,6 @@ class SpatialTree:
         return out.ravel()
 
 
-def cholesky_solve(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """matrix^-1 rhs for a symmetric positive definite matrix (LAPACK's dposv: Cholesky factor and solve)."""
-    _, solution, info = scipy.linalg.lapack.dposv(matrix, rhs)
-    if info != 0:
-        raise AnalysisError(
-            f"joint coordinates: the mass matrix D^T M D is not positive definite (LAPACK dposv info {info}): "
-            "a body without mass or inertia along a joint's motion"
-        )
-    return solution
-
-
 # -- the formulation --------------------------------------------------------------------------------
 class JointCoordinates(Formulation):
     """The embedding (velocity-transformation) method in the joint coordinates of a spanning tree (module
@@ -719,7 +709,13 @@ class JointCoordinates(Formulation):
         """theta'' of the tree (eq. 5.44 with Z = D), or of the augmented system with the cut rows."""
         matrix, rhs = self.embedded_equations(motion, t)
         if self.cut is None:
-            return cholesky_solve(matrix, rhs)
+            try:
+                return cholesky_solve(matrix, rhs)
+            except np.linalg.LinAlgError as err:
+                raise AnalysisError(
+                    f"joint coordinates: the mass matrix D^T M D is not positive definite ({err}): "
+                    "a body without mass or inertia along a joint's motion"
+                ) from None
         psi_theta, gamma = self.cut_equations(motion, t)
         try:
             return augmented_accelerations(matrix, psi_theta, rhs, gamma)[0]
@@ -772,11 +768,12 @@ class JointCoordinates(Formulation):
         return np.array(out)
 
     # -- the integrator's view
-    def rhs(self, t, y):
+    def derivative(self, t, y):
+        """(theta', theta'') without lambda, and the bodies' q, q' (kept for ``coordinates`` at the same y)."""
         k = self.n_positions
-        self._motion = motion = self.tree.motion(y[:k], y[k:])  # kept for ``coordinates`` at the same y
+        self._motion = motion = self.tree.motion(y[:k], y[k:])
         self._y, self._qdd = y.copy(), None
-        return np.concatenate([motion.rates, self.joint_accelerations(motion, t)])
+        return np.concatenate([motion.rates, self.joint_accelerations(motion, t)]), motion.q, motion.qd
 
     def accelerations(self, q, qd, t):
         """q'' = D theta'' + xi, and lambda from Psi_q^T lambda = Q - M q'' (normal equations)."""

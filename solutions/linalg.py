@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import lapack
 
-_GETRF, _GETRS, _GESV = lapack.get_lapack_funcs(("getrf", "getrs", "gesv"), (np.zeros((1, 1)),))
+_GETRF, _GETRS, _GESV, _POSV = lapack.get_lapack_funcs(("getrf", "getrs", "gesv", "posv"), (np.zeros((1, 1)),))
 
 
 def lu_factor(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -44,4 +44,18 @@ def solve(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     return x
 
 
-__all__ = ["lu_factor", "lu_solve", "solve"]
+def cholesky_solve(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """x from A x = rhs for a symmetric positive definite A (Cholesky factor and solve, ``posv``).
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        If A is not positive definite.
+    """
+    _, x, info = _POSV(matrix, rhs)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"not positive definite (LAPACK posv info {info})")
+    return x
+
+
+__all__ = ["cholesky_solve", "lu_factor", "lu_solve", "solve"]

@@ -11,7 +11,7 @@ import pytest
 import scipy.linalg
 
 from solutions.kinematics import determinant_sign
-from solutions.linalg import lu_factor, lu_solve, solve
+from solutions.linalg import cholesky_solve, lu_factor, lu_solve, solve
 
 
 @pytest.mark.parametrize("n", [1, 3, 9, 20])
@@ -55,3 +55,12 @@ def test_determinant_sign_from_the_factors_agrees_with_det():
         assert determinant_sign(lu_factor(A)) == expected
         signs.add(expected)
     assert signs == {-1.0, 1.0}  # both signs were met
+
+
+def test_cholesky_solve_agrees_with_numpy_and_refuses_an_indefinite_matrix():
+    rng = np.random.default_rng(4)
+    B = rng.standard_normal((5, 5))
+    A, b = B @ B.T + 5 * np.eye(5), rng.standard_normal(5)
+    np.testing.assert_allclose(cholesky_solve(A, b), np.linalg.solve(A, b), rtol=1e-10, atol=1e-12)
+    with pytest.raises(np.linalg.LinAlgError, match="not positive definite"):
+        cholesky_solve(np.diag([1.0, -1.0]), np.ones(2))
