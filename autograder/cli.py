@@ -1,23 +1,20 @@
-"""What ``mbd grade`` and ``mbd selfcheck`` call (``solutions/cli.py`` wires them).
+"""What ``mbd grade`` calls (``solutions/cli.py`` wires it; ``mbd selfcheck`` is ``mbdkit.cli``).
 
     mbd grade hwN SUBMISSIONS [--out DIR] [--jobs N]  ->  grade_command(homework, submissions, out, jobs)
-    mbd selfcheck hwN [PATH]                            ->  selfcheck_command(homework, path)
 
-Both return the exit code: 0 done (selfcheck: every public check passes), 1 selfcheck found failures,
-2 a user error (unknown homework, no such folder, a missing reference), printed as one line to stderr.
+Returns the exit code: 0 done, 2 a user error (unknown homework, no such folder, a missing reference),
+printed as one line ``mbd: error: ...`` to stderr; then no output folder is made.
 """
 
 from __future__ import annotations
 
 import os
-import sys
 from pathlib import Path
 
-from .api import selfcheck
-from .grading import grade
-from .homework import available_homeworks
+from mbdkit.cli import error
+from mbdkit.homework import available_homeworks
 
-USER_ERROR = 2
+from .grading import grade
 
 
 def grade_command(
@@ -25,15 +22,15 @@ def grade_command(
 ) -> int:
     """Grade every submission; print where the gradebook is and the score distribution."""
     if homework not in available_homeworks():
-        print(f"mbd grade: unknown homework {homework!r} (known: {', '.join(available_homeworks())})", file=sys.stderr)
-        return USER_ERROR
+        return error(f"unknown homework {homework!r} (known: {', '.join(available_homeworks())})")
+    if not Path(submissions).is_dir():
+        return error(f"no folder {submissions} (give nbgrader's submitted/ folder or a folder of student folders)")
     out = Path(out or f"grades-{homework}")
     jobs = jobs or min(os.cpu_count() or 1, 8)
     try:
         book = grade(homework, submissions, out, jobs=jobs)
     except FileNotFoundError as err:
-        print(f"mbd grade: {err}", file=sys.stderr)
-        return USER_ERROR
+        return error(str(err))
     scores = sorted(book.score(s) for s in book.rows)
     if scores:
         median = scores[len(scores) // 2]
@@ -43,17 +40,3 @@ def grade_command(
         )
     print(f"gradebook: {book.csv_path}\nresults:   {out / 'results'}\nfeedback:  {out / 'feedback'}")
     return 0
-
-
-def selfcheck_command(homework: str, path: str | Path | None = None) -> int:
-    """The public checks of a homework on the student's ``modules/`` (in PATH or the working directory)."""
-    if homework not in available_homeworks():
-        print(
-            f"mbd selfcheck: unknown homework {homework!r} (known: {', '.join(available_homeworks())})", file=sys.stderr
-        )
-        return USER_ERROR
-    try:
-        return selfcheck(homework, path)
-    except (FileNotFoundError, ValueError) as err:
-        print(f"mbd selfcheck: {err}", file=sys.stderr)
-        return USER_ERROR

@@ -10,7 +10,7 @@ import base64
 import html
 import io
 
-from .checks import Outcome
+from mbdkit.checks import Outcome
 
 STYLE = """
 body { font-family: system-ui, sans-serif; max-width: 60rem; margin: 2rem auto; color: #222; }

@@ -28,25 +28,21 @@ from importlib.util import find_spec
 from multiprocessing import get_context
 from pathlib import Path
 
-from .checks import Outcome, evaluate
-from .feedback import feedback_html
-from .homework import CheckSpec, Homework, load_homework
-from .probes import Job
-from .reference import (
-    HERE,
-    Reference,
-    job_key,
-    load_reference,
-    probe_specs,
-    reference_dir,
-    reference_file,
-    student_reference,
-)
-from .sandbox import SANDBOX_ENV, Limits, Reply, Sandbox, without_main
-from .scenes import HIDDEN, STUDENT, hidden_dir, load_scene, scene_kind
+from mbdkit import runner
+from mbdkit.checks import Measure, Mistakes, Outcome
+from mbdkit.homework import CheckSpec, Homework, load_homework
+from mbdkit.probes import Job
+from mbdkit.runner import PACKAGE, PublicData
+from mbdkit.sandbox import SANDBOX_ENV, Limits, Sandbox, without_main
+from mbdkit.stored import Reference
 
-GRADER_VERSION = "1"
-PACKAGE = "modules"
+from .feedback import feedback_html
+from .reference import HERE, load_reference, probe_specs, reference_dir, reference_file, student_reference
+from .replay import live_replays
+from .scenes import HIDDEN, STUDENT, Scene, hidden_dir, load_scene, scene_kind
+from .tolerances import invariants
+
+GRADER_VERSION = "2"
 
 
 @dataclass
@@ -175,32 +171,32 @@ def stored_reference(scene: str) -> Reference:
     return _STORED[stamp]
 
 
-def _title(scene: str) -> str:
-    kind = scene_kind(scene)
-    if kind == STUDENT:
-        return f"{scene.split('/', 1)[1]} (your own variant)"
-    if kind == HIDDEN:
-        return f"{scene} (hidden scene)"
-    return scene
+class GraderData(PublicData):
+    """Every scene of a homework for one student: public and hidden scenes with their stored references,
+    the student's own variants made now; invariants measured with the reference package."""
 
+    def __init__(self, student: str, homework: str):
+        super().__init__()
+        self.student, self.homework = student, homework
 
-def _order(checks: list[CheckSpec]) -> list[tuple[str, str]]:
-    """Probe calls (scene, probe key): function checks first, then runs; public scenes first."""
-    rank = {"public": 0, "student": 1, "hidden": 2}
-    calls = dict.fromkeys((c.scene, c.probe_key) for c in checks)
-    kinds = {(c.scene, c.probe_key): (c.probe.endswith("_run"), rank[c.kind]) for c in checks}
-    return sorted(calls, key=lambda call: kinds[call])
+    def scene(self, name: str) -> Scene:
+        return load_scene(name, student=self.student, homework=self.homework)
 
+    def reference(self, scene: Scene, checks: list[CheckSpec]) -> Reference:
+        if scene.kind != STUDENT:
+            return stored_reference(scene.name)
+        if scene.name not in self._references:
+            specs = probe_specs(checks)[scene.name]
+            self._references[scene.name] = student_reference(scene.name, self.student, self.homework, specs)
+        return self._references[scene.name]
 
-def _redact(reply: Reply) -> Reply:
-    """A hidden scene's reply without the student's own text (an exception's message could echo hidden
-    inputs); the grader's own messages (timeouts, crashes, skipped functions) stay."""
-    if reply.error and reply.status == "error" and reply.error.get("type") != "HungEarlier":
-        reply.error = {**reply.error, "message": ""}
-    for error in reply.element_errors:
-        error["message"] = ""
-    reply.output_head = ""
-    return reply
+    def measure(self, scene: Scene, sandbox: Sandbox) -> Measure:
+        return lambda outputs: invariants(scene.data, outputs["t"], outputs["q"], outputs["qd"])
+
+    def mistakes(self, check: CheckSpec, scene: Scene, job: Job) -> Mistakes | None:
+        if scene.kind != STUDENT:
+            return None  # stored with the reference
+        return lambda output: live_replays(check.probe, output, job)
 
 
 def run_checks(
@@ -211,48 +207,10 @@ def run_checks(
     limits: Limits | None = None,
     forbidden: tuple[Path, ...] = (),
 ) -> list[Outcome]:
-    """Run ``checks`` on the package in ``folder`` (``folder/modules``), in one sandbox; outcomes in order."""
-    limits = limits or Limits()
-    folder = Path(folder).resolve()
-    if not (folder / PACKAGE / "__init__.py").is_file():
-        message = f"no package {PACKAGE}/ (with __init__.py) in the submission folder {folder.name}"
-        return [_failed(c, message) for c in checks]
+    """Run ``checks`` (public, hidden, per-student) on the package in ``folder`` for one student."""
     blocked, hide = protected_paths(forbidden)
-    references: dict[str, Reference] = {}
-    specs = probe_specs(checks)
-    outcomes: dict[str, Outcome] = {}
-    with Sandbox(folder, PACKAGE, forbidden=tuple(blocked), hide=tuple(hide), limits=limits) as sandbox:
-        for scene_name, key in _order(checks):
-            group = [c for c in checks if c.scene == scene_name and c.probe_key == key]
-            if scene_name not in references:
-                if scene_kind(scene_name) == STUDENT:
-                    references[scene_name] = student_reference(scene_name, student or "", homework, specs[scene_name])
-                else:
-                    references[scene_name] = stored_reference(scene_name)
-            reference = references[scene_name]
-            scene = load_scene(scene_name, student=student or "", homework=homework)
-            first = group[0]
-            if not reference.has(key):
-                for c in group:
-                    outcomes[c.name] = _failed(
-                        c, f"grader configuration: no reference for {key} (run python -m autograder.reference)"
-                    )
-                continue
-            job = Job(job_key(scene), scene.data, reference.inputs, dict(first.options))
-            reply = sandbox.run(
-                first.probe, job.key, scene.data, reference.inputs, first.options, max(c.timeout for c in group)
-            )
-            if scene.kind == HIDDEN:
-                reply = _redact(reply)
-            for c in group:
-                outcomes[c.name] = evaluate(c, reply, reference, job, scene.data, limits, _title(scene_name))
-    return [outcomes[c.name] for c in checks]
-
-
-def _failed(check: CheckSpec, message: str) -> Outcome:
-    return Outcome(
-        check.name, check.group, check.scene, check.kind, 0.0, check.points, False, message, check.visibility
-    )
+    data = GraderData(student or "", homework)
+    return runner.run_checks(checks, folder, data, limits, forbidden=tuple(blocked), hide=tuple(hide))
 
 
 # -- one student, with its outputs -----------------------------------------------------------------------------
@@ -390,10 +348,10 @@ def grade(
     homework = homework if isinstance(homework, Homework) else load_homework(homework)
     limits = limits or Limits()
     out_dir = Path(out_dir).resolve()
-    out_dir.mkdir(parents=True, exist_ok=True)
     submissions = find_submissions(Path(submissions_dir), homework.name)
     for scene in {c.scene for c in homework.checks if c.kind != STUDENT}:
         stored_reference(scene)  # fail early, with the command to run, when a reference is missing
+    out_dir.mkdir(parents=True, exist_ok=True)  # only once the grading can start
     forbidden = (out_dir, Path(submissions_dir).resolve())
     book = Gradebook(
         homework.name, [c.name for c in homework.checks], {c.name: c.points for c in homework.checks}, out_dir=out_dir

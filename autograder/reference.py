@@ -19,16 +19,19 @@ from __future__ import annotations
 
 import argparse
 import hashlib
-import json
 import os
 import sys
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from .homework import CheckSpec, available_homeworks, load_homework
-from .probes import PROBES, REQUIRES, Job, Package
+from mbdkit import stored
+from mbdkit.homework import CheckSpec, available_homeworks, load_homework
+from mbdkit.probes import PROBES, REQUIRES, Job, Package
+from mbdkit.scenes import job_key
+from mbdkit.stored import Reference
+
+from .replay import stored_replays
 from .scenes import HIDDEN, STUDENT, Scene, load_scene
 
 HERE = Path(__file__).resolve().parent
@@ -43,36 +46,13 @@ REFERENCE = Package("solutions")
 def reference_dir(kind: str) -> Path:
     if kind == HIDDEN:
         return Path(os.environ.get("MBD_HIDDEN_REFERENCE") or HERE / "reference" / "hidden").resolve()
-    return HERE / "reference" / "public"
+    return stored.public_reference_file("-").parent
 
 
 def reference_file(scene: str) -> Path:
-    kind = HIDDEN if scene.startswith("hidden/") else "public"
-    return reference_dir(kind) / f"{scene.split('/', 1)[-1]}.npz"
-
-
-@dataclass
-class Reference:
-    """The stored (or freshly made) reference of one scene."""
-
-    scene: str
-    meta: dict
-    arrays: dict[str, np.ndarray] = field(default_factory=dict)
-
-    @property
-    def inputs(self) -> dict[str, np.ndarray]:
-        return {k.split("/", 1)[1]: v for k, v in self.arrays.items() if k.startswith("inputs/")}
-
-    def outputs(self, key: str) -> dict[str, np.ndarray]:
-        prefix = f"{key}/"
-        return {k[len(prefix) :]: v for k, v in self.arrays.items() if k.startswith(prefix) and ":" not in k}
-
-    def extra(self, key: str, name: str) -> np.ndarray | None:
-        """A stored tolerance ('tol:q') or bound ('bound:energy') of a probe key."""
-        return self.arrays.get(f"{key}/{name}")
-
-    def has(self, key: str) -> bool:
-        return key in self.meta.get("probes", {})
+    if scene.startswith("hidden/"):
+        return reference_dir(HIDDEN) / f"{scene.split('/', 1)[1]}.npz"
+    return stored.public_reference_file(scene)
 
 
 def _system_meta(scene: Scene) -> dict:
@@ -94,11 +74,6 @@ def _system_meta(scene: Scene) -> dict:
 
 def _seed(scene: Scene) -> int:
     return int.from_bytes(hashlib.sha256(scene.name.encode()).digest()[:8], "little")
-
-
-def job_key(scene: Scene) -> str:
-    """The key a probe's job carries: the scene's name and content (per-student scenes share a name)."""
-    return f"{scene.name}#{scene.fingerprint()}"
 
 
 def base_run(scene: Scene) -> dict[str, np.ndarray]:
@@ -167,8 +142,9 @@ def available(probe: str) -> bool:
     return all(REFERENCE.has(module) for module in REQUIRES.get(probe, ()))
 
 
-def make_reference(scene: Scene, specs: dict[str, tuple[str, dict]]) -> Reference:
-    """Run every probe of ``specs`` on the scene with the reference package."""
+def make_reference(scene: Scene, specs: dict[str, tuple[str, dict]], replays: bool = True) -> Reference:
+    """Run every probe of ``specs`` on the scene with the reference package; with ``replays``, also the
+    known mistakes of each probe (stored, so that a diagnosis never needs to run the reference)."""
     meta = {"format": FORMAT, "scene": scene.name, "fingerprint": scene.fingerprint(), "probes": {}}
     meta.update(_system_meta(scene))
     run = base_run(scene)
@@ -189,6 +165,10 @@ def make_reference(scene: Scene, specs: dict[str, tuple[str, dict]]) -> Referenc
         for name, value in derived_tolerances(scene, probe, job, outputs, run).items():
             arrays[f"{key}/{name}"] = np.asarray(value, dtype=float)
         meta["probes"][key] = {"probe": probe, "options": options}
+        if replays:
+            causes, replayed = stored_replays(probe, job, outputs)
+            meta["probes"][key]["causes"] = causes
+            arrays.update({f"{key}/{name}": value for name, value in replayed.items()})
     return Reference(scene.name, meta, arrays)
 
 
@@ -202,27 +182,12 @@ def derived_tolerances(scene: Scene, probe: str, job: Job, outputs: dict, tight:
 
 
 def save_reference(reference: Reference, path: Path | None = None) -> Path:
-    path = Path(path or reference_file(reference.scene))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    arrays = dict(reference.arrays)
-    arrays["meta"] = np.array(json.dumps(reference.meta, sort_keys=True))
-    tmp = path.with_suffix(".tmp.npz")
-    np.savez_compressed(tmp, **arrays)
-    os.replace(tmp, path)
-    return path
+    return stored.save_reference(reference, Path(path or reference_file(reference.scene)))
 
 
 def load_reference(scene: str, path: Path | None = None) -> Reference:
     """The stored reference of a public or hidden scene."""
-    path = Path(path or reference_file(scene))
-    if not path.is_file():
-        raise FileNotFoundError(
-            f"no stored reference for scene {scene!r} ({path}); run: python -m autograder.reference"
-        )
-    with np.load(path, allow_pickle=False) as data:
-        arrays = {k: data[k] for k in data.files}
-    meta = json.loads(str(arrays.pop("meta")))
-    return Reference(scene, meta, arrays)
+    return stored.load_reference(scene, Path(path or reference_file(scene)))
 
 
 def all_specs(homeworks: list[str] | None = None) -> dict[str, dict[str, tuple[str, dict]]]:
@@ -236,10 +201,11 @@ def all_specs(homeworks: list[str] | None = None) -> dict[str, dict[str, tuple[s
 
 
 def student_reference(scene_name: str, student: str, homework: str, specs: dict) -> Reference:
-    """The reference of a student's own variant of a public scene, made now."""
+    """The reference of a student's own variant of a public scene, made now (its mistakes are replayed
+    only for the checks that fail)."""
     scene = load_scene(scene_name, student=student, homework=homework)
     assert scene.kind == STUDENT
-    return make_reference(scene, specs)
+    return make_reference(scene, specs, replays=False)
 
 
 def compare_references(stored: Reference, fresh: Reference, rtol: float = 1e-9) -> list[str]:

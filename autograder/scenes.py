@@ -2,7 +2,8 @@
 
 Three kinds, named by where they come from:
 
-- ``slider_crank``            public: ``autograder/scenes/slider_crank.yaml``, shipped with the course;
+- ``slider_crank``            public: ``autograder/scenes/slider_crank.yaml``, shipped with the course
+                              and in every student kit (``mbdkit.scenes``);
 - ``hidden/slider_crank_b``   hidden: a variant (dimensions, masses, initial state, driver law) in the
                               hidden folder, which never leaves the instructor's side
                               (``$MBD_HIDDEN_SCENES`` or ``autograder/scenes/hidden/``);
@@ -19,14 +20,14 @@ from __future__ import annotations
 import copy
 import hashlib
 import os
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import yaml
 
+from mbdkit.scenes import HIDDEN, PUBLIC, STUDENT, Scene, scene_kind  # noqa: F401 - the kinds, for the grader
+
 SCENES = Path(__file__).resolve().parent / "scenes"
-PUBLIC, HIDDEN, STUDENT = "public", "hidden", "student"
 
 
 def hidden_dir() -> Path:
@@ -42,40 +43,6 @@ def grader_secret() -> str:
         path = hidden_dir() / "secret.txt"
         secret = path.read_text().strip() if path.is_file() else ""
     return secret
-
-
-@dataclass
-class Scene:
-    """A model file's content and where it came from."""
-
-    name: str
-    data: dict
-    kind: str
-
-    @property
-    def simulation(self) -> dict:
-        return self.data.get("simulation", {})
-
-    @property
-    def analysis(self) -> str:
-        return self.simulation.get("analysis", "kinematic")
-
-    @property
-    def base(self) -> str:
-        """The public scene this one belongs to (itself for a public scene)."""
-        return self.name.split("/", 1)[-1]
-
-    def fingerprint(self) -> str:
-        """A hash of the scene's content: a stored reference is stale when it changes."""
-        return hashlib.sha256(yaml.safe_dump(self.data, sort_keys=True).encode()).hexdigest()[:16]
-
-
-def scene_kind(name: str) -> str:
-    if name.startswith("hidden/"):
-        return HIDDEN
-    if name.startswith("student/"):
-        return STUDENT
-    return PUBLIC
 
 
 def scene_path(name: str) -> Path:
@@ -209,7 +176,3 @@ def variant(data: dict, seed: int) -> dict:
             force["value"] = _scale_function(value, factor, b)
     data.setdefault("model", model)["name"] = f"{model.get('name', 'scene')}-variant"
     return data
-
-
-def public_scenes() -> list[str]:
-    return sorted(p.stem for p in SCENES.glob("*.yaml"))

@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .probes import PROBES, Job, Package
+from mbdkit.probes import PROBES, Job, Package
+from mbdkit.scenes import Scene, job_key
 
 SAFETY = 10.0
 TIGHT = {"integrator": "DOP853", "rtol": 1e-12, "atol": 1e-14}
@@ -26,35 +27,12 @@ FIXED_STEP_RTOL = 1e-9
 """The relative floor of a fixed-step run's tolerance (it has no rtol of its own)."""
 
 
-def _model_system(scene_data: dict):
-    model = REFERENCE["io.model"].load_model(scene_data)
-    system, _, _ = REFERENCE["assembly"].build_system(model)
-    return model, system
-
-
-def is_conservative(scene_data: dict) -> bool:
-    """No drivers, no dampers, no actuators, no applied loads: T + V stays constant."""
-    model, _ = _model_system(scene_data)
-    return not model.motors and REFERENCE["generalized_forces"].build_forces(model).is_conservative
-
-
 def invariants(scene_data: dict, t: np.ndarray, q: np.ndarray, qd: np.ndarray) -> dict[str, float]:
-    """Constraint drift max |Psi| and velocity drift max |Psi_q q' + Psi_t| over a run; for a
-    conservative scene also the energy error max |E(t) - E(0)|. Computed with the reference package."""
-    model, system = _model_system(scene_data)
-    drift = max(float(np.max(np.abs(system.constraints(qk, tk)), initial=0.0)) for tk, qk in zip(t, q, strict=True))
-    velocity = max(
-        float(np.max(np.abs(system.jacobian(qk, tk) @ qdk + system.psi_t(qk, tk)), initial=0.0))
-        for tk, qk, qdk in zip(t, q, qd, strict=True)
-    )
-    out = {"drift": drift, "velocity_drift": velocity}
-    forces = REFERENCE["generalized_forces"].build_forces(model)
-    if not model.motors and forces.is_conservative:
-        M = REFERENCE["mass_matrix"].mass_matrix(model)
-        history = REFERENCE["energy"].energy_history(M, forces, q, qd)
-        out["energy"] = float(np.max(np.abs(history.total - history.total[0])))
-        out["energy_scale"] = history.scale
-    return out
+    """Constraint drift, velocity drift and (conservative scenes) energy error of a run, measured with
+    the reference package (the ``invariants`` probe)."""
+    key = job_key(Scene("run", scene_data, "any"))  # the probes cache the model per key: one per content
+    job = Job(key, scene_data, {"t": np.asarray(t), "q": np.asarray(q), "qd": np.asarray(qd)})
+    return {name: float(value) for name, value in PROBES["invariants"](REFERENCE, job).items()}
 
 
 INTEGRATOR_OPTIONS = ("integrator", "rtol", "atol", "step")

@@ -26,7 +26,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from autograder.grading import grade  # noqa: E402
-from autograder.homework import available_homeworks  # noqa: E402
+from mbdkit.homework import available_homeworks  # noqa: E402
 
 MUTANTS = {  # one typical mistake per homework: (file in solutions/, text, replacement)
     "hw1": (

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from autograder.api import check, selfcheck
-from autograder.cli import grade_command, selfcheck_command
+from autograder.cli import grade_command
+from mbdkit.api import check, selfcheck
+from mbdkit.cli import selfcheck_command
 
 
 @pytest.fixture(scope="module")

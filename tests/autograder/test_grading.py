@@ -15,8 +15,8 @@ import re
 import pytest
 
 from autograder.grading import grade
-from autograder.homework import CheckSpec, Homework, load_homework
-from autograder.sandbox import Limits
+from mbdkit.homework import CheckSpec, Homework, load_homework
+from mbdkit.sandbox import Limits
 
 LIMITS = Limits(timeout_scale=0.3)  # a hang costs 3 s here instead of 10
 

@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from autograder import wire
 from autograder.grading import find_submissions, run_checks
-from autograder.homework import load_homework
 from autograder.reference import reference_file
-from autograder.sandbox import stack_samples, stuck_function
+from mbdkit import wire
+from mbdkit.homework import load_homework
+from mbdkit.sandbox import stack_samples, stuck_function
 
 ATTEMPTS = """
         import os, socket, subprocess, sys

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from autograder.homework import available_homeworks, load_homework
 from autograder.reference import probe_specs, student_reference
 from autograder.scenes import load_scene, student_seed, variant_factors
+from mbdkit.homework import available_homeworks, load_homework
 from solutions.assembly import build_system
 from solutions.io.model import load_model
 from solutions.kinematics import kinematic_analysis

@@ -21,9 +21,9 @@ import nbformat
 import pytest
 from nbclient import NotebookClient
 
-from autograder.homework import load_homework
 from course.release import HOMEWORKS, build_package, release
 from course.release.generator import REPO
+from mbdkit.homework import load_homework
 
 LECTURES = sorted((REPO / "course" / "lectures").glob("*.ipynb"))
 NOT_ASKED = ("planar/batched.py", "spatial/batched.py")

@@ -1,4 +1,4 @@
-"""A homework's checks and points, read from ``autograder/hwN.toml``.
+"""A homework's checks and points, read from ``hwN.toml`` (``autograder/`` in the course, ``mbdkit/data/`` in a kit).
 
 Each ``[[check]]`` table names a scene (or a list ``scenes``, one check each), a probe (what the
 student's package is asked to compute, see ``probes``), the outputs compared, the points and the group
@@ -15,10 +15,10 @@ import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from .paths import data_dir
 from .probes import AXES
 from .scenes import PUBLIC, scene_kind
 
-HERE = Path(__file__).resolve().parent
 DEFAULT_TIMEOUT = {"function": 10.0, "run": 60.0}
 
 
@@ -102,11 +102,11 @@ class Homework:
 
 
 def homework_file(homework: str) -> Path:
-    return HERE / f"{homework}.toml"
+    return data_dir() / f"{homework}.toml"
 
 
 def available_homeworks() -> list[str]:
-    return sorted(p.stem for p in HERE.glob("hw*.toml"))
+    return sorted(p.stem for p in data_dir().glob("hw*.toml"))
 
 
 def _checks(entry: dict, source: str) -> list[CheckSpec]:
@@ -146,7 +146,7 @@ def _checks(entry: dict, source: str) -> list[CheckSpec]:
 
 
 def load_homework(homework: str | Path) -> Homework:
-    """Read ``autograder/<homework>.toml`` (or a .toml file given by path)."""
+    """Read ``<homework>.toml`` from the data folder (or a .toml file given by path)."""
     path = Path(homework) if str(homework).endswith(".toml") else homework_file(str(homework))
     if not path.is_file():
         known = ", ".join(available_homeworks()) or "none"

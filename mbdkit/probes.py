@@ -401,3 +401,26 @@ def quadratic_velocity(pkg: Package, job: Job) -> dict:
     model = model_of(pkg, job)
     f = pkg["spatial.mass"].quadratic_velocity_vector
     return {"Qv": np.array([np.asarray(f(model, q.copy(), qd.copy()), dtype=float) for _, q, qd in _states(job)])}
+
+
+@probe("invariants", {"drift": (), "velocity_drift": (), "energy": (), "energy_scale": ()})
+def invariants(pkg: Package, job: Job) -> dict:
+    """Of a trajectory (inputs t, q, qd): the constraint drift max |Psi|, the velocity drift
+    max |Psi_q q' + Psi_t| and, for a conservative scene (no drivers, dampers, actuators or loads), the
+    energy error max |E(t) - E(0)| with its scale. The grader measures a student's run with the
+    reference package; a student kit, which has no reference, with the student's own package."""
+    model = model_of(pkg, job)
+    system, _, _ = build(pkg, job)
+    t, q, qd = job.inputs["t"], job.inputs["q"], job.inputs["qd"]
+    drift = max(float(np.max(np.abs(system.constraints(qk, tk)), initial=0.0)) for tk, qk in zip(t, q, strict=True))
+    velocity = max(
+        float(np.max(np.abs(system.jacobian(qk, tk) @ qdk + system.psi_t(qk, tk)), initial=0.0))
+        for tk, qk, qdk in zip(t, q, qd, strict=True)
+    )
+    out = {"drift": np.array(drift), "velocity_drift": np.array(velocity)}
+    forces = pkg["generalized_forces"].build_forces(model)
+    if not model.motors and forces.is_conservative:
+        history = pkg["energy"].energy_history(pkg["mass_matrix"].mass_matrix(model), forces, q, qd)
+        out["energy"] = np.array(float(np.max(np.abs(history.total - history.total[0]))))
+        out["energy_scale"] = np.array(float(history.scale))
+    return out

@@ -14,11 +14,15 @@ import numpy as np
 
 from . import diagnosis
 from .homework import CheckSpec
-from .probes import AXES, RK4_STEPS, Job, reaction_labels
-from .reference import Reference
+from .probes import AXES, RK4_STEPS, reaction_labels
 from .sandbox import Limits, Reply
 from .scenes import HIDDEN
-from .tolerances import invariants
+from .stored import Reference
+
+Mistakes = Callable[[str], list[tuple[str, np.ndarray]]]
+"""output -> [(cause, that output when the reference makes the mistake)]: the evidence of a likely cause."""
+Measure = Callable[[dict], dict | str]
+"""A run's outputs -> its invariants (drift, velocity_drift, energy), or why they cannot be measured."""
 
 DEFAULT_RTOL = 1e-6
 DEFAULT_ATOL = 1e-8
@@ -232,10 +236,12 @@ def compare(
     output: str,
     got: np.ndarray | None,
     reference: Reference,
-    job: Job | None,
     hidden: bool,
+    mistakes: Mistakes | None = None,
 ) -> tuple[bool, str, dict | None]:
-    """Compare one output: (passed, message, plot data)."""
+    """Compare one output: (passed, message, plot data).
+
+    ``mistakes`` gives the known mistakes of this output (default: those stored with the reference)."""
     key = spec.probe_key
     expected_all = reference.outputs(key)
     expected = expected_all[output]
@@ -282,7 +288,8 @@ def compare(
     count = int(np.sum(bad))
     if count > 1:
         message += f"; {count} of {bad.size} values are off"
-    cause = diagnosis.likely_cause(spec.probe, output, e, g, bad, allowed, job, select)
+    known = mistakes(output) if mistakes is not None else reference.replays(key, output)
+    cause = diagnosis.likely_cause(spec.probe, output, e, g, bad, allowed, known, select)
     if cause:
         message += f". Likely cause: {cause}"
     plot = None
@@ -299,12 +306,12 @@ def compare(
     return False, message, plot
 
 
-def measure_invariants(outputs: dict, scene_data: dict) -> dict | str:
-    """The drift and energy error of a student's run, or why they cannot be measured."""
+def _measured(measure: Measure, outputs: dict) -> dict | str:
+    """The invariants of a student's run, or why they cannot be measured."""
     if "q" not in outputs or "qd" not in outputs or "t" not in outputs:
         return "your run returned no trajectory"
     try:
-        return invariants(scene_data, outputs["t"], outputs["q"], outputs["qd"])
+        return measure(outputs)
     except Exception as err:  # noqa: BLE001 - a trajectory of the wrong shape
         return f"cannot evaluate your trajectory ({type(err).__name__}: {err})"
 
@@ -340,12 +347,14 @@ def evaluate(
     spec: CheckSpec,
     reply: Reply,
     reference: Reference,
-    job: Job | None,
-    scene_data: dict,
+    measure: Measure,
     limits: Limits,
     title: str,
+    mistakes: Mistakes | None = None,
 ) -> Outcome:
-    """The outcome of one check from the reply of its probe."""
+    """The outcome of one check from the reply of its probe.
+
+    ``measure`` gives the invariants of a run, ``mistakes`` the known mistakes (default: stored)."""
     hidden = spec.kind == HIDDEN
     messages, plot = [], None
     failure = failure_of_reply(reply, limits, hidden)
@@ -364,19 +373,19 @@ def evaluate(
         for output in spec.outputs:
             if output in INVARIANTS:
                 if measured is None:
-                    measured = measure_invariants(reply.outputs, scene_data)
+                    measured = _measured(measure, reply.outputs)
                 ok, text = compare_invariant(spec, output, measured, reference, hidden)
                 results[output] = ok
                 if not ok:
                     messages.append(text)
                 continue
-            ok, text, data = compare(spec, output, reply.outputs.get(output), reference, job, hidden)
+            ok, text, data = compare(spec, output, reply.outputs.get(output), reference, hidden, mistakes)
             results[output] = ok
             if not ok:
                 messages.append(text)
                 plot = plot or data
         if spec.probe.endswith("_run") and messages and "Likely cause" not in " ".join(messages):
-            hint = _run_hint(spec, reply, reference, job, hidden)
+            hint = _run_hint(spec, reply, reference, hidden)
             if hint:
                 messages.append(hint)
     passed = not messages
@@ -395,12 +404,12 @@ def evaluate(
     )
 
 
-def _run_hint(spec: CheckSpec, reply: Reply, reference: Reference, job: Job | None, hidden: bool) -> str | None:
+def _run_hint(spec: CheckSpec, reply: Reply, reference: Reference, hidden: bool) -> str | None:
     """For a run: which of q, q', q'' agree with the reference tells where the error is."""
     agree = {}
     for output in ("q", "qd", "qdd"):
         if output in reference.outputs(spec.probe_key) and output in reply.outputs:
-            ok, _, _ = compare(spec, output, reply.outputs[output], reference, None, hidden)
+            ok, _, _ = compare(spec, output, reply.outputs[output], reference, hidden, lambda _: [])
             agree[output] = ok
     if not agree:
         return None

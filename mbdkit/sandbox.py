@@ -30,7 +30,7 @@ from pathlib import Path
 from . import _child, wire
 
 PRELOAD = [
-    "autograder._child",
+    "mbdkit._child",
     "numpy",
     "scipy.linalg",
     "scipy.integrate",

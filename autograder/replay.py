@@ -1,15 +1,15 @@
-"""Likely causes of a failed check: what a wrong result looks like when it comes from a known mistake.
+"""Known mistakes, replayed on the reference package: the evidence behind "Likely cause: ...".
 
-Two kinds of evidence, tried in order on the entries that fail:
+The reference package is run again with one function changed the way students get it wrong --
+B(phi)^T for B(phi) (a transposed block), the quadratic-velocity terms of gamma dropped, Baumgarte's
+terms dropped or with the wrong sign, one joint's gamma negated, G(p) for L(p) -- and when that
+reproduces a student's numbers, that is the likely cause (``mbdkit.diagnosis.likely_cause``).
 
-1. **The numbers themselves**: zero where the reference is not (a missing term, or a stub), minus the
-   reference (a sign), the reference times 180/pi (degrees for radians), twice or half of it, the
-   matrix transposed.
-2. **Known mistakes, replayed**: the reference package is run again with one function changed the way
-   students get it wrong -- B(phi)^T for B(phi) (a transposed block), the quadratic-velocity terms of
-   gamma dropped, Baumgarte's terms dropped or with the wrong sign, one joint's gamma negated -- and
-   when that reproduces the student's numbers, that is the likely cause. This runs in the grader (never
-   in the sandbox) and only for checks that fail.
+For public and hidden scenes the replays are made once, with the reference runs
+(``python -m autograder.reference`` stores them, ``stored_replays``), so that the student kit can name
+causes from stored data alone and grading never changes the reference package. Per-student scenes,
+made at grading time, replay only the checks that fail (``live_replays``). This module runs in the
+grader only, never in a sandbox and never in a student kit.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .probes import PROBES, RK4_SPAN, RK4_STEPS, Job, Package, rk4_test_exact
+from mbdkit.probes import PROBES, Job, Package
 
 REFERENCE = Package("solutions")
 
@@ -47,7 +47,9 @@ def patched(package: Package, target: str, make: Callable):
     """Replace a function of the package (everywhere it was imported by name) or a method of a class.
 
     A module first imported while the patch is on binds the replacement too: on the way out every
-    module of the package is searched for it, so nothing keeps the mistake.
+    module of the package is searched for it, so nothing keeps the mistake. The replacement is always a
+    new function object, so that restoring it never touches a function of the package that the mistake
+    merely calls (G(p) standing in for L(p) must leave G(p) itself alone).
     """
     parts = target.split(".")
     for cut in range(len(parts) - 1, 0, -1):
@@ -61,7 +63,11 @@ def patched(package: Package, target: str, make: Callable):
         raise ImportError(target)
     if len(attributes) == 1:
         original = getattr(module, attributes[0])
-        replacement = make(original)
+        mistaken = make(original)
+
+        def replacement(*args, **kwargs):
+            return mistaken(*args, **kwargs)
+
         try:
             for mod in _package_modules(package):
                 for attr, value in list(vars(mod).items()):
@@ -269,89 +275,36 @@ def replay(probe: str, job: Job, hypothesis: Hypothesis) -> dict | None:
     return _REPLAYS[key]
 
 
-def structural(expected: np.ndarray, got: np.ndarray, failing: np.ndarray, allowed: np.ndarray) -> str | None:
-    """What the numbers alone say about the failing entries."""
-    e, g, a = expected[failing], got[failing], allowed[failing]
-    if e.size == 0:
-        return None
-    if not np.all(np.isfinite(g)):
-        return "NaN or infinity: a division by zero, or a function of a value outside its domain?"
-    if np.all(np.abs(g) <= a) and np.any(np.abs(e) > a):
-        return "you get zero where the reference does not: a missing term (or a function still to write)"
-    if np.all(np.abs(g + e) <= a):
-        return "a sign error: you get minus the expected value"
-    big = np.abs(e) > 10 * a
-    if np.any(big):
-        ratio = g[big] / e[big]
-        for factor, text in (
-            (180 / np.pi, "degrees for radians: you get the expected value times 180/pi"),
-            (np.pi / 180, "radians for degrees: you get the expected value times pi/180"),
-            (2.0, "a factor 2: you get twice the expected value"),
-            (0.5, "a factor 1/2: you get half the expected value"),
-        ):
-            if np.all(np.abs(ratio - factor) <= 1e-6 * factor + 1e-9):
-                return text
-    return None
+def stored_replays(probe: str, job: Job, expected: dict) -> tuple[list[str], dict[str, np.ndarray]]:
+    """The causes worth storing for a probe, and their outputs as ``replay:N:OUTPUT`` arrays.
 
-
-def transposed(expected: np.ndarray, got: np.ndarray, rtol: float = 1e-6) -> bool:
-    """Whether ``got`` is ``expected`` with its last two axes swapped (and that is not the same thing)."""
-    if expected.ndim < 2:
-        return False
-    swapped = np.swapaxes(expected, -1, -2)
-    atol = rtol * max(1.0, float(np.max(np.abs(expected), initial=0.0)))
-    if got.shape != swapped.shape or (swapped.shape == expected.shape and np.allclose(swapped, expected, rtol, atol)):
-        return False
-    return bool(np.allclose(got, swapped, rtol=rtol, atol=atol))
-
-
-def rk4_order(got: np.ndarray) -> str | None:
-    """The order of convergence a student's rk4_step shows on the test ODE (it should be 4)."""
-    exact = rk4_test_exact(RK4_SPAN)
-    errors = np.linalg.norm(got - exact, axis=1)
-    if not np.all(np.isfinite(errors)):
-        return None
-    if errors[-1] >= 0.5 * errors[-2]:
-        return (
-            "your rk4_step does not converge as the step shrinks: the stage weights should be "
-            "1/6, 2/6, 2/6, 1/6 (they must sum to 1)"
-        )
-    order = float(np.log2(errors[-2] / errors[-1]))
-    if order < 3.5:
-        return (
-            f"your rk4_step converges with order {order:.1f}, not 4 (errors {errors[-2]:.2g} and {errors[-1]:.2g} "
-            f"for {RK4_STEPS[-2]} and {RK4_STEPS[-1]} steps): a stage weight (1/6, 2/6, 2/6, 1/6) or a stage "
-            "time (t + h/2, t + h) is wrong"
-        )
-    return None
-
-
-def likely_cause(
-    probe: str,
-    output: str,
-    expected: np.ndarray,
-    got: np.ndarray,
-    failing: np.ndarray,
-    allowed: np.ndarray,
-    job: Job | None,
-    select: Callable[[np.ndarray], np.ndarray] = lambda x: x,
-) -> str | None:
-    """The most likely cause of a failure, or None. ``select`` applies the check's row filter."""
-    if probe == "rk4" and output == "y":
-        found = rk4_order(got)
-        if found:
-            return found
-    # a replayed mistake names the formula; "minus the expected value" may be only what it looks like
-    # (B^T s' is -B s' in one component for a point on the body's x axis)
-    if not np.all(np.isfinite(got[failing])) or job is None:
-        return structural(expected, got, failing, allowed)
+    A mistake whose replay fails, or gives the expected values again (it does not touch this scene),
+    is left out: it can explain no failure here.
+    """
+    causes, arrays = [], {}
     for hypothesis in hypotheses(probe, job):
         outputs = replay(probe, job, hypothesis)
-        if outputs is None or output not in outputs:
+        if outputs is None:
             continue
-        candidate = select(np.asarray(outputs[output], dtype=float))
-        if candidate.shape != got.shape:
+        changed = {}
+        for name, value in outputs.items():
+            value = np.asarray(value, dtype=float)
+            reference = np.asarray(expected.get(name), dtype=float)
+            if value.shape != reference.shape or not np.allclose(value, reference, 1e-12, 0.0, equal_nan=True):
+                changed[name] = value
+        if not changed:
             continue
-        if np.all(np.abs(candidate[failing] - got[failing]) <= allowed[failing]):
-            return hypothesis.cause
-    return structural(expected, got, failing, allowed)
+        number = len(causes)
+        causes.append(hypothesis.cause)
+        arrays.update({f"replay:{number}:{name}": value for name, value in changed.items()})
+    return causes, arrays
+
+
+def live_replays(probe: str, output: str, job: Job) -> list[tuple[str, np.ndarray]]:
+    """(cause, output) of every known mistake of ``probe`` replayed now (per-student scenes)."""
+    found = []
+    for hypothesis in hypotheses(probe, job):
+        outputs = replay(probe, job, hypothesis)
+        if outputs is not None and output in outputs:
+            found.append((hypothesis.cause, np.asarray(outputs[output], dtype=float)))
+    return found

@@ -1,0 +1,112 @@
+"""The public checks for students: in a notebook test cell and from ``mbd selfcheck hwN``.
+
+They are the grader's own checks on the public scenes, with the same messages, run the same way (the
+student's ``modules/`` in a sandbox process). A notebook test cell is one line::
+
+    from mbdkit import check
+    check("hw1", "revolute")      # raises AssertionError with the grader's message when a check fails
+
+``check`` prints one line to stdout when everything passes and nothing at all to stderr (nbgrader
+zeroes a cell that writes to stderr), so no grading logic lives in a notebook a student can damage.
+
+While nbgrader autogrades (it sets ``NBGRADER_EXECUTION=autograde``), the same cell grades with the
+instructor's grader (``autograder.api.grade_group``, in the course repository): every check of its
+group, public, hidden and the student's own variants, and the points earned as the cell's partial
+credit. A group with no public checks (``hidden``) runs only then.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+from .checks import Outcome
+from .homework import load_homework
+from .runner import PACKAGE, PublicData, run_checks
+from .sandbox import Limits
+
+
+def folder_of(path: str | Path | None) -> Path:
+    """The folder holding ``modules/``: the given one, or the working directory (the notebook's)."""
+    folder = Path(path or ".").resolve()
+    if folder.name == PACKAGE and (folder / "__init__.py").is_file():
+        folder = folder.parent
+    return folder
+
+
+def run_public(
+    homework: str, path: str | Path | None = None, group: str | None = None, limits: Limits | None = None
+) -> list[Outcome]:
+    """The outcomes of the public checks of ``homework`` (of one group, or all) on the package at ``path``."""
+    spec = load_homework(homework)
+    checks = [c for c in spec.public() if group is None or c.group == group]
+    if not checks:
+        groups = sorted({c.group for c in spec.public()})
+        raise ValueError(f"{homework} has no public checks in group {group!r} (groups: {', '.join(groups)})")
+    folder = folder_of(path)
+    if not folder.is_dir():
+        raise FileNotFoundError(f"no folder {folder}")
+    if not (folder / PACKAGE / "__init__.py").is_file():
+        raise FileNotFoundError(f"no package {PACKAGE}/ (with __init__.py) in {folder}: run it where your notebook is")
+    return run_checks(checks, folder, PublicData(), limits)
+
+
+def grading() -> bool:
+    """True while nbgrader autogrades a notebook (not while a student validates it)."""
+    return os.environ.get("NBGRADER_EXECUTION") == "autograde"
+
+
+def _grade_group(homework: str, group: str, path: str | Path | None) -> float:
+    """While nbgrader autogrades: the instructor's grader runs the whole group (it is not in a kit)."""
+    try:
+        from autograder.api import grade_group
+    except ImportError:
+        raise RuntimeError("NBGRADER_EXECUTION=autograde: grading needs the course's autograder") from None
+    return grade_group(homework, group, path)
+
+
+def check(homework: str, group: str, path: str | Path | None = None) -> float | None:
+    """Run the public checks of one group; raise AssertionError with every failure's message.
+
+    While nbgrader autogrades, grade the whole group instead and return its points (``grade_group``).
+
+    Parameters
+    ----------
+    homework : 'hw1', 'hw2' or 'hw3'
+    group : a group of the homework's checks (e.g. 'revolute', 'newton', 'kinematic')
+    path : the folder holding ``modules/`` (default: the working directory)
+    """
+    if grading():
+        return _grade_group(homework, group, path)
+    spec = load_homework(homework)
+    if not any(c.group == group for c in spec.public()) and any(c.group == group for c in spec.checks):
+        print(f"{homework} {group}: checked when the instructor grades (hidden scenes, your own variants)")
+        return None
+    outcomes = run_public(homework, path, group)
+    failed = [o for o in outcomes if not o.passed]
+    if failed:
+        lines = [f"{len(failed)} of {len(outcomes)} checks of {homework} {group} failed:"]
+        lines += [f"- {o.name}: {o.message}" for o in failed]
+        raise AssertionError("\n".join(lines))
+    print(f"{homework} {group}: all {len(outcomes)} checks passed")
+    return None
+
+
+def selfcheck(homework: str, path: str | Path | None = None, stream=None) -> int:
+    """Run every public check of a homework and print a report; 0 when all pass, 1 otherwise."""
+    stream = stream or sys.stdout
+    outcomes = run_public(homework, path)
+    score = sum(o.points for o in outcomes)
+    total = sum(o.max_points for o in outcomes)
+    for o in outcomes:
+        mark = "ok  " if o.passed else "FAIL"
+        stream.write(f"{mark} {o.name} ({o.points:g}/{o.max_points:g})\n")
+        if not o.passed:
+            stream.write(f"     {o.message}\n")
+    passed = sum(o.passed for o in outcomes)
+    stream.write(
+        f"\n{homework}: {passed} of {len(outcomes)} public checks pass, {score:g} of {total:g} points. "
+        "The grader also runs hidden variants of these scenes and your own variant of each.\n"
+    )
+    return 0 if passed == len(outcomes) else 1

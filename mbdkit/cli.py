@@ -1,0 +1,83 @@
+"""The ``mbd`` command of a student kit: the self-check, and your own solver on model files.
+
+    mbd selfcheck hwN [PATH]     the public checks of homework N on the modules/ in PATH (default: here)
+    mbd run MODEL [options]      run a model file with your own package (modules/cli.py)
+    mbd check MODEL              validate and assemble a model file with your own package
+
+``run`` and ``check`` are your package's own command line (``modules/cli.py``, the course solver's, with
+the functions you write): they work as far as your homework has come. A user error prints one line
+``mbd: error: ...`` and exits with code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from .homework import available_homeworks
+from .runner import PACKAGE
+
+USER_ERROR = 2
+
+
+def error(message: str) -> int:
+    print(f"mbd: error: {message}", file=sys.stderr)
+    return USER_ERROR
+
+
+def selfcheck_command(homework: str, path: str | Path | None = None, strict: bool = False) -> int:
+    """Print the public checks of a homework on the student's ``modules/`` (in PATH or here).
+
+    Exit code 0 when the report was made (whatever the score; ``strict``: 1 when a check fails), 2 for an
+    unknown homework or a folder without ``modules/``.
+    """
+    from .api import selfcheck
+
+    if homework not in available_homeworks():
+        return error(f"unknown homework {homework!r} (known: {', '.join(available_homeworks())})")
+    try:
+        failing = selfcheck(homework, path)
+    except (FileNotFoundError, ValueError) as err:
+        return error(str(err))
+    return 1 if strict and failing else 0
+
+
+def own_solver(argv: list[str]) -> int:
+    """``mbd run`` / ``mbd check``: the command line of the package in ./modules (the student's own)."""
+    here = Path.cwd()
+    if not (here / PACKAGE / "__init__.py").is_file():
+        return error(f"no {PACKAGE}/ in {here}: run mbd in your homework folder (the one with your notebook)")
+    sys.path.insert(0, str(here))
+    try:
+        from modules.cli import main as solver
+    except ImportError as err:
+        return error(f"cannot import your {PACKAGE}/cli.py ({err})")
+    except Exception as err:  # noqa: BLE001 - the student's own package fails on import: say where
+        return error(f"your {PACKAGE}/ fails on import: {type(err).__name__}: {err}")
+    return solver(argv)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="mbd", description="The course's student kit: self-check and your solver.")
+    sub = parser.add_subparsers(dest="command", required=True)
+    check = sub.add_parser("selfcheck", help="run the public checks of hwN on your own modules/")
+    check.add_argument("homework", help="hw1, hw2 or hw3")
+    check.add_argument("path", nargs="?", help="folder holding your modules/ (default: the current folder)")
+    check.add_argument("--strict", action="store_true", help="exit with code 1 when a check fails")
+    sub.add_parser("run", help="run a model file with your own package (mbd run --help)", add_help=False)
+    sub.add_parser("check", help="validate and assemble a model file with your own package", add_help=False)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the kit's ``mbd``; returns the exit code."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv and argv[0] in ("run", "check"):
+        return own_solver(argv)
+    args = build_parser().parse_args(argv)
+    return selfcheck_command(args.homework, args.path, args.strict)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

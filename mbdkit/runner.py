@@ -1,0 +1,138 @@
+"""Run a list of checks on a student's package: one sandbox, one probe call per scene and probe key.
+
+Where the scenes and the expected values come from is a ``PublicData``, which reads the public
+scenes and their stored expected values (a student kit, ``mbd selfcheck``, a notebook's ``check``); the
+instructor's grader (``autograder.grading``) adds hidden and per-student scenes.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .checks import Measure, Mistakes, Outcome, evaluate
+from .homework import CheckSpec
+from .probes import Job
+from .sandbox import Limits, Reply, Sandbox
+from .scenes import HIDDEN, STUDENT, Scene, job_key, load_public_scene, scene_kind
+from .stored import Reference, load_reference
+
+PACKAGE = "modules"
+INVARIANTS_TIMEOUT = 30.0
+
+
+class PublicData:
+    """The scenes and expected values of the public checks, as stored (subclassed by the grader)."""
+
+    def __init__(self) -> None:
+        self._references: dict[str, Reference] = {}
+
+    def scene(self, name: str) -> Scene:
+        return load_public_scene(name)
+
+    def reference(self, scene: Scene, checks: list[CheckSpec]) -> Reference:
+        """The expected values of a scene (read once)."""
+        if scene.name not in self._references:
+            self._references[scene.name] = load_reference(scene.name)
+        return self._references[scene.name]
+
+    def measure(self, scene: Scene, sandbox: Sandbox) -> Measure:
+        """How a run's invariants are measured: here with the student's own package, in the sandbox
+        (a kit has no reference package); the grader measures with the reference."""
+
+        def measure(outputs: dict) -> dict | str:
+            inputs = {name: np.asarray(outputs[name], dtype=float) for name in ("t", "q", "qd")}
+            reply = sandbox.run("invariants", job_key(scene), scene.data, inputs, {}, INVARIANTS_TIMEOUT)
+            if not reply.ok:
+                error = reply.error or {}
+                said = f": {error.get('message')}" if error.get("message") else ""
+                return f"your package could not measure it ({error.get('type', reply.status)}{said})"
+            return {name: float(value) for name, value in reply.outputs.items()}
+
+        return measure
+
+    def mistakes(self, check: CheckSpec, scene: Scene, job: Job) -> Mistakes | None:
+        """The known mistakes of a check's outputs; None: those stored with the reference."""
+        return None
+
+
+def title(scene: str) -> str:
+    """How a scene is named in a message."""
+    kind = scene_kind(scene)
+    if kind == STUDENT:
+        return f"{scene.split('/', 1)[1]} (your own variant)"
+    if kind == HIDDEN:
+        return f"{scene} (hidden scene)"
+    return scene
+
+
+def _order(checks: list[CheckSpec]) -> list[tuple[str, str]]:
+    """Probe calls (scene, probe key): function checks first, then runs; public scenes first."""
+    rank = {"public": 0, "student": 1, "hidden": 2}
+    calls = dict.fromkeys((c.scene, c.probe_key) for c in checks)
+    kinds = {(c.scene, c.probe_key): (c.probe.endswith("_run"), rank[c.kind]) for c in checks}
+    return sorted(calls, key=lambda call: kinds[call])
+
+
+def redact(reply: Reply) -> Reply:
+    """A hidden scene's reply without the student's own text (an exception's message could echo hidden
+    inputs); the grader's own messages (timeouts, crashes, skipped functions) stay."""
+    if reply.error and reply.status == "error" and reply.error.get("type") != "HungEarlier":
+        reply.error = {**reply.error, "message": ""}
+    for error in reply.element_errors:
+        error["message"] = ""
+    reply.output_head = ""
+    return reply
+
+
+def failed(check: CheckSpec, message: str) -> Outcome:
+    """A check that could not run, with the reason."""
+    return Outcome(
+        check.name, check.group, check.scene, check.kind, 0.0, check.points, False, message, check.visibility
+    )
+
+
+def run_checks(
+    checks: list[CheckSpec],
+    folder: Path,
+    data: PublicData | None = None,
+    limits: Limits | None = None,
+    forbidden: tuple[Path, ...] = (),
+    hide: tuple[Path, ...] = (),
+) -> list[Outcome]:
+    """Run ``checks`` on the package in ``folder`` (``folder/modules``), in one sandbox; outcomes in order.
+
+    ``forbidden`` are folders the sandbox may not read, ``hide`` folders removed from its import path.
+    """
+    data = data or PublicData()
+    limits = limits or Limits()
+    folder = Path(folder).resolve()
+    if not (folder / PACKAGE / "__init__.py").is_file():
+        message = f"no package {PACKAGE}/ (with __init__.py) in the folder {folder}"
+        return [failed(c, message) for c in checks]
+    outcomes: dict[str, Outcome] = {}
+    with Sandbox(folder, PACKAGE, forbidden=forbidden, hide=hide, limits=limits) as sandbox:
+        for scene_name, key in _order(checks):
+            group = [c for c in checks if c.scene == scene_name and c.probe_key == key]
+            scene = data.scene(scene_name)
+            reference = data.reference(scene, [c for c in checks if c.scene == scene_name])
+            first = group[0]
+            if not reference.has(key):
+                for c in group:
+                    outcomes[c.name] = failed(
+                        c, f"grader configuration: no reference for {key} (run python -m autograder.reference)"
+                    )
+                continue
+            job = Job(job_key(scene), scene.data, reference.inputs, dict(first.options))
+            reply = sandbox.run(
+                first.probe, job.key, scene.data, reference.inputs, first.options, max(c.timeout for c in group)
+            )
+            if scene.kind == HIDDEN:
+                reply = redact(reply)
+            measure = data.measure(scene, sandbox)
+            for c in group:
+                outcomes[c.name] = evaluate(
+                    c, reply, reference, measure, limits, title(scene_name), data.mistakes(c, scene, job)
+                )
+    return [outcomes[c.name] for c in checks]
