@@ -8,14 +8,17 @@ message and exits with code 2; it never shows a traceback.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 
 import numpy as np
 
 from .assembly import System, build_system
 from .diagnostics import AnalysisError, rank_report
+from .dynamics import FORMULATION_NAMES, INTEGRATOR_NAMES, forward_dynamics
 from .io.model import Model, ModelError, load_model
 from .kinematics import assemble, kinematic_analysis
+from .plotting import DERIVED
 from .results import Result
 
 USER_ERROR = 2
@@ -65,12 +68,48 @@ SETTINGS = {  # option -> (key of the model file's simulation block, default)
 }
 
 
+ANALYSES = ("auto", "kinematic", "dynamic", "inverse")
+"""What ``--analysis`` takes; ``auto`` is ``choose_analysis``."""
+NAMES = {"analysis": ANALYSES, "formulation": FORMULATION_NAMES, "integrator": INTEGRATOR_NAMES}
+"""Settings that take a name, and the names they take (the lists ``forward_dynamics`` checks against)."""
+DYNAMIC_ONLY = ("formulation", "integrator", "rtol", "atol", "step")
+"""Settings that only a forward dynamic analysis uses."""
+
+
+def check_setting(option: str, value, source: str) -> None:
+    """Refuse a setting that no analysis takes, before any runs; the message says what it takes.
+
+    ``source`` is how the user wrote it: '--rtol' on the command line or 'simulation.rtol' in the file.
+    """
+    if value is None:  # not set: the analysis takes its own default
+        return
+    if option in NAMES:
+        if value not in NAMES[option]:
+            raise UsageError(f"{source} {value!r}: unknown {option} (one of: {', '.join(NAMES[option])})")
+        return
+    whole = option == "steps"
+    number = isinstance(value, int) if whole else isinstance(value, int | float)
+    if not number or not math.isfinite(value) or value <= 0:
+        raise UsageError(f"{source} {value!r}: must be {'a whole number >= 1' if whole else 'a number > 0'}")
+
+
 def analysis_settings(model: Model, **options) -> dict:
-    """The model file's simulation block, overridden by any option that is not None."""
+    """The model file's simulation block, overridden by any option that is not None.
+
+    Raises
+    ------
+    UsageError
+        If a setting is one no analysis takes (``check_setting``), naming the option or the file's key.
+    """
     settings = {}
     for option, (key, default) in SETTINGS.items():
         value = options.get(option)
-        settings[option] = value if value is not None else model.simulation.get(key, default)
+        if value is None:
+            settings[option] = model.simulation.get(key, default)
+            check_setting(option, settings[option], f"simulation.{key}")
+        else:
+            settings[option] = value
+            check_setting(option, value, f"--{option.replace('_', '-')}")
     return settings
 
 
@@ -81,25 +120,43 @@ def choose_analysis(system: System, q: np.ndarray) -> str:
 
 
 def run_analysis(system: System, q0: np.ndarray, qd0: np.ndarray, settings: dict, points=None) -> Result:
-    """Dispatch to the analysis the settings name."""
+    """Dispatch to the analysis the settings (from ``analysis_settings``) name."""
     analysis = settings["analysis"]
-    if settings["steps"] < 1 or settings["t_end"] <= 0:
-        raise UsageError("--t-end must be > 0 and --steps >= 1")
     if analysis == "auto":
         q, _ = assemble(system, q0)
         analysis = choose_analysis(system, q)
     if analysis == "kinematic":
         return kinematic_analysis(system, q0, settings["t_end"], settings["steps"], points=points)
-    options = {k: settings[k] for k in ("formulation", "integrator", "rtol", "atol", "step") if settings[k] is not None}
+    options = {k: settings[k] for k in DYNAMIC_ONLY if settings[k] is not None}
     if analysis == "dynamic":
-        from .dynamics import forward_dynamics
-
         return forward_dynamics(system, q0, qd0, settings["t_end"], settings["steps"], **options)
     if analysis == "inverse":
         from .inverse_dynamics import inverse_dynamics
 
         return inverse_dynamics(system, q0, settings["t_end"], settings["steps"])
-    raise UsageError(f"--analysis {analysis}: not available (choose auto, kinematic, dynamic or inverse)")
+    raise UsageError(f"--analysis {analysis}: not available (one of: {', '.join(ANALYSES)})")
+
+
+def _check_coords(names: list[str], system: System, points: dict) -> None:
+    """Refuse a --coords name before the run: a coordinate, a --point column ('LABEL.x') or a derived column.
+
+    Derived columns (energy, residuals) exist after some analyses only: ``plot_result`` checks them.
+    """
+    for name in names:
+        if name in system.coordinate_names or name.rsplit(".", 1)[0] in points or name.startswith(DERIVED):
+            continue
+        known = ", ".join(system.coordinate_names)
+        hint = f"; --point columns: {', '.join(f'{label}.x' for label in points)}, ..." if points else ""
+        raise UsageError(f"--coords {name}: no such coordinate (coordinates: {known}{hint})")
+
+
+def _unused_note(args, result: Result) -> str | None:
+    """A note naming the options given for a dynamic analysis when another one ran, else None."""
+    unused = [f"--{option}" for option in DYNAMIC_ONLY if getattr(args, option) is not None]
+    analysis = result.info.get("analysis")
+    if not unused or analysis == "dynamic":
+        return None
+    return f"note: not used by the {analysis} analysis: {', '.join(unused)}"
 
 
 def _summary(result: Result) -> str:
@@ -128,8 +185,12 @@ def command_run(args) -> int:
         label, body, local = _parse_point(text, model, number)
         points[label] = (body, local)
     settings = analysis_settings(model, **{k: getattr(args, k) for k in SETTINGS})
+    _check_coords(args.coords or [], system, points)
     result = run_analysis(system, q0, qd0, settings, points=points)
     print(_summary(result))
+    note = _unused_note(args, result)
+    if note:
+        print(note)
     if args.out:
         from .io.results import write_result
 
@@ -155,6 +216,8 @@ def command_run(args) -> int:
             path = plot_result(result, args.plot, coordinates=args.coords)
         except OSError as err:
             raise UsageError(f"--plot {args.plot}: cannot write ({err.strerror})") from None
+        except ValueError as err:  # a --coords name the result does not have (plotting says which)
+            raise UsageError(str(err)) from None
         print(f"plot written to {path}")
     return 0
 
@@ -227,7 +290,13 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run an analysis of a model file")
     run.add_argument("model", help="model file (YAML or JSON)")
-    run.add_argument("--analysis", choices=["auto", "kinematic", "dynamic", "inverse"])
+    run.add_argument(
+        "--analysis",
+        choices=ANALYSES,
+        help="auto (the default): kinematic when the drivers leave no degree of freedom, dynamic otherwise; "
+        "kinematic: the motion the drivers prescribe; dynamic: forward dynamics under the forces; "
+        "inverse: the driver forces and joint reactions of the prescribed motion",
+    )
     run.add_argument("--t-end", type=float, help="end time in s (default: the file's simulation.end_time)")
     run.add_argument("--steps", type=int, help="number of output intervals (default: simulation.output_steps)")
     run.add_argument(

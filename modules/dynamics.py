@@ -51,6 +51,10 @@ from .results import Result
 INDEX3_INTEGRATORS = ("hht", "generalized-alpha")
 """Implicit integrators of the index-3 form (``implicit.py``); they take the place of formulation + ODE."""
 MULTISTEP_INTEGRATORS = ("BDF", "LSODA")
+FORMULATION_NAMES = ("auto", *FORMULATIONS)
+"""What ``formulation=`` takes: ``auto`` (``choose_method``) or a formulation of ``formulations.py``."""
+INTEGRATOR_NAMES = ("auto", *INTEGRATORS, *INDEX3_INTEGRATORS)
+"""What ``integrator=`` takes: ``auto`` (``choose_method``), an ODE integrator or an index-3 one."""
 DRIFT_LIMIT = 1e-3
 """Default ``drift_limit``: positions off the constraints by a thousandth of the mechanism's size are a wrong answer."""
 SINGULAR_RATIO = 1e-8
@@ -184,6 +188,7 @@ def forward_dynamics(
         Assembly failure, redundant constraints with a formulation that cannot take them, an
         unknown formulation or integrator, an integrator failure: by name.
     """
+    check_method(formulation, integrator)
     start = _time.perf_counter()
     model = system.model
     M = mass_matrix(model) if masses is None else masses
@@ -215,9 +220,6 @@ def forward_dynamics(
         result.info.update(assembly=initial["assembly"], initial_conditions=initial)
         result.info["wall_time"] = _time.perf_counter() - start
         return result
-    if integrator not in INTEGRATORS:
-        known = ", ".join((*INTEGRATORS, *INDEX3_INTEGRATORS))
-        raise AnalysisError(f"unknown integrator {integrator!r} (one of: {known})")
     _check_redundancy(system, q, formulation)
     if formulation == "projection" and integrator in MULTISTEP_INTEGRATORS:
         raise AnalysisError(
@@ -308,6 +310,22 @@ def forward_dynamics(
 DRIFT_WARNING = 1e-6
 """Largest constraint residual, as a fraction of the mechanism's size, that a run returns without a warning
 (between it and the Guard's drift limit a run goes on, and its result says how far it drifted, and why)."""
+
+
+def check_method(formulation: str, integrator: str) -> None:
+    """Refuse a formulation or integrator that ``forward_dynamics`` does not know, naming the ones it knows.
+
+    Raises
+    ------
+    AnalysisError
+        If ``formulation`` is not in FORMULATION_NAMES or ``integrator`` not in INTEGRATOR_NAMES.
+    """
+    for kind, name, known in (
+        ("formulation", formulation, FORMULATION_NAMES),
+        ("integrator", integrator, INTEGRATOR_NAMES),
+    ):
+        if name not in known:
+            raise AnalysisError(f"unknown {kind} {name!r} (one of: {', '.join(known)})")
 
 
 def drift_warnings(info: dict, size: float, formulation: str, options: dict) -> list[str]:
@@ -543,8 +561,11 @@ def _formulation_info(formulation: Formulation) -> dict:
 
 __all__ = [
     "FORMULATIONS",
+    "FORMULATION_NAMES",
     "INDEX3_INTEGRATORS",
+    "INTEGRATOR_NAMES",
     "EquationsOfMotion",
+    "check_method",
     "choose_method",
     "consistent_initial_conditions",
     "constraint_residuals",

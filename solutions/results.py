@@ -30,6 +30,14 @@ class Result:
     info: dict = field(default_factory=dict)
 
     def coordinate(self, name: str, derivative: int = 0) -> np.ndarray:
-        """History of one coordinate, e.g. ``result.coordinate('slider.x', 1)`` for its velocity."""
+        """History of one coordinate, e.g. ``result.coordinate('slider.x', 1)`` for its velocity.
+
+        Raises
+        ------
+        ValueError
+            If ``name`` is not a coordinate of the result; the message lists the ones it has.
+        """
+        if name not in self.coordinate_names:
+            raise ValueError(f"no coordinate {name!r} (coordinates: {', '.join(self.coordinate_names)})")
         k = self.coordinate_names.index(name)
         return (self.q, self.qd, self.qdd)[derivative][:, k]

@@ -254,7 +254,7 @@ def command(homework: str, course_dir: Path | None = None) -> int:
     try:
         report = release(homework, course_dir)
     except ReleaseError as err:
-        print(f"error: {err}", file=sys.stderr)
+        print(f"mbd: error: {err}", file=sys.stderr)
         return 2
     print(report.summary())
     return 0

@@ -12,6 +12,7 @@ from solutions.io.results import read_csv
 
 ROOT = Path(__file__).resolve().parents[2]
 SLIDER_CRANK = ROOT / "course" / "models" / "slider_crank.yaml"
+PENDULUM = ROOT / "course" / "models" / "simple_pendulum.yaml"
 
 PENDULUM_FREE = """
 model:
@@ -157,3 +158,75 @@ def test_unknown_option_outside_bench_is_a_usage_error(capsys):
     with pytest.raises(SystemExit) as info:
         main(["run", str(SLIDER_CRANK), "--bogus"])
     assert info.value.code == 2
+
+
+def assert_one_error(err: str, *expected: str) -> None:
+    """stderr is one line 'mbd: error: ...' holding every expected text, and no traceback."""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("mbd: error: ")
+    assert "Traceback" not in err
+    for text in expected:
+        assert text in lines[0]
+
+
+def test_unknown_coordinate_to_plot_is_refused_before_the_run(tmp_path, capsys):
+    png = tmp_path / "p.png"
+    assert main(["run", str(SLIDER_CRANK), "--plot", str(png), "--coords", "nosuch.x"]) == 2
+    out, err = capsys.readouterr()
+    assert_one_error(err, "--coords nosuch.x", "slider.x")
+    assert out == "" and not png.exists()
+    assert main(["run", str(SLIDER_CRANK), "--steps", "10", "--plot", str(png), "--coords", "slider.x"]) == 0
+    assert png.is_file()
+
+
+@pytest.mark.parametrize("model", [SLIDER_CRANK, PENDULUM], ids=["kinematic", "dynamic"])
+@pytest.mark.parametrize(
+    ("option", "value", "expected"),
+    [
+        ("--integrator", "foo", "--integrator 'foo': unknown integrator (one of: auto, RK45"),
+        ("--formulation", "foo", "--formulation 'foo': unknown formulation (one of: auto, baumgarte"),
+        ("--rtol", "-1", "--rtol -1.0: must be a number > 0"),
+        ("--atol", "-1", "--atol -1.0: must be a number > 0"),
+        ("--step", "0", "--step 0.0: must be a number > 0"),
+        ("--t-end", "0", "--t-end 0.0: must be a number > 0"),
+        ("--steps", "0", "--steps 0: must be a whole number >= 1"),
+    ],
+)
+def test_bad_analysis_option_is_refused_on_every_model(model, option, value, expected, capsys):
+    assert main(["run", str(model), option, value]) == 2
+    out, err = capsys.readouterr()
+    assert_one_error(err, expected)
+    assert out == ""  # refused before any analysis ran
+
+
+def test_bad_setting_in_the_file_is_named_by_its_key(tmp_path, capsys):
+    model = tmp_path / "pendulum.yaml"
+    model.write_text(PENDULUM.read_text().replace("integrator: RK45", "integrator: foo"))
+    assert main(["run", str(model)]) == 2
+    assert_one_error(capsys.readouterr().err, "simulation.integrator 'foo': unknown integrator")
+
+
+def test_valid_options_still_run_and_unused_ones_are_noted(capsys):
+    assert main(["run", str(SLIDER_CRANK), "--steps", "10", "--integrator", "rk4", "--rtol", "1e-6"]) == 0
+    out, err = capsys.readouterr()
+    assert "note: not used by the kinematic analysis: --integrator, --rtol" in out
+    assert err == ""
+    args = ["--t-end", "0.1", "--steps", "10", "--integrator", "rk4", "--step", "0.01", "--formulation", "qr"]
+    assert main(["run", str(PENDULUM), *args]) == 0
+    out = capsys.readouterr().out
+    assert "integrator: rk4" in out and "note:" not in out
+
+
+def test_analysis_option_has_help(capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["run", "--help"])
+    assert info.value.code == 0
+    help_text = " ".join(capsys.readouterr().out.split())
+    assert "kinematic when the drivers leave no degree of freedom, dynamic otherwise" in help_text
+    assert "inverse" in help_text
+
+
+def test_release_refusal_has_the_mbd_prefix(capsys):
+    assert main(["release", "hw9"]) == 2
+    assert_one_error(capsys.readouterr().err, "unknown homework 'hw9'")
