@@ -263,10 +263,10 @@ def command_grade(args) -> int:
 
 def command_selfcheck(args) -> int:
     try:
-        from autograder.cli import selfcheck_command
+        from mbdkit.cli import selfcheck_command
     except ImportError:
-        raise UsageError("mbd selfcheck needs the course's autograder package (pip install mbd-course)") from None
-    return selfcheck_command(args.homework, args.path)
+        raise UsageError("mbd selfcheck needs the kit's checker: pip install ./ in your homework folder") from None
+    return selfcheck_command(args.homework, args.path, args.strict)
 
 
 def command_bench(args) -> int:
@@ -335,6 +335,7 @@ def build_parser() -> argparse.ArgumentParser:
     selfcheck = sub.add_parser("selfcheck", help="run the public checks of hwN on your own modules/ (students)")
     selfcheck.add_argument("homework", help="hw1, hw2 or hw3")
     selfcheck.add_argument("path", nargs="?", help="folder holding your modules/ (default: the current folder)")
+    selfcheck.add_argument("--strict", action="store_true", help="exit with code 1 when a check fails")
     selfcheck.set_defaults(handler=command_selfcheck)
     bench = sub.add_parser(
         "bench", help="run time against error per scene, formulation and integrator (see benchmarks/README.md)"

@@ -58,10 +58,9 @@ def test_stored_mistakes_name_the_cause_without_the_reference_package():
 
 def test_every_replay_leaves_the_reference_as_it_was():
     """G(p) standing in for L(p) (and L for G) must not rebind G or L for later checks."""
-    from solutions import rotations
-
     from mbdkit.probes import Job
     from mbdkit.scenes import job_key, load_public_scene
+    from solutions import rotations
 
     g, l = rotations.g_matrix, rotations.l_matrix
     scene = load_public_scene("revolute_spherical")

@@ -208,7 +208,7 @@ def test_the_command_prints_the_release_or_the_refusal(clone, capsys):
     from course.release import command
 
     assert command("hw0", clone) == 2
-    assert capsys.readouterr().err.startswith("error: unknown homework 'hw0'")
+    assert capsys.readouterr().err.startswith("mbd: error: unknown homework 'hw0'")
     assert command("hw3", clone) == 0
     out = capsys.readouterr().out
     assert out.startswith(f"released hw3 into {clone / 'build' / 'release' / 'hw3'}")
