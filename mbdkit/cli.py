@@ -5,8 +5,8 @@
     mbd check MODEL              validate and assemble a model file with your own package
 
 ``run`` and ``check`` are your package's own command line (``modules/cli.py``, the course solver's, with
-the functions you write): they work as far as your homework has come. A user error prints one line
-``mbd: error: ...`` and exits with code 2.
+the functions you write): they work as far as your homework has come (a function still to write is named
+in one line). A user error prints one line ``mbd: error: ...`` and exits with code 2.
 """
 
 from __future__ import annotations
@@ -55,7 +55,10 @@ def own_solver(argv: list[str]) -> int:
         return error(f"cannot import your {PACKAGE}/cli.py ({err})")
     except Exception as err:  # noqa: BLE001 - the student's own package fails on import: say where
         return error(f"your {PACKAGE}/ fails on import: {type(err).__name__}: {err}")
-    return solver(argv)
+    try:
+        return solver(argv)
+    except NotImplementedError as err:  # a function of a homework still to come, or still to write
+        return error(f"not implemented yet in your {PACKAGE}/: {err}")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -75,6 +75,9 @@ class Homework:
     title: str
     checks: list[CheckSpec]
     source: Path | None = None
+    instructor_groups: tuple[str, ...] = ()
+    """Groups graded only by the instructor (hidden scenes, the student's own variants), named in a kit's
+    file, which holds the public checks only."""
 
     @property
     def max_score(self) -> float:
@@ -85,7 +88,11 @@ class Homework:
         return [c for c in self.checks if c.kind == PUBLIC]
 
     def groups(self) -> list[str]:
-        return list(dict.fromkeys(c.group for c in self.checks))
+        return list(dict.fromkeys([*(c.group for c in self.checks), *self.instructor_groups]))
+
+    def graded_later(self, group: str) -> bool:
+        """True for a group with no public check: it runs only when the instructor grades."""
+        return group in self.groups() and not any(c.group == group for c in self.public())
 
     def select(self, names: list[str] | None = None) -> Homework:
         """The homework restricted to some checks (by name), e.g. a quick subset in tests."""
@@ -94,7 +101,8 @@ class Homework:
         unknown = sorted(set(names) - {c.name for c in self.checks})
         if unknown:
             raise KeyError(f"{self.name}: no checks named {', '.join(unknown)}")
-        return Homework(self.name, self.title, [c for c in self.checks if c.name in names], self.source)
+        selected = [c for c in self.checks if c.name in names]
+        return Homework(self.name, self.title, selected, self.source, self.instructor_groups)
 
     def fingerprint(self) -> str:
         text = json.dumps([c.__dict__ for c in self.checks], sort_keys=True, default=str)
@@ -157,4 +165,5 @@ def load_homework(homework: str | Path) -> Homework:
     duplicates = sorted({n for n in names if names.count(n) > 1})
     if duplicates:
         raise ValueError(f"{path.name}: check names used twice: {', '.join(duplicates)}")
-    return Homework(data.get("homework", path.stem), data.get("title", ""), checks, path)
+    groups = tuple(data.get("instructor_groups", ()))
+    return Homework(data.get("homework", path.stem), data.get("title", ""), checks, path, groups)

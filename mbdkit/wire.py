@@ -23,8 +23,8 @@ class WireError(ValueError):
 
 def _encode(value):
     if isinstance(value, np.ndarray):
-        data = np.ascontiguousarray(value, dtype="<f8")
-        return {"__array__": list(data.shape), "data": base64.b64encode(data.tobytes()).decode("ascii")}
+        data = np.asarray(value, dtype="<f8")  # (not ascontiguousarray: it makes a 0-d array 1-d)
+        return {"__array__": list(data.shape), "data": base64.b64encode(data.tobytes(order="C")).decode("ascii")}
     if isinstance(value, dict):
         return {str(k): _encode(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
@@ -45,7 +45,7 @@ def _decode(value):
             raw = base64.b64decode(value.get("data", ""), validate=True)
             if len(raw) != 8 * math.prod(shape):
                 raise WireError("array size does not match its shape")
-            return np.frombuffer(raw, dtype="<f8").reshape(shape).astype(float)
+            return np.frombuffer(raw, dtype="<f8").reshape(tuple(shape)).astype(float)
         if "__float__" in value:
             return float(value["__float__"])
         return {k: _decode(v) for k, v in value.items()}

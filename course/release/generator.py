@@ -45,6 +45,9 @@ HOMEWORKS = ("hw1", "hw2", "hw3")
 
 BEGIN = "### BEGIN SOLUTION"
 END = "### END SOLUTION"
+OPTIONAL = ("planar/batched.py", "spatial/batched.py")
+"""Files whose regions students may leave stubbed: the per-type (batched) forms of the joints, a speed-up
+that the System replaces by the element methods students write while the stubs raise."""
 IGNORED = ("__pycache__", "*.pyc", "*.pyo", ".DS_Store", ".ipynb_checkpoints")
 """Files of ``solutions/`` that never go into a student package."""
 
@@ -83,6 +86,11 @@ class Region:
     function: str
     text: tuple[str, ...]
     pointer: str
+
+    @property
+    def optional(self) -> bool:
+        """A region students may leave stubbed (``OPTIONAL``)."""
+        return self.path in OPTIONAL
 
     @property
     def homework(self) -> int:

@@ -5,10 +5,13 @@ For a release of homework N, a leak is
 - the text of a solution region of hwN or later: any non-trivial line of one (whitespace ignored) that
   is not also public -- a line that appears outside those regions is public anyway;
 - a solution marker (``### BEGIN SOLUTION`` / ``### END SOLUTION``): a region was not cut;
-- a hidden scene (``autograder/scenes/hidden/``) or a stored reference run (``autograder/reference/``):
-  found by the hash of its bytes, of its text with whitespace normalized, or embedded in a text file;
+- a hidden scene (``autograder/scenes/hidden/``) or a hidden scene's reference run
+  (``autograder/reference/hidden/``): found by the hash of its bytes, of its text with whitespace
+  normalized, or embedded in a text file; a stored NPZ of any scene that is not public;
 - a file of ``solutions/`` that holds a region of hwN or later, byte for byte, or any folder named
-  ``solutions``, ``autograder`` or ``reference``;
+  ``solutions``, ``autograder`` or ``hidden``;
+
+The public scenes' expected values are meant to be there: the kit's checker compares with them.
 - compiled Python (``*.pyc``, ``__pycache__``): it carries the code it was compiled from.
 
 Notebooks are read as JSON: every string in them (sources, outputs, metadata) is scanned.
@@ -22,11 +25,13 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from .generator import BEGIN, END, REPO, build_source, homework_index, scan_regions, source_files
 
 HIDDEN_SCENES = Path("autograder", "scenes", "hidden")
-REFERENCE_RUNS = Path("autograder", "reference")
-FORBIDDEN_FOLDERS = ("solutions", "autograder", "reference")
+REFERENCE_RUNS = Path("autograder", "reference", "hidden")
+FORBIDDEN_FOLDERS = ("solutions", "autograder", "hidden")
 MIN_LINE = 16
 """A region line shorter than this (whitespace removed) is trivial: ``return value``, ``else:``, ``q = q + dq``."""
 MIN_EMBEDDED = 64
@@ -115,10 +120,26 @@ def _text_of(path: Path, data: bytes) -> str | None:
     return text
 
 
-def find_leaks(folder: Path, homework: str, course: Path | None = None) -> list[Leak]:
+def _stored_scene(path: Path) -> str | None:
+    """The scene a stored reference NPZ belongs to (its meta record), or None for any other file."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return str(json.loads(str(data["meta"])).get("scene", "")) if "meta" in data.files else None
+    except (OSError, ValueError, KeyError):
+        return None
+
+
+def _source_of(compiled: Path) -> Path:
+    """The .py file a ``__pycache__/NAME.cpython-311.pyc`` was compiled from."""
+    return compiled.parent.parent / f"{compiled.name.split('.', 1)[0]}.py"
+
+
+def find_leaks(folder: Path, homework: str, course: Path | None = None, installed: bool = False) -> list[Leak]:
     """Every leak in the release folder of ``homework``; [] when it is clean.
 
     ``course`` is the repository root holding ``solutions/`` and ``autograder/`` (this course by default).
+    ``installed``: the folder is what pip installed (site-packages), where pip compiles every module: a
+    compiled file is a leak there only without its source beside it (the source is what is scanned).
     """
     folder, course = Path(folder), Path(course or REPO)
     solutions = course / "solutions"
@@ -150,14 +171,16 @@ def find_leaks(folder: Path, homework: str, course: Path | None = None) -> list[
             rel = (here / name).relative_to(folder).as_posix()
             if name in FORBIDDEN_FOLDERS:
                 leaks.append(Leak(rel, "forbidden folder", f"a folder named {name!r} does not belong in a release"))
-            if name == "__pycache__":
+            if name == "__pycache__" and not installed:
                 leaks.append(Leak(rel, "compiled code", "__pycache__ carries the code it was compiled from"))
         for name in sorted(names):
             path = here / name
             rel = path.relative_to(folder).as_posix()
             data = path.read_bytes()
-            if path.suffix in (".pyc", ".pyo"):
+            if path.suffix in (".pyc", ".pyo") and not (installed and _source_of(path).is_file()):
                 leaks.append(Leak(rel, "compiled code", "compiled Python carries the code it was compiled from"))
+            if path.suffix == ".npz" and _stored_scene(path) is not None and "/" in _stored_scene(path):
+                leaks.append(Leak(rel, "grader data", f"stored values of the scene {_stored_scene(path)}"))
             if _sha(data) in forbidden_hashes:
                 leaks.append(Leak(rel, "copied file", f"identical to {forbidden_hashes[_sha(data)]}"))
                 continue

@@ -7,7 +7,9 @@ Steps, each refusing with a clear message (``ReleaseError``) instead of releasin
 3. nbgrader's generate step (``generate_assignment``, with ``course/nbgrader_config.py``) writes the
    student notebooks to ``build/release/hwN/``;
 4. the hwN student package is built from ``solutions/`` into ``build/release/hwN/modules/``: hwN and later
-   regions stubbed, earlier ones filled in;
+   regions stubbed, earlier ones filled in; the checker ``mbdkit/`` (the public checks with their stored
+   expected values), ``pyproject.toml`` and a README for students make the folder a kit that installs
+   with ``pip install ./`` (``kit``);
 5. the leak check scans the whole release folder; on any leak the folder is deleted;
 6. where an exchange is configured (``CourseDirectory.course_id`` and ``Exchange.root``), nbgrader's
    release step copies the folder to the exchange.
@@ -27,6 +29,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .generator import HOMEWORKS, REPO, RegionError, build_package, modules_differences
+from .kit import build_kit
 from .leakcheck import find_leaks
 
 CONFIG = Path("course", "nbgrader_config.py")
@@ -45,6 +48,8 @@ class ReleaseReport:
     notebooks: list[str] = field(default_factory=list)
     files: list[str] = field(default_factory=list)
     to_write: list[str] = field(default_factory=list)
+    optional: list[str] = field(default_factory=list)
+    kit: list[str] = field(default_factory=list)
     given: list[str] = field(default_factory=list)
     later: list[str] = field(default_factory=list)
     exchange: str | None = None
@@ -60,6 +65,12 @@ class ReleaseReport:
             f"  to write:         {len(self.to_write)} functions raise NotImplementedError for {self.homework}",
         ]
         lines += [f"                    {name}" for name in self.to_write]
+        if self.optional:
+            lines.append(f"  optional:         {len(self.optional)} per-type (batched) forms, students may leave them")
+        lines.append(
+            f"  checker:          {self.folder / 'mbdkit'} (public checks, stored expected values); students "
+            f"install the kit with `pip install ./` ({len(self.kit)} files with pyproject.toml and README.md)"
+        )
         if self.given:
             lines.append(f"  given, filled in: {len(self.given)} functions of earlier homeworks")
         if self.later:
@@ -213,6 +224,12 @@ def release(homework: str, course_dir: Path | None = None) -> ReleaseReport:
         shutil.rmtree(folder, ignore_errors=True)
         raise ReleaseError(f"cannot build the {homework} student package: {err}") from None
 
+    index = HOMEWORKS.index(homework) + 1
+    now = [r for r in built.stubbed if r.homework == index]
+    later = {_name(r) for r in built.stubbed if r.homework > index}
+    to_write = list(dict.fromkeys(_name(r) for r in now if not r.optional))
+    kit = build_kit(folder, homework, to_write, course_dir)
+
     leaks = find_leaks(folder, homework, course_dir)
     if leaks:
         shutil.rmtree(folder, ignore_errors=True)
@@ -221,19 +238,16 @@ def release(homework: str, course_dir: Path | None = None) -> ReleaseReport:
             f"{homework} not released: the release folder would leak ({len(leaks)} findings):\n  {listing}\n"
             f"the folder {folder} was deleted; remove the leak from assignments/{homework}/ and release again"
         )
-
-    index = HOMEWORKS.index(homework) + 1
-    stubbed = built.stubbed_functions()
-    later = [r for r in built.stubbed if r.homework > index]
-    later_names = {f"{Path(r.path).with_suffix('').as_posix().replace('/', '.')}.{r.function}" for r in later}
     report = ReleaseReport(
         homework=homework,
         folder=folder,
         notebooks=sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*.ipynb")),
         files=built.files,
-        to_write=[name for name in stubbed if name not in later_names],
+        to_write=to_write,
+        optional=list(dict.fromkeys(_name(r) for r in now if r.optional)),
+        kit=kit,
         given=built.filled_functions(),
-        later=sorted(later_names),
+        later=sorted(later),
         notes=notes,
     )
     if not report.to_write:
@@ -247,6 +261,11 @@ def release(homework: str, course_dir: Path | None = None) -> ReleaseReport:
         report.exchange = str(Path(config.Exchange.root, config.CourseDirectory.course_id, "outbound", homework))
     report.seconds = time.perf_counter() - start
     return report
+
+
+def _name(region) -> str:
+    """A region's function as module.function (``planar.joints.Revolute.gamma``)."""
+    return f"{Path(region.path).with_suffix('').as_posix().replace('/', '.')}.{region.function}"
 
 
 def command(homework: str, course_dir: Path | None = None) -> int:

@@ -85,6 +85,7 @@ def test_submission_layouts(tmp_path, reference_copy):
 def test_wire_rejects_malformed_messages():
     array = np.arange(6.0).reshape(2, 3)
     assert np.array_equal(wire.loads(wire.dumps({"a": array}))["a"], array)
+    assert wire.loads(wire.dumps({"s": np.array(1.5)}))["s"].shape == ()  # a scalar stays a scalar
     for bad in (
         b"not json",
         b"[1, 2]",

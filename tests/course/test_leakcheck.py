@@ -29,7 +29,7 @@ def course(tmp_path_factory):
     hidden = root / "autograder" / "scenes" / "hidden"
     hidden.mkdir(parents=True)
     (hidden / "slider_crank_long.yaml").write_text(HIDDEN_SCENE)
-    reference = root / "autograder" / "reference"
+    reference = root / "autograder" / "reference" / "hidden"
     reference.mkdir(parents=True)
     rng = np.random.default_rng(5)
     np.savez(reference / "slider_crank_long.npz", t=np.linspace(0, 1, 11), q=rng.normal(size=(11, 9)))
@@ -120,9 +120,20 @@ def test_a_hidden_scene_is_found_copied_renamed_reformatted_or_embedded(tmp_path
     assert leaks == {("scene.yaml", "copied file"), ("crlf.yml", "copied file"), ("hw1.ipynb", "embedded file")}
 
 
-def test_a_reference_run_is_a_leak(tmp_path, course):
+def test_a_hidden_reference_run_is_a_leak(tmp_path, course):
     folder = clean_release(tmp_path, "hw1")
-    shutil.copy(course / "autograder" / "reference" / "slider_crank_long.npz", folder / "data.npz")
+    shutil.copy(course / "autograder" / "reference" / "hidden" / "slider_crank_long.npz", folder / "data.npz")
     leaks = find_leaks(folder, "hw1", course)
     assert [(leak.path, leak.kind) for leak in leaks] == [("data.npz", "copied file")]
-    assert "autograder/reference/slider_crank_long.npz" in leaks[0].detail
+    assert "autograder/reference/hidden/slider_crank_long.npz" in leaks[0].detail
+
+
+def test_stored_values_of_a_hidden_or_per_student_scene_are_a_leak(tmp_path, course):
+    """Made anew (other bytes than any file of the course), a hidden scene's values still show by name."""
+    import json
+
+    folder = clean_release(tmp_path, "hw1")
+    for scene, name in (("hidden/four_bar_b", "a.npz"), ("student/four_bar", "b.npz"), ("four_bar", "public.npz")):
+        np.savez(folder / name, q=np.zeros(3), meta=np.array(json.dumps({"scene": scene})))
+    leaks = sorted((leak.path, leak.kind) for leak in find_leaks(folder, "hw1", course))
+    assert leaks == [("a.npz", "grader data"), ("b.npz", "grader data")]

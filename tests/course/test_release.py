@@ -17,7 +17,7 @@ from course.release import HOMEWORKS, ReleaseError, build_modules, build_package
 from course.release.generator import REPO, all_regions, source_files
 from course.release.release import load_config
 
-COPIED = ("solutions", "course", "assignments", "autograder")
+COPIED = ("solutions", "course", "assignments", "autograder", "mbdkit", "pyproject.toml")
 IGNORED = shutil.ignore_patterns("__pycache__", "build", ".ipynb_checkpoints")
 GIT = shutil.which("git")
 
@@ -30,7 +30,9 @@ def git(folder: Path, *args: str) -> str:
 def fresh_clone(root: Path) -> Path:
     """The course's files as a fresh clone has them: modules/ regenerated and everything committed."""
     for name in COPIED:
-        if (REPO / name).exists():
+        if (REPO / name).is_file():
+            shutil.copy2(REPO / name, root / name)
+        elif (REPO / name).exists():
             shutil.copytree(REPO / name, root / name, ignore=IGNORED)
     build_modules(root / "modules", root / "solutions")
     if GIT:

@@ -1,0 +1,202 @@
+"""The student kit of homework N: everything a student needs, and nothing they must not see.
+
+``mbd release hwN`` writes it into ``build/release/hwN/``::
+
+    hwN.ipynb          the assignment (nbgrader's generate step)
+    scenes/            its public model files (copied by nbgrader from ``assignments/hwN/``)
+    modules/           the student package: hwN and later stubbed, earlier homework filled in
+    mbdkit/            the checker (``mbdkit``'s code) with, in ``mbdkit/data/``, the homework's public
+                       checks, their scenes and stored expected values (no hidden or per-student scene)
+    pyproject.toml     ``pip install ./`` installs ``mbdkit``, the ``mbd`` command and what they need
+    README.md          for students: install, open, what to write, self-check, hand in
+
+The checker compares a student's numbers with stored values and names likely causes from stored
+known mistakes: nothing in the kit runs, holds or installs the reference package.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import tomllib
+from pathlib import Path
+
+from mbdkit.homework import CheckSpec, load_homework
+from mbdkit.stored import load_reference, save_reference
+
+from .generator import REPO
+
+CHECKER = "mbdkit"
+KIT_EXTRAS = ("jupyterlab>=4",)
+"""What a student needs beyond the solver's own dependencies: JupyterLab (it brings the kernel)."""
+INSTRUCTOR_ONLY = ("nbgrader",)
+"""Dependencies of the course repository that a student does not need."""
+
+
+def _toml_value(value) -> str:
+    """A TOML literal of a string, number, boolean, list or flat table (what a check holds)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int | float):
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value)  # a JSON string is a TOML basic string
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{json.dumps(k)} = {_toml_value(v)}" for k, v in value.items()) + "}"
+    raise TypeError(f"no TOML form for {value!r}")
+
+
+def checks_toml(homework: str, title: str, checks: list[CheckSpec], instructor_groups: list[str]) -> str:
+    """The kit's ``hwN.toml``: the public checks only, each written out in full (one scene each), and the
+    groups only the instructor's grading runs."""
+    lines = [
+        f"# {homework}: the public checks of the course's autograder (the instructor's grader also runs",
+        "# hidden variants of these scenes and your own variant of each).",
+        f"homework = {_toml_value(homework)}",
+        f"title = {_toml_value(title)}",
+        f"instructor_groups = {_toml_value(instructor_groups)}",
+    ]
+    for check in checks:
+        table = {
+            "name": check.name,
+            "scene": check.scene,
+            "probe": check.probe,
+            "outputs": list(check.outputs),
+            "points": check.points,
+            "group": check.group,
+            "rows": list(check.rows),
+            "options": check.options,
+            "timeout": check.timeout,
+            "rtol": check.rtol,
+            "atol": check.atol,
+            "description": check.description,
+        }
+        lines += ["", "[[check]]"]
+        lines += [f"{key} = {_toml_value(value)}" for key, value in table.items() if value not in (None, "")]
+    return "\n".join(lines) + "\n"
+
+
+def write_checker(folder: Path, homework: str, course_dir: Path = REPO) -> list[CheckSpec]:
+    """``folder/mbdkit``: the checker's code and the homework's public checks, scenes and expected values
+    (from the course's ``autograder/``: its ``hwN.toml``, public scenes and public references)."""
+    grader = course_dir / "autograder"
+    target = folder / CHECKER
+    shutil.copytree(course_dir / CHECKER, target, ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "data"))
+    spec = load_homework(grader / f"{homework}.toml")
+    checks = spec.public()
+    data = target / "data"
+    (data / "scenes").mkdir(parents=True)
+    later = [group for group in spec.groups() if spec.graded_later(group)]
+    (data / f"{homework}.toml").write_text(checks_toml(spec.name, spec.title, checks, later))
+    for scene in sorted({c.scene for c in checks}):
+        shutil.copyfile(grader / "scenes" / f"{scene}.yaml", data / "scenes" / f"{scene}.yaml")
+        keys = {c.probe_key for c in checks if c.scene == scene}
+        stored = load_reference(scene, grader / "reference" / "public" / f"{scene}.npz").restricted(keys)
+        save_reference(stored, data / "reference" / "public" / f"{scene}.npz")
+    return checks
+
+
+def course_dependencies(course_dir: Path = REPO) -> list[str]:
+    """The solver's dependencies as the course's pyproject.toml states them, less the instructor's tools."""
+    project = tomllib.loads((course_dir / "pyproject.toml").read_text())["project"]
+    keep = [d for d in project["dependencies"] if not d.lower().startswith(INSTRUCTOR_ONLY)]
+    return keep + list(KIT_EXTRAS)
+
+
+def pyproject(homework: str, title: str, course_dir: Path = REPO) -> str:
+    """The kit's ``pyproject.toml``: installs ``mbdkit`` (with its data) and the ``mbd`` command."""
+    project = tomllib.loads((course_dir / "pyproject.toml").read_text())["project"]
+    dependencies = "".join(f"    {_toml_value(d)},\n" for d in course_dependencies(course_dir))
+    return f"""# Homework kit of the multibody dynamics course: `pip install ./` in this folder.
+[build-system]
+requires = ["setuptools>=61"]
+build-backend = "setuptools.build_meta"
+
+[project]
+name = "mbd-course-{homework}"
+version = {_toml_value(project["version"])}
+description = {_toml_value(f"{title}: the self-check and tools of the homework")}
+requires-python = {_toml_value(project["requires-python"])}
+dependencies = [
+{dependencies}]
+
+[project.scripts]
+mbd = "mbdkit.cli:main"
+
+[tool.setuptools]
+packages = ["mbdkit"]
+
+[tool.setuptools.package-data]
+mbdkit = ["data/*.toml", "data/scenes/*.yaml", "data/reference/public/*.npz"]
+"""
+
+
+def readme(homework: str, title: str, to_write: list[str], checks: list[CheckSpec]) -> str:
+    """The kit's README: for students, short."""
+    groups = list(dict.fromkeys(c.group for c in checks))
+    functions = "\n".join(f"- `modules/{name.replace('.', '/', name.count('.') - 1)}`" for name in to_write)
+    return f"""# {homework}: {title}
+
+Your kit for this homework:
+
+| | |
+|---|---|
+| `{homework}.ipynb` | the assignment: read it first, answer in it, run it top to bottom |
+| `modules/` | your package: the functions you write raise `NotImplementedError` |
+| `scenes/` | the model files the notebook uses |
+| `mbdkit/` | the self-check (public checks, with expected values) and the `mbd` command |
+
+## 1. Install (once)
+
+Python 3.11 or newer. In this folder:
+
+```
+python3 -m venv .venv
+source .venv/bin/activate          # Windows: .venv\\Scripts\\activate
+pip install ./
+```
+
+## 2. Open the notebook
+
+```
+jupyter lab {homework}.ipynb
+```
+
+Run the cells from the top; the cells marked *Graded* check your work as you go.
+
+## 3. What to write
+
+Replace the `raise NotImplementedError(...)` in these functions (each names its equation in the course
+notes); do not change their signatures. `grep -rn NotImplementedError modules/` lists what is left.
+
+{functions}
+
+## 4. Check your work
+
+```
+mbd selfcheck {homework}           # every public check, with the likely cause of each failure
+mbd run scenes/<model>.yaml --plot out.png   # your own solver on a model file
+```
+
+Checks by group ({", ".join(groups)}): the notebook's cell for a group is `check("{homework}", "<group>")`.
+The grader also runs hidden variants of these scenes and your own variant of each: code that passes
+here for the right reasons passes there.
+
+## 5. Hand in
+
+The notebook, run from top to bottom, and your `modules/` folder beside it, as your instructor asks
+(nbgrader's *Submit* button, or a zip of this folder without `.venv/`).
+"""
+
+
+def build_kit(folder: Path, homework: str, to_write: list[str], course_dir: Path = REPO) -> list[str]:
+    """Add the checker, ``pyproject.toml`` and ``README.md`` to a release folder; the files written."""
+    folder = Path(folder)
+    spec = load_homework(course_dir / "autograder" / f"{homework}.toml")
+    checks = write_checker(folder, homework, course_dir)
+    (folder / "pyproject.toml").write_text(pyproject(homework, spec.title, course_dir))
+    (folder / "README.md").write_text(readme(homework, spec.title, to_write, checks))
+    checker = [p for p in (folder / CHECKER).rglob("*") if p.is_file()]
+    return sorted(p.relative_to(folder).as_posix() for p in [folder / "pyproject.toml", folder / "README.md", *checker])

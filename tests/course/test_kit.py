@@ -1,0 +1,188 @@
+"""The student kit as a student meets it: installed into a fresh virtual environment, on its own.
+
+Each homework is released (`mbd release hwN` on a scratch copy of the course), its kit is built into a
+wheel and installed with ``--no-deps`` into a new venv; the dependencies (numpy, scipy, JupyterLab, ...)
+come from this venv's site-packages through a ``.pth`` line, so nothing is downloaded and nothing of the
+course is importable there (the editable install of this repository is not). Then, as the kit's README
+says: ``mbd selfcheck`` on the skeleton and on the reference pasted in, ``mbd run`` on a scene, the
+notebook executed headless; and a scan of what the install put into site-packages.
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+import sysconfig
+from pathlib import Path
+
+import nbformat
+import pytest
+
+from course.release import HOMEWORKS, build_package, find_leaks, release
+from mbdkit.homework import load_homework
+
+KIT_RUN = """
+import sys
+import nbformat
+from nbclient import NotebookClient
+
+nb = nbformat.read(sys.argv[1], as_version=4)
+where = "import importlib.util, sys; print('PREFIX', sys.prefix)\\n"
+where += "print('SOLUTIONS', importlib.util.find_spec('solutions'))"
+nb.cells.append(nbformat.v4.new_code_cell(where))
+here = {"metadata": {"path": "."}}
+NotebookClient(nb, timeout=300, kernel_name="python3", allow_errors=True, resources=here).execute()
+nbformat.write(nb, sys.argv[2])
+"""
+
+
+def run(command: list[str], cwd: Path, env: dict[str, str]) -> subprocess.CompletedProcess:
+    return subprocess.run(command, cwd=cwd, env=env, capture_output=True, text=True, timeout=600)
+
+
+@pytest.fixture(scope="module")
+def kits(tmp_path_factory):
+    """{homework: kit folder, "course": the course}: every homework released from one scratch copy."""
+    from course.demo import scratch_course
+
+    course = scratch_course(tmp_path_factory.mktemp("course") / "course")
+    kits = {}
+    for homework in HOMEWORKS:
+        kit = tmp_path_factory.mktemp("students") / homework
+        shutil.copytree(release(homework, course).folder, kit)
+        kits[homework] = kit
+    kits["course"] = course
+    return kits
+
+
+@pytest.fixture(scope="module")
+def student_env(tmp_path_factory, kits):
+    """{homework: (python, environment variables, site-packages)}: a fresh venv per homework, holding
+    that homework's kit installed from its wheel with ``--no-deps``."""
+    envs = {}
+    for homework in HOMEWORKS:
+        kit = kits[homework]
+        root = tmp_path_factory.mktemp(f"venv-{homework}")
+        venv = root / "env"
+        subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True)
+        python = venv / "bin" / "python"
+        where = "import sysconfig; print(sysconfig.get_paths()['purelib'])"
+        site = Path(run([str(python), "-c", where], root, {}).stdout.strip())
+        (site / "course_dependencies.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
+        wheel = build_wheel(kit, root / "wheel")
+        pip = [sys.executable, "-m", "pip", "--python", str(python), "install", "--no-deps", "--no-index", "-q"]
+        done = subprocess.run([*pip, str(wheel)], capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr
+        env = {"PATH": f"{venv / 'bin'}:/usr/bin:/bin", "HOME": str(root), "MPLBACKEND": "Agg"}
+        envs[homework] = python, {**env, "OPENBLAS_NUM_THREADS": "1"}, site
+    return envs
+
+
+def build_wheel(kit: Path, out: Path) -> Path:
+    """The kit's wheel, built offline with this venv's setuptools (``pip install ./`` does the same)."""
+    command = [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q", "-w", str(out)]
+    done = subprocess.run([*command, str(kit)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    shutil.rmtree(kit / "build", ignore_errors=True)  # setuptools' build folder, not the student's
+    (wheel,) = out.glob("*.whl")
+    return wheel
+
+
+def kit_checks(kit: Path, homework: str) -> list:
+    """The public checks as the kit holds them."""
+    return load_homework(kit / "mbdkit" / "data" / f"{homework}.toml").checks
+
+
+def install(student_env, homework: str) -> tuple[Path, dict]:
+    python, env, _ = student_env[homework]
+    return python, env
+
+
+@pytest.mark.parametrize("homework", HOMEWORKS)
+def test_the_kit_has_what_its_readme_says(kits, homework):
+    kit = kits[homework]
+    names = {p.name for p in kit.iterdir()}
+    assert {f"{homework}.ipynb", "modules", "scenes", "mbdkit", "pyproject.toml", "README.md"} <= names
+    readme = (kit / "README.md").read_text()
+    for step in ("pip install ./", f"jupyter lab {homework}.ipynb", f"mbd selfcheck {homework}", "Hand in"):
+        assert step in readme
+    assert find_leaks(kit, homework) == []
+    course = load_homework(kits["course"] / "autograder" / f"{homework}.toml")
+    assert kit_checks(kit, homework) == course.public()  # every public check, with its points, and no other
+
+
+@pytest.mark.parametrize("homework", HOMEWORKS)
+def test_selfcheck_in_a_fresh_venv_on_the_skeleton_and_on_the_reference(student_env, kits, homework, tmp_path):
+    python, env = install(student_env, homework)
+    kit = kits[homework]
+    public = kit_checks(kit, homework)
+
+    assert run([str(python), "-c", "import solutions"], kit, env).returncode != 0
+    assert run([str(python), "-c", "import autograder"], kit, env).returncode != 0
+
+    skeleton = run(["mbd", "selfcheck", homework], kit, env)
+    assert skeleton.returncode == 0, skeleton.stderr
+    assert "not implemented yet" in skeleton.stdout and skeleton.stderr == ""
+    assert f"0 of {len(public)} public checks pass, 0 of " in skeleton.stdout
+
+    student = tmp_path / "student"
+    shutil.copytree(kit, student)
+    shutil.rmtree(student / "modules")
+    build_package(student / "modules", None, header=None)  # the reference, as a student who got it all right
+    done = run(["mbd", "selfcheck", homework], student, env)
+    assert done.returncode == 0 and f"{len(public)} of {len(public)} public checks pass" in done.stdout, done.stdout
+
+    missing = run(["mbd", "selfcheck", homework, str(tmp_path / "no-such-folder")], kit, env)
+    assert missing.returncode == 2 and missing.stderr.count("mbd: error:") == 1 and missing.stdout == ""
+
+
+def test_mbd_run_uses_the_students_own_package(student_env, kits, tmp_path):
+    python, env = install(student_env, "hw1")
+    student = tmp_path / "hw1"
+    shutil.copytree(kits["hw1"], student)
+    scene = sorted((student / "scenes").glob("*.yaml"))[0]
+    stubbed = run(["mbd", "run", str(scene)], student, env)
+    assert stubbed.returncode == 2 and "Traceback" not in stubbed.stderr
+    assert stubbed.stderr.startswith("mbd: error: not implemented yet in your modules/:")
+    shutil.rmtree(student / "modules")
+    build_package(student / "modules", None, header=None)
+    done = run(["mbd", "run", str(scene), "--out", "r.csv"], student, env)
+    assert done.returncode == 0, done.stderr
+    assert (student / "r.csv").is_file() and "kinematic analysis" in done.stdout
+
+
+@pytest.mark.parametrize("homework", HOMEWORKS)
+def test_the_notebook_runs_headless_in_the_fresh_venv(student_env, kits, homework, tmp_path):
+    """With the reference pasted into modules/, every graded cell passes in the student's own kernel."""
+    python, env = install(student_env, homework)
+    student = tmp_path / homework
+    shutil.copytree(kits[homework], student)
+    shutil.rmtree(student / "modules")
+    build_package(student / "modules", None, header=None)
+    done = run([str(python), "-c", KIT_RUN, f"{homework}.ipynb", "executed.ipynb"], student, env)
+    assert done.returncode == 0, done.stderr[-2000:]
+    nb = nbformat.read(student / "executed.ipynb", as_version=4)
+    code = [c for c in nb.cells if c.cell_type == "code"]
+    assert all(c.execution_count is not None for c in code)
+    graded = [c for c in code if c.metadata.get("nbgrader", {}).get("grade")]
+    assert graded and all(not [o for o in c.outputs if o.output_type == "error"] for c in graded), [
+        o.get("evalue", "")[:300] for c in graded for o in c.outputs if o.output_type == "error"
+    ]
+    last = "".join(o.get("text", "") for o in code[-1].outputs)
+    assert f"PREFIX {python.parent.parent}" in last and "SOLUTIONS None" in last
+
+
+def test_nothing_the_install_put_into_site_packages_is_a_leak(student_env, kits):
+    for homework in HOMEWORKS:
+        site = student_env[homework][2]
+        installed = [p for p in site.iterdir() if p.name.startswith(("mbdkit", "mbd_course"))]
+        assert {p.name for p in installed} >= {"mbdkit"}
+        assert not (site / "solutions").exists() and not (site / "autograder").exists()
+        for path in installed:
+            assert find_leaks(path, homework, installed=True) == [], path
+        record = next(site.glob("mbd_course_*.dist-info")) / "RECORD"
+        assert not [line for line in record.read_text().splitlines() if line.startswith(("solutions/", "autograder/"))]
+        stored = sorted((site / "mbdkit" / "data" / "reference" / "public").glob("*.npz"))
+        checks = kit_checks(kits[homework], homework)
+        assert [p.stem for p in stored] == sorted({c.scene for c in checks})  # public scenes of this homework only
