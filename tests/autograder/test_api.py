@@ -44,4 +44,15 @@ def test_selfcheck_reports_every_public_check(students, capsys):
 def test_grade_command_user_errors(tmp_path, capsys):
     assert grade_command("hw9", tmp_path) == 2
     assert grade_command("hw1", tmp_path / "missing", tmp_path / "out") == 2
-    assert "no folder" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "no folder" in err and err.startswith("mbd: error:")
+    assert not (tmp_path / "out").exists()  # a refused run leaves nothing behind
+
+
+def test_selfcheck_of_a_missing_folder_says_so_once(tmp_path, capsys):
+    assert selfcheck_command("hw1", tmp_path / "no-such-folder") == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1 and err.startswith("mbd: error: no folder")
+    (tmp_path / "empty").mkdir()
+    assert selfcheck_command("hw1", tmp_path / "empty") == 2
+    assert "no package modules/" in capsys.readouterr().err
