@@ -1,21 +1,30 @@
-"""nbgrader configuration of the course (read by ``mbd release`` and by ``nbgrader`` run from ``course/``).
+"""nbgrader configuration of the course: read by ``mbd release`` and by ``nbgrader`` run from the repository root
+(through ``nbgrader_config.py`` there) or from ``course/``; every path below is absolute, so both give the same.
 
 Layout, relative to the repository root (the course root):
 
     assignments/hwN/        nbgrader's source folders: the notebooks and public files only
-    build/release/hwN/      what students get: the notebook without solutions and the hwN student
-                            package ``modules/`` (built from solutions/ by ``mbd release hwN``)
-    build/submitted, build/autograded, build/feedback, build/gradebook.db
+    build/release/hwN/      what students get, the student kit built by ``mbd release hwN``: the notebook
+                            without solutions, its scenes, the hwN student package ``modules/`` (built from
+                            solutions/) and the student-side checker with its install file and README
+    build/downloaded/hwN/archive/
+                            submissions downloaded from a learning platform, for ``nbgrader zip_collect hwN``
+    build/submitted, build/autograded, build/feedback, build/gradebook.db, build/grades.csv
                             nbgrader's working folders while grading (not committed: build/ is ignored)
 
 Nothing of the reference code (``solutions/``) or of the grader's data (``autograder/``) is inside
-``assignments/``: the student package is generated into the release folder, never into the source.
+``assignments/``: the student package is generated into the release folder, never into the source. That is
+why nbgrader's own generate step cannot build a release: it copies ``assignments/hwN/`` only. Run by hand
+(``nbgrader generate_assignment hwN``), it hands over to ``mbd release hwN`` (``_release_the_kit`` below).
 
 To release through an exchange (JupyterHub), set ``c.CourseDirectory.course_id`` and ``c.Exchange.root``
 below: ``mbd release hwN`` then also runs nbgrader's release step.
 """
 
 import os
+import shutil
+import sys
+import traceback
 
 c = get_config()  # noqa: F821 -- injected by traitlets when it loads this file
 
@@ -32,7 +41,17 @@ c.CourseDirectory.feedback_directory = os.path.join("build", "feedback")
 c.CourseDirectory.solution_directory = os.path.join("build", "solution")
 c.CourseDirectory.source_with_tests_directory = os.path.join("build", "source_with_tests")
 c.CourseDirectory.db_url = "sqlite:///" + os.path.join(ROOT, "build", "gradebook.db")
+os.makedirs(os.path.join(ROOT, "build"), exist_ok=True)  # the gradebook's folder: sqlite does not create it
 c.CourseDirectory.ignore = [".ipynb_checkpoints", "*.pyc", "__pycache__", "feedback", ".pytest_cache"]
+
+# `nbgrader export` writes its CSV here, not into the folder it is run from (`--to FILE` still overrides it:
+# the option sets ExportPlugin.to too, and the command line wins over this file).
+c.ExportPlugin.to = os.path.join(ROOT, "build", "grades.csv")
+
+# nbgrader runs the `alembic` command to create the gradebook: when nbgrader was started as .venv/bin/nbgrader
+# without an activated virtualenv, that command is not on PATH, and every gradebook step would fail.
+if shutil.which("alembic") is None and os.path.isfile(os.path.join(os.path.dirname(sys.executable), "alembic")):
+    os.environ["PATH"] = os.pathsep.join([os.path.dirname(sys.executable), os.environ.get("PATH", "")])
 
 
 def _student_modules() -> list:
@@ -59,6 +78,66 @@ c.IgnorePattern.pattern = r"(?:\w*Warning: |Matplotlib is building the font cach
 c.Execute.timeout = 120
 c.Execute.startup_timeout = 60
 c.Execute.interrupt_on_timeout = True
+
+
+def _release_the_kit(assignment, student, notebooks):
+    """``nbgrader generate_assignment hwN`` run by hand: finish with ``mbd release hwN``.
+
+    nbgrader copies ``assignments/hwN/`` only, so its own output is the notebook without the student package;
+    ``mbd release`` regenerates the folder as the whole student kit and checks it for leaks. When the release
+    is refused, the notebook-only folder is deleted and the command fails, rather than leaving a folder that
+    looks complete. ``mbd release`` runs nbgrader's step through its API, which this hook does not apply to.
+    """
+    if os.environ.get("MBD_RELEASE_FROM_NBGRADER"):  # already inside a release started here
+        return
+    folder = os.path.join(ROOT, "build", "release", assignment)
+    print(
+        f"nbgrader copied assignments/{assignment}/ only: completing the student kit with `mbd release {assignment}`",
+        file=sys.stderr,
+    )
+    import logging
+
+    from traitlets.log import get_logger
+
+    class _NoExchangeNotice(logging.Filter):  # the release step without an exchange: not this command's concern
+        def filter(self, record):
+            return "Unwritable directory" not in str(record.msg)
+
+    quiet = _NoExchangeNotice()
+    get_logger().addFilter(quiet)
+    os.environ["MBD_RELEASE_FROM_NBGRADER"] = "1"
+    try:
+        if os.path.isfile(os.path.join(ROOT, "course", "release", "__init__.py")) and ROOT not in sys.path:
+            sys.path.insert(0, ROOT)
+        from course.release import release
+
+        report = release(assignment, ROOT)
+    except Exception as err:  # noqa: BLE001 -- nbgrader would log a failed hook and carry on: stop here instead
+        shutil.rmtree(folder, ignore_errors=True)
+        reason = str(err) if type(err).__name__ == "ReleaseError" else traceback.format_exc()
+        print(f"error: {reason}\n{folder} was deleted: nbgrader alone does not build the student kit", file=sys.stderr)
+        raise SystemExit(2) from None
+    finally:
+        os.environ.pop("MBD_RELEASE_FROM_NBGRADER", None)
+        get_logger().removeFilter(quiet)
+    print(report.summary())
+
+
+# Only the command line's generate step (its converter's parent is GenerateAssignmentApp); `mbd release` and
+# the formgrader call nbgrader's API, where this section does not apply.
+c.GenerateAssignmentApp.GenerateAssignment.post_convert_hook = _release_the_kit
+
+# `nbgrader zip_collect hwN`: put one zip (or folder) per student, named with the student's id, into
+# build/downloaded/hwN/archive/ (unpack a platform's "download all" archive that way). It holds hwN.ipynb and
+# modules/, directly or in one folder (the kit folder the student zipped); nothing else is collected (the
+# scenes come from assignments/hwN/ at autograde). Adapt named_regexp where the platform names files otherwise.
+c.ZipCollectApp.downloaded_directory = os.path.join("build", "downloaded")  # relative to the root, as nbgrader needs
+c.ZipCollectApp.strict = True  # skip notebooks that are not the released one (copies, renamed files)
+c.FileNameCollectorPlugin.valid_ext = [".ipynb", ".py", ".json"]
+c.FileNameCollectorPlugin.named_regexp = (
+    r".*[/\\]extracted[/\\](?P<student_id>[^/\\._][^/\\]*)[/\\](?:[^/\\._][^/\\]*[/\\])?"
+    r"(?P<file_id>[^/\\._][^/\\]*\.ipynb|modules[/\\].+)$"
+)
 
 # Exchange (optional): uncomment both to let `mbd release hwN` also run nbgrader's release step.
 # c.CourseDirectory.course_id = "mbd"

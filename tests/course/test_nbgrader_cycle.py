@@ -2,15 +2,17 @@
 autograde, generate feedback, export; the exported grades equal ``mbd grade``'s for the same submissions.
 
 Each homework runs in a scratch copy of the course (``course.demo.scratch_course``: notebooks, nbgrader
-configuration, reference, grader data) with nbgrader's own commands. The graded cells call
-``autograder.api.check``, which, while nbgrader autogrades, runs every check of its group (hidden and
-per-student ones too) and returns the points as the cell's partial credit: so nbgrader's score of a
-submission is the autograder's, check for check.
+configuration, reference, grader data) with nbgrader's own commands: hw1's from the course root (through the
+root ``nbgrader_config.py``), the others' from ``course/``; none of them writes anything outside ``build/``.
+The graded cells call ``autograder.api.check``, which, while nbgrader autogrades, runs every check of its
+group (hidden and per-student ones too) and returns the points as the cell's partial credit: so nbgrader's
+score of a submission is the autograder's, check for check.
 """
 
 from __future__ import annotations
 
 import csv
+import hashlib
 import html
 import os
 import re
@@ -26,6 +28,7 @@ import pytest
 from autograder.grading import grade
 from course.demo import MUTATIONS, _mutate, scratch_course
 from course.release import HOMEWORKS, build_package, release
+from course.release.generator import REPO
 
 pytestmark = pytest.mark.filterwarnings("ignore:Object of type <Submitted")  # nbgrader's own SQLAlchemy notes
 
@@ -50,13 +53,17 @@ def submit(course: Path, homework: str, student: str, kind: str | None) -> Path:
     return folder
 
 
-def nbgrader(course: Path, *args: str) -> str:
-    """An nbgrader command, run where the course's nbgrader_config.py is (``course/``), as an instructor would."""
+WHERE = {"hw1": "."}
+"""Where each homework's nbgrader commands run, relative to the course root (``course/`` when not listed)."""
+
+
+def nbgrader(course: Path, *args: str, where: str = "course") -> str:
+    """An nbgrader command, run where an nbgrader_config.py is (the root or ``course/``), as an instructor would."""
     environment = dict(os.environ, PATH=os.pathsep.join([str(Path(sys.executable).parent), os.environ.get("PATH", "")]))
     environment.pop("NBGRADER_EXECUTION", None)
     done = subprocess.run(
         [sys.executable, "-m", "nbgrader", *args],
-        cwd=course / "course",
+        cwd=course / where,
         env=environment,
         capture_output=True,
         text=True,
@@ -66,13 +73,26 @@ def nbgrader(course: Path, *args: str) -> str:
     return done.stdout + done.stderr
 
 
+def outside_build(course: Path) -> dict[str, str]:
+    """Every file of the course outside build/ (Python's caches aside), with a digest of its content."""
+    files = {}
+    for path in sorted(course.rglob("*")):
+        relative = path.relative_to(course)
+        if path.is_file() and relative.parts[0] != "build" and "__pycache__" not in relative.parts:
+            files[relative.as_posix()] = hashlib.sha256(path.read_bytes()).hexdigest()
+    return files
+
+
 def autograde_and_export(course: Path, homework: str) -> dict[str, dict]:
-    """``nbgrader autograde``, ``generate_feedback`` and ``export`` for every submission of one homework."""
-    nbgrader(course, "autograde", homework, "--force")
-    nbgrader(course, "generate_feedback", homework, "--force")
-    target = course / "build" / "grades.csv"
-    nbgrader(course, "export", "--to", str(target))
-    with open(target, newline="") as f:
+    """``nbgrader autograde``, ``generate_feedback`` and ``export`` (to its configured file, build/grades.csv)
+    for every submission of one homework; the course outside build/ stays as it was."""
+    where = WHERE.get(homework, "course")
+    before = outside_build(course)
+    nbgrader(course, "autograde", homework, "--force", where=where)
+    nbgrader(course, "generate_feedback", homework, "--force", where=where)
+    nbgrader(course, "export", where=where)
+    assert outside_build(course) == before, f"{homework}: nbgrader wrote outside build/"
+    with open(course / "build" / "grades.csv", newline="") as f:
         return {row["student_id"]: row for row in csv.DictReader(f) if row["assignment"] == homework}
 
 
@@ -85,6 +105,7 @@ def cycle(tmp_path_factory):
     courses = {}
     for homework in HOMEWORKS:
         course = courses[homework] = scratch_course(root / homework)
+        shutil.copy2(REPO / "nbgrader_config.py", course / "nbgrader_config.py")  # nbgrader run from the root
         release(homework, course)  # nbgrader's generate step, the student package, the leak check
         for student, kind in STUDENTS[homework].items():
             submit(course, homework, student, kind)
