@@ -424,3 +424,27 @@ def invariants(pkg: Package, job: Job) -> dict:
         out["energy"] = np.array(float(np.max(np.abs(history.total - history.total[0]))))
         out["energy_scale"] = np.array(float(history.scale))
     return out
+
+
+# -- hw2: inverse dynamics (appended) ------------------------------------------------------------------
+@probe(
+    "inverse_dynamics",
+    {"lam": ("state", "row")},
+    requires=("inverse_dynamics", "mass_matrix", "generalized_forces"),
+)
+def inverse_dynamics(pkg: Package, job: Job) -> dict:
+    """lambda of a fully driven scene at its consistent states: ``multipliers`` (Psi_q^T lambda = Q - M q'',
+    eq. 5.80) given Psi_q and q'' of the package's kinematics and its own M and Q."""
+    model = model_of(pkg, job)
+    system, _, _ = build(pkg, job)
+    multipliers = pkg["inverse_dynamics"].multipliers
+    acceleration = pkg["kinematics"].acceleration_analysis
+    mass = pkg["mass_matrix"]
+    M = mass.mass_matrix(model)
+    forces = pkg["generalized_forces"].build_forces(model)
+    lam = []
+    for t, q, qd in _states(job, perturbed=False):
+        qdd = np.asarray(acceleration(system, q.copy(), qd.copy(), t), dtype=float)
+        Q = np.asarray(forces.generalized_forces(q.copy(), qd.copy(), t), dtype=float)
+        lam.append(np.asarray(multipliers(system.jacobian(q, t), mass.mass_at(M, q), qdd, Q), dtype=float))
+    return {"lam": np.array(lam)}
