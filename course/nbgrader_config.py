@@ -70,6 +70,32 @@ def _student_modules() -> list:
 # theirs, not copy the source folder's over them (nbgrader issue #940).
 c.Autograde.exclude_overwriting = {hw: _student_modules() for hw in HOMEWORKS}
 
+
+
+def _drop_submitted_checker():
+    """A preprocessor that removes a checker (``mbdkit/``) handed in with a submission before its notebook
+    runs: the graded cells import ``mbdkit`` from the notebook's folder first, and the points must come from
+    the course's checker, not from a copy the student could have changed."""
+    from nbconvert.preprocessors import Preprocessor
+
+    class DropSubmittedChecker(Preprocessor):
+        def preprocess(self, nb, resources):
+            folder = resources.get("metadata", {}).get("path") or ""
+            if folder and os.path.exists(os.path.join(folder, "mbdkit")):
+                shutil.rmtree(os.path.join(folder, "mbdkit"), ignore_errors=True)
+            return nb, resources
+
+    return DropSubmittedChecker
+
+
+def _autograde_steps() -> list:
+    from nbgrader.converters.autograde import Autograde
+
+    return [_drop_submitted_checker(), *Autograde.class_traits()["autograde_preprocessors"].default()]
+
+
+c.Autograde.autograde_preprocessors = _autograde_steps()
+
 # Any stderr output, even a warning, zeroes a test cell: drop the harmless ones before grading.
 c.IgnorePattern.enabled = True
 c.IgnorePattern.pattern = r"(?:\w*Warning: |Matplotlib is building the font cache|warnings\.warn\()"

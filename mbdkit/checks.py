@@ -53,6 +53,7 @@ QUANTITIES = {
     "spatial_mass_matrix.M": "the spatial mass matrix M(q)",
     "quadratic_velocity.Qv": "the quadratic-velocity force Q_v",
     "reactions.reactions": "the joint reactions",
+    "inverse_dynamics.lam": "the multipliers lambda of inverse dynamics (multipliers)",
     "dynamic_run.q": "the positions of forward_dynamics",
     "dynamic_run.qd": "the velocities of forward_dynamics",
     "dynamic_run.drift": "the constraint drift max |Psi| of forward_dynamics",

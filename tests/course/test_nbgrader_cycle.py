@@ -4,7 +4,7 @@ autograde, generate feedback, export; the exported grades equal ``mbd grade``'s 
 Each homework runs in a scratch copy of the course (``course.demo.scratch_course``: notebooks, nbgrader
 configuration, reference, grader data) with nbgrader's own commands: hw1's from the course root (through the
 root ``nbgrader_config.py``), the others' from ``course/``; none of them writes anything outside ``build/``.
-The graded cells call ``autograder.api.check``, which, while nbgrader autogrades, runs every check of its
+The graded cells call ``mbdkit.check``, which, while nbgrader autogrades, runs every check of its
 group (hidden and per-student ones too) and returns the points as the cell's partial credit: so nbgrader's
 score of a submission is the autograder's, check for check.
 """
@@ -33,11 +33,18 @@ from course.release.generator import REPO
 pytestmark = pytest.mark.filterwarnings("ignore:Object of type <Submitted")  # nbgrader's own SQLAlchemy notes
 
 STUDENTS = {
-    "hw1": {"ada": None, "ben": "bug_revolute_gamma", "sam": "skeleton"},
+    "hw1": {"ada": None, "ben": "bug_revolute_gamma", "sam": "skeleton", "eve": "forged_checker"},
     "hw2": {"ada": None},
     "hw3": {"ada": None},
 }
-"""Per homework, the demo students submitted: the reference (None), a mutant of course/demo.py, the skeleton."""
+"""Per homework, the demo students submitted: the reference (None), a mutant of course/demo.py, the skeleton,
+the skeleton with the kit's checker changed to award a point in every graded cell."""
+
+FORGED = """
+
+def check(homework, group, path=None):  # forged by the student: a point for every graded cell
+    return 1.0
+"""
 
 
 def submit(course: Path, homework: str, student: str, kind: str | None) -> Path:
@@ -45,7 +52,10 @@ def submit(course: Path, homework: str, student: str, kind: str | None) -> Path:
     released = course / "build" / "release" / homework
     folder = course / "build" / "submitted" / student / homework
     shutil.copytree(released, folder, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
-    if kind != "skeleton":
+    if kind == "forged_checker":
+        with open(folder / "mbdkit" / "api.py", "a") as f:
+            f.write(FORGED)
+    elif kind != "skeleton":
         build_package(folder / "modules", None, course / "solutions", header=None)
     if kind in MUTATIONS:
         relpath, anchor, correct, buggy, _ = MUTATIONS[kind]
@@ -139,6 +149,8 @@ def test_the_demo_students_get_what_they_deserve(cycle):
     _, exported, books = cycle
     book = books["hw1"]
     assert book.score("ada") == book.max_score and book.score("sam") == 0.0
+    assert book.score("eve") == 0.0  # a checker handed in with the submission is not what grades it
+    assert float(exported["hw1"]["eve"]["raw_score"]) == 0.0
     assert 0.0 < book.score("ben") < book.max_score
     assert float(exported["hw1"]["ben"]["raw_score"]) == pytest.approx(book.score("ben"))
 
