@@ -19,7 +19,7 @@ demo: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python -m course.demo
 
 test: $(STAMP)
-	$(BIN)/ruff check solutions course autograder tests benchmarks
+	$(BIN)/ruff check solutions course autograder mbdkit tests benchmarks
 	MPLBACKEND=Agg $(BIN)/python -m pytest
 
 # modules/ is generated from solutions/ (every homework stubbed), committed, never edited by hand.

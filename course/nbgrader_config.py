@@ -77,8 +77,11 @@ def _drop_submitted_checker():
     runs: the graded cells import ``mbdkit`` from the notebook's folder first, and the points must come from
     the course's checker, not from a copy the student could have changed."""
     from nbconvert.preprocessors import Preprocessor
+    from traitlets import Bool
 
     class DropSubmittedChecker(Preprocessor):
+        enabled = Bool(True)  # nbconvert's preprocessors are off unless enabled
+
         def preprocess(self, nb, resources):
             folder = resources.get("metadata", {}).get("path") or ""
             if folder and os.path.exists(os.path.join(folder, "mbdkit")):
