@@ -118,6 +118,8 @@ def test_gamma_sign_mutant(hw1):
     expected = {"four_bar.gamma.revolute", "slider_crank.gamma.revolute", "hidden/four_bar_b.gamma"}
     expected |= _failing("hw1", {"acceleration"}) | runs
     assert failed == expected
+    points = {c.name: c.points for c in load_homework("hw1").checks}
+    assert book.score("gamma_sign") == pytest.approx(book.max_score - sum(points[name] for name in expected))
     assert "a sign error" in results["four_bar.gamma.revolute"]["output"]
     assert "row O2.x (revolute O2)" in results["four_bar.gamma.revolute"]["output"]
     assert "gamma with the wrong sign in Revolute.gamma" in results["quick_return.acceleration"]["output"]
@@ -138,10 +140,10 @@ def test_transposed_block_mutant(hw1):
 
 
 def test_feedback_pages(hw1):
-    _, out, _ = hw1
+    book, out, _ = hw1
     page = (out / "feedback" / "gamma_sign.html").read_text()
     assert page.count("<img") == 5  # the failed public and own-variant runs, plotted against the reference
-    assert "hidden/" in page and "Score: <b>71.5" in page
+    assert "hidden/" in page and f"Score: <b>{book.score('gamma_sign'):g}" in page
 
 
 def test_hidden_checks_reveal_no_numbers(hw1, hw2):
