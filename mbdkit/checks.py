@@ -270,8 +270,10 @@ def compare(
     bad = ~(error <= allowed) & ~np.isnan(e)  # NaN counts as bad, unless the reference has none there
     if not np.any(bad):
         return True, "", None
-    ratio = np.where(np.isfinite(error), error / np.maximum(allowed, 1e-300), np.inf)
-    worst = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+    # the worst of the failing entries (a NaN or infinity counts as the worst; entries that pass, and NaNs
+    # of the reference's own, never do)
+    ratio = np.where(np.isfinite(error), error / np.maximum(np.nan_to_num(allowed, nan=np.inf), 1e-300), np.inf)
+    worst = np.unravel_index(int(np.argmax(np.where(bad, ratio, -np.inf))), ratio.shape)
     # the index in the unfiltered array, for the labels
     full = list(worst)
     if mask is not None and "row" in axes:
@@ -305,6 +307,30 @@ def compare(
             "quantity": quantity,
         }
     return False, message, plot
+
+
+FOLLOW = 0.1
+"""A run's drift and energy count only while it follows the reference within this part of its motion."""
+
+
+def _off_course(spec: CheckSpec, reply: Reply, reference: Reference, hidden: bool) -> str | None:
+    """Why a run's invariants say nothing (it does not move like the reference), or None.
+
+    A frozen or all-zero trajectory keeps its constraints and its energy perfectly: the drift and energy
+    of a run only count when its positions stay within FOLLOW of the reference's range of motion.
+    """
+    expected, got = reference.outputs(spec.probe_key).get("q"), reply.outputs.get("q")
+    if expected is None:
+        return None
+    if got is None or np.shape(got) != expected.shape:
+        return "your run gave no trajectory of the reference's shape"
+    motion = max(float(np.max(np.ptp(expected, axis=0))), 1e-12)
+    difference = np.abs(np.asarray(got, dtype=float) - expected)
+    off = float(np.max(difference)) if np.all(np.isfinite(difference)) else np.inf
+    if off <= FOLLOW * motion:
+        return None
+    size = "" if hidden else f" (off by {off:.3g}, more than {FOLLOW:g} of its range of motion {motion:.3g})"
+    return f"your trajectory does not follow the reference's{size}: the drift and energy of another motion earn nothing"
 
 
 def _measured(measure: Measure, outputs: dict) -> dict | str:
@@ -374,7 +400,7 @@ def evaluate(
         for output in spec.outputs:
             if output in INVARIANTS:
                 if measured is None:
-                    measured = _measured(measure, reply.outputs)
+                    measured = _off_course(spec, reply, reference, hidden) or _measured(measure, reply.outputs)
                 ok, text = compare_invariant(spec, output, measured, reference, hidden)
                 results[output] = ok
                 if not ok:
@@ -419,7 +445,8 @@ def _run_hint(spec: CheckSpec, reply: Reply, reference: Reference, hidden: bool)
             if output == "q" and spec.probe == "dynamic_run":
                 return (
                     "the trajectory leaves the reference: the function checks (mass matrix, forces, "
-                    "accelerations, rk4) tell which part is wrong"
+                    "accelerations, rk4) tell which part is wrong; if they all pass, your forward_dynamics "
+                    "does not integrate as asked (are the rtol, atol and step it is given passed to the integrator?)"
                 )
             return RUN_HINTS[output]
     return None

@@ -101,10 +101,13 @@ def likely_cause(
     # (B^T s' is -B s' in one component for a point on the body's x axis)
     if not np.all(np.isfinite(got[failing])):
         return structural(expected, got, failing, allowed)
+    valid = ~np.isnan(expected)
     for cause, output_of_mistake in mistakes:
         candidate = select(np.asarray(output_of_mistake, dtype=float))
         if candidate.shape != got.shape:
             continue
-        if np.all(np.abs(candidate[failing] - got[failing]) <= allowed[failing]):
+        # the mistake must give the student's numbers everywhere, not only where they fail: one flipped
+        # sign in L(p) is not "G(p) used for L(p)", though G and L share that entry's magnitude
+        if np.all(np.abs(candidate[valid] - got[valid]) <= allowed[valid]):
             return cause
     return structural(expected, got, failing, allowed)
