@@ -20,6 +20,7 @@ import csv
 import hashlib
 import json
 import os
+import stat
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -139,12 +140,31 @@ def submission_fingerprint(submission: Submission, homework: Homework, limits: L
     digest = hashlib.sha256(f"{GRADER_VERSION}|{homework.fingerprint()}|{_reference_fingerprint(homework)}".encode())
     digest.update(repr(sorted(vars(limits).items())).encode())
     digest.update(submission.student.encode())
-    if submission.package.is_dir():
-        for path in sorted(submission.package.rglob("*")):
-            if path.is_file() and "__pycache__" not in path.parts:
+    package = submission.package
+    if package.is_dir() and not package.is_symlink():
+        for folder, dirs, names in os.walk(package):  # never into a linked folder
+            dirs[:] = sorted(d for d in dirs if d != "__pycache__")
+            for name in sorted(names):
+                path = Path(folder, name)
                 digest.update(str(path.relative_to(submission.path)).encode())
-                digest.update(path.read_bytes())
+                digest.update(_file_digest(path))
     return digest.hexdigest()
+
+
+FINGERPRINT_BYTES = 4 * 2**20
+"""Of a submitted file, the fingerprint reads at most this much (and its size): a huge file costs no more."""
+
+
+def _file_digest(path: Path) -> bytes:
+    """What a submitted file adds to the fingerprint: a link's target (never what it points to), or the
+    size and the first FINGERPRINT_BYTES of a regular file."""
+    info = path.lstat()
+    if stat.S_ISLNK(info.st_mode):
+        return f"link:{os.readlink(path)}".encode()
+    if not stat.S_ISREG(info.st_mode):
+        return f"special:{info.st_mode:o}".encode()
+    with open(os.open(path, os.O_RDONLY | os.O_NOFOLLOW), "rb") as f:  # a file swapped for a link: an error
+        return f"size:{info.st_size}:".encode() + f.read(FINGERPRINT_BYTES)
 
 
 def protected_paths(extra: tuple[Path, ...] = ()) -> tuple[list[Path], list[Path]]:

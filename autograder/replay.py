@@ -5,7 +5,9 @@ B(phi)^T for B(phi) (a transposed block), the quadratic-velocity terms of gamma 
 terms dropped or with the wrong sign, one joint's gamma negated, G(p) for L(p) -- and when that
 reproduces a student's numbers, that is the likely cause (``mbdkit.diagnosis.likely_cause``).
 
-For public and hidden scenes the replays are made once, with the reference runs
+The mistakes are made in a private copy of the reference package (``replay_package``), never in the
+package that computes expected values. For public and hidden scenes the replays are made once, with the
+reference runs
 (``python -m autograder.reference`` stores them, ``stored_replays``), so that the student kit can name
 causes from stored data alone and grading never changes the reference package. Per-student scenes,
 made at grading time, replay only the checks that fail (``live_replays``). This module runs in the
@@ -15,6 +17,7 @@ grader only, never in a sandbox and never in a student kit.
 from __future__ import annotations
 
 import contextlib
+import importlib.util
 import json
 import sys
 from collections.abc import Callable
@@ -24,7 +27,31 @@ import numpy as np
 
 from mbdkit.probes import PROBES, Job, Package
 
-REFERENCE = Package("solutions")
+COPY = "mbd_reference_replays"
+"""The name under which a private copy of the reference package is imported for the replays."""
+
+
+def replay_package() -> Package:
+    """A second copy of the reference package, imported under its own name from the same files: the
+    mistakes are made in it, so the package that computes the expected values (and anything else in this
+    process that imported ``solutions``) is never changed, not even while a mistake is replayed. The
+    package's imports are relative, so the copy is whole: its modules see only each other."""
+    if COPY not in sys.modules:
+        found = importlib.util.find_spec("solutions")
+        spec = importlib.util.spec_from_file_location(
+            COPY, found.origin, submodule_search_locations=list(found.submodule_search_locations)
+        )
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[COPY] = module
+        try:
+            spec.loader.exec_module(module)
+        except BaseException:
+            del sys.modules[COPY]
+            raise
+    return Package(COPY)
+
+
+REPLAY = replay_package()
 
 
 @dataclass(frozen=True)
@@ -172,12 +199,12 @@ SPATIAL_ROTATION_MISTAKES = [
     Hypothesis(
         "G(p) used where L(p) belongs: the angular velocity in the global frame, not the body frame (eq. 8.14)",
         "rotations.l_matrix",
-        lambda original: REFERENCE["rotations"].g_matrix,
+        lambda original: REPLAY["rotations"].g_matrix,
     ),
     Hypothesis(
         "L(p) used where G(p) belongs: the angular velocity in the body frame, not the global frame (eq. 8.14)",
         "rotations.g_matrix",
-        lambda original: REFERENCE["rotations"].l_matrix,
+        lambda original: REPLAY["rotations"].l_matrix,
     ),
 ]
 SPATIAL_QUADRATIC_MISTAKES = [
@@ -207,8 +234,8 @@ _CLASSES: dict[str, dict[str, list[str]]] = {}
 def _element_classes(job: Job, method: str) -> list[str]:
     """Class paths of the scene's constraint elements (in the reference package) that define ``method``."""
     if job.key not in _CLASSES:
-        model = REFERENCE["io.model"].load_model(job.model)
-        system, _, _ = REFERENCE["assembly"].build_system(model)
+        model = REPLAY["io.model"].load_model(job.model)
+        system, _, _ = REPLAY["assembly"].build_system(model)
         classes = list(dict.fromkeys(type(e) for e in system.elements))
         _CLASSES[job.key] = {
             name: [f"{c.__module__.split('.', 1)[1]}.{c.__name__}" for c in classes if name in vars(c)]
@@ -268,8 +295,8 @@ def replay(probe: str, job: Job, hypothesis: Hypothesis) -> dict | None:
         if len(_REPLAYS) > 64:
             _REPLAYS.clear()
         try:
-            with patched(REFERENCE, hypothesis.target, hypothesis.make):
-                _REPLAYS[key] = PROBES[probe](REFERENCE, Job(job.key, job.model, job.inputs, job.options))
+            with patched(REPLAY, hypothesis.target, hypothesis.make):
+                _REPLAYS[key] = PROBES[probe](REPLAY, Job(job.key, job.model, job.inputs, job.options))
         except Exception:  # noqa: BLE001 - a mistake that makes the reference fail explains nothing
             _REPLAYS[key] = None
     return _REPLAYS[key]

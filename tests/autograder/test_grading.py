@@ -234,3 +234,51 @@ def test_parallel_grades_equal_serial_and_resume(make_submissions, tmp_path):
     again = grade(homework, folder, tmp_path / "parallel", jobs=2, progress=False)
     assert [s for s, r in again.rows.items() if not r["resumed"]] == ["s00"]
     assert {s: r["checks"] for s, r in again.rows.items()} == {s: r["checks"] for s, r in parallel.rows.items()}
+
+
+def test_the_fingerprint_follows_no_link_and_reads_a_huge_file_only_in_part(tmp_path):
+    from autograder.grading import FINGERPRINT_BYTES, Submission, submission_fingerprint
+    from mbdkit.sandbox import Limits
+
+    homework = load_homework("hw1")
+    package = tmp_path / "ada" / "modules"
+    package.mkdir(parents=True)
+    (package / "__init__.py").write_text("")
+    outside = tmp_path / "outside.txt"
+    outside.write_text("first")
+    (package / "link.py").symlink_to(outside)
+    ada = Submission("ada", tmp_path / "ada")
+    before = submission_fingerprint(ada, homework, Limits())
+    outside.write_text("changed")  # what a link points to is not the submission's
+    assert submission_fingerprint(ada, homework, Limits()) == before
+    big = package / "big.bin"
+    with open(big, "wb") as f:
+        f.truncate(FINGERPRINT_BYTES * 64)  # 256 MiB, sparse
+    first = submission_fingerprint(ada, homework, Limits())
+    with open(big, "r+b") as f:
+        f.seek(FINGERPRINT_BYTES * 32)
+        f.write(b"x")
+    assert submission_fingerprint(ada, homework, Limits()) == first  # read only in part
+    (package / "__init__.py").write_text("# edited\n")
+    assert submission_fingerprint(ada, homework, Limits()) != first
+
+
+def test_a_grade_depends_only_on_the_submission_not_on_who_was_graded_before(make_submissions, tmp_path):
+    """The same class graded one by one in this process (in the reverse of the usual order, mistakes
+    first), by one worker, and by two workers: identical gradebooks. Replaying a mistake for one student
+    (Baumgarte's terms, on their own variant of a scene) must leave nothing behind for the next."""
+    from autograder.grading import Submission, grade_submission
+    from mbdkit.sandbox import Limits
+
+    root = make_submissions("order", {"h": "reference", "m": "baumgarte_sign", "r": "rk4_weight"}, "hw2")
+    homework = load_homework("hw2")
+    one = grade("hw2", root, tmp_path / "one", jobs=1, progress=False, resume=False)
+    two = grade("hw2", root, tmp_path / "two", jobs=2, progress=False, resume=False)
+    reverse = {
+        name: grade_submission(homework, Submission(name, root / name), tmp_path / "reverse", Limits())
+        for name in ("r", "m", "h")
+    }
+    assert one.score("h") == one.max_score and 0 < one.score("m") < one.max_score
+    for student in ("h", "m", "r"):
+        assert one.points(student) == two.points(student) == reverse[student]["checks"], student
+    assert (tmp_path / "one" / "gradebook.csv").read_text() == (tmp_path / "two" / "gradebook.csv").read_text()

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import importlib
+import sys
+
 import numpy as np
 
 from autograder import replay
@@ -9,37 +12,43 @@ from autograder.reference import load_reference
 from mbdkit import diagnosis
 
 
-def test_patched_restores_the_reference():
-    from solutions.planar import bodies, joints
+def copy_module(name: str):
+    """A module of the private copy of the reference package that the mistakes are made in."""
+    return importlib.import_module(f"{replay.COPY}.{name}")
 
+
+def test_patched_restores_the_copy_and_never_touches_the_reference():
+    from solutions.planar import bodies as reference_bodies
+    from solutions.planar import joints as reference_joints
+
+    bodies, joints = copy_module("planar.bodies"), copy_module("planar.joints")
     original = bodies.rotation_derivative
-    with replay.patched(replay.REFERENCE, "planar.bodies.rotation_derivative", replay._transposed):
+    with replay.patched(replay.REPLAY, "planar.bodies.rotation_derivative", replay._transposed):
         assert joints.rotation_derivative is not original
         assert np.allclose(joints.rotation_derivative(0.3), original(0.3).T)
+        assert reference_joints.rotation_derivative is reference_bodies.rotation_derivative  # while it is on
+        assert np.allclose(reference_joints.rotation_derivative(0.3), original(0.3))
     assert joints.rotation_derivative is original and bodies.rotation_derivative is original
-    with replay.patched(replay.REFERENCE, "planar.joints.Revolute.psi_t", replay._negated):
-        assert "psi_t" in vars(joints.Revolute)
+    with replay.patched(replay.REPLAY, "planar.joints.Revolute.psi_t", replay._negated):
+        assert "psi_t" in vars(joints.Revolute) and "psi_t" not in vars(reference_joints.Revolute)
     assert "psi_t" not in vars(joints.Revolute)  # inherited again, as before
 
 
 def test_a_module_first_imported_during_a_replay_keeps_no_mistake():
     """The grader imports the reference lazily: a module imported while a mistake is replayed binds the
     mistaken function by name, and must get the right one back afterwards."""
-    import importlib
-    import sys
-
-    from solutions.planar import bodies
-
+    bodies = copy_module("planar.bodies")
     original = bodies.rotation
-    saved = importlib.import_module("solutions.reactions")
-    del sys.modules["solutions.reactions"]
+    name = f"{replay.COPY}.reactions"
+    saved = importlib.import_module(name)
+    del sys.modules[name]
     try:
-        with replay.patched(replay.REFERENCE, "planar.bodies.rotation", replay._transposed):
-            fresh = importlib.import_module("solutions.reactions")
+        with replay.patched(replay.REPLAY, "planar.bodies.rotation", replay._transposed):
+            fresh = importlib.import_module(name)
             assert fresh.rotation is not original
         assert fresh.rotation is original and bodies.rotation is original
     finally:
-        sys.modules["solutions.reactions"] = saved
+        sys.modules[name] = saved
 
 
 def test_stored_mistakes_name_the_cause_without_the_reference_package():
