@@ -294,7 +294,8 @@ def step_release():
         if not line.startswith(" " * 20):  # not the functions to write, one a line (`mbd release` lists them)
             print(line)
     _done(start)
-    return report, [(f"the {HOMEWORK} release: what students get (notebook, scenes, modules/)", report.folder)]
+    label = f"the {HOMEWORK} release: the kit students install (notebook, scenes, modules/, checker, README)"
+    return report, [(label, report.folder)]
 
 
 def step_class_and_grades(released: Path, jobs: int) -> tuple[list, bool]:
