@@ -133,10 +133,13 @@ mbdkit = ["data/*.toml", "data/scenes/*.yaml", "data/reference/public/*.npz"]
 """
 
 
-def readme(homework: str, title: str, to_write: list[str], checks: list[CheckSpec]) -> str:
-    """The kit's README: for students, short."""
+def readme(homework: str, title: str, to_write: list[tuple[str, str]], checks: list[CheckSpec]) -> str:
+    """The kit's README: for students, short. ``to_write``: (file in the package, function) pairs."""
     groups = list(dict.fromkeys(c.group for c in checks))
-    functions = "\n".join(f"- `modules/{name.replace('.', '/', name.count('.') - 1)}`" for name in to_write)
+    files: dict[str, list[str]] = {}
+    for path, function in to_write:
+        files.setdefault(path, []).append(f"`{function}`")
+    functions = "\n".join(f"- `modules/{path}`: {', '.join(names)}" for path, names in files.items())
     return f"""# {homework}: {title}
 
 Your kit for this homework:
@@ -180,9 +183,9 @@ mbd selfcheck {homework}           # every public check, with the likely cause o
 mbd run scenes/<model>.yaml --plot out.png   # your own solver on a model file
 ```
 
-Checks by group ({", ".join(groups)}): the notebook's cell for a group is `check("{homework}", "<group>")`.
-The grader also runs hidden variants of these scenes and your own variant of each: code that passes
-here for the right reasons passes there.
+The notebook's graded cell for a group of checks is `check("{homework}", "<group>")`; the groups:
+{", ".join(groups)}. The grader also runs hidden variants of these scenes and your own variant of
+each: code that passes here for the right reasons passes there.
 
 ## 5. Hand in
 
@@ -191,8 +194,9 @@ The notebook, run from top to bottom, and your `modules/` folder beside it, as y
 """
 
 
-def build_kit(folder: Path, homework: str, to_write: list[str], course_dir: Path = REPO) -> list[str]:
-    """Add the checker, ``pyproject.toml`` and ``README.md`` to a release folder; the files written."""
+def build_kit(folder: Path, homework: str, to_write: list[tuple[str, str]], course_dir: Path = REPO) -> list[str]:
+    """Add the checker, ``pyproject.toml`` and ``README.md`` to a release folder; the files written.
+    ``to_write``: the (file, function) pairs students write in this homework."""
     folder = Path(folder)
     spec = load_homework(course_dir / "autograder" / f"{homework}.toml")
     checks = write_checker(folder, homework, course_dir)

@@ -227,8 +227,8 @@ def release(homework: str, course_dir: Path | None = None) -> ReleaseReport:
     index = HOMEWORKS.index(homework) + 1
     now = [r for r in built.stubbed if r.homework == index]
     later = {_name(r) for r in built.stubbed if r.homework > index}
-    to_write = list(dict.fromkeys(_name(r) for r in now if not r.optional))
-    kit = build_kit(folder, homework, to_write, course_dir)
+    asked = list(dict.fromkeys((r.path, r.function) for r in now if not r.optional))
+    kit = build_kit(folder, homework, asked, course_dir)
 
     leaks = find_leaks(folder, homework, course_dir)
     if leaks:
@@ -243,7 +243,7 @@ def release(homework: str, course_dir: Path | None = None) -> ReleaseReport:
         folder=folder,
         notebooks=sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*.ipynb")),
         files=built.files,
-        to_write=to_write,
+        to_write=list(dict.fromkeys(_name(r) for r in now if not r.optional)),
         optional=list(dict.fromkeys(_name(r) for r in now if r.optional)),
         kit=kit,
         given=built.filled_functions(),
