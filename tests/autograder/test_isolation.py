@@ -32,7 +32,7 @@ from mbdkit.sandbox import Limits
 from .conftest import REPO, copy_reference, make_mutant
 
 PROBLEM = osi.problem()
-pytestmark = pytest.mark.skipif(PROBLEM is not None, reason=f"no operating-system isolation here: {PROBLEM}")
+needs_isolation = pytest.mark.skipif(PROBLEM is not None, reason=f"no operating-system isolation here: {PROBLEM}")
 
 LIMITS = Limits(timeout_scale=0.3)
 CHECKS = [
@@ -296,6 +296,7 @@ def only_the_attacked_checks_fail(hostile, student: str) -> None:
     assert book.score(student) == book.max_score - lost
 
 
+@needs_isolation
 def test_classmates_keep_full_marks_and_the_run_is_quick(hostile):
     book = hostile["book"]
     for student in ("ann", "bob"):
@@ -306,6 +307,7 @@ def test_classmates_keep_full_marks_and_the_run_is_quick(hostile):
     assert hostile["seconds"] < 90
 
 
+@needs_isolation
 def test_audit_hook_flag_flipped_through_gc(hostile):
     report = attack_report(hostile, "bypass_gc")
     assert "hook=off" in report  # the bypass itself works: the operating system is the wall
@@ -320,6 +322,7 @@ def test_audit_hook_flag_flipped_through_gc(hostile):
     only_the_attacked_checks_fail(hostile, "bypass_gc")
 
 
+@needs_isolation
 def test_blocked_imports_rebound(hostile):
     report = attack_report(hostile, "bypass_rebind")
     assert "hook=rebound" in report
@@ -328,6 +331,7 @@ def test_blocked_imports_rebound(hostile):
     only_the_attacked_checks_fail(hostile, "bypass_rebind")
 
 
+@needs_isolation
 def test_posixsubprocess_fork_exec_cannot_run_programs(hostile):
     report = attack_report(hostile, "fork_exec")
     assert "cat='OSError:1:" in report and "sleep='OSError:1:" in report, report  # EPERM from seccomp
@@ -336,6 +340,7 @@ def test_posixsubprocess_fork_exec_cannot_run_programs(hostile):
     only_the_attacked_checks_fail(hostile, "fork_exec")
 
 
+@needs_isolation
 def test_symlink_and_host_files_are_not_there(hostile):
     report = attack_report(hostile, "symlink")
     assert "link:FileNotFoundError" in report and "passwd:FileNotFoundError" in report
@@ -344,6 +349,7 @@ def test_symlink_and_host_files_are_not_there(hostile):
     only_the_attacked_checks_fail(hostile, "symlink")
 
 
+@needs_isolation
 def test_no_secret_in_the_environment(hostile):
     report = attack_report(hostile, "environ")
     assert "secret=False" in report
@@ -353,6 +359,7 @@ def test_no_secret_in_the_environment(hostile):
     only_the_attacked_checks_fail(hostile, "environ")
 
 
+@needs_isolation
 def test_a_classmate_cannot_be_touched(hostile):
     report = attack_report(hostile, "tamper")
     assert "write:FileNotFoundError" in report and "list:FileNotFoundError" in report
@@ -361,6 +368,7 @@ def test_a_classmate_cannot_be_touched(hostile):
     only_the_attacked_checks_fail(hostile, "tamper")
 
 
+@needs_isolation
 def test_no_new_sockets(hostile):
     report = attack_report(hostile, "sockets")
     for family in ("inet", "unix", "pair"):
@@ -368,6 +376,7 @@ def test_no_new_sockets(hostile):
     only_the_attacked_checks_fail(hostile, "sockets")
 
 
+@needs_isolation
 def test_a_detached_process_dies_with_the_sandbox(hostile):
     report = attack_report(hostile, "detached")
     assert "detached=" in report  # it did fork
@@ -377,6 +386,7 @@ def test_a_detached_process_dies_with_the_sandbox(hostile):
     only_the_attacked_checks_fail(hostile, "detached")
 
 
+@needs_isolation
 def test_a_fork_bomb_is_bounded(hostile):
     report = attack_report(hostile, "fork_bomb")
     forked = int(report.split("forked=")[1].split()[0])
@@ -386,6 +396,7 @@ def test_a_fork_bomb_is_bounded(hostile):
     only_the_attacked_checks_fail(hostile, "fork_bomb")
 
 
+@needs_isolation
 def test_an_import_time_hang_costs_one_timeout(hostile):
     tests = results(hostile["out"], "import_hang")
     failed = {n for n, t in tests.items() if t["status"] == "failed"}
@@ -402,6 +413,7 @@ def test_an_import_time_hang_costs_one_timeout(hostile):
     assert data["extra_data"]["seconds"] < 2 * timeout + 10
 
 
+@needs_isolation
 def test_os_exit_names_the_function_and_the_check(hostile):
     tests = results(hostile["out"], "os_exit")
     failed = {n for n, t in tests.items() if t["status"] == "failed"}
@@ -487,6 +499,7 @@ def _alive(pid: int, start: str) -> bool:
     return fields[19] == start and fields[0] != "Z"
 
 
+@needs_isolation
 def test_sigkill_of_mbd_grade_leaves_no_process(tmp_path):
     """Workers die with the grader (PR_SET_PDEATHSIG), sandboxes with their worker (--die-with-parent)."""
     folder = tmp_path / "submitted"
@@ -529,6 +542,7 @@ def test_mbd_grade_refuses_without_isolation_unless_told(tmp_path, monkeypatch, 
     folder = tmp_path / "submitted"
     copy_reference(folder / "ann")
     monkeypatch.setenv(osi.BWRAP_ENV, str(tmp_path / "no-bwrap"))
+    monkeypatch.delenv(osi.UNSAFE_ENV, raising=False)
     out = tmp_path / "out"
     assert main(["grade", "hw1", str(folder), "--out", str(out)]) == 2
     err = capsys.readouterr().err
