@@ -1,9 +1,12 @@
 """What ``mbd grade`` calls (``solutions/cli.py`` wires it; ``mbd selfcheck`` is ``mbdkit.cli``).
 
-    mbd grade hwN SUBMISSIONS [--out DIR] [--jobs N]  ->  grade_command(homework, submissions, out, jobs)
+    mbd grade hwN SUBMISSIONS [--out DIR] [--jobs N] [--unsafe-no-isolation]
+        ->  grade_command(homework, submissions, out, jobs, unsafe_no_isolation)
 
-Returns the exit code: 0 done, 2 a user error (unknown homework, no such folder, a missing reference),
-printed as one line ``mbd: error: ...`` to stderr; then no output folder is made.
+Returns the exit code: 0 done, 2 a user error (unknown homework, no such folder, a missing reference, no
+sandbox: bubblewrap missing or the kernel refusing its namespaces), printed as one line
+``mbd: error: ...`` to stderr; then no output folder is made. ``--unsafe-no-isolation`` grades without the
+operating system's isolation (the forkserver sandbox, whose audit hook is no wall), and says so.
 """
 
 from __future__ import annotations
@@ -13,12 +16,17 @@ from pathlib import Path
 
 from mbdkit.cli import error
 from mbdkit.homework import available_homeworks
+from mbdkit.isolation import IsolationUnavailable
 
-from .grading import grade
+from .grading import ISOLATION_NOTE, grade
 
 
 def grade_command(
-    homework: str, submissions: str | Path, out: str | Path | None = None, jobs: int | None = None
+    homework: str,
+    submissions: str | Path,
+    out: str | Path | None = None,
+    jobs: int | None = None,
+    unsafe_no_isolation: bool = False,
 ) -> int:
     """Grade every submission; print where the gradebook is and the score distribution."""
     if homework not in available_homeworks():
@@ -27,10 +35,13 @@ def grade_command(
         return error(f"no folder {submissions} (give nbgrader's submitted/ folder or a folder of student folders)")
     out = Path(out or f"grades-{homework}")
     jobs = jobs or min(os.cpu_count() or 1, 8)
+    isolation = "local" if unsafe_no_isolation else "os"
     try:
-        book = grade(homework, submissions, out, jobs=jobs)
+        book = grade(homework, submissions, out, jobs=jobs, isolation=isolation)
     except FileNotFoundError as err:
         return error(str(err))
+    except IsolationUnavailable as err:
+        return error(f"cannot isolate student code: {err}; give --unsafe-no-isolation to grade without it (unsafe)")
     scores = sorted(book.score(s) for s in book.rows)
     if scores:
         median = scores[len(scores) // 2]
@@ -39,4 +50,6 @@ def grade_command(
             f"range {scores[0]:g} .. {scores[-1]:g}"
         )
     print(f"gradebook: {book.csv_path}\nresults:   {out / 'results'}\nfeedback:  {out / 'feedback'}")
+    if book.isolation != "os":
+        print(f"warning: graded {ISOLATION_NOTE[book.isolation]}")
     return 0

@@ -29,6 +29,7 @@ from importlib.util import find_spec
 from multiprocessing import get_context
 from pathlib import Path
 
+from mbdkit import isolation as osi
 from mbdkit import runner
 from mbdkit.checks import Measure, Mistakes, Outcome
 from mbdkit.homework import CheckSpec, Homework, load_homework
@@ -43,7 +44,22 @@ from .replay import live_replays
 from .scenes import HIDDEN, STUDENT, Scene, hidden_dir, load_scene, scene_kind
 from .tolerances import invariants
 
-GRADER_VERSION = "2"
+GRADER_VERSION = "3"
+
+ISOLATION_NOTE = {
+    "os": "isolated by the operating system (bubblewrap: namespaces, uid 65534 or the user's, seccomp)",
+    "local": "NOT isolated by the operating system (--unsafe-no-isolation): the audit hook was the only wall",
+}
+
+
+def isolation_mode(isolation: str | None = None) -> str:
+    """The sandbox backend the grader uses: ``os`` unless asked otherwise (``MBD_UNSAFE_NO_ISOLATION=1``,
+    ``mbd grade --unsafe-no-isolation``: ``local``)."""
+    if isolation is not None:
+        if isolation not in ("os", "local"):
+            raise ValueError(f"isolation must be 'os' or 'local', not {isolation!r}")
+        return isolation
+    return "local" if osi.unsafe_requested() else "os"
 
 
 @dataclass
@@ -67,6 +83,8 @@ class Gradebook:
     max_points: dict[str, float]
     rows: dict[str, dict] = field(default_factory=dict)
     out_dir: Path | None = None
+    isolation: str = "os"
+    """How student code was isolated: ``os`` (bubblewrap) or ``local`` (unsafe, --unsafe-no-isolation)."""
 
     @property
     def max_score(self) -> float:
@@ -135,9 +153,11 @@ def _reference_fingerprint(homework: Homework) -> str:
     return digest.hexdigest()[:16]
 
 
-def submission_fingerprint(submission: Submission, homework: Homework, limits: Limits) -> str:
-    """Changes when the student's package, the checks, the reference or the grader change."""
-    digest = hashlib.sha256(f"{GRADER_VERSION}|{homework.fingerprint()}|{_reference_fingerprint(homework)}".encode())
+def submission_fingerprint(submission: Submission, homework: Homework, limits: Limits, isolation: str = "os") -> str:
+    """Changes when the student's package, the checks, the reference, the grader or its isolation change."""
+    digest = hashlib.sha256(
+        f"{GRADER_VERSION}|{isolation}|{homework.fingerprint()}|{_reference_fingerprint(homework)}".encode()
+    )
     digest.update(repr(sorted(vars(limits).items())).encode())
     digest.update(submission.student.encode())
     package = submission.package
@@ -226,22 +246,37 @@ def run_checks(
     student: str | None = None,
     limits: Limits | None = None,
     forbidden: tuple[Path, ...] = (),
+    isolation: str | None = None,
 ) -> list[Outcome]:
-    """Run ``checks`` (public, hidden, per-student) on the package in ``folder`` for one student."""
+    """Run ``checks`` (public, hidden, per-student) on the package in ``folder`` for one student.
+
+    ``isolation``: ``os`` (default: the student's code runs under bubblewrap, ``mbdkit.isolation``; raises
+    ``IsolationUnavailable`` where it cannot) or ``local`` (unsafe; ``MBD_UNSAFE_NO_ISOLATION=1``).
+    """
     blocked, hide = protected_paths(forbidden)
     data = GraderData(student or "", homework)
-    return runner.run_checks(checks, folder, data, limits, forbidden=tuple(blocked), hide=tuple(hide))
+    return runner.run_checks(
+        checks, folder, data, limits, forbidden=tuple(blocked), hide=tuple(hide), isolation=isolation_mode(isolation)
+    )
 
 
 # -- one student, with its outputs -----------------------------------------------------------------------------
-def result_json(homework: Homework, student: str, outcomes: list[Outcome], fingerprint: str, seconds: float) -> dict:
+def result_json(
+    homework: Homework,
+    student: str,
+    outcomes: list[Outcome],
+    fingerprint: str,
+    seconds: float,
+    isolation: str = "os",
+) -> dict:
     score = sum(o.points for o in outcomes)
     failed = [o for o in outcomes if not o.passed]
+    unsafe = "" if isolation == "os" else f" [graded {ISOLATION_NOTE[isolation]}]"
     return {
         "score": score,
         "max_score": homework.max_score,
         "output": f"{homework.name}: {score:g} / {homework.max_score:g} points; "
-        f"{len(failed)} of {len(outcomes)} checks failed",
+        f"{len(failed)} of {len(outcomes)} checks failed{unsafe}",
         "visibility": "visible",
         "stdout_visibility": "hidden",
         "tests": [o.to_test() for o in outcomes],
@@ -251,6 +286,8 @@ def result_json(homework: Homework, student: str, outcomes: list[Outcome], finge
             "fingerprint": fingerprint,
             "grader_version": GRADER_VERSION,
             "seconds": round(seconds, 3),
+            "isolation": isolation,
+            "isolation_note": ISOLATION_NOTE[isolation],
         },
     }
 
@@ -273,13 +310,21 @@ def _summary(result: dict, resumed: bool) -> dict:
 
 
 def grade_submission(
-    homework: Homework, submission: Submission, out_dir: Path, limits: Limits, forbidden: tuple[Path, ...] = ()
+    homework: Homework,
+    submission: Submission,
+    out_dir: Path,
+    limits: Limits,
+    forbidden: tuple[Path, ...] = (),
+    isolation: str = "os",
 ) -> dict:
     """Grade one submission and write its result JSON and feedback page; returns its gradebook row."""
     start = time.perf_counter()
-    fingerprint = submission_fingerprint(submission, homework, limits)
-    outcomes = run_checks(homework.checks, submission.path, homework.name, submission.student, limits, forbidden)
-    result = result_json(homework, submission.student, outcomes, fingerprint, time.perf_counter() - start)
+    fingerprint = submission_fingerprint(submission, homework, limits, isolation)
+    outcomes = run_checks(
+        homework.checks, submission.path, homework.name, submission.student, limits, forbidden, isolation
+    )
+    seconds = time.perf_counter() - start
+    result = result_json(homework, submission.student, outcomes, fingerprint, seconds, isolation)
     _write_atomic(
         out_dir / "feedback" / f"{submission.student}.html",
         feedback_html(submission.student, homework.name, homework.title, outcomes),
@@ -298,13 +343,19 @@ def _resumable(path: Path, fingerprint: str) -> dict | None:
     return result
 
 
-def _worker_init() -> None:
+def _worker_init(parent: int | None = None) -> None:
     for key, value in SANDBOX_ENV.items():
         os.environ.setdefault(key, value)
+    if parent is not None:  # a grading worker: SIGKILL when the grader dies (its sandboxes die with it)
+        osi.set_parent_death_signal()
+        if os.getppid() != parent:
+            os._exit(1)
 
 
-def _grade_task(homework: Homework, submission: Submission, out_dir: Path, limits: Limits, forbidden: tuple) -> dict:
-    return grade_submission(homework, submission, out_dir, limits, forbidden)
+def _grade_task(
+    homework: Homework, submission: Submission, out_dir: Path, limits: Limits, forbidden: tuple, isolation: str
+) -> dict:
+    return grade_submission(homework, submission, out_dir, limits, forbidden, isolation)
 
 
 class Progress:
@@ -347,6 +398,7 @@ def grade(
     limits: Limits | None = None,
     progress: bool = True,
     resume: bool = True,
+    isolation: str | None = None,
 ) -> Gradebook:
     """Grade every submission in ``submissions_dir`` for ``homework``; write results to ``out_dir``.
 
@@ -359,6 +411,9 @@ def grade(
     limits : the sandbox's resource limits (defaults: ``Limits()``)
     progress : a progress bar on stderr
     resume : reuse the result of a student whose submission, checks and reference did not change
+    isolation : ``os`` (default): student code runs under bubblewrap (``mbdkit.isolation``), and grading
+        refuses to start (``IsolationUnavailable``) where it cannot; ``local``: the unsafe forkserver
+        sandbox (``MBD_UNSAFE_NO_ISOLATION=1`` makes it the default), said so in every result
 
     Returns
     -------
@@ -367,6 +422,9 @@ def grade(
     """
     homework = homework if isinstance(homework, Homework) else load_homework(homework)
     limits = limits or Limits()
+    isolation = isolation_mode(isolation)
+    if isolation == "os":
+        osi.require()  # before any output folder is made
     out_dir = Path(out_dir).resolve()
     submissions = find_submissions(Path(submissions_dir), homework.name)
     for scene in {c.scene for c in homework.checks if c.kind != STUDENT}:
@@ -374,14 +432,18 @@ def grade(
     out_dir.mkdir(parents=True, exist_ok=True)  # only once the grading can start
     forbidden = (out_dir, Path(submissions_dir).resolve())
     book = Gradebook(
-        homework.name, [c.name for c in homework.checks], {c.name: c.points for c in homework.checks}, out_dir=out_dir
+        homework.name,
+        [c.name for c in homework.checks],
+        {c.name: c.points for c in homework.checks},
+        out_dir=out_dir,
+        isolation=isolation,
     )
     bar = Progress(len(submissions), enabled=progress)
     todo = []
     for submission in submissions:
         result = None
         if resume:
-            fingerprint = submission_fingerprint(submission, homework, limits)
+            fingerprint = submission_fingerprint(submission, homework, limits, isolation)
             result = _resumable(out_dir / "results" / f"{submission.student}.json", fingerprint)
         if result is not None:
             book.rows[submission.student] = _summary(result, resumed=True)
@@ -391,14 +453,19 @@ def grade(
     book.write_csv()
     if jobs <= 1 or len(todo) <= 1:
         for submission in todo:
-            book.rows[submission.student] = grade_submission(homework, submission, out_dir, limits, forbidden)
+            book.rows[submission.student] = grade_submission(
+                homework, submission, out_dir, limits, forbidden, isolation
+            )
             book.write_csv()
             bar.update()
         return book
     _worker_init()  # one BLAS thread in the workers and their sandboxes: set before they start
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn"), initializer=_worker_init) as pool:
+    pool = ProcessPoolExecutor(
+        max_workers=jobs, mp_context=get_context("spawn"), initializer=_worker_init, initargs=(os.getpid(),)
+    )
+    with pool:
         with without_main():
-            futures = {pool.submit(_grade_task, homework, s, out_dir, limits, forbidden): s for s in todo}
+            futures = {pool.submit(_grade_task, homework, s, out_dir, limits, forbidden, isolation): s for s in todo}
         for future in as_completed(futures):
             row = future.result()
             book.rows[row["student"]] = row

@@ -6,9 +6,11 @@ For each homework a folder of N submissions is made in a temporary directory: co
 6 : 2 : 2 by default. The whole ``grade`` call is timed, start-up of the worker processes and their
 sandbox forkservers included, and reported with the mean time per student that the results record.
 
-    .venv/bin/python benchmarks/grading.py [--jobs 2] [--n 20] [hw1 hw2 hw3]
+    .venv/bin/python benchmarks/grading.py [--jobs 2] [--n 20] [--isolation os|local] [hw1 hw2 hw3]
 
-Prints a Markdown table.
+Prints the time a sandbox takes to start (to its first "ready"; a student's own imports come later, in
+the first check) and a Markdown table. ``--isolation os`` (the default, as ``mbd grade``): each student
+in a fresh bubblewrap sandbox; ``local``: the forkserver sandbox (``--unsafe-no-isolation``).
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ sys.path.insert(0, str(REPO))
 
 from autograder.grading import grade  # noqa: E402
 from mbdkit.homework import available_homeworks  # noqa: E402
+from mbdkit.sandbox import Sandbox  # noqa: E402
 
 MUTANTS = {  # one typical mistake per homework: (file in solutions/, text, replacement)
     "hw1": (
@@ -64,12 +67,28 @@ def make_submissions(root: Path, homework: str, n: int) -> dict[str, str]:
     return kinds
 
 
-def bench(homework: str, n: int, jobs: int) -> dict:
+def startup(isolation: str, repeat: int = 5) -> float:
+    """Median seconds from a new Sandbox to its child's "ready" (the reference package as the submission;
+    the local backend's first start also starts its forkserver, which the median leaves out)."""
+    with tempfile.TemporaryDirectory(prefix="bench-start-") as tmp:
+        shutil.copytree(REPO / "solutions", Path(tmp) / "modules", ignore=shutil.ignore_patterns("__pycache__"))
+        times = []
+        for _ in range(repeat):
+            start = time.perf_counter()
+            with Sandbox(Path(tmp), "modules", isolation=isolation) as sandbox:
+                sandbox.start()
+                times.append(time.perf_counter() - start)
+    return statistics.median(times)
+
+
+def bench(homework: str, n: int, jobs: int, isolation: str = "os") -> dict:
     with tempfile.TemporaryDirectory(prefix=f"bench-{homework}-") as tmp:
         root = Path(tmp)
         kinds = make_submissions(root / "submitted", homework, n)
         start = time.perf_counter()
-        book = grade(homework, root / "submitted", root / "out", jobs=jobs, progress=False, resume=False)
+        book = grade(
+            homework, root / "submitted", root / "out", jobs=jobs, progress=False, resume=False, isolation=isolation
+        )
         wall = time.perf_counter() - start
         seconds = {
             kind: [
@@ -88,12 +107,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("homeworks", nargs="*", default=available_homeworks())
     parser.add_argument("--n", type=int, default=20, help="submissions per homework")
     parser.add_argument("--jobs", type=int, default=2, help="worker processes")
+    parser.add_argument("--isolation", choices=["os", "local"], default="os", help="the sandbox (default: os)")
     args = parser.parse_args(argv)
-    print(f"Grading throughput, {args.jobs} worker processes, {args.n} submissions per homework\n")
+    print(f"sandbox start ({args.isolation}, to ready, median of 5): {startup(args.isolation):.3f} s\n")
+    print(
+        f"Grading throughput, {args.jobs} worker processes, {args.n} submissions per homework, "
+        f"isolation {args.isolation}\n"
+    )
     print("| homework | submissions | wall [s] | per minute | s per student (reference / skeleton / mutant) |")
     print("|---|---|---|---|---|")
     for homework in args.homeworks:
-        r = bench(homework, args.n, args.jobs)
+        r = bench(homework, args.n, args.jobs, args.isolation)
         mean = " / ".join(f"{statistics.mean(v):.2f}" if v else "-" for v in r["seconds"].values())
         print(f"| {homework} | {r['n']} | {r['wall']:.1f} | {60 * r['n'] / r['wall']:.0f} | {mean} |", flush=True)
     return 0

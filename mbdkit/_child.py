@@ -1,23 +1,35 @@
 """The sandbox child: runs a student's package on the grader's requests, under limits.
 
-The process is forked from a clean server that has imported only the standard library, numpy, scipy,
-yaml, jsonschema and this package's ``probes`` and ``wire`` (never the reference solution, never
-reference data): whatever the student's code inspects in memory holds nothing to copy. Setup, in order:
+Two ways in (see ``sandbox``):
+
+- the operating-system backend (the grader): ``python -I -S`` under bubblewrap runs ``main(fd)``, which
+  reads its configuration from the inherited socket ``fd``. The process sees none of the course (mount,
+  PID, network and user namespaces, an unprivileged uid, a cleared environment: ``isolation``); its
+  stdout and stderr are the grader's capture file, its stack dumps go to an inherited descriptor;
+- the local backend (a student's ``mbd selfcheck``): forked from a clean forkserver, ``serve``.
+
+In both the process has imported only the standard library, numpy and this package's ``probes`` and
+``wire`` (never the reference solution, never reference data): whatever the student's code inspects in
+memory holds nothing to copy. Setup, in order:
 
 1. stdout and stderr go to a capture file (the grader counts and truncates it per request);
-2. a new user and network namespace when the kernel allows it: no network at all;
+2. (local) a new user and network namespace when the kernel allows it: no network at all;
 3. a clean environment, the submission folder as working directory and first on ``sys.path``, and no
    way to find the reference package (editable-install finders and the repository are removed);
 4. resource limits: address space (RLIMIT_AS), CPU time (RLIMIT_CPU), file size (RLIMIT_FSIZE), no
-   core dumps, few open files;
-5. an audit hook (PEP 578): no reading of the grader's, the reference's or other students' files, no
+   core dumps, few open files, (OS backend) few processes (RLIMIT_NPROC);
+5. (OS backend) the seccomp filter of ``seccomp`` (no exec, ptrace, new sockets, namespaces, mounts...):
+   from here on no process of the sandbox can get rid of it;
+6. an audit hook (PEP 578): no reading of the grader's, the reference's or other students' files, no
    writing outside a private temporary folder, no sockets, subprocesses, signals to other processes or
-   ctypes, no importing of the grader or the reference package.
+   ctypes, no importing of the grader or the reference package. In the OS backend this is a friendly
+   first layer that turns refusals into clear messages; the operating system is the wall.
 
 Then it serves requests one at a time: run one probe, reply with the outputs or the error. At a
 timeout the grader sends SIGUSR1 a few times (faulthandler writes the stack each time, which tells
-where the code is stuck) and then kills the process. An audit hook is not a
-security boundary against a determined attacker (it can be bypassed from C); see autograder/README.md.
+where the code is stuck) and then kills the process. ``os._exit`` writes where it was called before the
+process ends. An audit hook is not a security boundary against a determined attacker (it can be
+bypassed from Python or C): without the OS backend, see autograder/README.md.
 """
 
 from __future__ import annotations
@@ -105,7 +117,28 @@ class HungEarlier(TimeoutError):
     """A function that did not finish in an earlier check of this submission; it is not run again."""
 
 
+class _HungImports:
+    """A meta path finder: modules whose import did not finish in an earlier check are not imported again."""
+
+    def __init__(self, modules: dict[str, str]):
+        self.modules = modules
+
+    def find_spec(self, fullname, path=None, target=None):
+        where = self.modules.get(fullname)
+        if where is not None:
+            raise HungEarlier(
+                f"importing {fullname} did not finish in an earlier check (stuck at {where}, module level); "
+                "not imported again"
+            )
+        return None
+
+    def invalidate_caches(self) -> None:
+        pass
+
+
 _state: dict = {}
+_real_exit = os._exit
+"""The real ``os._exit``: the sandbox's own exits do not go through the hook that reports the student's."""
 
 
 def _under(path: str, roots) -> bool:
@@ -186,23 +219,56 @@ def _isolate_network() -> bool:
         return False
 
 
+def _exit_hook(real_exit, pid: int):
+    """``os._exit`` that first writes where it was called (the grader's message names the function)."""
+
+    def _exit(code):
+        if os.getpid() == pid and "hang" in _state:
+            root = _state["config"]["package_root"]
+            frame = sys._getframe(1)
+            while frame is not None and not _under(os.path.realpath(frame.f_code.co_filename), (root,)):
+                frame = frame.f_back
+            where = ("", 0, "") if frame is None else (frame.f_code.co_filename, frame.f_lineno, frame.f_code.co_name)
+            try:
+                number = int(code)
+            except (TypeError, ValueError):
+                number = -1
+            try:
+                os.write(_state["hang"], f"EXIT\t{where[0]}\t{where[1]}\t{where[2]}\t{number}\n".encode())
+            except OSError:
+                pass
+        real_exit(code)
+
+    return _exit
+
+
 def _setup(config: dict) -> dict:
+    isolated_os = config.get("backend") == "os"
     sys.stdout.flush()
     sys.stderr.flush()
-    capture = os.open(config["capture"], os.O_RDWR | os.O_CREAT | os.O_APPEND | os.O_TRUNC, 0o600)
     devnull = os.open(os.devnull, os.O_RDONLY)
     os.dup2(devnull, 0)
-    os.dup2(capture, 1)
-    os.dup2(capture, 2)
+    if isolated_os:
+        capture = 1  # the grader's capture file, inherited as stdout and stderr
+    else:
+        capture = os.open(config["capture"], os.O_RDWR | os.O_CREAT | os.O_APPEND | os.O_TRUNC, 0o600)
+        os.dup2(capture, 1)
+        os.dup2(capture, 2)
     sys.stdout = io.TextIOWrapper(io.FileIO(1, "w", closefd=False), encoding="utf-8", errors="replace")
     sys.stderr = io.TextIOWrapper(io.FileIO(2, "w", closefd=False), encoding="utf-8", errors="replace")
     sys.stdout.reconfigure(write_through=True)
     sys.stderr.reconfigure(write_through=True)
-    hang = os.open(config["hang_file"], os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    if isolated_os:
+        hang = int(config["hang_fd"])
+    else:
+        hang = os.open(config["hang_file"], os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
     faulthandler.enable(file=hang)
     faulthandler.register(signal.SIGUSR1, file=hang, all_threads=False)  # the grader samples where it hangs
     signal.signal(signal.SIGUSR2, _find_stuck)
-    isolated = _isolate_network() if config.get("isolate_network", True) else False
+    if isolated_os:
+        isolated = True  # bubblewrap's network namespace
+    else:
+        isolated = _isolate_network() if config.get("isolate_network", True) else False
 
     os.environ.clear()
     os.environ.update(
@@ -237,8 +303,19 @@ def _setup(config: dict) -> dict:
     resource.setrlimit(resource.RLIMIT_NOFILE, (nofile, nofile))
 
     _state.update(capture=capture, hang=hang, config=config, stubbed=False)
+    os._exit = _exit_hook(os._exit, os.getpid())
+    if "posix" in sys.modules:
+        sys.modules["posix"]._exit = os._exit
+    ready = {"network_isolated": isolated, "seccomp": False}
+    if isolated_os:
+        processes = int(config.get("processes", 32))
+        resource.setrlimit(resource.RLIMIT_NPROC, (processes, processes))
+        from . import seccomp
+
+        seccomp.install()  # before the audit hook: it refuses ctypes
+        ready["seccomp"] = True
     sys.addaudithook(_make_hook(config))
-    return {"network_isolated": isolated}
+    return ready
 
 
 def _student_frames(tb, root: str) -> list[str]:
@@ -281,17 +358,29 @@ def _as_array(value) -> np.ndarray:
     return array
 
 
+def _module_name(file: str, package_dir: str) -> str:
+    relative = os.path.relpath(file, package_dir)[: -len(".py")].replace(os.sep, ".")
+    return relative[: -len(".__init__")] if relative.endswith(".__init__") else relative
+
+
 def _stub_hung(config: dict) -> None:
-    """Replace functions that hung in an earlier check by ones that raise HungEarlier at once."""
+    """Replace functions that hung in an earlier check by ones that raise HungEarlier at once; a module
+    whose import hung is not imported again (importing it raises HungEarlier)."""
     hung = config.get("hung", [])
     if not hung:
         return
     package_dir = os.path.dirname(config["package_root"])
+    at_import = {
+        _module_name(h["file"], package_dir): f"{os.path.relpath(h['file'], package_dir)}:{h['line']}"
+        for h in hung
+        if h["name"] == "<module>"
+    }
+    if at_import:
+        sys.meta_path.insert(0, _HungImports(at_import))
+    hung = [h for h in hung if h["name"] != "<module>"]
     for item in hung:
-        relative = os.path.relpath(item["file"], package_dir)[: -len(".py")].replace(os.sep, ".")
-        name = relative[: -len(".__init__")] if relative.endswith(".__init__") else relative
         try:
-            __import__(name)
+            __import__(_module_name(item["file"], package_dir))
         except BaseException:  # noqa: BLE001 - the module's own error shows in the checks that use it
             pass
     targets = [(os.path.realpath(h["file"]), h["name"], h["line"]) for h in hung]
@@ -390,21 +479,33 @@ def _run(request: dict) -> dict:
     return reply
 
 
+def main(fd: int) -> None:
+    """Entry point under bubblewrap: the configuration is the first message on the inherited socket."""
+    from multiprocessing.connection import Connection
+
+    connection = Connection(fd)
+    try:
+        config = wire.loads(connection.recv_bytes(wire.MAX_MESSAGE))
+    except (EOFError, OSError, wire.WireError):
+        _real_exit(3)
+    serve(connection, config)
+
+
 def serve(connection, config: dict) -> None:
     """Entry point of the sandbox process: set up, then answer requests until told to stop."""
     try:
         ready = _setup(config)
     except BaseException as exc:  # noqa: BLE001
         connection.send_bytes(wire.dumps({"status": "setup_failed", "message": repr(exc)}))
-        os._exit(3)
+        _real_exit(3)
     connection.send_bytes(wire.dumps({"status": "ready", **ready}))
     while True:
         try:
             request = wire.loads(connection.recv_bytes())
         except (EOFError, OSError):
-            os._exit(0)
+            _real_exit(0)
         if request.get("op") == "exit":
-            os._exit(0)
+            _real_exit(0)
         reply = _run(request)
         try:
             message = wire.dumps(reply)

@@ -113,7 +113,8 @@ def failure_of_reply(reply: Reply, limits: Limits, hidden: bool) -> str | None:
     if reply.status in ("cpu", "died"):
         error = reply.error or {}
         where = f" in {error['where']}" if error.get("where") else ""
-        return f"{error.get('message') or 'the process died'}{where}"
+        during = f", while the grader ran {error['during']}" if error.get("during") else ""
+        return f"{error.get('message') or 'the process died'}{where}{during}"
     if reply.status == "error":
         error = reply.error or {}
         kind, message, where = error.get("type", "Error"), error.get("message", ""), error.get("where", "")

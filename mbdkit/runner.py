@@ -100,10 +100,12 @@ def run_checks(
     limits: Limits | None = None,
     forbidden: tuple[Path, ...] = (),
     hide: tuple[Path, ...] = (),
+    isolation: str = "local",
 ) -> list[Outcome]:
     """Run ``checks`` on the package in ``folder`` (``folder/modules``), in one sandbox; outcomes in order.
 
-    ``forbidden`` are folders the sandbox may not read, ``hide`` folders removed from its import path.
+    ``forbidden`` are folders the sandbox may not read, ``hide`` folders removed from its import path;
+    ``isolation`` the sandbox's backend: ``local`` (a student's own checks) or ``os`` (the grader's).
     """
     data = data or PublicData()
     limits = limits or Limits()
@@ -112,7 +114,7 @@ def run_checks(
         message = f"no package {PACKAGE}/ (with __init__.py) in the folder {folder}"
         return [failed(c, message) for c in checks]
     outcomes: dict[str, Outcome] = {}
-    with Sandbox(folder, PACKAGE, forbidden=forbidden, hide=hide, limits=limits) as sandbox:
+    with Sandbox(folder, PACKAGE, forbidden=forbidden, hide=hide, limits=limits, isolation=isolation) as sandbox:
         for scene_name, key in _order(checks):
             group = [c for c in checks if c.scene == scene_name and c.probe_key == key]
             scene = data.scene(scene_name)

@@ -6,11 +6,19 @@ reply at most the request's wall-clock timeout. Whatever goes wrong in the child
 - an exception (also ``sys.exit``, ``MemoryError`` at the address-space limit) is an ``error`` reply;
 - a timeout: the grader asks the child for its stack a few times (SIGUSR1, faulthandler), kills it,
   and names the function that was stuck; a fresh child runs the next request with that function
-  replaced by one that fails at once, so a hang costs one timeout per submission, not one per check;
-- CPU limit, ``os._exit``, a crash: the reply says so, a fresh child runs the next request.
+  replaced by one that fails at once (a module stuck while it is imported is not imported again), so
+  a hang costs one timeout per submission, not one per check;
+- CPU limit, ``os._exit`` (with where it was called), a crash: the reply says so, a fresh child runs
+  the next request.
 
-Children are forked from a forkserver that has preloaded numpy, scipy, yaml and jsonschema (and never
-the reference package), so a fresh child costs milliseconds, not the seconds of importing them.
+Two backends start the child:
+
+- ``isolation="os"`` (the instructor's grader; Linux): a fresh ``python -I`` under bubblewrap that sees
+  none of the course, in its own user, PID and network namespaces, as an unprivileged uid, with a seccomp
+  filter (``isolation``, ``seccomp``). The audit hook stays as a friendly first layer.
+- ``isolation="local"`` (a student's own ``mbd selfcheck`` and notebook ``check()``, on any system):
+  children forked from a forkserver that has preloaded numpy, scipy, yaml and jsonschema (and never the
+  reference package), so a fresh child costs milliseconds; the audit hook is its only wall.
 """
 
 from __future__ import annotations
@@ -64,7 +72,12 @@ class Limits:
     timeout_scale: float = 1.0
     """Multiplies every wall-clock timeout (for a slow machine)."""
     isolate_network: bool = True
-    """Run the child in a new network namespace when the kernel allows it."""
+    """Run the child in a new network namespace when the kernel allows it (the local backend)."""
+    processes: int = 32
+    """Processes and threads the child may have at once (RLIMIT_NPROC, in its own user namespace; the
+    operating-system backend)."""
+    tmp_size: int = 64 * 2**20
+    """Size of the child's private /tmp (the operating-system backend)."""
 
 
 @dataclass
@@ -89,6 +102,43 @@ class Reply:
 
 class SandboxError(RuntimeError):
     """The sandbox itself could not run (not the student's fault)."""
+
+
+ISOLATIONS = ("local", "os")
+
+
+class _LocalProcess:
+    """The local backend's child: forked from a multiprocessing forkserver."""
+
+    def __init__(self):
+        self.process = None
+
+    def start(self, config: dict, dumps) -> object:
+        context = _context()
+        ours, theirs = context.Pipe(duplex=True)
+        self.process = context.Process(target=_child.serve, args=(theirs, config), daemon=True)
+        with without_main():
+            self.process.start()
+        theirs.close()
+        return ours
+
+    @property
+    def pid(self) -> int | None:
+        return None if self.process is None else self.process.pid
+
+    def is_alive(self) -> bool:
+        return self.process is not None and self.process._popen is not None and self.process.is_alive()
+
+    def kill(self) -> int | None:
+        if self.process is None or self.process._popen is None:
+            self.process = None
+            return None
+        if self.process.is_alive():
+            self.process.kill()
+        self.process.join(10)
+        code = self.process.exitcode
+        self.process = None
+        return code
 
 
 def _context():
@@ -148,25 +198,41 @@ def stack_samples(text: str) -> list[list[tuple[str, int, str]]]:
     return [list(reversed(s)) for s in samples if s]
 
 
-def stuck_function(samples: list[list[tuple[str, int, str]]], root: str) -> tuple[str, int, str] | None:
+def _exit_line(text: str) -> tuple[str, int, str, int] | None:
+    """Where the child called os._exit (see ``_child._exit``): (file, line, function, code), if it did."""
+    for line in text.splitlines():
+        parts = line.split("\t")
+        if len(parts) == 5 and parts[0] == "EXIT" and parts[2].lstrip("-").isdigit():
+            try:
+                return parts[1], int(parts[2]), parts[3], int(parts[4])
+            except ValueError:
+                return None
+    return None
+
+
+def stuck_function(
+    samples: list[list[tuple[str, int, str]]], root: str, resolve=os.path.realpath
+) -> tuple[str, int, str] | None:
     """The deepest function of the student's package present in every sample: where a loop spins.
 
-    (A loop in F that calls G shows F in every sample and G in some; F is the one to blame.)
+    (A loop in F that calls G shows F in every sample and G in some; F is the one to blame.) ``resolve``
+    turns a path of the dump into one comparable with ``root`` (the operating-system backend's paths are
+    the child's own, not the grader's: normalized only).
     """
-    stacks = [[frame for frame in s if os.path.realpath(frame[0]).startswith(root + os.sep)] for s in samples]
+    stacks = [[frame for frame in s if resolve(frame[0]).startswith(root + os.sep)] for s in samples]
     stacks = [s for s in stacks if s]
     if not stacks:
         return None
     common = None
     for depth in range(min(len(s) for s in stacks)):
-        frames = {(os.path.realpath(s[depth][0]), s[depth][2]) for s in stacks}
+        frames = {(resolve(s[depth][0]), s[depth][2]) for s in stacks}
         if len(frames) != 1:
             break
         common = depth
     if common is None:
         return None
     file, line, name = stacks[0][common]
-    return os.path.realpath(file), line, name
+    return resolve(file), line, name
 
 
 class Sandbox:
@@ -185,47 +251,85 @@ class Sandbox:
         forbidden: tuple[Path, ...] = (),
         hide: tuple[Path, ...] = (),
         limits: Limits | None = None,
+        isolation: str = "local",
     ):
+        if isolation not in ISOLATIONS:
+            raise ValueError(f"isolation must be one of {ISOLATIONS}, not {isolation!r}")
         self.submission = os.path.realpath(submission)
         self.package = package
         self.limits = limits or Limits()
         self.forbidden = [os.path.realpath(p) for p in forbidden]
         self.hide = [os.path.realpath(p) for p in hide]
+        self.isolation = isolation
         self.tmp = tempfile.mkdtemp(prefix="mbd-sandbox-")
         self.hung: list[dict] = []
         self.process = None
         self.connection = None
         self.network_isolated = None
         self.starts = 0
+        self.request: dict = {}
+        self.skipped: list[str] = []
+        """Files of the package the operating-system backend did not copy (symlinks, special, too big)."""
+        if isolation == "os":
+            from . import isolation as osi
+
+            staged = os.path.join(self.tmp, "submission")
+            self.skipped = osi.stage_package(self.submission, package, staged)
+            self.inner_submission = osi.INNER_SUBMISSION
+            try:
+                self._backend = osi.IsolatedProcess(self.tmp, staged, self.limits.tmp_size)
+            except BaseException:
+                shutil.rmtree(self.tmp, ignore_errors=True)
+                raise
+        else:
+            self.inner_submission = self.submission
+            self._backend = _LocalProcess()
+        self.inner_root = os.path.join(self.inner_submission, package)
+        """The package's folder as the child sees it (paths in its stack dumps and replies)."""
 
     # -- life cycle -------------------------------------------------------------------------------
     def _config(self) -> dict:
-        work = os.path.join(self.tmp, "work")
-        os.makedirs(work, exist_ok=True)
-        return {
-            "submission": self.submission,
+        common = {
+            "backend": self.isolation,
             "package": self.package,
-            "package_root": os.path.join(self.submission, self.package),
-            "tmp": work,
-            "capture": os.path.join(self.tmp, "output.txt"),
-            "hang_file": os.path.join(self.tmp, "stack.txt"),
             "forbidden": self.forbidden,
-            "hide_paths": self.hide,
             "memory": int(self.limits.memory),
             "file_size": int(self.limits.file_size),
             "cpu_total": int(self.limits.cpu_total),
-            "isolate_network": self.limits.isolate_network,
             "hung": list(self.hung),
         }
+        if self.isolation == "os":
+            from . import isolation as osi
+
+            return {
+                **common,
+                "submission": osi.INNER_SUBMISSION,
+                "package_root": self.inner_root,
+                "tmp": osi.INNER_TMP,
+                "hide_paths": [],
+                "processes": int(self.limits.processes),
+            }
+        work = os.path.join(self.tmp, "work")
+        os.makedirs(work, exist_ok=True)
+        return {
+            **common,
+            "submission": self.submission,
+            "package_root": self.inner_root,
+            "tmp": work,
+            "capture": os.path.join(self.tmp, "output.txt"),
+            "hang_file": os.path.join(self.tmp, "stack.txt"),
+            "hide_paths": self.hide,
+            "isolate_network": self.limits.isolate_network,
+        }
+
+    def start(self) -> None:
+        """Start the child now (``run`` starts it when needed); SandboxError when it cannot start."""
+        if self.process is None or not self.process.is_alive():
+            self._start()
 
     def _start(self) -> None:
-        context = _context()
-        ours, theirs = context.Pipe(duplex=True)
-        self.process = context.Process(target=_child.serve, args=(theirs, self._config()), daemon=True)
-        with without_main():
-            self.process.start()
-        theirs.close()
-        self.connection = ours
+        self.process = self._backend
+        self.connection = ours = self.process.start(self._config(), wire.dumps)
         self.starts += 1
         if not ours.poll(STARTUP_TIMEOUT):
             self._kill()
@@ -234,20 +338,21 @@ class Sandbox:
             ready = wire.loads(ours.recv_bytes(wire.MAX_MESSAGE))
         except (EOFError, OSError, wire.WireError) as err:
             self._kill()
-            raise SandboxError(f"the sandbox process failed to start: {err}") from None
+            said = self._read("output.txt").strip()[-400:]
+            raise SandboxError(f"the sandbox process failed to start: {said or err}") from None
         if ready.get("status") != "ready":
             self._kill()
             raise SandboxError(f"the sandbox process failed to start: {ready.get('message')}")
         self.network_isolated = ready.get("network_isolated")
 
-    def _kill(self) -> int | None:
-        if self.process is None or self.process._popen is None:
-            self.process = None
-            return None
-        if self.process.is_alive():
-            self.process.kill()
-        self.process.join(10)
-        code = self.process.exitcode
+    def _kill(self, wait: float = 0.0) -> int | None:
+        """Stop the child (after ``wait`` seconds for it to end by itself); its exit code (< 0: a signal)."""
+        code = None
+        if self.process is not None:
+            deadline = time.monotonic() + wait
+            while self.process.is_alive() and time.monotonic() < deadline:
+                time.sleep(0.005)
+            code = self.process.kill()
         if self.connection is not None:
             self.connection.close()
         self.process = self.connection = None
@@ -258,7 +363,7 @@ class Sandbox:
         if self.process is not None and self.process.is_alive():
             try:
                 self.connection.send_bytes(wire.dumps({"op": "exit"}))
-                self.process.join(2)
+                self._kill(wait=2.0)
             except OSError:
                 pass
         self._kill()
@@ -284,6 +389,7 @@ class Sandbox:
         timeout = float(timeout) * self.limits.timeout_scale
         if self.process is None or not self.process.is_alive():
             self._start()
+        self.request = {"probe": probe, "key": key}
         request = {
             "op": "probe",
             "probe": probe,
@@ -321,6 +427,14 @@ class Sandbox:
             seconds=float(message.get("seconds") or 0.0),
         )
 
+    def _where(self, file: str, line: int, name: str) -> str:
+        """'modules/file.py:line in function' (or 'at import') for a place in the child's package."""
+        relative = os.path.relpath(file, self.inner_submission)
+        return f"{relative}:{line} at import (module level)" if name == "<module>" else f"{relative}:{line} in {name}"
+
+    def _resolve(self, path: str) -> str:
+        return os.path.realpath(path) if self.isolation == "local" else os.path.normpath(path)
+
     def _timed_out(self, timeout: float, seconds: float) -> Reply:
         pid = self.process.pid if self.process is not None else None
         signals = [(signal.SIGUSR2, STUCK_WINDOW), (signal.SIGUSR2, 0.1)] + [(signal.SIGUSR1, 0.05)] * SAMPLES
@@ -331,14 +445,13 @@ class Sandbox:
                 break
             time.sleep(pause)
         self._kill()
-        root = os.path.join(self.submission, self.package)
         text = self._read("stack.txt")
-        stuck = _stuck_line(text) or stuck_function(stack_samples(text), root)
+        stuck = _stuck_line(text) or stuck_function(stack_samples(text), self.inner_root, self._resolve)
         where = ""
         if stuck is not None:
             file, line, name = stuck
             self.hung.append({"file": file, "line": line, "name": name})
-            where = f"{os.path.relpath(file, self.submission)}:{line} in {name}"
+            where = self._where(file, line, name)
         return Reply("timeout", seconds=seconds, stuck_in=where, printed=self._captured())
 
     def _captured(self) -> int:
@@ -347,18 +460,25 @@ class Sandbox:
         except OSError:
             return 0
 
+    def _during(self) -> str:
+        probe, key = self.request.get("probe"), self.request.get("key")
+        return f"{probe} on {str(key).split('#')[0]}" if probe and key else ""
+
     def _died(self, seconds: float) -> Reply:
         printed = self._captured()
-        code = self._kill()
+        code = self._kill(wait=2.0)
         stack = self._read("stack.txt")
+        exited = _exit_line(stack)
         samples = stack_samples(stack)
-        root = os.path.join(self.submission, self.package)
-        frames = [f for s in samples[-1:] for f in s if os.path.realpath(f[0]).startswith(root + os.sep)]
-        where = (
-            f"{os.path.relpath(frames[-1][0], self.submission)}:{frames[-1][1]} in {frames[-1][2]}" if frames else ""
-        )
+        root = self.inner_root
+        frames = [f for s in samples[-1:] for f in s if self._resolve(f[0]).startswith(root + os.sep)]
+        where = self._where(*frames[-1]) if frames else ""
         if code is not None and code < 0 and -code == signal.SIGXCPU:
             status, message = "cpu", "used up its CPU time (an endless loop?)"
+        elif exited is not None:
+            file, line, name, number = exited
+            where = self._where(file, line, name) if file else ""
+            status, message = "died", f"the process ended with exit code {number}: os._exit({number}) was called"
         elif code is not None and code < 0:
             name = signal.Signals(-code).name if -code in signal.Signals._value2member_map_ else str(-code)
             status, message = "died", f"the process was killed by signal {name}"
@@ -366,6 +486,5 @@ class Sandbox:
                 message = stack.split("\n", 1)[0].strip()
         else:
             status, message = "died", f"the process ended with exit code {code} (os._exit or a crash)"
-        return Reply(
-            status, error={"type": status, "message": message, "where": where}, seconds=seconds, printed=printed
-        )
+        error = {"type": status, "message": message, "where": where, "during": self._during()}
+        return Reply(status, error=error, seconds=seconds, printed=printed)

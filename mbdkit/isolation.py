@@ -1,0 +1,449 @@
+"""The operating system's wall around a student's code: the grader's sandbox process, under bubblewrap.
+
+The instructor's grader (``mbd grade``, ``autograder.grading.grade``, nbgrader's autograde path) runs a
+student's package in a child process that the course does not exist for (DESIGN section 9):
+
+- **mounts** (a new mount namespace; bubblewrap's root is an empty tmpfs), all read-only but ``/tmp``:
+  the interpreter (``sys.base_prefix``, at its own path), the system's shared libraries (``/usr/lib``,
+  ``/usr/lib64``, ``/lib``, ``/lib64``, ``/etc/ld.so.cache``), the allowed site-packages one entry each
+  (``ALLOWED_DISTRIBUTIONS`` and what they require, in ``/opt/grader/site-packages``), the checker
+  ``mbdkit`` alone (``/opt/grader/mbdkit``; never ``autograder/``, ``solutions/``, the course or its
+  ``.git``), a private copy of the student's ``modules/`` staged by the grader (``/submission/modules``:
+  regular files only, no symlink followed, size-capped, so a child sees no other student's files), a new
+  ``/proc`` and a minimal ``/dev``, and a private size-capped tmpfs ``/tmp`` (``HOME`` and ``TMPDIR``);
+- **namespaces**: user, PID (every process the student starts dies with the sandbox; it sees and signals
+  only its own), network (no interface but a downed loopback), IPC, UTS, cgroup; no further user
+  namespaces; a new session; bubblewrap kills the sandbox when the grader dies (``--die-with-parent``);
+- **uid**: when the grader runs as root (CI, a grading server), bubblewrap itself runs as uid and gid
+  65534 with no supplementary group (``_launch.py`` drops them), so student code is unprivileged on the
+  host too; otherwise bubblewrap's user namespace maps the invoking user;
+- **environment**: cleared (``--clearenv``): PATH, HOME, TMPDIR and the thread variables only, no secret,
+  also not in ``/proc/self/environ``;
+- in the child (``_child``): rlimits (address space, CPU, file size, no core, open files, processes), a
+  seccomp filter (``seccomp.DENIED``: no exec, ptrace, process_vm_*, new sockets, namespaces, mounts,
+  keyring, io_uring, bpf...) installed after its own imports and before any student code, and the audit
+  hook as a friendly first layer (clear messages), never as the wall.
+
+The grader talks to the child over an inherited socket (``multiprocessing.connection.Connection``
+framing, ``wire``'s JSON messages, never pickle); the child's stdout and stderr go to a capture file and
+its stack dumps to a second one, both opened by the grader and inherited as file descriptors: no host
+folder is writable from inside. The python process's pid as the grader sees it is found through
+bubblewrap's process tree (its PID-1 reaper's only child), so the grader can sample a hung child's stack.
+
+Requires Linux with user namespaces and ``bwrap`` (Debian/Ubuntu: ``apt-get install bubblewrap``).
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib.metadata
+import json
+import os
+import re
+import shutil
+import signal
+import socket
+import stat
+import subprocess
+import sys
+import tempfile
+import time
+from multiprocessing.connection import Connection
+from pathlib import Path
+
+BWRAP_ENV = "MBD_BWRAP"
+"""Path of bwrap to use (default: ``bwrap`` on PATH); tests point it at a missing file."""
+UNSAFE_ENV = "MBD_UNSAFE_NO_ISOLATION"
+"""Set to 1 to grade without the operating system's isolation (``mbd grade --unsafe-no-isolation``)."""
+
+SANDBOX_UID = SANDBOX_GID = 65534
+"""The unprivileged uid and gid (``nobody``) bubblewrap runs as when the grader is root."""
+
+INNER_SUBMISSION = "/submission"
+INNER_GRADER = "/opt/grader"
+INNER_SITE = "/opt/grader/site-packages"
+INNER_TMP = "/tmp"
+INNER_PATH = [INNER_GRADER, INNER_SITE]
+"""Added to the child's sys.path (after the standard library): mbdkit's parent and the allowed packages."""
+
+ALLOWED_DISTRIBUTIONS = ("numpy", "scipy", "PyYAML", "jsonschema", "matplotlib")
+"""What a student's package may import besides the standard library (with what these require, no extras)."""
+
+MAX_SUBMISSION_BYTES = 32 * 2**20
+MAX_FILE_BYTES = 8 * 2**20
+MAX_FILES = 2000
+"""Caps of the staged copy of a student's package: files beyond them are not copied."""
+
+LIBRARIES = ("/usr/lib", "/usr/lib64", "/lib", "/lib64", "/usr/lib32", "/lib32")
+CHILD_ENV = {
+    "PATH": "/usr/bin:/bin",
+    "HOME": INNER_TMP,
+    "TMPDIR": INNER_TMP,
+    "OPENBLAS_NUM_THREADS": "1",
+    "OMP_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+    "MPLBACKEND": "Agg",
+    "LANG": "C.UTF-8",
+}
+BOOT = "import sys; sys.path += sys.argv[1].split(':'); import mbdkit._child as c; c.main(int(sys.argv[2]))"
+"""What the child runs (``python -I -S -c BOOT PATHS FD``): mbdkit from its read-only mount, then serve."""
+
+MBDKIT = Path(__file__).resolve().parent
+LAUNCHER = MBDKIT / "_launch.py"
+
+
+NOT_INSTALLED = "bubblewrap (bwrap) is not installed: the grader runs student code in it (apt-get install bubblewrap)"
+
+
+class IsolationUnavailable(RuntimeError):
+    """The operating system's isolation cannot run here (no bwrap, or the kernel refuses namespaces)."""
+
+
+def unsafe_requested() -> bool:
+    """True when ``MBD_UNSAFE_NO_ISOLATION`` asks to grade without the operating system's isolation."""
+    return os.environ.get(UNSAFE_ENV, "").strip().lower() not in ("", "0", "no", "false")
+
+
+def bwrap_path() -> str | None:
+    """The bwrap executable, or None."""
+    configured = os.environ.get(BWRAP_ENV)
+    if configured:
+        return configured if os.path.isfile(configured) and os.access(configured, os.X_OK) else None
+    return shutil.which("bwrap")
+
+
+@functools.lru_cache(maxsize=4)
+def _bwrap_options(bwrap: str) -> frozenset[str]:
+    try:
+        text = subprocess.run([bwrap, "--help"], capture_output=True, text=True, timeout=10).stdout
+    except (OSError, subprocess.SubprocessError):
+        return frozenset()
+    return frozenset(re.findall(r"^\s+(--[a-z0-9-]+)", text, re.M))
+
+
+def set_parent_death_signal() -> None:
+    """Ask the kernel to SIGKILL this process when its parent dies (Linux; elsewhere nothing)."""
+    if not sys.platform.startswith("linux"):
+        return
+    import ctypes
+
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGKILL, 0, 0, 0)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+
+
+# -- what the sandbox shows -------------------------------------------------------------------------------------
+def _key(name: str) -> str:
+    return re.sub(r"[-_.]+", "-", name).lower()
+
+
+@functools.lru_cache(maxsize=1)
+def site_entries() -> tuple[tuple[str, str], ...]:
+    """(site-packages folder, entry) of each allowed distribution and what it requires (no extras)."""
+    seen: dict[str, object] = {}
+    todo = list(ALLOWED_DISTRIBUTIONS)
+    while todo:
+        name = todo.pop()
+        if _key(name) in seen:
+            continue
+        try:
+            dist = importlib.metadata.distribution(name)
+        except importlib.metadata.PackageNotFoundError:
+            seen[_key(name)] = None
+            continue
+        seen[_key(name)] = dist
+        for requirement in dist.requires or []:
+            spec, _, marker = requirement.partition(";")
+            if "extra" in marker:
+                continue
+            match = re.match(r"[A-Za-z0-9][A-Za-z0-9._-]*", spec.strip())
+            if match:
+                todo.append(match.group(0))
+    entries = set()
+    for dist in seen.values():
+        if dist is None:
+            continue
+        folder = str(Path(dist.locate_file("")).resolve())
+        for file in dist.files or []:
+            top = file.parts[0] if file.parts else ""
+            if top and top not in ("..", "__pycache__") and os.path.lexists(os.path.join(folder, top)):
+                entries.add((folder, top))
+    return tuple(sorted(entries))
+
+
+def interpreter() -> tuple[str, str]:
+    """(the interpreter's installation folder, its executable), as real paths."""
+    prefix = os.path.realpath(sys.base_prefix)
+    executable = os.path.realpath(getattr(sys, "_base_executable", None) or sys.executable)
+    return prefix, executable
+
+
+def _under(path: str, root: str) -> bool:
+    return path == root or path.startswith(root.rstrip("/") + "/")
+
+
+def stage_package(folder: str | Path, package: str, destination: str | Path) -> list[str]:
+    """Copy ``folder/package`` into ``destination/package``: regular files only (no symlink followed, no
+    device, no FIFO), no ``__pycache__``, at most ``MAX_FILES`` files of ``MAX_FILE_BYTES`` each and
+    ``MAX_SUBMISSION_BYTES`` in all (Python files first). Returns what was left out, relative paths."""
+    source = os.path.join(os.fspath(folder), package)
+    target = os.path.join(os.fspath(destination), package)
+    files: list[tuple[str, int]] = []
+    skipped: list[str] = []
+    stack = [""]
+    while stack:
+        relative = stack.pop()
+        try:
+            entries = list(os.scandir(os.path.join(source, relative)))
+        except OSError:
+            skipped.append(relative or ".")
+            continue
+        for entry in entries:
+            path = os.path.join(relative, entry.name)
+            try:
+                info = entry.stat(follow_symlinks=False)
+            except OSError:
+                skipped.append(path)
+                continue
+            if stat.S_ISDIR(info.st_mode):
+                if entry.name != "__pycache__":
+                    stack.append(path)
+            elif stat.S_ISREG(info.st_mode) and not entry.name.endswith((".pyc", ".pyo")):
+                files.append((path, info.st_size))
+            elif not entry.name.endswith((".pyc", ".pyo")):
+                skipped.append(path)  # a symlink, a device, a FIFO, a socket
+    files.sort(key=lambda item: (not item[0].endswith(".py"), item[0]))
+    total = 0
+    os.makedirs(target, mode=0o755, exist_ok=True)
+    for count, (path, size) in enumerate(files):
+        if count >= MAX_FILES or size > MAX_FILE_BYTES or total + size > MAX_SUBMISSION_BYTES:
+            skipped.append(path)
+            continue
+        try:
+            fd = os.open(os.path.join(source, path), os.O_RDONLY | os.O_NOFOLLOW | getattr(os, "O_NONBLOCK", 0))
+        except OSError:
+            skipped.append(path)
+            continue
+        with os.fdopen(fd, "rb") as f:
+            if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
+                skipped.append(path)
+                continue
+            data = f.read(MAX_FILE_BYTES + 1)
+        if len(data) > MAX_FILE_BYTES:
+            skipped.append(path)
+            continue
+        total += len(data)
+        out = os.path.join(target, path)
+        os.makedirs(os.path.dirname(out), mode=0o755, exist_ok=True)
+        with open(out, "wb") as f:
+            f.write(data)
+        os.chmod(out, 0o644)
+    for root, dirs, _ in os.walk(target):
+        for name in dirs:
+            os.chmod(os.path.join(root, name), 0o755)
+    os.chmod(target, 0o755)
+    return sorted(skipped)
+
+
+class Plan:
+    """The bubblewrap command for one sandbox, and (as root) the private mounts made before it."""
+
+    def __init__(self, tmp: str, staged: str, tmp_size: int):
+        self.bwrap = bwrap_path()
+        if self.bwrap is None:
+            raise IsolationUnavailable(NOT_INSTALLED)
+        self.tmp, self.staged, self.tmp_size = tmp, staged, tmp_size
+        self.root = os.geteuid() == 0
+        self.prefix, self.executable = interpreter()
+        sources = {"python": self.prefix, "mbdkit": str(MBDKIT)}
+        if not _under(self.executable, self.prefix):
+            sources["executable"] = os.path.dirname(self.executable)
+        self.sites = sorted({folder for folder, _ in site_entries()})
+        for k, folder in enumerate(self.sites):
+            sources[f"site{k}"] = folder
+        self.sources = sources
+        self.mounts: list[tuple[str, str]] = []
+        if self.root:  # reachable mount points for folders the unprivileged uid may not reach
+            os.chmod(tmp, 0o711)
+            base = os.path.join(tmp, "mnt")
+            os.makedirs(base, mode=0o755, exist_ok=True)
+            for name, source in sources.items():
+                point = os.path.join(base, name)
+                if os.path.isdir(source):
+                    os.makedirs(point, mode=0o755, exist_ok=True)
+                self.mounts.append((source, point))
+
+    def source(self, name: str) -> str:
+        """Where bubblewrap finds a shown folder: its own path, or (as root) its private mount point."""
+        return os.path.join(self.tmp, "mnt", name) if self.root else self.sources[name]
+
+    def bwrap_args(self, fd: int) -> list[str]:
+        options = _bwrap_options(self.bwrap)
+        args = [self.bwrap, "--unshare-user", "--unshare-ipc", "--unshare-pid", "--unshare-net", "--unshare-uts"]
+        args += ["--unshare-cgroup-try", "--die-with-parent", "--new-session", "--clearenv"]
+        if "--disable-userns" in options:
+            args.append("--disable-userns")
+        for key, value in CHILD_ENV.items():
+            args += ["--setenv", key, value]
+        args += ["--ro-bind", self.source("python"), self.prefix]
+        if "executable" in self.sources:
+            args += ["--ro-bind", self.source("executable"), os.path.dirname(self.executable)]
+        for path in LIBRARIES:
+            if _under(path, self.prefix) or not os.path.lexists(path):
+                continue
+            if os.path.islink(path):
+                args += ["--symlink", os.readlink(path), path]
+            elif os.path.isdir(path):
+                args += ["--ro-bind", path, path]
+        if os.path.isfile("/etc/ld.so.cache"):
+            args += ["--ro-bind", "/etc/ld.so.cache", "/etc/ld.so.cache"]
+        for folder, entry in site_entries():
+            name = f"site{self.sites.index(folder)}"
+            args += ["--ro-bind", os.path.join(self.source(name), entry), f"{INNER_SITE}/{entry}"]
+        args += ["--ro-bind", self.source("mbdkit"), f"{INNER_GRADER}/mbdkit"]
+        args += ["--ro-bind", self.staged, INNER_SUBMISSION]
+        args += ["--proc", "/proc", "--dev", "/dev"]
+        if "--size" in options:
+            args += ["--size", str(int(self.tmp_size))]
+        args += ["--tmpfs", INNER_TMP, "--chdir", INNER_SUBMISSION]
+        args += [self.executable, "-I", "-S", "-c", BOOT, ":".join(INNER_PATH), str(fd)]
+        return args
+
+    def command(self, fd: int) -> list[str]:
+        """The command the grader starts: bubblewrap itself, or (as root) the launcher that drops to 65534."""
+        args = self.bwrap_args(fd)
+        if not self.root:
+            return args
+        spec = {"mounts": self.mounts, "uid": SANDBOX_UID, "gid": SANDBOX_GID, "parent": os.getpid(), "argv": args}
+        return [self.executable, "-I", "-S", str(LAUNCHER), json.dumps(spec)]
+
+
+def _children(pid: int) -> list[int]:
+    try:
+        with open(f"/proc/{pid}/task/{pid}/children") as f:
+            return [int(p) for p in f.read().split()]
+    except (OSError, ValueError):
+        pass
+    found = []
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/stat") as f:
+                    fields = f.read().rsplit(")", 1)[1].split()
+                if int(fields[1]) == pid:
+                    found.append(int(entry))
+            except (OSError, IndexError, ValueError):
+                continue
+    return found
+
+
+class IsolatedProcess:
+    """One bubblewrap sandbox running the child (``_child.main``); what the grader needs of it."""
+
+    def __init__(self, tmp: str, staged: str, tmp_size: int):
+        self.plan = Plan(tmp, staged, tmp_size)
+        self.tmp = tmp
+        self.popen: subprocess.Popen | None = None
+        self._pid: int | None = None
+
+    def start(self, config: dict, dumps) -> Connection:
+        """Start the sandbox; send it ``config`` (encoded with ``dumps``); return the connection to it."""
+        ours, theirs = socket.socketpair()
+        flags = os.O_RDWR | os.O_CREAT | os.O_TRUNC | os.O_APPEND
+        capture = os.open(os.path.join(self.tmp, "output.txt"), flags, 0o600)
+        hang = os.open(os.path.join(self.tmp, "stack.txt"), os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        fd = theirs.fileno()
+        try:
+            self.popen = subprocess.Popen(
+                self.plan.command(fd),
+                stdin=subprocess.DEVNULL,
+                stdout=capture,
+                stderr=capture,
+                pass_fds=(fd, hang),
+                env={},
+                close_fds=True,
+            )
+        finally:
+            theirs.close()
+            os.close(capture)
+            os.close(hang)
+        self._pid = None
+        connection = Connection(ours.detach())
+        connection.send_bytes(dumps({**config, "hang_fd": hang}))
+        return connection
+
+    @property
+    def pid(self) -> int | None:
+        """The pid of the python child as the grader sees it (bubblewrap's reaper's only child)."""
+        if self._pid is None and self.popen is not None:
+            deadline = time.monotonic() + 1.0
+            while self._pid is None and time.monotonic() < deadline and self.popen.poll() is None:
+                for reaper in _children(self.popen.pid):
+                    below = _children(reaper)
+                    if below:
+                        self._pid = below[0]
+                        break
+                else:
+                    time.sleep(0.01)
+        return self._pid
+
+    def is_alive(self) -> bool:
+        return self.popen is not None and self.popen.poll() is None
+
+    def kill(self) -> int | None:
+        """Stop the sandbox (all of its processes); the child's exit code: < 0 a signal, as Popen's."""
+        if self.popen is None:
+            return None
+        if self.popen.poll() is None:
+            for reaper in _children(self.popen.pid):  # the PID namespace dies with its reaper
+                try:
+                    os.kill(reaper, signal.SIGKILL)
+                except OSError:
+                    pass
+            try:
+                self.popen.wait(5)
+            except subprocess.TimeoutExpired:
+                self.popen.kill()
+                self.popen.wait()
+            code = self.popen.returncode
+            self.popen = None
+            return code if code is None or code < 0 else -signal.SIGKILL
+        code = self.popen.returncode
+        self.popen = None
+        if code is not None and code > 128 and (code - 128) in signal.Signals._value2member_map_:
+            return -(code - 128)  # bubblewrap passes a signal on as 128 + its number
+        return code
+
+
+@functools.lru_cache(maxsize=1)
+def _probe() -> str | None:
+    from .sandbox import Sandbox, SandboxError
+
+    with tempfile.TemporaryDirectory(prefix="mbd-probe-") as folder:
+        package = Path(folder) / "probe_package"
+        package.mkdir()
+        (package / "__init__.py").write_text("")
+        try:
+            with Sandbox(Path(folder), "probe_package", isolation="os") as sandbox:
+                sandbox.start()
+        except (SandboxError, IsolationUnavailable, OSError) as err:
+            return " ".join(str(err).split())  # one line
+    return None
+
+
+def problem() -> str | None:
+    """Why the operating system's isolation cannot run here, or None when it can (checked once)."""
+    if not sys.platform.startswith("linux"):
+        return f"the grader's sandbox needs Linux (user namespaces, seccomp), not {sys.platform}"
+    if bwrap_path() is None:
+        return NOT_INSTALLED
+    return _probe()
+
+
+def require() -> None:
+    """Raise IsolationUnavailable with the reason when the operating system's isolation cannot run."""
+    reason = problem()
+    if reason is not None:
+        raise IsolationUnavailable(reason)
