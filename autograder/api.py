@@ -29,7 +29,7 @@ def grade_group(homework: str, group: str, path: str | Path | None = None, stude
         groups = sorted({c.group for c in spec.checks})
         raise ValueError(f"{homework} has no checks in group {group!r} (groups: {', '.join(groups)})")
     folder = folder_of(path)
-    outcomes = run_checks(checks, folder, spec.name, student or folder.parent.name)
+    outcomes = run_checks(checks, folder, spec.name, student or folder.parent.name, budget=spec.budget)
     for o in outcomes:
         print(f"{'ok  ' if o.passed else 'FAIL'} {o.name} ({o.points:g}/{o.max_points:g})")
         if not o.passed:

@@ -247,16 +247,19 @@ def run_checks(
     limits: Limits | None = None,
     forbidden: tuple[Path, ...] = (),
     isolation: str | None = None,
+    budget: float | None = None,
 ) -> list[Outcome]:
-    """Run ``checks`` (public, hidden, per-student) on the package in ``folder`` for one student.
+    """Run ``checks`` (public, hidden, per-student) on the package in ``folder`` for one student, within
+    ``budget`` seconds of wall-clock time for them all (the homework's ``budget``).
 
     ``isolation``: ``os`` (default: the student's code runs under bubblewrap, ``mbdkit.isolation``; raises
     ``IsolationUnavailable`` where it cannot) or ``local`` (unsafe; ``MBD_UNSAFE_NO_ISOLATION=1``).
     """
     blocked, hide = protected_paths(forbidden)
     data = GraderData(student or "", homework)
+    mode = isolation_mode(isolation)
     return runner.run_checks(
-        checks, folder, data, limits, forbidden=tuple(blocked), hide=tuple(hide), isolation=isolation_mode(isolation)
+        checks, folder, data, limits, forbidden=tuple(blocked), hide=tuple(hide), isolation=mode, budget=budget
     )
 
 
@@ -320,8 +323,9 @@ def grade_submission(
     """Grade one submission and write its result JSON and feedback page; returns its gradebook row."""
     start = time.perf_counter()
     fingerprint = submission_fingerprint(submission, homework, limits, isolation)
+    student, budget = submission.student, homework.budget
     outcomes = run_checks(
-        homework.checks, submission.path, homework.name, submission.student, limits, forbidden, isolation
+        homework.checks, submission.path, homework.name, student, limits, forbidden, isolation, budget
     )
     seconds = time.perf_counter() - start
     result = result_json(homework, submission.student, outcomes, fingerprint, seconds, isolation)

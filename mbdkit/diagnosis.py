@@ -79,6 +79,33 @@ def rk4_order(got: np.ndarray) -> str | None:
     return None
 
 
+COVERAGE = 0.5
+"""A mistake explains a failure when the student's numbers are the mistake's wherever they fail, and fail
+in at least this part of the entries the mistake changes."""
+
+
+def explains(
+    candidate: np.ndarray,
+    expected: np.ndarray,
+    got: np.ndarray,
+    failing: np.ndarray,
+    allowed: np.ndarray,
+    valid: np.ndarray,
+) -> bool:
+    """Whether the output of a known mistake (``candidate``) explains the student's numbers ``got``.
+
+    Matching only where the student fails is not enough: one flipped sign in L(p) fails in one entry,
+    where G(p) happens to agree, but G differs from L in half of them; "G(p) used for L(p)" would be a
+    wrong diagnosis. The student's numbers must be the mistake's wherever they fail, and the failures must
+    cover a good part (COVERAGE) of what the mistake changes; a mistake made in one place of two (B^T for
+    B in one body's block of a joint) still shows.
+    """
+    if not np.all(np.abs(candidate[failing] - got[failing]) <= allowed[failing]):
+        return False
+    changed = valid & (np.abs(candidate - expected) > allowed)
+    return bool(changed.any()) and np.sum(failing & changed) >= COVERAGE * np.sum(changed)
+
+
 def likely_cause(
     probe: str,
     output: str,
@@ -106,8 +133,6 @@ def likely_cause(
         candidate = select(np.asarray(output_of_mistake, dtype=float))
         if candidate.shape != got.shape:
             continue
-        # the mistake must give the student's numbers everywhere, not only where they fail: one flipped
-        # sign in L(p) is not "G(p) used for L(p)", though G and L share that entry's magnitude
-        if np.all(np.abs(candidate[valid] - got[valid]) <= allowed[valid]):
+        if explains(candidate, expected, got, failing, allowed, valid):
             return cause
     return structural(expected, got, failing, allowed)

@@ -76,6 +76,8 @@ class Homework:
     checks: list[CheckSpec]
     source: Path | None = None
     instructor_groups: tuple[str, ...] = ()
+    budget: float | None = None
+    """Wall-clock seconds the grader gives all the checks of one submission (``budget`` in the file)."""
     """Groups graded only by the instructor (hidden scenes, the student's own variants), named in a kit's
     file, which holds the public checks only."""
 
@@ -102,10 +104,10 @@ class Homework:
         if unknown:
             raise KeyError(f"{self.name}: no checks named {', '.join(unknown)}")
         selected = [c for c in self.checks if c.name in names]
-        return Homework(self.name, self.title, selected, self.source, self.instructor_groups)
+        return Homework(self.name, self.title, selected, self.source, self.instructor_groups, self.budget)
 
     def fingerprint(self) -> str:
-        text = json.dumps([c.__dict__ for c in self.checks], sort_keys=True, default=str)
+        text = json.dumps([self.budget, *(c.__dict__ for c in self.checks)], sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -166,4 +168,5 @@ def load_homework(homework: str | Path) -> Homework:
     if duplicates:
         raise ValueError(f"{path.name}: check names used twice: {', '.join(duplicates)}")
     groups = tuple(data.get("instructor_groups", ()))
-    return Homework(data.get("homework", path.stem), data.get("title", ""), checks, path, groups)
+    budget = float(data["budget"]) if "budget" in data else None
+    return Homework(data.get("homework", path.stem), data.get("title", ""), checks, path, groups, budget)

@@ -58,6 +58,20 @@ class Job:
         return self.model.get("simulation", {}).get(key, default)
 
 
+def real(value) -> np.ndarray:
+    """What a package returned, as an array of real numbers; complex numbers are refused, never cut to
+    their real part (float() would drop the imaginary part silently)."""
+    raw = np.asarray(value)
+    if np.iscomplexobj(raw):
+        if np.any(raw.imag != 0):
+            raise TypeError(
+                "returned complex numbers (a square root or a logarithm of a negative number?); "
+                "the course's quantities are real"
+            )
+        raw = raw.real
+    return np.asarray(raw, dtype=float)
+
+
 PROBES: dict[str, Callable[[Package, Job], dict]] = {}
 """Probe name -> function."""
 
@@ -95,7 +109,7 @@ def _body_coordinates(pkg: Package, system, body: int, x: np.ndarray, velocity: 
         return x[size * body : size * (body + 1)]
     if velocity:
         return np.zeros(size)
-    return np.asarray(pkg["assembly"].GROUND_COORDINATES[system.model.dimension], dtype=float)
+    return real(pkg["assembly"].GROUND_COORDINATES[system.model.dimension])
 
 
 def _element_rows(pkg: Package, job: Job, method: str) -> np.ndarray:
@@ -119,16 +133,16 @@ def _element_rows(pkg: Package, job: Job, method: str) -> np.ndarray:
                     block = np.zeros((rows.stop - rows.start, n))
                     jac_i, jac_j = element.jacobian(qi, qj, float(t[k]))
                     if element.i >= 0:
-                        block[:, size * element.i : size * (element.i + 1)] += np.asarray(jac_i, dtype=float)
+                        block[:, size * element.i : size * (element.i + 1)] += real(jac_i)
                     if element.j >= 0:
-                        block[:, size * element.j : size * (element.j + 1)] += np.asarray(jac_j, dtype=float)
+                        block[:, size * element.j : size * (element.j + 1)] += real(jac_j)
                     out[k, rows] = block
                 elif method == "gamma":
                     qdi = _body_coordinates(pkg, system, element.i, qd[k], True)
                     qdj = _body_coordinates(pkg, system, element.j, qd[k], True)
-                    out[k, rows] = np.asarray(element.gamma(qi, qj, qdi, qdj, float(t[k])), dtype=float)
+                    out[k, rows] = real(element.gamma(qi, qj, qdi, qdj, float(t[k])))
                 else:
-                    out[k, rows] = np.asarray(getattr(element, method)(qi, qj, float(t[k])), dtype=float)
+                    out[k, rows] = real(getattr(element, method)(qi, qj, float(t[k])))
             except Exception as exc:  # one element's error costs only its rows
                 job.error(element.name, method, exc)
     return out
@@ -165,7 +179,7 @@ def newton(pkg: Package, job: Job) -> dict:
     system, _, _ = build(pkg, job)
     solve = pkg["kinematics"].newton_raphson
     t, q = job.inputs["t"], job.inputs["q_pert"]
-    return {"q": np.array([np.asarray(solve(system, q[k], float(t[k])).q, dtype=float) for k in range(t.size)])}
+    return {"q": np.array([real(solve(system, q[k], float(t[k])).q) for k in range(t.size)])}
 
 
 @probe("velocity", {"qd": ("state", "coordinate")})
@@ -174,7 +188,7 @@ def velocity(pkg: Package, job: Job) -> dict:
     system, _, _ = build(pkg, job)
     solve = pkg["kinematics"].velocity_analysis
     t, q = job.inputs["t"], job.inputs["q"]
-    return {"qd": np.array([np.asarray(solve(system, q[k], float(t[k])), dtype=float) for k in range(t.size)])}
+    return {"qd": np.array([real(solve(system, q[k], float(t[k]))) for k in range(t.size)])}
 
 
 @probe("acceleration", {"qdd": ("state", "coordinate")})
@@ -183,7 +197,7 @@ def acceleration(pkg: Package, job: Job) -> dict:
     system, _, _ = build(pkg, job)
     solve = pkg["kinematics"].acceleration_analysis
     t, q, qd = job.inputs["t"], job.inputs["q"], job.inputs["qd"]
-    return {"qdd": np.array([np.asarray(solve(system, q[k], qd[k], float(t[k])), dtype=float) for k in range(t.size)])}
+    return {"qdd": np.array([real(solve(system, q[k], qd[k], float(t[k]))) for k in range(t.size)])}
 
 
 @probe(
@@ -225,7 +239,7 @@ def mass_matrix(pkg: Package, job: Job) -> dict:
 def generalized_forces(pkg: Package, job: Job) -> dict:
     """Q(q, q', t) at the perturbed states (every force element contributes)."""
     forces = pkg["generalized_forces"].build_forces(model_of(pkg, job))
-    return {"Q": np.array([np.asarray(forces.generalized_forces(q, qd, t), dtype=float) for t, q, qd in _states(job)])}
+    return {"Q": np.array([real(forces.generalized_forces(q, qd, t)) for t, q, qd in _states(job)])}
 
 
 @probe("baumgarte_gamma", {"gamma_bar": ("state", "row")}, requires=("formulations",))
@@ -237,7 +251,7 @@ def baumgarte_gamma(pkg: Package, job: Job) -> dict:
     return {
         "gamma_bar": np.array(
             [
-                np.asarray(f(g[k].copy(), psi[k].copy(), psi_dot[k].copy(), alpha, beta), dtype=float)
+                real(f(g[k].copy(), psi[k].copy(), psi_dot[k].copy(), alpha, beta))
                 for k in range(len(g))
             ]
         )
@@ -255,8 +269,8 @@ def augmented_accelerations(pkg: Package, job: Job) -> dict:
     M, J, Q, g = job.inputs["M_pert"], job.inputs["jacobian_pert"], job.inputs["Q_pert"], job.inputs["gamma_pert"]
     pairs = [f(M[k].copy(), J[k].copy(), Q[k].copy(), g[k].copy()) for k in range(len(g))]
     return {
-        "qdd": np.array([np.asarray(p[0], dtype=float) for p in pairs]),
-        "lam": np.array([np.asarray(p[1], dtype=float) for p in pairs]),
+        "qdd": np.array([real(p[0]) for p in pairs]),
+        "lam": np.array([real(p[1]) for p in pairs]),
     }
 
 
@@ -276,8 +290,8 @@ def accelerations(pkg: Package, job: Job) -> dict:
     )
     pairs = [formulation.accelerations(q.copy(), qd.copy(), t) for t, q, qd in _states(job)]
     return {
-        "qdd": np.array([np.asarray(p[0], dtype=float) for p in pairs]),
-        "lam": np.array([np.asarray(p[1], dtype=float) for p in pairs]),
+        "qdd": np.array([real(p[0]) for p in pairs]),
+        "lam": np.array([real(p[1]) for p in pairs]),
     }
 
 
@@ -308,7 +322,7 @@ def rk4(pkg: Package, job: Job) -> dict:
     for n in RK4_STEPS:
         h, y = RK4_SPAN / n, np.array([1.0, 0.0])
         for k in range(n):
-            y = np.asarray(step(rk4_test_rhs, k * h, y, h), dtype=float)
+            y = real(step(rk4_test_rhs, k * h, y, h))
         finals.append(y)
     return {"y": np.array(finals)}
 
@@ -328,7 +342,7 @@ def reactions(pkg: Package, job: Job) -> dict:
     labels = reaction_labels(list(system.row_owners), system.model.dimension)
     return {
         "reactions": np.array(
-            [np.asarray(columns.get(label, np.full(t.size, np.nan)), dtype=float) for label in labels]
+            [real(columns.get(label, np.full(t.size, np.nan))) for label in labels]
         ).T
     }
 
@@ -382,7 +396,7 @@ def rotation_matrices(pkg: Package, job: Job) -> dict:
     rotations = pkg["rotations"]
     p = _euler_parameters(job)
     return {
-        name: np.array([[np.asarray(f(pb.copy()), dtype=float) for pb in pk] for pk in p])
+        name: np.array([[real(f(pb.copy())) for pb in pk] for pk in p])
         for name, f in (("A", rotations.rotation_matrix), ("G", rotations.g_matrix), ("L", rotations.l_matrix))
     }
 
@@ -392,7 +406,7 @@ def spatial_mass_matrix(pkg: Package, job: Job) -> dict:
     """The spatial mass matrix M(q) = diag(m I, 4 L^T J' L) at the perturbed states."""
     model = model_of(pkg, job)
     f = pkg["spatial.mass"].mass_matrix
-    return {"M": np.array([np.asarray(f(model, q.copy()), dtype=float) for _, q, _ in _states(job)])}
+    return {"M": np.array([real(f(model, q.copy())) for _, q, _ in _states(job)])}
 
 
 @probe("quadratic_velocity", {"Qv": ("state", "coordinate")}, requires=("spatial.mass",))
@@ -400,7 +414,7 @@ def quadratic_velocity(pkg: Package, job: Job) -> dict:
     """The quadratic-velocity force Q_v = 8 L(p')^T J' L(p') p at the perturbed states."""
     model = model_of(pkg, job)
     f = pkg["spatial.mass"].quadratic_velocity_vector
-    return {"Qv": np.array([np.asarray(f(model, q.copy(), qd.copy()), dtype=float) for _, q, qd in _states(job)])}
+    return {"Qv": np.array([real(f(model, q.copy(), qd.copy())) for _, q, qd in _states(job)])}
 
 
 @probe("invariants", {"drift": (), "velocity_drift": (), "energy": (), "energy_scale": ()})
@@ -444,7 +458,7 @@ def inverse_dynamics(pkg: Package, job: Job) -> dict:
     forces = pkg["generalized_forces"].build_forces(model)
     lam = []
     for t, q, qd in _states(job, perturbed=False):
-        qdd = np.asarray(acceleration(system, q.copy(), qd.copy(), t), dtype=float)
-        Q = np.asarray(forces.generalized_forces(q.copy(), qd.copy(), t), dtype=float)
-        lam.append(np.asarray(multipliers(system.jacobian(q, t), mass.mass_at(M, q), qdd, Q), dtype=float))
+        qdd = real(acceleration(system, q.copy(), qd.copy(), t))
+        Q = real(forces.generalized_forces(q.copy(), qd.copy(), t))
+        lam.append(real(multipliers(system.jacobian(q, t), mass.mass_at(M, q), qdd, Q)))
     return {"lam": np.array(lam)}

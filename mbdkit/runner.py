@@ -7,6 +7,7 @@ instructor's grader (``autograder.grading``) adds hidden and per-student scenes.
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +16,7 @@ from .checks import Measure, Mistakes, Outcome, evaluate
 from .homework import CheckSpec
 from .probes import Job
 from .sandbox import Limits, Reply, Sandbox
-from .scenes import HIDDEN, STUDENT, Scene, job_key, load_public_scene, scene_kind
+from .scenes import HIDDEN, PUBLIC, STUDENT, Scene, job_key, load_public_scene, scene_kind
 from .stored import Reference, load_reference
 
 PACKAGE = "modules"
@@ -101,8 +102,13 @@ def run_checks(
     forbidden: tuple[Path, ...] = (),
     hide: tuple[Path, ...] = (),
     isolation: str = "local",
+    budget: float | None = None,
 ) -> list[Outcome]:
-    """Run ``checks`` on the package in ``folder`` (``folder/modules``), in one sandbox; outcomes in order.
+    """Run ``checks`` on the package in ``folder`` (``folder/modules``); outcomes in order.
+
+    The public checks run in one sandbox, the hidden and per-student ones in a second (so nothing a hidden
+    scene sent a child can surface in a public check's message). ``budget``: wall-clock seconds for all
+    the checks of the submission; the checks not started by then fail with a message saying so.
 
     ``forbidden`` are folders the sandbox may not read, ``hide`` folders removed from its import path;
     ``isolation`` the sandbox's backend: ``local`` (a student's own checks) or ``os`` (the grader's).
@@ -114,27 +120,49 @@ def run_checks(
         message = f"no package {PACKAGE}/ (with __init__.py) in the folder {folder}"
         return [failed(c, message) for c in checks]
     outcomes: dict[str, Outcome] = {}
-    with Sandbox(folder, PACKAGE, forbidden=forbidden, hide=hide, limits=limits, isolation=isolation) as sandbox:
-        for scene_name, key in _order(checks):
-            group = [c for c in checks if c.scene == scene_name and c.probe_key == key]
-            scene = data.scene(scene_name)
-            reference = data.reference(scene, [c for c in checks if c.scene == scene_name])
-            first = group[0]
-            if not reference.has(key):
-                for c in group:
-                    outcomes[c.name] = failed(
-                        c, f"grader configuration: no reference for {key} (run python -m autograder.reference)"
+    start, hung = time.monotonic(), []
+    for public in (True, False):  # hidden and per-student scenes never share a child with public checks
+        calls = [call for call in _order(checks) if (scene_kind(call[0]) == PUBLIC) == public]
+        if not calls:
+            continue
+        with Sandbox(folder, PACKAGE, forbidden=forbidden, hide=hide, limits=limits, isolation=isolation) as sandbox:
+            sandbox.hung = hung  # a function that hung costs one timeout per submission, in either child
+            for scene_name, key in calls:
+                group = [c for c in checks if c.scene == scene_name and c.probe_key == key]
+                if budget is not None and time.monotonic() - start > budget:
+                    message = (
+                        f"not run: your submission used up its time budget ({budget:g} s for all its checks); "
+                        "a function far slower than it should be? (the checks above say which ran)"
                     )
-                continue
-            job = Job(job_key(scene), scene.data, reference.inputs, dict(first.options))
-            reply = sandbox.run(
-                first.probe, job.key, scene.data, reference.inputs, first.options, max(c.timeout for c in group)
-            )
-            if scene.kind == HIDDEN:
-                reply = redact(reply)
-            measure = data.measure(scene, sandbox)
-            for c in group:
-                outcomes[c.name] = evaluate(
-                    c, reply, reference, measure, limits, title(scene_name), data.mistakes(c, scene, job)
-                )
+                    outcomes.update({c.name: failed(c, message) for c in group})
+                    continue
+                outcomes.update(_run_group(group, checks, data, sandbox, limits, scene_name, key))
     return [outcomes[c.name] for c in checks]
+
+
+def _run_group(
+    group: list[CheckSpec],
+    checks: list[CheckSpec],
+    data: PublicData,
+    sandbox: Sandbox,
+    limits: Limits,
+    scene_name: str,
+    key: str,
+) -> dict[str, Outcome]:
+    """The outcomes of the checks that share one probe call (a scene and a probe key)."""
+    scene = data.scene(scene_name)
+    reference = data.reference(scene, [c for c in checks if c.scene == scene_name])
+    first = group[0]
+    if not reference.has(key):
+        message = f"grader configuration: no reference for {key} (run python -m autograder.reference)"
+        return {c.name: failed(c, message) for c in group}
+    job = Job(job_key(scene), scene.data, reference.inputs, dict(first.options))
+    timeout = max(c.timeout for c in group)
+    reply = sandbox.run(first.probe, job.key, scene.data, reference.inputs, first.options, timeout)
+    if scene.kind == HIDDEN:
+        reply = redact(reply)
+    measure = data.measure(scene, sandbox)
+    return {
+        c.name: evaluate(c, reply, reference, measure, limits, title(scene_name), data.mistakes(c, scene, job))
+        for c in group
+    }
