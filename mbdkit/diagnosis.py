@@ -79,9 +79,11 @@ def rk4_order(got: np.ndarray) -> str | None:
     return None
 
 
-COVERAGE = 0.5
+COVERAGE = 0.25
 """A mistake explains a failure when the student's numbers are the mistake's wherever they fail, and fail
-in at least this part of the entries the mistake changes."""
+in at least this part of the entries the mistake changes (B^T for B in one body's block of the revolute
+joints: about half of what a global B^T changes; one flipped sign in L(p): one of the six entries in
+which G(p) differs from L(p))."""
 
 
 def explains(
