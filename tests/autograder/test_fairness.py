@@ -80,6 +80,11 @@ def graded(tmp_path_factory):
             ("kinematics.py", "def kinematic_analysis(\n", ECHO),
         ],
     )
+    plant(  # the u^T d phi_i'^2 term of the prismatic joint's gamma dropped: zero when body i is the ground
+        root,
+        "prismatic_term",
+        [("planar/joints.py", "gamma = value * qdi[2] ** 2 - 2.0", "gamma = 0.0 * value * qdi[2] ** 2 - 2.0")],
+    )
     homework = dataclasses.replace(load_homework("hw1"), budget=8.0)
     out = root / "out"
     book = grade(homework, root, out, jobs=2, progress=False, resume=False, limits=Limits(), isolation=ISOLATION)
@@ -117,3 +122,37 @@ def test_no_hidden_or_per_student_model_reaches_a_public_check(graded):
         assert not [name for name in seen if name.endswith(("-b", "-variant"))], t["output"]
     hidden = [t for t in tests.values() if t["extra_data"]["kind"] == "hidden" and t["status"] == "failed"]
     assert hidden and all("seen" not in t["output"] for t in hidden)  # the grader's words only
+
+
+def test_a_prismatic_term_of_a_moving_body1_shows_in_the_prismatic_checks(graded):
+    book, out = graded
+    tests = results(out, "prismatic_term")
+    assert tests["sliding_arm.gamma.prismatic"]["status"] == "failed"
+    assert tests["hidden/sliding_arm_b.gamma.prismatic"]["status"] == "failed"
+    assert book.score("prismatic_term") < book.max_score
+
+
+MISTAKES = {
+    "hw2": (  # Baumgarte's alpha and beta swapped: only probes with alpha != beta tell
+        "formulations.py",
+        "return gamma - 2.0 * alpha * psi_dot - beta**2 * psi",
+        "return gamma - 2.0 * beta * psi_dot - alpha**2 * psi",
+        ["double_pendulum.baumgarte_gamma", "four_bar_spring.baumgarte_gamma"],
+    ),
+    "hw3": (  # the factor 2 of the dot-2 constraint's gamma dropped: only shows when both bodies move
+        "spatial/joints.py",
+        "+ 2.0 * ai_dot @ d_dot +",
+        "+ ai_dot @ d_dot +",
+        ["revolute_prismatic.gamma.prismatic"],
+    ),
+}
+
+
+@pytest.mark.parametrize("homework", sorted(MISTAKES))
+def test_subtle_mistakes_cost_points(homework, tmp_path):
+    relpath, old, new, failing = MISTAKES[homework]
+    plant(tmp_path / "class", "subtle", [(relpath, old, new)])
+    book = grade(homework, tmp_path / "class", tmp_path / "out", jobs=1, progress=False, isolation=ISOLATION)
+    tests = results(tmp_path / "out", "subtle")
+    assert book.score("subtle") < book.max_score
+    assert all(tests[name]["status"] == "failed" for name in failing), {n: tests[n]["output"] for n in failing}
