@@ -241,7 +241,12 @@ class Sandbox:
     Parameters
     ----------
     submission : folder holding the student's package (``modules/``)
-    forbidden : folders the child may not read (the grader, the reference, other submissions, outputs)
+    forbidden : folders the child may not read (the grader, the reference, other submissions, outputs);
+        under ``isolation="os"`` they are not there at all, and the audit hook names them in its refusals
+    hide : folders removed from the child's import path (the local backend)
+    isolation : ``"local"`` (forkserver; a student's own checks) or ``"os"`` (bubblewrap; the grader):
+        the os backend stages a private copy of the package at construction (``skipped`` lists what it
+        left out) and raises ``IsolationUnavailable`` when bwrap is missing
     """
 
     def __init__(
