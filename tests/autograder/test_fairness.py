@@ -156,3 +156,54 @@ def test_subtle_mistakes_cost_points(homework, tmp_path):
     tests = results(tmp_path / "out", "subtle")
     assert book.score("subtle") < book.max_score
     assert all(tests[name]["status"] == "failed" for name in failing), {n: tests[n]["output"] for n in failing}
+
+
+LIAR = """
+class Liar(np.ndarray):
+    def __eq__(self, other):
+        return np.ones(np.shape(other), dtype=bool)
+
+    def __sub__(self, other):
+        return np.zeros(np.shape(other))
+
+    __rsub__ = __sub__
+
+    def __abs__(self):
+        return np.zeros(self.shape)
+
+    def tolist(self):
+        return [1.0] * self.size
+
+
+"""
+
+
+def test_a_lying_array_and_a_forged_result_change_nothing(tmp_path):
+    """What a child returns reaches the grader as plain numbers (no object survives the wire), and it
+    cannot write the grader's results: the class's outcomes are what the numbers say."""
+    root, out = tmp_path / "class", tmp_path / "out"
+    copy_reference(root / "honest")
+    forge = str(out / "results" / "honest.json")
+    plant(
+        root,
+        "liar",
+        [
+            ("planar/joints.py", "@dataclass\nclass Revolute(", LIAR + "@dataclass\nclass Revolute("),
+            (
+                "planar/joints.py",
+                "return -point_vector(qi, self.si, qj, self.sj)",
+                "try:\n"
+                f"            open({forge!r}, 'w').write('forged')\n"
+                "        except OSError:\n"
+                "            pass\n"
+                "        return np.zeros(2).view(Liar)",
+            ),
+        ],
+    )
+    homework = load_homework("hw1").select(["four_bar.constraints.revolute", "four_bar.jacobian.revolute"])
+    book = grade(homework, root, out, jobs=1, progress=False, isolation=ISOLATION)
+    assert book.score("honest") == book.max_score
+    assert json.loads((out / "results" / "honest.json").read_text())["score"] == book.max_score
+    tests = results(out, "liar")
+    assert tests["four_bar.constraints.revolute"]["status"] == "failed"
+    assert tests["four_bar.jacobian.revolute"]["status"] == "passed"
