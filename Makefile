@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e ".[dev]"
 	touch $(STAMP)
 
-demo: $(STAMP)
+demo: $(STAMP) sandbox-tools
 	MPLBACKEND=Agg $(BIN)/python -m course.demo
 
 # The grader's sandbox is bubblewrap (Debian package bubblewrap): installed here when missing and we are
