@@ -153,11 +153,11 @@ Your kit for this homework:
 
 ## 1. Install (once)
 
-Python 3.11 or newer. In this folder:
+Python 3.11 or newer, on Linux or macOS (on Windows, in WSL). In this folder:
 
 ```
 python3 -m venv .venv
-source .venv/bin/activate          # Windows: .venv\\Scripts\\activate
+source .venv/bin/activate
 pip install ./
 ```
 
