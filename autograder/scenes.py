@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from mbdkit.scenes import HIDDEN, PUBLIC, STUDENT, Scene, scene_kind  # noqa: F401 - the kinds, for the grader
+from mbdkit.scenes import HIDDEN, STUDENT, Scene, scene_kind
 
 SCENES = Path(__file__).resolve().parent / "scenes"
 

@@ -20,7 +20,3 @@ def data_dir() -> Path:
     """The folder holding the homework files, scenes and expected values (kit first, then the course)."""
     return PACKAGE_DATA if PACKAGE_DATA.is_dir() else COURSE_DATA
 
-
-def in_kit() -> bool:
-    """True in a student kit (no hidden scenes, no reference solver, no grader)."""
-    return PACKAGE_DATA.is_dir()
