@@ -88,6 +88,11 @@ class Region:
     pointer: str
 
     @property
+    def qualified_name(self) -> str:
+        """The function as module.function, e.g. ``planar.joints.Revolute.gamma``."""
+        return f"{Path(self.path).with_suffix('').as_posix().replace('/', '.')}.{self.function}"
+
+    @property
     def optional(self) -> bool:
         """A region students may leave stubbed (``OPTIONAL``)."""
         return self.path in OPTIONAL
@@ -108,12 +113,10 @@ class BuildReport:
     filled: list[Region] = field(default_factory=list)
 
     def stubbed_functions(self) -> list[str]:
-        return _unique(
-            f"{Path(r.path).with_suffix('').as_posix().replace('/', '.')}.{r.function}" for r in self.stubbed
-        )
+        return _unique(r.qualified_name for r in self.stubbed)
 
     def filled_functions(self) -> list[str]:
-        return _unique(f"{Path(r.path).with_suffix('').as_posix().replace('/', '.')}.{r.function}" for r in self.filled)
+        return _unique(r.qualified_name for r in self.filled)
 
 
 def _unique(items) -> list:

@@ -226,7 +226,7 @@ def release(homework: str, course_dir: Path | None = None) -> ReleaseReport:
 
     index = HOMEWORKS.index(homework) + 1
     now = [r for r in built.stubbed if r.homework == index]
-    later = {_name(r) for r in built.stubbed if r.homework > index}
+    later = {r.qualified_name for r in built.stubbed if r.homework > index}
     asked = list(dict.fromkeys((r.path, r.function) for r in now if not r.optional))
     kit = build_kit(folder, homework, asked, course_dir)
 
@@ -243,8 +243,8 @@ def release(homework: str, course_dir: Path | None = None) -> ReleaseReport:
         folder=folder,
         notebooks=sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*.ipynb")),
         files=built.files,
-        to_write=list(dict.fromkeys(_name(r) for r in now if not r.optional)),
-        optional=list(dict.fromkeys(_name(r) for r in now if r.optional)),
+        to_write=list(dict.fromkeys(r.qualified_name for r in now if not r.optional)),
+        optional=list(dict.fromkeys(r.qualified_name for r in now if r.optional)),
         kit=kit,
         given=built.filled_functions(),
         later=sorted(later),
@@ -261,11 +261,6 @@ def release(homework: str, course_dir: Path | None = None) -> ReleaseReport:
         report.exchange = str(Path(config.Exchange.root, config.CourseDirectory.course_id, "outbound", homework))
     report.seconds = time.perf_counter() - start
     return report
-
-
-def _name(region) -> str:
-    """A region's function as module.function (``planar.joints.Revolute.gamma``)."""
-    return f"{Path(region.path).with_suffix('').as_posix().replace('/', '.')}.{region.function}"
 
 
 def command(homework: str, course_dir: Path | None = None) -> int:

@@ -88,11 +88,8 @@ def test_release_folder_holds_the_notebook_without_solutions_and_the_student_pac
 
 def test_each_release_stubs_its_own_homework_and_fills_in_the_earlier_ones(released):
     _, reports = released
-    def name(r):
-        return f"{Path(r.path).with_suffix('').as_posix().replace('/', '.')}.{r.function}"
-
-    tagged = {name(r): r.homework for r in all_regions()}
-    optional = {name(r) for r in all_regions() if r.optional}
+    tagged = {r.qualified_name: r.homework for r in all_regions()}
+    optional = {r.qualified_name for r in all_regions() if r.optional}
     for index, homework in enumerate(HOMEWORKS, start=1):
         report = reports[homework]
         asked = {name for name, h in tagged.items() if h == index}
