@@ -220,7 +220,9 @@ class GraderData(PublicData):
         self.student, self.homework = student, homework
 
     def scene(self, name: str) -> Scene:
-        return load_scene(name, student=self.student, homework=self.homework)
+        if name not in self._scenes:
+            self._scenes[name] = load_scene(name, student=self.student, homework=self.homework)
+        return self._scenes[name]
 
     def reference(self, scene: Scene, checks: list[CheckSpec]) -> Reference:
         if scene.kind != STUDENT:

@@ -23,9 +23,8 @@ import os
 from pathlib import Path
 
 import numpy as np
-import yaml
 
-from mbdkit.scenes import HIDDEN, STUDENT, Scene, scene_kind
+from mbdkit.scenes import HIDDEN, STUDENT, Scene, read_scene_file, scene_kind
 
 SCENES = Path(__file__).resolve().parent / "scenes"
 
@@ -67,7 +66,7 @@ def load_scene(name: str, student: str | None = None, homework: str = "") -> Sce
     path = scene_path(name)
     if not path.is_file():
         raise FileNotFoundError(f"no grading scene {name!r} ({path})")
-    return Scene(name, yaml.safe_load(path.read_text()), kind)
+    return Scene(name, read_scene_file(path), kind)
 
 
 def student_seed(student: str, homework: str, scene: str) -> int:

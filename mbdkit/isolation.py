@@ -66,7 +66,7 @@ INNER_TMP = "/tmp"
 INNER_PATH = [INNER_GRADER, INNER_SITE]
 """Added to the child's sys.path (after the standard library): mbdkit's parent and the allowed packages."""
 
-ALLOWED_DISTRIBUTIONS = ("numpy", "scipy", "PyYAML", "jsonschema", "matplotlib")
+ALLOWED_DISTRIBUTIONS = ("numpy", "scipy", "PyYAML", "fastjsonschema", "jsonschema", "matplotlib")
 """What a student's package may import besides the standard library (with what these require, no extras)."""
 
 MAX_SUBMISSION_BYTES = 32 * 2**20

@@ -28,9 +28,13 @@ class PublicData:
 
     def __init__(self) -> None:
         self._references: dict[str, Reference] = {}
+        self._scenes: dict[str, Scene] = {}
 
     def scene(self, name: str) -> Scene:
-        return load_public_scene(name)
+        """A scene by name (read once)."""
+        if name not in self._scenes:
+            self._scenes[name] = load_public_scene(name)
+        return self._scenes[name]
 
     def reference(self, scene: Scene, checks: list[CheckSpec]) -> Reference:
         """The expected values of a scene (read once)."""

@@ -17,7 +17,7 @@ Two backends start the child:
   none of the course, in its own user, PID and network namespaces, as an unprivileged uid, with a seccomp
   filter (``isolation``, ``seccomp``). The audit hook stays as a friendly first layer.
 - ``isolation="local"`` (a student's own ``mbd selfcheck`` and notebook ``check()``, on any system):
-  children forked from a forkserver that has preloaded numpy, scipy, yaml and jsonschema (and never the
+  children forked from a forkserver that has preloaded numpy, scipy, yaml and the schema validators (and never the
   reference package), so a fresh child costs milliseconds; the audit hook is its only wall.
 """
 
@@ -45,6 +45,7 @@ PRELOAD = [
     "scipy.optimize",
     "scipy.sparse",
     "yaml",
+    "fastjsonschema",
     "jsonschema",
 ]
 """Modules the forkserver imports once; children inherit them. Never the reference package."""

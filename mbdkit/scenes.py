@@ -12,8 +12,9 @@ Only public scenes are known here; the grader's ``autograder.scenes.load_scene``
 
 from __future__ import annotations
 
+import copy
 import hashlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import yaml
@@ -35,6 +36,7 @@ class Scene:
     name: str
     data: dict
     kind: str
+    _fingerprint: str | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def simulation(self) -> dict:
@@ -50,8 +52,27 @@ class Scene:
         return self.name.split("/", 1)[-1]
 
     def fingerprint(self) -> str:
-        """A hash of the scene's content: a stored reference is stale when it changes."""
-        return hashlib.sha256(yaml.safe_dump(self.data, sort_keys=True).encode()).hexdigest()[:16]
+        """A hash of the scene's content: a stored reference is stale when it changes (computed once: a
+        scene's data are not changed after it is loaded)."""
+        if self._fingerprint is None:
+            text = yaml.dump(self.data, Dumper=_DUMPER, sort_keys=True)
+            self._fingerprint = hashlib.sha256(text.encode()).hexdigest()[:16]
+        return self._fingerprint
+
+
+_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml's parser where PyYAML has it
+_DUMPER = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
+_FILES: dict[tuple[str, int, int], dict] = {}
+
+
+def read_scene_file(path: Path) -> dict:
+    """The parsed content of a scene file, a fresh copy each time (each file is parsed once per process
+    and content: the cache key holds its modification time and size)."""
+    stat = path.stat()
+    key = (str(path), stat.st_mtime_ns, stat.st_size)
+    if key not in _FILES:
+        _FILES[key] = yaml.load(path.read_text(), Loader=_LOADER)
+    return copy.deepcopy(_FILES[key])
 
 
 def scene_kind(name: str) -> str:
@@ -74,7 +95,7 @@ def load_public_scene(name: str) -> Scene:
     path = scenes_dir() / f"{name}.yaml"
     if not path.is_file():
         raise FileNotFoundError(f"no grading scene {name!r} ({path})")
-    return Scene(name, yaml.safe_load(path.read_text()), PUBLIC)
+    return Scene(name, read_scene_file(path), PUBLIC)
 
 
 def public_scenes() -> list[str]:

@@ -244,3 +244,40 @@ def test_a_misspelt_key_is_named_with_the_right_spelling(tmp_path):
 def test_a_file_of_comments_only_is_called_empty(tmp_path):
     message = error_of(tmp_path, "# a model will go here\n# soon\n")
     assert "only comments" in message and "model:" in message
+
+
+def _models_and_cases() -> list[tuple[str, object]]:
+    folders = (REPO / "course" / "models", REPO / "autograder" / "scenes")
+    files = [path for folder in folders for path in sorted(folder.glob("*.yaml"))]
+    cases = [(path.name, yaml.safe_load(path.read_text())) for path in files]
+    for name, (text, _) in MALFORMED.items():
+        try:
+            data = yaml.safe_load(text)
+        except yaml.YAMLError:
+            continue
+        if isinstance(data, dict):
+            cases.append((name, data))
+    return cases
+
+
+def test_the_fast_validator_and_jsonschema_agree():
+    """fastjsonschema decides validity (it starts fast), jsonschema explains errors: on every example model,
+    grading scene and malformed case they must give the same verdict (the schema uses nothing only one knows)."""
+    import fastjsonschema
+    import jsonschema
+
+    from solutions.io.model import _fast_validator, _schema
+
+    full = jsonschema.Draft202012Validator(_schema())
+    cases = _models_and_cases()
+    assert len(cases) > 30
+    verdicts = {"valid": 0, "invalid": 0}
+    for name, data in cases:
+        try:
+            _fast_validator()(data)
+            fast = True
+        except fastjsonschema.JsonSchemaException:
+            fast = False
+        assert fast == full.is_valid(data), name
+        verdicts["valid" if fast else "invalid"] += 1
+    assert verdicts["valid"] > 10 and verdicts["invalid"] > 5, verdicts
