@@ -11,12 +11,18 @@ sandbox forkservers included, and reported with the mean time per student that t
 Prints the time a sandbox takes to start (to its first "ready"; a student's own imports come later, in
 the first check) and a Markdown table. ``--isolation os`` (the default, as ``mbd grade``): each student
 in a fresh bubblewrap sandbox; ``local``: the forkserver sandbox (``--unsafe-no-isolation``).
+
+Where the machine lets it (cgroup v1 ``cpuacct``, as root), the table also gives the CPU seconds the whole
+grading used (grader, workers, every sandbox process) per student, and the throughput those CPU seconds
+allow on the cores there are: wall-clock figures depend on what else the machine runs, CPU seconds much less.
 """
 
 from __future__ import annotations
 
 import argparse
+import atexit
 import json
+import os
 import shutil
 import statistics
 import sys
@@ -81,15 +87,48 @@ def startup(isolation: str, repeat: int = 5) -> float:
     return statistics.median(times)
 
 
-def bench(homework: str, n: int, jobs: int, isolation: str = "os") -> dict:
+CPUACCT = Path("/sys/fs/cgroup/cpuacct")
+
+
+class CpuAccount:
+    """CPU seconds of this process and every process it starts (a cgroup v1 cpuacct group), or None."""
+
+    def __init__(self):
+        self.group = None
+        try:
+            group = CPUACCT / f"mbd-bench-{os.getpid()}"
+            group.mkdir()
+            (group / "cgroup.procs").write_text(str(os.getpid()))
+            self.group = group
+            atexit.register(self.remove)
+        except OSError:
+            pass
+
+    def remove(self) -> None:
+        """Back to the root group, and the group removed (once its processes are gone)."""
+        try:
+            (CPUACCT / "cgroup.procs").write_text(str(os.getpid()))
+            self.group.rmdir()
+        except OSError:
+            pass
+
+    def seconds(self) -> float | None:
+        if self.group is None:
+            return None
+        return int((self.group / "cpuacct.usage").read_text()) / 1e9
+
+
+def bench(homework: str, n: int, jobs: int, isolation: str = "os", account: CpuAccount | None = None) -> dict:
     with tempfile.TemporaryDirectory(prefix=f"bench-{homework}-") as tmp:
         root = Path(tmp)
         kinds = make_submissions(root / "submitted", homework, n)
+        cpu = account.seconds() if account else None
         start = time.perf_counter()
         book = grade(
             homework, root / "submitted", root / "out", jobs=jobs, progress=False, resume=False, isolation=isolation
         )
         wall = time.perf_counter() - start
+        cpu = account.seconds() - cpu if cpu is not None else None
         seconds = {
             kind: [
                 json.loads((root / "out" / "results" / f"{s}.json").read_text())["extra_data"]["seconds"]
@@ -99,7 +138,7 @@ def bench(homework: str, n: int, jobs: int, isolation: str = "os") -> dict:
             for kind in ("reference", "skeleton", "mutant")
         }
         scores = {kind: sorted({book.score(s) for s, k in kinds.items() if k == kind}) for kind in seconds}
-    return {"homework": homework, "n": n, "wall": wall, "seconds": seconds, "scores": scores}
+    return {"homework": homework, "n": n, "wall": wall, "cpu": cpu, "seconds": seconds, "scores": scores}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -114,12 +153,22 @@ def main(argv: list[str] | None = None) -> int:
         f"Grading throughput, {args.jobs} worker processes, {args.n} submissions per homework, "
         f"isolation {args.isolation}\n"
     )
-    print("| homework | submissions | wall [s] | per minute | s per student (reference / skeleton / mutant) |")
-    print("|---|---|---|---|---|")
+    account = CpuAccount()
+    cores = os.cpu_count() or 1
+    print(
+        "| homework | submissions | wall [s] | per minute | s per student (reference / skeleton / mutant) "
+        f"| CPU s per student | per minute by CPU on {cores} cores |"
+    )
+    print("|---|---|---|---|---|---|---|")
     for homework in args.homeworks:
-        r = bench(homework, args.n, args.jobs, args.isolation)
+        r = bench(homework, args.n, args.jobs, args.isolation, account)
         mean = " / ".join(f"{statistics.mean(v):.2f}" if v else "-" for v in r["seconds"].values())
-        print(f"| {homework} | {r['n']} | {r['wall']:.1f} | {60 * r['n'] / r['wall']:.0f} | {mean} |", flush=True)
+        cpu = "-" if r["cpu"] is None else f"{r['cpu'] / r['n']:.2f}"
+        bound = "-" if r["cpu"] is None else f"{60 * cores * r['n'] / r['cpu']:.0f}"
+        print(
+            f"| {homework} | {r['n']} | {r['wall']:.1f} | {60 * r['n'] / r['wall']:.0f} | {mean} | {cpu} | {bound} |",
+            flush=True,
+        )
     return 0
 
 

@@ -479,8 +479,9 @@ def _run(request: dict) -> dict:
     return reply
 
 
-def main(fd: int) -> None:
-    """Entry point under bubblewrap: the configuration is the first message on the inherited socket."""
+def main(fd: int, hang_fd: int | None = None) -> None:
+    """Entry point under bubblewrap (forked by ``_zygote``): the configuration is the first message on the
+    socket ``fd``; ``hang_fd`` is the stack-dump file the zygote passed on."""
     from multiprocessing.connection import Connection
 
     connection = Connection(fd)
@@ -488,6 +489,8 @@ def main(fd: int) -> None:
         config = wire.loads(connection.recv_bytes(wire.MAX_MESSAGE))
     except (EOFError, OSError, wire.WireError):
         _real_exit(3)
+    if hang_fd is not None:
+        config["hang_fd"] = hang_fd
     serve(connection, config)
 
 

@@ -24,11 +24,16 @@ student's package in a child process that the course does not exist for (DESIGN 
   keyring, io_uring, bpf...) installed after its own imports and before any student code, and the audit
   hook as a friendly first layer (clear messages), never as the wall.
 
+The sandbox's first process is a zygote (``_zygote``) that imports numpy and scipy once and forks the
+children: one sandbox per submission (``IsolatedHost``), a child for its public checks and, after that
+child is dead and everything it started is killed, one for its hidden checks.
+
 The grader talks to the child over an inherited socket (``multiprocessing.connection.Connection``
 framing, ``wire``'s JSON messages, never pickle); the child's stdout and stderr go to a capture file and
-its stack dumps to a second one, both opened by the grader and inherited as file descriptors: no host
-folder is writable from inside. The python process's pid as the grader sees it is found through
-bubblewrap's process tree (its PID-1 reaper's only child), so the grader can sample a hung child's stack.
+its stack dumps to a second one, both opened by the grader and passed on as file descriptors: no host
+folder is writable from inside. A child's pid as the grader sees it is found below the zygote (bubblewrap's
+reaper's only child) by its pid inside the sandbox (``NSpid``), so the grader can sample a hung child's
+stack and kill it.
 
 Requires Linux with user namespaces and ``bwrap`` (Debian/Ubuntu: ``apt-get install bubblewrap``).
 """
@@ -47,7 +52,6 @@ import stat
 import subprocess
 import sys
 import tempfile
-import time
 from multiprocessing.connection import Connection
 from pathlib import Path
 
@@ -85,8 +89,11 @@ CHILD_ENV = {
     "MPLBACKEND": "Agg",
     "LANG": "C.UTF-8",
 }
-BOOT = "import sys; sys.path += sys.argv[1].split(':'); import mbdkit._child as c; c.main(int(sys.argv[2]))"
-"""What the child runs (``python -I -S -c BOOT PATHS FD``): mbdkit from its read-only mount, then serve."""
+BOOT = "import sys; sys.path += sys.argv[1].split(':'); import mbdkit._zygote as z; z.main(int(sys.argv[2]))"
+"""What the sandbox runs (``python -I -S -c BOOT PATHS FD``): mbdkit from its read-only mount, then the
+zygote (``_zygote``), which forks the children that serve the grader (``_child``)."""
+ZYGOTE_TIMEOUT = 30.0
+"""Seconds the zygote may take to answer a fork or a reap (it answers in milliseconds)."""
 
 MBDKIT = Path(__file__).resolve().parent
 LAUNCHER = MBDKIT / "_launch.py"
@@ -339,65 +346,104 @@ def _children(pid: int) -> list[int]:
     return found
 
 
-class IsolatedProcess:
-    """One bubblewrap sandbox running the child (``_child.main``); what the grader needs of it."""
+def _nspid(pid: int) -> int | None:
+    """A process's pid in its own (innermost) PID namespace."""
+    try:
+        with open(f"/proc/{pid}/status") as f:
+            for line in f:
+                if line.startswith("NSpid:"):
+                    return int(line.split()[-1])
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
 
-    def __init__(self, tmp: str, staged: str, tmp_size: int):
-        self.plan = Plan(tmp, staged, tmp_size)
-        self.tmp = tmp
+
+def _running(pid: int | None) -> bool:
+    """True while ``pid`` exists and is not a zombie."""
+    if pid is None:
+        return False
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] not in ("Z", "X")
+    except (OSError, IndexError):
+        return False
+
+
+class IsolatedHost:
+    """One bubblewrap sandbox for one submission, its zygote (``_zygote``) forking the children.
+
+    The submission's package is staged once (``stage_package``; ``skipped`` lists what was left out). The
+    public checks' child and, after it has been killed, the hidden checks' child (and a fresh child after a
+    timeout or crash) are forked in it: one sandbox start and one import of numpy and scipy per
+    submission. Between two children everything the first left running is killed (``_zygote``).
+    """
+
+    def __init__(self, folder: str | Path, package: str, tmp_size: int):
+        self.tmp = tempfile.mkdtemp(prefix="mbd-sandbox-host-")
+        staged = os.path.join(self.tmp, "submission")
+        try:
+            self.skipped = stage_package(folder, package, staged)
+            self.plan = Plan(self.tmp, staged, tmp_size)
+        except BaseException:
+            shutil.rmtree(self.tmp, ignore_errors=True)
+            raise
         self.popen: subprocess.Popen | None = None
-        self._pid: int | None = None
+        self.control: socket.socket | None = None
+        self._reader = None
+        self._zygote: int | None = None
+        self.starts = 0
 
-    def start(self, config: dict, dumps) -> Connection:
-        """Start the sandbox; send it ``config`` (encoded with ``dumps``); return the connection to it."""
+    # -- the zygote ------------------------------------------------------------------------------------------
+    def _receive(self, timeout: float) -> dict:
+        self.control.settimeout(timeout)
+        line = self._reader.readline()
+        if not line:
+            raise EOFError("the sandbox closed its connection")
+        return json.loads(line)
+
+    def _start(self) -> None:
+        from .sandbox import STARTUP_TIMEOUT, SandboxError
+
+        self._stop()
         ours, theirs = socket.socketpair()
-        flags = os.O_RDWR | os.O_CREAT | os.O_TRUNC | os.O_APPEND
-        capture = os.open(os.path.join(self.tmp, "output.txt"), flags, 0o600)
-        hang = os.open(os.path.join(self.tmp, "stack.txt"), os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        log = os.open(os.path.join(self.tmp, "zygote.txt"), os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
         fd = theirs.fileno()
         try:
             self.popen = subprocess.Popen(
                 self.plan.command(fd),
                 stdin=subprocess.DEVNULL,
-                stdout=capture,
-                stderr=capture,
-                pass_fds=(fd, hang),
+                stdout=log,
+                stderr=log,
+                pass_fds=(fd,),
                 env={},
                 close_fds=True,
             )
         finally:
             theirs.close()
-            os.close(capture)
-            os.close(hang)
-        self._pid = None
-        connection = Connection(ours.detach())
-        connection.send_bytes(dumps({**config, "hang_fd": hang}))
-        return connection
+            os.close(log)
+        self.starts += 1
+        self.control, self._reader = ours, ours.makefile("rb")
+        try:
+            ready = self._receive(STARTUP_TIMEOUT)
+        except (OSError, ValueError, EOFError) as err:
+            self._stop()
+            with open(os.path.join(self.tmp, "zygote.txt"), errors="replace") as f:
+                said = f.read()[-400:].strip()
+            raise SandboxError(f"the sandbox process failed to start: {said or err}") from None
+        if ready.get("status") != "ready":
+            self._stop()
+            raise SandboxError(f"the sandbox process failed to start: {ready}")
 
-    @property
-    def pid(self) -> int | None:
-        """The pid of the python child as the grader sees it (bubblewrap's reaper's only child)."""
-        if self._pid is None and self.popen is not None:
-            deadline = time.monotonic() + 1.0
-            while self._pid is None and time.monotonic() < deadline and self.popen.poll() is None:
-                for reaper in _children(self.popen.pid):
-                    below = _children(reaper)
-                    if below:
-                        self._pid = below[0]
-                        break
-                else:
-                    time.sleep(0.01)
-        return self._pid
-
-    def is_alive(self) -> bool:
-        return self.popen is not None and self.popen.poll() is None
-
-    def kill(self) -> int | None:
-        """Stop the sandbox (all of its processes); the child's exit code: < 0 a signal, as Popen's."""
+    def _stop(self) -> None:
+        """Kill the sandbox (every process in it: the PID namespace dies with its reaper)."""
+        if self.control is not None:
+            self._reader.close()
+            self.control.close()
+        self.control = self._reader = self._zygote = None
         if self.popen is None:
-            return None
+            return
         if self.popen.poll() is None:
-            for reaper in _children(self.popen.pid):  # the PID namespace dies with its reaper
+            for reaper in _children(self.popen.pid):
                 try:
                     os.kill(reaper, signal.SIGKILL)
                 except OSError:
@@ -407,13 +453,110 @@ class IsolatedProcess:
             except subprocess.TimeoutExpired:
                 self.popen.kill()
                 self.popen.wait()
-            code = self.popen.returncode
-            self.popen = None
-            return code if code is None or code < 0 else -signal.SIGKILL
-        code = self.popen.returncode
         self.popen = None
-        if code is not None and code > 128 and (code - 128) in signal.Signals._value2member_map_:
-            return -(code - 128)  # bubblewrap passes a signal on as 128 + its number
+
+    def _alive(self) -> bool:
+        return self.popen is not None and self.popen.poll() is None and self.control is not None
+
+    def zygote_pid(self) -> int | None:
+        """The zygote's pid as the grader sees it (bubblewrap's reaper's only child)."""
+        if self._zygote is None and self.popen is not None:
+            for reaper in _children(self.popen.pid):
+                below = _children(reaper)
+                if below:
+                    self._zygote = below[0]
+        return self._zygote
+
+    # -- its children ----------------------------------------------------------------------------------------
+    def spawn(self, fds: list[int]) -> int:
+        """Fork a child that gets ``fds`` (its socket, capture file, stack-dump file); its pid inside. A
+        sandbox that is gone (a child may kill its zygote) is started again."""
+        from .sandbox import SandboxError
+
+        for _ in range(2):
+            if not self._alive():
+                self._start()
+            try:
+                socket.send_fds(self.control, [b'{"op": "fork"}\n'], fds)
+                return int(self._receive(ZYGOTE_TIMEOUT)["pid"])
+            except (OSError, ValueError, KeyError, TypeError, EOFError):
+                self._stop()
+        raise SandboxError("the sandbox could not start a process")
+
+    def host_pid(self, inner: int) -> int | None:
+        """The grader's pid of the child that is ``inner`` inside the sandbox."""
+        zygote = self.zygote_pid()
+        if zygote is None:
+            return None
+        for pid in _children(zygote):
+            if _nspid(pid) == inner:
+                return pid
+        return None
+
+    def reap(self, inner: int) -> int | None:
+        """Wait for the child ``inner`` (killed or ended) and kill what it left running; its exit code as
+        Popen gives it (< 0: the signal), None when unknown."""
+        if not self._alive():
+            return None
+        try:
+            self.control.sendall(json.dumps({"op": "reap", "pid": inner}).encode() + b"\n")
+            status = self._receive(ZYGOTE_TIMEOUT).get("status")
+        except (OSError, ValueError, EOFError):
+            self._stop()
+            return None
+        return None if not isinstance(status, int) else os.waitstatus_to_exitcode(status)
+
+    def close(self) -> None:
+        self._stop()
+        shutil.rmtree(self.tmp, ignore_errors=True)
+
+
+class IsolatedProcess:
+    """One child of a sandbox (``IsolatedHost``): what the grader's ``Sandbox`` needs of it."""
+
+    def __init__(self, host: IsolatedHost, tmp: str):
+        self.host, self.tmp = host, tmp
+        self.inner: int | None = None
+        self._pid: int | None = None
+
+    def start(self, config: dict, dumps) -> Connection:
+        """Fork the child; send it ``config`` (encoded with ``dumps``); return the connection to it."""
+        ours, theirs = socket.socketpair()
+        flags = os.O_RDWR | os.O_CREAT | os.O_TRUNC | os.O_APPEND
+        capture = os.open(os.path.join(self.tmp, "output.txt"), flags, 0o600)
+        hang = os.open(os.path.join(self.tmp, "stack.txt"), os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        try:
+            self.inner = self.host.spawn([theirs.fileno(), capture, hang])
+        finally:
+            theirs.close()
+            os.close(capture)
+            os.close(hang)
+        self._pid = None
+        connection = Connection(ours.detach())
+        connection.send_bytes(dumps(config))
+        return connection
+
+    @property
+    def pid(self) -> int | None:
+        """The child's pid as the grader sees it."""
+        if self._pid is None and self.inner is not None:
+            self._pid = self.host.host_pid(self.inner)
+        return self._pid
+
+    def is_alive(self) -> bool:
+        return _running(self.pid)
+
+    def kill(self) -> int | None:
+        """Stop the child (and what it started); its exit code: < 0 a signal, as Popen's."""
+        if self.inner is None:
+            return None
+        if self.is_alive():
+            try:
+                os.kill(self.pid, signal.SIGKILL)
+            except OSError:
+                pass
+        code = self.host.reap(self.inner)
+        self.inner = self._pid = None
         return code
 
 

@@ -110,9 +110,11 @@ def run_checks(
 ) -> list[Outcome]:
     """Run ``checks`` on the package in ``folder`` (``folder/modules``); outcomes in order.
 
-    The public checks run in one sandbox, the hidden and per-student ones in a second (so nothing a hidden
-    scene sent a child can surface in a public check's message). ``budget``: wall-clock seconds for all
-    the checks of the submission; the checks not started by then fail with a message saying so.
+    The public checks run in one sandbox child, the hidden and per-student ones in a second, started once
+    the first is gone (so nothing a hidden scene sent a child can surface in a public check's message);
+    under ``isolation="os"`` both are forked in one bubblewrap sandbox of the submission. ``budget``:
+    wall-clock seconds for all the checks of the submission; the checks not started by then fail with a
+    message saying so.
 
     ``forbidden`` are folders the sandbox may not read, ``hide`` folders removed from its import path;
     ``isolation`` the sandbox's backend: ``local`` (a student's own checks) or ``os`` (the grader's).
@@ -123,13 +125,27 @@ def run_checks(
     if not (folder / PACKAGE / "__init__.py").is_file():
         message = f"no package {PACKAGE}/ (with __init__.py) in the folder {folder}"
         return [failed(c, message) for c in checks]
+    host = None
+    if isolation == "os":  # one bubblewrap sandbox per submission; a child for each set of checks
+        from .isolation import IsolatedHost
+
+        host = IsolatedHost(folder, PACKAGE, limits.tmp_size)
+    try:
+        return _run_all(checks, folder, data, limits, forbidden, hide, isolation, budget, host)
+    finally:
+        if host is not None:
+            host.close()
+
+
+def _run_all(checks, folder, data, limits, forbidden, hide, isolation, budget, host) -> list[Outcome]:
     outcomes: dict[str, Outcome] = {}
     start, hung = time.monotonic(), []
     for public in (True, False):  # hidden and per-student scenes never share a child with public checks
         calls = [call for call in _order(checks) if (scene_kind(call[0]) == PUBLIC) == public]
         if not calls:
             continue
-        with Sandbox(folder, PACKAGE, forbidden=forbidden, hide=hide, limits=limits, isolation=isolation) as sandbox:
+        options = {"forbidden": forbidden, "hide": hide, "limits": limits, "isolation": isolation, "host": host}
+        with Sandbox(folder, PACKAGE, **options) as sandbox:
             sandbox.hung = hung  # a function that hung costs one timeout per submission, in either child
             for scene_name, key in calls:
                 group = [c for c in checks if c.scene == scene_name and c.probe_key == key]

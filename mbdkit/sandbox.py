@@ -248,6 +248,8 @@ class Sandbox:
     isolation : ``"local"`` (forkserver; a student's own checks) or ``"os"`` (bubblewrap; the grader):
         the os backend stages a private copy of the package at construction (``skipped`` lists what it
         left out) and raises ``IsolationUnavailable`` when bwrap is missing
+    host : for ``"os"``, an ``isolation.IsolatedHost`` of this submission that several sandboxes use one
+        after the other (one bubblewrap start per submission); by default the sandbox makes its own
     """
 
     def __init__(
@@ -258,6 +260,7 @@ class Sandbox:
         hide: tuple[Path, ...] = (),
         limits: Limits | None = None,
         isolation: str = "local",
+        host=None,
     ):
         if isolation not in ISOLATIONS:
             raise ValueError(f"isolation must be one of {ISOLATIONS}, not {isolation!r}")
@@ -276,17 +279,19 @@ class Sandbox:
         self.request: dict = {}
         self.skipped: list[str] = []
         """Files of the package the operating-system backend did not copy (symlinks, special, too big)."""
+        self._own_host = None
         if isolation == "os":
             from . import isolation as osi
 
-            staged = os.path.join(self.tmp, "submission")
-            self.skipped = osi.stage_package(self.submission, package, staged)
+            if host is None:
+                try:
+                    host = self._own_host = osi.IsolatedHost(self.submission, package, self.limits.tmp_size)
+                except BaseException:
+                    shutil.rmtree(self.tmp, ignore_errors=True)
+                    raise
+            self.skipped = host.skipped
             self.inner_submission = osi.INNER_SUBMISSION
-            try:
-                self._backend = osi.IsolatedProcess(self.tmp, staged, self.limits.tmp_size)
-            except BaseException:
-                shutil.rmtree(self.tmp, ignore_errors=True)
-                raise
+            self._backend = osi.IsolatedProcess(host, self.tmp)
         else:
             self.inner_submission = self.submission
             self._backend = _LocalProcess()
@@ -373,6 +378,8 @@ class Sandbox:
             except OSError:
                 pass
         self._kill()
+        if self._own_host is not None:
+            self._own_host.close()
         shutil.rmtree(self.tmp, ignore_errors=True)
 
     def __enter__(self):

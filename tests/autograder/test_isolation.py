@@ -555,3 +555,85 @@ def test_mbd_grade_refuses_without_isolation_unless_told(tmp_path, monkeypatch, 
     data = json.loads((out / "results" / "ann.json").read_text())
     assert data["extra_data"]["isolation"] == "local" and "NOT isolated" in data["output"]
     assert data["score"] == data["max_score"]
+
+
+# -- one bubblewrap sandbox per submission, a child forked in it for each set of checks -----------------------
+ZYGOTE_ATTACKS = {
+    # what a child can learn of the zygote that forked it (same uid, same namespaces)
+    "peek": HOOK_OFF
+    + attempt("mem", "open(f'/proc/{os.getppid()}/mem', 'rb').read(1)")
+    + attempt("environ", "open(f'/proc/{os.getppid()}/environ', 'rb').read()")
+    + attempt("fds", "os.listdir(f'/proc/{os.getppid()}/fd')"),
+    # a process left running for the next child (hidden checks) to meet
+    "leave": HOOK_OFF
+    + """
+        import ctypes, time
+        pid = os.fork()
+        if pid == 0:
+            try:
+                os.setsid()
+                ctypes.CDLL(None).prctl(15, b"mbdnext-TOKEN", 0, 0, 0)
+                time.sleep(60)
+            finally:
+                os._exit(0)
+        report.append("left=" + str(pid))
+""",
+    # the zygote killed: the next child needs a new sandbox
+    "kill": HOOK_OFF + "        import signal\n" + attempt("kill", "os.kill(os.getppid(), signal.SIGKILL)"),
+}
+
+
+def zygote_attack(package: Path, attack: str) -> None:
+    """``attack`` at the start of ``Revolute.constraints``, once per child; the report in its exception."""
+    joints = package / "planar" / "joints.py"
+    text = joints.read_text()
+    anchor = "        return -point_vector(qi, self.si, qj, self.sj)\n"
+    code = textwrap.indent(textwrap.dedent(ZYGOTE_ATTACKS[attack].replace("TOKEN", TOKEN)), " " * 12)
+    joints.write_text(text.replace(anchor, TEMPLATE.replace("@@CODE@@\n", code) + anchor))
+
+
+def run_constraints(sandbox) -> str:
+    """The four-bar's constraints probe in ``sandbox`` (Revolute.constraints runs): the attack's report."""
+    from autograder.grading import stored_reference
+    from autograder.scenes import load_scene
+    from mbdkit.scenes import job_key
+
+    scene = load_scene("four_bar")
+    reply = sandbox.run("constraints", job_key(scene), scene.data, stored_reference("four_bar").inputs, {}, 30.0)
+    said = [e.get("message", "") for e in reply.element_errors if "ATTACK:" in e.get("message", "")]
+    assert said, reply
+    return said[0].split("ATTACK:", 1)[1]
+
+
+@needs_isolation
+@pytest.mark.parametrize("attack", list(ZYGOTE_ATTACKS))
+def test_children_of_one_sandbox_stay_apart(tmp_path, attack):
+    """The public and the hidden checks of a submission run in two children forked one after the other in
+    one bubblewrap sandbox (one start, one import of numpy and scipy): a child cannot read the zygote's
+    memory, descriptors or environment; what it left running is killed before the next child starts;
+    a child that kills the zygote costs a new sandbox for the next child, and nothing else."""
+    from mbdkit.sandbox import Sandbox
+
+    package = copy_reference(tmp_path / "eve")
+    zygote_attack(package, attack)
+    host = osi.IsolatedHost(tmp_path / "eve", "modules", Limits().tmp_size)
+    try:
+        with Sandbox(tmp_path / "eve", host=host, isolation="os") as first:
+            report = run_constraints(first)
+            if attack == "leave":
+                deadline = time.monotonic() + 10.0  # it names itself just after the fork
+                while not processes_named(f"mbdnext-{TOKEN}") and time.monotonic() < deadline:
+                    time.sleep(0.05)
+                assert "left=" in report and processes_named(f"mbdnext-{TOKEN}")  # it runs, for now
+        assert not processes_named(f"mbdnext-{TOKEN}")  # gone with the first child
+        with Sandbox(tmp_path / "eve", host=host, isolation="os") as second:
+            assert run_constraints(second)  # the second child runs the same code
+        assert host.starts == (2 if attack == "kill" else 1)
+    finally:
+        host.close()
+    assert not processes_named(f"mbdnext-{TOKEN}")
+    if attack == "peek":
+        for name in ("mem", "environ", "fds"):
+            assert f"{name}:PermissionError" in report, report
+    if attack == "kill":
+        assert "kill=None" in report, report  # the signal was sent: the zygote died, the child lived on

@@ -1,0 +1,112 @@
+"""The zygote of a grading sandbox: inside bubblewrap, it imports numpy and scipy once and forks the children.
+
+One bubblewrap sandbox serves one submission (``isolation.IsolatedHost``): its public checks and, after
+those, its hidden and per-student checks, each set in a child of its own, and a fresh child after a
+timeout or a crash. Starting the sandbox and importing numpy and scipy is most of a child's start-up, so
+this process does both once and forks a child per request of the grader:
+
+- ``fork`` (with three file descriptors: the child's socket to the grader, its capture file for stdout and
+  stderr, its stack-dump file): fork; the child serves the grader (``_child.main``); reply its pid;
+- ``reap`` (a pid the grader has killed or seen exit): wait for it, kill every other process in the
+  sandbox (``kill(-1)``) and reap them (the zygote is their subreaper), so that nothing the child left
+  running meets the next child; reply its wait status.
+
+The zygote runs no student code and holds no grading data (a scene reaches only the child that runs it).
+It is not dumpable, so a child (same uid) cannot read or write its memory through ``/proc``; a child that
+kills it costs its own submission a new sandbox, nothing else (the grader starts one). Standard library,
+numpy and scipy only; the grader's messages are JSON.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import importlib
+import json
+import os
+import signal
+import socket
+import sys
+
+PRELOAD = ("numpy", "scipy.linalg", "scipy.integrate", "scipy.optimize", "scipy.sparse", "yaml", "fastjsonschema")
+"""What the children inherit already imported (what a solver package imports; never the reference)."""
+
+PR_SET_DUMPABLE = 4
+PR_SET_CHILD_SUBREAPER = 36
+
+
+def _send(control: socket.socket, message: dict) -> None:
+    control.sendall(json.dumps(message).encode() + b"\n")
+
+
+def _fork(control: socket.socket, fds: list[int]) -> None:
+    child_socket, capture, hang = fds
+    pid = os.fork()
+    if pid == 0:
+        try:
+            control.close()
+            ctypes.CDLL(None).prctl(PR_SET_DUMPABLE, 1, 0, 0, 0)  # its own /proc as before; the zygote's stays closed
+            os.setsid()
+            os.dup2(capture, 1)
+            os.dup2(capture, 2)
+            os.close(capture)
+            from mbdkit import _child
+
+            _child.main(child_socket, hang_fd=hang)
+        finally:
+            os._exit(3)
+    for fd in fds:
+        os.close(fd)
+    _send(control, {"pid": pid})
+
+
+def _reap(control: socket.socket, pid: int) -> None:
+    try:
+        _, status = os.waitpid(pid, 0)
+    except ChildProcessError:
+        status = None
+    try:
+        os.kill(-1, signal.SIGKILL)  # all but this process and the sandbox's init: what the child left
+    except ProcessLookupError:
+        pass
+    while True:  # orphans come to this process (a subreaper): reap them all, so none is left
+        try:
+            os.waitpid(-1, 0)
+        except ChildProcessError:
+            break
+    _send(control, {"status": status})
+
+
+def main(fd: int) -> None:
+    """Serve the grader on the inherited socket ``fd`` until it closes it."""
+    control = socket.socket(fileno=fd)
+    for name in PRELOAD:
+        try:
+            importlib.import_module(name)
+        except ImportError:
+            pass
+    importlib.import_module("mbdkit._child")
+    libc = ctypes.CDLL(None)
+    libc.prctl(PR_SET_DUMPABLE, 0, 0, 0, 0)
+    libc.prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0)
+    _send(control, {"status": "ready"})
+    buffer = b""
+    while True:
+        try:
+            data, fds, _, _ = socket.recv_fds(control, 4096, 3)
+        except OSError:
+            break
+        if not data:
+            break
+        buffer += data
+        while b"\n" in buffer:
+            line, buffer = buffer.split(b"\n", 1)
+            request = json.loads(line)
+            if request.get("op") == "fork" and len(fds) == 3:
+                _fork(control, fds)
+                fds = []
+            elif request.get("op") == "reap":
+                _reap(control, int(request["pid"]))
+        for fd in fds:
+            os.close(fd)
+    sys.stdout.flush()
+    os._exit(0)
