@@ -17,6 +17,11 @@ class AnalysisError(RuntimeError):
     """An analysis that cannot go on, with a message that says why and what to do."""
 
 
+class SingularConfigurationError(AnalysisError):
+    """A run stopped at a singular configuration of Psi_q (``formulation="auto"`` then takes a formulation
+    that passes it: the augmented Lagrangian one)."""
+
+
 @dataclass
 class RankReport:
     """What the SVD of Psi_q says about a configuration."""

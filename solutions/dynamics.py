@@ -28,7 +28,7 @@ import time as _time
 import numpy as np
 
 from .assembly import System
-from .diagnostics import AnalysisError, rank_report
+from .diagnostics import AnalysisError, SingularConfigurationError, rank_report
 from .energy import driver_power, energy_history
 from .formulations import FORMULATIONS, Formulation, make_formulation
 from .generalized_forces import ForceModel, build_forces
@@ -58,6 +58,11 @@ DRIFT_LIMIT = 1e-3
 """Default ``drift_limit``: positions off the constraints by a thousandth of the mechanism's size are a wrong answer."""
 SINGULAR_RATIO = 1e-8
 """Default ``singular_ratio``: sigma_min / sigma_max of Psi_q below which a configuration counts as singular."""
+THROUGH_SINGULAR = ("augmented-lagrangian",)
+"""Formulations that carry a mechanism through singular positions and take redundant constraints: with them
+the ``Guard`` records a singular crossing (``info['singular_positions']``) instead of stopping the run."""
+RESTARTING = ("projection", "augmented-lagrangian")
+"""Formulations that correct the state after every step, so the integrator restarts: no multistep methods."""
 
 
 def consistent_initial_conditions(
@@ -189,6 +194,7 @@ def forward_dynamics(
     """
     check_method(formulation, integrator)
     start = _time.perf_counter()
+    requested = (formulation, integrator)
     model = system.model
     M = mass_matrix(model) if masses is None else masses
     forces = build_forces(model) if forces is None else forces
@@ -220,9 +226,9 @@ def forward_dynamics(
         result.info["wall_time"] = _time.perf_counter() - start
         return result
     _check_redundancy(system, q, formulation)
-    if formulation == "projection" and integrator in MULTISTEP_INTEGRATORS:
+    if formulation in RESTARTING and integrator in MULTISTEP_INTEGRATORS:
         raise AnalysisError(
-            f"the projection formulation restarts the integrator after every step, which a multistep method "
+            f"the {formulation} formulation restarts the integrator after every step, which a multistep method "
             f"({integrator}) cannot afford: use rk4, RK45, DOP853 or Radau"
         )
     equations = EquationsOfMotion(
@@ -234,7 +240,13 @@ def forward_dynamics(
     loose = 100.0 * rtol if integrator not in FIXED_STEP_METHODS else 0.0  # a loose tolerance may drift further
     if formulation == "joint-coordinates" and not equations.formulation.cut_rows:  # an open tree: on the constraints
         drift_limit = singular_ratio = None  # by construction, full-rank Psi_q everywhere: nothing for the Guard to see
-    guard = Guard(system, q, None if drift_limit is None else max(drift_limit, loose), singular_ratio)
+    guard = Guard(
+        system,
+        q,
+        None if drift_limit is None else max(drift_limit, loose),
+        singular_ratio,
+        through=formulation in THROUGH_SINGULAR,
+    )
 
     def record(k: int, t: float, z: np.ndarray) -> None:
         y, energies = equations.split(z)
@@ -247,19 +259,38 @@ def forward_dynamics(
         guard.check_configuration(equations.formulation, t, equations.split(z if corrected is None else corrected)[0])
         return corrected
 
-    stats = integrate(
-        equations.rhs,
-        equations.initial_state(q, qd, 0.0),
-        times,
-        record,
-        method=integrator,
-        rtol=rtol,
-        atol=atol,
-        step=step,
-        after_step=after_step if guard.singular_ratio else equations.after_step,
-        max_evaluations=max_evaluations,
-        stiffness=stiffness,
-    )
+    try:
+        stats = integrate(
+            equations.rhs,
+            equations.initial_state(q, qd, 0.0),
+            times,
+            record,
+            method=integrator,
+            rtol=rtol,
+            atol=atol,
+            step=step,
+            after_step=after_step if guard.singular_ratio else equations.after_step,
+            max_evaluations=max_evaluations,
+            stiffness=stiffness,
+        )
+    except SingularConfigurationError as err:
+        if requested[0] != "auto" or integrator in MULTISTEP_INTEGRATORS:
+            raise
+        # ``auto`` met a singular position: run again with the formulation that passes it (THROUGH_SINGULAR)
+        again = forward_dynamics(
+            system, q0, qd0, t_end, steps, THROUGH_SINGULAR[0], requested[1], rtol, atol, step,
+            masses=masses, forces=forces, points=points, max_evaluations=max_evaluations, stiffness=stiffness,
+            drift_limit=drift_limit, singular_ratio=singular_ratio, **options,
+        )  # fmt: skip
+        first = str(err).split(":")[0]
+        again.info["chosen"] = {
+            "formulation": THROUGH_SINGULAR[0],
+            "integrator": again.info["integrator"],
+            "why": f"{THROUGH_SINGULAR[0]}: {formulation} stopped at a {first}, which it passes; "
+            + (chosen or {}).get("why", ""),
+        }
+        again.info["wall_time"] = _time.perf_counter() - start
+        return again
     result = Result(
         t=times,
         q=history.q,
@@ -291,6 +322,7 @@ def forward_dynamics(
         "restarts": stats.restarts,
         "stiffness": None if stats.stiffness is None else stiffness_message(integrator, stats.stiffness),
         "closest_singularity": guard.closest,
+        "singular_positions": guard.crossings,
         "max_constraint_residual": float(residuals["residual.position"].max()),
         "max_velocity_residual": float(residuals["residual.velocity"].max()),
         "energy_drift": float(np.max(np.abs(energies.error))),
@@ -371,8 +403,10 @@ def choose_method(
     - formulation: ``joint-coordinates`` when the joints form an open tree it takes (minimal
       coordinates: a k x k system per evaluation, nothing to stabilize; ``joint_coordinates.open_tree``;
       closed loops, which it takes with cut joints, measured slower than baumgarte),
-      ``svd`` when the constraints are redundant (the only one that takes them), otherwise
-      ``baumgarte``: one linear solve per evaluation, the cheapest of the others. Formulation options
+      ``augmented-lagrangian`` when the constraints are redundant (it takes them and, unlike ``svd``,
+      keeps the positions on the constraints), otherwise ``baumgarte``: one linear solve per evaluation,
+      the cheapest of the others. When a run with ``baumgarte`` meets a singular position (the Guard
+      stops it), ``forward_dynamics`` runs it again with ``augmented-lagrangian``, which passes it. Formulation options
       (``alpha``, ``rank_tol``, ...) keep the choice among the formulations that take them, and so does
       ``trees=False`` (a spatial run given its own masses: the tree takes the model's);
     - integrator: the spectral radius rho of the ODE's Jacobian at the start (``spectral_radius``)
@@ -389,7 +423,7 @@ def choose_method(
             formulation = "joint-coordinates"
             reasons.append("joint-coordinates: an open tree of joints (minimal coordinates)")
         else:
-            formulation = "svd" if redundant else "baumgarte"
+            formulation = "augmented-lagrangian" if redundant else "baumgarte"
             kind = "redundant" if redundant else "independent"
             reasons.append(f"{formulation}: {kind} constraints; not joint-coordinates: {not_a_tree}")
     if integrator == "auto":
@@ -407,6 +441,9 @@ def choose_method(
     return {"formulation": formulation, "integrator": integrator, "why": "; ".join(reasons)}
 
 
+NEAR_SINGULAR = 1e-2
+"""A local minimum of sigma_r / sigma_1 (scaled Psi_q) below this counts as a singular position passed (``Guard``
+with a formulation of THROUGH_SINGULAR: recorded in ``info['singular_positions']``, the run goes on)."""
 ALIGNED = 0.9
 """|det(T_prev^T T)| above which two steps' null spaces are close enough for the sign test of ``Guard``."""
 
@@ -431,8 +468,18 @@ class Guard:
     The smallest ratio met is reported (``info['closest_singularity']``).
     """
 
-    def __init__(self, system: System, q: np.ndarray, drift_limit: float | None, singular_ratio: float | None):
-        self.system, self.singular_ratio = system, singular_ratio
+    def __init__(
+        self,
+        system: System,
+        q: np.ndarray,
+        drift_limit: float | None,
+        singular_ratio: float | None,
+        through: bool = False,
+    ):
+        self.system, self.singular_ratio, self.through = system, singular_ratio, through
+        self.crossings: list[dict] = []  # singular positions passed (with ``through``: the formulation passes them)
+        self._last_ratios: tuple[float | None, float | None] = (None, None)
+        self._last_q: tuple[np.ndarray, float] = (q, 0.0)
         size = max(float(np.max(np.abs(body_positions(system, q)), initial=0.0)), _joint_extent(system.model), 1e-3)
         self.size = size
         self.drift_limit = None if drift_limit is None else drift_limit * size
@@ -450,6 +497,23 @@ class Guard:
         scaled = jacobian * self._columns
         norms = np.linalg.norm(scaled, axis=1, keepdims=True)
         return scaled / np.where(norms > 0, norms, 1.0)
+
+    def _record(self, passed: bool, q: np.ndarray, t: float, ratio: float) -> None:
+        """With ``through``: note a singular position passed, at a sign flip of det [Psi_q; T^T] (an odd
+        rank loss between two steps) or at a local minimum of sigma_r / sigma_1 below NEAR_SINGULAR (any
+        rank loss, e.g. one per loop of a chain of parallelograms, whose signs cancel in pairs)."""
+        from .diagnostics import singular_joints
+
+        previous, before = self._last_ratios
+        if previous is not None and before is not None and previous < NEAR_SINGULAR and previous <= min(before, ratio):
+            if not self.crossings or self.crossings[-1]["t"] < self._last_q[1]:
+                _, joints = singular_joints(self.system.jacobian(*self._last_q), self.system.row_owners)
+                self.crossings.append({"t": self._last_q[1], "ratio": previous, "joints": joints})
+        elif passed:
+            _, joints = singular_joints(self.system.jacobian(q, t), self.system.row_owners)
+            self.crossings.append({"t": float(t), "ratio": ratio, "joints": joints})
+        self._last_ratios = (ratio, previous)
+        self._last_q = (q, float(t))
 
     def check_drift(self, q: np.ndarray, t: float) -> None:
         if self.drift_limit is None:
@@ -487,16 +551,20 @@ class Guard:
             # T_new^T]: the sign comes from C, already needed for the alignment, and this step's own sign.
             turn = np.linalg.det(self._tangent.T @ tangent)
             passed = abs(turn) > ALIGNED and turn * sign * self._sign < 0
-        if passed or not ratio >= self.singular_ratio:
+        near = not ratio >= self.singular_ratio
+        if self.through:  # record each singular position passed and go on
+            self._record(passed, q, t, ratio)
+        elif passed or near:
             from .diagnostics import singular_joints
 
             _, joints = singular_joints(self.system.jacobian(q, t), self.system.row_owners)
             where = f"between t = {self._t:.6g} s and t = {t:.6g} s" if passed else f"at t = {t:.6g} s"
-            raise AnalysisError(
+            raise SingularConfigurationError(
                 f"singular configuration {where}: Psi_q {'lost rank there' if passed else 'is about to lose rank'} "
                 f"(smallest singular value {ratio:.2g} of the largest, condition number {1 / max(ratio, 1e-300):.3g}); "
                 f"joints involved: {', '.join(joints)}. The mechanism can switch assembly branch there (a change "
-                "point or a toggle), which the equations of motion do not decide; singular_ratio=None runs on"
+                "point or a toggle); --formulation augmented-lagrangian (or auto) carries it through on the branch "
+                "its velocities point along; singular_ratio=None runs on regardless"
             )
         self._tangent, self._t, self._sign = tangent, t, sign
 
@@ -537,13 +605,13 @@ def constraint_residuals(system: System, t: np.ndarray, q: np.ndarray, qd: np.nd
 
 
 def _check_redundancy(system: System, q: np.ndarray, formulation: str) -> None:
-    """Only the SVD formulation copes with redundant constraints: refuse the others by name."""
+    """Only the SVD and augmented Lagrangian formulations cope with redundant constraints: refuse the others."""
     report = rank_report(system.jacobian(q, 0.0), system.row_owners)
-    if report.n_redundant and formulation != "svd":
+    if report.n_redundant and formulation not in ("svd", *THROUGH_SINGULAR):
         raise AnalysisError(
             f"{report.n_redundant} redundant constraint equation(s) among joints "
             f"{', '.join(report.redundant_joints)}: the {formulation} formulation needs independent "
-            "constraints; use --formulation svd, or remove the redundant joint"
+            "constraints; use --formulation auto, augmented-lagrangian or svd, or remove the redundant joint"
         )
 
 
@@ -555,6 +623,8 @@ def _formulation_info(formulation: Formulation) -> dict:
         info.update(repartitions=formulation.repartitions, partitions=formulation.partitions)
     if hasattr(formulation, "projections"):
         info["projections"] = formulation.projections
+    if hasattr(formulation, "unconverged"):
+        info["unconverged_iterations"] = formulation.unconverged
     return info
 
 
