@@ -28,7 +28,7 @@ import time as _time
 import numpy as np
 
 from .assembly import System
-from .diagnostics import AnalysisError, SingularConfigurationError, rank_report
+from .diagnostics import AnalysisError, SingularConfigurationError, passes_zero, rank_report
 from .energy import driver_power, energy_history
 from .formulations import FORMULATIONS, Formulation, make_formulation
 from .generalized_forces import ForceModel, build_forces
@@ -44,7 +44,7 @@ from .integrators import (
 from .joint_coordinates import open_tree
 from .kinematics import assemble, point_columns
 from .mass_matrix import mass_at, mass_matrix
-from .reactions import joint_reactions
+from .reactions import REDUNDANT_NOTE, joint_reactions, minimum_norm_multipliers
 from .results import Result
 
 INDEX3_INTEGRATORS = ("hht", "generalized-alpha")
@@ -307,6 +307,9 @@ def forward_dynamics(
     result.points.update(energies.columns())
     for label, (body, point) in (points or {}).items():
         result.points.update(point_columns(result, label, body, point))
+    redundant = guard.rank < system.n_constraints
+    if redundant:  # multipliers are not unique: report the minimum-norm set (eq. 5.73)
+        result.lam = history.lam = minimum_norm_multipliers(system, history.q, history.lam, times)
     result.reactions.update(joint_reactions(system, history.q, history.lam, times))
     result.info = {
         "analysis": "dynamic",
@@ -334,6 +337,8 @@ def forward_dynamics(
     }
     if chosen is not None:
         result.info["chosen"] = chosen
+    if redundant:
+        result.info["notes"] = [REDUNDANT_NOTE]
     result.info["warnings"] = drift_warnings(result.info, guard.size, formulation, options)
     return result
 
@@ -441,9 +446,6 @@ def choose_method(
     return {"formulation": formulation, "integrator": integrator, "why": "; ".join(reasons)}
 
 
-NEAR_SINGULAR = 1e-2
-"""A local minimum of sigma_r / sigma_1 (scaled Psi_q) below this counts as a singular position passed (``Guard``
-with a formulation of THROUGH_SINGULAR: recorded in ``info['singular_positions']``, the run goes on)."""
 ALIGNED = 0.9
 """|det(T_prev^T T)| above which two steps' null spaces are close enough for the sign test of ``Guard``."""
 
@@ -500,12 +502,12 @@ class Guard:
 
     def _record(self, passed: bool, q: np.ndarray, t: float, ratio: float) -> None:
         """With ``through``: note a singular position passed, at a sign flip of det [Psi_q; T^T] (an odd
-        rank loss between two steps) or at a local minimum of sigma_r / sigma_1 below NEAR_SINGULAR (any
+        rank loss between two steps) or where sigma_r / sigma_1 dips to zero (``diagnostics.passes_zero``: any
         rank loss, e.g. one per loop of a chain of parallelograms, whose signs cancel in pairs)."""
         from .diagnostics import singular_joints
 
         previous, before = self._last_ratios
-        if previous is not None and before is not None and previous < NEAR_SINGULAR and previous <= min(before, ratio):
+        if previous is not None and before is not None and passes_zero(before, previous, ratio):
             if not self.crossings or self.crossings[-1]["t"] < self._last_q[1]:
                 _, joints = singular_joints(self.system.jacobian(*self._last_q), self.system.row_owners)
                 self.crossings.append({"t": self._last_q[1], "ratio": previous, "joints": joints})

@@ -38,7 +38,7 @@ import scipy.linalg
 from .assembly import System
 from .diagnostics import AnalysisError
 from .generalized_forces import ForceModel
-from .linalg import solve
+from .linalg import numerical_rank, solve
 
 SINGULAR_CONDITION = 1e12
 """Condition number of Psi_u above which coordinate partitioning refuses a partition."""
@@ -240,7 +240,8 @@ class NullSpaceQR(Formulation):
 class NullSpaceSVD(Formulation):
     """Null-space projection with the SVD Psi_q = U S V^T (eq. 5.47).
 
-    With r the numerical rank (singular values above ``rank_tol`` times the largest), V_2 = V[:, r:]
+    With r the numerical rank (by the package's rule, ``linalg.rank_tolerance``; or singular values above
+    ``rank_tol`` times the largest when given), V_2 = V[:, r:]
     spans the null space and q''_p = V_1 S_1^-1 U_1^T gamma is the minimum-norm solution of
     Psi_q q''_p = gamma. Redundant constraints (r < m) are fine: the multipliers are then not unique
     and lambda = U_1 S_1^-1 V_1^T (Q - M q'') is the minimum-norm set, which gives the same
@@ -249,7 +250,7 @@ class NullSpaceSVD(Formulation):
 
     name = "svd"
 
-    def __init__(self, system, M, forces, alpha: float = 0.0, beta: float = 0.0, rank_tol: float = 1e-9):
+    def __init__(self, system, M, forces, alpha: float = 0.0, beta: float = 0.0, rank_tol: float | None = None):
         super().__init__(system, M, forces, alpha, beta)
         self.rank_tol = rank_tol
 
@@ -257,7 +258,10 @@ class NullSpaceSVD(Formulation):
         jacobian, gamma = self.constraint_terms(q, qd, t)
         Q = self.applied_forces(q, qd, t)
         U, s, Vt = np.linalg.svd(jacobian)
-        r = int(np.sum(s > self.rank_tol * s[0])) if s.size else 0
+        if self.rank_tol is None:
+            r = numerical_rank(s, jacobian.shape)
+        else:
+            r = int(np.sum(s > self.rank_tol * s[0])) if s.size else 0
         U1, s1, V1, Z = U[:, :r], s[:r], Vt[:r].T, Vt[r:].T
         particular = V1 @ ((U1.T @ gamma) / s1)
         qdd = null_space_accelerations(self.mass(q), Q, gamma, Z, particular)
@@ -410,6 +414,17 @@ class AugmentedLagrangian(Formulation):
                 break
         else:
             self.unconverged += 1
+        # lambda carries the rounding of alpha (Psi_q q'' - gamma), about alpha eps: one least-squares correction
+        # J^T dlambda = Q - M q'' - J^T lambda, from (J J^T + delta I) dlambda = J r, removes it (delta keeps the
+        # matrix positive definite where Psi_q has lost rank)
+        if not jacobian.shape[0]:
+            return qdd, lam
+        normal = jacobian @ jacobian.T
+        delta = 1e-12 * float(np.max(np.diag(normal), initial=1.0))
+        r = Q - M @ qdd - jacobian.T @ lam
+        lam = lam + scipy.linalg.cho_solve(
+            scipy.linalg.cho_factor(normal + delta * np.eye(normal.shape[0])), jacobian @ r
+        )
         return qdd, lam
 
     def project(self, q: np.ndarray, residual, t: float) -> np.ndarray:

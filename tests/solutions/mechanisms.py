@@ -114,7 +114,7 @@ def sarrus(end_time: float = 1.0, theta0: float = SARRUS["theta0"]):
     """
     L, c, m, mt = SARRUS["L"], SARRUS["c"], SARRUS["m"], SARRUS["m_top"]
     s, h = L * math.sin(theta0), L * math.cos(theta0)
-    rod = [1e-4, m * L * L / 12.0, m * L * L / 12.0]
+    rod = [m * L * L / 12.0] * 3  # the same about every axis: m L^2 / 12 about its hinge, whatever its tilt
     plate = [mt * (2 * c) ** 2 / 12.0, mt * (2 * c) ** 2 / 12.0, mt * (2 * c) ** 2 / 6.0]
     bodies = [
         {"name": "a1", "mass": m, "inertia": rod, "location": [0.0, -c - s / 2, h / 2]},
@@ -156,7 +156,7 @@ def sarrus_theta(t: np.ndarray, theta0: float = SARRUS["theta0"], rtol: float = 
         )
 
     def dJ(th):
-        return 2 * m * L * L * 2 * math.sin(th) * math.cos(th) + 8 * mt * L * L * math.sin(th) * math.cos(th)
+        return 8 * (m + mt) * L * L * math.sin(th) * math.cos(th)
 
     def dV(th):
         return -G * math.sin(th) * L * (4 * m + 2 * mt)
