@@ -368,7 +368,7 @@ def forward_dynamics(
         result.info["notes"] = [REDUNDANT_NOTE]
     result.info["warnings"] = drift_warnings(result.info, guard.size, formulation, options)
     result.info["warnings"] += accuracy_warnings(result.info, guard.size, accuracy, periods)
-    if not rtol_given:
+    if not rtol_given and periods is not None:
         result.info["rtol_rule"] = (
             f"rtol = max({MIN_RTOL:g}, min({DEFAULT_RTOL:g}, accuracy / periods^2)) with {periods:.3g} periods"
         )
