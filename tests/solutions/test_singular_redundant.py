@@ -205,3 +205,17 @@ def test_integrators_at_their_defaults_meet_the_accuracy_or_say_so(integrator):
     assert error <= bound or warned, (error, bound, result.info["warnings"])
     if integrator == "dop853":
         assert error <= bound and not warned
+
+
+def test_a_tolerance_below_what_double_precision_holds_still_warns():
+    """The default rule may ask for an rtol below 1e-12 (a long run of many periods); the error estimate
+    then takes 1e-12, what an explicit run holds, so the run warns instead of promising the accuracy."""
+    from solutions.dynamics import DEFAULT_ACCURACY, HELD_RTOL, accuracy_warnings, default_rtol
+
+    periods = 1700.0
+    rtol = default_rtol(periods)
+    assert rtol < HELD_RTOL and rtol * periods**2 <= DEFAULT_ACCURACY * 1.0001
+    warned = accuracy_warnings({"rtol": rtol, "integrator": "DOP853"}, 1.0, DEFAULT_ACCURACY, periods)
+    assert len(warned) == 1 and "double precision" in warned[0]
+    short = accuracy_warnings({"rtol": default_rtol(30.0), "integrator": "DOP853"}, 1.0, DEFAULT_ACCURACY, 30.0)
+    assert short == []
