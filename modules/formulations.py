@@ -16,6 +16,9 @@ Psi' = Psi_q q' + Psi_t = 0 while an ODE integrator advances them:
 ``svd``            null-space projection with an SVD basis; copes with redundant constraints (eq. 5.47)
 ``projection``     unstabilized augmented system, then mass-orthogonal projection of q and q'
                    onto Psi = 0 and Psi' = 0 after each step (eq. 5.50)
+``augmented-       augmented Lagrangian with mass-orthogonal projections (Bayo and Ledesma 1996):
+lagrangian``       the leading matrix M + alpha Psi_q^T Psi_q stays positive definite where Psi_q
+                   loses rank, so singular positions and redundant constraints pass (eq. 5.52-5.54)
 =================  ==============================================================================
 
 A formulation is an object made once per run. The integrator sees only its state vector y:
@@ -36,7 +39,7 @@ import scipy.linalg
 from .assembly import System
 from .diagnostics import AnalysisError
 from .generalized_forces import ForceModel
-from .linalg import solve
+from .linalg import numerical_rank, solve
 
 SINGULAR_CONDITION = 1e12
 """Condition number of Psi_u above which coordinate partitioning refuses a partition."""
@@ -229,7 +232,8 @@ class NullSpaceQR(Formulation):
 class NullSpaceSVD(Formulation):
     """Null-space projection with the SVD Psi_q = U S V^T (eq. 5.47).
 
-    With r the numerical rank (singular values above ``rank_tol`` times the largest), V_2 = V[:, r:]
+    With r the numerical rank (by the package's rule, ``linalg.rank_tolerance``; or singular values above
+    ``rank_tol`` times the largest when given), V_2 = V[:, r:]
     spans the null space and q''_p = V_1 S_1^-1 U_1^T gamma is the minimum-norm solution of
     Psi_q q''_p = gamma. Redundant constraints (r < m) are fine: the multipliers are then not unique
     and lambda = U_1 S_1^-1 V_1^T (Q - M q'') is the minimum-norm set, which gives the same
@@ -238,7 +242,7 @@ class NullSpaceSVD(Formulation):
 
     name = "svd"
 
-    def __init__(self, system, M, forces, alpha: float = 0.0, beta: float = 0.0, rank_tol: float = 1e-9):
+    def __init__(self, system, M, forces, alpha: float = 0.0, beta: float = 0.0, rank_tol: float | None = None):
         super().__init__(system, M, forces, alpha, beta)
         self.rank_tol = rank_tol
 
@@ -246,7 +250,10 @@ class NullSpaceSVD(Formulation):
         jacobian, gamma = self.constraint_terms(q, qd, t)
         Q = self.applied_forces(q, qd, t)
         U, s, Vt = np.linalg.svd(jacobian)
-        r = int(np.sum(s > self.rank_tol * s[0])) if s.size else 0
+        if self.rank_tol is None:
+            r = numerical_rank(s, jacobian.shape)
+        else:
+            r = int(np.sum(s > self.rank_tol * s[0])) if s.size else 0
         U1, s1, V1, Z = U[:, :r], s[:r], Vt[:r].T, Vt[r:].T
         particular = V1 @ ((U1.T @ gamma) / s1)
         qdd = null_space_accelerations(self.mass(q), Q, gamma, Z, particular)
@@ -307,6 +314,133 @@ def project_velocities(formulation: Formulation, q: np.ndarray, qd: np.ndarray, 
     weighted = formulation.mass_solve(jacobian.T)
     residual = jacobian @ qd + system.psi_t(q, t)
     return qd - weighted @ np.linalg.solve(jacobian @ weighted, residual)
+
+
+DEFAULT_PENALTY = 1e7
+"""Penalty of the augmented Lagrangian formulation, relative: alpha = DEFAULT_PENALTY m_max / sigma_max^2 with
+m_max the largest diagonal entry of M and sigma_max the largest singular value of Psi_q at the start, so that
+alpha Psi_q^T Psi_q outweighs M by this factor along every constraint direction of full rank (Bayo and
+Ledesma 1996 use alpha of 1e7 for unit masses and lengths)."""
+
+
+class AugmentedLagrangian(Formulation):
+    """Augmented Lagrangian formulation with mass-orthogonal projections (Bayo, Garcia de Jalon and Serna
+    1988; Bayo and Ledesma 1996), for mechanisms that pass singular positions or have redundant constraints.
+
+    Accelerations. With a penalty alpha, the iterations (eq. 5.52)
+
+        (M + alpha Psi_q^T Psi_q) q''_k+1 = Q - Psi_q^T lambda_k + alpha Psi_q^T gamma
+        lambda_k+1 = lambda_k + alpha (Psi_q q''_k+1 - gamma),            lambda_0 = 0
+
+    converge to the solution of M q'' + Psi_q^T lambda = Q, Psi_q q'' = gamma; a constraint direction with
+    singular value sigma converges by the factor m / (m + alpha sigma^2) per iteration. The matrix
+    M + alpha Psi_q^T Psi_q is symmetric positive definite whatever the rank of Psi_q (M is), so it is
+    factored (Cholesky) where the augmented matrix of eq. 5.30 is singular: at a singular position (a
+    parallelogram whose bars line up) and with redundant constraints (an over-constrained loop). Starting
+    from lambda_0 = 0, every update lies in the range of Psi_q, so lambda is the minimum-norm set of
+    multipliers: redundant constraints share the reaction in the least-squares sense, which is one of many
+    sets that give the same constraint forces Psi_q^T lambda. Where Psi_q has lost rank the iterations stop
+    after ``max_iterations`` with the least-squares compromise, and the motion goes on.
+
+    Projections (eq. 5.53, 5.54). After every step the positions and velocities are moved back onto the
+    constraints by the corrections of least kinetic-energy norm, computed with the same matrix:
+
+        q  <- q  - (M + alpha Psi_q^T Psi_q)^-1 alpha Psi_q^T Psi                 (repeated until |Psi| < tol)
+        q' <- q' - (M + alpha Psi_q^T Psi_q)^-1 alpha Psi_q^T (Psi_q q' + Psi_t)   (repeated likewise)
+
+    For a large alpha this is the mass-orthogonal projection M^-1 Psi_q^T (Psi_q M^-1 Psi_q^T)^-1 of
+    ``projection`` (eq. 5.50), but it stays bounded where Psi_q loses rank (a Tikhonov-regularized step),
+    so the state stays on the physical branch the velocities point along. As with ``projection``, the
+    integrator restarts after each step: use one-step methods (dop853, rk45, RK45, DOP853, rk4).
+
+    Optional alpha, beta stabilize gamma as in ``baumgarte`` (default 0: the projections keep the
+    constraints). ``penalty`` is relative (DEFAULT_PENALTY).
+    """
+
+    name = "augmented-lagrangian"
+
+    def __init__(
+        self,
+        system,
+        M,
+        forces,
+        alpha: float = 0.0,
+        beta: float = 0.0,
+        penalty: float = DEFAULT_PENALTY,
+        tol: float = 1e-12,
+        max_iterations: int = 25,
+    ):
+        super().__init__(system, M, forces, alpha, beta)
+        if not (penalty > 0.0 and np.isfinite(penalty)):
+            raise AnalysisError(f"augmented Lagrangian: penalty = {penalty} must be a number > 0")
+        self.penalty, self.tol, self.max_iterations = float(penalty), float(tol), int(max_iterations)
+        self._alpha = None  # the absolute penalty, set from M and Psi_q at the first state
+        self.projections = 0
+        self.unconverged = 0  # evaluations whose iterations stopped at max_iterations (a singular position)
+
+    def penalty_factor(self, M: np.ndarray, jacobian: np.ndarray) -> float:
+        """alpha = penalty m_max / sigma_max(Psi_q)^2, fixed at the first evaluation (DEFAULT_PENALTY)."""
+        if self._alpha is None:
+            sigma = np.linalg.norm(jacobian, 2) if jacobian.size else 1.0
+            self._alpha = self.penalty * float(np.max(np.diag(M))) / max(float(sigma) ** 2, 1e-300)
+        return self._alpha
+
+    def _factor(self, M: np.ndarray, jacobian: np.ndarray):
+        alpha = self.penalty_factor(M, jacobian)
+        return alpha, scipy.linalg.cho_factor(M + alpha * (jacobian.T @ jacobian))
+
+    def accelerations(self, q, qd, t):
+        jacobian, gamma = self.constraint_terms(q, qd, t)
+        M = self.mass(q)
+        Q = self.applied_forces(q, qd, t)
+        alpha, factor = self._factor(M, jacobian)
+        lam = np.zeros(jacobian.shape[0])
+        base = Q + alpha * (jacobian.T @ gamma)
+        qdd = scipy.linalg.cho_solve(factor, base)
+        for _ in range(self.max_iterations):
+            lam = lam + alpha * (jacobian @ qdd - gamma)
+            new = scipy.linalg.cho_solve(factor, base - jacobian.T @ lam)
+            change = float(np.max(np.abs(new - qdd), initial=0.0))
+            qdd = new
+            if change <= 1e-14 * (1.0 + float(np.max(np.abs(qdd), initial=0.0))):
+                break
+        else:
+            self.unconverged += 1
+        # lambda carries the rounding of alpha (Psi_q q'' - gamma), about alpha eps: one least-squares correction
+        # J^T dlambda = Q - M q'' - J^T lambda, from (J J^T + delta I) dlambda = J r, removes it (delta keeps the
+        # matrix positive definite where Psi_q has lost rank)
+        if not jacobian.shape[0]:
+            return qdd, lam
+        normal = jacobian @ jacobian.T
+        delta = 1e-12 * float(np.max(np.diag(normal), initial=1.0))
+        r = Q - M @ qdd - jacobian.T @ lam
+        lam = lam + scipy.linalg.cho_solve(
+            scipy.linalg.cho_factor(normal + delta * np.eye(normal.shape[0])), jacobian @ r
+        )
+        return qdd, lam
+
+    def project(self, q: np.ndarray, residual, t: float) -> np.ndarray:
+        """Repeat x <- x - (M + alpha Psi_q^T Psi_q)^-1 alpha Psi_q^T r(x) until |r| < tol (eq. 5.53, 5.54).
+
+        ``residual(x)`` gives (r, Psi_q); the same function serves positions (r = Psi) and velocities
+        (r = Psi_q q' + Psi_t). Stops after ``max_iterations`` where Psi_q has lost rank.
+        """
+        M = self.mass(q)
+        for _ in range(self.max_iterations):
+            r, jacobian = residual(q)
+            if not np.max(np.abs(r), initial=0.0) >= self.tol:  # converged (or NaN: the integrator rejects it)
+                break
+            alpha, factor = self._factor(M, jacobian)
+            q = q - scipy.linalg.cho_solve(factor, alpha * (jacobian.T @ r))
+        return q
+
+    def after_step(self, t, y):
+        system = self.system
+        q = self.project(y[: self.n], lambda x: (system.constraints(x, t), system.jacobian(x, t)), t)
+        jacobian, psi_t = system.jacobian(q, t), system.psi_t(q, t)
+        qd = self.project(y[self.n :], lambda v: (jacobian @ v + psi_t, jacobian), t)
+        self.projections += 1
+        return np.concatenate([q, qd])
 
 
 class Partitioning(Formulation):
@@ -438,6 +572,7 @@ FORMULATIONS = {
     "qr": NullSpaceQR,
     "svd": NullSpaceSVD,
     "projection": Projection,
+    "augmented-lagrangian": AugmentedLagrangian,
 }
 
 
@@ -456,6 +591,8 @@ def make_formulation(name: str, system: System, M: np.ndarray, forces: ForceMode
 __all__ = [
     "DEFAULT_ALPHA",
     "DEFAULT_BETA",
+    "DEFAULT_PENALTY",
+    "AugmentedLagrangian",
     "FORMULATIONS",
     "Baumgarte",
     "Formulation",

@@ -1,5 +1,6 @@
 # Generated from solutions/linalg.py by `make modules` (every homework stubbed): do not edit by hand.
-"""Dense linear solves of the small systems a time step needs, without per-call overhead.
+"""Dense linear solves of the small systems a time step needs, without per-call overhead; and the one rule
+that decides the numerical rank of a constraint Jacobian (``numerical_rank``).
 
 A multibody time step solves a few small dense systems (Psi_q of a planar mechanism is 10 x 10; the
 augmented matrix of eq. 5.30 20 x 20) thousands of times. LAPACK factors such a matrix in one or two
@@ -59,4 +60,65 @@ def cholesky_solve(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     return x
 
 
-__all__ = ["cholesky_solve", "lu_factor", "lu_solve", "solve"]
+RANK_EPS = float(np.sqrt(np.finfo(float).eps))
+"""sqrt(machine epsilon), about 1.5e-8: the relative size below which a singular value counts as zero (per row
+or column of the matrix, ``rank_tolerance``)."""
+
+
+def rank_tolerance(largest: float, shape: tuple[int, ...]) -> float:
+    """The rank decision of the whole package, stated once (course notes, eq. 4.21):
+
+        sigma_i counts (is nonzero)  when  sigma_i > sigma_1 max(m, n) sqrt(eps)
+
+    for an m x n matrix with largest singular value sigma_1. Relative to sigma_1, the rule does not depend
+    on the units or the overall size of the mechanism; the factor max(m, n) follows the rounding error of
+    the SVD, which grows with the size of the model (Golub and Van Loan, sec. 5.5.8, use max(m, n) eps); and
+    sqrt(eps) instead of eps leaves room for the constraint residual a run carries: a redundant constraint
+    gives a singular value of exactly zero on the constraints only, and of the order of |Psi| beside them
+    (1e-10 of the mechanism's size and below in a run at the default tolerances). The assembly check,
+    ``mbd check``, the svd formulation, the minimum-norm multipliers of the reactions and the implicit
+    integrators all decide with it; a configuration closer than this to a rank loss is a singular position
+    (``dynamics.Guard`` and the kinematic analysis report those by name).
+    """
+    return float(largest) * max(shape, default=1) * RANK_EPS
+
+
+def numerical_rank(singular_values: np.ndarray, shape: tuple[int, ...]) -> int:
+    """The number of singular values (in decreasing order, as numpy gives them) that count (``rank_tolerance``)."""
+    s = np.asarray(singular_values)
+    if s.size == 0 or not s[0] > 0.0:
+        return 0
+    return int(np.count_nonzero(s > rank_tolerance(s[0], shape)))
+
+
+def independent_rows(matrix: np.ndarray) -> np.ndarray:
+    """Indices (sorted) of a largest set of linearly independent rows, by the rank rule (``numerical_rank``):
+    the pivots of a column-pivoted QR of the transpose, A^T P = Q R (LAPACK geqp3 through scipy)."""
+    import scipy.linalg
+
+    if matrix.shape[0] == 0:
+        return np.arange(0)
+    _, _, pivots = scipy.linalg.qr(matrix.T, mode="economic", pivoting=True)
+    rank = numerical_rank(np.linalg.svd(matrix, compute_uv=False), matrix.shape)
+    return np.sort(pivots[:rank])
+
+
+def minimum_norm_solution(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """x of least norm that minimizes |A x - rhs| with A's rank by the rule (``numerical_rank``): the
+    truncated-SVD pseudo-inverse, x = V_1 S_1^-1 U_1^T rhs. Never raises for a rank-deficient A."""
+    u, s, vt = np.linalg.svd(matrix, full_matrices=False)
+    r = numerical_rank(s, matrix.shape)
+    return vt[:r].T @ ((u[:, :r].T @ rhs) / s[:r])
+
+
+__all__ = [
+    "RANK_EPS",
+    "cholesky_solve",
+    "independent_rows",
+    "lu_factor",
+    "lu_solve",
+    "minimum_norm_solution",
+    "numerical_rank",
+    "rank_tolerance",
+    "solve",
+]

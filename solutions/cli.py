@@ -64,6 +64,8 @@ SETTINGS = {  # option -> (key of the model file's simulation block, default)
     "rtol": ("rtol", None),
     "atol": ("atol", None),
     "step": ("step", None),
+    "accuracy": ("accuracy", None),
+    "through_singular": ("through_singular", None),
 }
 
 
@@ -71,7 +73,7 @@ ANALYSES = ("auto", "kinematic", "dynamic", "inverse")
 """What ``--analysis`` takes; ``auto`` is ``choose_analysis``."""
 NAMES = {"analysis": ANALYSES, "formulation": FORMULATION_NAMES, "integrator": INTEGRATOR_NAMES}
 """Settings that take a name, and the names they take (the lists ``forward_dynamics`` checks against)."""
-DYNAMIC_ONLY = ("formulation", "integrator", "rtol", "atol", "step")
+DYNAMIC_ONLY = ("formulation", "integrator", "rtol", "atol", "step", "accuracy")
 """Settings that only a forward dynamic analysis uses."""
 
 
@@ -81,6 +83,10 @@ def check_setting(option: str, value, source: str) -> None:
     ``source`` is how the user wrote it: '--rtol' on the command line or 'simulation.rtol' in the file.
     """
     if value is None:  # not set: the analysis takes its own default
+        return
+    if option == "through_singular":
+        if not isinstance(value, bool):
+            raise UsageError(f"{source} {value!r}: must be true or false")
         return
     if option in NAMES:
         if value not in NAMES[option]:
@@ -125,7 +131,10 @@ def run_analysis(system: System, q0: np.ndarray, qd0: np.ndarray, settings: dict
         q, _ = assemble(system, q0)
         analysis = choose_analysis(system, q)
     if analysis == "kinematic":
-        return kinematic_analysis(system, q0, settings["t_end"], settings["steps"], points=points)
+        through = bool(settings.get("through_singular"))
+        return kinematic_analysis(
+            system, q0, settings["t_end"], settings["steps"], points=points, through_singular=through
+        )
     options = {k: settings[k] for k in DYNAMIC_ONLY if settings[k] is not None}
     if analysis == "dynamic":
         return forward_dynamics(system, q0, qd0, settings["t_end"], settings["steps"], **options)
@@ -303,7 +312,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument(
         "--formulation",
         help="dynamic formulation: auto (default: the cheapest adequate one), baumgarte, partitioning, qr, svd, "
-        "projection, joint-coordinates (open trees)",
+        "projection, augmented-lagrangian (singular positions, redundant constraints), joint-coordinates (open trees)",
     )
     run.add_argument(
         "--integrator", help="integrator: auto (default), dop853, rk45, RK45, DOP853, Radau, BDF, LSODA, rk4, hht, ..."
@@ -311,6 +320,19 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--rtol", type=float, help="relative tolerance of the integrator")
     run.add_argument("--atol", type=float, help="absolute tolerance of the integrator")
     run.add_argument("--step", type=float, help="fixed step size for fixed-step integrators")
+    run.add_argument(
+        "--accuracy",
+        type=float,
+        help="position error allowed, as a fraction of the mechanism's size (default 1e-6): the default rtol "
+        "follows it, and the result warns when its estimated error exceeds it",
+    )
+    run.add_argument(
+        "--through-singular",
+        action="store_const",
+        const=True,
+        help="kinematic analysis: go on through singular positions along the branch of the velocities "
+        "(listed as warnings) instead of stopping there",
+    )
     run.add_argument("--out", help="write results to FILE.csv or FILE.npz")
     run.add_argument("--plot", help="plot coordinates and points against time to FILE.png")
     run.add_argument("--animate", help="animate the mechanism to FILE.gif (or .mp4 with ffmpeg, .html)")

@@ -12,9 +12,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .linalg import numerical_rank
+
 
 class AnalysisError(RuntimeError):
     """An analysis that cannot go on, with a message that says why and what to do."""
+
+
+class SingularConfigurationError(AnalysisError):
+    """A run stopped at a singular configuration of Psi_q (``formulation="auto"`` then takes a formulation
+    that passes it: the augmented Lagrangian one)."""
 
 
 @dataclass
@@ -51,11 +58,18 @@ def involved_joints(vectors: np.ndarray, row_owner: list[str], share: float = 1e
     return names
 
 
-def rank_report(jacobian: np.ndarray, row_owner: list[str], rtol: float = 1e-9) -> RankReport:
-    """Numerical rank of Psi_q (singular values above rtol * largest) and the redundant joints."""
+def rank_report(jacobian: np.ndarray, row_owner: list[str], rtol: float | None = None) -> RankReport:
+    """Numerical rank of Psi_q and the redundant joints.
+
+    The rank is decided by the package's one rule (``linalg.rank_tolerance``: singular values above
+    sigma_1 max(m, n) sqrt(eps)); ``rtol`` replaces the relative threshold max(m, n) sqrt(eps) when given.
+    """
     m, n = jacobian.shape
     u, s, _ = np.linalg.svd(jacobian)
-    rank = int(np.sum(s > rtol * s[0])) if s.size and s[0] > 0 else 0
+    if rtol is None:
+        rank = numerical_rank(s, jacobian.shape)
+    else:
+        rank = int(np.sum(s > rtol * s[0])) if s.size and s[0] > 0 else 0
     redundant = involved_joints(u[:, rank:], row_owner) if m > rank else []
     padded = np.concatenate([s, np.zeros(max(0, min(m, n) - s.size))])
     return RankReport(n, m, rank, padded, redundant)
@@ -68,3 +82,15 @@ def singular_joints(jacobian: np.ndarray, row_owner: list[str]) -> tuple[float, 
     if jacobian.shape[0] > s.size:  # more rows than columns: include the whole left null space
         return cond, involved_joints(u[:, s.size - 1 :], row_owner, share=0.1)
     return cond, involved_joints(u[:, -1], row_owner, share=0.1)
+
+
+NEAR_SINGULAR = 0.1
+"""Largest sigma_min / sigma_max (or min / max |pivot|) that ``passes_zero`` takes for a singular position."""
+
+
+def passes_zero(before: float, middle: float, after: float) -> bool:
+    """Whether three samples of a measure of rank, r = sigma_min / sigma_max at three steps, show that it went
+    through zero near the middle step: a local minimum below NEAR_SINGULAR whose value is less than the change
+    to a neighbour (r falls to zero along a V, |t - t*|, at a transversal crossing; a smooth minimum away from
+    zero changes by much less than its value over a step)."""
+    return middle < NEAR_SINGULAR and middle <= min(before, after) and middle < max(before - middle, after - middle)

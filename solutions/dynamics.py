@@ -28,7 +28,7 @@ import time as _time
 import numpy as np
 
 from .assembly import System
-from .diagnostics import AnalysisError, rank_report
+from .diagnostics import NEAR_SINGULAR, AnalysisError, SingularConfigurationError, passes_zero, rank_report
 from .energy import driver_power, energy_history
 from .formulations import FORMULATIONS, Formulation, make_formulation
 from .generalized_forces import ForceModel, build_forces
@@ -44,7 +44,7 @@ from .integrators import (
 from .joint_coordinates import open_tree
 from .kinematics import assemble, point_columns
 from .mass_matrix import mass_at, mass_matrix
-from .reactions import joint_reactions
+from .reactions import REDUNDANT_NOTE, joint_reactions, minimum_norm_multipliers
 from .results import Result
 
 INDEX3_INTEGRATORS = ("hht", "generalized-alpha")
@@ -58,6 +58,22 @@ DRIFT_LIMIT = 1e-3
 """Default ``drift_limit``: positions off the constraints by a thousandth of the mechanism's size are a wrong answer."""
 SINGULAR_RATIO = 1e-8
 """Default ``singular_ratio``: sigma_min / sigma_max of Psi_q below which a configuration counts as singular."""
+DEFAULT_RTOL = 1e-8
+"""The integrators' relative tolerance when none is given, for runs of up to DEFAULT_ACCURACY / DEFAULT_RTOL = 100
+periods of the fastest motion squared (``default_rtol`` tightens it for longer runs)."""
+MIN_RTOL = 1e-13
+"""The tightest relative tolerance ``default_rtol`` asks for (a few hundred times machine epsilon)."""
+HELD_RTOL = 1e-12
+"""The tightest tolerance an explicit run holds in double precision: below it the rounding errors of the
+stages, not the tolerance, set the local error, so ``accuracy_warnings`` takes at least this (measured:
+the 2000 s pendulum of benchmarks/accuracy.md asked for 3.4e-13 and erred as 1e-12 predicts)."""
+DEFAULT_ACCURACY = 1e-6
+"""Default ``accuracy``: a millionth of the mechanism's size (``mechanism_size``)."""
+THROUGH_SINGULAR = ("augmented-lagrangian",)
+"""Formulations that carry a mechanism through singular positions and take redundant constraints: with them
+the ``Guard`` records a singular crossing (``info['singular_positions']``) instead of stopping the run."""
+RESTARTING = ("projection", "augmented-lagrangian")
+"""Formulations that correct the state after every step, so the integrator restarts: no multistep methods."""
 
 
 def consistent_initial_conditions(
@@ -132,10 +148,11 @@ def forward_dynamics(
     steps: int,
     formulation: str = "auto",
     integrator: str = "auto",
-    rtol: float = 1e-8,
+    rtol: float | None = None,
     atol: float = 1e-10,
     step: float | None = None,
     *,
+    accuracy: float = DEFAULT_ACCURACY,
     masses: np.ndarray | None = None,
     forces: ForceModel | None = None,
     points: dict[str, tuple[int, np.ndarray]] | None = None,
@@ -155,8 +172,11 @@ def forward_dynamics(
     integrator : a ``solve_ivp`` method (RK45, RK23, DOP853, Radau, BDF, LSODA), ``rk4``, this package's
         own loop around the same pairs (``rk45``, ``dop853``: less overhead per step), an implicit
         index-3 method (``hht``, ``generalized-alpha``), or ``auto`` (the default: ``choose_method``)
-    rtol, atol : tolerances of the adaptive integrators
+    rtol, atol : tolerances of the adaptive integrators; rtol None (the default) takes ``default_rtol``:
+        DEFAULT_RTOL, tightened for long runs so that the estimated error stays within ``accuracy``
     step : the fixed step of rk4 (default: the output spacing); the largest step of the others
+    accuracy : the position error, as a fraction of the mechanism's size, beyond which the result warns
+        (``accuracy_warnings``: the estimated error of the run against this bound, in ``info['warnings']``)
     masses, forces : the mass matrix and ``ForceModel`` to use instead of the model's (e.g. with user
         forces added: ``build_forces(model).add(f)``)
     points : optional {label: (body index, body-frame point)} to add as result columns
@@ -189,6 +209,7 @@ def forward_dynamics(
     """
     check_method(formulation, integrator)
     start = _time.perf_counter()
+    requested = (formulation, integrator)
     model = system.model
     M = mass_matrix(model) if masses is None else masses
     forces = build_forces(model) if forces is None else forces
@@ -207,6 +228,15 @@ def forward_dynamics(
             system, M, forces, q, qd, t_end, rtol, formulation, integrator, trees=not own_masses, **options
         )
         formulation, integrator = chosen["formulation"], chosen["integrator"]
+    if not (accuracy > 0.0 and np.isfinite(accuracy)):
+        raise AnalysisError(f"accuracy = {accuracy}: must be a number > 0 (a fraction of the mechanism's size)")
+    size = mechanism_size(system, q)
+    periods = None
+    if integrator not in INDEX3_INTEGRATORS and integrator not in FIXED_STEP_METHODS:
+        periods = motion_periods(system, M, forces, q, qd, t_end, formulation, options)
+    rtol_given = rtol is not None
+    if not rtol_given:
+        rtol = default_rtol(periods, accuracy)
     if integrator in INDEX3_INTEGRATORS:
         from .implicit import integrate_index3  # the implicit index-3 integrators (HHT-alpha, generalized-alpha)
 
@@ -217,12 +247,13 @@ def forward_dynamics(
             result.points.update(point_columns(result, label, body, point))
         result.reactions.update(joint_reactions(system, result.q, result.lam, result.t))
         result.info.update(assembly=initial["assembly"], initial_conditions=initial)
+        result.info["warnings"] = accuracy_warnings(result.info, size, accuracy, None)
         result.info["wall_time"] = _time.perf_counter() - start
         return result
     _check_redundancy(system, q, formulation)
-    if formulation == "projection" and integrator in MULTISTEP_INTEGRATORS:
+    if formulation in RESTARTING and integrator in MULTISTEP_INTEGRATORS:
         raise AnalysisError(
-            f"the projection formulation restarts the integrator after every step, which a multistep method "
+            f"the {formulation} formulation restarts the integrator after every step, which a multistep method "
             f"({integrator}) cannot afford: use rk4, RK45, DOP853 or Radau"
         )
     equations = EquationsOfMotion(
@@ -234,7 +265,13 @@ def forward_dynamics(
     loose = 100.0 * rtol if integrator not in FIXED_STEP_METHODS else 0.0  # a loose tolerance may drift further
     if formulation == "joint-coordinates" and not equations.formulation.cut_rows:  # an open tree: on the constraints
         drift_limit = singular_ratio = None  # by construction, full-rank Psi_q everywhere: nothing for the Guard to see
-    guard = Guard(system, q, None if drift_limit is None else max(drift_limit, loose), singular_ratio)
+    guard = Guard(
+        system,
+        q,
+        None if drift_limit is None else max(drift_limit, loose),
+        singular_ratio,
+        through=formulation in THROUGH_SINGULAR,
+    )
 
     def record(k: int, t: float, z: np.ndarray) -> None:
         y, energies = equations.split(z)
@@ -247,19 +284,44 @@ def forward_dynamics(
         guard.check_configuration(equations.formulation, t, equations.split(z if corrected is None else corrected)[0])
         return corrected
 
-    stats = integrate(
-        equations.rhs,
-        equations.initial_state(q, qd, 0.0),
-        times,
-        record,
-        method=integrator,
-        rtol=rtol,
-        atol=atol,
-        step=step,
-        after_step=after_step if guard.singular_ratio else equations.after_step,
-        max_evaluations=max_evaluations,
-        stiffness=stiffness,
-    )
+    try:
+        stats = integrate(
+            equations.rhs,
+            equations.initial_state(q, qd, 0.0),
+            times,
+            record,
+            method=integrator,
+            rtol=rtol,
+            atol=atol,
+            step=step,
+            after_step=after_step if guard.singular_ratio else equations.after_step,
+            max_evaluations=max_evaluations,
+            stiffness=stiffness,
+        )
+    except AnalysisError as err:
+        # ``auto`` stopped at a singular position: by the Guard, or by an integrator that lost its step next to
+        # one the Guard saw coming (an even rank loss, e.g. one per loop of a chain, keeps the sign of det)
+        near = guard.closest is not None and guard.closest["ratio"] < NEAR_SINGULAR
+        singular = isinstance(err, SingularConfigurationError) or near
+        if requested[0] != "auto" or formulation in THROUGH_SINGULAR or not singular:
+            raise
+        if integrator in MULTISTEP_INTEGRATORS:
+            raise
+        # ``auto`` met a singular position: run again with the formulation that passes it (THROUGH_SINGULAR)
+        again = forward_dynamics(
+            system, q0, qd0, t_end, steps, THROUGH_SINGULAR[0], requested[1], rtol if rtol_given else None, atol,
+            step, accuracy=accuracy, masses=masses, forces=forces, points=points, max_evaluations=max_evaluations,
+            stiffness=stiffness, drift_limit=drift_limit, singular_ratio=singular_ratio, **options,
+        )  # fmt: skip
+        first = str(err).split(":")[0]
+        again.info["chosen"] = {
+            "formulation": THROUGH_SINGULAR[0],
+            "integrator": again.info["integrator"],
+            "why": f"{THROUGH_SINGULAR[0]}: {formulation} stopped near a singular configuration ({first}), "
+            "which it passes; " + (chosen or {}).get("why", ""),
+        }
+        again.info["wall_time"] = _time.perf_counter() - start
+        return again
     result = Result(
         t=times,
         q=history.q,
@@ -276,6 +338,9 @@ def forward_dynamics(
     result.points.update(energies.columns())
     for label, (body, point) in (points or {}).items():
         result.points.update(point_columns(result, label, body, point))
+    redundant = guard.rank < system.n_constraints
+    if redundant:  # multipliers are not unique: report the minimum-norm set (eq. 5.73)
+        result.lam = history.lam = minimum_norm_multipliers(system, history.q, history.lam, times)
     result.reactions.update(joint_reactions(system, history.q, history.lam, times))
     result.info = {
         "analysis": "dynamic",
@@ -291,6 +356,7 @@ def forward_dynamics(
         "restarts": stats.restarts,
         "stiffness": None if stats.stiffness is None else stiffness_message(integrator, stats.stiffness),
         "closest_singularity": guard.closest,
+        "singular_positions": guard.crossings,
         "max_constraint_residual": float(residuals["residual.position"].max()),
         "max_velocity_residual": float(residuals["residual.velocity"].max()),
         "energy_drift": float(np.max(np.abs(energies.error))),
@@ -302,8 +368,101 @@ def forward_dynamics(
     }
     if chosen is not None:
         result.info["chosen"] = chosen
+    if redundant:
+        result.info["notes"] = [REDUNDANT_NOTE]
     result.info["warnings"] = drift_warnings(result.info, guard.size, formulation, options)
+    result.info["warnings"] += accuracy_warnings(result.info, guard.size, accuracy, periods)
+    if not rtol_given and periods is not None:
+        result.info["rtol_rule"] = (
+            f"rtol = max({MIN_RTOL:g}, min({DEFAULT_RTOL:g}, accuracy / periods^2)) with {periods:.3g} periods"
+        )
     return result
+
+
+def mechanism_size(system: System, q: np.ndarray) -> float:
+    """L: the largest distance of a body centre or a joint point from the origin, at least 1 mm (``Guard``)."""
+    return max(float(np.max(np.abs(body_positions(system, q)), initial=0.0)), _joint_extent(system.model), 1e-3)
+
+
+def motion_periods(
+    system: System, M, forces: ForceModel, q, qd, t_end: float, formulation: str, options: dict
+) -> float:
+    """How many periods of the fastest motion a run spans: t_end w / (2 pi), with the rate w the largest of
+
+    - rho, the spectral radius of the ODE's Jacobian at the start (``integrators.spectral_radius``: the
+      largest angular frequency, or decay rate, of the linearized motion; with Baumgarte terms, theirs too),
+    - |q'| / L and sqrt(|q''| / L) at the start (L the mechanism's size; the rate of a large motion, such as a
+      pendulum released level, whose linearization at the start says nothing: there rho = 0).
+    """
+    try:
+        formulation_ = make_formulation(formulation, system, M, forces, **options)
+        equations = EquationsOfMotion(formulation_, forces, False)
+        y = equations.initial_state(q, qd, 0.0)
+        rho = spectral_radius(equations.rhs, 0.0, y, equations.rhs(0.0, y))
+        qdd, _ = formulation_.accelerations(*formulation_.coordinates(0.0, y), 0.0)
+    except (AnalysisError, np.linalg.LinAlgError, ValueError):
+        return 1.0  # the run itself will say what is wrong
+    size = mechanism_size(system, q)
+    speed, acceleration = float(np.max(np.abs(qd), initial=0.0)), float(np.max(np.abs(qdd), initial=0.0))
+    rate = max(rho, speed / size, (acceleration / size) ** 0.5)
+    return max(1.0, float(t_end) * rate / (2.0 * np.pi)) if np.isfinite(rate) else 1.0
+
+
+def default_rtol(periods: float | None, accuracy: float = DEFAULT_ACCURACY) -> float:
+    """The rule for the tolerance a user does not give (eq. 6.60):
+
+        rtol = max(MIN_RTOL, min(DEFAULT_RTOL, accuracy / P^2)),   P = periods of the fastest motion (motion_periods)
+
+    An adaptive explicit method holds the local error near rtol per step, but it does not keep the energy: the
+    energy error grows with time, so does the error of the frequency, and the phase error of an oscillation
+    grows with the square of the number of periods. Measured on a pendulum released level (DOP853, P = 170 and
+    1700 periods, benchmarks/accuracy.md) the position error is 0.4 to 0.5 rtol P^2 L; the rule keeps it below
+    ``accuracy`` L with a margin of 2. Runs of up to 10 periods keep DEFAULT_RTOL. None (implicit or
+    fixed-step methods: no estimate of P) gives DEFAULT_RTOL.
+    """
+    if periods is None:
+        return DEFAULT_RTOL
+    return float(max(MIN_RTOL, min(DEFAULT_RTOL, accuracy / max(1.0, periods) ** 2)))
+
+
+def accuracy_warnings(info: dict, size: float, accuracy: float, periods: float | None) -> list[str]:
+    """One line when the estimated position error of a run exceeds ``accuracy`` times the mechanism's size.
+
+    The estimate (eq. 6.61): rtol P^2 L for an explicit adaptive method (``default_rtol``; rtol no smaller
+    than HELD_RTOL, what double precision holds), rtol N L for the
+    second-order implicit ones (hht, generalized-alpha), whose local errors, each held near rtol L, add up
+    over their N steps; for rk4, no estimate (a fixed step has no error control).
+    """
+    rtol = info.get("rtol")
+    if rtol is None or info.get("integrator") in FIXED_STEP_METHODS:
+        return []
+    if info.get("integrator") in INDEX3_INTEGRATORS:
+        steps = max(1, int(info.get("integrator_steps", 1)))
+        estimate, how = (
+            rtol * steps * size,
+            f"rtol x {steps} steps x size: the local errors of a second-order method add up",
+        )
+        remedy = (
+            f"dop853 at the same rtol reaches about {rtol * size:.2g} m over a few periods; use it, or rtol <= "
+            f"{accuracy / steps:.2g}"
+        )
+    else:
+        p = 1.0 if periods is None else periods
+        held = max(rtol, HELD_RTOL)
+        estimate, how = held * p * p * size, f"rtol x ({p:.3g} periods of the fastest motion)^2 x size"
+        if held > rtol:
+            how += f", with rtol {rtol:.2g} held only to {HELD_RTOL:g} in double precision"
+        remedy = f"use rtol <= {max(accuracy / p / p, MIN_RTOL):.2g}" + (
+            " (or leave rtol unset: the default follows this rule)"
+            if accuracy / p / p >= HELD_RTOL
+            else ", the tightest a double-precision run can hold; or split the run, or ask for less (accuracy)"
+        )
+    if estimate <= accuracy * size:
+        return []
+    return [
+        f"accuracy: estimated position error {estimate:.2g} m ({how}) exceeds the accuracy {accuracy:g} x "
+        f"{size:.3g} m = {accuracy * size:.2g} m; {remedy}"
+    ]
 
 
 DRIFT_WARNING = 1e-6
@@ -359,7 +518,7 @@ def choose_method(
     q: np.ndarray,
     qd: np.ndarray,
     t_end: float,
-    rtol: float,
+    rtol: float | None,
     formulation: str = "auto",
     integrator: str = "auto",
     *,
@@ -371,8 +530,10 @@ def choose_method(
     - formulation: ``joint-coordinates`` when the joints form an open tree it takes (minimal
       coordinates: a k x k system per evaluation, nothing to stabilize; ``joint_coordinates.open_tree``;
       closed loops, which it takes with cut joints, measured slower than baumgarte),
-      ``svd`` when the constraints are redundant (the only one that takes them), otherwise
-      ``baumgarte``: one linear solve per evaluation, the cheapest of the others. Formulation options
+      ``augmented-lagrangian`` when the constraints are redundant (it takes them and, unlike ``svd``,
+      keeps the positions on the constraints), otherwise ``baumgarte``: one linear solve per evaluation,
+      the cheapest of the others. When a run with ``baumgarte`` meets a singular position (the Guard
+      stops it), ``forward_dynamics`` runs it again with ``augmented-lagrangian``, which passes it. Formulation options
       (``alpha``, ``rank_tol``, ...) keep the choice among the formulations that take them, and so does
       ``trees=False`` (a spatial run given its own masses: the tree takes the model's);
     - integrator: the spectral radius rho of the ODE's Jacobian at the start (``spectral_radius``)
@@ -389,7 +550,7 @@ def choose_method(
             formulation = "joint-coordinates"
             reasons.append("joint-coordinates: an open tree of joints (minimal coordinates)")
         else:
-            formulation = "svd" if redundant else "baumgarte"
+            formulation = "augmented-lagrangian" if redundant else "baumgarte"
             kind = "redundant" if redundant else "independent"
             reasons.append(f"{formulation}: {kind} constraints; not joint-coordinates: {not_a_tree}")
     if integrator == "auto":
@@ -402,7 +563,7 @@ def choose_method(
         if stability_steps > STIFF_STEPS:
             integrator = "Radau"
         else:
-            integrator = "dop853" if rtol <= 1e-5 else "rk45"
+            integrator = "dop853" if (DEFAULT_RTOL if rtol is None else rtol) <= 1e-5 else "rk45"
         reasons.append(f"{integrator}: spectral radius {rho:.3g} 1/s, {stability_steps:.3g} steps for stability alone")
     return {"formulation": formulation, "integrator": integrator, "why": "; ".join(reasons)}
 
@@ -431,9 +592,19 @@ class Guard:
     The smallest ratio met is reported (``info['closest_singularity']``).
     """
 
-    def __init__(self, system: System, q: np.ndarray, drift_limit: float | None, singular_ratio: float | None):
-        self.system, self.singular_ratio = system, singular_ratio
-        size = max(float(np.max(np.abs(body_positions(system, q)), initial=0.0)), _joint_extent(system.model), 1e-3)
+    def __init__(
+        self,
+        system: System,
+        q: np.ndarray,
+        drift_limit: float | None,
+        singular_ratio: float | None,
+        through: bool = False,
+    ):
+        self.system, self.singular_ratio, self.through = system, singular_ratio, through
+        self.crossings: list[dict] = []  # singular positions passed (with ``through``: the formulation passes them)
+        self._last_ratios: tuple[float | None, float | None] = (None, None)
+        self._last_q: tuple[np.ndarray, float] = (q, 0.0)
+        size = mechanism_size(system, q)
         self.size = size
         self.drift_limit = None if drift_limit is None else drift_limit * size
         self.rank = rank_report(system.jacobian(q, 0.0), system.row_owners).rank
@@ -450,6 +621,23 @@ class Guard:
         scaled = jacobian * self._columns
         norms = np.linalg.norm(scaled, axis=1, keepdims=True)
         return scaled / np.where(norms > 0, norms, 1.0)
+
+    def _record(self, passed: bool, q: np.ndarray, t: float, ratio: float) -> None:
+        """With ``through``: note a singular position passed, at a sign flip of det [Psi_q; T^T] (an odd
+        rank loss between two steps) or where sigma_r / sigma_1 dips to zero (``diagnostics.passes_zero``: any
+        rank loss, e.g. one per loop of a chain of parallelograms, whose signs cancel in pairs)."""
+        from .diagnostics import singular_joints
+
+        previous, before = self._last_ratios
+        if previous is not None and before is not None and passes_zero(before, previous, ratio):
+            if not self.crossings or self.crossings[-1]["t"] < self._last_q[1]:
+                _, joints = singular_joints(self.system.jacobian(*self._last_q), self.system.row_owners)
+                self.crossings.append({"t": self._last_q[1], "ratio": previous, "joints": joints})
+        elif passed:
+            _, joints = singular_joints(self.system.jacobian(q, t), self.system.row_owners)
+            self.crossings.append({"t": float(t), "ratio": ratio, "joints": joints})
+        self._last_ratios = (ratio, previous)
+        self._last_q = (q, float(t))
 
     def check_drift(self, q: np.ndarray, t: float) -> None:
         if self.drift_limit is None:
@@ -487,16 +675,20 @@ class Guard:
             # T_new^T]: the sign comes from C, already needed for the alignment, and this step's own sign.
             turn = np.linalg.det(self._tangent.T @ tangent)
             passed = abs(turn) > ALIGNED and turn * sign * self._sign < 0
-        if passed or not ratio >= self.singular_ratio:
+        near = not ratio >= self.singular_ratio
+        if self.through:  # record each singular position passed and go on
+            self._record(passed, q, t, ratio)
+        elif passed or near:
             from .diagnostics import singular_joints
 
             _, joints = singular_joints(self.system.jacobian(q, t), self.system.row_owners)
             where = f"between t = {self._t:.6g} s and t = {t:.6g} s" if passed else f"at t = {t:.6g} s"
-            raise AnalysisError(
+            raise SingularConfigurationError(
                 f"singular configuration {where}: Psi_q {'lost rank there' if passed else 'is about to lose rank'} "
                 f"(smallest singular value {ratio:.2g} of the largest, condition number {1 / max(ratio, 1e-300):.3g}); "
                 f"joints involved: {', '.join(joints)}. The mechanism can switch assembly branch there (a change "
-                "point or a toggle), which the equations of motion do not decide; singular_ratio=None runs on"
+                "point or a toggle); --formulation augmented-lagrangian (or auto) carries it through on the branch "
+                "its velocities point along; singular_ratio=None runs on regardless"
             )
         self._tangent, self._t, self._sign = tangent, t, sign
 
@@ -537,13 +729,13 @@ def constraint_residuals(system: System, t: np.ndarray, q: np.ndarray, qd: np.nd
 
 
 def _check_redundancy(system: System, q: np.ndarray, formulation: str) -> None:
-    """Only the SVD formulation copes with redundant constraints: refuse the others by name."""
+    """Only the SVD and augmented Lagrangian formulations cope with redundant constraints: refuse the others."""
     report = rank_report(system.jacobian(q, 0.0), system.row_owners)
-    if report.n_redundant and formulation != "svd":
+    if report.n_redundant and formulation not in ("svd", *THROUGH_SINGULAR):
         raise AnalysisError(
             f"{report.n_redundant} redundant constraint equation(s) among joints "
             f"{', '.join(report.redundant_joints)}: the {formulation} formulation needs independent "
-            "constraints; use --formulation svd, or remove the redundant joint"
+            "constraints; use --formulation auto, augmented-lagrangian or svd, or remove the redundant joint"
         )
 
 
@@ -555,6 +747,8 @@ def _formulation_info(formulation: Formulation) -> dict:
         info.update(repartitions=formulation.repartitions, partitions=formulation.partitions)
     if hasattr(formulation, "projections"):
         info["projections"] = formulation.projections
+    if hasattr(formulation, "unconverged"):
+        info["unconverged_iterations"] = formulation.unconverged
     return info
 
 
@@ -564,8 +758,14 @@ __all__ = [
     "INDEX3_INTEGRATORS",
     "INTEGRATOR_NAMES",
     "EquationsOfMotion",
+    "DEFAULT_ACCURACY",
+    "DEFAULT_RTOL",
+    "accuracy_warnings",
     "check_method",
     "choose_method",
+    "default_rtol",
+    "mechanism_size",
+    "motion_periods",
     "consistent_initial_conditions",
     "constraint_residuals",
     "forward_dynamics",

@@ -66,7 +66,9 @@ from .dynamics import constraint_residuals
 from .energy import constraint_power, energy_history
 from .formulations import augmented_accelerations
 from .generalized_forces import ForceModel
+from .linalg import independent_rows
 from .mass_matrix import mass_at
+from .reactions import REDUNDANT_NOTE, minimum_norm_multipliers
 from .results import Result
 
 METHODS = ("generalized-alpha", "hht")
@@ -280,6 +282,35 @@ def initial_step(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, rtol: float, at
     return float(min(guess, 0.01 * t_end))
 
 
+class IndependentRows:
+    """The system with its redundant constraint rows left out (``linalg.independent_rows`` at the start).
+
+    The iteration matrix S of eq. 6.56 is singular when Psi_q has redundant rows: lambda is then not
+    unique. Near the start the redundant rows of an over-constrained loop depend on the others, so the
+    independent ones fix the same positions; the implicit integrators solve with them and give the left
+    out rows lambda = 0, and the run reports the minimum-norm multipliers (``reactions.minimum_norm_multipliers``).
+    """
+
+    def __init__(self, system: System, rows: np.ndarray):
+        self.system, self.rows = system, rows
+        self.n_constraints = int(rows.size)
+
+    def __getattr__(self, name):
+        return getattr(self.system, name)
+
+    def constraints(self, q, t):
+        return self.system.constraints(q, t)[self.rows]
+
+    def jacobian(self, q, t):
+        return self.system.jacobian(q, t)[self.rows]
+
+    def psi_t(self, q, t):
+        return self.system.psi_t(q, t)[self.rows]
+
+    def gamma(self, q, qd, t):
+        return self.system.gamma(q, qd, t)[self.rows]
+
+
 @dataclass
 class EnergyAccount:
     """Dissipated energy and the work of loads and drivers, by the trapezoidal rule over each step.
@@ -353,18 +384,23 @@ def integrate_index3(
     """
     start = _time.perf_counter()
     parameters = alpha_parameters(method, rho_inf)
+    full = system
+    rows = independent_rows(system.jacobian(np.asarray(q0, dtype=float), 0.0))
+    if rows.size < system.n_constraints:  # redundant constraints: solve with the independent rows
+        system = IndependentRows(full, rows)
     stepper = Index3Stepper(system, masses, forces, parameters, rtol, atol, newton_tol, max_iterations)
     energy = EnergyAccount(system, forces, active=not forces.is_conservative or bool(system.model.motors))
     times = np.linspace(0.0, t_end, steps + 1)
-    n, m = system.n_coordinates, system.n_constraints
+    n, m = system.n_coordinates, full.n_constraints
     out_q, out_qd, out_qdd, out_lam = (np.empty((times.size, k)) for k in (n, n, n, m))
+    out_lam[:] = 0.0
     accumulated = np.zeros((times.size, 3))
     q, qd = np.array(q0, dtype=float), np.array(qd0, dtype=float)
     Q = forces.generalized_forces(q, qd, 0.0)
     qdd, lam = augmented_accelerations(mass_at(masses, q), system.jacobian(q, 0.0), Q, system.gamma(q, qd, 0.0))
     state = (q, qd, qdd, qdd.copy(), lam)  # (q, q', q'', a, lambda), a_0 = q''_0
     energy.start(q, qd, lam, 0.0)
-    out_q[0], out_qd[0], out_qdd[0], out_lam[0] = q, qd, qdd, lam
+    out_q[0], out_qd[0], out_qdd[0], out_lam[0, rows] = q, qd, qdd, lam
     h = step if step is not None else (first_step or initial_step(q, qd, qdd, rtol, atol, t_end))
     t = 0.0
     for k in range(1, times.size):
@@ -382,8 +418,11 @@ def integrate_index3(
             t = times[k]
         else:
             t, h, state = _adaptive_interval(stepper, energy, t, times[k], h, state, min_step)
-        out_q[k], out_qd[k], out_qdd[k], out_lam[k] = state[0], state[1], state[2], state[4]
+        out_q[k], out_qd[k], out_qdd[k], out_lam[k, rows] = state[0], state[1], state[2], state[4]
         accumulated[k] = energy.totals
+    system = full
+    if rows.size < m:  # the multipliers are not unique: the minimum-norm set (eq. 5.73)
+        out_lam = minimum_norm_multipliers(system, out_q, out_lam, times)
     result = Result(
         t=times,
         q=out_q,
@@ -424,6 +463,8 @@ def integrate_index3(
         "energy_drift_relative": float(np.max(np.abs(energies.error)) / energies.scale),
         "wall_time": _time.perf_counter() - start,
     }
+    if rows.size < m:
+        result.info["notes"] = [REDUNDANT_NOTE]
     return result
 
 
@@ -463,6 +504,7 @@ __all__ = [
     "METHODS",
     "AlphaParameters",
     "EnergyAccount",
+    "IndependentRows",
     "Index3Stepper",
     "alpha_parameters",
     "integrate_index3",

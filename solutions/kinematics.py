@@ -19,8 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .assembly import System
-from .diagnostics import AnalysisError, rank_report, singular_joints
-from .linalg import lu_factor, lu_solve, solve
+from .diagnostics import AnalysisError, passes_zero, rank_report, singular_joints
+from .linalg import lu_factor, lu_solve, minimum_norm_solution, solve
 from .planar.bodies import rotation, rotation_derivative
 from .results import Result
 
@@ -164,6 +164,7 @@ def kinematic_analysis(
     t_end: float,
     steps: int,
     points: dict[str, tuple[int, np.ndarray]] | None = None,
+    through_singular: bool = False,
 ) -> Result:
     """Positions, velocities and accelerations on the grid t = 0, t_end/steps, ..., t_end.
 
@@ -174,12 +175,17 @@ def kinematic_analysis(
     t_end, steps : output grid
     points : optional {label: (body index, body-frame point)} whose position, velocity and
         acceleration are added to the result as columns 'label.x', 'label.x_d', ...
+    through_singular : at a singular position (det Psi_q changes sign, or Psi_q is singular) go on
+        along the branch the velocities point to (``branch_step``) and list the position in
+        ``info['singular_positions']`` (time and joints) instead of stopping with an AnalysisError
 
     Raises
     ------
     AnalysisError
         Degrees of freedom left, redundant constraints, lock-up, non-convergence: by name.
     """
+    if through_singular:
+        return _kinematics_through_singular(system, q0, t_end, steps, points)
     start = _time.perf_counter()
     q, assembly = assemble(system, q0, 0.0)
     require_no_freedom(system, q, 0.0)
@@ -215,7 +221,8 @@ def kinematic_analysis(
             raise AnalysisError(
                 f"branch point passed between t = {times[k - 1]:.6g} s and t = {t:.6g} s: det(Psi_q) changed "
                 "sign, so the mechanism went through a singular position where it can switch assembly "
-                f"branch; joints involved: {', '.join(joints)}"
+                f"branch; joints involved: {', '.join(joints)}; through_singular=True (mbd run --through-singular) "
+                "goes on along the branch of the velocities"
             )
         previous_sign = sign
         qd = velocity_analysis(system, q, t, lu)
@@ -234,6 +241,121 @@ def kinematic_analysis(
             "newton_iterations": iterations,
             "max_constraint_residual": max_residual,
             "assembly": assembly,
+            "wall_time": _time.perf_counter() - start,
+        },
+    )
+    for label, (body, point) in (points or {}).items():
+        result.points.update(point_columns(result, label, body, point))
+    return result
+
+
+def branch_step(
+    system: System,
+    q: np.ndarray,
+    qd: np.ndarray,
+    qdd: np.ndarray,
+    t: float,
+    tol: float = 1e-12,
+    max_iterations: int = 25,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Positions, velocities and accelerations at t on the branch that the predicted (q, q', q'') follow
+    (eq. 4.9): every solve takes the correction of least norm to the prediction, with the rank of Psi_q by the
+    package's rule (``linalg.minimum_norm_solution``), so that where Psi_q has lost rank the solution stays the
+    one nearest to the prediction, the branch the motion was on:
+
+        q   <- q + dq,        dq   = argmin |dq|   subject to Psi_q dq = -Psi     (Newton-Raphson, repeated)
+        q'  = q'_p + dv,      dv   = argmin |dv|   subject to Psi_q dv = -Psi_t - Psi_q q'_p
+        q'' = q''_p + da,     da   = argmin |da|   subject to Psi_q da = gamma - Psi_q q''_p
+
+    Away from singular positions these are the unique solutions of eq. 4.8, 4.5 and 4.6.
+
+    Raises
+    ------
+    AnalysisError
+        If Newton-Raphson does not converge.
+    """
+    for _ in range(max_iterations):
+        psi = system.constraints(q, t)
+        if not np.max(np.abs(psi), initial=0.0) >= tol:
+            break
+        q = q + minimum_norm_solution(system.jacobian(q, t), -psi)
+    else:
+        raise AnalysisError(
+            f"Newton-Raphson did not converge at t = {t:.6g} s on the branch of the predicted motion "
+            f"(residual {np.max(np.abs(psi)):.3g}); use more --steps"
+        )
+    jacobian = system.jacobian(q, t)
+    qd = qd + minimum_norm_solution(jacobian, -system.psi_t(q, t) - jacobian @ qd)
+    qdd = qdd + minimum_norm_solution(jacobian, system.gamma(q, qd, t) - jacobian @ qdd)
+    return q, qd, qdd
+
+
+def _kinematics_through_singular(system, q0, t_end, steps, points) -> Result:
+    """``kinematic_analysis(..., through_singular=True)``: each step predicts (q, q', q'') from the last one
+    (Taylor, second order) and corrects on its branch (``branch_step``); a sign change of det Psi_q or a
+    condition number above LOCKUP_CONDITION is recorded, with the time and the joints, and passed."""
+    start = _time.perf_counter()
+    q, assembly = assemble(system, q0, 0.0)
+    require_no_freedom(system, q, 0.0)
+    times = np.linspace(0.0, t_end, steps + 1)
+    n = system.n_coordinates
+    Q, QD, QDD = (np.empty((times.size, n)) for _ in range(3))
+    lu = lu_factor(system.jacobian(q, 0.0))
+    qd = velocity_analysis(system, q, 0.0, lu)
+    qdd = acceleration_analysis(system, q, qd, 0.0, lu)
+    crossings: list[dict] = []
+    ratios: list[float] = []
+    previous_sign = determinant_sign(lu)
+    for k, t in enumerate(times):
+        if k > 0:
+            dt = t - times[k - 1]
+            prediction = (q + qd * dt + 0.5 * qdd * dt * dt, qd + qdd * dt, qdd)
+            q, qd, qdd = branch_step(system, *prediction, t)
+        jacobian = system.jacobian(q, t)
+        lu = lu_factor(jacobian)
+        sign = determinant_sign(lu)
+        pivots = np.abs(lu[0].diagonal())
+        ratio = float(pivots.min() / pivots.max()) if pivots.max() > 0 else 0.0
+        locked = not ratio > 1.0 / LOCKUP_CONDITION
+        # a local minimum of the pivots' spread also marks a crossing: an even rank loss (one per loop of a
+        # chain of parallelograms) leaves the sign of det Psi_q as it was
+        dip = k >= 2 and passes_zero(ratios[-2], ratios[-1], ratio)
+        ratios.append(ratio)
+        if dip and (not crossings or crossings[-1]["step"] < k - 2):
+            _, joints = singular_joints(system.jacobian(Q[k - 1], times[k - 1]), system.row_owners)
+            crossings.append({"t": float(times[k - 1]), "after": float(times[k - 2]), "step": k - 1, "joints": joints,
+                              "condition": 1.0 / max(ratios[-2], 1e-300)})  # fmt: skip
+        if sign != previous_sign or locked:
+            cond, joints = singular_joints(jacobian, system.row_owners)
+            if not crossings or crossings[-1]["step"] < k - 1:
+                crossings.append({"t": float(t), "after": float(times[max(k - 1, 0)]), "step": k, "joints": joints,
+                                  "condition": cond})  # fmt: skip
+            else:
+                crossings[-1]["step"] = k
+        previous_sign = sign
+        Q[k], QD[k], QDD[k] = q, qd, qdd
+    for crossing in crossings:
+        del crossing["step"]
+    result = Result(
+        t=times,
+        q=Q,
+        qd=QD,
+        qdd=QDD,
+        coordinate_names=system.coordinate_names,
+        body_names=[b.name for b in system.model.bodies],
+        info={
+            "analysis": "kinematic",
+            "steps": steps,
+            "max_constraint_residual": float(
+                max(np.max(np.abs(system.constraints(qk, tk)), initial=0.0) for qk, tk in zip(Q, times, strict=True))
+            ),
+            "assembly": assembly,
+            "singular_positions": crossings,
+            "warnings": [
+                f"singular position between t = {c['after']:.6g} s and t = {c['t']:.6g} s (joints "
+                f"{', '.join(c['joints'])}): passed on the branch of the velocities"
+                for c in crossings
+            ],
             "wall_time": _time.perf_counter() - start,
         },
     )

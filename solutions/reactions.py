@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .assembly import System
+from .linalg import minimum_norm_solution
 from .planar.bodies import rotation
 
 
@@ -171,6 +172,36 @@ def joint_reactions(
     return {key: (values[0] if single else np.array(values)) for key, values in columns.items()}
 
 
+REDUNDANT_NOTE = (
+    "redundant constraints: the multipliers, and so the reactions of the joints that share a redundant "
+    "constraint, are not unique (any lambda + u with Psi_q^T u = 0 gives the same motion); the reported set "
+    "is the minimum-norm one, lambda in the range of Psi_q (eq. 5.73)"
+)
+"""What a result of a model with redundant constraints says about its reactions (``info['notes']``)."""
+
+
+def minimum_norm_multipliers(system: System, q: np.ndarray, lam: np.ndarray, t: float | np.ndarray = 0.0) -> np.ndarray:
+    """The minimum-norm multipliers with the same constraint forces as ``lam`` (eq. 5.73):
+
+        lambda_min = argmin |lambda'|  subject to  Psi_q^T lambda' = Psi_q^T lambda
+
+    that is, lam projected onto the range of Psi_q (rank by ``linalg.numerical_rank``). With independent
+    constraints lambda is unique and comes back unchanged (to rounding); with redundant ones, the joints
+    that share a redundant constraint share its reaction in the least-squares sense: a choice, since
+    statics alone does not divide it (the reactions of an over-constrained loop depend on the compliance
+    of its joints, which a rigid model does not have). ``q``, ``lam``: one state or histories (N, n), (N, m).
+    """
+    q, lam = np.asarray(q, dtype=float), np.asarray(lam, dtype=float)
+    single = q.ndim == 1
+    Q, L = np.atleast_2d(q), np.atleast_2d(lam)
+    times = np.broadcast_to(np.asarray(t, dtype=float), (Q.shape[0],))
+    out = np.empty_like(L)
+    for k, (qk, lk, tk) in enumerate(zip(Q, L, times, strict=True)):
+        jacobian = system.jacobian(qk, float(tk))
+        out[k] = minimum_norm_solution(jacobian.T, jacobian.T @ lk)
+    return out[0] if single else out
+
+
 def driver_efforts(system: System, q: np.ndarray, lam: np.ndarray, t: float = 0.0) -> dict[str, float]:
     """The force or torque each driver applies along the quantity it drives: effort = -lambda dPsi/ds.
 
@@ -192,12 +223,14 @@ def driver_efforts(system: System, q: np.ndarray, lam: np.ndarray, t: float = 0.
 
 
 __all__ = [
+    "REDUNDANT_NOTE",
     "JointReaction",
     "body_reaction",
     "cross",
     "driver_efforts",
     "joint_point",
     "joint_reactions",
+    "minimum_norm_multipliers",
     "moment_about_point",
     "reactions_at",
 ]

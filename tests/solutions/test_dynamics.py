@@ -311,7 +311,7 @@ def test_a_drifting_run_says_so_and_a_stabilized_one_does_not(capsys):
     system, q0, qd0 = build_system(load_model(MODELS / "double_pendulum.yaml"))
     drifting = forward_dynamics(system, q0, qd0, 5.0, 50, "qr", "dop853", rtol=1e-5, atol=1e-5)
     assert drifting.info["max_constraint_residual"] > 1e-5
-    (warning,) = drifting.info["warnings"]
+    (warning,) = [w for w in drifting.info["warnings"] if w.startswith("constraint drift")]
     assert "constraint drift" in warning and "qr without stabilization" in warning and "projection" in warning
     stabilized = forward_dynamics(system, q0, qd0, 5.0, 50, "baumgarte", "dop853", rtol=1e-8, atol=1e-8)
     assert stabilized.info["warnings"] == [] and stabilized.info["max_constraint_residual"] < 1e-6
