@@ -110,7 +110,8 @@ def run(
     beta: float,
 ) -> CompiledRun:
     """Integrate the scene from z0 over the output grid ``times`` with the compiled loop."""
-    from .codegen import load  # imports numba
+    from . import loops  # imports numba
+    from .codegen import load
 
     start = time.perf_counter()
     module, cached = load(scene)
@@ -118,15 +119,15 @@ def run(
     z0 = np.ascontiguousarray(z0, dtype=float)
     times = np.ascontiguousarray(times, dtype=float)
     if integrator in FIXED:
-        Y, evaluations, steps, rejected, status, t, h = module.rk4(z0, times, float(step or 0.0), P, D)
+        Y, evaluations, steps, rejected, status, t, h = loops.rk4(module.scene_rhs, z0, times, float(step or 0.0), P, D)
     else:
         dop, scipy_like = COMPILED_INTEGRATORS[integrator]
         budget = np.iinfo(np.int64).max if max_evaluations is None else int(max_evaluations)
         max_step = float(step) if step else np.inf
-        Y, evaluations, steps, rejected, status, t, h = module.embedded(
-            z0, times, float(rtol), float(atol), max_step, budget, dop, scipy_like, tableau(dop), P, D
+        Y, evaluations, steps, rejected, status, t, h = loops.embedded(
+            module.scene_rhs, z0, times, float(rtol), float(atol), max_step, budget, dop, scipy_like, tableau(dop), P, D
         )
-    qdd, lam = module.outputs(times, Y, P, D)
+    qdd, lam = loops.outputs(module.accelerations, times, Y, P, D)
     load_seconds = time.perf_counter() - start
     return CompiledRun(
         Y, qdd, lam, int(evaluations), int(steps), int(rejected), int(status), float(t), float(h), load_seconds, cached

@@ -595,3 +595,62 @@ def spatial_load(q, qd, t, ints, floats, fk, fp, Q, power):
             _spatial_torque(q, i, v[0], v[1], v[2], fixed != 0, Q)
         for k in range(7):
             power[1] += qd[o + k] * (Q[o + k] - before[k])
+
+
+# -- the linear solve of eq. 5.30 ------------------------------------------------------------------------------
+@jit
+def lu_solve(K, b):
+    """x from K x = b by Gaussian elimination with partial pivoting (P K = L U, then two triangular solves):
+    the algorithm of LAPACK's gesv, written out for the small dense systems of one evaluation (K is overwritten)."""
+    n = b.size
+    x = b.copy()
+    for c in range(n):
+        pivot = c
+        biggest = abs(K[c, c])
+        for r in range(c + 1, n):
+            if abs(K[r, c]) > biggest:
+                biggest, pivot = abs(K[r, c]), r
+        if pivot != c:
+            for k in range(n):
+                K[c, k], K[pivot, k] = K[pivot, k], K[c, k]
+            x[c], x[pivot] = x[pivot], x[c]
+        inverse = 1.0 / K[c, c]
+        for r in range(c + 1, n):
+            factor = K[r, c] * inverse
+            if factor != 0.0:
+                K[r, c] = factor
+                for k in range(c + 1, n):
+                    K[r, k] -= factor * K[c, k]
+                x[r] -= factor * x[c]
+    for r in range(n - 1, -1, -1):
+        s = x[r]
+        for k in range(r + 1, n):
+            s -= K[r, k] * x[k]
+        x[r] = s / K[r, r]
+    return x
+
+
+@jit
+def augmented_solve(mass, M, spatial, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
+    """q'' and lambda from eq. 5.30 with gamma_bar = gamma - 2 alpha (Psi_q q' + Psi_t) - beta^2 Psi (eq. 5.29);
+    M is the diagonal ``mass`` (planar) or the matrix ``M`` (spatial)."""
+    m, n = jac.shape
+    K = np.zeros((n + m, n + m))
+    rhs = np.empty(n + m)
+    rhs[:n] = Q
+    stabilized = ab[0] != 0.0 or ab[1] != 0.0
+    for r in range(m):
+        psi_dot = psit[r]
+        for c in range(n):
+            K[r + n, c] = jac[r, c]
+            K[c, r + n] = jac[r, c]
+            psi_dot += jac[r, c] * qd[c]
+        rhs[n + r] = gam[r] - 2.0 * ab[0] * psi_dot - ab[1] ** 2 * psi[r] if stabilized else gam[r]
+    if spatial:
+        K[:n, :n] = M
+    else:
+        for k in range(n):
+            K[k, k] = mass[k]
+    x = lu_solve(K, rhs)
+    qdd[:] = x[:n]
+    lam[:] = x[n:]

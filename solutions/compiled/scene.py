@@ -54,11 +54,14 @@ class Scene:
         return f"d{self.dimension}|{kernels}|{loads}|e{int(self.energies)}"
 
     def data(self) -> tuple:
-        """The arrays the generated module takes, in the order of ``key``."""
-        out = []
-        for _, ints, floats in (*self.constraint_kernels, *self.force_kernels):
-            out += [ints, floats]
-        return tuple(out)
+        """D = (ints, floats): the element data of every kernel in its slot (``loops.SLOTS``), empty when absent."""
+        from .loops import SLOTS
+
+        present = {name: (ints, floats) for name, ints, floats in (*self.constraint_kernels, *self.force_kernels)}
+        empty_ints, empty_floats = np.zeros((0, 1), dtype=np.int64), np.zeros((0, 1))
+        ints = tuple(np.ascontiguousarray(present.get(name, (empty_ints,))[0]) for name in SLOTS)
+        floats = tuple(np.ascontiguousarray(present[name][1] if name in present else empty_floats) for name in SLOTS)
+        return ints, floats
 
 
 class _Functions:
