@@ -31,8 +31,7 @@ import os
 import sys
 from pathlib import Path
 
-from .loops import SLOTS
-from .scene import Scene
+from .scene import SLOTS, Scene
 
 HERE = Path(__file__).parent
 
@@ -115,12 +114,12 @@ def generate(scene: Scene) -> str:
 
 
 def _fingerprint(text: str) -> str:
-    import numba
+    from importlib.metadata import version
 
     digest = hashlib.sha256(text.encode())
     digest.update((HERE / "kernels.py").read_bytes())
     digest.update((HERE / "loops.py").read_bytes())
-    digest.update(numba.__version__.encode())
+    digest.update(version("numba").encode())
     return digest.hexdigest()[:20]
 
 

@@ -389,7 +389,14 @@ def spatial_dot2(q, qd, t, ints, floats, psi, jac, gam):
     ints (i, j, row), floats (a_i', s_i', s_j')."""
     Ai, doti, quadi = np.empty(3), np.empty(3), np.empty(3)
     Si, sdoti, squadi, Sj, sdotj, squadj = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    Bi, Bdi, BSi, BdSi, BSj, BdSj = (np.empty((3, 4)) for _ in range(6))
+    Bi, Bdi, BSi, BdSi, BSj, BdSj = (
+        np.empty((3, 4)),
+        np.empty((3, 4)),
+        np.empty((3, 4)),
+        np.empty((3, 4)),
+        np.empty((3, 4)),
+        np.empty((3, 4)),
+    )
     for e in range(ints.shape[0]):
         i, j, row = ints[e, 0], ints[e, 1], ints[e, 2]
         _body_vector(q, qd, i, floats[e, 0:3], Ai, Bi, Bdi, doti, quadi)

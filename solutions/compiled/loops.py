@@ -23,13 +23,7 @@ success, 1 a step-size collapse, 2 the evaluation budget spent, 3 a state that i
 import numpy as np
 from numba import njit, types
 
-SLOTS = (
-    "planar_revolute", "planar_along", "planar_angle", "planar_coordinate", "planar_distance",
-    "planar_tsda", "planar_rsda", "planar_load",
-    "spatial_spherical", "spatial_dot1", "spatial_dot2", "spatial_normalization",
-    "spatial_tsda", "spatial_rsda", "spatial_load",
-)  # fmt: skip
-"""The element data of every kernel has a fixed place in D = (ints, floats): one signature for every scene."""
+from .scene import SLOTS
 
 _vector, _matrix = types.float64[::1], types.float64[:, ::1]
 _ivector, _imatrix = types.int64[::1], types.int64[:, ::1]

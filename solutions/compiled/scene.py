@@ -20,6 +20,13 @@ import numpy as np
 from ..functions import Constant, Harmonic, Polynomial, SmoothRamp
 
 FUNCTION_KINDS = {Constant: 0, Polynomial: 1, Harmonic: 2, SmoothRamp: 3}
+SLOTS = (
+    "planar_revolute", "planar_along", "planar_angle", "planar_coordinate", "planar_distance",
+    "planar_tsda", "planar_rsda", "planar_load",
+    "spatial_spherical", "spatial_dot1", "spatial_dot2", "spatial_normalization",
+    "spatial_tsda", "spatial_rsda", "spatial_load",
+)  # fmt: skip
+"""The element data of every kernel has a fixed place in D = (ints, floats): one signature for every scene."""
 
 
 class Unsupported(Exception):
@@ -55,8 +62,6 @@ class Scene:
 
     def data(self) -> tuple:
         """D = (ints, floats): the element data of every kernel in its slot (``loops.SLOTS``), empty when absent."""
-        from .loops import SLOTS
-
         present = {name: (ints, floats) for name, ints, floats in (*self.constraint_kernels, *self.force_kernels)}
         empty_ints, empty_floats = np.zeros((0, 1), dtype=np.int64), np.zeros((0, 1))
         ints = tuple(np.ascontiguousarray(present.get(name, (empty_ints,))[0]) for name in SLOTS)
