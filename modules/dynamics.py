@@ -144,6 +144,7 @@ def forward_dynamics(
     stiffness: str = "report",
     drift_limit: float | None = DRIFT_LIMIT,
     singular_ratio: float | None = SINGULAR_RATIO,
+    engine: str = "numpy",
     **options,
 ) -> Result:
     """The motion on the output grid t = 0, t_end/steps, ..., t_end.
@@ -171,6 +172,9 @@ def forward_dynamics(
     singular_ratio : after every step of an ODE integrator, the run stops with an AnalysisError when the
         smallest (non-redundant) singular value of Psi_q falls below this fraction of the largest: a
         singular configuration, where the motion may switch assembly branch (None: no check)
+    engine : ``numpy`` (the default: the reference code), ``compiled`` (``solutions.compiled``: the scene's
+        right-hand side and integrator loop compiled by numba, when it covers the run, else numpy) or ``auto``
+        (compiled when it pays, ``compiled.dispatch``); ``info['chosen']`` says which and why
     options : the formulation's options, e.g. ``alpha=10, beta=10`` (baumgarte), ``repartition_ratio``
         (partitioning), ``rank_tol`` (svd)
 
@@ -248,19 +252,38 @@ def forward_dynamics(
         guard.check_configuration(equations.formulation, t, equations.split(z if corrected is None else corrected)[0])
         return corrected
 
-    stats = integrate(
-        equations.rhs,
-        equations.initial_state(q, qd, 0.0),
-        times,
-        record,
-        method=integrator,
-        rtol=rtol,
-        atol=atol,
-        step=step,
-        after_step=after_step if guard.singular_ratio else equations.after_step,
-        max_evaluations=max_evaluations,
-        stiffness=stiffness,
-    )
+    compiled = None
+    if engine != "numpy":  # the compiled engine (numba), imported only when asked for
+        from .compiled import dispatch
+
+        z0 = equations.initial_state(q, qd, 0.0)
+        scene, engine_choice = dispatch.choose(
+            engine, system, M, forces, formulation, integrator, options, equations, z0, t_end, steps, rtol, atol, step
+        )
+        chosen = {**(chosen or {}), **engine_choice}
+        if scene is not None:
+            compiled, stats = dispatch.run(scene, z0, times, integrator, rtol, atol, step, max_evaluations, options)
+            for k, t in enumerate(times):
+                y, energies = equations.split(compiled.Y[k])
+                q_k, qd_k = equations.formulation.coordinates(t, y)
+                guard.check_drift(q_k, t)
+                if guard.singular_ratio:  # at the output times (the numpy engine: after every step)
+                    guard.check_configuration(equations.formulation, t, y)
+                history.store(k, q_k, qd_k, compiled.qdd[k], compiled.lam[k], energies)
+    if compiled is None:
+        stats = integrate(
+            equations.rhs,
+            equations.initial_state(q, qd, 0.0),
+            times,
+            record,
+            method=integrator,
+            rtol=rtol,
+            atol=atol,
+            step=step,
+            after_step=after_step if guard.singular_ratio else equations.after_step,
+            max_evaluations=max_evaluations,
+            stiffness=stiffness,
+        )
     result = Result(
         t=times,
         q=history.q,

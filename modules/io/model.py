@@ -12,6 +12,7 @@ other elements, vector sizes against the model's dimension, duplicate names. Eve
 from __future__ import annotations
 
 import difflib
+import functools
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -19,7 +20,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-import jsonschema
+import fastjsonschema
 import numpy as np
 import yaml
 
@@ -93,9 +94,29 @@ KEY_EXAMPLES = {
 """Examples shown with a missing key, when the schema gives none."""
 
 
+@functools.cache
 def _schema() -> dict:
     text = resources.files(__package__).joinpath("schema.json").read_text()
     return json.loads(text)
+
+
+@functools.cache
+def _fast_validator():
+    """The schema compiled once (per process) by fastjsonschema: it decides whether a file is valid.
+    ``jsonschema``, whose import takes seconds (it imports every format checker's backend), is imported
+    only to explain an invalid file."""
+    return fastjsonschema.compile(_schema())
+
+
+def schema_errors(data: dict) -> list:
+    """The JSON Schema errors of a model file's content ([] when it is valid)."""
+    try:
+        _fast_validator()(data)
+        return []
+    except fastjsonschema.JsonSchemaException:
+        import jsonschema  # the full list of errors, for the best message
+
+        return list(jsonschema.Draft202012Validator(_schema()).iter_errors(data))
 
 
 def _key_path(path) -> str:
@@ -105,7 +126,7 @@ def _key_path(path) -> str:
     return text or "(top level)"
 
 
-def _schema_message(error: jsonschema.ValidationError) -> str:
+def _schema_message(error) -> str:
     """Turn a JSON Schema error into 'key.path: what is wrong (what to write)'."""
     where = _key_path(error.absolute_path)
     value = error.instance
@@ -185,14 +206,16 @@ def load_model(source: str | Path | Mapping) -> Model:
     else:
         path = Path(source)
         data, label = _read_text(path), path.name
-    errors = list(jsonschema.Draft202012Validator(_schema()).iter_errors(data))
+    errors = schema_errors(data)
     if errors:
+        import jsonschema
+
         best = jsonschema.exceptions.best_match(errors, key=_error_rank)
         raise ModelError(f"{label}: {_schema_message(best)}")
     return _build(data, label)
 
 
-def _error_rank(error: jsonschema.ValidationError):
+def _error_rank(error):
     # jsonschema's best_match keeps the error with the highest key. A misspelt key is reported as the unknown
     # key it is (with 'did you mean'), rather than as the required key it hides.
     return (-len(error.absolute_path), error.validator == "oneOf", error.validator == "additionalProperties")
