@@ -13,10 +13,10 @@ For a ``Scene`` (``scene.py``) the generator writes a Python module with
   when the energy balance needs them; solved by LAPACK's LU (gesv), as ``formulations.Baumgarte``;
 - ``scene_rhs(t, z, P, D, out)``: y' = (q', q'') (and D', W_applied', W_drivers' when the scene has
   dampers, actuators, loads or drivers: ``dynamics.EquationsOfMotion``);
-- ``outputs(T, Y, P, D)``: q'' and lambda at every output time;
-- the integrator loops of ``loops.py`` (copied in, so they call this scene's ``scene_rhs`` directly).
+both with the fixed signatures of ``loops.py``, whose integrator loops (compiled once per machine) take
+them as first-class functions.
 
-Every function is compiled by numba with ``cache=True``. The module is written once per structure to the
+Both are compiled by numba with ``cache=True``. The module is written once per structure to the
 cache directory (``cache_directory()``: ``$MBD_COMPILED_CACHE``, else ``$XDG_CACHE_HOME/mbd-course/compiled``,
 else ``~/.cache/mbd-course/compiled``), named by a hash of its text, of ``kernels.py`` and ``loops.py``
 and of the numba version; numba keeps the machine code beside it in ``__pycache__``. A second run of a
