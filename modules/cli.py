@@ -67,12 +67,15 @@ SETTINGS = {  # option -> (key of the model file's simulation block, default)
     "step": ("step", None),
     "accuracy": ("accuracy", None),
     "through_singular": ("through_singular", None),
+    "engine": ("engine", "auto"),
 }
 
 
 ANALYSES = ("auto", "kinematic", "dynamic", "inverse")
 """What ``--analysis`` takes; ``auto`` is ``choose_analysis``."""
-NAMES = {"analysis": ANALYSES, "formulation": FORMULATION_NAMES, "integrator": INTEGRATOR_NAMES}
+ENGINES = ("auto", "numpy", "compiled")
+"""What ``--engine`` takes (``compiled.dispatch``): numba is imported only when a run is compiled."""
+NAMES = {"analysis": ANALYSES, "formulation": FORMULATION_NAMES, "integrator": INTEGRATOR_NAMES, "engine": ENGINES}
 """Settings that take a name, and the names they take (the lists ``forward_dynamics`` checks against)."""
 DYNAMIC_ONLY = ("formulation", "integrator", "rtol", "atol", "step", "accuracy")
 """Settings that only a forward dynamic analysis uses."""
@@ -138,7 +141,8 @@ def run_analysis(system: System, q0: np.ndarray, qd0: np.ndarray, settings: dict
         )
     options = {k: settings[k] for k in DYNAMIC_ONLY if settings[k] is not None}
     if analysis == "dynamic":
-        return forward_dynamics(system, q0, qd0, settings["t_end"], settings["steps"], **options)
+        engine = settings.get("engine", "numpy")
+        return forward_dynamics(system, q0, qd0, settings["t_end"], settings["steps"], engine=engine, **options)
     if analysis == "inverse":
         from .inverse_dynamics import inverse_dynamics
 
@@ -317,6 +321,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     run.add_argument(
         "--integrator", help="integrator: auto (default), dop853, rk45, RK45, DOP853, Radau, BDF, LSODA, rk4, hht, ..."
+    )
+    run.add_argument(
+        "--engine",
+        help="forward dynamics: auto (default: compiled when the run repays compiling), numpy (the reference), "
+        "compiled (numba; falls back to numpy, saying why, where it does not cover the run)",
     )
     run.add_argument("--rtol", type=float, help="relative tolerance of the integrator")
     run.add_argument("--atol", type=float, help="absolute tolerance of the integrator")

@@ -160,6 +160,7 @@ def forward_dynamics(
     stiffness: str = "report",
     drift_limit: float | None = DRIFT_LIMIT,
     singular_ratio: float | None = SINGULAR_RATIO,
+    engine: str = "numpy",
     **options,
 ) -> Result:
     """The motion on the output grid t = 0, t_end/steps, ..., t_end.
@@ -190,6 +191,9 @@ def forward_dynamics(
     singular_ratio : after every step of an ODE integrator, the run stops with an AnalysisError when the
         smallest (non-redundant) singular value of Psi_q falls below this fraction of the largest: a
         singular configuration, where the motion may switch assembly branch (None: no check)
+    engine : ``numpy`` (the default: the reference code), ``compiled`` (``solutions.compiled``: the scene's
+        right-hand side and integrator loop compiled by numba, when it covers the run, else numpy) or ``auto``
+        (compiled when it pays, ``compiled.dispatch``); ``info['chosen']`` says which and why
     options : the formulation's options, e.g. ``alpha=10, beta=10`` (baumgarte), ``repartition_ratio``
         (partitioning), ``rank_tol`` (svd)
 
@@ -259,6 +263,15 @@ def forward_dynamics(
     equations = EquationsOfMotion(
         make_formulation(formulation, system, M, forces, **options), forces, has_drivers=bool(model.motors)
     )
+    held = getattr(equations.formulation, "held_rtol", None)
+    raised = []
+    if held is not None and integrator not in FIXED_STEP_METHODS and min(rtol, atol) < held:
+        raised.append(
+            f"rtol {rtol:.2g}, atol {atol:.2g} raised to {max(rtol, held):.2g}, {max(atol, held):.2g}: the "
+            f"tightest the {formulation} formulation holds is {held:.2g} (its accelerations carry the rounding "
+            "errors of its penalty; a smaller step cannot remove them)"
+        )
+        rtol, atol = max(rtol, held), max(atol, held)
     times = np.linspace(0.0, t_end, steps + 1)
     history = _History(times.size, system.n_coordinates, system.n_constraints, equations.extra)
 
@@ -285,19 +298,39 @@ def forward_dynamics(
         return corrected
 
     try:
-        stats = integrate(
-            equations.rhs,
-            equations.initial_state(q, qd, 0.0),
-            times,
-            record,
-            method=integrator,
-            rtol=rtol,
-            atol=atol,
-            step=step,
-            after_step=after_step if guard.singular_ratio else equations.after_step,
-            max_evaluations=max_evaluations,
-            stiffness=stiffness,
-        )
+        compiled = None
+        if engine != "numpy":  # the compiled engine (numba), imported only when asked for
+            from .compiled import dispatch
+
+            z0 = equations.initial_state(q, qd, 0.0)
+            scene, engine_choice = dispatch.choose(
+                engine, system, M, forces, formulation, integrator, options, equations, z0, t_end, steps, rtol, atol,
+                step,
+            )  # fmt: skip
+            chosen = {**(chosen or {}), **engine_choice}
+            if scene is not None:
+                compiled, stats = dispatch.run(scene, z0, times, integrator, rtol, atol, step, max_evaluations, options)
+                for k, t in enumerate(times):
+                    y, energies = equations.split(compiled.Y[k])
+                    q_k, qd_k = equations.formulation.coordinates(t, y)
+                    guard.check_drift(q_k, t)
+                    if guard.singular_ratio:  # at the output times (the numpy engine: after every step)
+                        guard.check_configuration(equations.formulation, t, y)
+                    history.store(k, q_k, qd_k, compiled.qdd[k], compiled.lam[k], energies)
+        if compiled is None:
+            stats = integrate(
+                equations.rhs,
+                equations.initial_state(q, qd, 0.0),
+                times,
+                record,
+                method=integrator,
+                rtol=rtol,
+                atol=atol,
+                step=step,
+                after_step=after_step if guard.singular_ratio else equations.after_step,
+                max_evaluations=max_evaluations,
+                stiffness=stiffness,
+            )
     except AnalysisError as err:
         # ``auto`` stopped at a singular position: by the Guard, or by an integrator that lost its step next to
         # one the Guard saw coming (an even rank loss, e.g. one per loop of a chain, keeps the sign of det)
@@ -311,7 +344,7 @@ def forward_dynamics(
         again = forward_dynamics(
             system, q0, qd0, t_end, steps, THROUGH_SINGULAR[0], requested[1], rtol if rtol_given else None, atol,
             step, accuracy=accuracy, masses=masses, forces=forces, points=points, max_evaluations=max_evaluations,
-            stiffness=stiffness, drift_limit=drift_limit, singular_ratio=singular_ratio, **options,
+            stiffness=stiffness, drift_limit=drift_limit, singular_ratio=singular_ratio, engine=engine, **options,
         )  # fmt: skip
         first = str(err).split(":")[0]
         again.info["chosen"] = {
@@ -371,7 +404,7 @@ def forward_dynamics(
     if redundant:
         result.info["notes"] = [REDUNDANT_NOTE]
     result.info["warnings"] = drift_warnings(result.info, guard.size, formulation, options)
-    result.info["warnings"] += accuracy_warnings(result.info, guard.size, accuracy, periods)
+    result.info["warnings"] += raised + accuracy_warnings(result.info, guard.size, accuracy, periods)
     if not rtol_given and periods is not None:
         result.info["rtol_rule"] = (
             f"rtol = max({MIN_RTOL:g}, min({DEFAULT_RTOL:g}, accuracy / periods^2)) with {periods:.3g} periods"

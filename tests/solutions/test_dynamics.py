@@ -322,3 +322,15 @@ def test_a_drifting_run_says_so_and_a_stabilized_one_does_not(capsys):
     assert "warning: constraint drift" in capsys.readouterr().out
     assert main(argv) == 0
     assert "warning" not in capsys.readouterr().out
+
+
+def test_augmented_lagrangian_raises_a_tolerance_it_cannot_hold(double_pendulum):
+    """The penalty formulation's accelerations carry rounding errors of about its penalty times eps: asked for
+    rtol 1e-13 it runs at its held_rtol and says so, instead of spending its evaluations on ever smaller steps."""
+    system, q0, qd0 = double_pendulum
+    result = forward_dynamics(
+        system, q0, qd0, 1.0, 2, formulation="augmented-lagrangian", integrator="DOP853", rtol=1e-13, atol=1e-13
+    )
+    assert result.info["rtol"] == pytest.approx(1e-11)
+    assert any("raised to 1e-11, 1e-11" in w for w in result.info["warnings"]), result.info["warnings"]
+    assert result.info["rhs_evaluations"] < 5000

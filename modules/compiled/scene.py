@@ -1,0 +1,280 @@
+# Generated from solutions/compiled/scene.py by `make modules` (every homework stubbed): do not edit by hand.
+"""What a scene has, for the compiled engine: its element and force types, and their data as arrays.
+
+``describe(system, forces, masses)`` reads the elements of an assembled ``System`` and a force model and
+returns a ``Scene``: for every element type present, the kernel that evaluates it (``kernels.py``) and its
+data (an int array and a float array, one row per element); the functions of time as a table; the
+constant part of Q (gravity), the masses. ``Scene.key`` names the structure alone (which kernels, in which
+order, which terms): two scenes with the same key share one compiled module, whatever their dimensions,
+masses or initial state. A scene with anything the kernels do not cover gets ``Scene.unsupported``, a
+reason the engine reports when it falls back to numpy.
+
+No numba here: this module is imported to decide whether the compiled engine can run at all.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..functions import Constant, Harmonic, Polynomial, SmoothRamp
+
+FUNCTION_KINDS = {Constant: 0, Polynomial: 1, Harmonic: 2, SmoothRamp: 3}
+SLOTS = (
+    "planar_revolute", "planar_along", "planar_angle", "planar_coordinate", "planar_distance",
+    "planar_tsda", "planar_rsda", "planar_load",
+    "spatial_spherical", "spatial_dot1", "spatial_dot2", "spatial_normalization",
+    "spatial_tsda", "spatial_rsda", "spatial_load",
+)  # fmt: skip
+"""The element data of every kernel has a fixed place in D = (ints, floats): one signature for every scene."""
+
+
+class Unsupported(Exception):
+    """Something the compiled kernels do not cover (the message says what)."""
+
+
+@dataclass
+class Scene:
+    """The compiled engine's view of one scene (see the module docstring)."""
+
+    dimension: int
+    n: int
+    m: int
+    constraint_kernels: list[tuple[str, np.ndarray, np.ndarray]] = field(default_factory=list)
+    force_kernels: list[tuple[str, np.ndarray, np.ndarray]] = field(default_factory=list)
+    function_kinds: np.ndarray = None
+    function_params: np.ndarray = None
+    Q0: np.ndarray = None
+    mass_diagonal: np.ndarray = None  # planar: M as its diagonal
+    masses: np.ndarray = None  # spatial
+    inertias: np.ndarray = None
+    weights: np.ndarray = None
+    energies: bool = False
+    drivers: bool = False
+    unsupported: str | None = None
+
+    @property
+    def key(self) -> str:
+        """The structure: dimension, kernels in order, which terms; no numbers of the scene."""
+        kernels = "+".join(name for name, _, _ in self.constraint_kernels)
+        loads = "+".join(name for name, _, _ in self.force_kernels)
+        return f"d{self.dimension}|{kernels}|{loads}|e{int(self.energies)}"
+
+    def data(self) -> tuple:
+        """D = (ints, floats): the element data of every kernel in its slot (``loops.SLOTS``), empty when absent."""
+        present = {name: (ints, floats) for name, ints, floats in (*self.constraint_kernels, *self.force_kernels)}
+        empty_ints, empty_floats = np.zeros((0, 1), dtype=np.int64), np.zeros((0, 1))
+        ints = tuple(np.ascontiguousarray(present.get(name, (empty_ints,))[0]) for name in SLOTS)
+        floats = tuple(np.ascontiguousarray(present[name][1] if name in present else empty_floats) for name in SLOTS)
+        return ints, floats
+
+
+class _Functions:
+    """The functions of time of a scene, as a table (kind, parameters) the kernels evaluate."""
+
+    def __init__(self):
+        self.items: list = []
+
+    def index(self, function) -> int:
+        if function is None:
+            return -1
+        if isinstance(function, Constant) and function.c == 0.0:
+            return -1
+        kind = FUNCTION_KINDS.get(type(function))
+        if kind is None:
+            raise Unsupported(f"a {type(function).__name__} function of time")
+        if kind == 0:
+            params = [function.c]
+        elif kind == 1:
+            params = [len(function.coefficients), *function.coefficients]
+        elif kind == 2:
+            params = [function.amplitude, function.frequency, function.phase, function.offset]
+        else:
+            params = [function.start, function.end, function.start_value, function.end_value]
+        self.items.append((kind, [float(p) for p in params]))
+        return len(self.items) - 1
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        width = max([len(p) for _, p in self.items] + [1])
+        kinds = np.array([k for k, _ in self.items] + [0], dtype=np.int64)  # one spare row: never empty
+        params = np.zeros((len(self.items) + 1, width))
+        for r, (_, p) in enumerate(self.items):
+            params[r, : len(p)] = p
+        return kinds, params
+
+
+def _group(rows: dict, name: str, ints: list, floats: list) -> None:
+    rows.setdefault(name, ([], []))
+    rows[name][0].append([int(v) for v in ints])
+    rows[name][1].append([float(v) for v in floats])
+
+
+def _arrays(rows: dict, order: tuple[str, ...]) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    out = []
+    for name in order:
+        if name in rows:
+            ints, floats = rows[name]
+            floats_array = np.array(floats, dtype=float) if floats[0] else np.zeros((len(ints), 1))
+            out.append((name, np.array(ints, dtype=np.int64), floats_array))
+    return out
+
+
+def _actuator(element, functions: _Functions) -> int:
+    actuator = element.actuator
+    if getattr(actuator, "__name__", "") == "no_actuator":
+        return -1
+    if type(actuator).__name__ == "TimeActuator":
+        return functions.index(actuator.function)
+    raise Unsupported(f"the actuator of {element.name} (a function of its length or speed)")
+
+
+PLANAR_CONSTRAINTS = ("planar_revolute", "planar_along", "planar_angle", "planar_coordinate", "planar_distance")
+PLANAR_FORCES = ("planar_tsda", "planar_rsda", "planar_load")
+SPATIAL_CONSTRAINTS = ("spatial_spherical", "spatial_dot1", "spatial_dot2", "spatial_normalization")
+SPATIAL_FORCES = ("spatial_tsda", "spatial_rsda", "spatial_load")
+
+
+def _planar_constraints(system, functions: _Functions) -> dict:
+    from ..planar import joints as pj
+
+    rows: dict = {}
+    for element, where in zip(system.elements, system.rows, strict=True):
+        i, j, row = element.i, element.j, where.start
+        kind = type(element)
+        if kind is pj.Revolute:
+            _group(rows, "planar_revolute", [i, j, row], [*element.si, *element.sj])
+        elif kind is pj.PinInSlot:
+            _group(rows, "planar_along", [i, j, row, -1], [*element.si, *element.sj, *element._normal, 0.0, 0.0])
+        elif kind is pj.Translation:
+            f = functions.index(element.function)
+            rolling = element.side * element.pinion_radius
+            _group(rows, "planar_along", [i, j, row, f], [*element.si, *element.sj, *element.axis, element.d0, rolling])
+        elif kind is pj.RelativeAngle:
+            _group(rows, "planar_angle", [i, j, row, functions.index(element.function)], [element.phi0])
+        elif kind is pj.BodyCoordinate and i < 0:
+            _group(rows, "planar_coordinate", [j, row, element.index, functions.index(element.function)], [])
+        elif kind is pj.Distance:
+            f = functions.index(element.length)
+            if f < 0:  # a zero length: the function table needs an entry anyway
+                f = functions.index(Constant(1e-300))
+            _group(rows, "planar_distance", [i, j, row, f], [*element.si, *element.sj])
+        else:
+            raise Unsupported(f"a planar {kind.__name__} element ({element.name})")
+    return rows
+
+
+def _planar_forces(forces, functions: _Functions) -> dict:
+    from ..planar import forces as pf
+
+    rows: dict = {}
+    for element in forces.elements:
+        kind = type(element)
+        if kind is pf.TSDA:
+            f = _actuator(element, functions)
+            k, c, l0 = element.stiffness, element.damping, element.free_length
+            _group(rows, "planar_tsda", [element.i, element.j, f], [*element.si, *element.sj, k, c, l0])
+        elif kind is pf.RSDA:
+            f = _actuator(element, functions)
+            _group(
+                rows, "planar_rsda", [element.i, element.j, f], [element.stiffness, element.damping, element.free_angle]
+            )
+        elif kind is pf.PointForce:
+            fx, fy = (functions.index(c) for c in element.components)
+            _group(rows, "planar_load", [element.i, fx, fy, int(element.body_fixed), -1], [*element.point])
+        elif kind is pf.Torque:
+            _group(rows, "planar_load", [element.i, -1, -1, 0, functions.index(element.function)], [0.0, 0.0])
+        else:
+            raise Unsupported(f"a planar {kind.__name__} force ({element.name})")
+    return rows
+
+
+def _spatial_constraints(system, functions: _Functions) -> dict:
+    from ..spatial import joints as sj
+
+    rows: dict = {}
+    for element, where in zip(system.elements, system.rows, strict=True):
+        i, j, row = element.i, element.j, where.start
+        kind = type(element)
+        if kind is sj.EulerNormalization:
+            _group(rows, "spatial_normalization", [j, row], [])
+        elif kind is sj.Joint:
+            for part in element.parts:
+                if type(part) is sj.Spherical:
+                    _group(rows, "spatial_spherical", [i, j, row], [*part.si, *part.sj])
+                elif type(part) is sj.Dot1:
+                    _group(rows, "spatial_dot1", [i, j, row], [*part.ai, *part.aj])
+                elif type(part) is sj.Dot2:
+                    _group(rows, "spatial_dot2", [i, j, row], [*part.ai, *part.si, *part.sj])
+                else:
+                    raise Unsupported(f"a {type(part).__name__} constraint in joint {element.name}")
+                row += len(part.labels)
+        else:
+            raise Unsupported(f"a spatial {kind.__name__} element ({element.name})")
+    return rows
+
+
+def _spatial_forces(forces, functions: _Functions) -> dict:
+    from ..spatial import forces as sf
+
+    rows: dict = {}
+    for element in forces.elements:
+        kind = type(element)
+        if kind is sf.TSDA:
+            f = _actuator(element, functions)
+            k, c, l0 = element.stiffness, element.damping, element.free_length
+            _group(rows, "spatial_tsda", [element.i, element.j, f], [*element.si, *element.sj, k, c, l0])
+        elif kind is sf.RSDA:
+            f = _actuator(element, functions)
+            vectors = [*element.fi, *element.gi, *element.hi, *element.fj]
+            _group(
+                rows,
+                "spatial_rsda",
+                [element.i, element.j, f],
+                [*vectors, element.stiffness, element.damping, element.free_angle],
+            )
+        elif kind in (sf.PointForce, sf.Torque):
+            components = [functions.index(c) for c in element.components]
+            point = element.point if kind is sf.PointForce else np.zeros(3)
+            load = 0 if kind is sf.PointForce else 1
+            _group(rows, "spatial_load", [element.i, load, int(element.body_fixed), *components], [*point])
+        else:
+            raise Unsupported(f"a spatial {kind.__name__} force ({element.name})")
+    return rows
+
+
+def describe(system, M, forces) -> Scene:
+    """The scene's kernels and data (module docstring); ``unsupported`` says why it cannot be compiled."""
+    model = system.model
+    scene = Scene(model.dimension, system.n_coordinates, system.n_constraints)
+    scene.drivers = bool(model.motors)
+    scene.energies = not forces.is_conservative or scene.drivers
+    functions = _Functions()
+    try:
+        if forces.user_forces:
+            raise Unsupported("user forces (Python callables)")
+        if model.dimension == 2:
+            if callable(M) or not np.array_equal(M, np.diag(np.diag(M))):
+                raise Unsupported("a planar mass matrix that is not diagonal")
+            constraints = _arrays(_planar_constraints(system, functions), PLANAR_CONSTRAINTS)
+            loads = _arrays(_planar_forces(forces, functions), PLANAR_FORCES)
+            scene.mass_diagonal = np.diag(M).astype(float)
+            scene.Q0 = np.asarray(forces.gravity, dtype=float).copy()
+        else:
+            if type(M).__name__ != "SpatialMassMatrix":
+                raise Unsupported("a spatial mass matrix given by the caller (masses=)")
+            constraints = _arrays(_spatial_constraints(system, functions), SPATIAL_CONSTRAINTS)
+            loads = _arrays(_spatial_forces(forces, functions), SPATIAL_FORCES)
+            scene.Q0 = np.asarray(forces.gravity, dtype=float).copy()
+            scene.masses = np.array([b.mass for b in model.bodies], dtype=float)
+            scene.inertias = np.array([np.asarray(b.inertia, dtype=float) for b in model.bodies]).reshape(-1, 3, 3)
+            scene.weights = np.array(M.weights, dtype=float)
+    except Unsupported as why:
+        scene.unsupported = str(why)
+        return scene
+    scene.constraint_kernels, scene.force_kernels = constraints, loads
+    scene.function_kinds, scene.function_params = functions.arrays()
+    return scene
+
+
+__all__ = ["Scene", "Unsupported", "describe"]

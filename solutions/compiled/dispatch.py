@@ -1,0 +1,127 @@
+"""Which engine runs a forward-dynamic analysis, and the compiled run handed back to ``forward_dynamics``.
+
+``engine="numpy"`` is the reference; ``"compiled"`` takes the compiled engine whenever it covers the run
+(``solutions.compiled``), else numpy with the reason; ``"auto"`` takes it when it also pays:
+
+    the compiled engine when its machine code for the scene's structure is on disk already (loading it
+    costs LOAD_SECONDS), or when the numpy run is expected to take longer than COMPILE_SECONDS (a first
+    compilation, measured on the course's scenes: ``benchmarks/engines.py``); the numpy run time is
+    estimated as (evaluations) x (one numpy evaluation, timed at the initial state), with evaluations
+    = stages x t_end / h, h the starting step of Hairer's rule (sec. II.4) at the run's tolerance (a
+    fixed-step run: its steps). Short runs stay on numpy, whose start is free.
+
+The choice and its reason go into ``info['chosen']`` (``engine``, ``engine_why``).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from ..diagnostics import AnalysisError
+from ..integrators import IntegrationStats, initial_step
+
+ENGINES = ("auto", "numpy", "compiled")
+COMPILE_SECONDS = 8.0
+"""What a first compilation of a scene's module costs (numba 0.68, one core of the course machine: 5-9 s)."""
+LOAD_SECONDS = 1.0
+"""What loading the cached machine code costs (importing numba, reading the cache: about 1 s)."""
+STAGES = {"DOP853": 12, "dop853": 12, "RK45": 6, "rk45": 6, "rk4": 4}
+
+
+def estimated_numpy_seconds(
+    equations, z0: np.ndarray, t_end: float, steps: int, integrator: str, rtol: float, atol: float, step: float | None
+) -> float:
+    """The numpy engine's expected run time (module docstring)."""
+    f = equations.rhs
+    start = time.perf_counter()
+    fy = f(0.0, z0)
+    for _ in range(4):
+        f(0.0, z0)
+    per_call = (time.perf_counter() - start) / 5
+    if integrator == "rk4":
+        substeps = max(1, math.ceil(t_end / steps / step - 1e-9)) if step else 1
+        return per_call * 4 * steps * substeps
+    order = 7 if integrator in ("DOP853", "dop853") else 4
+    h = initial_step(f, 0.0, z0, fy, order, rtol, atol, t_end)
+    return per_call * STAGES[integrator] * t_end / max(h, 1e-300)
+
+
+def choose(
+    engine: str,
+    system,
+    M,
+    forces,
+    formulation: str,
+    integrator: str,
+    options: dict,
+    equations,
+    z0: np.ndarray,
+    t_end: float,
+    steps: int,
+    rtol: float,
+    atol: float,
+    step: float | None,
+):
+    """(Scene or None, {'engine', 'engine_why'}): the compiled engine's scene when it runs this analysis."""
+    if engine not in ENGINES:
+        raise AnalysisError(f"unknown engine {engine!r} (one of: {', '.join(ENGINES)})")
+    if engine == "numpy":
+        return None, {"engine": "numpy", "engine_why": "numpy engine asked for"}
+    from . import describe, unsupported
+
+    scene = describe(system, M, forces)
+    why_not = unsupported(scene, formulation, integrator, options)
+    if why_not is not None:
+        return None, {"engine": "numpy", "engine_why": f"not compiled: {why_not}"}
+    if engine == "compiled":
+        return scene, {"engine": "compiled", "engine_why": "compiled engine asked for"}
+    from .codegen import is_cached
+
+    if is_cached(scene):
+        return scene, {"engine": "compiled", "engine_why": "compiled code for this scene's structure is cached"}
+    expected = estimated_numpy_seconds(equations, z0, t_end, steps, integrator, rtol, atol, step)
+    if expected > COMPILE_SECONDS:
+        why = f"numpy run estimated at {expected:.3g} s, more than a first compilation ({COMPILE_SECONDS:g} s)"
+        return scene, {"engine": "compiled", "engine_why": why}
+    why = f"numpy run estimated at {expected:.3g} s, less than a first compilation ({COMPILE_SECONDS:g} s)"
+    return None, {"engine": "numpy", "engine_why": why}
+
+
+def run(scene, z0, times, integrator, rtol, atol, step, max_evaluations, options, span_check=True):
+    """The compiled run, its failures raised as the numpy engine raises them; (CompiledRun, IntegrationStats)."""
+    from ..formulations import DEFAULT_ALPHA, DEFAULT_BETA
+    from . import run as compiled_run
+
+    alpha, beta = options.get("alpha", DEFAULT_ALPHA), options.get("beta", DEFAULT_BETA)
+    if not (alpha >= 0.0 and beta >= 0.0):
+        raise AnalysisError(
+            f"Baumgarte parameters alpha = {alpha}, beta = {beta}: both must be >= 0; a negative one makes the "
+            "constraint error grow as exp(|alpha| t) instead of dying out (eq. 5.29)"
+        )
+    out = compiled_run(scene, z0, times, integrator, rtol, atol, step, max_evaluations, alpha, beta)
+    span = times[-1] - times[0]
+    if out.status == 1:
+        raise AnalysisError(
+            f"integrator {integrator} at t = {out.t:.6g} s: the step size fell to {out.h:.3g} s, below 1e-12 of the "
+            f"time span {span:.3g} s ({out.steps} steps, {out.rejected} rejected): the motion cannot be followed past "
+            "here (a singular configuration, or a state the formulation cannot take)"
+        )
+    if out.status == 2:
+        raise AnalysisError(
+            f"integrator {integrator} spent its budget of {max_evaluations} right-hand-side evaluations by "
+            f"t = {out.t:.6g} s (last step {out.h:.3g} s, {out.steps} steps): the motion is too fast for the "
+            "tolerance, or the scene is stiff; raise max_evaluations"
+        )
+    if out.status == 3:
+        raise AnalysisError(
+            f"rk4: the state is no longer finite at t = {out.t:.6g} s with step {out.h:.3g} s: the step is beyond the "
+            "scene's stability limit (or left the mechanism's reach); use a smaller --step or an adaptive integrator"
+        )
+    stats = IntegrationStats(integrator, rhs_evaluations=out.evaluations, steps=out.steps, rejected=out.rejected)
+    return out, stats
+
+
+__all__ = ["COMPILE_SECONDS", "ENGINES", "LOAD_SECONDS", "choose", "estimated_numpy_seconds", "run"]

@@ -1,0 +1,663 @@
+"""Compiled kernels of the compiled engine: one function per element type, force type and formulation step.
+
+Each kernel evaluates every element of one type, from the element data stacked in two arrays (``ints``:
+bodies, first constraint row, function indices; ``floats``: body-frame vectors and parameters, one row per
+element; ``scene.py`` builds them). They are the formulas of the numpy reference, written out for numba:
+
+- planar joints (``planar/joints.py``): revolute eq. 3.17, relative angle and rotational driver eq. 3.21,
+  3.34, pin in a slot eq. 3.24 and translation / prismatic driver / rack and pinion eq. 3.31, 3.35 (both
+  from ``along_direction``, eq. 3.13), distance eq. 3.27, coordinate driver eq. 3.34;
+- spatial basic constraints (``spatial/joints.py``): dot-1 eq. 9.10, dot-2 eq. 9.11, spherical eq. 9.12,
+  Euler-parameter normalization eq. 9.9, with B(p, a') of eq. 9.3;
+- forces: planar point force eq. 5.10, TSDA eq. 5.12-5.14, RSDA eq. 5.15; spatial point force and torque
+  eq. 10.10, TSDA eq. 10.12, RSDA eq. 10.13, the quadratic-velocity term eq. 10.5 and the regularized
+  spatial mass matrix (``spatial/mass.py``);
+- functions of time (``functions.py``): constant, polynomial, harmonic, smooth ramp.
+
+Every kernel adds into (or writes) preallocated arrays: Psi, Psi_q (dense, m x n), Psi_t, gamma, Q, and the
+two powers (dissipated, applied) of the energy balance. Ground is body -1: it has no columns.
+
+This module imports numba: it is imported only when the compiled engine runs (``solutions.compiled``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+jit = njit(cache=True, fastmath=False, nogil=True)
+
+# -- functions of time (functions.py) -------------------------------------------------------------------
+CONSTANT, POLYNOMIAL, HARMONIC, RAMP = 0, 1, 2, 3
+
+
+@jit
+def function(kinds, params, f, t, order):
+    """f(t), f'(t) or f''(t) (order 0, 1, 2) of function number f; f < 0 is the zero function.
+
+    params[f] holds: constant (c); polynomial (number of coefficients, c0, c1, ...); harmonic (amplitude,
+    frequency, phase, offset); smooth ramp (start, end, start value, end value).
+    """
+    if f < 0:
+        return 0.0
+    kind = kinds[f]
+    p = params[f]
+    if kind == CONSTANT:
+        return p[0] if order == 0 else 0.0
+    if kind == POLYNOMIAL:  # Horner's scheme, as Polynomial
+        n = int(p[0])
+        result = 0.0
+        if order == 0:
+            for k in range(n - 1, -1, -1):
+                result = result * t + p[1 + k]
+        elif order == 1:
+            for k in range(n - 1, 0, -1):
+                result = result * t + k * p[1 + k]
+        else:
+            for k in range(n - 1, 1, -1):
+                result = result * t + k * (k - 1) * p[1 + k]
+        return result
+    if kind == HARMONIC:
+        amplitude, w, phase, offset = p[0], p[1], p[2], p[3]
+        if order == 0:
+            return offset + amplitude * math.sin(w * t + phase)
+        if order == 1:
+            return amplitude * w * math.cos(w * t + phase)
+        return -amplitude * w * w * math.sin(w * t + phase)
+    # smooth ramp (cycloidal step)
+    start, end, v0, v1 = p[0], p[1], p[2], p[3]
+    tau = min(max((t - start) / (end - start), 0.0), 1.0)
+    span = end - start
+    if order == 0:
+        return v0 + (v1 - v0) * (tau - math.sin(2.0 * math.pi * tau) / (2.0 * math.pi))
+    if order == 1:
+        return (v1 - v0) * (1.0 - math.cos(2.0 * math.pi * tau)) / span
+    return (v1 - v0) * 2.0 * math.pi * math.sin(2.0 * math.pi * tau) / span**2
+
+
+# -- planar: body states -----------------------------------------------------------------------------------
+@jit
+def _planar(x, b):
+    """(x, y, phi) of body b in x (q or q'); ground (b < 0) is zero."""
+    if b < 0:
+        return 0.0, 0.0, 0.0
+    return x[3 * b], x[3 * b + 1], x[3 * b + 2]
+
+
+@jit
+def _rot(phi, sx, sy):
+    """A s' and B s' = A R90 s' (eq. 2.1, 2.5)."""
+    c, s = math.cos(phi), math.sin(phi)
+    return c * sx - s * sy, s * sx + c * sy, -s * sx - c * sy, c * sx - s * sy
+
+
+@jit
+def _jac_add(jac, row, b, per, k, value):
+    if b >= 0:
+        jac[row, per * b + k] += value
+
+
+@jit
+def planar_revolute(q, qd, t, ints, floats, psi, jac, gam):
+    """Revolute joints (eq. 3.17): Psi = r_i + A_i s_i' - r_j - A_j s_j', Psi_q = [I, B_i s_i', -I, -B_j s_j'],
+    gamma = A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2. ints (i, j, row), floats (s_i', s_j')."""
+    for e in range(ints.shape[0]):
+        i, j, row = ints[e, 0], ints[e, 1], ints[e, 2]
+        xi, yi, phii = _planar(q, i)
+        xj, yj, phij = _planar(q, j)
+        wi, wj = _planar(qd, i)[2], _planar(qd, j)[2]
+        aix, aiy, bix, biy = _rot(phii, floats[e, 0], floats[e, 1])
+        ajx, ajy, bjx, bjy = _rot(phij, floats[e, 2], floats[e, 3])
+        psi[row] = xi + aix - xj - ajx
+        psi[row + 1] = yi + aiy - yj - ajy
+        _jac_add(jac, row, i, 3, 0, 1.0)
+        _jac_add(jac, row + 1, i, 3, 1, 1.0)
+        _jac_add(jac, row, i, 3, 2, bix)
+        _jac_add(jac, row + 1, i, 3, 2, biy)
+        _jac_add(jac, row, j, 3, 0, -1.0)
+        _jac_add(jac, row + 1, j, 3, 1, -1.0)
+        _jac_add(jac, row, j, 3, 2, -bjx)
+        _jac_add(jac, row + 1, j, 3, 2, -bjy)
+        gam[row] = aix * wi * wi - ajx * wj * wj
+        gam[row + 1] = aiy * wi * wi - ajy * wj * wj
+
+
+@jit
+def planar_along(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
+    """u_i^T d_ij + rolling (phi_j - phi_i) - d0 - f(t) = 0 with u_i = A_i u_i' (eq. 3.13): the pin in a slot
+    (u_i' the slot normal, eq. 3.24), the translation driver (eq. 3.35), the rack and pinion (eq. 3.31).
+    ints (i, j, row, function), floats (s_i', s_j', u_i', d0, side R)."""
+    for e in range(ints.shape[0]):
+        i, j, row, f = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3]
+        xi, yi, phii = _planar(q, i)
+        xj, yj, phij = _planar(q, j)
+        vxi, vyi, wi = _planar(qd, i)
+        vxj, vyj, wj = _planar(qd, j)
+        aix, aiy, bix, biy = _rot(phii, floats[e, 0], floats[e, 1])
+        ajx, ajy, bjx, bjy = _rot(phij, floats[e, 2], floats[e, 3])
+        ux, uy, wx, wy = _rot(phii, floats[e, 4], floats[e, 5])
+        d0, rolling = floats[e, 6], floats[e, 7]
+        dx, dy = xj + ajx - xi - aix, yj + ajy - yi - aiy
+        value = ux * dx + uy * dy
+        psi[row] = value + rolling * (phij - phii) - d0 - function(fk, fp, f, t, 0)
+        _jac_add(jac, row, i, 3, 0, -ux)
+        _jac_add(jac, row, i, 3, 1, -uy)
+        _jac_add(jac, row, i, 3, 2, wx * dx + wy * dy - (ux * bix + uy * biy) - rolling)
+        _jac_add(jac, row, j, 3, 0, ux)
+        _jac_add(jac, row, j, 3, 1, uy)
+        _jac_add(jac, row, j, 3, 2, ux * bjx + uy * bjy + rolling)
+        psit[row] = -function(fk, fp, f, t, 1)
+        ddx, ddy = vxj + bjx * wj - vxi - bix * wi, vyj + bjy * wj - vyi - biy * wi
+        qx, qy = aix * wi * wi - ajx * wj * wj, aiy * wi * wi - ajy * wj * wj
+        gam[row] = value * wi * wi - 2.0 * wi * (wx * ddx + wy * ddy) - (ux * qx + uy * qy)
+        gam[row] += function(fk, fp, f, t, 2)
+
+
+@jit
+def planar_angle(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
+    """phi_j - phi_i - phi0 - f(t) = 0 (eq. 3.21, 3.34). ints (i, j, row, function), floats (phi0)."""
+    for e in range(ints.shape[0]):
+        i, j, row, f = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3]
+        psi[row] = _planar(q, j)[2] - _planar(q, i)[2] - floats[e, 0] - function(fk, fp, f, t, 0)
+        _jac_add(jac, row, i, 3, 2, -1.0)
+        _jac_add(jac, row, j, 3, 2, 1.0)
+        psit[row] = -function(fk, fp, f, t, 1)
+        gam[row] = function(fk, fp, f, t, 2)
+
+
+@jit
+def planar_coordinate(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
+    """q_j[k] - f(t) = 0 (eq. 3.34). ints (j, row, k, function)."""
+    for e in range(ints.shape[0]):
+        j, row, k, f = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3]
+        psi[row] = q[3 * j + k] - function(fk, fp, f, t, 0)
+        jac[row, 3 * j + k] += 1.0
+        psit[row] = -function(fk, fp, f, t, 1)
+        gam[row] = function(fk, fp, f, t, 2)
+
+
+@jit
+def planar_distance(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
+    """(d^T d - L(t)^2) / 2 = 0 (eq. 3.27): Psi_q = d^T [-I, -B_i s_i', I, B_j s_j'], Psi_t = -L L',
+    gamma = -d'^T d' - d^T (A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2) + L'^2 + L L''.
+    ints (i, j, row, function L), floats (s_i', s_j')."""
+    for e in range(ints.shape[0]):
+        i, j, row, f = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3]
+        xi, yi, phii = _planar(q, i)
+        xj, yj, phij = _planar(q, j)
+        vxi, vyi, wi = _planar(qd, i)
+        vxj, vyj, wj = _planar(qd, j)
+        aix, aiy, bix, biy = _rot(phii, floats[e, 0], floats[e, 1])
+        ajx, ajy, bjx, bjy = _rot(phij, floats[e, 2], floats[e, 3])
+        dx, dy = xj + ajx - xi - aix, yj + ajy - yi - aiy
+        L, L1, L2 = function(fk, fp, f, t, 0), function(fk, fp, f, t, 1), function(fk, fp, f, t, 2)
+        psi[row] = 0.5 * (dx * dx + dy * dy - L * L)
+        _jac_add(jac, row, i, 3, 0, -dx)
+        _jac_add(jac, row, i, 3, 1, -dy)
+        _jac_add(jac, row, i, 3, 2, -(dx * bix + dy * biy))
+        _jac_add(jac, row, j, 3, 0, dx)
+        _jac_add(jac, row, j, 3, 1, dy)
+        _jac_add(jac, row, j, 3, 2, dx * bjx + dy * bjy)
+        psit[row] = -L * L1
+        ddx, ddy = vxj + bjx * wj - vxi - bix * wi, vyj + bjy * wj - vyi - biy * wi
+        qx, qy = aix * wi * wi - ajx * wj * wj, aiy * wi * wi - ajy * wj * wj
+        gam[row] = -(ddx * ddx + ddy * ddy) - (dx * qx + dy * qy) + L1 * L1 + L * L2
+
+
+# -- planar forces -----------------------------------------------------------------------------------------
+@jit
+def _add3(Q, b, fx, fy, m):
+    if b >= 0:
+        Q[3 * b] += fx
+        Q[3 * b + 1] += fy
+        Q[3 * b + 2] += m
+
+
+@jit
+def planar_tsda(q, qd, t, ints, floats, fk, fp, Q, power):
+    """Spring-damper-actuators (eq. 5.12-5.14): tension f = k (l - l0) + c l' + f_a(t) along u = d / l,
+    Q_i = f [u ; (B_i s_i')^T u], Q_j = -f [u ; (B_j s_j')^T u]; power[0] += c l'^2, power[1] -= f_a l'.
+    ints (i, j, actuator function), floats (s_i', s_j', k, c, l0)."""
+    for e in range(ints.shape[0]):
+        i, j, f = ints[e, 0], ints[e, 1], ints[e, 2]
+        xi, yi, phii = _planar(q, i)
+        xj, yj, phij = _planar(q, j)
+        vxi, vyi, wi = _planar(qd, i)
+        vxj, vyj, wj = _planar(qd, j)
+        aix, aiy, bix, biy = _rot(phii, floats[e, 0], floats[e, 1])
+        ajx, ajy, bjx, bjy = _rot(phij, floats[e, 2], floats[e, 3])
+        dx, dy = xj + ajx - xi - aix, yj + ajy - yi - aiy
+        length = math.sqrt(dx * dx + dy * dy)
+        ddx, ddy = vxj + bjx * wj - vxi - bix * wi, vyj + bjy * wj - vyi - biy * wi
+        velocity = (dx * ddx + dy * ddy) / length
+        actuator = function(fk, fp, f, t, 0)
+        tension = floats[e, 4] * (length - floats[e, 6]) + floats[e, 5] * velocity + actuator
+        ux, uy = dx / length, dy / length
+        fx, fy = tension * ux, tension * uy
+        _add3(Q, i, fx, fy, bix * fx + biy * fy)
+        _add3(Q, j, -fx, -fy, -(bjx * fx + bjy * fy))
+        power[0] += floats[e, 5] * velocity**2
+        power[1] -= actuator * velocity
+
+
+@jit
+def planar_rsda(q, qd, t, ints, floats, fk, fp, Q, power):
+    """Rotational spring-damper-actuators (eq. 5.15): f = k (theta - theta0) + c theta' + f_a(t),
+    theta = phi_j - phi_i; Q_i = [0, 0, f], Q_j = [0, 0, -f]. ints (i, j, actuator), floats (k, c, theta0)."""
+    for e in range(ints.shape[0]):
+        i, j, f = ints[e, 0], ints[e, 1], ints[e, 2]
+        angle = _planar(q, j)[2] - _planar(q, i)[2]
+        velocity = _planar(qd, j)[2] - _planar(qd, i)[2]
+        actuator = function(fk, fp, f, t, 0)
+        torque = floats[e, 0] * (angle - floats[e, 2]) + floats[e, 1] * velocity + actuator
+        _add3(Q, i, 0.0, 0.0, torque)
+        _add3(Q, j, 0.0, 0.0, -torque)
+        power[0] += floats[e, 1] * velocity**2
+        power[1] -= actuator * velocity
+
+
+@jit
+def planar_load(q, qd, t, ints, floats, fk, fp, Q, power):
+    """Point forces F(t) at s_i' (eq. 5.10: Q_i = [F ; (B_i s_i')^T F], F = A_i F' when body-fixed) and
+    torques T(t) (Q_i = [0, 0, T]); power[1] += q_i'^T Q_i. ints (i, fx, fy, body fixed, torque function),
+    floats (s_i')."""
+    for e in range(ints.shape[0]):
+        i = ints[e, 0]
+        xi, yi, phii = _planar(q, i)
+        vxi, vyi, wi = _planar(qd, i)
+        fx, fy = function(fk, fp, ints[e, 1], t, 0), function(fk, fp, ints[e, 2], t, 0)
+        if ints[e, 3]:
+            fx, fy, _, _ = _rot(phii, fx, fy)
+        _, _, bx, by = _rot(phii, floats[e, 0], floats[e, 1])
+        m = bx * fx + by * fy + function(fk, fp, ints[e, 4], t, 0)
+        _add3(Q, i, fx, fy, m)
+        power[1] += vxi * fx + vyi * fy + wi * m
+
+
+# -- spatial: B(p, a'), A(p) a' and the basic constraints ------------------------------------------------------
+@jit
+def _p(x, b):
+    """(e0, e1, e2, e3) of body b in x; ground's is (1, 0, 0, 0) in q (and 0 in q': pass ground=0.0)."""
+    if b < 0:
+        return 0.0, 0.0, 0.0, 0.0
+    return x[7 * b + 3], x[7 * b + 4], x[7 * b + 5], x[7 * b + 6]
+
+
+@jit
+def _pq(q, b):
+    if b < 0:
+        return 1.0, 0.0, 0.0, 0.0
+    return q[7 * b + 3], q[7 * b + 4], q[7 * b + 5], q[7 * b + 6]
+
+
+@jit
+def _r(x, b):
+    if b < 0:
+        return 0.0, 0.0, 0.0
+    return x[7 * b], x[7 * b + 1], x[7 * b + 2]
+
+
+@jit
+def b_matrix(e0, e1, e2, e3, a1, a2, a3, out):
+    """B(p, a') = d(A(p) a')/dp (3 x 4, eq. 9.3), entry by entry as ``spatial.bodies.b_matrix``."""
+    v1, v2, v3 = e0 * a1 + e2 * a3 - e3 * a2, e0 * a2 + e3 * a1 - e1 * a3, e0 * a3 + e1 * a2 - e2 * a1
+    ea = e1 * a1 + e2 * a2 + e3 * a3
+    w12, w13, w23 = e1 * a2 - e2 * a1, e1 * a3 - e3 * a1, e2 * a3 - e3 * a2
+    out[0, 0], out[0, 1], out[0, 2], out[0, 3] = 2.0 * v1, 2.0 * ea, 2.0 * (w12 + e0 * a3), 2.0 * (w13 - e0 * a2)
+    out[1, 0], out[1, 1], out[1, 2], out[1, 3] = 2.0 * v2, 2.0 * (-w12 - e0 * a3), 2.0 * ea, 2.0 * (w23 + e0 * a1)
+    out[2, 0], out[2, 1], out[2, 2], out[2, 3] = 2.0 * v3, 2.0 * (-w13 + e0 * a2), 2.0 * (-w23 - e0 * a1), 2.0 * ea
+
+
+@jit
+def rotate(e0, e1, e2, e3, a, out):
+    """out = A(p) a' (eq. 9.1), A as ``rotations.rotation_matrix``."""
+    a1, a2, a3 = a[0], a[1], a[2]
+    out[0] = (e0 * e0 + e1 * e1 - e2 * e2 - e3 * e3) * a1 + 2 * (e1 * e2 - e0 * e3) * a2 + 2 * (e1 * e3 + e0 * e2) * a3
+    out[1] = 2 * (e1 * e2 + e0 * e3) * a1 + (e0 * e0 - e1 * e1 + e2 * e2 - e3 * e3) * a2 + 2 * (e2 * e3 - e0 * e1) * a3
+    out[2] = 2 * (e1 * e3 - e0 * e2) * a1 + 2 * (e2 * e3 + e0 * e1) * a2 + (e0 * e0 - e1 * e1 - e2 * e2 + e3 * e3) * a3
+
+
+@jit
+def _bvec(Bm, x0, x1, x2, x3, out):
+    for r in range(3):
+        out[r] = Bm[r, 0] * x0 + Bm[r, 1] * x1 + Bm[r, 2] * x2 + Bm[r, 3] * x3
+
+
+@jit
+def _body_vector(q, qd, b, a, A, B, Bd, dot, quad):
+    """A a', B(p, a'), a_dot = B(p, a') p', and B(p', a') p' of the body-fixed vector a' of body b."""
+    e0, e1, e2, e3 = _pq(q, b)
+    d0, d1, d2, d3 = _p(qd, b)
+    rotate(e0, e1, e2, e3, a, A)
+    b_matrix(e0, e1, e2, e3, a[0], a[1], a[2], B)
+    _bvec(B, d0, d1, d2, d3, dot)
+    b_matrix(d0, d1, d2, d3, a[0], a[1], a[2], Bd)
+    _bvec(Bd, d0, d1, d2, d3, quad)
+
+
+@jit
+def spatial_spherical(q, qd, t, ints, floats, psi, jac, gam):
+    """spherical (eq. 9.12): -d_ij = 0, Psi_qi = [I, B(p_i, s_i')], Psi_qj = [-I, -B(p_j, s_j')],
+    gamma = B(p_j', s_j') p_j' - B(p_i', s_i') p_i'. ints (i, j, row), floats (s_i', s_j')."""
+    Ai, Aj, doti, dotj, qi, qj = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    Bi, Bj, Bdi, Bdj = np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4))
+    for e in range(ints.shape[0]):
+        i, j, row = ints[e, 0], ints[e, 1], ints[e, 2]
+        _body_vector(q, qd, i, floats[e, 0:3], Ai, Bi, Bdi, doti, qi)
+        _body_vector(q, qd, j, floats[e, 3:6], Aj, Bj, Bdj, dotj, qj)
+        ri, rj = _r(q, i), _r(q, j)
+        for k in range(3):
+            psi[row + k] = ri[k] + Ai[k] - rj[k] - Aj[k]
+            gam[row + k] = qj[k] - qi[k]
+            if i >= 0:
+                jac[row + k, 7 * i + k] += 1.0
+                for c in range(4):
+                    jac[row + k, 7 * i + 3 + c] += Bi[k, c]
+            if j >= 0:
+                jac[row + k, 7 * j + k] -= 1.0
+                for c in range(4):
+                    jac[row + k, 7 * j + 3 + c] -= Bj[k, c]
+
+
+@jit
+def spatial_dot1(q, qd, t, ints, floats, psi, jac, gam):
+    """dot-1 (eq. 9.10): a_i^T a_j = 0, Psi_qi = [0, a_j^T B(p_i, a_i')], Psi_qj = [0, a_i^T B(p_j, a_j')],
+    gamma = -a_j^T B(p_i', a_i') p_i' - a_i^T B(p_j', a_j') p_j' - 2 a_i'^T a_j'. ints (i, j, row),
+    floats (a_i', a_j')."""
+    Ai, Aj, doti, dotj, qi, qj = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    Bi, Bj, Bdi, Bdj = np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4))
+    for e in range(ints.shape[0]):
+        i, j, row = ints[e, 0], ints[e, 1], ints[e, 2]
+        _body_vector(q, qd, i, floats[e, 0:3], Ai, Bi, Bdi, doti, qi)
+        _body_vector(q, qd, j, floats[e, 3:6], Aj, Bj, Bdj, dotj, qj)
+        psi[row] = Ai[0] * Aj[0] + Ai[1] * Aj[1] + Ai[2] * Aj[2]
+        for c in range(4):
+            if i >= 0:
+                jac[row, 7 * i + 3 + c] += Aj[0] * Bi[0, c] + Aj[1] * Bi[1, c] + Aj[2] * Bi[2, c]
+            if j >= 0:
+                jac[row, 7 * j + 3 + c] += Ai[0] * Bj[0, c] + Ai[1] * Bj[1, c] + Ai[2] * Bj[2, c]
+        quadratic = Aj[0] * qi[0] + Aj[1] * qi[1] + Aj[2] * qi[2] + Ai[0] * qj[0] + Ai[1] * qj[1] + Ai[2] * qj[2]
+        gam[row] = -quadratic - 2.0 * (doti[0] * dotj[0] + doti[1] * dotj[1] + doti[2] * dotj[2])
+
+
+@jit
+def spatial_dot2(q, qd, t, ints, floats, psi, jac, gam):
+    """dot-2 (eq. 9.11): a_i^T d_ij = 0, Psi_qi = [-a_i^T, d^T B(p_i, a_i') - a_i^T B(p_i, s_i')],
+    Psi_qj = [a_i^T, a_i^T B(p_j, s_j')], gamma = -d^T B(p_i', a_i') p_i' - 2 a_i'^T d' - a_i^T (d'')_v.
+    ints (i, j, row), floats (a_i', s_i', s_j')."""
+    Ai, doti, quadi = np.empty(3), np.empty(3), np.empty(3)
+    Si, sdoti, squadi, Sj, sdotj, squadj = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    Bi, Bdi, BSi, BdSi, BSj, BdSj = (
+        np.empty((3, 4)),
+        np.empty((3, 4)),
+        np.empty((3, 4)),
+        np.empty((3, 4)),
+        np.empty((3, 4)),
+        np.empty((3, 4)),
+    )
+    for e in range(ints.shape[0]):
+        i, j, row = ints[e, 0], ints[e, 1], ints[e, 2]
+        _body_vector(q, qd, i, floats[e, 0:3], Ai, Bi, Bdi, doti, quadi)
+        _body_vector(q, qd, i, floats[e, 3:6], Si, BSi, BdSi, sdoti, squadi)
+        _body_vector(q, qd, j, floats[e, 6:9], Sj, BSj, BdSj, sdotj, squadj)
+        ri, rj, vi, vj = _r(q, i), _r(q, j), _r(qd, i), _r(qd, j)
+        value = 0.0
+        g = 0.0
+        for k in range(3):
+            d = rj[k] + Sj[k] - ri[k] - Si[k]
+            d_dot = vj[k] + sdotj[k] - vi[k] - sdoti[k]
+            d_quad = squadj[k] - squadi[k]
+            value += Ai[k] * d
+            g += d * quadi[k] + 2.0 * doti[k] * d_dot + Ai[k] * d_quad
+            if i >= 0:
+                jac[row, 7 * i + k] -= Ai[k]
+                for c in range(4):
+                    jac[row, 7 * i + 3 + c] += d * Bi[k, c] - Ai[k] * BSi[k, c]
+            if j >= 0:
+                jac[row, 7 * j + k] += Ai[k]
+                for c in range(4):
+                    jac[row, 7 * j + 3 + c] += Ai[k] * BSj[k, c]
+        psi[row] = value
+        gam[row] = -g
+
+
+@jit
+def spatial_normalization(q, qd, t, ints, psi, jac, gam):
+    """p_j^T p_j - 1 = 0 (eq. 9.9): Psi_qj = [0, 2 p_j^T], gamma = -2 p_j'^T p_j'. ints (j, row)."""
+    for e in range(ints.shape[0]):
+        j, row = ints[e, 0], ints[e, 1]
+        s = 0.0
+        g = 0.0
+        for c in range(4):
+            p = q[7 * j + 3 + c]
+            s += p * p
+            g += qd[7 * j + 3 + c] ** 2
+            jac[row, 7 * j + 3 + c] += 2.0 * p
+        psi[row] = s - 1.0
+        gam[row] = -2.0 * g
+
+
+# -- spatial mass matrix and forces ------------------------------------------------------------------------------
+@jit
+def _l_matrix(e0, e1, e2, e3, out):
+    out[0, 0], out[0, 1], out[0, 2], out[0, 3] = -e1, e0, e3, -e2
+    out[1, 0], out[1, 1], out[1, 2], out[1, 3] = -e2, -e3, e0, e1
+    out[2, 0], out[2, 1], out[2, 2], out[2, 3] = -e3, e2, -e1, e0
+
+
+@jit
+def _g_matrix(e0, e1, e2, e3, out):
+    out[0, 0], out[0, 1], out[0, 2], out[0, 3] = -e1, e0, -e3, e2
+    out[1, 0], out[1, 1], out[1, 2], out[1, 3] = -e2, e3, e0, -e1
+    out[2, 0], out[2, 1], out[2, 2], out[2, 3] = -e3, -e2, e1, e0
+
+
+@jit
+def spatial_mass(q, qd, masses, inertias, weights, M, Q):
+    """M(q) = diag(m I, 4 L^T J' L + 4 w p p^T) per body (eq. 10.4, regularized as ``dynamic_mass_matrix``) and
+    Q += Q_v = 8 L(p')^T J' L(p') p (eq. 10.5)."""
+    L, Ld = np.empty((3, 4)), np.empty((3, 4))
+    for b in range(masses.size):
+        o = 7 * b
+        e0, e1, e2, e3 = q[o + 3], q[o + 4], q[o + 5], q[o + 6]
+        _l_matrix(e0, e1, e2, e3, L)
+        _l_matrix(qd[o + 3], qd[o + 4], qd[o + 5], qd[o + 6], Ld)
+        J = inertias[b]
+        for k in range(3):
+            M[o + k, o + k] = masses[b]
+        JL = J @ L
+        Mp = 4.0 * (L.T @ JL)
+        p = np.array([e0, e1, e2, e3])
+        Mp += 4.0 * weights[b] * np.outer(p, p)
+        M[o + 3 : o + 7, o + 3 : o + 7] = Mp
+        Q[o + 3 : o + 7] += 8.0 * (Ld.T @ (J @ (Ld @ p)))
+
+
+@jit
+def _spatial_point_force(q, b, s, fx, fy, fz, Q):
+    """Q_b += [F ; 2 L^T s'~ A^T F] (eq. 10.10)."""
+    if b < 0:
+        return
+    o = 7 * b
+    e0, e1, e2, e3 = q[o + 3], q[o + 4], q[o + 5], q[o + 6]
+    A = np.empty((3, 3))
+    col = np.zeros(3)
+    for c in range(3):
+        col[:] = 0.0
+        col[c] = 1.0
+        rotate(e0, e1, e2, e3, col, A[:, c])
+    F = np.array([fx, fy, fz])
+    Fb = A.T @ F
+    moment = np.array([s[1] * Fb[2] - s[2] * Fb[1], s[2] * Fb[0] - s[0] * Fb[2], s[0] * Fb[1] - s[1] * Fb[0]])
+    L = np.empty((3, 4))
+    _l_matrix(e0, e1, e2, e3, L)
+    Q[o] += fx
+    Q[o + 1] += fy
+    Q[o + 2] += fz
+    Q[o + 3 : o + 7] += 2.0 * (L.T @ moment)
+
+
+@jit
+def _spatial_torque(q, b, nx, ny, nz, body_frame, Q):
+    """Q_b += [0 ; 2 G^T n] (global n) or [0 ; 2 L^T n'] (body frame) (eq. 10.10)."""
+    if b < 0:
+        return
+    o = 7 * b
+    G = np.empty((3, 4))
+    if body_frame:
+        _l_matrix(q[o + 3], q[o + 4], q[o + 5], q[o + 6], G)
+    else:
+        _g_matrix(q[o + 3], q[o + 4], q[o + 5], q[o + 6], G)
+    n = np.array([nx, ny, nz])
+    Q[o + 3 : o + 7] += 2.0 * (G.T @ n)
+
+
+@jit
+def _omega(q, qd, b):
+    """omega = 2 G(p) p' (global)."""
+    if b < 0:
+        return np.zeros(3)
+    G = np.empty((3, 4))
+    o = 7 * b
+    _g_matrix(q[o + 3], q[o + 4], q[o + 5], q[o + 6], G)
+    return 2.0 * (G @ qd[o + 3 : o + 7])
+
+
+@jit
+def spatial_tsda(q, qd, t, ints, floats, fk, fp, Q, power):
+    """Spring-damper-actuators (eq. 10.12): f = k (l - l0) + c l' + f_a(t) along u = d / l, f u at P_i and
+    -f u at P_j. ints (i, j, actuator), floats (s_i', s_j', k, c, l0)."""
+    Si, Sj, doti, dotj, qi, qj = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    Bi, Bj, Bdi, Bdj = np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4))
+    for e in range(ints.shape[0]):
+        i, j, f = ints[e, 0], ints[e, 1], ints[e, 2]
+        _body_vector(q, qd, i, floats[e, 0:3], Si, Bi, Bdi, doti, qi)
+        _body_vector(q, qd, j, floats[e, 3:6], Sj, Bj, Bdj, dotj, qj)
+        ri, rj, vi, vj = _r(q, i), _r(q, j), _r(qd, i), _r(qd, j)
+        d = np.empty(3)
+        d_dot = np.empty(3)
+        for k in range(3):
+            d[k] = rj[k] + Sj[k] - ri[k] - Si[k]
+            d_dot[k] = vj[k] + dotj[k] - vi[k] - doti[k]
+        length = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        u = d / length
+        velocity = u[0] * d_dot[0] + u[1] * d_dot[1] + u[2] * d_dot[2]
+        actuator = function(fk, fp, f, t, 0)
+        tension = floats[e, 6] * (length - floats[e, 8]) + floats[e, 7] * velocity + actuator
+        _spatial_point_force(q, i, floats[e, 0:3], tension * u[0], tension * u[1], tension * u[2], Q)
+        _spatial_point_force(q, j, floats[e, 3:6], -tension * u[0], -tension * u[1], -tension * u[2], Q)
+        power[0] += floats[e, 7] * velocity**2
+        power[1] -= actuator * velocity
+
+
+@jit
+def spatial_rsda(q, qd, t, ints, floats, fk, fp, Q, power):
+    """Rotational spring-damper-actuators about h_i (eq. 10.13): theta = atan2(g_i^T f_j, f_i^T f_j) taken in
+    (theta0 - pi, theta0 + pi], theta' = h_i^T (omega_j - omega_i), torque f h_i on i and -f h_i on j.
+    ints (i, j, actuator), floats (f_i', g_i', h_i', f_j', k, c, theta0)."""
+    fi, gi, hi, fj = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    for e in range(ints.shape[0]):
+        i, j, f = ints[e, 0], ints[e, 1], ints[e, 2]
+        pi0, pi1, pi2, pi3 = _pq(q, i)
+        pj0, pj1, pj2, pj3 = _pq(q, j)
+        rotate(pi0, pi1, pi2, pi3, floats[e, 0:3], fi)
+        rotate(pi0, pi1, pi2, pi3, floats[e, 3:6], gi)
+        rotate(pi0, pi1, pi2, pi3, floats[e, 6:9], hi)
+        rotate(pj0, pj1, pj2, pj3, floats[e, 9:12], fj)
+        k, c, theta0 = floats[e, 12], floats[e, 13], floats[e, 14]
+        theta = math.atan2(gi[0] * fj[0] + gi[1] * fj[1] + gi[2] * fj[2], fi[0] * fj[0] + fi[1] * fj[1] + fi[2] * fj[2])
+        x = theta - theta0
+        angle = theta0 + (x - 2.0 * math.pi * np.round(x / (2.0 * math.pi)))  # math.remainder
+        w = _omega(q, qd, j) - _omega(q, qd, i)
+        velocity = hi[0] * w[0] + hi[1] * w[1] + hi[2] * w[2]
+        actuator = function(fk, fp, f, t, 0)
+        torque = k * (angle - theta0) + c * velocity + actuator
+        _spatial_torque(q, i, torque * hi[0], torque * hi[1], torque * hi[2], False, Q)
+        _spatial_torque(q, j, -torque * hi[0], -torque * hi[1], -torque * hi[2], False, Q)
+        power[0] += c * velocity**2
+        power[1] -= actuator * velocity
+
+
+@jit
+def spatial_load(q, qd, t, ints, floats, fk, fp, Q, power):
+    """Point forces (eq. 10.10) and torques: ints (i, kind 0 force / 1 torque, body fixed, f_x, f_y, f_z),
+    floats (s_i'); power[1] += q_i'^T Q_i."""
+    before = np.empty(7)
+    A = np.empty(3)
+    for e in range(ints.shape[0]):
+        i, kind, fixed = ints[e, 0], ints[e, 1], ints[e, 2]
+        o = 7 * i
+        before[:] = Q[o : o + 7]
+        v = np.array(
+            [function(fk, fp, ints[e, 3], t, 0), function(fk, fp, ints[e, 4], t, 0), function(fk, fp, ints[e, 5], t, 0)]
+        )
+        if kind == 0:
+            if fixed:
+                rotate(q[o + 3], q[o + 4], q[o + 5], q[o + 6], v, A)
+                v[:] = A
+            _spatial_point_force(q, i, floats[e, 0:3], v[0], v[1], v[2], Q)
+        else:
+            _spatial_torque(q, i, v[0], v[1], v[2], fixed != 0, Q)
+        for k in range(7):
+            power[1] += qd[o + k] * (Q[o + k] - before[k])
+
+
+# -- the linear solve of eq. 5.30 ------------------------------------------------------------------------------
+@jit
+def lu_solve(K, b):
+    """x from K x = b by Gaussian elimination with partial pivoting (P K = L U, then two triangular solves):
+    the algorithm of LAPACK's gesv, written out for the small dense systems of one evaluation (K is overwritten)."""
+    n = b.size
+    x = b.copy()
+    for c in range(n):
+        pivot = c
+        biggest = abs(K[c, c])
+        for r in range(c + 1, n):
+            if abs(K[r, c]) > biggest:
+                biggest, pivot = abs(K[r, c]), r
+        if pivot != c:
+            for k in range(n):
+                K[c, k], K[pivot, k] = K[pivot, k], K[c, k]
+            x[c], x[pivot] = x[pivot], x[c]
+        inverse = 1.0 / K[c, c]
+        for r in range(c + 1, n):
+            factor = K[r, c] * inverse
+            if factor != 0.0:
+                K[r, c] = factor
+                for k in range(c + 1, n):
+                    K[r, k] -= factor * K[c, k]
+                x[r] -= factor * x[c]
+    for r in range(n - 1, -1, -1):
+        s = x[r]
+        for k in range(r + 1, n):
+            s -= K[r, k] * x[k]
+        x[r] = s / K[r, r]
+    return x
+
+
+@jit
+def augmented_solve(mass, M, spatial, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
+    """q'' and lambda from eq. 5.30 with gamma_bar = gamma - 2 alpha (Psi_q q' + Psi_t) - beta^2 Psi (eq. 5.29);
+    M is the diagonal ``mass`` (planar) or the matrix ``M`` (spatial)."""
+    m, n = jac.shape
+    K = np.zeros((n + m, n + m))
+    rhs = np.empty(n + m)
+    rhs[:n] = Q
+    stabilized = ab[0] != 0.0 or ab[1] != 0.0
+    for r in range(m):
+        psi_dot = psit[r]
+        for c in range(n):
+            K[r + n, c] = jac[r, c]
+            K[c, r + n] = jac[r, c]
+            psi_dot += jac[r, c] * qd[c]
+        rhs[n + r] = gam[r] - 2.0 * ab[0] * psi_dot - ab[1] ** 2 * psi[r] if stabilized else gam[r]
+    if spatial:
+        K[:n, :n] = M
+    else:
+        for k in range(n):
+            K[k, k] = mass[k]
+    x = lu_solve(K, rhs)
+    qdd[:] = x[:n]
+    lam[:] = x[n:]
