@@ -44,6 +44,7 @@ from .integrators import (
 )
 from .joint_coordinates import open_tree
 from .kinematics import assemble, point_columns
+from .linalg import RANK_EPS, numerical_rank
 from .mass_matrix import mass_at, mass_matrix
 from .reactions import REDUNDANT_NOTE, joint_reactions, minimum_norm_multipliers
 from .results import Result
@@ -91,9 +92,14 @@ def consistent_initial_conditions(
     q, assembly = assemble(system, q0, t)
     jacobian = system.jacobian(q, t)
     residual = jacobian @ qd0 + system.psi_t(q, t)
-    weighted = np.linalg.solve(mass_at(M, q), jacobian.T)
-    x = np.linalg.lstsq(jacobian @ weighted, residual, rcond=None)[0]
-    qd = qd0 - weighted @ x
+    if point_masses(system.model):  # M singular: the same minimum, from [M Psi_q^T; Psi_q 0] (eq. 5.30's matrix)
+        n, m = jacobian.shape[1], jacobian.shape[0]
+        kkt = np.block([[mass_at(M, q), jacobian.T], [jacobian, np.zeros((m, m))]])
+        qd = qd0 + np.linalg.lstsq(kkt, np.concatenate([np.zeros(n), -residual]), rcond=None)[0][:n]
+    else:
+        weighted = np.linalg.solve(mass_at(M, q), jacobian.T)
+        x = np.linalg.lstsq(jacobian @ weighted, residual, rcond=None)[0]
+        qd = qd0 - weighted @ x
     report = {
         "assembly": assembly,
         "velocity_residual_before": float(np.max(np.abs(residual), initial=0.0)),
@@ -101,6 +107,50 @@ def consistent_initial_conditions(
         "velocity_residual": float(np.max(np.abs(jacobian @ qd + system.psi_t(q, t)), initial=0.0)),
     }
     return q, qd, report
+
+
+def point_masses(model) -> list[int]:
+    """Indices of the bodies the file gives as point masses (inertia 0, spatial [0, 0, 0])."""
+    return [k for k, b in enumerate(model.bodies) if b.has_mass and not np.any(np.asarray(b.inertia))]
+
+
+def check_point_masses(system: System, M, q: np.ndarray, formulation: str = "auto") -> None:
+    """Accept point masses only where the equations of motion stay solvable: M regular on the motions the
+    constraints allow, Z^T M Z positive definite for Z spanning the null space of Psi_q (eq. 5.44), which
+    makes the matrix of eq. 5.30 regular; a point mass whose rotation is free makes it singular.
+
+    Raises
+    ------
+    AnalysisError
+        Naming the point mass that can rotate (with the fix), or a formulation that needs M^-1.
+    """
+    bodies = point_masses(system.model)
+    if not bodies:
+        return
+    if formulation == "projection":
+        raise AnalysisError(
+            "the projection formulation needs M^-1, which a point mass (inertia 0) does not have: choose "
+            "baumgarte, qr, svd or augmented-lagrangian"
+        )
+    jacobian = system.jacobian(q, 0.0)
+    _, sigma, vt = np.linalg.svd(jacobian)
+    rank = numerical_rank(sigma, jacobian.shape)
+    Z = vt[rank:].T
+    if Z.shape[1] == 0:
+        return
+    reduced = Z.T @ mass_at(M, q) @ Z
+    values, vectors = np.linalg.eigh(0.5 * (reduced + reduced.T))
+    if values[0] > RANK_EPS * max(values[-1], 0.0):
+        return
+    motion = Z @ vectors[:, 0]  # a motion the constraints allow that has no kinetic energy
+    size = 3 if system.model.dimension == 2 else 7
+    turning = max(bodies, key=lambda k: float(np.linalg.norm(motion[size * k : size * k + size])))
+    name = system.model.bodies[turning].name
+    raise AnalysisError(
+        f"{system.model.source}: model.bodies[{turning}].inertia: '{name}' is a point mass (inertia 0) that the "
+        "joints leave free to rotate, so the mass matrix is singular on its motion; give it an inertia > 0, or "
+        "fix its rotation (e.g. a rigid joint)"
+    )
 
 
 class EquationsOfMotion:
@@ -216,9 +266,13 @@ def forward_dynamics(
     start = _time.perf_counter()
     requested = (formulation, integrator)
     model = system.model
+    if masses is None:
+        model.require_masses("dynamic")
     M = mass_matrix(model) if masses is None else masses
     forces = build_forces(model) if forces is None else forces
     q, qd, initial = consistent_initial_conditions(system, M, q0, qd0)
+    if masses is None:
+        check_point_masses(system, M, q, formulation)
     chosen = None
     if formulation == "joint-coordinates" and masses is not None and model.dimension == 3:
         raise AnalysisError(

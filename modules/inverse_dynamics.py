@@ -66,6 +66,8 @@ def inverse_dynamics(
         When the mechanism is not fully driven, is redundant, or locks up (from the kinematic analysis).
     """
     start = _time.perf_counter()
+    if masses is None:
+        system.model.require_masses("inverse")
     result = kinematic_analysis(system, q0, t_end, steps)
     M = mass_matrix(system.model) if masses is None else masses
     forces = build_forces(system.model) if forces is None else forces

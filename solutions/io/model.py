@@ -13,6 +13,7 @@ from __future__ import annotations
 import difflib
 import functools
 import json
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import resources
@@ -22,6 +23,8 @@ from typing import Any
 import fastjsonschema
 import numpy as np
 import yaml
+
+from ..rotations import euler_parameters, from_axis_angle, from_euler_123, from_euler_313
 
 GROUND = "ground"
 
@@ -41,6 +44,8 @@ class Body:
     orientation: Any = 0.0  # planar: angle phi in rad; spatial: Euler parameters
     velocity: np.ndarray | None = None
     angular_velocity: Any = 0.0
+    com: np.ndarray | None = None  # the file's com: centre of mass in the file's body frame (None: at location)
+    has_mass: bool = True  # False: the file gives no mass properties (kinematic analyses only)
 
 
 @dataclass
@@ -57,6 +62,22 @@ class Model:
     forces: list[dict] = field(default_factory=list)
     simulation: dict = field(default_factory=dict)
     source: str = "<model>"
+
+    def require_masses(self, analysis: str) -> None:
+        """Refuse an analysis that needs the mass matrix when a body of the file gives no mass properties.
+
+        Raises
+        ------
+        ModelError
+            Naming the first body without ``mass`` and ``inertia``.
+        """
+        for k, body in enumerate(self.bodies):
+            if not body.has_mass:
+                raise ModelError(
+                    f"{self.source}: model.bodies[{k}]: '{body.name}' has no mass and inertia, so the model is "
+                    f"kinematic only; give every body mass and inertia for a {analysis} analysis "
+                    "(or run --analysis kinematic)"
+                )
 
     def body_index(self, name: str) -> int:
         """Index of a body in ``bodies`` (-1 for ground)."""
@@ -226,43 +247,210 @@ def _vector(value, size: int, where: str, label: str) -> np.ndarray:
     return np.asarray(value, dtype=float)
 
 
-def _spatial_body(b: dict, where: str, label: str) -> Body:
-    """A spatial body: inertia about the centre of mass in the body frame (3 principal moments or a 3x3
-    matrix), orientation as Euler parameters [e0, e1, e2, e3] (normalised here), angular velocity global."""
+ANGLE_UNITS = {"deg": math.pi / 180.0, "rad": 1.0}
+"""Factor from a file's angle unit to rad."""
+
+ORTHONORMAL_TOLERANCE = 1e-6
+"""Largest |A^T A - I| entry of a rotation matrix in a file (rounding of printed values stays below it)."""
+
+
+def _unit(spec: dict, where: str, label: str, example: str) -> float:
+    if "unit" not in spec:
+        raise ModelError(
+            f"{label}: {where}.unit: missing key 'unit': state the unit of the angles (write e.g. {example})"
+        )
+    return ANGLE_UNITS[spec["unit"]]
+
+
+def planar_orientation(value, where: str, label: str) -> float:
+    """A planar body's angle phi in rad: a number (rad) or {angle: a, unit: deg|rad}."""
+    if isinstance(value, int | float):
+        return float(value)
+    if not isinstance(value, Mapping) or set(value) - {"angle", "unit"} or "angle" not in value:
+        raise ModelError(
+            f"{label}: {where}: a planar body takes one angle: a number in rad, or e.g. {{angle: 30, unit: deg}}"
+        )
+    return float(value["angle"]) * _unit(value, where, label, "{angle: 30, unit: deg}")
+
+
+ORIENTATION_FORMS = {
+    "euler_parameters": ("euler_parameters",),
+    "rotation_matrix": ("rotation_matrix",),
+    "euler_313": ("euler_313", "unit"),
+    "euler_123": ("euler_123", "unit"),
+    "axis_angle": ("axis", "angle", "unit"),
+}
+"""The mapping forms of a spatial orientation and the keys each takes."""
+
+
+def spatial_orientation(value, where: str, label: str) -> np.ndarray:
+    """Unit Euler parameters p of a spatial orientation in any form a file may give (eq. 8.10, 8.12, 8.13):
+
+    [e0, e1, e2, e3] or {euler_parameters: [...]} (normalised); {rotation_matrix: A} (columns the body
+    axes, orthonormal with det A = +1; p by Shepperd's method, eq. 8.13); {euler_313: [psi, theta, phi],
+    unit} (A = Rz(psi) Rx(theta) Rz(phi), eq. 8.6); {euler_123: [phi, theta, psi], unit} (A = Rx(phi)
+    Ry(theta) Rz(psi), eq. 8.7); {axis: u, angle: chi, unit} (p = (cos chi/2, u sin chi/2), eq. 8.10).
+    """
+    forms = "; or a mapping, e.g. {euler_313: [90, 30, 0], unit: deg} (see the schema's orientation)"
+    if isinstance(value, int | float):
+        raise ModelError(
+            f"{label}: {where}: a spatial body takes 4 Euler parameters [e0, e1, e2, e3], "
+            f"e.g. [1.0, 0.0, 0.0, 0.0] for the global orientation{forms}"
+        )
+    if not isinstance(value, Mapping):
+        value = {"euler_parameters": value}
+    keys = set(value)
+    form = next((name for name, needs in ORIENTATION_FORMS.items() if needs[0] in keys), None)
+    if form is None or keys - set(ORIENTATION_FORMS[form]):
+        given = ", ".join(sorted(keys))
+        raise ModelError(
+            f"{label}: {where}: cannot read an orientation from the keys {given}; give exactly one of "
+            "euler_parameters, rotation_matrix, euler_313 + unit, euler_123 + unit, axis + angle + unit"
+        )
+    if form == "euler_parameters":
+        p = np.asarray(value["euler_parameters"], dtype=float)
+        size = float(np.linalg.norm(p))
+        if size < 1e-12:
+            raise ModelError(
+                f"{label}: {where}: the Euler parameters are zero; write [cos(a/2), u sin(a/2)] "
+                "for a rotation a about the unit axis u, e.g. [1.0, 0.0, 0.0, 0.0]"
+            )
+        return p / size
+    if form == "rotation_matrix":
+        A = np.asarray(value["rotation_matrix"], dtype=float)
+        error = float(np.max(np.abs(A.T @ A - np.eye(3))))
+        if error > ORTHONORMAL_TOLERANCE or np.linalg.det(A) <= 0.0:
+            why = (
+                f"A^T A differs from I by {error:.2g}" if error > ORTHONORMAL_TOLERANCE else "det A < 0 (a reflection)"
+            )
+            raise ModelError(
+                f"{label}: {where}.rotation_matrix: not a rotation ({why}); give the body's x, y, z axes in global "
+                "components as the columns: unit, mutually orthogonal, right-handed"
+            )
+        return euler_parameters(A)
+    if form == "axis_angle":
+        axis = np.asarray(value["axis"], dtype=float)
+        if not np.any(axis):
+            raise ModelError(f"{label}: {where}.axis: the axis is zero; give a direction, e.g. [0.0, 0.0, 1.0]")
+        factor = _unit(value, where, label, "{axis: [0, 0, 1], angle: 90, unit: deg}")
+        return from_axis_angle(axis, float(value["angle"]) * factor)
+    example = "{" + form + ": [90, 30, 0], unit: deg}"
+    factor = _unit(value, where, label, example)
+    angles = [float(a) * factor for a in value[form]]
+    return (from_euler_313 if form == "euler_313" else from_euler_123)(*angles)
+
+
+def _mass_properties(b: dict, where: str, label: str, dim: int) -> tuple[float, Any, bool]:
+    """(mass, inertia, has_mass): both given, or neither (a kinematic model)."""
+    if "mass" not in b and "inertia" not in b:
+        return 0.0, (0.0 if dim == 2 else np.zeros((3, 3))), False
+    for key, example in (("mass", "1.0"), ("inertia", "0.01" if dim == 2 else "[0.01, 0.01, 0.02]")):
+        if key not in b:
+            raise ModelError(
+                f"{label}: {where}.{key}: missing key '{key}' (write e.g. {key}: {example}); a kinematic model may "
+                "leave out both mass and inertia"
+            )
     inertia = b["inertia"]
+    if dim == 2:
+        if not isinstance(inertia, int | float):
+            raise ModelError(
+                f"{label}: {where}.inertia: a planar body takes one number (moment about its centre of mass)"
+            )
+        return float(b["mass"]), float(inertia), True
     if isinstance(inertia, int | float):
         raise ModelError(
             f"{label}: {where}.inertia: a spatial body takes 3 principal moments [Jxx, Jyy, Jzz] or a 3x3 matrix"
         )
     inertia = np.asarray(inertia, dtype=float)
     inertia = np.diag(inertia) if inertia.ndim == 1 else inertia
-    if not np.allclose(inertia, inertia.T) or np.any(np.linalg.eigvalsh(0.5 * (inertia + inertia.T)) <= 0):
-        raise ModelError(f"{label}: {where}.inertia: must be symmetric and positive definite, got {inertia.tolist()}")
-    orientation = b.get("orientation", [1.0, 0.0, 0.0, 0.0])
-    if isinstance(orientation, int | float):
+    scale = float(np.max(np.abs(inertia), initial=0.0))
+    if not np.allclose(inertia, inertia.T) or np.any(np.linalg.eigvalsh(0.5 * (inertia + inertia.T)) < -1e-12 * scale):
         raise ModelError(
-            f"{label}: {where}.orientation: a spatial body takes 4 Euler parameters [e0, e1, e2, e3], "
-            "e.g. [1.0, 0.0, 0.0, 0.0] for the global orientation"
+            f"{label}: {where}.inertia: must be symmetric and positive definite (or [0, 0, 0] for a point mass), "
+            f"got {inertia.tolist()}"
         )
-    orientation = np.asarray(orientation, dtype=float)
-    size = float(np.linalg.norm(orientation))
-    if size < 1e-12:
-        raise ModelError(
-            f"{label}: {where}.orientation: the Euler parameters are zero; write [cos(a/2), u sin(a/2)] "
-            "for a rotation a about the unit axis u, e.g. [1.0, 0.0, 0.0, 0.0]"
+    return float(b["mass"]), inertia, True
+
+
+def _body(b: dict, where: str, label: str, dim: int) -> Body:
+    """A body as the solver takes it: the file's frame converted once to the centre-of-mass frame.
+
+    With ``com`` c' (in the file's body frame, origin ``location`` r_o, orientation A), the centre of mass
+    is r = r_o + A c' and its velocity r' = r_o' + omega x (A c') (planar: omega R90 A c', eq. 2.11);
+    the body-frame axes stay those of the file.
+    """
+    mass, inertia, has_mass = _mass_properties(b, where, label, dim)
+    if dim == 3:
+        p = spatial_orientation(b.get("orientation", [1.0, 0.0, 0.0, 0.0]), f"{where}.orientation", label)
+        angular_velocity = b.get("angular_velocity", [0.0] * 3)
+        if isinstance(angular_velocity, int | float):
+            raise ModelError(f"{label}: {where}.angular_velocity: a spatial body takes a 3-vector (global frame)")
+        omega = _vector(angular_velocity, 3, f"{where}.angular_velocity", label)
+        orientation: Any = p
+        e0, e = p[0], p[1:]  # A(p) (eq. 8.12), written out: the students' rotation_matrix may be a stub
+        A = (2 * e0 * e0 - 1) * np.eye(3) + 2 * (
+            np.outer(e, e) + e0 * np.array([[0.0, -e[2], e[1]], [e[2], 0.0, -e[0]], [-e[1], e[0], 0.0]])
         )
-    angular_velocity = b.get("angular_velocity", [0.0] * 3)
-    if isinstance(angular_velocity, int | float):
-        raise ModelError(f"{label}: {where}.angular_velocity: a spatial body takes a 3-vector (global frame)")
+    else:
+        if not isinstance(b.get("angular_velocity", 0.0), int | float):
+            raise ModelError(f"{label}: {where}.angular_velocity: a planar body takes one number in rad/s")
+        orientation = planar_orientation(b.get("orientation", 0.0), f"{where}.orientation", label)
+        omega = float(b.get("angular_velocity", 0.0))
+        c, s = math.cos(orientation), math.sin(orientation)
+        A = np.array([[c, -s], [s, c]])
+    location = _vector(b["location"], dim, f"{where}.location", label)
+    velocity = _vector(b.get("velocity", [0.0] * dim), dim, f"{where}.velocity", label)
+    com = None
+    if "com" in b:
+        com = _vector(b["com"], dim, f"{where}.com", label)
+        offset = A @ com
+        location = location + offset
+        velocity = velocity + (np.cross(omega, offset) if dim == 3 else omega * np.array([-offset[1], offset[0]]))
     return Body(
         name=b["name"],
-        mass=float(b["mass"]),
+        mass=mass,
         inertia=inertia,
-        location=_vector(b["location"], 3, f"{where}.location", label),
-        orientation=orientation / size,
-        velocity=_vector(b.get("velocity", [0.0] * 3), 3, f"{where}.velocity", label),
-        angular_velocity=_vector(angular_velocity, 3, f"{where}.angular_velocity", label),
+        location=location,
+        orientation=orientation,
+        velocity=velocity,
+        angular_velocity=omega,
+        com=com,
+        has_mass=has_mass,
     )
+
+
+BODY_POINT_KEYS = {
+    "joints": (("point1", "body1"), ("point2", "body2")),
+    "motors": (("point1", "body1"), ("point2", "body2")),
+    "spring_dampers": (("point1", "body1"), ("point2", "body2")),
+    "forces": (("point", "body"),),
+}
+"""The points of an element given with ``frame: body``, and the body whose frame each is in."""
+
+
+def _shift_body_points(model: Model) -> None:
+    """``frame: body`` points of bodies with ``com``: from the file's body frame to the centre-of-mass frame,
+    s' = s'_file - c' (the axes are the same). A joint's single ``location`` becomes point1 and point2; a
+    spatial joint's omitted point (the frame's origin, ``location``) becomes -c'."""
+    coms = {b.name: b.com for b in model.bodies if b.com is not None}
+    if not coms:
+        return
+    zero = [0.0] * model.dimension
+    for section, keys in BODY_POINT_KEYS.items():
+        for item in getattr(model, section):
+            if item.get("frame") != "body" or not any(item.get(body) in coms for _, body in keys):
+                continue
+            if section == "joints" and "location" in item:
+                location = item.pop("location")
+                item.setdefault("point1", location)
+                item.setdefault("point2", location)
+            for key, body in keys:
+                if item.get(body) not in coms:
+                    continue
+                if key not in item and not (section == "joints" and model.dimension == 3):
+                    continue  # an omitted force point is the centre of mass; a planar joint needs its points
+                point = np.asarray(item.get(key, zero), dtype=float) - coms[item[body]]
+                item[key] = point.tolist()
 
 
 def _build(data: dict, label: str) -> Model:
@@ -274,26 +462,7 @@ def _build(data: dict, label: str) -> Model:
         where = f"model.bodies[{k}]"
         if b["name"] == GROUND:
             raise ModelError(f"{label}: {where}.name: 'ground' is reserved for the fixed frame; rename the body")
-        if dim == 3:
-            bodies.append(_spatial_body(b, where, label))
-            continue
-        if not isinstance(b["inertia"], int | float):
-            raise ModelError(
-                f"{label}: {where}.inertia: a planar body takes one number (moment about its centre of mass)"
-            )
-        if not isinstance(b.get("orientation", 0.0), int | float):
-            raise ModelError(f"{label}: {where}.orientation: a planar body takes one angle in rad")
-        bodies.append(
-            Body(
-                name=b["name"],
-                mass=float(b["mass"]),
-                inertia=float(b["inertia"]),
-                location=_vector(b["location"], dim, f"{where}.location", label),
-                orientation=float(b.get("orientation", 0.0)),
-                velocity=_vector(b.get("velocity", [0.0] * dim), dim, f"{where}.velocity", label),
-                angular_velocity=float(b.get("angular_velocity", 0.0)),
-            )
-        )
+        bodies.append(_body(b, where, label, dim))
     model = Model(
         name=spec.get("name", label.rsplit(".", 1)[0]),
         dimension=dim,
@@ -307,6 +476,7 @@ def _build(data: dict, label: str) -> Model:
         source=label,
     )
     _check_references(model, label)
+    _shift_body_points(model)
     return model
 
 
