@@ -67,6 +67,15 @@ SETTINGS = {  # option -> (key of the model file's simulation block, default)
     "accuracy": ("accuracy", None),
     "through_singular": ("through_singular", None),
     "engine": ("engine", "auto"),
+    "alpha": ("alpha", None),
+    "beta": ("beta", None),
+    "penalty": ("penalty", None),
+    "rank_tol": ("rank_tol", None),
+    "repartition_ratio": ("repartition_ratio", None),
+    "max_evaluations": ("max_evaluations", None),
+    "drift_limit": ("drift_limit", None),
+    "singular_ratio": ("singular_ratio", None),
+    "stiffness": ("stiffness", None),
 }
 
 
@@ -74,10 +83,66 @@ ANALYSES = ("auto", "kinematic", "dynamic", "inverse")
 """What ``--analysis`` takes; ``auto`` is ``choose_analysis``."""
 ENGINES = ("auto", "numpy", "compiled")
 """What ``--engine`` takes (``compiled.dispatch``): numba is imported only when a run is compiled."""
-NAMES = {"analysis": ANALYSES, "formulation": FORMULATION_NAMES, "integrator": INTEGRATOR_NAMES, "engine": ENGINES}
+STIFFNESS = ("report", "error", "off")
+"""What ``--stiffness`` takes (``forward_dynamics``)."""
+NAMES = {
+    "analysis": ANALYSES,
+    "formulation": FORMULATION_NAMES,
+    "integrator": INTEGRATOR_NAMES,
+    "engine": ENGINES,
+    "stiffness": STIFFNESS,
+}
 """Settings that take a name, and the names they take (the lists ``forward_dynamics`` checks against)."""
-DYNAMIC_ONLY = ("formulation", "integrator", "rtol", "atol", "step", "accuracy")
+FORMULATION_OPTIONS = ("alpha", "beta", "penalty", "rank_tol", "repartition_ratio")
+"""Settings that are options of a formulation's constructor (``formulations.FORMULATIONS``)."""
+CHECKS = ("drift_limit", "singular_ratio")
+"""Settings of a check that 0 turns off (``forward_dynamics`` takes None)."""
+WHOLE = ("steps", "max_evaluations")
+"""Settings that take a whole number >= 1."""
+ZERO_ALLOWED = ("alpha", "beta", *CHECKS)
+"""Settings that take a number >= 0."""
+DYNAMIC_ONLY = (
+    "formulation",
+    "integrator",
+    "rtol",
+    "atol",
+    "step",
+    "accuracy",
+    *FORMULATION_OPTIONS,
+    "max_evaluations",
+    *CHECKS,
+    "stiffness",
+)
 """Settings that only a forward dynamic analysis uses."""
+
+
+def formulations_taking(option: str) -> list[str]:
+    """The formulations whose constructor takes ``option`` (e.g. alpha: baumgarte, qr, svd, ...)."""
+    import inspect
+
+    from .formulations import FORMULATIONS
+
+    return [name for name, cls in FORMULATIONS.items() if option in inspect.signature(cls.__init__).parameters]
+
+
+def check_formulation_options(settings: dict) -> None:
+    """Refuse a formulation option (alpha, penalty, ...) that the run's formulation does not take.
+
+    Raises
+    ------
+    UsageError
+        Naming the option and the formulations that take it.
+    """
+    for option in FORMULATION_OPTIONS:
+        if settings.get(option) is None:
+            continue
+        takes = formulations_taking(option)
+        if settings.get("formulation") not in takes:
+            given = settings.get("formulation") or "auto"
+            raise UsageError(
+                f"--{option.replace('_', '-')} (simulation.{option}) is an option of the {', '.join(takes)} "
+                f"formulation{'s' if len(takes) > 1 else ''}, not of {given}: add --formulation {takes[0]}"
+            )
 
 
 def check_setting(option: str, value, source: str) -> None:
@@ -95,10 +160,13 @@ def check_setting(option: str, value, source: str) -> None:
         if value not in NAMES[option]:
             raise UsageError(f"{source} {value!r}: unknown {option} (one of: {', '.join(NAMES[option])})")
         return
-    whole = option == "steps"
+    whole = option in WHOLE
     number = isinstance(value, int) if whole else isinstance(value, int | float)
-    if not number or not math.isfinite(value) or value <= 0:
-        raise UsageError(f"{source} {value!r}: must be {'a whole number >= 1' if whole else 'a number > 0'}")
+    number = number and not isinstance(value, bool)
+    low = 0 if option in ZERO_ALLOWED else None
+    if not number or not math.isfinite(value) or value < 0 or (low is None and value == 0):
+        wanted = "a whole number >= 1" if whole else ("a number >= 0" if low == 0 else "a number > 0")
+        raise UsageError(f"{source} {value!r}: must be {wanted}")
 
 
 def analysis_settings(model: Model, **options) -> dict:
@@ -118,6 +186,7 @@ def analysis_settings(model: Model, **options) -> dict:
         else:
             settings[option] = value
             check_setting(option, value, f"--{option.replace('_', '-')}")
+    check_formulation_options(settings)
     return settings
 
 
@@ -138,7 +207,10 @@ def run_analysis(system: System, q0: np.ndarray, qd0: np.ndarray, settings: dict
         return kinematic_analysis(
             system, q0, settings["t_end"], settings["steps"], points=points, through_singular=through
         )
-    options = {k: settings[k] for k in DYNAMIC_ONLY if settings[k] is not None}
+    options = {k: settings[k] for k in DYNAMIC_ONLY if settings.get(k) is not None}
+    for check in CHECKS:
+        if options.get(check) == 0:
+            options[check] = None  # 0 in a file or on the command line: no such check
     if analysis == "dynamic":
         engine = settings.get("engine", "numpy")
         return forward_dynamics(system, q0, qd0, settings["t_end"], settings["steps"], engine=engine, **options)
@@ -341,6 +413,49 @@ def build_parser() -> argparse.ArgumentParser:
         const=True,
         help="kinematic analysis: go on through singular positions along the branch of the velocities "
         "(listed as warnings) instead of stopping there",
+    )
+    run.add_argument(
+        "--alpha",
+        type=float,
+        help="Baumgarte's alpha in 1/s (baumgarte, qr, svd, ...; default 5 for baumgarte): "
+        "gamma_bar = gamma - 2 alpha Psi' - beta^2 Psi (eq. 5.29)",
+    )
+    run.add_argument("--beta", type=float, help="Baumgarte's beta in 1/s (with --alpha; default 5 for baumgarte)")
+    run.add_argument(
+        "--penalty",
+        type=float,
+        help="augmented-lagrangian: penalty relative to the largest mass over sigma_max(Psi_q)^2 (default 1e7)",
+    )
+    run.add_argument(
+        "--rank-tol",
+        type=float,
+        help="svd: singular values of Psi_q below rank_tol sigma_1 count as zero (default: the package's rank rule)",
+    )
+    run.add_argument(
+        "--repartition-ratio",
+        type=float,
+        help="partitioning: choose new independent coordinates when cond(Psi_v) grows by this factor (default 10)",
+    )
+    run.add_argument(
+        "--max-evaluations",
+        type=int,
+        help="forward dynamics: budget of right-hand-side evaluations; past it the run stops, saying where",
+    )
+    run.add_argument(
+        "--drift-limit",
+        type=float,
+        help="forward dynamics: stop when the positions are off the constraints by this fraction of the "
+        "mechanism's size (default 1e-3; 0: no limit)",
+    )
+    run.add_argument(
+        "--singular-ratio",
+        type=float,
+        help="forward dynamics: stop at a singular position, where the smallest singular value of Psi_q falls "
+        "below this fraction of the largest (0: no check)",
+    )
+    run.add_argument(
+        "--stiffness",
+        help="forward dynamics, explicit integrators bounded by stability: report (default), error (stop), off",
     )
     run.add_argument("--out", help="write results to FILE.csv or FILE.npz")
     run.add_argument("--plot", help="plot coordinates and points against time to FILE.png")
