@@ -29,19 +29,18 @@ class UsageError(ValueError):
 
 
 def _parse_point(text: str, model: Model, number: int) -> tuple[str, int, np.ndarray]:
-    """'[LABEL=]BODY:x,y' -> (label, body index, body-frame point).
+    """'[LABEL=]BODY:x,y' (spatial: x,y,z) -> (label, body index, body-frame point s' = A^T (P - r)).
 
-    x, y are global, in the file's configuration; the label defaults to 'BODY.pN'.
+    x, y (, z) are global, in the file's configuration; the label defaults to 'BODY.pN'.
     """
-    if model.dimension != 2:
-        raise UsageError("--point is available for planar models")
+    form = "x,y" if model.dimension == 2 else "x,y,z"
     label, _, spec = text.rpartition("=")
     try:
         body, coords = spec.split(":")
         values = np.array([float(v) for v in coords.split(",")])
     except ValueError:
         raise UsageError(
-            f"--point {text!r}: write [LABEL=]BODY:x,y (a global point in the file's configuration)"
+            f"--point {text!r}: write [LABEL=]BODY:{form} (a global point in the file's configuration)"
         ) from None
     try:
         index = model.body_index(body)
@@ -49,8 +48,12 @@ def _parse_point(text: str, model: Model, number: int) -> tuple[str, int, np.nda
         names = ", ".join(b.name for b in model.bodies)
         raise UsageError(f"--point {text!r}: no body named '{body}' (bodies: {names})") from None
     if values.size != model.dimension or index < 0:
-        raise UsageError(f"--point {text!r}: give {model.dimension} coordinates of a point of a moving body")
+        raise UsageError(f"--point {text!r}: give {model.dimension} coordinates ({form}) of a point of a moving body")
     b = model.bodies[index]
+    if model.dimension == 3:
+        from .io.model import euler_rotation
+
+        return label or f"{body}.p{number}", index, euler_rotation(b.orientation).T @ (values - b.location)
     c, s = np.cos(b.orientation), np.sin(b.orientation)
     local = np.array([[c, s], [-s, c]]) @ (values - b.location)
     return label or f"{body}.p{number}", index, local
@@ -214,11 +217,17 @@ def run_analysis(system: System, q0: np.ndarray, qd0: np.ndarray, settings: dict
             options[check] = None  # 0 in a file or on the command line: no such check
     if analysis == "dynamic":
         engine = settings.get("engine", "numpy")
-        return forward_dynamics(system, q0, qd0, settings["t_end"], settings["steps"], engine=engine, **options)
+        return forward_dynamics(
+            system, q0, qd0, settings["t_end"], settings["steps"], engine=engine, points=points, **options
+        )
     if analysis == "inverse":
         from .inverse_dynamics import inverse_dynamics
+        from .kinematics import point_columns
 
-        return inverse_dynamics(system, q0, settings["t_end"], settings["steps"])
+        result = inverse_dynamics(system, q0, settings["t_end"], settings["steps"])
+        for label, (body, point) in (points or {}).items():
+            result.points.update(point_columns(result, label, body, point))
+        return result
     raise UsageError(f"--analysis {analysis}: not available (one of: {', '.join(ANALYSES)})")
 
 
@@ -271,7 +280,13 @@ def command_run(args) -> int:
         points[label] = (body, local)
     settings = analysis_settings(model, **{k: getattr(args, k) for k in SETTINGS})
     _check_coords(args.coords or [], system, points)
+    if args.rotations and model.dimension != 3:
+        raise UsageError("--rotations: a planar body's angle phi and its rate are the columns BODY.phi, BODY.phi_d")
     result = run_analysis(system, q0, qd0, settings, points=points)
+    if args.rotations:
+        from .kinematics import rotation_columns
+
+        result.points.update(rotation_columns(result, [b.name for b in model.bodies]))
     print(_summary(result))
     note = _unused_note(args, result)
     if note:
@@ -465,8 +480,15 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument(
         "--point",
         action="append",
-        metavar="[LABEL=]BODY:x,y",
-        help="also report a body point given globally in the file's configuration (repeatable)",
+        metavar="[LABEL=]BODY:x,y[,z]",
+        help="also report position, velocity and acceleration (LABEL.x .y [.z], _d, _dd) of a body point given "
+        "globally in the file's configuration, in every analysis (repeatable)",
+    )
+    run.add_argument(
+        "--rotations",
+        action="store_true",
+        help="spatial models: also report each body's angular velocity in rad/s, global (BODY.wx .wy .wz) and "
+        "in the body frame (BODY.wx_body ..), and its rotation matrix (BODY.A11 .. BODY.A33)",
     )
     run.set_defaults(handler=command_run)
     check = sub.add_parser("check", help="validate and assemble a model; report DOF and redundancies")

@@ -45,7 +45,7 @@ from .joint_coordinates import open_tree
 from .kinematics import assemble, point_columns
 from .linalg import RANK_EPS, numerical_rank
 from .mass_matrix import mass_at, mass_matrix
-from .reactions import REDUNDANT_NOTE, joint_reactions, minimum_norm_multipliers
+from .reactions import REDUNDANT_NOTE, driver_efforts, joint_reactions, minimum_norm_multipliers
 from .results import Result
 
 INDEX3_INTEGRATORS = ("hht", "generalized-alpha")
@@ -106,6 +106,15 @@ def consistent_initial_conditions(
         "velocity_residual": float(np.max(np.abs(jacobian @ qd + system.psi_t(q, t)), initial=0.0)),
     }
     return q, qd, report
+
+
+def effort_columns(system: System, q: np.ndarray, lam: np.ndarray, t: np.ndarray) -> dict[str, np.ndarray]:
+    """'DRIVER.effort' for every driver over a run: the name an inverse analysis gives them too."""
+    efforts: dict[str, list[float]] = {}
+    for k in range(len(t)):
+        for name, value in driver_efforts(system, q[k], lam[k], t[k]).items():
+            efforts.setdefault(name, []).append(value)
+    return {f"{name}.effort": np.array(values) for name, values in efforts.items()}
 
 
 def point_masses(model) -> list[int]:
@@ -304,6 +313,7 @@ def forward_dynamics(
         for label, (body, point) in (points or {}).items():
             result.points.update(point_columns(result, label, body, point))
         result.reactions.update(joint_reactions(system, result.q, result.lam, result.t))
+        result.reactions.update(effort_columns(system, result.q, result.lam, result.t))
         result.info.update(assembly=initial["assembly"], initial_conditions=initial)
         result.info["warnings"] = accuracy_warnings(result.info, size, accuracy, None)
         result.info["wall_time"] = _time.perf_counter() - start
@@ -429,6 +439,7 @@ def forward_dynamics(
     if redundant:  # multipliers are not unique: report the minimum-norm set (eq. 5.73)
         result.lam = history.lam = minimum_norm_multipliers(system, history.q, history.lam, times)
     result.reactions.update(joint_reactions(system, history.q, history.lam, times))
+    result.reactions.update(effort_columns(system, history.q, history.lam, times))
     result.info = {
         "analysis": "dynamic",
         "formulation": formulation,
@@ -587,9 +598,16 @@ def drift_warnings(info: dict, size: float, formulation: str, options: dict) -> 
         if unstabilized
         else "the integrator's error reaches the constraints; "
     )
+    advice = {
+        "baumgarte": "--formulation projection, larger --alpha and --beta, or a tighter --rtol",
+        "projection": "a tighter --rtol (it projects every step) or --formulation augmented-lagrangian",
+        "augmented-lagrangian": "a tighter --rtol, or --formulation projection",
+    }.get(formulation, "--formulation projection, --formulation baumgarte --alpha 5 --beta 5, or a tighter --rtol")
+    if unstabilized and formulation == "baumgarte":
+        advice = "--alpha 5 --beta 5 (Baumgarte's stabilization), --formulation projection, or a tighter --rtol"
     return [
         f"constraint drift: max |Psi| = {residual:.2g}, above {DRIFT_WARNING:g} of the mechanism's size "
-        f"({size:.3g} m): {why}use baumgarte (alpha, beta > 0), projection or a tighter tolerance"
+        f"({size:.3g} m): {why}try {advice}"
     ]
 
 

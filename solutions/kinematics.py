@@ -380,11 +380,61 @@ def point_kinematics(q, qd, qdd, body: int, point: np.ndarray):
     return position, velocity, acceleration
 
 
+def spatial_point_kinematics(q, qd, qdd, body: int, point: np.ndarray):
+    """Position, velocity and acceleration of a body-fixed point of a spatial body over time (eq. 8.16):
+
+    r^P = r + A s',  r^P' = r' + omega x A s',  r^P'' = r'' + omega' x A s' + omega x (omega x A s'),
+
+    with omega = 2 G(p) p' and omega' = 2 G(p) p'' (G p' is orthogonal to p', so G' p' = 0).
+    """
+    from .io.model import euler_rotation
+
+    cols = slice(7 * body, 7 * body + 7)
+    r, rd, rdd = q[:, cols], qd[:, cols], qdd[:, cols]
+    position, velocity, acceleration = (np.empty((len(q), 3)) for _ in range(3))
+    for k in range(len(q)):
+        omega, alpha = angular_rates(r[k, 3:], rd[k, 3:], rdd[k, 3:])
+        As = euler_rotation(r[k, 3:] / np.linalg.norm(r[k, 3:])) @ point
+        position[k] = r[k, :3] + As
+        velocity[k] = rd[k, :3] + np.cross(omega, As)
+        acceleration[k] = rdd[k, :3] + np.cross(alpha, As) + np.cross(omega, np.cross(omega, As))
+    return position, velocity, acceleration
+
+
+def angular_rates(p: np.ndarray, pd: np.ndarray, pdd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """omega = 2 G(p) p' and its rate omega' = 2 G(p) p'' (global frame, eq. 8.16), G written out."""
+    e0, e1, e2, e3 = map(float, p)
+    G = np.array([[-e1, e0, -e3, e2], [-e2, e3, e0, -e1], [-e3, -e2, e1, e0]])
+    return 2.0 * G @ pd, 2.0 * G @ pdd
+
+
 def point_columns(result: Result, label: str, body: int, point: np.ndarray) -> dict[str, np.ndarray]:
-    """Columns 'label.x', 'label.y' and their _d, _dd for a body point."""
-    position, velocity, acceleration = point_kinematics(result.q, result.qd, result.qdd, body, point)
+    """Columns 'label.x', 'label.y' (spatial: and 'label.z') and their _d, _dd for a body point."""
+    spatial = np.asarray(point).size == 3
+    kinematics = spatial_point_kinematics if spatial else point_kinematics
+    position, velocity, acceleration = kinematics(result.q, result.qd, result.qdd, body, point)
     columns = {}
     for suffix, values in (("", position), ("_d", velocity), ("_dd", acceleration)):
-        columns[f"{label}.x{suffix}"] = values[:, 0]
-        columns[f"{label}.y{suffix}"] = values[:, 1]
+        for k, axis in enumerate("xyz" if spatial else "xy"):
+            columns[f"{label}.{axis}{suffix}"] = values[:, k]
+    return columns
+
+
+def rotation_columns(result: Result, bodies: list[str]) -> dict[str, np.ndarray]:
+    """For each spatial body: angular velocity, global 'B.wx .wy .wz' = 2 G p' and body-frame 'B.wx_body ..'
+    = A^T omega (eq. 8.16), and the rotation matrix 'B.A11' .. 'B.A33' (eq. 8.12)."""
+    from .io.model import euler_rotation
+
+    columns: dict[str, np.ndarray] = {}
+    for b, name in enumerate(bodies):
+        p, pd = result.q[:, 7 * b + 3 : 7 * b + 7], result.qd[:, 7 * b + 3 : 7 * b + 7]
+        A = np.array([euler_rotation(pk / np.linalg.norm(pk)) for pk in p])
+        omega = np.array([angular_rates(pk, pdk, pdk)[0] for pk, pdk in zip(p, pd, strict=True)])
+        local = np.einsum("kji,kj->ki", A, omega)
+        for i, axis in enumerate("xyz"):
+            columns[f"{name}.w{axis}"] = omega[:, i]
+            columns[f"{name}.w{axis}_body"] = local[:, i]
+        for i in range(3):
+            for j in range(3):
+                columns[f"{name}.A{i + 1}{j + 1}"] = A[:, i, j]
     return columns

@@ -341,6 +341,14 @@ def spatial_orientation(value, where: str, label: str) -> np.ndarray:
     return (from_euler_313 if form == "euler_313" else from_euler_123)(*angles)
 
 
+def euler_rotation(p: np.ndarray) -> np.ndarray:
+    """A(p) = (2 e0^2 - 1) I + 2 (e e^T + e0 e~) for unit p (eq. 8.12), written out here because the
+    students' ``rotations.rotation_matrix`` may be a stub when their package loads a model."""
+    e0, e = float(p[0]), np.asarray(p[1:], dtype=float)
+    tilde = np.array([[0.0, -e[2], e[1]], [e[2], 0.0, -e[0]], [-e[1], e[0], 0.0]])
+    return (2 * e0 * e0 - 1) * np.eye(3) + 2 * (np.outer(e, e) + e0 * tilde)
+
+
 def _mass_properties(b: dict, where: str, label: str, dim: int) -> tuple[float, Any, bool]:
     """(mass, inertia, has_mass): both given, or neither (a kinematic model)."""
     if "mass" not in b and "inertia" not in b:
@@ -388,10 +396,7 @@ def _body(b: dict, where: str, label: str, dim: int) -> Body:
             raise ModelError(f"{label}: {where}.angular_velocity: a spatial body takes a 3-vector (global frame)")
         omega = _vector(angular_velocity, 3, f"{where}.angular_velocity", label)
         orientation: Any = p
-        e0, e = p[0], p[1:]  # A(p) (eq. 8.12), written out: the students' rotation_matrix may be a stub
-        A = (2 * e0 * e0 - 1) * np.eye(3) + 2 * (
-            np.outer(e, e) + e0 * np.array([[0.0, -e[2], e[1]], [e[2], 0.0, -e[0]], [-e[1], e[0], 0.0]])
-        )
+        A = euler_rotation(p)
     else:
         if not isinstance(b.get("angular_velocity", 0.0), int | float):
             raise ModelError(f"{label}: {where}.angular_velocity: a planar body takes one number in rad/s")
