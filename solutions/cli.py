@@ -286,6 +286,21 @@ def command_bench(args) -> int:
     return bench.main(args.options)
 
 
+def command_notes(args: argparse.Namespace) -> int:
+    """Build the course notes as HTML (course/notes/build.py): the instructor's repository only."""
+    try:
+        from course.notes.build import main as build_main
+    except ImportError:
+        raise UsageError("mbd notes builds the course repository's course/notes: run it in the repository") from None
+    return build_main(args.options)
+
+
+def add_course_commands(sub) -> None:
+    """The course-material commands: ``mbd notes`` (its options: ``mbd notes --help``)."""
+    notes = sub.add_parser("notes", help="build the course notes as HTML (build/notes/index.html)", add_help=False)
+    notes.set_defaults(handler=command_notes)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="mbd", description="Multibody dynamics course: reference solver.")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -348,6 +363,7 @@ def build_parser() -> argparse.ArgumentParser:
         "bench", help="run time against error per scene, formulation and integrator (see benchmarks/README.md)"
     )
     bench.set_defaults(handler=command_bench)
+    add_course_commands(sub)
     return parser
 
 
@@ -355,7 +371,7 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of ``mbd``; returns the exit code (0 success, 2 user error)."""
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
-    if args.command == "bench":
+    if args.command in ("bench", "notes"):
         args.options = extra  # the benchmark's own options (benchmarks/bench.py --help)
     elif extra:
         parser.error(f"unrecognized arguments: {' '.join(extra)}")

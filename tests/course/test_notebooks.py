@@ -4,7 +4,8 @@
   every graded cell;
 - every released notebook with its untouched skeleton package runs to the end, and every graded cell
   fails cleanly (an AssertionError with the grader's message, never a crash or a hang);
-- every lecture notebook (``course/lectures``) runs without an error.
+- every lecture notebook (``course/lectures``) and every chapter of the course notes (``course/notes``) runs
+  without an error.
 
 Each notebook is executed once (module-scoped fixtures), two at a time, in a kernel of this venv.
 """
@@ -21,11 +22,13 @@ import nbformat
 import pytest
 from nbclient import NotebookClient
 
+from course.notes import chapters
 from course.release import HOMEWORKS, build_package, release
 from course.release.generator import REPO
 from mbdkit.homework import load_homework
 
 LECTURES = sorted((REPO / "course" / "lectures").glob("*.ipynb"))
+NOTES = chapters()
 NOT_ASKED = ("planar/batched.py", "spatial/batched.py")
 """Array versions of the element formulas, stubbed in a release but not asked for: the system falls back to
 the element methods the student writes (the notebook says so)."""
@@ -95,6 +98,8 @@ def runs(tmp_path_factory):
         jobs["skeleton", homework] = (released / f"{homework}.ipynb", released)
     for path in LECTURES:
         jobs["lecture", path.stem] = (path, path.parent)
+    for path in NOTES:
+        jobs["notes", path.stem] = (path, path.parent)
     return execute_all(jobs)
 
 
@@ -111,6 +116,11 @@ def skeleton_runs(runs):
 @pytest.fixture(scope="module")
 def lecture_runs(runs):
     return {name: nb for (kind, name), nb in runs.items() if kind == "lecture"}
+
+
+@pytest.fixture(scope="module")
+def notes_runs(runs):
+    return {name: nb for (kind, name), nb in runs.items() if kind == "notes"}
 
 
 # -- the source notebooks --------------------------------------------------------------------------------------
@@ -215,6 +225,19 @@ def test_lecture_notebook_executes(lecture_runs, lecture):
     assert code and all(c.execution_count is not None for c in code)
     failures = [(c.source.splitlines()[0], errors(c)[0].evalue[:300]) for c in code if errors(c)]
     assert failures == []
+
+
+@pytest.mark.parametrize("chapter", [p.stem for p in NOTES])
+def test_notes_chapter_executes_with_numbers_from_the_solver(notes_runs, chapter):
+    nb = notes_runs[chapter]
+    code = [c for c in nb.cells if c.cell_type == "code"]
+    assert code and all(c.execution_count is not None for c in code)
+    failures = [(c.source.splitlines()[0], errors(c)[0].evalue[:300]) for c in code if errors(c)]
+    assert failures == []
+    assert all(stderr(c) == "" for c in code), [stderr(c) for c in code if stderr(c)]
+    assert any("from solutions" in c.source for c in code)  # the worked example runs the solver
+    printed = [o for c in code for o in c.outputs if o.output_type == "stream" and o.name == "stdout"]
+    assert printed, "a worked example prints its numbers"
 
 
 def test_the_schedule_lists_every_lecture_notebook():
