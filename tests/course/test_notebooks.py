@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -218,6 +219,10 @@ def test_released_notebook_with_the_skeleton_runs_to_the_end_and_fails_cleanly(s
 
 
 # -- the lectures ---------------------------------------------------------------------------------------------------
+STILL = {"L08", "L12"}
+"""Lectures whose point is not a motion (forces at a state; rotations): plots, no animation."""
+
+
 @pytest.mark.parametrize("lecture", [p.stem for p in LECTURES])
 def test_lecture_notebook_executes(lecture_runs, lecture):
     nb = lecture_runs[lecture]
@@ -225,6 +230,11 @@ def test_lecture_notebook_executes(lecture_runs, lecture):
     assert code and all(c.execution_count is not None for c in code)
     failures = [(c.source.splitlines()[0], errors(c)[0].evalue[:300]) for c in code if errors(c)]
     assert failures == []
+    data = [o.get("data", {}) for c in code for o in c.outputs]
+    assert any("image/png" in d for d in data), "a lecture shows at least one figure"
+    if lecture[:3] not in STILL:
+        assert any("<script" in d.get("text/html", "") for d in data), "an animation player where motion is the point"
+    assert nb.cells[-1].cell_type == "markdown" and nb.cells[-1].source.startswith("## Exercises")
 
 
 @pytest.mark.parametrize("chapter", [p.stem for p in NOTES])
@@ -240,7 +250,29 @@ def test_notes_chapter_executes_with_numbers_from_the_solver(notes_runs, chapter
     assert printed, "a worked example prints its numbers"
 
 
-def test_the_schedule_lists_every_lecture_notebook():
+def test_there_are_fifteen_lectures_listed_in_the_schedule_and_the_syllabus_with_their_notes():
+    assert [path.name[:3] for path in LECTURES] == [f"L{k:02d}" for k in range(1, 16)]
     schedule = (REPO / "course" / "schedule.md").read_text()
-    assert len(LECTURES) >= 6
-    assert all(f"`{path.name}`" in schedule for path in LECTURES)
+    syllabus = (REPO / "course" / "syllabus.md").read_text()
+    chapters_there = {int(path.name[2:4]) for path in NOTES}
+    for path in LECTURES:
+        lecture = path.name[:3]
+        rows = [line for line in schedule.splitlines() if line.startswith("|") and f"| {lecture} |" in line]
+        assert len(rows) == 1 and f"`{path.name}`" in rows[0], lecture
+        listed = [line for line in syllabus.splitlines() if line.startswith(f"| {lecture} |")]
+        assert len(listed) == 1, lecture
+        for row in (rows[0], listed[0]):
+            notes = re.search(r"\| ch\. ([0-9, -]+) \|", row)
+            assert notes, f"{lecture}: no notes chapters in {row}"
+            numbers = set()
+            for part in notes.group(1).split(","):
+                low, _, high = part.strip().partition("-")
+                numbers.update(range(int(low), int(high or low) + 1))
+            assert numbers and numbers <= chapters_there, (lecture, numbers)
+
+
+def test_nothing_in_the_course_names_a_lecture_that_does_not_exist():
+    lectures = {path.name[:3] for path in LECTURES}
+    texts = [p for p in (REPO / "course").rglob("*") if p.suffix in (".md", ".ipynb", ".py") and p.is_file()]
+    named = {(m, str(p.relative_to(REPO))) for p in texts for m in re.findall(r"\bL\d\d\b", p.read_text())}
+    assert sorted((m, f) for m, f in named if m not in lectures) == []
