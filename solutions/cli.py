@@ -295,10 +295,23 @@ def command_notes(args: argparse.Namespace) -> int:
     return build_main(args.options)
 
 
+def command_derive(args: argparse.Namespace) -> int:
+    """Print the symbolic Psi, Psi_q, Psi_t and gamma of a model (``symbolic.py``)."""
+    from .symbolic import derive
+
+    print(derive(args.model).report(latex=args.latex, simplify=args.simplify))
+    return 0
+
+
 def add_course_commands(sub) -> None:
-    """The course-material commands: ``mbd notes`` (its options: ``mbd notes --help``)."""
+    """The course-material commands: ``mbd notes`` (its options: ``mbd notes --help``) and ``mbd derive``."""
     notes = sub.add_parser("notes", help="build the course notes as HTML (build/notes/index.html)", add_help=False)
     notes.set_defaults(handler=command_notes)
+    derive = sub.add_parser("derive", help="print a model's constraint equations, Jacobian and gamma symbolically")
+    derive.add_argument("model", help="model file (YAML or JSON)")
+    derive.add_argument("--latex", action="store_true", help="LaTeX instead of plain text")
+    derive.add_argument("--simplify", action="store_true", help="simplify every expression (slow for big models)")
+    derive.set_defaults(handler=command_derive)
 
 
 def build_parser() -> argparse.ArgumentParser:
