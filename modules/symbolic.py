@@ -39,7 +39,7 @@ Vector = sp.Matrix
 
 
 # -- driver and profile functions ------------------------------------------------------------------------------
-def function_expression(function, x: sp.Expr) -> sp.Expr:
+def function_expression(function: object, x: sp.Expr) -> sp.Expr:
     """The symbolic f(x) of a driver or profile function of ``solutions.functions``.
 
     Raises

@@ -42,7 +42,9 @@ class Problem:
 PROBLEMS: list[Problem] = []
 
 
-def problem(key: str, chapter: int, title: str, draw, statement, tolerance: float = 1e-8):
+def problem(
+    key: str, chapter: int, title: str, draw: Callable, statement: Callable, tolerance: float = 1e-8
+) -> Callable:
     """Register a problem: decorates its ``solution``; the ``solver`` is attached with ``.solver``."""
 
     def register(solution):
@@ -113,7 +115,7 @@ def rod_body(name: str, mass: float, length: float, start, angle: float) -> dict
         "Find the velocity and the acceleration of P (eq. 2.11, 2.12)."
     ),
 )
-def point_kinematics_solution(v):
+def point_kinematics_solution(v: dict) -> tuple[str, Answers]:
     c, s = math.cos(v["phi"]), math.sin(v["phi"])
     As = np.array([c * v["sx"] - s * v["sy"], s * v["sx"] + c * v["sy"]])
     Bs = np.array([-As[1], As[0]])  # B s' = A R s' = (A s') turned by 90 degrees
@@ -156,7 +158,7 @@ def _(v):
         "Write Psi, Psi_q and compute gamma (eq. 3.17)."
     ),
 )
-def revolute_gamma_solution(v):
+def revolute_gamma_solution(v: dict) -> tuple[str, Answers]:
     def rotate(phi, s):
         return np.array([math.cos(phi) * s[0] - math.sin(phi) * s[1], math.sin(phi) * s[0] + math.cos(phi) * s[1]])
 
@@ -196,7 +198,7 @@ def _(v):
         f"L = {fmt(v['L'])} m joins them. Evaluate Psi and gamma of eq. 3.27."
     ),
 )
-def distance_solution(v):
+def distance_solution(v: dict) -> tuple[str, Answers]:
     d, dd = np.array(v["d"]), np.array(v["dd"])
     psi = 0.5 * (d @ d - v["L"] ** 2)
     gamma = -dd @ dd
@@ -246,7 +248,7 @@ def _describe(name: str) -> str:
         "degrees of freedom does it have (eq. 1.2)?"
     ),
 )
-def dof_solution(v):
+def dof_solution(v: dict) -> tuple[str, Answers]:
     model = _joints_of(v["mechanism"])
     removed = sum(EQUATIONS_PER_JOINT[j["type"]] for j in model.joints)
     n = 3 * len(model.bodies)
@@ -316,7 +318,7 @@ def _run_to(spec: dict, t: float, steps: int = 40):
         f"{fmt(v['theta'])} rad, find the slider's position and velocity (eq. 4.5)."
     ),
 )
-def slider_crank_solution(v):
+def slider_crank_solution(v: dict) -> tuple[str, Answers]:
     r, l, w, th = v["r"], v["l"], v["omega"], v["theta"]
     root = math.sqrt(l**2 - (r * math.sin(th)) ** 2)
     x = r * math.cos(th) + root
@@ -378,7 +380,7 @@ def four_bar(a, b, c, d, omega) -> dict:
         f"ground line. Find the rocker's angle (from the x axis, O4 to B) at crank angle theta = {fmt(v['theta'])} rad."
     ),
 )
-def four_bar_solution(v):
+def four_bar_solution(v: dict) -> tuple[str, Answers]:
     A, B = _four_bar_point(v["a"], v["b"], v["c"], v["d"], v["theta"])
     angle = math.atan2(B[1], B[0] - v["a"])
     text = (
@@ -427,7 +429,7 @@ def pendulum(length: float, mass: float, angle: float = 0.0, driven=None) -> dic
         "carry out one Newton-Raphson step (eq. 4.8)."
     ),
 )
-def newton_solution(v):
+def newton_solution(v: dict) -> tuple[str, Answers]:
     c, th, x0, y0, p0 = v["c"], v["theta"], v["x0"], v["y0"], v["phi0"]
     dphi = th - p0
     x1 = c * math.cos(p0) - c * math.sin(p0) * dphi
@@ -461,7 +463,7 @@ def _(v):
         f"turns at {fmt(v['w1'])} rad/s. Find the angular velocity of gear 2 (eq. 3.29)."
     ),
 )
-def gear_solution(v):
+def gear_solution(v: dict) -> tuple[str, Answers]:
     w2 = -v["R1"] / v["R2"] * v["w1"]
     return f"Rolling without slip: R1 w1 = -R2 w2, so w2 = -R1 w1 / R2 = {fmt(w2)} rad/s.", {"w2": w2}
 
@@ -492,7 +494,7 @@ def _(v):
         f"How far has the rack moved after {fmt(v['turns'])} of a turn, and how fast does it move (eq. 3.31)?"
     ),
 )
-def rack_solution(v):
+def rack_solution(v: dict) -> tuple[str, Answers]:
     travel = v["R"] * 2 * math.pi * v["turns"]
     return (
         f"The slide equals the arc rolled: s = R theta = {fmt(v['R'])} x 2 pi x {fmt(v['turns'])} = {fmt(travel)} m; "
@@ -533,7 +535,7 @@ def _(v):
     ),
     tolerance=2e-4,
 )
-def period_solution(v):
+def period_solution(v: dict) -> tuple[str, Answers]:
     L, m = v["L"], v["m"]
     J_O = m * L**2 / 12 + m * (L / 2) ** 2
     period = 2 * math.pi * math.sqrt(J_O / (m * 9.81 * L / 2))
@@ -576,7 +578,7 @@ def _(v):
         f"{fmt(v['sy'])}) m of a body at angle phi = {fmt(v['phi'])} rad. Find its generalized force Q_i (eq. 5.10)."
     ),
 )
-def point_force_solution(v):
+def point_force_solution(v: dict) -> tuple[str, Answers]:
     c, s = math.cos(v["phi"]), math.sin(v["phi"])
     Bs = np.array([-s * v["sx"] - c * v["sy"], c * v["sx"] - s * v["sy"]])
     moment = Bs @ [v["Fx"], v["Fy"]]
@@ -614,7 +616,7 @@ def _(v):
         "(eq. 5.12-5.14)."
     ),
 )
-def spring_solution(v):
+def spring_solution(v: dict) -> tuple[str, Answers]:
     c, s = math.cos(v["phi_j"]), math.sin(v["phi_j"])
     P = np.array([v["xj"] + c * v["sj"], v["yj"] + s * v["sj"]])
     length = float(np.linalg.norm(P))
@@ -671,7 +673,7 @@ def _(v):
         f"torque and the pin's reaction on the rod at theta = {fmt(v['theta'])} rad (eq. 5.80, 5.70)."
     ),
 )
-def torque_solution(v):
+def torque_solution(v: dict) -> tuple[str, Answers]:
     L, m, w, th = v["L"], v["m"], v["w"], v["theta"]
     c = L / 2
     torque = m * 9.81 * c * math.cos(th)
@@ -706,7 +708,7 @@ def _(v):
         "horizontal. Find its angular acceleration and the pin's reaction on it at the instant of release (eq. 5.70)."
     ),
 )
-def release_solution(v):
+def release_solution(v: dict) -> tuple[str, Answers]:
     L, m, g = v["L"], v["m"], 9.81
     alpha = -3 * g / (2 * L)
     Ry = m * g + m * alpha * L / 2
@@ -775,7 +777,7 @@ def _(v):
         "Find the consistent velocities of least kinetic-energy change (eq. 6.2)."
     ),
 )
-def consistent_solution(v):
+def consistent_solution(v: dict) -> tuple[str, Answers]:
     L, m = v["L"], v["m"]
     c, J = L / 2, m * L**2 / 12
     w = (m * c * v["vy"] + J * v["w"]) / (m * c**2 + J)
@@ -808,7 +810,7 @@ def _(v):
         f"Psi(0) = {fmt(v['psi0'])} with Psi'(0) = 0. What is it at t = {fmt(v['t'])} s?"
     ),
 )
-def baumgarte_solution(v):
+def baumgarte_solution(v: dict) -> tuple[str, Answers]:
     a, t = v["alpha"], v["t"]
     psi = v["psi0"] * (1 + a * t) * math.exp(-a * t)
     text = (
@@ -849,7 +851,7 @@ def _axis(rng) -> tuple[float, float, float]:
         "Give its Euler parameters (eq. 8.10) and the first row of its rotation matrix (eq. 8.8 or 8.12)."
     ),
 )
-def euler_solution(v):
+def euler_solution(v: dict) -> tuple[str, Answers]:
     u, chi = np.array(v["u"]), v["chi"]
     p = np.concatenate([[math.cos(chi / 2)], u * math.sin(chi / 2)])
     ut = np.array([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
@@ -881,7 +883,7 @@ def _(v):
         "(eq. 8.16)."
     ),
 )
-def angular_velocity_solution(v):
+def angular_velocity_solution(v: dict) -> tuple[str, Answers]:
     u, chi, rate = np.array(v["u"]), v["chi"], v["rate"]
     pd = 0.5 * rate * np.concatenate([[-math.sin(chi / 2)], u * math.cos(chi / 2)])
     omega = rate * u
@@ -917,7 +919,7 @@ def _(v):
         "(eq. 8.20)."
     ),
 )
-def screw_solution(v):
+def screw_solution(v: dict) -> tuple[str, Answers]:
     chi, d = v["chi"], np.array(v["d"])
     u = np.array([0.0, 0.0, 1.0])
     h = d[2]
@@ -954,7 +956,7 @@ SPATIAL_MECHANISMS = ("spatial_slider_crank", "spatial_double_pendulum", "cylind
         "how many degrees of freedom (eq. 9.14-9.19)?"
     ),
 )
-def spatial_dof_solution(v):
+def spatial_dof_solution(v: dict) -> tuple[str, Answers]:
     model = _joints_of(v["mechanism"])
     nb = len(model.bodies)
     m = sum(SPATIAL_EQUATIONS[j["type"]] for j in model.joints) + nb
@@ -988,7 +990,7 @@ def _(v):
         "(p = (1, 0, 0, 0)). Write p' (eq. 8.17) and the kinetic energy (eq. 10.3)."
     ),
 )
-def spatial_energy_solution(v):
+def spatial_energy_solution(v: dict) -> tuple[str, Answers]:
     m, J, vel, w = v["m"], np.array(v["J"]), np.array(v["v"]), np.array(v["w"])
     T = 0.5 * m * vel @ vel + 0.5 * w @ (J * w)
     text = (
