@@ -39,6 +39,11 @@ test: $(STAMP) sandbox-tools
 modules: $(STAMP)
 	$(BIN)/python -m course.release modules
 
+# The course notes as HTML pages: build/notes/index.html (every chapter executed; mbd notes --help)
+.PHONY: notes
+notes: $(STAMP)
+	MPLBACKEND=Agg $(BIN)/mbd notes --out build/notes
+
 bench: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python benchmarks/kinematics.py
 

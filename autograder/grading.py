@@ -39,7 +39,16 @@ from mbdkit.sandbox import SANDBOX_ENV, Limits, Sandbox, without_main
 from mbdkit.stored import Reference
 
 from .feedback import feedback_html
-from .reference import HERE, load_reference, probe_specs, reference_dir, reference_file, student_reference
+from .reference import (
+    HERE,
+    WARM_MIN_STUDENTS,
+    load_reference,
+    probe_specs,
+    reference_dir,
+    reference_file,
+    student_reference,
+    warm,
+)
 from .replay import live_replays
 from .scenes import HIDDEN, STUDENT, Scene, hidden_dir, load_scene, scene_kind
 from .tolerances import invariants
@@ -417,6 +426,9 @@ def grade(
     limits : the sandbox's resource limits (defaults: ``Limits()``)
     progress : a progress bar on stderr
     resume : reuse the result of a student whose submission, checks and reference did not change
+
+    Per-student references run on the compiled engine where its code is cached (``reference.STUDENT_ENGINE``);
+    with WARM_MIN_STUDENTS submissions or more to grade, it is compiled first (``reference.warm``).
     isolation : ``os`` (default): student code runs under bubblewrap (``mbdkit.isolation``), and grading
         refuses to start (``IsolationUnavailable``) where it cannot; ``local``: the unsafe forkserver
         sandbox (``MBD_UNSAFE_NO_ISOLATION=1`` makes it the default), said so in every result
@@ -457,6 +469,8 @@ def grade(
         else:
             todo.append(submission)
     book.write_csv()
+    if len(todo) >= WARM_MIN_STUDENTS:  # per-student references on the compiled engine: compile once, here
+        warm(homework.name, homework.checks)
     if jobs <= 1 or len(todo) <= 1:
         for submission in todo:
             book.rows[submission.student] = grade_submission(

@@ -76,17 +76,27 @@ def _seed(scene: Scene) -> int:
     return int.from_bytes(hashlib.sha256(scene.name.encode()).digest()[:8], "little")
 
 
-def base_run(scene: Scene) -> dict[str, np.ndarray]:
-    """The scene's own analysis with the reference package: t, q, qd (and lam for dynamics)."""
+def base_run(scene: Scene, engine: str = "numpy") -> dict[str, np.ndarray]:
+    """The scene's own analysis with the reference package: t, q, qd (and lam for dynamics); a dynamic
+    run at TIGHT settings with ``engine`` (``forward_dynamics``'s)."""
     job = Job(job_key(scene), scene.data)
     if scene.analysis == "kinematic":
         return PROBES["kinematic_run"](REFERENCE, job)
-    job.options = dict(TIGHT)
+    job.options = {**TIGHT, "engine": engine}
     return PROBES["dynamic_run"](REFERENCE, job)
 
 
 TIGHT = {"integrator": "DOP853", "rtol": 1e-12, "atol": 1e-14}
 """Integrator settings of the high-accuracy runs that dynamic run checks are compared with."""
+
+STUDENT_ENGINE = "auto"
+"""The engine of the reference runs of per-student scenes, made while grading: ``auto`` takes the compiled
+engine (``solutions.compiled``: the same integrators, agreeing with numpy's runs to about 1e-12 relative,
+tests/solutions/test_compiled.py) where its code for the scene's structure is cached (``warm``; a student's
+variant has its public scene's structure), else the numpy engine. Stored references use numpy."""
+WARM_MIN_STUDENTS = 50
+"""``grading.grade`` compiles (``warm``) before grading at least this many submissions: compiling takes
+some 30 s once per machine, and saves 0.2 to 1 s per student of hw2 and hw3 (benchmarks/grading.py)."""
 
 
 def reference_states(scene: Scene, run: dict[str, np.ndarray], dimension: int) -> dict[str, np.ndarray]:
@@ -142,12 +152,15 @@ def available(probe: str) -> bool:
     return all(REFERENCE.has(module) for module in REQUIRES.get(probe, ()))
 
 
-def make_reference(scene: Scene, specs: dict[str, tuple[str, dict]], replays: bool = True) -> Reference:
+def make_reference(
+    scene: Scene, specs: dict[str, tuple[str, dict]], replays: bool = True, engine: str = "numpy"
+) -> Reference:
     """Run every probe of ``specs`` on the scene with the reference package; with ``replays``, also the
-    known mistakes of each probe (stored, so that a diagnosis never needs to run the reference)."""
+    known mistakes of each probe (stored, so that a diagnosis never needs to run the reference).
+    ``engine``: that of the dynamic runs (``forward_dynamics``'s; the stored references use numpy)."""
     meta = {"format": FORMAT, "scene": scene.name, "fingerprint": scene.fingerprint(), "probes": {}}
     meta.update(_system_meta(scene))
-    run = base_run(scene)
+    run = base_run(scene, engine)
     inputs = reference_states(scene, run, meta["dimension"])
     if scene.analysis != "kinematic":
         inputs.update(dynamic_inputs(scene, inputs))
@@ -156,6 +169,8 @@ def make_reference(scene: Scene, specs: dict[str, tuple[str, dict]], replays: bo
         if not available(probe):
             continue
         job = Job(job_key(scene), scene.data, inputs, dict(options))
+        if probe == "dynamic_run" and engine != "numpy":
+            job.options["engine"] = engine
         outputs = PROBES[probe](REFERENCE, job)
         if job.errors:
             element, method, exc = job.errors[0]
@@ -200,12 +215,29 @@ def all_specs(homeworks: list[str] | None = None) -> dict[str, dict[str, tuple[s
     return specs
 
 
-def student_reference(scene_name: str, student: str, homework: str, specs: dict) -> Reference:
+def student_reference(
+    scene_name: str, student: str, homework: str, specs: dict, engine: str = STUDENT_ENGINE
+) -> Reference:
     """The reference of a student's own variant of a public scene, made now (its mistakes are replayed
-    only for the checks that fail)."""
+    only for the checks that fail); its dynamic runs with ``engine`` (STUDENT_ENGINE)."""
     scene = load_scene(scene_name, student=student, homework=homework)
     assert scene.kind == STUDENT
-    return make_reference(scene, specs, replays=False)
+    return make_reference(scene, specs, replays=False, engine=engine)
+
+
+def warm(homework: str, checks: list[CheckSpec] | None = None) -> list[str]:
+    """Compile the compiled engine's code for the per-student scenes of ``homework`` (or of ``checks``),
+    cached on disk: once per machine, some 30 s the first time and about 8 s for each new structure of
+    scene (``solutions.compiled``). Returns the scenes."""
+    specs = probe_specs(checks if checks is not None else load_homework(homework).checks)
+    scenes = [
+        name
+        for name in specs
+        if name.startswith("student/") and load_scene(name.split("/", 1)[1]).analysis == "dynamic"
+    ]
+    for name in scenes:
+        student_reference(name, "warm-up", homework, specs[name], engine="compiled")
+    return scenes
 
 
 def compare_references(stored: Reference, fresh: Reference, rtol: float = 1e-9) -> list[str]:
@@ -256,7 +288,15 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m autograder.reference", description=__doc__.split("\n\n")[0])
     parser.add_argument("homeworks", nargs="*", help="hw1 hw2 ... (default: all)")
     parser.add_argument("--check", action="store_true", help="compare the stored runs with solutions/, write nothing")
+    parser.add_argument(
+        "--warm", action="store_true", help="compile the engine of the per-student references (once per machine)"
+    )
     args = parser.parse_args(argv)
+    if args.warm:
+        for homework in args.homeworks or available_homeworks():
+            scenes = warm(homework)
+            print(f"{homework}: compiled engine ready for {', '.join(scenes) or 'no dynamic per-student scene'}")
+        return 0
     problems = regenerate(args.homeworks or None, check=args.check)
     for problem in problems:
         print(problem, file=sys.stderr)

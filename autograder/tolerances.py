@@ -35,7 +35,8 @@ def invariants(scene_data: dict, t: np.ndarray, q: np.ndarray, qd: np.ndarray) -
     return {name: float(value) for name, value in PROBES["invariants"](REFERENCE, job).items()}
 
 
-INTEGRATOR_OPTIONS = ("integrator", "rtol", "atol", "step")
+INTEGRATOR_OPTIONS = ("integrator", "rtol", "atol", "step", "engine")
+"""Options that change only how the run is integrated (``engine``: not even that, only the code that runs it)."""
 
 
 def dynamic_run(scene, job: Job, outputs: dict, tight: dict | None = None) -> dict[str, np.ndarray]:

@@ -12,6 +12,9 @@ Prints the time a sandbox takes to start (to its first "ready"; a student's own 
 the first check) and a Markdown table. ``--isolation os`` (the default, as ``mbd grade``): each student
 in a fresh bubblewrap sandbox; ``local``: the forkserver sandbox (``--unsafe-no-isolation``).
 
+Before timing, the compiled engine of the per-student references is compiled (``reference.warm``, once per
+machine; ``grade`` does it itself for 50 submissions or more).
+
 Where the machine lets it (cgroup v1 ``cpuacct``, as root), the table also gives the CPU seconds the whole
 grading used (grader, workers, every sandbox process) per student, and the throughput those CPU seconds
 allow on the cores there are: wall-clock figures depend on what else the machine runs, CPU seconds much less.
@@ -34,6 +37,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from autograder.grading import grade  # noqa: E402
+from autograder.reference import warm  # noqa: E402
 from mbdkit.homework import available_homeworks  # noqa: E402
 from mbdkit.sandbox import Sandbox  # noqa: E402
 
@@ -153,6 +157,8 @@ def main(argv: list[str] | None = None) -> int:
         f"Grading throughput, {args.jobs} worker processes, {args.n} submissions per homework, "
         f"isolation {args.isolation}\n"
     )
+    for homework in args.homeworks:  # per-student references on the compiled engine, as a class of 50+ gets
+        warm(homework)
     account = CpuAccount()
     cores = os.cpu_count() or 1
     print(

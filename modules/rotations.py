@@ -54,13 +54,13 @@ def skew(a: np.ndarray) -> np.ndarray:
 
 # -- Euler parameters and the rotation matrix -----------------------------------------------------
 def g_matrix(p: np.ndarray) -> np.ndarray:
-    """G(p) = [-e, e~ + e0 I] (3 x 4): omega = 2 G p' in the global frame (eq. 8.14, 6.16)."""
-    raise NotImplementedError("g_matrix: G(p) = [-e, e~ + e0 I] (3 x 4): omega = 2 G p' in the global frame, see eq. 8.14, 6.16")
+    """G(p) = [-e, e~ + e0 I] (3 x 4): omega = 2 G p' in the global frame (eq. 8.14)."""
+    raise NotImplementedError("g_matrix: G(p) = [-e, e~ + e0 I] (3 x 4): omega = 2 G p' in the global frame, see eq. 8.14")
 
 
 def l_matrix(p: np.ndarray) -> np.ndarray:
-    """L(p) = [-e, -e~ + e0 I] (3 x 4): omega' = 2 L p' in the body frame (eq. 8.14, 6.16)."""
-    raise NotImplementedError("l_matrix: L(p) = [-e, -e~ + e0 I] (3 x 4): omega' = 2 L p' in the body frame, see eq. 8.14, 6.16")
+    """L(p) = [-e, -e~ + e0 I] (3 x 4): omega' = 2 L p' in the body frame (eq. 8.14)."""
+    raise NotImplementedError("l_matrix: L(p) = [-e, -e~ + e0 I] (3 x 4): omega' = 2 L p' in the body frame, see eq. 8.14")
 
 
 def rotation_matrix(p: np.ndarray) -> np.ndarray:

@@ -386,6 +386,34 @@ def command_bench(args) -> int:
     return bench.main(args.options)
 
 
+def command_notes(args: argparse.Namespace) -> int:
+    """Build the course notes as HTML (course/notes/build.py): the instructor's repository only."""
+    try:
+        from course.notes.build import main as build_main
+    except ImportError:
+        raise UsageError("mbd notes builds the course repository's course/notes: run it in the repository") from None
+    return build_main(args.options)
+
+
+def command_derive(args: argparse.Namespace) -> int:
+    """Print the symbolic Psi, Psi_q, Psi_t and gamma of a model (``symbolic.py``)."""
+    from .symbolic import derive
+
+    print(derive(args.model).report(latex=args.latex, simplify=args.simplify))
+    return 0
+
+
+def add_course_commands(sub) -> None:
+    """The course-material commands: ``mbd notes`` (its options: ``mbd notes --help``) and ``mbd derive``."""
+    notes = sub.add_parser("notes", help="build the course notes as HTML (build/notes/index.html)", add_help=False)
+    notes.set_defaults(handler=command_notes)
+    derive = sub.add_parser("derive", help="print a model's constraint equations, Jacobian and gamma symbolically")
+    derive.add_argument("model", help="model file (YAML or JSON)")
+    derive.add_argument("--latex", action="store_true", help="LaTeX instead of plain text")
+    derive.add_argument("--simplify", action="store_true", help="simplify every expression (slow for big models)")
+    derive.set_defaults(handler=command_derive)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="mbd", description="Multibody dynamics course: reference solver.")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -516,6 +544,7 @@ def build_parser() -> argparse.ArgumentParser:
         "bench", help="run time against error per scene, formulation and integrator (see benchmarks/README.md)"
     )
     bench.set_defaults(handler=command_bench)
+    add_course_commands(sub)
     return parser
 
 
@@ -523,7 +552,7 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of ``mbd``; returns the exit code (0 success, 2 user error)."""
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
-    if args.command == "bench":
+    if args.command in ("bench", "notes"):
         args.options = extra  # the benchmark's own options (benchmarks/bench.py --help)
     elif extra:
         parser.error(f"unrecognized arguments: {' '.join(extra)}")

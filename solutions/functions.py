@@ -2,7 +2,7 @@
 
 Drivers prescribe a coordinate as a function of time, f(t); cams describe a profile as a function of
 an angle. The kinematic equations need the function and its derivatives: the driver constraint
-Psi = q - f(t) has Psi_t = -f'(t) and contributes f''(t) to gamma (course notes, eq. 3.4.x).
+Psi = q - f(t) has Psi_t = -f'(t) and contributes f''(t) to gamma (course notes, eq. 3.34).
 
 Every function here is a small dataclass with three methods, ``value``, ``first`` and ``second``.
 ``function_from_spec`` builds one from the mapping a model file gives, e.g.

@@ -65,7 +65,7 @@ or column of the matrix, ``rank_tolerance``)."""
 
 
 def rank_tolerance(largest: float, shape: tuple[int, ...]) -> float:
-    """The rank decision of the whole package, stated once (course notes, eq. 4.21):
+    """The rank decision of the whole package, stated once (course notes, eq. 4.22):
 
         sigma_i counts (is nonzero)  when  sigma_i > sigma_1 max(m, n) sqrt(eps)
 

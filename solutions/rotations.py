@@ -53,7 +53,7 @@ def skew(a: np.ndarray) -> np.ndarray:
 
 # -- Euler parameters and the rotation matrix -----------------------------------------------------
 def g_matrix(p: np.ndarray) -> np.ndarray:
-    """G(p) = [-e, e~ + e0 I] (3 x 4): omega = 2 G p' in the global frame (eq. 8.14, 6.16)."""
+    """G(p) = [-e, e~ + e0 I] (3 x 4): omega = 2 G p' in the global frame (eq. 8.14)."""
     ### BEGIN SOLUTION hw3
     e0, e1, e2, e3 = map(float, p)  # Python floats: faster than numpy scalars
     return np.array([[-e1, e0, -e3, e2], [-e2, e3, e0, -e1], [-e3, -e2, e1, e0]])
@@ -61,7 +61,7 @@ def g_matrix(p: np.ndarray) -> np.ndarray:
 
 
 def l_matrix(p: np.ndarray) -> np.ndarray:
-    """L(p) = [-e, -e~ + e0 I] (3 x 4): omega' = 2 L p' in the body frame (eq. 8.14, 6.16)."""
+    """L(p) = [-e, -e~ + e0 I] (3 x 4): omega' = 2 L p' in the body frame (eq. 8.14)."""
     ### BEGIN SOLUTION hw3
     e0, e1, e2, e3 = map(float, p)  # Python floats: faster than numpy scalars
     return np.array([[-e1, e0, e3, -e2], [-e2, -e3, e0, e1], [-e3, e2, -e1, e0]])

@@ -4,7 +4,8 @@
   every graded cell;
 - every released notebook with its untouched skeleton package runs to the end, and every graded cell
   fails cleanly (an AssertionError with the grader's message, never a crash or a hang);
-- every lecture notebook (``course/lectures``) runs without an error.
+- every lecture notebook (``course/lectures``) and every chapter of the course notes (``course/notes``) runs
+  without an error.
 
 Each notebook is executed once (module-scoped fixtures), two at a time, in a kernel of this venv.
 """
@@ -13,6 +14,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -21,11 +23,13 @@ import nbformat
 import pytest
 from nbclient import NotebookClient
 
+from course.notes import chapters
 from course.release import HOMEWORKS, build_package, release
 from course.release.generator import REPO
 from mbdkit.homework import load_homework
 
 LECTURES = sorted((REPO / "course" / "lectures").glob("*.ipynb"))
+NOTES = chapters()
 NOT_ASKED = ("planar/batched.py", "spatial/batched.py")
 """Array versions of the element formulas, stubbed in a release but not asked for: the system falls back to
 the element methods the student writes (the notebook says so)."""
@@ -95,6 +99,8 @@ def runs(tmp_path_factory):
         jobs["skeleton", homework] = (released / f"{homework}.ipynb", released)
     for path in LECTURES:
         jobs["lecture", path.stem] = (path, path.parent)
+    for path in NOTES:
+        jobs["notes", path.stem] = (path, path.parent)
     return execute_all(jobs)
 
 
@@ -111,6 +117,11 @@ def skeleton_runs(runs):
 @pytest.fixture(scope="module")
 def lecture_runs(runs):
     return {name: nb for (kind, name), nb in runs.items() if kind == "lecture"}
+
+
+@pytest.fixture(scope="module")
+def notes_runs(runs):
+    return {name: nb for (kind, name), nb in runs.items() if kind == "notes"}
 
 
 # -- the source notebooks --------------------------------------------------------------------------------------
@@ -208,6 +219,10 @@ def test_released_notebook_with_the_skeleton_runs_to_the_end_and_fails_cleanly(s
 
 
 # -- the lectures ---------------------------------------------------------------------------------------------------
+STILL = {"L08", "L12", "L15"}
+"""Lectures whose point is not a motion (forces at a state, rotations, the program's map): no animation."""
+
+
 @pytest.mark.parametrize("lecture", [p.stem for p in LECTURES])
 def test_lecture_notebook_executes(lecture_runs, lecture):
     nb = lecture_runs[lecture]
@@ -215,9 +230,48 @@ def test_lecture_notebook_executes(lecture_runs, lecture):
     assert code and all(c.execution_count is not None for c in code)
     failures = [(c.source.splitlines()[0], errors(c)[0].evalue[:300]) for c in code if errors(c)]
     assert failures == []
+    data = [o.get("data", {}) for c in code for o in c.outputs]
+    if lecture[:3] not in STILL:
+        assert any("<script" in d.get("text/html", "") for d in data), "an animation player where motion is the point"
+    assert nb.cells[-1].cell_type == "markdown" and nb.cells[-1].source.startswith("## Exercises")
 
 
-def test_the_schedule_lists_every_lecture_notebook():
+@pytest.mark.parametrize("chapter", [p.stem for p in NOTES])
+def test_notes_chapter_executes_with_numbers_from_the_solver(notes_runs, chapter):
+    nb = notes_runs[chapter]
+    code = [c for c in nb.cells if c.cell_type == "code"]
+    assert code and all(c.execution_count is not None for c in code)
+    failures = [(c.source.splitlines()[0], errors(c)[0].evalue[:300]) for c in code if errors(c)]
+    assert failures == []
+    assert all(stderr(c) == "" for c in code), [stderr(c) for c in code if stderr(c)]
+    assert any("from solutions" in c.source for c in code)  # the worked example runs the solver
+    printed = [o for c in code for o in c.outputs if o.output_type == "stream" and o.name == "stdout"]
+    assert printed, "a worked example prints its numbers"
+
+
+def test_there_are_fifteen_lectures_listed_in_the_schedule_and_the_syllabus_with_their_notes():
+    assert [path.name[:3] for path in LECTURES] == [f"L{k:02d}" for k in range(1, 16)]
     schedule = (REPO / "course" / "schedule.md").read_text()
-    assert len(LECTURES) >= 6
-    assert all(f"`{path.name}`" in schedule for path in LECTURES)
+    syllabus = (REPO / "course" / "syllabus.md").read_text()
+    chapters_there = {int(path.name[2:4]) for path in NOTES}
+    for path in LECTURES:
+        lecture = path.name[:3]
+        rows = [line for line in schedule.splitlines() if line.startswith("|") and f"| {lecture} |" in line]
+        assert len(rows) == 1 and f"`{path.name}`" in rows[0], lecture
+        listed = [line for line in syllabus.splitlines() if line.startswith(f"| {lecture} |")]
+        assert len(listed) == 1, lecture
+        for row in (rows[0], listed[0]):
+            notes = re.search(r"\| ch\. ([0-9, -]+) \|", row)
+            assert notes, f"{lecture}: no notes chapters in {row}"
+            numbers = set()
+            for part in notes.group(1).split(","):
+                low, _, high = part.strip().partition("-")
+                numbers.update(range(int(low), int(high or low) + 1))
+            assert numbers and numbers <= chapters_there, (lecture, numbers)
+
+
+def test_nothing_in_the_course_names_a_lecture_that_does_not_exist():
+    lectures = {path.name[:3] for path in LECTURES}
+    texts = [p for p in (REPO / "course").rglob("*") if p.suffix in (".md", ".ipynb", ".py") and p.is_file()]
+    named = {(m, str(p.relative_to(REPO))) for p in texts for m in re.findall(r"\bL\d\d\b", p.read_text())}
+    assert sorted((m, f) for m, f in named if m not in lectures) == []

@@ -1,0 +1,169 @@
+"""The course notes resolve every citation: each `eq. N.M` / `(N.M)` cited in the course is a labelled
+equation of course/notes, each `sec. N.M` a numbered section, each `ch. N` a chapter; the notes build as HTML.
+
+The notebooks themselves are executed with the lectures in test_notebooks.py.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from course.notes import chapter_number, chapters, equation_labels, markdown_sources, section_numbers
+from course.release.generator import REPO
+
+CITING = ("solutions", "modules", "assignments", "autograder", "mbdkit", "course")
+SUFFIXES = {".py", ".ipynb", ".md", ".toml", ".yaml"}
+NUMBER = r"\d+\.\d+"
+EQUATION = re.compile(rf"\b(?:eqs?\.|equations?)\s*\(?({NUMBER}(?:\s*(?:,|-|–|to|and)\s*{NUMBER})*)", re.IGNORECASE)
+"""eq. 3.17 / eqs. 4.5, 4.6 / eq. 6.50-6.53 / equation (5.29) / eq. 9.14 to 9.19"""
+PARENTHESIS = re.compile(rf"(?<![\w.])\(({NUMBER})\)")
+"""(4.8) in prose: markdown cells and .md files only (in code, (0.0) is a number)"""
+SECTION = re.compile(rf"\bsec\.\s*({NUMBER})", re.IGNORECASE)
+CHAPTER = re.compile(r"\b(?:ch\.|chapters?)\s*(\d+)\b", re.IGNORECASE)
+TEXTBOOK = re.compile(r"\b(?:1[89]\d\d|20\d\d)\b|Solving ODEs|Golub")
+NOTES = re.compile(r"course notes|\bnotes\b")
+
+
+def of_a_textbook(before: str) -> bool:
+    """A sec. or ch. after a reference such as 'Nikravesh 1988, sec. 13.4' or 'Haug (1989) ch. 6' in the same
+    clause (line, up to a semicolon), with no 'course notes' between them, is the textbook's, not the notes'."""
+    line = re.split(r"[\n;]", before)[-1]
+    book = [m.end() for m in TEXTBOOK.finditer(line)]
+    notes = [m.end() for m in NOTES.finditer(line)]
+    return bool(book) and (not notes or book[-1] > notes[-1])
+
+
+def expand(group: str) -> list[str]:
+    """'6.50-6.53' -> 6.50, 6.51, 6.52, 6.53; '8.12, 8.14' -> both; '9.14 to 9.19' -> the range."""
+    numbers = re.findall(NUMBER, group)
+    out = []
+    for part in re.split(r"\s*(?:,|and)\s*", group):
+        ends = re.findall(NUMBER, part)
+        if len(ends) == 2 and ends[0].split(".")[0] == ends[1].split(".")[0]:
+            chapter, low, high = ends[0].split(".")[0], int(ends[0].split(".")[1]), int(ends[1].split(".")[1])
+            out.extend(f"{chapter}.{k}" for k in range(low, high + 1))
+        else:
+            out.extend(ends)
+    return out or numbers
+
+
+def texts(path: Path) -> list[tuple[str, bool]]:
+    """(text, is prose) pieces of a file: a notebook's cells, or the whole file."""
+    if path.suffix == ".ipynb":
+        cells = json.loads(path.read_text(encoding="utf-8"))["cells"]
+        return [("".join(c["source"]), c["cell_type"] == "markdown") for c in cells]
+    return [(path.read_text(encoding="utf-8", errors="replace"), path.suffix == ".md")]
+
+
+def citations(text: str, prose: bool) -> dict[str, set[str]]:
+    """{'equation' | 'section' | 'chapter': numbers cited} in one piece of text."""
+    found: dict[str, set[str]] = {"equation": set(), "section": set(), "chapter": set()}
+    for m in EQUATION.finditer(text):
+        found["equation"].update(expand(m.group(1)))
+    if prose:
+        found["equation"].update(PARENTHESIS.findall(text))
+    for kind, pattern in (("section", SECTION), ("chapter", CHAPTER)):
+        for m in pattern.finditer(text):
+            if not of_a_textbook(text[max(0, m.start() - 200) : m.start()]):
+                found[kind].add(m.group(1))
+    return found
+
+
+def course_files(root: Path = REPO) -> list[Path]:
+    files = []
+    for top in CITING:
+        for path in sorted((root / top).rglob("*")):
+            if path.suffix in SUFFIXES and path.is_file() and ".ipynb_checkpoints" not in path.parts:
+                files.append(path)
+    return files
+
+
+def all_citations(root: Path = REPO) -> dict[str, dict[str, set[str]]]:
+    """{kind: {number: files citing it}} over the whole course (the repository at ``root``)."""
+    cited: dict[str, dict[str, set[str]]] = {"equation": {}, "section": {}, "chapter": {}}
+    for path in course_files(root):
+        for text, prose in texts(path):
+            for kind, numbers in citations(text, prose).items():
+                for number in numbers:
+                    cited[kind].setdefault(number, set()).add(str(path.relative_to(root)))
+    return cited
+
+
+@pytest.fixture(scope="module")
+def cited():
+    return all_citations()
+
+
+# -- the collector itself: it must find what it is meant to find ------------------------------------------------
+def test_the_collector_finds_every_form_of_citation():
+    text = "Psi (course notes, eq. 3.17); eqs. 4.5, 4.6; eq. 6.50-6.53; equation (5.29); eq. 9.14 to 9.19; (0.0)"
+    assert citations(text, prose=False)["equation"] == {
+        "3.17", "4.5", "4.6", "6.50", "6.51", "6.52", "6.53", "5.29", "9.14", "9.15", "9.16", "9.17", "9.18", "9.19"
+    }  # fmt: skip
+    assert citations("the Newton step (4.8) and 1.5 (2.0)", prose=True)["equation"] == {"4.8", "2.0"}
+    assert citations("x = f(0.0) + g(1.5)", prose=False)["equation"] == set()
+    sections = citations("course notes, sec. 5.6; Nikravesh 1988, sec. 13.4; chapter 5; ch. 3", prose=False)
+    assert sections["section"] == {"5.6"} and sections["chapter"] == {"5", "3"}
+    books = citations("Reading: Haug (1989) ch. 11 (sec. 11.1-11.4); Haug 1989, then course notes, sec. 9.2", False)
+    assert books["section"] == {"9.2"} and books["chapter"] == set()
+
+
+def test_a_citation_of_a_missing_equation_is_reported_with_its_file(tmp_path):
+    (tmp_path / "solutions").mkdir()
+    (tmp_path / "solutions" / "x.py").write_text('"""Psi (eq. 3.17) and a wrong one (eq. 3.99)."""\n')
+    found = all_citations(tmp_path)["equation"]
+    assert found == {"3.17": {"solutions/x.py"}, "3.99": {"solutions/x.py"}}
+    assert unresolved(found, labelled()) == {"3.99": ["solutions/x.py"]}
+
+
+# -- the notes -----------------------------------------------------------------------------------------------------
+def labelled() -> set[str]:
+    return {label for path in chapters() for label in equation_labels(path)}
+
+
+def unresolved(cited_equations: dict[str, set[str]], labels: set[str]) -> dict[str, list[str]]:
+    return {number: sorted(files) for number, files in sorted(cited_equations.items()) if number not in labels}
+
+
+def test_there_is_one_notes_chapter_per_number_from_1_to_10():
+    assert [chapter_number(path) for path in chapters()] == list(range(1, 11))
+
+
+@pytest.mark.parametrize("path", chapters(), ids=lambda p: p.stem)
+def test_a_chapter_numbers_its_equations_in_order_within_its_chapter(path):
+    labels = equation_labels(path)
+    assert labels, f"{path.name} labels no equation"
+    assert all(int(label.split(".")[0]) == chapter_number(path) for label in labels), labels
+    minor = [int(label.split(".")[1]) for label in labels]
+    assert minor == sorted(minor) and len(set(minor)) == len(minor), f"{path.name}: {labels}"
+    markdown = "\n".join(markdown_sources(path))
+    assert re.search(r"Haug|Nikravesh|Shabana|García de Jalón", markdown), "a chapter cites the syllabus's textbooks"
+    assert "## Exercises" in markdown or chapter_number(path) == 1
+
+
+def test_every_equation_the_course_cites_is_labelled_in_the_notes(cited):
+    assert len(cited["equation"]) > 100  # the collector did find the course's citations
+    assert unresolved(cited["equation"], labelled()) == {}
+
+
+def test_every_section_and_chapter_the_course_cites_exists(cited):
+    sections = {number for path in chapters() for number in section_numbers(path)}
+    assert {"5.6", "6.5", "9.2"} <= set(cited["section"])
+    assert {n: sorted(f) for n, f in cited["section"].items() if n not in sections} == {}
+    numbers = {str(chapter_number(path)) for path in chapters()}
+    assert {n: sorted(f) for n, f in cited["chapter"].items() if n not in numbers} == {}
+
+
+def test_the_notes_build_as_html_with_an_anchor_for_every_equation(tmp_path):
+    from course.notes.build import build_notes
+
+    few = chapters()[2:4]
+    index = build_notes(tmp_path, execute=False, paths=few)
+    page = (tmp_path / few[0].with_suffix(".html").name).read_text()
+    assert "<html" in page and 'id="eq-3.17"' in page and "\\tag{3.17}" in page
+    links = index.read_text()
+    assert all(f'#eq-{label}"' in links for path in few for label in equation_labels(path))
