@@ -27,7 +27,16 @@ import signal
 import socket
 import sys
 
-PRELOAD = ("numpy", "scipy.linalg", "scipy.integrate", "scipy.optimize", "scipy.sparse", "yaml", "fastjsonschema")
+PRELOAD = (
+    "numpy",
+    "scipy.linalg",
+    "scipy.integrate",
+    "scipy.optimize",
+    "scipy.sparse",
+    "yaml",
+    "fastjsonschema",
+    "jsonschema",  # validates a model in milliseconds once imported (``solutions.io.model.schema_errors``)
+)
 """What the children inherit already imported (what a solver package imports; never the reference)."""
 
 PR_SET_DUMPABLE = 4

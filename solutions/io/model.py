@@ -14,6 +14,7 @@ import difflib
 import functools
 import json
 import math
+import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import resources
@@ -23,8 +24,6 @@ from typing import Any
 import fastjsonschema
 import numpy as np
 import yaml
-
-from ..rotations import euler_parameters, from_axis_angle, from_euler_123, from_euler_313
 
 GROUND = "ground"
 
@@ -129,14 +128,26 @@ def _fast_validator():
 
 
 def schema_errors(data: dict) -> list:
-    """The JSON Schema errors of a model file's content ([] when it is valid)."""
-    try:
-        _fast_validator()(data)
-        return []
-    except fastjsonschema.JsonSchemaException:
-        import jsonschema  # the full list of errors, for the best message
+    """The JSON Schema errors of a model file's content ([] when it is valid).
 
-        return list(jsonschema.Draft202012Validator(_schema()).iter_errors(data))
+    Importing ``jsonschema`` can take seconds, compiling the fastjsonschema validator about 0.1 s, and
+    validating with either takes milliseconds: so fastjsonschema decides, unless ``jsonschema`` is imported
+    already (a grading sandbox imports it once for all its processes; the two give the same verdict,
+    tests/solutions/test_model_files.py), and ``jsonschema`` lists the errors of an invalid file."""
+    if "jsonschema" not in sys.modules:
+        try:
+            _fast_validator()(data)
+            return []
+        except fastjsonschema.JsonSchemaException:
+            pass
+    return list(_full_validator().iter_errors(data))
+
+
+@functools.cache
+def _full_validator():
+    import jsonschema
+
+    return jsonschema.Draft202012Validator(_schema())
 
 
 def _key_path(path) -> str:
@@ -297,6 +308,8 @@ def spatial_orientation(value, where: str, label: str) -> np.ndarray:
             f"{label}: {where}: a spatial body takes 4 Euler parameters [e0, e1, e2, e3], "
             f"e.g. [1.0, 0.0, 0.0, 0.0] for the global orientation{forms}"
         )
+    from ..rotations import euler_parameters, from_axis_angle, from_euler_123, from_euler_313  # spatial only
+
     if not isinstance(value, Mapping):
         value = {"euler_parameters": value}
     keys = set(value)
