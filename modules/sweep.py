@@ -535,7 +535,7 @@ def open_client(cluster: str | None, jobs: int, worker_setup: Callable[[], None]
                 threads_per_worker=1,
                 processes=True,
                 memory_limit=0,
-                dashboard_address=None,
+                dashboard_address=":0",
                 silence_logs=logging.ERROR,
                 env=env,
             )

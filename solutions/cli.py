@@ -273,7 +273,12 @@ def command_grade(args) -> int:
     except ImportError:
         raise UsageError("mbd grade is the instructor's command: run it in the course repository") from None
     return grade_command(
-        args.homework, args.submissions, out=args.out, jobs=args.jobs, unsafe_no_isolation=args.unsafe_no_isolation
+        args.homework,
+        args.submissions,
+        out=args.out,
+        jobs=args.jobs,
+        unsafe_no_isolation=args.unsafe_no_isolation,
+        cluster=args.cluster,
     )
 
 
@@ -297,7 +302,7 @@ def command_sweep(args) -> int:
             engine=args.engine,
         )
         out = args.out or f"sweep-{Path(args.model).stem}"
-        cluster = args.cluster if (args.cluster or jobs > 1) else None
+        cluster = args.cluster or ("local" if jobs > 1 else None)
         where = "here" if cluster is None else ("on a local Dask cluster" if cluster == "local" else f"on {cluster}")
         print(f"{len(sweep.sets)} runs of {args.model} ({'zipped' if sweep.zipped else 'grid'}) {where}")
         result = run_sweep(sweep, out, jobs=jobs, cluster=cluster, progress=not args.no_progress, resume=not args.fresh)
@@ -400,6 +405,11 @@ def build_parser() -> argparse.ArgumentParser:
     grade.add_argument("submissions", help="nbgrader's submitted/ folder, or a folder of student folders")
     grade.add_argument("--out", help="folder for the gradebook, results and feedback (default: grades-hwN)")
     grade.add_argument("--jobs", type=int, help="submissions graded in parallel (default: the number of cores)")
+    grade.add_argument(
+        "--cluster",
+        metavar="local|tcp://HOST:PORT",
+        help="grade on Dask: 'local' (a LocalCluster of --jobs workers) or an existing scheduler's address",
+    )
     grade.add_argument(
         "--unsafe-no-isolation",
         action="store_true",

@@ -141,7 +141,7 @@ def cluster():
     import logging
 
     with distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, memory_limit=0, dashboard_address=None, silence_logs=logging.CRITICAL,
+        n_workers=2, threads_per_worker=1, memory_limit=0, dashboard_address=":0", silence_logs=logging.CRITICAL,
         env=env,
     ) as lc, distributed.Client(lc) as client:  # fmt: skip
         yield lc.scheduler_address, client
@@ -197,3 +197,12 @@ def test_a_worker_killed_mid_run_loses_nothing_and_counts_nothing_twice(cluster,
     assert [row[0] for row in rows[1:]] == [str(k) for k in range(24)]  # each run once
     assert (tmp_path / "here" / "sweep.csv").read_bytes() == (tmp_path / "killed" / "sweep.csv").read_bytes()
     assert reference.failed == 0
+
+
+def test_cli_jobs_2_runs_on_a_local_cluster_with_the_same_table(tmp_path, capsys):
+    arguments = ["sweep", str(PENDULUM), "--set", "bodies[rod].mass=1:2:4", "--output", "max(rod.phi_d)"]
+    arguments += ["--t-end", "0.5", "--steps", "20", "--no-progress"]
+    assert main([*arguments, "--out", str(tmp_path / "one")]) == 0
+    assert main([*arguments, "--out", str(tmp_path / "two"), "--jobs", "2"]) == 0
+    assert "on a local Dask cluster" in capsys.readouterr().out
+    assert (tmp_path / "one" / "sweep.csv").read_bytes() == (tmp_path / "two" / "sweep.csv").read_bytes()
