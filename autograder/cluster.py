@@ -102,7 +102,7 @@ def grade_on_cluster(
     except SweepError as err:
         raise ClusterError(str(err)) from None
     total = done + len(todo)
-    with progress_bar(total, f"grading {homework.name}", progress and total > 0, initial=done) as bar:
+    with progress_bar(total, f"grading {homework.name}", progress and total > 0, done, "student") as bar:
         if not todo:
             return book
         from dask.distributed import as_completed

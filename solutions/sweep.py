@@ -553,7 +553,7 @@ def open_client(cluster: str | None, jobs: int, worker_setup: Callable[[], None]
             lc.close()
 
 
-def progress_bar(total: int, desc: str, enabled: bool = True, initial: int = 0):
+def progress_bar(total: int, desc: str, enabled: bool = True, initial: int = 0, unit: str = "run"):
     """A tqdm progress bar on stderr (a widget in a notebook), or a stand-in that does nothing."""
     try:
         from tqdm.auto import tqdm
@@ -561,7 +561,7 @@ def progress_bar(total: int, desc: str, enabled: bool = True, initial: int = 0):
         enabled = False
     if not enabled:
         return contextlib.nullcontext(type("NoBar", (), {"update": lambda self, n=1: None})())
-    return tqdm(total=total, initial=initial, desc=desc, unit="run", file=sys.stderr, dynamic_ncols=True)
+    return tqdm(total=total, initial=initial, desc=desc, unit=unit, file=sys.stderr, dynamic_ncols=True)
 
 
 # -- the table ---------------------------------------------------------------------------------------------------
