@@ -1,7 +1,7 @@
 """What ``mbd grade`` calls (``solutions/cli.py`` wires it; ``mbd selfcheck`` is ``mbdkit.cli``).
 
-    mbd grade hwN SUBMISSIONS [--out DIR] [--jobs N] [--unsafe-no-isolation]
-        ->  grade_command(homework, submissions, out, jobs, unsafe_no_isolation)
+    mbd grade hwN SUBMISSIONS [--out DIR] [--jobs N] [--cluster local|tcp://HOST:PORT] [--unsafe-no-isolation]
+        ->  grade_command(homework, submissions, out, jobs, unsafe_no_isolation, cluster)
 
 Returns the exit code: 0 done, 2 a user error (unknown homework, no such folder, a missing reference, no
 sandbox: bubblewrap missing or the kernel refusing its namespaces), printed as one line
@@ -18,6 +18,7 @@ from mbdkit.cli import error
 from mbdkit.homework import available_homeworks
 from mbdkit.isolation import IsolationUnavailable
 
+from .cluster import ClusterError
 from .grading import ISOLATION_NOTE, grade
 
 
@@ -27,18 +28,28 @@ def grade_command(
     out: str | Path | None = None,
     jobs: int | None = None,
     unsafe_no_isolation: bool = False,
+    cluster: str | None = None,
 ) -> int:
     """Grade every submission; print where the gradebook is and the score distribution."""
     if homework not in available_homeworks():
         return error(f"unknown homework {homework!r} (known: {', '.join(available_homeworks())})")
     if not Path(submissions).is_dir():
         return error(f"no folder {submissions} (give nbgrader's submitted/ folder or a folder of student folders)")
+    if cluster is not None:
+        from solutions.sweep import SweepError, check_cluster
+
+        try:
+            check_cluster(cluster)
+        except SweepError as err:
+            return error(str(err))
     out = Path(out or f"grades-{homework}")
     jobs = jobs or min(os.cpu_count() or 1, 8)
     isolation = "local" if unsafe_no_isolation else "os"
     try:
-        book = grade(homework, submissions, out, jobs=jobs, isolation=isolation)
+        book = grade(homework, submissions, out, jobs=jobs, isolation=isolation, cluster=cluster)
     except FileNotFoundError as err:
+        return error(str(err))
+    except ClusterError as err:
         return error(str(err))
     except IsolationUnavailable as err:
         return error(f"cannot isolate student code: {err}; give --unsafe-no-isolation to grade without it (unsafe)")

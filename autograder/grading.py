@@ -414,6 +414,7 @@ def grade(
     progress: bool = True,
     resume: bool = True,
     isolation: str | None = None,
+    cluster: str | None = None,
 ) -> Gradebook:
     """Grade every submission in ``submissions_dir`` for ``homework``; write results to ``out_dir``.
 
@@ -432,6 +433,8 @@ def grade(
     isolation : ``os`` (default): student code runs under bubblewrap (``mbdkit.isolation``), and grading
         refuses to start (``IsolationUnavailable``) where it cannot; ``local``: the unsafe forkserver
         sandbox (``MBD_UNSAFE_NO_ISOLATION=1`` makes it the default), said so in every result
+    cluster : grade on Dask (``autograder.cluster``): 'local' (a LocalCluster of ``jobs`` workers) or a
+        scheduler address 'tcp://HOST:PORT'; None (default) grades here, in a local process pool
 
     Returns
     -------
@@ -456,7 +459,7 @@ def grade(
         out_dir=out_dir,
         isolation=isolation,
     )
-    bar = Progress(len(submissions), enabled=progress)
+    bar = Progress(len(submissions), enabled=progress and cluster is None)
     todo = []
     for submission in submissions:
         result = None
@@ -471,6 +474,12 @@ def grade(
     book.write_csv()
     if len(todo) >= WARM_MIN_STUDENTS:  # per-student references on the compiled engine: compile once, here
         warm(homework.name, homework.checks)
+    if cluster is not None:  # Dask: workers grade, this process alone writes (autograder/cluster.py)
+        from .cluster import grade_on_cluster
+
+        done = len(submissions) - len(todo)
+        args = (homework, todo, book, out_dir, limits, forbidden, isolation, cluster, jobs, progress, done)
+        return grade_on_cluster(*args)
     if jobs <= 1 or len(todo) <= 1:
         for submission in todo:
             book.rows[submission.student] = grade_submission(

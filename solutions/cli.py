@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -359,8 +360,48 @@ def command_grade(args) -> int:
     except ImportError:
         raise UsageError("mbd grade is the instructor's command: run it in the course repository") from None
     return grade_command(
-        args.homework, args.submissions, out=args.out, jobs=args.jobs, unsafe_no_isolation=args.unsafe_no_isolation
+        args.homework,
+        args.submissions,
+        out=args.out,
+        jobs=args.jobs,
+        unsafe_no_isolation=args.unsafe_no_isolation,
+        cluster=args.cluster,
     )
+
+
+def command_sweep(args) -> int:
+    """``mbd sweep``: run a model over parameter values (``solutions.sweep``); a table, an NPZ and plots."""
+    from .sweep import SweepError, check_cluster, make_sweep, run_sweep
+
+    if args.jobs is not None and args.jobs < 1:
+        raise UsageError(f"--jobs {args.jobs}: must be a whole number >= 1")
+    jobs = args.jobs or (1 if args.cluster is None else 2)
+    try:
+        check_cluster(args.cluster)
+        sweep = make_sweep(
+            args.model,
+            args.set or [],
+            args.output,
+            zipped=args.zip,
+            analysis=args.analysis,
+            t_end=args.t_end,
+            steps=args.steps,
+            engine=args.engine,
+        )
+        out = args.out or f"sweep-{Path(args.model).stem}"
+        cluster = args.cluster or ("local" if jobs > 1 else None)
+        where = "here" if cluster is None else ("on a local Dask cluster" if cluster == "local" else f"on {cluster}")
+        print(f"{len(sweep.sets)} runs of {args.model} ({'zipped' if sweep.zipped else 'grid'}) {where}")
+        result = run_sweep(sweep, out, jobs=jobs, cluster=cluster, progress=not args.no_progress, resume=not args.fresh)
+    except SweepError as err:
+        raise UsageError(str(err)) from None
+    except OSError as err:
+        raise UsageError(f"--out {args.out}: cannot write ({err.strerror})") from None
+    resumed = f", {result.resumed} resumed" if result.resumed else ""
+    print(f"{len(result.rows)} runs, {result.failed} failed{resumed}, {result.seconds:.3g} s")
+    for path in result.files:
+        print(f"written: {path}")
+    return 0
 
 
 def command_selfcheck(args) -> int:
@@ -530,11 +571,47 @@ def build_parser() -> argparse.ArgumentParser:
     grade.add_argument("--out", help="folder for the gradebook, results and feedback (default: grades-hwN)")
     grade.add_argument("--jobs", type=int, help="submissions graded in parallel (default: the number of cores)")
     grade.add_argument(
+        "--cluster",
+        metavar="local|tcp://HOST:PORT",
+        help="grade on Dask: 'local' (a LocalCluster of --jobs workers) or an existing scheduler's address",
+    )
+    grade.add_argument(
         "--unsafe-no-isolation",
         action="store_true",
         help="grade even where bubblewrap cannot isolate student code (unsafe: the results say so)",
     )
     grade.set_defaults(handler=command_grade)
+    sweep = sub.add_parser("sweep", help="run a model over a grid or sample of parameter values (a table and plots)")
+    sweep.add_argument("model", help="model file (YAML or JSON)")
+    sweep.add_argument(
+        "--set",
+        action="append",
+        metavar="KEY=VALUES",
+        help="a key of the model file and its values: bodies[crank].mass=0.5,1,2 (a list), =0.5:2:4 (start:stop:num), "
+        "=uniform(0.5, 2, n=20, seed=1) or =normal(1, 0.1, n=20, seed=1) (repeatable)",
+    )
+    sweep.add_argument(
+        "--output",
+        action="append",
+        metavar="EXPR",
+        help="a summary per run: max|min|mean|rms|absmax|final|initial(COLUMN), e.g. max(slider.x), "
+        "rms(drive.torque), or residual (default: residual; repeatable)",
+    )
+    sweep.add_argument("--zip", action="store_true", help="take the keys' values together instead of their full grid")
+    sweep.add_argument("--analysis", choices=ANALYSES, help="the analysis of every run (default: the file's, or auto)")
+    sweep.add_argument("--t-end", type=float, help="end time in s (default: the file's simulation.end_time)")
+    sweep.add_argument("--steps", type=int, help="number of output intervals (default: simulation.output_steps)")
+    sweep.add_argument("--engine", default="numpy", help="numpy (default) or compiled (numba)")
+    sweep.add_argument("--out", help="folder for sweep.csv, sweep.npz and plots/ (default: sweep-MODEL)")
+    sweep.add_argument("--jobs", type=int, help="worker processes (default 1: runs here; more: a local Dask cluster)")
+    sweep.add_argument(
+        "--cluster",
+        metavar="local|tcp://HOST:PORT",
+        help="run on Dask: 'local' (a LocalCluster of --jobs workers, the default when --jobs > 1) or a scheduler",
+    )
+    sweep.add_argument("--fresh", action="store_true", help="run every set again instead of resuming")
+    sweep.add_argument("--no-progress", action="store_true", help="no progress bar")
+    sweep.set_defaults(handler=command_sweep)
     selfcheck = sub.add_parser("selfcheck", help="run the public checks of hwN on your own modules/ (students)")
     selfcheck.add_argument("homework", help="hw1, hw2 or hw3")
     selfcheck.add_argument("path", nargs="?", help="folder holding your modules/ (default: the current folder)")

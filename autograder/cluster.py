@@ -1,0 +1,136 @@
+"""Grading on Dask: ``grade(..., cluster="local" | "tcp://HOST:PORT")`` (``mbd grade --cluster``).
+
+Each submission is one Dask task. A worker grades it exactly as a process-pool worker does: it is set up
+like one (``grading._worker_init``: one BLAS thread for its sandboxes, SIGKILL when its parent, the nanny,
+dies), and it runs the student's code in the same sandbox per submission (bubblewrap, or the unsafe local
+sandbox when asked), which never imports the reference package. The worker returns the result and the
+feedback page; only the client writes them (atomically, as each arrives) and the gradebook, so a stopped
+run resumes from the results it has (``grade``'s fingerprints) and loses nothing.
+
+A task whose worker dies (killed, out of memory) is run again on another worker by Dask; a result is
+taken once per student, so nothing is counted twice. On a cluster of several machines every worker must
+see the submissions folder at the same path (a shared file system) and have bubblewrap, the course
+repository (or the installed ``mbd-course``) and its stored references.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+
+from mbdkit.homework import Homework
+from mbdkit.sandbox import Limits, without_main
+from solutions.sweep import SweepError, check_cluster, open_client, progress_bar
+
+from .feedback import feedback_html
+from .grading import (
+    Gradebook,
+    Submission,
+    _summary,
+    _worker_init,
+    _write_atomic,
+    result_json,
+    run_checks,
+    submission_fingerprint,
+)
+
+
+class ClusterError(RuntimeError):
+    """A cluster that cannot be used (a bad address, a scheduler that does not answer, no Dask)."""
+
+
+def setup_worker() -> None:
+    """In every Dask worker (also one that replaces a worker that died): as ``grading._worker_init``."""
+    _worker_init(os.getppid())
+
+
+def grade_remote(
+    homework: Homework, submission: Submission, limits: Limits, forbidden: tuple, isolation: str
+) -> tuple[str, dict, str]:
+    """On a worker: grade one submission; returns (student, result JSON, feedback HTML), writing nothing."""
+    start = time.perf_counter()
+    fingerprint = submission_fingerprint(submission, homework, limits, isolation)
+    outcomes = run_checks(
+        homework.checks,
+        submission.path,
+        homework.name,
+        submission.student,
+        limits,
+        forbidden,
+        isolation,
+        homework.budget,
+    )
+    result = result_json(homework, submission.student, outcomes, fingerprint, time.perf_counter() - start, isolation)
+    page = feedback_html(submission.student, homework.name, homework.title, outcomes)
+    return submission.student, result, page
+
+
+def write_outcome(out_dir: Path, student: str, result: dict, page: str) -> None:
+    """The client's write of one student's feedback page and result (the result last: it marks them done)."""
+    import json
+
+    _write_atomic(out_dir / "feedback" / f"{student}.html", page)
+    _write_atomic(out_dir / "results" / f"{student}.json", json.dumps(result, indent=1))
+
+
+def grade_on_cluster(
+    homework: Homework,
+    todo: list[Submission],
+    book: Gradebook,
+    out_dir: Path,
+    limits: Limits,
+    forbidden: tuple,
+    isolation: str,
+    cluster: str,
+    jobs: int,
+    progress: bool = True,
+    done: int = 0,
+) -> Gradebook:
+    """Grade the submissions ``todo`` on Dask, adding their rows to ``book`` (written after each one).
+
+    ``cluster``: 'local' (a LocalCluster of ``jobs`` worker processes) or a scheduler address.
+    ``done``: submissions already in ``book`` (resumed), for the progress bar.
+
+    Raises
+    ------
+    ClusterError
+        If the cluster cannot be used; a task that fails on every retry raises its own error.
+    """
+    try:
+        check_cluster(cluster)
+    except SweepError as err:
+        raise ClusterError(str(err)) from None
+    total = done + len(todo)
+    with progress_bar(total, f"grading {homework.name}", progress and total > 0, done, "student") as bar:
+        if not todo:
+            return book
+        from dask.distributed import as_completed
+
+        _worker_init()  # LocalCluster workers inherit one BLAS thread from here
+        try:
+            with without_main(), open_client(cluster, jobs, setup_worker) as client:
+                futures = [
+                    client.submit(
+                        grade_remote,
+                        homework,
+                        submission,
+                        limits,
+                        forbidden,
+                        isolation,
+                        key=f"grade-{homework.name}-{submission.student}",
+                        pure=False,
+                    )
+                    for submission in todo
+                ]
+                for future in as_completed(futures):
+                    student, result, page = future.result()
+                    if student in book.rows:  # counted once, whatever Dask ran twice
+                        continue
+                    write_outcome(out_dir, student, result, page)
+                    book.rows[student] = _summary(result, resumed=False)
+                    book.write_csv()
+                    bar.update(1)
+        except SweepError as err:
+            raise ClusterError(str(err)) from None
+    return book
