@@ -89,8 +89,8 @@ def base_run(scene: Scene, engine: str = "numpy") -> dict[str, np.ndarray]:
 TIGHT = {"integrator": "DOP853", "rtol": 1e-12, "atol": 1e-14}
 """Integrator settings of the high-accuracy runs that dynamic run checks are compared with."""
 
-STUDENT_ENGINE = "auto"
-"""The engine of the reference runs of per-student scenes, made while grading: ``auto`` takes the compiled
+STUDENT_ENGINE = "cached"
+"""The engine of the reference runs of per-student scenes, made while grading: ``cached`` takes the compiled
 engine (``solutions.compiled``: the same integrators, agreeing with numpy's runs to about 1e-12 relative,
 tests/solutions/test_compiled.py) where its code for the scene's structure is cached (``warm``; a student's
 variant has its public scene's structure), else the numpy engine. Stored references use numpy."""

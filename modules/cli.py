@@ -19,8 +19,7 @@ from .diagnostics import AnalysisError, rank_report
 from .dynamics import FORMULATION_NAMES, INTEGRATOR_NAMES, forward_dynamics
 from .io.model import Model, ModelError, load_model
 from .kinematics import assemble, kinematic_analysis
-from .plotting import DERIVED
-from .results import Result
+from .results import DERIVED, Result
 
 USER_ERROR = 2
 

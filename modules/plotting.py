@@ -16,12 +16,11 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from .results import Result
+from .results import DERIVED, Result
 
 UNITS = {"x": "m", "y": "m", "z": "m", "phi": "rad", "e0": "-", "e1": "-", "e2": "-", "e3": "-"}
 AXES = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
 """Reaction columns in the global frame (DESIGN section 5); others (``_local``, ``_joint``) are left out."""
-DERIVED = ("residual.", "energy.")
 """Prefixes of result columns that are not body points (constraint residuals, energies)."""
 
 

@@ -6,6 +6,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+DERIVED = ("residual.", "energy.")
+"""Prefixes of the result columns every dynamic run makes (constraint residuals, energies), not coordinates."""
+
 
 @dataclass
 class Result:

