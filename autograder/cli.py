@@ -3,6 +3,9 @@
     mbd grade hwN SUBMISSIONS [--out DIR] [--jobs N] [--cluster local|tcp://HOST:PORT] [--unsafe-no-isolation]
         ->  grade_command(homework, submissions, out, jobs, unsafe_no_isolation, cluster)
 
+``--jobs`` N > 1 (the default: the number of cores, at most 8) grades on a Dask LocalCluster of N worker
+processes (``--cluster local`` implied); ``--jobs 1`` grades one by one in this process.
+
 Returns the exit code: 0 done, 2 a user error (unknown homework, no such folder, a missing reference, no
 sandbox: bubblewrap missing or the kernel refusing its namespaces), printed as one line
 ``mbd: error: ...`` to stderr; then no output folder is made. ``--unsafe-no-isolation`` grades without the
@@ -44,6 +47,8 @@ def grade_command(
             return error(str(err))
     out = Path(out or f"grades-{homework}")
     jobs = jobs or min(os.cpu_count() or 1, 8)
+    if cluster is None and jobs > 1:
+        cluster = "local"  # more than one job: a LocalCluster of `jobs` worker processes (issue 17)
     isolation = "local" if unsafe_no_isolation else "os"
     try:
         book = grade(homework, submissions, out, jobs=jobs, isolation=isolation, cluster=cluster)

@@ -1,7 +1,7 @@
 """Grading on Dask: ``grade(..., cluster="local" | "tcp://HOST:PORT")`` (``mbd grade --cluster``).
 
 Each submission is one Dask task. A worker grades it exactly as a process-pool worker does: it is set up
-like one (``grading._worker_init``: one BLAS thread for its sandboxes, SIGKILL when its parent, the nanny,
+like one (``grading._worker_init``: one BLAS thread for its sandboxes, SIGKILL when its parent process
 dies), and it runs the student's code in the same sandbox per submission (bubblewrap, or the unsafe local
 sandbox when asked), which never imports the reference package. The worker returns the result and the
 feedback page; only the client writes them (atomically, as each arrives) and the gradebook, so a stopped
@@ -11,6 +11,14 @@ A task whose worker dies (killed, out of memory) is run again on another worker 
 taken once per student, so nothing is counted twice. On a cluster of several machines every worker must
 see the submissions folder at the same path (a shared file system) and have bubblewrap, the course
 repository (or the installed ``mbd-course``) and its stored references.
+
+After a SIGKILL of the client (``mbd grade``) on a LocalCluster no process is left: its nannies are objects
+in the client's own process (distributed's ``LocalCluster``; no nanny process of their own), so each worker
+is the client's child, which the kernel kills with it (``PR_SET_PDEATHSIG``, set by ``setup_worker``; Dask's
+``AsyncProcess`` also ends a worker whose parent's pipe closes), and each sandbox dies with its worker
+(bubblewrap's ``--die-with-parent``). A nanny plugin setting the signal would set it in the client itself
+(killing the grader with its shell), so there is none. Workers of a scheduler started by hand are not the
+client's to end: they finish their current task (within its time limit) and wait for the next client.
 """
 
 from __future__ import annotations

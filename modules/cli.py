@@ -569,11 +569,15 @@ def build_parser() -> argparse.ArgumentParser:
     grade.add_argument("homework", help="hw1, hw2 or hw3")
     grade.add_argument("submissions", help="nbgrader's submitted/ folder, or a folder of student folders")
     grade.add_argument("--out", help="folder for the gradebook, results and feedback (default: grades-hwN)")
-    grade.add_argument("--jobs", type=int, help="submissions graded in parallel (default: the number of cores)")
+    grade.add_argument(
+        "--jobs",
+        type=int,
+        help="submissions graded in parallel (default: the cores, at most 8; 1: here; more: a local Dask cluster)",
+    )
     grade.add_argument(
         "--cluster",
         metavar="local|tcp://HOST:PORT",
-        help="grade on Dask: 'local' (a LocalCluster of --jobs workers) or an existing scheduler's address",
+        help="grade on Dask: 'local' (a LocalCluster of --jobs workers, the default when --jobs > 1) or a scheduler",
     )
     grade.add_argument(
         "--unsafe-no-isolation",

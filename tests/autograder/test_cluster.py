@@ -115,3 +115,22 @@ def test_a_bad_cluster_address_is_refused_before_any_output(submissions, tmp_pat
     assert code == 2 and not out.exists()
     err = capsys.readouterr().err.strip()
     assert err.startswith("mbd: error: --cluster nowhere") and "tcp://HOST:8786" in err and "\n" not in err
+
+
+CORES = min(os.cpu_count() or 1, 8)
+
+
+@pytest.mark.parametrize(("argv", "jobs"), [([], CORES), (["--jobs", "2"], 2), (["--jobs", "1"], 1)])
+def test_mbd_grade_jobs_above_one_means_a_local_cluster(submissions, tmp_path, monkeypatch, argv, jobs):
+    """``mbd grade --jobs N``, N > 1 (the default on a machine of several cores): ``--cluster local``."""
+    import autograder.cli
+
+    seen = {}
+
+    def fake_grade(homework, submissions_dir, out_dir, **options):
+        seen.update(options)
+        raise FileNotFoundError("stop here")
+
+    monkeypatch.setattr(autograder.cli, "grade", fake_grade)
+    assert main(["grade", "hw1", str(submissions), "--out", str(tmp_path / "out"), *argv]) == 2
+    assert seen["jobs"] == jobs and seen["cluster"] == ("local" if jobs > 1 else None)

@@ -499,14 +499,26 @@ def _alive(pid: int, start: str) -> bool:
     return fields[19] == start and fields[0] != "Z"
 
 
+POOL_GRADER = "import sys; from autograder.grading import grade; grade('hw1', sys.argv[1], sys.argv[2], jobs=2)"
+
+
 @needs_isolation
-def test_sigkill_of_mbd_grade_leaves_no_process(tmp_path):
-    """Workers die with the grader (PR_SET_PDEATHSIG), sandboxes with their worker (--die-with-parent)."""
+@pytest.mark.parametrize("where", ["dask", "pool"])
+def test_sigkill_of_mbd_grade_leaves_no_process(tmp_path, where):
+    """Workers die with the grader (PR_SET_PDEATHSIG), sandboxes with their worker (--die-with-parent).
+
+    'dask': ``mbd grade --jobs 2`` (a LocalCluster: its nannies live in the grader, each worker a child of
+    it); 'pool': ``grade(jobs=2)`` from Python (a process pool).
+    """
     folder = tmp_path / "submitted"
     for student in ("a", "b", "c", "d"):
         make_mutant(folder / student, "hang")  # each costs a 10 s timeout: the workers would grade on
-    command = [sys.executable, "-m", "solutions.cli", "grade", "hw1", str(folder), "--out", str(tmp_path / "out")]
-    grader = subprocess.Popen(command + ["--jobs", "2"], cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    if where == "dask":
+        command = [sys.executable, "-m", "solutions.cli", "grade", "hw1", str(folder), "--out", str(tmp_path / "out")]
+        command += ["--jobs", "2"]
+    else:
+        command = [sys.executable, "-c", POOL_GRADER, str(folder), str(tmp_path / "out")]
+    grader = subprocess.Popen(command, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.monotonic() + 60
     below: dict[int, str] = {}
     while time.monotonic() < deadline:
