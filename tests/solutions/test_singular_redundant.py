@@ -5,7 +5,8 @@ Every reference is computed here from the mechanism's own one-degree-of-freedom 
 
 - a chain of N parallelogram loops (N = 1, 2, 10) released under gravity turns through several singular
   positions (every bar on the ground line, Psi_q short of one rank per loop): the crank angle against
-  ((n + 1)/3 + n) L theta'' = -g cos(theta) ((n + 1)/2 + n); driven, its kinematics against theta = pi/2 + w t;
+  ((n + 1)/3 + n) L theta'' = -g cos(theta) ((n + 1)/2 + n); driven, its kinematics against theta = pi/2 + w t
+  and its singular positions against the times theta = k pi, with and without ``through_singular``;
 - the Sarrus linkage (over-constrained spatial 6R loop, Psi_q of rank n - 1 everywhere) against Lagrange's
   equation in its link angle;
 - a pendulum released level over 300 s against the elliptic-integral solution (Jacobi's sn);
@@ -27,7 +28,7 @@ from solutions.assembly import build_system
 from solutions.diagnostics import AnalysisError, SingularConfigurationError, rank_report
 from solutions.dynamics import DEFAULT_ACCURACY, forward_dynamics, mechanism_size
 from solutions.io.model import load_model
-from solutions.kinematics import kinematic_analysis
+from solutions.kinematics import kinematic_analysis, locate_singular_position
 from solutions.linalg import independent_rows, minimum_norm_solution, numerical_rank
 
 from .mechanisms import SARRUS, chain_theta, parallelogram_chain, sarrus, sarrus_theta
@@ -68,43 +69,72 @@ def test_baumgarte_stops_at_the_singular_position_by_name():
         forward_dynamics(system, q0, qd0, 3.0, 150, formulation="baumgarte")
 
 
-def test_driven_chain_kinematics_reports_then_passes_the_singular_positions():
-    data = parallelogram_chain(2)
-    w = 2.0
-    motor = {
-        "name": "drive",
-        "type": "angle",
-        "joint": "O0",
-        "function": {"type": "polynomial", "coefficients": [0, w]},
-    }
-    data["model"]["motors"] = [motor]
-    system, q0, _ = build_system(load_model(data))
-    result = kinematic_analysis(system, q0, 4.0, 200, through_singular=True)
-    theta = math.pi / 2 + w * result.t
-    names = system.coordinate_names
-    for k in range(3):
-        np.testing.assert_allclose(result.q[:, names.index(f"crank{k}.phi")], theta, atol=1e-10)
-    for k in range(2):
-        np.testing.assert_allclose(result.qd[:, names.index(f"coupler{k}.x")], -w * np.sin(theta), atol=1e-10)
-        np.testing.assert_allclose(result.qdd[:, names.index(f"coupler{k}.x")], -w * w * np.cos(theta), atol=1e-9)
-    expected = [(j * math.pi + math.pi / 2) / w for j in range(3)]  # theta = pi, 2 pi, 3 pi
-    found = [c["t"] for c in result.info["singular_positions"]]
-    assert len(found) == 3 and np.allclose(found, expected, atol=0.021)
-    assert all("B1" in c["joints"] for c in result.info["singular_positions"])
-
-
-def _single_loop_driven(w):
-    data = parallelogram_chain(1)
+def _driven_chain(n: int, w: float):
+    data = parallelogram_chain(n)
     data["model"]["motors"] = [
         {"name": "drive", "type": "angle", "joint": "O0", "function": {"type": "polynomial", "coefficients": [0, w]}}
     ]
-    return data
+    return build_system(load_model(data))
 
 
-def test_single_loop_kinematics_stops_by_name_without_the_flag():
-    system, q0, _ = build_system(load_model(_single_loop_driven(2.0)))
-    with pytest.raises(AnalysisError, match=r"between t = 0\.78 s and t = 0\.8 s.*O0.*through-singular"):
+@pytest.mark.parametrize("n", [1, 2, 10])
+def test_driven_chain_kinematics_reports_then_passes_the_singular_positions(n):
+    """theta = pi/2 + w t passes theta = pi, 2 pi, 3 pi (every bar on the ground line, Psi_q short of n ranks: an
+    even n leaves the sign of det Psi_q as it was); each is reported at its time and the motion stays on the
+    parallelogram branch."""
+    w = 2.0
+    system, q0, _ = _driven_chain(n, w)
+    result = kinematic_analysis(system, q0, 4.0, 200, through_singular=True)
+    theta = math.pi / 2 + w * result.t
+    names = system.coordinate_names
+    for k in range(n + 1):
+        np.testing.assert_allclose(result.q[:, names.index(f"crank{k}.phi")], theta, atol=1e-10)
+    for k in range(n):
+        np.testing.assert_allclose(result.qd[:, names.index(f"coupler{k}.x")], -w * np.sin(theta), atol=1e-10)
+        np.testing.assert_allclose(result.qdd[:, names.index(f"coupler{k}.x")], -w * w * np.cos(theta), atol=1e-9)
+    expected = [(j * math.pi + math.pi / 2) / w for j in range(3)]  # theta = pi, 2 pi, 3 pi
+    found = result.info["singular_positions"]
+    assert len(found) == 3 and np.allclose([c["t"] for c in found], expected, atol=1e-6)
+    assert all(c["after"] <= c["t"] <= c["until"] for c in found)
+    assert all(c.get("rank_loss", n) == n for c in found)
+    assert all({"O0", f"B{n - 1}"} <= set(c["joints"]) for c in found)
+    assert len(result.info["warnings"]) == 3
+
+
+@pytest.mark.parametrize("n", [1, 2, 10])
+def test_driven_chain_kinematics_stops_by_name_without_the_flag(n):
+    """The default run stops at the first singular position, theta = pi at t = pi / (2 w) = 0.785 s, whether
+    det Psi_q changes sign there (odd n) or not (even n: n ranks lost at once)."""
+    system, q0, _ = _driven_chain(n, 2.0)
+    with pytest.raises(AnalysisError, match=r"between t = 0\.78 s and t = 0\.8 s.*O0.*through-singular") as caught:
         kinematic_analysis(system, q0, 4.0, 200)
+    if n % 2 == 0:
+        assert f"loses {n} rank(s) at t = 0.785398 s" in str(caught.value)
+
+
+def test_a_near_singular_pass_is_no_singular_position():
+    """A chain driven to theta = pi - 0.01 and back (theta = pi/2 + (pi/2 - 0.01) sin t) comes near the singular
+    position and turns back: no report, and the default run goes on, on the parallelogram branch. The search
+    itself (``locate_singular_position``) finds the rank loss of theta = pi in an interval that holds it, to
+    1e-7 s, and none in an interval that ends 0.01 rad before it (sigma_min / sigma_max about 1e-3 there)."""
+    amplitude = math.pi / 2 - 0.01
+    data = parallelogram_chain(2)
+    function = {"type": "harmonic", "amplitude": amplitude, "frequency": 1.0}
+    data["model"]["motors"] = [{"name": "drive", "type": "angle", "joint": "O0", "function": function}]
+    system, q0, _ = build_system(load_model(data))
+    result = kinematic_analysis(system, q0, 4.0, 80)
+    theta = math.pi / 2 + amplitude * np.sin(result.t)
+    np.testing.assert_allclose(result.q[:, system.coordinate_names.index("crank2.phi")], theta, atol=1e-10)
+    assert kinematic_analysis(system, q0, 4.0, 80, through_singular=True).info["singular_positions"] == []
+
+    w = 2.0
+    system, q0, _ = _driven_chain(2, w)
+    run = kinematic_analysis(system, q0, 0.7, 35)  # the state at t = 0.7 s, theta = pi/2 + 1.4
+    state = (run.t[-1], run.q[-1], run.qd[-1], run.qdd[-1])
+    t_star = math.pi / (2 * w)
+    found = locate_singular_position(system, *state, 0.8)
+    assert found is not None and abs(found["t"] - t_star) < 1e-7 and found["rank_loss"] == 2
+    assert locate_singular_position(system, *state, t_star - 0.01 / w) is None
 
 
 # -- redundant constraints: the Sarrus linkage ---------------------------------------------------------------
