@@ -9,6 +9,8 @@ Every reference is computed here from the mechanism's own one-degree-of-freedom 
   and its singular positions against the times theta = k pi, with and without ``through_singular``;
 - the Sarrus linkage (over-constrained spatial 6R loop, Psi_q of rank n - 1 everywhere) against Lagrange's
   equation in its link angle;
+- the Bennett linkage (over-constrained spatial 4R loop, mobility 1 where the Gruebler count gives -2) against
+  Lagrange's equation in its input angle, built on Bennett's closed-form relation between the joint angles;
 - a pendulum released level over 300 s against the elliptic-integral solution (Jacobi's sn);
 - the implicit integrators (hht, generalized-alpha) against DOP853 at rtol 1e-12: within the accuracy
   bound, or their result says it is not.
@@ -31,7 +33,16 @@ from solutions.io.model import load_model
 from solutions.kinematics import kinematic_analysis, locate_singular_position
 from solutions.linalg import independent_rows, minimum_norm_solution, numerical_rank
 
-from .mechanisms import SARRUS, chain_theta, parallelogram_chain, sarrus, sarrus_theta
+from .mechanisms import (
+    SARRUS,
+    bennett,
+    bennett_centres,
+    bennett_theta,
+    chain_theta,
+    parallelogram_chain,
+    sarrus,
+    sarrus_theta,
+)
 
 MODELS = Path(__file__).resolve().parents[2] / "course" / "models"
 
@@ -179,6 +190,34 @@ def test_sarrus_with_an_implicit_integrator_reaches_its_reference_or_says_not():
     warned = any(w.startswith("accuracy:") for w in result.info["warnings"])
     assert error <= bound or warned
     assert warned  # second order at rtol 1e-8: about 1e-5 m here, above the bound
+
+
+@cache
+def bennett_system():
+    return build_system(load_model(bennett()))
+
+
+def test_bennett_is_three_redundant_equations_and_one_degree_of_freedom():
+    system, q0, _ = bennett_system()
+    report = rank_report(system.jacobian(q0, 0.0), system.row_owners)
+    assert (system.n_coordinates, system.n_constraints) == (21, 23)
+    assert report.rank == 20 and report.degrees_of_freedom == 1 and report.n_redundant == 3
+
+
+def test_bennett_falls_under_gravity_by_default_against_its_one_dof_equation():
+    """1 s released at rest: J1 turns by more than 5 rad, from 1.2 rad through 0 and -pi; every link's centre
+    against the closed form at theta1(t) from the one-dof equation (``mechanisms.bennett_theta``)."""
+    system, q0, qd0 = bennett_system()
+    result = forward_dynamics(system, q0, qd0, 1.0, 50, formulation="auto")
+    assert result.info["formulation"] == "augmented-lagrangian"
+    assert result.info["max_constraint_residual"] < 1e-7
+    theta = bennett_theta(result.t)
+    assert theta.min() < -math.pi  # the motion goes through the folded positions theta1 = 0 and -pi
+    names = system.coordinate_names
+    columns = [[names.index(f"link{i}.{axis}") for axis in "xyz"] for i in (1, 2, 3)]
+    expected = np.array([bennett_centres(th) for th in theta])  # (steps, link, xyz)
+    got = np.stack([result.q[:, c] for c in columns], axis=1)
+    assert float(np.max(np.abs(got - expected))) < 1e-6
 
 
 # -- the rank rule ---------------------------------------------------------------------------------------------
