@@ -20,13 +20,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from .assembly import System
-from .diagnostics import AnalysisError, involved_joints, passes_zero, rank_report, singular_joints
+from .diagnostics import AnalysisError, involved_joints, rank_report, singular_joints
 from .linalg import lu_factor, lu_solve, minimum_norm_solution, numerical_rank, solve
 from .planar.bodies import rotation, rotation_derivative
 from .results import Result
 
 LOCKUP_CONDITION = 1e10
 """Condition number of Psi_q above which a configuration counts as locked (a singular position)."""
+
+PIVOT_DIP = 0.5
+"""Largest pivot ratio min |U_ii| / max |U_ii| at a local minimum that ``_dip_start`` flags. The pivot ratio is
+not sigma_min / sigma_max (it may stay several times above it, as at output steps far apart from a rank loss),
+so the flag is loose and cheap; the rank rule decides (``locate_singular_position``)."""
 
 
 @dataclass
@@ -149,6 +154,26 @@ def _factor_checked(system: System, q: np.ndarray, t: float):
                 f"{cond:.3g}); joints involved: {', '.join(joints)}"
             )
     return lu
+
+
+def _dip_start(ratios: list[float], steps: int) -> int | None:
+    """The first step of the interval in which the pivot ratios so far (one per step, ``pivot_ratio``) dip
+    towards zero, or None: a local minimum at the step before the last, far below its neighbours, flags the two
+    intervals around it; at the first and at the last step of the run, where a neighbour is missing, the one
+    neighbour stands for both (the ratio mirrored). "Far below" as ``diagnostics.passes_zero`` says it (a V, not
+    a smooth minimum): less than half the larger neighbour; and below PIVOT_DIP."""
+    k = len(ratios) - 1
+
+    def dips(before: float, middle: float, after: float) -> bool:
+        return middle < PIVOT_DIP and middle <= min(before, after) and 2.0 * middle < max(before, after)
+
+    if k >= 2 and dips(*ratios[-3:]):
+        return k - 2
+    if k == 1 and dips(ratios[1], ratios[0], ratios[1]):
+        return 0
+    if k >= 1 and k == steps - 1 and dips(ratios[-2], ratios[-1], ratios[-2]):
+        return k - 1
+    return None
 
 
 def _bracket(times: np.ndarray, t: float) -> tuple[float, float]:
@@ -302,9 +327,10 @@ def kinematic_analysis(
         lu = _factor_checked(system, q, t)
         sign = determinant_sign(lu)
         ratios.append(pivot_ratio(lu))
-        if k >= 2 and sign == previous_sign and passes_zero(*ratios[-3:]):
+        first = _dip_start(ratios, times.size)
+        if first is not None and sign == previous_sign:
             # an even rank loss keeps the sign of det Psi_q: decide by the rank rule at the ratio's minimum
-            found = locate_singular_position(system, times[k - 2], Q[k - 2], QD[k - 2], QDD[k - 2], t)
+            found = locate_singular_position(system, times[first], Q[first], QD[first], QDD[first], t)
             if found is not None:
                 after, before = _bracket(times, found["t"])
                 raise AnalysisError(
@@ -418,13 +444,13 @@ def _kinematics_through_singular(system, q0, t_end, steps, points) -> Result:
         locked = not ratio > 1.0 / LOCKUP_CONDITION
         # a dip of the pivot ratio also flags a crossing: an even rank loss (one per loop of a chain of
         # parallelograms) leaves the sign of det Psi_q as it was; the rank rule decides (locate_singular_position)
-        dip = k >= 2 and passes_zero(ratios[-2], ratios[-1], ratio)
         ratios.append(ratio)
+        dip = _dip_start(ratios, times.size)
         flagged = sign != previous_sign or locked
-        first = max(k - 1, 0) if flagged else k - 2
-        if (flagged or dip) and crossings and crossings[-1]["step"] >= first:
+        first = max(k - 1, 0) if flagged else dip
+        if (flagged or dip is not None) and crossings and crossings[-1]["step"] >= first:
             crossings[-1]["step"] = max(crossings[-1]["step"], k) if flagged else crossings[-1]["step"]
-        elif flagged or dip:
+        elif flagged or dip is not None:
             found = None
             if k > 0:
                 found = locate_singular_position(system, times[first], Q[first], QD[first], QDD[first], t)

@@ -110,6 +110,9 @@ def test_driven_chain_kinematics_reports_then_passes_the_singular_positions(n):
     assert all(c.get("rank_loss", n) == n for c in found)
     assert all({"O0", f"B{n - 1}"} <= set(c["joints"]) for c in found)
     assert len(result.info["warnings"]) == 3
+    # output steps 0.27 rad apart, the last crossing (t = 3.927 s) between the last two: found all the same
+    coarse = kinematic_analysis(system, q0, 4.0, 30, through_singular=True).info["singular_positions"]
+    assert np.allclose([c["t"] for c in coarse], expected, atol=1e-5)
 
 
 @pytest.mark.parametrize("n", [1, 2, 10])
