@@ -204,11 +204,11 @@ def locate_singular_position(
     """The singular position in [t_a, t_b] where the pivot ratio dipped, found and decided by the rank rule.
 
     A kinematic run flags an interval when the pivot ratio of its steps (``pivot_ratio``) has a local minimum
-    there far below its neighbours (``diagnostics.passes_zero``). This function then minimizes
-    r(t) = sigma_min / sigma_max of Psi_q (eq. 4.20) over the interval (``scipy.optimize.minimize_scalar``,
-    bounded Brent, on t = t_a + s (t_b - t_a)), at configurations on the branch of the motion: the Taylor
-    prediction from the solved state (q, q', q'') at t_a, corrected by minimum-norm Newton-Raphson (eq. 4.8;
-    ``branch_step``). The rule:
+    there far below its neighbours (``_dip_start``). This function then minimizes r(t) = sigma_min / sigma_max
+    of Psi_q (eq. 4.20) over the interval (``scipy.optimize.minimize_scalar``, bounded Brent, on
+    t = t_a + s (t_b - t_a)), at configurations on the branch of the motion: the configuration already found
+    nearest to t, moved by the Taylor prediction from the solved state (q, q', q'') at t_a, corrected by
+    minimum-norm Newton-Raphson (eq. 4.8, as in ``branch_step``). The rule:
 
         a singular position is passed  when  min over t of sigma_min / sigma_max  <=  max(m, n) sqrt(eps)
 
