@@ -7,8 +7,9 @@ For a mechanism whose drivers leave no degree of freedom, at each time t (course
 3. acceleration:  Psi_q q'' = gamma                                                        (eq. 4.6)
 
 The Jacobian at the converged positions is factored once (LU) and the factors serve steps 2 and 3
-and the diagnostics (the lock-up test and the sign of det Psi_q come from U's diagonal). A kinematic
-run needs no mass matrix and no forces, and builds neither.
+and the diagnostics (the lock-up test, the sign of det Psi_q and the pivot ratio that flags a singular
+position come from U's diagonal; an SVD is taken only where they flag one, ``locate_singular_position``).
+A kinematic run needs no mass matrix and no forces, and builds neither.
 """
 
 from __future__ import annotations
@@ -19,13 +20,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from .assembly import System
-from .diagnostics import AnalysisError, passes_zero, rank_report, singular_joints
-from .linalg import lu_factor, lu_solve, minimum_norm_solution, solve
+from .diagnostics import AnalysisError, involved_joints, rank_report, singular_joints
+from .linalg import lu_factor, lu_solve, minimum_norm_solution, numerical_rank, solve
 from .planar.bodies import rotation, rotation_derivative
 from .results import Result
 
 LOCKUP_CONDITION = 1e10
 """Condition number of Psi_q above which a configuration counts as locked (a singular position)."""
+
+PIVOT_DIP = 0.5
+"""Largest pivot ratio min |U_ii| / max |U_ii| at a local minimum that ``_dip_start`` flags. The pivot ratio is
+not sigma_min / sigma_max (it may stay several times above it, as at output steps far apart from a rank loss),
+so the flag is loose and cheap; the rank rule decides (``locate_singular_position``)."""
 
 
 @dataclass
@@ -150,12 +156,109 @@ def _factor_checked(system: System, q: np.ndarray, t: float):
     return lu
 
 
+def _dip_start(ratios: list[float], steps: int) -> int | None:
+    """The first step of the interval in which the pivot ratios so far (one per step, ``pivot_ratio``) dip
+    towards zero, or None: a local minimum at the step before the last, far below its neighbours, flags the two
+    intervals around it; at the first and at the last step of the run, where a neighbour is missing, the one
+    neighbour stands for both (the ratio mirrored). "Far below" as ``diagnostics.passes_zero`` says it (a V, not
+    a smooth minimum): less than half the larger neighbour; and below PIVOT_DIP."""
+    k = len(ratios) - 1
+
+    def dips(before: float, middle: float, after: float) -> bool:
+        return middle < PIVOT_DIP and middle <= min(before, after) and 2.0 * middle < max(before, after)
+
+    if k >= 2 and dips(*ratios[-3:]):
+        return k - 2
+    if k == 1 and dips(ratios[1], ratios[0], ratios[1]):
+        return 0
+    if k >= 1 and k == steps - 1 and dips(ratios[-2], ratios[-1], ratios[-2]):
+        return k - 1
+    return None
+
+
+def _bracket(times: np.ndarray, t: float) -> tuple[float, float]:
+    """The two output times around t (t_k <= t <= t_k+1)."""
+    k = int(np.clip(np.searchsorted(times, t, side="right") - 1, 0, times.size - 2))
+    return float(times[k]), float(times[k + 1])
+
+
 def determinant_sign(lu) -> float:
     """Sign of det(Psi_q) from its LU factors: the sign of the product of U's diagonal, flipped once per
     row swap. A change of sign between two steps means the mechanism went through a singular position."""
     factors, pivots = lu
     negative = np.count_nonzero(factors.diagonal() < 0.0) + np.count_nonzero(pivots != np.arange(pivots.size))
     return -1.0 if negative % 2 else 1.0
+
+
+def pivot_ratio(lu) -> float:
+    """min |U_ii| / max |U_ii| of the LU factors of Psi_q: a free, rough measure of how near Psi_q is to a rank
+    loss (it is not sigma_min / sigma_max, but it falls to zero with it); 0 for a zero or NaN matrix."""
+    pivots = np.abs(lu[0].diagonal())
+    top = pivots.max(initial=0.0)
+    return float(pivots.min() / top) if top > 0 else 0.0
+
+
+def locate_singular_position(
+    system: System, t_a: float, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, t_b: float
+) -> dict | None:
+    """The singular position in [t_a, t_b] where the pivot ratio dipped, found and decided by the rank rule.
+
+    A kinematic run flags an interval when the pivot ratio of its steps (``pivot_ratio``) has a local minimum
+    there far below its neighbours (``_dip_start``). This function then minimizes r(t) = sigma_min / sigma_max
+    of Psi_q (eq. 4.20) over the interval (``scipy.optimize.minimize_scalar``, bounded Brent, on
+    t = t_a + s (t_b - t_a)), at configurations on the branch of the motion: the configuration already found
+    nearest to t, moved by the Taylor prediction from the solved state (q, q', q'') at t_a, corrected by
+    minimum-norm Newton-Raphson (eq. 4.8, as in ``branch_step``). The rule:
+
+        a singular position is passed  when  min over t of sigma_min / sigma_max  <=  max(m, n) sqrt(eps)
+
+    the package's rank rule (course notes, eq. 4.22; ``linalg.rank_tolerance``): at the minimum Psi_q has lost
+    rank. It counts every rank lost at once, so it sees an even rank loss (one per loop of a chain of
+    parallelograms) that leaves the sign of det Psi_q unchanged. A minimum above the rule (a mechanism that
+    comes near a singular position and turns back from it) is no singular position and returns None. At a
+    transversal crossing r(t) falls to zero along a V; the search runs to its end (t to about 1e-8 of the
+    interval), so that every singular value lost there is below the rule and counted.
+
+    Returns
+    -------
+    None, or {'t': time, 'q': configuration, 'ratio': sigma_min / sigma_max, 'rank_loss': ranks lost,
+    'joints': joints in the lost directions (left singular vectors)}.
+    """
+    import scipy.optimize
+
+    span = t_b - t_a
+    solved: list[tuple[float, np.ndarray]] = [(t_a, q)]  # configurations found, to predict from the nearest
+    best: dict = {}
+
+    def taylor(t: float) -> np.ndarray:
+        dt = t - t_a
+        return q + qd * dt + 0.5 * qdd * dt * dt
+
+    def ratio(s: float) -> float:
+        t = t_a + s * span
+        t_near, q_near = min(solved, key=lambda item: abs(item[0] - t))
+        x = q_near + taylor(t) - taylor(t_near)
+        for _ in range(12):
+            psi = system.constraints(x, t)
+            if not np.max(np.abs(psi), initial=0.0) >= 1e-12:
+                break
+            x = x + minimum_norm_solution(system.jacobian(x, t), -psi)
+        solved.append((t, x))
+        sigma = np.linalg.svd(system.jacobian(x, t), compute_uv=False)
+        r = float(sigma[-1] / sigma[0]) if sigma[0] > 0 else 0.0
+        if not best or r < best["ratio"]:
+            best.update(t=float(t), q=x, ratio=r)
+        return r
+
+    scipy.optimize.minimize_scalar(ratio, bounds=(0.0, 1.0), method="bounded", options={"xatol": 1e-12})
+    jacobian = system.jacobian(best["q"], best["t"])
+    u, sigma, _ = np.linalg.svd(jacobian)
+    rank = numerical_rank(sigma, jacobian.shape)
+    if rank >= min(jacobian.shape):
+        return None
+    best["rank_loss"] = min(jacobian.shape) - rank
+    best["joints"] = involved_joints(u[:, rank:], system.row_owners, share=0.1)
+    return best
 
 
 def kinematic_analysis(
@@ -175,9 +278,15 @@ def kinematic_analysis(
     t_end, steps : output grid
     points : optional {label: (body index, body-frame point)} whose position, velocity and
         acceleration are added to the result as columns 'label.x', 'label.x_d', ...
-    through_singular : at a singular position (det Psi_q changes sign, or Psi_q is singular) go on
-        along the branch the velocities point to (``branch_step``) and list the position in
-        ``info['singular_positions']`` (time and joints) instead of stopping with an AnalysisError
+    through_singular : at a singular position go on along the branch the velocities point to
+        (``branch_step``) and list the position in ``info['singular_positions']`` (time, joints, the two
+        output times around it) instead of stopping with an AnalysisError
+
+    A singular position is found between two output steps where det Psi_q changes sign (an odd rank loss),
+    where Psi_q is singular at a step (lock-up), or where the pivot ratio of the steps' LU factors dips
+    (``diagnostics.passes_zero``) and the minimum of sigma_min / sigma_max on the interval is below the rank
+    rule of eq. 4.22 (``locate_singular_position``: an even rank loss, which keeps the sign of det Psi_q).
+    The SVDs of that search are taken only at a dip, never at an ordinary step.
 
     Raises
     ------
@@ -197,6 +306,7 @@ def kinematic_analysis(
     iterations = 0
     max_residual = 0.0
     previous_sign = None
+    ratios: list[float] = []
     for k, t in enumerate(times):
         if k > 0:  # second-order predictor from the previous step
             dt = t - times[k - 1]
@@ -216,6 +326,20 @@ def kinematic_analysis(
         max_residual = max(max_residual, solution.residual)
         lu = _factor_checked(system, q, t)
         sign = determinant_sign(lu)
+        ratios.append(pivot_ratio(lu))
+        first = _dip_start(ratios, times.size)
+        if first is not None and sign == previous_sign:
+            # an even rank loss keeps the sign of det Psi_q: decide by the rank rule at the ratio's minimum
+            found = locate_singular_position(system, times[first], Q[first], QD[first], QDD[first], t)
+            if found is not None:
+                after, before = _bracket(times, found["t"])
+                raise AnalysisError(
+                    f"branch point passed between t = {after:.6g} s and t = {before:.6g} s: Psi_q loses "
+                    f"{found['rank_loss']} rank(s) at t = {found['t']:.6g} s (sigma_min / sigma_max = "
+                    f"{found['ratio']:.2g}), a singular position where the mechanism can switch assembly branch "
+                    f"though det(Psi_q) keeps its sign; joints involved: {', '.join(found['joints'])}; "
+                    "through_singular=True (mbd run --through-singular) goes on along the branch of the velocities"
+                )
         if previous_sign is not None and sign != previous_sign:
             _, joints = singular_joints(system.jacobian(q, t), system.row_owners)
             raise AnalysisError(
@@ -292,8 +416,10 @@ def branch_step(
 
 def _kinematics_through_singular(system, q0, t_end, steps, points) -> Result:
     """``kinematic_analysis(..., through_singular=True)``: each step predicts (q, q', q'') from the last one
-    (Taylor, second order) and corrects on its branch (``branch_step``); a sign change of det Psi_q or a
-    condition number above LOCKUP_CONDITION is recorded, with the time and the joints, and passed."""
+    (Taylor, second order) and corrects on its branch (``branch_step``); a sign change of det Psi_q, a
+    condition number above LOCKUP_CONDITION or a dip of the pivot ratio confirmed by the rank rule
+    (``locate_singular_position``, which also gives its time) is recorded, with the time and the joints, and
+    passed."""
     start = _time.perf_counter()
     q, assembly = assemble(system, q0, 0.0)
     require_no_freedom(system, q, 0.0)
@@ -314,24 +440,29 @@ def _kinematics_through_singular(system, q0, t_end, steps, points) -> Result:
         jacobian = system.jacobian(q, t)
         lu = lu_factor(jacobian)
         sign = determinant_sign(lu)
-        pivots = np.abs(lu[0].diagonal())
-        ratio = float(pivots.min() / pivots.max()) if pivots.max() > 0 else 0.0
+        ratio = pivot_ratio(lu)
         locked = not ratio > 1.0 / LOCKUP_CONDITION
-        # a local minimum of the pivots' spread also marks a crossing: an even rank loss (one per loop of a
-        # chain of parallelograms) leaves the sign of det Psi_q as it was
-        dip = k >= 2 and passes_zero(ratios[-2], ratios[-1], ratio)
+        # a dip of the pivot ratio also flags a crossing: an even rank loss (one per loop of a chain of
+        # parallelograms) leaves the sign of det Psi_q as it was; the rank rule decides (locate_singular_position)
         ratios.append(ratio)
-        if dip and (not crossings or crossings[-1]["step"] < k - 2):
-            _, joints = singular_joints(system.jacobian(Q[k - 1], times[k - 1]), system.row_owners)
-            crossings.append({"t": float(times[k - 1]), "after": float(times[k - 2]), "step": k - 1, "joints": joints,
-                              "condition": 1.0 / max(ratios[-2], 1e-300)})  # fmt: skip
-        if sign != previous_sign or locked:
-            cond, joints = singular_joints(jacobian, system.row_owners)
-            if not crossings or crossings[-1]["step"] < k - 1:
-                crossings.append({"t": float(t), "after": float(times[max(k - 1, 0)]), "step": k, "joints": joints,
-                                  "condition": cond})  # fmt: skip
-            else:
-                crossings[-1]["step"] = k
+        dip = _dip_start(ratios, times.size)
+        flagged = sign != previous_sign or locked
+        first = max(k - 1, 0) if flagged else dip
+        if (flagged or dip is not None) and crossings and crossings[-1]["step"] >= first:
+            crossings[-1]["step"] = max(crossings[-1]["step"], k) if flagged else crossings[-1]["step"]
+        elif flagged or dip is not None:
+            found = None
+            if k > 0:
+                found = locate_singular_position(system, times[first], Q[first], QD[first], QDD[first], t)
+            if found is not None:
+                after, until = _bracket(times, found["t"])
+                crossings.append({"t": found["t"], "after": after, "until": until, "step": k,
+                                  "joints": found["joints"], "condition": 1.0 / max(found["ratio"], 1e-300),
+                                  "rank_loss": found["rank_loss"]})  # fmt: skip
+            elif flagged:  # a sign flip or a lock-up is a singular position whatever the search found
+                cond, joints = singular_joints(jacobian, system.row_owners)
+                crossings.append({"t": float(t), "after": float(times[max(k - 1, 0)]), "until": float(t), "step": k,
+                                  "joints": joints, "condition": cond})  # fmt: skip
         previous_sign = sign
         Q[k], QD[k], QDD[k] = q, qd, qdd
     for crossing in crossings:
@@ -352,8 +483,8 @@ def _kinematics_through_singular(system, q0, t_end, steps, points) -> Result:
             "assembly": assembly,
             "singular_positions": crossings,
             "warnings": [
-                f"singular position between t = {c['after']:.6g} s and t = {c['t']:.6g} s (joints "
-                f"{', '.join(c['joints'])}): passed on the branch of the velocities"
+                f"singular position at t = {c['t']:.6g} s, between t = {c['after']:.6g} s and "
+                f"t = {c['until']:.6g} s (joints {', '.join(c['joints'])}): passed on the branch of the velocities"
                 for c in crossings
             ],
             "wall_time": _time.perf_counter() - start,

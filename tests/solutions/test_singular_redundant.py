@@ -5,9 +5,12 @@ Every reference is computed here from the mechanism's own one-degree-of-freedom 
 
 - a chain of N parallelogram loops (N = 1, 2, 10) released under gravity turns through several singular
   positions (every bar on the ground line, Psi_q short of one rank per loop): the crank angle against
-  ((n + 1)/3 + n) L theta'' = -g cos(theta) ((n + 1)/2 + n); driven, its kinematics against theta = pi/2 + w t;
+  ((n + 1)/3 + n) L theta'' = -g cos(theta) ((n + 1)/2 + n); driven, its kinematics against theta = pi/2 + w t
+  and its singular positions against the times theta = k pi, with and without ``through_singular``;
 - the Sarrus linkage (over-constrained spatial 6R loop, Psi_q of rank n - 1 everywhere) against Lagrange's
   equation in its link angle;
+- the Bennett linkage (over-constrained spatial 4R loop, mobility 1 where the Gruebler count gives -2) against
+  Lagrange's equation in its input angle, built on Bennett's closed-form relation between the joint angles;
 - a pendulum released level over 300 s against the elliptic-integral solution (Jacobi's sn);
 - the implicit integrators (hht, generalized-alpha) against DOP853 at rtol 1e-12: within the accuracy
   bound, or their result says it is not.
@@ -27,10 +30,19 @@ from solutions.assembly import build_system
 from solutions.diagnostics import AnalysisError, SingularConfigurationError, rank_report
 from solutions.dynamics import DEFAULT_ACCURACY, forward_dynamics, mechanism_size
 from solutions.io.model import load_model
-from solutions.kinematics import kinematic_analysis
+from solutions.kinematics import kinematic_analysis, locate_singular_position
 from solutions.linalg import independent_rows, minimum_norm_solution, numerical_rank
 
-from .mechanisms import SARRUS, chain_theta, parallelogram_chain, sarrus, sarrus_theta
+from .mechanisms import (
+    SARRUS,
+    bennett,
+    bennett_centres,
+    bennett_theta,
+    chain_theta,
+    parallelogram_chain,
+    sarrus,
+    sarrus_theta,
+)
 
 MODELS = Path(__file__).resolve().parents[2] / "course" / "models"
 
@@ -68,43 +80,75 @@ def test_baumgarte_stops_at_the_singular_position_by_name():
         forward_dynamics(system, q0, qd0, 3.0, 150, formulation="baumgarte")
 
 
-def test_driven_chain_kinematics_reports_then_passes_the_singular_positions():
-    data = parallelogram_chain(2)
-    w = 2.0
-    motor = {
-        "name": "drive",
-        "type": "angle",
-        "joint": "O0",
-        "function": {"type": "polynomial", "coefficients": [0, w]},
-    }
-    data["model"]["motors"] = [motor]
-    system, q0, _ = build_system(load_model(data))
-    result = kinematic_analysis(system, q0, 4.0, 200, through_singular=True)
-    theta = math.pi / 2 + w * result.t
-    names = system.coordinate_names
-    for k in range(3):
-        np.testing.assert_allclose(result.q[:, names.index(f"crank{k}.phi")], theta, atol=1e-10)
-    for k in range(2):
-        np.testing.assert_allclose(result.qd[:, names.index(f"coupler{k}.x")], -w * np.sin(theta), atol=1e-10)
-        np.testing.assert_allclose(result.qdd[:, names.index(f"coupler{k}.x")], -w * w * np.cos(theta), atol=1e-9)
-    expected = [(j * math.pi + math.pi / 2) / w for j in range(3)]  # theta = pi, 2 pi, 3 pi
-    found = [c["t"] for c in result.info["singular_positions"]]
-    assert len(found) == 3 and np.allclose(found, expected, atol=0.021)
-    assert all("B1" in c["joints"] for c in result.info["singular_positions"])
-
-
-def _single_loop_driven(w):
-    data = parallelogram_chain(1)
+def _driven_chain(n: int, w: float):
+    data = parallelogram_chain(n)
     data["model"]["motors"] = [
         {"name": "drive", "type": "angle", "joint": "O0", "function": {"type": "polynomial", "coefficients": [0, w]}}
     ]
-    return data
+    return build_system(load_model(data))
 
 
-def test_single_loop_kinematics_stops_by_name_without_the_flag():
-    system, q0, _ = build_system(load_model(_single_loop_driven(2.0)))
-    with pytest.raises(AnalysisError, match=r"between t = 0\.78 s and t = 0\.8 s.*O0.*through-singular"):
+@pytest.mark.parametrize("n", [1, 2, 10])
+def test_driven_chain_kinematics_reports_then_passes_the_singular_positions(n):
+    """theta = pi/2 + w t passes theta = pi, 2 pi, 3 pi (every bar on the ground line, Psi_q short of n ranks: an
+    even n leaves the sign of det Psi_q as it was); each is reported at its time and the motion stays on the
+    parallelogram branch."""
+    w = 2.0
+    system, q0, _ = _driven_chain(n, w)
+    result = kinematic_analysis(system, q0, 4.0, 200, through_singular=True)
+    theta = math.pi / 2 + w * result.t
+    names = system.coordinate_names
+    for k in range(n + 1):
+        np.testing.assert_allclose(result.q[:, names.index(f"crank{k}.phi")], theta, atol=1e-10)
+    for k in range(n):
+        np.testing.assert_allclose(result.qd[:, names.index(f"coupler{k}.x")], -w * np.sin(theta), atol=1e-10)
+        np.testing.assert_allclose(result.qdd[:, names.index(f"coupler{k}.x")], -w * w * np.cos(theta), atol=1e-9)
+    expected = [(j * math.pi + math.pi / 2) / w for j in range(3)]  # theta = pi, 2 pi, 3 pi
+    found = result.info["singular_positions"]
+    assert len(found) == 3 and np.allclose([c["t"] for c in found], expected, atol=1e-6)
+    assert all(c["after"] <= c["t"] <= c["until"] for c in found)
+    assert all(c.get("rank_loss", n) == n for c in found)
+    assert all({"O0", f"B{n - 1}"} <= set(c["joints"]) for c in found)
+    assert len(result.info["warnings"]) == 3
+    # output steps 0.27 rad apart, the last crossing (t = 3.927 s) between the last two: found all the same
+    coarse = kinematic_analysis(system, q0, 4.0, 30, through_singular=True).info["singular_positions"]
+    assert np.allclose([c["t"] for c in coarse], expected, atol=1e-5)
+
+
+@pytest.mark.parametrize("n", [1, 2, 10])
+def test_driven_chain_kinematics_stops_by_name_without_the_flag(n):
+    """The default run stops at the first singular position, theta = pi at t = pi / (2 w) = 0.785 s, whether
+    det Psi_q changes sign there (odd n) or not (even n: n ranks lost at once)."""
+    system, q0, _ = _driven_chain(n, 2.0)
+    with pytest.raises(AnalysisError, match=r"between t = 0\.78 s and t = 0\.8 s.*O0.*through-singular") as caught:
         kinematic_analysis(system, q0, 4.0, 200)
+    if n % 2 == 0:
+        assert f"loses {n} rank(s) at t = 0.785398 s" in str(caught.value)
+
+
+def test_a_near_singular_pass_is_no_singular_position():
+    """A chain driven to theta = pi - 0.01 and back (theta = pi/2 + (pi/2 - 0.01) sin t) comes near the singular
+    position and turns back: no report, and the default run goes on, on the parallelogram branch. The search
+    itself (``locate_singular_position``) finds the rank loss of theta = pi in an interval that holds it, to
+    1e-7 s, and none in an interval that ends 0.01 rad before it (sigma_min / sigma_max about 1e-3 there)."""
+    amplitude = math.pi / 2 - 0.01
+    data = parallelogram_chain(2)
+    function = {"type": "harmonic", "amplitude": amplitude, "frequency": 1.0}
+    data["model"]["motors"] = [{"name": "drive", "type": "angle", "joint": "O0", "function": function}]
+    system, q0, _ = build_system(load_model(data))
+    result = kinematic_analysis(system, q0, 4.0, 80)
+    theta = math.pi / 2 + amplitude * np.sin(result.t)
+    np.testing.assert_allclose(result.q[:, system.coordinate_names.index("crank2.phi")], theta, atol=1e-10)
+    assert kinematic_analysis(system, q0, 4.0, 80, through_singular=True).info["singular_positions"] == []
+
+    w = 2.0
+    system, q0, _ = _driven_chain(2, w)
+    run = kinematic_analysis(system, q0, 0.7, 35)  # the state at t = 0.7 s, theta = pi/2 + 1.4
+    state = (run.t[-1], run.q[-1], run.qd[-1], run.qdd[-1])
+    t_star = math.pi / (2 * w)
+    found = locate_singular_position(system, *state, 0.8)
+    assert found is not None and abs(found["t"] - t_star) < 1e-7 and found["rank_loss"] == 2
+    assert locate_singular_position(system, *state, t_star - 0.01 / w) is None
 
 
 # -- redundant constraints: the Sarrus linkage ---------------------------------------------------------------
@@ -149,6 +193,34 @@ def test_sarrus_with_an_implicit_integrator_reaches_its_reference_or_says_not():
     warned = any(w.startswith("accuracy:") for w in result.info["warnings"])
     assert error <= bound or warned
     assert warned  # second order at rtol 1e-8: about 1e-5 m here, above the bound
+
+
+@cache
+def bennett_system():
+    return build_system(load_model(bennett()))
+
+
+def test_bennett_is_three_redundant_equations_and_one_degree_of_freedom():
+    system, q0, _ = bennett_system()
+    report = rank_report(system.jacobian(q0, 0.0), system.row_owners)
+    assert (system.n_coordinates, system.n_constraints) == (21, 23)
+    assert report.rank == 20 and report.degrees_of_freedom == 1 and report.n_redundant == 3
+
+
+def test_bennett_falls_under_gravity_by_default_against_its_one_dof_equation():
+    """1 s released at rest: J1 turns by more than 5 rad, from 1.2 rad through 0 and -pi; every link's centre
+    against the closed form at theta1(t) from the one-dof equation (``mechanisms.bennett_theta``)."""
+    system, q0, qd0 = bennett_system()
+    result = forward_dynamics(system, q0, qd0, 1.0, 50, formulation="auto")
+    assert result.info["formulation"] == "augmented-lagrangian"
+    assert result.info["max_constraint_residual"] < 1e-7
+    theta = bennett_theta(result.t)
+    assert theta.min() < -math.pi  # the motion goes through the folded positions theta1 = 0 and -pi
+    names = system.coordinate_names
+    columns = [[names.index(f"link{i}.{axis}") for axis in "xyz"] for i in (1, 2, 3)]
+    expected = np.array([bennett_centres(th) for th in theta])  # (steps, link, xyz)
+    got = np.stack([result.q[:, c] for c in columns], axis=1)
+    assert float(np.max(np.abs(got - expected))) < 1e-6
 
 
 # -- the rank rule ---------------------------------------------------------------------------------------------
