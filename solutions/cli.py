@@ -84,7 +84,7 @@ SETTINGS = {  # option -> (key of the model file's simulation block, default)
 
 ANALYSES = ("auto", "kinematic", "dynamic", "inverse")
 """What ``--analysis`` takes; ``auto`` is ``choose_analysis``."""
-ENGINES = ("auto", "numpy", "compiled")
+ENGINES = ("auto", "numpy", "compiled", "cached")
 """What ``--engine`` takes (``compiled.dispatch``): numba is imported only when a run is compiled."""
 STIFFNESS = ("report", "error", "off")
 """What ``--stiffness`` takes (``forward_dynamics``)."""

@@ -50,6 +50,9 @@ OPTIONAL = ("planar/batched.py", "spatial/batched.py")
 that the System replaces by the element methods students write while the stubs raise."""
 IGNORED = ("__pycache__", "*.pyc", "*.pyo", ".DS_Store", ".ipynb_checkpoints")
 """Files of ``solutions/`` that never go into a student package."""
+INSTRUCTOR_ONLY = ("compiled",)
+"""Packages of ``solutions/`` that never go into a student package: the compiled engine writes out, for numba,
+every formula the students write (its kernels); a student package runs on numpy (``engine`` falls back)."""
 
 REPO = Path(__file__).resolve().parents[2]
 _STUB_TOKEN = "@@MBD_STUB@@"
@@ -342,7 +345,8 @@ def source_files(source: Path) -> list[Path]:
     """The files of a package tree that go into a student package, sorted, relative to ``source``."""
     files = []
     for folder, dirs, names in os.walk(source):
-        dirs[:] = sorted(d for d in dirs if not _ignored(d))
+        top = Path(folder) == Path(source)
+        dirs[:] = sorted(d for d in dirs if not _ignored(d) and not (top and d in INSTRUCTOR_ONLY))
         files += [Path(folder, n).relative_to(source) for n in sorted(names) if not _ignored(n)]
     return sorted(files)
 

@@ -27,11 +27,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .generator import BEGIN, END, REPO, build_source, homework_index, scan_regions, source_files
+from .generator import BEGIN, END, INSTRUCTOR_ONLY, REPO, build_source, homework_index, scan_regions, source_files
 
 HIDDEN_SCENES = Path("autograder", "scenes", "hidden")
 REFERENCE_RUNS = Path("autograder", "reference", "hidden")
-FORBIDDEN_FOLDERS = ("solutions", "autograder", "hidden")
+FORBIDDEN_FOLDERS = ("solutions", "autograder", "hidden", *INSTRUCTOR_ONLY)
 MIN_LINE = 16
 """A region line shorter than this (whitespace removed) is trivial: ``return value``, ``else:``, ``q = q + dq``."""
 MIN_EMBEDDED = 64
@@ -163,6 +163,11 @@ def find_leaks(folder: Path, homework: str, course: Path | None = None, installe
             text = (solutions / rel).read_text(encoding="utf-8")
             if any(r.homework >= first for r in scan_regions(text, rel.as_posix())):
                 forbidden_hashes[_sha(text.encode())] = f"reference file solutions/{rel.as_posix()}"
+    for package in INSTRUCTOR_ONLY:  # the compiled engine's kernels hold every formula, outside any region
+        for path in sorted((solutions / package).rglob("*.py")):
+            text = path.read_text(encoding="utf-8")
+            what = f"instructor-only file solutions/{path.relative_to(solutions).as_posix()}"
+            forbidden_hashes[_sha(text.encode())] = forbidden_hashes[_sha(_normalize(text).encode())] = what
 
     leaks = []
     for current, dirs, names in os.walk(folder):

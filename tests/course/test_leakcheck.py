@@ -137,3 +137,38 @@ def test_stored_values_of_a_hidden_or_per_student_scene_are_a_leak(tmp_path, cou
         np.savez(folder / name, q=np.zeros(3), meta=np.array(json.dumps({"scene": scene})))
     leaks = sorted((leak.path, leak.kind) for leak in find_leaks(folder, "hw1", course))
     assert leaks == [("a.npz", "grader data"), ("b.npz", "grader data")]
+
+
+def test_the_compiled_engine_never_reaches_a_student(tmp_path, course):
+    """The compiled engine's kernels write out every formula students write, outside any region: no student
+    package holds them, and a release that does (the folder, or a kernel file under another name) leaks."""
+    assert not (REPO / "modules" / "compiled").exists()
+    assert (REPO / "solutions" / "compiled" / "kernels.py").is_file()
+    folder = clean_release(tmp_path, "hw3")
+    assert not (folder / "modules" / "compiled").exists()
+    shutil.copytree(REPO / "solutions" / "compiled", folder / "compiled", ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copy(REPO / "solutions" / "compiled" / "kernels.py", folder / "modules" / "fast.py")
+    leaks = {(leak.path, leak.kind) for leak in find_leaks(folder, "hw3", course)}
+    assert ("compiled", "forbidden folder") in leaks
+    assert ("modules/fast.py", "copied file") in leaks and ("compiled/kernels.py", "copied file") in leaks
+
+
+def test_a_student_package_runs_on_numpy_when_asked_for_the_compiled_engine(tmp_path):
+    """Without the compiled engine a student's forward_dynamics(engine="compiled"|"auto") runs on numpy and
+    says why (their `mbd run` defaults to auto)."""
+    import subprocess
+    import sys
+
+    build_package(tmp_path / "modules", "hw3", header=None)  # hw1 and hw2 filled in: planar dynamics runs
+    script = (
+        "from modules.assembly import build_system\n"
+        "from modules.dynamics import forward_dynamics\n"
+        "from modules.io.model import load_model\n"
+        f"s, q, qd = build_system(load_model({str(REPO / 'course' / 'models' / 'double_pendulum.yaml')!r}))\n"
+        "for engine in ('compiled', 'auto'):\n"
+        "    run = forward_dynamics(s, q, qd, 0.1, 2, engine=engine)\n"
+        "    print(run.info['chosen']['engine'], '|', run.info['chosen']['engine_why'])\n"
+    )
+    out = subprocess.run([sys.executable, "-c", script], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.splitlines() == ["numpy | this package has no compiled engine"] * 2, out.stdout
