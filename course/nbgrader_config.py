@@ -58,7 +58,8 @@ def _student_modules() -> list:
     """Every file of the student package, as it sits beside the notebook: modules/<path of solutions/>."""
     files = []
     for folder, dirs, names in os.walk(SOLUTIONS):
-        dirs[:] = sorted(d for d in dirs if d != "__pycache__")
+        top = os.path.samefile(folder, SOLUTIONS)  # the instructor-only packages (release.generator.INSTRUCTOR_ONLY)
+        dirs[:] = sorted(d for d in dirs if d != "__pycache__" and not (top and d in ("compiled",)))
         for name in sorted(names):
             if not name.endswith((".pyc", ".pyo")):
                 rel = os.path.relpath(os.path.join(folder, name), SOLUTIONS)
