@@ -35,19 +35,9 @@ from dataclasses import dataclass, field
 from multiprocessing import spawn
 from pathlib import Path
 
-from . import _child, wire
+from . import _child, _zygote, wire
 
-PRELOAD = [
-    "mbdkit._child",
-    "numpy",
-    "scipy.linalg",
-    "scipy.integrate",
-    "scipy.optimize",
-    "scipy.sparse",
-    "yaml",
-    "fastjsonschema",
-    "jsonschema",
-]
+PRELOAD = ["mbdkit._child", *_zygote.PRELOAD]
 """Modules the forkserver imports once; children inherit them. Never the reference package."""
 
 SANDBOX_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}

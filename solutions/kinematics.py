@@ -352,6 +352,19 @@ def kinematic_analysis(
         qd = velocity_analysis(system, q, t, lu)
         qdd = acceleration_analysis(system, q, qd, t, lu)
         Q[k], QD[k], QDD[k] = q, qd, qdd
+    info = {
+        "analysis": "kinematic",
+        "steps": steps,
+        "newton_iterations": iterations,
+        "max_constraint_residual": max_residual,
+        "assembly": assembly,
+        "wall_time": _time.perf_counter() - start,
+    }
+    return _result(system, times, Q, QD, QDD, info, points)
+
+
+def _result(system: System, times, Q, QD, QDD, info: dict, points) -> Result:
+    """The Result of a kinematic analysis, with the columns of the requested points."""
     result = Result(
         t=times,
         q=Q,
@@ -359,14 +372,7 @@ def kinematic_analysis(
         qdd=QDD,
         coordinate_names=system.coordinate_names,
         body_names=[b.name for b in system.model.bodies],
-        info={
-            "analysis": "kinematic",
-            "steps": steps,
-            "newton_iterations": iterations,
-            "max_constraint_residual": max_residual,
-            "assembly": assembly,
-            "wall_time": _time.perf_counter() - start,
-        },
+        info=info,
     )
     for label, (body, point) in (points or {}).items():
         result.points.update(point_columns(result, label, body, point))
@@ -467,14 +473,13 @@ def _kinematics_through_singular(system, q0, t_end, steps, points) -> Result:
         Q[k], QD[k], QDD[k] = q, qd, qdd
     for crossing in crossings:
         del crossing["step"]
-    result = Result(
-        t=times,
-        q=Q,
-        qd=QD,
-        qdd=QDD,
-        coordinate_names=system.coordinate_names,
-        body_names=[b.name for b in system.model.bodies],
-        info={
+    return _result(
+        system,
+        times,
+        Q,
+        QD,
+        QDD,
+        {
             "analysis": "kinematic",
             "steps": steps,
             "max_constraint_residual": float(
@@ -489,10 +494,8 @@ def _kinematics_through_singular(system, q0, t_end, steps, points) -> Result:
             ],
             "wall_time": _time.perf_counter() - start,
         },
+        points,
     )
-    for label, (body, point) in (points or {}).items():
-        result.points.update(point_columns(result, label, body, point))
-    return result
 
 
 def point_kinematics(q, qd, qdd, body: int, point: np.ndarray):

@@ -197,3 +197,20 @@ class FourBar:
 def four_bar() -> FourBar:
     """A Grashof crank-rocker: crank 0.1, coupler 0.35, rocker 0.3, ground 0.4 (s + l = 0.5 < p + q = 0.65)."""
     return FourBar()
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    """One Dask LocalCluster of 2 worker processes per test module that asks for it (startup costs a few
+    seconds); its workers import this checkout (PYTHONPATH). Yields (scheduler address, client)."""
+    import logging
+    from pathlib import Path
+
+    distributed = pytest.importorskip("dask.distributed")
+    root = str(Path(__file__).resolve().parents[1])
+    env = {"PYTHONPATH": os.pathsep.join(p for p in (root, os.environ.get("PYTHONPATH")) if p)}
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, memory_limit=0, dashboard_address=":0", silence_logs=logging.CRITICAL,
+        env=env,
+    ) as lc, distributed.Client(lc) as client:  # fmt: skip
+        yield lc.scheduler_address, client

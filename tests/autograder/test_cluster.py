@@ -5,7 +5,6 @@ again, nothing is lost, nothing counted twice); only the client writes; a bad ad
 from __future__ import annotations
 
 import json
-import logging
 import os
 import signal
 import threading
@@ -32,18 +31,6 @@ def quick_homework() -> Homework:
         CheckSpec("student/slider_crank.velocity", "student/slider_crank", "velocity", ("qd",), 2.0, "velocity")
     )
     return Homework("hw1", "quick", checks)
-
-
-@pytest.fixture(scope="module")
-def cluster():
-    """One LocalCluster of 2 worker processes for this module (startup costs a few seconds)."""
-    distributed = pytest.importorskip("dask.distributed")
-    env = {"PYTHONPATH": os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p)}
-    with distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, memory_limit=0, dashboard_address=":0", silence_logs=logging.CRITICAL,
-        env=env,
-    ) as lc, distributed.Client(lc) as client:  # fmt: skip
-        yield lc.scheduler_address, client
 
 
 @pytest.fixture(scope="module")

@@ -133,20 +133,6 @@ def test_cli_failed_runs_keep_their_reason_and_resume(tmp_path, capsys):
 
 
 # -- the same table on Dask -----------------------------------------------------------------------------------------
-@pytest.fixture(scope="module")
-def cluster():
-    """One LocalCluster of 2 worker processes for this module (startup costs a few seconds)."""
-    distributed = pytest.importorskip("dask.distributed")
-    env = {"PYTHONPATH": os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p)}
-    import logging
-
-    with distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, memory_limit=0, dashboard_address=":0", silence_logs=logging.CRITICAL,
-        env=env,
-    ) as lc, distributed.Client(lc) as client:  # fmt: skip
-        yield lc.scheduler_address, client
-
-
 def _pendulum_sweep():
     return make_sweep(
         PENDULUM,
