@@ -4,7 +4,10 @@ The numpy code of ``solutions/`` is the readable reference (what students write)
 engine generated from the same model, for speed. ``dynamics.forward_dynamics(..., engine="compiled")``
 (``mbd run --engine compiled``) hands a run here when it can take it:
 
-- formulation ``baumgarte`` (eq. 5.29, 5.30; any alpha, beta >= 0), planar and spatial;
+- formulations ``baumgarte`` (eq. 5.29, 5.30; any alpha, beta >= 0), ``projection`` (eq. 5.30 unstabilized,
+  then the mass-orthogonal projection of eq. 5.50 after every step: ``projection.py``) and
+  ``joint-coordinates`` of open trees (eq. 5.44 with Z = D by recursive kinematics; revolute, prismatic and
+  spherical joints; no cut joints or drivers: ``tree.py``), planar and spatial;
 - integrators ``DOP853`` and ``RK45`` (step by step as scipy's), ``dop853`` and ``rk45`` (as this package's
   own loop), ``rk4`` (fixed step); the loops are compiled with the right-hand side (``loops.py``);
 - planar revolute, prismatic (pin in slot + angle), translation and rotation drivers, rack and pinion,
@@ -13,10 +16,12 @@ engine generated from the same model, for speed. ``dynamics.forward_dynamics(...
   (with an actuator given as a function of time), point forces and torques; constant, polynomial,
   harmonic and smooth-ramp functions of time.
 
-Anything else (other formulations, implicit or multistep integrators, gears, cams, spatial drivers,
+Anything else (other formulations, closed loops in joint coordinates, implicit or multistep integrators,
+gears, cams, spatial drivers,
 user forces, Fourier functions, actuators of length or speed, masses given by the caller) runs on the
 numpy engine, and ``info['chosen']`` says why. ``scene.py`` reads what a scene has, ``codegen.py`` writes and
-caches its module, ``kernels.py`` holds the compiled element formulas.
+caches its module, ``kernels.py`` holds the compiled element formulas; ``projection.py`` and ``tree.py``
+write the modules of the other two formulations (their kernels: ``projection_kernels.py``, ``tree_kernels.py``).
 
 numba is imported only here, when a run is compiled: importing ``solutions`` (and the student package
 generated from it) never imports it.
@@ -30,16 +35,52 @@ from dataclasses import dataclass
 import numpy as np
 
 from .scene import Scene, describe
+from .tree import TreeScene
 
-COMPILED_FORMULATIONS = ("baumgarte",)
+COMPILED_FORMULATIONS = ("baumgarte", "projection", "joint-coordinates")
+OPTIONS = {
+    "baumgarte": {"alpha", "beta"},
+    "projection": {"tol", "max_iterations"},
+    "joint-coordinates": {"alpha", "beta"},
+}
+"""The formulation options each compiled formulation takes (as its numpy class)."""
 COMPILED_INTEGRATORS = {"DOP853": (True, True), "dop853": (True, False), "RK45": (False, True), "rk45": (False, False)}
 """Embedded pairs: (DOP853 or not, step by step as scipy's solve_ivp or as this package's own loop)."""
 FIXED = ("rk4",)
 
 
 @dataclass
+class Plan:
+    """A run the compiled engine takes: the scene (a ``TreeScene`` for joint coordinates), the formulation and
+    its numbers (alpha, beta, projection tolerance, projection iterations), and the numpy formulation object,
+    whose counters (``projections``) the compiled run fills as the numpy run would."""
+
+    scene: Scene | TreeScene
+    formulation: str
+    numbers: tuple[float, float, float, float]
+    formulation_object: object = None
+
+
+def plan(scene: Scene, formulation: str, formulation_object) -> Plan:
+    """The compiled run of a scene with the numpy ``formulation_object`` (made for the same run)."""
+    if formulation == "joint-coordinates" and scene.unsupported is None:
+        from .tree import describe as describe_tree
+
+        scene = describe_tree(scene, formulation_object)
+    f = formulation_object
+    numbers = (
+        float(getattr(f, "alpha", 0.0)),
+        float(getattr(f, "beta", 0.0)),
+        float(getattr(f, "tol", 0.0)),
+        float(getattr(f, "max_iterations", 0)),
+    )
+    return Plan(scene, formulation, numbers, f)
+
+
+@dataclass
 class CompiledRun:
-    """What the compiled loop gives back: states at the output times, q'' and lambda there, and counts."""
+    """What the compiled loop gives back: states at the output times, q'' and lambda there (and q, q' of a
+    joint-coordinates run), and counts."""
 
     Y: np.ndarray
     qdd: np.ndarray
@@ -52,6 +93,8 @@ class CompiledRun:
     h: float
     load_seconds: float
     cached: bool
+    q: np.ndarray | None = None
+    qd: np.ndarray | None = None
 
 
 def unsupported(scene: Scene, formulation: str, integrator: str, options: dict) -> str | None:
@@ -60,9 +103,11 @@ def unsupported(scene: Scene, formulation: str, integrator: str, options: dict) 
         return f"the {formulation} formulation is not compiled (only {', '.join(COMPILED_FORMULATIONS)})"
     if integrator not in COMPILED_INTEGRATORS and integrator not in FIXED:
         return f"the {integrator} integrator is not compiled (only {', '.join([*COMPILED_INTEGRATORS, *FIXED])})"
-    extra = set(options) - {"alpha", "beta"}
+    extra = set(options) - OPTIONS[formulation]
     if extra:
         return f"formulation options {', '.join(sorted(extra))} are not compiled"
+    if formulation == "joint-coordinates" and scene.unsupported is None and not isinstance(scene, TreeScene):
+        return "joint coordinates without the tree (``plan``)"
     return scene.unsupported
 
 
@@ -79,9 +124,12 @@ def tableau(dop: bool) -> tuple:
     return (rk.A, rk.B, rk.C, rk.E, empty1, empty1, empty2, rk.P)
 
 
-def parameters(scene: Scene, alpha: float, beta: float) -> tuple:
-    """P: the numbers the generated module takes besides the element data D (``codegen``)."""
+def parameters(scene: Scene | TreeScene, numbers: tuple = (0.0, 0.0, 0.0, 0.0)) -> tuple:
+    """P: the numbers the generated module takes besides the element data D (``codegen``, ``loops.P_TYPE``)."""
+    tree = scene if isinstance(scene, TreeScene) else None
+    scene = scene.scene if tree is not None else scene
     extra = 3 if scene.energies else 0
+    positions, velocities = (tree.n_positions, tree.k) if tree is not None else (scene.n, scene.n)
     empty1, empty3 = np.zeros(1), np.zeros((1, 3, 3))
     mass = scene.mass_diagonal if scene.mass_diagonal is not None else empty1
     return (
@@ -92,13 +140,48 @@ def parameters(scene: Scene, alpha: float, beta: float) -> tuple:
         scene.weights if scene.dimension == 3 else empty1,
         scene.function_kinds,
         scene.function_params,
-        np.array([float(alpha), float(beta)]),
-        np.array([scene.n, scene.m, extra], dtype=np.int64),
+        np.array(numbers, dtype=float),
+        np.array([scene.n, scene.m, extra, positions, velocities], dtype=np.int64),
     )
 
 
+def load(plan: Plan) -> tuple[object, object, bool]:
+    """(module with ``scene_rhs``, ``project`` of the formulation, all machine code was on disk)."""
+    from . import loops  # imports numba
+
+    if isinstance(plan.scene, TreeScene):
+        from . import tree
+
+        module, cached = tree.load(plan.scene)
+        return module, loops.no_projection, cached
+    from .codegen import load as load_scene
+
+    module, cached = load_scene(plan.scene)
+    if plan.formulation != "projection":
+        return module, loops.no_projection, cached
+    from . import projection
+
+    projector, projector_cached = projection.load(plan.scene)
+    return module, projector.project, cached and projector_cached
+
+
+def is_cached(plan: Plan) -> bool:
+    """Whether numba's machine code of everything the plan runs is on disk (no compilation needed)."""
+    if isinstance(plan.scene, TreeScene):
+        from . import tree
+
+        return tree.is_cached(plan.scene)
+    from .codegen import is_cached as scene_cached
+
+    if plan.formulation == "projection":
+        from . import projection
+
+        return scene_cached(plan.scene) and projection.is_cached(plan.scene)
+    return scene_cached(plan.scene)
+
+
 def run(
-    scene: Scene,
+    plan: Plan,
     z0: np.ndarray,
     times: np.ndarray,
     integrator: str,
@@ -106,32 +189,59 @@ def run(
     atol: float,
     step: float | None,
     max_evaluations: int | None,
-    alpha: float,
-    beta: float,
 ) -> CompiledRun:
-    """Integrate the scene from z0 over the output grid ``times`` with the compiled loop."""
+    """Integrate the plan's scene from z0 over the output grid ``times`` with the compiled loop."""
     from . import loops  # imports numba
-    from .codegen import load
 
     start = time.perf_counter()
-    module, cached = load(scene)
-    P, D = parameters(scene, alpha, beta), scene.data()
+    module, project, cached = load(plan)
+    scene = plan.scene
+    P, D = parameters(scene, plan.numbers), scene.data()
     z0 = np.ascontiguousarray(z0, dtype=float)
     times = np.ascontiguousarray(times, dtype=float)
+    rhs = module.scene_rhs
     if integrator in FIXED:
-        Y, evaluations, steps, rejected, status, t, h = loops.rk4(module.scene_rhs, z0, times, float(step or 0.0), P, D)
+        Y, evaluations, steps, rejected, status, t, h = loops.rk4(rhs, project, z0, times, float(step or 0.0), P, D)
     else:
         dop, scipy_like = COMPILED_INTEGRATORS[integrator]
         budget = np.iinfo(np.int64).max if max_evaluations is None else int(max_evaluations)
         max_step = float(step) if step else np.inf
         Y, evaluations, steps, rejected, status, t, h = loops.embedded(
-            module.scene_rhs, z0, times, float(rtol), float(atol), max_step, budget, dop, scipy_like, tableau(dop), P, D
+            rhs, project, z0, times, float(rtol), float(atol), max_step, budget, dop, scipy_like, tableau(dop), P, D
         )
-    qdd, lam = loops.outputs(module.accelerations, times, Y, P, D)
+    q = qd = None
+    if isinstance(scene, TreeScene):
+        q, qd, qdd, lam = loops.body_outputs(module.body_state, times, Y, P, D)
+    else:
+        qdd, lam = loops.outputs(module.accelerations, times, Y, P, D)
     load_seconds = time.perf_counter() - start
     return CompiledRun(
-        Y, qdd, lam, int(evaluations), int(steps), int(rejected), int(status), float(t), float(h), load_seconds, cached
+        Y,
+        qdd,
+        lam,
+        int(evaluations),
+        int(steps),
+        int(rejected),
+        int(status),
+        float(t),
+        float(h),
+        load_seconds,
+        cached,
+        q,
+        qd,
     )
 
 
-__all__ = ["COMPILED_FORMULATIONS", "COMPILED_INTEGRATORS", "CompiledRun", "Scene", "describe", "run", "unsupported"]
+__all__ = [
+    "COMPILED_FORMULATIONS",
+    "COMPILED_INTEGRATORS",
+    "CompiledRun",
+    "Plan",
+    "Scene",
+    "TreeScene",
+    "describe",
+    "is_cached",
+    "plan",
+    "run",
+    "unsupported",
+]

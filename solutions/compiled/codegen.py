@@ -156,3 +156,34 @@ def load(scene: Scene) -> tuple[object, bool]:
 
 
 __all__ = ["cache_directory", "generate", "is_cached", "load"]
+
+
+def generated_name(prefix: str, text: str, sources: tuple[str, ...] = ()) -> str:
+    """The cache name of a generated module other than the scene's own (``projection.py``, ``tree.py``): prefix
+    and a hash of its text, of the kernel files it imports (``sources``, beside this file) and of ``_fingerprint``'s."""
+    return prefix + _fingerprint(text + "".join((HERE / source).read_text() for source in sources))
+
+
+def load_generated(name: str, text: str, probe: str) -> tuple[object, bool]:
+    """The generated module ``name`` with source ``text`` (written to the cache directory if new), and whether
+    numba's machine code of its function ``probe`` was on disk already: ``load`` for any generated module."""
+    if name in sys.modules:
+        return sys.modules[name], True
+    directory = cache_directory()
+    path = directory / f"{name}.py"
+    if not path.exists():
+        directory.mkdir(parents=True, exist_ok=True)
+        partial = path.with_suffix(f".{os.getpid()}.tmp")
+        partial.write_text(text)
+        os.replace(partial, path)
+    cached = any((directory / "__pycache__").glob(f"{name}.{probe}-*.nbi"))
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module, cached
+
+
+def is_generated_cached(name: str, probe: str) -> bool:
+    """Whether numba's machine code of ``probe`` in the generated module ``name`` is on disk."""
+    return any((cache_directory() / "__pycache__").glob(f"{name}.{probe}-*.nbi"))

@@ -69,52 +69,47 @@ def choose(
     atol: float,
     step: float | None,
 ):
-    """(Scene or None, {'engine', 'engine_why'}): the compiled engine's scene when it runs this analysis."""
+    """(Plan or None, {'engine', 'engine_why'}): the compiled engine's plan (``solutions.compiled.plan``) when it
+    runs this analysis."""
     if engine not in ENGINES:
         raise AnalysisError(f"unknown engine {engine!r} (one of: {', '.join(ENGINES)})")
     if engine == "numpy":
         return None, {"engine": "numpy", "engine_why": "numpy engine asked for"}
-    from . import describe, unsupported
+    from . import describe, is_cached, plan, unsupported
 
-    scene = describe(system, M, forces)
-    why_not = unsupported(scene, formulation, integrator, options)
+    job = plan(describe(system, M, forces), formulation, equations.formulation)
+    why_not = unsupported(job.scene, formulation, integrator, options)
     if why_not is not None:
         return None, {"engine": "numpy", "engine_why": f"not compiled: {why_not}"}
     if engine == "compiled":
-        return scene, {"engine": "compiled", "engine_why": "compiled engine asked for"}
-    from .codegen import is_cached
-
-    cached = is_cached(scene)
+        return job, {"engine": "compiled", "engine_why": "compiled engine asked for"}
+    cached = is_cached(job)
     if engine == "cached":
         if cached:
-            return scene, {"engine": "compiled", "engine_why": "compiled code for this scene's structure is cached"}
+            return job, {"engine": "compiled", "engine_why": "compiled code for this scene's structure is cached"}
         return None, {"engine": "numpy", "engine_why": "no compiled code for this scene's structure is cached"}
     expected = estimated_numpy_seconds(equations, z0, t_end, steps, integrator, rtol, atol, step)
     if cached and expected > LOAD_SECONDS:
         why = f"numpy run estimated at {expected:.3g} s, more than loading the cached code ({LOAD_SECONDS:g} s)"
-        return scene, {"engine": "compiled", "engine_why": why}
+        return job, {"engine": "compiled", "engine_why": why}
     if cached:
         why = f"numpy run estimated at {expected:.3g} s, less than loading the cached code ({LOAD_SECONDS:g} s)"
         return None, {"engine": "numpy", "engine_why": why}
     if expected > COMPILE_SECONDS:
         why = f"numpy run estimated at {expected:.3g} s, more than a first compilation ({COMPILE_SECONDS:g} s)"
-        return scene, {"engine": "compiled", "engine_why": why}
+        return job, {"engine": "compiled", "engine_why": why}
     why = f"numpy run estimated at {expected:.3g} s, less than a first compilation ({COMPILE_SECONDS:g} s)"
     return None, {"engine": "numpy", "engine_why": why}
 
 
-def run(scene, z0, times, integrator, rtol, atol, step, max_evaluations, options, span_check=True):
-    """The compiled run, its failures raised as the numpy engine raises them; (CompiledRun, IntegrationStats)."""
-    from ..formulations import DEFAULT_ALPHA, DEFAULT_BETA
+def run(job, z0, times, integrator, rtol, atol, step, max_evaluations, options, span_check=True):
+    """The compiled run of a ``Plan``, its failures raised as the numpy engine raises them; (CompiledRun,
+    IntegrationStats). A projection run also counts its projections and restarts as the numpy run does: one
+    projection per accepted step, a restart after each (``integrators.integrate``; the solve_ivp loop does not
+    restart after its last step, rk4 never counts restarts)."""
     from . import run as compiled_run
 
-    alpha, beta = options.get("alpha", DEFAULT_ALPHA), options.get("beta", DEFAULT_BETA)
-    if not (alpha >= 0.0 and beta >= 0.0):
-        raise AnalysisError(
-            f"Baumgarte parameters alpha = {alpha}, beta = {beta}: both must be >= 0; a negative one makes the "
-            "constraint error grow as exp(|alpha| t) instead of dying out (eq. 5.29)"
-        )
-    out = compiled_run(scene, z0, times, integrator, rtol, atol, step, max_evaluations, alpha, beta)
+    out = compiled_run(job, z0, times, integrator, rtol, atol, step, max_evaluations)
     span = times[-1] - times[0]
     if out.status == 1:
         raise AnalysisError(
@@ -133,7 +128,13 @@ def run(scene, z0, times, integrator, rtol, atol, step, max_evaluations, options
             f"rk4: the state is no longer finite at t = {out.t:.6g} s with step {out.h:.3g} s: the step is beyond the "
             "scene's stability limit (or left the mechanism's reach); use a smaller --step or an adaptive integrator"
         )
+    if out.status == 4:
+        raise AnalysisError(f"position projection did not converge at t = {out.t:.6g} s (residual {out.h:.3g})")
     stats = IntegrationStats(integrator, rhs_evaluations=out.evaluations, steps=out.steps, rejected=out.rejected)
+    if job.formulation == "projection":
+        job.formulation_object.projections = out.steps
+        if integrator != "rk4":
+            stats.restarts = out.steps - (1 if integrator in ("DOP853", "RK45") else 0)
     return out, stats
 
 

@@ -16,8 +16,20 @@ right-hand side's dispatcher could not be cached: numba keys such a specializati
 - ``rk4``: the classical Runge-Kutta method with a fixed step (eq. 6.12), each output interval cut into the
   fewest equal steps no longer than ``step``, as ``integrators._integrate_rk4``.
 
+Both take, besides the right-hand side, the scene's ``project(t, z, P, D, info)`` (``PROJECT_SIGNATURE``), called
+after every accepted step as ``integrators.integrate`` calls a formulation's ``after_step``: it corrects z in
+place and returns 0 (the projection formulation, eq. 5.50: ``projection.py``), or returns -1 and leaves z
+alone (``no_projection``: every other formulation). After a correction the loop goes on as the numpy loop
+does: the state at an output time that falls on the step's end is the corrected one (dense output inside
+the step interpolates the step itself), and the next step starts from f(t, corrected) (``scipy_like``: a new
+solver with the next step size, clipped to the end; not after the last step; own loop: always).
+
 Both return the states at the output times and (evaluations, steps, rejected, status, t, h); status 0 is
-success, 1 a step-size collapse, 2 the evaluation budget spent, 3 a state that is no longer finite (rk4).
+success, 1 a step-size collapse, 2 the evaluation budget spent, 3 a state that is no longer finite (rk4),
+4 a projection whose position iterations did not converge (then h is the residual max |Psi| instead).
+
+``body_outputs`` gives the body coordinates and q'', lambda of a joint-coordinates state at every output time
+(``tree.py``); ``outputs`` gives q'' and lambda of a body-coordinates state.
 """
 
 import numpy as np
@@ -31,15 +43,21 @@ P_TYPE = types.Tuple(
     (_vector, _vector, _vector, types.float64[:, :, ::1], _vector, _ivector, _matrix, _vector, _ivector)
 )
 """P = (Q0, planar mass diagonal, spatial masses, inertias, weights, function kinds, function parameters,
-(alpha, beta), (n, m, extra states))."""
+the formulation's numbers (alpha, beta, projection tolerance, projection iterations), (n, m, extra states,
+joint positions, joint velocities))."""
 D_TYPE = types.Tuple((types.UniTuple(_imatrix, len(SLOTS)), types.UniTuple(_matrix, len(SLOTS))))
 RHS_SIGNATURE = types.void(types.float64, _vector, P_TYPE, D_TYPE, _vector)
 """scene_rhs(t, z, P, D, out)."""
 ACCELERATIONS_SIGNATURE = types.void(types.float64, _vector, _vector, P_TYPE, D_TYPE, _vector, _vector, _vector)
 """accelerations(t, q, q', P, D, q'' (out), lambda (out), powers (out))."""
+PROJECT_SIGNATURE = types.int64(types.float64, _vector, P_TYPE, D_TYPE, _vector)
+"""project(t, z, P, D, info): -1 (nothing done), 0 (z corrected in place), 1 (not converged; info[0] the residual)."""
+BODY_STATE_SIGNATURE = types.void(types.float64, _vector, P_TYPE, D_TYPE, _vector, _vector, _vector, _vector)
+"""body_state(t, y, P, D, q (out), q' (out), q'' (out), lambda (out)) of a joint-coordinates state y."""
 TABLEAU_TYPE = types.Tuple((_matrix, _vector, _vector, _vector, _vector, _vector, _matrix, _matrix))
 RESULT_TYPE = types.Tuple((_matrix, types.int64, types.int64, types.int64, types.int64, types.float64, types.float64))
 _RHS = types.FunctionType(RHS_SIGNATURE)
+_PROJECT = types.FunctionType(PROJECT_SIGNATURE)
 
 
 def jit(signature):
@@ -47,6 +65,12 @@ def jit(signature):
 
 
 SAFETY, MIN_FACTOR, MAX_FACTOR, MIN_STEP = 0.9, 0.2, 10.0, 1e-12
+
+
+@jit(PROJECT_SIGNATURE)
+def no_projection(t, z, P, D, info):
+    """The ``project`` of a formulation that does not correct the state after a step."""
+    return -1
 
 
 @njit(cache=True)
@@ -71,6 +95,7 @@ def _error(dop, K, h, scale, E, E3, E5):
 @jit(
     RESULT_TYPE(
         _RHS,
+        _PROJECT,
         _vector,
         _vector,
         types.float64,
@@ -84,7 +109,7 @@ def _error(dop, K, h, scale, E, E3, E5):
         D_TYPE,
     )
 )
-def embedded(scene_rhs, z0, t_out, rtol, atol, max_step, max_evaluations, dop, scipy_like, tableau, P, D):
+def embedded(scene_rhs, project, z0, t_out, rtol, atol, max_step, max_evaluations, dop, scipy_like, tableau, P, D):
     """Integrate from z0 at t_out[0] to t_out[-1]; states at every output time (module docstring)."""
     A, B, C, E, E3, E5, Dd, Pd = tableau
     stages = B.size
@@ -118,6 +143,7 @@ def embedded(scene_rhs, z0, t_out, rtol, atol, max_step, max_evaluations, dop, s
     Y[0] = y
     k = 1
     steps = rejected = 0
+    info = np.zeros(1)
     while k < nout:
         rejected_now = False
         while True:
@@ -206,6 +232,9 @@ def embedded(scene_rhs, z0, t_out, rtol, atol, max_step, max_evaluations, dop, s
         t = t_new
         y[:] = y_new
         f[:] = f_new
+        corrected = project(t, y, P, D, info)
+        if corrected > 0:
+            return Y, evaluations, steps, rejected, 4, t, info[0]
         if k < nout and t_out[k] == t:
             Y[k] = y
             k += 1
@@ -213,11 +242,16 @@ def embedded(scene_rhs, z0, t_out, rtol, atol, max_step, max_evaluations, dop, s
             h_abs = h * factor
         else:
             h_abs *= factor
+        if corrected == 0 and (t < t_end or not scipy_like):  # restart from the corrected state (docstring)
+            if scipy_like:
+                h_abs = min(h_abs, t_end - t)
+            scene_rhs(t, y, P, D, f)
+            evaluations += 1
     return Y, evaluations, steps, rejected, 0, t, h_abs
 
 
-@jit(RESULT_TYPE(_RHS, _vector, _vector, types.float64, P_TYPE, D_TYPE))
-def rk4(scene_rhs, z0, t_out, step, P, D):
+@jit(RESULT_TYPE(_RHS, _PROJECT, _vector, _vector, types.float64, P_TYPE, D_TYPE))
+def rk4(scene_rhs, project, z0, t_out, step, P, D):
     """Fixed-step classical Runge-Kutta (eq. 6.12): k1 = f(t, y), k2 = f(t + h/2, y + h/2 k1), k3 = f(t + h/2,
     y + h/2 k2), k4 = f(t + h, y + h k3), y <- y + h/6 (k1 + 2 k2 + 2 k3 + k4)."""
     nz = z0.size
@@ -225,6 +259,7 @@ def rk4(scene_rhs, z0, t_out, step, P, D):
     Y = np.empty((nout, nz))
     y = z0.copy()
     k1, k2, k3, k4 = np.empty(nz), np.empty(nz), np.empty(nz), np.empty(nz)
+    info = np.zeros(1)
     Y[0] = y
     evaluations = steps = 0
     for k in range(1, nout):
@@ -242,6 +277,8 @@ def rk4(scene_rhs, z0, t_out, step, P, D):
             steps += 1
             if not np.all(np.isfinite(y)):
                 return Y, evaluations, steps, 0, 3, ts + h, h
+            if project(ts + h, y, P, D, info) > 0:
+                return Y, evaluations, steps, 0, 4, ts + h, info[0]
         Y[k] = y
     return Y, evaluations, steps, 0, 0, t_out[-1], 0.0
 
@@ -256,3 +293,19 @@ def outputs(accelerations, T, Y, P, D):
         accelerations(T[k], Y[k, :n].copy(), Y[k, n : 2 * n].copy(), P, D, a, b, power)
         qdd[k], lam[k] = a, b
     return qdd, lam
+
+
+@jit(
+    types.Tuple((_matrix, _matrix, _matrix, _matrix))(
+        types.FunctionType(BODY_STATE_SIGNATURE), _vector, _matrix, P_TYPE, D_TYPE
+    )
+)
+def body_outputs(body_state, T, Y, P, D):
+    """q, q', q'' and lambda at every output time T[k] from the joint-coordinates states Y[k]."""
+    n, m = P[8][0], P[8][1]
+    q, qd, qdd, lam = np.empty((T.size, n)), np.empty((T.size, n)), np.empty((T.size, n)), np.empty((T.size, m))
+    a, b, c, d = np.empty(n), np.empty(n), np.empty(n), np.empty(m)
+    for k in range(T.size):
+        body_state(T[k], Y[k].copy(), P, D, a, b, c, d)
+        q[k], qd[k], qdd[k], lam[k] = a, b, c, d
+    return q, qd, qdd, lam

@@ -25,8 +25,10 @@ SLOTS = (
     "planar_tsda", "planar_rsda", "planar_load",
     "spatial_spherical", "spatial_dot1", "spatial_dot2", "spatial_normalization",
     "spatial_tsda", "spatial_rsda", "spatial_load",
+    "tree",
 )  # fmt: skip
-"""The element data of every kernel has a fixed place in D = (ints, floats): one signature for every scene."""
+"""The element data of every kernel has a fixed place in D = (ints, floats): one signature for every scene
+(``tree``: the joints of a joint-coordinates scene, ``tree.py``)."""
 
 
 class Unsupported(Exception):

@@ -1,0 +1,86 @@
+"""Compiled pieces of the projection formulation (``formulations.Projection``, eq. 5.50) and of joint coordinates.
+
+The mass-orthogonal correction of least kinetic-energy norm that moves x onto r(x) = 0 to first order,
+
+    x <- x - M^-1 Psi_q^T (Psi_q M^-1 Psi_q^T)^-1 r
+
+(r = Psi for positions, r = Psi_q q' + Psi_t for velocities: ``formulations.project_positions``,
+``project_velocities``), with M^-1 the diagonal of a planar scene or a Cholesky factor of the spatial M(q);
+and a Cholesky solve for the small symmetric positive definite systems of joint coordinates.
+
+This module imports numba: it is imported only when the compiled engine runs (``solutions.compiled``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .kernels import lu_solve
+
+jit = njit(cache=True, fastmath=False, nogil=True)
+
+
+@jit
+def cholesky(A):
+    """The lower factor L of A = L L^T (A symmetric positive definite), written over A's lower triangle;
+    False where A is not positive definite (as LAPACK's potrf)."""
+    n = A.shape[0]
+    for j in range(n):
+        s = A[j, j]
+        for k in range(j):
+            s -= A[j, k] * A[j, k]
+        if not s > 0.0:
+            return False
+        d = math.sqrt(s)
+        A[j, j] = d
+        for i in range(j + 1, n):
+            s = A[i, j]
+            for k in range(j):
+                s -= A[i, k] * A[j, k]
+            A[i, j] = s / d
+    return True
+
+
+@jit
+def cholesky_solve(L, b):
+    """x from L L^T x = b, L from ``cholesky`` (b is overwritten with x)."""
+    n = b.size
+    for i in range(n):
+        s = b[i]
+        for k in range(i):
+            s -= L[i, k] * b[k]
+        b[i] = s / L[i, i]
+    for i in range(n - 1, -1, -1):
+        s = b[i]
+        for k in range(i + 1, n):
+            s -= L[k, i] * b[k]
+        b[i] = s / L[i, i]
+
+
+@jit
+def mass_weighted(inverse_mass, L, spatial, jac):
+    """W = M^-1 Psi_q^T (n x m): the diagonal inverse of a planar scene, or the Cholesky factor L of M(q)."""
+    m, n = jac.shape
+    W = np.empty((n, m))
+    column = np.empty(n)
+    for r in range(m):
+        if spatial:
+            column[:] = jac[r]
+            cholesky_solve(L, column)
+            W[:, r] = column
+        else:
+            for c in range(n):
+                W[c, r] = jac[r, c] * inverse_mass[c]
+    return W
+
+
+@jit
+def correction(W, jac, residual):
+    """W (Psi_q W)^-1 r: the mass-orthogonal correction of eq. 5.50."""
+    return W @ lu_solve(jac @ W, residual)
+
+
+__all__ = ["cholesky", "cholesky_solve", "correction", "mass_weighted"]

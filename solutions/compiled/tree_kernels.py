@@ -1,0 +1,358 @@
+"""Compiled kernels of joint coordinates: the recursive kinematics of a tree and its embedded equations.
+
+The formulas of ``joint_coordinates.py`` (``PlanarTree.motion``, ``SpatialTree.motion``,
+``JointCoordinates.embedded_equations``, ``spatial_forces``, ``coordinate_accelerations``), written out for
+numba over the tree's joint data (``tree.py``: one row per joint in topological order):
+
+- ints (kind, parent, child, position, velocity): kind 0 revolute, 1 prismatic, 2 spherical; parent -1 is
+  ground; where the joint's coordinates start in the positions and in the velocities of the state;
+- floats (s_P' (3), s_C' (3), axis h (3), planar offset, a (4), c (4), u0 (4), u1 (4), the child's joint frame
+  f, g, h (9)): the constant data of ``TreeJoint``.
+
+Recursion from ground, joint after joint (module docstring of ``joint_coordinates.py``): q, q' (planar:
+body coordinates; spatial: v and the body-frame omega'), D = dq/dtheta and xi (the accelerations with
+theta'' = 0). Then (D^T M D) theta'' = D^T (Q - M xi), solved by Cholesky (eq. 5.44 with Z = D); a matrix
+that is not positive definite gives NaN, which the adaptive integrators reject.
+
+Every column of D is carried through every body (zero where a joint does not move a body): the same
+numbers as the numpy code's inherited columns, without the bookkeeping.
+
+This module imports numba: it is imported only when the compiled engine runs (``solutions.compiled``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .projection_kernels import cholesky, cholesky_solve
+
+jit = njit(cache=True, fastmath=False, nogil=True)
+
+REVOLUTE, PRISMATIC, SPHERICAL = 0, 1, 2
+S_PARENT, S_CHILD, AXIS, OFFSET, A, C, U0, U1, FRAME = 0, 3, 6, 9, 10, 14, 18, 22, 26
+WIDTH = 35
+"""Columns of a joint's floats (module docstring)."""
+
+
+# -- planar ------------------------------------------------------------------------------------------------
+@jit
+def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm):
+    """q, q', xi (3 nb) and D (3 nb x k) of a planar tree (``PlanarTree.motion``)."""
+    body = np.zeros((8, nb + 1))  # x, y, phi, vx, vy, w, ax, ay; ground last
+    rows = np.zeros((3, nb + 1, k))  # the rows x, y, phi of D per body
+    for e in range(ints.shape[0]):
+        P, Cb, c = ints[e, 1], ints[e, 2], ints[e, 3]
+        if P < 0:
+            P = nb
+        revolute = ints[e, 0] == REVOLUTE
+        body[2, Cb] = body[2, P] + (theta[c] if revolute else floats[e, OFFSET])
+        cp, sp = math.cos(body[2, P]), math.sin(body[2, P])
+        cc, sc = math.cos(body[2, Cb]), math.sin(body[2, Cb])
+        spx, spy, scx, scy = floats[e, S_PARENT], floats[e, S_PARENT + 1], floats[e, S_CHILD], floats[e, S_CHILD + 1]
+        rcx, rcy = cc * scx - sc * scy, sc * scx + cc * scy  # rho_C = A_C s_C'
+        ux = uy = s = sd = w_rel = 0.0
+        if revolute:
+            w_rel = rate[c]
+        else:
+            ax0, ax1 = floats[e, AXIS], floats[e, AXIS + 1]
+            ux, uy = cp * ax0 - sp * ax1, sp * ax0 + cp * ax1
+            s, sd = theta[c], rate[c]
+        ex, ey = cp * spx - sp * spy + s * ux, sp * spx + cp * spy + s * uy  # rho_P + d
+        lx, ly = ex - rcx, ey - rcy  # the link
+        body[0, Cb], body[1, Cb] = body[0, P] + lx, body[1, P] + ly
+        wp = body[5, P]
+        wc = wp + w_rel
+        body[5, Cb] = wc
+        body[3, Cb] = body[3, P] - wp * ly + ux * sd + w_rel * rcy
+        body[4, Cb] = body[4, P] + wp * lx + uy * sd - w_rel * rcx
+        body[6, Cb] = body[6, P] - wp * wp * ex + wc * wc * rcx - 2.0 * wp * sd * uy
+        body[7, Cb] = body[7, P] - wp * wp * ey + wc * wc * rcy + 2.0 * wp * sd * ux
+        for col in range(k):  # D_C = D_P + R90 l (angle row of D_P)
+            rows[0, Cb, col] = rows[0, P, col] - ly * rows[2, P, col]
+            rows[1, Cb, col] = rows[1, P, col] + lx * rows[2, P, col]
+            rows[2, Cb, col] = rows[2, P, col]
+        if revolute:
+            rows[0, Cb, c], rows[1, Cb, c], rows[2, Cb, c] = rcy, -rcx, 1.0
+        else:
+            rows[0, Cb, c], rows[1, Cb, c], rows[2, Cb, c] = ux, uy, 0.0
+    for b in range(nb):
+        for r in range(3):
+            q[3 * b + r] = body[r, b]
+            qd[3 * b + r] = body[3 + r, b]
+            Dm[3 * b + r] = rows[r, b]
+        xi[3 * b], xi[3 * b + 1], xi[3 * b + 2] = body[6, b], body[7, b], 0.0
+
+
+@jit
+def planar_accelerations(mass, Dm, xi, Q):
+    """theta'' from (D^T M D) theta'' = D^T (Q - M xi), M = diag(mass)."""
+    n, k = Dm.shape
+    matrix, rhs = np.zeros((k, k)), np.zeros(k)
+    for r in range(n):
+        force = Q[r] - mass[r] * xi[r]
+        for i in range(k):
+            weighted = Dm[r, i] * mass[r]
+            rhs[i] += Dm[r, i] * force
+            for j in range(i + 1):
+                matrix[i, j] += weighted * Dm[r, j]
+    return _solve(matrix, rhs)
+
+
+@jit
+def _solve(matrix, rhs):
+    if not cholesky(matrix):
+        rhs[:] = np.nan
+        return rhs
+    cholesky_solve(matrix, rhs)
+    return rhs
+
+
+# -- spatial: 3-vectors and Euler parameters ---------------------------------------------------------------
+@jit
+def _cross(a0, a1, a2, b0, b1, b2):
+    return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+
+
+@jit
+def _rotate(R, v0, v1, v2):
+    """A v, A (9,) row by row."""
+    return (
+        R[0] * v0 + R[1] * v1 + R[2] * v2,
+        R[3] * v0 + R[4] * v1 + R[5] * v2,
+        R[6] * v0 + R[7] * v1 + R[8] * v2,
+    )
+
+
+@jit
+def _rotate_back(R, v0, v1, v2):
+    """A^T v."""
+    return (
+        R[0] * v0 + R[3] * v1 + R[6] * v2,
+        R[1] * v0 + R[4] * v1 + R[7] * v2,
+        R[2] * v0 + R[5] * v1 + R[8] * v2,
+    )
+
+
+@jit
+def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
+    return (
+        a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+        a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+        a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
+        a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0,
+    )
+
+
+@jit
+def _rotation9(e0, e1, e2, e3, R):
+    """A(p) of unit Euler parameters, row by row (eq. 8.12), as ``joint_coordinates.rotation9``."""
+    R[0], R[1], R[2] = 2 * (e0 * e0 + e1 * e1) - 1, 2 * (e1 * e2 - e0 * e3), 2 * (e1 * e3 + e0 * e2)
+    R[3], R[4], R[5] = 2 * (e1 * e2 + e0 * e3), 2 * (e0 * e0 + e2 * e2) - 1, 2 * (e2 * e3 - e0 * e1)
+    R[6], R[7], R[8] = 2 * (e1 * e3 - e0 * e2), 2 * (e2 * e3 + e0 * e1), 2 * (e0 * e0 + e3 * e3) - 1
+
+
+@jit
+def _half_l_transpose(e0, e1, e2, e3, w0, w1, w2):
+    """p' = 1/2 L(p)^T omega' (eq. 8.17)."""
+    return (
+        0.5 * (-e1 * w0 - e2 * w1 - e3 * w2),
+        0.5 * (e0 * w0 - e3 * w1 + e2 * w2),
+        0.5 * (e3 * w0 + e0 * w1 - e1 * w2),
+        0.5 * (-e2 * w0 + e1 * w1 + e0 * w2),
+    )
+
+
+@jit
+def _half_l(e0, e1, e2, e3, x0, x1, x2, x3):
+    """1/2 L(p) x: the body-frame torque n' of Q_p = 2 L^T n'."""
+    return (
+        0.5 * (-x0 * e1 + e0 * x1 + e3 * x2 - e2 * x3),
+        0.5 * (-x0 * e2 - e3 * x1 + e0 * x2 + e1 * x3),
+        0.5 * (-x0 * e3 + e2 * x1 - e1 * x2 + e0 * x3),
+    )
+
+
+# -- spatial tree ------------------------------------------------------------------------------------------
+@jit
+def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates):
+    """q, q' (7 nb), xi (6 nb: a and the body-frame alpha'), D (6 nb x k: v and omega' per joint velocity),
+    omega' (nb x 3) and the rates of the joints' position coordinates (``SpatialTree.motion``)."""
+    vec = np.zeros((5, nb + 1, 3))  # r, v, w, acc, alpha (global); ground last
+    p = np.zeros((nb + 1, 4))
+    R = np.zeros((nb + 1, 9))
+    p[nb, 0] = 1.0
+    R[nb, 0] = R[nb, 4] = R[nb, 8] = 1.0
+    Dv, Dw = np.zeros((nb + 1, k, 3)), np.zeros((nb + 1, k, 3))
+    for e in range(ints.shape[0]):
+        kind, P, Cb, at, c = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3], ints[e, 4]
+        if P < 0:
+            P = nb
+        f = floats[e]
+        AP = R[P]
+        wp0, wp1, wp2 = vec[2, P, 0], vec[2, P, 1], vec[2, P, 2]
+        al0, al1, al2 = vec[4, P, 0], vec[4, P, 1], vec[4, P, 2]
+        sd = 0.0
+        h0 = h1 = h2 = 0.0
+        rp0, rp1, rp2 = _rotate(AP, f[S_PARENT], f[S_PARENT + 1], f[S_PARENT + 2])
+        ep0, ep1, ep2 = rp0, rp1, rp2
+        if kind == REVOLUTE:
+            h0, h1, h2 = _rotate(AP, f[AXIS], f[AXIS + 1], f[AXIS + 2])
+            co, si = math.cos(0.5 * theta[at]), math.sin(0.5 * theta[at])
+            j0, j1 = co * f[U0] + si * f[U1], co * f[U0 + 1] + si * f[U1 + 1]
+            j2, j3 = co * f[U0 + 2] + si * f[U1 + 2], co * f[U0 + 3] + si * f[U1 + 3]
+            rates[at] = rate[c]
+        elif kind == PRISMATIC:
+            h0, h1, h2 = _rotate(AP, f[AXIS], f[AXIS + 1], f[AXIS + 2])
+            j0, j1, j2, j3 = f[U0], f[U0 + 1], f[U0 + 2], f[U0 + 3]
+            sd = rate[c]
+            ep0, ep1, ep2 = rp0 + theta[at] * h0, rp1 + theta[at] * h1, rp2 + theta[at] * h2  # rho_P + d
+            rates[at] = rate[c]
+        else:
+            e0, e1, e2, e3 = theta[at], theta[at + 1], theta[at + 2], theta[at + 3]
+            norm = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3)
+            e0, e1, e2, e3 = e0 / norm, e1 / norm, e2 / norm, e3 / norm
+            b0, b1, b2, b3 = _qmul(f[A], f[A + 1], f[A + 2], f[A + 3], e0, e1, e2, e3)
+            j0, j1, j2, j3 = _qmul(b0, b1, b2, b3, f[C], f[C + 1], f[C + 2], f[C + 3])
+            rates[at], rates[at + 1], rates[at + 2], rates[at + 3] = _half_l_transpose(
+                e0, e1, e2, e3, rate[c], rate[c + 1], rate[c + 2]
+            )
+        p[Cb, 0], p[Cb, 1], p[Cb, 2], p[Cb, 3] = _qmul(p[P, 0], p[P, 1], p[P, 2], p[P, 3], j0, j1, j2, j3)
+        _rotation9(p[Cb, 0], p[Cb, 1], p[Cb, 2], p[Cb, 3], R[Cb])
+        AC = R[Cb]
+        wr0 = wr1 = wr2 = 0.0
+        if kind == REVOLUTE:
+            wr0, wr1, wr2 = rate[c] * h0, rate[c] * h1, rate[c] * h2
+        elif kind == SPHERICAL:
+            for n in range(3):
+                x0, x1, x2 = _rotate(AC, f[FRAME + 3 * n], f[FRAME + 3 * n + 1], f[FRAME + 3 * n + 2])
+                rel = rate[c + n]
+                if n == 0:
+                    wr0, wr1, wr2 = rel * x0, rel * x1, rel * x2
+                else:
+                    wr0, wr1, wr2 = wr0 + rel * x0, wr1 + rel * x1, wr2 + rel * x2
+        rc0, rc1, rc2 = _rotate(AC, f[S_CHILD], f[S_CHILD + 1], f[S_CHILD + 2])
+        l0, l1, l2 = ep0 - rc0, ep1 - rc1, ep2 - rc2  # the link
+        vec[0, Cb, 0], vec[0, Cb, 1], vec[0, Cb, 2] = vec[0, P, 0] + l0, vec[0, P, 1] + l1, vec[0, P, 2] + l2
+        # velocities and the accelerations with theta'' = 0
+        x0, x1, x2 = _cross(wp0, wp1, wp2, l0, l1, l2)
+        vc0, vc1, vc2 = vec[1, P, 0] + x0, vec[1, P, 1] + x1, vec[1, P, 2] + x2
+        x0, x1, x2 = _cross(al0, al1, al2, ep0, ep1, ep2)
+        y0, y1, y2 = _cross(wp0, wp1, wp2, ep0, ep1, ep2)
+        y0, y1, y2 = _cross(wp0, wp1, wp2, y0, y1, y2)
+        ac0, ac1, ac2 = vec[3, P, 0] + x0 + y0, vec[3, P, 1] + x1 + y1, vec[3, P, 2] + x2 + y2
+        if kind == PRISMATIC:
+            wc0, wc1, wc2, ac_0, ac_1, ac_2 = wp0, wp1, wp2, al0, al1, al2
+            vc0, vc1, vc2 = vc0 + sd * h0, vc1 + sd * h1, vc2 + sd * h2
+            x0, x1, x2 = _cross(wp0, wp1, wp2, h0, h1, h2)
+            ac0, ac1, ac2 = ac0 + 2.0 * sd * x0, ac1 + 2.0 * sd * x1, ac2 + 2.0 * sd * x2
+        else:
+            wc0, wc1, wc2 = wp0 + wr0, wp1 + wr1, wp2 + wr2
+            x0, x1, x2 = _cross(wp0, wp1, wp2, wr0, wr1, wr2)
+            ac_0, ac_1, ac_2 = al0 + x0, al1 + x1, al2 + x2
+            x0, x1, x2 = _cross(rc0, rc1, rc2, wr0, wr1, wr2)
+            vc0, vc1, vc2 = vc0 + x0, vc1 + x1, vc2 + x2
+        vec[1, Cb, 0], vec[1, Cb, 1], vec[1, Cb, 2] = vc0, vc1, vc2
+        vec[2, Cb, 0], vec[2, Cb, 1], vec[2, Cb, 2] = wc0, wc1, wc2
+        vec[4, Cb, 0], vec[4, Cb, 1], vec[4, Cb, 2] = ac_0, ac_1, ac_2
+        x0, x1, x2 = _cross(ac_0, ac_1, ac_2, rc0, rc1, rc2)
+        y0, y1, y2 = _cross(wc0, wc1, wc2, rc0, rc1, rc2)
+        y0, y1, y2 = _cross(wc0, wc1, wc2, y0, y1, y2)
+        vec[3, Cb, 0], vec[3, Cb, 1], vec[3, Cb, 2] = ac0 - (x0 + y0), ac1 - (x1 + y1), ac2 - (x2 + y2)
+        # columns of D: the parent's moved by omega x l, then the joint's own
+        for col in range(k):
+            x0, x1, x2 = _cross(l0, l1, l2, Dw[P, col, 0], Dw[P, col, 1], Dw[P, col, 2])
+            Dv[Cb, col, 0], Dv[Cb, col, 1], Dv[Cb, col, 2] = Dv[P, col, 0] - x0, Dv[P, col, 1] - x1, Dv[P, col, 2] - x2
+            Dw[Cb, col] = Dw[P, col]
+        if kind == REVOLUTE:
+            Dv[Cb, c, 0], Dv[Cb, c, 1], Dv[Cb, c, 2] = _cross(rc0, rc1, rc2, h0, h1, h2)
+            Dw[Cb, c, 0], Dw[Cb, c, 1], Dw[Cb, c, 2] = h0, h1, h2
+        elif kind == PRISMATIC:
+            Dv[Cb, c, 0], Dv[Cb, c, 1], Dv[Cb, c, 2] = h0, h1, h2
+        else:
+            for n in range(3):
+                x0, x1, x2 = _rotate(AC, f[FRAME + 3 * n], f[FRAME + 3 * n + 1], f[FRAME + 3 * n + 2])
+                Dv[Cb, c + n, 0], Dv[Cb, c + n, 1], Dv[Cb, c + n, 2] = _cross(rc0, rc1, rc2, x0, x1, x2)
+                Dw[Cb, c + n, 0], Dw[Cb, c + n, 1], Dw[Cb, c + n, 2] = x0, x1, x2
+    for b in range(nb):
+        Rb = R[b]
+        o0, o1, o2 = _rotate_back(Rb, vec[2, b, 0], vec[2, b, 1], vec[2, b, 2])  # omega' = A^T omega
+        omega[b, 0], omega[b, 1], omega[b, 2] = o0, o1, o2
+        for r in range(3):
+            q[7 * b + r] = vec[0, b, r]
+            qd[7 * b + r] = vec[1, b, r]
+            xi[6 * b + r] = vec[3, b, r]
+        for r in range(4):
+            q[7 * b + 3 + r] = p[b, r]
+        qd[7 * b + 3], qd[7 * b + 4], qd[7 * b + 5], qd[7 * b + 6] = _half_l_transpose(
+            p[b, 0], p[b, 1], p[b, 2], p[b, 3], o0, o1, o2
+        )
+        xi[6 * b + 3], xi[6 * b + 4], xi[6 * b + 5] = _rotate_back(Rb, vec[4, b, 0], vec[4, b, 1], vec[4, b, 2])
+        for col in range(k):
+            Dm[6 * b, col], Dm[6 * b + 1, col], Dm[6 * b + 2, col] = Dv[b, col, 0], Dv[b, col, 1], Dv[b, col, 2]
+            x0, x1, x2 = _rotate_back(Rb, Dw[b, col, 0], Dw[b, col, 1], Dw[b, col, 2])
+            Dm[6 * b + 3, col], Dm[6 * b + 4, col], Dm[6 * b + 5, col] = x0, x1, x2
+
+
+@jit
+def spatial_accelerations(masses, inertias, q, Dm, xi, omega, Q):
+    """theta'' from (D^T diag(m I, J') D) theta'' = D^T f, f per body (F - m a, n' - J' omega'' - omega' x J'
+    omega') with F = Q_r, n' = 1/2 L(p) Q_p (``JointCoordinates.spatial_forces``); Q without Q_v."""
+    nb = masses.size
+    k = Dm.shape[1]
+    matrix, rhs = np.zeros((k, k)), np.zeros(k)
+    force, MD = np.empty(6), np.empty((6, k))
+    for b in range(nb):
+        m, J, o = masses[b], inertias[b], 7 * b
+        e0, e1, e2, e3 = q[o + 3], q[o + 4], q[o + 5], q[o + 6]
+        n0, n1, n2 = _half_l(e0, e1, e2, e3, Q[o + 3], Q[o + 4], Q[o + 5], Q[o + 6])
+        w0, w1, w2 = omega[b, 0], omega[b, 1], omega[b, 2]
+        d0, d1, d2 = xi[6 * b + 3], xi[6 * b + 4], xi[6 * b + 5]
+        Jw0 = J[0, 0] * w0 + J[0, 1] * w1 + J[0, 2] * w2
+        Jw1 = J[1, 0] * w0 + J[1, 1] * w1 + J[1, 2] * w2
+        Jw2 = J[2, 0] * w0 + J[2, 1] * w1 + J[2, 2] * w2
+        g0, g1, g2 = _cross(w0, w1, w2, Jw0, Jw1, Jw2)
+        for r in range(3):
+            force[r] = Q[o + r] - m * xi[6 * b + r]
+        force[3] = n0 - ((J[0, 0] * d0 + J[0, 1] * d1 + J[0, 2] * d2) + g0)
+        force[4] = n1 - ((J[1, 0] * d0 + J[1, 1] * d1 + J[1, 2] * d2) + g1)
+        force[5] = n2 - ((J[2, 0] * d0 + J[2, 1] * d1 + J[2, 2] * d2) + g2)
+        for col in range(k):
+            for r in range(3):
+                MD[r, col] = m * Dm[6 * b + r, col]
+                row = 6 * b + 3
+                MD[3 + r, col] = J[r, 0] * Dm[row, col] + J[r, 1] * Dm[row + 1, col] + J[r, 2] * Dm[row + 2, col]
+        for i in range(k):
+            for r in range(6):
+                rhs[i] += Dm[6 * b + r, i] * force[r]
+            for j in range(i + 1):
+                s = 0.0
+                for r in range(6):
+                    s += Dm[6 * b + r, i] * MD[r, j]
+                matrix[i, j] += s
+    return _solve(matrix, rhs)
+
+
+@jit
+def spatial_coordinate_accelerations(q, qd, Dm, xi, omega, thdd, qdd):
+    """q'' = (r'', p'') from (a, omega'') = D theta'' + xi: p'' = 1/2 L(p)^T omega'' + 1/2 L(p')^T omega'."""
+    acc = Dm @ thdd + xi
+    for b in range(omega.shape[0]):
+        o = 7 * b
+        for r in range(3):
+            qdd[o + r] = acc[6 * b + r]
+        x = _half_l_transpose(q[o + 3], q[o + 4], q[o + 5], q[o + 6], acc[6 * b + 3], acc[6 * b + 4], acc[6 * b + 5])
+        y = _half_l_transpose(qd[o + 3], qd[o + 4], qd[o + 5], qd[o + 6], omega[b, 0], omega[b, 1], omega[b, 2])
+        for r in range(4):
+            qdd[o + 3 + r] = x[r] + y[r]
+
+
+__all__ = [
+    "planar_accelerations",
+    "planar_motion",
+    "spatial_accelerations",
+    "spatial_coordinate_accelerations",
+    "spatial_motion",
+]
