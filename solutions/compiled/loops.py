@@ -309,3 +309,14 @@ def body_outputs(body_state, T, Y, P, D):
         body_state(T[k], Y[k].copy(), P, D, a, b, c, d)
         q[k], qd[k], qdd[k], lam[k] = a, b, c, d
     return q, qd, qdd, lam
+
+
+@jit(types.float64(_RHS, types.float64, _vector, P_TYPE, D_TYPE, types.int64))
+def repeat(scene_rhs, t, z, P, D, times):
+    """scene_rhs at (t, z) ``times`` times, called as the loops call it (``benchmarks/rhs_cost.py`` times it)."""
+    out = np.empty(z.size)
+    total = 0.0
+    for _ in range(times):
+        scene_rhs(t, z, P, D, out)
+        total += out[-1]
+    return total
