@@ -25,8 +25,9 @@ jit = njit(cache=True, fastmath=False, nogil=True)
 
 @jit
 def cholesky(A):
-    """The lower factor L of A = L L^T (A symmetric positive definite), written over A's lower triangle;
-    False where A is not positive definite (as LAPACK's potrf)."""
+    """The lower factor L of A = L L^T (A symmetric positive definite), written over A's lower triangle with
+    1 / L_jj on the diagonal (the solves multiply by it); False where A is not positive definite (as LAPACK's
+    potrf)."""
     n = A.shape[0]
     for j in range(n):
         s = A[j, j]
@@ -34,13 +35,13 @@ def cholesky(A):
             s -= A[j, k] * A[j, k]
         if not s > 0.0:
             return False
-        d = math.sqrt(s)
-        A[j, j] = d
+        inverse = 1.0 / math.sqrt(s)
+        A[j, j] = inverse
         for i in range(j + 1, n):
             s = A[i, j]
             for k in range(j):
                 s -= A[i, k] * A[j, k]
-            A[i, j] = s / d
+            A[i, j] = s * inverse
     return True
 
 
@@ -52,12 +53,12 @@ def cholesky_solve(L, b):
         s = b[i]
         for k in range(i):
             s -= L[i, k] * b[k]
-        b[i] = s / L[i, i]
+        b[i] = s * L[i, i]
     for i in range(n - 1, -1, -1):
         s = b[i]
         for k in range(i + 1, n):
             s -= L[k, i] * b[k]
-        b[i] = s / L[i, i]
+        b[i] = s * L[i, i]
 
 
 @jit

@@ -180,12 +180,15 @@ def _half_l(e0, e1, e2, e3, x0, x1, x2, x3):
 def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates):
     """q, q' (7 nb), xi (6 nb: a and the body-frame alpha'), D (6 nb x k: v and omega' per joint velocity),
     omega' (nb x 3) and the rates of the joints' position coordinates (``SpatialTree.motion``)."""
-    vec = np.zeros((5, nb + 1, 3))  # r, v, w, acc, alpha (global); ground last
-    p = np.zeros((nb + 1, 4))
-    R = np.zeros((nb + 1, 9))
+    size = (nb + 1) * (15 + 4 + 9 + 6 * k)
+    work = np.zeros(size)  # one allocation, cut into: r, v, w, acc, alpha (global), p, A, D; ground last
+    vec = work[: 15 * (nb + 1)].reshape((5, nb + 1, 3))
+    p = work[15 * (nb + 1) : 19 * (nb + 1)].reshape((nb + 1, 4))
+    R = work[19 * (nb + 1) : 28 * (nb + 1)].reshape((nb + 1, 9))
+    Dv = work[28 * (nb + 1) : (28 + 3 * k) * (nb + 1)].reshape((nb + 1, k, 3))
+    Dw = work[(28 + 3 * k) * (nb + 1) :].reshape((nb + 1, k, 3))
     p[nb, 0] = 1.0
     R[nb, 0] = R[nb, 4] = R[nb, 8] = 1.0
-    Dv, Dw = np.zeros((nb + 1, k, 3)), np.zeros((nb + 1, k, 3))
     for e in range(ints.shape[0]):
         kind, P, Cb, at, c = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3], ints[e, 4]
         if P < 0:
@@ -265,7 +268,7 @@ def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates
         for col in range(k):
             x0, x1, x2 = _cross(l0, l1, l2, Dw[P, col, 0], Dw[P, col, 1], Dw[P, col, 2])
             Dv[Cb, col, 0], Dv[Cb, col, 1], Dv[Cb, col, 2] = Dv[P, col, 0] - x0, Dv[P, col, 1] - x1, Dv[P, col, 2] - x2
-            Dw[Cb, col] = Dw[P, col]
+            Dw[Cb, col, 0], Dw[Cb, col, 1], Dw[Cb, col, 2] = Dw[P, col, 0], Dw[P, col, 1], Dw[P, col, 2]
         if kind == REVOLUTE:
             Dv[Cb, c, 0], Dv[Cb, c, 1], Dv[Cb, c, 2] = _cross(rc0, rc1, rc2, h0, h1, h2)
             Dw[Cb, c, 0], Dw[Cb, c, 1], Dw[Cb, c, 2] = h0, h1, h2
@@ -302,8 +305,9 @@ def spatial_accelerations(masses, inertias, q, Dm, xi, omega, Q):
     omega') with F = Q_r, n' = 1/2 L(p) Q_p (``JointCoordinates.spatial_forces``); Q without Q_v."""
     nb = masses.size
     k = Dm.shape[1]
-    matrix, rhs = np.zeros((k, k)), np.zeros(k)
-    force, MD = np.empty(6), np.empty((6, k))
+    work = np.zeros(k * k + k + 6 + 6 * k)  # one allocation: the matrix, the right side, f and B D of one body
+    matrix, rhs = work[: k * k].reshape((k, k)), work[k * k : k * k + k]
+    force, MD = work[k * k + k : k * k + k + 6], work[k * k + k + 6 :].reshape((6, k))
     for b in range(nb):
         m, J, o = masses[b], inertias[b], 7 * b
         e0, e1, e2, e3 = q[o + 3], q[o + 4], q[o + 5], q[o + 6]

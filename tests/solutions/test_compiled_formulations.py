@@ -24,13 +24,35 @@ TREES = {  # planar revolute; spatial spherical (two: one structure); spatial re
     "revolute_revolute_skew": "course/models/revolute_revolute_skew.yaml",
     "carriage_pendulum": "course/models/carriage_pendulum.yaml",
 }
+PLANAR_CARRIAGE = {  # a planar open tree with a prismatic joint, both joints given child first, a damped spring
+    "model": {
+        "name": "planar-carriage-pendulum",
+        "dimension": 2,
+        "gravity": [0.0, -9.81],
+        "bodies": [
+            {"name": "carriage", "mass": 2.0, "inertia": 0.02, "location": [0.1, 0.0], "orientation": 0.3,
+             "velocity": [0.5, 0.0]},
+            {"name": "pendulum", "mass": 0.5, "inertia": 0.01, "location": [0.35, -0.1], "orientation": 0.2},
+        ],
+        "joints": [
+            {"name": "rail", "type": "prismatic", "body1": "carriage", "body2": "ground", "location": [0.1, 0.0],
+             "axis": [1.0, 0.2]},
+            {"name": "pivot", "type": "revolute", "body1": "pendulum", "body2": "carriage", "location": [0.1, 0.0]},
+        ],
+        "spring_dampers": [
+            {"name": "spring", "type": "TSDA", "body1": "ground", "body2": "carriage", "point1": [-0.5, 0.0],
+             "point2": [0.0, 0.0], "spring_coefficient": 50.0, "damping_coefficient": 0.3, "free_length": 0.5},
+        ],
+    }
+}  # fmt: skip
+TREES["planar_carriage_pendulum"] = PLANAR_CARRIAGE
 LOOPS = {  # a driven slider-crank (Psi_t); a four-bar with a damped, actuated spring (energy states)
     "slider_crank": "course/models/slider_crank.yaml",
     "four_bar_spring": "course/models/four_bar_spring.yaml",
 }
 
 
-def _both(path: str, formulation: str, integrator: str = "DOP853", t_end: float = 0.5, **kwargs):
+def _both(path, formulation: str, integrator: str = "DOP853", t_end: float = 0.5, **kwargs):
     system, q0, qd0 = build_system(load_model(path))
     kwargs = dict(formulation=formulation, integrator=integrator, rtol=1e-10, atol=1e-12, **kwargs)
     numpy_run = forward_dynamics(system, q0, qd0, t_end, 50, engine="numpy", **kwargs)
