@@ -20,7 +20,10 @@ from numba import njit
 
 from .kernels import lu_solve
 
-jit = njit(cache=True, fastmath=False, nogil=True)
+jit = njit(cache=False, fastmath=False, nogil=True)
+"""Not cached here: these functions are compiled into the generated modules that call them, which are cached
+under names that hash this file (numba's cache does not follow a cached function's callees into other files:
+a cached kernel here could keep an old copy of a function it calls from another file)."""
 
 
 @jit

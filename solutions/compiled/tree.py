@@ -79,8 +79,9 @@ def describe(scene: Scene, formulation) -> TreeScene:
     return tree
 
 
-def _accelerations(scene: Scene, rates: str) -> list[str]:
-    """The lines that make q, q', xi, D, omega', Q and the powers, and theta'' (``thdd``), at the joint state y."""
+def _accelerations(scene: Scene, rates: str, coordinates: bool) -> list[str]:
+    """The lines that make (``coordinates``: q and q'), xi, D, omega', Q and the powers, and theta'' (``thdd``),
+    at the joint state y; the arrays cut from one allocation."""
     spatial = scene.dimension == 3
     per = 6 if spatial else 3
     slot = SLOTS.index("tree")
@@ -89,14 +90,17 @@ def _accelerations(scene: Scene, rates: str) -> list[str]:
         "    Q0, mass, masses, inertias, weights, fk, fp, numbers, dims = P",
         "    n, m, npos, k = dims[0], dims[1], dims[3], dims[4]",
         f"    nb = n // {7 if spatial else 3}",
-        f"    xi, Dm = np.empty({per} * nb), np.empty(({per} * nb, k))",
-        "    Q, power = Q0.copy(), np.zeros(3)",
+        f"    a, b = {per} * nb, {per} * nb * (k + 1)  # xi, D",
+        f"    work = np.empty(b + 3 * nb + n + 3{' + 2 * n' if coordinates else ''})",
+        "    xi, Dm, omega = work[:a], work[a:b].reshape((a, k)), work[b : b + 3 * nb].reshape((nb, 3))",
+        "    Q, power = work[b + 3 * nb : b + 3 * nb + n], work[b + 3 * nb + n : b + 3 * nb + n + 3]",
+        "    Q[:] = Q0",
+        "    power[:] = 0.0",
     ]
+    if coordinates:
+        lines.append("    q, qd = work[b + 3 * nb + n + 3 : b + 3 * nb + 2 * n + 3], work[b + 3 * nb + 2 * n + 3 :]")
     if spatial:
-        lines += [
-            "    omega = np.empty((nb, 3))",
-            f"    spatial_motion(y[:npos], y[npos : npos + k], {data}, nb, k, q, qd, xi, Dm, omega, {rates})",
-        ]
+        lines.append(f"    spatial_motion(y[:npos], y[npos : npos + k], {data}, nb, k, q, qd, xi, Dm, omega, {rates})")
     else:
         lines.append(f"    planar_motion(y[:npos], y[npos : npos + k], {data}, nb, k, q, qd, xi, Dm)")
     for name, _, _ in scene.force_kernels:
@@ -135,9 +139,7 @@ def generate(tree: TreeScene) -> str:
         "@njit(RHS_SIGNATURE, cache=True, nogil=True)",
         "def scene_rhs(t, y, P, D, out):",
         '    """y\' = (the rates of the joint positions, theta\'\'[, P_dissipated, P_applied, 0])."""',
-        "    n = P[8][0]",
-        "    q, qd = np.empty(n), np.empty(n)",
-        *_accelerations(scene, "out[:npos]"),
+        *_accelerations(scene, "out[:npos]", True),
         *([] if spatial else ["    out[:npos] = y[npos : npos + k]  # planar: the rates are theta'"]),
         "    out[npos : npos + k] = thdd",
     ]
@@ -149,7 +151,7 @@ def generate(tree: TreeScene) -> str:
         "@njit(BODY_STATE_SIGNATURE, cache=True, nogil=True)",
         "def body_state(t, y, P, D, q, qd, qdd, lam):",
         '    """q, q\', q\'\' and lambda (Psi_q^T lambda = Q - M q\'\', normal equations) at the joint state y."""',
-        *_accelerations(scene, "np.empty(npos)"),
+        *_accelerations(scene, "np.empty(npos)", False),
     ]
     if spatial:
         lines += [

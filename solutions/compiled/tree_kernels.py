@@ -29,7 +29,10 @@ from numba import njit
 
 from .projection_kernels import cholesky, cholesky_solve
 
-jit = njit(cache=True, fastmath=False, nogil=True)
+jit = njit(cache=False, fastmath=False, nogil=True)
+"""Not cached here: these functions are compiled into the generated modules that call them, which are cached
+under names that hash this file (numba's cache does not follow a cached function's callees into other files:
+a cached kernel here could keep an old copy of a function it calls from another file)."""
 
 REVOLUTE, PRISMATIC, SPHERICAL = 0, 1, 2
 S_PARENT, S_CHILD, AXIS, OFFSET, A, C, U0, U1, FRAME = 0, 3, 6, 9, 10, 14, 18, 22, 26
