@@ -66,9 +66,13 @@ def _row(joint) -> list[float]:
 def describe(scene: Scene, formulation) -> TreeScene:
     """The tree of a ``JointCoordinates`` formulation over the scene (``unsupported`` says why not compiled)."""
     joints = formulation.joints
-    ints = np.array(
-        [[KINDS[j.kind], j.parent, j.child, j.position, j.velocity] for j in joints], dtype=np.int64
-    ).reshape(-1, 5)
+    k = formulation.tree.k
+    rows = []
+    for j in joints:  # the columns of D that move the child: its parent's and the joint's own
+        moving = [*j.inherited, *range(j.velocity, j.velocity + j.n_velocities)]
+        rows.append([KINDS[j.kind], j.parent, j.child, j.position, j.velocity, len(moving), *moving])
+        rows[-1] += [-1] * (6 + k - len(rows[-1]))
+    ints = np.array(rows, dtype=np.int64).reshape(-1, 6 + k)
     floats = np.array([_row(j) for j in joints], dtype=float).reshape(-1, 35)
     tree = TreeScene(scene, ints, floats, formulation.tree.n_positions, formulation.tree.k)
     if formulation.cut is not None:
@@ -107,9 +111,9 @@ def _accelerations(scene: Scene, rates: str, coordinates: bool) -> list[str]:
         s = SLOTS.index(name)
         lines.append("    " + FORCE_CALL.format(name=name, ints=f"D[0][{s}]", floats=f"D[1][{s}]"))
     if spatial:
-        lines.append("    thdd = spatial_accelerations(masses, inertias, q, Dm, xi, omega, Q)")
+        lines.append(f"    thdd = spatial_accelerations(masses, inertias, q, Dm, xi, omega, Q, D[0][{slot}])")
     else:
-        lines.append("    thdd = planar_accelerations(mass, Dm, xi, Q)")
+        lines.append(f"    thdd = planar_accelerations(mass, Dm, xi, Q, D[0][{slot}])")
     return lines
 
 

@@ -4,8 +4,9 @@ The formulas of ``joint_coordinates.py`` (``PlanarTree.motion``, ``SpatialTree.m
 ``JointCoordinates.embedded_equations``, ``spatial_forces``, ``coordinate_accelerations``), written out for
 numba over the tree's joint data (``tree.py``: one row per joint in topological order):
 
-- ints (kind, parent, child, position, velocity): kind 0 revolute, 1 prismatic, 2 spherical; parent -1 is
-  ground; where the joint's coordinates start in the positions and in the velocities of the state;
+- ints (kind, parent, child, position, velocity, count, the columns of D that move the child ...): kind 0
+  revolute, 1 prismatic, 2 spherical; parent -1 is ground; where the joint's coordinates start in the
+  positions and in the velocities of the state; the child's columns (its parent's and the joint's own);
 - floats (s_P' (3), s_C' (3), axis h (3), planar offset, a (4), c (4), u0 (4), u1 (4), the child's joint frame
   f, g, h (9)): the constant data of ``TreeJoint``.
 
@@ -14,8 +15,9 @@ body coordinates; spatial: v and the body-frame omega'), D = dq/dtheta and xi (t
 theta'' = 0). Then (D^T M D) theta'' = D^T (Q - M xi), solved by Cholesky (eq. 5.44 with Z = D); a matrix
 that is not positive definite gives NaN, which the adaptive integrators reject.
 
-Every column of D is carried through every body (zero where a joint does not move a body): the same
-numbers as the numpy code's inherited columns, without the bookkeeping.
+The recursion carries every column of D through every body (zero where a joint does not move a body: the
+same numbers as the numpy code's inherited columns); D^T M D and D^T f sum over the columns that move each
+body only.
 
 This module imports numba: it is imported only when the compiled engine runs (``solutions.compiled``).
 """
@@ -90,17 +92,22 @@ def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm):
 
 
 @jit
-def planar_accelerations(mass, Dm, xi, Q):
+def planar_accelerations(mass, Dm, xi, Q, ints):
     """theta'' from (D^T M D) theta'' = D^T (Q - M xi), M = diag(mass)."""
-    n, k = Dm.shape
+    k = Dm.shape[1]
     matrix, rhs = np.zeros((k, k)), np.zeros(k)
-    for r in range(n):
-        force = Q[r] - mass[r] * xi[r]
-        for i in range(k):
-            weighted = Dm[r, i] * mass[r]
-            rhs[i] += Dm[r, i] * force
-            for j in range(i + 1):
-                matrix[i, j] += weighted * Dm[r, j]
+    for e in range(ints.shape[0]):
+        b, count = ints[e, 2], ints[e, 5]
+        for r in range(3 * b, 3 * b + 3):
+            force = Q[r] - mass[r] * xi[r]
+            for a in range(count):
+                i = ints[e, 6 + a]
+                weighted = Dm[r, i] * mass[r]
+                rhs[i] += Dm[r, i] * force
+                for c in range(count):
+                    j = ints[e, 6 + c]
+                    if j <= i:
+                        matrix[i, j] += weighted * Dm[r, j]
     return _solve(matrix, rhs)
 
 
@@ -303,15 +310,15 @@ def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates
 
 
 @jit
-def spatial_accelerations(masses, inertias, q, Dm, xi, omega, Q):
+def spatial_accelerations(masses, inertias, q, Dm, xi, omega, Q, ints):
     """theta'' from (D^T diag(m I, J') D) theta'' = D^T f, f per body (F - m a, n' - J' omega'' - omega' x J'
     omega') with F = Q_r, n' = 1/2 L(p) Q_p (``JointCoordinates.spatial_forces``); Q without Q_v."""
-    nb = masses.size
     k = Dm.shape[1]
     work = np.zeros(k * k + k + 6 + 6 * k)  # one allocation: the matrix, the right side, f and B D of one body
     matrix, rhs = work[: k * k].reshape((k, k)), work[k * k : k * k + k]
     force, MD = work[k * k + k : k * k + k + 6], work[k * k + k + 6 :].reshape((6, k))
-    for b in range(nb):
+    for e in range(ints.shape[0]):
+        b, count = ints[e, 2], ints[e, 5]
         m, J, o = masses[b], inertias[b], 7 * b
         e0, e1, e2, e3 = q[o + 3], q[o + 4], q[o + 5], q[o + 6]
         n0, n1, n2 = _half_l(e0, e1, e2, e3, Q[o + 3], Q[o + 4], Q[o + 5], Q[o + 6])
@@ -326,19 +333,23 @@ def spatial_accelerations(masses, inertias, q, Dm, xi, omega, Q):
         force[3] = n0 - ((J[0, 0] * d0 + J[0, 1] * d1 + J[0, 2] * d2) + g0)
         force[4] = n1 - ((J[1, 0] * d0 + J[1, 1] * d1 + J[1, 2] * d2) + g1)
         force[5] = n2 - ((J[2, 0] * d0 + J[2, 1] * d1 + J[2, 2] * d2) + g2)
-        for col in range(k):
+        for a in range(count):
+            col = ints[e, 6 + a]
             for r in range(3):
                 MD[r, col] = m * Dm[6 * b + r, col]
                 row = 6 * b + 3
                 MD[3 + r, col] = J[r, 0] * Dm[row, col] + J[r, 1] * Dm[row + 1, col] + J[r, 2] * Dm[row + 2, col]
-        for i in range(k):
+        for a in range(count):
+            i = ints[e, 6 + a]
             for r in range(6):
                 rhs[i] += Dm[6 * b + r, i] * force[r]
-            for j in range(i + 1):
-                s = 0.0
-                for r in range(6):
-                    s += Dm[6 * b + r, i] * MD[r, j]
-                matrix[i, j] += s
+            for c in range(count):
+                j = ints[e, 6 + c]
+                if j <= i:
+                    s = 0.0
+                    for r in range(6):
+                        s += Dm[6 * b + r, i] * MD[r, j]
+                    matrix[i, j] += s
     return _solve(matrix, rhs)
 
 
