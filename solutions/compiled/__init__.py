@@ -16,12 +16,13 @@ engine generated from the same model, for speed. ``dynamics.forward_dynamics(...
   (with an actuator given as a function of time), point forces and torques; constant, polynomial,
   harmonic and smooth-ramp functions of time.
 
-Anything else (other formulations, closed loops in joint coordinates, implicit or multistep integrators,
-gears, cams, spatial drivers,
+Anything else (other formulations, implicit or multistep integrators, gears, cams, spatial drivers,
 user forces, Fourier functions, actuators of length or speed, masses given by the caller) runs on the
 numpy engine, and ``info['chosen']`` says why. ``scene.py`` reads what a scene has, ``codegen.py`` writes and
-caches its module, ``kernels.py`` holds the compiled element formulas; ``projection.py`` and ``tree.py``
-write the modules of the other two formulations (their kernels: ``projection_kernels.py``, ``tree_kernels.py``).
+caches its module, ``kernels.py`` holds the compiled element formulas.
+
+``projection.py`` and ``tree.py`` write the modules of the projection and joint-coordinates formulations
+(their kernels: ``projection_kernels.py``, ``tree_kernels.py``); ``plan`` says which a run takes.
 
 numba is imported only here, when a run is compiled: importing ``solutions`` (and the student package
 generated from it) never imports it.
