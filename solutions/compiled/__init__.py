@@ -6,8 +6,8 @@ engine generated from the same model, for speed. ``dynamics.forward_dynamics(...
 
 - formulations ``baumgarte`` (eq. 5.29, 5.30; any alpha, beta >= 0), ``projection`` (eq. 5.30 unstabilized,
   then the mass-orthogonal projection of eq. 5.50 after every step: ``projection.py``) and
-  ``joint-coordinates`` of open trees (eq. 5.44 with Z = D by recursive kinematics; revolute, prismatic and
-  spherical joints; no cut joints or drivers: ``tree.py``), planar and spatial;
+  ``joint-coordinates`` (eq. 5.44 with Z = D by recursive kinematics; revolute, prismatic and spherical
+  joints; loops and drivers as cut constraints: ``tree.py``), planar and spatial;
 - integrators ``DOP853`` and ``RK45`` (step by step as scipy's), ``dop853`` and ``rk45`` (as this package's
   own loop), ``rk4`` (fixed step); the loops are compiled with the right-hand side (``loops.py``);
 - planar revolute, prismatic (pin in slot + angle), translation and rotation drivers, rack and pinion,
@@ -131,6 +131,7 @@ def parameters(scene: Scene | TreeScene, numbers: tuple = (0.0, 0.0, 0.0, 0.0)) 
     scene = scene.scene if tree is not None else scene
     extra = 3 if scene.energies else 0
     positions, velocities = (tree.n_positions, tree.k) if tree is not None else (scene.n, scene.n)
+    cut = list(tree.cut_rows) if tree is not None else []
     empty1, empty3 = np.zeros(1), np.zeros((1, 3, 3))
     mass = scene.mass_diagonal if scene.mass_diagonal is not None else empty1
     return (
@@ -142,7 +143,7 @@ def parameters(scene: Scene | TreeScene, numbers: tuple = (0.0, 0.0, 0.0, 0.0)) 
         scene.function_kinds,
         scene.function_params,
         np.array(numbers, dtype=float),
-        np.array([scene.n, scene.m, extra, positions, velocities], dtype=np.int64),
+        np.array([scene.n, scene.m, extra, positions, velocities, *cut], dtype=np.int64),
     )
 
 

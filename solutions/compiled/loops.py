@@ -44,7 +44,7 @@ P_TYPE = types.Tuple(
 )
 """P = (Q0, planar mass diagonal, spatial masses, inertias, weights, function kinds, function parameters,
 the formulation's numbers (alpha, beta, projection tolerance, projection iterations), (n, m, extra states,
-joint positions, joint velocities))."""
+joint positions, joint velocities, the cut rows of joint coordinates ...))."""
 D_TYPE = types.Tuple((types.UniTuple(_imatrix, len(SLOTS)), types.UniTuple(_matrix, len(SLOTS))))
 RHS_SIGNATURE = types.void(types.float64, _vector, P_TYPE, D_TYPE, _vector)
 """scene_rhs(t, z, P, D, out)."""

@@ -2,14 +2,18 @@
 
 ``joint_coordinates.JointCoordinates`` integrates the joint state y = (joint positions, joint velocities) of a
 spanning tree with (D^T M D) theta'' = D^T (Q - M xi) (eq. 5.44 with Z = D), q, q', D and xi made by
-recursive kinematics from ground. The compiled engine takes open trees (no cut joint, no driver: nothing to
-stabilize), planar (revolute, prismatic) and spatial (revolute, prismatic, spherical), with the forces the
-kernels cover (``scene.py``). ``describe(scene, formulation)`` reads the tree the numpy formulation built
-(``TreeJoint``, after its ``initial_state``, which fixes the sign of a prismatic joint's Euler parameters) into
-the arrays of ``tree_kernels.py``; ``generate`` writes the module:
+recursive kinematics from ground, planar (revolute, prismatic) and spatial (revolute, prismatic, spherical);
+closed loops and drivers are cut constraints, whose rows join as an augmented system stabilized on the cut
+rows (eq. 5.29, 5.30 in joint coordinates). The compiled engine takes what the numpy formulation takes with the
+forces and constraints the kernels cover (``scene.py``). ``describe(scene, formulation)`` reads the tree the
+numpy formulation built (``TreeJoint``, after its ``initial_state``, which fixes the sign of a prismatic
+joint's Euler parameters) into the arrays of ``tree_kernels.py``, and the cut rows among the scene's rows;
+``generate`` writes the module:
 
 - ``scene_rhs(t, z, P, D, out)``: y' = (the rates of the joint positions, theta''[, P_dissipated, P_applied,
-  0]) (``loops.RHS_SIGNATURE``: the integrator loops take it as they take the Baumgarte one);
+  P_drivers]) (``loops.RHS_SIGNATURE``: the integrator loops take it as they take the Baumgarte one); with cut
+  rows it evaluates every constraint kernel and keeps the cut rows (P[8][5:]); with drivers and the energy
+  balance, lambda too (the drivers' power, eq. 5.61, as ``dynamics.EquationsOfMotion``);
 - ``body_state(t, y, P, D, q, q', q'', lambda)``: the body coordinates at a joint state and lambda of the model's
   constraint rows from Psi_q^T lambda = Q - M q'' (normal equations; ``JointCoordinates.accelerations``),
   for the results and reactions (``loops.body_outputs``).
@@ -23,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..joint_coordinates import cut_elements, tree_order
 from .codegen import CONSTRAINT_CALLS, FORCE_CALL, generated_name, is_generated_cached, load_generated
 from .scene import SLOTS, Scene
 
@@ -39,11 +44,12 @@ class TreeScene:
     floats: np.ndarray
     n_positions: int
     k: int
+    cut_rows: np.ndarray
     unsupported: str | None = None
 
     @property
     def key(self) -> str:
-        return "tree|" + self.scene.key
+        return f"tree|cut{int(bool(self.cut_rows.size))}|" + self.scene.key
 
     def data(self) -> tuple:
         """D of the scene with the tree's joints in their slot."""
@@ -74,18 +80,48 @@ def describe(scene: Scene, formulation) -> TreeScene:
         rows[-1] += [-1] * (6 + k - len(rows[-1]))
     ints = np.array(rows, dtype=np.int64).reshape(-1, 6 + k)
     floats = np.array([_row(j) for j in joints], dtype=float).reshape(-1, 35)
-    tree = TreeScene(scene, ints, floats, formulation.tree.n_positions, formulation.tree.k)
-    if formulation.cut is not None:
-        cut = ", ".join(dict.fromkeys(formulation.cut.row_owners))
-        tree.unsupported = f"closed loops or drivers in joint coordinates (cut at {cut})"
-    elif not joints:
+    system = formulation.system
+    cut = {id(element) for element in cut_elements(system, tree_order(system)[0])} if formulation.cut else set()
+    rows = [
+        row
+        for element, where in zip(system.elements, system.rows, strict=True)
+        if id(element) in cut
+        for row in range(where.start, where.stop)
+    ]
+    tree = TreeScene(scene, ints, floats, formulation.tree.n_positions, k, np.array(rows, dtype=np.int64))
+    if not joints:
         tree.unsupported = "a tree without joints"
     return tree
 
 
-def _accelerations(scene: Scene, rates: str, coordinates: bool) -> list[str]:
+def _constraints(scene: Scene) -> list[str]:
+    """The lines that evaluate Psi, Psi_q, Psi_t and gamma of every constraint row at q, q'."""
+    lines = ["    psi, psit, gam = np.zeros(m), np.zeros(m), np.zeros(m)", "    jac = np.zeros((m, n))"]
+    for name, _, _ in scene.constraint_kernels:
+        s = SLOTS.index(name)
+        lines.append("    " + CONSTRAINT_CALLS[name].format(name=name, ints=f"D[0][{s}]", floats=f"D[1][{s}]"))
+    return lines
+
+
+def _multipliers(scene: Scene) -> list[str]:
+    """The lines that make q'' (``qdd``) from theta'' and lambda of every row from Psi_q^T lambda = Q - M q''."""
+    if scene.dimension == 3:
+        lines = [
+            "    spatial_coordinate_accelerations(q, qd, Dm, xi, omega, thdd, qdd)",
+            "    M = np.zeros((n, n))",
+            "    spatial_mass(q, qd, masses, inertias, weights, M, Q)  # M(q) and Q += Q_v (eq. 10.4, 10.5)",
+            "    residual = Q - M @ qdd",
+        ]
+    else:
+        lines = ["    qdd[:] = Dm @ thdd + xi", "    residual = Q - mass * qdd"]
+    return [*lines, "    lam[:] = lu_solve(jac @ jac.T, jac @ residual)"]
+
+
+def _accelerations(tree: TreeScene, rates: str, coordinates: bool) -> list[str]:
     """The lines that make (``coordinates``: q and q'), xi, D, omega', Q and the powers, and theta'' (``thdd``),
-    at the joint state y; the arrays cut from one allocation."""
+    at the joint state y; the arrays cut from one allocation. With cut rows, Psi, Psi_q, Psi_t and gamma of
+    every row too (``cut_accelerations`` takes the cut rows, P[8][5:])."""
+    scene = tree.scene
     spatial = scene.dimension == 3
     per = 6 if spatial else 3
     slot = SLOTS.index("tree")
@@ -110,10 +146,23 @@ def _accelerations(scene: Scene, rates: str, coordinates: bool) -> list[str]:
     for name, _, _ in scene.force_kernels:
         s = SLOTS.index(name)
         lines.append("    " + FORCE_CALL.format(name=name, ints=f"D[0][{s}]", floats=f"D[1][{s}]"))
+    equations = "spatial" if spatial else "planar"
+    arguments = "masses, inertias, q, Dm, xi, omega, Q" if spatial else "mass, Dm, xi, Q"
+    if not tree.cut_rows.size:
+        return [*lines, f"    thdd = {equations}_accelerations({arguments}, D[0][{slot}])"]
+    lines += _constraints(scene)
+    lines.append(f"    matrix, rhs = {equations}_equations({arguments}, D[0][{slot}])")
     if spatial:
-        lines.append(f"    thdd = spatial_accelerations(masses, inertias, q, Dm, xi, omega, Q, D[0][{slot}])")
+        lines += [
+            "    Dq, xiq = np.empty((n, k)), np.empty(n)",
+            "    spatial_joint_matrix(q, Dm, Dq)",
+            "    spatial_coordinate_accelerations(q, qd, Dm, xi, omega, np.zeros(k), xiq)",
+        ]
     else:
-        lines.append(f"    thdd = planar_accelerations(mass, Dm, xi, Q, D[0][{slot}])")
+        lines.append("    Dq, xiq = Dm, xi")
+    lines.append(
+        "    thdd = cut_accelerations(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, dims[5:], numbers[0], numbers[1])"
+    )
     return lines
 
 
@@ -123,13 +172,15 @@ def generate(tree: TreeScene) -> str:
     arithmetic of a small tree)."""
     scene = tree.scene
     spatial = scene.dimension == 3
+    cut = bool(tree.cut_rows.size)
+    drivers = scene.drivers and scene.energies  # the drivers' power needs lambda at every evaluation
     forces = [name for name, _, _ in scene.force_kernels]
     constraints = [name for name, _, _ in scene.constraint_kernels]
     kernels = sorted({*forces, *constraints, "lu_solve"} | ({"spatial_mass"} if spatial else set()))
-    if spatial:
-        tree_imports = ["spatial_accelerations", "spatial_coordinate_accelerations", "spatial_motion"]
-    else:
-        tree_imports = ["planar_accelerations", "planar_motion"]
+    dimension = "spatial" if spatial else "planar"
+    tree_imports = {f"{dimension}_motion", f"{dimension}_equations" if cut else f"{dimension}_accelerations"}
+    tree_imports |= {"spatial_coordinate_accelerations"} if spatial else set()
+    tree_imports |= ({"cut_accelerations"} | ({"spatial_joint_matrix"} if spatial else set())) if cut else set()
     lines = [
         f'"""Generated by solutions.compiled.tree for the structure {tree.key!r}: do not edit."""',
         "import numpy as np",
@@ -137,43 +188,31 @@ def generate(tree: TreeScene) -> str:
         "",
         f"from solutions.compiled.kernels import {', '.join(kernels)}",
         "from solutions.compiled.loops import BODY_STATE_SIGNATURE, RHS_SIGNATURE",
-        f"from solutions.compiled.tree_kernels import {', '.join(tree_imports)}",
+        f"from solutions.compiled.tree_kernels import {', '.join(sorted(tree_imports))}",
         "",
         "",
         "@njit(RHS_SIGNATURE, cache=True, nogil=True)",
         "def scene_rhs(t, y, P, D, out):",
-        '    """y\' = (the rates of the joint positions, theta\'\'[, P_dissipated, P_applied, 0])."""',
-        *_accelerations(scene, "out[:npos]", True),
+        '    """y\' = (the rates of the joint positions, theta\'\'[, P_dissipated, P_applied, P_drivers])."""',
+        *_accelerations(tree, "out[:npos]", True),
         *([] if spatial else ["    out[:npos] = y[npos : npos + k]  # planar: the rates are theta'"]),
         "    out[npos : npos + k] = thdd",
     ]
+    if drivers:
+        lines += ["    qdd, lam = np.empty(n), np.empty(m)", *_multipliers(scene)]
+        lines.append("    power[2] = lam @ psit  # the drivers' power (eq. 5.61)")
     if scene.energies:
-        lines.append("    out[npos + k], out[npos + k + 1], out[npos + k + 2] = power[0], power[1], 0.0")
+        lines.append("    out[npos + k], out[npos + k + 1], out[npos + k + 2] = power[0], power[1], power[2]")
     lines += [
         "",
         "",
         "@njit(BODY_STATE_SIGNATURE, cache=True, nogil=True)",
         "def body_state(t, y, P, D, q, qd, qdd, lam):",
         '    """q, q\', q\'\' and lambda (Psi_q^T lambda = Q - M q\'\', normal equations) at the joint state y."""',
-        *_accelerations(scene, "np.empty(npos)", False),
+        *_accelerations(tree, "np.empty(npos)", False),
+        *([] if cut else _constraints(scene)),
+        *_multipliers(scene),
     ]
-    if spatial:
-        lines += [
-            "    spatial_coordinate_accelerations(q, qd, Dm, xi, omega, thdd, qdd)",
-            "    M = np.zeros((n, n))",
-            "    spatial_mass(q, qd, masses, inertias, weights, M, Q)  # M(q) and Q += Q_v (eq. 10.4, 10.5)",
-            "    residual = Q - M @ qdd",
-        ]
-    else:
-        lines += ["    qdd[:] = Dm @ thdd + xi", "    residual = Q - mass * qdd"]
-    lines += [
-        "    psi, psit, gam = np.zeros(m), np.zeros(m), np.zeros(m)",
-        "    jac = np.zeros((m, n))",
-    ]
-    for name in constraints:
-        s = SLOTS.index(name)
-        lines.append("    " + CONSTRAINT_CALLS[name].format(name=name, ints=f"D[0][{s}]", floats=f"D[1][{s}]"))
-    lines.append("    lam[:] = lu_solve(jac @ jac.T, jac @ residual)")
     return "\n".join(lines) + "\n"
 
 

@@ -29,6 +29,7 @@ import math
 import numpy as np
 from numba import njit
 
+from .kernels import lu_solve
 from .projection_kernels import cholesky, cholesky_solve
 
 jit = njit(cache=False, fastmath=False, nogil=True)
@@ -94,6 +95,13 @@ def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm):
 @jit
 def planar_accelerations(mass, Dm, xi, Q, ints):
     """theta'' from (D^T M D) theta'' = D^T (Q - M xi), M = diag(mass)."""
+    matrix, rhs = planar_equations(mass, Dm, xi, Q, ints)
+    return _solve(matrix, rhs)
+
+
+@jit
+def planar_equations(mass, Dm, xi, Q, ints):
+    """(D^T M D (its lower triangle), D^T (Q - M xi)), M = diag(mass)."""
     k = Dm.shape[1]
     matrix, rhs = np.zeros((k, k)), np.zeros(k)
     for e in range(ints.shape[0]):
@@ -108,7 +116,7 @@ def planar_accelerations(mass, Dm, xi, Q, ints):
                     j = ints[e, 6 + c]
                     if j <= i:
                         matrix[i, j] += weighted * Dm[r, j]
-    return _solve(matrix, rhs)
+    return matrix, rhs
 
 
 @jit
@@ -313,6 +321,13 @@ def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates
 def spatial_accelerations(masses, inertias, q, Dm, xi, omega, Q, ints):
     """theta'' from (D^T diag(m I, J') D) theta'' = D^T f, f per body (F - m a, n' - J' omega'' - omega' x J'
     omega') with F = Q_r, n' = 1/2 L(p) Q_p (``JointCoordinates.spatial_forces``); Q without Q_v."""
+    matrix, rhs = spatial_equations(masses, inertias, q, Dm, xi, omega, Q, ints)
+    return _solve(matrix, rhs)
+
+
+@jit
+def spatial_equations(masses, inertias, q, Dm, xi, omega, Q, ints):
+    """(D^T diag(m I, J') D (its lower triangle), D^T f) of ``spatial_accelerations``."""
     k = Dm.shape[1]
     work = np.zeros(k * k + k + 6 + 6 * k)  # one allocation: the matrix, the right side, f and B D of one body
     matrix, rhs = work[: k * k].reshape((k, k)), work[k * k : k * k + k]
@@ -350,7 +365,7 @@ def spatial_accelerations(masses, inertias, q, Dm, xi, omega, Q, ints):
                     for r in range(6):
                         s += Dm[6 * b + r, i] * MD[r, j]
                     matrix[i, j] += s
-    return _solve(matrix, rhs)
+    return matrix, rhs
 
 
 @jit
@@ -367,10 +382,61 @@ def spatial_coordinate_accelerations(q, qd, Dm, xi, omega, thdd, qdd):
             qdd[o + 3 + r] = x[r] + y[r]
 
 
+@jit
+def spatial_joint_matrix(q, Dm, out):
+    """dq/dtheta (7 nb x k): the v rows of D for r, 1/2 L(p)^T times its omega' rows for p (eq. 8.17)."""
+    for b in range(q.size // 7):
+        o = 7 * b
+        for col in range(Dm.shape[1]):
+            for r in range(3):
+                out[o + r, col] = Dm[6 * b + r, col]
+            x = _half_l_transpose(
+                q[o + 3], q[o + 4], q[o + 5], q[o + 6], Dm[6 * b + 3, col], Dm[6 * b + 4, col], Dm[6 * b + 5, col]
+            )
+            for r in range(4):
+                out[o + 3 + r, col] = x[r]
+
+
+@jit
+def cut_accelerations(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, alpha, beta):
+    """theta'' of a tree with cut constraints (the rows ``rows`` of Psi, Psi_q, Psi_t, gamma): the augmented
+    system ``JointCoordinates.joint_accelerations`` solves, LU with partial pivoting,
+
+        [ D^T M D    Psi_theta^T ] [ theta'' ]   [ D^T (Q - M xi)                                   ]
+        [ Psi_theta  0           ] [ mu      ] = [ gamma_c - Psi_c,q xi - 2 alpha Psi_c' - beta^2 Psi_c ]
+
+    with Psi_theta = Psi_c,q D (Dq: dq/dtheta, xiq: q'' at theta'' = 0); ``matrix`` holds its lower triangle."""
+    k, mc = rhs.size, rows.size
+    K = np.zeros((k + mc, k + mc))
+    b = np.empty(k + mc)
+    for i in range(k):
+        b[i] = rhs[i]
+        for j in range(i + 1):
+            K[i, j] = K[j, i] = matrix[i, j]
+    n = qd.size
+    for a in range(mc):
+        r = rows[a]
+        psi_dot, convective = psit[r], 0.0
+        for c in range(n):
+            psi_dot += jac[r, c] * qd[c]
+            convective += jac[r, c] * xiq[c]
+        b[k + a] = gam[r] - 2.0 * alpha * psi_dot - beta * beta * psi[r] - convective
+        for col in range(k):
+            s = 0.0
+            for c in range(n):
+                s += jac[r, c] * Dq[c, col]
+            K[k + a, col] = K[col, k + a] = s
+    return lu_solve(K, b)[:k]
+
+
 __all__ = [
+    "cut_accelerations",
     "planar_accelerations",
+    "planar_equations",
     "planar_motion",
     "spatial_accelerations",
     "spatial_coordinate_accelerations",
+    "spatial_equations",
+    "spatial_joint_matrix",
     "spatial_motion",
 ]
