@@ -4,12 +4,15 @@ Joint coordinates (``solutions/compiled/tree.py``): open trees, planar and spati
 spherical joints, a spring; closed loops cut into trees, with a driver. Projection
 (``solutions/compiled/projection.py``): closed loops with a driver and with a spring-damper-actuator, through
 every compiled integrator loop. At rtol = 1e-10 the trajectories, q'', lambda, energies and reactions agree to
-1e-8 (issue 16). numba compiles each scene structure once (cached on disk): eleven structures here, about a
+1e-8 (issue 16). numba compiles each scene structure once (cached on disk): twelve structures here, about a
 minute and a half on a clean cache, a few seconds afterwards.
 """
 
+from pathlib import Path
+
 import numpy as np
 import pytest
+import yaml
 
 from solutions.assembly import build_system
 from solutions.diagnostics import AnalysisError
@@ -126,11 +129,20 @@ def test_joint_coordinates_keep_the_energy():
     assert run.info["max_constraint_residual"] < 1e-12  # joint coordinates: on the constraints by construction
 
 
-@pytest.mark.parametrize("scene", list(LOOPS))
+def _spatial_loop() -> dict:
+    """The spatial double pendulum with the free end of its second rod on a spherical joint to ground: a loop."""
+    data = yaml.safe_load(Path(TREES["spatial_double_pendulum"]).read_text())
+    joint = {"name": "B", "type": "spherical", "body1": "rod2", "body2": "ground", "location": [1.0, 1.0, 0.0]}
+    data["model"]["joints"].append(joint)
+    return data
+
+
+@pytest.mark.parametrize("scene", [*LOOPS, "spatial_loop"])
 def test_joint_coordinates_with_cut_joints_agree(scene):
     """Closed loops cut into a tree: the four-bar's cut revolute with a spring-damper-actuator, the slider-crank's
-    cut revolute and its driver (whose power needs lambda at every evaluation)."""
-    reference, compiled = _both(LOOPS[scene], "joint-coordinates")
+    cut revolute and its driver (whose power needs lambda at every evaluation), a spatial loop's cut spherical
+    joint (Psi_theta = Psi_c,q dq/dtheta with the Euler parameters' rows of dq/dtheta)."""
+    reference, compiled = _both(_spatial_loop() if scene == "spatial_loop" else LOOPS[scene], "joint-coordinates")
     _agree(reference, compiled)
     assert np.allclose(reference.points["energy.drivers"], compiled.points["energy.drivers"], rtol=1e-8, atol=1e-10)
 
