@@ -4,12 +4,14 @@
     .venv/bin/python benchmarks/rhs_cost.py --scene double_pendulum --formulation joint-coordinates
 
 For each scene of ``benchmarks/bench.py`` and each compiled formulation (baumgarte, projection,
-joint-coordinates where the scene is an open tree): the scene's generated ``scene_rhs`` is called at the
+joint-coordinates, loops cut into trees): the scene's generated ``scene_rhs`` is called at the
 initial state ``--calls`` times inside compiled code (``solutions.compiled.loops.repeat``: through the same
 first-class function the integrator loops call, so the figure is what one evaluation costs in a run), best of
 ``--repeats``; beside it, one numpy evaluation (``EquationsOfMotion.rhs``, best of as many calls as take
 about 0.2 s). A projection run evaluates the Baumgarte right-hand side with alpha = beta = 0 and adds one
-projection per step (not timed here). A scene or formulation the compiled engine does not take prints why.
+projection per step, timed as well from the initial state with its positions moved off the constraints by 1e-9
+(relative; a step's error): one Newton correction of the positions, the check, the correction of the velocities.
+A scene or formulation the compiled engine does not take prints why.
 The first run compiles each structure (seconds each; cached on disk afterwards: ``MBD_COMPILED_CACHE``).
 Prints a Markdown table; nothing is asserted (timing depends on the machine).
 """
@@ -62,8 +64,8 @@ SCENES = {  # the scenes of benchmarks/bench.py
 FORMULATIONS = ("baumgarte", "projection", "joint-coordinates")
 
 
-def cost(source, formulation: str, calls: int, repeats: int) -> tuple[str, str, str]:
-    """(compiled us per rhs, numpy us per rhs, note) of one scene and formulation."""
+def cost(source, formulation: str, calls: int, repeats: int) -> tuple[str, str, str, str]:
+    """(compiled us per rhs, numpy us per rhs, compiled us per projection, note) of one scene and formulation."""
     from solutions import compiled
     from solutions.compiled import loops
 
@@ -73,16 +75,16 @@ def cost(source, formulation: str, calls: int, repeats: int) -> tuple[str, str, 
     try:
         formulation_object = make_formulation(formulation, system, M, forces)
     except Exception as err:  # noqa: BLE001 -- e.g. joint coordinates of a scene that is no tree
-        return "-", "-", str(err).split(";")[0]
+        return "-", "-", "-", str(err).split(";")[0]
     equations = EquationsOfMotion(formulation_object, forces, bool(system.model.motors))
     z0 = equations.initial_state(q, qd, 0.0)
     job = compiled.plan(compiled.describe(system, M, forces), formulation, formulation_object)
     why_not = compiled.unsupported(job.scene, formulation, "DOP853", {})
     numpy_us = numpy_cost(equations, z0)
     if why_not is not None:
-        return "-", f"{numpy_us:.1f}", f"not compiled: {why_not}"
+        return "-", f"{numpy_us:.1f}", "-", f"not compiled: {why_not}"
     start = time.perf_counter()
-    module, _, cached = compiled.load(job)
+    module, project, cached = compiled.load(job)
     P, D = compiled.parameters(job.scene, job.numbers), job.scene.data()
     loops.repeat(module.scene_rhs, 0.0, z0, P, D, 10)
     load = time.perf_counter() - start
@@ -91,8 +93,19 @@ def cost(source, formulation: str, calls: int, repeats: int) -> tuple[str, str, 
         start = time.perf_counter()
         loops.repeat(module.scene_rhs, 0.0, z0, P, D, calls)
         best = min(best, (time.perf_counter() - start) / calls)
+    projection = "-"
+    if formulation == "projection":
+        n = system.n_coordinates
+        off = z0.copy()
+        off[:n] += 1e-9 * np.max(np.abs(z0[:n])) * np.random.default_rng(0).standard_normal(n)
+        step = np.inf
+        for _ in range(repeats):
+            start = time.perf_counter()
+            loops.repeat_projection(project, 0.0, off, P, D, calls // 10)
+            step = min(step, (time.perf_counter() - start) / (calls // 10))
+        projection = f"{step * 1e6:.2f}"
     note = "cached" if cached else f"compiled in {load:.1f} s"
-    return f"{best * 1e6:.2f}", f"{numpy_us:.1f}", note
+    return f"{best * 1e6:.2f}", f"{numpy_us:.1f}", projection, note
 
 
 def numpy_cost(equations, z0: np.ndarray) -> float:
@@ -114,12 +127,12 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--calls", type=int, default=200_000, help="evaluations per timing (default 200000)")
     parser.add_argument("--repeats", type=int, default=5, help="timings per figure, the best kept (default 5)")
     args = parser.parse_args(argv)
-    print("| scene | formulation | compiled us / rhs | numpy us / rhs | note |")
-    print("|---|---|---:|---:|---|")
+    print("| scene | formulation | compiled us / rhs | numpy us / rhs | compiled us / projection | note |")
+    print("|---|---|---:|---:|---:|---|")
     for scene in args.scene or SCENES:
         for formulation in args.formulation or FORMULATIONS:
-            compiled_us, numpy_us, note = cost(SCENES[scene], formulation, args.calls, args.repeats)
-            print(f"| {scene} | {formulation} | {compiled_us} | {numpy_us} | {note} |", flush=True)
+            compiled_us, numpy_us, projection_us, note = cost(SCENES[scene], formulation, args.calls, args.repeats)
+            print(f"| {scene} | {formulation} | {compiled_us} | {numpy_us} | {projection_us} | {note} |", flush=True)
 
 
 if __name__ == "__main__":

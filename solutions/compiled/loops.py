@@ -320,3 +320,14 @@ def repeat(scene_rhs, t, z, P, D, times):
         scene_rhs(t, z, P, D, out)
         total += out[-1]
     return total
+
+
+@jit(types.float64(_PROJECT, types.float64, _vector, P_TYPE, D_TYPE, types.int64))
+def repeat_projection(project, t, z, P, D, times):
+    """project from the state z ``times`` times (``benchmarks/rhs_cost.py`` times it)."""
+    y, info = np.empty(z.size), np.zeros(1)
+    total = 0.0
+    for _ in range(times):
+        y[:] = z
+        total += project(t, y, P, D, info)
+    return total
