@@ -52,6 +52,10 @@ class CompiledRun:
     h: float
     load_seconds: float
     cached: bool
+    psi: np.ndarray = None
+    """Psi, Psi_q, Psi_t at the output times (``history.constraint_arrays``), for the checks and the reactions."""
+    jac: np.ndarray = None
+    psit: np.ndarray = None
 
 
 def unsupported(scene: Scene, formulation: str, integrator: str, options: dict) -> str | None:
@@ -110,7 +114,7 @@ def run(
     beta: float,
 ) -> CompiledRun:
     """Integrate the scene from z0 over the output grid ``times`` with the compiled loop."""
-    from . import loops  # imports numba
+    from . import history, loops  # imports numba
     from .codegen import load
 
     start = time.perf_counter()
@@ -128,10 +132,12 @@ def run(
             module.scene_rhs, z0, times, float(rtol), float(atol), max_step, budget, dop, scipy_like, tableau(dop), P, D
         )
     qdd, lam = loops.outputs(module.accelerations, times, Y, P, D)
+    psi, jac, psit = history.constraint_arrays(module, scene, times, Y)
     load_seconds = time.perf_counter() - start
     return CompiledRun(
-        Y, qdd, lam, int(evaluations), int(steps), int(rejected), int(status), float(t), float(h), load_seconds, cached
-    )
+        Y, qdd, lam, int(evaluations), int(steps), int(rejected), int(status), float(t), float(h), load_seconds, cached,
+        psi, jac, psit,
+    )  # fmt: skip
 
 
 __all__ = ["COMPILED_FORMULATIONS", "COMPILED_INTEGRATORS", "CompiledRun", "Scene", "describe", "run", "unsupported"]

@@ -67,7 +67,7 @@ def generate(scene: Scene) -> str:
         "from numba import njit",
         "",
         f"from solutions.compiled.kernels import {', '.join(imports)}",
-        "from solutions.compiled.loops import ACCELERATIONS_SIGNATURE, RHS_SIGNATURE",
+        "from solutions.compiled.loops import ACCELERATIONS_SIGNATURE, CONSTRAINT_ARRAYS_SIGNATURE, RHS_SIGNATURE",
         "",
         "",
         "@njit(ACCELERATIONS_SIGNATURE, cache=True, nogil=True)",
@@ -110,6 +110,23 @@ def generate(scene: Scene) -> str:
     ]
     if scene.energies:
         lines += ["    out[2 * n], out[2 * n + 1], out[2 * n + 2] = power[0], power[1], power[2]"]
+    lines += [
+        "",
+        "",
+        "@njit(CONSTRAINT_ARRAYS_SIGNATURE, cache=True, nogil=True)",
+        "def constraint_arrays(T, Y, P, D, PSI, JAC, PSIT):",
+        '    """Psi, Psi_q and Psi_t at every output time T[k] from the states Y[k] (eq. 4.1-4.3), for the checks."""',
+        "    fk, fp = P[5], P[6]",
+        "    n, m = P[8][0], P[8][1]",
+        "    gam = np.zeros(m)",
+        "    for k in range(T.size):",
+        "        t, q, qd = T[k], Y[k, :n].copy(), Y[k, n : 2 * n].copy()",
+        "        psi, psit, jac = PSI[k], PSIT[k], JAC[k]",
+    ]
+    for name, _, _ in scene.constraint_kernels:
+        slot = SLOTS.index(name)
+        call = CONSTRAINT_CALLS[name].format(name=name, ints=f"D[0][{slot}]", floats=f"D[1][{slot}]")
+        lines.append("        " + call)
     return "\n".join(lines) + "\n"
 
 
