@@ -479,6 +479,8 @@ def forward_dynamics(
     }
     if chosen is not None:
         result.info["chosen"] = chosen
+    if compiled is not None:  # what the compiled engine's start cost: loading (or compiling) the scene's module
+        result.info["compiled"] = {"cached": compiled.cached, "load_seconds": compiled.load_seconds}
     if redundant:
         result.info["notes"] = [REDUNDANT_NOTE]
     result.info["warnings"] = drift_warnings(result.info, guard.size, formulation, options)
@@ -804,11 +806,17 @@ class Guard:
         tangents = np.swapaxes(vt[:, self.rank :], 1, 2)
         square = scaled.shape[1] == self.rank
         signs = np.sign(np.linalg.det(np.concatenate([scaled, vt[:, self.rank :]], axis=1))) if square else None
+        turns = np.linalg.det(np.swapaxes(tangents[:-1], 1, 2) @ tangents[1:])  # det(T_k-1^T T_k), k >= 1
         for k in range(t.size):
-            self._judge(q[k], float(t[k]), float(ratios[k]), tangents[k], self._sign if signs is None else signs[k])
+            sign = self._sign if signs is None else signs[k]
+            turn = None if k == 0 else turns[k - 1]
+            self._judge(q[k], float(t[k]), float(ratios[k]), tangents[k], sign, turn)
 
-    def _judge(self, q: np.ndarray, t: float, ratio: float, tangent: np.ndarray, sign: float) -> None:
-        """The verdict of ``check_configuration`` from sigma_r / sigma_1, the null-space basis and the sign of det."""
+    def _judge(
+        self, q: np.ndarray, t: float, ratio: float, tangent: np.ndarray, sign: float, turn: float | None = None
+    ) -> None:
+        """The verdict of ``check_configuration`` from sigma_r / sigma_1, the null-space basis T, the sign of
+        det [Psi_q; T^T] and, if known, the turn det(T_prev^T T) of the null space since the last check."""
         if self.closest is None or ratio < self.closest["ratio"]:
             self.closest = {"t": float(t), "ratio": ratio}
         passed = False
@@ -819,7 +827,7 @@ class Guard:
             # it says so only while the null space has turned little over the step (|det T^T T_new| near 1).
             # With C = T^T T_new, T^T = C T_new^T + Y Psi_q for some Y, so det [Psi_q; T^T] = det C det [Psi_q;
             # T_new^T]: the sign comes from C, already needed for the alignment, and this step's own sign.
-            turn = np.linalg.det(self._tangent.T @ tangent)
+            turn = np.linalg.det(self._tangent.T @ tangent) if turn is None else turn
             passed = abs(turn) > ALIGNED and turn * sign * self._sign < 0
         near = not ratio >= self.singular_ratio
         if self.through:  # record each singular position passed and go on

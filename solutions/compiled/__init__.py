@@ -51,6 +51,7 @@ class CompiledRun:
     t: float
     h: float
     load_seconds: float
+    """Importing numba and the loops and loading the scene's module: compiling it too when it was not cached."""
     cached: bool
     psi: np.ndarray = None
     """Psi, Psi_q, Psi_t at the output times (``history.constraint_arrays``), for the checks and the reactions."""
@@ -114,11 +115,12 @@ def run(
     beta: float,
 ) -> CompiledRun:
     """Integrate the scene from z0 over the output grid ``times`` with the compiled loop."""
+    start = time.perf_counter()
     from . import history, loops  # imports numba
     from .codegen import load
 
-    start = time.perf_counter()
     module, cached = load(scene)
+    load_seconds = time.perf_counter() - start  # importing numba and the loops, loading (or compiling) the module
     P, D = parameters(scene, alpha, beta), scene.data()
     z0 = np.ascontiguousarray(z0, dtype=float)
     times = np.ascontiguousarray(times, dtype=float)
@@ -133,7 +135,6 @@ def run(
         )
     qdd, lam = loops.outputs(module.accelerations, times, Y, P, D)
     psi, jac, psit = history.constraint_arrays(module, scene, times, Y)
-    load_seconds = time.perf_counter() - start
     return CompiledRun(
         Y, qdd, lam, int(evaluations), int(steps), int(rejected), int(status), float(t), float(h), load_seconds, cached,
         psi, jac, psit,

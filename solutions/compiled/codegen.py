@@ -25,6 +25,7 @@ not compile again.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib.util
 import os
@@ -130,14 +131,17 @@ def generate(scene: Scene) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _fingerprint(text: str) -> str:
+@functools.cache
+def _engine_fingerprint() -> bytes:
+    """The kernels, the loops and numba's version: what every generated module's machine code depends on."""
     from importlib.metadata import version
 
-    digest = hashlib.sha256(text.encode())
-    digest.update((HERE / "kernels.py").read_bytes())
-    digest.update((HERE / "loops.py").read_bytes())
-    digest.update(version("numba").encode())
-    return digest.hexdigest()[:20]
+    return (HERE / "kernels.py").read_bytes() + (HERE / "loops.py").read_bytes() + version("numba").encode()
+
+
+@functools.lru_cache(maxsize=256)
+def _fingerprint(text: str) -> str:
+    return hashlib.sha256(text.encode() + _engine_fingerprint()).hexdigest()[:20]
 
 
 def _module_name(scene: Scene) -> tuple[str, str]:
