@@ -578,7 +578,8 @@ def plan(scene: Scene, quick: bool) -> list[tuple[Config, tuple[float, ...]]]:
     if joint_coordinates_supports(build_system(scene.load())[0]) is None:  # a tree, or closed loops cut
         joint = Config("joint-coordinates dop853", "joint-coordinates", "dop853", family="formulation")
         entries.insert(1, (joint, main))
-    compiled = [(Config("compiled baumgarte dop853", "baumgarte", "dop853", family="compiled", engine="compiled"), main)]
+    baumgarte = Config("compiled baumgarte dop853", "baumgarte", "dop853", family="compiled", engine="compiled")
+    compiled = [(baumgarte, main)]
     if joint_coordinates_supports(build_system(scene.load())[0]) is None:
         joint = Config("compiled joint-coordinates dop853", "joint-coordinates", "dop853", family="compiled")
         joint.engine = "compiled"
