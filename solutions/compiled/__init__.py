@@ -134,7 +134,9 @@ def run(
             module.scene_rhs, z0, times, float(rtol), float(atol), max_step, budget, dop, scipy_like, tableau(dop), P, D
         )
     qdd, lam = loops.outputs(module.accelerations, times, Y, P, D)
-    psi, jac, psit = history.constraint_arrays(module, scene, times, Y)
+    psi = jac = psit = None
+    if status == 0:  # a run that stopped early raises (dispatch.run): no checks to make
+        psi, jac, psit = history.constraint_arrays(module, scene, times, Y)
     return CompiledRun(
         Y, qdd, lam, int(evaluations), int(steps), int(rejected), int(status), float(t), float(h), load_seconds, cached,
         psi, jac, psit,
