@@ -8,15 +8,18 @@ engine generated from the same model, for speed. ``dynamics.forward_dynamics(...
 - integrators ``DOP853`` and ``RK45`` (step by step as scipy's), ``dop853`` and ``rk45`` (as this package's
   own loop), ``rk4`` (fixed step); the loops are compiled with the right-hand side (``loops.py``);
 - planar revolute, prismatic (pin in slot + angle), translation and rotation drivers, rack and pinion,
-  distance, coordinate drivers; spatial joints made of the basic constraints (spherical, universal,
-  revolute, cylindrical, prismatic, rigid) and the Euler-parameter normalization; gravity, TSDA, RSDA
-  (with an actuator given as a function of time), point forces and torques; constant, polynomial,
-  harmonic and smooth-ramp functions of time.
+  distance, coordinate drivers, gear pairs (external and internal), cams with a roller or a flat-faced
+  follower; spatial joints made of the basic constraints (spherical, universal, revolute, cylindrical,
+  prismatic, rigid), the Euler-parameter normalization and the spatial drivers (rotation, translation,
+  distance, coordinate); gravity, TSDA, RSDA (with an actuator given as a function of time), point forces
+  and torques; constant, polynomial, harmonic, smooth-ramp and Fourier functions of time, and the
+  eccentric-circle and Fourier cam profiles. Every example model of ``course/models`` is covered.
 
-Anything else (other formulations, implicit or multistep integrators, gears, cams, spatial drivers,
-user forces, Fourier functions, actuators of length or speed, masses given by the caller) runs on the
-numpy engine, and ``info['chosen']`` says why. ``scene.py`` reads what a scene has, ``codegen.py`` writes and
-caches its module, ``kernels.py`` holds the compiled element formulas.
+Anything else runs on the numpy engine, and ``info['chosen']`` says why: other formulations, implicit or
+multistep integrators, and what is Python code rather than data: user forces, actuators given through the
+API as a Python callable of time, length and speed, functions given as Python callables
+(``PythonFunction``), masses given by the caller. ``scene.py`` reads what a scene has, ``codegen.py`` writes
+and caches its module, ``kernels.py`` holds the compiled element formulas.
 
 numba is imported only here, when a run is compiled: importing ``solutions`` (and the student package
 generated from it) never imports it.

@@ -42,10 +42,17 @@ CONSTRAINT_CALLS = {
     "planar_angle": "{name}(q, qd, t, {ints}, {floats}, fk, fp, psi, jac, psit, gam)",
     "planar_coordinate": "{name}(q, qd, t, {ints}, {floats}, fk, fp, psi, jac, psit, gam)",
     "planar_distance": "{name}(q, qd, t, {ints}, {floats}, fk, fp, psi, jac, psit, gam)",
+    "planar_gear": "{name}(q, qd, t, {ints}, {floats}, psi, jac, gam)",
+    "planar_roller_cam": "{name}(q, qd, t, {ints}, {floats}, fk, fp, psi, jac, psit, gam)",
+    "planar_flat_cam": "{name}(q, qd, t, {ints}, {floats}, fk, fp, psi, jac, psit, gam)",
     "spatial_spherical": "{name}(q, qd, t, {ints}, {floats}, psi, jac, gam)",
     "spatial_dot1": "{name}(q, qd, t, {ints}, {floats}, psi, jac, gam)",
     "spatial_dot2": "{name}(q, qd, t, {ints}, {floats}, psi, jac, gam)",
     "spatial_normalization": "{name}(q, qd, t, {ints}, psi, jac, gam)",
+    "spatial_translation": "{name}(q, qd, t, {ints}, {floats}, fk, fp, psi, jac, psit, gam)",
+    "spatial_rotation": "{name}(q, qd, t, {ints}, {floats}, fk, fp, psi, jac, psit, gam)",
+    "spatial_distance": "{name}(q, qd, t, {ints}, {floats}, fk, fp, psi, jac, psit, gam)",
+    "spatial_coordinate": "{name}(q, qd, t, {ints}, {floats}, fk, fp, psi, jac, psit, gam)",
 }
 FORCE_CALL = "{name}(q, qd, t, {ints}, {floats}, fk, fp, Q, power)"
 
