@@ -13,7 +13,7 @@ No numba here: this module is imported to decide whether the compiled engine can
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -315,4 +315,28 @@ def describe(system, M, forces) -> Scene:
     return scene
 
 
-__all__ = ["Scene", "Unsupported", "describe"]
+def widen(scene: Scene) -> Scene:
+    """The scene with every kernel of its dimension, in the canonical order, those it lacks with no rows.
+
+    All widened scenes of one dimension and one energy flag share one key, hence one compiled module: a
+    process that runs many structures (the agreement tests over every example model) compiles four modules
+    instead of one per structure, and each evaluation pays a call of the absent kernels (a loop over no rows).
+    The results are the same: the absent kernels add nothing.
+    """
+    if scene.unsupported is not None:
+        return scene
+    empty_ints, empty_floats = np.zeros((0, 1), dtype=np.int64), np.zeros((0, 1))
+
+    def full(kernels: list, order: tuple[str, ...]) -> list:
+        present = {name: (ints, floats) for name, ints, floats in kernels}
+        return [(name, *present.get(name, (empty_ints, empty_floats))) for name in order]
+
+    planar = scene.dimension == 2
+    return replace(
+        scene,
+        constraint_kernels=full(scene.constraint_kernels, PLANAR_CONSTRAINTS if planar else SPATIAL_CONSTRAINTS),
+        force_kernels=full(scene.force_kernels, PLANAR_FORCES if planar else SPATIAL_FORCES),
+    )
+
+
+__all__ = ["Scene", "Unsupported", "describe", "widen"]
