@@ -125,3 +125,27 @@ def test_benchmark_scenes_are_example_models_or_run_here():
 def test_benchmark_scene(name):
     scene = next(scene for scene in _bench_scenes() if scene.key == name)
     _agree(scene.load())
+
+
+def test_function_table_matches_functions():
+    """Every compiled function kind against ``functions.py``: value, first and second derivative."""
+    from solutions.compiled.kernels import function
+    from solutions.compiled.scene import _Functions
+    from solutions.functions import Constant, EccentricCircle, Fourier, Harmonic, Polynomial, SmoothRamp
+
+    examples = [
+        Constant(2.5),
+        Polynomial((0.1, -2.0, 0.5, 3.0)),
+        Harmonic(0.3, 7.0, 0.2, -1.0),
+        SmoothRamp(0.2, 0.5, 1.0, 3.0),
+        Fourier(0.04, (0.01, -0.002, 0.003), (0.0, 0.004, -0.001), 2.0),
+        EccentricCircle(0.05, 0.01),
+    ]
+    table = _Functions()
+    indices = [table.index(example) for example in examples]
+    kinds, params = table.arrays()
+    for example, f in zip(examples, indices, strict=True):
+        for x in (-1.3, 0.0, 0.25, 0.35, 2.0):
+            for order, method in enumerate((example.value, example.first, example.second)):
+                expected, got = method(x), function(kinds, params, f, x, order)
+                assert abs(got - expected) <= 1e-13 * max(1.0, abs(expected)), (example, x, order)
