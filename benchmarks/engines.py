@@ -110,8 +110,8 @@ r = forward_dynamics(system, q0, qd0, float(sys.argv[2]), 100, formulation="baum
                      rtol=float(sys.argv[3]), atol=float(sys.argv[3]), engine=sys.argv[4])
 info = r.info.get("compiled", {})
 print(json.dumps({"wall": time.perf_counter() - start, "load": info.get("load_seconds", 0.0),
-                  "cached": info.get("cached", False), "engine": r.info["chosen"]["engine"],
-                  "why": r.info["chosen"]["engine_why"]}))
+                  "cached": info.get("cached", False), "engine": r.info.get("chosen", {}).get("engine", "numpy"),
+                  "why": r.info.get("chosen", {}).get("engine_why", "")}))
 """
 
 

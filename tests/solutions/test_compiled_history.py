@@ -24,6 +24,8 @@ MODELS = [  # revolute, prismatic, drivers (Psi_t), loads; spatial joints with f
     "course/models/four_bar_spring.yaml",
     "course/models/spatial_double_pendulum.yaml",
     "course/models/heavy_top.yaml",
+    "course/models/spatial_double_pendulum_driven.yaml",
+    "course/models/gear_train.yaml",
     "course/models/carriage_pendulum.yaml",
     "course/models/revolute_revolute_skew.yaml",
 ]
