@@ -198,10 +198,25 @@ def schema_errors(data: dict) -> list:
     return list(_full_validator().iter_errors(data))
 
 
+SLOW_FORMAT_BACKENDS = ("rfc3987_syntax",)
+"""Packages that ``import jsonschema`` imports for a format checker and that take long to import:
+rfc3987_syntax (the "iri" formats, in recent jsonschema versions) builds its grammar, about a second."""
+
+
 @functools.cache
 def _full_validator():
-    import jsonschema
-
+    """``jsonschema``'s validator, which lists every error of an invalid file. The schema checks no "format",
+    so jsonschema is imported with the SLOW_FORMAT_BACKENDS held back: it then leaves out their format
+    checkers, as when they are not installed (which jsonschema allows); importing them later works as usual."""
+    held = [name for name in SLOW_FORMAT_BACKENDS if name not in sys.modules]
+    for name in held:
+        sys.modules[name] = None  # `import name` raises ImportError while this is set
+    try:
+        import jsonschema
+    finally:
+        for name in held:
+            if sys.modules.get(name, "") is None:
+                del sys.modules[name]
     return jsonschema.Draft202012Validator(_schema())
 
 
