@@ -29,9 +29,10 @@ import hashlib
 import importlib.util
 import os
 import sys
+from functools import cache
 from pathlib import Path
 
-from .scene import SLOTS, Scene
+from .scene import PLANAR_CONSTRAINTS, SLOTS, SPATIAL_CONSTRAINTS, Scene
 
 HERE = Path(__file__).parent
 
@@ -156,6 +157,10 @@ def load(scene: Scene) -> tuple[object, bool]:
 
 
 # -- the kinematic analysis: the constraint kernels alone (kinematic.py, kinematic_loop.py) ------------------------
+KINEMATIC_SLOTS = (*PLANAR_CONSTRAINTS, *SPATIAL_CONSTRAINTS)
+"""The constraint kernels in the order of their rows in the kinematic data D = (ints, floats, offsets)."""
+
+
 def generate_kinematic(scene: Scene) -> str:
     """The source text of a scene's kinematic module: ``evaluate(t, q, q', F, D, Psi, Psi_q, Psi_t, gamma)``, the
     constraint kernels of the scene's element types, one line each, with the fixed signature of
@@ -173,24 +178,33 @@ def generate_kinematic(scene: Scene) -> str:
         "def evaluate(t, q, qd, F, D, psi, jac, psit, gam):",
         '    """Psi, Psi_q, Psi_t and gamma at (t, q, q\') (eq. 4.1-4.4)."""',
         "    fk, fp = F",
+        "    ints, floats, o = D",
         "    jac[:, :] = 0.0",
         "    psit[:] = 0.0",
     ]
     for name, _, _ in scene.constraint_kernels:
-        slot = SLOTS.index(name)
-        lines.append("    " + CONSTRAINT_CALLS[name].format(name=name, ints=f"D[0][{slot}]", floats=f"D[1][{slot}]"))
+        s = KINEMATIC_SLOTS.index(name)
+        rows = f"o[{s}] : o[{s + 1}]"
+        lines.append("    " + CONSTRAINT_CALLS[name].format(name=name, ints=f"ints[{rows}]", floats=f"floats[{rows}]"))
     return "\n".join(lines) + "\n"
 
 
-def _kinematic_name(scene: Scene) -> tuple[str, str]:
+@cache
+def _kinematic_sources() -> bytes:
+    """What the compiled kinematic code depends on besides its text: the kernels, the loop, numba's version."""
     from importlib.metadata import version
 
+    return (HERE / "kernels.py").read_bytes() + (HERE / "kinematic_loop.py").read_bytes() + version("numba").encode()
+
+
+@cache
+def _kinematic_name_of(text: str) -> str:
+    return f"mbd_kinematic_{hashlib.sha256(text.encode() + _kinematic_sources()).hexdigest()[:20]}"
+
+
+def _kinematic_name(scene: Scene) -> tuple[str, str]:
     text = generate_kinematic(scene)
-    digest = hashlib.sha256(text.encode())
-    digest.update((HERE / "kernels.py").read_bytes())
-    digest.update((HERE / "kinematic_loop.py").read_bytes())
-    digest.update(version("numba").encode())
-    return f"mbd_kinematic_{digest.hexdigest()[:20]}", text
+    return _kinematic_name_of(text), text
 
 
 def is_kinematic_cached(scene: Scene) -> bool:
@@ -223,6 +237,7 @@ def load_kinematic(scene: Scene) -> tuple[object, bool]:
 __all__ = [
     "cache_directory",
     "generate",
+    "KINEMATIC_SLOTS",
     "generate_kinematic",
     "is_cached",
     "is_kinematic_cached",

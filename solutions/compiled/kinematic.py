@@ -28,6 +28,7 @@ from __future__ import annotations
 import inspect
 import time
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 
@@ -98,6 +99,34 @@ def describe(system) -> Scene:
     return scene
 
 
+def packed(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """D = (ints, floats, offsets) of the kinematic loop: the rows of every constraint kernel's data, stacked in the
+    order of ``codegen.KINEMATIC_SLOTS`` (padded with zeros to the widest), kernel s in rows offsets[s]:offsets[s+1]."""
+    from .codegen import KINEMATIC_SLOTS
+
+    present = {name: (ints, floats) for name, ints, floats in scene.constraint_kernels}
+    blocks = [present.get(name) for name in KINEMATIC_SLOTS]
+    counts = [0 if block is None else block[0].shape[0] for block in blocks]
+    offsets = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
+    width_i = max([block[0].shape[1] for block in blocks if block is not None] + [1])
+    width_f = max([block[1].shape[1] for block in blocks if block is not None] + [1])
+    ints, floats = np.zeros((offsets[-1], width_i), dtype=np.int64), np.zeros((offsets[-1], width_f))
+    for s, block in enumerate(blocks):
+        if block is not None:
+            ints[offsets[s] : offsets[s + 1], : block[0].shape[1]] = block[0]
+            floats[offsets[s] : offsets[s + 1], : block[1].shape[1]] = block[1]
+    return ints, floats, offsets
+
+
+@cache
+def _newton_defaults() -> tuple[float, int]:
+    """tol and max_iterations of ``kinematics.newton_raphson``: the compiled steps stop as it does."""
+    from ..kinematics import newton_raphson
+
+    parameters = inspect.signature(newton_raphson).parameters
+    return float(parameters["tol"].default), int(parameters["max_iterations"].default)
+
+
 def estimated_numpy_seconds(system, q: np.ndarray, points: int, repeats: int = 5) -> float:
     """The numpy steps' expected run time (module docstring)."""
     from ..linalg import lu_factor, lu_solve
@@ -136,30 +165,41 @@ def choose(engine: str, system, q: np.ndarray, points: int) -> tuple[Scene | Non
     return None, {"engine": "numpy", "engine_why": why}
 
 
-def run(scene: Scene, q: np.ndarray, times: np.ndarray) -> KinematicRun:
-    """The compiled steps from the assembled q at times[0] (``kinematic_loop.steps``)."""
-    from ..kinematics import LOCKUP_CONDITION, PIVOT_DIP, newton_raphson
+def run(scene: Scene, q: np.ndarray, times: np.ndarray, system=None) -> KinematicRun:
+    """The compiled steps from the assembled q at times[0] (``kinematic_loop.steps``).
+
+    Where the pivot ratios dip with det Psi_q of one sign, the numpy loop searches the interval for a singular
+    position (``kinematics.locate_singular_position``); so does this function, with ``system``, and where the search
+    finds none the compiled steps go on past the dip (without ``system``, or where it finds one, they stop there).
+    """
+    from ..kinematics import LOCKUP_CONDITION, PIVOT_DIP, _dip_start, locate_singular_position
     from . import kinematic_loop  # imports numba
     from .codegen import load_kinematic
 
     start = time.perf_counter()
     module, cached = load_kinematic(scene)
-    defaults = inspect.signature(newton_raphson).parameters
-    tol, max_iterations = defaults["tol"].default, defaults["max_iterations"].default
-    F = (scene.function_kinds, scene.function_params)
-    out = kinematic_loop.steps(
-        module.evaluate,
-        np.ascontiguousarray(q, dtype=float),
-        np.ascontiguousarray(times, dtype=float),
-        F,
-        scene.data(),
-        scene.m,
-        float(tol),
-        int(max_iterations),
-        float(LOCKUP_CONDITION),
-        float(PIVOT_DIP),
+    tol, max_iterations = _newton_defaults()
+    points, n = times.size, scene.n
+    Q, QD, QDD = np.empty((points, n)), np.empty((points, n)), np.empty((points, n))
+    ratios, signs = np.empty(points), np.empty(points)
+    iterations, residuals = np.zeros(points, np.int64), np.zeros(points)
+    q, times = np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(times, dtype=float)
+    F, D = (scene.function_kinds, scene.function_params), packed(scene)
+    first, passed = 0, -1
+    while True:
+        stop, reason = kinematic_loop.steps(
+            module.evaluate, q, times, F, D, tol, max_iterations, float(LOCKUP_CONDITION), float(PIVOT_DIP), first,
+            passed, Q, QD, QDD, ratios, signs, iterations, residuals,
+        )  # fmt: skip
+        if reason != kinematic_loop.DIP or system is None or (stop > 0 and signs[stop] != signs[stop - 1]):
+            break
+        dip = _dip_start([float(r) for r in ratios[: stop + 1]], points)
+        if locate_singular_position(system, times[dip], Q[dip], QD[dip], QDD[dip], times[stop]) is not None:
+            break  # a singular position: the numpy loop stops there with its error
+        first = passed = stop
+    return KinematicRun(
+        Q, QD, QDD, ratios, signs, iterations, residuals, stop, reason, time.perf_counter() - start, cached
     )
-    return KinematicRun(*out, load_seconds=time.perf_counter() - start, cached=cached)
 
 
 def steps(engine: str, system, q: np.ndarray, times: np.ndarray, Q, QD, QDD) -> tuple:
@@ -171,7 +211,7 @@ def steps(engine: str, system, q: np.ndarray, times: np.ndarray, Q, QD, QDD) -> 
     scene, chosen = choose(engine, system, q, times.size)
     if scene is None:
         return 0, 0, 0.0, [], None, chosen
-    out = run(scene, q, times)
+    out = run(scene, q, times, system)
     k = int(out.stop)
     Q[:k], QD[:k], QDD[:k] = out.Q[:k], out.QD[:k], out.QDD[:k]
     if k < times.size:
@@ -184,4 +224,13 @@ def steps(engine: str, system, q: np.ndarray, times: np.ndarray, Q, QD, QDD) -> 
     return k, int(out.iterations[:k].sum()), residual, [float(r) for r in out.ratios[:k]], sign, chosen
 
 
-__all__ = ["COMPILE_SECONDS", "KinematicRun", "choose", "describe", "estimated_numpy_seconds", "run", "steps"]
+__all__ = [
+    "COMPILE_SECONDS",
+    "KinematicRun",
+    "choose",
+    "describe",
+    "estimated_numpy_seconds",
+    "packed",
+    "run",
+    "steps",
+]

@@ -19,19 +19,18 @@ the numpy loop takes the run over from that step, with the same state, and decid
 
 import numpy as np
 from numba import njit, types
-
-from .scene import SLOTS
+from numba.np.linalg import _LAPACK, F_INT_nptype
 
 _vector, _matrix = types.float64[::1], types.float64[:, ::1]
 _ivector, _imatrix = types.int64[::1], types.int64[:, ::1]
 F_TYPE = types.Tuple((_ivector, _matrix))
 """F = (function kinds, function parameters): the functions of time of the drivers (``kernels.function``)."""
-D_TYPE = types.Tuple((types.UniTuple(_imatrix, len(SLOTS)), types.UniTuple(_matrix, len(SLOTS))))
-"""D = (ints, floats) per kernel slot, as ``Scene.data``."""
+D_TYPE = types.Tuple((_imatrix, _matrix, _ivector))
+"""D = (ints, floats, offsets): the element data of every constraint kernel stacked in two arrays, the rows of
+kernel s (``codegen.KINEMATIC_SLOTS``) from offsets[s] to offsets[s + 1] (``kinematic.packed``): few arrays to
+pass, as a call of the loop costs about a microsecond per array it takes."""
 EVALUATE_SIGNATURE = types.void(types.float64, _vector, _vector, F_TYPE, D_TYPE, _vector, _matrix, _vector, _vector)
 """evaluate(t, q, q', F, D, Psi (out), Psi_q (out), Psi_t (out), gamma (out))."""
-RESULT_TYPE = types.Tuple((_matrix, _matrix, _matrix, _vector, _vector, _ivector, _vector, types.int64, types.int64))
-"""(Q, Q', Q'', pivot ratios, det signs, Newton iterations, residuals, stop step, reason)."""
 
 DONE, NO_CONVERGENCE, ZERO_PIVOT, LOCKUP, SIGN_CHANGE, DIP = 0, 1, 2, 3, 4, 5
 REASONS = {
@@ -43,55 +42,45 @@ REASONS = {
 }
 
 
-@njit(cache=True, nogil=True)
-def lu_factor(K, pivots):
-    """P K = L U in place by Gaussian elimination with partial pivoting (the first largest |entry| of the column,
-    as LAPACK's getrf); pivots[c] is the row swapped with row c. False if a pivot is exactly zero (as getrf,
-    that column is then left as it is)."""
-    n = K.shape[0]
-    regular = True
-    for c in range(n):
-        pivot = c
-        biggest = abs(K[c, c])
-        for r in range(c + 1, n):
-            if abs(K[r, c]) > biggest:
-                biggest, pivot = abs(K[r, c]), r
-        pivots[c] = pivot
-        if pivot != c:
-            for k in range(n):
-                K[c, k], K[pivot, k] = K[pivot, k], K[c, k]
-        if K[c, c] == 0.0:
-            regular = False
-            continue
-        inverse = 1.0 / K[c, c]
-        for r in range(c + 1, n):
-            factor = K[r, c] * inverse
-            K[r, c] = factor
-            if factor != 0.0:
-                for k in range(c + 1, n):
-                    K[r, k] -= factor * K[c, k]
-    return regular
+_GETRF = _LAPACK().numba_xxgetrf(types.float64)
+"""LAPACK's dgetrf through numba's binding (scipy's LAPACK): the routine of ``linalg.lu_factor`` itself, so that
+the pivots (and so the pivot ratio and the det sign) are those of the numpy engine, ties between equal
+candidates included (a hand-written elimination breaks them differently where rounding differs)."""
+_DOUBLE = ord("d")
 
 
 @njit(cache=True, nogil=True)
-def lu_solve(K, pivots, b, x):
+def lu_factor(A, KT, pivots):
+    """P A = L U with partial pivoting by LAPACK's getrf: KT holds the factors transposed (KT[c, r] = LU[r, c], the
+    column-major layout LAPACK takes), pivots the rows swapped (1-based, as LAPACK). False if a pivot is exactly
+    zero (getrf's info > 0, where ``linalg.solve`` raises)."""
+    n = A.shape[0]
+    for r in range(n):
+        for c in range(n):
+            KT[c, r] = A[r, c]
+    info = _GETRF(_DOUBLE, n, n, KT.ctypes, n, pivots.ctypes)
+    return info == 0
+
+
+@njit(cache=True, nogil=True)
+def lu_solve(KT, pivots, b, x):
     """x from A x = b with the factors of ``lu_factor``: the row swaps, then L y = P b and U x = y."""
     n = b.size
     x[:] = b
     for c in range(n):
-        p = pivots[c]
+        p = pivots[c] - 1
         if p != c:
             x[c], x[p] = x[p], x[c]
     for r in range(n):
         s = x[r]
         for k in range(r):
-            s -= K[r, k] * x[k]
+            s -= KT[k, r] * x[k]
         x[r] = s
     for r in range(n - 1, -1, -1):
         s = x[r]
         for k in range(r + 1, n):
-            s -= K[r, k] * x[k]
-        x[r] = s / K[r, r]
+            s -= KT[k, r] * x[k]
+        x[r] = s / KT[r, r]
 
 
 @njit(cache=True, nogil=True)
@@ -110,34 +99,47 @@ def dip_flagged(ratios, k, points, pivot_dip):
 
 
 @njit(
-    RESULT_TYPE(
+    types.UniTuple(types.int64, 2)(
         types.FunctionType(EVALUATE_SIGNATURE),
         _vector,
         _vector,
         F_TYPE,
         D_TYPE,
-        types.int64,
         types.float64,
         types.int64,
         types.float64,
         types.float64,
+        types.int64,
+        types.int64,
+        _matrix,
+        _matrix,
+        _matrix,
+        _vector,
+        _vector,
+        _ivector,
+        _vector,
     ),
     cache=True,
     nogil=True,
 )
-def steps(evaluate, q0, times, F, D, m, tol, max_iterations, lockup, pivot_dip):
-    """The kinematic steps from the assembled q0 at times[0] (module docstring); stops at the first unusual step."""
-    n = q0.size
+def steps(evaluate, q0, times, F, D, tol, max_iterations, lockup, pivot_dip, start, passed, Q, QD, QDD, ratios, signs,
+          iterations, residuals):  # fmt: skip
+    """The kinematic steps from step ``start`` (module docstring): from the assembled q0 at times[0] (start 0) or
+    from the state of step start - 1 in Q, QD, QDD. Fills, step by step, the rows of Q, QD, QDD and the pivot
+    ratios, det signs, Newton iterations and residuals; returns (stop, reason): the first step not taken (and why,
+    ``REASONS``), or (number of steps, DONE). ``passed``: a step whose pivot dip the caller has judged already
+    (no singular position, ``kinematic.steps``), not to stop at again; -1 for none."""
+    n = m = q0.size  # Psi_q is square: kinematics.require_no_freedom refuses any other
     points = times.size
-    Q, QD, QDD = np.empty((points, n)), np.empty((points, n)), np.empty((points, n))
-    ratios, signs = np.empty(points), np.empty(points)
-    iterations = np.zeros(points, dtype=np.int64)
-    residuals = np.zeros(points)
-    q, qd, qdd, dq = q0.copy(), np.zeros(n), np.zeros(n), np.empty(n)
+    if start == 0:
+        q, qd, qdd = q0.copy(), np.zeros(n), np.zeros(n)
+    else:
+        q, qd, qdd = Q[start - 1].copy(), QD[start - 1].copy(), QDD[start - 1].copy()
+    dq = np.empty(n)
     psi, psit, gam, rhs = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
     jac, K = np.empty((m, n)), np.empty((m, n))
-    pivots = np.empty(n, dtype=np.int64)
-    for k in range(points):
+    pivots = np.empty(n, dtype=F_INT_nptype)
+    for k in range(start, points):
         t = times[k]
         if k > 0:  # second-order predictor from the previous step
             dt = t - times[k - 1]
@@ -159,19 +161,17 @@ def steps(evaluate, q0, times, F, D, m, tol, max_iterations, lockup, pivot_dip):
                 break
             if not finite or iteration == max_iterations:
                 break
-            K[:, :] = jac
-            if not lu_factor(K, pivots):
-                return Q, QD, QDD, ratios, signs, iterations, residuals, k, ZERO_PIVOT
+            if not lu_factor(jac, K, pivots):
+                return k, ZERO_PIVOT
             for r in range(m):
                 rhs[r] = -psi[r]
             lu_solve(K, pivots, rhs, dq)
             for c in range(n):
                 q[c] += dq[c]
         if not converged:
-            return Q, QD, QDD, ratios, signs, iterations, residuals, k, NO_CONVERGENCE
+            return k, NO_CONVERGENCE
         # the factors at the converged q (jac is Psi_q there): lock-up test, det sign, pivot ratio
-        K[:, :] = jac
-        lu_factor(K, pivots)
+        lu_factor(jac, K, pivots)
         smallest, largest, negative = np.inf, 0.0, 0
         finite = True
         for c in range(n):
@@ -181,16 +181,16 @@ def steps(evaluate, q0, times, F, D, m, tol, max_iterations, lockup, pivot_dip):
             smallest, largest = min(smallest, abs(u)), max(largest, abs(u))
             if u < 0.0:
                 negative += 1
-            if pivots[c] != c:
+            if pivots[c] != c + 1:
                 negative += 1
         if not finite or not smallest > largest / lockup:
-            return Q, QD, QDD, ratios, signs, iterations, residuals, k, LOCKUP
+            return k, LOCKUP
         signs[k] = -1.0 if negative % 2 else 1.0
         ratios[k] = smallest / largest if largest > 0.0 else 0.0
-        if dip_flagged(ratios, k, points, pivot_dip):
-            return Q, QD, QDD, ratios, signs, iterations, residuals, k, DIP
+        if k != passed and dip_flagged(ratios, k, points, pivot_dip):
+            return k, DIP
         if k > 0 and signs[k] != signs[k - 1]:
-            return Q, QD, QDD, ratios, signs, iterations, residuals, k, SIGN_CHANGE
+            return k, SIGN_CHANGE
         # velocities (eq. 4.5) and accelerations (eq. 4.6) with the same factors
         for r in range(m):
             rhs[r] = -psit[r]
@@ -198,4 +198,4 @@ def steps(evaluate, q0, times, F, D, m, tol, max_iterations, lockup, pivot_dip):
         evaluate(t, q, qd, F, D, psi, jac, psit, gam)
         lu_solve(K, pivots, gam, qdd)
         Q[k], QD[k], QDD[k] = q, qd, qdd
-    return Q, QD, QDD, ratios, signs, iterations, residuals, points, DONE
+    return points, DONE
