@@ -7,7 +7,7 @@ writes the scene's ``evaluate`` (Psi, Psi_q, Psi_t, gamma), and ``kinematic_loop
 the LU factors with their tests and the velocity and acceleration solves at every output time.
 
 The compiled steps decide nothing unusual: at the first step where the numpy loop would do more than the
-ordinary step (Newton-Raphson not converging, a zero pivot, the lock-up test, a sign change of det Psi_q, a dip
+ordinary step (Newton-Raphson not converging, an exact zero pivot, the lock-up test, a sign change of det Psi_q, a dip
 of the pivot ratio), they stop, and the numpy loop goes on from that step with the state, the pivot ratios and
 the determinant sign so far: the same errors, the same search for a singular position, the same results.
 

@@ -11,9 +11,9 @@ fixed signature: it is compiled once per machine and cached on disk, and each sc
 ``evaluate``.
 
 It does not decide anything unusual itself: at the first step where Newton-Raphson does not converge (or
-meets an exact zero pivot, where the numpy loop falls back to least squares), where the lock-up test of
+meets an exact zero pivot, where the numpy loop falls back on least squares), where the lock-up test of
 ``kinematics._factor_checked`` fires, where det Psi_q changes sign or where the pivot ratios dip as
-``kinematics._dip_start`` flags it, it stops and returns that step's index with a reason code (``REASONS``):
+``kinematics._dip_start`` flags it, it stops and returns that step's index with a reason code (``kinematic.REASONS``):
 the numpy loop takes the run over from that step, with the same state, and decides as it always does.
 """
 
@@ -33,19 +33,15 @@ EVALUATE_SIGNATURE = types.void(types.float64, _vector, _vector, F_TYPE, D_TYPE,
 """evaluate(t, q, q', F, D, Psi (out), Psi_q (out), Psi_t (out), gamma (out))."""
 
 DONE, NO_CONVERGENCE, ZERO_PIVOT, LOCKUP, SIGN_CHANGE, DIP = 0, 1, 2, 3, 4, 5
-REASONS = {
-    NO_CONVERGENCE: "Newton-Raphson did not converge",
-    ZERO_PIVOT: "an exact zero pivot in a Newton-Raphson solve",
-    LOCKUP: "the lock-up test (pivots spread beyond LOCKUP_CONDITION)",
-    SIGN_CHANGE: "det(Psi_q) changed sign",
-    DIP: "the pivot ratio dipped",
-}
 
 
-_GETRF = _LAPACK().numba_xxgetrf(types.float64)
-"""LAPACK's dgetrf through numba's binding (scipy's LAPACK): the routine of ``linalg.lu_factor`` itself, so that
-the pivots (and so the pivot ratio and the det sign) are those of the numpy engine, ties between equal
-candidates included (a hand-written elimination breaks them differently where rounding differs)."""
+_GETRF, _GESV = _LAPACK().numba_xxgetrf(types.float64), _LAPACK().numba_xgesv(types.float64)
+"""LAPACK's dgetrf and dgesv through numba's bindings (scipy's LAPACK): the routines of ``linalg.lu_factor`` and
+``linalg.solve`` themselves. The pivot ratio of the numpy loop is not a continuous function of q: where two
+candidates for a pivot are equal but for rounding (frequent in a chain of equal loops), the choice between them
+changes U's diagonal by a factor, and a spurious dip may follow. The same routines on (nearly) the same numbers
+keep those choices, and the corrections, as the numpy engine's; a hand-written elimination departed from them
+on the chain of 64 four-bar loops and stopped at dips the numpy run never saw."""
 _DOUBLE = ord("d")
 
 
@@ -60,6 +56,19 @@ def lu_factor(A, KT, pivots):
             KT[c, r] = A[r, c]
     info = _GETRF(_DOUBLE, n, n, KT.ctypes, n, pivots.ctypes)
     return info == 0
+
+
+@njit(cache=True, nogil=True)
+def newton_solve(A, KT, pivots, b, x):
+    """x from A x = b for a Newton-Raphson correction by LAPACK's gesv, as ``linalg.solve`` (the same routine on
+    the same numbers: the same correction). False where gesv meets an exact zero pivot (``linalg.solve`` raises
+    there and Newton-Raphson falls back on least squares)."""
+    n = A.shape[0]
+    for r in range(n):
+        x[r] = b[r]
+        for c in range(n):
+            KT[c, r] = A[r, c]
+    return _GESV(_DOUBLE, n, 1, KT.ctypes, n, pivots.ctypes, x.ctypes, n) == 0
 
 
 @njit(cache=True, nogil=True)
@@ -127,7 +136,7 @@ def steps(evaluate, q0, times, F, D, tol, max_iterations, lockup, pivot_dip, sta
     """The kinematic steps from step ``start`` (module docstring): from the assembled q0 at times[0] (start 0) or
     from the state of step start - 1 in Q, QD, QDD. Fills, step by step, the rows of Q, QD, QDD and the pivot
     ratios, det signs, Newton iterations and residuals; returns (stop, reason): the first step not taken (and why,
-    ``REASONS``), or (number of steps, DONE). ``passed``: a step whose pivot dip the caller has judged already
+    ``kinematic.REASONS``), or (number of steps, DONE). ``passed``: a step whose pivot dip the caller has judged already
     (no singular position, ``kinematic.steps``), not to stop at again; -1 for none."""
     n = m = q0.size  # Psi_q is square: kinematics.require_no_freedom refuses any other
     points = times.size
@@ -161,11 +170,10 @@ def steps(evaluate, q0, times, F, D, tol, max_iterations, lockup, pivot_dip, sta
                 break
             if not finite or iteration == max_iterations:
                 break
-            if not lu_factor(jac, K, pivots):
-                return k, ZERO_PIVOT
             for r in range(m):
                 rhs[r] = -psi[r]
-            lu_solve(K, pivots, rhs, dq)
+            if not newton_solve(jac, K, pivots, rhs, dq):
+                return k, ZERO_PIVOT
             for c in range(n):
                 q[c] += dq[c]
         if not converged:
