@@ -40,9 +40,12 @@ def _kinematic_models() -> list[str]:
 
 
 KINEMATIC_MODELS = _kinematic_models()
-COVERED = {"four_bar.yaml", "offset_slider_crank.yaml", "quick_return.yaml", "rack_pinion.yaml", "six_bar.yaml",
-           "slider_crank.yaml"}  # fmt: skip
-"""The kinematic example models of planar revolute, prismatic, pin-in-slot, rack-and-pinion and angle drivers."""
+NOT_COVERED = {"cam_flat_follower.yaml", "cam_follower.yaml", "gear_train.yaml"}
+"""Kinematic examples with elements the compiled kernels do not have (cams, gears): numpy runs them."""
+COVERED = set(KINEMATIC_MODELS) - NOT_COVERED
+"""Planar joints and drivers (the slider-cranks, four- and six-bar, quick-return, rack and pinion) and spatial
+joints with translation, rotation and distance drivers (carriage, cylindrical, heavy top, skew arm, double
+pendulum, spatial slider-crank)."""
 
 
 def _relative(a: np.ndarray, b: np.ndarray) -> float:
@@ -70,7 +73,7 @@ def _agree(reference, compiled) -> None:
 
 
 def test_the_kinematic_examples_are_found():
-    assert COVERED <= set(KINEMATIC_MODELS), KINEMATIC_MODELS
+    assert NOT_COVERED <= set(KINEMATIC_MODELS) and len(COVERED) >= 12, KINEMATIC_MODELS
 
 
 @pytest.mark.parametrize("name", KINEMATIC_MODELS)
