@@ -207,8 +207,9 @@ def run_analysis(system: System, q0: np.ndarray, qd0: np.ndarray, settings: dict
         analysis = choose_analysis(system, q)
     if analysis == "kinematic":
         through = bool(settings.get("through_singular"))
+        engine = settings.get("engine", "numpy")
         return kinematic_analysis(
-            system, q0, settings["t_end"], settings["steps"], points=points, through_singular=through
+            system, q0, settings["t_end"], settings["steps"], points=points, through_singular=through, engine=engine
         )
     options = {k: settings[k] for k in DYNAMIC_ONLY if settings.get(k) is not None}
     for check in CHECKS:
@@ -478,8 +479,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     run.add_argument(
         "--engine",
-        help="forward dynamics: auto (default: compiled when the run repays compiling), numpy (the reference), "
-        "compiled (numba; falls back to numpy, saying why, where it does not cover the run)",
+        help="forward dynamics and kinematic analysis: auto (default: compiled when the run repays compiling), "
+        "numpy (the reference), compiled (numba; falls back to numpy, saying why, where it does not cover the run), "
+        "cached (compiled where its code for the scene is on disk)",
     )
     run.add_argument("--rtol", type=float, help="relative tolerance of the integrator")
     run.add_argument("--atol", type=float, help="absolute tolerance of the integrator")
