@@ -2,10 +2,10 @@
 
 ``kinematic_analysis(..., engine="compiled")`` (``mbd run --engine compiled`` of a kinematic model) hands its
 steps here after the assembly and the rank check at t = 0: ``describe`` reads the scene's constraint elements
-(the kernels of ``kernels.py`` that ``scene.py`` names, and the spatial drivers' of ``kinematic_kernels.py``; no
-mass matrix, no forces: cams and gears are not compiled, and run on numpy), ``codegen.generate_kinematic``
-writes the scene's ``evaluate`` (Psi, Psi_q, Psi_t, gamma), and ``kinematic_loop.steps`` runs Newton-Raphson,
-the LU factors with their tests and the velocity and acceleration solves at every output time.
+(the kernels of ``kernels.py`` that ``scene.py`` names, as for the dynamic engine; no mass matrix, no forces),
+``codegen.generate_kinematic`` writes the scene's ``evaluate`` (Psi, Psi_q, Psi_t, gamma), and
+``kinematic_loop.steps`` runs Newton-Raphson, the LU factors with their tests and the velocity and acceleration
+solves at every output time.
 
 The compiled steps decide nothing unusual: at the first step where the numpy loop would do more than the
 ordinary step (Newton-Raphson not converging, an exact zero pivot, the lock-up test, a sign change of det Psi_q, a dip
@@ -42,7 +42,6 @@ from .scene import (
     Unsupported,
     _arrays,
     _Functions,
-    _group,
     _planar_constraints,
     _spatial_constraints,
 )
@@ -93,43 +92,13 @@ def describe(system) -> Scene:
         if model.dimension == 2:
             constraints = _arrays(_planar_constraints(system, functions), PLANAR_CONSTRAINTS)
         else:
-            constraints = _spatial_with_drivers(system, functions)
+            constraints = _arrays(_spatial_constraints(system, functions), SPATIAL_CONSTRAINTS)
     except Unsupported as why:
         scene.unsupported = str(why)
         return scene
     scene.constraint_kernels = constraints
     scene.function_kinds, scene.function_params = functions.arrays()
     return scene
-
-
-def _spatial_with_drivers(system, functions: _Functions) -> list:
-    """The spatial joints' kernels (``scene.py``) and the drivers' (``kinematic_kernels.py``), with their data."""
-    from types import SimpleNamespace
-
-    from ..spatial import joints as sj
-    from .codegen import SPATIAL_DRIVERS
-
-    rows: dict = {}
-    others = SimpleNamespace(elements=[], rows=[])
-    for element, where in zip(system.elements, system.rows, strict=True):
-        i, j, row, kind = element.i, element.j, where.start, type(element)
-        if kind is sj.TranslationDriver:
-            f = functions.index(element.function)
-            _group(
-                rows, "spatial_translation", [i, j, row, f], [*element.axis, *element.si, *element.sj, element.offset]
-            )
-        elif kind is sj.DistanceDriver:
-            _group(rows, "spatial_distance", [i, j, row, functions.index(element.length)], [*element.si, *element.sj])
-        elif kind is sj.RotationDriver:
-            f = functions.index(element.function)
-            _group(rows, "spatial_rotation", [i, j, row, f], [*element.fi, *element.gi, *element.fj, element.angle0])
-        elif kind is sj.CoordinateDriver and i < 0:
-            _group(rows, "spatial_coordinate", [j, row, element.index, functions.index(element.function)], [])
-        else:
-            others.elements.append(element)
-            others.rows.append(where)
-    joints = _arrays(_spatial_constraints(others, functions), SPATIAL_CONSTRAINTS)
-    return joints + _arrays(rows, SPATIAL_DRIVERS)
 
 
 def packed(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

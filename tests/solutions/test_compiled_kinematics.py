@@ -40,16 +40,18 @@ def _kinematic_models() -> list[str]:
 
 
 KINEMATIC_MODELS = _kinematic_models()
-NOT_COVERED = {"cam_flat_follower.yaml", "cam_follower.yaml", "gear_train.yaml"}
-"""Kinematic examples with elements the compiled kernels do not have (cams, gears): numpy runs them."""
+NOT_COVERED: set[str] = set()
+"""Kinematic examples with elements the compiled kernels do not have: none (the kernels are the dynamic engine's)."""
 COVERED = set(KINEMATIC_MODELS) - NOT_COVERED
-"""Planar joints and drivers (the slider-cranks, four- and six-bar, quick-return, rack and pinion) and spatial
-joints with translation, rotation and distance drivers (carriage, cylindrical, heavy top, skew arm, double
+"""Planar joints and drivers (the slider-cranks, four- and six-bar, quick-return, rack and pinion, cams, gears) and
+spatial joints with translation, rotation and distance drivers (carriage, cylindrical, heavy top, skew arm, double
 pendulum, spatial slider-crank)."""
 
 
 def _relative(a: np.ndarray, b: np.ndarray) -> float:
-    return float(np.max(np.abs(a - b))) / max(float(np.max(np.abs(a))), 1e-300)
+    """|a - b| relative to max |a|, with a floor of 1e-9 for rounding noise (the accelerations of a gear train
+    turning at constant speed are 1e-32 on both engines)."""
+    return float(np.max(np.abs(a - b))) / max(float(np.max(np.abs(a))), 1e-9)
 
 
 def _both(system, q0, t_end: float, steps: int, **options):
@@ -73,7 +75,7 @@ def _agree(reference, compiled) -> None:
 
 
 def test_the_kinematic_examples_are_found():
-    assert NOT_COVERED <= set(KINEMATIC_MODELS) and len(COVERED) >= 12, KINEMATIC_MODELS
+    assert len(COVERED) >= 15, KINEMATIC_MODELS
 
 
 @pytest.mark.parametrize("name", KINEMATIC_MODELS)
