@@ -265,6 +265,8 @@ def _summary(result: Result) -> str:
         if key in info:
             value = info[key]
             lines.append(f"{key.replace('_', ' ')}: {value:.3g}" if isinstance(value, float) else f"{key}: {value}")
+    if "engine" in info.get("chosen", {}):
+        lines.append(f"engine: {info['chosen']['engine']} ({info['chosen']['engine_why']})")
     if "wall_time" in info:
         lines.append(f"wall time: {info['wall_time']:.3g} s")
     lines += [f"warning: {warning}" for warning in info.get("warnings", [])]
