@@ -3,6 +3,7 @@
     .venv/bin/python benchmarks/engines.py                 # benchmark scenes at rtol = 1e-6, 1e-9
     .venv/bin/python benchmarks/engines.py --autograder    # DOP853 rtol 1e-12 atol 1e-14, autograder scenes
     .venv/bin/python benchmarks/engines.py --first         # also a first run in a fresh cache (child process)
+    .venv/bin/python benchmarks/engines.py --calibrate     # the auto rule against measurement (new processes)
 
 For each dynamic scene: the numpy engine's wall time, the compiled engine's warm wall time (module loaded,
 machine code in memory: what a run costs once compiled), the largest difference of q between the two
@@ -98,12 +99,82 @@ def first_runs(scenes):
             print(f"| {name} | {out[0]:.2f} | {out[1]:.2f} | {float(run.stdout.split()[0]):.2f} |")
 
 
+CHILD_RUN = """
+import json, sys, time
+from solutions.assembly import build_system
+from solutions.dynamics import forward_dynamics
+from solutions.io import load_model
+system, q0, qd0 = build_system(load_model(sys.argv[1]))
+start = time.perf_counter()
+r = forward_dynamics(system, q0, qd0, float(sys.argv[2]), 100, formulation="baumgarte", integrator="dop853",
+                     rtol=float(sys.argv[3]), atol=float(sys.argv[3]), engine=sys.argv[4])
+info = r.info.get("compiled", {})
+print(json.dumps({"wall": time.perf_counter() - start, "load": info.get("load_seconds", 0.0),
+                  "cached": info.get("cached", False), "engine": r.info.get("chosen", {}).get("engine", "numpy"),
+                  "why": r.info.get("chosen", {}).get("engine_why", "")}))
+"""
+
+
+def _child(env, path, t_end, rtol, engine):
+    import json
+
+    out = subprocess.run(
+        [sys.executable, "-c", CHILD_RUN, str(ROOT / path), str(t_end), str(rtol), engine],
+        env=env, capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def calibrate(scenes, spans=(0.1, 1.0, 10.0, 100.0), rtol=1e-8):
+    """The auto rule against measurement: for each scene and time span, in fresh processes, the numpy run, the
+    compiled run with an empty cache (compiling) and with a warm one (loading), what ``auto`` chose in each case,
+    and the numpy run time the rule estimated."""
+    from solutions.compiled import dispatch
+
+    print(
+        f"\nAuto rule (dispatch.py): compiled when the estimated numpy run exceeds LOAD_SECONDS = "
+        f"{dispatch.LOAD_SECONDS:g} s (code cached) or COMPILE_SECONDS = {dispatch.COMPILE_SECONDS:g} s (not cached). "
+        f"DOP853 (this package's loop) at rtol = atol = {rtol:g}, 100 output steps; every time is a whole process's "
+        "`forward_dynamics` call (wall s), each run in a new process.\n"
+    )
+    print(
+        "| scene | t_end (s) | numpy run (s) | estimated (s) | compiled, empty cache (s) | of which compiling (s) "
+        "| compiled, cached (s) | of which loading (s) | auto, empty cache | best | auto, cached | best |"
+    )
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---|---|---|---|")
+    for name, (path, _) in scenes.items():
+        for t_end in spans:
+            with tempfile.TemporaryDirectory() as cache:
+                env = {**os.environ, "MBD_COMPILED_CACHE": cache, "PYTHONPATH": str(ROOT)}
+                numpy_run = _child(env, path, t_end, rtol, "numpy")
+                auto_empty = _child(env, path, t_end, rtol, "auto")  # compiles only when it chooses to
+                first = _child(env, path, t_end, rtol, "compiled")  # may already be cached by auto's run
+                if first["cached"]:
+                    with tempfile.TemporaryDirectory() as other:
+                        first = _child({**env, "MBD_COMPILED_CACHE": other}, path, t_end, rtol, "compiled")
+                cached = _child(env, path, t_end, rtol, "compiled")
+                auto_cached = _child(env, path, t_end, rtol, "auto")
+            estimate = float(auto_cached["why"].split("estimated at ")[1].split(" s")[0])
+            best_empty = "compiled" if first["wall"] < numpy_run["wall"] else "numpy"
+            best_cached = "compiled" if cached["wall"] < numpy_run["wall"] else "numpy"
+            print(
+                f"| {name} | {t_end:g} | {numpy_run['wall']:.3f} | {estimate:.3g} | {first['wall']:.2f} | "
+                f"{first['load']:.2f} | {cached['wall']:.3f} | {cached['load']:.3f} | {auto_empty['engine']} | "
+                f"{best_empty} | {auto_cached['engine']} | {best_cached} |",
+                flush=True,
+            )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--autograder", action="store_true", help="the autograder's reference settings on its scenes")
     parser.add_argument("--first", action="store_true", help="time first (compiling) and cached runs")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--calibrate", action="store_true", help="only the study behind the auto rule")
     args = parser.parse_args()
+    if args.calibrate:
+        calibrate(BENCH_SCENES)
+        return
     header = (
         "| scene | t_end (s) | rtol | engine | numpy (ms) | compiled (ms) | speed-up | max dq / max q "
         "| evaluations numpy | compiled |\n|---|---|---|---|---|---|---|---|---|---|"

@@ -3,10 +3,11 @@
 Three Markdown tables:
 
 1. every kinematic example model in course/models/ (drivers leave no degree of freedom) over the
-   time grid of its ``simulation`` block;
+   time grid of its ``simulation`` block, on the numpy engine and on the compiled one (``engine="compiled"``,
+   ``solutions/compiled/kinematic.py``; "-" where its kernels do not cover the model);
 2. where a time step of the driven slider-crank (slider_crank.yaml) spends its time: each part timed
-   alone at the states of the run, times the number of calls per step;
-3. a chain of N four-bar loops, N = 1, 2, 4, ..., 64, built here as a model mapping.
+   alone at the states of the run, times the number of calls per step; and the compiled step;
+3. a chain of N four-bar loops, N = 1, 2, 4, ..., 64, built here as a model mapping, both engines.
 
 A time step of ``kinematic_analysis`` is one Newton-Raphson position solve (from a second-order
 predictor), one LU factorization of Psi_q and the velocity and acceleration solves. The one-time set-up
@@ -14,8 +15,10 @@ predictor), one LU factorization of Psi_q and the velocity and acceleration solv
 
     us/step = (median time of a whole run - median set-up time) / number of time points
 
-Medians over ``--repeats`` runs, wall time by time.perf_counter. This is a benchmark, not a test: the
-numbers depend on the machine. Run::
+Medians over ``--repeats`` runs, wall time by time.perf_counter. The compiled runs are timed warm: one run
+first (it compiles the scene's module, or loads it from the cache: the seconds are printed), then the timed
+ones, each a whole ``kinematic_analysis`` call (choosing the engine, the scene's data, the compiled steps) minus
+the same set-up. This is a benchmark, not a test: the numbers depend on the machine. Run::
 
     .venv/bin/python benchmarks/kinematics.py            # full run, about a minute
     .venv/bin/python benchmarks/kinematics.py --quick    # smoke run, a few seconds
@@ -133,17 +136,26 @@ def four_bar_chain(n_loops: int, steps: int = 200) -> dict:
     }
 
 
-def measure(system: System, q0: np.ndarray, t_end: float, steps: int, repeats: int) -> dict:
-    """Median wall (and CPU) times of ``repeats`` kinematic analyses minus set-up; Newton iterations per step."""
+def measure(system: System, q0: np.ndarray, t_end: float, steps: int, repeats: int, engine: str = "numpy") -> dict:
+    """Median wall (and CPU) times of ``repeats`` kinematic analyses minus set-up; Newton iterations per step.
+
+    ``engine="compiled"``: after a first run (compiling or loading, its seconds in 'first_s'); {'fallback': why}
+    if the compiled kernels do not cover the model."""
     setup, runs = [], []
-    result = None
+    first = None
+    if engine != "numpy":
+        wall = time.perf_counter()
+        result = kinematic_analysis(system, q0, t_end, steps, engine=engine)
+        first = time.perf_counter() - wall
+        if result.info["chosen"]["engine"] != "compiled":
+            return {"fallback": result.info["chosen"]["engine_why"]}
     for _ in range(repeats):
         wall, cpu = time.perf_counter(), time.process_time()
         q, _ = assemble(system, q0, 0.0)
         require_no_freedom(system, q, 0.0)
         setup.append((time.perf_counter() - wall, time.process_time() - cpu))
         wall, cpu = time.perf_counter(), time.process_time()
-        result = kinematic_analysis(system, q0, t_end, steps)
+        result = kinematic_analysis(system, q0, t_end, steps, engine=engine)
         runs.append((time.perf_counter() - wall, time.process_time() - cpu))
     points = steps + 1
 
@@ -157,15 +169,25 @@ def measure(system: System, q0: np.ndarray, t_end: float, steps: int, repeats: i
         "newton_per_step": result.info["newton_iterations"] / points,
         "setup_ms": 1e3 * statistics.median(s[0] for s in setup),
         "residual": result.info["max_constraint_residual"],
+        "first_s": first,
+        "chosen": result.info.get("chosen"),
     }
+
+
+def _compiled(m: dict | None, numpy_us: float) -> str:
+    """The compiled columns: us/step, CPU us/step, numpy / compiled."""
+    if "fallback" in m:
+        return "- | - | -"
+    return f"{m['us_per_step']:.1f} | {m['cpu_us_per_step']:.1f} | {numpy_us / max(m['us_per_step'], 1e-9):.0f}x"
 
 
 def example_table(steps: int | None, repeats: int) -> list[str]:
     lines = [
-        "| model | bodies | n | m | steps | us/step | CPU us/step | Newton it/step | set-up ms | max residual |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "| model | bodies | n | m | steps | us/step | CPU us/step | Newton it/step | set-up ms | max residual | "
+        "compiled us/step | compiled CPU us/step | numpy / compiled |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
-    skipped = []
+    skipped, fallbacks = [], []
     for path in sorted(MODELS.glob("*.yaml")):
         model = load_model(path)
         system, q0, _ = build_system(model)
@@ -175,19 +197,24 @@ def example_table(steps: int | None, repeats: int) -> list[str]:
         n_steps = steps or int(model.simulation.get("output_steps", 200))
         try:
             m = measure(system, q0, float(model.simulation["end_time"]), n_steps, repeats)
+            c = measure(system, q0, float(model.simulation["end_time"]), n_steps, repeats, "compiled")
+            if "fallback" in c:
+                fallbacks.append(f"{path.name} ({c['fallback']})")
         except AnalysisError as err:
             lines.append(
                 f"| {path.name} | {system.n_bodies} | {system.n_coordinates} | {system.n_constraints} | "
-                f"{n_steps} | failed: {err} | | | | |"
+                f"{n_steps} | failed: {err} | | | | | | | |"
             )
             continue
         lines.append(
             f"| {path.name} | {system.n_bodies} | {system.n_coordinates} | {system.n_constraints} | {n_steps} | "
             f"{m['us_per_step']:.0f} | {m['cpu_us_per_step']:.0f} | {m['newton_per_step']:.2f} | {m['setup_ms']:.2f} | "
-            f"{m['residual']:.1e} |"
+            f"{m['residual']:.1e} | {_compiled(c, m['us_per_step'])} |"
         )
     if skipped:
         lines += ["", "Skipped, drivers leave degrees of freedom (a dynamics model): " + ", ".join(skipped)]
+    if fallbacks:
+        lines += ["", "Numpy only (the compiled kernels do not cover them): " + "; ".join(fallbacks)]
     return lines
 
 
@@ -264,27 +291,49 @@ def step_breakdown(repeats: int) -> list[str]:
     measured = measure(system, q0, t_end, steps, repeats)["us_per_step"]
     lines.append(f"| sum of the parts | | | {total:.0f} |")
     lines.append(f"| whole step, measured (the rest: predictor, storing, Python calls) | | | {measured:.0f} |")
+    compiled = measure(system, q0, t_end, steps, repeats, "compiled")
+    loop = _compiled_loop_us(system, q0, t_end, steps, repeats)
+    lines.append(f"| compiled engine: whole step, measured as above (first run {compiled['first_s']:.2f} s) | | | "
+                 f"{compiled['us_per_step']:.1f} |")  # fmt: skip
+    lines.append(f"| compiled engine: the compiled loop alone (kinematic_loop.steps) | | | {loop:.1f} |")
     return lines
+
+
+def _compiled_loop_us(system: System, q0: np.ndarray, t_end: float, steps: int, repeats: int) -> float:
+    """us per step of the compiled step loop alone (no engine choice, no scene description), best of ``repeats``."""
+    from solutions.compiled import kinematic
+
+    q, _ = assemble(system, q0, 0.0)
+    scene = kinematic.describe(system)
+    times = np.linspace(0.0, t_end, steps + 1)
+    kinematic.run(scene, q, times)
+    best = float("inf")
+    for _ in range(max(repeats, 5)):
+        start = time.perf_counter()
+        kinematic.run(scene, q, times)
+        best = min(best, time.perf_counter() - start)
+    return 1e6 * best / times.size
 
 
 def chain_table(sizes: list[int], steps: int, repeats: int) -> list[str]:
     lines = [
         "| loops N | bodies | n | us/step | CPU us/step | us/step per body | x previous N | Newton it/step | "
-        "set-up ms | max residual |",
-        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "set-up ms | max residual | compiled us/step | compiled CPU us/step | numpy / compiled |",
+        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     previous = None
     for size in sizes:
         model = load_model(four_bar_chain(size, steps))
         system, q0, _ = build_system(model)
         m = measure(system, q0, float(model.simulation["end_time"]), steps, repeats)
+        c = measure(system, q0, float(model.simulation["end_time"]), steps, repeats, "compiled")
         growth = f"{m['us_per_step'] / previous:.2f}" if previous else "-"
         previous = m["us_per_step"]
         lines.append(
             f"| {size} | {system.n_bodies} | {system.n_coordinates} | {m['us_per_step']:.0f} | "
             f"{m['cpu_us_per_step']:.0f} | "
             f"{m['us_per_step'] / system.n_bodies:.1f} | {growth} | {m['newton_per_step']:.2f} | "
-            f"{m['setup_ms']:.1f} | {m['residual']:.1e} |"
+            f"{m['setup_ms']:.1f} | {m['residual']:.1e} | {_compiled(c, m['us_per_step'])} |"
         )
     return lines
 
@@ -312,6 +361,14 @@ def main(argv: list[str] | None = None) -> None:
     print("\n".join(step_breakdown(repeats)))
     print(f"\nChain of N four-bar loops (drag links) driven by one crank, one crank turn in {steps or 200} steps:\n")
     print("\n".join(chain_table(sizes, steps or 200, repeats)))
+    print(
+        "\nFrom N = 4 on, the pivot ratio of the chain dips a few times per turn (no singular position: the loops\n"
+        "never lose rank), and at each dip both engines search the interval with SVDs (numpy's\n"
+        "kinematics.locate_singular_position, which the compiled engine calls too): that search, not the steps,\n"
+        "takes most of the run. Where two pivot candidates are equal but for rounding, the two engines' pivot ratios\n"
+        "may differ by a factor at a step, and one of them search an interval the other does not; the searches\n"
+        "decide by the rank rule, so they find the same singular positions (none here)."
+    )
 
 
 if __name__ == "__main__":

@@ -208,8 +208,9 @@ def run_analysis(system: System, q0: np.ndarray, qd0: np.ndarray, settings: dict
         analysis = choose_analysis(system, q)
     if analysis == "kinematic":
         through = bool(settings.get("through_singular"))
+        engine = settings.get("engine", "numpy")
         return kinematic_analysis(
-            system, q0, settings["t_end"], settings["steps"], points=points, through_singular=through
+            system, q0, settings["t_end"], settings["steps"], points=points, through_singular=through, engine=engine
         )
     options = {k: settings[k] for k in DYNAMIC_ONLY if settings.get(k) is not None}
     for check in CHECKS:
@@ -265,6 +266,8 @@ def _summary(result: Result) -> str:
         if key in info:
             value = info[key]
             lines.append(f"{key.replace('_', ' ')}: {value:.3g}" if isinstance(value, float) else f"{key}: {value}")
+    if "engine" in info.get("chosen", {}):
+        lines.append(f"engine: {info['chosen']['engine']} ({info['chosen']['engine_why']})")
     if "wall_time" in info:
         lines.append(f"wall time: {info['wall_time']:.3g} s")
     lines += [f"warning: {warning}" for warning in info.get("warnings", [])]
@@ -479,8 +482,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     run.add_argument(
         "--engine",
-        help="forward dynamics: auto (default: compiled when the run repays compiling), numpy (the reference), "
-        "compiled (numba; falls back to numpy, saying why, where it does not cover the run)",
+        help="forward dynamics and kinematic analysis: auto (default: compiled when the run repays compiling), "
+        "numpy (the reference), compiled (numba; falls back to numpy, saying why, where it does not cover the run), "
+        "cached (compiled where its code for the scene is on disk)",
     )
     run.add_argument("--rtol", type=float, help="relative tolerance of the integrator")
     run.add_argument("--atol", type=float, help="absolute tolerance of the integrator")

@@ -379,13 +379,12 @@ def forward_dynamics(
             chosen = {**(chosen or {}), **engine_choice}
             if scene is not None:
                 compiled, stats = dispatch.run(scene, z0, times, integrator, rtol, atol, step, max_evaluations, options)
-                for k, t in enumerate(times):
-                    y, energies = equations.split(compiled.Y[k])
-                    q_k, qd_k = equations.formulation.coordinates(t, y)
-                    guard.check_drift(q_k, t)
-                    if guard.singular_ratio:  # at the output times (the numpy engine: after every step)
-                        guard.check_configuration(equations.formulation, t, y)
-                    history.store(k, q_k, qd_k, compiled.qdd[k], compiled.lam[k], energies)
+                n = system.n_coordinates
+                history.q, history.qd = compiled.Y[:, :n].copy(), compiled.Y[:, n : 2 * n].copy()
+                history.qdd, history.lam, history.energies = compiled.qdd, compiled.lam, compiled.Y[:, 2 * n :]
+                # the checks at the output times (the numpy engine: drift at output times, configuration after
+                # every step), from Psi and Psi_q the compiled module gives for all of them at once
+                guard.check_outputs(times, history.q, compiled.psi, compiled.jac)
         if compiled is None:
             stats = integrate(
                 equations.rhs,
@@ -433,7 +432,12 @@ def forward_dynamics(
         body_names=[b.name for b in model.bodies],
         lam=history.lam,
     )
-    residuals = constraint_residuals(system, times, history.q, history.qd)
+    if compiled is None:
+        residuals = constraint_residuals(system, times, history.q, history.qd)
+    else:
+        from .compiled import history as compiled_history
+
+        residuals = compiled_history.residuals(compiled.psi, compiled.jac, compiled.psit, history.qd)
     accumulated = history.energies.T if equations.extra else ()
     energies = energy_history(M, forces, history.q, history.qd, *accumulated)
     result.points.update(residuals)
@@ -443,7 +447,12 @@ def forward_dynamics(
     redundant = guard.rank < system.n_constraints
     if redundant:  # multipliers are not unique: report the minimum-norm set (eq. 5.73)
         result.lam = history.lam = minimum_norm_multipliers(system, history.q, history.lam, times)
-    result.reactions.update(joint_reactions(system, history.q, history.lam, times))
+    if compiled is None or redundant:
+        result.reactions.update(joint_reactions(system, history.q, history.lam, times))
+    else:
+        from .compiled import history as compiled_history
+
+        result.reactions.update(compiled_history.joint_reactions(system, history.q, history.lam, compiled.jac))
     result.reactions.update(effort_columns(system, history.q, history.lam, times))
     result.info = {
         "analysis": "dynamic",
@@ -471,6 +480,8 @@ def forward_dynamics(
     }
     if chosen is not None:
         result.info["chosen"] = chosen
+    if compiled is not None:  # what the compiled engine's start cost: loading (or compiling) the scene's module
+        result.info["compiled"] = {"cached": compiled.cached, "load_seconds": compiled.load_seconds}
     if redundant:
         result.info["notes"] = [REDUNDANT_NOTE]
     result.info["warnings"] = drift_warnings(result.info, guard.size, formulation, options)
@@ -771,19 +782,53 @@ class Guard:
         jacobian = self._scaled(self.system.jacobian(q, t))
         _, s, vt = np.linalg.svd(jacobian)
         ratio = float(s[self.rank - 1] / s[0]) if s[0] > 0 else 0.0
-        if self.closest is None or ratio < self.closest["ratio"]:
-            self.closest = {"t": float(t), "ratio": ratio}
-        passed = False
         tangent = vt[self.rank :].T
         square = jacobian.shape[0] == self.rank
         sign = np.sign(np.linalg.det(np.vstack([jacobian, tangent.T]))) if square else self._sign
+        self._judge(q, t, ratio, tangent, sign)
+
+    def check_outputs(self, t: np.ndarray, q: np.ndarray, psi: np.ndarray, jacobians: np.ndarray) -> None:
+        """``check_drift`` and ``check_configuration`` at every output time t[k] of a finished run, given
+        Psi (N, m) and Psi_q (N, m, n) there (the compiled engine's): the same tests, the arithmetic over all
+        output times at once (batched norms, SVDs and determinants), the verdicts in time order."""
+        if self.drift_limit is not None:
+            norms = np.linalg.norm(jacobians * self._columns, axis=2)
+            distance = np.abs(psi) / np.where(norms > 0, norms, 1.0)
+            bad = ~(np.max(distance, axis=1, initial=0.0) <= self.drift_limit)
+            if np.any(bad):
+                k = int(np.argmax(bad))
+                self.check_drift(q[k], float(t[k]))  # raises, with the message of the step-by-step check
+        if not self.singular_ratio or self.rank == 0:
+            return
+        norms = np.linalg.norm(jacobians * self._columns, axis=2, keepdims=True)
+        scaled = jacobians * self._columns / np.where(norms > 0, norms, 1.0)
+        _, s, vt = np.linalg.svd(scaled)
+        ratios = np.where(s[:, 0] > 0, s[:, self.rank - 1] / np.where(s[:, 0] > 0, s[:, 0], 1.0), 0.0)
+        tangents = np.swapaxes(vt[:, self.rank :], 1, 2)
+        square = scaled.shape[1] == self.rank
+        signs = np.sign(np.linalg.det(np.concatenate([scaled, vt[:, self.rank :]], axis=1))) if square else None
+        turns = np.linalg.det(np.swapaxes(tangents[:-1], 1, 2) @ tangents[1:])  # det(T_k-1^T T_k), k >= 1
+        for k in range(t.size):
+            sign = self._sign if signs is None else signs[k]
+            turn = None if k == 0 else turns[k - 1]
+            self._judge(q[k], float(t[k]), float(ratios[k]), tangents[k], sign, turn)
+
+    def _judge(
+        self, q: np.ndarray, t: float, ratio: float, tangent: np.ndarray, sign: float, turn: float | None = None
+    ) -> None:
+        """The verdict of ``check_configuration`` from sigma_r / sigma_1, the null-space basis T, the sign of
+        det [Psi_q; T^T] and, if known, the turn det(T_prev^T T) of the null space since the last check."""
+        if self.closest is None or ratio < self.closest["ratio"]:
+            self.closest = {"t": float(t), "ratio": ratio}
+        passed = False
+        square = self.rank == self.system.n_constraints  # no redundant rows: det [Psi_q; T^T] is defined
         if self._tangent is not None and square:
             # the sign of det [Psi_q; T^T] with the previous step's null-space basis T flips when a rank loss
             # lies between the two steps (the test function of continuation methods for bifurcation points);
             # it says so only while the null space has turned little over the step (|det T^T T_new| near 1).
             # With C = T^T T_new, T^T = C T_new^T + Y Psi_q for some Y, so det [Psi_q; T^T] = det C det [Psi_q;
             # T_new^T]: the sign comes from C, already needed for the alignment, and this step's own sign.
-            turn = np.linalg.det(self._tangent.T @ tangent)
+            turn = np.linalg.det(self._tangent.T @ tangent) if turn is None else turn
             passed = abs(turn) > ALIGNED and turn * sign * self._sign < 0
         near = not ratio >= self.singular_ratio
         if self.through:  # record each singular position passed and go on

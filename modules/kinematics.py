@@ -246,6 +246,7 @@ def kinematic_analysis(
     steps: int,
     points: dict[str, tuple[int, np.ndarray]] | None = None,
     through_singular: bool = False,
+    engine: str = "numpy",
 ) -> Result:
     """Positions, velocities and accelerations on the grid t = 0, t_end/steps, ..., t_end.
 
@@ -259,6 +260,10 @@ def kinematic_analysis(
     through_singular : at a singular position go on along the branch the velocities point to
         (``branch_step``) and list the position in ``info['singular_positions']`` (time, joints, the two
         output times around it) instead of stopping with an AnalysisError
+    engine : ``numpy`` (the default: the loop below), ``compiled`` (the steps compiled by numba where its
+        kernels cover the model, else numpy), ``auto`` (compiled when it pays) or ``cached``, as for
+        ``dynamics.forward_dynamics``; ``info['chosen']`` says which and why. The compiled steps stop at the
+        first step where anything unusual happens and this loop goes on from there (``_compiled_steps``)
 
     A singular position is found between two output steps where det Psi_q changes sign (an odd rank loss),
     where Psi_q is singular at a step (lock-up), or where the pivot ratio of the steps' LU factors dips
@@ -272,7 +277,10 @@ def kinematic_analysis(
         Degrees of freedom left, redundant constraints, lock-up, non-convergence: by name.
     """
     if through_singular:
-        return _kinematics_through_singular(system, q0, t_end, steps, points)
+        result = _kinematics_through_singular(system, q0, t_end, steps, points)
+        if engine != "numpy":
+            result.info["chosen"] = {"engine": "numpy", "engine_why": "through_singular runs on the numpy engine"}
+        return result
     start = _time.perf_counter()
     q, assembly = assemble(system, q0, 0.0)
     require_no_freedom(system, q, 0.0)
@@ -281,11 +289,15 @@ def kinematic_analysis(
     Q, QD, QDD = (np.empty((times.size, n)) for _ in range(3))
     qd = np.zeros(n)
     qdd = np.zeros(n)
-    iterations = 0
-    max_residual = 0.0
-    previous_sign = None
-    ratios: list[float] = []
-    for k, t in enumerate(times):
+    first_step, iterations, max_residual, ratios, previous_sign, chosen = 0, 0, 0.0, [], None, None
+    if engine != "numpy":  # the compiled steps fill Q, QD, QDD up to first_step
+        first_step, iterations, max_residual, ratios, previous_sign, chosen = _compiled_steps(
+            engine, system, q, times, Q, QD, QDD
+        )
+        if first_step > 0:
+            q, qd, qdd = Q[first_step - 1], QD[first_step - 1], QDD[first_step - 1]
+    for k in range(first_step, times.size):
+        t = times[k]
         if k > 0:  # second-order predictor from the previous step
             dt = t - times[k - 1]
             q = q + qd * dt + 0.5 * qdd * dt * dt
@@ -338,7 +350,22 @@ def kinematic_analysis(
         "assembly": assembly,
         "wall_time": _time.perf_counter() - start,
     }
+    if chosen is not None:
+        info["chosen"] = chosen
     return _result(system, times, Q, QD, QDD, info, points)
+
+
+def _compiled_steps(engine: str, system: System, q: np.ndarray, times: np.ndarray, Q, QD, QDD) -> tuple:
+    """The steps the compiled engine takes (``solutions.compiled.kinematic``), from the assembled q at t = 0.
+
+    Returns (k, Newton iterations, max residual, pivot ratios, det sign at step k-1 or None, ``info['chosen']``),
+    with rows 0..k-1 of Q, QD, QDD filled: the loop of ``kinematic_analysis`` goes on from step k.
+    """
+    try:
+        from .compiled import kinematic
+    except ImportError:  # a student package: the compiled engine stays with the instructor
+        return 0, 0, 0.0, [], None, {"engine": "numpy", "engine_why": "this package has no compiled engine"}
+    return kinematic.steps(engine, system, q, times, Q, QD, QDD)
 
 
 def _result(system: System, times, Q, QD, QDD, info: dict, points) -> Result:

@@ -39,7 +39,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.integrate
 
 from .diagnostics import AnalysisError
 
@@ -47,22 +46,27 @@ RHS = Callable[[float, np.ndarray], np.ndarray]
 AfterStep = Callable[[float, np.ndarray], "np.ndarray | None"]
 Record = Callable[[int, float, np.ndarray], None]
 
-SOLVE_IVP_METHODS = {
-    "RK45": scipy.integrate.RK45,
-    "RK23": scipy.integrate.RK23,
-    "DOP853": scipy.integrate.DOP853,
-    "Radau": scipy.integrate.Radau,
-    "BDF": scipy.integrate.BDF,
-    "LSODA": scipy.integrate.LSODA,
-}
+SOLVE_IVP_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
+"""The methods of ``solve_ivp``: the names of their classes in ``scipy.integrate`` (``scipy_method``)."""
 FIXED_STEP_METHODS = ("rk4",)
-EMBEDDED_METHODS = {"rk45": scipy.integrate.RK45, "dop853": scipy.integrate.DOP853}
-"""This package's own loop around solve_ivp's pairs: the tableaux (A, B, C, E, P) are taken from scipy."""
+EMBEDDED_METHODS = {"rk45": "RK45", "dop853": "DOP853"}
+"""This package's own loop around solve_ivp's pairs: the tableaux (A, B, C, E, P) are taken from scipy's class."""
 INTEGRATORS = (*SOLVE_IVP_METHODS, *FIXED_STEP_METHODS, *EMBEDDED_METHODS)
 EXPLICIT_METHODS = ("RK45", "RK23", "DOP853", "rk45", "dop853")
 STABILITY_LIMIT = {"RK23": 2.5, "RK45": 3.3, "rk45": 3.3, "DOP853": 6.0, "dop853": 6.0}
 """About where the stability region of each explicit method meets the negative real axis (h lambda)."""
 DEFAULT_MAX_EVALUATIONS = 2_000_000
+
+
+def scipy_method(name: str) -> type:
+    """The class of a ``solve_ivp`` method, e.g. ``scipy_method("DOP853")`` is ``scipy.integrate.DOP853``.
+
+    ``scipy.integrate`` is imported here, by the runs that use it, not with this module: importing it
+    (it imports scipy.optimize and scipy.special) takes longer than a short run of ``mbd``.
+    """
+    import scipy.integrate
+
+    return getattr(scipy.integrate, name)
 
 
 @dataclass
@@ -258,7 +262,7 @@ def _integrate_rk4(f, y, t_out, record, step, after_step, stats) -> None:
 
 def _integrate_adaptive(f, y, t_out, record, method, rtol, atol, step, after_step, stats, monitor=None) -> None:
     """The solve_ivp loop: step, interpolate the output times passed (dense output), maybe restart."""
-    solver_class = SOLVE_IVP_METHODS[method]
+    solver_class = scipy_method(method)
     max_step = step if step else np.inf
     t_end = t_out[-1]
     span = t_end - t_out[0]
@@ -315,7 +319,7 @@ def collapse_message(method: str, t: float, h: float, span: float, stats: Integr
 def error_norm(scheme, K: np.ndarray, h: float, scale: np.ndarray) -> float:
     """The scaled RMS norm of the local error estimate: h E^T K for Dormand-Prince 5(4); DOP853's
     combination of its 5th- and 3rd-order estimates (Hairer, Norsett and Wanner, sec. II.10)."""
-    if scheme is scipy.integrate.DOP853:
+    if scheme.__name__ == "DOP853":
         err5 = (scheme.E5 @ K) / scale
         err3 = (scheme.E3 @ K) / scale
         e5, e3 = float(err5 @ err5), float(err3 @ err3)
@@ -343,7 +347,7 @@ class DenseOutput:
 
     def __init__(self, scheme, f, t, h, y, y_new, fy_new, K):
         self.t, self.h, self.y = t, h, y
-        if scheme is scipy.integrate.DOP853:
+        if scheme.__name__ == "DOP853":
             from scipy.integrate._ivp import dop853_coefficients as dop
 
             S = scheme.n_stages + 1
@@ -372,7 +376,7 @@ class DenseOutput:
 
 def _integrate_embedded(f, y, t_out, record, method, rtol, atol, step, after_step, stats, monitor=None) -> None:
     """One loop: stages, error norm, accept or shrink, dense output for the output times passed."""
-    scheme = EMBEDDED_METHODS[method]
+    scheme = scipy_method(EMBEDDED_METHODS[method])
     A, B, C, S = scheme.A, scheme.B, scheme.C, scheme.n_stages
     exponent = -1.0 / (scheme.error_estimator_order + 1)
     rows = [A[s, :s] for s in range(S)]
@@ -433,6 +437,7 @@ __all__ = [
     "StiffnessError",
     "integrate",
     "rk4_step",
+    "scipy_method",
     "spectral_radius",
     "stiffness_message",
 ]

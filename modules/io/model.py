@@ -11,14 +11,21 @@ other elements, vector sizes against the model's dimension, duplicate names. Eve
 
 from __future__ import annotations
 
+import contextlib
 import difflib
 import functools
+import hashlib
 import json
+import marshal
 import math
+import os
+import re
 import sys
+import types
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import resources
+from importlib.util import MAGIC_NUMBER
 from pathlib import Path
 from typing import Any
 
@@ -114,27 +121,75 @@ KEY_EXAMPLES = {
 """Examples shown with a missing key, when the schema gives none."""
 
 
+SCHEMA = "schema.json"
+"""The JSON Schema of a model file, beside this module."""
+
+
+@functools.cache
+def _schema_text() -> str:
+    return resources.files(__package__).joinpath(SCHEMA).read_text()
+
+
 @functools.cache
 def _schema() -> dict:
-    text = resources.files(__package__).joinpath("schema.json").read_text()
-    return json.loads(text)
+    return json.loads(_schema_text())
+
+
+def validator_cache() -> Path:
+    """Where the compiled schema validator is kept: ``$XDG_CACHE_HOME/mbd-course/schema`` (else ~/.cache/...)."""
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "mbd-course" / "schema"
 
 
 @functools.cache
 def _fast_validator():
-    """The schema compiled once (per process) by fastjsonschema: it decides whether a file is valid.
-    ``jsonschema``, whose import takes seconds (it imports every format checker's backend), is imported
-    only to explain an invalid file."""
-    return fastjsonschema.compile(_schema())
+    """The schema compiled by fastjsonschema: it decides whether a file is valid. ``jsonschema``, whose
+    import takes a second (it imports every format checker's backend), is imported only to explain an
+    invalid file.
+
+    fastjsonschema writes the validator as Python source, half a megabyte for this schema, which takes
+    about 0.1 s to generate and compile: longer than a short ``mbd run``. So the compiled code is kept in
+    ``validator_cache()``, named by a hash of the schema, fastjsonschema's version and Python's bytecode
+    version, and loaded from there (in a millisecond) by the next process; a cache that is missing,
+    stale, unreadable or not writable only means compiling again."""
+    name, code = _validator_code()
+    namespace = {}
+    exec(code, namespace)
+    return namespace[name]
+
+
+def _validator_code() -> tuple[str, types.CodeType]:
+    """The name of the validating function and the compiled code that defines it: from the cache, else compiled."""
+    key = hashlib.sha256(f"{_schema_text()}|{fastjsonschema.VERSION}|{MAGIC_NUMBER.hex()}".encode()).hexdigest()
+    path = validator_cache() / f"validator-{key[:20]}.marshal"
+    try:
+        name, code = marshal.loads(path.read_bytes())
+        if isinstance(name, str) and isinstance(code, types.CodeType):
+            return name, code
+    except (OSError, EOFError, ValueError, TypeError):  # not there yet, or not whole: compile it again
+        pass
+    source = fastjsonschema.compile_to_code(_schema())
+    name = re.search(r"^def (\w+)\(", source, re.MULTILINE).group(1)  # the first function validates the root
+    code = compile(source, f"<fastjsonschema validator of {SCHEMA}>", "exec")
+    partial = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        partial.write_bytes(marshal.dumps((name, code)))
+        os.replace(partial, path)  # whole or not at all, when two processes write it at once
+    except OSError:  # a read-only home, a full disk: the next process compiles again
+        with contextlib.suppress(OSError):
+            partial.unlink(missing_ok=True)
+    return name, code
 
 
 def schema_errors(data: dict) -> list:
     """The JSON Schema errors of a model file's content ([] when it is valid).
 
-    Importing ``jsonschema`` can take seconds, compiling the fastjsonschema validator about 0.1 s, and
-    validating with either takes milliseconds: so fastjsonschema decides, unless ``jsonschema`` is imported
-    already (a grading sandbox imports it once for all its processes; the two give the same verdict,
-    tests/solutions/test_model_files.py), and ``jsonschema`` lists the errors of an invalid file."""
+    Importing ``jsonschema`` can take seconds, loading the fastjsonschema validator a millisecond (once
+    compiled and cached, ``_fast_validator``), and validating with either takes milliseconds: so
+    fastjsonschema decides, unless ``jsonschema`` is imported already (a grading sandbox imports it once
+    for all its processes; the two give the same verdict, tests/solutions/test_model_files.py), and
+    ``jsonschema`` lists the errors of an invalid file."""
     if "jsonschema" not in sys.modules:
         try:
             _fast_validator()(data)
@@ -144,10 +199,25 @@ def schema_errors(data: dict) -> list:
     return list(_full_validator().iter_errors(data))
 
 
+SLOW_FORMAT_BACKENDS = ("rfc3987_syntax",)
+"""Packages that ``import jsonschema`` imports for a format checker and that take long to import:
+rfc3987_syntax (the "iri" formats, in recent jsonschema versions) builds its grammar, about a second."""
+
+
 @functools.cache
 def _full_validator():
-    import jsonschema
-
+    """``jsonschema``'s validator, which lists every error of an invalid file. The schema checks no "format",
+    so jsonschema is imported with the SLOW_FORMAT_BACKENDS held back: it then leaves out their format
+    checkers, as when they are not installed (which jsonschema allows); importing them later works as usual."""
+    held = [name for name in SLOW_FORMAT_BACKENDS if name not in sys.modules]
+    for name in held:
+        sys.modules[name] = None  # `import name` raises ImportError while this is set
+    try:
+        import jsonschema
+    finally:
+        for name in held:
+            if sys.modules.get(name, "") is None:
+                del sys.modules[name]
     return jsonschema.Draft202012Validator(_schema())
 
 

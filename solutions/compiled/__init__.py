@@ -11,15 +11,18 @@ engine generated from the same model, for speed. ``dynamics.forward_dynamics(...
 - integrators ``DOP853`` and ``RK45`` (step by step as scipy's), ``dop853`` and ``rk45`` (as this package's
   own loop), ``rk4`` (fixed step); the loops are compiled with the right-hand side (``loops.py``);
 - planar revolute, prismatic (pin in slot + angle), translation and rotation drivers, rack and pinion,
-  distance, coordinate drivers; spatial joints made of the basic constraints (spherical, universal,
-  revolute, cylindrical, prismatic, rigid) and the Euler-parameter normalization; gravity, TSDA, RSDA
-  (with an actuator given as a function of time), point forces and torques; constant, polynomial,
-  harmonic and smooth-ramp functions of time.
+  distance, coordinate drivers, gear pairs (external and internal), cams with a roller or a flat-faced
+  follower; spatial joints made of the basic constraints (spherical, universal, revolute, cylindrical,
+  prismatic, rigid), the Euler-parameter normalization and the spatial drivers (rotation, translation,
+  distance, coordinate); gravity, TSDA, RSDA (with an actuator given as a function of time), point forces
+  and torques; constant, polynomial, harmonic, smooth-ramp and Fourier functions of time, and the
+  eccentric-circle and Fourier cam profiles. Every example model of ``course/models`` is covered.
 
-Anything else (other formulations, implicit or multistep integrators, gears, cams, spatial drivers,
-user forces, Fourier functions, actuators of length or speed, masses given by the caller) runs on the
-numpy engine, and ``info['chosen']`` says why. ``scene.py`` reads what a scene has, ``codegen.py`` writes and
-caches its module, ``kernels.py`` holds the compiled element formulas.
+Anything else runs on the numpy engine, and ``info['chosen']`` says why: other formulations, implicit or
+multistep integrators, and what is Python code rather than data: user forces, actuators given through the
+API as a Python callable of time, length and speed, functions given as Python callables
+(``PythonFunction``), masses given by the caller. ``scene.py`` reads what a scene has, ``codegen.py`` writes
+and caches its module, ``kernels.py`` holds the compiled element formulas.
 
 ``projection.py`` and ``tree.py`` write the modules of the projection and joint-coordinates formulations
 (their kernels: ``projection_kernels.py``, ``tree_kernels.py``); ``plan`` says which a run takes.
@@ -93,9 +96,15 @@ class CompiledRun:
     t: float
     h: float
     load_seconds: float
+    """Importing numba and the loops and loading the scene's module: compiling it too when it was not cached."""
     cached: bool
-    q: np.ndarray | None = None
-    qd: np.ndarray | None = None
+    psi: np.ndarray = None
+    """Psi, Psi_q, Psi_t at the output times (``history.constraint_arrays``), for the checks and the reactions."""
+    jac: np.ndarray = None
+    psit: np.ndarray = None
+    joint_states: np.ndarray | None = None
+    """A joint-coordinates run's integrated states (joint positions, joint velocities, energies) at the output
+    times; its ``Y`` holds the body coordinates made from them (q, q', energies), as every other run's."""
 
 
 def unsupported(scene: Scene, formulation: str, integrator: str, options: dict) -> str | None:
@@ -125,8 +134,11 @@ def tableau(dop: bool) -> tuple:
     return (rk.A, rk.B, rk.C, rk.E, empty1, empty1, empty2, rk.P)
 
 
-def parameters(scene: Scene | TreeScene, numbers: tuple = (0.0, 0.0, 0.0, 0.0)) -> tuple:
-    """P: the numbers the generated module takes besides the element data D (``codegen``, ``loops.P_TYPE``)."""
+def parameters(
+    scene: Scene | TreeScene, alpha: float = 0.0, beta: float = 0.0, tol: float = 0.0, iterations: float = 0.0
+) -> tuple:
+    """P: the numbers the generated module takes besides the element data D (``codegen``, ``loops.P_TYPE``): the
+    formulation's (Baumgarte's alpha, beta; the projection's tolerance and iterations, ``Plan.numbers``)."""
     tree = scene if isinstance(scene, TreeScene) else None
     scene = scene.scene if tree is not None else scene
     extra = 3 if scene.energies else 0
@@ -142,7 +154,7 @@ def parameters(scene: Scene | TreeScene, numbers: tuple = (0.0, 0.0, 0.0, 0.0)) 
         scene.weights if scene.dimension == 3 else empty1,
         scene.function_kinds,
         scene.function_params,
-        np.array(numbers, dtype=float),
+        np.array([alpha, beta, tol, iterations], dtype=float),
         np.array([scene.n, scene.m, extra, positions, velocities, *cut], dtype=np.int64),
     )
 
@@ -193,12 +205,13 @@ def run(
     max_evaluations: int | None,
 ) -> CompiledRun:
     """Integrate the plan's scene from z0 over the output grid ``times`` with the compiled loop."""
-    from . import loops  # imports numba
-
     start = time.perf_counter()
+    from . import history, loops  # imports numba
+
     module, project, cached = load(plan)
+    load_seconds = time.perf_counter() - start  # importing numba and the loops, loading (or compiling) the modules
     scene = plan.scene
-    P, D = parameters(scene, plan.numbers), scene.data()
+    P, D = parameters(scene, *plan.numbers), scene.data()
     z0 = np.ascontiguousarray(z0, dtype=float)
     times = np.ascontiguousarray(times, dtype=float)
     rhs = module.scene_rhs
@@ -211,27 +224,19 @@ def run(
         Y, evaluations, steps, rejected, status, t, h = loops.embedded(
             rhs, project, z0, times, float(rtol), float(atol), max_step, budget, dop, scipy_like, tableau(dop), P, D
         )
-    q = qd = None
-    if isinstance(scene, TreeScene):
+    joint_states = None
+    if isinstance(scene, TreeScene):  # the body coordinates of the joint states, and q'', lambda there
         q, qd, qdd, lam = loops.body_outputs(module.body_state, times, Y, P, D)
+        joint_states, Y = Y, np.hstack([q, qd, Y[:, scene.n_positions + scene.k :]])
     else:
         qdd, lam = loops.outputs(module.accelerations, times, Y, P, D)
-    load_seconds = time.perf_counter() - start
+    psi = jac = psit = None
+    if status == 0:  # a run that stopped early raises (dispatch.run): no checks to make
+        psi, jac, psit = history.constraint_arrays(module, scene, times, Y)
     return CompiledRun(
-        Y,
-        qdd,
-        lam,
-        int(evaluations),
-        int(steps),
-        int(rejected),
-        int(status),
-        float(t),
-        float(h),
-        load_seconds,
-        cached,
-        q,
-        qd,
-    )
+        Y, qdd, lam, int(evaluations), int(steps), int(rejected), int(status), float(t), float(h), load_seconds, cached,
+        psi, jac, psit, joint_states,
+    )  # fmt: skip
 
 
 __all__ = [

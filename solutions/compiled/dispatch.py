@@ -10,7 +10,10 @@
     the loading once); the numpy run time is
     estimated as (evaluations) x (one numpy evaluation, timed at the initial state), with evaluations
     = stages x t_end / h, h the starting step of Hairer's rule (sec. II.4) at the run's tolerance (a
-    fixed-step run: its steps). Short runs stay on numpy, whose start is free.
+    fixed-step run: its steps); where that comes within a tenth of the bound, h is the step that a trial
+    of TRIAL_STEPS steps of the same pair reached, and the evaluation its trial's mean (the starting step
+    alone was 0.3 to 18 times off on the course's scenes, the trial 0.6 to 0.8 of the measured run:
+    ``benchmarks/engines.py --calibrate``). Short runs stay on numpy, whose start is free.
 
 The choice and its reason go into ``info['chosen']`` (``engine``, ``engine_why``).
 """
@@ -33,12 +36,23 @@ COMPILE_SECONDS = 8.0
 LOAD_SECONDS = 1.0
 """What loading the cached machine code costs (importing numba, reading the cache: about 1 s)."""
 STAGES = {"DOP853": 12, "dop853": 12, "RK45": 6, "rk45": 6, "rk4": 4}
+TRIAL_STEPS = 8
+"""Steps of the trial run behind the estimate of a long numpy run (``trial_seconds``)."""
 
 
 def estimated_numpy_seconds(
-    equations, z0: np.ndarray, t_end: float, steps: int, integrator: str, rtol: float, atol: float, step: float | None
+    equations,
+    z0: np.ndarray,
+    t_end: float,
+    steps: int,
+    integrator: str,
+    rtol: float,
+    atol: float,
+    step: float | None,
+    threshold: float = math.inf,
 ) -> float:
-    """The numpy engine's expected run time (module docstring)."""
+    """The numpy engine's expected run time (module docstring): first from the starting step h0, then, when that
+    comes within a tenth of ``threshold`` (the time the compiled engine must beat), from a trial of the method."""
     f = equations.rhs
     start = time.perf_counter()
     fy = f(0.0, z0)
@@ -50,6 +64,26 @@ def estimated_numpy_seconds(
         return per_call * 4 * steps * substeps
     order = 7 if integrator in ("DOP853", "dop853") else 4
     h = initial_step(f, 0.0, z0, fy, order, rtol, atol, t_end)
+    quick = per_call * STAGES[integrator] * t_end / max(h, 1e-300)
+    if quick < threshold / 10:
+        return quick
+    return trial_seconds(f, z0, t_end, integrator, rtol, atol, step)
+
+
+def trial_seconds(f, z0: np.ndarray, t_end: float, integrator: str, rtol: float, atol: float, step) -> float:
+    """The run time extrapolated from TRIAL_STEPS steps of scipy's stepper of the same pair (DOP853 or RK45) with the
+    numpy right-hand side: (time per evaluation) x stages x t_end / (the last step), the step grown from h0 to
+    what the motion allows (the controller grows it at most tenfold a step)."""
+    import scipy.integrate
+
+    method = scipy.integrate.DOP853 if integrator in ("DOP853", "dop853") else scipy.integrate.RK45
+    solver = method(f, 0.0, z0, t_end, rtol=rtol, atol=atol, max_step=step or np.inf)
+    start = time.perf_counter()
+    for _ in range(TRIAL_STEPS):
+        if solver.step() is not None or solver.status != "running":
+            break
+    per_call = (time.perf_counter() - start) / max(solver.nfev, 1)
+    h = solver.step_size if solver.step_size else t_end
     return per_call * STAGES[integrator] * t_end / max(h, 1e-300)
 
 
@@ -88,7 +122,8 @@ def choose(
         if cached:
             return job, {"engine": "compiled", "engine_why": "compiled code for this scene's structure is cached"}
         return None, {"engine": "numpy", "engine_why": "no compiled code for this scene's structure is cached"}
-    expected = estimated_numpy_seconds(equations, z0, t_end, steps, integrator, rtol, atol, step)
+    threshold = LOAD_SECONDS if cached else COMPILE_SECONDS
+    expected = estimated_numpy_seconds(equations, z0, t_end, steps, integrator, rtol, atol, step, threshold)
     if cached and expected > LOAD_SECONDS:
         why = f"numpy run estimated at {expected:.3g} s, more than loading the cached code ({LOAD_SECONDS:g} s)"
         return job, {"engine": "compiled", "engine_why": why}

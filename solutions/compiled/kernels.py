@@ -6,13 +6,16 @@ element; ``scene.py`` builds them). They are the formulas of the numpy reference
 
 - planar joints (``planar/joints.py``): revolute eq. 3.17, relative angle and rotational driver eq. 3.21,
   3.34, pin in a slot eq. 3.24 and translation / prismatic driver / rack and pinion eq. 3.31, 3.35 (both
-  from ``along_direction``, eq. 3.13), distance eq. 3.27, coordinate driver eq. 3.34;
+  from ``along_direction``, eq. 3.13), distance eq. 3.27, coordinate driver eq. 3.34, gear pair eq. 3.29,
+  cam with a roller follower eq. 3.32 and with a flat-faced follower eq. 3.33;
 - spatial basic constraints (``spatial/joints.py``): dot-1 eq. 9.10, dot-2 eq. 9.11, spherical eq. 9.12,
-  Euler-parameter normalization eq. 9.9, with B(p, a') of eq. 9.3;
+  Euler-parameter normalization eq. 9.9, with B(p, a') of eq. 9.3; the drivers: rotation eq. 9.21,
+  translation eq. 9.22, distance eq. 9.13, coordinate;
 - forces: planar point force eq. 5.10, TSDA eq. 5.12-5.14, RSDA eq. 5.15; spatial point force and torque
   eq. 10.10, TSDA eq. 10.12, RSDA eq. 10.13, the quadratic-velocity term eq. 10.5 and the regularized
   spatial mass matrix (``spatial/mass.py``);
-- functions of time (``functions.py``): constant, polynomial, harmonic, smooth ramp.
+- functions (``functions.py``): constant, polynomial, harmonic, smooth ramp, Fourier series (of time), and
+  the eccentric circle (a cam profile, of the cam angle).
 
 Every kernel adds into (or writes) preallocated arrays: Psi, Psi_q (dense, m x n), Psi_t, gamma, Q, and the
 two powers (dissipated, applied) of the energy balance. Ground is body -1: it has no columns.
@@ -30,7 +33,43 @@ from numba import njit
 jit = njit(cache=True, fastmath=False, nogil=True)
 
 # -- functions of time (functions.py) -------------------------------------------------------------------
-CONSTANT, POLYNOMIAL, HARMONIC, RAMP = 0, 1, 2, 3
+CONSTANT, POLYNOMIAL, HARMONIC, RAMP, FOURIER, ECCENTRIC = 0, 1, 2, 3, 4, 5
+
+
+@jit
+def _fourier(p, x, order):
+    """a0 + sum_k (a_k cos(k w x) + b_k sin(k w x)) and its derivatives, term by term as ``Fourier``.
+    p = (number of terms N, w, a0, a_1 .. a_N, b_1 .. b_N)."""
+    n, frequency = int(p[0]), p[1]
+    total = 0.0
+    for k in range(1, n + 1):
+        ak, bk = p[2 + k], p[2 + n + k]
+        w = k * frequency
+        c, s = math.cos(w * x), math.sin(w * x)
+        if order == 0:
+            total += ak * c + bk * s
+        elif order == 1:
+            total += w * (-ak * s + bk * c)
+        else:
+            total += -w * w * (ak * c + bk * s)
+    return p[2] + total if order == 0 else total
+
+
+@jit
+def _eccentric(p, theta, order):
+    """rho(theta) = e cos(theta) + sqrt(a^2 - e^2 sin^2(theta)) and its derivatives, as ``EccentricCircle``.
+    p = (radius a, eccentricity e)."""
+    a, e = p[0], p[1]
+    s, c = math.sin(theta), math.cos(theta)
+    root = math.sqrt(a * a - (e * s) ** 2)
+    if order == 0:
+        return e * c + root
+    if order == 1:
+        return -e * s - e * e * s * c / root
+    g = e * e * s * c
+    dg = e * e * (c * c - s * s)
+    droot = -g / root
+    return -e * c - (dg * root - g * droot) / (root * root)
 
 
 @jit
@@ -38,7 +77,8 @@ def function(kinds, params, f, t, order):
     """f(t), f'(t) or f''(t) (order 0, 1, 2) of function number f; f < 0 is the zero function.
 
     params[f] holds: constant (c); polynomial (number of coefficients, c0, c1, ...); harmonic (amplitude,
-    frequency, phase, offset); smooth ramp (start, end, start value, end value).
+    frequency, phase, offset); smooth ramp (start, end, start value, end value); Fourier series (``_fourier``);
+    eccentric circle (``_eccentric``, a cam profile: t is then the cam angle).
     """
     if f < 0:
         return 0.0
@@ -66,6 +106,10 @@ def function(kinds, params, f, t, order):
         if order == 1:
             return amplitude * w * math.cos(w * t + phase)
         return -amplitude * w * w * math.sin(w * t + phase)
+    if kind == FOURIER:
+        return _fourier(p, t, order)
+    if kind == ECCENTRIC:
+        return _eccentric(p, t, order)
     # smooth ramp (cycloidal step)
     start, end, v0, v1 = p[0], p[1], p[2], p[3]
     tau = min(max((t - start) / (end - start), 0.0), 1.0)
@@ -125,34 +169,148 @@ def planar_revolute(q, qd, t, ints, floats, psi, jac, gam):
 
 
 @jit
+def _along(q, qd, i, j, six, siy, sjx, sjy, uix, uiy):
+    """The scalar u_i^T d_ij with u_i = A_i u_i' fixed in body i (eq. 3.13), as ``joints.along_direction``:
+    (value, Psi_qi row, Psi_qj row, gamma), gamma = u^T d phi_i'^2 - 2 phi_i' (B_i u_i')^T d'
+    - u^T (A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2)."""
+    xi, yi, phii = _planar(q, i)
+    xj, yj, phij = _planar(q, j)
+    vxi, vyi, wi = _planar(qd, i)
+    vxj, vyj, wj = _planar(qd, j)
+    aix, aiy, bix, biy = _rot(phii, six, siy)
+    ajx, ajy, bjx, bjy = _rot(phij, sjx, sjy)
+    ux, uy, wx, wy = _rot(phii, uix, uiy)
+    dx, dy = xj + ajx - xi - aix, yj + ajy - yi - aiy
+    value = ux * dx + uy * dy
+    ddx, ddy = vxj + bjx * wj - vxi - bix * wi, vyj + bjy * wj - vyi - biy * wi
+    qx, qy = aix * wi * wi - ajx * wj * wj, aiy * wi * wi - ajy * wj * wj
+    gamma = value * wi * wi - 2.0 * wi * (wx * ddx + wy * ddy) - (ux * qx + uy * qy)
+    row_i2 = wx * dx + wy * dy - (ux * bix + uy * biy)
+    return value, -ux, -uy, row_i2, ux, uy, ux * bjx + uy * bjy, gamma
+
+
+@jit
 def planar_along(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
-    """u_i^T d_ij + rolling (phi_j - phi_i) - d0 - f(t) = 0 with u_i = A_i u_i' (eq. 3.13): the pin in a slot
-    (u_i' the slot normal, eq. 3.24), the translation driver (eq. 3.35), the rack and pinion (eq. 3.31).
+    """u_i^T d_ij + rolling (phi_j - phi_i) - d0 - f(t) = 0 with u_i = A_i u_i' (eq. 3.13, ``_along``): the pin in
+    a slot (u_i' the slot normal, eq. 3.24), the translation driver (eq. 3.35), the rack and pinion (eq. 3.31).
     ints (i, j, row, function), floats (s_i', s_j', u_i', d0, side R)."""
     for e in range(ints.shape[0]):
         i, j, row, f = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3]
-        xi, yi, phii = _planar(q, i)
-        xj, yj, phij = _planar(q, j)
-        vxi, vyi, wi = _planar(qd, i)
-        vxj, vyj, wj = _planar(qd, j)
-        aix, aiy, bix, biy = _rot(phii, floats[e, 0], floats[e, 1])
-        ajx, ajy, bjx, bjy = _rot(phij, floats[e, 2], floats[e, 3])
-        ux, uy, wx, wy = _rot(phii, floats[e, 4], floats[e, 5])
-        d0, rolling = floats[e, 6], floats[e, 7]
-        dx, dy = xj + ajx - xi - aix, yj + ajy - yi - aiy
-        value = ux * dx + uy * dy
-        psi[row] = value + rolling * (phij - phii) - d0 - function(fk, fp, f, t, 0)
-        _jac_add(jac, row, i, 3, 0, -ux)
-        _jac_add(jac, row, i, 3, 1, -uy)
-        _jac_add(jac, row, i, 3, 2, wx * dx + wy * dy - (ux * bix + uy * biy) - rolling)
-        _jac_add(jac, row, j, 3, 0, ux)
-        _jac_add(jac, row, j, 3, 1, uy)
-        _jac_add(jac, row, j, 3, 2, ux * bjx + uy * bjy + rolling)
+        fl = floats[e]
+        value, ri0, ri1, ri2, rj0, rj1, rj2, gamma = _along(q, qd, i, j, fl[0], fl[1], fl[2], fl[3], fl[4], fl[5])
+        d0, rolling = fl[6], fl[7]
+        psi[row] = value + rolling * (_planar(q, j)[2] - _planar(q, i)[2]) - d0 - function(fk, fp, f, t, 0)
+        _jac_add(jac, row, i, 3, 0, ri0)
+        _jac_add(jac, row, i, 3, 1, ri1)
+        _jac_add(jac, row, i, 3, 2, ri2 - rolling)
+        _jac_add(jac, row, j, 3, 0, rj0)
+        _jac_add(jac, row, j, 3, 1, rj1)
+        _jac_add(jac, row, j, 3, 2, rj2 + rolling)
         psit[row] = -function(fk, fp, f, t, 1)
-        ddx, ddy = vxj + bjx * wj - vxi - bix * wi, vyj + bjy * wj - vyi - biy * wi
-        qx, qy = aix * wi * wi - ajx * wj * wj, aiy * wi * wi - ajy * wj * wj
-        gam[row] = value * wi * wi - 2.0 * wi * (wx * ddx + wy * ddy) - (ux * qx + uy * qy)
-        gam[row] += function(fk, fp, f, t, 2)
+        gam[row] = gamma + function(fk, fp, f, t, 2)
+
+
+@jit
+def _point_vectors(q, qd, i, j, six, siy, sjx, sjy):
+    """d_ij, d_ij', the velocity part of d_ij'' (A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2) and B_i s_i', B_j s_j'
+    (``planar/bodies.py``), each as an (x, y) pair."""
+    xi, yi, phii = _planar(q, i)
+    xj, yj, phij = _planar(q, j)
+    vxi, vyi, wi = _planar(qd, i)
+    vxj, vyj, wj = _planar(qd, j)
+    aix, aiy, bix, biy = _rot(phii, six, siy)
+    ajx, ajy, bjx, bjy = _rot(phij, sjx, sjy)
+    d = (xj + ajx - xi - aix, yj + ajy - yi - aiy)
+    d_dot = (vxj + bjx * wj - vxi - bix * wi, vyj + bjy * wj - vyi - biy * wi)
+    quadratic = (aix * wi * wi - ajx * wj * wj, aiy * wi * wi - ajy * wj * wj)
+    return d, d_dot, quadratic, (bix, biy), (bjx, bjy)
+
+
+@jit
+def planar_gear(q, qd, t, ints, floats, psi, jac, gam):
+    """Gear pairs (eq. 3.29): Psi = R_i (phi_i - theta) + sigma R_j (phi_j - theta) - c0, theta = atan2(d_ij),
+    taken modulo 2 pi k, k = R_i + sigma R_j; with n = R90 d / |d|^2: Psi_qi = [k n^T, R_i + k n^T B_i s_i'],
+    Psi_qj = [-k n^T, sigma R_j - k n^T B_j s_j'], gamma = k (m^T a - 2 theta' d^T d') / |d|^2, m = R90 d,
+    theta' = m^T d' / |d|^2, a = A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2. ints (i, j, row),
+    floats (s_i', s_j', R_i, R_j, sigma, c0)."""
+    for e in range(ints.shape[0]):
+        i, j, row = ints[e, 0], ints[e, 1], ints[e, 2]
+        fl = floats[e]
+        d, d_dot, a, bi, bj = _point_vectors(q, qd, i, j, fl[0], fl[1], fl[2], fl[3])
+        radius_i, radius_j, sigma, c0 = fl[4], fl[5], fl[6], fl[7]
+        theta = math.atan2(d[1], d[0])
+        value = radius_i * (_planar(q, i)[2] - theta) + sigma * radius_j * (_planar(q, j)[2] - theta) - c0
+        k = radius_i + sigma * radius_j
+        if k != 0.0:
+            x = value / k
+            value = k * (x - 2.0 * math.pi * np.round(x / (2.0 * math.pi)))  # k remainder(value / k, 2 pi)
+        psi[row] = value
+        dd = d[0] * d[0] + d[1] * d[1]
+        nx, ny = -d[1] / dd, d[0] / dd
+        _jac_add(jac, row, i, 3, 0, k * nx)
+        _jac_add(jac, row, i, 3, 1, k * ny)
+        _jac_add(jac, row, i, 3, 2, radius_i + k * (nx * bi[0] + ny * bi[1]))
+        _jac_add(jac, row, j, 3, 0, -k * nx)
+        _jac_add(jac, row, j, 3, 1, -k * ny)
+        _jac_add(jac, row, j, 3, 2, sigma * radius_j - k * (nx * bj[0] + ny * bj[1]))
+        mx, my = -d[1], d[0]
+        theta_dot = (mx * d_dot[0] + my * d_dot[1]) / dd
+        gam[row] = k * (mx * a[0] + my * a[1] - 2.0 * theta_dot * (d[0] * d_dot[0] + d[1] * d_dot[1])) / dd
+
+
+@jit
+def planar_roller_cam(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
+    """Cams with a roller follower (eq. 3.32): Psi = |d| - rho(theta), theta = beta - phi_i, beta = atan2(d);
+    with e = d / |d|, e_n = R90 e, g = e - rho' e_n / |d|: Psi_qi = [-g^T, -g^T B_i s_i' + rho'],
+    Psi_qj = [g^T, g^T B_j s_j'], gamma = -(e^T a + (|d'|^2 - (e^T d')^2) / |d| - rho'' theta'^2
+    - rho' (e_n^T a - 2 beta' e^T d') / |d|), a = A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2. The profile rho is
+    function number ``profile`` of the table, of the cam angle. ints (i, j, row, profile), floats (s_i', s_j')."""
+    for e in range(ints.shape[0]):
+        i, j, row, f = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3]
+        fl = floats[e]
+        d, d_dot, a, bi, bj = _point_vectors(q, qd, i, j, fl[0], fl[1], fl[2], fl[3])
+        length = math.hypot(d[0], d[1])
+        ex, ey = d[0] / length, d[1] / length
+        theta = math.atan2(d[1], d[0]) - _planar(q, i)[2]
+        rho, slope = function(fk, fp, f, theta, 0), function(fk, fp, f, theta, 1)
+        curvature = function(fk, fp, f, theta, 2)
+        psi[row] = length - rho
+        gx, gy = ex - slope * (-ey) / length, ey - slope * ex / length
+        _jac_add(jac, row, i, 3, 0, -gx)
+        _jac_add(jac, row, i, 3, 1, -gy)
+        _jac_add(jac, row, i, 3, 2, -(gx * bi[0] + gy * bi[1]) + slope)
+        _jac_add(jac, row, j, 3, 0, gx)
+        _jac_add(jac, row, j, 3, 1, gy)
+        _jac_add(jac, row, j, 3, 2, gx * bj[0] + gy * bj[1])
+        beta_dot = (-ey * d_dot[0] + ex * d_dot[1]) / length
+        theta_dot = beta_dot - _planar(qd, i)[2]
+        radial = ex * d_dot[0] + ey * d_dot[1]
+        length_part = ex * a[0] + ey * a[1] + (d_dot[0] * d_dot[0] + d_dot[1] * d_dot[1] - radial**2) / length
+        angle_part = (-ey * a[0] + ex * a[1] - 2.0 * beta_dot * radial) / length
+        gam[row] = -(length_part - curvature * theta_dot**2 - slope * angle_part)
+
+
+@jit
+def planar_flat_cam(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
+    """Cams with a flat-faced follower (eq. 3.33): Psi = -u^T d_ji - p(psi) with u = A_j u_j' (``_along`` seen
+    from body j), psi = phi_j - phi_i + alpha; Psi_qi[2] += p', Psi_qj[2] -= p' on minus the rows of ``_along``,
+    gamma = -gamma(``_along``) + p'' psi'^2. The support function p is function number ``profile`` of the
+    table. ints (i, j, row, profile), floats (s_i', s_j', u_j', alpha)."""
+    for e in range(ints.shape[0]):
+        i, j, row, f = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3]
+        fl = floats[e]
+        value, rj0, rj1, rj2, ri0, ri1, ri2, gamma = _along(q, qd, j, i, fl[2], fl[3], fl[0], fl[1], fl[4], fl[5])
+        angle = _planar(q, j)[2] - _planar(q, i)[2] + fl[6]
+        slope = function(fk, fp, f, angle, 1)
+        psi[row] = -value - function(fk, fp, f, angle, 0)
+        _jac_add(jac, row, i, 3, 0, -ri0)
+        _jac_add(jac, row, i, 3, 1, -ri1)
+        _jac_add(jac, row, i, 3, 2, -ri2 + slope)
+        _jac_add(jac, row, j, 3, 0, -rj0)
+        _jac_add(jac, row, j, 3, 1, -rj1)
+        _jac_add(jac, row, j, 3, 2, -rj2 - slope)
+        rate = _planar(qd, j)[2] - _planar(qd, i)[2]
+        gam[row] = -gamma + function(fk, fp, f, angle, 2) * rate**2
 
 
 @jit
@@ -437,6 +595,101 @@ def spatial_normalization(q, qd, t, ints, psi, jac, gam):
             jac[row, 7 * j + 3 + c] += 2.0 * p
         psi[row] = s - 1.0
         gam[row] = -2.0 * g
+
+
+@jit
+def spatial_translation(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
+    """Translation drivers (eq. 9.22): the dot-2 a_i^T d_ij of ``spatial_dot2`` minus s0 + f(t): Psi_t = -f',
+    gamma = gamma(dot-2) + f''. ints (i, j, row, function), floats (a_i', s_i', s_j', s0)."""
+    spatial_dot2(q, qd, t, ints, floats, psi, jac, gam)
+    for e in range(ints.shape[0]):
+        row, f = ints[e, 2], ints[e, 3]
+        psi[row] = psi[row] - floats[e, 9] - function(fk, fp, f, t, 0)
+        psit[row] = -function(fk, fp, f, t, 1)
+        gam[row] += function(fk, fp, f, t, 2)
+
+
+@jit
+def spatial_rotation(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
+    """Rotation drivers (eq. 9.21): theta(t) = theta0 + f(t), n' = -sin(theta) f_i' + cos(theta) g_i',
+    c' = cos(theta) f_i' + sin(theta) g_i'; Psi = n^T f_j, Psi_qi = [0, f_j^T B(p_i, n')],
+    Psi_qj = [0, n^T B(p_j, f_j')], Psi_t = -theta' c^T f_j,
+    gamma = -f_j^T [B(p_i', n') p_i' - 2 theta' B(p_i, c') p_i' - theta'' c - theta'^2 n] - 2 n_t'^T f_j'
+    - n^T B(p_j', f_j') p_j', n_t' = B(p_i, n') p_i' - theta' c. ints (i, j, row, function),
+    floats (f_i', g_i', f_j', theta0)."""
+    nb, cb, N, C, Fj = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    ndot, cdot, fjdot, nq, cq, fjq = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    Bn, Bc, Bf = np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4))
+    Bdn, Bdc, Bdf = np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4))
+    for e in range(ints.shape[0]):
+        i, j, row, f = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3]
+        fl = floats[e]
+        theta = fl[9] + function(fk, fp, f, t, 0)
+        rate, acceleration = function(fk, fp, f, t, 1), function(fk, fp, f, t, 2)
+        c, s = math.cos(theta), math.sin(theta)
+        for k in range(3):
+            nb[k] = -s * fl[k] + c * fl[3 + k]
+            cb[k] = c * fl[k] + s * fl[3 + k]
+        _body_vector(q, qd, i, nb, N, Bn, Bdn, ndot, nq)
+        _body_vector(q, qd, i, cb, C, Bc, Bdc, cdot, cq)
+        _body_vector(q, qd, j, fl[6:9], Fj, Bf, Bdf, fjdot, fjq)
+        psi[row] = N[0] * Fj[0] + N[1] * Fj[1] + N[2] * Fj[2]
+        for col in range(4):
+            if i >= 0:
+                jac[row, 7 * i + 3 + col] += Fj[0] * Bn[0, col] + Fj[1] * Bn[1, col] + Fj[2] * Bn[2, col]
+            if j >= 0:
+                jac[row, 7 * j + 3 + col] += N[0] * Bf[0, col] + N[1] * Bf[1, col] + N[2] * Bf[2, col]
+        psit[row] = -rate * (C[0] * Fj[0] + C[1] * Fj[1] + C[2] * Fj[2])
+        value = 0.0
+        for k in range(3):
+            n_quadratic = nq[k] - 2.0 * rate * cdot[k] - acceleration * C[k] - rate**2 * N[k]
+            n_dot = ndot[k] - rate * C[k]
+            value += Fj[k] * n_quadratic + 2.0 * n_dot * fjdot[k] + N[k] * fjq[k]
+        gam[row] = -value
+
+
+@jit
+def spatial_distance(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
+    """Distance drivers (eq. 9.13): (d^T d - L(t)^2) / 2 = 0, Psi_qi = [-d^T, -d^T B(p_i, s_i')],
+    Psi_qj = [d^T, d^T B(p_j, s_j')], Psi_t = -L L', gamma = -d'^T d' - d^T (d'')_v + L'^2 + L L''.
+    ints (i, j, row, function L), floats (s_i', s_j')."""
+    Si, Sj, doti, dotj, qi, qj = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    Bi, Bj, Bdi, Bdj = np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4))
+    for e in range(ints.shape[0]):
+        i, j, row, f = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3]
+        _body_vector(q, qd, i, floats[e, 0:3], Si, Bi, Bdi, doti, qi)
+        _body_vector(q, qd, j, floats[e, 3:6], Sj, Bj, Bdj, dotj, qj)
+        ri, rj, vi, vj = _r(q, i), _r(q, j), _r(qd, i), _r(qd, j)
+        half_square = 0.0
+        g = 0.0
+        for k in range(3):
+            d = rj[k] + Sj[k] - ri[k] - Si[k]
+            d_dot = vj[k] + dotj[k] - vi[k] - doti[k]
+            half_square += d * d
+            g += d_dot * d_dot + d * (qj[k] - qi[k])
+            if i >= 0:
+                jac[row, 7 * i + k] -= d
+                for col in range(4):
+                    jac[row, 7 * i + 3 + col] -= d * Bi[k, col]
+            if j >= 0:
+                jac[row, 7 * j + k] += d
+                for col in range(4):
+                    jac[row, 7 * j + 3 + col] += d * Bj[k, col]
+        L, L1, L2 = function(fk, fp, f, t, 0), function(fk, fp, f, t, 1), function(fk, fp, f, t, 2)
+        psi[row] = 0.5 * half_square - 0.5 * L * L
+        psit[row] = -L * L1
+        gam[row] = -g + L1 * L1 + L * L2
+
+
+@jit
+def spatial_coordinate(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
+    """r_j[k] - f(t) = 0 (a coordinate driver): a unit row, Psi_t = -f', gamma = f''. ints (j, row, k, function)."""
+    for e in range(ints.shape[0]):
+        j, row, k, f = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3]
+        psi[row] = q[7 * j + k] - function(fk, fp, f, t, 0)
+        jac[row, 7 * j + k] += 1.0
+        psit[row] = -function(fk, fp, f, t, 1)
+        gam[row] = function(fk, fp, f, t, 2)
 
 
 # -- spatial mass matrix and forces ------------------------------------------------------------------------------

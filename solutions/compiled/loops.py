@@ -50,6 +50,8 @@ RHS_SIGNATURE = types.void(types.float64, _vector, P_TYPE, D_TYPE, _vector)
 """scene_rhs(t, z, P, D, out)."""
 ACCELERATIONS_SIGNATURE = types.void(types.float64, _vector, _vector, P_TYPE, D_TYPE, _vector, _vector, _vector)
 """accelerations(t, q, q', P, D, q'' (out), lambda (out), powers (out))."""
+CONSTRAINT_ARRAYS_SIGNATURE = types.void(_vector, _matrix, P_TYPE, D_TYPE, _matrix, types.float64[:, :, ::1], _matrix)
+"""constraint_arrays(T, Y, P, D, Psi (out, N x m), Psi_q (out, N x m x n), Psi_t (out, N x m)): zeros on entry."""
 PROJECT_SIGNATURE = types.int64(types.float64, _vector, P_TYPE, D_TYPE, _vector)
 """project(t, z, P, D, info): -1 (nothing done), 0 (z corrected in place), 1 (not converged; info[0] the residual)."""
 BODY_STATE_SIGNATURE = types.void(types.float64, _vector, P_TYPE, D_TYPE, _vector, _vector, _vector, _vector)

@@ -13,22 +13,28 @@ No numba here: this module is imported to decide whether the compiled engine can
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..functions import Constant, Harmonic, Polynomial, SmoothRamp
+from ..functions import Constant, EccentricCircle, Fourier, Harmonic, Polynomial, SmoothRamp
 
-FUNCTION_KINDS = {Constant: 0, Polynomial: 1, Harmonic: 2, SmoothRamp: 3}
+FUNCTION_KINDS = {Constant: 0, Polynomial: 1, Harmonic: 2, SmoothRamp: 3, Fourier: 4, EccentricCircle: 5}
+"""The function types the kernels evaluate (``kernels.function``); a Python callable cannot be compiled."""
 SLOTS = (
     "planar_revolute", "planar_along", "planar_angle", "planar_coordinate", "planar_distance",
     "planar_tsda", "planar_rsda", "planar_load",
     "spatial_spherical", "spatial_dot1", "spatial_dot2", "spatial_normalization",
     "spatial_tsda", "spatial_rsda", "spatial_load",
+    "planar_gear", "planar_roller_cam", "planar_flat_cam",
+    "spatial_translation", "spatial_rotation", "spatial_distance", "spatial_coordinate",
     "tree",
 )  # fmt: skip
 """The element data of every kernel has a fixed place in D = (ints, floats): one signature for every scene
 (``tree``: the joints of a joint-coordinates scene, ``tree.py``)."""
+
+
+KIND_NAMES = ("constant", "polynomial", "harmonic", "smooth ramp", "Fourier", "eccentric circle")
 
 
 class Unsupported(Exception):
@@ -84,15 +90,20 @@ class _Functions:
             return -1
         kind = FUNCTION_KINDS.get(type(function))
         if kind is None:
-            raise Unsupported(f"a {type(function).__name__} function of time")
+            what = getattr(function, "name", type(function).__name__)
+            raise Unsupported(f"a {type(function).__name__} function ({what}: only {', '.join(KIND_NAMES)} compile)")
         if kind == 0:
             params = [function.c]
         elif kind == 1:
             params = [len(function.coefficients), *function.coefficients]
         elif kind == 2:
             params = [function.amplitude, function.frequency, function.phase, function.offset]
-        else:
+        elif kind == 3:
             params = [function.start, function.end, function.start_value, function.end_value]
+        elif kind == 4:
+            params = [len(function.a), function.frequency, function.a0, *function.a, *function.b]
+        else:
+            params = [function.radius, function.eccentricity]
         self.items.append((kind, [float(p) for p in params]))
         return len(self.items) - 1
 
@@ -127,12 +138,20 @@ def _actuator(element, functions: _Functions) -> int:
         return -1
     if type(actuator).__name__ == "TimeActuator":
         return functions.index(actuator.function)
-    raise Unsupported(f"the actuator of {element.name} (a function of its length or speed)")
+    raise Unsupported(
+        f"the actuator of {element.name} (a Python callable of time, length and speed; a function of time compiles)"
+    )
 
 
-PLANAR_CONSTRAINTS = ("planar_revolute", "planar_along", "planar_angle", "planar_coordinate", "planar_distance")
+PLANAR_CONSTRAINTS = (
+    "planar_revolute", "planar_along", "planar_angle", "planar_coordinate", "planar_distance",
+    "planar_gear", "planar_roller_cam", "planar_flat_cam",
+)  # fmt: skip
 PLANAR_FORCES = ("planar_tsda", "planar_rsda", "planar_load")
-SPATIAL_CONSTRAINTS = ("spatial_spherical", "spatial_dot1", "spatial_dot2", "spatial_normalization")
+SPATIAL_CONSTRAINTS = (
+    "spatial_spherical", "spatial_dot1", "spatial_dot2", "spatial_normalization",
+    "spatial_translation", "spatial_rotation", "spatial_distance", "spatial_coordinate",
+)  # fmt: skip
 SPATIAL_FORCES = ("spatial_tsda", "spatial_rsda", "spatial_load")
 
 
@@ -160,6 +179,14 @@ def _planar_constraints(system, functions: _Functions) -> dict:
             if f < 0:  # a zero length: the function table needs an entry anyway
                 f = functions.index(Constant(1e-300))
             _group(rows, "planar_distance", [i, j, row, f], [*element.si, *element.sj])
+        elif kind is pj.Gear:
+            radii = [element.radius_i, element.radius_j, element.sigma, element.c0]
+            _group(rows, "planar_gear", [i, j, row], [*element.si, *element.sj, *radii])
+        elif kind is pj.RollerCam:
+            _group(rows, "planar_roller_cam", [i, j, row, functions.index(element.profile)], [*element.si, *element.sj])
+        elif kind is pj.FlatFaceCam:
+            floats = [*element.si, *element.sj, *element.normal, element._alpha]
+            _group(rows, "planar_flat_cam", [i, j, row, functions.index(element.profile)], floats)
         else:
             raise Unsupported(f"a planar {kind.__name__} element ({element.name})")
     return rows
@@ -210,6 +237,18 @@ def _spatial_constraints(system, functions: _Functions) -> dict:
                 else:
                     raise Unsupported(f"a {type(part).__name__} constraint in joint {element.name}")
                 row += len(part.labels)
+        elif kind is sj.TranslationDriver:
+            f = functions.index(element.function)
+            floats = [*element.axis, *element.si, *element.sj, element.offset]
+            _group(rows, "spatial_translation", [i, j, row, f], floats)
+        elif kind is sj.RotationDriver:
+            f = functions.index(element.function)
+            _group(rows, "spatial_rotation", [i, j, row, f], [*element.fi, *element.gi, *element.fj, element.angle0])
+        elif kind is sj.DistanceDriver:
+            _group(rows, "spatial_distance", [i, j, row, functions.index(element.length)], [*element.si, *element.sj])
+        elif kind is sj.CoordinateDriver and i < 0:
+            f = functions.index(element.function)
+            _group(rows, "spatial_coordinate", [j, row, element.index, f], [])
         else:
             raise Unsupported(f"a spatial {kind.__name__} element ({element.name})")
     return rows
@@ -278,4 +317,28 @@ def describe(system, M, forces) -> Scene:
     return scene
 
 
-__all__ = ["Scene", "Unsupported", "describe"]
+def widen(scene: Scene) -> Scene:
+    """The scene with every kernel of its dimension, in the canonical order, those it lacks with no rows.
+
+    All widened scenes of one dimension and one energy flag share one key, hence one compiled module: a
+    process that runs many structures (the agreement tests over every example model) compiles four modules
+    instead of one per structure, and each evaluation pays a call of the absent kernels (a loop over no rows).
+    The results are the same: the absent kernels add nothing.
+    """
+    if scene.unsupported is not None:
+        return scene
+    empty_ints, empty_floats = np.zeros((0, 1), dtype=np.int64), np.zeros((0, 1))
+
+    def full(kernels: list, order: tuple[str, ...]) -> list:
+        present = {name: (ints, floats) for name, ints, floats in kernels}
+        return [(name, *present.get(name, (empty_ints, empty_floats))) for name in order]
+
+    planar = scene.dimension == 2
+    return replace(
+        scene,
+        constraint_kernels=full(scene.constraint_kernels, PLANAR_CONSTRAINTS if planar else SPATIAL_CONSTRAINTS),
+        force_kernels=full(scene.force_kernels, PLANAR_FORCES if planar else SPATIAL_FORCES),
+    )
+
+
+__all__ = ["Scene", "Unsupported", "describe", "widen"]

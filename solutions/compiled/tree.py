@@ -16,7 +16,9 @@ joint's Euler parameters) into the arrays of ``tree_kernels.py``, and the cut ro
   balance, lambda too (the drivers' power, eq. 5.61, as ``dynamics.EquationsOfMotion``);
 - ``body_state(t, y, P, D, q, q', q'', lambda)``: the body coordinates at a joint state and lambda of the model's
   constraint rows from Psi_q^T lambda = Q - M q'' (normal equations; ``JointCoordinates.accelerations``),
-  for the results and reactions (``loops.body_outputs``).
+  for the results and reactions (``loops.body_outputs``);
+- ``constraint_arrays(T, Y, P, D, Psi, Psi_q, Psi_t)`` at the output times from the body coordinates, as the
+  scene's own module (``codegen.py``; ``history.py`` makes the residuals and reactions of them).
 
 No numba here; the generated module is cached as ``codegen.py`` caches the scene's own.
 """
@@ -46,6 +48,14 @@ class TreeScene:
     k: int
     cut_rows: np.ndarray
     unsupported: str | None = None
+
+    @property
+    def n(self) -> int:
+        return self.scene.n
+
+    @property
+    def m(self) -> int:
+        return self.scene.m
 
     @property
     def key(self) -> str:
@@ -187,7 +197,7 @@ def generate(tree: TreeScene) -> str:
         "from numba import njit",
         "",
         f"from solutions.compiled.kernels import {', '.join(kernels)}",
-        "from solutions.compiled.loops import BODY_STATE_SIGNATURE, RHS_SIGNATURE",
+        "from solutions.compiled.loops import BODY_STATE_SIGNATURE, CONSTRAINT_ARRAYS_SIGNATURE, RHS_SIGNATURE",
         f"from solutions.compiled.tree_kernels import {', '.join(sorted(tree_imports))}",
         "",
         "",
@@ -212,7 +222,21 @@ def generate(tree: TreeScene) -> str:
         *_accelerations(tree, "np.empty(npos)", False),
         *([] if cut else _constraints(scene)),
         *_multipliers(scene),
+        "",
+        "",
+        "@njit(CONSTRAINT_ARRAYS_SIGNATURE, cache=True, nogil=True)",
+        "def constraint_arrays(T, Y, P, D, PSI, JAC, PSIT):",
+        '    """Psi, Psi_q and Psi_t at every output time T[k] from the body coordinates Y[k] (eq. 4.1-4.3)."""',
+        "    fk, fp = P[5], P[6]",
+        "    n, m = P[8][0], P[8][1]",
+        "    gam = np.zeros(m)",
+        "    for k in range(T.size):",
+        "        t, q, qd = T[k], Y[k, :n].copy(), Y[k, n : 2 * n].copy()",
+        "        psi, psit, jac = PSI[k], PSIT[k], JAC[k]",
     ]
+    for name in constraints:
+        s = SLOTS.index(name)
+        lines.append("        " + CONSTRAINT_CALLS[name].format(name=name, ints=f"D[0][{s}]", floats=f"D[1][{s}]"))
     return "\n".join(lines) + "\n"
 
 

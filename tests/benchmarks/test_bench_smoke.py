@@ -16,15 +16,19 @@ from benchmarks import bench, stress  # noqa: E402
 
 
 def test_bench_quick_writes_its_tables_and_diagrams(tmp_path, capsys):
-    assert bench.main(["--quick", "--no-peers", "--no-progress", "--repeats", "1", "--out", str(tmp_path)]) == 0
+    argv = ["--quick", "--no-peers", "--no-progress", "--repeats", "1", "--out", str(tmp_path), "--keep-cache"]
+    assert bench.main(argv) == 0
     text = (tmp_path / "bench.md").read_text()
     assert "## Summary: fastest configuration at equal error" in text
     assert "## Microseconds per right-hand side" in text
     assert "straightforward: element loop + solve_ivp RK45" in text
+    assert "| planar double pendulum | compiled baumgarte dop853 |" in text  # the compiled engine's row
     for key in ("double_pendulum", "heavy_top"):
         assert (tmp_path / f"{key}.png").stat().st_size > 1000
     runs = json.loads((tmp_path / "bench.json").read_text())["runs"]
     assert runs and all(r["failure"] == "" for r in runs)
+    compiled = [r for r in runs if r["family"] == "compiled"]
+    assert compiled and all(r["compile_seconds"] > 0 and r["us_per_step"] > 0 for r in compiled)
     # the references are independent of the solver and the runs are judged against them: errors are small
     assert all(r["error"] < 1e-3 for r in runs)
     assert "Summary" in capsys.readouterr().out

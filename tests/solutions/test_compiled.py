@@ -68,13 +68,36 @@ def test_unsupported_runs_fall_back_to_numpy_and_say_why():
     run = forward_dynamics(system, q0, qd0, 0.1, 10, formulation="qr", integrator="DOP853", engine="compiled")
     assert run.info["chosen"]["engine"] == "numpy"
     assert "qr formulation is not compiled" in run.info["chosen"]["engine_why"]
-    gears = build_system(load_model("course/models/gear_train.yaml"))[0]
+    user = forward_dynamics(system, q0, qd0, 0.1, 10, formulation="baumgarte", integrator="DOP853", engine="compiled",
+                            forces=_with_user_force(system.model))  # fmt: skip
+    assert user.info["chosen"]["engine"] == "numpy"
+    assert "user forces (Python callables)" in user.info["chosen"]["engine_why"]
+
+
+def _with_user_force(model):
+    from solutions.generalized_forces import build_forces
+
+    return build_forces(model, [lambda q, qd, t: np.zeros_like(q)])
+
+
+def test_what_is_python_code_is_not_compiled_and_says_so():
+    """An actuator given through the API as a callable of (t, length, speed) and a motor function given as a
+    Python callable cannot be compiled: the scene says which element."""
     from solutions.compiled import describe
+    from solutions.functions import PythonFunction
     from solutions.generalized_forces import build_forces
     from solutions.mass_matrix import mass_matrix
 
-    scene = describe(gears, mass_matrix(gears.model), build_forces(gears.model))
-    assert scene.unsupported is not None and "Gear" in scene.unsupported
+    system = build_system(load_model("course/models/four_bar_spring.yaml"))[0]
+    forces = build_forces(system.model)
+    forces.elements[0].actuator = lambda t, length, speed: -10.0 * speed
+    scene = describe(system, mass_matrix(system.model), forces)
+    assert scene.unsupported is not None and "actuator of" in scene.unsupported, scene.unsupported
+    driven = build_system(load_model("course/models/slider_crank.yaml"))[0]
+    motor = next(e for e in driven.elements if hasattr(e, "function") and e.name == "drive")
+    motor.function = PythonFunction(lambda t: 10.0 * t)
+    scene = describe(driven, mass_matrix(driven.model), build_forces(driven.model))
+    assert scene.unsupported is not None and "PythonFunction" in scene.unsupported, scene.unsupported
 
 
 def test_unknown_engine_is_refused():

@@ -281,3 +281,44 @@ def test_the_fast_validator_and_jsonschema_agree():
         assert fast == full.is_valid(data), name
         verdicts["valid" if fast else "invalid"] += 1
     assert verdicts["valid"] > 10 and verdicts["invalid"] > 5, verdicts
+
+
+def test_the_cached_validator_is_the_compiled_one(tmp_path, monkeypatch):
+    """The compiled validator is kept in the user's cache: the next process loads it instead of compiling
+    (fastjsonschema is not asked again), and it gives the fresh one's verdict on every case; a cache file
+    that is not whole, or a cache folder that cannot be made, only means compiling again."""
+    import fastjsonschema
+
+    from solutions.io import model
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    cache = model.validator_cache()
+    assert cache.is_relative_to(tmp_path)
+    name, fresh = model._validator_code()
+    [stored] = cache.glob("validator-*.marshal")
+
+    def no_compiling(*args, **kwargs):
+        raise AssertionError("compiled again although the cache holds the validator")
+
+    with monkeypatch.context() as patch:
+        patch.setattr(fastjsonschema, "compile_to_code", no_compiling)
+        cached_name, cached = model._validator_code()
+    assert cached_name == name and cached == fresh  # code objects compare by their bytecode and constants
+
+    def verdict(code, data) -> bool:
+        namespace = {}
+        exec(code, namespace)
+        try:
+            namespace[name](data)
+        except fastjsonschema.JsonSchemaException:
+            return False
+        return True
+
+    for case, data in _models_and_cases():
+        assert verdict(cached, data) == verdict(fresh, data), case
+
+    stored.write_bytes(stored.read_bytes()[:1000])  # cut short, as by a full disk
+    assert model._validator_code()[1] == fresh
+    assert stored.stat().st_size > 1000  # written again, whole
+    monkeypatch.setenv("XDG_CACHE_HOME", str(stored))  # a file where the folder should be: nothing is cached
+    assert model._validator_code()[1] == fresh

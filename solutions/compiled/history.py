@@ -1,0 +1,148 @@
+"""What a compiled run reports besides its motion: constraint residuals and joint reactions over the output grid.
+
+The numpy engine evaluates Psi, Psi_q and Psi_t once per output time through the ``System`` and builds the
+reactions joint by joint (``reactions.py``, ``spatial/reactions.py``: what students write). A compiled run
+has the same arrays from its generated module at every output time in one call (``constraint_arrays``), and
+here they are turned into the same result columns with array operations over all output times at once:
+
+- residuals: max |Psi| and max |Psi_q q' + Psi_t| per output time (``dynamics.constraint_residuals``);
+- reactions: for joint k and each of its moving bodies i, Q_i^k = -(Psi_qi^k)^T lambda_k (eq. 5.70, 10.20),
+  split into the force F and the moment about the joint point P: planar M = n - (r_P - r_i) x F (eq. 5.71),
+  spatial n = 1/2 G(p_i) Q_p, M = n - (r_P - r_i) x F (eq. 10.21); ground takes minus what the joint exerts
+  on the moving body. The columns are those of ``reactions.joint_reactions`` (the second body's force and
+  moment; spatial joints also in the joint frame fixed in that body).
+
+Tests (``tests/solutions/test_compiled.py``) compare every column with the numpy functions.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def constraint_arrays(module, scene, times: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(Psi, Psi_q, Psi_t) at every output time, shapes (N, m), (N, m, n), (N, m), from the compiled module."""
+    from . import parameters
+
+    N, n, m = times.size, scene.n, scene.m
+    psi, jac, psit = np.zeros((N, m)), np.zeros((N, m, n)), np.zeros((N, m))
+    module.constraint_arrays(times, np.ascontiguousarray(Y), parameters(scene, 0.0, 0.0), scene.data(), psi, jac, psit)
+    return psi, jac, psit
+
+
+def residuals(psi: np.ndarray, jac: np.ndarray, psit: np.ndarray, qd: np.ndarray) -> dict[str, np.ndarray]:
+    """'residual.position' max |Psi| and 'residual.velocity' max |Psi_q q' + Psi_t| at every output time."""
+    velocity = np.einsum("kij,kj->ki", jac, qd) + psit
+    return {
+        "residual.position": np.max(np.abs(psi), axis=1, initial=0.0),
+        "residual.velocity": np.max(np.abs(velocity), axis=1, initial=0.0),
+    }
+
+
+def _generalized(jac: np.ndarray, lam: np.ndarray, rows: np.ndarray, columns: slice) -> np.ndarray:
+    """Q_i^k = -(Psi_qi^k)^T lambda_k at every output time: (N, columns) (eq. 5.70, 10.20)."""
+    return -np.einsum("krc,kr->kc", jac[:, rows, columns], lam[:, rows])
+
+
+def _rotations_2d(phi: np.ndarray) -> np.ndarray:
+    c, s = np.cos(phi), np.sin(phi)
+    return np.stack([np.stack([c, -s], axis=-1), np.stack([s, c], axis=-1)], axis=-2)
+
+
+def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
+    """``reactions.joint_reactions(system, q, lam, t)`` over the histories q (N, n), lambda (N, m)."""
+    from ..reactions import _joint_groups
+
+    N = q.shape[0]
+    X = np.concatenate([q.reshape(N, -1, 3), np.zeros((N, 1, 3))], axis=1)  # ground last: body -1
+    columns = {}
+    for name, indices in _joint_groups(system).items():
+        first = next((system.elements[k] for k in indices if getattr(system.elements[k], "sj", None) is not None), None)
+        owner = system.elements[indices[0]] if first is None else first
+        point = X[:, owner.j, :2].copy()
+        if first is not None:
+            point += np.einsum("kab,b->ka", _rotations_2d(X[:, owner.j, 2]), np.asarray(first.sj, dtype=float))
+        rows = np.concatenate([np.arange(system.n_constraints)[system.rows[k]] for k in indices])
+        i, j = system.elements[indices[0]].i, system.elements[indices[0]].j
+        force, moment = {}, {}
+        for body in (i, j):
+            if body >= 0:
+                g = _generalized(jac, lam, rows, slice(3 * body, 3 * body + 3))
+                arm = point - X[:, body, :2]
+                force[body], moment[body] = g[:, :2], g[:, 2] - (arm[:, 0] * g[:, 1] - arm[:, 1] * g[:, 0])
+        for body, other in ((i, j), (j, i)):
+            if body < 0:
+                force[body], moment[body] = -force[other], -moment[other]
+        columns[f"{name}.Fx"], columns[f"{name}.Fy"], columns[f"{name}.Mz"] = force[j][:, 0], force[j][:, 1], moment[j]
+    return columns
+
+
+def _unit(p: np.ndarray) -> np.ndarray:
+    return p / np.linalg.norm(p, axis=1, keepdims=True)
+
+
+def _g_matrices(p: np.ndarray) -> np.ndarray:
+    """G(p) = [-e, e~ + e0 I] for every row p (N, 4): (N, 3, 4) (eq. 8.14)."""
+    e0, e1, e2, e3 = p.T
+    return np.stack(
+        [np.stack([-e1, e0, -e3, e2], -1), np.stack([-e2, e3, e0, -e1], -1), np.stack([-e3, -e2, e1, e0], -1)], -2
+    )
+
+
+def _a_matrices(p: np.ndarray) -> np.ndarray:
+    """A(p) = G(p) L(p)^T for every row p (N, 4) (eq. 8.12)."""
+    e0, e1, e2, e3 = p.T
+    L = np.stack(
+        [np.stack([-e1, e0, e3, -e2], -1), np.stack([-e2, -e3, e0, e1], -1), np.stack([-e3, e2, -e1, e0], -1)], -2
+    )
+    return _g_matrices(p) @ np.swapaxes(L, 1, 2)
+
+
+def spatial_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
+    """``spatial.reactions.joint_reactions(system, q, lam, t)`` over the histories q (N, n), lambda (N, m)."""
+    from ..spatial.joints import EulerNormalization, Joint
+
+    N = q.shape[0]
+    X = np.concatenate([q.reshape(N, -1, 7), np.tile([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0], (N, 1, 1))], axis=1)
+    columns = {}
+    for k, element in enumerate(system.elements):
+        if isinstance(element, EulerNormalization):
+            continue
+        rows = np.arange(system.n_constraints)[system.rows[k]]
+        i, j = element.i, element.j
+        Aj = _a_matrices(_unit(X[:, j, 3:]))
+        s = element.frames[1].origin if isinstance(element, Joint) and element.frames else getattr(element, "sj", None)
+        point = X[:, j, :3] if s is None else X[:, j, :3] + Aj @ np.asarray(s, dtype=float)
+        force, moment = {}, {}
+        for body in (i, j):
+            if body >= 0:
+                g = _generalized(jac, lam, rows, slice(7 * body, 7 * body + 7))
+                F = g[:, :3]
+                n = 0.5 * np.einsum("kab,kb->ka", _g_matrices(_unit(X[:, body, 3:])), g[:, 3:])
+                force[body], moment[body] = F, n - np.cross(point - X[:, body, :3], F)
+        for body, other in ((i, j), (j, i)):
+            if body < 0:
+                force[body], moment[body] = -force[other], -moment[other]
+        F, M = force[j], moment[j]
+        for axis, c in zip("xyz", range(3), strict=True):
+            columns[f"{element.name}.F{axis}"] = F[:, c]
+        for axis, c in zip("xyz", range(3), strict=True):
+            columns[f"{element.name}.M{axis}"] = M[:, c]
+        if isinstance(element, Joint) and element.frames:
+            frame = element.frames[1]
+            axes = Aj @ np.column_stack([frame.f, frame.g, frame.h])  # the joint frame's f, g, h (global)
+            F_joint, M_joint = np.einsum("kab,ka->kb", axes, F), np.einsum("kab,ka->kb", axes, M)
+            for axis, c in zip("xyz", range(3), strict=True):  # in the order of the numpy engine's columns
+                columns[f"{element.name}.F{axis}_joint"] = F_joint[:, c]
+                columns[f"{element.name}.M{axis}_joint"] = M_joint[:, c]
+    return columns
+
+
+def joint_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
+    """The reaction columns of every joint and driver over a run (module docstring), planar or spatial."""
+    if system.model.dimension == 3:
+        return spatial_reactions(system, q, lam, jac)
+    return planar_reactions(system, q, lam, jac)
+
+
+__all__ = ["constraint_arrays", "joint_reactions", "residuals"]

@@ -1,0 +1,238 @@
+"""The compiled kinematic analysis: the steps of ``kinematics.kinematic_analysis`` run by a compiled loop.
+
+``kinematic_analysis(..., engine="compiled")`` (``mbd run --engine compiled`` of a kinematic model) hands its
+steps here after the assembly and the rank check at t = 0: ``describe`` reads the scene's constraint elements
+(the kernels of ``kernels.py`` that ``scene.py`` names, as for the dynamic engine; no mass matrix, no forces),
+``codegen.generate_kinematic`` writes the scene's ``evaluate`` (Psi, Psi_q, Psi_t, gamma), and
+``kinematic_loop.steps`` runs Newton-Raphson, the LU factors with their tests and the velocity and acceleration
+solves at every output time.
+
+The compiled steps decide nothing unusual: at the first step where the numpy loop would do more than the
+ordinary step (Newton-Raphson not converging, an exact zero pivot, the lock-up test, a sign change of det Psi_q, a dip
+of the pivot ratio), they stop, and the numpy loop goes on from that step with the state, the pivot ratios and
+the determinant sign so far: the same errors, the same search for a singular position, the same results.
+
+Which engine (``choose``), as ``dispatch.choose`` for forward dynamics: ``numpy``; ``compiled`` whenever the
+kernels cover the model (else numpy, and ``info['chosen']`` says why); ``cached`` when the machine code of the
+scene's structure is on disk; ``auto``:
+
+    the compiled steps when the numpy steps are expected to take longer than LOAD_SECONDS and the machine code
+    is on disk, or longer than COMPILE_SECONDS (a first compilation: the scene's ``evaluate`` and, once per
+    machine, the loop); the numpy time is estimated as (output times) x NEWTON_PASSES x (one pass of Psi,
+    Psi_q, LU and solve, timed at the assembled q).
+
+No numba here: it is imported (by ``run``) only when the compiled steps run.
+"""
+
+from __future__ import annotations
+
+import inspect
+import time
+from dataclasses import dataclass
+from functools import cache
+
+import numpy as np
+
+from ..diagnostics import AnalysisError
+from .dispatch import ENGINES, LOAD_SECONDS
+from .scene import (
+    PLANAR_CONSTRAINTS,
+    SPATIAL_CONSTRAINTS,
+    Scene,
+    Unsupported,
+    _arrays,
+    _Functions,
+    _planar_constraints,
+    _spatial_constraints,
+)
+
+COMPILE_SECONDS = 8.0
+"""What a first compilation may cost: the step loop and the kernels it calls, once per machine, about 9 s (numba
+0.68, one core of the course machine), then each new structure's ``evaluate`` 0.5-1.2 s with numba's import. The
+rule counts the first as ``dispatch.COMPILE_SECONDS`` does: it leaves to numpy every run it cannot surely repay."""
+NEWTON_PASSES = 3
+"""Passes of (Psi, Psi_q, LU, solve) per step in the estimate of the numpy time: about two Newton iterations and
+the final factorization (with Psi_t, gamma and the two solves, about what a step of the slider-crank costs)."""
+REASONS = (
+    "",
+    "Newton-Raphson did not converge",
+    "an exact zero pivot in a Newton-Raphson solve",
+    "the lock-up test fired (pivots of Psi_q spread beyond LOCKUP_CONDITION)",
+    "det(Psi_q) changed sign",
+    "the pivot ratio dipped",
+)
+"""Why the compiled steps stopped, by the reason code of ``kinematic_loop.steps``."""
+
+
+@dataclass
+class KinematicRun:
+    """What the compiled steps give back: rows 0..stop-1 of the results, and per step the Newton iterations, the
+    residuals, the pivot ratios and the det signs; ``stop`` the first step the numpy loop takes, ``reason`` why."""
+
+    Q: np.ndarray
+    QD: np.ndarray
+    QDD: np.ndarray
+    ratios: np.ndarray
+    signs: np.ndarray
+    iterations: np.ndarray
+    residuals: np.ndarray
+    stop: int
+    reason: int
+    load_seconds: float
+    cached: bool
+
+
+def describe(system) -> Scene:
+    """The scene of the constraint elements alone (``scene.describe`` without masses and forces)."""
+    model = system.model
+    scene = Scene(model.dimension, system.n_coordinates, system.n_constraints)
+    scene.drivers = bool(model.motors)
+    functions = _Functions()
+    try:
+        if model.dimension == 2:
+            constraints = _arrays(_planar_constraints(system, functions), PLANAR_CONSTRAINTS)
+        else:
+            constraints = _arrays(_spatial_constraints(system, functions), SPATIAL_CONSTRAINTS)
+    except Unsupported as why:
+        scene.unsupported = str(why)
+        return scene
+    scene.constraint_kernels = constraints
+    scene.function_kinds, scene.function_params = functions.arrays()
+    return scene
+
+
+def packed(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """D = (ints, floats, offsets) of the kinematic loop: the rows of every constraint kernel's data, stacked in the
+    order of ``codegen.KINEMATIC_SLOTS`` (padded with zeros to the widest), kernel s in rows offsets[s]:offsets[s+1]."""
+    from .codegen import KINEMATIC_SLOTS
+
+    present = {name: (ints, floats) for name, ints, floats in scene.constraint_kernels}
+    blocks = [present.get(name) for name in KINEMATIC_SLOTS]
+    counts = [0 if block is None else block[0].shape[0] for block in blocks]
+    offsets = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
+    width_i = max([block[0].shape[1] for block in blocks if block is not None] + [1])
+    width_f = max([block[1].shape[1] for block in blocks if block is not None] + [1])
+    ints, floats = np.zeros((offsets[-1], width_i), dtype=np.int64), np.zeros((offsets[-1], width_f))
+    for s, block in enumerate(blocks):
+        if block is not None:
+            ints[offsets[s] : offsets[s + 1], : block[0].shape[1]] = block[0]
+            floats[offsets[s] : offsets[s + 1], : block[1].shape[1]] = block[1]
+    return ints, floats, offsets
+
+
+@cache
+def _newton_defaults() -> tuple[float, int]:
+    """tol and max_iterations of ``kinematics.newton_raphson``: the compiled steps stop as it does."""
+    from ..kinematics import newton_raphson
+
+    parameters = inspect.signature(newton_raphson).parameters
+    return float(parameters["tol"].default), int(parameters["max_iterations"].default)
+
+
+def estimated_numpy_seconds(system, q: np.ndarray, points: int, repeats: int = 5) -> float:
+    """The numpy steps' expected run time (module docstring)."""
+    from ..linalg import lu_factor, lu_solve
+
+    start = time.perf_counter()
+    for k in range(repeats):
+        x = q * (1.0 + 1e-12 * (k + 1))  # a new q every time: the System keeps the configuration of the last one
+        lu_solve(lu_factor(system.jacobian(x, 0.0)), system.constraints(x, 0.0))
+    return points * NEWTON_PASSES * (time.perf_counter() - start) / repeats
+
+
+def choose(engine: str, system, q: np.ndarray, points: int) -> tuple[Scene | None, dict]:
+    """(Scene or None, {'engine', 'engine_why'}): the scene when the compiled steps run this analysis."""
+    if engine not in ENGINES:
+        raise AnalysisError(f"unknown engine {engine!r} (one of: {', '.join(ENGINES)})")
+    if engine == "numpy":
+        return None, {"engine": "numpy", "engine_why": "numpy engine asked for"}
+    scene = describe(system)
+    if scene.unsupported is not None:
+        return None, {"engine": "numpy", "engine_why": f"not compiled: {scene.unsupported}"}
+    if engine == "compiled":
+        return scene, {"engine": "compiled", "engine_why": "compiled engine asked for"}
+    from .codegen import is_kinematic_cached
+
+    cached = is_kinematic_cached(scene)
+    if engine == "cached":
+        if cached:
+            return scene, {"engine": "compiled", "engine_why": "compiled code for this scene's structure is cached"}
+        return None, {"engine": "numpy", "engine_why": "no compiled code for this scene's structure is cached"}
+    expected = estimated_numpy_seconds(system, q, points)
+    bound, what = (LOAD_SECONDS, "loading the cached code") if cached else (COMPILE_SECONDS, "a first compilation")
+    if expected > bound:
+        why = f"numpy steps estimated at {expected:.3g} s, more than {what} ({bound:g} s)"
+        return scene, {"engine": "compiled", "engine_why": why}
+    why = f"numpy steps estimated at {expected:.3g} s, less than {what} ({bound:g} s)"
+    return None, {"engine": "numpy", "engine_why": why}
+
+
+def run(scene: Scene, q: np.ndarray, times: np.ndarray, system=None) -> KinematicRun:
+    """The compiled steps from the assembled q at times[0] (``kinematic_loop.steps``).
+
+    Where the pivot ratios dip with det Psi_q of one sign, the numpy loop searches the interval for a singular
+    position (``kinematics.locate_singular_position``); so does this function, with ``system``, and where the search
+    finds none the compiled steps go on past the dip (without ``system``, or where it finds one, they stop there).
+    """
+    from ..kinematics import LOCKUP_CONDITION, PIVOT_DIP, _dip_start, locate_singular_position
+    from . import kinematic_loop  # imports numba
+    from .codegen import load_kinematic
+
+    start = time.perf_counter()
+    module, cached = load_kinematic(scene)
+    tol, max_iterations = _newton_defaults()
+    points, n = times.size, scene.n
+    Q, QD, QDD = np.empty((points, n)), np.empty((points, n)), np.empty((points, n))
+    ratios, signs = np.empty(points), np.empty(points)
+    iterations, residuals = np.zeros(points, np.int64), np.zeros(points)
+    q, times = np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(times, dtype=float)
+    F, D = (scene.function_kinds, scene.function_params), packed(scene)
+    first, passed = 0, -1
+    while True:
+        stop, reason = kinematic_loop.steps(
+            module.evaluate, q, times, F, D, tol, max_iterations, float(LOCKUP_CONDITION), float(PIVOT_DIP), first,
+            passed, Q, QD, QDD, ratios, signs, iterations, residuals,
+        )  # fmt: skip
+        if reason != kinematic_loop.DIP or system is None or (stop > 0 and signs[stop] != signs[stop - 1]):
+            break
+        dip = _dip_start([float(r) for r in ratios[: stop + 1]], points)
+        if locate_singular_position(system, times[dip], Q[dip], QD[dip], QDD[dip], times[stop]) is not None:
+            break  # a singular position: the numpy loop stops there with its error
+        first = passed = stop
+    return KinematicRun(
+        Q, QD, QDD, ratios, signs, iterations, residuals, stop, reason, time.perf_counter() - start, cached
+    )
+
+
+def steps(engine: str, system, q: np.ndarray, times: np.ndarray, Q, QD, QDD) -> tuple:
+    """The steps the compiled engine takes of a kinematic analysis from the assembled q at t = 0.
+
+    Fills rows 0..k-1 of Q, QD, QDD and returns (k, Newton iterations, max residual, pivot ratios, det sign
+    of step k-1 or None, ``info['chosen']``): the numpy loop goes on from step k (k = 0: it runs them all).
+    """
+    scene, chosen = choose(engine, system, q, times.size)
+    if scene is None:
+        return 0, 0, 0.0, [], None, chosen
+    out = run(scene, q, times, system)
+    k = int(out.stop)
+    Q[:k], QD[:k], QDD[:k] = out.Q[:k], out.QD[:k], out.QDD[:k]
+    if k < times.size:
+        chosen["engine_why"] += (
+            f"; the compiled steps stopped at t = {times[k]:.6g} s (step {k} of {times.size - 1}): "
+            f"{REASONS[out.reason]}, and the numpy engine went on from there"
+        )
+    sign = float(out.signs[k - 1]) if k > 0 else None
+    residual = float(np.max(out.residuals[:k], initial=0.0))
+    return k, int(out.iterations[:k].sum()), residual, [float(r) for r in out.ratios[:k]], sign, chosen
+
+
+__all__ = [
+    "COMPILE_SECONDS",
+    "KinematicRun",
+    "choose",
+    "describe",
+    "estimated_numpy_seconds",
+    "packed",
+    "run",
+    "steps",
+]

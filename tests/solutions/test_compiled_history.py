@@ -1,0 +1,140 @@
+"""What a compiled run reports besides its motion (solutions/compiled/history.py, Guard.check_outputs), against
+the numpy functions that the numpy engine uses: Psi, Psi_q, Psi_t from the generated module against the
+System's, the residual and reaction columns against ``constraint_residuals`` and ``joint_reactions``, and the
+batched checks of the Guard against its step-by-step checks (the same verdicts, the same messages).
+"""
+
+import numpy as np
+import pytest
+
+from solutions.assembly import build_system
+from solutions.diagnostics import AnalysisError, SingularConfigurationError
+from solutions.dynamics import Guard, constraint_residuals, forward_dynamics
+from solutions.io import load_model
+from solutions.reactions import joint_reactions
+
+pytest.importorskip("numba")
+
+from solutions.compiled import codegen, describe, history  # noqa: E402
+from solutions.generalized_forces import build_forces  # noqa: E402
+from solutions.mass_matrix import mass_matrix  # noqa: E402
+
+MODELS = [  # revolute, prismatic, drivers (Psi_t), loads; spatial joints with frames, to ground both ways
+    "course/models/slider_crank_flywheel.yaml",
+    "course/models/four_bar_spring.yaml",
+    "course/models/spatial_double_pendulum.yaml",
+    "course/models/heavy_top.yaml",
+    "course/models/spatial_double_pendulum_driven.yaml",
+    "course/models/gear_train.yaml",
+    "course/models/carriage_pendulum.yaml",
+    "course/models/revolute_revolute_skew.yaml",
+]
+
+
+def _numpy_history(path: str):
+    """A short numpy run of the model (its motion is all these tests need) and its compiled module."""
+    system, q0, qd0 = build_system(load_model(path))
+    run = forward_dynamics(system, q0, qd0, 0.3, 12, formulation="baumgarte", integrator="DOP853", rtol=1e-8)
+    scene = describe(system, mass_matrix(system.model), build_forces(system.model))
+    assert scene.unsupported is None, scene.unsupported
+    module, _ = codegen.load(scene)
+    Y = np.hstack([run.q, run.qd])
+    return system, run, scene, module, Y
+
+
+@pytest.mark.parametrize("path", MODELS)
+def test_history_matches_numpy_functions(path):
+    system, run, scene, module, Y = _numpy_history(path)
+    psi, jac, psit = history.constraint_arrays(module, scene, run.t, Y)
+    for k, t in enumerate(run.t):
+        assert np.allclose(psi[k], system.constraints(run.q[k], t), rtol=0, atol=1e-13)
+        assert np.allclose(jac[k], system.jacobian(run.q[k], t), rtol=1e-13, atol=1e-13)
+        assert np.allclose(psit[k], system.psi_t(run.q[k], t), rtol=1e-13, atol=1e-13)
+    expected = constraint_residuals(system, run.t, run.q, run.qd)
+    got = history.residuals(psi, jac, psit, run.qd)
+    for key in expected:
+        assert np.allclose(got[key], expected[key], rtol=1e-10, atol=1e-14), key
+    expected = joint_reactions(system, run.q, run.lam, run.t)
+    got = history.joint_reactions(system, run.q, run.lam, jac)
+    assert list(got) == list(expected)  # the same columns in the same order (the CSV's)
+    size = max(float(np.max(np.abs(v))) for v in expected.values())
+    for key, value in expected.items():
+        assert np.max(np.abs(got[key] - value)) <= 1e-12 * size, key
+
+
+def _verdict(check):
+    try:
+        check()
+    except AnalysisError as err:
+        return type(err).__name__, str(err)
+    return None
+
+
+def test_batched_guard_gives_the_step_by_step_verdicts():
+    """A slider-crank's motion judged with a singular ratio it passes below, and a history moved off its
+    constraints: the Guard stops at the same output time with the same message, batched or step by step;
+    with the defaults the history passes, and the closest approach to a singular position is the same."""
+    system, run, scene, module, Y = _numpy_history("course/models/slider_crank_flywheel.yaml")
+    psi, jac, _ = history.constraint_arrays(module, scene, run.t, Y)
+
+    class Coordinates:  # what check_configuration asks of a formulation: q from the state y = (q, q')
+        @staticmethod
+        def coordinates(t, y):
+            return y[: system.n_coordinates], y[system.n_coordinates :]
+
+    def step_by_step(q_history, ratio=1e-6, drift=1e-3):
+        guard = Guard(system, q_history[0], drift, ratio)
+        for k, t in enumerate(run.t):
+            guard.check_drift(q_history[k], t)
+            guard.check_configuration(Coordinates, t, np.concatenate([q_history[k], run.qd[k]]))
+        return guard
+
+    def batched(q_history, ratio=1e-6, drift=1e-3):
+        psi_k, jac_k, _ = history.constraint_arrays(module, scene, run.t, np.hstack([q_history, run.qd]))
+        guard = Guard(system, q_history[0], drift, ratio)
+        guard.check_outputs(run.t, q_history, psi_k, jac_k)
+        return guard
+
+    a, b = step_by_step(run.q), batched(run.q)
+    assert a.closest == pytest.approx(b.closest, rel=1e-12)
+    # a singular ratio the motion passes below: both stop at the first output time where sigma_r / sigma_1 dips
+    limit = 1.01 * b.closest["ratio"]
+    first = _verdict(lambda: step_by_step(run.q, ratio=limit))
+    assert first is not None and first[0] == SingularConfigurationError.__name__
+    assert _verdict(lambda: batched(run.q, ratio=limit)) == first
+    # positions moved off the constraints from the sixth output time on
+    off = run.q.copy()
+    off[5:, 0] += 0.05
+    first = _verdict(lambda: step_by_step(off))
+    assert first is not None and "constraint drift at t" in first[1]
+    assert _verdict(lambda: batched(off)) == first
+
+
+def test_batched_guard_sees_a_rank_loss_between_output_times():
+    """A parallelogram loop (tests/solutions/mechanisms.py) falling through theta = 0, where Psi_q loses a rank:
+    its motion, from the augmented Lagrangian formulation that passes it, judged by the sign of det [Psi_q; T^T]
+    alone (a singular ratio far below the one met): both checks stop between the same two output times."""
+    from tests.solutions.mechanisms import parallelogram_chain
+
+    system, q0, qd0 = build_system(load_model(parallelogram_chain(1, end_time=1.0)))
+    run = forward_dynamics(system, q0, qd0, 1.0, 40, formulation="augmented-lagrangian", integrator="DOP853")
+    scene = describe(system, mass_matrix(system.model), build_forces(system.model))
+    module, _ = codegen.load(scene)
+    psi, jac, _ = history.constraint_arrays(module, scene, run.t, np.hstack([run.q, run.qd]))
+
+    class Coordinates:
+        @staticmethod
+        def coordinates(t, y):
+            return y[: system.n_coordinates], y[system.n_coordinates :]
+
+    def step_by_step():
+        guard = Guard(system, run.q[0], None, 1e-14)
+        for k, t in enumerate(run.t):
+            guard.check_configuration(Coordinates, t, np.concatenate([run.q[k], run.qd[k]]))
+
+    def batched():
+        Guard(system, run.q[0], None, 1e-14).check_outputs(run.t, run.q, psi, jac)
+
+    first = _verdict(step_by_step)
+    assert first is not None and "lost rank there" in first[1], first
+    assert _verdict(batched) == first
