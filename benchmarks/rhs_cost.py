@@ -85,7 +85,7 @@ def cost(source, formulation: str, calls: int, repeats: int) -> tuple[str, str, 
         return "-", f"{numpy_us:.1f}", "-", f"not compiled: {why_not}"
     start = time.perf_counter()
     module, project, cached = compiled.load(job)
-    P, D = compiled.parameters(job.scene, job.numbers), job.scene.data()
+    P, D = compiled.parameters(job.scene, *job.numbers), job.scene.data()
     loops.repeat(module.scene_rhs, 0.0, z0, P, D, 10)
     load = time.perf_counter() - start
     best = np.inf

@@ -17,6 +17,7 @@ import yaml
 from solutions.assembly import build_system
 from solutions.diagnostics import AnalysisError
 from solutions.dynamics import forward_dynamics
+from solutions.generalized_forces import build_forces
 from solutions.io import load_model
 
 pytest.importorskip("numba")
@@ -147,12 +148,13 @@ def test_joint_coordinates_with_cut_joints_agree(scene):
     assert np.allclose(reference.points["energy.drivers"], compiled.points["energy.drivers"], rtol=1e-8, atol=1e-10)
 
 
-def test_elements_the_kernels_lack_fall_back_to_numpy_and_say_why():
-    system, q0, qd0 = build_system(load_model("course/models/gear_train.yaml"))
+def test_what_the_kernels_lack_falls_back_to_numpy_and_says_why():
+    system, q0, qd0 = build_system(load_model(TREES["double_pendulum"]))
+    forces = build_forces(system.model).add(lambda q, qd, t: np.zeros(q.size))
     run = forward_dynamics(system, q0, qd0, 0.05, 5, formulation="joint-coordinates", integrator="DOP853",
-                           engine="compiled")  # fmt: skip
+                           forces=forces, engine="compiled")  # fmt: skip
     assert run.info["chosen"]["engine"] == "numpy"
-    assert "Gear" in run.info["chosen"]["engine_why"]
+    assert "user forces" in run.info["chosen"]["engine_why"]
 
 
 def test_cached_engine_finds_the_compiled_tree():
