@@ -25,7 +25,12 @@ API as a Python callable of time, length and speed, functions given as Python ca
 and caches its module, ``kernels.py`` holds the compiled element formulas.
 
 ``projection.py`` and ``tree.py`` write the modules of the projection and joint-coordinates formulations
-(their kernels: ``projection_kernels.py``, ``tree_kernels.py``); ``plan`` says which a run takes.
+(their kernels: ``projection_kernels.py``, ``tree_kernels.py``); ``plan`` says which a run takes. Every
+generated module also gives Psi, Psi_q and Psi_t at all output times at once, from which ``history.py``
+builds the residuals and the reactions and ``dynamics.Guard.check_outputs`` makes its checks.
+
+The kinematic analysis has a compiled engine of its own on the same kernels (``kinematic.py``, its step
+loop ``kinematic_loop.py``): ``kinematics.kinematic_analysis(..., engine="compiled")``.
 
 numba is imported only here, when a run is compiled: importing ``solutions`` (and the student package
 generated from it) never imports it.

@@ -158,9 +158,10 @@ def _module_name(scene: Scene) -> tuple[str, str]:
 
 
 def is_cached(scene: Scene) -> bool:
-    """Whether numba's machine code for the scene's structure is on disk (its index file, ``*.nbi``)."""
+    """Whether numba's machine code for the scene's structure is on disk (its index file, ``*.nbi``), or its
+    module is loaded in this process already (from another cache directory, say): no compilation either way."""
     name, _ = _module_name(scene)
-    return any((cache_directory() / "__pycache__").glob(f"{name}.scene_rhs-*.nbi"))
+    return name in sys.modules or any((cache_directory() / "__pycache__").glob(f"{name}.scene_rhs-*.nbi"))
 
 
 def load(scene: Scene) -> tuple[object, bool]:
@@ -239,7 +240,7 @@ def _kinematic_name(scene: Scene) -> tuple[str, str]:
 def is_kinematic_cached(scene: Scene) -> bool:
     """Whether numba's machine code for the scene's kinematic module is on disk (its index file, ``*.nbi``)."""
     name, _ = _kinematic_name(scene)
-    return any((cache_directory() / "__pycache__").glob(f"{name}.evaluate-*.nbi"))
+    return name in sys.modules or any((cache_directory() / "__pycache__").glob(f"{name}.evaluate-*.nbi"))
 
 
 def load_kinematic(scene: Scene) -> tuple[object, bool]:
@@ -290,8 +291,8 @@ def load_generated(name: str, text: str, probe: str) -> tuple[object, bool]:
 
 
 def is_generated_cached(name: str, probe: str) -> bool:
-    """Whether numba's machine code of ``probe`` in the generated module ``name`` is on disk."""
-    return any((cache_directory() / "__pycache__").glob(f"{name}.{probe}-*.nbi"))
+    """Whether numba's machine code of ``probe`` in the generated module ``name`` is on disk (or loaded already)."""
+    return name in sys.modules or any((cache_directory() / "__pycache__").glob(f"{name}.{probe}-*.nbi"))
 
 
 __all__ = [

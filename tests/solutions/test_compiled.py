@@ -125,7 +125,9 @@ def test_auto_and_cached_choose_by_what_pays(tmp_path, monkeypatch):
     for engine, chosen in (("auto", "numpy"), ("cached", "compiled")):
         run = forward_dynamics(system, q0, qd0, 0.05, 2, engine=engine, **kwargs)
         assert run.info["chosen"]["engine"] == chosen, run.info["chosen"]
-    monkeypatch.setenv("MBD_COMPILED_CACHE", str(tmp_path))  # an empty cache
+    monkeypatch.setenv("MBD_COMPILED_CACHE", str(tmp_path))  # an empty cache, and no generated module loaded
+    for name in [name for name in sys.modules if name.startswith("mbd_")]:
+        monkeypatch.delitem(sys.modules, name)
     for engine, why in (("auto", "less than a first compilation"), ("cached", "no compiled code")):
         run = forward_dynamics(system, q0, qd0, 0.05, 2, engine=engine, **kwargs)
         assert run.info["chosen"]["engine"] == "numpy" and why in run.info["chosen"]["engine_why"], run.info

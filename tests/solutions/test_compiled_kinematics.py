@@ -9,6 +9,7 @@ are the numpy engine's, word for word. numba compiles the step loop once per mac
 """
 
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -169,7 +170,9 @@ def test_auto_and_cached_choose_by_what_pays(tmp_path, monkeypatch):
     auto = kinematic_analysis(system, q0, 0.1, 10, engine="auto").info["chosen"]
     assert auto["engine"] == "numpy" and "less than loading the cached code" in auto["engine_why"], auto
     assert kinematic_analysis(system, q0, 0.1, 10, engine="cached").info["chosen"]["engine"] == "compiled"
-    monkeypatch.setenv("MBD_COMPILED_CACHE", str(tmp_path))  # an empty cache
+    monkeypatch.setenv("MBD_COMPILED_CACHE", str(tmp_path))  # an empty cache, and no generated module loaded
+    for name in [name for name in sys.modules if name.startswith("mbd_")]:
+        monkeypatch.delitem(sys.modules, name)
     for engine, why in (("auto", "less than a first compilation"), ("cached", "no compiled code")):
         chosen = kinematic_analysis(system, q0, 0.1, 10, engine=engine).info["chosen"]
         assert chosen["engine"] == "numpy" and why in chosen["engine_why"], chosen
