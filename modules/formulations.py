@@ -616,6 +616,4 @@ __all__ = [
     "project_velocities",
 ]
 
-from .joint_coordinates import JointCoordinates  # noqa: E402  (it builds on Formulation, defined above)
-
-FORMULATIONS[JointCoordinates.name] = JointCoordinates  # open trees: joint coordinates, no constraints to keep
+from . import joint_coordinates  # noqa: E402, F401  (it builds on Formulation, defined above, and registers itself)

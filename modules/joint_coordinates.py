@@ -71,7 +71,14 @@ import scipy.linalg
 
 from .assembly import System
 from .diagnostics import AnalysisError, rank_report
-from .formulations import DEFAULT_ALPHA, DEFAULT_BETA, Formulation, augmented_accelerations, baumgarte_gamma
+from .formulations import (
+    DEFAULT_ALPHA,
+    DEFAULT_BETA,
+    FORMULATIONS,
+    Formulation,
+    augmented_accelerations,
+    baumgarte_gamma,
+)
 from .generalized_forces import ForceModel
 from .io.model import GROUND
 from .linalg import cholesky_solve
@@ -809,3 +816,5 @@ __all__ = [
     "supports",
     "tree_order",
 ]
+
+FORMULATIONS[JointCoordinates.name] = JointCoordinates  # open trees: joint coordinates, no constraints to keep
