@@ -32,9 +32,11 @@ ENGINES = ("auto", "numpy", "compiled", "cached")
 """``cached``: the compiled engine where its code for the scene's structure is on disk, else numpy: for a
 process that runs many scenes of the same structures (the grader, a sweep), which pays the loading once."""
 COMPILE_SECONDS = 8.0
-"""What a first compilation of a scene's module costs (numba 0.68, one core of the course machine: 5-9 s)."""
-LOAD_SECONDS = 1.0
-"""What loading the cached machine code costs (importing numba, reading the cache: about 1 s)."""
+"""What a first compilation of a scene's module costs (numba 0.68, one core of the course machine: 5.7-8.7 s
+measured, with the loops compiled already: they take 10-20 s more once per machine)."""
+LOAD_SECONDS = 0.5
+"""What loading the cached machine code costs (importing numba, reading the cache): 0.42-0.55 s measured in a new
+process on the idle course machine (``benchmarks/engines.py --calibrate``, ``benchmarks/results/engines.md``)."""
 STAGES = {"DOP853": 12, "dop853": 12, "RK45": 6, "rk45": 6, "rk4": 4}
 TRIAL_STEPS = 8
 """Steps of the trial run behind the estimate of a long numpy run (``trial_seconds``)."""
