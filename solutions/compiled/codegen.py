@@ -160,29 +160,13 @@ def _module_name(scene: Scene) -> tuple[str, str]:
 def is_cached(scene: Scene) -> bool:
     """Whether numba's machine code for the scene's structure is on disk (its index file, ``*.nbi``), or its
     module is loaded in this process already (from another cache directory, say): no compilation either way."""
-    name, _ = _module_name(scene)
-    return name in sys.modules or any((cache_directory() / "__pycache__").glob(f"{name}.scene_rhs-*.nbi"))
+    return is_generated_cached(_module_name(scene)[0], "scene_rhs")
 
 
 def load(scene: Scene) -> tuple[object, bool]:
     """The scene's compiled module (written to the cache directory if new), and whether numba's machine code
     for it was on disk already (a cached module: no compilation)."""
-    name, text = _module_name(scene)
-    if name in sys.modules:
-        return sys.modules[name], True
-    directory = cache_directory()
-    path = directory / f"{name}.py"
-    if not path.exists():
-        directory.mkdir(parents=True, exist_ok=True)
-        partial = path.with_suffix(f".{os.getpid()}.tmp")
-        partial.write_text(text)
-        os.replace(partial, path)  # atomic: a parallel run never imports half a file
-    cached = any((directory / "__pycache__").glob(f"{name}.scene_rhs-*.nbi"))
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module, cached
+    return load_generated(*_module_name(scene), "scene_rhs")
 
 
 # -- the kinematic analysis: the constraint kernels alone (kinematic.py, kinematic_loop.py) ------------------------
@@ -239,29 +223,13 @@ def _kinematic_name(scene: Scene) -> tuple[str, str]:
 
 def is_kinematic_cached(scene: Scene) -> bool:
     """Whether numba's machine code for the scene's kinematic module is on disk (its index file, ``*.nbi``)."""
-    name, _ = _kinematic_name(scene)
-    return name in sys.modules or any((cache_directory() / "__pycache__").glob(f"{name}.evaluate-*.nbi"))
+    return is_generated_cached(_kinematic_name(scene)[0], "evaluate")
 
 
 def load_kinematic(scene: Scene) -> tuple[object, bool]:
     """The scene's kinematic module (written to the cache directory if new, as ``load``), and whether its machine
     code was on disk already."""
-    name, text = _kinematic_name(scene)
-    if name in sys.modules:
-        return sys.modules[name], True
-    directory = cache_directory()
-    path = directory / f"{name}.py"
-    if not path.exists():
-        directory.mkdir(parents=True, exist_ok=True)
-        partial = path.with_suffix(f".{os.getpid()}.tmp")
-        partial.write_text(text)
-        os.replace(partial, path)
-    cached = is_kinematic_cached(scene)
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module, cached
+    return load_generated(*_kinematic_name(scene), "evaluate")
 
 
 def generated_name(prefix: str, text: str, sources: tuple[str, ...] = ()) -> str:
@@ -281,7 +249,7 @@ def load_generated(name: str, text: str, probe: str) -> tuple[object, bool]:
         directory.mkdir(parents=True, exist_ok=True)
         partial = path.with_suffix(f".{os.getpid()}.tmp")
         partial.write_text(text)
-        os.replace(partial, path)
+        os.replace(partial, path)  # atomic: a parallel run never imports half a file
     cached = is_generated_cached(name, probe)
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
