@@ -66,6 +66,17 @@ def cache_directory() -> Path:
     return Path(base) / "mbd-course" / "compiled"
 
 
+def constraint_calls(scene: Scene, indent: str) -> list[str]:
+    """One line per constraint kernel of the scene, calling it on its slot of the element data D."""
+    return [
+        indent
+        + CONSTRAINT_CALLS[name].format(
+            name=name, ints=f"D[0][{SLOTS.index(name)}]", floats=f"D[1][{SLOTS.index(name)}]"
+        )
+        for name, _, _ in scene.constraint_kernels
+    ]
+
+
 def generate(scene: Scene) -> str:
     """The source text of the scene's module (module docstring)."""
     names = [name for name, _, _ in (*scene.constraint_kernels, *scene.force_kernels)]
@@ -89,9 +100,7 @@ def generate(scene: Scene) -> str:
         "    Q = Q0.copy()",
         "    power[:] = 0.0",
     ]
-    for name, _, _ in scene.constraint_kernels:
-        slot = SLOTS.index(name)
-        lines.append("    " + CONSTRAINT_CALLS[name].format(name=name, ints=f"D[0][{slot}]", floats=f"D[1][{slot}]"))
+    lines += constraint_calls(scene, "    ")
     for name, _, _ in scene.force_kernels:
         slot = SLOTS.index(name)
         lines.append("    " + FORCE_CALL.format(name=name, ints=f"D[0][{slot}]", floats=f"D[1][{slot}]"))
@@ -132,10 +141,7 @@ def generate(scene: Scene) -> str:
         "        t, q, qd = T[k], Y[k, :n].copy(), Y[k, n : 2 * n].copy()",
         "        psi, psit, jac = PSI[k], PSIT[k], JAC[k]",
     ]
-    for name, _, _ in scene.constraint_kernels:
-        slot = SLOTS.index(name)
-        call = CONSTRAINT_CALLS[name].format(name=name, ints=f"D[0][{slot}]", floats=f"D[1][{slot}]")
-        lines.append("        " + call)
+    lines += constraint_calls(scene, "        ")
     return "\n".join(lines) + "\n"
 
 

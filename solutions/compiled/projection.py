@@ -21,8 +21,8 @@ No numba here; the generated module is cached as ``codegen.py`` caches the scene
 
 from __future__ import annotations
 
-from .codegen import CONSTRAINT_CALLS, generated_name, is_generated_cached, load_generated
-from .scene import SLOTS, Scene
+from .codegen import constraint_calls, generated_name, is_generated_cached, load_generated
+from .scene import Scene
 
 SOURCES = ("projection_kernels.py",)
 
@@ -49,9 +49,7 @@ def generate(scene: Scene) -> str:
         "    jac[:] = 0.0",
         "    psit[:] = 0.0",
     ]
-    for name, _, _ in scene.constraint_kernels:
-        slot = SLOTS.index(name)
-        lines.append("    " + CONSTRAINT_CALLS[name].format(name=name, ints=f"D[0][{slot}]", floats=f"D[1][{slot}]"))
+    lines += constraint_calls(scene, "    ")
     lines += [
         "",
         "",

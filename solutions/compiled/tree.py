@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..joint_coordinates import cut_elements, tree_order
-from .codegen import CONSTRAINT_CALLS, FORCE_CALL, generated_name, is_generated_cached, load_generated
+from .codegen import FORCE_CALL, constraint_calls, generated_name, is_generated_cached, load_generated
 from .scene import SLOTS, Scene
 
 SOURCES = ("tree_kernels.py", "projection_kernels.py")
@@ -107,10 +107,7 @@ def describe(scene: Scene, formulation) -> TreeScene:
 def _constraints(scene: Scene) -> list[str]:
     """The lines that evaluate Psi, Psi_q, Psi_t and gamma of every constraint row at q, q'."""
     lines = ["    psi, psit, gam = np.zeros(m), np.zeros(m), np.zeros(m)", "    jac = np.zeros((m, n))"]
-    for name, _, _ in scene.constraint_kernels:
-        s = SLOTS.index(name)
-        lines.append("    " + CONSTRAINT_CALLS[name].format(name=name, ints=f"D[0][{s}]", floats=f"D[1][{s}]"))
-    return lines
+    return lines + constraint_calls(scene, "    ")
 
 
 def _multipliers(scene: Scene) -> list[str]:
@@ -234,9 +231,7 @@ def generate(tree: TreeScene) -> str:
         "        t, q, qd = T[k], Y[k, :n].copy(), Y[k, n : 2 * n].copy()",
         "        psi, psit, jac = PSI[k], PSIT[k], JAC[k]",
     ]
-    for name in constraints:
-        s = SLOTS.index(name)
-        lines.append("        " + CONSTRAINT_CALLS[name].format(name=name, ints=f"D[0][{s}]", floats=f"D[1][{s}]"))
+    lines += constraint_calls(scene, "        ")
     return "\n".join(lines) + "\n"
 
 
