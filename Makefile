@@ -30,9 +30,12 @@ sandbox-tools:
 	    echo "bubblewrap (bwrap) not found and not root with apt-get: the isolation tests will be skipped (apt-get install bubblewrap)"; \
 	  fi; }
 
+# Tests run on every core (pytest-xdist), one test file per worker at a time (--dist loadfile) so that a file's
+# module-scoped fixtures (a nbgrader course, a graded class, a Dask cluster) are built once; the 20 slowest are listed.
+TEST_WORKERS ?= auto
 test: $(STAMP) sandbox-tools
 	$(BIN)/ruff check solutions course autograder mbdkit tests benchmarks
-	MPLBACKEND=Agg $(BIN)/python -m pytest
+	MPLBACKEND=Agg $(BIN)/python -m pytest -n $(TEST_WORKERS) --dist loadfile --durations=20
 
 # modules/ is generated from solutions/ (every homework stubbed), committed, never edited by hand.
 .PHONY: modules
