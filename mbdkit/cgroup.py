@@ -39,7 +39,7 @@ CONTROLLERS = ("memory", "pids", "cpu")
 EXTRA_PROCESSES = 6
 """Processes of a sandbox besides the student's: the launcher-turned-bubblewrap, bubblewrap's reaper, the zygote."""
 
-STALE = 3600.0
+STALE = 600.0
 """Seconds after which an empty group of a dead grader is removed by the next grader."""
 
 _counter = itertools.count()
@@ -233,6 +233,10 @@ class Cgroup:
             _write(self._file("cpu", "cpu.shares"), "1024")
             _write(self._file("cpu", "cpu.cfs_period_us"), str(period))
             _write(self._file("cpu", "cpu.cfs_quota_us"), str(quota))
+
+    def exists(self) -> bool:
+        """True while every folder of the group is there (another grader may have removed an empty one)."""
+        return bool(self.folders) and all(os.path.isdir(folder) for folder in self.folders.values())
 
     @property
     def procs(self) -> list[str]:

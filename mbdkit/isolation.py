@@ -449,6 +449,7 @@ class IsolatedHost:
         self.tmp = tempfile.mkdtemp(prefix="mbd-sandbox-host-")
         staged = os.path.join(self.tmp, "submission")
         self.cgroup = None
+        self._sizes = (limits, tmp_size)
         try:
             self.skipped = stage_package(folder, package, staged)
             self.cgroup = make_cgroup(limits, tmp_size)
@@ -475,6 +476,10 @@ class IsolatedHost:
         from .sandbox import STARTUP_TIMEOUT, SandboxError
 
         self._stop()
+        if self.cgroup is not None and not self.cgroup.exists():  # removed while empty: a new one
+            self._remove_cgroup()
+            self.cgroup = make_cgroup(*self._sizes)
+            self.plan.cgroup = self.cgroup.procs if self.cgroup else []
         ours, theirs = socket.socketpair()
         log = os.open(os.path.join(self.tmp, "zygote.txt"), os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
         fd = theirs.fileno()

@@ -5,8 +5,13 @@ check ``four_bar.constraints.revolute``; the attack switches the audit hook off 
 the operating system) are graded through ``autograder.grading.grade`` with ``jobs=2`` beside honest
 classmates: writes to the read-only root, forks that together hold more than the sandbox's memory, SysV
 shared memory beyond its cap, packages installed beside the interpreter, and 29 busy processes beside a
-correct but slow classmate. Each costs that one check; the classmates keep their scores. Then, in one
-sandbox: a file and SysV IPC objects the first child leaves are gone for the next.
+correct but slow classmate. Each costs that one check; the classmates keep their scores (the slow one
+exactly its score alone). Then, in one sandbox: a file and SysV IPC objects the first child leaves are
+gone for the next; and without a cgroup the grader says so once and grades with the rlimits.
+
+Without the cgroup (``MBD_NO_CGROUP=1`` and the cgroup tests forced to run) the three forks all hold their
+memory and the slow classmate loses its first check; without the zygote's cleaning the second child finds
+the first one's file and IPC objects: these tests fail.
 """
 
 from __future__ import annotations
@@ -42,7 +47,8 @@ MiB = 2**20
 CHECKS = ["four_bar.constraints.revolute", "four_bar.jacobian.revolute"]
 ATTACKED = "four_bar.constraints.revolute"
 LIMITS = Limits(tmp_size=16 * MiB, sandbox_memory=640 * MiB)
-"""Small caps: a /tmp of 16 MiB, 640 MiB for all the processes of a sandbox (an honest one holds ~200)."""
+"""Small caps: a /tmp of 16 MiB, 640 MiB for all the processes of a sandbox (an honest one held at most 72
+MiB grading all of hw1 or hw3: the cgroup's peak)."""
 FORK_BYTES = 320 * MiB
 """What each of three forks allocates: well inside RLIMIT_AS (3 GiB), 960 MiB together."""
 BURN = 1.0
@@ -409,8 +415,40 @@ def test_no_file_or_ipc_object_survives_into_the_next_child(tmp_path):
                 messages = [e["message"] for e in reply.element_errors if "ATTACK:" in e["message"]]
                 said.append(messages[0].split("ATTACK:")[1].split(" | ", 1)[1])  # after "hook=off"
         assert host.starts == 1  # one sandbox: the zygote cleaned up between the two children
+        group = host.cgroup
+        if group is not None:  # the sandbox's processes are in the submission's cgroup
+            assert host.zygote_pid() in group.pids() and os.getpid() not in group.pids()
     finally:
         host.close()
+    if group is not None:
+        assert not group.exists() and host.cgroup is None  # removed with the sandbox
     for child in said:  # what the first child left: nothing the second can see
         assert "tmp=[]" in child and "shm=-1:2" in child and "msg=-1:2" in child, said  # ENOENT
         assert "shms=0" in child and "msgs=0" in child and "sems=0" in child, said
+
+
+@needs_isolation
+def test_without_a_cgroup_the_grader_says_so_once_and_grades(tmp_path, monkeypatch, capsys):
+    from autograder.grading import stored_reference
+    from autograder.scenes import load_scene
+    from mbdkit.sandbox import Sandbox
+    from mbdkit.scenes import job_key
+
+    monkeypatch.setenv(cgroup.DISABLE_ENV, "1")
+    cgroup.layout.cache_clear()
+    osi._note_cgroup.cache_clear()
+    try:
+        osi.require()
+        osi.require()
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and err.startswith("mbd: note: the sandboxes get no cgroup (MBD_NO_CGROUP is set)")
+        copy_reference(tmp_path / "ann")
+        scene = load_scene("four_bar")
+        with Sandbox(tmp_path / "ann", isolation="os", limits=LIMITS) as sandbox:
+            assert sandbox._own_host.cgroup is None
+            reply = sandbox.run("constraints", job_key(scene), scene.data, stored_reference("four_bar").inputs, {}, 30)
+        assert reply.ok and not reply.element_errors, reply
+    finally:
+        monkeypatch.delenv(cgroup.DISABLE_ENV)
+        cgroup.layout.cache_clear()
+        osi._note_cgroup.cache_clear()
