@@ -17,7 +17,8 @@ memory holds nothing to copy. Setup, in order:
 3. a clean environment, the submission folder as working directory and first on ``sys.path``, and no
    way to find the reference package (editable-install finders and the repository are removed);
 4. resource limits: address space (RLIMIT_AS), CPU time (RLIMIT_CPU), file size (RLIMIT_FSIZE), no
-   core dumps, few open files, (OS backend) few processes (RLIMIT_NPROC);
+   core dumps, few open files, no POSIX message queues (RLIMIT_MSGQUEUE), (OS backend) few processes
+   (RLIMIT_NPROC); the OS backend's cgroup bounds the memory, processes and CPU of the whole sandbox;
 5. (OS backend) the seccomp filter of ``seccomp`` (no exec, ptrace, new sockets, namespaces, mounts...):
    from here on no process of the sandbox can get rid of it;
 6. an audit hook (PEP 578): no reading of the grader's, the reference's or other students' files, no
@@ -301,6 +302,8 @@ def _setup(config: dict) -> dict:
     resource.setrlimit(resource.RLIMIT_AS, (config["memory"], config["memory"]))
     nofile = min(256, resource.getrlimit(resource.RLIMIT_NOFILE)[1])
     resource.setrlimit(resource.RLIMIT_NOFILE, (nofile, nofile))
+    if hasattr(resource, "RLIMIT_MSGQUEUE"):  # no POSIX message queue (they outlive the process)
+        resource.setrlimit(resource.RLIMIT_MSGQUEUE, (0, 0))
 
     _state.update(capture=capture, hang=hang, config=config, stubbed=False)
     os._exit = _exit_hook(os._exit, os.getpid())

@@ -4,7 +4,10 @@ Run by the grader, as root only, as ``python -I -S _launch.py SPEC`` (SPEC is JS
 as an unprivileged uid (65534) so that student code is unprivileged on the host too; that uid cannot
 reach what it must show (the interpreter may live in root's home, which is closed to others). So this
 helper, still root, enters a private mount namespace and binds each such folder on an empty, reachable
-mount point (in the sandbox's own temporary folder, invisible to every other process), then drops to the
+mount point (in the sandbox's own temporary folder, invisible to every other process); joins the
+sandbox's cgroup (``cgroup``: memory, processes and CPU of every process started from here on); enters a
+new IPC namespace, the sandbox's, and caps its SysV shared memory, message queues and semaphores and
+its POSIX message queues (the namespace's sysctls, which only root may write); then drops to the
 unprivileged uid and group (no supplementary groups), asks for SIGKILL when the grader dies, and
 executes bubblewrap, which binds the mount points read-only inside the sandbox. Nothing else: it reads no
 student file and writes none.
@@ -19,6 +22,7 @@ import signal
 import sys
 
 CLONE_NEWNS = 0x00020000
+CLONE_NEWIPC = 0x08000000
 MS_BIND = 4096
 MS_REC = 16384
 MS_PRIVATE = 1 << 18
@@ -41,6 +45,21 @@ def main() -> None:
     for source, target in spec["mounts"]:
         if libc.mount(os.fsencode(source), os.fsencode(target), None, MS_BIND | MS_REC, None) != 0:
             fail(f"bind {source} on {target}: {os.strerror(ctypes.get_errno())}")
+    for procs in spec.get("cgroup", []):
+        try:
+            with open(procs, "w") as f:
+                f.write(str(os.getpid()))
+        except OSError as err:
+            fail(f"joining the cgroup {procs}: {err.strerror}")
+    if spec.get("ipc") is not None:
+        if libc.unshare(CLONE_NEWIPC) != 0:
+            fail(f"unshare(CLONE_NEWIPC): {os.strerror(ctypes.get_errno())}")
+        for name, value in spec["ipc"].items():  # this namespace's own values
+            try:
+                with open(f"/proc/sys/{name}", "w") as f:
+                    f.write(str(value))
+            except OSError as err:
+                fail(f"setting {name}: {err.strerror}")
     uid, gid = int(spec["uid"]), int(spec["gid"])
     os.setgroups([])
     os.setresgid(gid, gid, gid)

@@ -9,7 +9,11 @@ this process does both once and forks a child per request of the grader:
   stderr, its stack-dump file): fork; the child serves the grader (``_child.main``); reply its pid;
 - ``reap`` (a pid the grader has killed or seen exit): wait for it, kill every other process in the
   sandbox (``kill(-1)``) and reap them (the zygote is their subreaper), so that nothing the child left
-  running meets the next child; reply its wait status.
+  running meets the next child; then empty ``/tmp`` (the only writable folder) and remove every SysV
+  shared memory segment, message queue and semaphore set of the sandbox's IPC namespace (POSIX message
+  queues cannot be made: RLIMIT_MSGQUEUE is 0; ``/dev/shm`` is read-only), so that no file or IPC object
+  of the child meets the next either; reply its wait status and whether that cleaning succeeded (when it
+  did not, e.g. a tree too large to remove, the grader starts a new sandbox for the next child).
 
 The zygote runs no student code and holds no grading data (a scene reaches only the child that runs it).
 It is not dumpable, so a child (same uid) cannot read or write its memory through ``/proc``; a child that
@@ -41,6 +45,13 @@ PRELOAD = (
 
 PR_SET_DUMPABLE = 4
 PR_SET_CHILD_SUBREAPER = 36
+TMP = "/tmp"
+"""The sandbox's only writable folder (``isolation.INNER_TMP``), emptied between two children."""
+MAX_REMOVED = 200_000
+"""Entries of /tmp the zygote removes at most; beyond, the grader starts a new sandbox instead."""
+IPC_RMID = 0
+SYSV = {"shm": "shmctl", "msg": "msgctl", "sem": "semctl"}
+"""/proc/sysvipc/<kind> lists the namespace's objects of a kind; libc's <call>(id, IPC_RMID, 0) removes one."""
 
 
 def _send(control: socket.socket, message: dict) -> None:
@@ -82,7 +93,69 @@ def _reap(control: socket.socket, pid: int) -> None:
             os.waitpid(-1, 0)
         except ChildProcessError:
             break
-    _send(control, {"status": status})
+    clean = _empty(TMP) and _remove_ipc()
+    _send(control, {"status": status, "clean": clean})
+
+
+def _empty(folder: str) -> bool:
+    """Remove everything in ``folder`` (nothing runs that could add to it). Iterative and relative to open
+    folders, so no depth or path length stops it; folders a child made unreadable are opened up first.
+    True when ``folder`` is empty at the end."""
+    try:
+        os.chmod(folder, 0o755)  # a child may have closed it
+        stack = [(os.open(folder, os.O_RDONLY | os.O_DIRECTORY), "")]
+    except OSError:
+        return False
+    removed = 0
+    try:
+        while stack and removed < MAX_REMOVED:
+            fd = stack[-1][0]
+            below = None
+            with os.scandir(fd) as entries:
+                for entry in entries:
+                    removed += 1
+                    if entry.is_dir(follow_symlinks=False):
+                        below = entry.name
+                        break
+                    os.unlink(entry.name, dir_fd=fd)
+            if below is not None:
+                os.chmod(below, 0o700, dir_fd=fd)  # a folder (not a link): nothing else runs to swap it
+                flags = os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW
+                stack.append((os.open(below, flags, dir_fd=fd), below))
+                continue
+            done, name = stack.pop()
+            os.close(done)
+            if stack:  # an emptied folder below ``folder``
+                os.rmdir(name, dir_fd=stack[-1][0])
+    except OSError:
+        pass
+    finally:
+        for fd, _ in stack:
+            os.close(fd)
+    try:
+        return not os.listdir(folder)
+    except OSError:
+        return False
+
+
+def _remove_ipc() -> bool:
+    """Remove every SysV IPC object of this namespace; True when none is left."""
+    libc = ctypes.CDLL(None)
+    left = False
+    for kind, call in SYSV.items():
+        try:
+            with open(f"/proc/sysvipc/{kind}") as f:
+                ids = [int(line.split()[1]) for line in f.readlines()[1:] if line.strip()]
+        except (OSError, ValueError, IndexError):
+            continue  # no SysV IPC in this kernel: nothing to remove
+        for ipc_id in ids:
+            if kind == "sem":
+                libc.semctl(ipc_id, 0, IPC_RMID, 0)
+            else:
+                getattr(libc, call)(ipc_id, IPC_RMID, None)
+        with open(f"/proc/sysvipc/{kind}") as f:
+            left = left or len(f.readlines()) > 1
+    return not left
 
 
 def main(fd: int) -> None:

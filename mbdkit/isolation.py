@@ -3,8 +3,9 @@
 The instructor's grader (``mbd grade``, ``autograder.grading.grade``, nbgrader's autograde path) runs a
 student's package in a child process that the course does not exist for (DESIGN section 9):
 
-- **mounts** (a new mount namespace; bubblewrap's root is an empty tmpfs), all read-only but ``/tmp``:
-  the interpreter (``sys.base_prefix``, at its own path), the system's shared libraries (``/usr/lib``,
+- **mounts** (a new mount namespace; bubblewrap's root is an empty tmpfs, remounted read-only with ``/dev``
+  once all is mounted), all read-only but ``/tmp``: the interpreter (``sys.base_prefix``, at its own path,
+  its site-packages shown empty: ``installed_packages``), the system's shared libraries (``/usr/lib``,
   ``/usr/lib64``, ``/lib``, ``/lib64``, ``/etc/ld.so.cache``), the allowed site-packages one entry each
   (``ALLOWED_DISTRIBUTIONS`` and what they require, in ``/opt/grader/site-packages``), the checker
   ``mbdkit`` alone (``/opt/grader/mbdkit``; never ``autograder/``, ``solutions/``, the course or its
@@ -12,8 +13,11 @@ student's package in a child process that the course does not exist for (DESIGN 
   regular files only, no symlink followed, size-capped, so a child sees no other student's files), a new
   ``/proc`` and a minimal ``/dev``, and a private size-capped tmpfs ``/tmp`` (``HOME`` and ``TMPDIR``);
 - **namespaces**: user, PID (every process the student starts dies with the sandbox; it sees and signals
-  only its own), network (no interface but a downed loopback), IPC, UTS, cgroup; no further user
-  namespaces; a new session; bubblewrap kills the sandbox when the grader dies (``--die-with-parent``);
+  only its own), network (no interface but a downed loopback), IPC (as root made and capped by
+  ``_launch``: ``ipc_limits``), UTS, cgroup; no further user namespaces; a new session; bubblewrap kills
+  the sandbox when the grader dies (``--die-with-parent``);
+- **a cgroup** per submission (``cgroup``; as root): memory of all its processes and its tmpfs, tasks, CPU
+  share and cores, joined by ``_launch`` before bubblewrap starts;
 - **uid**: when the grader runs as root (CI, a grading server), bubblewrap itself runs as uid and gid
   65534 with no supplementary group (``_launch.py`` drops them), so student code is unprivileged on the
   host too; otherwise bubblewrap's user namespace maps the invoking user;
@@ -54,6 +58,8 @@ import sys
 import tempfile
 from multiprocessing.connection import Connection
 from pathlib import Path
+
+from . import cgroup
 
 BWRAP_ENV = "MBD_BWRAP"
 """Path of bwrap to use (default: ``bwrap`` on PATH); tests point it at a missing file."""
@@ -191,6 +197,46 @@ def _under(path: str, root: str) -> bool:
     return path == root or path.startswith(root.rstrip("/") + "/")
 
 
+SITE_PATTERNS = ("lib*/python3*/*-packages", "local/lib*/python3*/*-packages", "python3*/*-packages")
+"""Where packages are installed below a folder the sandbox shows: ``prefix/lib/python3.X/site-packages``,
+Debian's ``/usr/lib/python3/dist-packages``, ``/usr/local/lib/python3.X/dist-packages``..."""
+
+
+def installed_packages(roots: list[str]) -> list[str]:
+    """The site-packages and dist-packages folders inside ``roots`` (and the interpreter's own, from
+    ``sysconfig``): the sandbox shows each as an empty folder, so only the standard library and the
+    allowed packages (``site_entries``, mounted one by one elsewhere) can be imported."""
+    import sysconfig
+
+    prefix = interpreter()[0]
+    found = {sysconfig.get_path(name, vars={"base": prefix, "platbase": prefix}) for name in ("purelib", "platlib")}
+    for root in roots:
+        for pattern in SITE_PATTERNS:
+            found.update(str(p) for p in Path(root).glob(pattern))
+    return sorted(
+        path
+        for path in found
+        if path and os.path.isdir(path) and not os.path.islink(path) and any(_under(path, r) for r in roots)
+    )
+
+
+def ipc_limits(tmp_size: int) -> dict[str, str]:
+    """The sysctls of a sandbox's IPC namespace (the root helper writes them): SysV shared memory within
+    the size of its /tmp, few and small message queues and semaphore sets, no POSIX message queue."""
+    page = os.sysconf("SC_PAGE_SIZE")
+    wanted = {
+        "kernel/shmmax": str(int(tmp_size)),
+        "kernel/shmall": str(max(1, int(tmp_size) // page)),
+        "kernel/shmmni": "32",
+        "kernel/msgmni": "16",
+        "kernel/msgmnb": "65536",
+        "kernel/msgmax": "8192",
+        "kernel/sem": "32 256 32 16",
+        "fs/mqueue/queues_max": "0",
+    }
+    return {name: value for name, value in wanted.items() if os.path.exists(f"/proc/sys/{name}")}
+
+
 def stage_package(folder: str | Path, package: str, destination: str | Path) -> list[str]:
     """Copy ``folder/package`` into ``destination/package``: regular files only (no symlink followed, no
     device, no FIFO), no ``__pycache__``, at most ``MAX_FILES`` files of ``MAX_FILE_BYTES`` each and
@@ -257,11 +303,13 @@ def stage_package(folder: str | Path, package: str, destination: str | Path) -> 
 class Plan:
     """The bubblewrap command for one sandbox, and (as root) the private mounts made before it."""
 
-    def __init__(self, tmp: str, staged: str, tmp_size: int):
+    def __init__(self, tmp: str, staged: str, tmp_size: int, cgroup: list[str] | None = None):
         self.bwrap = bwrap_path()
         if self.bwrap is None:
             raise IsolationUnavailable(NOT_INSTALLED)
         self.tmp, self.staged, self.tmp_size = tmp, staged, tmp_size
+        self.cgroup = list(cgroup or [])
+        """The ``cgroup.procs`` files the root helper writes its pid to (the sandbox's cgroup)."""
         self.root = os.geteuid() == 0
         self.prefix, self.executable = interpreter()
         sources = {"python": self.prefix, "mbdkit": str(MBDKIT)}
@@ -286,9 +334,21 @@ class Plan:
         """Where bubblewrap finds a shown folder: its own path, or (as root) its private mount point."""
         return os.path.join(self.tmp, "mnt", name) if self.root else self.sources[name]
 
+    def shown_roots(self) -> list[str]:
+        """The host folders shown whole inside the sandbox (at their own paths)."""
+        roots = [self.prefix]
+        if "executable" in self.sources:
+            roots.append(os.path.dirname(self.executable))
+        for path in LIBRARIES:
+            if not _under(path, self.prefix) and os.path.isdir(path) and not os.path.islink(path):
+                roots.append(path)
+        return roots
+
     def bwrap_args(self, fd: int) -> list[str]:
         options = _bwrap_options(self.bwrap)
-        args = [self.bwrap, "--unshare-user", "--unshare-ipc", "--unshare-pid", "--unshare-net", "--unshare-uts"]
+        args = [self.bwrap, "--unshare-user", "--unshare-pid", "--unshare-net", "--unshare-uts"]
+        if not self.root:  # as root, the helper has made the IPC namespace, with caps (``ipc_limits``)
+            args.append("--unshare-ipc")
         args += ["--unshare-cgroup-try", "--die-with-parent", "--new-session", "--clearenv"]
         if "--disable-userns" in options:
             args.append("--disable-userns")
@@ -304,6 +364,10 @@ class Plan:
                 args += ["--symlink", os.readlink(path), path]
             elif os.path.isdir(path):
                 args += ["--ro-bind", path, path]
+        empty = os.path.join(self.tmp, "empty")
+        os.makedirs(empty, mode=0o755, exist_ok=True)
+        for folder in installed_packages(self.shown_roots()):
+            args += ["--ro-bind", empty, folder]  # the standard library only, not what is installed beside it
         if os.path.isfile("/etc/ld.so.cache"):
             args += ["--ro-bind", "/etc/ld.so.cache", "/etc/ld.so.cache"]
         for folder, entry in site_entries():
@@ -314,7 +378,9 @@ class Plan:
         args += ["--proc", "/proc", "--dev", "/dev"]
         if "--size" in options:
             args += ["--size", str(int(self.tmp_size))]
-        args += ["--tmpfs", INNER_TMP, "--chdir", INNER_SUBMISSION]
+        args += ["--tmpfs", INNER_TMP]
+        args += ["--remount-ro", "/", "--remount-ro", "/dev"]  # bubblewrap's root and /dev (/dev/shm) tmpfs
+        args += ["--chdir", INNER_SUBMISSION]
         args += [self.executable, "-I", "-S", "-c", BOOT, ":".join(INNER_PATH), str(fd)]
         return args
 
@@ -324,6 +390,7 @@ class Plan:
         if not self.root:
             return args
         spec = {"mounts": self.mounts, "uid": SANDBOX_UID, "gid": SANDBOX_GID, "parent": os.getpid(), "argv": args}
+        spec.update(cgroup=self.cgroup, ipc=ipc_limits(self.tmp_size))
         return [self.executable, "-I", "-S", str(LAUNCHER), json.dumps(spec)]
 
 
@@ -378,13 +445,17 @@ class IsolatedHost:
     submission. Between two children everything the first left running is killed (``_zygote``).
     """
 
-    def __init__(self, folder: str | Path, package: str, tmp_size: int):
+    def __init__(self, folder: str | Path, package: str, tmp_size: int, limits=None):
         self.tmp = tempfile.mkdtemp(prefix="mbd-sandbox-host-")
         staged = os.path.join(self.tmp, "submission")
+        self.cgroup = None
+        self._sizes = (limits, tmp_size)
         try:
             self.skipped = stage_package(folder, package, staged)
-            self.plan = Plan(self.tmp, staged, tmp_size)
+            self.cgroup = make_cgroup(limits, tmp_size)
+            self.plan = Plan(self.tmp, staged, tmp_size, self.cgroup.procs if self.cgroup else None)
         except BaseException:
+            self._remove_cgroup()
             shutil.rmtree(self.tmp, ignore_errors=True)
             raise
         self.popen: subprocess.Popen | None = None
@@ -405,6 +476,10 @@ class IsolatedHost:
         from .sandbox import STARTUP_TIMEOUT, SandboxError
 
         self._stop()
+        if self.cgroup is not None and not self.cgroup.exists():  # removed while empty: a new one
+            self._remove_cgroup()
+            self.cgroup = make_cgroup(*self._sizes)
+            self.plan.cgroup = self.cgroup.procs if self.cgroup else []
         ours, theirs = socket.socketpair()
         log = os.open(os.path.join(self.tmp, "zygote.txt"), os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
         fd = theirs.fileno()
@@ -500,14 +575,27 @@ class IsolatedHost:
             return None
         try:
             self.control.sendall(json.dumps({"op": "reap", "pid": inner}).encode() + b"\n")
-            status = self._receive(ZYGOTE_TIMEOUT).get("status")
-        except (OSError, ValueError, EOFError):
+            reply = self._receive(ZYGOTE_TIMEOUT)
+            status = reply.get("status")
+        except (OSError, ValueError, EOFError, AttributeError):
             self._stop()
             return None
+        if reply.get("clean") is not True:  # files or IPC objects the zygote could not remove: a new sandbox
+            self._stop()
         return None if not isinstance(status, int) else os.waitstatus_to_exitcode(status)
+
+    def memory_peak(self) -> int | None:
+        """The most memory this submission's sandboxes held at once (bytes; None without a cgroup)."""
+        return self.cgroup.peak() if self.cgroup is not None else None
+
+    def _remove_cgroup(self) -> None:
+        if self.cgroup is not None:
+            self.cgroup.remove()
+            self.cgroup = None
 
     def close(self) -> None:
         self._stop()
+        self._remove_cgroup()
         shutil.rmtree(self.tmp, ignore_errors=True)
 
 
@@ -586,7 +674,35 @@ def problem() -> str | None:
 
 
 def require() -> None:
-    """Raise IsolationUnavailable with the reason when the operating system's isolation cannot run."""
+    """Raise IsolationUnavailable with the reason when the operating system's isolation cannot run; say
+    once (stderr) when the sandboxes get no cgroup."""
     reason = problem()
     if reason is not None:
         raise IsolationUnavailable(reason)
+    _note_cgroup()
+
+
+@functools.lru_cache(maxsize=1)
+def _note_cgroup() -> None:
+    reason = cgroup.problem()
+    if reason is not None:
+        print(
+            f"mbd: note: the sandboxes get no cgroup ({reason}): each keeps its rlimits, but the memory,"
+            " processes and CPU of all its processes are not bounded together",
+            file=sys.stderr,
+        )
+
+
+def make_cgroup(limits, tmp_size: int) -> cgroup.Cgroup | None:
+    """A cgroup for one submission's sandbox, sized from ``limits`` (``sandbox.Limits``; default limits
+    when None), or None when none can be made here (``cgroup.problem``)."""
+    from .sandbox import Limits
+
+    limits = limits or Limits(tmp_size=tmp_size)
+    memory = limits.sandbox_memory or limits.memory + tmp_size
+    if isinstance(cgroup.layout(), str):
+        return None
+    try:
+        return cgroup.Cgroup.create(memory, limits.processes + cgroup.EXTRA_PROCESSES, limits.cpus)
+    except OSError:
+        return None

@@ -129,7 +129,7 @@ def run_checks(
     if isolation == "os":  # one bubblewrap sandbox per submission; a child for each set of checks
         from .isolation import IsolatedHost
 
-        host = IsolatedHost(folder, PACKAGE, limits.tmp_size)
+        host = IsolatedHost(folder, PACKAGE, limits.tmp_size, limits)
     try:
         return _run_all(checks, folder, data, limits, forbidden, hide, isolation, budget, host)
     finally:

@@ -69,6 +69,11 @@ class Limits:
     operating-system backend)."""
     tmp_size: int = 64 * 2**20
     """Size of the child's private /tmp (the operating-system backend)."""
+    sandbox_memory: int = 0
+    """Memory of all the processes of a submission's sandbox and its /tmp together (its cgroup, the
+    operating-system backend); 0: ``memory + tmp_size``."""
+    cpus: float = 1.0
+    """CPU cores a submission's sandbox may use at once (its cgroup, the operating-system backend)."""
 
 
 @dataclass
@@ -275,7 +280,9 @@ class Sandbox:
 
             if host is None:
                 try:
-                    host = self._own_host = osi.IsolatedHost(self.submission, package, self.limits.tmp_size)
+                    host = self._own_host = osi.IsolatedHost(
+                        self.submission, package, self.limits.tmp_size, self.limits
+                    )
                 except BaseException:
                     shutil.rmtree(self.tmp, ignore_errors=True)
                     raise
