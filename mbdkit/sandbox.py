@@ -423,9 +423,11 @@ class Sandbox:
         start, deadline = time.perf_counter(), time.monotonic() + timeout
         fd = self.connection.fileno()
         try:  # the request sent and the whole reply read by the deadline (a child that stalls: a timeout)
-            wire.send(fd, wire.dumps(request), deadline)
-            data = wire.receive(fd, deadline, FRAME_GRACE)
-            message = wire.reply(data)
+            try:
+                wire.send(fd, wire.dumps(request), deadline)
+            except wire.FrameTimeout:  # it does not take the request: stuck since the last one
+                return self._timed_out(timeout, time.perf_counter() - start)
+            message = wire.reply(wire.receive(fd, deadline, FRAME_GRACE))
         except wire.FrameTimeout as late:
             return self._timed_out(timeout, time.perf_counter() - start, partial=late.partial)
         except (EOFError, OSError):

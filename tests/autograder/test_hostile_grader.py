@@ -65,10 +65,12 @@ _os.write(_sys.modules["mbdkit._child"]._state["hang"], _line.encode())
 while True:
     pass
 """,
-    # a frame that announces 1000 bytes and sends 1, then nothing (the grader read it with no deadline)
+    # a frame that announces 1000 bytes and sends 1, then nothing, with the child's own watchdog off (the
+    # grader read the frame with no deadline: it waited forever)
     "partial_frame": CONNECTION
     + """
-import os as _os, struct as _struct, time as _time
+import faulthandler as _faulthandler, os as _os, struct as _struct, time as _time
+_faulthandler.cancel_dump_traceback_later()
 _os.write(_connection.fileno(), _struct.pack("!i", 1000) + b"{")
 _time.sleep(3600)
 """,
@@ -220,6 +222,8 @@ def test_a_partial_frame_is_a_timeout(graded):
     partial = [m for m in said if "did not finish its reply within the time limit" in m]
     assert len(partial) == 1, said
     assert all("skipped" in m for m in said if m not in partial), said
+    timeout = max(c.timeout for c in load_homework("hw1").select(CHECKS).checks) * LIMITS.timeout_scale
+    assert results(graded["root"] / "api", "partial_frame")["extra_data"]["seconds"] < 2 * timeout + 10
 
 
 def test_names_of_any_bytes_are_graded(graded):
@@ -250,3 +254,44 @@ def test_a_hard_link_to_a_root_only_file_is_never_read(graded):
         assert "modules/leak.txt (a hard link" in data["output"], data["output"]
     said = messages(graded, "hard_link")
     assert all("LEAK:FileNotFoundError" in m for m in said), said
+
+
+def test_an_internal_error_costs_only_that_student_and_is_graded_again(tmp_path, monkeypatch, capsys):
+    """The last guard (``grading.grade_one``): an exception of the grader itself while grading one student
+    (here a fake bug in ``run_checks``) is that student's failed result, named on one line; the run goes
+    on, ``mbd grade`` exits 0, and the next run grades that student again (the others are resumed)."""
+    from autograder import grading
+    from autograder.cli import grade_command
+    from mbdkit.checks import Outcome
+
+    folder = tmp_path / "submitted"
+    for student in ("amy", "bob", "cid"):
+        (folder / student / "modules").mkdir(parents=True)
+        (folder / student / "modules" / "__init__.py").write_text("")
+    bug = ["bob"]
+
+    def run_checks(checks, path, homework, student=None, *args, **kwargs):
+        if student in bug:
+            raise KeyError(f"a grader bug {TOKEN}")
+        return [
+            Outcome(c.name, c.group, c.scene, c.kind, c.points, c.points, True, "passed", "visible") for c in checks
+        ]
+
+    monkeypatch.setattr(grading, "run_checks", run_checks)
+    for key, value in SECRET.items():
+        monkeypatch.setenv(key, value)
+    out = tmp_path / "out"
+    assert grade_command("hw1", folder, out, jobs=1) == 0
+    said = capsys.readouterr()
+    assert "internal error while grading 1 submission: bob (tracebacks in" in said.out and "Traceback" not in said.err
+    assert f"KeyError: 'a grader bug {TOKEN}'" in (out / "errors" / "bob.txt").read_text()
+    data = results(out, "bob")
+    assert data["score"] == 0 and data["extra_data"]["internal_error"]
+    assert all(t["output"].startswith("internal error while grading (KeyError)") for t in data["tests"])
+    assert TOKEN not in (out / "results" / "bob.json").read_text() + (out / "feedback" / "bob.html").read_text()
+    assert scores(out) == {"amy": 100.0, "bob": 0.0, "cid": 100.0}
+    bug.clear()  # the grader fixed: bob is graded again, amy and cid resumed
+    book = grading.grade("hw1", folder, out, jobs=1, progress=False)
+    assert [s for s in sorted(book.rows) if not book.rows[s]["resumed"]] == ["bob"]
+    assert scores(out) == {"amy": 100.0, "bob": 100.0, "cid": 100.0} and not book.internal_errors
+    assert not (out / "errors" / "bob.txt").exists()
