@@ -72,7 +72,8 @@ def grade_on_cluster(
     Raises
     ------
     ClusterError
-        If the cluster cannot be used; a task that fails on every retry raises its own error.
+        If the cluster cannot be used. A task that fails on every retry (its workers killed) is that
+        student's internal error (``grading.internal_error``), graded again on the next run.
     """
     try:
         check_cluster(cluster)

@@ -503,7 +503,7 @@ def serve(connection, config: dict) -> None:
     try:
         ready = _setup(config)
     except BaseException as exc:  # noqa: BLE001
-        connection.send_bytes(wire.dumps({"status": "setup_failed", "message": repr(exc)}))
+        connection.send_bytes(wire.dumps({"status": "setup_failed", "message": repr(exc)[:2000]}))
         _real_exit(3)
     connection.send_bytes(wire.dumps({"status": "ready", **ready}))
     while True:

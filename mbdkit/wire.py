@@ -257,7 +257,7 @@ def receive(fd: int, deadline: float, grace: float = 1.0, limit: int = MAX_MESSA
     header = _read(fd, 4, deadline, False)
     (size,) = struct.unpack("!i", header)
     if size < 0 or size > limit:
-        raise WireError(f"a frame of {'more than 2 GiB' if size < 0 else f'{size} bytes'} (at most {limit})")
+        raise WireError(f"a frame of more than {limit} bytes")  # not its size: the child chose that number
     return _read(fd, size, deadline + grace, True)
 
 
