@@ -6,7 +6,8 @@
 ``--jobs`` N > 1 (the default: the number of cores, at most 8) grades on a Dask LocalCluster of N worker
 processes (``--cluster local`` implied); ``--jobs 1`` grades one by one in this process.
 
-Returns the exit code: 0 done, 2 a user error (unknown homework, no such folder, a missing reference, no
+Returns the exit code: 0 done (a submission whose grading failed in the grader itself is named on one line
+and graded again on the next run), 2 a user error (unknown homework, no such folder, a missing reference, no
 sandbox: bubblewrap missing or the kernel refusing its namespaces), printed as one line
 ``mbd: error: ...`` to stderr; then no output folder is made. ``--unsafe-no-isolation`` grades without the
 operating system's isolation (the forkserver sandbox, whose audit hook is no wall), and says so.
@@ -66,6 +67,12 @@ def grade_command(
             f"range {scores[0]:g} .. {scores[-1]:g}"
         )
     print(f"gradebook: {book.csv_path}\nresults:   {out / 'results'}\nfeedback:  {out / 'feedback'}")
+    failed = book.internal_errors
+    if failed:
+        print(
+            f"internal error while grading {len(failed)} submission{'s' if len(failed) > 1 else ''}: "
+            f"{', '.join(failed)} (tracebacks in {out / 'errors'}; run the same command again to grade them again)"
+        )
     if book.isolation != "os":
         print(f"warning: graded {ISOLATION_NOTE[book.isolation]}")
     return 0

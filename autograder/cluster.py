@@ -24,24 +24,14 @@ client's to end: they finish their current task (within its time limit) and wait
 from __future__ import annotations
 
 import os
-import time
+import traceback
 from pathlib import Path
 
 from mbdkit.homework import Homework
 from mbdkit.sandbox import Limits, without_main
 from solutions.sweep import SweepError, check_cluster, open_client, progress_bar
 
-from .feedback import feedback_html
-from .grading import (
-    Gradebook,
-    Submission,
-    _summary,
-    _worker_init,
-    _write_atomic,
-    result_json,
-    run_checks,
-    submission_fingerprint,
-)
+from .grading import Gradebook, Submission, _worker_init, grade_one, internal_error, write_graded
 
 
 class ClusterError(RuntimeError):
@@ -55,31 +45,10 @@ def setup_worker() -> None:
 
 def grade_remote(
     homework: Homework, submission: Submission, limits: Limits, forbidden: tuple, isolation: str
-) -> tuple[str, dict, str]:
-    """On a worker: grade one submission; returns (student, result JSON, feedback HTML), writing nothing."""
-    start = time.perf_counter()
-    fingerprint = submission_fingerprint(submission, homework, limits, isolation)
-    outcomes = run_checks(
-        homework.checks,
-        submission.path,
-        homework.name,
-        submission.student,
-        limits,
-        forbidden,
-        isolation,
-        homework.budget,
-    )
-    result = result_json(homework, submission.student, outcomes, fingerprint, time.perf_counter() - start, isolation)
-    page = feedback_html(submission.student, homework.name, homework.title, outcomes)
-    return submission.student, result, page
-
-
-def write_outcome(out_dir: Path, student: str, result: dict, page: str) -> None:
-    """The client's write of one student's feedback page and result (the result last: it marks them done)."""
-    import json
-
-    _write_atomic(out_dir / "feedback" / f"{student}.html", page)
-    _write_atomic(out_dir / "results" / f"{student}.json", json.dumps(result, indent=1))
+) -> tuple[str, dict, str, str]:
+    """On a worker: grade one submission; returns (student, result JSON, feedback HTML, log of an internal
+    error or ''), writing nothing (``grading.grade_one``: it never raises for the submission)."""
+    return submission.student, *grade_one(homework, submission, limits, forbidden, isolation)
 
 
 def grade_on_cluster(
@@ -103,7 +72,8 @@ def grade_on_cluster(
     Raises
     ------
     ClusterError
-        If the cluster cannot be used; a task that fails on every retry raises its own error.
+        If the cluster cannot be used. A task that fails on every retry (its workers killed) is that
+        student's internal error (``grading.internal_error``), graded again on the next run.
     """
     try:
         check_cluster(cluster)
@@ -131,12 +101,17 @@ def grade_on_cluster(
                     )
                     for submission in todo
                 ]
+                students = {future.key: submission.student for future, submission in zip(futures, todo, strict=True)}
                 for future in as_completed(futures):
-                    student, result, page = future.result()
+                    try:
+                        student, result, page, log = future.result()
+                    except Exception as err:  # noqa: BLE001 - its workers died on every retry (KilledWorker)
+                        student = students[future.key]
+                        log = f"{student}: the task failed on the cluster\n{traceback.format_exc()}"
+                        result, page = internal_error(homework, student, type(err).__name__, 0.0, isolation)
                     if student in book.rows:  # counted once, whatever Dask ran twice
                         continue
-                    write_outcome(out_dir, student, result, page)
-                    book.rows[student] = _summary(result, resumed=False)
+                    book.rows[student] = write_graded(out_dir, student, result, page, log)
                     book.write_csv()
                     bar.update(1)
         except SweepError as err:

@@ -11,7 +11,14 @@ Written to ``out_dir`` as each student finishes, so an interrupted run resumes w
   status, output, visibility); a result is reused when the submission, the checks and the reference
   are unchanged (its fingerprint);
 - ``feedback/{student}.html`` every check with its message, plots of failed runs (never hidden data);
-- ``gradebook.csv``           one row per student, a column per check (points), LMS-friendly.
+- ``gradebook.csv``           one row per student, a column per check (points), LMS-friendly;
+- ``errors/{student}.txt``    for the instructor: the traceback of an internal error (a bug of the grader,
+  or its sandbox failing) while grading that student, whose result then says so and is graded again on
+  the next run; the other students are graded as usual (``grade_one`` never raises for one submission).
+
+Nothing of a submission is trusted: ``modules`` must be a folder of regular files (``mbdkit.staging``:
+links, hard links, FIFOs and devices are left out and named), names may be any bytes (shown readably),
+and what the student's code sends back is validated (``mbdkit.wire``).
 """
 
 from __future__ import annotations
@@ -20,9 +27,9 @@ import csv
 import hashlib
 import json
 import os
-import stat
 import sys
 import time
+import traceback
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from importlib.util import find_spec
@@ -30,11 +37,11 @@ from multiprocessing import get_context
 from pathlib import Path
 
 from mbdkit import isolation as osi
-from mbdkit import runner
+from mbdkit import runner, staging
 from mbdkit.checks import Measure, Mistakes, Outcome
 from mbdkit.homework import CheckSpec, Homework, load_homework
 from mbdkit.probes import Job
-from mbdkit.runner import PACKAGE, PublicData
+from mbdkit.runner import PACKAGE, PublicData, failed
 from mbdkit.sandbox import SANDBOX_ENV, Limits, Sandbox, without_main
 from mbdkit.stored import Reference
 
@@ -53,7 +60,7 @@ from .replay import live_replays
 from .scenes import HIDDEN, STUDENT, Scene, hidden_dir, load_scene, scene_kind
 from .tolerances import invariants
 
-GRADER_VERSION = "3"
+GRADER_VERSION = "4"
 
 ISOLATION_NOTE = {
     "os": "isolated by the operating system (bubblewrap: namespaces, uid 65534 or the user's, seccomp)",
@@ -106,6 +113,11 @@ class Gradebook:
         return self.rows[student]["checks"]
 
     @property
+    def internal_errors(self) -> list[str]:
+        """Students whose grading failed by an internal error (graded again on the next run)."""
+        return sorted(s for s, row in self.rows.items() if row.get("internal_error"))
+
+    @property
     def csv_path(self) -> Path | None:
         return None if self.out_dir is None else self.out_dir / "gradebook.csv"
 
@@ -138,11 +150,12 @@ def find_submissions(submissions_dir: Path, homework: str) -> list[Submission]:
     if (root / "submitted").is_dir():
         root = root / "submitted"
     if (root / PACKAGE).is_dir():
-        return [Submission(root.resolve().name, root.resolve())]
+        return [Submission(staging.readable(root.resolve().name), root.resolve())]
     found = []
     for folder in sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith((".", "_"))):
         nested = folder / homework
-        found.append(Submission(folder.name, (nested if nested.is_dir() else folder).resolve()))
+        student = staging.readable(folder.name)  # a name of any bytes, as text (results, gradebook, seeds)
+        found.append(Submission(student, (nested if nested.is_dir() else folder).resolve()))
     return found
 
 
@@ -163,20 +176,21 @@ def _reference_fingerprint(homework: Homework) -> str:
 
 
 def submission_fingerprint(submission: Submission, homework: Homework, limits: Limits, isolation: str = "os") -> str:
-    """Changes when the student's package, the checks, the reference, the grader or its isolation change."""
+    """Changes when the student's package, the checks, the reference, the grader or its isolation change.
+
+    The package is read as it is staged (``mbdkit.staging``): its regular files (names as bytes, sizes and
+    contents), what is left out with the reason (a link's target is never read), or why it is refused."""
     digest = hashlib.sha256(
         f"{GRADER_VERSION}|{isolation}|{homework.fingerprint()}|{_reference_fingerprint(homework)}".encode()
     )
     digest.update(repr(sorted(vars(limits).items())).encode())
-    digest.update(submission.student.encode())
-    package = submission.package
-    if package.is_dir() and not package.is_symlink():
-        for folder, dirs, names in os.walk(package):  # never into a linked folder
-            dirs[:] = sorted(d for d in dirs if d != "__pycache__")
-            for name in sorted(names):
-                path = Path(folder, name)
-                digest.update(str(path.relative_to(submission.path)).encode())
-                digest.update(_file_digest(path))
+    digest.update(os.fsencode(submission.student) + b"\0")
+    found = staging.scan(submission.path, PACKAGE)
+    digest.update(f"refused:{found.refused}\0".encode())
+    for path, why in sorted(found.skipped.items()):
+        digest.update(os.fsencode(path) + f"\0skipped:{why}\0".encode())
+    for file in found.files:
+        digest.update(os.fsencode(file.path) + b"\0" + _file_digest(submission.path, file))
     return digest.hexdigest()
 
 
@@ -184,16 +198,15 @@ FINGERPRINT_BYTES = 4 * 2**20
 """Of a submitted file, the fingerprint reads at most this much (and its size): a huge file costs no more."""
 
 
-def _file_digest(path: Path) -> bytes:
-    """What a submitted file adds to the fingerprint: a link's target (never what it points to), or the
-    size and the first FINGERPRINT_BYTES of a regular file."""
-    info = path.lstat()
-    if stat.S_ISLNK(info.st_mode):
-        return f"link:{os.readlink(path)}".encode()
-    if not stat.S_ISREG(info.st_mode):
-        return f"special:{info.st_mode:o}".encode()
-    with open(os.open(path, os.O_RDONLY | os.O_NOFOLLOW), "rb") as f:  # a file swapped for a link: an error
-        return f"size:{info.st_size}:".encode() + f.read(FINGERPRINT_BYTES)
+def _file_digest(folder: Path, file: staging.File) -> bytes:
+    """What a regular file of the package adds to the fingerprint: its size and first FINGERPRINT_BYTES,
+    read without following a link (a file that changed since the scan adds its modification time)."""
+    try:
+        handle = staging.open_file(folder, PACKAGE, file)
+    except OSError:
+        return f"changed:{file.size}:{file.mtime_ns}\0".encode()
+    with os.fdopen(handle, "rb") as f:
+        return f"size:{file.size}:".encode() + hashlib.sha256(f.read(FINGERPRINT_BYTES)).digest()
 
 
 def protected_paths(extra: tuple[Path, ...] = ()) -> tuple[list[Path], list[Path]]:
@@ -309,7 +322,7 @@ def result_json(
 def _write_atomic(path: Path, text: str) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text)
+    tmp.write_text(text, encoding="utf-8", errors="backslashreplace")  # a lone surrogate never stops a write
     os.replace(tmp, path)
 
 
@@ -320,7 +333,90 @@ def _summary(result: dict, resumed: bool) -> dict:
         "checks": {t["name"]: t["score"] for t in result["tests"]},
         "resumed": resumed,
         "seconds": result["extra_data"].get("seconds", 0.0),
+        "internal_error": bool(result["extra_data"].get("internal_error")),
     }
+
+
+INTERNAL_ERROR = (
+    "internal error while grading ({kind}): not a fault of your code; the instructor has the details "
+    "and grades this submission again"
+)
+"""Every check's message when grading a submission failed in the grader itself (a fixed text: the
+exception's own words, which might quote a hidden scene, go only to the instructor's log)."""
+
+
+def _note_left_out(outcomes: list[Outcome], note: str) -> None:
+    """Add what the grader left out of the package to every failed check's message."""
+    for outcome in outcomes:
+        if not outcome.passed:
+            outcome.message += f" (note: {note})"
+
+
+def _grade_checks(
+    homework: Homework, submission: Submission, limits: Limits, forbidden: tuple, isolation: str
+) -> tuple[list[Outcome], str]:
+    """The outcomes of one submission and a note on what of its package was left out ('' if nothing)."""
+    refused = staging.refusal(submission.path, PACKAGE)
+    if refused is not None:  # ``modules`` is a link (to solutions/, say): nothing of the student's to grade
+        return [failed(c, refused) for c in homework.checks], refused
+    student, budget = submission.student, homework.budget
+    outcomes = run_checks(
+        homework.checks, submission.path, homework.name, student, limits, forbidden, isolation, budget
+    )
+    note = ""
+    if isolation == "os":  # the staged copy (the unsafe local backend runs the folder as it is)
+        found = staging.scan(submission.path, PACKAGE)
+        staging.select(found, osi.MAX_FILES, osi.MAX_FILE_BYTES, osi.MAX_SUBMISSION_BYTES)
+        note = staging.note(found, PACKAGE)
+        if note:
+            _note_left_out(outcomes, note)
+    return outcomes, note
+
+
+def grade_one(
+    homework: Homework, submission: Submission, limits: Limits, forbidden: tuple = (), isolation: str = "os"
+) -> tuple[dict, str, str]:
+    """Grade one submission: (result JSON, feedback page, log for the instructor: '' or a traceback).
+
+    Never raises an ``Exception`` for one submission: whatever goes wrong in the grader (a bug, a sandbox
+    that cannot start) becomes that student's result, every check failed with ``INTERNAL_ERROR``,
+    marked ``extra_data.internal_error`` (never resumed: the next run grades it again)."""
+    start = time.perf_counter()
+    student = submission.student
+    try:
+        fingerprint = submission_fingerprint(submission, homework, limits, isolation)
+        outcomes, note = _grade_checks(homework, submission, limits, forbidden, isolation)
+        result = result_json(homework, student, outcomes, fingerprint, time.perf_counter() - start, isolation)
+        if note:
+            result["output"] += f" (note: {note})"
+        return result, feedback_html(student, homework.name, homework.title, outcomes), ""
+    except Exception as err:  # noqa: BLE001 - the last guard: one submission never stops the others
+        log = f"{student}: internal error while grading {homework.name}\n{traceback.format_exc()}"
+        result, page = internal_error(homework, student, type(err).__name__, time.perf_counter() - start, isolation)
+        return result, page, log
+
+
+def internal_error(homework: Homework, student: str, kind: str, seconds: float, isolation: str) -> tuple[dict, str]:
+    """The result and feedback page of a student whose grading failed in the grader (``kind``: what)."""
+    message = INTERNAL_ERROR.format(kind=kind)
+    outcomes = [failed(c, message) for c in homework.checks]
+    result = result_json(homework, student, outcomes, "", seconds, isolation)
+    result["extra_data"]["internal_error"] = True
+    result["output"] = f"{homework.name}: {message}"
+    return result, feedback_html(student, homework.name, homework.title, outcomes)
+
+
+def write_graded(out_dir: Path, student: str, result: dict, page: str, log: str) -> dict:
+    """Write one student's feedback page, the instructor's log of an internal error (or remove an old
+    one) and the result (last: it marks them done); returns the gradebook row."""
+    _write_atomic(out_dir / "feedback" / f"{student}.html", page)
+    error_log = out_dir / "errors" / f"{student}.txt"
+    if log:
+        _write_atomic(error_log, log)
+    else:
+        error_log.unlink(missing_ok=True)
+    _write_atomic(out_dir / "results" / f"{student}.json", json.dumps(result, indent=1))
+    return _summary(result, resumed=False)
 
 
 def grade_submission(
@@ -332,20 +428,8 @@ def grade_submission(
     isolation: str = "os",
 ) -> dict:
     """Grade one submission and write its result JSON and feedback page; returns its gradebook row."""
-    start = time.perf_counter()
-    fingerprint = submission_fingerprint(submission, homework, limits, isolation)
-    student, budget = submission.student, homework.budget
-    outcomes = run_checks(
-        homework.checks, submission.path, homework.name, student, limits, forbidden, isolation, budget
-    )
-    seconds = time.perf_counter() - start
-    result = result_json(homework, submission.student, outcomes, fingerprint, seconds, isolation)
-    _write_atomic(
-        out_dir / "feedback" / f"{submission.student}.html",
-        feedback_html(submission.student, homework.name, homework.title, outcomes),
-    )
-    _write_atomic(out_dir / "results" / f"{submission.student}.json", json.dumps(result, indent=1))
-    return _summary(result, resumed=False)
+    result, page, log = grade_one(homework, submission, limits, forbidden, isolation)
+    return write_graded(out_dir, submission.student, result, page, log)
 
 
 def _resumable(path: Path, fingerprint: str) -> dict | None:
@@ -353,7 +437,9 @@ def _resumable(path: Path, fingerprint: str) -> dict | None:
         result = json.loads(path.read_text())
     except (OSError, ValueError):
         return None
-    if result.get("extra_data", {}).get("fingerprint") != fingerprint:
+    if not isinstance(result, dict) or not isinstance(result.get("extra_data"), dict):
+        return None
+    if result["extra_data"].get("fingerprint") != fingerprint or result["extra_data"].get("internal_error"):
         return None
     return result
 
@@ -464,8 +550,7 @@ def grade(
     for submission in submissions:
         result = None
         if resume:
-            fingerprint = submission_fingerprint(submission, homework, limits, isolation)
-            result = _resumable(out_dir / "results" / f"{submission.student}.json", fingerprint)
+            result = _resumed(submission, homework, limits, isolation, out_dir)
         if result is not None:
             book.rows[submission.student] = _summary(result, resumed=True)
             bar.update(resumed=True)
@@ -496,8 +581,23 @@ def grade(
         with without_main():
             futures = {pool.submit(_grade_task, homework, s, out_dir, limits, forbidden, isolation): s for s in todo}
         for future in as_completed(futures):
-            row = future.result()
+            submission = futures[future]
+            try:
+                row = future.result()
+            except Exception as err:  # noqa: BLE001 - the worker itself failed (killed, out of memory)
+                log = f"{submission.student}: the grading worker failed\n{traceback.format_exc()}"
+                result, page = internal_error(homework, submission.student, type(err).__name__, 0.0, isolation)
+                row = write_graded(out_dir, submission.student, result, page, log)
             book.rows[row["student"]] = row
             book.write_csv()
             bar.update()
     return book
+
+
+def _resumed(submission: Submission, homework: Homework, limits: Limits, isolation: str, out_dir: Path) -> dict | None:
+    """The stored result of a submission that has not changed since it was graded, or None."""
+    try:
+        fingerprint = submission_fingerprint(submission, homework, limits, isolation)
+    except OSError:  # a folder that cannot be read now: grade it (its worker says what went wrong)
+        return None
+    return _resumable(out_dir / "results" / f"{submission.student}.json", fingerprint)

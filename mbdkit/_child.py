@@ -235,7 +235,8 @@ def _exit_hook(real_exit, pid: int):
             except (TypeError, ValueError):
                 number = -1
             try:
-                os.write(_state["hang"], f"EXIT\t{where[0]}\t{where[1]}\t{where[2]}\t{number}\n".encode())
+                line = f"EXIT\t{where[0]}\t{where[1]}\t{where[2]}\t{number}\n"
+                os.write(_state["hang"], line.encode("utf-8", "backslashreplace"))
             except OSError:
                 pass
         real_exit(code)
@@ -343,14 +344,16 @@ def describe(exc: BaseException) -> dict:
     if isinstance(exc, SyntaxError) and exc.filename and _under(os.path.realpath(exc.filename), (root,)):
         frames.append(f"{os.path.relpath(os.path.realpath(exc.filename), os.path.dirname(root))}:{exc.lineno}")
     kind = type(exc).__name__
+    code = getattr(exc, "errno", None)  # an int for an OSError; a student's own exception may hold anything
     if isinstance(exc, SystemExit):
         message = f"sys.exit({exc.code!r}) was called"
+    frames = [frame[:1000] for frame in frames]  # a function's name may be any length: the grader takes 4096
     return {
-        "type": kind,
+        "type": kind[:200],
         "message": message[:600],
         "where": frames[-1] if frames else "",
         "trace": frames[-6:],
-        "code": getattr(exc, "errno", None),
+        "code": code if isinstance(code, int) and not isinstance(code, bool) else None,
     }
 
 
@@ -440,7 +443,8 @@ def _find_stuck(signum, frame) -> None:
     while frame is not None:
         path = os.path.realpath(frame.f_code.co_filename)
         if _under(path, (root,)) and not counts.get(frame.f_code):
-            os.write(_state["hang"], f"STUCK\t{path}\t{frame.f_lineno}\t{frame.f_code.co_name}\n".encode())
+            line = f"STUCK\t{path}\t{frame.f_lineno}\t{frame.f_code.co_name}\n"
+            os.write(_state["hang"], line.encode("utf-8", "backslashreplace"))  # a name of any bytes
             return
         frame = frame.f_back
 
@@ -502,7 +506,7 @@ def serve(connection, config: dict) -> None:
     try:
         ready = _setup(config)
     except BaseException as exc:  # noqa: BLE001
-        connection.send_bytes(wire.dumps({"status": "setup_failed", "message": repr(exc)}))
+        connection.send_bytes(wire.dumps({"status": "setup_failed", "message": repr(exc)[:2000]}))
         _real_exit(3)
     connection.send_bytes(wire.dumps({"status": "ready", **ready}))
     while True:

@@ -109,7 +109,11 @@ def failure_of_reply(reply: Reply, limits: Limits, hidden: bool) -> str | None:
     """What went wrong when the student's code did not return (or printed too much); None if fine."""
     if reply.status == "timeout":
         where = f"; it was stuck in {reply.stuck_in}" if reply.stuck_in else ""
+        if reply.error and reply.error.get("message"):  # the grader's words: a reply begun and not finished
+            return f"the sandbox child did not finish its reply within the time limit: {reply.error['message']}{where}"
         return f"your code did not finish within the time limit (an endless loop?){where}"
+    if reply.status == "malformed":  # the grader's words (``sandbox.MALFORMED``), never the child's
+        return (reply.error or {}).get("message") or "the sandbox child sent a malformed reply"
     if reply.status in ("cpu", "died"):
         error = reply.error or {}
         where = f" in {error['where']}" if error.get("where") else ""

@@ -52,14 +52,13 @@ import re
 import shutil
 import signal
 import socket
-import stat
 import subprocess
 import sys
 import tempfile
 from multiprocessing.connection import Connection
 from pathlib import Path
 
-from . import cgroup
+from . import cgroup, staging
 
 BWRAP_ENV = "MBD_BWRAP"
 """Path of bwrap to use (default: ``bwrap`` on PATH); tests point it at a missing file."""
@@ -238,66 +237,12 @@ def ipc_limits(tmp_size: int) -> dict[str, str]:
 
 
 def stage_package(folder: str | Path, package: str, destination: str | Path) -> list[str]:
-    """Copy ``folder/package`` into ``destination/package``: regular files only (no symlink followed, no
-    device, no FIFO), no ``__pycache__``, at most ``MAX_FILES`` files of ``MAX_FILE_BYTES`` each and
-    ``MAX_SUBMISSION_BYTES`` in all (Python files first). Returns what was left out, relative paths."""
-    source = os.path.join(os.fspath(folder), package)
-    target = os.path.join(os.fspath(destination), package)
-    files: list[tuple[str, int]] = []
-    skipped: list[str] = []
-    stack = [""]
-    while stack:
-        relative = stack.pop()
-        try:
-            entries = list(os.scandir(os.path.join(source, relative)))
-        except OSError:
-            skipped.append(relative or ".")
-            continue
-        for entry in entries:
-            path = os.path.join(relative, entry.name)
-            try:
-                info = entry.stat(follow_symlinks=False)
-            except OSError:
-                skipped.append(path)
-                continue
-            if stat.S_ISDIR(info.st_mode):
-                if entry.name != "__pycache__":
-                    stack.append(path)
-            elif stat.S_ISREG(info.st_mode) and not entry.name.endswith((".pyc", ".pyo")):
-                files.append((path, info.st_size))
-            elif not entry.name.endswith((".pyc", ".pyo")):
-                skipped.append(path)  # a symlink, a device, a FIFO, a socket
-    files.sort(key=lambda item: (not item[0].endswith(".py"), item[0]))
-    total = 0
-    os.makedirs(target, mode=0o755, exist_ok=True)
-    for count, (path, size) in enumerate(files):
-        if count >= MAX_FILES or size > MAX_FILE_BYTES or total + size > MAX_SUBMISSION_BYTES:
-            skipped.append(path)
-            continue
-        try:
-            fd = os.open(os.path.join(source, path), os.O_RDONLY | os.O_NOFOLLOW | getattr(os, "O_NONBLOCK", 0))
-        except OSError:
-            skipped.append(path)
-            continue
-        with os.fdopen(fd, "rb") as f:
-            if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
-                skipped.append(path)
-                continue
-            data = f.read(MAX_FILE_BYTES + 1)
-        if len(data) > MAX_FILE_BYTES:
-            skipped.append(path)
-            continue
-        total += len(data)
-        out = os.path.join(target, path)
-        os.makedirs(os.path.dirname(out), mode=0o755, exist_ok=True)
-        with open(out, "wb") as f:
-            f.write(data)
-        os.chmod(out, 0o644)
-    for root, dirs, _ in os.walk(target):
-        for name in dirs:
-            os.chmod(os.path.join(root, name), 0o755)
-    os.chmod(target, 0o755)
-    return sorted(skipped)
+    """Copy ``folder/package`` into ``destination/package`` (``staging``): regular files with one name only
+    (no symlink followed, no hard link, device, FIFO), no ``__pycache__``, at most ``MAX_FILES`` files of
+    ``MAX_FILE_BYTES`` each and ``MAX_SUBMISSION_BYTES`` in all (Python files first), each opened without
+    following a link; ``package`` itself a link: nothing. Returns what was left out, relative paths."""
+    found = staging.stage(folder, package, destination, (MAX_FILES, MAX_FILE_BYTES, MAX_SUBMISSION_BYTES))
+    return sorted(found.skipped) if found.refused is None else ["."]
 
 
 class Plan:

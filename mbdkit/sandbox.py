@@ -46,6 +46,13 @@ SAMPLES = 3
 """Stack dumps taken from a child that timed out (when it cannot answer itself where it is stuck)."""
 STUCK_WINDOW = 0.3
 """Seconds during which a child that timed out counts calls, to tell where it is stuck."""
+FRAME_GRACE = 1.0
+"""Seconds a reply that has begun by its deadline may take to arrive whole (the grader waits no longer)."""
+CLOSE_TIMEOUT = 2.0
+"""Seconds the grader waits for a child to take its last message."""
+MAX_LINE = 8192
+"""Longest line of a stack dump the grader reads (the child writes it: any longer one is ignored)."""
+MALFORMED = "the sandbox child sent a malformed reply"
 
 
 @dataclass
@@ -81,7 +88,7 @@ class Reply:
     """What a probe in the sandbox gave: outputs, or how it failed."""
 
     status: str
-    """ok | error | timeout | cpu | died | sandbox"""
+    """ok | error (the child's reply) | timeout | cpu | died | malformed | sandbox (the grader's finding)"""
     outputs: dict = field(default_factory=dict)
     error: dict | None = None
     element_errors: list = field(default_factory=list)
@@ -168,22 +175,35 @@ def without_main():
         spawn.get_preparation_data = original
 
 
-_FRAME = re.compile(r'^\s*File "(?P<file>.+)", line (?P<line>\d+) in (?P<name>\S+)')
+# The stack-dump file is written by the child (faulthandler, ``_child``), so by the student's code too:
+# a line is read only when it has the exact form, ASCII digits of a bounded length, an absolute path and a
+# name of printable characters; anything else in the file is ignored.
+_FRAME = re.compile(r'^\s*File "(?P<file>/[^"\x00]{0,4095})", line (?P<line>[0-9]{1,9}) in (?P<name>\S{1,1000})$', re.A)
+_STUCK = re.compile(r"^STUCK\t(?P<file>/[^\t\x00]{0,4095})\t(?P<line>[0-9]{1,9})\t(?P<name>[^\t]{1,1000})$", re.A)
+_EXIT = re.compile(
+    r"^EXIT\t(?P<file>(?:/[^\t\x00]{0,4095})?)\t(?P<line>[0-9]{1,9})\t(?P<name>[^\t]{0,1000})\t(?P<code>-?[0-9]{1,9})$",
+    re.A,
+)
+
+
+def _lines(text: str) -> list[str]:
+    """The lines of a stack dump that may be read (bounded length, printable)."""
+    return [line for line in text.split("\n") if len(line) <= MAX_LINE and line.replace("\t", " ").isprintable()]
 
 
 def _stuck_line(text: str) -> tuple[str, int, str] | None:
     """The child's own answer to where it is stuck (see ``_child._find_stuck``), if it gave one."""
-    for line in text.splitlines():
-        parts = line.split("\t")
-        if len(parts) == 4 and parts[0] == "STUCK" and parts[2].isdigit():
-            return parts[1], int(parts[2]), parts[3]
+    for line in _lines(text):
+        match = _STUCK.match(line)
+        if match:
+            return match["file"], int(match["line"]), match["name"]
     return None
 
 
 def stack_samples(text: str) -> list[list[tuple[str, int, str]]]:
     """The stacks in a faulthandler dump, each as [(file, line, function)] from the outermost call in."""
     samples, current = [], None
-    for line in text.splitlines():
+    for line in _lines(text):
         if "most recent call first" in line:
             current = []
             samples.append(current)
@@ -196,13 +216,10 @@ def stack_samples(text: str) -> list[list[tuple[str, int, str]]]:
 
 def _exit_line(text: str) -> tuple[str, int, str, int] | None:
     """Where the child called os._exit (see ``_child._exit``): (file, line, function, code), if it did."""
-    for line in text.splitlines():
-        parts = line.split("\t")
-        if len(parts) == 5 and parts[0] == "EXIT" and parts[2].lstrip("-").isdigit():
-            try:
-                return parts[1], int(parts[2]), parts[3], int(parts[4])
-            except ValueError:
-                return None
+    for line in _lines(text):
+        match = _EXIT.match(line)
+        if match:
+            return match["file"], int(match["line"]), match["name"], int(match["code"])
     return None
 
 
@@ -337,13 +354,13 @@ class Sandbox:
 
     def _start(self) -> None:
         self.process = self._backend
-        self.connection = ours = self.process.start(self._config(), wire.dumps)
+        self.connection = self.process.start(self._config(), wire.dumps)
         self.starts += 1
-        if not ours.poll(STARTUP_TIMEOUT):
-            self._kill()
-            raise SandboxError("the sandbox process did not start")
         try:
-            ready = wire.loads(ours.recv_bytes(wire.MAX_MESSAGE))
+            ready = wire.ready(wire.receive(self.connection.fileno(), time.monotonic() + STARTUP_TIMEOUT))
+        except wire.FrameTimeout:
+            self._kill()
+            raise SandboxError("the sandbox process did not start") from None
         except (EOFError, OSError, wire.WireError) as err:
             self._kill()
             said = self._read("output.txt").strip()[-400:]
@@ -370,9 +387,9 @@ class Sandbox:
         """Stop the child and remove its temporary folder."""
         if self.process is not None and self.process.is_alive():
             try:
-                self.connection.send_bytes(wire.dumps({"op": "exit"}))
+                wire.send(self.connection.fileno(), wire.dumps({"op": "exit"}), time.monotonic() + CLOSE_TIMEOUT)
                 self._kill(wait=2.0)
-            except OSError:
+            except (OSError, wire.FrameTimeout):
                 pass
         self._kill()
         if self._own_host is not None:
@@ -410,42 +427,42 @@ class Sandbox:
             "timeout": timeout,
             "cpu": 2.0 * timeout + 1.0,
         }
-        start = time.perf_counter()
-        try:
-            self.connection.send_bytes(wire.dumps(request))
-            if self.connection.poll(timeout):
-                data = self.connection.recv_bytes(wire.MAX_MESSAGE)
-            else:
+        start, deadline = time.perf_counter(), time.monotonic() + timeout
+        fd = self.connection.fileno()
+        try:  # the request sent and the whole reply read by the deadline (a child that stalls: a timeout)
+            try:
+                wire.send(fd, wire.dumps(request), deadline)
+            except wire.FrameTimeout:  # it does not take the request: stuck since the last one
                 return self._timed_out(timeout, time.perf_counter() - start)
+            message = wire.reply(wire.receive(fd, deadline, FRAME_GRACE))
+        except wire.FrameTimeout as late:
+            return self._timed_out(timeout, time.perf_counter() - start, partial=late.partial)
         except (EOFError, OSError):
             return self._died(time.perf_counter() - start)
-        try:
-            message = wire.loads(data)
-        except wire.WireError as err:
+        except wire.WireError as err:  # the child (the student's code can write to its socket) is not trusted
             self._kill()
-            return Reply("error", error={"type": "BadReply", "message": f"the sandbox reply was unreadable: {err}"})
-        outputs = message.get("outputs") or {}
-        if not isinstance(outputs, dict):
-            outputs = {}
+            error = {"type": "malformed", "message": f"{MALFORMED} ({err})", "during": self._during()}
+            return Reply("malformed", error=error, seconds=time.perf_counter() - start)
         return Reply(
-            status="ok" if message.get("status") == "ok" else "error",
-            outputs={k: v for k, v in outputs.items() if hasattr(v, "shape")},
-            error=message.get("error") if isinstance(message.get("error"), dict) else None,
-            element_errors=[e for e in message.get("element_errors") or [] if isinstance(e, dict)],
-            printed=int(message.get("printed") or 0),
-            output_head=str(message.get("output_head") or "")[:400],
-            seconds=float(message.get("seconds") or 0.0),
+            status=message["status"],
+            outputs=message.get("outputs", {}),
+            error=message.get("error"),
+            element_errors=message.get("element_errors", []),
+            printed=message.get("printed", 0),
+            output_head=message.get("output_head", "")[:400],
+            seconds=float(message.get("seconds", 0.0)),
         )
 
     def _where(self, file: str, line: int, name: str) -> str:
         """'modules/file.py:line in function' (or 'at import') for a place in the child's package."""
-        relative = os.path.relpath(file, self.inner_submission)
+        relative = os.path.relpath(file, self.inner_submission) if file else "?"
         return f"{relative}:{line} at import (module level)" if name == "<module>" else f"{relative}:{line} in {name}"
 
     def _resolve(self, path: str) -> str:
         return os.path.realpath(path) if self.isolation == "local" else os.path.normpath(path)
 
-    def _timed_out(self, timeout: float, seconds: float) -> Reply:
+    def _timed_out(self, timeout: float, seconds: float, partial: bool = False) -> Reply:
+        """Sample where the child is stuck, kill it; ``partial``: it had begun a reply it did not finish."""
         pid = self.process.pid if self.process is not None else None
         signals = [(signal.SIGUSR2, STUCK_WINDOW), (signal.SIGUSR2, 0.1)] + [(signal.SIGUSR1, 0.05)] * SAMPLES
         for number, pause in signals:
@@ -462,7 +479,8 @@ class Sandbox:
             file, line, name = stuck
             self.hung.append({"file": file, "line": line, "name": name})
             where = self._where(file, line, name)
-        return Reply("timeout", seconds=seconds, stuck_in=where, printed=self._captured())
+        error = {"type": "timeout", "message": "it began a reply and did not finish it"} if partial else None
+        return Reply("timeout", error=error, seconds=seconds, stuck_in=where, printed=self._captured())
 
     def _captured(self) -> int:
         try:
@@ -492,8 +510,9 @@ class Sandbox:
         elif code is not None and code < 0:
             name = signal.Signals(-code).name if -code in signal.Signals._value2member_map_ else str(-code)
             status, message = "died", f"the process was killed by signal {name}"
-            if "Fatal Python error" in stack:
-                message = stack.split("\n", 1)[0].strip()
+            fatal = [line for line in _lines(stack) if line.startswith("Fatal Python error")]
+            if fatal:
+                message = fatal[0].strip()[:200]
         else:
             status, message = "died", f"the process ended with exit code {code} (os._exit or a crash)"
         error = {"type": status, "message": message, "where": where, "during": self._during()}
