@@ -157,17 +157,20 @@ class SaveGraderPoints(NbGraderPreprocessor):
 def autograde_steps(default: list) -> list:
     """nbgrader's autograde preprocessors ``default`` with the notebook in the sandbox and the points from the
     grader: ``Execute`` replaced by ``SandboxedExecute``, ``GraderPoints`` before ``SaveAutoGrades`` and
-    ``SaveGraderPoints`` after it."""
+    ``SaveGraderPoints`` after it. With ``MBD_UNSAFE_NO_ISOLATION=1`` the notebook runs in nbgrader's own
+    kernel (the grader then grades without bubblewrap too, and says so); its points still come from the grader."""
     from nbgrader.preprocessors import SaveAutoGrades
+
+    from mbdkit.isolation import unsafe_requested
 
     steps = []
     for step in default:
         if step is Execute:
-            steps.append(SandboxedExecute)
+            steps.append(Execute if unsafe_requested() else SandboxedExecute)
         elif step is SaveAutoGrades:
             steps += [GraderPoints, SaveAutoGrades, SaveGraderPoints]
         else:
             steps.append(step)
-    if SandboxedExecute not in steps or GraderPoints not in steps:
+    if GraderPoints not in steps or not {Execute, SandboxedExecute} & set(steps):
         raise RuntimeError("nbgrader's autograde steps have no Execute or SaveAutoGrades: see autograder/api.py")
     return steps

@@ -260,6 +260,7 @@ class SandboxedKernelManager(AsyncKernelManager):
             await self.sandbox.seal(self.is_alive)
         except BaseException:
             self._stop_sandbox()
+            self._close_sandbox()
             raise
         self._watchdog = threading.Timer(self.limits.wall, self._stop_sandbox)
         self._watchdog.daemon = True
@@ -275,6 +276,14 @@ class SandboxedKernelManager(AsyncKernelManager):
     async def shutdown_kernel(self, now: bool = False, restart: bool = False) -> None:
         try:
             await super().shutdown_kernel(now=now, restart=restart)
+        finally:
+            self._stop_sandbox()
+            self._close_sandbox()
+
+    async def cleanup_resources(self, restart: bool = False) -> None:
+        """After a kernel that died (nbclient cleans up, and shuts nothing down): its sandbox goes too."""
+        try:
+            await super().cleanup_resources(restart=restart)
         finally:
             self._stop_sandbox()
             self._close_sandbox()
