@@ -25,7 +25,7 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-from nbclient.exceptions import DeadKernelError
+from nbclient.exceptions import CellTimeoutError, DeadKernelError
 from nbformat.v4 import new_output
 from nbgrader.api import Gradebook
 from nbgrader.preprocessors import Execute, NbGraderPreprocessor
@@ -85,6 +85,10 @@ def grade_folder(folder: Path, student: str, groups: set[tuple[str, str]]) -> di
     outcomes: dict[tuple[str, str], list] = {group: [] for group in groups}
     for homework in sorted({hw for hw, _ in groups}):
         spec = load_homework(homework)
+        known = {c.group for c in spec.checks}
+        unknown = sorted(group for hw, group in groups if hw == homework and group not in known)
+        if unknown:
+            raise ValueError(f"{homework} has no checks in group {unknown[0]!r} (groups: {', '.join(sorted(known))})")
         for outcome in run_checks(spec.checks, folder, spec.name, student, budget=spec.budget):
             outcomes.setdefault((homework, outcome.group), []).append(outcome)
     return outcomes
@@ -92,8 +96,8 @@ def grade_folder(folder: Path, student: str, groups: set[tuple[str, str]]) -> di
 
 class SandboxedExecute(Execute):
     """nbgrader's ``Execute`` with its kernel in the grader's sandbox (``autograder.kernel``). A kernel that dies
-    (killed by a cell, or by its limits) ends the execution there: the cells after it keep no output, and the
-    notebook goes on to be graded (its points never came from the kernel)."""
+    (killed by a cell, or by its limits) or stops answering ends the execution there: the cells after it keep no
+    output, and the notebook goes on to be graded (its points never came from the kernel)."""
 
     def __init__(self, *args, **kwargs):
         kwargs.setdefault("kernel_manager_class", SandboxedKernelManager)
@@ -102,8 +106,9 @@ class SandboxedExecute(Execute):
     def preprocess(self, nb, resources=None, km=None):
         try:
             return super().preprocess(nb, resources, km)
-        except DeadKernelError as err:
-            self.log.warning("the notebook's kernel died (%s): its later cells did not run", err)
+        except (DeadKernelError, CellTimeoutError) as err:
+            reason = "died" if isinstance(err, DeadKernelError) else "stopped answering"
+            self.log.warning("the notebook's kernel %s: its later cells did not run", reason)
             return nb, resources
 
 

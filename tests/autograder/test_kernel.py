@@ -124,9 +124,9 @@ def test_a_dead_kernel_ends_the_run_not_the_grading(hostile):
     assert cells[-1].outputs == []  # never ran; SandboxedExecute returned the notebook
 
 
-def test_a_kernel_is_killed_after_its_wall_clock_limit(tmp_path):
+def test_a_cell_is_interrupted_after_its_timeout_and_the_kernel_killed_after_its_wall_clock_limit(tmp_path):
     class Impatient(SandboxedKernelManager):
-        limits = KernelLimits(wall=3.0)
+        limits = KernelLimits(wall=12.0)
         folders: list[str] = []
 
         async def start_kernel(self, **kw):
@@ -134,9 +134,11 @@ def test_a_kernel_is_killed_after_its_wall_clock_limit(tmp_path):
             self.folders.append(self.sandbox.tmp)
 
     (tmp_path / "hw1").mkdir()
-    nb = notebook(["import time\ntime.sleep(600)", "print('never')"])
-    execute = SandboxedExecute(timeout=60, kernel_manager_class=Impatient)
+    deaf = "import signal, time\nsignal.signal(signal.SIGINT, signal.SIG_IGN)\nwhile True:\n"
+    deaf += "    print('still here', flush=True)\n    time.sleep(0.5)"  # deaf to interrupts, never silent
+    nb = notebook(["while True:\n    pass", deaf, "print('never')"])
+    execute = SandboxedExecute(timeout=3, kernel_manager_class=Impatient)
     execute.preprocess(nb, {"metadata": {"path": str(tmp_path / "hw1")}})
-    assert nb.cells[0].outputs == [] or "error" in {o.output_type for o in nb.cells[0].outputs}
-    assert nb.cells[1].outputs == []
+    assert "KeyboardInterrupt" in {o.get("ename") for o in nb.cells[0].outputs}  # interrupted by a message
+    assert nb.cells[2].outputs == []  # the kernel was killed in the deaf cell
     assert len(Impatient.folders) == 1 and not os.path.exists(Impatient.folders[0])  # the sandbox is gone
