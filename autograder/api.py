@@ -89,7 +89,8 @@ def grade_folder(folder: Path, student: str, groups: set[tuple[str, str]]) -> di
         unknown = sorted(group for hw, group in groups if hw == homework and group not in known)
         if unknown:
             raise ValueError(f"{homework} has no checks in group {unknown[0]!r} (groups: {', '.join(sorted(known))})")
-        for outcome in run_checks(spec.checks, folder, spec.name, student, budget=spec.budget):
+        others = (folder.parent.parent,)  # every student's folder (nbgrader's autograded/), as mbd grade forbids
+        for outcome in run_checks(spec.checks, folder, spec.name, student, forbidden=others, budget=spec.budget):
             outcomes.setdefault((homework, outcome.group), []).append(outcome)
     return outcomes
 
