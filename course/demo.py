@@ -104,7 +104,7 @@ def print_examples(rows: list[dict]) -> None:
 
 # -- 2. the release ----------------------------------------------------------------------------------------
 def scratch_course(destination: Path) -> Path:
-    """A copy of the course for releasing: notebooks, nbgrader configuration, reference, checker, grader data.
+    """A copy of the course for releasing and grading: notebooks, nbgrader configuration, reference, checker, grader.
 
     ``modules/`` is built fresh from ``solutions/`` (so it is in sync), and the copy is not a git work tree
     (so uncommitted changes in this repository's ``modules/`` do not stop the demo).
@@ -112,10 +112,9 @@ def scratch_course(destination: Path) -> Path:
     from course.release import build_modules
 
     ignore = shutil.ignore_patterns("__pycache__", "*.pyc", ".ipynb_checkpoints")
-    for folder in ("assignments", "solutions", "mbdkit", "autograder/scenes", "autograder/reference"):
+    for folder in ("assignments", "solutions", "mbdkit", "autograder"):  # nbgrader's autograde imports autograder
         shutil.copytree(ROOT / folder, destination / folder, ignore=ignore)
-    for path in (*ROOT.glob("autograder/hw*.toml"), ROOT / "pyproject.toml"):
-        shutil.copy2(path, destination / path.relative_to(ROOT))
+    shutil.copy2(ROOT / "pyproject.toml", destination / "pyproject.toml")
     (destination / "course").mkdir(parents=True)
     shutil.copy2(ROOT / "course" / "nbgrader_config.py", destination / "course" / "nbgrader_config.py")
     build_modules(destination / "modules", destination / "solutions")

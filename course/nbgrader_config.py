@@ -72,11 +72,9 @@ def _student_modules() -> list:
 c.Autograde.exclude_overwriting = {hw: _student_modules() for hw in HOMEWORKS}
 
 
-
 def _drop_submitted_checker():
     """A preprocessor that removes a checker (``mbdkit/``) handed in with a submission before its notebook
-    runs: the graded cells import ``mbdkit`` from the notebook's folder first, and the points must come from
-    the course's checker, not from a copy the student could have changed."""
+    runs: the notebook's ``check`` is the course's (the points never come from the notebook: see below)."""
     from nbconvert.preprocessors import Preprocessor
     from traitlets import Bool
 
@@ -93,9 +91,14 @@ def _drop_submitted_checker():
 
 
 def _autograde_steps() -> list:
+    """nbgrader's autograde steps, with the notebook's kernel in the grader's bubblewrap sandbox (nothing of the
+    course visible) and every graded cell's points from the grader's own run of the submission, written into
+    the gradebook from outside the kernel (``autograder/api.py``)."""
     from nbgrader.converters.autograde import Autograde
 
-    return [_drop_submitted_checker(), *Autograde.class_traits()["autograde_preprocessors"].default()]
+    from autograder.api import autograde_steps
+
+    return [_drop_submitted_checker(), *autograde_steps(Autograde.class_traits()["autograde_preprocessors"].default())]
 
 
 c.Autograde.autograde_preprocessors = _autograde_steps()

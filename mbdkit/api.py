@@ -9,10 +9,11 @@ student's ``modules/`` in a sandbox process). A notebook test cell is one line::
 ``check`` prints one line to stdout when everything passes and nothing at all to stderr (nbgrader
 zeroes a cell that writes to stderr), so no grading logic lives in a notebook a student can damage.
 
-While nbgrader autogrades (it sets ``NBGRADER_EXECUTION=autograde``), the same cell grades with the
-instructor's grader (``autograder.api.grade_group``, in the course repository): every check of its
-group, public, hidden and the student's own variants, and the points earned as the cell's partial
-credit. A group with no public checks (``hidden``) runs only then.
+While nbgrader autogrades (it sets ``NBGRADER_EXECUTION=autograde``), the notebook runs in the grader's
+sandbox, where nothing of the course is visible: ``check`` and ``selfcheck`` then print one line and do
+nothing else. The instructor's grader runs the submission's package in its own sandbox, outside the
+notebook, and nbgrader's step ``autograder.api.SandboxPoints`` writes those points into the gradebook,
+cell by cell: nothing the notebook does can change them.
 """
 
 from __future__ import annotations
@@ -57,19 +58,14 @@ def grading() -> bool:
     return os.environ.get("NBGRADER_EXECUTION") == "autograde"
 
 
-def _grade_group(homework: str, group: str, path: str | Path | None) -> float:
-    """While nbgrader autogrades: the instructor's grader runs the whole group (it is not in a kit)."""
-    try:
-        from autograder.api import grade_group
-    except ImportError:
-        raise RuntimeError("NBGRADER_EXECUTION=autograde: grading needs the course's autograder") from None
-    return grade_group(homework, group, path)
+GRADED_OUTSIDE = "{what}: graded outside the notebook, by the instructor's grader in its sandbox"
+"""What ``check`` prints while nbgrader autogrades (the points come from the grader, not from this cell)."""
 
 
-def check(homework: str, group: str, path: str | Path | None = None) -> float | None:
+def check(homework: str, group: str, path: str | Path | None = None) -> None:
     """Run the public checks of one group; raise AssertionError with every failure's message.
 
-    While nbgrader autogrades, grade the whole group instead and return its points (``grade_group``).
+    While nbgrader autogrades, print one line and return: the grader runs the checks outside the notebook.
 
     Parameters
     ----------
@@ -78,7 +74,8 @@ def check(homework: str, group: str, path: str | Path | None = None) -> float | 
     path : the folder holding ``modules/`` (default: the working directory)
     """
     if grading():
-        return _grade_group(homework, group, path)
+        print(GRADED_OUTSIDE.format(what=f"{homework} {group}"))
+        return None
     spec = load_homework(homework)
     if spec.graded_later(group):
         print(f"{homework} {group}: checked when the instructor grades (hidden scenes, your own variants)")
@@ -94,8 +91,14 @@ def check(homework: str, group: str, path: str | Path | None = None) -> float | 
 
 
 def selfcheck(homework: str, path: str | Path | None = None, stream=None) -> int:
-    """Run every public check of a homework and print a report; 0 when all pass, 1 otherwise."""
+    """Run every public check of a homework and print a report; 0 when all pass, 1 otherwise.
+
+    While nbgrader autogrades, print one line and return 0: the grader runs every check outside the notebook.
+    """
     stream = stream or sys.stdout
+    if grading():
+        stream.write(GRADED_OUTSIDE.format(what=homework) + "\n")
+        return 0
     outcomes = run_public(homework, path)
     score = sum(o.points for o in outcomes)
     total = sum(o.max_points for o in outcomes)

@@ -154,8 +154,15 @@ def _key(name: str) -> str:
 @functools.lru_cache(maxsize=1)
 def site_entries() -> tuple[tuple[str, str], ...]:
     """(site-packages folder, entry) of each allowed distribution and what it requires (no extras)."""
+    return distribution_entries(ALLOWED_DISTRIBUTIONS)
+
+
+@functools.lru_cache(maxsize=4)
+def distribution_entries(names: tuple[str, ...]) -> tuple[tuple[str, str], ...]:
+    """(site-packages folder, entry) of each of the distributions ``names`` and what they require (no extras):
+    what a sandbox shows of them (``site_entries``; nbgrader's kernel adds ipykernel, ``autograder.kernel``)."""
     seen: dict[str, object] = {}
-    todo = list(ALLOWED_DISTRIBUTIONS)
+    todo = list(names)
     while todo:
         name = todo.pop()
         if _key(name) in seen:
@@ -356,6 +363,23 @@ def _children(pid: int) -> list[int]:
             except (OSError, IndexError, ValueError):
                 continue
     return found
+
+
+def stop_sandbox(process: subprocess.Popen) -> None:
+    """Kill a bubblewrap sandbox started as ``process`` and everything in it: its PID namespace dies with its
+    reaper (bubblewrap's child), then bubblewrap itself. Safe to call from another thread; ``process`` is left
+    for its owner to reap."""
+    if process.poll() is not None:
+        return
+    for reaper in _children(process.pid):
+        try:
+            os.kill(reaper, signal.SIGKILL)
+        except OSError:
+            pass
+    try:
+        process.kill()
+    except OSError:
+        pass
 
 
 def _nspid(pid: int) -> int | None:

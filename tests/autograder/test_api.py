@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import pytest
 
+from autograder.api import GraderPoints, SandboxedExecute, SaveGraderPoints, autograde_steps, check_call
 from autograder.cli import grade_command
-from mbdkit.api import check, selfcheck
+from mbdkit.api import GRADED_OUTSIDE, check, selfcheck
 from mbdkit.cli import selfcheck_command
 
 
@@ -56,3 +57,36 @@ def test_selfcheck_of_a_missing_folder_says_so_once(tmp_path, capsys):
     (tmp_path / "empty").mkdir()
     assert selfcheck_command("hw1", tmp_path / "empty") == 2
     assert "no package modules/" in capsys.readouterr().err
+
+
+def test_while_nbgrader_autogrades_check_grades_nothing(tmp_path, monkeypatch, capfd):
+    monkeypatch.setenv("NBGRADER_EXECUTION", "autograde")
+    assert check("hw1", "revolute", tmp_path / "no-package-here") is None  # needs no package, no grader
+    assert selfcheck("hw1", tmp_path / "no-package-here") == 0
+    out, err = capfd.readouterr()
+    assert out == GRADED_OUTSIDE.format(what="hw1 revolute") + "\n" + GRADED_OUTSIDE.format(what="hw1") + "\n"
+    assert err == ""
+
+
+def test_a_test_cell_names_its_group_by_one_call():
+    assert check_call('# Graded: the revolute joint.\ncheck("hw1", "revolute")') == ("hw1", "revolute")
+    assert check_call("mbdkit.check('hw2', 'rk4')") == ("hw2", "rk4")
+    for source in (
+        "check(homework, 'rk4')",
+        "check('hw1', 'a'); check('hw1', 'b')",
+        "check('hw1')",
+        "assert x",
+        "check(",
+    ):
+        assert check_call(source) is None, source
+
+
+def test_nbgraders_steps_run_the_notebook_in_the_sandbox_and_take_the_points_from_the_grader():
+    from nbgrader.converters.autograde import Autograde
+    from nbgrader.preprocessors import Execute, SaveAutoGrades
+
+    default = Autograde.class_traits()["autograde_preprocessors"].default()
+    steps = autograde_steps(default)
+    assert Execute not in steps and steps.index(SandboxedExecute) == default.index(Execute)
+    saved = steps.index(SaveAutoGrades)
+    assert steps[saved - 1] is GraderPoints and steps[saved + 1] is SaveGraderPoints

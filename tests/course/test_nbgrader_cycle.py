@@ -4,9 +4,10 @@ autograde, generate feedback, export; the exported grades equal ``mbd grade``'s 
 Each homework runs in a scratch copy of the course (``course.demo.scratch_course``: notebooks, nbgrader
 configuration, reference, grader data) with nbgrader's own commands: hw1's from the course root (through the
 root ``nbgrader_config.py``), the others' from ``course/``; none of them writes anything outside ``build/``.
-The graded cells call ``mbdkit.check``, which, while nbgrader autogrades, runs every check of its
-group (hidden and per-student ones too) and returns the points as the cell's partial credit: so nbgrader's
-score of a submission is the autograder's, check for check.
+nbgrader runs the notebook in the grader's sandbox (``autograder.kernel``), where ``mbdkit.check`` only prints a
+line; the points of every graded cell come from the grader's own run of the submission, written into the
+gradebook from outside the kernel (``autograder.api``): so nbgrader's score of a submission is the autograder's,
+check for check, and hostile notebooks and packages score there what the untouched skeleton scores.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from __future__ import annotations
 import csv
 import hashlib
 import html
+import json
 import os
 import re
 import shutil
@@ -33,18 +35,74 @@ from course.release.generator import REPO
 pytestmark = pytest.mark.filterwarnings("ignore:Object of type <Submitted")  # nbgrader's own SQLAlchemy notes
 
 STUDENTS = {
-    "hw1": {"ada": None, "ben": "bug_revolute_gamma", "sam": "skeleton", "eve": "forged_checker"},
+    "hw1": {
+        "ada": None,
+        "ben": "bug_revolute_gamma",
+        "sam": "skeleton",
+        "eve": "forged_checker",
+        "mal": "forged_package",
+        "rex": "hostile_notebook",
+    },
     "hw2": {"ada": None},
     "hw3": {"ada": None},
 }
 """Per homework, the demo students submitted: the reference (None), a mutant of course/demo.py, the skeleton,
-the skeleton with the kit's checker changed to award a point in every graded cell."""
+and the skeleton with an attack on the points: the kit's checker changed to award a point in every graded cell;
+``modules/__init__.py`` made to replace whatever grades the cells by full points; a notebook whose own cell
+redefines ``check`` (a test cell with no output and no error has full credit in nbgrader) and whose other cell
+reads the course, the gradebook and the environment and writes into a classmate's submission."""
+
+SECRET = "cycle-test-secret"
+"""The course secret in the environment of every grading process (nbgrader's and ``mbd grade``'s)."""
 
 FORGED = """
 
 def check(homework, group, path=None):  # forged by the student: a point for every graded cell
     return 1.0
 """
+
+FORGED_PACKAGE = """
+
+# Appended by the student: full points from whatever grades this notebook's cells.
+try:
+    import autograder.api as _grader
+
+    _grader.grade_group = lambda *args, **kwargs: 1000.0
+except Exception:
+    pass
+try:
+    import mbdkit.api as _kit
+
+    _kit.check.__code__ = (lambda homework, group, path=None: 1000.0).__code__
+except Exception:
+    pass
+"""
+
+OWN_CHECK = """def check(homework, group, path=None):  # the student's own: no output, no error
+    return None"""
+
+PROBE = """import json, os
+seen = {}
+def attempt(name, action):
+    try:
+        seen[name] = repr(action())[:200]
+    except BaseException as err:
+        seen[name] = "refused: " + type(err).__name__
+attempt("course file", lambda: open(COURSE + "/autograder/hw1.toml").read())
+attempt("gradebook", lambda: open(COURSE + "/build/gradebook.db", "rb").read(16))
+attempt("classmate", lambda: open(COURSE + "/build/submitted/ada/hw1/modules/__init__.py", "a").write("1/0"))
+seen["environment"] = dict(os.environ)
+print(json.dumps(seen))"""
+
+
+def hostile_notebook(folder: Path, course: Path) -> None:
+    """Two cells of the student's own after the set-up cell: ``check`` redefined, and the probe."""
+    path = folder / "hw1.ipynb"
+    nb = nbformat.read(path, as_version=4)
+    setup = next(i for i, c in enumerate(nb.cells) if c.metadata.get("nbgrader", {}).get("grade_id") == "hw1_setup")
+    probe = f"COURSE = {str(course)!r}\n" + PROBE
+    nb.cells[setup + 1 : setup + 1] = [nbformat.v4.new_code_cell(OWN_CHECK), nbformat.v4.new_code_cell(probe)]
+    nbformat.write(nb, path)
 
 
 def submit(course: Path, homework: str, student: str, kind: str | None) -> Path:
@@ -55,7 +113,12 @@ def submit(course: Path, homework: str, student: str, kind: str | None) -> Path:
     if kind == "forged_checker":
         with open(folder / "mbdkit" / "api.py", "a") as f:
             f.write(FORGED)
-    elif kind != "skeleton":
+    elif kind == "forged_package":
+        with open(folder / "modules" / "__init__.py", "a") as f:
+            f.write(FORGED_PACKAGE)
+    elif kind == "hostile_notebook":
+        hostile_notebook(folder, course)
+    elif kind not in ("skeleton", "forged_package", "hostile_notebook"):
         build_package(folder / "modules", None, course / "solutions", header=None)
     if kind in MUTATIONS:
         relpath, anchor, correct, buggy, _ = MUTATIONS[kind]
@@ -71,6 +134,7 @@ def nbgrader(course: Path, *args: str, where: str = "course") -> str:
     """An nbgrader command, run where an nbgrader_config.py is (the root or ``course/``), as an instructor would."""
     environment = dict(os.environ, PATH=os.pathsep.join([str(Path(sys.executable).parent), os.environ.get("PATH", "")]))
     environment.pop("NBGRADER_EXECUTION", None)
+    environment["MBD_GRADER_SECRET"] = SECRET
     done = subprocess.run(
         [sys.executable, "-m", "nbgrader", *args],
         cwd=course / where,
@@ -122,10 +186,14 @@ def cycle(tmp_path_factory):
     with ThreadPoolExecutor(max_workers=2) as pool:  # separate processes, folders and gradebooks
         futures = {hw: pool.submit(autograde_and_export, course, hw) for hw, course in courses.items()}
         exported = {hw: future.result() for hw, future in futures.items()}
-    books = {
-        hw: grade(hw, course / "build" / "submitted", course / "build" / "grades", jobs=2, progress=False, resume=False)
-        for hw, course in courses.items()
-    }
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("MBD_GRADER_SECRET", SECRET)
+        books = {
+            hw: grade(
+                hw, course / "build" / "submitted", course / "build" / "grades", jobs=2, progress=False, resume=False
+            )
+            for hw, course in courses.items()
+        }
     return courses, exported, books
 
 
@@ -168,3 +236,23 @@ def test_feedback_pages_show_the_graders_messages(cycle, homework):
     if homework == "hw1":
         assert "FAIL four_bar.gamma.revolute" in pages["ben"] and "Likely cause: a sign error" in pages["ben"]
         assert "not implemented yet" in pages["sam"]
+
+
+def test_attacks_on_the_points_score_what_the_skeleton_scores(cycle):
+    courses, exported, books = cycle
+    book, rows = books["hw1"], exported["hw1"]
+    for student in ("eve", "mal", "rex"):
+        assert book.score(student) == book.score("sam"), student  # mbd grade's route
+        assert float(rows[student]["raw_score"]) == float(rows["sam"]["raw_score"]), student  # nbgrader's
+    assert book.score("ada") == book.max_score  # the classmate rex wrote into kept every point
+
+
+def test_a_hostile_cell_sees_nothing_of_the_course(cycle):
+    course = cycle[0]["hw1"]
+    nb = nbformat.read(course / "build" / "autograded" / "rex" / "hw1" / "hw1.ipynb", as_version=4)
+    probe = next(c for c in nb.cells if "attempt(" in c.source)
+    seen = json.loads("".join(o.get("text", "") for o in probe.outputs if o.output_type == "stream"))
+    for attempt in ("course file", "gradebook", "classmate"):
+        assert seen[attempt].startswith("refused"), (attempt, seen[attempt])
+    assert "MBD_GRADER_SECRET" not in seen["environment"] and SECRET not in json.dumps(seen)
+    assert SECRET not in (course / "build" / "feedback" / "rex" / "hw1" / "hw1.html").read_text()
