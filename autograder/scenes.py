@@ -82,11 +82,18 @@ def load_scene(name: str, student: str | None = None, homework: str = "") -> Sce
         return Scene(name, variant(base.data, seed), STUDENT)
     if kind == HIDDEN and hidden_override() is None:
         base = load_scene(hidden_base(name))
-        return Scene(name, hidden_variant(base.data, hidden_seed(name), name), HIDDEN)
+        seed = hidden_seed(name)
+        key = (name, seed, base.fingerprint())
+        if key not in _DERIVED:  # once per process: a dynamic scene's initial velocities take some 10 ms
+            _DERIVED[key] = hidden_variant(base.data, seed, name)
+        return Scene(name, copy.deepcopy(_DERIVED[key]), HIDDEN)
     path = scene_path(name)
     if not path.is_file():
         raise FileNotFoundError(f"no grading scene {name!r} ({path})")
     return Scene(name, read_scene_file(path), kind)
+
+
+_DERIVED: dict[tuple[str, int, str], dict] = {}
 
 
 def hidden_seed(name: str) -> int:
@@ -228,22 +235,114 @@ HIDDEN_SPIN = (0.5, 1.5)
 """Largest change of a body's angular velocity (rad/s) in a dynamic hidden variant's initial state."""
 
 
+HIDDEN_STRETCH = 0.12
+"""A planar hidden variant is stretched by 1 + HIDDEN_STRETCH x U(-1, 1) along x and, on its own, along y:
+other proportions (a four-bar's links change length each by its own factor). Where that loses the
+mechanism's character (a kinematic run meets a singular position: a Grashof four-bar that no longer turns),
+half of it is tried, then none."""
+
+
 def hidden_variant(data: dict, seed: int, name: str = "hidden") -> dict:
     """A hidden variant of the model file ``data`` (see the module's docstring), the same for one seed."""
     rng = np.random.default_rng(seed)
     data = variant(data, int(rng.integers(2**62)))
     model = data["model"]
-    end_time = float(data.get("simulation", {}).get("end_time", 1.0))
+    simulation = data.get("simulation", {})
+    end_time = float(simulation.get("end_time", 1.0))
     _vary_masses(model, rng)
-    for motor in model.get("motors", []):
-        if "function" in motor:
-            motor["function"] = _vary_law(motor["function"], rng, end_time)
     _vary_springs(model, rng)
     _vary_loads(model, rng)
-    if data.get("simulation", {}).get("analysis") == "dynamic":
-        _vary_velocities(data, rng)
-    model["name"] = f"{name.split('/', 1)[-1].replace('_', '-')}-hidden"
-    return _plain(data)
+    laws = [_vary_law(m["function"], rng, end_time) if "function" in m else None for m in model.get("motors", [])]
+    stretches = [1.0 + rng.uniform(-1.0, 1.0, 2) * HIDDEN_STRETCH * share for share in (1.0, 0.5)]
+    kinematic = simulation.get("analysis", "kinematic") == "kinematic"
+    candidates = [(stretch, laws) for stretch in (*stretches, None)] + [(None, None)]  # the last: the public laws
+    for stretch, new_laws in candidates:
+        candidate = copy.deepcopy(data)
+        for motor, law in zip(candidate["model"].get("motors", []), new_laws or [], strict=False):
+            if law is not None:
+                motor["function"] = law
+        if stretch is not None and not _stretch(candidate["model"], *stretch):
+            continue  # a model this stretch does not apply to (gears, cams, body-frame points)
+        if not kinematic or _runs_through(candidate):
+            break
+    if not kinematic:
+        _vary_velocities(candidate, rng)
+    candidate["model"]["name"] = f"{name.split('/', 1)[-1].replace('_', '-')}-hidden"
+    return _plain(candidate)
+
+
+STRETCHED_OUT = ("gear", "rack_pinion", "cam")
+"""Joints whose circles and profiles an unequal stretch would turn into other curves."""
+
+
+def _stretch(model: dict, sx: float, sy: float) -> bool:
+    """Stretch a planar model by sx along x and sy along y at its configuration in the file: every global
+    point, the axes, the drivers of coordinates, sliders and distances and the springs' free lengths follow,
+    so the file's configuration stays assembled. False (nothing changed) for a model it does not apply to."""
+    items = [i for section in ("joints", "motors", "spring_dampers", "forces") for i in model.get(section, [])]
+    if (
+        model.get("dimension", 2) != 2
+        or any(j.get("type") in STRETCHED_OUT for j in model.get("joints", []))
+        or any(i.get("frame") == "body" for i in items)
+        or any("com" in b for b in model["bodies"])
+    ):
+        return False
+    stretch = np.array([sx, sy])
+
+    def mapped(point) -> list[float]:
+        return [float(v) for v in stretch * np.asarray(point, dtype=float)]
+
+    def distance_ratio(item) -> float:
+        d = np.asarray(item["point1"], dtype=float) - np.asarray(item["point2"], dtype=float)
+        return float(np.linalg.norm(stretch * d) / np.linalg.norm(d)) if np.linalg.norm(d) > 0 else 1.0
+
+    joints = {j["name"]: j for j in model.get("joints", [])}
+    axes = {name: np.asarray(j["axis"], dtype=float) for name, j in joints.items() if "axis" in j}
+    for motor in model.get("motors", []):  # the drivers' laws first, from the file's own points and axes
+        kind, factor = motor.get("type"), 1.0
+        if kind == "coordinate" and motor.get("coordinate") in ("x", "y"):
+            factor = sx if motor["coordinate"] == "x" else sy
+        elif kind == "linear" and motor.get("joint") in axes:
+            u = axes[motor["joint"]] / np.linalg.norm(axes[motor["joint"]])
+            factor = float(np.linalg.norm(stretch * u))
+        elif kind == "distance" and "point1" in motor:
+            factor = distance_ratio(motor)
+        if factor != 1.0:
+            motor["function"] = _scale_function(motor["function"], factor, 1.0)
+    for spring in model.get("spring_dampers", []):
+        if isinstance(spring.get("free_length"), int | float) and "point1" in spring:
+            spring["free_length"] *= distance_ratio(spring)
+    for item in items:
+        if isinstance(item.get("length"), int | float) and "point1" in item:
+            item["length"] *= distance_ratio(item)
+        if "axis" in item:
+            axis = stretch * np.asarray(item["axis"], dtype=float)
+            item["axis"] = [float(v) for v in axis / np.linalg.norm(axis)]
+        for key in POINT_KEYS:
+            if key in item:
+                item[key] = mapped(item[key])
+    for body in model["bodies"]:
+        body["location"] = mapped(body["location"])
+        if "velocity" in body:  # made consistent again by _vary_velocities (dynamic scenes)
+            body["velocity"] = mapped(body["velocity"])
+    return True
+
+
+def _runs_through(data: dict) -> bool:
+    """Whether the reference package's kinematic analysis of the scene runs its whole span (no singular
+    position, no lost assembly)."""
+    from solutions.assembly import build_system
+    from solutions.diagnostics import AnalysisError
+    from solutions.io.model import ModelError, load_model
+    from solutions.kinematics import kinematic_analysis
+
+    simulation = data.get("simulation", {})
+    try:
+        system, q0, _ = build_system(load_model(data))
+        kinematic_analysis(system, q0, float(simulation.get("end_time", 1.0)), int(simulation.get("output_steps", 100)))
+    except (AnalysisError, ModelError, ValueError, np.linalg.LinAlgError):
+        return False
+    return True
 
 
 def _plain(value):
