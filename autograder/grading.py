@@ -55,7 +55,7 @@ from .reference import (
     warm,
 )
 from .replay import live_replays
-from .scenes import HIDDEN, STUDENT, Scene, hidden_override, load_scene, scene_kind
+from .scenes import HIDDEN, STUDENT, Scene, course_cache, hidden_override, load_scene, scene_kind
 from .secret import config_dir, course_secret, secret_digest
 from .tolerances import invariants
 
@@ -214,7 +214,7 @@ def _file_digest(path: Path) -> bytes:
 
 def protected_paths(extra: tuple[Path, ...] = ()) -> tuple[list[Path], list[Path]]:
     """(folders a sandbox may not read, folders removed from its import path)."""
-    forbidden = [HERE, config_dir(), cache_dir(), reference_dir("public")]
+    forbidden = [HERE, config_dir(), course_cache(), reference_dir("public")]
     if hidden_override() is not None:
         forbidden.append(hidden_override())
     spec = find_spec("solutions")

@@ -38,10 +38,9 @@ from mbdkit.scenes import PUBLIC, job_key
 from mbdkit.stored import Reference
 
 from .replay import stored_replays
-from .scenes import HIDDEN, STUDENT, Scene, load_scene, scene_kind
+from .scenes import HIDDEN, STUDENT, Scene, course_cache, load_scene, scene_kind, source_fingerprint
 
 HERE = Path(__file__).resolve().parent
-SOLUTIONS = HERE.parent / "solutions"
 FORMAT = 1
 STATE_FRACTIONS = (0.2, 0.5, 0.8)
 """Where along the scene's own run the function checks' states are taken."""
@@ -52,8 +51,7 @@ REFERENCE = Package("solutions")
 
 def cache_dir() -> Path:
     """Where references computed while grading are kept: ``$XDG_CACHE_HOME/mbd-course/references``."""
-    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base, "mbd-course", "references").resolve()
+    return course_cache() / "references"
 
 
 def reference_dir(kind: str) -> Path:
@@ -70,19 +68,9 @@ def reference_file(scene: str) -> Path:
     return stored.public_reference_file(scene)
 
 
-_SOURCE: dict[str, str] = {}
-
-
 def solutions_fingerprint() -> str:
     """A hash of the reference package's source (every ``solutions/**/*.py``), read once per process."""
-    if "solutions" not in _SOURCE:
-        digest = hashlib.sha256()
-        root = SOLUTIONS if SOLUTIONS.is_dir() else Path(REFERENCE["io.model"].__file__).parents[1]
-        for path in sorted(root.rglob("*.py")):
-            if "__pycache__" not in path.parts:
-                digest.update(path.relative_to(root).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
-        _SOURCE["solutions"] = digest.hexdigest()
-    return _SOURCE["solutions"]
+    return source_fingerprint("solutions")
 
 
 def cached_file(scene: Scene, specs: dict, replays: bool, engine: str) -> Path:

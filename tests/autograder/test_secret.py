@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from autograder import grading, reference, secret
-from autograder.scenes import hidden_base, load_scene
+from autograder import grading, reference, scenes, secret
+from autograder.scenes import hidden_base, hidden_seed, hidden_variant, load_scene
 from mbdkit.homework import available_homeworks, load_homework
 from mbdkit.probes import PROBES, Job
 from mbdkit.scenes import job_key
@@ -114,8 +114,12 @@ def test_hidden_scenes_are_deterministic_for_one_secret_and_differ_between_two(m
     for value in SECRETS[:2]:
         monkeypatch.setenv(secret.ENV, value)
         for name in HIDDEN:
-            scene = load_scene(name)
-            assert scene.data == load_scene(name).data
+            scene = load_scene(name)  # made once, then read from the cache: the same as made anew
+            assert (
+                scene.data
+                == load_scene(name).data
+                == hidden_variant(load_scene(hidden_base(name)).data, hidden_seed(name), name)
+            )
             assert scene.fingerprint() != load_scene(hidden_base(name)).fingerprint()
             prints[value, name] = scene.fingerprint()
     for name in HIDDEN:
@@ -191,7 +195,7 @@ def test_hidden_references_are_computed_once_and_cached_outside_the_repository(m
     other = reference.hidden_reference(name, "hw1")
     assert len(list(files[0].parent.glob("*.npz"))) == 2
     assert not np.allclose(other.arrays["inputs/q"], first.arrays["inputs/q"])
-    monkeypatch.setattr(reference, "_SOURCE", {"solutions": "changed"})  # solutions/ changed: a new entry
+    monkeypatch.setattr(scenes, "_SOURCE", {"solutions": "changed", "autograder": "same"})  # solutions/ changed
     reference.hidden_reference(name, "hw1")
     assert len(list(files[0].parent.glob("*.npz"))) == 3
 
