@@ -82,7 +82,7 @@ def load_scene(name: str, student: str | None = None, homework: str = "") -> Sce
         seed = student_seed(student, homework, base.name)
         return Scene(name, variant(base.data, seed), STUDENT)
     if kind == HIDDEN and hidden_override() is None:
-        return Scene(name, derived_hidden(name), HIDDEN)
+        return derived_hidden(name)
     path = scene_path(name)
     if not path.is_file():
         raise FileNotFoundError(f"no grading scene {name!r} ({path})")
@@ -110,31 +110,36 @@ def source_fingerprint(package: str) -> str:
     return _SOURCE[package]
 
 
-_DERIVED: dict[str, dict] = {}
+_DERIVED: dict[tuple[str, int], tuple[dict, str]] = {}
 
 
-def derived_hidden(name: str) -> dict:
-    """The model file of a hidden scene derived from the secret: made once per secret, public scene and source
-    of the derivation (this module and the reference package), kept in ``course_cache()/scenes`` so that the
-    grading workers read it instead of making it again (a planar kinematic one runs its span, some 0.1 s)."""
-    base = load_scene(hidden_base(name))
+def derived_hidden(name: str) -> Scene:
+    """A hidden scene derived from the secret: made once per secret, public scene and source of the derivation
+    (this package and the reference package), kept in ``course_cache()/scenes`` so that grading workers read
+    it instead of making it again (a planar kinematic one runs its span, some 0.1 s); then, with its
+    fingerprint, held for the rest of the process (the public scene files do not change while grading)."""
     seed = hidden_seed(name)
-    text = f"{name}|{seed}|{base.fingerprint()}|{source_fingerprint('autograder')}|{source_fingerprint('solutions')}"
-    key = hashlib.sha256(text.encode()).hexdigest()[:40]
-    if key not in _DERIVED:
-        path = course_cache() / "scenes" / f"{key}.json"
+    if (name, seed) not in _DERIVED:
+        base = load_scene(hidden_base(name))
+        sources = f"{source_fingerprint('autograder')}|{source_fingerprint('solutions')}"
+        text = f"{name}|{seed}|{base.fingerprint()}|{sources}"
+        path = course_cache() / "scenes" / f"{hashlib.sha256(text.encode()).hexdigest()[:40]}.json"
         try:
-            _DERIVED[key] = json.loads(path.read_text())
+            data = json.loads(path.read_text())
         except (OSError, ValueError):
-            _DERIVED[key] = hidden_variant(base.data, seed, name)
+            data = hidden_variant(base.data, seed, name)
             try:
                 path.parent.mkdir(parents=True, exist_ok=True)
-                tmp = path.with_name(f".{key}.{os.getpid()}.json")
-                tmp.write_text(json.dumps(_DERIVED[key]))
+                tmp = path.with_name(f".{path.stem}.{os.getpid()}.json")
+                tmp.write_text(json.dumps(data))
                 os.replace(tmp, path)
             except OSError:
                 pass  # an unwritable cache costs the time, not the scene
-    return copy.deepcopy(_DERIVED[key])
+        _DERIVED[name, seed] = (data, Scene(name, data, HIDDEN).fingerprint())
+    data, fingerprint = _DERIVED[name, seed]
+    scene = Scene(name, copy.deepcopy(data), HIDDEN)
+    scene._fingerprint = fingerprint
+    return scene
 
 
 def hidden_seed(name: str) -> int:
