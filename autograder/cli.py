@@ -8,7 +8,8 @@ processes (``--cluster local`` implied); ``--jobs 1`` grades one by one in this 
 
 Returns the exit code: 0 done (a submission whose grading failed in the grader itself is named on one line
 and graded again on the next run), 2 a user error (unknown homework, no such folder, a missing reference, no
-sandbox: bubblewrap missing or the kernel refusing its namespaces), printed as one line
+course secret (``mbd secret --init`` makes one), no sandbox: bubblewrap missing or the kernel refusing its
+namespaces), printed as one line
 ``mbd: error: ...`` to stderr; then no output folder is made. ``--unsafe-no-isolation`` grades without the
 operating system's isolation (the forkserver sandbox, whose audit hook is no wall), and says so.
 """
@@ -24,6 +25,7 @@ from mbdkit.isolation import IsolationUnavailable
 
 from .cluster import ClusterError
 from .grading import ISOLATION_NOTE, grade
+from .secret import SecretMissing
 
 
 def grade_command(
@@ -55,7 +57,7 @@ def grade_command(
         book = grade(homework, submissions, out, jobs=jobs, isolation=isolation, cluster=cluster)
     except FileNotFoundError as err:
         return error(str(err))
-    except ClusterError as err:
+    except (ClusterError, SecretMissing) as err:
         return error(str(err))
     except IsolationUnavailable as err:
         return error(f"cannot isolate student code: {err}; give --unsafe-no-isolation to grade without it (unsafe)")

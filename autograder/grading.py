@@ -43,21 +43,27 @@ from mbdkit.homework import CheckSpec, Homework, load_homework
 from mbdkit.probes import Job
 from mbdkit.runner import PACKAGE, PublicData, failed
 from mbdkit.sandbox import SANDBOX_ENV, Limits, Sandbox, without_main
+from mbdkit.scenes import PUBLIC
 from mbdkit.stored import Reference
 
 from .feedback import feedback_html
 from .reference import (
+    FORMAT,
     HERE,
     WARM_MIN_STUDENTS,
+    cache_dir,
+    hidden_reference,
     load_reference,
     probe_specs,
     reference_dir,
     reference_file,
+    solutions_fingerprint,
     student_reference,
     warm,
 )
 from .replay import live_replays
-from .scenes import HIDDEN, STUDENT, Scene, hidden_dir, load_scene, scene_kind
+from .scenes import HIDDEN, STUDENT, Scene, course_cache, hidden_override, load_scene, scene_kind
+from .secret import config_dir, course_secret, secret_digest
 from .tolerances import invariants
 
 GRADER_VERSION = "4"
@@ -161,18 +167,28 @@ def find_submissions(submissions_dir: Path, homework: str) -> list[Submission]:
 
 # -- fingerprints and protected paths ----------------------------------------------------------------------
 def _reference_fingerprint(homework: Homework) -> str:
+    """Changes with a stored reference, a public scene file, and (hidden and per-student scenes) the course
+    secret, the hidden scenes' content and the reference package's source."""
     digest = hashlib.sha256()
-    for scene in sorted({c.scene for c in homework.checks}):
-        if scene_kind(scene) == STUDENT:
-            scene = scene.split("/", 1)[1]
-            path = HERE / "scenes" / f"{scene}.yaml"
-        else:
-            path = reference_file(scene)
+    scenes = sorted({c.scene for c in homework.checks})
+    for scene in scenes:
+        kind = scene_kind(scene)
+        if kind == HIDDEN:
+            digest.update(f"{scene}:{load_scene(scene).fingerprint()}".encode())
+            continue
+        path = HERE / "scenes" / f"{scene.split('/', 1)[1]}.yaml" if kind == STUDENT else reference_file(scene)
         digest.update(scene.encode())
         if path.is_file():
             stat = path.stat()
             digest.update(f"{stat.st_size}:{stat.st_mtime_ns}".encode())
+    if needs_secret(homework.checks):
+        digest.update(f"{secret_digest()}|{solutions_fingerprint()}|{FORMAT}".encode())
     return digest.hexdigest()[:16]
+
+
+def needs_secret(checks: list[CheckSpec]) -> bool:
+    """Whether any of the checks runs on a hidden or per-student scene (made from the course secret)."""
+    return any(scene_kind(c.scene) != PUBLIC for c in checks)
 
 
 def submission_fingerprint(submission: Submission, homework: Homework, limits: Limits, isolation: str = "os") -> str:
@@ -211,7 +227,9 @@ def _file_digest(folder: Path, file: staging.File) -> bytes:
 
 def protected_paths(extra: tuple[Path, ...] = ()) -> tuple[list[Path], list[Path]]:
     """(folders a sandbox may not read, folders removed from its import path)."""
-    forbidden = [HERE, hidden_dir(), reference_dir(HIDDEN), reference_dir("public")]
+    forbidden = [HERE, config_dir(), course_cache(), reference_dir("public")]
+    if hidden_override() is not None:
+        forbidden.append(hidden_override())
     spec = find_spec("solutions")
     if spec is not None and spec.submodule_search_locations:
         forbidden += [Path(p) for p in spec.submodule_search_locations]
@@ -225,12 +243,40 @@ _STORED: dict[str, Reference] = {}
 
 
 def stored_reference(scene: str) -> Reference:
-    """A public or hidden scene's stored reference (read once per process)."""
+    """A public scene's stored reference (read once per process)."""
     path = reference_file(scene)
     stamp = f"{path}:{path.stat().st_mtime_ns if path.is_file() else 0}"
     if stamp not in _STORED:
         _STORED[stamp] = load_reference(scene)
     return _STORED[stamp]
+
+
+def computed_hidden_reference(scene: Scene, homework: str) -> Reference:
+    """A hidden scene's reference for ``homework``, computed (or taken from the cache) once per process."""
+    stamp = f"{homework}|{scene.name}|{scene.fingerprint()}"
+    if stamp not in _STORED:
+        _STORED[stamp] = hidden_reference(scene.name, homework)
+    return _STORED[stamp]
+
+
+def prepare_references(homework: Homework, progress: bool = False) -> None:
+    """Every reference the homework's public and hidden checks need, before any student is graded: fails early
+    (a stored reference missing, no course secret), and computes the hidden ones once, into the cache, so
+    that parallel workers read them (``progress``: say so on stderr while it runs)."""
+    if needs_secret(homework.checks):
+        course_secret()  # SecretMissing, saying how to make one
+    start = time.perf_counter()
+    for scene in sorted({c.scene for c in homework.checks}):
+        kind = scene_kind(scene)
+        if kind == PUBLIC:
+            stored_reference(scene)
+        elif kind == HIDDEN:
+            if progress:
+                print(f"\rhidden references: {scene} ...", end="", file=sys.stderr, flush=True)
+            computed_hidden_reference(load_scene(scene), homework.name)
+    if progress and any(scene_kind(c.scene) == HIDDEN for c in homework.checks):
+        took = time.perf_counter() - start
+        print(f"\rhidden references: ready in {took:.1f} s (cached in {cache_dir()})", file=sys.stderr)
 
 
 class GraderData(PublicData):
@@ -247,6 +293,8 @@ class GraderData(PublicData):
         return self._scenes[name]
 
     def reference(self, scene: Scene, checks: list[CheckSpec]) -> Reference:
+        if scene.kind == HIDDEN:
+            return computed_hidden_reference(scene, self.homework)
         if scene.kind != STUDENT:
             return stored_reference(scene.name)
         if scene.name not in self._references:
@@ -279,6 +327,8 @@ def run_checks(
     ``isolation``: ``os`` (default: the student's code runs under bubblewrap, ``mbdkit.isolation``; raises
     ``IsolationUnavailable`` where it cannot) or ``local`` (unsafe; ``MBD_UNSAFE_NO_ISOLATION=1``).
     """
+    if needs_secret(checks):
+        course_secret()  # SecretMissing (saying how to make one) before any student code runs
     blocked, hide = protected_paths(forbidden)
     data = GraderData(student or "", homework)
     mode = isolation_mode(isolation)
@@ -526,6 +576,12 @@ def grade(
     -------
     Gradebook
         Also written as ``out_dir/gradebook.csv``.
+
+    Raises
+    ------
+    SecretMissing
+        No course secret is configured (``autograder.secret``; ``mbd secret --init`` makes one): the hidden and
+        per-student scenes are made from it. Raised before any output folder is made.
     """
     homework = homework if isinstance(homework, Homework) else load_homework(homework)
     limits = limits or Limits()
@@ -534,8 +590,7 @@ def grade(
         osi.require()  # before any output folder is made
     out_dir = Path(out_dir).resolve()
     submissions = find_submissions(Path(submissions_dir), homework.name)
-    for scene in {c.scene for c in homework.checks if c.kind != STUDENT}:
-        stored_reference(scene)  # fail early, with the command to run, when a reference is missing
+    prepare_references(homework, progress)  # fails early (no secret, a stored reference missing); hidden ones computed
     out_dir.mkdir(parents=True, exist_ok=True)  # only once the grading can start
     forbidden = (out_dir, Path(submissions_dir).resolve())
     book = Gradebook(

@@ -152,6 +152,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--jobs", type=int, default=2, help="worker processes")
     parser.add_argument("--isolation", choices=["os", "local"], default="os", help="the sandbox (default: os)")
     args = parser.parse_args(argv)
+    os.environ["MBD_GRADER_SECRET"] = "benchmark-secret"  # the benchmark's own course secret, never the course's
     print(f"sandbox start ({args.isolation}, to ready, median of 5): {startup(args.isolation):.3f} s\n")
     print(
         f"Grading throughput, {args.jobs} worker processes, {args.n} submissions per homework, "

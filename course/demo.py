@@ -12,7 +12,8 @@
    notebook with a student package: the reference (everything written), the untouched skeleton, and two
    students with a typical bug each (a sign in the revolute joint's gamma; the sign of a driver's Psi_t).
 5. **Grading.** Grades the class as ``mbd grade hw1`` does (``autograder.grading.grade``, in parallel),
-   prints the gradebook, writes a feedback page per student.
+   prints the gradebook, writes a feedback page per student. The hidden and per-student scenes come from a
+   demo secret of the demo's own (``out/demo/demo-secret``, made once), never from the course's secret.
 
 Every output goes under ``out/demo/``; the last lines say where each one is. Run: ``make demo`` or
 ``python -m course.demo [--skip-examples]``.
@@ -22,10 +23,13 @@ from __future__ import annotations
 
 import argparse
 import csv
+import os
+import secrets
 import shutil
 import sys
 import tempfile
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -188,7 +192,31 @@ def grade_class(submitted: Path, out: Path, homework: str = HOMEWORK, jobs: int 
     reason = isolation.problem()
     if reason is not None:  # the demo class is the course's own code: grade it, and say how
         print(f"note: {reason}; the demo grades its own class without the sandbox (--unsafe-no-isolation)")
-    return grade(homework, submitted, out, jobs=jobs, resume=False, isolation="os" if reason is None else "local")
+    with demo_secret(out.parent / "demo-secret"):
+        return grade(homework, submitted, out, jobs=jobs, resume=False, isolation="os" if reason is None else "local")
+
+
+@contextmanager
+def demo_secret(path: Path):
+    """Grade with the demo's own course secret (made once in ``path``), never the course's: it is given as
+    ``$MBD_GRADER_SECRET`` (which the grading workers inherit) while the demo grades."""
+    from autograder.secret import ENV, INIT_COMMAND
+
+    if not path.is_file():
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(secrets.token_hex(32) + "\n")
+        path.chmod(0o600)
+    where = path.relative_to(ROOT) if path.is_relative_to(ROOT) else path
+    print(f"  demo secret: {where} (the demo's own; a course makes its own with `{INIT_COMMAND}`)")
+    old = os.environ.get(ENV)
+    os.environ[ENV] = path.read_text().strip()
+    try:
+        yield
+    finally:
+        if old is None:
+            os.environ.pop(ENV, None)
+        else:
+            os.environ[ENV] = old
 
 
 def print_gradebook(book, students: dict[str, str]) -> None:

@@ -371,6 +371,14 @@ def command_grade(args) -> int:
     )
 
 
+def command_secret(args) -> int:
+    try:
+        from autograder.secret import secret_command
+    except ImportError:
+        raise UsageError("mbd secret is the instructor's command: run it in the course repository") from None
+    return secret_command(init=args.init)
+
+
 def command_sweep(args) -> int:
     """``mbd sweep``: run a model over parameter values (``solutions.sweep``); a table, an NPZ and plots."""
     from .sweep import SweepError, check_cluster, make_sweep, run_sweep
@@ -588,6 +596,9 @@ def build_parser() -> argparse.ArgumentParser:
         help="grade even where bubblewrap cannot isolate student code (unsafe: the results say so)",
     )
     grade.set_defaults(handler=command_grade)
+    secret = sub.add_parser("secret", help="where the course secret of hidden and per-student scenes is (instructor)")
+    secret.add_argument("--init", action="store_true", help="make one (a random string, mode 0600) unless it exists")
+    secret.set_defaults(handler=command_secret)
     sweep = sub.add_parser("sweep", help="run a model over a grid or sample of parameter values (a table and plots)")
     sweep.add_argument("model", help="model file (YAML or JSON)")
     sweep.add_argument(

@@ -24,11 +24,20 @@ import pytest
 _ISOLATION: dict[str, str | None] = {}
 
 
+TEST_SECRET = "mbd-course-test-session-secret"
+"""The course secret of the test session (``$MBD_GRADER_SECRET``): grading refuses to start without one."""
+
+
 def pytest_configure(config):
     """The grader's sandbox is bubblewrap. Where it truly cannot run (not installed, or the kernel refuses
     its namespaces), the isolation tests skip with the reason and the other grading tests run on the local
-    backend (``MBD_UNSAFE_NO_ISOLATION=1``, inherited by grading workers and nbgrader's kernels)."""
+    backend (``MBD_UNSAFE_NO_ISOLATION=1``, inherited by grading workers and nbgrader's kernels).
+
+    Every test and its subprocesses grade with the session's own course secret (never the user's), from which
+    the hidden and per-student scenes are derived; their references are cached in the user's cache folder."""
     from mbdkit import isolation
+
+    os.environ["MBD_GRADER_SECRET"] = TEST_SECRET
 
     _ISOLATION["problem"] = problem = isolation.problem()
     if problem is not None:

@@ -5,9 +5,13 @@ For a release of homework N, a leak is
 - the text of a solution region of hwN or later: any non-trivial line of one (whitespace ignored) that
   is not also public -- a line that appears outside those regions is public anyway;
 - a solution marker (``### BEGIN SOLUTION`` / ``### END SOLUTION``): a region was not cut;
-- a hidden scene (``autograder/scenes/hidden/``) or a hidden scene's reference run
-  (``autograder/reference/hidden/``): found by the hash of its bytes, of its text with whitespace
-  normalized, or embedded in a text file; a stored NPZ of any scene that is not public;
+- a hidden scene: derived from the course secret when one is configured (``autograder.secret``; without one
+  nobody can make them), found as its YAML or JSON text (whitespace normalized, whole or embedded) or by
+  its own numbers (three or more of the values that are not the public scene's, written in full); a
+  hidden scene of an instructor's own folder (``$MBD_HIDDEN_SCENES``) or a file of an old course's
+  ``autograder/scenes/hidden/`` or ``autograder/reference/hidden/`` (no longer in the repository, maybe
+  still on the instructor's disk): found by the hash of its bytes, of its text with whitespace normalized,
+  or embedded in a text file; a stored NPZ of any scene that is not public;
 - a file of ``solutions/`` that holds a region of hwN or later, byte for byte, or any folder named
   ``solutions``, ``autograder`` or ``hidden``;
 
@@ -87,12 +91,60 @@ def secret_lines(homework: str, solutions: Path) -> dict[str, str]:
 
 
 def _grader_files(course: Path) -> list[Path]:
+    """Hidden data on the instructor's disk: an own hidden folder, an old course's hidden folders."""
+    from autograder.scenes import hidden_override
+
     files = []
-    for folder in (HIDDEN_SCENES, REFERENCE_RUNS):
-        root = course / folder
-        if root.is_dir():
+    for root in (course / HIDDEN_SCENES, course / REFERENCE_RUNS, hidden_override()):
+        if root is not None and root.is_dir():
             files += sorted(p for p in root.rglob("*") if p.is_file())
     return files
+
+
+MIN_NUMBERS = 3
+"""A file holding this many of a hidden scene's own numbers (full precision) holds the hidden scene."""
+
+
+def _floats(value) -> set[float]:
+    if isinstance(value, float):
+        return {value}
+    if isinstance(value, dict):
+        return {x for v in value.values() for x in _floats(v)}
+    if isinstance(value, list):
+        return {x for v in value for x in _floats(v)}
+    return set()
+
+
+def derived_hidden_scenes() -> dict[str, tuple[list[str], set[str]]]:
+    """{hidden scene: (its texts as YAML and JSON, its own numbers as written in full)} of every hidden scene
+    of every homework, derived with the course secret; {} when no secret is configured (or the scenes come
+    from ``$MBD_HIDDEN_SCENES``, whose files are checked as they are)."""
+    import yaml
+
+    from autograder.scenes import hidden_base, hidden_override, load_scene
+    from autograder.secret import SecretMissing, course_secret
+    from mbdkit.homework import available_homeworks, load_homework
+
+    try:
+        course_secret()
+    except SecretMissing:
+        return {}
+    if hidden_override() is not None:
+        return {}
+    names = {c.scene for hw in available_homeworks() for c in load_homework(hw).checks if c.scene.startswith("hidden/")}
+    found = {}
+    for name in sorted(names):
+        data = load_scene(name).data
+        public = _floats(load_scene(hidden_base(name)).data)
+        texts = [
+            yaml.safe_dump(data, sort_keys=False),
+            yaml.safe_dump(data, sort_keys=False, default_flow_style=None),
+            json.dumps(data),
+            json.dumps(data, indent=1),
+        ]
+        numbers = {repr(x) for x in _floats(data) - public if len(repr(x)) >= 8}
+        found[name] = (texts, numbers)
+    return found
 
 
 def _strings(value) -> list[str]:
@@ -158,6 +210,12 @@ def find_leaks(folder: Path, homework: str, course: Path | None = None, installe
             forbidden_hashes[_sha(normalized.encode())] = what
             if len(normalized) >= MIN_EMBEDDED:
                 embedded[normalized] = what
+    derived = derived_hidden_scenes()
+    for name, (texts, _) in derived.items():
+        for text in texts:
+            normalized = _normalize(text)
+            forbidden_hashes[_sha(normalized.encode())] = f"the hidden scene {name}"
+            embedded[normalized] = f"the hidden scene {name}"
     for rel in source_files(solutions):
         if rel.suffix == ".py":
             text = (solutions / rel).read_text(encoding="utf-8")
@@ -199,6 +257,10 @@ def find_leaks(folder: Path, homework: str, course: Path | None = None, installe
             for content, what in embedded.items():
                 if content in normalized:
                     leaks.append(Leak(rel, "embedded file", f"contains the whole of {what}"))
+            for name, (_, numbers) in derived.items():
+                held = sorted(number for number in numbers if number in text)
+                if len(held) >= min(MIN_NUMBERS, len(numbers)) and held:
+                    leaks.append(Leak(rel, "hidden values", f"{len(held)} numbers of the hidden scene {name}"))
             for number, line in enumerate(text.splitlines(), start=1):
                 if BEGIN in line or END in line:
                     leaks.append(Leak(f"{rel}:{number}", "solution marker", line.strip()))

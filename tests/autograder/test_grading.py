@@ -153,7 +153,8 @@ def test_hidden_checks_reveal_no_numbers(hw1, hw2):
             for name, test in results.items():
                 if name.startswith("hidden/") and test["status"] == "failed":
                     assert "got" not in test["output"] and "t = " not in test["output"]
-                    assert not re.search(r"\d\.\d{3,}", test["output"]), test["output"]
+                    values = re.sub(r"relative error [-+.\de]+", "", test["output"])  # its one allowed number
+                    assert not re.search(r"\d\.\d{3,}", values), test["output"]
                     assert test["visibility"] == "after_published"
 
 

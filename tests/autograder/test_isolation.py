@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -44,7 +45,8 @@ CHECKS = [
 ]
 TOKEN = uuid.uuid4().hex[:10]
 SECRET = f"secret-{TOKEN}"
-HIDDEN_NPZ = sorted(reference_dir("hidden").glob("*.npz"))[0]
+HIDDEN_NPZ = reference_dir("hidden") / "test-isolation.npz"
+"""A file in the folder where the grader caches hidden references (the fixture puts one there)."""
 GIT_DIR = (
     subprocess.run(["git", "rev-parse", "--git-common-dir"], cwd=REPO, capture_output=True, text=True).stdout.strip()
     or ".git"
@@ -255,6 +257,8 @@ def hostile(tmp_path_factory):
     (folder / "symlink" / "modules" / "passwd.txt").symlink_to("/etc/passwd")
     import_hang(copy_reference(folder / "import_hang"))
     make_mutant(folder / "os_exit", "exit")
+    HIDDEN_NPZ.parent.mkdir(parents=True, exist_ok=True)
+    shutil.copy(reference_dir("public") / "four_bar.npz", HIDDEN_NPZ)
     old = os.environ.get("MBD_GRADER_SECRET")
     os.environ["MBD_GRADER_SECRET"] = SECRET  # inherited by the grading workers
     try:

@@ -172,3 +172,30 @@ def test_a_student_package_runs_on_numpy_when_asked_for_the_compiled_engine(tmp_
     out = subprocess.run([sys.executable, "-c", script], cwd=tmp_path, capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.splitlines() == ["numpy | this package has no compiled engine"] * 2, out.stdout
+
+
+def test_a_derived_hidden_scene_is_found_by_its_text_or_its_numbers(tmp_path, course):
+    """Hidden scenes are derived from the course secret (the test session's): a kit holding one, as YAML or
+    JSON, whole or embedded, or only a few of its own numbers, leaks; the public scene's numbers do not."""
+    import json
+
+    import yaml
+
+    from autograder.scenes import load_scene
+
+    hidden, public = load_scene("hidden/four_bar_b").data, load_scene("four_bar").data
+    folder = clean_release(tmp_path, "hw1")
+    (folder / "scene.yaml").write_text(yaml.safe_dump(hidden, sort_keys=False))
+    (folder / "public.yaml").write_text(yaml.safe_dump(public, sort_keys=False))
+    nb = nbformat.read(folder / "hw1.ipynb", as_version=4)
+    nb.cells.append(nbformat.v4.new_code_cell(f"SCENE = {json.dumps(hidden)!r}"))
+    nbformat.write(nb, folder / "hw1.ipynb")
+    masses = ", ".join(repr(b["mass"]) for b in hidden["model"]["bodies"])
+    (folder / "notes.md").write_text(f"The grader's masses: {masses}\n")
+    leaks = {(leak.path, leak.kind) for leak in find_leaks(folder, "hw1", course)}
+    assert leaks == {
+        ("scene.yaml", "copied file"),
+        ("hw1.ipynb", "embedded file"),
+        ("hw1.ipynb", "hidden values"),
+        ("notes.md", "hidden values"),
+    }
