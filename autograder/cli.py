@@ -1,7 +1,8 @@
 """What ``mbd grade`` calls (``solutions/cli.py`` wires it; ``mbd selfcheck`` is ``mbdkit.cli``).
 
     mbd grade hwN SUBMISSIONS [--out DIR] [--jobs N] [--cluster local|tcp://HOST:PORT] [--unsafe-no-isolation]
-        ->  grade_command(homework, submissions, out, jobs, unsafe_no_isolation, cluster)
+              [--publish-hidden]
+        ->  grade_command(homework, submissions, out, jobs, unsafe_no_isolation, cluster, publish_hidden)
 
 ``--jobs`` N > 1 (the default: the number of cores, at most 8) grades on a Dask LocalCluster of N worker
 processes (``--cluster local`` implied); ``--jobs 1`` grades one by one in this process.
@@ -10,6 +11,8 @@ Returns the exit code: 0 done, 2 a user error (unknown homework, no such folder,
 sandbox: bubblewrap missing or the kernel refusing its namespaces), printed as one line
 ``mbd: error: ...`` to stderr; then no output folder is made. ``--unsafe-no-isolation`` grades without the
 operating system's isolation (the forkserver sandbox, whose audit hook is no wall), and says so.
+The feedback pages hold the hidden checks' results back until ``--publish-hidden`` (run again once grades
+are published: unchanged submissions are not graded again, every page is rewritten with them).
 """
 
 from __future__ import annotations
@@ -32,6 +35,7 @@ def grade_command(
     jobs: int | None = None,
     unsafe_no_isolation: bool = False,
     cluster: str | None = None,
+    publish_hidden: bool = False,
 ) -> int:
     """Grade every submission; print where the gradebook is and the score distribution."""
     if homework not in available_homeworks():
@@ -51,7 +55,9 @@ def grade_command(
         cluster = "local"  # more than one job: a LocalCluster of `jobs` worker processes (issue 17)
     isolation = "local" if unsafe_no_isolation else "os"
     try:
-        book = grade(homework, submissions, out, jobs=jobs, isolation=isolation, cluster=cluster)
+        book = grade(
+            homework, submissions, out, jobs=jobs, isolation=isolation, cluster=cluster, publish_hidden=publish_hidden
+        )
     except FileNotFoundError as err:
         return error(str(err))
     except ClusterError as err:
@@ -66,6 +72,10 @@ def grade_command(
             f"range {scores[0]:g} .. {scores[-1]:g}"
         )
     print(f"gradebook: {book.csv_path}\nresults:   {out / 'results'}\nfeedback:  {out / 'feedback'}")
+    if publish_hidden:
+        print("feedback pages: with the hidden checks' results (published)")
+    else:
+        print("feedback pages: the hidden checks' results held back (--publish-hidden shows them)")
     if book.isolation != "os":
         print(f"warning: graded {ISOLATION_NOTE[book.isolation]}")
     return 0

@@ -6,7 +6,8 @@ One compact NPZ per scene (float64, the scene's coarse grid, a few states), rege
     python -m autograder.reference --check    # exit 1 if a stored run no longer matches solutions/
 
 A file holds, under ``inputs/``, the states the function checks use (three states of the scene's own
-run, and perturbed copies of them off the constraint manifold), for every probe key the reference
+run, and perturbed copies of them off the constraint manifold; a child gets of them only what
+``mbdkit.probes.sent_inputs`` allows, and the outputs are made from exactly that), for every probe key the reference
 outputs (``KEY/OUTPUT``) and, where a tolerance is derived from the integrator's own accuracy, its
 tolerance (``KEY/tol:OUTPUT``, ``KEY/bound:QUANTITY``), and a JSON ``meta`` record (scene fingerprint,
 labels of coordinates and constraint rows, the kind of joint owning each row, the probes' options).
@@ -27,8 +28,8 @@ import numpy as np
 
 from mbdkit import stored
 from mbdkit.homework import CheckSpec, available_homeworks, load_homework
-from mbdkit.probes import PROBES, REQUIRES, Job, Package
-from mbdkit.scenes import job_key
+from mbdkit.probes import PROBES, REQUIRES, Job, Package, sent_inputs
+from mbdkit.scenes import PUBLIC, job_key
 from mbdkit.stored import Reference
 
 from .replay import stored_replays
@@ -168,7 +169,8 @@ def make_reference(
     for key, (probe, options) in sorted(specs.items()):
         if not available(probe):
             continue
-        job = Job(job_key(scene), scene.data, inputs, dict(options))
+        sent = sent_inputs(probe, inputs, scene.kind == PUBLIC, meta["dimension"])  # what its child gets
+        job = Job(job_key(scene), scene.data, sent, dict(options))
         if probe == "dynamic_run" and engine != "numpy":
             job.options["engine"] = engine
         outputs = PROBES[probe](REFERENCE, job)
