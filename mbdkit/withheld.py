@@ -29,7 +29,8 @@ STATUSES = (PASSED, FAILED, TIMED_OUT, CRASHED, NOT_RUN)
 
 REASONS = {
     FAILED: "your code returned values that differ from the reference's",
-    TIMED_OUT: "your code did not finish within the time limit, or was skipped after a timeout in an earlier check",
+    TIMED_OUT: "your code did not finish in time (an endless loop?), or was skipped after it did not finish in an "
+    "earlier check",
     CRASHED: "your code raised an exception, or its process ended",
     "not implemented": "not implemented yet",
     "printed": "your code printed more than the grader keeps: remove prints from functions called in loops",

@@ -258,12 +258,11 @@ def test_the_honest_student_passes_every_hidden_check_and_the_skeleton_none(grad
 def test_no_hidden_or_own_variant_text_or_number_reaches_a_student(graded):
     _, out, _ = graded
     numbers, names = secrets()
+    number = re.compile("(?<![\\d.])(" + "|".join(map(re.escape, sorted(numbers, key=len, reverse=True))) + ")(?!\\d)")
     for path, text in student_files(out).items():
         assert not re.search(r"[A-Za-z0-9+/]{80,}", text), (path, "a long base64 run")
-        for name in names:
-            assert name not in text, (path, name)
-        for number in numbers:
-            assert not re.search(rf"(?<![\d.]){re.escape(number)}(?!\d)", text), (path, number)
+        assert not [name for name in names if name in text], path
+        assert not number.search(text), (path, number.search(text))
 
 
 @pytest.mark.parametrize("student", list(STUDENTS))
