@@ -120,10 +120,12 @@ def feedback_html(student: str, homework: str, title: str, outcomes: list[Outcom
 """
 
 
-def publish(page: str, result: dict) -> str:
+def publish(page: str, result: dict) -> str | None:
     """A page written before publication with the hidden checks of its ``result`` (the results JSON) added
-    and the total shown; a page already published comes back the same."""
+    and the total shown; a page already published comes back the same; None for a page not made here."""
     tests = result["tests"]
+    if any(page.count(marker) != 1 for marker in (SCORE_START, SCORE_END, HIDDEN_START, HIDDEN_END)):
+        return None
     for start, end, part in (
         (SCORE_START, SCORE_END, score_part(tests, True)),
         (HIDDEN_START, HIDDEN_END, hidden_part(hidden_tests(tests), True)),

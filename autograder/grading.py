@@ -53,7 +53,7 @@ from .reference import (
 from .scenes import HIDDEN, STUDENT, Scene, hidden_dir, load_scene, scene_kind
 from .tolerances import invariants
 
-GRADER_VERSION = "3"
+GRADER_VERSION = "4"  # 4: hidden and per-student checks in the grader's words (mbdkit.withheld)
 
 ISOLATION_NOTE = {
     "os": "isolated by the operating system (bubblewrap: namespaces, uid 65534 or the user's, seccomp)",
@@ -529,6 +529,8 @@ def publish_feedback(out_dir: str | Path, students: list[str] | None = None) -> 
             page = page_path.read_text()
         except (OSError, ValueError):
             continue
-        _write_atomic(page_path, publish(page, result))
-        written.append(student)
+        published = publish(page, result)
+        if published is not None:
+            _write_atomic(page_path, published)
+            written.append(student)
     return written

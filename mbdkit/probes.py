@@ -7,6 +7,10 @@ student's package (``modules``, inside the sandbox child), so both are asked exa
 This module is loaded into the sandbox before any student code: it imports nothing but the standard
 library and numpy, and it never imports ``solutions``; the package is a parameter.
 
+A probe declares the inputs it reads (``INPUTS``); a child is sent those alone, and a child of hidden or
+per-student checks only states and made-up arrays (``sent_inputs``): nothing it gets is an output it is
+checked on.
+
 Function probes evaluate one element at a time, so a joint that raises costs only the rows it owns
 (the others are still compared); the element's error is kept in ``job.errors``. Every output has named
 axes (``AXES``) so that a message can say "state 2, row A.y, column rod.phi".

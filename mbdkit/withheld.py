@@ -89,7 +89,10 @@ def status(check: CheckSpec, reply: Reply, reference: Reference, passed: bool, l
     if reply.status != "ok" and reply.status != "error":
         return CRASHED, CRASHED
     errors = [reply.error] if reply.status == "error" else _element_errors(check, reply, reference)
-    kinds = {error.get("type") for error in errors if isinstance(error, dict)}
+    errors = [error if isinstance(error, dict) else {} for error in errors]
+    if any(error.get("type") == "OSError" and error.get("code") == 27 for error in errors):
+        return FAILED, "printed"  # the capture file's size limit (RLIMIT_FSIZE) reached
+    kinds = {error.get("type") for error in errors}
     if "HungEarlier" in kinds:
         return TIMED_OUT, TIMED_OUT
     if kinds and kinds <= {"NotImplementedError"}:

@@ -194,7 +194,7 @@ def graded(tmp_path_factory):
     out = root / "out"
     homework = Homework("hw2", "hidden stays hidden", CHECKS)
     book = grade(homework, root / "class", out, jobs=2, limits=LIMITS, progress=False, resume=False)
-    return book, out, homework
+    return book, out, homework, root / "class"
 
 
 def results(out: Path, student: str) -> dict[str, dict]:
@@ -248,7 +248,7 @@ def secrets() -> tuple[set[str], set[str]]:
 
 
 def test_the_honest_student_passes_every_hidden_check_and_the_skeleton_none(graded):
-    book, out, _ = graded
+    book, out, *_ = graded
     assert book.score("honest") == book.max_score, [t for t in results(out, "honest").values() if t["score"] == 0]
     skeleton = results(out, "skeleton")
     assert all(skeleton[c.name]["score"] == 0 for c in HIDDEN_CHECKS)
@@ -256,7 +256,7 @@ def test_the_honest_student_passes_every_hidden_check_and_the_skeleton_none(grad
 
 
 def test_no_hidden_or_own_variant_text_or_number_reaches_a_student(graded):
-    _, out, _ = graded
+    _, out, *_ = graded
     numbers, names = secrets()
     number = re.compile("(?<![\\d.])(" + "|".join(map(re.escape, sorted(numbers, key=len, reverse=True))) + ")(?!\\d)")
     for path, text in student_files(out).items():
@@ -269,7 +269,7 @@ def test_no_hidden_or_own_variant_text_or_number_reaches_a_student(graded):
 def test_a_hidden_or_own_variant_check_says_only_the_graders_words(graded, student):
     """Status, description and hint, whatever the code did: the exit, the spin, the class name, the stash,
     the wrong values placed to spell a mass."""
-    _, out, homework = graded
+    _, out, homework, _ = graded
     tests = results(out, student)
     for check in homework.checks:
         if check.kind != PUBLIC:
@@ -277,7 +277,7 @@ def test_a_hidden_or_own_variant_check_says_only_the_graders_words(graded, stude
 
 
 def test_the_attacks_ran_and_cost_only_their_checks(graded):
-    book, out, _ = graded
+    book, out, *_ = graded
     state = {s: {c.name: status(results(out, s)[c.name]["output"]) for c in HIDDEN_CHECKS} for s in STUDENTS}
     assert set(state["exit"].values()) == {withheld.CRASHED}
     assert set(state["class"].values()) == {withheld.CRASHED}
@@ -290,26 +290,28 @@ def test_the_attacks_ran_and_cost_only_their_checks(graded):
 def test_answers_from_what_the_grader_sends_earn_no_hidden_point(graded):
     """The skeleton plus whatever follows from the inputs (the reference's gamma, Q, M, Psi_q, states at the
     checked times) scores on hidden checks what the skeleton does."""
-    _, out, _ = graded
+    _, out, *_ = graded
     leech, skeleton = results(out, "leech"), results(out, "skeleton")
     assert sum(leech[c.name]["score"] for c in HIDDEN_CHECKS) <= sum(skeleton[c.name]["score"] for c in HIDDEN_CHECKS)
 
 
 def test_the_page_holds_hidden_checks_back_until_published(graded):
-    book, out, homework = graded
+    book, out, homework, folder = graded
     page = (out / "feedback" / "honest.html").read_text()
     hidden = [c for c in homework.checks if c.kind == HIDDEN]
     assert not [c.name for c in hidden if c.name in page]
     shown = sum(c.points for c in homework.checks if c.kind != HIDDEN)
     assert f"Score on the checks shown: <b>{shown:g} / {shown:g}</b>" in page
     assert f"{len(hidden)} more checks, on hidden scenes" in page and f"{book.max_score:g}</b>" not in page
-    assert publish_feedback(out) == sorted(STUDENTS)
+    again = grade(homework, folder, out, jobs=1, limits=LIMITS, progress=False, publish_hidden=True)
+    assert not [s for s, row in again.rows.items() if not row["resumed"]]  # nothing graded again
     published = (out / "feedback" / "honest.html").read_text()
     assert (
         all(c.name in published for c in hidden)
         and f"Score: <b>{book.max_score:g} / {book.max_score:g}</b>" in published
     )
-    assert publish_feedback(out, ["honest"]) and (out / "feedback" / "honest.html").read_text() == published
+    assert publish_feedback(out) == sorted(STUDENTS)
+    assert (out / "feedback" / "honest.html").read_text() == published  # publishing twice changes nothing
     for student in STUDENTS:  # a Gradescope result keeps them for after publication
         tests = results(out, student)
         assert {tests[c.name]["visibility"] for c in hidden} == {"after_published"}
