@@ -1,7 +1,8 @@
 """What ``mbd grade`` calls (``solutions/cli.py`` wires it; ``mbd selfcheck`` is ``mbdkit.cli``).
 
     mbd grade hwN SUBMISSIONS [--out DIR] [--jobs N] [--cluster local|tcp://HOST:PORT] [--unsafe-no-isolation]
-        ->  grade_command(homework, submissions, out, jobs, unsafe_no_isolation, cluster)
+              [--publish-hidden]
+        ->  grade_command(homework, submissions, out, jobs, unsafe_no_isolation, cluster, publish_hidden)
 
 ``--jobs`` N > 1 (the default: the number of cores, at most 8) grades on a Dask LocalCluster of N worker
 processes (``--cluster local`` implied); ``--jobs 1`` grades one by one in this process.
@@ -12,6 +13,8 @@ course secret (``mbd secret --init`` makes one), no sandbox: bubblewrap missing 
 namespaces), printed as one line
 ``mbd: error: ...`` to stderr; then no output folder is made. ``--unsafe-no-isolation`` grades without the
 operating system's isolation (the forkserver sandbox, whose audit hook is no wall), and says so.
+The feedback pages hold the hidden checks' results back until ``--publish-hidden`` (run again once grades
+are published: unchanged submissions are not graded again, every page is rewritten with them).
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ def grade_command(
     jobs: int | None = None,
     unsafe_no_isolation: bool = False,
     cluster: str | None = None,
+    publish_hidden: bool = False,
 ) -> int:
     """Grade every submission; print where the gradebook is and the score distribution."""
     if homework not in available_homeworks():
@@ -54,7 +58,9 @@ def grade_command(
         cluster = "local"  # more than one job: a LocalCluster of `jobs` worker processes (issue 17)
     isolation = "local" if unsafe_no_isolation else "os"
     try:
-        book = grade(homework, submissions, out, jobs=jobs, isolation=isolation, cluster=cluster)
+        book = grade(
+            homework, submissions, out, jobs=jobs, isolation=isolation, cluster=cluster, publish_hidden=publish_hidden
+        )
     except FileNotFoundError as err:
         return error(str(err))
     except (ClusterError, SecretMissing) as err:
@@ -75,6 +81,10 @@ def grade_command(
             f"internal error while grading {len(failed)} submission{'s' if len(failed) > 1 else ''}: "
             f"{', '.join(failed)} (tracebacks in {out / 'errors'}; run the same command again to grade them again)"
         )
+    if publish_hidden:
+        print("feedback pages: with the hidden checks' results (published)")
+    else:
+        print("feedback pages: the hidden checks' results held back (--publish-hidden shows them)")
     if book.isolation != "os":
         print(f"warning: graded {ISOLATION_NOTE[book.isolation]}")
     return 0

@@ -1,7 +1,10 @@
 """The feedback page of one student: every check with its points and message, and for a run check that
 failed on a scene the student may see, a plot of their trajectory against the reference.
 
-A page never shows hidden data: hidden checks' messages carry no numbers (``checks``) and get no plot.
+A page never shows hidden data: hidden and per-student checks' messages are the grader's words only
+(``mbdkit.withheld``) and get no plot. The hidden checks' results are held back until the instructor
+publishes them (``mbd grade ... --publish-hidden``, ``publish``): until then the page says how many there are
+and shows the score of the checks it lists.
 """
 
 from __future__ import annotations
@@ -44,33 +47,89 @@ def plot_png(plot: dict) -> str:
     return base64.b64encode(buffer.getvalue()).decode("ascii")
 
 
-def feedback_html(student: str, homework: str, title: str, outcomes: list[Outcome]) -> str:
-    """The whole page as a string."""
-    score = sum(o.points for o in outcomes)
-    total = sum(o.max_points for o in outcomes)
+HIDDEN_START, HIDDEN_END = "<!-- hidden checks -->", "<!-- /hidden checks -->"
+SCORE_START, SCORE_END = "<!-- score -->", "<!-- /score -->"
+"""Around the parts ``publish`` rewrites (a student's text in a page is escaped: it cannot forge them)."""
+
+
+def _row(name: str, passed: bool, points: float, max_points: float, message: str) -> str:
+    status = "passed" if passed else "failed"
+    return (
+        f'<tr class="{status}"><td>{html.escape(name)}</td><td class="status">{status}</td>'
+        f'<td class="points">{points:g} / {max_points:g}</td>'
+        f'<td class="message">{html.escape("" if passed else message)}</td></tr>'
+    )
+
+
+def hidden_tests(tests: list[dict]) -> list[dict]:
+    """The hidden checks among a result's Gradescope tests."""
+    return [t for t in tests if t.get("extra_data", {}).get("kind") == "hidden"]
+
+
+def score_part(tests: list[dict], published: bool) -> str:
+    """The score line: the total once the hidden checks are published, else the checks shown and what is held."""
+    score, total = sum(t["score"] for t in tests), sum(t["max_score"] for t in tests)
+    hidden = hidden_tests(tests)
+    if published or not hidden:
+        return f'<p class="score">Score: <b>{score:g} / {total:g}</b></p>'
+    shown = [t for t in tests if t not in hidden]
+    held = sum(t["max_score"] for t in hidden)
+    return (
+        f'<p class="score">Score on the checks shown: <b>{sum(t["score"] for t in shown):g} / '
+        f'{sum(t["max_score"] for t in shown):g}</b></p>\n<p class="held">{len(hidden)} more checks, on hidden '
+        f"scenes ({held:g} points), were graded too: their results, and your total out of {total:g}, come when "
+        "the instructor publishes them.</p>"
+    )
+
+
+def hidden_part(tests: list[dict], published: bool) -> str:
+    """The hidden checks' rows once published (their messages are the grader's words only), else nothing."""
+    if not published:
+        return ""
+    return "".join(_row(t["name"], t["status"] == "passed", t["score"], t["max_score"], t["output"]) for t in tests)
+
+
+def feedback_html(student: str, homework: str, title: str, outcomes: list[Outcome], published: bool = False) -> str:
+    """The whole page as a string; the hidden checks' results only when ``published`` (``publish`` adds
+    them later to a page written without)."""
+    tests = [o.to_test() for o in outcomes]
     rows, figures = [], []
     for o in outcomes:
-        status = "passed" if o.passed else "failed"
-        rows.append(
-            f'<tr class="{status}"><td>{html.escape(o.name)}</td><td class="status">{status}</td>'
-            f'<td class="points">{o.points:g} / {o.max_points:g}</td>'
-            f'<td class="message">{html.escape("" if o.passed else o.message)}</td></tr>'
-        )
-        if not o.passed and o.plot is not None and o.kind != "hidden":
+        if o.kind == "hidden":
+            continue
+        rows.append(_row(o.name, o.passed, o.points, o.max_points, o.message))
+        if not o.passed and o.plot is not None and o.kind == "public":
             figures.append(
                 f'<figure><img alt="{html.escape(o.name)}" src="data:image/png;base64,{plot_png(o.plot)}">'
                 f"<figcaption>{html.escape(o.name)}: {html.escape(o.plot['label'])}, your run against the "
                 "reference</figcaption></figure>"
             )
     plots = "<h2>Where your runs leave the reference</h2>" + "".join(figures) if figures else ""
+    hidden = hidden_tests(tests)
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>{html.escape(homework)}: {html.escape(student)}</title>
 <style>{STYLE}</style></head><body>
 <h1>{html.escape(homework)} {html.escape(title)}: feedback for {html.escape(student)}</h1>
-<p class="score">Score: <b>{score:g} / {total:g}</b></p>
+{SCORE_START}{score_part(tests, published)}{SCORE_END}
 <table><tr><th>check</th><th>status</th><th>points</th><th>message</th></tr>
 {"".join(rows)}
+{HIDDEN_START}{hidden_part(hidden, published)}{HIDDEN_END}
 </table>
 {plots}
 </body></html>
 """
+
+
+def publish(page: str, result: dict) -> str | None:
+    """A page written before publication with the hidden checks of its ``result`` (the results JSON) added
+    and the total shown; a page already published comes back the same; None for a page not made here."""
+    tests = result["tests"]
+    if any(page.count(marker) != 1 for marker in (SCORE_START, SCORE_END, HIDDEN_START, HIDDEN_END)):
+        return None
+    for start, end, part in (
+        (SCORE_START, SCORE_END, score_part(tests, True)),
+        (HIDDEN_START, HIDDEN_END, hidden_part(hidden_tests(tests), True)),
+    ):
+        before, rest = page.split(start, 1)
+        page = before + start + part + end + rest.split(end, 1)[1]
+    return page

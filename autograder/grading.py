@@ -10,7 +10,8 @@ Written to ``out_dir`` as each student finishes, so an interrupted run resumes w
 - ``results/{student}.json``  Gradescope-like: score, max_score, output, tests (name, score, max_score,
   status, output, visibility); a result is reused when the submission, the checks and the reference
   are unchanged (its fingerprint);
-- ``feedback/{student}.html`` every check with its message, plots of failed runs (never hidden data);
+- ``feedback/{student}.html`` every check with its message, plots of failed public runs; the hidden checks'
+  results only once published (``publish_hidden``, ``publish_feedback``);
 - ``gradebook.csv``           one row per student, a column per check (points), LMS-friendly;
 - ``errors/{student}.txt``    for the instructor: the traceback of an internal error (a bug of the grader,
   or its sandbox failing) while grading that student, whose result then says so and is graded again on
@@ -46,7 +47,7 @@ from mbdkit.sandbox import SANDBOX_ENV, Limits, Sandbox, without_main
 from mbdkit.scenes import PUBLIC
 from mbdkit.stored import Reference
 
-from .feedback import feedback_html
+from .feedback import feedback_html, publish
 from .reference import (
     FORMAT,
     HERE,
@@ -61,12 +62,11 @@ from .reference import (
     student_reference,
     warm,
 )
-from .replay import live_replays
 from .scenes import HIDDEN, STUDENT, Scene, course_cache, hidden_override, load_scene, scene_kind
 from .secret import config_dir, course_secret, secret_digest
 from .tolerances import invariants
 
-GRADER_VERSION = "4"
+GRADER_VERSION = "5"  # 5: hidden and per-student checks in the grader's words (mbdkit.withheld), validated replies
 
 ISOLATION_NOTE = {
     "os": "isolated by the operating system (bubblewrap: namespaces, uid 65534 or the user's, seccomp)",
@@ -308,7 +308,7 @@ class GraderData(PublicData):
     def mistakes(self, check: CheckSpec, scene: Scene, job: Job) -> Mistakes | None:
         if scene.kind != STUDENT:
             return None  # stored with the reference
-        return lambda output: live_replays(check.probe, output, job)
+        return lambda output: []  # a per-student check names no cause (mbdkit.withheld): nothing to replay
 
 
 def run_checks(
@@ -347,13 +347,15 @@ def result_json(
     isolation: str = "os",
 ) -> dict:
     score = sum(o.points for o in outcomes)
-    failed = [o for o in outcomes if not o.passed]
+    shown = [o for o in outcomes if o.kind != HIDDEN]
+    failed = [o for o in shown if not o.passed]
+    held = len(outcomes) - len(shown)
     unsafe = "" if isolation == "os" else f" [graded {ISOLATION_NOTE[isolation]}]"
+    later = f"; {held} checks on hidden scenes are shown once the grades are published" if held else ""
     return {
         "score": score,
         "max_score": homework.max_score,
-        "output": f"{homework.name}: {score:g} / {homework.max_score:g} points; "
-        f"{len(failed)} of {len(outcomes)} checks failed{unsafe}",
+        "output": f"{homework.name}: {len(failed)} of {len(shown)} checks failed{later}{unsafe}",
         "visibility": "visible",
         "stdout_visibility": "hidden",
         "tests": [o.to_test() for o in outcomes],
@@ -551,6 +553,7 @@ def grade(
     resume: bool = True,
     isolation: str | None = None,
     cluster: str | None = None,
+    publish_hidden: bool = False,
 ) -> Gradebook:
     """Grade every submission in ``submissions_dir`` for ``homework``; write results to ``out_dir``.
 
@@ -571,6 +574,8 @@ def grade(
         sandbox (``MBD_UNSAFE_NO_ISOLATION=1`` makes it the default), said so in every result
     cluster : grade on Dask (``autograder.cluster``): 'local' (a LocalCluster of ``jobs`` workers) or a
         scheduler address 'tcp://HOST:PORT'; None (default) grades here, in a local process pool
+    publish_hidden : show the hidden checks' results on every feedback page (``publish_feedback``: also the
+        pages of students whose result is reused); by default a page holds them back and says so
 
     Returns
     -------
@@ -619,15 +624,23 @@ def grade(
 
         done = len(submissions) - len(todo)
         args = (homework, todo, book, out_dir, limits, forbidden, isolation, cluster, jobs, progress, done)
-        return grade_on_cluster(*args)
-    if jobs <= 1 or len(todo) <= 1:
+        book = grade_on_cluster(*args)
+    elif jobs <= 1 or len(todo) <= 1:
         for submission in todo:
             book.rows[submission.student] = grade_submission(
                 homework, submission, out_dir, limits, forbidden, isolation
             )
             book.write_csv()
             bar.update()
-        return book
+    else:
+        _grade_in_pool(homework, todo, book, out_dir, limits, forbidden, isolation, jobs, bar)
+    if publish_hidden:
+        publish_feedback(out_dir, [s.student for s in submissions])
+    return book
+
+
+def _grade_in_pool(homework, todo, book, out_dir, limits, forbidden, isolation, jobs, bar) -> None:
+    """Grade ``todo`` in a pool of ``jobs`` worker processes, writing the gradebook as each finishes."""
     _worker_init()  # one BLAS thread in the workers and their sandboxes: set before they start
     pool = ProcessPoolExecutor(
         max_workers=jobs, mp_context=get_context("spawn"), initializer=_worker_init, initargs=(os.getpid(),)
@@ -656,3 +669,24 @@ def _resumed(submission: Submission, homework: Homework, limits: Limits, isolati
     except OSError:  # a folder that cannot be read now: grade it (its worker says what went wrong)
         return None
     return _resumable(out_dir / "results" / f"{submission.student}.json", fingerprint)
+
+
+def publish_feedback(out_dir: str | Path, students: list[str] | None = None) -> list[str]:
+    """Add the hidden checks' results (from each results JSON) to the feedback pages of ``students`` (all with
+    a result by default), which were written holding them back; returns the students whose page it wrote."""
+    out_dir = Path(out_dir)
+    if students is None:
+        students = sorted(p.stem for p in (out_dir / "results").glob("*.json"))
+    written = []
+    for student in students:
+        page_path = out_dir / "feedback" / f"{student}.html"
+        try:
+            result = json.loads((out_dir / "results" / f"{student}.json").read_text())
+            page = page_path.read_text()
+        except (OSError, ValueError):
+            continue
+        published = publish(page, result)
+        if published is not None:
+            _write_atomic(page_path, published)
+            written.append(student)
+    return written

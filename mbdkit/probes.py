@@ -7,6 +7,10 @@ student's package (``modules``, inside the sandbox child), so both are asked exa
 This module is loaded into the sandbox before any student code: it imports nothing but the standard
 library and numpy, and it never imports ``solutions``; the package is a parameter.
 
+A probe declares the inputs it reads (``INPUTS``); a child is sent those alone, and a child of hidden or
+per-student checks only states and made-up arrays (``sent_inputs``): nothing it gets is an output it is
+checked on.
+
 Function probes evaluate one element at a time, so a joint that raises costs only the rows it owns
 (the others are still compared); the element's error is kept in ``job.errors``. Every output has named
 axes (``AXES``) so that a message can say "state 2, row A.y, column rod.phi".
@@ -16,6 +20,7 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
+import zlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -81,18 +86,83 @@ AXES: dict[str, tuple[str, ...]] = {}
 REQUIRES: dict[str, tuple[str, ...]] = {}
 """Probe name -> modules of the reference package it needs (a probe is offered only when they exist)."""
 
+INPUTS: dict[str, tuple[str, ...]] = {}
+"""Probe name -> the inputs it reads (``job.inputs``): a child is sent these and nothing else (``sent_inputs``)."""
 
-def probe(name: str, axes: dict[str, tuple[str, ...]], requires: tuple[str, ...] = ()):
-    """Register a probe with the axes of each of its outputs."""
+
+def probe(name: str, axes: dict[str, tuple[str, ...]], inputs: tuple[str, ...], requires: tuple[str, ...] = ()):
+    """Register a probe with the axes of each of its outputs and the inputs it reads."""
 
     def register(function):
         PROBES[name] = function
         REQUIRES[name] = requires
+        INPUTS[name] = inputs
         for output, names in axes.items():
             AXES[f"{name}.{output}"] = names
         return function
 
     return register
+
+
+PERTURBED = ("t", "q_pert", "qd_pert")
+"""Three times of the scene's own run with its positions and velocities moved off the constraint manifold."""
+CONSISTENT = ("t", "q", "qd")
+"""The same times with the run's own positions and velocities (on the manifold)."""
+OFF_THE_RUN = {"q": "q_pert", "qd": "qd_pert"}
+"""A hidden or per-student child gets the perturbed state where a public one gets the run's own: the run's
+positions are what ``newton`` converges to, its velocities what ``velocity`` returns, rows of a whole run."""
+MADE_UP = ("gamma_pert", "psi_pert", "psi_dot_pert", "M_pert", "jacobian_pert", "Q_pert", "lam")
+"""Inputs that are the reference's own results (gamma, Psi, Psi', M, Psi_q and Q at the checked states, the
+run's lambda): the expected outputs of other probes, or what they follow from (one solve of M, Psi_q, Q and
+gamma gives a formulation's q'' and lambda). A hidden or per-student child gets made-up arrays instead."""
+
+
+def sent_inputs(probe: str, inputs: dict[str, np.ndarray], public: bool, dimension: int = 2) -> dict[str, np.ndarray]:
+    """What a child running ``probe`` on a scene is sent of the scene's reference ``inputs``: only what the
+    probe reads (``INPUTS``). A child of hidden or per-student checks is sent only times and states that are
+    no probe's output (``t``, ``q_pert``, ``qd_pert``; the perturbed states stand in for the run's own ``q``
+    and ``qd``) and, for the reference's results a probe takes as its inputs (``MADE_UP``), arrays of their
+    shape made up from a fixed seed, which say nothing of the scene: a function's formula is checked on them
+    as well. The reference makes a scene's expected values from exactly what its child is sent (this function,
+    in ``autograder.reference``). Anything else raises KeyError: a new input must be placed here first."""
+    names = INPUTS[probe]
+    if public:
+        return {name: inputs[name] for name in names}
+    sent = {}
+    for name in names:
+        if name in OFF_THE_RUN:
+            sent[name] = inputs[OFF_THE_RUN[name]]
+        elif name in PERTURBED:
+            sent[name] = inputs[name]
+        elif name in MADE_UP:
+            sent[name] = made_up(name, np.shape(inputs[name]), dimension)
+        else:
+            raise KeyError(f"probe {probe}: input {name!r} may not be sent to a child of hidden or per-student checks")
+    return sent
+
+
+def made_up(name: str, shape: tuple[int, ...], dimension: int) -> np.ndarray:
+    """An array of ``shape`` for the input ``name`` from a fixed seed: standard normal numbers, and for a mass
+    matrix (K, n, n) one of the model's structure (per body diag(m, m, J) in the plane, diag(m, m, m) and a
+    symmetric positive definite 4 x 4 block in space) with made-up masses and inertias."""
+    rng = np.random.default_rng(zlib.crc32(name.encode()))
+    if name != "M_pert":
+        return rng.standard_normal(shape)
+    states, n, _ = shape
+    size = 3 if dimension == 2 else 7
+    M = np.zeros(shape)
+    for k in range(states):
+        for body in range(n // size):
+            block = slice(size * body, size * (body + 1))
+            m = rng.uniform(0.5, 5.0)
+            if dimension == 2:
+                M[k, block, block] = np.diag([m, m, rng.uniform(0.01, 1.0)])
+            else:
+                a = rng.standard_normal((4, 4))
+                M[k, block, block] = np.block(
+                    [[m * np.eye(3), np.zeros((3, 4))], [np.zeros((4, 3)), a @ a.T + np.eye(4)]]
+                )
+    return M
 
 
 _MODELS: dict[tuple[str, str], object] = {}
@@ -149,31 +219,31 @@ def _element_rows(pkg: Package, job: Job, method: str) -> np.ndarray:
 
 
 # -- hw1: planar kinematics ----------------------------------------------------------------------------
-@probe("constraints", {"psi": ("state", "row")})
+@probe("constraints", {"psi": ("state", "row")}, PERTURBED)
 def constraints(pkg: Package, job: Job) -> dict:
     """Psi(q, t) element by element at the perturbed states."""
     return {"psi": _element_rows(pkg, job, "constraints")}
 
 
-@probe("jacobian", {"jacobian": ("state", "row", "coordinate")})
+@probe("jacobian", {"jacobian": ("state", "row", "coordinate")}, PERTURBED)
 def jacobian(pkg: Package, job: Job) -> dict:
     """Psi_q(q, t) element by element at the perturbed states."""
     return {"jacobian": _element_rows(pkg, job, "jacobian")}
 
 
-@probe("psi_t", {"psi_t": ("state", "row")})
+@probe("psi_t", {"psi_t": ("state", "row")}, PERTURBED)
 def psi_t(pkg: Package, job: Job) -> dict:
     """Psi_t(q, t) element by element at the perturbed states."""
     return {"psi_t": _element_rows(pkg, job, "psi_t")}
 
 
-@probe("gamma", {"gamma": ("state", "row")})
+@probe("gamma", {"gamma": ("state", "row")}, PERTURBED)
 def gamma(pkg: Package, job: Job) -> dict:
     """gamma(q, q', t) element by element at the perturbed states."""
     return {"gamma": _element_rows(pkg, job, "gamma")}
 
 
-@probe("newton", {"q": ("state", "coordinate")})
+@probe("newton", {"q": ("state", "coordinate")}, ("t", "q_pert"))
 def newton(pkg: Package, job: Job) -> dict:
     """newton_raphson from the perturbed positions: the assembled q at each state's time."""
     system, _, _ = build(pkg, job)
@@ -182,18 +252,20 @@ def newton(pkg: Package, job: Job) -> dict:
     return {"q": np.array([real(solve(system, q[k], float(t[k])).q) for k in range(t.size)])}
 
 
-@probe("velocity", {"qd": ("state", "coordinate")})
+@probe("velocity", {"qd": ("state", "coordinate")}, ("t", "q"))
 def velocity(pkg: Package, job: Job) -> dict:
-    """velocity_analysis at consistent states: q' from Psi_q q' = -Psi_t."""
+    """velocity_analysis at consistent states (perturbed ones for a hidden or per-student scene): q' from
+    Psi_q q' = -Psi_t."""
     system, _, _ = build(pkg, job)
     solve = pkg["kinematics"].velocity_analysis
     t, q = job.inputs["t"], job.inputs["q"]
     return {"qd": np.array([real(solve(system, q[k], float(t[k]))) for k in range(t.size)])}
 
 
-@probe("acceleration", {"qdd": ("state", "coordinate")})
+@probe("acceleration", {"qdd": ("state", "coordinate")}, CONSISTENT)
 def acceleration(pkg: Package, job: Job) -> dict:
-    """acceleration_analysis at consistent states: q'' from Psi_q q'' = gamma."""
+    """acceleration_analysis at consistent states (perturbed ones for a hidden or per-student scene): q'' from
+    Psi_q q'' = gamma."""
     system, _, _ = build(pkg, job)
     solve = pkg["kinematics"].acceleration_analysis
     t, q, qd = job.inputs["t"], job.inputs["q"], job.inputs["qd"]
@@ -203,6 +275,7 @@ def acceleration(pkg: Package, job: Job) -> dict:
 @probe(
     "kinematic_run",
     {"t": ("time",), "q": ("time", "coordinate"), "qd": ("time", "coordinate"), "qdd": ("time", "coordinate")},
+    (),
 )
 def kinematic_run(pkg: Package, job: Job) -> dict:
     """kinematic_analysis over the scene's grid (or the check's t_end and steps)."""
@@ -229,31 +302,34 @@ def _states(job: Job, perturbed: bool = True):
     return [(float(t[k]), q[k], qd[k]) for k in range(t.size)]
 
 
-@probe("mass_matrix", {"M": ("coordinate", "coordinate")}, requires=("mass_matrix",))
+@probe("mass_matrix", {"M": ("coordinate", "coordinate")}, (), requires=("mass_matrix",))
 def mass_matrix(pkg: Package, job: Job) -> dict:
     """The planar model's (constant) mass matrix."""
     return {"M": pkg["mass_matrix"].mass_matrix(model_of(pkg, job))}
 
 
-@probe("generalized_forces", {"Q": ("state", "coordinate")}, requires=("generalized_forces",))
+@probe("generalized_forces", {"Q": ("state", "coordinate")}, PERTURBED, requires=("generalized_forces",))
 def generalized_forces(pkg: Package, job: Job) -> dict:
     """Q(q, q', t) at the perturbed states (every force element contributes)."""
     forces = pkg["generalized_forces"].build_forces(model_of(pkg, job))
     return {"Q": np.array([real(forces.generalized_forces(q, qd, t)) for t, q, qd in _states(job)])}
 
 
-@probe("baumgarte_gamma", {"gamma_bar": ("state", "row")}, requires=("formulations",))
+@probe(
+    "baumgarte_gamma",
+    {"gamma_bar": ("state", "row")},
+    ("gamma_pert", "psi_pert", "psi_dot_pert"),
+    requires=("formulations",),
+)
 def baumgarte_gamma(pkg: Package, job: Job) -> dict:
-    """gamma_bar from the reference's gamma, Psi and Psi' at the perturbed states."""
+    """gamma_bar from the reference's gamma, Psi and Psi' at the perturbed states (made-up ones for a hidden or
+    per-student scene: ``sent_inputs``)."""
     f = pkg["formulations"].baumgarte_gamma
     alpha, beta = float(job.options.get("alpha", 5.0)), float(job.options.get("beta", 5.0))
     g, psi, psi_dot = job.inputs["gamma_pert"], job.inputs["psi_pert"], job.inputs["psi_dot_pert"]
     return {
         "gamma_bar": np.array(
-            [
-                real(f(g[k].copy(), psi[k].copy(), psi_dot[k].copy(), alpha, beta))
-                for k in range(len(g))
-            ]
+            [real(f(g[k].copy(), psi[k].copy(), psi_dot[k].copy(), alpha, beta)) for k in range(len(g))]
         )
     }
 
@@ -261,10 +337,12 @@ def baumgarte_gamma(pkg: Package, job: Job) -> dict:
 @probe(
     "augmented_accelerations",
     {"qdd": ("state", "coordinate"), "lam": ("state", "row")},
+    ("M_pert", "jacobian_pert", "Q_pert", "gamma_pert"),
     requires=("formulations",),
 )
 def augmented_accelerations(pkg: Package, job: Job) -> dict:
-    """q'' and lambda of the augmented system from the reference's M, Psi_q, Q and gamma."""
+    """q'' and lambda of the augmented system from the reference's M, Psi_q, Q and gamma (made-up ones for a
+    hidden or per-student scene: ``sent_inputs``)."""
     f = pkg["formulations"].augmented_accelerations
     M, J, Q, g = job.inputs["M_pert"], job.inputs["jacobian_pert"], job.inputs["Q_pert"], job.inputs["gamma_pert"]
     pairs = [f(M[k].copy(), J[k].copy(), Q[k].copy(), g[k].copy()) for k in range(len(g))]
@@ -277,6 +355,7 @@ def augmented_accelerations(pkg: Package, job: Job) -> dict:
 @probe(
     "accelerations",
     {"qdd": ("state", "coordinate"), "lam": ("state", "row")},
+    PERTURBED,
     requires=("formulations", "mass_matrix", "generalized_forces"),
 )
 def accelerations(pkg: Package, job: Job) -> dict:
@@ -314,7 +393,7 @@ def rk4_test_exact(t: float) -> np.ndarray:
     )
 
 
-@probe("rk4", {"y": ("steps", "component")}, requires=("integrators",))
+@probe("rk4", {"y": ("steps", "component")}, (), requires=("integrators",))
 def rk4(pkg: Package, job: Job) -> dict:
     """y(2) of y'' + y = sin 2t by N = 4, 8, 16, 32 steps of the package's rk4_step."""
     step = pkg["integrators"].rk4_step
@@ -333,23 +412,21 @@ def reaction_labels(row_owners: list[str], dimension: int) -> list[str]:
     return [f"{owner}.{p}" for owner in dict.fromkeys(row_owners) for p in parts]
 
 
-@probe("reactions", {"reactions": ("state", "reaction")}, requires=("reactions",))
+@probe("reactions", {"reactions": ("state", "reaction")}, ("t", "q", "lam"), requires=("reactions",))
 def reactions(pkg: Package, job: Job) -> dict:
-    """Joint and driver reactions at the consistent states, from the reference's lambda."""
+    """Joint and driver reactions at the consistent states, from the reference's lambda (for a hidden or
+    per-student scene: at the perturbed states, from a made-up lambda; ``sent_inputs``)."""
     system, _, _ = build(pkg, job)
     t, q, lam = job.inputs["t"], job.inputs["q"], job.inputs["lam"]
     columns = pkg["reactions"].joint_reactions(system, q.copy(), lam.copy(), t.copy())
     labels = reaction_labels(list(system.row_owners), system.model.dimension)
-    return {
-        "reactions": np.array(
-            [real(columns.get(label, np.full(t.size, np.nan))) for label in labels]
-        ).T
-    }
+    return {"reactions": np.array([real(columns.get(label, np.full(t.size, np.nan))) for label in labels]).T}
 
 
 @probe(
     "dynamic_run",
     {"t": ("time",), "q": ("time", "coordinate"), "qd": ("time", "coordinate"), "lam": ("time", "row")},
+    (),
     requires=("dynamics",),
 )
 def dynamic_run(pkg: Package, job: Job) -> dict:
@@ -389,6 +466,7 @@ def _euler_parameters(job: Job) -> np.ndarray:
 @probe(
     "rotation_matrices",
     {"A": ("state", "body", "i", "j"), "G": ("state", "body", "i", "j"), "L": ("state", "body", "i", "j")},
+    ("q_pert",),
     requires=("rotations",),
 )
 def rotation_matrices(pkg: Package, job: Job) -> dict:
@@ -401,7 +479,7 @@ def rotation_matrices(pkg: Package, job: Job) -> dict:
     }
 
 
-@probe("spatial_mass_matrix", {"M": ("state", "coordinate", "coordinate")}, requires=("spatial.mass",))
+@probe("spatial_mass_matrix", {"M": ("state", "coordinate", "coordinate")}, PERTURBED, requires=("spatial.mass",))
 def spatial_mass_matrix(pkg: Package, job: Job) -> dict:
     """The spatial mass matrix M(q) = diag(m I, 4 L^T J' L) at the perturbed states."""
     model = model_of(pkg, job)
@@ -409,7 +487,7 @@ def spatial_mass_matrix(pkg: Package, job: Job) -> dict:
     return {"M": np.array([real(f(model, q.copy())) for _, q, _ in _states(job)])}
 
 
-@probe("quadratic_velocity", {"Qv": ("state", "coordinate")}, requires=("spatial.mass",))
+@probe("quadratic_velocity", {"Qv": ("state", "coordinate")}, PERTURBED, requires=("spatial.mass",))
 def quadratic_velocity(pkg: Package, job: Job) -> dict:
     """The quadratic-velocity force Q_v = 8 L(p')^T J' L(p') p at the perturbed states."""
     model = model_of(pkg, job)
@@ -417,7 +495,7 @@ def quadratic_velocity(pkg: Package, job: Job) -> dict:
     return {"Qv": np.array([real(f(model, q.copy(), qd.copy())) for _, q, qd in _states(job)])}
 
 
-@probe("invariants", {"drift": (), "velocity_drift": (), "energy": (), "energy_scale": ()})
+@probe("invariants", {"drift": (), "velocity_drift": (), "energy": (), "energy_scale": ()}, CONSISTENT)
 def invariants(pkg: Package, job: Job) -> dict:
     """Of a trajectory (inputs t, q, qd): the constraint drift max |Psi|, the velocity drift
     max |Psi_q q' + Psi_t| and, for a conservative scene (no drivers, dampers, actuators or loads), the
@@ -444,11 +522,13 @@ def invariants(pkg: Package, job: Job) -> dict:
 @probe(
     "inverse_dynamics",
     {"lam": ("state", "row")},
+    CONSISTENT,
     requires=("inverse_dynamics", "mass_matrix", "generalized_forces"),
 )
 def inverse_dynamics(pkg: Package, job: Job) -> dict:
-    """lambda of a fully driven scene at its consistent states: ``multipliers`` (Psi_q^T lambda = Q - M q'',
-    eq. 5.80) given Psi_q and q'' of the package's kinematics and its own M and Q."""
+    """lambda of a fully driven scene at its consistent states (perturbed ones for a hidden or per-student
+    scene): ``multipliers`` (Psi_q^T lambda = Q - M q'', eq. 5.80) given Psi_q and q'' of the package's
+    kinematics and its own M and Q."""
     model = model_of(pkg, job)
     system, _, _ = build(pkg, job)
     multipliers = pkg["inverse_dynamics"].multipliers

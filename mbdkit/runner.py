@@ -12,12 +12,14 @@ from pathlib import Path
 
 import numpy as np
 
+from . import withheld
 from .checks import Measure, Mistakes, Outcome, evaluate
 from .homework import CheckSpec
-from .probes import Job
-from .sandbox import Limits, Reply, Sandbox
+from .probes import Job, sent_inputs
+from .sandbox import Limits, Sandbox
 from .scenes import HIDDEN, PUBLIC, STUDENT, Scene, job_key, load_public_scene, scene_kind
 from .stored import Reference, load_reference
+from .withheld import title
 
 PACKAGE = "modules"
 INVARIANTS_TIMEOUT = 30.0
@@ -62,16 +64,6 @@ class PublicData:
         return None
 
 
-def title(scene: str) -> str:
-    """How a scene is named in a message."""
-    kind = scene_kind(scene)
-    if kind == STUDENT:
-        return f"{scene.split('/', 1)[1]} (your own variant)"
-    if kind == HIDDEN:
-        return f"{scene} (hidden scene)"
-    return scene
-
-
 def _order(checks: list[CheckSpec]) -> list[tuple[str, str]]:
     """Probe calls (scene, probe key): function checks first, then runs; public scenes first."""
     rank = {"public": 0, "student": 1, "hidden": 2}
@@ -80,19 +72,17 @@ def _order(checks: list[CheckSpec]) -> list[tuple[str, str]]:
     return sorted(calls, key=lambda call: kinds[call])
 
 
-def redact(reply: Reply) -> Reply:
-    """A hidden scene's reply without the student's own text (an exception's message could echo hidden
-    inputs); the grader's own messages (timeouts, crashes, skipped functions) stay."""
-    if reply.error and reply.status == "error" and reply.error.get("type") != "HungEarlier":
-        reply.error = {**reply.error, "message": ""}
-    for error in reply.element_errors:
-        error["message"] = ""
-    reply.output_head = ""
-    return reply
-
-
-def failed(check: CheckSpec, message: str) -> Outcome:
-    """A check that could not run, with the reason."""
+def failed(
+    check: CheckSpec,
+    message: str,
+    reason: str = "grader",
+    done: dict[str, Outcome] | None = None,
+    checks: list[CheckSpec] = (),
+) -> Outcome:
+    """A check that could not run, with the reason: ``message`` for a public check, the grader's ``reason``
+    (``withheld.REASONS``) for a hidden or per-student one (its public twin among ``checks``, if in ``done``)."""
+    if check.kind != PUBLIC:
+        return withheld.outcome(check, withheld.NOT_RUN, reason, _twin_outcome(check, done or {}, list(checks)))
     return Outcome(
         check.name, check.group, check.scene, check.kind, 0.0, check.points, False, message, check.visibility
     )
@@ -110,9 +100,11 @@ def run_checks(
 ) -> list[Outcome]:
     """Run ``checks`` on the package in ``folder`` (``folder/modules``); outcomes in order.
 
-    The public checks run in one sandbox child, the hidden and per-student ones in a second, started once
-    the first is gone (so nothing a hidden scene sent a child can surface in a public check's message);
-    under ``isolation="os"`` both are forked in one bubblewrap sandbox of the submission. ``budget``:
+    The public checks run in one sandbox child, the per-student ones in a second and the hidden ones in a
+    third, each started once the one before is gone, and sent nothing computed in another (only the
+    functions that hung in the public child are not run again); under ``isolation="os"`` they are forked in
+    one bubblewrap sandbox of the submission. A hidden or per-student check says only what ``withheld``
+    lets it: its status, description and the grader's hint, nothing the student's code chose. ``budget``:
     wall-clock seconds for all the checks of the submission; the checks not started by then fail with a
     message saying so.
 
@@ -124,7 +116,7 @@ def run_checks(
     folder = Path(folder).resolve()
     if not (folder / PACKAGE / "__init__.py").is_file():
         message = f"no package {PACKAGE}/ (with __init__.py) in the folder {folder}"
-        return [failed(c, message) for c in checks]
+        return [failed(c, message, "no package") for c in checks]
     host = None
     if isolation == "os":  # one bubblewrap sandbox per submission; a child for each set of checks
         from .isolation import IsolatedHost
@@ -137,16 +129,23 @@ def run_checks(
             host.close()
 
 
+KINDS = (PUBLIC, STUDENT, HIDDEN)
+"""The sets of checks, each run in a child of its own, in this order (public first: a variant's hint names
+how its public twin did)."""
+
+
 def _run_all(checks, folder, data, limits, forbidden, hide, isolation, budget, host) -> list[Outcome]:
     outcomes: dict[str, Outcome] = {}
     start, hung = time.monotonic(), []
-    for public in (True, False):  # hidden and per-student scenes never share a child with public checks
-        calls = [call for call in _order(checks) if (scene_kind(call[0]) == PUBLIC) == public]
+    for kind in KINDS:
+        calls = [call for call in _order(checks) if scene_kind(call[0]) == kind]
         if not calls:
             continue
         options = {"forbidden": forbidden, "hide": hide, "limits": limits, "isolation": isolation, "host": host}
         with Sandbox(folder, PACKAGE, **options) as sandbox:
-            sandbox.hung = hung  # a function that hung costs one timeout per submission, in either child
+            # a function that hung in the public child is not run again in the others (one timeout per
+            # submission); what hung in a hidden or per-student child is told to no other child
+            sandbox.hung = hung if kind == PUBLIC else list(hung)
             for scene_name, key in calls:
                 group = [c for c in checks if c.scene == scene_name and c.probe_key == key]
                 if budget is not None and time.monotonic() - start > budget:
@@ -154,10 +153,16 @@ def _run_all(checks, folder, data, limits, forbidden, hide, isolation, budget, h
                         f"not run: your submission used up its time budget ({budget:g} s for all its checks); "
                         "a function far slower than it should be? (the checks above say which ran)"
                     )
-                    outcomes.update({c.name: failed(c, message) for c in group})
+                    outcomes.update({c.name: failed(c, message, "budget", outcomes, checks) for c in group})
                     continue
-                outcomes.update(_run_group(group, checks, data, sandbox, limits, scene_name, key))
+                outcomes.update(_run_group(group, checks, data, sandbox, limits, scene_name, key, outcomes))
     return [outcomes[c.name] for c in checks]
+
+
+def _twin_outcome(check: CheckSpec, done: dict[str, Outcome], checks: list[CheckSpec]) -> Outcome | None:
+    """The outcome of the check's public twin among ``checks`` (``withheld.twin``), if it ran."""
+    public = withheld.twin(check, checks)
+    return None if public is None else done.get(public.name)
 
 
 def _run_group(
@@ -168,21 +173,27 @@ def _run_group(
     limits: Limits,
     scene_name: str,
     key: str,
+    done: dict[str, Outcome],
 ) -> dict[str, Outcome]:
-    """The outcomes of the checks that share one probe call (a scene and a probe key)."""
+    """The outcomes of the checks that share one probe call (a scene and a probe key); ``done``: the
+    outcomes so far (a hidden or per-student check's hint names how its public twin did)."""
     scene = data.scene(scene_name)
     reference = data.reference(scene, [c for c in checks if c.scene == scene_name])
     first = group[0]
     if not reference.has(key):
         message = f"grader configuration: no reference for {key} (run python -m autograder.reference)"
-        return {c.name: failed(c, message) for c in group}
-    job = Job(job_key(scene), scene.data, reference.inputs, dict(first.options))
+        return {c.name: failed(c, message, "grader", done, checks) for c in group}
+    public = scene.kind == PUBLIC
+    inputs = sent_inputs(first.probe, reference.inputs, public, reference.meta.get("dimension", 2))
+    job = Job(job_key(scene), scene.data, inputs, dict(first.options))
     timeout = max(c.timeout for c in group)
-    reply = sandbox.run(first.probe, job.key, scene.data, reference.inputs, first.options, timeout)
-    if scene.kind == HIDDEN:
-        reply = redact(reply)
+    reply = sandbox.run(first.probe, job.key, scene.data, inputs, first.options, timeout)
     measure = data.measure(scene, sandbox)
-    return {
-        c.name: evaluate(c, reply, reference, measure, limits, title(scene_name), data.mistakes(c, scene, job))
-        for c in group
-    }
+    outcomes = {}
+    for c in group:
+        graded = evaluate(c, reply, reference, measure, limits, title(scene_name), data.mistakes(c, scene, job))
+        if not public:  # the grader's words only
+            state, reason = withheld.status(c, reply, reference, graded.passed, limits)
+            graded = withheld.outcome(c, state, reason, _twin_outcome(c, done, checks))
+        outcomes[c.name] = graded
+    return outcomes

@@ -368,6 +368,7 @@ def command_grade(args) -> int:
         jobs=args.jobs,
         unsafe_no_isolation=args.unsafe_no_isolation,
         cluster=args.cluster,
+        publish_hidden=args.publish_hidden,
     )
 
 
@@ -594,6 +595,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--unsafe-no-isolation",
         action="store_true",
         help="grade even where bubblewrap cannot isolate student code (unsafe: the results say so)",
+    )
+    grade.add_argument(
+        "--publish-hidden",
+        action="store_true",
+        help="show the hidden checks' results on the feedback pages (held back until then; unchanged "
+        "submissions are not graded again, their pages are rewritten)",
     )
     grade.set_defaults(handler=command_grade)
     secret = sub.add_parser("secret", help="where the course secret of hidden and per-student scenes is (instructor)")

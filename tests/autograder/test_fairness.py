@@ -85,7 +85,8 @@ def graded(tmp_path_factory):
         "prismatic_term",
         [("planar/joints.py", "gamma = value * qdi[2] ** 2 - 2.0", "gamma = 0.0 * value * qdi[2] ** 2 - 2.0")],
     )
-    homework = dataclasses.replace(load_homework("hw1"), budget=8.0)
+    # 15 s: an honest hw1 takes some 8 s on a busy two-core machine (three children: public, own variants, hidden)
+    homework = dataclasses.replace(load_homework("hw1"), budget=15.0)
     out = root / "out"
     book = grade(homework, root, out, jobs=2, progress=False, resume=False, limits=Limits(), isolation=ISOLATION)
     return book, out
@@ -101,7 +102,9 @@ def test_a_submission_that_uses_up_its_budget_loses_the_checks_not_run(graded):
     tests = results(out, "slow")
     skipped = [t for t in tests.values() if "time budget" in t["output"]]
     assert skipped and all(t["score"] == 0 for t in skipped)
-    assert "8 s for all its checks" in skipped[0]["output"]
+    public = [t for t in skipped if t["extra_data"]["kind"] == "public"]  # the others: in the grader's words
+    assert all("15 s for all its checks" in t["output"] for t in public)
+    assert all(": could not run: " in t["output"] for t in skipped if t not in public)
     assert any(t["status"] == "passed" for t in tests.values())  # what ran in time still counts
     assert 0 < book.score("slow") < book.max_score
 
