@@ -1,7 +1,8 @@
 """What ``mbd grade`` calls (``solutions/cli.py`` wires it; ``mbd selfcheck`` is ``mbdkit.cli``).
 
     mbd grade hwN SUBMISSIONS [--out DIR] [--jobs N] [--cluster local|tcp://HOST:PORT] [--unsafe-no-isolation]
-        ->  grade_command(homework, submissions, out, jobs, unsafe_no_isolation, cluster)
+                              [--roster CSV]
+        ->  grade_command(homework, submissions, out, jobs, unsafe_no_isolation, cluster, roster)
 
 ``--jobs`` N > 1 (the default: the number of cores, at most 8) grades on a Dask LocalCluster of N worker
 processes (``--cluster local`` implied); ``--jobs 1`` grades one by one in this process.
@@ -10,6 +11,11 @@ Returns the exit code: 0 done, 2 a user error (unknown homework, no such folder,
 sandbox: bubblewrap missing or the kernel refusing its namespaces), printed as one line
 ``mbd: error: ...`` to stderr; then no output folder is made. ``--unsafe-no-isolation`` grades without the
 operating system's isolation (the forkserver sandbox, whose audit hook is no wall), and says so.
+130: stopped by Ctrl-C, said in one line ``mbd: interrupted; N of M submissions graded, run the same command
+again to resume``; the results written so far stay and the next run resumes from them.
+
+The summary's statistics (median, range) are over the graded submissions only; students who handed
+nothing in are counted apart (``3 missing: ada, bob, eve``) and are "missing" in the gradebook.
 """
 
 from __future__ import annotations
@@ -22,7 +28,10 @@ from mbdkit.homework import available_homeworks
 from mbdkit.isolation import IsolationUnavailable
 
 from .cluster import ClusterError
-from .grading import ISOLATION_NOTE, grade
+from .grading import ISOLATION_NOTE, Gradebook, GradingInterrupted, grade, read_roster
+
+INTERRUPTED = 130
+"""The exit code after Ctrl-C (128 + SIGINT), as a shell gives."""
 
 
 def grade_command(
@@ -32,6 +41,7 @@ def grade_command(
     jobs: int | None = None,
     unsafe_no_isolation: bool = False,
     cluster: str | None = None,
+    roster: str | Path | None = None,
 ) -> int:
     """Grade every submission; print where the gradebook is and the score distribution."""
     if homework not in available_homeworks():
@@ -51,21 +61,43 @@ def grade_command(
         cluster = "local"  # more than one job: a LocalCluster of `jobs` worker processes (issue 17)
     isolation = "local" if unsafe_no_isolation else "os"
     try:
-        book = grade(homework, submissions, out, jobs=jobs, isolation=isolation, cluster=cluster)
+        students = read_roster(roster) if roster is not None else []
+    except (OSError, ValueError, UnicodeDecodeError) as err:
+        return error(f"--roster {roster}: {getattr(err, 'strerror', None) or err} (give a CSV with a column 'student')")
+    try:
+        book = grade(homework, submissions, out, jobs=jobs, isolation=isolation, cluster=cluster, roster=students)
+    except GradingInterrupted as err:
+        return interrupted(str(err))
     except FileNotFoundError as err:
         return error(str(err))
     except ClusterError as err:
         return error(str(err))
     except IsolationUnavailable as err:
         return error(f"cannot isolate student code: {err}; give --unsafe-no-isolation to grade without it (unsafe)")
-    scores = sorted(book.score(s) for s in book.rows)
-    if scores:
-        median = scores[len(scores) // 2]
-        print(
-            f"{homework}: graded {len(scores)} submissions, median {median:g} / {book.max_score:g}, "
-            f"range {scores[0]:g} .. {scores[-1]:g}"
-        )
+    print(summary(book))
     print(f"gradebook: {book.csv_path}\nresults:   {out / 'results'}\nfeedback:  {out / 'feedback'}")
     if book.isolation != "os":
         print(f"warning: graded {ISOLATION_NOTE[book.isolation]}")
     return 0
+
+
+def summary(book: Gradebook) -> str:
+    """One line: how many were graded, their median and range (missing students left out), who is missing."""
+    scores = sorted(book.score(s) for s in book.graded)
+    text = f"{book.homework}: graded {len(scores)} submissions"
+    if scores:
+        median = scores[len(scores) // 2]
+        text += f", median {median:g} / {book.max_score:g}, range {scores[0]:g} .. {scores[-1]:g}"
+    missing = book.missing
+    if missing:
+        names = ", ".join(missing[:10]) + (f" and {len(missing) - 10} more" if len(missing) > 10 else "")
+        text += f"; {len(missing)} missing (handed nothing in, not counted): {names}"
+    return text
+
+
+def interrupted(text: str) -> int:
+    """Ctrl-C: one line on stderr, exit code 130."""
+    import sys
+
+    print(f"mbd: {text}", file=sys.stderr)
+    return INTERRUPTED

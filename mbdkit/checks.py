@@ -83,6 +83,9 @@ class Outcome:
     message: str
     visibility: str
     plot: dict | None = field(default=None, repr=False)
+    causes: list[list[str]] = field(default_factory=list, repr=False)
+    """Per likely cause in ``message``: every cause that explains those numbers, the named one first
+    (``diagnosis.reconcile`` keeps one that agrees with the student's other checks)."""
 
     def to_test(self) -> dict:
         """The check as a Gradescope test result."""
@@ -132,7 +135,7 @@ def failure_of_reply(reply: Reply, limits: Limits, hidden: bool) -> str | None:
             return f"your code printed more than the grader keeps ({_size(limits.file_size)}); remove prints in loops"
         if kind == "SystemExit":
             return f"your code called sys.exit(){at}: a function must return, not end the program"
-        return f"your code raised {kind}{said}{at}"
+        return f"your code raised {kind}{said}{at}" + diagnosis.not_the_model(kind)
     if reply.printed > limits.output:
         head = "" if hidden else f" (it starts: {reply.output_head[:80]!r})"
         return (
@@ -240,10 +243,12 @@ def compare(
     reference: Reference,
     hidden: bool,
     mistakes: Mistakes | None = None,
+    causes: list[list[str]] | None = None,
 ) -> tuple[bool, str, dict | None]:
     """Compare one output: (passed, message, plot data).
 
-    ``mistakes`` gives the known mistakes of this output (default: those stored with the reference)."""
+    ``mistakes`` gives the known mistakes of this output (default: those stored with the reference);
+    ``causes``, when given, gets every cause that explains a failure (the named one first)."""
     key = spec.probe_key
     expected_all = reference.outputs(key)
     expected = expected_all[output]
@@ -293,9 +298,11 @@ def compare(
     if count > 1:
         message += f"; {count} of {bad.size} values are off"
     known = mistakes(output) if mistakes is not None else reference.replays(key, output)
-    cause = diagnosis.likely_cause(spec.probe, output, e, g, bad, allowed, known, select)
-    if cause:
-        message += f". Likely cause: {cause}"
+    found = diagnosis.likely_causes(spec.probe, output, e, g, bad, allowed, known, select)
+    if found:
+        message += f". Likely cause: {found[0]}"
+        if causes is not None:
+            causes.append(found)
     plot = None
     if not hidden and axes and axes[0] == "time" and g.ndim == 2 and "t" in expected_all:
         column = int(full[1])
@@ -384,7 +391,7 @@ def evaluate(
 
     ``measure`` gives the invariants of a run, ``mistakes`` the known mistakes (default: stored)."""
     hidden = spec.kind == HIDDEN
-    messages, plot = [], None
+    messages, plot, causes = [], None, []
     failure = failure_of_reply(reply, limits, hidden)
     owners = None
     mask = _row_mask(spec, reference)
@@ -407,7 +414,7 @@ def evaluate(
                 if not ok:
                     messages.append(text)
                 continue
-            ok, text, data = compare(spec, output, reply.outputs.get(output), reference, hidden, mistakes)
+            ok, text, data = compare(spec, output, reply.outputs.get(output), reference, hidden, mistakes, causes)
             results[output] = ok
             if not ok:
                 messages.append(text)
@@ -429,7 +436,23 @@ def evaluate(
         message=text,
         visibility=spec.visibility,
         plot=plot,
+        causes=causes,
     )
+
+
+def reconcile_causes(checks: list[CheckSpec], outcomes: list[Outcome]) -> list[Outcome]:
+    """One student's outcomes with every likely cause checked against all their checks: a cause that blames
+    a function whose own checks pass is replaced by the next that fits, or taken out (``diagnosis.reconcile``)."""
+    specs = {c.name: c for c in checks}
+    tested = [
+        diagnosis.Tested(specs[o.name].probe, tuple(specs[o.name].rows or ()), o.passed)
+        for o in outcomes
+        if o.name in specs
+    ]
+    for outcome in outcomes:
+        if outcome.causes:
+            outcome.message = diagnosis.reconcile(outcome.message, outcome.causes, tested)
+    return outcomes
 
 
 def _run_hint(spec: CheckSpec, reply: Reply, reference: Reference, hidden: bool) -> str | None:

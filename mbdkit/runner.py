@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .checks import Measure, Mistakes, Outcome, evaluate
+from .checks import Measure, Mistakes, Outcome, evaluate, reconcile_causes
 from .homework import CheckSpec
 from .probes import Job
 from .sandbox import Limits, Reply, Sandbox
@@ -131,7 +131,8 @@ def run_checks(
 
         host = IsolatedHost(folder, PACKAGE, limits.tmp_size)
     try:
-        return _run_all(checks, folder, data, limits, forbidden, hide, isolation, budget, host)
+        outcomes = _run_all(checks, folder, data, limits, forbidden, hide, isolation, budget, host)
+        return reconcile_causes(checks, outcomes)  # a cause must agree with all the student's checks
     finally:
         if host is not None:
             host.close()
