@@ -24,6 +24,9 @@ Mistakes = Callable[[str], list[tuple[str, np.ndarray]]]
 Measure = Callable[[dict], dict | str]
 """A run's outputs -> its invariants (drift, velocity_drift, energy), or why they cannot be measured."""
 
+LAMBDA_SIGN_NOTE = "sign: M q'' + Psi_q^T lambda = Q"
+"""Where lambda is checked, its sign convention (``diagnosis.LAMBDA_CONVENTION``): fixed by the course."""
+
 DEFAULT_RTOL = 1e-6
 DEFAULT_ATOL = 1e-8
 """Function and kinematic checks: |got - expected| <= rtol |expected| + atol * scale of the quantity."""
@@ -43,9 +46,9 @@ QUANTITIES = {
     "generalized_forces.Q": "the generalized forces Q",
     "baumgarte_gamma.gamma_bar": "Baumgarte's gamma_bar",
     "augmented_accelerations.qdd": "q'' of augmented_accelerations",
-    "augmented_accelerations.lam": "lambda of augmented_accelerations",
+    "augmented_accelerations.lam": f"lambda of augmented_accelerations ({LAMBDA_SIGN_NOTE})",
     "accelerations.qdd": "the accelerations q'' of the formulation",
-    "accelerations.lam": "the multipliers lambda of the formulation",
+    "accelerations.lam": f"the multipliers lambda of the formulation ({LAMBDA_SIGN_NOTE})",
     "rk4.y": "the result of rk4_step on y'' + y = sin 2t",
     "rotation_matrices.A": "the rotation matrix A(p)",
     "rotation_matrices.G": "G(p)",
@@ -53,7 +56,7 @@ QUANTITIES = {
     "spatial_mass_matrix.M": "the spatial mass matrix M(q)",
     "quadratic_velocity.Qv": "the quadratic-velocity force Q_v",
     "reactions.reactions": "the joint reactions",
-    "inverse_dynamics.lam": "the multipliers lambda of inverse dynamics (multipliers)",
+    "inverse_dynamics.lam": f"the multipliers lambda of inverse dynamics ({LAMBDA_SIGN_NOTE})",
     "dynamic_run.q": "the positions of forward_dynamics",
     "dynamic_run.qd": "the velocities of forward_dynamics",
     "dynamic_run.drift": "the constraint drift max |Psi| of forward_dynamics",
