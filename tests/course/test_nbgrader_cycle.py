@@ -33,12 +33,22 @@ from course.release.generator import REPO
 pytestmark = pytest.mark.filterwarnings("ignore:Object of type <Submitted")  # nbgrader's own SQLAlchemy notes
 
 STUDENTS = {
-    "hw1": {"ada": None, "ben": "bug_revolute_gamma", "sam": "skeleton", "eve": "forged_checker"},
+    "hw1": {
+        "ada": None,
+        "ben": "bug_revolute_gamma",
+        "sam": "skeleton",
+        "eve": "forged_checker",
+        "dan": "damaged_notebook",
+        "fay": "zipped_copy",
+    },
     "hw2": {"ada": None},
     "hw3": {"ada": None},
 }
 """Per homework, the demo students submitted: the reference (None), a mutant of course/demo.py, the skeleton,
-the skeleton with the kit's checker changed to award a point in every graded cell."""
+the skeleton with the kit's checker changed to award a point in every graded cell; the reference with its
+notebook saved as 'hw1 (1).ipynb', a graded test cell pasted twice and another deleted (``damaged_notebook``);
+the skeleton in a zip whose notebook is 'hw1-copy.ipynb', which ``nbgrader zip_collect`` drops
+(``zipped_copy``). The check before autograde (course/nbcheck.py) repairs the last two."""
 
 FORGED = """
 
@@ -48,10 +58,16 @@ def check(homework, group, path=None):  # forged by the student: a point for eve
 
 
 def submit(course: Path, homework: str, student: str, kind: str | None) -> Path:
-    """A submission as nbgrader collects it: the released folder, with the student's package."""
+    """A submission as nbgrader collects it: the released folder, with the student's package (``zipped_copy``:
+    a zip for ``nbgrader zip_collect`` in build/downloaded/hwN/archive/)."""
     released = course / "build" / "release" / homework
     folder = course / "build" / "submitted" / student / homework
+    if kind == "zipped_copy":
+        return zipped_copy(course, homework, student)
     shutil.copytree(released, folder, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+    if kind == "damaged_notebook":
+        damage_notebook(folder, homework)
+        kind = None
     if kind == "forged_checker":
         with open(folder / "mbdkit" / "api.py", "a") as f:
             f.write(FORGED)
@@ -61,6 +77,34 @@ def submit(course: Path, homework: str, student: str, kind: str | None) -> Path:
         relpath, anchor, correct, buggy, _ = MUTATIONS[kind]
         _mutate(folder / "modules", relpath, anchor, correct, buggy, student)
     return folder
+
+
+def damage_notebook(folder: Path, homework: str) -> None:
+    """The first graded test cell pasted a second time, the second deleted, the notebook saved as 'hwN (1)'."""
+    path = folder / f"{homework}.ipynb"
+    notebook = nbformat.read(path, as_version=4)
+    ids = [c.metadata.get("nbgrader", {}).get("grade_id", "") for c in notebook.cells]
+    tests = [i for i, gid in enumerate(ids) if gid.startswith("test_")]
+    pasted = nbformat.from_dict(notebook.cells[tests[0]])
+    pasted.id = "pasted"
+    del notebook.cells[tests[1]]
+    notebook.cells.insert(tests[0] + 2, pasted)
+    nbformat.write(notebook, folder / f"{homework} (1).ipynb")
+    path.unlink()
+
+
+def zipped_copy(course: Path, homework: str, student: str) -> Path:
+    """The released kit zipped by the student as kit/, its notebook renamed 'hwN-copy.ipynb'."""
+    import zipfile
+
+    released = course / "build" / "release" / homework
+    archive = course / "build" / "downloaded" / homework / "archive" / f"{student}.zip"
+    archive.parent.mkdir(parents=True, exist_ok=True)
+    with zipfile.ZipFile(archive, "w") as zipped:
+        zipped.write(released / f"{homework}.ipynb", f"kit/{homework}-copy.ipynb")
+        for path in sorted((released / "modules").rglob("*.py")):
+            zipped.write(path, f"kit/{path.relative_to(released).as_posix()}")
+    return archive
 
 
 WHERE = {"hw1": "."}
@@ -95,10 +139,12 @@ def outside_build(course: Path) -> dict[str, str]:
 
 def autograde_and_export(course: Path, homework: str) -> dict[str, dict]:
     """``nbgrader autograde``, ``generate_feedback`` and ``export`` (to its configured file, build/grades.csv)
-    for every submission of one homework; the course outside build/ stays as it was."""
+    for every submission of one homework; the course outside build/ stays as it was. What autograde's check of
+    the notebooks (course/nbcheck.py) printed is kept in build/autograde.log."""
     where = WHERE.get(homework, "course")
     before = outside_build(course)
-    nbgrader(course, "autograde", homework, "--force", where=where)
+    log = nbgrader(course, "autograde", homework, "--force", where=where)
+    (course / "build" / "autograde.log").write_text(log)
     nbgrader(course, "generate_feedback", homework, "--force", where=where)
     nbgrader(course, "export", where=where)
     assert outside_build(course) == before, f"{homework}: nbgrader wrote outside build/"
@@ -119,6 +165,8 @@ def cycle(tmp_path_factory):
         release(homework, course)  # nbgrader's generate step, the student package, the leak check
         for student, kind in STUDENTS[homework].items():
             submit(course, homework, student, kind)
+        if "zipped_copy" in STUDENTS[homework].values():
+            nbgrader(course, "zip_collect", homework, where=WHERE.get(homework, "course"))
     with ThreadPoolExecutor(max_workers=2) as pool:  # separate processes, folders and gradebooks
         futures = {hw: pool.submit(autograde_and_export, course, hw) for hw, course in courses.items()}
         exported = {hw: future.result() for hw, future in futures.items()}
@@ -168,3 +216,19 @@ def test_feedback_pages_show_the_graders_messages(cycle, homework):
     if homework == "hw1":
         assert "FAIL four_bar.gamma.revolute" in pages["ben"] and "Likely cause: a sign error" in pages["ben"]
         assert "not implemented yet" in pages["sam"]
+
+
+def test_the_check_before_autograde_names_and_repairs_the_damaged_notebooks(cycle):
+    """dan's and fay's notebooks were damaged as students damage them; the check that autograde runs first
+    named each damage, repaired it, and nbgrader's totals equal mbd grade's (test_exported_grades_...)."""
+    courses, exported, books = cycle
+    course, book = courses["hw1"], books["hw1"]
+    log = (course / "build" / "autograde.log").read_text()
+    assert "dan: cell test_hw1_revolute is in the notebook twice" in log and "fails the whole submission" in log
+    assert re.search(r"dan: graded test cell test_hw1_prismatic deleted \(6 points\).*repaired: restored", log)
+    assert "dan: the notebook is 'hw1 (1).ipynb', not 'hw1.ipynb'" in log
+    assert "fay: the notebook is 'hw1-copy.ipynb', not 'hw1.ipynb' (zip_collect dropped it" in log
+    assert "repaired: hw1-copy.ipynb collected as hw1.ipynb" in log
+    assert book.score("dan") == book.max_score and book.score("fay") == 0.0
+    assert float(exported["hw1"]["dan"]["raw_score"]) == pytest.approx(book.max_score)
+    assert (course / "build" / "autograded" / "fay" / "hw1" / "hw1.ipynb").is_file()
