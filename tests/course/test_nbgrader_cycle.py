@@ -45,8 +45,9 @@ STUDENTS = {
     "hw3": {"ada": None},
 }
 """Per homework, the demo students submitted: the reference (None), a mutant of course/demo.py, the skeleton,
-the skeleton with the kit's checker changed to award a point in every graded cell; the reference with its
-notebook saved as 'hw1 (1).ipynb', a graded test cell pasted twice and another deleted (``damaged_notebook``);
+the skeleton with the kit's checker changed to award a point in every graded cell; the skeleton with the joints
+written (their checks pass, the rest fail at once), its notebook saved as 'hw1 (1).ipynb', a graded test cell
+pasted twice and another deleted (``damaged_notebook``);
 the skeleton in a zip whose notebook is 'hw1-copy.ipynb', which ``nbgrader zip_collect`` drops
 (``zipped_copy``). The check before autograde (course/nbcheck.py) repairs the last two."""
 
@@ -65,9 +66,11 @@ def submit(course: Path, homework: str, student: str, kind: str | None) -> Path:
     if kind == "zipped_copy":
         return zipped_copy(course, homework, student)
     shutil.copytree(released, folder, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
-    if kind == "damaged_notebook":
+    if kind == "damaged_notebook":  # the joints done (cheap function checks), the rest still stubs
         damage_notebook(folder, homework)
-        kind = None
+        for name in ("bodies.py", "joints.py"):
+            shutil.copy2(course / "solutions" / "planar" / name, folder / "modules" / "planar" / name)
+        kind = "skeleton"
     if kind == "forged_checker":
         with open(folder / "mbdkit" / "api.py", "a") as f:
             f.write(FORGED)
@@ -229,6 +232,6 @@ def test_the_check_before_autograde_names_and_repairs_the_damaged_notebooks(cycl
     assert "dan: the notebook is 'hw1 (1).ipynb', not 'hw1.ipynb'" in log
     assert "fay: the notebook is 'hw1-copy.ipynb', not 'hw1.ipynb' (zip_collect dropped it" in log
     assert "repaired: hw1-copy.ipynb collected as hw1.ipynb" in log
-    assert book.score("dan") == book.max_score and book.score("fay") == 0.0
-    assert float(exported["hw1"]["dan"]["raw_score"]) == pytest.approx(book.max_score)
+    assert book.score("dan") >= 6.0 and book.score("fay") == 0.0  # the joints' points, the prismatic's among them
+    assert float(exported["hw1"]["dan"]["raw_score"]) == pytest.approx(book.score("dan"))
     assert (course / "build" / "autograded" / "fay" / "hw1" / "hw1.ipynb").is_file()
