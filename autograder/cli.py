@@ -1,8 +1,8 @@
 """What ``mbd grade`` calls (``solutions/cli.py`` wires it; ``mbd selfcheck`` is ``mbdkit.cli``).
 
     mbd grade hwN SUBMISSIONS [--out DIR] [--jobs N] [--cluster local|tcp://HOST:PORT] [--unsafe-no-isolation]
-              [--publish-hidden]
-        ->  grade_command(homework, submissions, out, jobs, unsafe_no_isolation, cluster, publish_hidden)
+              [--publish-hidden] [--roster CSV]
+        ->  grade_command(homework, submissions, out, jobs, unsafe_no_isolation, cluster, publish_hidden, roster)
 
 ``--jobs`` N > 1 (the default: the number of cores, at most 8) grades on a Dask LocalCluster of N worker
 processes (``--cluster local`` implied); ``--jobs 1`` grades one by one in this process.
@@ -15,6 +15,12 @@ namespaces), printed as one line
 operating system's isolation (the forkserver sandbox, whose audit hook is no wall), and says so.
 The feedback pages hold the hidden checks' results back until ``--publish-hidden`` (run again once grades
 are published: unchanged submissions are not graded again, every page is rewritten with them).
+
+130: stopped by Ctrl-C, said in one line ``mbd: interrupted; N of M submissions graded, run the same command
+again to resume``; the results written so far stay and the next run resumes from them.
+
+The summary's statistics (median, range) are over the graded submissions only; students who handed
+nothing in are counted apart (``3 missing: ada, bob, eve``) and are "missing" in the gradebook.
 """
 
 from __future__ import annotations
@@ -27,8 +33,11 @@ from mbdkit.homework import available_homeworks
 from mbdkit.isolation import IsolationUnavailable
 
 from .cluster import ClusterError
-from .grading import ISOLATION_NOTE, grade
+from .grading import ISOLATION_NOTE, Gradebook, GradingInterrupted, grade, read_roster
 from .secret import SecretMissing
+
+INTERRUPTED = 130
+"""The exit code after Ctrl-C (128 + SIGINT), as a shell gives."""
 
 
 def grade_command(
@@ -39,6 +48,7 @@ def grade_command(
     unsafe_no_isolation: bool = False,
     cluster: str | None = None,
     publish_hidden: bool = False,
+    roster: str | Path | None = None,
 ) -> int:
     """Grade every submission; print where the gradebook is and the score distribution."""
     if homework not in available_homeworks():
@@ -58,22 +68,29 @@ def grade_command(
         cluster = "local"  # more than one job: a LocalCluster of `jobs` worker processes (issue 17)
     isolation = "local" if unsafe_no_isolation else "os"
     try:
+        students = read_roster(roster) if roster is not None else []
+    except (OSError, ValueError, UnicodeDecodeError) as err:
+        return error(f"--roster {roster}: {getattr(err, 'strerror', None) or err} (give a CSV with a column 'student')")
+    try:
         book = grade(
-            homework, submissions, out, jobs=jobs, isolation=isolation, cluster=cluster, publish_hidden=publish_hidden
+            homework,
+            submissions,
+            out,
+            jobs=jobs,
+            isolation=isolation,
+            cluster=cluster,
+            publish_hidden=publish_hidden,
+            roster=students,
         )
+    except GradingInterrupted as err:
+        return interrupted(str(err))
     except FileNotFoundError as err:
         return error(str(err))
     except (ClusterError, SecretMissing) as err:
         return error(str(err))
     except IsolationUnavailable as err:
         return error(f"cannot isolate student code: {err}; give --unsafe-no-isolation to grade without it (unsafe)")
-    scores = sorted(book.score(s) for s in book.rows)
-    if scores:
-        median = scores[len(scores) // 2]
-        print(
-            f"{homework}: graded {len(scores)} submissions, median {median:g} / {book.max_score:g}, "
-            f"range {scores[0]:g} .. {scores[-1]:g}"
-        )
+    print(summary(book))
     print(f"gradebook: {book.csv_path}\nresults:   {out / 'results'}\nfeedback:  {out / 'feedback'}")
     failed = book.internal_errors
     if failed:
@@ -88,3 +105,25 @@ def grade_command(
     if book.isolation != "os":
         print(f"warning: graded {ISOLATION_NOTE[book.isolation]}")
     return 0
+
+
+def summary(book: Gradebook) -> str:
+    """One line: how many were graded, their median and range (missing students left out), who is missing."""
+    scores = sorted(book.score(s) for s in book.graded)
+    text = f"{book.homework}: graded {len(scores)} submissions"
+    if scores:
+        median = scores[len(scores) // 2]
+        text += f", median {median:g} / {book.max_score:g}, range {scores[0]:g} .. {scores[-1]:g}"
+    missing = book.missing
+    if missing:
+        names = ", ".join(missing[:10]) + (f" and {len(missing) - 10} more" if len(missing) > 10 else "")
+        text += f"; {len(missing)} missing (handed nothing in, not counted): {names}"
+    return text
+
+
+def interrupted(text: str) -> int:
+    """Ctrl-C: one line on stderr, exit code 130."""
+    import sys
+
+    print(f"mbd: {text}", file=sys.stderr)
+    return INTERRUPTED

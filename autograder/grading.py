@@ -20,6 +20,13 @@ Written to ``out_dir`` as each student finishes, so an interrupted run resumes w
 Nothing of a submission is trusted: ``modules`` must be a folder of regular files (``mbdkit.staging``:
 links, hard links, FIFOs and devices are left out and named), names may be any bytes (shown readably),
 and what the student's code sends back is validated (``mbdkit.wire``).
+
+A student on the roster (a folder of theirs, nbgrader's gradebook, or ``roster=``) who handed nothing in
+for the homework (no ``modules/`` and no notebook) is *missing*: an empty score and ``status`` "missing" in
+the gradebook, no result, no feedback page, and left out of the statistics (``Gradebook.graded``).
+
+Ctrl-C (``KeyboardInterrupt``) stops a run as ``GradingInterrupted``: the results written so far stay, and
+the same command resumes from them.
 """
 
 from __future__ import annotations
@@ -28,6 +35,7 @@ import csv
 import hashlib
 import json
 import os
+import signal
 import sys
 import time
 import traceback
@@ -86,10 +94,11 @@ def isolation_mode(isolation: str | None = None) -> str:
 
 @dataclass
 class Submission:
-    """One student's folder (it should hold ``modules/``)."""
+    """One student's folder (it should hold ``modules/``); ``missing`` when nothing was handed in."""
 
     student: str
     path: Path
+    missing: bool = False
 
     @property
     def package(self) -> Path:
@@ -112,8 +121,23 @@ class Gradebook:
     def max_score(self) -> float:
         return sum(self.max_points.values())
 
-    def score(self, student: str) -> float:
+    def score(self, student: str) -> float | None:
+        """The student's total, or None when they handed nothing in (missing)."""
         return self.rows[student]["score"]
+
+    def status(self, student: str) -> str:
+        """``graded`` or ``missing``."""
+        return self.rows[student].get("status", GRADED)
+
+    @property
+    def graded(self) -> list[str]:
+        """The students whose submission was graded: the statistics are over these only."""
+        return sorted(s for s in self.rows if self.status(s) == GRADED)
+
+    @property
+    def missing(self) -> list[str]:
+        """The students on the roster who handed nothing in."""
+        return sorted(s for s in self.rows if self.status(s) == MISSING)
 
     def points(self, student: str) -> dict[str, float]:
         return self.rows[student]["checks"]
@@ -128,41 +152,107 @@ class Gradebook:
         return None if self.out_dir is None else self.out_dir / "gradebook.csv"
 
     def write_csv(self) -> None:
-        """The gradebook: student, score, max_score, percent, then one column per check."""
+        """The gradebook: student, score, max_score, percent, status, then one column per check; a missing
+        student's score, percent and points are empty (not 0: an LMS must not average them in)."""
         if self.out_dir is None:
             return
         path = self.csv_path
         tmp = path.with_suffix(".csv.tmp")
         with open(tmp, "w", newline="") as f:
             writer = csv.writer(f)
-            writer.writerow(["student", "score", "max_score", "percent", *self.checks])
+            writer.writerow(["student", "score", "max_score", "percent", "status", *self.checks])
             for student in sorted(self.rows):
                 row = self.rows[student]
+                if self.status(student) == MISSING:
+                    writer.writerow([student, "", f"{self.max_score:g}", "", MISSING, *["" for _ in self.checks]])
+                    continue
                 percent = 100.0 * row["score"] / self.max_score if self.max_score else 0.0
                 points = [row["checks"].get(name, 0.0) for name in self.checks]
-                writer.writerow(
-                    [student, f"{row['score']:g}", f"{self.max_score:g}", f"{percent:.1f}", *[f"{p:g}" for p in points]]
-                )
+                score, top = f"{row['score']:g}", f"{self.max_score:g}"
+                writer.writerow([student, score, top, f"{percent:.1f}", GRADED, *[f"{p:g}" for p in points]])
         os.replace(tmp, path)
 
 
 # -- finding submissions ---------------------------------------------------------------------------------
-def find_submissions(submissions_dir: Path, homework: str) -> list[Submission]:
+GRADED, MISSING = "graded", "missing"
+
+
+def handed_in(folder: Path) -> bool:
+    """Whether a student's submission folder holds anything to grade: the package or a notebook (nbgrader's
+    ``submitted/{student}/`` without ``{homework}/`` holds neither)."""
+    if not folder.is_dir():
+        return False
+    return (folder / PACKAGE).exists() or any(folder.glob("*.ipynb"))
+
+
+def find_submissions(submissions_dir: Path, homework: str, roster: list[str] = ()) -> list[Submission]:
     """The submissions in a folder: nbgrader's ``submitted/{student}/{homework}/``, a plain folder of
-    student folders (each holding ``modules/`` or ``{homework}/modules/``), or one submission."""
-    root = Path(submissions_dir)
+    student folders (each holding ``modules/`` or ``{homework}/modules/``), or one submission.
+
+    Every student of the ``roster`` and of nbgrader's gradebook (``gradebook.db`` of the course root) and
+    every student folder is listed; one who handed nothing in for ``homework`` is ``missing``. In nbgrader's
+    layout a student folder without ``{homework}/`` is missing; in a plain folder, one without ``modules/``
+    and without a notebook."""
+    given = Path(submissions_dir)
+    root = given
     if not root.is_dir():
         raise FileNotFoundError(f"no folder {root}")
     if (root / "submitted").is_dir():
         root = root / "submitted"
     if (root / PACKAGE).is_dir():
         return [Submission(staging.readable(root.resolve().name), root.resolve())]
-    found = []
+    found = {}
     for folder in sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith((".", "_"))):
         nested = folder / homework
+        path = (nested if nested.is_dir() else folder).resolve()
         student = staging.readable(folder.name)  # a name of any bytes, as text (results, gradebook, seeds)
-        found.append(Submission(student, (nested if nested.is_dir() else folder).resolve()))
-    return found
+        found[student] = Submission(student, path, missing=not handed_in(path))
+    for student in [*roster, *gradebook_students(given)]:
+        if student not in found:
+            found[student] = Submission(student, (root / student / homework).resolve(), missing=True)
+    return [found[s] for s in sorted(found)]
+
+
+def gradebook_students(course: Path) -> list[str]:
+    """The students of nbgrader's gradebook (``gradebook.db`` in the course root, or in ``build/`` of this
+    course's layout), or none."""
+    import sqlite3
+
+    course = course.parent if course.name == "submitted" else course
+    for path in (course / "gradebook.db", course.parent / "gradebook.db"):
+        if path.is_file():
+            try:
+                with sqlite3.connect(f"file:{path}?mode=ro", uri=True) as db:
+                    return sorted(str(row[0]) for row in db.execute("SELECT id FROM student"))
+            except sqlite3.Error:
+                return []
+    return []
+
+
+def read_roster(path: str | Path) -> list[str]:
+    """The student ids of a roster CSV: the column ``student``, ``student_id``, ``id`` or ``username`` (the
+    first of these), or else the first column; raises ``ValueError`` when there is none."""
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    if not rows:
+        raise ValueError(f"{path}: the roster is empty")
+    header = [h.strip().lower() for h in rows[0]]
+    for name in ("student", "student_id", "id", "username"):
+        if name in header:
+            column = header.index(name)
+            return [r[column].strip() for r in rows[1:] if len(r) > column and r[column].strip()]
+    return [r[0].strip() for r in rows if r and r[0].strip()]
+
+
+def missing_row(student: str) -> dict:
+    """The gradebook row of a student who handed nothing in."""
+    return {"student": student, "score": None, "checks": {}, "resumed": False, "seconds": 0.0, "status": MISSING}
+
+
+def _forget(out_dir: Path, student: str) -> None:
+    """A missing student has no result and no feedback page (one from an earlier run is removed)."""
+    for path in (out_dir / "results" / f"{student}.json", out_dir / "feedback" / f"{student}.html"):
+        path.unlink(missing_ok=True)
 
 
 # -- fingerprints and protected paths ----------------------------------------------------------------------
@@ -386,6 +476,7 @@ def _summary(result: dict, resumed: bool) -> dict:
         "resumed": resumed,
         "seconds": result["extra_data"].get("seconds", 0.0),
         "internal_error": bool(result["extra_data"].get("internal_error")),
+        "status": GRADED,
     }
 
 
@@ -496,9 +587,15 @@ def _resumable(path: Path, fingerprint: str) -> dict | None:
     return result
 
 
-def _worker_init(parent: int | None = None) -> None:
+def _no_interrupt(number: int, frame) -> None:
+    """SIGINT in a grading worker: nothing (the grader ends its workers itself)."""
+
+
+def _worker_init(parent: int | None = None, pool: bool = False) -> None:
     for key, value in SANDBOX_ENV.items():
         os.environ.setdefault(key, value)
+    if pool:  # a process-pool worker: Ctrl-C is the grader's to handle (it ends the workers), no traceback here;
+        signal.signal(signal.SIGINT, _no_interrupt)  # a handler, not SIG_IGN: the sandbox's exec resets it
     if parent is not None:  # a grading worker: SIGKILL when the grader dies (its sandboxes die with it)
         osi.set_parent_death_signal()
         if os.getppid() != parent:
@@ -554,6 +651,7 @@ def grade(
     isolation: str | None = None,
     cluster: str | None = None,
     publish_hidden: bool = False,
+    roster: list[str] | tuple[str, ...] = (),
 ) -> Gradebook:
     """Grade every submission in ``submissions_dir`` for ``homework``; write results to ``out_dir``.
 
@@ -576,6 +674,8 @@ def grade(
         scheduler address 'tcp://HOST:PORT'; None (default) grades here, in a local process pool
     publish_hidden : show the hidden checks' results on every feedback page (``publish_feedback``: also the
         pages of students whose result is reused); by default a page holds them back and says so
+    roster : student ids expected to hand in (``read_roster``): one without a submission is *missing*, as is
+        a student of nbgrader's gradebook or a student folder without this homework
 
     Returns
     -------
@@ -587,6 +687,8 @@ def grade(
     SecretMissing
         No course secret is configured (``autograder.secret``; ``mbd secret --init`` makes one): the hidden and
         per-student scenes are made from it. Raised before any output folder is made.
+    GradingInterrupted
+        On Ctrl-C: what was graded is written; the same call resumes from it.
     """
     homework = homework if isinstance(homework, Homework) else load_homework(homework)
     limits = limits or Limits()
@@ -594,7 +696,7 @@ def grade(
     if isolation == "os":
         osi.require()  # before any output folder is made
     out_dir = Path(out_dir).resolve()
-    submissions = find_submissions(Path(submissions_dir), homework.name)
+    submissions = find_submissions(Path(submissions_dir), homework.name, list(roster))
     prepare_references(homework, progress)  # fails early (no secret, a stored reference missing); hidden ones computed
     out_dir.mkdir(parents=True, exist_ok=True)  # only once the grading can start
     forbidden = (out_dir, Path(submissions_dir).resolve())
@@ -605,7 +707,48 @@ def grade(
         out_dir=out_dir,
         isolation=isolation,
     )
+    for submission in submissions:
+        if submission.missing:  # nothing handed in: no result, no page, not a 0
+            book.rows[submission.student] = missing_row(submission.student)
+            _forget(out_dir, submission.student)
+    submissions = [s for s in submissions if not s.missing]
     bar = Progress(len(submissions), enabled=progress and cluster is None)
+    try:
+        settings = (limits, forbidden, isolation, jobs, cluster, resume, bar, progress)
+        book = _grade_all(homework, submissions, book, out_dir, *settings)
+    except KeyboardInterrupt:
+        if bar.enabled and bar.done < bar.total:
+            bar.stream.write("\n")
+        book.write_csv()
+        raise GradingInterrupted(len(book.graded), len(submissions)) from None
+    if publish_hidden:
+        publish_feedback(out_dir, [s.student for s in submissions])
+    return book
+
+
+class GradingInterrupted(Exception):
+    """Ctrl-C: ``done`` of ``total`` submissions are graded (their results written); the same call resumes."""
+
+    def __init__(self, done: int, total: int):
+        super().__init__(f"interrupted; {done} of {total} submissions graded, run the same command again to resume")
+        self.done, self.total = done, total
+
+
+def _grade_all(
+    homework: Homework,
+    submissions: list[Submission],
+    book: Gradebook,
+    out_dir: Path,
+    limits: Limits,
+    forbidden: tuple,
+    isolation: str,
+    jobs: int,
+    cluster: str | None,
+    resume: bool,
+    bar: Progress,
+    progress: bool,
+) -> Gradebook:
+    """Grade the handed-in ``submissions`` into ``book`` (resumed ones first), as ``grade`` says."""
     todo = []
     for submission in submissions:
         result = None
@@ -634,8 +777,6 @@ def grade(
             bar.update()
     else:
         _grade_in_pool(homework, todo, book, out_dir, limits, forbidden, isolation, jobs, bar)
-    if publish_hidden:
-        publish_feedback(out_dir, [s.student for s in submissions])
     return book
 
 
@@ -643,9 +784,9 @@ def _grade_in_pool(homework, todo, book, out_dir, limits, forbidden, isolation, 
     """Grade ``todo`` in a pool of ``jobs`` worker processes, writing the gradebook as each finishes."""
     _worker_init()  # one BLAS thread in the workers and their sandboxes: set before they start
     pool = ProcessPoolExecutor(
-        max_workers=jobs, mp_context=get_context("spawn"), initializer=_worker_init, initargs=(os.getpid(),)
+        max_workers=jobs, mp_context=get_context("spawn"), initializer=_worker_init, initargs=(os.getpid(), True)
     )
-    with pool:
+    try:
         with without_main():
             futures = {pool.submit(_grade_task, homework, s, out_dir, limits, forbidden, isolation): s for s in todo}
         for future in as_completed(futures):
@@ -659,6 +800,10 @@ def _grade_in_pool(homework, todo, book, out_dir, limits, forbidden, isolation, 
             book.rows[row["student"]] = row
             book.write_csv()
             bar.update()
+    except KeyboardInterrupt:
+        _stop_pool(pool)
+        raise
+    pool.shutdown()
     return book
 
 
@@ -690,3 +835,14 @@ def publish_feedback(out_dir: str | Path, students: list[str] | None = None) -> 
             _write_atomic(page_path, published)
             written.append(student)
     return written
+
+
+def _stop_pool(pool: ProcessPoolExecutor) -> None:
+    """Ctrl-C: end the pool's workers now (their sandboxes die with them); a result a worker had not
+    written yet is graded again on the next run."""
+    workers = list((pool._processes or {}).values())  # noqa: SLF001 - the executor gives no other handle
+    pool.shutdown(wait=False, cancel_futures=True)
+    for worker in workers:
+        worker.kill()
+    for worker in workers:
+        worker.join(5)

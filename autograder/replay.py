@@ -136,11 +136,14 @@ def _degrees(f):
     return lambda phi, *a, **k: f(np.deg2rad(phi), *a, **k)
 
 
-def _baumgarte(sign: float, damping: float = 2.0, square: bool = True):
+def _baumgarte(sign: float, damping: float = 2.0, square: bool = True, stiffness_sign: float | None = None):
+    """gamma_bar = gamma + sign damping alpha Psi' + stiffness_sign beta^2 Psi (the reference: sign -1, both)."""
+    stiffness_sign = sign if stiffness_sign is None else stiffness_sign
+
     def make(original):
         def gamma_bar(gamma, psi, psi_dot, alpha, beta):
             stiffness = beta**2 if square else beta
-            return gamma + sign * (damping * alpha * psi_dot + stiffness * psi)
+            return gamma + sign * damping * alpha * psi_dot + stiffness_sign * stiffness * psi
 
         return gamma_bar
 
@@ -167,6 +170,18 @@ BAUMGARTE_MISTAKES = [
         _no_baumgarte,
     ),
     Hypothesis(
+        "one Baumgarte term with the wrong sign: + 2 alpha Psi' in your gamma_bar, where "
+        "gamma_bar = gamma - 2 alpha Psi' - beta^2 Psi (eq. 5.29)",
+        "formulations.baumgarte_gamma",
+        _baumgarte(+1.0, stiffness_sign=-1.0),
+    ),
+    Hypothesis(
+        "one Baumgarte term with the wrong sign: + beta^2 Psi in your gamma_bar, where "
+        "gamma_bar = gamma - 2 alpha Psi' - beta^2 Psi (eq. 5.29)",
+        "formulations.baumgarte_gamma",
+        _baumgarte(-1.0, stiffness_sign=+1.0),
+    ),
+    Hypothesis(
         "beta not squared in Baumgarte's term: gamma_bar = gamma - 2 alpha Psi' - beta^2 Psi (eq. 5.29)",
         "formulations.baumgarte_gamma",
         _baumgarte(-1.0, square=False),
@@ -187,6 +202,41 @@ ROTATION_MISTAKES = [
 ]
 QUADRATIC_MISTAKE = Hypothesis(
     "a missing quadratic-velocity term: the A s' phi'^2 terms of gamma (eq. 3.17)", QUADRATIC, _zero
+)
+
+
+def _phi_not_squared(original):
+    rotation = REPLAY[ROTATION.rsplit(".", 1)[0]].rotation
+
+    def point_vector_quadratic(qi, si, qj, sj, qdi, qdj):
+        return rotation(qi[2]) @ si * qdi[2] - rotation(qj[2]) @ sj * qdj[2]
+
+    return point_vector_quadratic
+
+
+def _velocity_b_transposed(original):
+    derivative = REPLAY[ROTATION.rsplit(".", 1)[0]].rotation_derivative
+
+    def point_vector_dot(qi, si, qj, sj, qdi, qdj):
+        vj = qdj[:2] + derivative(qj[2]).T @ sj * qdj[2]
+        vi = qdi[:2] + derivative(qi[2]).T @ si * qdi[2]
+        return vj - vi
+
+    return point_vector_dot
+
+
+QUADRATIC_MISTAKES = [
+    QUADRATIC_MISTAKE,
+    Hypothesis(
+        "phi' where phi'^2 belongs: the quadratic-velocity terms of your gamma are A s' phi'^2 (eq. 3.17)",
+        QUADRATIC,
+        _phi_not_squared,
+    ),
+]
+VELOCITY_MISTAKE = Hypothesis(
+    "B(phi)^T in d_ij' (point_vector_dot): d_ij' = r_j' + B_j s_j' phi_j' - r_i' - B_i s_i' phi_i' (eq. 2.5)",
+    "planar.bodies.point_vector_dot",
+    _velocity_b_transposed,
 )
 
 
@@ -255,7 +305,7 @@ def hypotheses(probe: str, job: Job) -> list[Hypothesis]:
     """The known mistakes worth replaying for a failed check of ``probe``."""
     planar = job.model.get("model", {}).get("dimension", 2) == 2
     rotation = ROTATION_MISTAKES if planar else SPATIAL_ROTATION_MISTAKES
-    quadratic = [QUADRATIC_MISTAKE] if planar else SPATIAL_QUADRATIC_MISTAKES
+    quadratic = [*QUADRATIC_MISTAKES, VELOCITY_MISTAKE] if planar else SPATIAL_QUADRATIC_MISTAKES
 
     def gamma_signs():
         return _per_element(job, "gamma", "gamma with the wrong sign in {name}.gamma", _negated)
@@ -270,8 +320,8 @@ def hypotheses(probe: str, job: Job) -> list[Hypothesis]:
         "rotation_matrices": lambda: SPATIAL_ROTATION_MISTAKES,
         "spatial_mass_matrix": lambda: SPATIAL_ROTATION_MISTAKES,
         "quadratic_velocity": lambda: SPATIAL_ROTATION_MISTAKES,
-        "generalized_forces": lambda: [] if planar else SPATIAL_MASS_MISTAKES,
-        "velocity": psi_t_signs,
+        "generalized_forces": lambda: [VELOCITY_MISTAKE] if planar else SPATIAL_MASS_MISTAKES,
+        "velocity": lambda: rotation[:1] + psi_t_signs() if planar else psi_t_signs(),
         "acceleration": lambda: quadratic + gamma_signs(),
         "kinematic_run": lambda: quadratic + gamma_signs() + psi_t_signs(),
         "baumgarte_gamma": lambda: BAUMGARTE_MISTAKES,

@@ -172,6 +172,25 @@ c.FileNameCollectorPlugin.named_regexp = (
     r"(?P<file_id>[^/\\._][^/\\]*\.ipynb|modules[/\\].+)$"
 )
 
+
+# -- before autograde: every collected notebook checked against the release, safe repairs made, and what nbgrader
+# -- will do with the rest printed (course/nbcheck.py; `mbd nbcheck hwN [--repair]` by hand, e.g. for formgrader)
+def _check_notebooks_first(argv):
+    words = [a for a in argv[1:] if not a.startswith("-")]
+    if words[:1] == ["autograde"] and words[1:2] and words[1] in HOMEWORKS and not os.environ.get("MBD_NBCHECKED"):
+        os.environ["MBD_NBCHECKED"] = "1"  # once per command, however often nbgrader reads this file
+        if ROOT not in sys.path:
+            sys.path.insert(0, ROOT)
+        try:
+            from course.nbcheck import check_class
+
+            print(check_class(words[1], ROOT, repair=True).text(), file=sys.stderr)
+        except Exception as err:  # noqa: BLE001 -- a check that cannot run must not stop nbgrader: say so
+            print(f"warning: the notebooks were not checked before autograde ({err}); run mbd nbcheck", file=sys.stderr)
+
+
+_check_notebooks_first(sys.argv)
+
 # Exchange (optional): uncomment both to let `mbd release hwN` also run nbgrader's release step.
 # c.CourseDirectory.course_id = "mbd"
 # c.Exchange.root = "/srv/nbgrader/exchange"

@@ -24,6 +24,9 @@ Mistakes = Callable[[str], list[tuple[str, np.ndarray]]]
 Measure = Callable[[dict], dict | str]
 """A run's outputs -> its invariants (drift, velocity_drift, energy), or why they cannot be measured."""
 
+LAMBDA_SIGN_NOTE = "sign: M q'' + Psi_q^T lambda = Q"
+"""Where lambda is checked, its sign convention (``diagnosis.LAMBDA_CONVENTION``): fixed by the course."""
+
 DEFAULT_RTOL = 1e-6
 DEFAULT_ATOL = 1e-8
 """Function and kinematic checks: |got - expected| <= rtol |expected| + atol * scale of the quantity."""
@@ -43,9 +46,9 @@ QUANTITIES = {
     "generalized_forces.Q": "the generalized forces Q",
     "baumgarte_gamma.gamma_bar": "Baumgarte's gamma_bar",
     "augmented_accelerations.qdd": "q'' of augmented_accelerations",
-    "augmented_accelerations.lam": "lambda of augmented_accelerations",
+    "augmented_accelerations.lam": f"lambda of augmented_accelerations ({LAMBDA_SIGN_NOTE})",
     "accelerations.qdd": "the accelerations q'' of the formulation",
-    "accelerations.lam": "the multipliers lambda of the formulation",
+    "accelerations.lam": f"the multipliers lambda of the formulation ({LAMBDA_SIGN_NOTE})",
     "rk4.y": "the result of rk4_step on y'' + y = sin 2t",
     "rotation_matrices.A": "the rotation matrix A(p)",
     "rotation_matrices.G": "G(p)",
@@ -53,7 +56,7 @@ QUANTITIES = {
     "spatial_mass_matrix.M": "the spatial mass matrix M(q)",
     "quadratic_velocity.Qv": "the quadratic-velocity force Q_v",
     "reactions.reactions": "the joint reactions",
-    "inverse_dynamics.lam": "the multipliers lambda of inverse dynamics (multipliers)",
+    "inverse_dynamics.lam": f"the multipliers lambda of inverse dynamics ({LAMBDA_SIGN_NOTE})",
     "dynamic_run.q": "the positions of forward_dynamics",
     "dynamic_run.qd": "the velocities of forward_dynamics",
     "dynamic_run.drift": "the constraint drift max |Psi| of forward_dynamics",
@@ -83,6 +86,9 @@ class Outcome:
     message: str
     visibility: str
     plot: dict | None = field(default=None, repr=False)
+    causes: list[list[str]] = field(default_factory=list, repr=False)
+    """Per likely cause in ``message``: every cause that explains those numbers, the named one first
+    (``diagnosis.reconcile`` keeps one that agrees with the student's other checks)."""
 
     def to_test(self) -> dict:
         """The check as a Gradescope test result."""
@@ -136,7 +142,7 @@ def failure_of_reply(reply: Reply, limits: Limits, hidden: bool) -> str | None:
             return f"your code printed more than the grader keeps ({_size(limits.file_size)}); remove prints in loops"
         if kind == "SystemExit":
             return f"your code called sys.exit(){at}: a function must return, not end the program"
-        return f"your code raised {kind}{said}{at}"
+        return f"your code raised {kind}{said}{at}" + diagnosis.not_the_model(kind)
     if reply.printed > limits.output:
         head = "" if hidden else f" (it starts: {reply.output_head[:80]!r})"
         return (
@@ -244,10 +250,12 @@ def compare(
     reference: Reference,
     hidden: bool,
     mistakes: Mistakes | None = None,
+    causes: list[list[str]] | None = None,
 ) -> tuple[bool, str, dict | None]:
     """Compare one output: (passed, message, plot data).
 
-    ``mistakes`` gives the known mistakes of this output (default: those stored with the reference)."""
+    ``mistakes`` gives the known mistakes of this output (default: those stored with the reference);
+    ``causes``, when given, gets every cause that explains a failure (the named one first)."""
     key = spec.probe_key
     expected_all = reference.outputs(key)
     expected = expected_all[output]
@@ -297,9 +305,11 @@ def compare(
     if count > 1:
         message += f"; {count} of {bad.size} values are off"
     known = mistakes(output) if mistakes is not None else reference.replays(key, output)
-    cause = diagnosis.likely_cause(spec.probe, output, e, g, bad, allowed, known, select)
-    if cause:
-        message += f". Likely cause: {cause}"
+    found = diagnosis.likely_causes(spec.probe, output, e, g, bad, allowed, known, select)
+    if found:
+        message += f". Likely cause: {found[0]}"
+        if causes is not None:
+            causes.append(found)
     plot = None
     if not hidden and axes and axes[0] == "time" and g.ndim == 2 and "t" in expected_all:
         column = int(full[1])
@@ -388,7 +398,7 @@ def evaluate(
 
     ``measure`` gives the invariants of a run, ``mistakes`` the known mistakes (default: stored)."""
     hidden = spec.kind == HIDDEN
-    messages, plot = [], None
+    messages, plot, causes = [], None, []
     failure = failure_of_reply(reply, limits, hidden)
     owners = None
     mask = _row_mask(spec, reference)
@@ -411,7 +421,7 @@ def evaluate(
                 if not ok:
                     messages.append(text)
                 continue
-            ok, text, data = compare(spec, output, reply.outputs.get(output), reference, hidden, mistakes)
+            ok, text, data = compare(spec, output, reply.outputs.get(output), reference, hidden, mistakes, causes)
             results[output] = ok
             if not ok:
                 messages.append(text)
@@ -433,7 +443,23 @@ def evaluate(
         message=text,
         visibility=spec.visibility,
         plot=plot,
+        causes=causes,
     )
+
+
+def reconcile_causes(checks: list[CheckSpec], outcomes: list[Outcome]) -> list[Outcome]:
+    """One student's outcomes with every likely cause checked against all their checks: a cause that blames
+    a function whose own checks pass is replaced by the next that fits, or taken out (``diagnosis.reconcile``)."""
+    specs = {c.name: c for c in checks}
+    tested = [
+        diagnosis.Tested(specs[o.name].probe, tuple(specs[o.name].rows or ()), o.passed)
+        for o in outcomes
+        if o.name in specs
+    ]
+    for outcome in outcomes:
+        if outcome.causes:
+            outcome.message = diagnosis.reconcile(outcome.message, outcome.causes, tested)
+    return outcomes
 
 
 def _run_hint(spec: CheckSpec, reply: Reply, reference: Reference, hidden: bool) -> str | None:

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from . import withheld
-from .checks import Measure, Mistakes, Outcome, evaluate
+from .checks import Measure, Mistakes, Outcome, evaluate, reconcile_causes
 from .homework import CheckSpec
 from .probes import Job, sent_inputs
 from .sandbox import Limits, Sandbox
@@ -123,7 +123,8 @@ def run_checks(
 
         host = IsolatedHost(folder, PACKAGE, limits.tmp_size, limits)
     try:
-        return _run_all(checks, folder, data, limits, forbidden, hide, isolation, budget, host)
+        outcomes = _run_all(checks, folder, data, limits, forbidden, hide, isolation, budget, host)
+        return reconcile_causes(checks, outcomes)  # a cause must agree with all the student's checks
     finally:
         if host is not None:
             host.close()

@@ -77,6 +77,31 @@ MUTANTS: dict[str, list[tuple[str, str, str]]] = {
             "return y + h / 6.0 * (k1 + 2.0 * k2 + k3 + 2.0 * k4)",
         )
     ],
+    # the known mistakes of the diagnosis (test_fair_diagnosis)
+    "phi_not_squared": [
+        (
+            "planar/bodies.py",
+            "return rotation(qi[2]) @ si * qdi[2] ** 2 - rotation(qj[2]) @ sj * qdj[2] ** 2",
+            "return rotation(qi[2]) @ si * qdi[2] - rotation(qj[2]) @ sj * qdj[2]",
+        )
+    ],
+    "velocity_b_transposed": [
+        (
+            "planar/bodies.py",
+            "    vj = qdj[:2] + rotation_derivative(qj[2]) @ sj * qdj[2]\n"
+            "    vi = qdi[:2] + rotation_derivative(qi[2]) @ si * qdi[2]",
+            "    vj = qdj[:2] + rotation_derivative(qj[2]).T @ sj * qdj[2]\n"
+            "    vi = qdi[:2] + rotation_derivative(qi[2]).T @ si * qdi[2]",
+        )
+    ],
+    "baumgarte_damping_sign": [
+        (
+            "formulations.py",
+            "return gamma - 2.0 * alpha * psi_dot - beta**2 * psi",
+            "return gamma + 2.0 * alpha * psi_dot - beta**2 * psi",
+        )
+    ],
+    "lambda_sign": [("formulations.py", "matrix[:n, n:] = jacobian.T", "matrix[:n, n:] = -jacobian.T")],
     # hw3
     "quadratic_velocity_missing": [
         (

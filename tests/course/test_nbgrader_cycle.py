@@ -42,6 +42,8 @@ STUDENTS = {
         "eve": "forged_checker",
         "mal": "forged_package",
         "rex": "hostile_notebook",
+        "dan": "damaged_notebook",
+        "fay": "zipped_copy",
     },
     "hw2": {"ada": None},
     "hw3": {"ada": None},
@@ -50,7 +52,11 @@ STUDENTS = {
 and the skeleton with an attack on the points: the kit's checker changed to award a point in every graded cell;
 ``modules/__init__.py`` made to replace whatever grades the cells by full points; a notebook whose own cell
 redefines ``check`` (a test cell with no output and no error has full credit in nbgrader) and whose other cell
-reads the course, the gradebook and the environment and writes into a classmate's submission."""
+reads the course, the gradebook and the environment and writes into a classmate's submission; the skeleton with
+the joints written (their checks pass, the rest fail at once), its notebook saved as 'hw1 (1).ipynb', a graded test cell
+pasted twice and another deleted (``damaged_notebook``);
+the skeleton in a zip whose notebook is 'hw1-copy.ipynb', which ``nbgrader zip_collect`` drops
+(``zipped_copy``). The check before autograde (course/nbcheck.py) repairs the last two."""
 
 SECRET = "cycle-test-secret"
 """The course secret in the environment of every grading process (nbgrader's and ``mbd grade``'s)."""
@@ -106,10 +112,18 @@ def hostile_notebook(folder: Path, course: Path) -> None:
 
 
 def submit(course: Path, homework: str, student: str, kind: str | None) -> Path:
-    """A submission as nbgrader collects it: the released folder, with the student's package."""
+    """A submission as nbgrader collects it: the released folder, with the student's package (``zipped_copy``:
+    a zip for ``nbgrader zip_collect`` in build/downloaded/hwN/archive/)."""
     released = course / "build" / "release" / homework
     folder = course / "build" / "submitted" / student / homework
+    if kind == "zipped_copy":
+        return zipped_copy(course, homework, student)
     shutil.copytree(released, folder, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+    if kind == "damaged_notebook":  # the joints done (cheap function checks), the rest still stubs
+        damage_notebook(folder, homework)
+        for name in ("bodies.py", "joints.py"):
+            shutil.copy2(course / "solutions" / "planar" / name, folder / "modules" / "planar" / name)
+        kind = "skeleton"
     if kind == "forged_checker":
         with open(folder / "mbdkit" / "api.py", "a") as f:
             f.write(FORGED)
@@ -124,6 +138,34 @@ def submit(course: Path, homework: str, student: str, kind: str | None) -> Path:
         relpath, anchor, correct, buggy, _ = MUTATIONS[kind]
         _mutate(folder / "modules", relpath, anchor, correct, buggy, student)
     return folder
+
+
+def damage_notebook(folder: Path, homework: str) -> None:
+    """The first graded test cell pasted a second time, the second deleted, the notebook saved as 'hwN (1)'."""
+    path = folder / f"{homework}.ipynb"
+    notebook = nbformat.read(path, as_version=4)
+    ids = [c.metadata.get("nbgrader", {}).get("grade_id", "") for c in notebook.cells]
+    tests = [i for i, gid in enumerate(ids) if gid.startswith("test_")]
+    pasted = nbformat.from_dict(notebook.cells[tests[0]])
+    pasted.id = "pasted"
+    del notebook.cells[tests[1]]
+    notebook.cells.insert(tests[0] + 2, pasted)
+    nbformat.write(notebook, folder / f"{homework} (1).ipynb")
+    path.unlink()
+
+
+def zipped_copy(course: Path, homework: str, student: str) -> Path:
+    """The released kit zipped by the student as kit/, its notebook renamed 'hwN-copy.ipynb'."""
+    import zipfile
+
+    released = course / "build" / "release" / homework
+    archive = course / "build" / "downloaded" / homework / "archive" / f"{student}.zip"
+    archive.parent.mkdir(parents=True, exist_ok=True)
+    with zipfile.ZipFile(archive, "w") as zipped:
+        zipped.write(released / f"{homework}.ipynb", f"kit/{homework}-copy.ipynb")
+        for path in sorted((released / "modules").rglob("*.py")):
+            zipped.write(path, f"kit/{path.relative_to(released).as_posix()}")
+    return archive
 
 
 WHERE = {"hw1": "."}
@@ -159,10 +201,12 @@ def outside_build(course: Path) -> dict[str, str]:
 
 def autograde_and_export(course: Path, homework: str) -> dict[str, dict]:
     """``nbgrader autograde``, ``generate_feedback`` and ``export`` (to its configured file, build/grades.csv)
-    for every submission of one homework; the course outside build/ stays as it was."""
+    for every submission of one homework; the course outside build/ stays as it was. What autograde's check of
+    the notebooks (course/nbcheck.py) printed is kept in build/autograde.log."""
     where = WHERE.get(homework, "course")
     before = outside_build(course)
-    nbgrader(course, "autograde", homework, "--force", where=where)
+    log = nbgrader(course, "autograde", homework, "--force", where=where)
+    (course / "build" / "autograde.log").write_text(log)
     nbgrader(course, "generate_feedback", homework, "--force", where=where)
     nbgrader(course, "export", where=where)
     assert outside_build(course) == before, f"{homework}: nbgrader wrote outside build/"
@@ -183,6 +227,8 @@ def cycle(tmp_path_factory):
         release(homework, course)  # nbgrader's generate step, the student package, the leak check
         for student, kind in STUDENTS[homework].items():
             submit(course, homework, student, kind)
+        if "zipped_copy" in STUDENTS[homework].values():
+            nbgrader(course, "zip_collect", homework, where=WHERE.get(homework, "course"))
     with ThreadPoolExecutor(max_workers=2) as pool:  # separate processes, folders and gradebooks
         futures = {hw: pool.submit(autograde_and_export, course, hw) for hw, course in courses.items()}
         exported = {hw: future.result() for hw, future in futures.items()}
@@ -256,3 +302,19 @@ def test_a_hostile_cell_sees_nothing_of_the_course(cycle):
         assert seen[attempt].startswith("refused"), (attempt, seen[attempt])
     assert "MBD_GRADER_SECRET" not in seen["environment"] and SECRET not in json.dumps(seen)
     assert SECRET not in (course / "build" / "feedback" / "rex" / "hw1" / "hw1.html").read_text()
+
+
+def test_the_check_before_autograde_names_and_repairs_the_damaged_notebooks(cycle):
+    """dan's and fay's notebooks were damaged as students damage them; the check that autograde runs first
+    named each damage, repaired it, and nbgrader's totals equal mbd grade's (test_exported_grades_...)."""
+    courses, exported, books = cycle
+    course, book = courses["hw1"], books["hw1"]
+    log = (course / "build" / "autograde.log").read_text()
+    assert "dan: cell test_hw1_revolute is in the notebook twice" in log and "fails the whole submission" in log
+    assert re.search(r"dan: graded test cell test_hw1_prismatic deleted \(6 points\).*repaired: restored", log)
+    assert "dan: the notebook is 'hw1 (1).ipynb', not 'hw1.ipynb'" in log
+    assert "fay: the notebook is 'hw1-copy.ipynb', not 'hw1.ipynb' (zip_collect dropped it" in log
+    assert "repaired: hw1-copy.ipynb collected as hw1.ipynb" in log
+    assert book.score("dan") >= 6.0 and book.score("fay") == 0.0  # the joints' points, the prismatic's among them
+    assert float(exported["hw1"]["dan"]["raw_score"]) == pytest.approx(book.score("dan"))
+    assert (course / "build" / "autograded" / "fay" / "hw1" / "hw1.ipynb").is_file()

@@ -192,3 +192,32 @@ def test_cli_jobs_2_runs_on_a_local_cluster_with_the_same_table(tmp_path, capsys
     assert main([*arguments, "--out", str(tmp_path / "two"), "--jobs", "2"]) == 0
     assert "on a local Dask cluster" in capsys.readouterr().out
     assert (tmp_path / "one" / "sweep.csv").read_bytes() == (tmp_path / "two" / "sweep.csv").read_bytes()
+
+
+def test_ctrl_c_stops_mbd_sweep_with_one_line_and_the_next_run_resumes(tmp_path):
+    """SIGINT to ``mbd sweep`` once its table is first written: one line, exit 130, and the same command
+    resumes from the runs it had."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "sweep"
+    command = [
+        sys.executable, "-m", "solutions.cli", "sweep", str(SLIDER_CRANK), "--set", "bodies[crank].mass=0.5:2:100",
+        "--t-end", "0.05", "--steps", "5", "--out", str(out),
+    ]  # fmt: skip
+    process = subprocess.Popen(command, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 300
+    while not (out / "sweep.csv").is_file() and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)  # polling for the table (written after the first second of runs), not a fixed wait
+    assert process.poll() is None, "the sweep ended before it could be interrupted"
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 130, err[-2000:]
+    assert "Traceback" not in err
+    lines = [line for line in err.splitlines() if line.startswith("mbd:")]
+    assert len(lines) == 1 and "runs done, run the same command again to resume" in lines[0]
+    before = len(_rows(out / "sweep.csv")) - 1
+    assert 0 < before < 100
+    again = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True)
+    assert again.returncode == 0, again.stderr[-2000:]
+    assert f"100 runs, 0 failed, {before} resumed" in again.stdout
