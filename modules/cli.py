@@ -369,7 +369,26 @@ def command_grade(args) -> int:
         jobs=args.jobs,
         unsafe_no_isolation=args.unsafe_no_isolation,
         cluster=args.cluster,
+        publish_hidden=args.publish_hidden,
+        roster=args.roster,
     )
+
+
+def command_secret(args) -> int:
+    try:
+        from autograder.secret import secret_command
+    except ImportError:
+        raise UsageError("mbd secret is the instructor's command: run it in the course repository") from None
+    return secret_command(init=args.init)
+
+
+def command_nbcheck(args) -> int:
+    """``mbd nbcheck hwN [--repair]``: what nbgrader will do with each collected notebook (course/nbcheck.py)."""
+    try:
+        from course.nbcheck import command
+    except ImportError:
+        raise UsageError("mbd nbcheck is the instructor's command: run it in the course repository") from None
+    return command(args.homework, args.repair)
 
 
 def command_sweep(args) -> int:
@@ -405,6 +424,11 @@ def command_sweep(args) -> int:
     for path in result.files:
         print(f"written: {path}")
     return 0
+
+
+INTERRUPTED = 130
+"""The exit code after Ctrl-C (128 + SIGINT), as a shell gives; what was done is kept and the same command
+resumes (``mbd grade``, ``mbd sweep``)."""
 
 
 def command_selfcheck(args) -> int:
@@ -588,7 +612,29 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="grade even where bubblewrap cannot isolate student code (unsafe: the results say so)",
     )
+    grade.add_argument(
+        "--publish-hidden",
+        action="store_true",
+        help="show the hidden checks' results on the feedback pages (held back until then; unchanged "
+        "submissions are not graded again, their pages are rewritten)",
+    )
+    grade.add_argument(
+        "--roster",
+        metavar="CSV",
+        help="the class list (a column 'student'): a student without a submission is 'missing' in the gradebook",
+    )
     grade.set_defaults(handler=command_grade)
+    secret = sub.add_parser("secret", help="where the course secret of hidden and per-student scenes is (instructor)")
+    secret.add_argument("--init", action="store_true", help="make one (a random string, mode 0600) unless it exists")
+    secret.set_defaults(handler=command_secret)
+    nbcheck = sub.add_parser(
+        "nbcheck", help="check the collected notebooks of hwN before nbgrader's autograde (instructor)"
+    )
+    nbcheck.add_argument("homework", help="hw1, hw2 or hw3")
+    nbcheck.add_argument(
+        "--repair", action="store_true", help="repair what is safe: a renamed notebook, a duplicated or lost test cell"
+    )
+    nbcheck.set_defaults(handler=command_nbcheck)
     sweep = sub.add_parser("sweep", help="run a model over a grid or sample of parameter values (a table and plots)")
     sweep.add_argument("model", help="model file (YAML or JSON)")
     sweep.add_argument(
@@ -649,6 +695,10 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:  # output piped into a command that stopped reading (e.g. `| head`)
         sys.stderr.close()
         return 0
+    except KeyboardInterrupt as err:  # Ctrl-C: one line (how far it got, when the command knows), no traceback
+        done = f"; {err.args[0]}" if err.args and isinstance(err.args[0], str) else ""
+        print(f"mbd: interrupted{done}", file=sys.stderr)
+        return INTERRUPTED
 
 
 if __name__ == "__main__":

@@ -742,6 +742,25 @@ def run_sweep(
             last_write = time.perf_counter()
 
     payload = (sweep.data, sweep.parameters, sweep.sets, sweep.outputs, sweep.settings)
+    try:
+        _run_sets(sweep, payload, todo, rows, done, jobs, cluster, progress, resumed)
+    except KeyboardInterrupt:
+        if out is not None and rows:
+            write_table(sweep, rows, out)  # every finished run, so that the same command resumes from it
+        raise KeyboardInterrupt(
+            f"{len(rows)} of {len(sweep.sets)} runs done, run the same command again to resume"
+        ) from None
+    files = []
+    if out is not None:
+        files.append(write_table(sweep, rows, out))
+        files.append(write_npz(sweep, rows, out))
+        if plots and rows:
+            files += plot_sweep(sweep, rows, out)
+    return SweepResult(sweep, rows, files, resumed, time.perf_counter() - start)
+
+
+def _run_sets(sweep, payload, todo, rows, done, jobs, cluster, progress, resumed) -> None:
+    """Run the sets ``todo``, here or on Dask, handing each finished row to ``done``."""
     with progress_bar(len(sweep.sets), "sweep", progress and len(todo) > 0, initial=resumed) as bar:
         if cluster is None and jobs <= 1:
             for index in todo:
@@ -760,13 +779,6 @@ def run_sweep(
                     if index not in rows:  # each run counted once, even if Dask ran it twice
                         done(index, row)
                     bar.update(1)
-    files = []
-    if out is not None:
-        files.append(write_table(sweep, rows, out))
-        files.append(write_npz(sweep, rows, out))
-        if plots and rows:
-            files += plot_sweep(sweep, rows, out)
-    return SweepResult(sweep, rows, files, resumed, time.perf_counter() - start)
 
 
 def _single_thread_blas() -> None:
