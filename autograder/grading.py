@@ -341,11 +341,13 @@ def stored_reference(scene: str) -> Reference:
     return _STORED[stamp]
 
 
-def computed_hidden_reference(scene: Scene, homework: str) -> Reference:
-    """A hidden scene's reference for ``homework``, computed (or taken from the cache) once per process."""
-    stamp = f"{homework}|{scene.name}|{scene.fingerprint()}"
+def computed_hidden_reference(scene: Scene, checks: list[CheckSpec]) -> Reference:
+    """A hidden scene's reference for the probes of ``checks`` on it, computed (or taken from the cache) once
+    per process."""
+    specs = probe_specs(checks).get(scene.name, {})
+    stamp = f"{scene.name}|{scene.fingerprint()}|{sorted(specs.items())!r}"
     if stamp not in _STORED:
-        _STORED[stamp] = hidden_reference(scene.name, homework)
+        _STORED[stamp] = hidden_reference(scene.name, checks)
     return _STORED[stamp]
 
 
@@ -363,7 +365,7 @@ def prepare_references(homework: Homework, progress: bool = False) -> None:
         elif kind == HIDDEN:
             if progress:
                 print(f"\rhidden references: {scene} ...", end="", file=sys.stderr, flush=True)
-            computed_hidden_reference(load_scene(scene), homework.name)
+            computed_hidden_reference(load_scene(scene), homework.checks)
     if progress and any(scene_kind(c.scene) == HIDDEN for c in homework.checks):
         took = time.perf_counter() - start
         print(f"\rhidden references: ready in {took:.1f} s (cached in {cache_dir()})", file=sys.stderr)
@@ -384,7 +386,7 @@ class GraderData(PublicData):
 
     def reference(self, scene: Scene, checks: list[CheckSpec]) -> Reference:
         if scene.kind == HIDDEN:
-            return computed_hidden_reference(scene, self.homework)
+            return computed_hidden_reference(scene, checks)
         if scene.kind != STUDENT:
             return stored_reference(scene.name)
         if scene.name not in self._references:

@@ -265,11 +265,13 @@ def computed_reference(scene: Scene, specs: dict, replays: bool, engine: str = S
     return reference
 
 
-def hidden_reference(scene_name: str, homework: str) -> Reference:
-    """The reference of a hidden scene for the probes of ``homework``'s checks, with its replayed mistakes."""
+def hidden_reference(scene_name: str, homework: str | list[CheckSpec]) -> Reference:
+    """The reference of a hidden scene for the probes of a homework's checks (its name, or the checks
+    themselves: a selection may mix homeworks), with its replayed mistakes."""
     scene = load_scene(scene_name)
     assert scene.kind == HIDDEN
-    specs = probe_specs(load_homework(homework).checks)[scene_name]
+    checks = load_homework(homework).checks if isinstance(homework, str) else homework
+    specs = probe_specs(checks)[scene_name]
     return computed_reference(scene, specs, replays=True)
 
 

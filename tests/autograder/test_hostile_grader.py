@@ -156,12 +156,16 @@ def graded(tmp_path_factory):
     for student in HONEST:
         shutil.copytree(folder / student, alone / student, symlinks=True)
     homework = Homework("hw1", "crash", load_homework("hw1").select(CHECKS).checks)
+    saved = {key: os.environ.get(key) for key in SECRET}
     os.environ.update(SECRET)
     try:
         book = grade(homework, alone, root / "alone-out", jobs=1, limits=LIMITS, progress=False)
-    finally:
-        for key in SECRET:
-            os.environ.pop(key)
+    finally:  # the session's own secret (tests/conftest.py) back, for the tests after this one
+        for key, value in saved.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
     api = [sys.executable, "-c", GRADE, str(folder), str(root / "api"), ",".join(CHECKS), str(LIMITS.timeout_scale)]
     cli = [sys.executable, "-m", "solutions.cli", "grade", "hw1", str(folder), "--out", str(root / "cli")]
     cli += ["--jobs", "2"]
