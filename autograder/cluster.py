@@ -45,9 +45,9 @@ def setup_worker() -> None:
 
 def grade_remote(
     homework: Homework, submission: Submission, limits: Limits, forbidden: tuple, isolation: str
-) -> tuple[str, dict, str, str]:
+) -> tuple[str, dict, str, str, float]:
     """On a worker: grade one submission; returns (student, result JSON, feedback HTML, log of an internal
-    error or ''), writing nothing (``grading.grade_one``: it never raises for the submission)."""
+    error or '', seconds), writing nothing (``grading.grade_one``: it never raises for the submission)."""
     return submission.student, *grade_one(homework, submission, limits, forbidden, isolation)
 
 
@@ -104,14 +104,15 @@ def grade_on_cluster(
                 students = {future.key: submission.student for future, submission in zip(futures, todo, strict=True)}
                 for future in as_completed(futures):
                     try:
-                        student, result, page, log = future.result()
+                        student, result, page, log, seconds = future.result()
                     except Exception as err:  # noqa: BLE001 - its workers died on every retry (KilledWorker)
                         student = students[future.key]
                         log = f"{student}: the task failed on the cluster\n{traceback.format_exc()}"
-                        result, page = internal_error(homework, student, type(err).__name__, 0.0, isolation)
+                        result, page = internal_error(homework, student, type(err).__name__, isolation)
+                        seconds = None
                     if student in book.rows:  # counted once, whatever Dask ran twice
                         continue
-                    book.rows[student] = write_graded(out_dir, student, result, page, log)
+                    book.rows[student] = write_graded(out_dir, student, result, page, log, seconds)
                     book.write_csv()
                     bar.update(1)
         except SweepError as err:

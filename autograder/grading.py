@@ -435,9 +435,11 @@ def result_json(
     student: str,
     outcomes: list[Outcome],
     fingerprint: str,
-    seconds: float,
     isolation: str = "os",
 ) -> dict:
+    """The result JSON of one submission (Gradescope's format: it may be shown to the student). It holds
+    nothing the student's code can steer but through the grader's own words: no timing (how long a
+    submission took is the instructor's, ``OUT/timing/``)."""
     score = sum(o.points for o in outcomes)
     shown = [o for o in outcomes if o.kind != HIDDEN]
     failed = [o for o in shown if not o.passed]
@@ -456,7 +458,6 @@ def result_json(
             "homework": homework.name,
             "fingerprint": fingerprint,
             "grader_version": GRADER_VERSION,
-            "seconds": round(seconds, 3),
             "isolation": isolation,
             "isolation_note": ISOLATION_NOTE[isolation],
         },
@@ -470,13 +471,13 @@ def _write_atomic(path: Path, text: str) -> None:
     os.replace(tmp, path)
 
 
-def _summary(result: dict, resumed: bool) -> dict:
+def _summary(result: dict, resumed: bool, seconds: float = 0.0) -> dict:
     return {
         "student": result["extra_data"]["student"],
         "score": result["score"],
         "checks": {t["name"]: t["score"] for t in result["tests"]},
         "resumed": resumed,
-        "seconds": result["extra_data"].get("seconds", 0.0),
+        "seconds": seconds,
         "internal_error": bool(result["extra_data"].get("internal_error")),
         "status": GRADED,
     }
@@ -520,8 +521,8 @@ def _grade_checks(
 
 def grade_one(
     homework: Homework, submission: Submission, limits: Limits, forbidden: tuple = (), isolation: str = "os"
-) -> tuple[dict, str, str]:
-    """Grade one submission: (result JSON, feedback page, log for the instructor: '' or a traceback).
+) -> tuple[dict, str, str, float]:
+    """Grade one submission: (result JSON, feedback page, log for the instructor: '' or a traceback, seconds).
 
     Never raises an ``Exception`` for one submission: whatever goes wrong in the grader (a bug, a sandbox
     that cannot start) becomes that student's result, every check failed with ``INTERNAL_ERROR``,
@@ -531,37 +532,40 @@ def grade_one(
     try:
         fingerprint = submission_fingerprint(submission, homework, limits, isolation)
         outcomes, note = _grade_checks(homework, submission, limits, forbidden, isolation)
-        result = result_json(homework, student, outcomes, fingerprint, time.perf_counter() - start, isolation)
+        result = result_json(homework, student, outcomes, fingerprint, isolation)
         if note:
             result["output"] += f" (note: {note})"
-        return result, feedback_html(student, homework.name, homework.title, outcomes), ""
+        return result, feedback_html(student, homework.name, homework.title, outcomes), "", time.perf_counter() - start
     except Exception as err:  # noqa: BLE001 - the last guard: one submission never stops the others
         log = f"{student}: internal error while grading {homework.name}\n{traceback.format_exc()}"
-        result, page = internal_error(homework, student, type(err).__name__, time.perf_counter() - start, isolation)
-        return result, page, log
+        result, page = internal_error(homework, student, type(err).__name__, isolation)
+        return result, page, log, time.perf_counter() - start
 
 
-def internal_error(homework: Homework, student: str, kind: str, seconds: float, isolation: str) -> tuple[dict, str]:
+def internal_error(homework: Homework, student: str, kind: str, isolation: str) -> tuple[dict, str]:
     """The result and feedback page of a student whose grading failed in the grader (``kind``: what)."""
     message = INTERNAL_ERROR.format(kind=kind)
     outcomes = [failed(c, message) for c in homework.checks]
-    result = result_json(homework, student, outcomes, "", seconds, isolation)
+    result = result_json(homework, student, outcomes, "", isolation)
     result["extra_data"]["internal_error"] = True
     result["output"] = f"{homework.name}: {message}"
     return result, feedback_html(student, homework.name, homework.title, outcomes)
 
 
-def write_graded(out_dir: Path, student: str, result: dict, page: str, log: str) -> dict:
+def write_graded(out_dir: Path, student: str, result: dict, page: str, log: str, seconds: float | None = None) -> dict:
     """Write one student's feedback page, the instructor's log of an internal error (or remove an old
-    one) and the result (last: it marks them done); returns the gradebook row."""
+    one), the seconds grading took (``timing/``, the instructor's) and the result (last: it marks them done);
+    returns the gradebook row."""
     _write_atomic(out_dir / "feedback" / f"{student}.html", page)
     error_log = out_dir / "errors" / f"{student}.txt"
     if log:
         _write_atomic(error_log, log)
     else:
         error_log.unlink(missing_ok=True)
+    if seconds is not None:
+        _write_atomic(out_dir / "timing" / f"{student}.txt", f"{seconds:.3f}\n")
     _write_atomic(out_dir / "results" / f"{student}.json", json.dumps(result, indent=1))
-    return _summary(result, resumed=False)
+    return _summary(result, resumed=False, seconds=seconds or 0.0)
 
 
 def grade_submission(
@@ -573,8 +577,7 @@ def grade_submission(
     isolation: str = "os",
 ) -> dict:
     """Grade one submission and write its result JSON and feedback page; returns its gradebook row."""
-    result, page, log = grade_one(homework, submission, limits, forbidden, isolation)
-    return write_graded(out_dir, submission.student, result, page, log)
+    return write_graded(out_dir, submission.student, *grade_one(homework, submission, limits, forbidden, isolation))
 
 
 def _resumable(path: Path, fingerprint: str) -> dict | None:
@@ -797,7 +800,7 @@ def _grade_in_pool(homework, todo, book, out_dir, limits, forbidden, isolation, 
                 row = future.result()
             except Exception as err:  # noqa: BLE001 - the worker itself failed (killed, out of memory)
                 log = f"{submission.student}: the grading worker failed\n{traceback.format_exc()}"
-                result, page = internal_error(homework, submission.student, type(err).__name__, 0.0, isolation)
+                result, page = internal_error(homework, submission.student, type(err).__name__, isolation)
                 row = write_graded(out_dir, submission.student, result, page, log)
             book.rows[row["student"]] = row
             book.write_csv()

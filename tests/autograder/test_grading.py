@@ -111,8 +111,8 @@ def test_a_hang_costs_one_timeout_and_names_the_function(hw1):
     timeouts = [o for o in outputs if "did not finish within the time limit" in o]
     assert len(timeouts) == 1
     assert "stuck in modules/kinematics.py" in timeouts[0] and "velocity_analysis" in timeouts[0]
-    data = json.loads((out / "results" / "hang.json").read_text())
-    assert data["extra_data"]["seconds"] < 60
+    assert float((out / "timing" / "hang.txt").read_text()) < 60  # the instructor's, not in the result
+    assert "seconds" not in json.loads((out / "results" / "hang.json").read_text())["extra_data"]
 
 
 def test_gamma_sign_mutant(hw1):

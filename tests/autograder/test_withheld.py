@@ -174,14 +174,20 @@ def hostile(root: Path, student: str, attack: str | None) -> None:
         package = root / student / "modules"
     else:
         package = copy_reference(root / student)
-    if attack is None:
-        return
-    (package / "_leak.py").write_text(LEAK.replace("@@ATTACK@@", attack).replace("@@SPIN@@", SPIN_SCENE))
+    if attack is not None:
+        plant(package, attack, SPIN_SCENE)
+
+
+def plant(package: Path, attack: str, spin_scene: str) -> None:
+    """``LEAK`` with ``attack`` in ``package``, imported by its ``__init__`` and called first in ``load_model``
+    (``spin_scene``: the scene whose probe the ``stuck`` attack spins in)."""
+    (package / "_leak.py").write_text(LEAK.replace("@@ATTACK@@", attack).replace("@@SPIN@@", spin_scene))
     with open(package / "__init__.py", "a") as f:
         f.write("\nfrom . import _leak  # noqa\n")
     model = package / "io" / "model.py"
     text = model.read_text()
     anchor = '    """Read and validate a model file, or a mapping with the same content.\n'
+    assert text.count(anchor) == 1, "load_model's docstring was rewritten: update the anchor"
     end = text.index('    """\n', text.index(anchor) + len(anchor)) + len('    """\n')
     model.write_text(text[:end] + "    from .. import _leak\n\n    _leak.on_load()\n" + text[end:])
 

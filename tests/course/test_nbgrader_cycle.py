@@ -21,6 +21,7 @@ import re
 import shutil
 import subprocess
 import sys
+import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -31,6 +32,12 @@ from autograder.grading import grade
 from course.demo import MUTATIONS, _mutate, scratch_course
 from course.release import HOMEWORKS, build_package, release
 from course.release.generator import REPO
+from mbdkit.homework import load_homework
+from mbdkit.scenes import HIDDEN
+
+from ..autograder import test_hostile_grader as crash
+from ..autograder import test_wall as wall
+from ..autograder import test_withheld as leak
 
 pytestmark = pytest.mark.filterwarnings("ignore:Object of type <Submitted")  # nbgrader's own SQLAlchemy notes
 
@@ -44,11 +51,23 @@ STUDENTS = {
         "rex": "hostile_notebook",
         "dan": "damaged_notebook",
         "fay": "zipped_copy",
+        "pia": "crash:printed",
+        "lin": "modules_link",
+        "fox": "wall:forks",
     },
-    "hw2": {"ada": None},
-    "hw3": {"ada": None},
+    "hw2": {
+        "ada": None,
+        "sam": "skeleton",
+        "lee": "leak:leech",
+        "xia": "leak:exit",
+        "cal": "leak:class",
+        "sta": "leak:stash",
+        "eli": "crash:element_list",
+        "dis": "wall:disk",
+    },
+    "hw3": {"ada": None, "sam": "skeleton", "lee": "leak:leech", "stu": "leak:stuck", "cal": "leak:class"},
 }
-"""Per homework, the demo students submitted: the reference (None), a mutant of course/demo.py, the skeleton,
+"""Per homework, the class submitted: the reference (None), a mutant of course/demo.py, the skeleton,
 and the skeleton with an attack on the points: the kit's checker changed to award a point in every graded cell;
 ``modules/__init__.py`` made to replace whatever grades the cells by full points; a notebook whose own cell
 redefines ``check`` (a test cell with no output and no error has full credit in nbgrader) and whose other cell
@@ -56,7 +75,17 @@ reads the course, the gradebook and the environment and writes into a classmate'
 the joints written (their checks pass, the rest fail at once), its notebook saved as 'hw1 (1).ipynb', a graded test cell
 pasted twice and another deleted (``damaged_notebook``);
 the skeleton in a zip whose notebook is 'hw1-copy.ipynb', which ``nbgrader zip_collect`` drops
-(``zipped_copy``). The check before autograde (course/nbcheck.py) repairs the last two."""
+(``zipped_copy``). The check before autograde (course/nbcheck.py) repairs the last two.
+
+With them, the hostile class of issue 23, each the skeleton with one attack of ``tests/autograder``'s (their
+tests say what each does to the grader, alone): ``crash:*`` a reply the grader could not parse
+(``test_hostile_grader``), ``leak:*`` hidden and per-student scenes sent back through an exit, a spin, an
+exception class, a file left for the next child, or answers taken from what the grader sends
+(``test_withheld``), ``wall:*`` the memory of three forks and a disk filled, the audit hook switched off
+(``test_wall``), and ``modules`` a link to the course's ``solutions/`` (a tar or zip keeps it)."""
+
+HONEST = {"hw1": ("ada", "ben", "sam"), "hw2": ("ada", "sam"), "hw3": ("ada", "sam")}
+"""The honest classmates: each scores in the class exactly what it scores graded alone."""
 
 SECRET = "cycle-test-secret"
 """The course secret in the environment of every grading process (nbgrader's and ``mbd grade``'s)."""
@@ -132,12 +161,42 @@ def submit(course: Path, homework: str, student: str, kind: str | None) -> Path:
             f.write(FORGED_PACKAGE)
     elif kind == "hostile_notebook":
         hostile_notebook(folder, course)
+    elif kind == "modules_link":  # as an unpacked tar or zip keeps it
+        shutil.rmtree(folder / "modules")
+        (folder / "modules").symlink_to(course / "solutions")
+    elif kind and kind.startswith(("crash:", "leak:", "wall:")):
+        plant(folder / "modules", homework, kind)
     elif kind not in ("skeleton", "forged_package", "hostile_notebook"):
         build_package(folder / "modules", None, course / "solutions", header=None)
     if kind in MUTATIONS:
         relpath, anchor, correct, buggy, _ = MUTATIONS[kind]
         _mutate(folder / "modules", relpath, anchor, correct, buggy, student)
     return folder
+
+
+WALL = """
+import os
+MiB = 2**20
+report = []
+@@HOOK_OFF@@
+@@ATTACK@@
+raise RuntimeError("ATTACK:" + " | ".join(report))
+"""
+"""A wall attack of ``tests/autograder/test_wall.py`` at the import of the package, in every child."""
+
+
+def plant(package: Path, homework: str, kind: str) -> None:
+    """The attack ``kind`` ("crash:NAME", "leak:NAME" or "wall:NAME") planted in the untouched skeleton."""
+    family, name = kind.split(":")
+    if family == "crash":
+        crash.plant(package, name)
+    elif family == "wall":
+        code = WALL.replace("@@HOOK_OFF@@", wall.HOOK_OFF).replace("@@ATTACK@@", wall._fill(wall.ATTACKS[name]))
+        with open(package / "__init__.py", "a") as f:
+            f.write(code)
+    else:  # the spin: on the first hidden scene of the homework (one timeout, not one per check)
+        spin = next(c.scene for c in load_homework(homework).checks if c.kind == HIDDEN)
+        leak.plant(package, name, spin)
 
 
 def damage_notebook(folder: Path, homework: str) -> None:
@@ -214,11 +273,23 @@ def autograde_and_export(course: Path, homework: str) -> dict[str, dict]:
         return {row["student_id"]: row for row in csv.DictReader(f) if row["assignment"] == homework}
 
 
+def mbd_grade(course: Path, homework: str, *options: str) -> tuple[subprocess.CompletedProcess, float]:
+    """``mbd grade hwN build/submitted --out build/grades --jobs 2`` as the instructor runs it; its wall time."""
+    environment = dict(os.environ, MBD_GRADER_SECRET=SECRET)
+    command = [sys.executable, "-m", "solutions.cli", "grade", homework, "build/submitted", "--out", "build/grades"]
+    start = time.monotonic()
+    done = subprocess.run(
+        [*command, "--jobs", "2", *options], cwd=course, env=environment, capture_output=True, text=True, timeout=1800
+    )
+    return done, time.monotonic() - start
+
+
 @pytest.fixture(scope="module")
 def cycle(tmp_path_factory):
     """Every homework through nbgrader, each in a scratch copy of the course of its own (so that two run at
-    once): generate (``mbd release``), submissions, autograde, feedback, export; then ``mbd grade`` of the
-    same submitted/ folder."""
+    once): generate (``mbd release``), submissions, autograde, feedback, export; then ``mbd grade --jobs 2`` of
+    the same submitted/ folder (its gradebook read back by a resuming ``grade``, which grades nothing again),
+    and the honest classmates graded alone."""
     root = tmp_path_factory.mktemp("nbgrader")
     courses = {}
     for homework in HOMEWORKS:
@@ -232,20 +303,23 @@ def cycle(tmp_path_factory):
     with ThreadPoolExecutor(max_workers=2) as pool:  # separate processes, folders and gradebooks
         futures = {hw: pool.submit(autograde_and_export, course, hw) for hw, course in courses.items()}
         exported = {hw: future.result() for hw, future in futures.items()}
+    runs, books, alone = {}, {}, {}
     with pytest.MonkeyPatch.context() as patch:
         patch.setenv("MBD_GRADER_SECRET", SECRET)
-        books = {
-            hw: grade(
-                hw, course / "build" / "submitted", course / "build" / "grades", jobs=2, progress=False, resume=False
-            )
-            for hw, course in courses.items()
-        }
-    return courses, exported, books
+        for hw, course in courses.items():
+            runs[hw] = mbd_grade(course, hw)
+            submitted, out = course / "build" / "submitted", course / "build" / "grades"
+            books[hw] = grade(hw, submitted, out, jobs=1, progress=False)
+            for student in HONEST[hw]:
+                shutil.copytree(submitted / student, root / "alone" / hw / student / student, symlinks=True)
+                book = grade(hw, root / "alone" / hw / student, root / "alone" / hw / f"{student}-out", progress=False)
+                alone[hw, student] = book.score(student)
+    return courses, exported, books, runs, alone
 
 
 @pytest.mark.parametrize("homework", HOMEWORKS)
 def test_exported_grades_equal_the_autograders(cycle, homework):
-    courses, exported, books = cycle
+    courses, exported, books, *_ = cycle
     course, book = courses[homework], books[homework]
     source = nbformat.read(course / "assignments" / homework / f"{homework}.ipynb", as_version=4)
     written = sum(
@@ -260,7 +334,7 @@ def test_exported_grades_equal_the_autograders(cycle, homework):
 
 
 def test_the_demo_students_get_what_they_deserve(cycle):
-    _, exported, books = cycle
+    _, exported, books, *_ = cycle
     book = books["hw1"]
     assert book.score("ada") == book.max_score and book.score("sam") == 0.0
     assert book.score("eve") == 0.0  # a checker handed in with the submission is not what grades it
@@ -285,7 +359,7 @@ def test_feedback_pages_show_the_graders_messages(cycle, homework):
 
 
 def test_attacks_on_the_points_score_what_the_skeleton_scores(cycle):
-    courses, exported, books = cycle
+    courses, exported, books, *_ = cycle
     book, rows = books["hw1"], exported["hw1"]
     for student in ("eve", "mal", "rex"):
         assert book.score(student) == book.score("sam"), student  # mbd grade's route
@@ -307,7 +381,7 @@ def test_a_hostile_cell_sees_nothing_of_the_course(cycle):
 def test_the_check_before_autograde_names_and_repairs_the_damaged_notebooks(cycle):
     """dan's and fay's notebooks were damaged as students damage them; the check that autograde runs first
     named each damage, repaired it, and nbgrader's totals equal mbd grade's (test_exported_grades_...)."""
-    courses, exported, books = cycle
+    courses, exported, books, *_ = cycle
     course, book = courses["hw1"], books["hw1"]
     log = (course / "build" / "autograde.log").read_text()
     assert "dan: cell test_hw1_revolute is in the notebook twice" in log and "fails the whole submission" in log
@@ -318,3 +392,93 @@ def test_the_check_before_autograde_names_and_repairs_the_damaged_notebooks(cycl
     assert book.score("dan") >= 6.0 and book.score("fay") == 0.0  # the joints' points, the prismatic's among them
     assert float(exported["hw1"]["dan"]["raw_score"]) == pytest.approx(book.score("dan"))
     assert (course / "build" / "autograded" / "fay" / "hw1" / "hw1.ipynb").is_file()
+
+
+ATTACKS = ("forged_", "hostile_notebook", "modules_link", "crash:", "leak:", "wall:")
+
+
+def hostile(homework: str) -> list[str]:
+    return [s for s, kind in STUDENTS[homework].items() if kind and kind.startswith(ATTACKS)]
+
+
+@pytest.mark.parametrize("homework", HOMEWORKS)
+def test_mbd_grade_ends_the_hostile_class_within_its_budget(cycle, homework):
+    """``mbd grade --jobs 2``: exit 0, no traceback, every student graded (the resuming run grades nothing
+    again), within the budget of the class (each submission's budget, two at a time)."""
+    courses, _, books, runs, _ = cycle
+    done, seconds = runs[homework]
+    assert done.returncode == 0 and "Traceback" not in done.stdout + done.stderr, done.stderr[-3000:]
+    book = books[homework]
+    assert set(book.graded) == set(STUDENTS[homework]) and not book.internal_errors
+    assert not [s for s, row in book.rows.items() if not row["resumed"]]
+    assert seconds < len(STUDENTS[homework]) * load_homework(homework).budget / 2
+
+
+@pytest.mark.parametrize("homework", HOMEWORKS)
+def test_hostile_students_score_at_most_the_skeleton_on_both_routes(cycle, homework):
+    _, exported, books, *_ = cycle
+    book, rows = books[homework], exported[homework]
+    for student in hostile(homework):
+        assert book.score(student) <= book.score("sam"), (student, book.score(student))
+        assert float(rows[student]["raw_score"]) <= float(rows["sam"]["raw_score"]), (student, rows[student])
+
+
+@pytest.mark.parametrize("homework", HOMEWORKS)
+def test_honest_classmates_score_exactly_their_score_alone(cycle, homework):
+    _, exported, books, _, alone = cycle
+    for student in HONEST[homework]:
+        assert books[homework].score(student) == alone[homework, student], student
+        assert float(exported[homework][student]["raw_score"]) == pytest.approx(alone[homework, student], abs=1e-6)
+    assert alone[homework, "ada"] == books[homework].max_score > alone[homework, "sam"]
+
+
+def returned_files(course: Path) -> dict[str, str]:
+    """Every file a student gets back: nbgrader's feedback pages and ``mbd grade``'s, without what the pages'
+    templates bring (style sheets and scripts) and the plots' PNG data."""
+    pages = [*(course / "build" / "feedback").rglob("*.html"), *(course / "build" / "grades" / "feedback").glob("*")]
+    template = re.compile(r"<(style|script)\b.*?</\1>|data:image/png;base64,[A-Za-z0-9+/=]+", re.DOTALL)
+    return {str(p): template.sub("", p.read_text()) for p in pages}
+
+
+def secrets(course: Path, homework: str) -> tuple[set[str], set[str]]:
+    """(numbers, names) of the homework's hidden scenes and of every student's own variant, but those that a
+    student already has (in the released notebook and package, or a public scene)."""
+    from autograder.scenes import load_scene
+    from mbdkit.scenes import PUBLIC, STUDENT
+
+    checks = load_homework(homework).checks
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("MBD_GRADER_SECRET", SECRET)
+        models = [load_scene(c.scene).data for c in checks if c.kind == HIDDEN]
+        models += [
+            load_scene(c.scene, student=s, homework=homework).data
+            for c in checks
+            if c.kind == STUDENT
+            for s in STUDENTS[homework]
+        ]
+    public = set().union(*(leak.secret_numbers(load_scene(c.scene).data) for c in checks if c.kind == PUBLIC))
+    kit = (course / "build" / "release" / homework).rglob("*")
+    released = "".join(p.read_bytes().decode(errors="replace") for p in kit if p.is_file())
+    numbers = {n for data in models for n in leak.secret_numbers(data)} - public
+    numbers = {n for n in numbers if n not in released}
+    names = {data["model"]["name"] for data in models}
+    return numbers, {n for n in names if not any(n in c.name for c in checks) and n not in released}
+
+
+@pytest.mark.parametrize("homework", HOMEWORKS)
+def test_nothing_hidden_reaches_a_file_returned_to_students(cycle, homework):
+    """No hidden or own-variant model text, name or number in a feedback page of either route, with the hidden
+    checks held back and after ``mbd grade --publish-hidden`` (which grades nothing again)."""
+    course = cycle[0][homework]
+    numbers, names = secrets(course, homework)
+    number = re.compile("(?<![\\d.])(" + "|".join(map(re.escape, sorted(numbers, key=len, reverse=True))) + ")(?!\\d)")
+    held = returned_files(course)
+    done, _ = mbd_grade(course, homework, "--publish-hidden")
+    assert done.returncode == 0, done.stderr[-3000:]
+    published = returned_files(course)
+    assert published != held  # the hidden checks' results are on the pages now
+    for pages in (held, published):
+        for path, text in pages.items():
+            assert not re.search(r"[A-Za-z0-9+/]{80,}", text), (path, "a long base64 run")
+            assert not [name for name in names if name in text], path
+            assert not numbers or not number.search(text), (path, number.search(text))
