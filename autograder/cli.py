@@ -1,4 +1,4 @@
-"""What ``mbd grade`` calls (``solutions/cli.py`` wires it; ``mbd selfcheck`` is ``mbdkit.cli``).
+"""What ``mbd grade`` calls (``autograder/commands.py`` registers it; ``mbd selfcheck`` is ``mbdkit.cli``).
 
     mbd grade hwN SUBMISSIONS [--out DIR] [--jobs N] [--cluster local|tcp://HOST:PORT] [--unsafe-no-isolation]
               [--publish-hidden] [--roster CSV]

@@ -61,13 +61,20 @@ def own_solver(argv: list[str]) -> int:
         return error(f"not implemented yet in your {PACKAGE}/: {err}")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="mbd", description="The course's student kit: self-check and your solver.")
-    sub = parser.add_subparsers(dest="command", required=True)
-    check = sub.add_parser("selfcheck", help="run the public checks of hwN on your own modules/")
+def add_selfcheck(sub) -> None:
+    """``mbd selfcheck hwN [PATH] [--strict]``: in the kit's ``mbd`` and, registered in the course's
+    ``pyproject.toml`` (entry-point group ``mbd.commands``), in the course's."""
+    check = sub.add_parser("selfcheck", help="run the public checks of hwN on your own modules/ (students)")
     check.add_argument("homework", help="hw1, hw2 or hw3")
     check.add_argument("path", nargs="?", help="folder holding your modules/ (default: the current folder)")
     check.add_argument("--strict", action="store_true", help="exit with code 1 when a check fails")
+    check.set_defaults(handler=lambda args: selfcheck_command(args.homework, args.path, args.strict))
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="mbd", description="The course's student kit: self-check and your solver.")
+    sub = parser.add_subparsers(dest="command", required=True)
+    add_selfcheck(sub)
     sub.add_parser("run", help="run a model file with your own package (mbd run --help)", add_help=False)
     sub.add_parser("check", help="validate and assemble a model file with your own package", add_help=False)
     return parser
@@ -79,7 +86,7 @@ def main(argv: list[str] | None = None) -> int:
     if argv and argv[0] in ("run", "check"):
         return own_solver(argv)
     args = build_parser().parse_args(argv)
-    return selfcheck_command(args.homework, args.path, args.strict)
+    return args.handler(args)
 
 
 if __name__ == "__main__":

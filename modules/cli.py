@@ -348,49 +348,6 @@ def command_check(args) -> int:
     return 0
 
 
-def command_release(args) -> int:
-    # instructor tooling lives outside the package students receive: import it only when asked
-    try:
-        from course.release import command
-    except ImportError:
-        raise UsageError("mbd release is the instructor's command: run it in the course repository") from None
-    return command(args.homework)
-
-
-def command_grade(args) -> int:
-    try:
-        from autograder.cli import grade_command
-    except ImportError:
-        raise UsageError("mbd grade is the instructor's command: run it in the course repository") from None
-    return grade_command(
-        args.homework,
-        args.submissions,
-        out=args.out,
-        jobs=args.jobs,
-        unsafe_no_isolation=args.unsafe_no_isolation,
-        cluster=args.cluster,
-        publish_hidden=args.publish_hidden,
-        roster=args.roster,
-    )
-
-
-def command_secret(args) -> int:
-    try:
-        from autograder.secret import secret_command
-    except ImportError:
-        raise UsageError("mbd secret is the instructor's command: run it in the course repository") from None
-    return secret_command(init=args.init)
-
-
-def command_nbcheck(args) -> int:
-    """``mbd nbcheck hwN [--repair]``: what nbgrader will do with each collected notebook (course/nbcheck.py)."""
-    try:
-        from course.nbcheck import command
-    except ImportError:
-        raise UsageError("mbd nbcheck is the instructor's command: run it in the course repository") from None
-    return command(args.homework, args.repair)
-
-
 def command_sweep(args) -> int:
     """``mbd sweep``: run a model over parameter values (``solutions.sweep``); a table, an NPZ and plots."""
     from .sweep import SweepError, check_cluster, make_sweep, run_sweep
@@ -431,38 +388,6 @@ INTERRUPTED = 130
 resumes (``mbd grade``, ``mbd sweep``)."""
 
 
-def command_selfcheck(args) -> int:
-    try:
-        from mbdkit.cli import selfcheck_command
-    except ImportError:
-        raise UsageError("mbd selfcheck needs the kit's checker: pip install ./ in your homework folder") from None
-    return selfcheck_command(args.homework, args.path, args.strict)
-
-
-def command_bench(args) -> int:
-    """Run benchmarks/bench.py of the course repository (run time against error, with peers if installed)."""
-    import importlib.util
-    from pathlib import Path
-
-    script = Path(__file__).resolve().parents[1] / "benchmarks" / "bench.py"
-    if not script.is_file():
-        raise UsageError("mbd bench runs the course repository's benchmarks/bench.py: run it in the repository")
-    spec = importlib.util.spec_from_file_location("mbd_bench", script)
-    bench = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = bench  # its dataclasses look their module up there
-    spec.loader.exec_module(bench)
-    return bench.main(args.options)
-
-
-def command_notes(args: argparse.Namespace) -> int:
-    """Build the course notes as HTML (course/notes/build.py): the instructor's repository only."""
-    try:
-        from course.notes.build import main as build_main
-    except ImportError:
-        raise UsageError("mbd notes builds the course repository's course/notes: run it in the repository") from None
-    return build_main(args.options)
-
-
 def command_derive(args: argparse.Namespace) -> int:
     """Print the symbolic Psi, Psi_q, Psi_t and gamma of a model (``symbolic.py``)."""
     from .symbolic import derive
@@ -471,10 +396,8 @@ def command_derive(args: argparse.Namespace) -> int:
     return 0
 
 
-def add_course_commands(sub) -> None:
-    """The course-material commands: ``mbd notes`` (its options: ``mbd notes --help``) and ``mbd derive``."""
-    notes = sub.add_parser("notes", help="build the course notes as HTML (build/notes/index.html)", add_help=False)
-    notes.set_defaults(handler=command_notes)
+def add_derive(sub) -> None:
+    """``mbd derive MODEL [--latex] [--simplify]``."""
     derive = sub.add_parser("derive", help="print a model's constraint equations, Jacobian and gamma symbolically")
     derive.add_argument("model", help="model file (YAML or JSON)")
     derive.add_argument("--latex", action="store_true", help="LaTeX instead of plain text")
@@ -482,7 +405,26 @@ def add_course_commands(sub) -> None:
     derive.set_defaults(handler=command_derive)
 
 
-def build_parser() -> argparse.ArgumentParser:
+COMMANDS = "mbd.commands"
+"""The entry-point group through which the course's other packages add their commands to ``mbd`` (as
+``jupyter`` finds ``jupyter-NAME``): each entry is a function ``add(sub)`` that adds its subparser, with
+``handler`` (and ``options=True`` for a command that takes its own options, ``mbd notes``, ``mbd bench``).
+The course's ``pyproject.toml`` registers the instructor's commands and the self-check; this package knows
+none of them, and where the course is not installed (a student's kit) ``mbd`` has the solver's commands only."""
+
+OWN = ("run", "check", "sweep", "derive")
+"""The solver's own commands: ``mbd`` looks for the others only when asked for something else."""
+
+
+def registered_commands() -> list:
+    """The entry points of ``COMMANDS`` installed here, by name."""
+    from importlib.metadata import entry_points
+
+    return sorted(entry_points(group=COMMANDS), key=lambda entry: entry.name)
+
+
+def build_parser(others: bool = True) -> argparse.ArgumentParser:
+    """``mbd``'s parser: the solver's commands and (``others``) those the course's packages register."""
     parser = argparse.ArgumentParser(prog="mbd", description="Multibody dynamics course: reference solver.")
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run an analysis of a model file")
@@ -590,51 +532,6 @@ def build_parser() -> argparse.ArgumentParser:
     check = sub.add_parser("check", help="validate and assemble a model; report DOF and redundancies")
     check.add_argument("model", help="model file (YAML or JSON)")
     check.set_defaults(handler=command_check)
-    release = sub.add_parser("release", help="build and release homework hwN to students (instructor)")
-    release.add_argument("homework", help="hw1, hw2 or hw3")
-    release.set_defaults(handler=command_release)
-    grade = sub.add_parser("grade", help="grade every submission of homework hwN (instructor)")
-    grade.add_argument("homework", help="hw1, hw2 or hw3")
-    grade.add_argument("submissions", help="nbgrader's submitted/ folder, or a folder of student folders")
-    grade.add_argument("--out", help="folder for the gradebook, results and feedback (default: grades-hwN)")
-    grade.add_argument(
-        "--jobs",
-        type=int,
-        help="submissions graded in parallel (default: the cores, at most 8; 1: here; more: a local Dask cluster)",
-    )
-    grade.add_argument(
-        "--cluster",
-        metavar="local|tcp://HOST:PORT",
-        help="grade on Dask: 'local' (a LocalCluster of --jobs workers, the default when --jobs > 1) or a scheduler",
-    )
-    grade.add_argument(
-        "--unsafe-no-isolation",
-        action="store_true",
-        help="grade even where bubblewrap cannot isolate student code (unsafe: the results say so)",
-    )
-    grade.add_argument(
-        "--publish-hidden",
-        action="store_true",
-        help="show the hidden checks' results on the feedback pages (held back until then; unchanged "
-        "submissions are not graded again, their pages are rewritten)",
-    )
-    grade.add_argument(
-        "--roster",
-        metavar="CSV",
-        help="the class list (a column 'student'): a student without a submission is 'missing' in the gradebook",
-    )
-    grade.set_defaults(handler=command_grade)
-    secret = sub.add_parser("secret", help="where the course secret of hidden and per-student scenes is (instructor)")
-    secret.add_argument("--init", action="store_true", help="make one (a random string, mode 0600) unless it exists")
-    secret.set_defaults(handler=command_secret)
-    nbcheck = sub.add_parser(
-        "nbcheck", help="check the collected notebooks of hwN before nbgrader's autograde (instructor)"
-    )
-    nbcheck.add_argument("homework", help="hw1, hw2 or hw3")
-    nbcheck.add_argument(
-        "--repair", action="store_true", help="repair what is safe: a renamed notebook, a duplicated or lost test cell"
-    )
-    nbcheck.set_defaults(handler=command_nbcheck)
     sweep = sub.add_parser("sweep", help="run a model over a grid or sample of parameter values (a table and plots)")
     sweep.add_argument("model", help="model file (YAML or JSON)")
     sweep.add_argument(
@@ -666,25 +563,20 @@ def build_parser() -> argparse.ArgumentParser:
     sweep.add_argument("--fresh", action="store_true", help="run every set again instead of resuming")
     sweep.add_argument("--no-progress", action="store_true", help="no progress bar")
     sweep.set_defaults(handler=command_sweep)
-    selfcheck = sub.add_parser("selfcheck", help="run the public checks of hwN on your own modules/ (students)")
-    selfcheck.add_argument("homework", help="hw1, hw2 or hw3")
-    selfcheck.add_argument("path", nargs="?", help="folder holding your modules/ (default: the current folder)")
-    selfcheck.add_argument("--strict", action="store_true", help="exit with code 1 when a check fails")
-    selfcheck.set_defaults(handler=command_selfcheck)
-    bench = sub.add_parser(
-        "bench", help="run time against error per scene, formulation and integrator (see benchmarks/README.md)"
-    )
-    bench.set_defaults(handler=command_bench)
-    add_course_commands(sub)
+    add_derive(sub)
+    if others:
+        for entry in registered_commands():
+            entry.load()(sub)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``mbd``; returns the exit code (0 success, 2 user error)."""
-    parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser(others=not argv or argv[0] not in OWN)  # `mbd run` loads nothing else
     args, extra = parser.parse_known_args(argv)
-    if args.command in ("bench", "notes"):
-        args.options = extra  # the benchmark's own options (benchmarks/bench.py --help)
+    if getattr(args, "options", False) is True:
+        args.options = extra  # the command's own options (mbd notes --help, mbd bench --help)
     elif extra:
         parser.error(f"unrecognized arguments: {' '.join(extra)}")
     try:

@@ -30,7 +30,7 @@ LOCKUP_CONDITION = 1e10
 """Condition number of Psi_q above which a configuration counts as locked (a singular position)."""
 
 PIVOT_DIP = 0.5
-"""Largest pivot ratio min |U_ii| / max |U_ii| at a local minimum that ``_dip_start`` flags. The pivot ratio is
+"""Largest pivot ratio min |U_ii| / max |U_ii| at a local minimum that ``dip_start`` flags. The pivot ratio is
 not sigma_min / sigma_max (it may stay several times above it, as at output steps far apart from a rank loss),
 so the flag is loose and cheap; the rank rule decides (``locate_singular_position``)."""
 
@@ -134,7 +134,7 @@ def _factor_checked(system: System, q: np.ndarray, t: float):
     return lu
 
 
-def _dip_start(ratios: list[float], steps: int) -> int | None:
+def dip_start(ratios: list[float], steps: int) -> int | None:
     """The first step of the interval in which the pivot ratios so far (one per step, ``pivot_ratio``) dip
     towards zero, or None: a local minimum at the step before the last, far below its neighbours, flags the two
     intervals around it; at the first and at the last step of the run, where a neighbour is missing, the one
@@ -182,7 +182,7 @@ def locate_singular_position(
     """The singular position in [t_a, t_b] where the pivot ratio dipped, found and decided by the rank rule.
 
     A kinematic run flags an interval when the pivot ratio of its steps (``pivot_ratio``) has a local minimum
-    there far below its neighbours (``_dip_start``). This function then minimizes r(t) = sigma_min / sigma_max
+    there far below its neighbours (``dip_start``). This function then minimizes r(t) = sigma_min / sigma_max
     of Psi_q (eq. 4.20) over the interval (``scipy.optimize.minimize_scalar``, bounded Brent, on
     t = t_a + s (t_b - t_a)), at configurations on the branch of the motion: the configuration already found
     nearest to t, moved by the Taylor prediction from the solved state (q, q', q'') at t_a, corrected by
@@ -317,7 +317,7 @@ def kinematic_analysis(
         lu = _factor_checked(system, q, t)
         sign = determinant_sign(lu)
         ratios.append(pivot_ratio(lu))
-        first = _dip_start(ratios, times.size)
+        first = dip_start(ratios, times.size)
         if first is not None and sign == previous_sign:
             # an even rank loss keeps the sign of det Psi_q: decide by the rank rule at the ratio's minimum
             found = locate_singular_position(system, times[first], Q[first], QD[first], QDD[first], t)
@@ -456,7 +456,7 @@ def _kinematics_through_singular(system, q0, t_end, steps, points) -> Result:
         # a dip of the pivot ratio also flags a crossing: an even rank loss (one per loop of a chain of
         # parallelograms) leaves the sign of det Psi_q as it was; the rank rule decides (locate_singular_position)
         ratios.append(ratio)
-        dip = _dip_start(ratios, times.size)
+        dip = dip_start(ratios, times.size)
         flagged = sign != previous_sign or locked
         first = max(k - 1, 0) if flagged else dip
         if (flagged or dip is not None) and crossings and crossings[-1]["step"] >= first:

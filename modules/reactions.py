@@ -68,7 +68,7 @@ def moment_about_point(generalized: np.ndarray, arm: np.ndarray) -> float:
     raise NotImplementedError('moment_about_point: M = n - s x F: moment about P of a force F with moment n about the centre, s = r_P - r, see eq. 5.71')
 
 
-def _joint_groups(system: System) -> dict[str, list[int]]:
+def joint_groups(system: System) -> dict[str, list[int]]:
     """Element indices per joint or driver name (a prismatic or rigid joint has two elements)."""
     groups: dict[str, list[int]] = {}
     for k, element in enumerate(system.elements):
@@ -100,7 +100,7 @@ def reactions_at(system: System, q: np.ndarray, lam: np.ndarray, t: float = 0.0)
     jacobian = system.jacobian(q, t)
     names = [b.name for b in system.model.bodies]
     out = []
-    for joint, indices in _joint_groups(system).items():
+    for joint, indices in joint_groups(system).items():
         first = system.elements[indices[0]]
         i, j = first.i, first.j
         point = joint_point(system, indices, q)

@@ -416,12 +416,12 @@ def make_sweep(
         Naming the key, value or output and the fix. A model file that cannot be read raises ``ModelError``.
     """
     from .cli import UsageError, analysis_settings
-    from .io.model import ModelError, _read_text, load_model
+    from .io.model import ModelError, load_model, read_text
 
     if isinstance(model, dict):
         data, source = copy.deepcopy(model), "<model>"
     else:
-        data, source = _read_text(Path(model)), str(model)
+        data, source = read_text(Path(model)), str(model)
     base = load_model(data)  # the file itself is valid (ModelError naming the file otherwise)
     label = base.source if source == "<model>" else Path(source).name
     pairs = list(sets.items()) if isinstance(sets, dict) else [parse_set(text) for text in sets]

@@ -51,12 +51,12 @@ def _rotations_2d(phi: np.ndarray) -> np.ndarray:
 
 def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
     """``reactions.joint_reactions(system, q, lam, t)`` over the histories q (N, n), lambda (N, m)."""
-    from ..reactions import _joint_groups
+    from ..reactions import joint_groups
 
     N = q.shape[0]
     X = np.concatenate([q.reshape(N, -1, 3), np.zeros((N, 1, 3))], axis=1)  # ground last: body -1
     columns = {}
-    for name, indices in _joint_groups(system).items():
+    for name, indices in joint_groups(system).items():
         first = next((system.elements[k] for k in indices if getattr(system.elements[k], "sj", None) is not None), None)
         owner = system.elements[indices[0]] if first is None else first
         point = X[:, owner.j, :2].copy()

@@ -38,12 +38,12 @@ from .dispatch import ENGINES, LOAD_SECONDS
 from .scene import (
     PLANAR_CONSTRAINTS,
     SPATIAL_CONSTRAINTS,
+    Functions,
     Scene,
     Unsupported,
-    _arrays,
-    _Functions,
-    _planar_constraints,
-    _spatial_constraints,
+    planar_constraints,
+    scene_arrays,
+    spatial_constraints,
 )
 
 COMPILE_SECONDS = 8.0
@@ -87,12 +87,12 @@ def describe(system) -> Scene:
     model = system.model
     scene = Scene(model.dimension, system.n_coordinates, system.n_constraints)
     scene.drivers = bool(model.motors)
-    functions = _Functions()
+    functions = Functions()
     try:
         if model.dimension == 2:
-            constraints = _arrays(_planar_constraints(system, functions), PLANAR_CONSTRAINTS)
+            constraints = scene_arrays(planar_constraints(system, functions), PLANAR_CONSTRAINTS)
         else:
-            constraints = _arrays(_spatial_constraints(system, functions), SPATIAL_CONSTRAINTS)
+            constraints = scene_arrays(spatial_constraints(system, functions), SPATIAL_CONSTRAINTS)
     except Unsupported as why:
         scene.unsupported = str(why)
         return scene
@@ -174,7 +174,7 @@ def run(scene: Scene, q: np.ndarray, times: np.ndarray, system=None) -> Kinemati
     position (``kinematics.locate_singular_position``); so does this function, with ``system``, and where the search
     finds none the compiled steps go on past the dip (without ``system``, or where it finds one, they stop there).
     """
-    from ..kinematics import LOCKUP_CONDITION, PIVOT_DIP, _dip_start, locate_singular_position
+    from ..kinematics import LOCKUP_CONDITION, PIVOT_DIP, dip_start, locate_singular_position
     from . import kinematic_loop  # imports numba
     from .codegen import load_kinematic
 
@@ -195,7 +195,7 @@ def run(scene: Scene, q: np.ndarray, times: np.ndarray, system=None) -> Kinemati
         )  # fmt: skip
         if reason != kinematic_loop.DIP or system is None or (stop > 0 and signs[stop] != signs[stop - 1]):
             break
-        dip = _dip_start([float(r) for r in ratios[: stop + 1]], points)
+        dip = dip_start([float(r) for r in ratios[: stop + 1]], points)
         if locate_singular_position(system, times[dip], Q[dip], QD[dip], QDD[dip], times[stop]) is not None:
             break  # a singular position: the numpy loop stops there with its error
         first = passed = stop

@@ -13,7 +13,7 @@ fixed signature: it is compiled once per machine and cached on disk, and each sc
 It does not decide anything unusual itself: at the first step where Newton-Raphson does not converge (or
 meets an exact zero pivot, where the numpy loop falls back on least squares), where the lock-up test of
 ``kinematics._factor_checked`` fires, where det Psi_q changes sign or where the pivot ratios dip as
-``kinematics._dip_start`` flags it, it stops and returns that step's index with a reason code (``kinematic.REASONS``):
+``kinematics.dip_start`` flags it, it stops and returns that step's index with a reason code (``kinematic.REASONS``):
 the numpy loop takes the run over from that step, with the same state, and decides as it always does.
 """
 
@@ -99,7 +99,7 @@ def _dips(before, middle, after, pivot_dip):
 
 @njit(cache=True, nogil=True)
 def dip_flagged(ratios, k, points, pivot_dip):
-    """Whether ``kinematics._dip_start`` flags an interval after the ratios of steps 0..k of ``points``."""
+    """Whether ``kinematics.dip_start`` flags an interval after the ratios of steps 0..k of ``points``."""
     if k >= 2 and _dips(ratios[k - 2], ratios[k - 1], ratios[k], pivot_dip):
         return True
     if k == 1 and _dips(ratios[1], ratios[0], ratios[1], pivot_dip):

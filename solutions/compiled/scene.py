@@ -77,7 +77,7 @@ class Scene:
         return ints, floats
 
 
-class _Functions:
+class Functions:
     """The functions of time of a scene, as a table (kind, parameters) the kernels evaluate."""
 
     def __init__(self):
@@ -122,7 +122,7 @@ def _group(rows: dict, name: str, ints: list, floats: list) -> None:
     rows[name][1].append([float(v) for v in floats])
 
 
-def _arrays(rows: dict, order: tuple[str, ...]) -> list[tuple[str, np.ndarray, np.ndarray]]:
+def scene_arrays(rows: dict, order: tuple[str, ...]) -> list[tuple[str, np.ndarray, np.ndarray]]:
     out = []
     for name in order:
         if name in rows:
@@ -132,7 +132,7 @@ def _arrays(rows: dict, order: tuple[str, ...]) -> list[tuple[str, np.ndarray, n
     return out
 
 
-def _actuator(element, functions: _Functions) -> int:
+def _actuator(element, functions: Functions) -> int:
     actuator = element.actuator
     if getattr(actuator, "__name__", "") == "no_actuator":
         return -1
@@ -155,7 +155,7 @@ SPATIAL_CONSTRAINTS = (
 SPATIAL_FORCES = ("spatial_tsda", "spatial_rsda", "spatial_load")
 
 
-def _planar_constraints(system, functions: _Functions) -> dict:
+def planar_constraints(system, functions: Functions) -> dict:
     from ..planar import joints as pj
 
     rows: dict = {}
@@ -192,7 +192,7 @@ def _planar_constraints(system, functions: _Functions) -> dict:
     return rows
 
 
-def _planar_forces(forces, functions: _Functions) -> dict:
+def _planar_forces(forces, functions: Functions) -> dict:
     from ..planar import forces as pf
 
     rows: dict = {}
@@ -217,7 +217,7 @@ def _planar_forces(forces, functions: _Functions) -> dict:
     return rows
 
 
-def _spatial_constraints(system, functions: _Functions) -> dict:
+def spatial_constraints(system, functions: Functions) -> dict:
     from ..spatial import joints as sj
 
     rows: dict = {}
@@ -254,7 +254,7 @@ def _spatial_constraints(system, functions: _Functions) -> dict:
     return rows
 
 
-def _spatial_forces(forces, functions: _Functions) -> dict:
+def _spatial_forces(forces, functions: Functions) -> dict:
     from ..spatial import forces as sf
 
     rows: dict = {}
@@ -289,22 +289,22 @@ def describe(system, M, forces) -> Scene:
     scene = Scene(model.dimension, system.n_coordinates, system.n_constraints)
     scene.drivers = bool(model.motors)
     scene.energies = not forces.is_conservative or scene.drivers
-    functions = _Functions()
+    functions = Functions()
     try:
         if forces.user_forces:
             raise Unsupported("user forces (Python callables)")
         if model.dimension == 2:
             if callable(M) or not np.array_equal(M, np.diag(np.diag(M))):
                 raise Unsupported("a planar mass matrix that is not diagonal")
-            constraints = _arrays(_planar_constraints(system, functions), PLANAR_CONSTRAINTS)
-            loads = _arrays(_planar_forces(forces, functions), PLANAR_FORCES)
+            constraints = scene_arrays(planar_constraints(system, functions), PLANAR_CONSTRAINTS)
+            loads = scene_arrays(_planar_forces(forces, functions), PLANAR_FORCES)
             scene.mass_diagonal = np.diag(M).astype(float)
             scene.Q0 = np.asarray(forces.gravity, dtype=float).copy()
         else:
             if type(M).__name__ != "SpatialMassMatrix":
                 raise Unsupported("a spatial mass matrix given by the caller (masses=)")
-            constraints = _arrays(_spatial_constraints(system, functions), SPATIAL_CONSTRAINTS)
-            loads = _arrays(_spatial_forces(forces, functions), SPATIAL_FORCES)
+            constraints = scene_arrays(spatial_constraints(system, functions), SPATIAL_CONSTRAINTS)
+            loads = scene_arrays(_spatial_forces(forces, functions), SPATIAL_FORCES)
             scene.Q0 = np.asarray(forces.gravity, dtype=float).copy()
             scene.masses = np.array([b.mass for b in model.bodies], dtype=float)
             scene.inertias = np.array([np.asarray(b.inertia, dtype=float) for b in model.bodies]).reshape(-1, 3, 3)

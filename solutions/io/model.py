@@ -265,7 +265,7 @@ def _schema_message(error) -> str:
     return f"{where}: {error.message}"
 
 
-def _read_text(path: Path) -> dict:
+def read_text(path: Path) -> dict:
     try:
         text = path.read_text()
     except OSError as err:
@@ -306,7 +306,7 @@ def load_model(source: str | Path | Mapping) -> Model:
         data, label = dict(source), "<model>"
     else:
         path = Path(source)
-        data, label = _read_text(path), path.name
+        data, label = read_text(path), path.name
     errors = schema_errors(data)
     if errors:
         import jsonschema

@@ -130,7 +130,7 @@ def test_benchmark_scene(name):
 def test_function_table_matches_functions():
     """Every compiled function kind against ``functions.py``: value, first and second derivative."""
     from solutions.compiled.kernels import function
-    from solutions.compiled.scene import _Functions
+    from solutions.compiled.scene import Functions
     from solutions.functions import Constant, EccentricCircle, Fourier, Harmonic, Polynomial, SmoothRamp
 
     examples = [
@@ -141,7 +141,7 @@ def test_function_table_matches_functions():
         Fourier(0.04, (0.01, -0.002, 0.003), (0.0, 0.004, -0.001), 2.0),
         EccentricCircle(0.05, 0.01),
     ]
-    table = _Functions()
+    table = Functions()
     indices = [table.index(example) for example in examples]
     kinds, params = table.arrays()
     for example, f in zip(examples, indices, strict=True):

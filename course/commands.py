@@ -1,0 +1,82 @@
+"""The course's commands of ``mbd`` (instructor): ``release``, ``nbcheck``, ``notes`` and ``bench``.
+
+Registered in the course's ``pyproject.toml`` (entry-point group ``mbd.commands``, ``solutions.cli.COMMANDS``);
+each ``add_*`` adds its subparser to ``mbd``'s. The work is imported only when the command runs, so that
+listing the commands costs nothing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def add_release(sub) -> None:
+    """``mbd release hwN``: the student's kit of a homework (``course.release``)."""
+    release = sub.add_parser("release", help="build and release homework hwN to students (instructor)")
+    release.add_argument("homework", help="hw1, hw2 or hw3")
+    release.set_defaults(handler=lambda args: _release(args.homework))
+
+
+def _release(homework: str) -> int:
+    from course.release import command
+
+    return command(homework)
+
+
+def add_nbcheck(sub) -> None:
+    """``mbd nbcheck hwN [--repair]``: what nbgrader will do with each collected notebook (``course.nbcheck``)."""
+    nbcheck = sub.add_parser(
+        "nbcheck", help="check the collected notebooks of hwN before nbgrader's autograde (instructor)"
+    )
+    nbcheck.add_argument("homework", help="hw1, hw2 or hw3")
+    nbcheck.add_argument(
+        "--repair", action="store_true", help="repair what is safe: a renamed notebook, a duplicated or lost test cell"
+    )
+    nbcheck.set_defaults(handler=lambda args: _nbcheck(args.homework, args.repair))
+
+
+def _nbcheck(homework: str, repair: bool) -> int:
+    from course.nbcheck import command
+
+    return command(homework, repair)
+
+
+def add_notes(sub) -> None:
+    """``mbd notes [options]``: the course notes as HTML (``course/notes/build.py``; its options: --help)."""
+    notes = sub.add_parser("notes", help="build the course notes as HTML (build/notes/index.html)", add_help=False)
+    notes.set_defaults(handler=_notes, options=True)
+
+
+def _notes(args: argparse.Namespace) -> int:
+    from course.notes.build import main
+
+    return main(args.options)
+
+
+def add_bench(sub) -> None:
+    """``mbd bench [options]``: the repository's ``benchmarks/bench.py`` (run time against error)."""
+    bench = sub.add_parser(
+        "bench",
+        help="run time against error per scene, formulation and integrator (see benchmarks/README.md)",
+        add_help=False,
+    )
+    bench.set_defaults(handler=_bench, options=True)
+
+
+def _bench(args: argparse.Namespace) -> int:
+    import importlib.util
+
+    from solutions.cli import UsageError
+
+    script = REPO / "benchmarks" / "bench.py"
+    if not script.is_file():
+        raise UsageError("mbd bench runs the course repository's benchmarks/bench.py: run it in the repository")
+    spec = importlib.util.spec_from_file_location("mbd_bench", script)
+    bench = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = bench  # its dataclasses look their module up there
+    spec.loader.exec_module(bench)
+    return bench.main(args.options)
