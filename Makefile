@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed
 export OPENBLAS_NUM_THREADS ?= 1
 export OMP_NUM_THREADS ?= 1
 
-.PHONY: demo test lint bench clean sandbox-tools
+.PHONY: demo test test-fast lint bench clean sandbox-tools
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -32,10 +32,16 @@ sandbox-tools:
 
 # Tests run on every core (pytest-xdist), one test file per worker at a time (--dist loadfile) so that a file's
 # module-scoped fixtures (a nbgrader course, a graded class, a Dask cluster) are built once; the 20 slowest are listed.
+# The slow tier (notebooks, nbgrader, kits, sandboxes, clusters, numba; tests/conftest.py SLOW) runs first,
+# longest file first; `make test-fast` leaves it out (for a quick loop: CI runs `make test`, everything).
 TEST_WORKERS ?= auto
 test: $(STAMP) sandbox-tools
 	$(BIN)/ruff check solutions course autograder mbdkit tests benchmarks
 	MPLBACKEND=Agg $(BIN)/python -m pytest -n $(TEST_WORKERS) --dist loadfile --durations=20
+
+test-fast: $(STAMP)
+	$(BIN)/ruff check solutions course autograder mbdkit tests benchmarks
+	MPLBACKEND=Agg $(BIN)/python -m pytest -n $(TEST_WORKERS) --dist loadfile --durations=10 -m "not slow"
 
 # modules/ is generated from solutions/ (every homework stubbed), committed, never edited by hand.
 .PHONY: modules

@@ -1,7 +1,7 @@
 """Grading on Dask: ``grade(..., cluster="local" | "tcp://HOST:PORT")`` (``mbd grade --cluster``).
 
 Each submission is one Dask task. A worker grades it exactly as a process-pool worker does: it is set up
-like one (``grading._worker_init``: one BLAS thread for its sandboxes, SIGKILL when its parent process
+like one (``grading.worker_init``: one BLAS thread for its sandboxes, SIGKILL when its parent process
 dies), and it runs the student's code in the same sandbox per submission (bubblewrap, or the unsafe local
 sandbox when asked), which never imports the reference package. The worker returns the result and the
 feedback page; only the client writes them (atomically, as each arrives) and the gradebook, so a stopped
@@ -31,7 +31,7 @@ from mbdkit.homework import Homework
 from mbdkit.sandbox import Limits, without_main
 from solutions.sweep import SweepError, check_cluster, open_client, progress_bar
 
-from .grading import Gradebook, Submission, _worker_init, grade_one, internal_error, write_graded
+from .grading import Gradebook, Submission, grade_one, internal_error, worker_init, write_graded
 
 
 class ClusterError(RuntimeError):
@@ -39,8 +39,8 @@ class ClusterError(RuntimeError):
 
 
 def setup_worker() -> None:
-    """In every Dask worker (also one that replaces a worker that died): as ``grading._worker_init``."""
-    _worker_init(os.getppid())
+    """In every Dask worker (also one that replaces a worker that died): as ``grading.worker_init``."""
+    worker_init(os.getppid())
 
 
 def grade_remote(
@@ -85,7 +85,7 @@ def grade_on_cluster(
             return book
         from dask.distributed import as_completed
 
-        _worker_init()  # LocalCluster workers inherit one BLAS thread from here
+        worker_init()  # LocalCluster workers inherit one BLAS thread from here
         try:
             with without_main(), open_client(cluster, jobs, setup_worker) as client:
                 futures = [

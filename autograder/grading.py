@@ -596,7 +596,7 @@ def _no_interrupt(number: int, frame) -> None:
     """SIGINT in a grading worker: nothing (the grader ends its workers itself)."""
 
 
-def _worker_init(parent: int | None = None, pool: bool = False) -> None:
+def worker_init(parent: int | None = None, pool: bool = False) -> None:
     for key, value in SANDBOX_ENV.items():
         os.environ.setdefault(key, value)
     if pool:  # a process-pool worker: Ctrl-C is the grader's to handle (it ends the workers), no traceback here;
@@ -787,9 +787,9 @@ def _grade_all(
 
 def _grade_in_pool(homework, todo, book, out_dir, limits, forbidden, isolation, jobs, bar) -> None:
     """Grade ``todo`` in a pool of ``jobs`` worker processes, writing the gradebook as each finishes."""
-    _worker_init()  # one BLAS thread in the workers and their sandboxes: set before they start
+    worker_init()  # one BLAS thread in the workers and their sandboxes: set before they start
     pool = ProcessPoolExecutor(
-        max_workers=jobs, mp_context=get_context("spawn"), initializer=_worker_init, initargs=(os.getpid(), True)
+        max_workers=jobs, mp_context=get_context("spawn"), initializer=worker_init, initargs=(os.getpid(), True)
     )
     try:
         with without_main():

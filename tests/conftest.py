@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -42,6 +43,58 @@ def pytest_configure(config):
     _ISOLATION["problem"] = problem = isolation.problem()
     if problem is not None:
         os.environ[isolation.UNSAFE_ENV] = "1"
+
+
+SLOW = {
+    "course/test_nbgrader_cycle.py": "nbgrader",
+    "course/test_notebooks.py": "notebooks",
+    "autograder/test_grading.py": "isolation",
+    "course/test_kit.py": "kit",
+    "autograder/test_every_function_graded.py": "isolation",
+    "course/test_release.py": "notebooks",
+    "autograder/test_hostile_grader.py": "isolation",
+    "solutions/test_compiled_models.py": "compiled",
+    "autograder/test_withheld.py": "isolation",
+    "autograder/test_wall.py": "isolation",
+    "course/test_nbgrader_config.py": "nbgrader",
+    "autograder/test_isolation.py": "isolation",
+    "solutions/test_compiled_formulations.py": "compiled",
+    "autograder/test_kernel.py": "isolation",
+    "autograder/test_cluster.py": "cluster",
+    "course/test_notes.py": "notebooks",
+    "solutions/test_compiled_kinematics.py": "compiled",
+    "solutions/test_compiled_history.py": "compiled",
+    "solutions/test_compiled.py": "compiled",
+    "autograder/test_fairness.py": "isolation",
+    "autograder/test_fair_diagnosis.py": "isolation",
+    "autograder/test_sandbox.py": "isolation",
+    "autograder/test_gradebook.py": "isolation",
+    "autograder/test_api.py": "isolation",
+    "course/test_nbcheck.py": "nbgrader",
+}
+"""The slow tier, by test file (relative to tests/) and family: notebooks run by nbgrader or nbclient, the
+nbgrader cycle, kits installed in fresh venvs, classes graded in sandboxes, Dask clusters, numba compiles.
+``make test-fast`` (``-m "not slow"``) leaves them out; ``make test`` (CI) runs everything. Listed longest
+first (the durations of a full run): they are collected first, so that pytest-xdist hands the longest files
+out first and no worker is left with a long one at the end."""
+SLOW_TESTS = {"solutions/test_cli.py::test_bench_quick_writes_its_table": "bench"}
+"""Single slow tests of otherwise fast files."""
+
+
+def pytest_collection_modifyitems(config, items):
+    """Mark the slow tier (``slow`` and the family's marker) and put its files first, longest first."""
+    tests = Path(__file__).parent
+    order = {name: k for k, name in enumerate(SLOW)}
+
+    def where(item) -> str:
+        return Path(item.fspath).relative_to(tests).as_posix()
+
+    for item in items:
+        family = SLOW.get(where(item)) or SLOW_TESTS.get(f"{where(item)}::{item.name.split('[')[0]}")
+        if family is not None:
+            item.add_marker(pytest.mark.slow)
+            item.add_marker(getattr(pytest.mark, family))
+    items.sort(key=lambda item: order.get(where(item), len(order)))  # stable: the rest keep their order
 
 
 def pytest_report_header(config):
