@@ -343,15 +343,13 @@ class DenseOutput:
     def __init__(self, scheme, f, t, h, y, y_new, fy_new, K):
         self.t, self.h, self.y = t, h, y
         if scheme.__name__ == "DOP853":
-            from scipy.integrate._ivp import dop853_coefficients as dop
-
             S = scheme.n_stages + 1
-            extended = np.empty((dop.N_STAGES_EXTENDED, y.size))
+            extended = np.empty((S + len(scheme.C_EXTRA), y.size))
             extended[:S] = K
             for s, (a, c) in enumerate(zip(scheme.A_EXTRA, scheme.C_EXTRA, strict=True), start=S):
                 extended[s] = f(t + c * h, y + h * (a[:s] @ extended[:s]))
             delta = y_new - y
-            F = np.empty((dop.INTERPOLATOR_POWER, y.size))
+            F = np.empty((3 + len(scheme.D), y.size))  # the interpolant's degree: 7
             F[0], F[1], F[2] = delta, h * K[0] - delta, 2.0 * delta - h * (fy_new + K[0])
             F[3:] = h * (scheme.D @ extended)
             self.F, self.Q = F, None

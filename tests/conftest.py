@@ -71,13 +71,23 @@ SLOW = {
     "autograder/test_gradebook.py": "isolation",
     "autograder/test_api.py": "isolation",
     "course/test_nbcheck.py": "nbgrader",
+    "solutions/test_singular_redundant.py": "long",
+    "solutions/test_symbolic.py": "long",
+    "solutions/test_sweep.py": "cluster",
+    "autograder/test_reference.py": "long",
+    "benchmarks/test_bench_smoke.py": "bench",
 }
 """The slow tier, by test file (relative to tests/) and family: notebooks run by nbgrader or nbclient, the
-nbgrader cycle, kits installed in fresh venvs, classes graded in sandboxes, Dask clusters, numba compiles.
+nbgrader cycle, kits installed in fresh venvs, classes graded in sandboxes, Dask clusters, numba compiles, long
+runs (singular positions, symbolic derivations, every stored reference run again).
 ``make test-fast`` (``-m "not slow"``) leaves them out; ``make test`` (CI) runs everything. Listed longest
 first (the durations of a full run): they are collected first, so that pytest-xdist hands the longest files
 out first and no worker is left with a long one at the end."""
-SLOW_TESTS = {"solutions/test_cli.py::test_bench_quick_writes_its_table": "bench"}
+SLOW_TESTS = {
+    "solutions/test_cli.py::test_bench_quick_writes_its_table": "bench",
+    "solutions/test_examples.py::test_kinematics_benchmark_quick_runs": "bench",
+    "autograder/test_secret.py::test_hidden_scenes_assemble_and_run_for_many_secrets": "long",
+}
 """Single slow tests of otherwise fast files."""
 
 

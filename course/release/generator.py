@@ -323,7 +323,7 @@ def build_source(text: str, path: str, homework: str | None) -> tuple[str, list[
 
     # nbgrader cuts the remaining regions, each into the stub, indented as its BEGIN line.
     cell = nbformat.v4.new_code_cell("\n".join(lines))
-    _clear_solutions()._replace_solution_region(cell, "python")
+    _clear_solutions().preprocess_cell(cell, {"language": "python"}, 0)
     pieces = cell.source.split(_STUB_TOKEN)
     if len(pieces) != len(stubbed) + 1:
         raise RegionError(path, stubbed[0].begin if stubbed else 1, "could not match every stub to its region")

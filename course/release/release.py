@@ -164,12 +164,13 @@ def _alembic_head() -> str:
     nbgrader asks for it by running the ``alembic`` command (``nbgrader.api.get_alembic_version``): a
     second Python start-up of several seconds, and a failure when the venv's bin/ is not on PATH.
     """
+    import nbgrader
     from alembic.config import Config
     from alembic.script import ScriptDirectory
-    from nbgrader.dbutil import _temp_alembic_ini
 
-    with _temp_alembic_ini("sqlite://") as ini:
-        return ScriptDirectory.from_config(Config(ini)).get_current_head()
+    config = Config()  # alembic's public API over the migration scripts nbgrader ships (nbgrader/alembic/)
+    config.set_main_option("script_location", str(Path(nbgrader.__file__).parent / "alembic"))
+    return ScriptDirectory.from_config(config).get_current_head()
 
 
 @contextlib.contextmanager
