@@ -351,9 +351,16 @@ def source_files(source: Path) -> list[Path]:
     return sorted(files)
 
 
-def header_for(homework: str | None, relpath: str) -> str:
+def header_for(homework: str | None, relpath: str, stubs: int = 1) -> str:
+    """The first line of a built file: where to write (``stubs``: functions left to write in it), or that
+    there is nothing to write in it."""
     if homework is None:
         return f"# Generated from solutions/{relpath}: the reference with its markers removed.\n"
+    if stubs == 0:
+        return (
+            f"# Student package for {homework}, generated from the course's reference: nothing to write in this "
+            "file (the course's own code, given whole: read it, do not change it).\n"
+        )
     return (
         f"# Student package for {homework}, generated from the course's reference: write your code where a "
         "function raises NotImplementedError.\n"
@@ -416,7 +423,7 @@ def build_package(
             continue
         text, stubbed, filled = build_source((source / rel).read_text(encoding="utf-8"), relpath, homework)
         if header == "release":
-            text = header_for(homework, relpath) + text
+            text = header_for(homework, relpath, len(stubbed)) + text
         elif header == "modules":
             text = MODULES_HEADER.format(path=relpath) + text
         built[relpath] = text.encode("utf-8")

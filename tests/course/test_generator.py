@@ -310,3 +310,17 @@ def test_a_build_replaces_only_a_generated_folder(tmp_path):
     build_package(handwritten, "hw2")
     build_package(handwritten, "hw1")  # a generated folder is replaced
     assert not (handwritten / "mine.py").exists() and (handwritten / "kinematics.py").is_file()
+
+
+@pytest.mark.parametrize("homework", ["hw1", "hw3"])
+def test_each_file_says_whether_the_student_writes_in_it(tmp_path, homework):
+    """A file with a function to write says where; a file with none says there is nothing to write in it."""
+    build_package(tmp_path / "modules", homework)
+    said = {"write": 0, "nothing": 0}
+    for path in (tmp_path / "modules").rglob("*.py"):
+        first, text = path.read_text().split("\n", 1)
+        to_write = "raise NotImplementedError(" in text
+        assert ("write your code where a function raises NotImplementedError" in first) == to_write, path
+        assert ("nothing to write in this file" in first) == (not to_write), path
+        said["write" if to_write else "nothing"] += 1
+    assert said["write"] and said["nothing"]
