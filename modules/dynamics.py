@@ -20,11 +20,19 @@ A run (course notes, chapter 6):
 
 The mass matrix is built once and the force loop is skipped for a scene with gravity only.
 ``formulation="auto"`` and ``integrator="auto"`` pick the cheapest adequate method (``choose_method``).
+
+In the code, ``forward_dynamics`` runs a plan (``run_plan``) as named stages, flowing one way:
+``dynamic_model`` (M and the forces) -> ``consistent_initial_conditions`` (1) -> ``plan_method`` (the method
+and the tolerance rule, computed once) -> ``integrate_motion`` (2 and 4: the numpy engine, or the compiled
+one where it covers the run; ``index3_run`` for the implicit index-3 integrators) -> ``build_result`` (3) ->
+``run_info`` and the warnings. When ``auto``'s method stops at a singular position (``SingularStop``), the
+run is made again from the start with the one fallback plan: a formulation that passes it.
 """
 
 from __future__ import annotations
 
 import time as _time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -273,17 +281,128 @@ def forward_dynamics(
     """
     check_method(formulation, integrator)
     start = _time.perf_counter()
-    requested = (formulation, integrator)
-    model = system.model
-    if masses is None:
-        model.require_masses("dynamic")
-    M = mass_matrix(model) if masses is None else masses
-    forces = build_forces(model) if forces is None else forces
-    q, qd, initial = consistent_initial_conditions(system, M, q0, qd0)
-    if masses is None:
+    run = Run(
+        system, q0, qd0, t_end, steps, rtol, atol, step, accuracy, masses, forces, points, max_evaluations,
+        stiffness, drift_limit, singular_ratio, engine, options,
+    )  # fmt: skip
+    fallbacks = [(THROUGH_SINGULAR[0], integrator)] if formulation == "auto" else []
+    try:
+        result = run_plan(run, formulation, integrator)
+    except SingularStop as stop:  # ``auto`` met a singular position: the formulation that passes it, from the start
+        result = run_plan(run, *fallbacks[0])
+        result.info["chosen"] = {
+            "formulation": fallbacks[0][0],
+            "integrator": result.info["integrator"],
+            "why": f"{fallbacks[0][0]}: {stop.formulation} stopped near a singular configuration ({stop.first}), "
+            "which it passes; " + stop.why,
+        }
+    result.info["wall_time"] = _time.perf_counter() - start
+    return result
+
+
+@dataclass(frozen=True)
+class Run:
+    """What a forward-dynamics run is asked (``forward_dynamics``' arguments but the method)."""
+
+    system: System
+    q0: np.ndarray
+    qd0: np.ndarray
+    t_end: float
+    steps: int
+    rtol: float | None
+    atol: float
+    step: float | None
+    accuracy: float
+    masses: np.ndarray | None
+    forces: ForceModel | None
+    points: dict | None
+    max_evaluations: int | None
+    stiffness: str
+    drift_limit: float | None
+    singular_ratio: float | None
+    engine: str
+    options: dict
+
+
+@dataclass(frozen=True)
+class Plan:
+    """Stage 2: the method and tolerances of a run, chosen once (``plan_method``)."""
+
+    formulation: str
+    integrator: str
+    rtol: float
+    rtol_given: bool
+    periods: float | None
+    size: float
+    chosen: dict | None
+
+
+class SingularStop(AnalysisError):
+    """``auto``'s method stopped at a singular position: ``forward_dynamics`` runs again with one that passes it."""
+
+    def __init__(self, err: AnalysisError, formulation: str, why: str):
+        super().__init__(str(err))
+        self.formulation, self.why, self.first = formulation, why, str(err).split(":")[0]
+
+
+def run_plan(run: Run, formulation: str, integrator: str) -> Result:
+    """One run of the stages: initial conditions -> method -> engine -> result."""
+    system, model = run.system, run.system.model
+    M, forces = dynamic_model(system, run.masses, run.forces)
+    q, qd, initial = consistent_initial_conditions(system, M, run.q0, run.qd0)  # stage 1
+    if run.masses is None:
         check_point_masses(system, M, q, formulation)
+    plan = plan_method(run, M, forces, q, qd, formulation, integrator)  # stage 2
+    if plan.integrator in INDEX3_INTEGRATORS:
+        return index3_run(run, plan, M, forces, q, qd, initial)
+    _check_redundancy(system, q, plan.formulation)
+    if plan.formulation in RESTARTING and plan.integrator in MULTISTEP_INTEGRATORS:
+        raise AnalysisError(
+            f"the {plan.formulation} formulation restarts the integrator after every step, which a multistep "
+            f"method ({plan.integrator}) cannot afford: use rk4, RK45, DOP853 or Radau"
+        )
+    made = make_formulation(plan.formulation, system, M, forces, **run.options)
+    equations = EquationsOfMotion(made, forces, has_drivers=bool(model.motors))
+    rtol, atol, raised = held_tolerances(plan, equations, run.atol)
+    guard = make_guard(run, plan, equations, q, rtol)
+    times = np.linspace(0.0, run.t_end, run.steps + 1)
+    try:  # stage 3: the engine
+        history, stats, compiled, chosen = integrate_motion(run, plan, equations, guard, q, qd, times, rtol, atol, M)
+    except AnalysisError as err:
+        if formulation == "auto" and restartable(err, guard, plan):
+            raise SingularStop(err, plan.formulation, (plan.chosen or {}).get("why", "")) from err
+        raise
+    result, energies = build_result(run, equations, guard, history, compiled, times, M, forces)  # stage 4
+    result.info = run_info(plan, equations, guard, stats, result, energies, initial, rtol, atol, run)
+    if chosen is not None:
+        result.info["chosen"] = chosen
+    if compiled is not None:  # what the compiled engine's start cost: loading (or compiling) the scene's module
+        result.info["compiled"] = {"cached": compiled.cached, "load_seconds": compiled.load_seconds}
+    if guard.rank < system.n_constraints:
+        result.info["notes"] = [REDUNDANT_NOTE]
+    result.info["warnings"] = drift_warnings(result.info, guard.size, plan.formulation, run.options)  # stage 5
+    result.info["warnings"] += raised + accuracy_warnings(result.info, guard.size, run.accuracy, plan.periods)
+    if not plan.rtol_given and plan.periods is not None:
+        result.info["rtol_rule"] = (
+            f"rtol = max({MIN_RTOL:g}, min({DEFAULT_RTOL:g}, accuracy / periods^2)) with {plan.periods:.3g} periods"
+        )
+    return result
+
+
+def dynamic_model(system: System, masses, forces) -> tuple[np.ndarray, ForceModel]:
+    """The mass matrix M (eq. 6.8) and the force model of the run: the model's, or those given."""
+    if masses is None:
+        system.model.require_masses("dynamic")
+    M = mass_matrix(system.model) if masses is None else masses
+    return M, build_forces(system.model) if forces is None else forces
+
+
+def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str) -> Plan:
+    """Stage 2: the formulation and integrator (``choose_method`` for ``auto``) and the tolerance rule
+    (``default_rtol`` over the motion's periods), computed once."""
+    system, model, options = run.system, run.system.model, run.options
     chosen = None
-    if formulation == "joint-coordinates" and masses is not None and model.dimension == 3:
+    if formulation == "joint-coordinates" and run.masses is not None and model.dimension == 3:
         raise AnalysisError(
             "the joint-coordinates formulation takes a spatial model's masses and inertias from the model: "
             "drop masses=, or choose another formulation"
@@ -291,65 +410,98 @@ def forward_dynamics(
     if formulation != "auto" and integrator not in INDEX3_INTEGRATORS:
         _check_redundancy(system, q, formulation)  # before ``auto`` evaluates the equations of motion
     if "auto" in (formulation, integrator):
-        own_masses = masses is not None and model.dimension == 3  # the spatial tree takes the model's masses
+        own_masses = run.masses is not None and model.dimension == 3  # the spatial tree takes the model's masses
         chosen = choose_method(
-            system, M, forces, q, qd, t_end, rtol, formulation, integrator, trees=not own_masses, **options
+            system, M, forces, q, qd, run.t_end, run.rtol, formulation, integrator, trees=not own_masses, **options
         )
         formulation, integrator = chosen["formulation"], chosen["integrator"]
-    if not (accuracy > 0.0 and np.isfinite(accuracy)):
-        raise AnalysisError(f"accuracy = {accuracy}: must be a number > 0 (a fraction of the mechanism's size)")
+    if not (run.accuracy > 0.0 and np.isfinite(run.accuracy)):
+        raise AnalysisError(f"accuracy = {run.accuracy}: must be a number > 0 (a fraction of the mechanism's size)")
     size = mechanism_size(system, q)
     periods = None
     if integrator not in INDEX3_INTEGRATORS and integrator not in FIXED_STEP_METHODS:
-        periods = motion_periods(system, M, forces, q, qd, t_end, formulation, options)
-    rtol_given = rtol is not None
-    if not rtol_given:
-        rtol = default_rtol(periods, accuracy)
-    if integrator in INDEX3_INTEGRATORS:
-        from .implicit import integrate_index3  # the implicit index-3 integrators (HHT-alpha, generalized-alpha)
+        periods = motion_periods(system, M, forces, q, qd, run.t_end, formulation, options)
+    rtol = run.rtol if run.rtol is not None else default_rtol(periods, run.accuracy)
+    return Plan(formulation, integrator, rtol, run.rtol is not None, periods, size, chosen)
 
-        result = integrate_index3(
-            system, M, forces, q, qd, t_end, steps, rtol, atol, step, method=integrator, **options
-        )
-        for label, (body, point) in (points or {}).items():
-            result.points.update(point_columns(result, label, body, point))
-        result.reactions.update(joint_reactions(system, result.q, result.lam, result.t))
-        result.reactions.update(effort_columns(system, result.q, result.lam, result.t))
-        result.info.update(assembly=initial["assembly"], initial_conditions=initial)
-        result.info["warnings"] = accuracy_warnings(result.info, size, accuracy, None)
-        result.info["wall_time"] = _time.perf_counter() - start
-        return result
-    _check_redundancy(system, q, formulation)
-    if formulation in RESTARTING and integrator in MULTISTEP_INTEGRATORS:
-        raise AnalysisError(
-            f"the {formulation} formulation restarts the integrator after every step, which a multistep method "
-            f"({integrator}) cannot afford: use rk4, RK45, DOP853 or Radau"
-        )
-    equations = EquationsOfMotion(
-        make_formulation(formulation, system, M, forces, **options), forces, has_drivers=bool(model.motors)
-    )
+
+def index3_run(run: Run, plan: Plan, M, forces, q, qd, initial: dict) -> Result:
+    """The implicit index-3 integrators (HHT-alpha, generalized-alpha, ``implicit.py``): formulation and ODE in one."""
+    from .implicit import integrate_index3
+
+    system = run.system
+    result = integrate_index3(
+        system, M, forces, q, qd, run.t_end, run.steps, plan.rtol, run.atol, run.step, method=plan.integrator,
+        **run.options,
+    )  # fmt: skip
+    for label, (body, point) in (run.points or {}).items():
+        result.points.update(point_columns(result, label, body, point))
+    result.reactions.update(joint_reactions(system, result.q, result.lam, result.t))
+    result.reactions.update(effort_columns(system, result.q, result.lam, result.t))
+    result.info.update(assembly=initial["assembly"], initial_conditions=initial)
+    result.info["warnings"] = accuracy_warnings(result.info, plan.size, run.accuracy, None)
+    return result
+
+
+def held_tolerances(plan: Plan, equations: EquationsOfMotion, atol: float) -> tuple[float, float, list[str]]:
+    """(rtol, atol, warnings): raised to what the formulation holds (its ``held_rtol``, a penalty's rounding)."""
     held = getattr(equations.formulation, "held_rtol", None)
-    raised = []
-    if held is not None and integrator not in FIXED_STEP_METHODS and min(rtol, atol) < held:
-        raised.append(
-            f"rtol {rtol:.2g}, atol {atol:.2g} raised to {max(rtol, held):.2g}, {max(atol, held):.2g}: the "
-            f"tightest the {formulation} formulation holds is {held:.2g} (its accelerations carry the rounding "
-            "errors of its penalty; a smaller step cannot remove them)"
-        )
-        rtol, atol = max(rtol, held), max(atol, held)
-    times = np.linspace(0.0, t_end, steps + 1)
-    history = _History(times.size, system.n_coordinates, system.n_constraints, equations.extra)
+    rtol = plan.rtol
+    if held is None or plan.integrator in FIXED_STEP_METHODS or min(rtol, atol) >= held:
+        return rtol, atol, []
+    said = (
+        f"rtol {rtol:.2g}, atol {atol:.2g} raised to {max(rtol, held):.2g}, {max(atol, held):.2g}: the "
+        f"tightest the {plan.formulation} formulation holds is {held:.2g} (its accelerations carry the rounding "
+        "errors of its penalty; a smaller step cannot remove them)"
+    )
+    return max(rtol, held), max(atol, held), [said]
 
-    loose = 100.0 * rtol if integrator not in FIXED_STEP_METHODS else 0.0  # a loose tolerance may drift further
-    if formulation == "joint-coordinates" and not equations.formulation.cut_rows:  # an open tree: on the constraints
-        drift_limit = singular_ratio = None  # by construction, full-rank Psi_q everywhere: nothing for the Guard to see
-    guard = Guard(
-        system,
+
+def make_guard(run: Run, plan: Plan, equations: EquationsOfMotion, q: np.ndarray, rtol: float) -> Guard:
+    """The run's ``Guard``: drift at least 100 rtol for a loose tolerance; none for an open tree in joint
+    coordinates, on the constraints by construction with a full-rank Psi_q everywhere."""
+    drift_limit, singular_ratio = run.drift_limit, run.singular_ratio
+    loose = 100.0 * rtol if plan.integrator not in FIXED_STEP_METHODS else 0.0  # a loose tolerance may drift further
+    if plan.formulation == "joint-coordinates" and not equations.formulation.cut_rows:  # an open tree
+        drift_limit = singular_ratio = None  # nothing for the Guard to see
+    return Guard(
+        run.system,
         q,
         None if drift_limit is None else max(drift_limit, loose),
         singular_ratio,
-        through=formulation in THROUGH_SINGULAR,
+        through=plan.formulation in THROUGH_SINGULAR,
     )
+
+
+def integrate_motion(run: Run, plan: Plan, equations, guard, q, qd, times, rtol, atol, M):
+    """Stage 3: the history at the output times, by the compiled engine where it covers the run, else numpy.
+    Returns (history, integrator statistics, the compiled run or None, what was chosen)."""
+    system, chosen = run.system, plan.chosen
+    history = _History(times.size, system.n_coordinates, system.n_constraints, equations.extra)
+    dispatch = None
+    if run.engine != "numpy":  # the compiled engine (numba), imported only when asked for
+        try:
+            from .compiled import dispatch
+        except ImportError:  # a student package: the compiled engine stays with the instructor
+            chosen = {**(chosen or {}), "engine": "numpy", "engine_why": "this package has no compiled engine"}
+    if dispatch is not None:
+        z0 = equations.initial_state(q, qd, 0.0)
+        scene, engine_choice = dispatch.choose(
+            run.engine, system, M, equations.forces, plan.formulation, plan.integrator, run.options, equations, z0,
+            run.t_end, run.steps, rtol, atol, run.step,
+        )  # fmt: skip
+        chosen = {**(chosen or {}), **engine_choice}
+        if scene is not None:
+            compiled, stats = dispatch.run(
+                scene, z0, times, plan.integrator, rtol, atol, run.step, run.max_evaluations, run.options
+            )
+            n = system.n_coordinates
+            history.q, history.qd = compiled.Y[:, :n].copy(), compiled.Y[:, n : 2 * n].copy()
+            history.qdd, history.lam, history.energies = compiled.qdd, compiled.lam, compiled.Y[:, 2 * n :]
+            # the checks at the output times (the numpy engine: drift at output times, configuration after
+            # every step), from Psi and Psi_q the compiled module gives for all of them at once
+            guard.check_outputs(times, history.q, compiled.psi, compiled.jac)
+            return history, stats, compiled, chosen
 
     def record(k: int, t: float, z: np.ndarray) -> None:
         y, energies = equations.split(z)
@@ -362,74 +514,42 @@ def forward_dynamics(
         guard.check_configuration(equations.formulation, t, equations.split(z if corrected is None else corrected)[0])
         return corrected
 
-    try:
-        compiled = None
-        dispatch = None
-        if engine != "numpy":  # the compiled engine (numba), imported only when asked for
-            try:
-                from .compiled import dispatch
-            except ImportError:  # a student package: the compiled engine stays with the instructor
-                chosen = {**(chosen or {}), "engine": "numpy", "engine_why": "this package has no compiled engine"}
-        if dispatch is not None:
-            z0 = equations.initial_state(q, qd, 0.0)
-            scene, engine_choice = dispatch.choose(
-                engine, system, M, forces, formulation, integrator, options, equations, z0, t_end, steps, rtol, atol,
-                step,
-            )  # fmt: skip
-            chosen = {**(chosen or {}), **engine_choice}
-            if scene is not None:
-                compiled, stats = dispatch.run(scene, z0, times, integrator, rtol, atol, step, max_evaluations, options)
-                n = system.n_coordinates
-                history.q, history.qd = compiled.Y[:, :n].copy(), compiled.Y[:, n : 2 * n].copy()
-                history.qdd, history.lam, history.energies = compiled.qdd, compiled.lam, compiled.Y[:, 2 * n :]
-                # the checks at the output times (the numpy engine: drift at output times, configuration after
-                # every step), from Psi and Psi_q the compiled module gives for all of them at once
-                guard.check_outputs(times, history.q, compiled.psi, compiled.jac)
-        if compiled is None:
-            stats = integrate(
-                equations.rhs,
-                equations.initial_state(q, qd, 0.0),
-                times,
-                record,
-                method=integrator,
-                rtol=rtol,
-                atol=atol,
-                step=step,
-                after_step=after_step if guard.singular_ratio else equations.after_step,
-                max_evaluations=max_evaluations,
-                stiffness=stiffness,
-            )
-    except AnalysisError as err:
-        # ``auto`` stopped at a singular position: by the Guard, or by an integrator that lost its step next to
-        # one the Guard saw coming (an even rank loss, e.g. one per loop of a chain, keeps the sign of det)
-        near = guard.closest is not None and guard.closest["ratio"] < NEAR_SINGULAR
-        singular = isinstance(err, SingularConfigurationError) or near
-        if requested[0] != "auto" or formulation in THROUGH_SINGULAR or not singular:
-            raise
-        if integrator in MULTISTEP_INTEGRATORS:
-            raise
-        # ``auto`` met a singular position: run again with the formulation that passes it (THROUGH_SINGULAR)
-        again = forward_dynamics(
-            system, q0, qd0, t_end, steps, THROUGH_SINGULAR[0], requested[1], rtol if rtol_given else None, atol,
-            step, accuracy=accuracy, masses=masses, forces=forces, points=points, max_evaluations=max_evaluations,
-            stiffness=stiffness, drift_limit=drift_limit, singular_ratio=singular_ratio, engine=engine, **options,
-        )  # fmt: skip
-        first = str(err).split(":")[0]
-        again.info["chosen"] = {
-            "formulation": THROUGH_SINGULAR[0],
-            "integrator": again.info["integrator"],
-            "why": f"{THROUGH_SINGULAR[0]}: {formulation} stopped near a singular configuration ({first}), "
-            "which it passes; " + (chosen or {}).get("why", ""),
-        }
-        again.info["wall_time"] = _time.perf_counter() - start
-        return again
+    stats = integrate(
+        equations.rhs,
+        equations.initial_state(q, qd, 0.0),
+        times,
+        record,
+        method=plan.integrator,
+        rtol=rtol,
+        atol=atol,
+        step=run.step,
+        after_step=after_step if guard.singular_ratio else equations.after_step,
+        max_evaluations=run.max_evaluations,
+        stiffness=run.stiffness,
+    )
+    return history, stats, None, chosen
+
+
+def restartable(err: AnalysisError, guard: Guard, plan: Plan) -> bool:
+    """Whether ``auto`` stopped at a singular position (by the Guard, or by an integrator that lost its step next
+    to one the Guard saw coming: an even rank loss, e.g. one per loop of a chain, keeps the sign of det) with a
+    method that a formulation passing it can replace (not a multistep integrator)."""
+    near = guard.closest is not None and guard.closest["ratio"] < NEAR_SINGULAR
+    singular = isinstance(err, SingularConfigurationError) or near
+    return singular and plan.formulation not in THROUGH_SINGULAR and plan.integrator not in MULTISTEP_INTEGRATORS
+
+
+def build_result(run: Run, equations, guard, history, compiled, times, M, forces) -> tuple[Result, object]:
+    """Stage 4: q, q', q'', lambda with the residuals, energies, points and joint reactions (eq. 6.50); and
+    the energy history (``energy.energy_history``)."""
+    system = run.system
     result = Result(
         t=times,
         q=history.q,
         qd=history.qd,
         qdd=history.qdd,
         coordinate_names=system.coordinate_names,
-        body_names=[b.name for b in model.bodies],
+        body_names=[b.name for b in system.model.bodies],
         lam=history.lam,
     )
     if compiled is None:
@@ -442,7 +562,7 @@ def forward_dynamics(
     energies = energy_history(M, forces, history.q, history.qd, *accumulated)
     result.points.update(residuals)
     result.points.update(energies.columns())
-    for label, (body, point) in (points or {}).items():
+    for label, (body, point) in (run.points or {}).items():
         result.points.update(point_columns(result, label, body, point))
     redundant = guard.rank < system.n_constraints
     if redundant:  # multipliers are not unique: report the minimum-norm set (eq. 5.73)
@@ -454,43 +574,34 @@ def forward_dynamics(
 
         result.reactions.update(compiled_history.joint_reactions(system, history.q, history.lam, compiled.jac))
     result.reactions.update(effort_columns(system, history.q, history.lam, times))
-    result.info = {
+    return result, energies
+
+
+def run_info(plan: Plan, equations, guard, stats, result, energies, initial: dict, rtol, atol, run: Run) -> dict:
+    """How the result was obtained (DESIGN section 5)."""
+    return {
         "analysis": "dynamic",
-        "formulation": formulation,
-        "integrator": integrator,
+        "formulation": plan.formulation,
+        "integrator": plan.integrator,
         "rtol": rtol,
         "atol": atol,
-        "step": step,
-        "steps": steps,
+        "step": run.step,
+        "steps": run.steps,
         "rhs_evaluations": stats.rhs_evaluations,
         "integrator_steps": stats.steps,
         "rejected_steps": stats.rejected,
         "restarts": stats.restarts,
-        "stiffness": None if stats.stiffness is None else stiffness_message(integrator, stats.stiffness),
+        "stiffness": None if stats.stiffness is None else stiffness_message(plan.integrator, stats.stiffness),
         "closest_singularity": guard.closest,
         "singular_positions": guard.crossings,
-        "max_constraint_residual": float(residuals["residual.position"].max()),
-        "max_velocity_residual": float(residuals["residual.velocity"].max()),
+        "max_constraint_residual": float(result.points["residual.position"].max()),
+        "max_velocity_residual": float(result.points["residual.velocity"].max()),
         "energy_drift": float(np.max(np.abs(energies.error))),
         "energy_drift_relative": float(np.max(np.abs(energies.error)) / energies.scale),
         "assembly": initial["assembly"],
         "initial_conditions": initial,
         **_formulation_info(equations.formulation),
-        "wall_time": _time.perf_counter() - start,
     }
-    if chosen is not None:
-        result.info["chosen"] = chosen
-    if compiled is not None:  # what the compiled engine's start cost: loading (or compiling) the scene's module
-        result.info["compiled"] = {"cached": compiled.cached, "load_seconds": compiled.load_seconds}
-    if redundant:
-        result.info["notes"] = [REDUNDANT_NOTE]
-    result.info["warnings"] = drift_warnings(result.info, guard.size, formulation, options)
-    result.info["warnings"] += raised + accuracy_warnings(result.info, guard.size, accuracy, periods)
-    if not rtol_given and periods is not None:
-        result.info["rtol_rule"] = (
-            f"rtol = max({MIN_RTOL:g}, min({DEFAULT_RTOL:g}, accuracy / periods^2)) with {periods:.3g} periods"
-        )
-    return result
 
 
 def mechanism_size(system: System, q: np.ndarray) -> float:
