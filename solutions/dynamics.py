@@ -389,7 +389,7 @@ def run_plan(run: Run, formulation: str, integrator: str) -> Result:
 
 
 def dynamic_model(system: System, masses, forces) -> tuple[np.ndarray, ForceModel]:
-    """The mass matrix M (eq. 6.8) and the force model of the run: the model's, or those given."""
+    """The mass matrix M (eq. 5.4) and the force model of the run: the model's, or those given."""
     if masses is None:
         system.model.require_masses("dynamic")
     M = mass_matrix(system.model) if masses is None else masses
@@ -539,7 +539,7 @@ def restartable(err: AnalysisError, guard: Guard, plan: Plan) -> bool:
 
 
 def build_result(run: Run, equations, guard, history, compiled, times, M, forces) -> tuple[Result, object]:
-    """Stage 4: q, q', q'', lambda with the residuals, energies, points and joint reactions (eq. 6.50); and
+    """Stage 4: q, q', q'', lambda with the residuals, energies, points and joint reactions (eq. 5.70); and
     the energy history (``energy.energy_history``)."""
     system = run.system
     result = Result(
