@@ -71,6 +71,7 @@ from .linalg import independent_rows
 from .mass_matrix import mass_at
 from .reactions import REDUNDANT_NOTE, minimum_norm_multipliers
 from .results import Result
+from .settings import Settings
 
 METHODS = ("generalized-alpha", "hht")
 DEFAULT_RHO = 0.9
@@ -342,23 +343,34 @@ class EnergyAccount:
             self._last = new
 
 
+@dataclass(frozen=True)
+class Index3Options:
+    """The index-3 methods' own options (``forward_dynamics(..., rho_inf=0.8)``).
+
+    rho_inf : spectral radius at infinity (numerical damping: 1 none, smaller more)
+    first_step : first trial step with step control (default: from the initial accelerations, ``initial_step``)
+    min_step : below this step the run stops with an AnalysisError
+    newton_tol, max_iterations : Newton stops when the weighted position correction is below newton_tol
+    """
+
+    rho_inf: float = DEFAULT_RHO
+    first_step: float | None = None
+    min_step: float = 1e-12
+    newton_tol: float = 1e-3
+    max_iterations: int = 8
+
+    @classmethod
+    def of(cls, method: str, options: dict) -> Index3Options:
+        """The options from a run's formulation options, refusing one the index-3 methods do not take."""
+        known = cls.__dataclass_fields__
+        unknown = sorted(set(options) - set(known))
+        if unknown:
+            raise AnalysisError(f"{method} takes no option {', '.join(unknown)} (it takes: {', '.join(known)})")
+        return cls(**options)
+
+
 def integrate_index3(
-    system: System,
-    masses: np.ndarray,
-    forces: ForceModel,
-    q0: np.ndarray,
-    qd0: np.ndarray,
-    t_end: float,
-    steps: int,
-    rtol: float = 1e-6,
-    atol: float = 1e-8,
-    step: float | None = None,
-    method: str = "generalized-alpha",
-    rho_inf: float = DEFAULT_RHO,
-    first_step: float | None = None,
-    min_step: float = 1e-12,
-    newton_tol: float = 1e-3,
-    max_iterations: int = 8,
+    system: System, masses: np.ndarray, forces: ForceModel, q0: np.ndarray, qd0: np.ndarray, settings: Settings
 ) -> Result:
     """Integrate the index-3 DAE with generalized-alpha or HHT from a consistent (q0, q0') at t = 0.
 
@@ -366,14 +378,9 @@ def integrate_index3(
     ----------
     system, masses, forces : the assembled system, its mass matrix M and its applied forces
     q0, qd0 : consistent initial positions and velocities (Psi = 0, Psi_q q' + Psi_t = 0)
-    t_end, steps : output grid t = 0, t_end/steps, ..., t_end (every step ends on it)
-    rtol, atol : local error tolerances of the positions (step control and Newton iterations)
-    step : fixed step size instead of step control
-    method : 'generalized-alpha' or 'hht'
-    rho_inf : spectral radius at infinity (numerical damping: 1 none, smaller more)
-    first_step : first trial step with step control (default: from the initial accelerations)
-    min_step : below this step the run stops with an AnalysisError
-    newton_tol, max_iterations : Newton stops when the weighted position correction is below newton_tol
+    settings : ``integrator`` ('generalized-alpha' or 'hht'); the output grid t = 0, t_end/steps, ..., t_end
+        (every step ends on it); ``rtol``, ``atol``: local error tolerances of the positions (step control and
+        Newton iterations); ``step``: a fixed step size instead of step control; the options ``Index3Options``
 
     Returns
     -------
@@ -384,68 +391,114 @@ def integrate_index3(
         factorizations, residual evaluations (``rhs_evaluations``).
     """
     start = _time.perf_counter()
-    parameters = alpha_parameters(method, rho_inf)
-    full = system
+    options = Index3Options.of(settings.integrator, settings.formulation_options)
+    parameters = alpha_parameters(settings.integrator, options.rho_inf)
     rows = independent_rows(system.jacobian(np.asarray(q0, dtype=float), 0.0))
-    if rows.size < system.n_constraints:  # redundant constraints: solve with the independent rows
-        system = IndependentRows(full, rows)
-    stepper = Index3Stepper(system, masses, forces, parameters, rtol, atol, newton_tol, max_iterations)
-    energy = EnergyAccount(system, forces, active=not forces.is_conservative or bool(system.model.motors))
-    times = np.linspace(0.0, t_end, steps + 1)
-    n, m = system.n_coordinates, full.n_constraints
-    out_q, out_qd, out_qdd, out_lam = (np.empty((times.size, k)) for k in (n, n, n, m))
-    out_lam[:] = 0.0
-    accumulated = np.zeros((times.size, 3))
-    q, qd = np.array(q0, dtype=float), np.array(qd0, dtype=float)
-    Q = forces.generalized_forces(q, qd, 0.0)
-    qdd, lam = augmented_accelerations(mass_at(masses, q), system.jacobian(q, 0.0), Q, system.gamma(q, qd, 0.0))
+    solved = system if rows.size == system.n_constraints else IndependentRows(system, rows)  # redundant: fewer rows
+    stepper = Index3Stepper(
+        solved, masses, forces, parameters, settings.rtol, settings.atol, options.newton_tol, options.max_iterations
+    )
+    energy = EnergyAccount(solved, forces, active=not forces.is_conservative or bool(system.model.motors))
+    times = np.linspace(0.0, settings.t_end, settings.steps + 1)
+    out = Index3History.empty(times.size, system.n_coordinates, system.n_constraints)
+    q, qd = np.asarray(q0, dtype=float), np.asarray(qd0, dtype=float)
+    march(stepper, energy, out, rows, q, qd, times, settings, options)
+    if rows.size < system.n_constraints:  # the multipliers are not unique: the minimum-norm set (eq. 5.73)
+        out.lam = minimum_norm_multipliers(system, out.q, out.lam, times)
+    result = index3_result(system, masses, forces, out, times)
+    result.info.update(index3_info(settings, options.rho_inf, parameters, stepper.counters))
+    result.info["wall_time"] = _time.perf_counter() - start
+    if rows.size < system.n_constraints:
+        result.info["notes"] = [REDUNDANT_NOTE]
+    return result
+
+
+@dataclass
+class Index3History:
+    """q, q', q'', lambda and the three accumulated energies at the output times."""
+
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    lam: np.ndarray
+    accumulated: np.ndarray
+
+
+    @classmethod
+    def empty(cls, size: int, n: int, m: int) -> Index3History:
+        """Zeros for ``size`` output times, n coordinates and m constraints."""
+        return cls(*(np.zeros((size, k)) for k in (n, n, n, m, 3)))
+
+
+def march(stepper: Index3Stepper, energy: EnergyAccount, out: Index3History, rows, q, qd, times, settings, options):
+    """From the consistent (q, q') over the output times into ``out``: fixed steps, or steps with error control;
+    the multipliers of the solved constraint ``rows`` (the others are left 0)."""
+    system = stepper.system
+    Q = stepper.forces.generalized_forces(q, qd, 0.0)
+    qdd, lam = augmented_accelerations(mass_at(stepper.M, q), system.jacobian(q, 0.0), Q, system.gamma(q, qd, 0.0))
     state = (q, qd, qdd, qdd.copy(), lam)  # (q, q', q'', a, lambda), a_0 = q''_0
     energy.start(q, qd, lam, 0.0)
-    out_q[0], out_qd[0], out_qdd[0], out_lam[0, rows] = q, qd, qdd, lam
-    h = step if step is not None else (first_step or initial_step(q, qd, qdd, rtol, atol, t_end))
-    t = 0.0
+    out.q[0], out.qd[0], out.qdd[0], out.lam[0, rows] = q, qd, qdd, lam
+    step, t = settings.step, 0.0
+    h = step or options.first_step or initial_step(q, qd, qdd, settings.rtol, settings.atol, times[-1])
     for k in range(1, times.size):
         if step is not None:
-            for h_fixed in fixed_steps(t, times[k], step):
-                new = stepper.step(t, h_fixed, *state)
-                if new is None:
-                    raise AnalysisError(
-                        f"{method}: Newton iterations did not converge at t = {t:.6g} s with step {h_fixed:.3g} s; "
-                        "use a smaller --step"
-                    )
-                state, t = new[:5], t + h_fixed
-                stepper.counters.accepted_steps += 1
-                energy.advance(h_fixed, state[0], state[1], state[4], t)
-            t = times[k]
+            state, t = _fixed_interval(stepper, energy, t, times[k], step, state, settings.integrator), times[k]
         else:
-            t, h, state = _adaptive_interval(stepper, energy, t, times[k], h, state, min_step)
-        out_q[k], out_qd[k], out_qdd[k], out_lam[k, rows] = state[0], state[1], state[2], state[4]
-        accumulated[k] = energy.totals
-    system = full
-    if rows.size < m:  # the multipliers are not unique: the minimum-norm set (eq. 5.73)
-        out_lam = minimum_norm_multipliers(system, out_q, out_lam, times)
+            t, h, state = _adaptive_interval(stepper, energy, t, times[k], h, state, options.min_step)
+        out.q[k], out.qd[k], out.qdd[k], out.lam[k, rows] = state[0], state[1], state[2], state[4]
+        out.accumulated[k] = energy.totals
+
+
+def _fixed_interval(stepper: Index3Stepper, energy: EnergyAccount, t: float, t_out: float, step: float, state, method):
+    """Fixed steps from t to the output time t_out (the last one shortened to land on it); returns the state."""
+    for h in fixed_steps(t, t_out, step):
+        new = stepper.step(t, h, *state)
+        if new is None:
+            raise AnalysisError(
+                f"{method}: Newton iterations did not converge at t = {t:.6g} s with step {h:.3g} s; "
+                "use a smaller --step"
+            )
+        state, t = new[:5], t + h
+        stepper.counters.accepted_steps += 1
+        energy.advance(h, state[0], state[1], state[4], t)
+    return state
+
+
+def index3_result(system: System, masses, forces: ForceModel, out: Index3History, times: np.ndarray) -> Result:
+    """The result with its residual and energy columns, as ``forward_dynamics`` gives them."""
     result = Result(
         t=times,
-        q=out_q,
-        qd=out_qd,
-        qdd=out_qdd,
-        lam=out_lam,
+        q=out.q,
+        qd=out.qd,
+        qdd=out.qdd,
+        lam=out.lam,
         coordinate_names=system.coordinate_names,
         body_names=[b.name for b in system.model.bodies],
     )
-    residuals = constraint_residuals(system, times, out_q, out_qd)
-    energies = energy_history(masses, forces, out_q, out_qd, *accumulated.T)
+    residuals = constraint_residuals(system, times, out.q, out.qd)
+    energies = energy_history(masses, forces, out.q, out.qd, *out.accumulated.T)
     result.points.update(residuals)
     result.points.update(energies.columns())
-    counters = stepper.counters
     result.info = {
+        "max_constraint_residual": float(residuals["residual.position"].max()),
+        "max_velocity_residual": float(residuals["residual.velocity"].max()),
+        "energy_drift": float(np.max(np.abs(energies.error))),
+        "energy_drift_relative": float(np.max(np.abs(energies.error)) / energies.scale),
+    }
+    return result
+
+
+def index3_info(settings: Settings, rho_inf: float, parameters: AlphaParameters, counters: Counters) -> dict:
+    """How the run was made: the method, its parameters (eq. 6.52) and the counts."""
+    return {
         "analysis": "dynamic",
         "formulation": "index-3",
-        "integrator": method,
-        "rtol": rtol,
-        "atol": atol,
-        "step": step,
-        "steps": steps,
+        "integrator": settings.integrator,
+        "rtol": settings.rtol,
+        "atol": settings.atol,
+        "step": settings.step,
+        "steps": settings.steps,
         "rho_inf": rho_inf,
         "alpha_m": parameters.alpha_m,
         "alpha_f": parameters.alpha_f,
@@ -458,15 +511,7 @@ def integrate_index3(
         "newton_failures": counters.newton_failures,
         "tangent_updates": counters.tangent_updates,
         "factorizations": counters.factorizations,
-        "max_constraint_residual": float(residuals["residual.position"].max()),
-        "max_velocity_residual": float(residuals["residual.velocity"].max()),
-        "energy_drift": float(np.max(np.abs(energies.error))),
-        "energy_drift_relative": float(np.max(np.abs(energies.error)) / energies.scale),
-        "wall_time": _time.perf_counter() - start,
     }
-    if rows.size < m:
-        result.info["notes"] = [REDUNDANT_NOTE]
-    return result
 
 
 def _adaptive_interval(

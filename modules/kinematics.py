@@ -16,7 +16,7 @@ A kinematic run needs no mass matrix and no forces, and builds neither.
 from __future__ import annotations
 
 import time as _time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -260,16 +260,14 @@ def kinematic_analysis(
     through_singular : at a singular position go on along the branch the velocities point to
         (``branch_step``) and list the position in ``info['singular_positions']`` (time, joints, the two
         output times around it) instead of stopping with an AnalysisError
-    engine : ``numpy`` (the default: the loop below), ``compiled`` (the steps compiled by numba where its
+    engine : ``numpy`` (the default: the steps below), ``compiled`` (the steps compiled by numba where its
         kernels cover the model, else numpy), ``auto`` (compiled when it pays) or ``cached``, as for
         ``dynamics.forward_dynamics``; ``info['chosen']`` says which and why. The compiled steps stop at the
-        first step where anything unusual happens and this loop goes on from there (``_compiled_steps``)
+        first step where anything unusual happens and the numpy steps go on from there (``_compiled_steps``)
 
-    A singular position is found between two output steps where det Psi_q changes sign (an odd rank loss),
-    where Psi_q is singular at a step (lock-up), or where the pivot ratio of the steps' LU factors dips
-    (``diagnostics.passes_zero``) and the minimum of sigma_min / sigma_max on the interval is below the rank
-    rule of eq. 4.22 (``locate_singular_position``: an even rank loss, which keeps the sign of det Psi_q).
-    The SVDs of that search are taken only at a dip, never at an ordinary step.
+    Each step (``position_step``, ``check_branch``): predict q from the last step, correct it by
+    Newton-Raphson (eq. 4.8), stop at a singular position (``check_branch``), then q' (eq. 4.5) and q''
+    (eq. 4.6) with the same LU factors of Psi_q.
 
     Raises
     ------
@@ -282,90 +280,121 @@ def kinematic_analysis(
             result.info["chosen"] = {"engine": "numpy", "engine_why": "through_singular runs on the numpy engine"}
         return result
     start = _time.perf_counter()
-    q, assembly = assemble(system, q0, 0.0)
+    q, assembly = assemble(system, q0, 0.0)  # 1. assembly at t = 0
     require_no_freedom(system, q, 0.0)
-    times = np.linspace(0.0, t_end, steps + 1)
-    n = system.n_coordinates
-    Q, QD, QDD = (np.empty((times.size, n)) for _ in range(3))
-    qd = np.zeros(n)
-    qdd = np.zeros(n)
-    first_step, iterations, max_residual, ratios, previous_sign, chosen = 0, 0, 0.0, [], None, None
-    if engine != "numpy":  # the compiled steps fill Q, QD, QDD up to first_step
-        first_step, iterations, max_residual, ratios, previous_sign, chosen = _compiled_steps(
-            engine, system, q, times, Q, QD, QDD
-        )
-        if first_step > 0:
-            q, qd, qdd = Q[first_step - 1], QD[first_step - 1], QDD[first_step - 1]
-    for k in range(first_step, times.size):
-        t = times[k]
-        if k > 0:  # second-order predictor from the previous step
-            dt = t - times[k - 1]
-            q = q + qd * dt + 0.5 * qdd * dt * dt
-        try:
-            solution = newton_raphson(system, q, t)
-        except AnalysisError as err:
-            # judge the last position found, next to the singular one (not the predictor beyond it)
-            last, t_last = (Q[k - 1], times[k - 1]) if k > 0 else (q, t)
-            cond, joints = singular_joints(system.jacobian(last, t_last), system.row_owners)
-            raise AnalysisError(
-                f"lock-up or branch point near t = {t:.6g} s: {err}; Psi_q condition number {cond:.3g} "
-                f"at t = {t_last:.6g} s, joints involved: {', '.join(joints)}"
-            ) from None
-        q = solution.q
-        iterations += solution.iterations
-        max_residual = max(max_residual, solution.residual)
-        lu = _factor_checked(system, q, t)
-        sign = determinant_sign(lu)
-        ratios.append(pivot_ratio(lu))
-        first = dip_start(ratios, times.size)
-        if first is not None and sign == previous_sign:
-            # an even rank loss keeps the sign of det Psi_q: decide by the rank rule at the ratio's minimum
-            found = locate_singular_position(system, times[first], Q[first], QD[first], QDD[first], t)
-            if found is not None:
-                after, before = _bracket(times, found["t"])
-                raise AnalysisError(
-                    f"branch point passed between t = {after:.6g} s and t = {before:.6g} s: Psi_q loses "
-                    f"{found['rank_loss']} rank(s) at t = {found['t']:.6g} s (sigma_min / sigma_max = "
-                    f"{found['ratio']:.2g}), a singular position where the mechanism can switch assembly branch "
-                    f"though det(Psi_q) keeps its sign; joints involved: {', '.join(found['joints'])}; "
-                    "through_singular=True (mbd run --through-singular) goes on along the branch of the velocities"
-                )
-        if previous_sign is not None and sign != previous_sign:
-            _, joints = singular_joints(system.jacobian(q, t), system.row_owners)
-            raise AnalysisError(
-                f"branch point passed between t = {times[k - 1]:.6g} s and t = {t:.6g} s: det(Psi_q) changed "
-                "sign, so the mechanism went through a singular position where it can switch assembly "
-                f"branch; joints involved: {', '.join(joints)}; through_singular=True (mbd run --through-singular) "
-                "goes on along the branch of the velocities"
-            )
-        previous_sign = sign
-        qd = velocity_analysis(system, q, t, lu)
-        qdd = acceleration_analysis(system, q, qd, t, lu)
-        Q[k], QD[k], QDD[k] = q, qd, qdd
+    march = KinematicSteps.empty(system, np.linspace(0.0, t_end, steps + 1))
+    if engine != "numpy":  # the compiled steps fill the first rows
+        _compiled_steps(engine, march, q)
+    for k in range(march.first, march.times.size):  # 2. the steps
+        q = position_step(march, k, q if k == 0 else march.predict(k))
+        lu = _factor_checked(system, q, march.times[k])
+        check_branch(march, k, q, lu)
+        qd = velocity_analysis(system, q, march.times[k], lu)
+        march.Q[k], march.QD[k], march.QDD[k] = q, qd, acceleration_analysis(system, q, qd, march.times[k], lu)
     info = {
         "analysis": "kinematic",
         "steps": steps,
-        "newton_iterations": iterations,
-        "max_constraint_residual": max_residual,
+        "newton_iterations": march.iterations,
+        "max_constraint_residual": march.max_residual,
         "assembly": assembly,
         "wall_time": _time.perf_counter() - start,
     }
-    if chosen is not None:
-        info["chosen"] = chosen
-    return _result(system, times, Q, QD, QDD, info, points)
+    if march.chosen is not None:
+        info["chosen"] = march.chosen
+    return _result(system, march.times, march.Q, march.QD, march.QDD, info, points)
 
 
-def _compiled_steps(engine: str, system: System, q: np.ndarray, times: np.ndarray, Q, QD, QDD) -> tuple:
-    """The steps the compiled engine takes (``solutions.compiled.kinematic``), from the assembled q at t = 0.
+@dataclass
+class KinematicSteps:
+    """The output times of a kinematic analysis and what its steps have found so far."""
 
-    Returns (k, Newton iterations, max residual, pivot ratios, det sign at step k-1 or None, ``info['chosen']``),
-    with rows 0..k-1 of Q, QD, QDD filled: the loop of ``kinematic_analysis`` goes on from step k.
-    """
+    system: System
+    times: np.ndarray
+    Q: np.ndarray
+    QD: np.ndarray
+    QDD: np.ndarray
+    first: int = 0
+    """The first step the numpy loop takes (the compiled steps took those before)."""
+    iterations: int = 0
+    max_residual: float = 0.0
+    ratios: list = field(default_factory=list)
+    """The pivot ratio of Psi_q's LU factors at every step (``diagnostics.pivot_ratio``)."""
+    sign: int | None = None
+    """The sign of det Psi_q at the last step."""
+    chosen: dict | None = None
+
+    @classmethod
+    def empty(cls, system: System, times: np.ndarray) -> KinematicSteps:
+        n = system.n_coordinates
+        return cls(system, times, *(np.empty((times.size, n)) for _ in range(3)))
+
+    def predict(self, k: int) -> np.ndarray:
+        """q at step k by the second-order Taylor predictor from step k - 1."""
+        dt = self.times[k] - self.times[k - 1]
+        return self.Q[k - 1] + self.QD[k - 1] * dt + 0.5 * self.QDD[k - 1] * dt * dt
+
+
+def position_step(march: KinematicSteps, k: int, q: np.ndarray) -> np.ndarray:
+    """Position analysis at step k from the prediction q: Newton-Raphson (eq. 4.8); a failure is reported as a
+    lock-up or branch point, with the condition of Psi_q at the last position found and the joints involved."""
+    system, t = march.system, march.times[k]
+    try:
+        solution = newton_raphson(system, q, t)
+    except AnalysisError as err:
+        # judge the last position found, next to the singular one (not the predictor beyond it)
+        last, t_last = (march.Q[k - 1], march.times[k - 1]) if k > 0 else (q, t)
+        cond, joints = singular_joints(system.jacobian(last, t_last), system.row_owners)
+        raise AnalysisError(
+            f"lock-up or branch point near t = {t:.6g} s: {err}; Psi_q condition number {cond:.3g} "
+            f"at t = {t_last:.6g} s, joints involved: {', '.join(joints)}"
+        ) from None
+    march.iterations += solution.iterations
+    march.max_residual = max(march.max_residual, solution.residual)
+    return solution.q
+
+
+def check_branch(march: KinematicSteps, k: int, q: np.ndarray, lu) -> None:
+    """Stop at a singular position passed between steps k - 1 and k, where the mechanism can switch assembly
+    branch: det Psi_q changed sign (an odd rank loss), or the pivot ratio of the LU factors dipped
+    (``diagnostics.passes_zero``) and the minimum of sigma_min / sigma_max on the interval is below the rank
+    rule of eq. 4.22 (``locate_singular_position``: an even rank loss, which keeps the sign of det Psi_q).
+    The SVDs of that search are taken only at a dip, never at an ordinary step."""
+    system, times, t = march.system, march.times, march.times[k]
+    sign = determinant_sign(lu)
+    march.ratios.append(pivot_ratio(lu))
+    first = dip_start(march.ratios, times.size)
+    hint = "through_singular=True (mbd run --through-singular) goes on along the branch of the velocities"
+    if first is not None and sign == march.sign:
+        found = locate_singular_position(system, times[first], march.Q[first], march.QD[first], march.QDD[first], t)
+        if found is not None:
+            after, before = _bracket(times, found["t"])
+            raise AnalysisError(
+                f"branch point passed between t = {after:.6g} s and t = {before:.6g} s: Psi_q loses "
+                f"{found['rank_loss']} rank(s) at t = {found['t']:.6g} s (sigma_min / sigma_max = "
+                f"{found['ratio']:.2g}), a singular position where the mechanism can switch assembly branch "
+                f"though det(Psi_q) keeps its sign; joints involved: {', '.join(found['joints'])}; {hint}"
+            )
+    if march.sign is not None and sign != march.sign:
+        _, joints = singular_joints(system.jacobian(q, t), system.row_owners)
+        raise AnalysisError(
+            f"branch point passed between t = {times[k - 1]:.6g} s and t = {t:.6g} s: det(Psi_q) changed "
+            "sign, so the mechanism went through a singular position where it can switch assembly "
+            f"branch; joints involved: {', '.join(joints)}; {hint}"
+        )
+    march.sign = sign
+
+
+def _compiled_steps(engine: str, march: KinematicSteps, q: np.ndarray) -> None:
+    """The steps the compiled engine takes (``solutions.compiled.kinematic``), from the assembled q at t = 0:
+    rows 0 .. k-1 of the history filled, with the counts, pivot ratios and det sign; the numpy loop goes on
+    from step k (``march.first``)."""
     try:
         from .compiled import kinematic
     except ImportError:  # a student package: the compiled engine stays with the instructor
-        return 0, 0, 0.0, [], None, {"engine": "numpy", "engine_why": "this package has no compiled engine"}
-    return kinematic.steps(engine, system, q, times, Q, QD, QDD)
+        march.chosen = {"engine": "numpy", "engine_why": "this package has no compiled engine"}
+        return
+    found = kinematic.steps(engine, march.system, q, march.times, march.Q, march.QD, march.QDD)
+    march.first, march.iterations, march.max_residual, march.ratios, march.sign, march.chosen = found
 
 
 def _result(system: System, times, Q, QD, QDD, info: dict, points) -> Result:

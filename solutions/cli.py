@@ -7,18 +7,18 @@ message and exits with code 2; it never shows a traceback.
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 
 import numpy as np
 
+from .analysis import run_analysis
 from .assembly import System, build_system
 from .diagnostics import AnalysisError, rank_report
-from .dynamics import FORMULATION_NAMES, INTEGRATOR_NAMES, forward_dynamics
 from .io.model import Model, ModelError, load_model
-from .kinematics import assemble, kinematic_analysis
+from .kinematics import assemble
 from .results import DERIVED, Result
+from .settings import ANALYSES, DYNAMIC_ONLY, FLAG, NAME, WHOLE, read_settings, table
 
 USER_ERROR = 2
 
@@ -56,179 +56,6 @@ def _parse_point(text: str, model: Model, number: int) -> tuple[str, int, np.nda
     c, s = np.cos(b.orientation), np.sin(b.orientation)
     local = np.array([[c, s], [-s, c]]) @ (values - b.location)
     return label or f"{body}.p{number}", index, local
-
-
-SETTINGS = {  # option -> (key of the model file's simulation block, default)
-    "analysis": ("analysis", "auto"),
-    "t_end": ("end_time", 1.0),
-    "steps": ("output_steps", 100),
-    "formulation": ("formulation", None),
-    "integrator": ("integrator", None),
-    "rtol": ("rtol", None),
-    "atol": ("atol", None),
-    "step": ("step", None),
-    "accuracy": ("accuracy", None),
-    "through_singular": ("through_singular", None),
-    "engine": ("engine", "auto"),
-    "alpha": ("alpha", None),
-    "beta": ("beta", None),
-    "penalty": ("penalty", None),
-    "rank_tol": ("rank_tol", None),
-    "repartition_ratio": ("repartition_ratio", None),
-    "max_evaluations": ("max_evaluations", None),
-    "drift_limit": ("drift_limit", None),
-    "singular_ratio": ("singular_ratio", None),
-    "stiffness": ("stiffness", None),
-}
-
-
-ANALYSES = ("auto", "kinematic", "dynamic", "inverse")
-"""What ``--analysis`` takes; ``auto`` is ``choose_analysis``."""
-ENGINES = ("auto", "numpy", "compiled", "cached")
-"""What ``--engine`` takes (``compiled.dispatch``): numba is imported only when a run is compiled."""
-STIFFNESS = ("report", "error", "off")
-"""What ``--stiffness`` takes (``forward_dynamics``)."""
-NAMES = {
-    "analysis": ANALYSES,
-    "formulation": FORMULATION_NAMES,
-    "integrator": INTEGRATOR_NAMES,
-    "engine": ENGINES,
-    "stiffness": STIFFNESS,
-}
-"""Settings that take a name, and the names they take (the lists ``forward_dynamics`` checks against)."""
-FORMULATION_OPTIONS = ("alpha", "beta", "penalty", "rank_tol", "repartition_ratio")
-"""Settings that are options of a formulation's constructor (``formulations.FORMULATIONS``)."""
-CHECKS = ("drift_limit", "singular_ratio")
-"""Settings of a check that 0 turns off (``forward_dynamics`` takes None)."""
-WHOLE = ("steps", "max_evaluations")
-"""Settings that take a whole number >= 1."""
-ZERO_ALLOWED = ("alpha", "beta", *CHECKS)
-"""Settings that take a number >= 0."""
-DYNAMIC_ONLY = (
-    "formulation",
-    "integrator",
-    "rtol",
-    "atol",
-    "step",
-    "accuracy",
-    *FORMULATION_OPTIONS,
-    "max_evaluations",
-    *CHECKS,
-    "stiffness",
-)
-"""Settings that only a forward dynamic analysis uses."""
-
-
-def formulations_taking(option: str) -> list[str]:
-    """The formulations whose constructor takes ``option`` (e.g. alpha: baumgarte, qr, svd, ...)."""
-    import inspect
-
-    from .formulations import FORMULATIONS
-
-    return [name for name, cls in FORMULATIONS.items() if option in inspect.signature(cls.__init__).parameters]
-
-
-def check_formulation_options(settings: dict) -> None:
-    """Refuse a formulation option (alpha, penalty, ...) that the run's formulation does not take.
-
-    Raises
-    ------
-    UsageError
-        Naming the option and the formulations that take it.
-    """
-    for option in FORMULATION_OPTIONS:
-        if settings.get(option) is None:
-            continue
-        takes = formulations_taking(option)
-        if settings.get("formulation") not in takes:
-            given = settings.get("formulation") or "auto"
-            raise UsageError(
-                f"--{option.replace('_', '-')} (simulation.{option}) is an option of the {', '.join(takes)} "
-                f"formulation{'s' if len(takes) > 1 else ''}, not of {given}: add --formulation {takes[0]}"
-            )
-
-
-def check_setting(option: str, value, source: str) -> None:
-    """Refuse a setting that no analysis takes, before any runs; the message says what it takes.
-
-    ``source`` is how the user wrote it: '--rtol' on the command line or 'simulation.rtol' in the file.
-    """
-    if value is None:  # not set: the analysis takes its own default
-        return
-    if option == "through_singular":
-        if not isinstance(value, bool):
-            raise UsageError(f"{source} {value!r}: must be true or false")
-        return
-    if option in NAMES:
-        if value not in NAMES[option]:
-            raise UsageError(f"{source} {value!r}: unknown {option} (one of: {', '.join(NAMES[option])})")
-        return
-    whole = option in WHOLE
-    number = isinstance(value, int) if whole else isinstance(value, int | float)
-    number = number and not isinstance(value, bool)
-    low = 0 if option in ZERO_ALLOWED else None
-    if not number or not math.isfinite(value) or value < 0 or (low is None and value == 0):
-        wanted = "a whole number >= 1" if whole else ("a number >= 0" if low == 0 else "a number > 0")
-        raise UsageError(f"{source} {value!r}: must be {wanted}")
-
-
-def analysis_settings(model: Model, **options) -> dict:
-    """The model file's simulation block, overridden by any option that is not None.
-
-    Raises
-    ------
-    UsageError
-        If a setting is one no analysis takes (``check_setting``), naming the option or the file's key.
-    """
-    settings = {}
-    for option, (key, default) in SETTINGS.items():
-        value = options.get(option)
-        if value is None:
-            settings[option] = model.simulation.get(key, default)
-            check_setting(option, settings[option], f"simulation.{key}")
-        else:
-            settings[option] = value
-            check_setting(option, value, f"--{option.replace('_', '-')}")
-    check_formulation_options(settings)
-    return settings
-
-
-def choose_analysis(system: System, q: np.ndarray) -> str:
-    """``--analysis auto``: kinematic when the drivers leave no degree of freedom, dynamic otherwise."""
-    report = rank_report(system.jacobian(q, 0.0), system.row_owners)
-    return "kinematic" if report.degrees_of_freedom == 0 else "dynamic"
-
-
-def run_analysis(system: System, q0: np.ndarray, qd0: np.ndarray, settings: dict, points=None) -> Result:
-    """Dispatch to the analysis the settings (from ``analysis_settings``) name."""
-    analysis = settings["analysis"]
-    if analysis == "auto":
-        q, _ = assemble(system, q0)
-        analysis = choose_analysis(system, q)
-    if analysis == "kinematic":
-        through = bool(settings.get("through_singular"))
-        engine = settings.get("engine", "numpy")
-        return kinematic_analysis(
-            system, q0, settings["t_end"], settings["steps"], points=points, through_singular=through, engine=engine
-        )
-    options = {k: settings[k] for k in DYNAMIC_ONLY if settings.get(k) is not None}
-    for check in CHECKS:
-        if options.get(check) == 0:
-            options[check] = None  # 0 in a file or on the command line: no such check
-    if analysis == "dynamic":
-        engine = settings.get("engine", "numpy")
-        return forward_dynamics(
-            system, q0, qd0, settings["t_end"], settings["steps"], engine=engine, points=points, **options
-        )
-    if analysis == "inverse":
-        from .inverse_dynamics import inverse_dynamics
-        from .kinematics import point_columns
-
-        result = inverse_dynamics(system, q0, settings["t_end"], settings["steps"])
-        for label, (body, point) in (points or {}).items():
-            result.points.update(point_columns(result, label, body, point))
-        return result
-    raise UsageError(f"--analysis {analysis}: not available (one of: {', '.join(ANALYSES)})")
 
 
 def _check_coords(names: list[str], system: System, points: dict) -> None:
@@ -280,7 +107,7 @@ def command_run(args) -> int:
     for number, text in enumerate(args.point or [], start=1):
         label, body, local = _parse_point(text, model, number)
         points[label] = (body, local)
-    settings = analysis_settings(model, **{k: getattr(args, k) for k in SETTINGS})
+    settings = read_settings(model.simulation, **{f.name: getattr(args, f.name) for f in table()})
     _check_coords(args.coords or [], system, points)
     if args.rotations and model.dimension != 3:
         raise UsageError("--rotations: a planar body's angle phi and its rate are the columns BODY.phi, BODY.phi_d")
@@ -422,94 +249,28 @@ def registered_commands() -> list:
     return sorted(entry_points(group=COMMANDS), key=lambda entry: entry.name)
 
 
+def add_settings(parser: argparse.ArgumentParser, names: tuple[str, ...] | None = None) -> None:
+    """An option for every setting (``settings.Settings``; or those ``names``): --t-end for t_end, and so on,
+    with the setting's help; an option not given is None, so the model file's value or the default holds."""
+    types = {NAME: str, WHOLE: int, FLAG: None}
+    for f in table():
+        if names is not None and f.name not in names:
+            continue
+        option, takes = f"--{f.name.replace('_', '-')}", f.metadata["takes"]
+        if takes == FLAG:
+            parser.add_argument(option, action="store_const", const=True, help=f.metadata["help"])
+        else:
+            choices = ANALYSES if f.name == "analysis" else None
+            parser.add_argument(option, type=types.get(takes, float), choices=choices, help=f.metadata["help"])
+
+
 def build_parser(others: bool = True) -> argparse.ArgumentParser:
     """``mbd``'s parser: the solver's commands and (``others``) those the course's packages register."""
     parser = argparse.ArgumentParser(prog="mbd", description="Multibody dynamics course: reference solver.")
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run an analysis of a model file")
     run.add_argument("model", help="model file (YAML or JSON)")
-    run.add_argument(
-        "--analysis",
-        choices=ANALYSES,
-        help="auto (the default): kinematic when the drivers leave no degree of freedom, dynamic otherwise; "
-        "kinematic: the motion the drivers prescribe; dynamic: forward dynamics under the forces; "
-        "inverse: the driver forces and joint reactions of the prescribed motion",
-    )
-    run.add_argument("--t-end", type=float, help="end time in s (default: the file's simulation.end_time)")
-    run.add_argument("--steps", type=int, help="number of output intervals (default: simulation.output_steps)")
-    run.add_argument(
-        "--formulation",
-        help="dynamic formulation: auto (default: the cheapest adequate one), baumgarte, partitioning, qr, svd, "
-        "projection, augmented-lagrangian (singular positions, redundant constraints), joint-coordinates (open trees)",
-    )
-    run.add_argument(
-        "--integrator", help="integrator: auto (default), dop853, rk45, RK45, DOP853, Radau, BDF, LSODA, rk4, hht, ..."
-    )
-    run.add_argument(
-        "--engine",
-        help="forward dynamics and kinematic analysis: auto (default: compiled when the run repays compiling), "
-        "numpy (the reference), compiled (numba; falls back to numpy, saying why, where it does not cover the run), "
-        "cached (compiled where its code for the scene is on disk)",
-    )
-    run.add_argument("--rtol", type=float, help="relative tolerance of the integrator")
-    run.add_argument("--atol", type=float, help="absolute tolerance of the integrator")
-    run.add_argument("--step", type=float, help="fixed step size for fixed-step integrators")
-    run.add_argument(
-        "--accuracy",
-        type=float,
-        help="position error allowed, as a fraction of the mechanism's size (default 1e-6): the default rtol "
-        "follows it, and the result warns when its estimated error exceeds it",
-    )
-    run.add_argument(
-        "--through-singular",
-        action="store_const",
-        const=True,
-        help="kinematic analysis: go on through singular positions along the branch of the velocities "
-        "(listed as warnings) instead of stopping there",
-    )
-    run.add_argument(
-        "--alpha",
-        type=float,
-        help="Baumgarte's alpha in 1/s (baumgarte, qr, svd, ...; default 5 for baumgarte): "
-        "gamma_bar = gamma - 2 alpha Psi' - beta^2 Psi (eq. 5.29)",
-    )
-    run.add_argument("--beta", type=float, help="Baumgarte's beta in 1/s (with --alpha; default 5 for baumgarte)")
-    run.add_argument(
-        "--penalty",
-        type=float,
-        help="augmented-lagrangian: penalty relative to the largest mass over sigma_max(Psi_q)^2 (default 1e7)",
-    )
-    run.add_argument(
-        "--rank-tol",
-        type=float,
-        help="svd: singular values of Psi_q below rank_tol sigma_1 count as zero (default: the package's rank rule)",
-    )
-    run.add_argument(
-        "--repartition-ratio",
-        type=float,
-        help="partitioning: choose new independent coordinates when cond(Psi_v) grows by this factor (default 10)",
-    )
-    run.add_argument(
-        "--max-evaluations",
-        type=int,
-        help="forward dynamics: budget of right-hand-side evaluations; past it the run stops, saying where",
-    )
-    run.add_argument(
-        "--drift-limit",
-        type=float,
-        help="forward dynamics: stop when the positions are off the constraints by this fraction of the "
-        "mechanism's size (default 1e-3; 0: no limit)",
-    )
-    run.add_argument(
-        "--singular-ratio",
-        type=float,
-        help="forward dynamics: stop at a singular position, where the smallest singular value of Psi_q falls "
-        "below this fraction of the largest (0: no check)",
-    )
-    run.add_argument(
-        "--stiffness",
-        help="forward dynamics, explicit integrators bounded by stability: report (default), error (stop), off",
-    )
+    add_settings(run)
     run.add_argument("--out", help="write results to FILE.csv or FILE.npz")
     run.add_argument("--plot", help="plot coordinates and points against time to FILE.png")
     run.add_argument("--animate", help="animate the mechanism to FILE.gif (or .mp4 with ffmpeg, .html)")

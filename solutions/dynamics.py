@@ -41,9 +41,7 @@ from .energy import driver_power, energy_history
 from .formulations import FORMULATIONS, Formulation, make_formulation
 from .generalized_forces import ForceModel, build_forces
 from .integrators import (
-    DEFAULT_MAX_EVALUATIONS,
     FIXED_STEP_METHODS,
-    INTEGRATORS,
     STABILITY_LIMIT,
     integrate,
     spectral_radius,
@@ -55,18 +53,17 @@ from .linalg import RANK_EPS, numerical_rank
 from .mass_matrix import mass_at, mass_matrix
 from .reactions import REDUNDANT_NOTE, driver_efforts, joint_reactions, minimum_norm_multipliers
 from .results import Result
+from .settings import (
+    DEFAULT_ACCURACY,
+    DRIFT_LIMIT,
+    FORMULATION_NAMES,
+    INDEX3_INTEGRATORS,
+    INTEGRATOR_NAMES,
+    SINGULAR_RATIO,
+    Settings,
+)
 
-INDEX3_INTEGRATORS = ("hht", "generalized-alpha")
-"""Implicit integrators of the index-3 form (``implicit.py``); they take the place of formulation + ODE."""
 MULTISTEP_INTEGRATORS = ("BDF", "LSODA")
-FORMULATION_NAMES = ("auto", *FORMULATIONS)
-"""What ``formulation=`` takes: ``auto`` (``choose_method``) or a formulation of ``formulations.py``."""
-INTEGRATOR_NAMES = ("auto", *INTEGRATORS, *INDEX3_INTEGRATORS)
-"""What ``integrator=`` takes: ``auto`` (``choose_method``), an ODE integrator or an index-3 one."""
-DRIFT_LIMIT = 1e-3
-"""Default ``drift_limit``: positions off the constraints by a thousandth of the mechanism's size are a wrong answer."""
-SINGULAR_RATIO = 1e-8
-"""Default ``singular_ratio``: sigma_min / sigma_max of Psi_q below which a configuration counts as singular."""
 DEFAULT_RTOL = 1e-8
 """The integrators' relative tolerance when none is given, for runs of up to DEFAULT_ACCURACY / DEFAULT_RTOL = 100
 periods of the fastest motion squared (``default_rtol`` tightens it for longer runs)."""
@@ -76,8 +73,6 @@ HELD_RTOL = 1e-12
 """The tightest tolerance an explicit run holds in double precision: below it the rounding errors of the
 stages, not the tolerance, set the local error, so ``accuracy_warnings`` takes at least this (measured:
 the 2000 s pendulum of benchmarks/accuracy.md asked for 3.4e-13 and erred as 1e-12 predicts)."""
-DEFAULT_ACCURACY = 1e-6
-"""Default ``accuracy``: a millionth of the mechanism's size (``mechanism_size``)."""
 THROUGH_SINGULAR = ("augmented-lagrangian",)
 """Formulations that carry a mechanism through singular positions and take redundant constraints: with them
 the ``Guard`` records a singular crossing (``info['singular_positions']``) instead of stopping the run."""
@@ -213,56 +208,27 @@ def forward_dynamics(
     qd0: np.ndarray,
     t_end: float,
     steps: int,
-    formulation: str = "auto",
-    integrator: str = "auto",
-    rtol: float | None = None,
-    atol: float = 1e-10,
-    step: float | None = None,
+    formulation: str | None = None,
+    integrator: str | None = None,
     *,
-    accuracy: float = DEFAULT_ACCURACY,
+    settings: Settings | None = None,
     masses: np.ndarray | None = None,
     forces: ForceModel | None = None,
     points: dict[str, tuple[int, np.ndarray]] | None = None,
-    max_evaluations: int | None = DEFAULT_MAX_EVALUATIONS,
-    stiffness: str = "report",
-    drift_limit: float | None = DRIFT_LIMIT,
-    singular_ratio: float | None = SINGULAR_RATIO,
-    engine: str = "numpy",
     **options,
 ) -> Result:
-    """The motion on the output grid t = 0, t_end/steps, ..., t_end.
+    """The motion on the output grid t = 0, t_end/steps, ..., t_end, by the stages of ``run_plan``.
 
     Parameters
     ----------
     system : the assembled system; q0, qd0 its (approximate) initial coordinates and velocities
-    formulation : one of ``baumgarte``, ``partitioning``, ``qr``, ``svd``, ``projection``, or ``auto``
-        (the default: ``choose_method`` picks the cheapest adequate one for the scene)
-    integrator : a ``solve_ivp`` method (RK45, RK23, DOP853, Radau, BDF, LSODA), ``rk4``, this package's
-        own loop around the same pairs (``rk45``, ``dop853``: less overhead per step), an implicit
-        index-3 method (``hht``, ``generalized-alpha``), or ``auto`` (the default: ``choose_method``)
-    rtol, atol : tolerances of the adaptive integrators; rtol None (the default) takes ``default_rtol``:
-        DEFAULT_RTOL, tightened for long runs so that the estimated error stays within ``accuracy``
-    step : the fixed step of rk4 (default: the output spacing); the largest step of the others
-    accuracy : the position error, as a fraction of the mechanism's size, beyond which the result warns
-        (``accuracy_warnings``: the estimated error of the run against this bound, in ``info['warnings']``)
+    formulation, integrator, options : settings of the run, over ``settings`` when given (``settings.Settings``
+        says what each takes and does: ``formulation``, ``integrator``, ``rtol``, ``atol``, ``step``,
+        ``accuracy``, ``engine``, ``max_evaluations``, ``stiffness``, ``drift_limit``, ``singular_ratio``,
+        ``alpha``, ...); other keywords are options of the formulation's constructor (e.g. ``tol``)
     masses, forces : the mass matrix and ``ForceModel`` to use instead of the model's (e.g. with user
         forces added: ``build_forces(model).add(f)``)
     points : optional {label: (body index, body-frame point)} to add as result columns
-    max_evaluations : budget of right-hand-side evaluations of an ODE integrator (None: none); past it
-        the run stops with an AnalysisError naming the time reached and, when found, the stiffness
-    stiffness : what the explicit methods do when their step is bounded by stability: "report" (in
-        ``info['stiffness']``), "error" (stop with an AnalysisError at once) or "off"
-    drift_limit : how far the positions may be off the constraints at an output time, as a fraction of the
-        mechanism's size (``Guard``; at least 100 rtol; None: no limit); beyond it the run stops with an
-        AnalysisError
-    singular_ratio : after every step of an ODE integrator, the run stops with an AnalysisError when the
-        smallest (non-redundant) singular value of Psi_q falls below this fraction of the largest: a
-        singular configuration, where the motion may switch assembly branch (None: no check)
-    engine : ``numpy`` (the default: the reference code), ``compiled`` (``solutions.compiled``: the scene's
-        right-hand side and integrator loop compiled by numba, when it covers the run, else numpy) or ``auto``
-        (compiled when it pays, ``compiled.dispatch``); ``info['chosen']`` says which and why
-    options : the formulation's options, e.g. ``alpha=10, beta=10`` (baumgarte), ``repartition_ratio``
-        (partitioning), ``rank_tol`` (svd)
 
     Returns
     -------
@@ -275,24 +241,22 @@ def forward_dynamics(
     Raises
     ------
     AnalysisError
-        Assembly failure, redundant constraints with a formulation that cannot take them, an
-        unknown formulation or integrator, an integrator failure: by name.
+        Assembly failure, redundant constraints with a formulation that cannot take them, an unknown
+        formulation or integrator (``SettingError``), an integrator failure: by name.
     """
-    check_method(formulation, integrator)
     start = _time.perf_counter()
-    run = Run(
-        system, q0, qd0, t_end, steps, rtol, atol, step, accuracy, masses, forces, points, max_evaluations,
-        stiffness, drift_limit, singular_ratio, engine, options,
-    )  # fmt: skip
-    fallbacks = [(THROUGH_SINGULAR[0], integrator)] if formulation == "auto" else []
+    named = {k: v for k, v in (("formulation", formulation), ("integrator", integrator)) if v is not None}
+    settings = (settings or Settings()).replace(t_end=t_end, steps=steps, **named, **options)
+    run = Run(system, q0, qd0, settings, masses, forces, points)
     try:
-        result = run_plan(run, formulation, integrator)
+        result = run_plan(run, settings.formulation, settings.integrator)
     except SingularStop as stop:  # ``auto`` met a singular position: the formulation that passes it, from the start
-        result = run_plan(run, *fallbacks[0])
+        fallback = THROUGH_SINGULAR[0]
+        result = run_plan(run, fallback, settings.integrator)
         result.info["chosen"] = {
-            "formulation": fallbacks[0][0],
+            "formulation": fallback,
             "integrator": result.info["integrator"],
-            "why": f"{fallbacks[0][0]}: {stop.formulation} stopped near a singular configuration ({stop.first}), "
+            "why": f"{fallback}: {stop.formulation} stopped near a singular configuration ({stop.first}), "
             "which it passes; " + stop.why,
         }
     result.info["wall_time"] = _time.perf_counter() - start
@@ -301,26 +265,16 @@ def forward_dynamics(
 
 @dataclass(frozen=True)
 class Run:
-    """What a forward-dynamics run is asked (``forward_dynamics``' arguments but the method)."""
+    """What a forward-dynamics run is asked: the system, its initial state, the settings and what the caller
+    gives instead of the model's (masses, forces) or besides (points)."""
 
     system: System
     q0: np.ndarray
     qd0: np.ndarray
-    t_end: float
-    steps: int
-    rtol: float | None
-    atol: float
-    step: float | None
-    accuracy: float
+    settings: Settings
     masses: np.ndarray | None
     forces: ForceModel | None
     points: dict | None
-    max_evaluations: int | None
-    stiffness: str
-    drift_limit: float | None
-    singular_ratio: float | None
-    engine: str
-    options: dict
 
 
 @dataclass(frozen=True)
@@ -346,7 +300,7 @@ class SingularStop(AnalysisError):
 
 def run_plan(run: Run, formulation: str, integrator: str) -> Result:
     """One run of the stages: initial conditions -> method -> engine -> result."""
-    system, model = run.system, run.system.model
+    system, model, settings = run.system, run.system.model, run.settings
     M, forces = dynamic_model(system, run.masses, run.forces)
     q, qd, initial = consistent_initial_conditions(system, M, run.q0, run.qd0)  # stage 1
     if run.masses is None:
@@ -360,11 +314,11 @@ def run_plan(run: Run, formulation: str, integrator: str) -> Result:
             f"the {plan.formulation} formulation restarts the integrator after every step, which a multistep "
             f"method ({plan.integrator}) cannot afford: use rk4, RK45, DOP853 or Radau"
         )
-    made = make_formulation(plan.formulation, system, M, forces, **run.options)
+    made = make_formulation(plan.formulation, system, M, forces, **settings.formulation_options)
     equations = EquationsOfMotion(made, forces, has_drivers=bool(model.motors))
-    rtol, atol, raised = held_tolerances(plan, equations, run.atol)
+    rtol, atol, raised = held_tolerances(plan, equations, settings.atol)
     guard = make_guard(run, plan, equations, q, rtol)
-    times = np.linspace(0.0, run.t_end, run.steps + 1)
+    times = np.linspace(0.0, settings.t_end, settings.steps + 1)
     try:  # stage 3: the engine
         history, stats, compiled, chosen = integrate_motion(run, plan, equations, guard, q, qd, times, rtol, atol, M)
     except AnalysisError as err:
@@ -379,8 +333,8 @@ def run_plan(run: Run, formulation: str, integrator: str) -> Result:
         result.info["compiled"] = {"cached": compiled.cached, "load_seconds": compiled.load_seconds}
     if guard.rank < system.n_constraints:
         result.info["notes"] = [REDUNDANT_NOTE]
-    result.info["warnings"] = drift_warnings(result.info, guard.size, plan.formulation, run.options)  # stage 5
-    result.info["warnings"] += raised + accuracy_warnings(result.info, guard.size, run.accuracy, plan.periods)
+    result.info["warnings"] = drift_warnings(result.info, guard.size, plan.formulation, settings.formulation_options)
+    result.info["warnings"] += raised + accuracy_warnings(result.info, guard.size, settings.accuracy, plan.periods)
     if not plan.rtol_given and plan.periods is not None:
         result.info["rtol_rule"] = (
             f"rtol = max({MIN_RTOL:g}, min({DEFAULT_RTOL:g}, accuracy / periods^2)) with {plan.periods:.3g} periods"
@@ -399,7 +353,8 @@ def dynamic_model(system: System, masses, forces) -> tuple[np.ndarray, ForceMode
 def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str) -> Plan:
     """Stage 2: the formulation and integrator (``choose_method`` for ``auto``) and the tolerance rule
     (``default_rtol`` over the motion's periods), computed once."""
-    system, model, options = run.system, run.system.model, run.options
+    system, model, settings = run.system, run.system.model, run.settings
+    options = settings.formulation_options
     chosen = None
     if formulation == "joint-coordinates" and run.masses is not None and model.dimension == 3:
         raise AnalysisError(
@@ -411,34 +366,30 @@ def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str) -
     if "auto" in (formulation, integrator):
         own_masses = run.masses is not None and model.dimension == 3  # the spatial tree takes the model's masses
         chosen = choose_method(
-            system, M, forces, q, qd, run.t_end, run.rtol, formulation, integrator, trees=not own_masses, **options
+            system, M, forces, q, qd, settings.t_end, settings.rtol, formulation, integrator, trees=not own_masses,
+            **options,
         )
         formulation, integrator = chosen["formulation"], chosen["integrator"]
-    if not (run.accuracy > 0.0 and np.isfinite(run.accuracy)):
-        raise AnalysisError(f"accuracy = {run.accuracy}: must be a number > 0 (a fraction of the mechanism's size)")
     size = mechanism_size(system, q)
     periods = None
     if integrator not in INDEX3_INTEGRATORS and integrator not in FIXED_STEP_METHODS:
-        periods = motion_periods(system, M, forces, q, qd, run.t_end, formulation, options)
-    rtol = run.rtol if run.rtol is not None else default_rtol(periods, run.accuracy)
-    return Plan(formulation, integrator, rtol, run.rtol is not None, periods, size, chosen)
+        periods = motion_periods(system, M, forces, q, qd, settings.t_end, formulation, options)
+    rtol = settings.rtol if settings.rtol is not None else default_rtol(periods, settings.accuracy)
+    return Plan(formulation, integrator, rtol, settings.rtol is not None, periods, size, chosen)
 
 
 def index3_run(run: Run, plan: Plan, M, forces, q, qd, initial: dict) -> Result:
     """The implicit index-3 integrators (HHT-alpha, generalized-alpha, ``implicit.py``): formulation and ODE in one."""
     from .implicit import integrate_index3
 
-    system = run.system
-    result = integrate_index3(
-        system, M, forces, q, qd, run.t_end, run.steps, plan.rtol, run.atol, run.step, method=plan.integrator,
-        **run.options,
-    )  # fmt: skip
+    system, settings = run.system, run.settings.replace(integrator=plan.integrator, rtol=plan.rtol)
+    result = integrate_index3(system, M, forces, q, qd, settings)
     for label, (body, point) in (run.points or {}).items():
         result.points.update(point_columns(result, label, body, point))
     result.reactions.update(joint_reactions(system, result.q, result.lam, result.t))
     result.reactions.update(effort_columns(system, result.q, result.lam, result.t))
     result.info.update(assembly=initial["assembly"], initial_conditions=initial)
-    result.info["warnings"] = accuracy_warnings(result.info, plan.size, run.accuracy, None)
+    result.info["warnings"] = accuracy_warnings(result.info, plan.size, run.settings.accuracy, None)
     return result
 
 
@@ -459,7 +410,7 @@ def held_tolerances(plan: Plan, equations: EquationsOfMotion, atol: float) -> tu
 def make_guard(run: Run, plan: Plan, equations: EquationsOfMotion, q: np.ndarray, rtol: float) -> Guard:
     """The run's ``Guard``: drift at least 100 rtol for a loose tolerance; none for an open tree in joint
     coordinates, on the constraints by construction with a full-rank Psi_q everywhere."""
-    drift_limit, singular_ratio = run.drift_limit, run.singular_ratio
+    drift_limit, singular_ratio = run.settings.drift_limit, run.settings.singular_ratio
     loose = 100.0 * rtol if plan.integrator not in FIXED_STEP_METHODS else 0.0  # a loose tolerance may drift further
     if plan.formulation == "joint-coordinates" and not equations.formulation.cut_rows:  # an open tree
         drift_limit = singular_ratio = None  # nothing for the Guard to see
@@ -475,31 +426,14 @@ def make_guard(run: Run, plan: Plan, equations: EquationsOfMotion, q: np.ndarray
 def integrate_motion(run: Run, plan: Plan, equations, guard, q, qd, times, rtol, atol, M):
     """Stage 3: the history at the output times, by the compiled engine where it covers the run, else numpy.
     Returns (history, integrator statistics, the compiled run or None, what was chosen)."""
-    system, chosen = run.system, plan.chosen
-    history = _History(times.size, system.n_coordinates, system.n_constraints, equations.extra)
-    dispatch = None
-    if run.engine != "numpy":  # the compiled engine (numba), imported only when asked for
-        try:
-            from .compiled import dispatch
-        except ImportError:  # a student package: the compiled engine stays with the instructor
-            chosen = {**(chosen or {}), "engine": "numpy", "engine_why": "this package has no compiled engine"}
-    if dispatch is not None:
-        z0 = equations.initial_state(q, qd, 0.0)
-        scene, engine_choice = dispatch.choose(
-            run.engine, system, M, equations.forces, plan.formulation, plan.integrator, run.options, equations, z0,
-            run.t_end, run.steps, rtol, atol, run.step,
-        )  # fmt: skip
+    settings = run.settings.replace(formulation=plan.formulation, integrator=plan.integrator, rtol=rtol, atol=atol)
+    history = _History(times.size, run.system.n_coordinates, run.system.n_constraints, equations.extra)
+    z0 = equations.initial_state(q, qd, 0.0)
+    chosen = plan.chosen
+    if settings.engine != "numpy":  # the compiled engine (numba), imported only when asked for
+        compiled, stats, engine_choice = compiled_motion(settings, equations, guard, z0, times, history)
         chosen = {**(chosen or {}), **engine_choice}
-        if scene is not None:
-            compiled, stats = dispatch.run(
-                scene, z0, times, plan.integrator, rtol, atol, run.step, run.max_evaluations, run.options
-            )
-            n = system.n_coordinates
-            history.q, history.qd = compiled.Y[:, :n].copy(), compiled.Y[:, n : 2 * n].copy()
-            history.qdd, history.lam, history.energies = compiled.qdd, compiled.lam, compiled.Y[:, 2 * n :]
-            # the checks at the output times (the numpy engine: drift at output times, configuration after
-            # every step), from Psi and Psi_q the compiled module gives for all of them at once
-            guard.check_outputs(times, history.q, compiled.psi, compiled.jac)
+        if compiled is not None:
             return history, stats, compiled, chosen
 
     def record(k: int, t: float, z: np.ndarray) -> None:
@@ -514,19 +448,31 @@ def integrate_motion(run: Run, plan: Plan, equations, guard, q, qd, times, rtol,
         return corrected
 
     stats = integrate(
-        equations.rhs,
-        equations.initial_state(q, qd, 0.0),
-        times,
-        record,
-        method=plan.integrator,
-        rtol=rtol,
-        atol=atol,
-        step=run.step,
-        after_step=after_step if guard.singular_ratio else equations.after_step,
-        max_evaluations=run.max_evaluations,
-        stiffness=run.stiffness,
-    )
+        equations.rhs, z0, times, record, method=settings.integrator, rtol=settings.rtol, atol=settings.atol,
+        step=settings.step, after_step=after_step if guard.singular_ratio else equations.after_step,
+        max_evaluations=settings.max_evaluations, stiffness=settings.stiffness,
+    )  # fmt: skip
     return history, stats, None, chosen
+
+
+def compiled_motion(settings: Settings, equations, guard, z0, times, history) -> tuple:
+    """The compiled engine's run into ``history`` when it covers it (``compiled.dispatch``); (the compiled run or
+    None, integrator statistics or None, what was chosen and why)."""
+    try:
+        from .compiled import dispatch
+    except ImportError:  # a student package: the compiled engine stays with the instructor
+        return None, None, {"engine": "numpy", "engine_why": "this package has no compiled engine"}
+    scene, chosen = dispatch.choose(settings, equations, z0)
+    if scene is None:
+        return None, None, chosen
+    compiled, stats = dispatch.run(scene, z0, times, settings)
+    n = equations.formulation.n
+    history.q, history.qd = compiled.Y[:, :n].copy(), compiled.Y[:, n : 2 * n].copy()
+    history.qdd, history.lam, history.energies = compiled.qdd, compiled.lam, compiled.Y[:, 2 * n :]
+    # the checks at the output times (the numpy engine: drift at output times, configuration after every
+    # step), from Psi and Psi_q the compiled module gives for all of them at once
+    guard.check_outputs(times, history.q, compiled.psi, compiled.jac)
+    return compiled, stats, chosen
 
 
 def restartable(err: AnalysisError, guard: Guard, plan: Plan) -> bool:
@@ -584,8 +530,8 @@ def run_info(plan: Plan, equations, guard, stats, result, energies, initial: dic
         "integrator": plan.integrator,
         "rtol": rtol,
         "atol": atol,
-        "step": run.step,
-        "steps": run.steps,
+        "step": run.settings.step,
+        "steps": run.settings.steps,
         "rhs_evaluations": stats.rhs_evaluations,
         "integrator_steps": stats.steps,
         "rejected_steps": stats.rejected,
@@ -692,22 +638,6 @@ def accuracy_warnings(info: dict, size: float, accuracy: float, periods: float |
 DRIFT_WARNING = 1e-6
 """Largest constraint residual, as a fraction of the mechanism's size, that a run returns without a warning
 (between it and the Guard's drift limit a run goes on, and its result says how far it drifted, and why)."""
-
-
-def check_method(formulation: str, integrator: str) -> None:
-    """Refuse a formulation or integrator that ``forward_dynamics`` does not know, naming the ones it knows.
-
-    Raises
-    ------
-    AnalysisError
-        If ``formulation`` is not in FORMULATION_NAMES or ``integrator`` not in INTEGRATOR_NAMES.
-    """
-    for kind, name, known in (
-        ("formulation", formulation, FORMULATION_NAMES),
-        ("integrator", integrator, INTEGRATOR_NAMES),
-    ):
-        if name not in known:
-            raise AnalysisError(f"unknown {kind} {name!r} (one of: {', '.join(known)})")
 
 
 def drift_warnings(info: dict, size: float, formulation: str, options: dict) -> list[str]:
@@ -1026,7 +956,9 @@ __all__ = [
     "DEFAULT_ACCURACY",
     "DEFAULT_RTOL",
     "accuracy_warnings",
-    "check_method",
+    "DRIFT_LIMIT",
+    "SINGULAR_RATIO",
+    "Settings",
     "choose_method",
     "default_rtol",
     "mechanism_size",

@@ -45,6 +45,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .settings import SettingError, read_settings
+
 SECTIONS = ("bodies", "joints", "motors", "spring_dampers", "forces")
 SECTION_KIND = {"joints": "joint", "motors": "motor", "spring_dampers": "spring", "forces": "force"}
 """Default names of unnamed elements, as the model loader gives them (``spring1``, ``force2``, ...)."""
@@ -348,15 +350,15 @@ def run_one(data: dict, parameters: list[Parameter], values: tuple, outputs: lis
     Never raises for a run that fails (a mechanism that cannot assemble, an integrator that stops): the
     reason is in the row. Depends on nothing but its arguments, so it gives the same numbers anywhere.
     """
+    from .analysis import run_analysis
     from .assembly import build_system
-    from .cli import analysis_settings, run_analysis
     from .io.model import load_model
     from .io.results import result_columns
 
     try:
         model = load_model(apply(data, parameters, values))
         system, q0, qd0 = build_system(model)
-        result = run_analysis(system, q0, qd0, analysis_settings(model, **settings))
+        result = run_analysis(system, q0, qd0, read_settings(model.simulation, **settings))
         columns = result_columns(result)
         row = [summarize(o, columns, result.info) for o in outputs]
         return {"outputs": row, "status": "ok", "reason": ""}
@@ -373,15 +375,15 @@ def _run_task(sweep_data: tuple, index: int) -> tuple[int, dict]:
 # -- building and checking a sweep -------------------------------------------------------------------------------
 def _available_columns(data: dict, settings: dict) -> tuple[set[str], str]:
     """The result columns of the base model's analysis, from a 2-step run of 1/1000 of its duration."""
+    from .analysis import run_analysis
     from .assembly import build_system
-    from .cli import analysis_settings, run_analysis
     from .io.model import load_model
     from .io.results import result_columns
 
     model = load_model(data)
     system, q0, qd0 = build_system(model)
-    probe = analysis_settings(model, **settings)
-    probe["t_end"], probe["steps"] = probe["t_end"] * 1e-3, 2
+    probe = read_settings(model.simulation, **settings)
+    probe = probe.replace(t_end=probe.t_end * 1e-3, steps=2)
     result = run_analysis(system, q0, qd0, probe)
     return set(result_columns(result)), result.info.get("analysis", "")
 
@@ -414,7 +416,6 @@ def make_sweep(
     SweepError
         Naming the key, value or output and the fix. A model file that cannot be read raises ``ModelError``.
     """
-    from .cli import UsageError, analysis_settings
     from .io.model import ModelError, load_model, read_text
 
     if isinstance(model, dict):
@@ -430,8 +431,8 @@ def make_sweep(
         raise SweepError(f"--engine {engine}: a sweep runs on one of: {', '.join(ENGINES)}")
     settings = {"analysis": analysis, "t_end": t_end, "steps": steps, "engine": engine}
     try:
-        analysis_settings(base, **settings)
-    except UsageError as err:
+        read_settings(base.simulation, **settings)
+    except SettingError as err:
         raise SweepError(str(err)) from None
     parameters = []
     seen = set()

@@ -27,10 +27,8 @@ import numpy as np
 
 from ..diagnostics import AnalysisError
 from ..integrators import IntegrationStats, initial_step
+from ..settings import ENGINES, Settings
 
-ENGINES = ("auto", "numpy", "compiled", "cached")
-"""``cached``: the compiled engine where its code for the scene's structure is on disk, else numpy: for a
-process that runs many scenes of the same structures (the grader, a sweep), which pays the loading once."""
 COMPILE_SECONDS = 8.0
 """What a first compilation of a scene's module costs (numba 0.68, one core of the course machine: 5.7-8.7 s
 measured, with the loops compiled already: they take 10-20 s more once per machine)."""
@@ -42,34 +40,24 @@ TRIAL_STEPS = 8
 """Steps of the trial run behind the estimate of a long numpy run (``trial_seconds``)."""
 
 
-def estimated_numpy_seconds(
-    equations,
-    z0: np.ndarray,
-    t_end: float,
-    steps: int,
-    integrator: str,
-    rtol: float,
-    atol: float,
-    step: float | None,
-    threshold: float = math.inf,
-) -> float:
+def estimated_numpy_seconds(equations, z0: np.ndarray, settings: Settings, threshold: float = math.inf) -> float:
     """The numpy engine's expected run time (module docstring): first from the starting step h0, then, when that
     comes within a tenth of ``threshold`` (the time the compiled engine must beat), from a trial of the method."""
-    f = equations.rhs
+    f, integrator, t_end, step = equations.rhs, settings.integrator, settings.t_end, settings.step
     start = time.perf_counter()
     fy = f(0.0, z0)
     for _ in range(4):
         f(0.0, z0)
     per_call = (time.perf_counter() - start) / 5
     if integrator == "rk4":
-        substeps = max(1, math.ceil(t_end / steps / step - 1e-9)) if step else 1
-        return per_call * 4 * steps * substeps
+        substeps = max(1, math.ceil(t_end / settings.steps / step - 1e-9)) if step else 1
+        return per_call * 4 * settings.steps * substeps
     order = 7 if integrator in ("DOP853", "dop853") else 4
-    h = initial_step(f, 0.0, z0, fy, order, rtol, atol, t_end)
+    h = initial_step(f, 0.0, z0, fy, order, settings.rtol, settings.atol, t_end)
     quick = per_call * STAGES[integrator] * t_end / max(h, 1e-300)
     if quick < threshold / 10:
         return quick
-    return trial_seconds(f, z0, t_end, integrator, rtol, atol, step)
+    return trial_seconds(f, z0, t_end, integrator, settings.rtol, settings.atol, step)
 
 
 def trial_seconds(f, z0: np.ndarray, t_end: float, integrator: str, rtol: float, atol: float, step) -> float:
@@ -89,32 +77,17 @@ def trial_seconds(f, z0: np.ndarray, t_end: float, integrator: str, rtol: float,
     return per_call * STAGES[integrator] * t_end / max(h, 1e-300)
 
 
-def choose(
-    engine: str,
-    system,
-    M,
-    forces,
-    formulation: str,
-    integrator: str,
-    options: dict,
-    equations,
-    z0: np.ndarray,
-    t_end: float,
-    steps: int,
-    rtol: float,
-    atol: float,
-    step: float | None,
-):
+def choose(settings: Settings, equations, z0: np.ndarray):
     """(Plan or None, {'engine', 'engine_why'}): the compiled engine's plan (``solutions.compiled.plan``) when it
-    runs this analysis."""
-    if engine not in ENGINES:
-        raise AnalysisError(f"unknown engine {engine!r} (one of: {', '.join(ENGINES)})")
+    runs this analysis; ``settings`` are the run's, with its formulation, integrator and tolerances chosen."""
+    engine, formulation, integrator = settings.engine, settings.formulation, settings.integrator
     if engine == "numpy":
         return None, {"engine": "numpy", "engine_why": "numpy engine asked for"}
     from . import describe, is_cached, plan, unsupported
 
-    job = plan(describe(system, M, forces), formulation, equations.formulation)
-    why_not = unsupported(job.scene, formulation, integrator, options)
+    made = equations.formulation
+    job = plan(describe(made.system, made.M, equations.forces), formulation, made)
+    why_not = unsupported(job.scene, formulation, integrator, settings.formulation_options)
     if why_not is not None:
         return None, {"engine": "numpy", "engine_why": f"not compiled: {why_not}"}
     if engine == "compiled":
@@ -125,7 +98,7 @@ def choose(
             return job, {"engine": "compiled", "engine_why": "compiled code for this scene's structure is cached"}
         return None, {"engine": "numpy", "engine_why": "no compiled code for this scene's structure is cached"}
     threshold = LOAD_SECONDS if cached else COMPILE_SECONDS
-    expected = estimated_numpy_seconds(equations, z0, t_end, steps, integrator, rtol, atol, step, threshold)
+    expected = estimated_numpy_seconds(equations, z0, settings, threshold)
     if cached and expected > LOAD_SECONDS:
         why = f"numpy run estimated at {expected:.3g} s, more than loading the cached code ({LOAD_SECONDS:g} s)"
         return job, {"engine": "compiled", "engine_why": why}
@@ -139,14 +112,15 @@ def choose(
     return None, {"engine": "numpy", "engine_why": why}
 
 
-def run(job, z0, times, integrator, rtol, atol, step, max_evaluations, options, span_check=True):
+def run(job, z0: np.ndarray, times: np.ndarray, settings: Settings):
     """The compiled run of a ``Plan``, its failures raised as the numpy engine raises them; (CompiledRun,
     IntegrationStats). A projection run also counts its projections and restarts as the numpy run does: one
     projection per accepted step, a restart after each (``integrators.integrate``; the solve_ivp loop does not
     restart after its last step, rk4 never counts restarts)."""
     from . import run as compiled_run
 
-    out = compiled_run(job, z0, times, integrator, rtol, atol, step, max_evaluations)
+    integrator, max_evaluations = settings.integrator, settings.max_evaluations
+    out = compiled_run(job, z0, times, integrator, settings.rtol, settings.atol, settings.step, max_evaluations)
     span = times[-1] - times[0]
     if out.status == 1:
         raise AnalysisError(

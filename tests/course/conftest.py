@@ -87,10 +87,11 @@ def same(a, b) -> bool:
 
 
 def _record(regions: list[Region]) -> dict[tuple[str, str], dict]:
+    from solutions.analysis import choose_analysis, run_analysis
     from solutions.assembly import build_system
-    from solutions.cli import analysis_settings, choose_analysis, run_analysis
     from solutions.io.model import load_model
     from solutions.kinematics import assemble
+    from solutions.settings import read_settings
 
     targets = {}
     for region in regions:
@@ -114,7 +115,7 @@ def _record(regions: list[Region]) -> dict[tuple[str, str], dict]:
             system, q0, qd0 = build_system(model)
             kinematic = choose_analysis(system, assemble(system, q0)[0]) == "kinematic"
             for analysis in ("kinematic", "inverse") if kinematic else ("dynamic",):
-                settings = analysis_settings(model, analysis=analysis, t_end=SCENE_T_END, steps=SCENE_STEPS)
+                settings = read_settings(model.simulation, analysis=analysis, t_end=SCENE_T_END, steps=SCENE_STEPS)
                 run_analysis(system, q0, qd0, settings)
         except Exception:  # noqa: BLE001, S110 -- a scene the reference cannot run still yields the calls made
             pass

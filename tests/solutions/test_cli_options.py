@@ -10,9 +10,10 @@ import pytest
 import yaml
 
 from solutions.assembly import build_system
-from solutions.cli import SETTINGS, build_parser, main
+from solutions.cli import build_parser, main
 from solutions.dynamics import forward_dynamics
 from solutions.io.model import _schema, load_model
+from solutions.settings import table
 
 MODELS = Path(__file__).resolve().parents[2] / "course" / "models"
 NEW = (
@@ -32,11 +33,12 @@ def test_every_setting_is_a_file_key_and_an_option():
     keys = _schema()["properties"]["simulation"]["properties"]
     parser = build_parser()
     options = {a.dest: a for a in parser._subparsers._group_actions[0].choices["run"]._actions}
-    for option, (key, _) in SETTINGS.items():
+    file_key = {f.name: f.metadata["key"] for f in table()}
+    for option, key in file_key.items():
         assert key in keys, key
         assert option in options and options[option].help, option
     for option in NEW:
-        assert SETTINGS[option][0] == option and "description" in keys[option]
+        assert file_key[option] == option and "description" in keys[option]
         assert f"--{option.replace('_', '-')}" in options[option].option_strings
 
 

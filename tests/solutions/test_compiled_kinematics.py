@@ -17,11 +17,12 @@ import pytest
 import yaml
 
 from solutions import kinematics
+from solutions.analysis import choose_analysis, run_analysis
 from solutions.assembly import build_system
-from solutions.cli import analysis_settings, choose_analysis, run_analysis
 from solutions.diagnostics import AnalysisError
 from solutions.io.model import load_model
 from solutions.kinematics import assemble, kinematic_analysis
+from solutions.settings import read_settings
 
 from .mechanisms import parallelogram_chain
 
@@ -182,7 +183,7 @@ def test_mbd_run_takes_the_engine_for_a_kinematic_model():
     model = load_model(MODELS / "slider_crank.yaml")
     system, q0, qd0 = build_system(model)
     for engine in ("compiled", "numpy"):
-        settings = analysis_settings(model, engine=engine, steps=20)
+        settings = read_settings(model.simulation, engine=engine, steps=20)
         result = run_analysis(system, q0, qd0, settings)
         assert result.info["analysis"] == "kinematic"
         assert result.info.get("chosen", {"engine": "numpy"})["engine"] == engine

@@ -1,0 +1,258 @@
+"""The settings of a run: one frozen object for the API, the command line, the model file and sweeps.
+
+Everything a run is asked besides the mechanism (which analysis, how long, which formulation and
+integrator, how accurate, which checks) is one field of ``Settings``. Each field states, once, its
+default, the key of the model file's ``simulation`` block that sets it, what values it takes and what it
+does; the command line's options (``mbd run --rtol``), the file's keys (``simulation.rtol``) and a sweep's
+overrides are all read through the same table (``read_settings``), and checked there, so a value no
+analysis takes is refused before any run, in the words the user wrote it.
+
+From Python: ``forward_dynamics(system, q0, qd0, t_end, steps, rtol=1e-9)`` builds one from its keywords;
+``Settings(formulation="qr").replace(rtol=1e-9)`` is one made by hand.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import math
+import numbers
+from dataclasses import dataclass, field, fields
+
+from .diagnostics import AnalysisError
+from .formulations import FORMULATIONS
+from .integrators import DEFAULT_MAX_EVALUATIONS, INTEGRATORS
+
+INDEX3_INTEGRATORS = ("hht", "generalized-alpha")
+"""Implicit integrators of the index-3 form (``implicit.py``); they take the place of formulation + ODE."""
+ANALYSES = ("auto", "kinematic", "dynamic", "inverse")
+"""What ``analysis`` takes; ``auto`` is ``analysis.choose_analysis``."""
+FORMULATION_NAMES = ("auto", *FORMULATIONS)
+"""What ``formulation`` takes: ``auto`` (``dynamics.choose_method``) or a formulation of ``formulations.py``."""
+INTEGRATOR_NAMES = ("auto", *INTEGRATORS, *INDEX3_INTEGRATORS)
+"""What ``integrator`` takes: ``auto`` (``dynamics.choose_method``), an ODE integrator or an index-3 one."""
+ENGINES = ("auto", "numpy", "compiled", "cached")
+"""What ``engine`` takes (``compiled.dispatch``): numba is imported only when a run is compiled."""
+STIFFNESS = ("report", "error", "off")
+"""What ``stiffness`` takes (``integrators.integrate``)."""
+DRIFT_LIMIT = 1e-3
+"""Default ``drift_limit``: positions off the constraints by a thousandth of the mechanism's size are a wrong answer."""
+SINGULAR_RATIO = 1e-8
+"""Default ``singular_ratio``: sigma_min / sigma_max of Psi_q below which a configuration counts as singular."""
+DEFAULT_ACCURACY = 1e-6
+"""Default ``accuracy``: a millionth of the mechanism's size (``dynamics.mechanism_size``)."""
+
+NAME, FLAG, WHOLE, POSITIVE, OFF_AT_ZERO = "name", "flag", "whole", "positive", "off at zero"
+"""What a setting takes: one of its names; true or false; a whole number >= 1; a number > 0; a number >= 0."""
+
+
+def setting(default, key: str, takes: str, help: str, names: tuple = ()):
+    """A field of ``Settings``: its default, the model file's key, what it takes and what it does."""
+    return field(default=default, metadata={"key": key, "takes": takes, "help": help, "names": names})
+
+
+class SettingError(AnalysisError, ValueError):
+    """A setting that no analysis takes: the message names it as the user wrote it and says what it takes."""
+
+
+@dataclass(frozen=True)
+class Settings:
+    """What a run is asked, besides the mechanism (the model file's ``simulation`` block)."""
+
+    analysis: str = setting(
+        "auto", "analysis", NAME,
+        "auto (the default): kinematic when the drivers leave no degree of freedom, dynamic otherwise; kinematic: "
+        "the motion the drivers prescribe; dynamic: forward dynamics under the forces; inverse: the driver forces "
+        "and joint reactions of the prescribed motion",
+        ANALYSES,
+    )  # fmt: skip
+    t_end: float = setting(1.0, "end_time", POSITIVE, "end time in s (the file's simulation.end_time, default 1)")
+    steps: int = setting(100, "output_steps", WHOLE, "number of output intervals (simulation.output_steps: 100)")
+    formulation: str = setting(
+        "auto", "formulation", NAME,
+        "dynamic formulation: auto (the default: the cheapest adequate one), baumgarte, partitioning, qr, svd, "
+        "projection, augmented-lagrangian (singular positions, redundant constraints), joint-coordinates (open trees)",
+        FORMULATION_NAMES,
+    )  # fmt: skip
+    integrator: str = setting(
+        "auto", "integrator", NAME,
+        "integrator: auto (the default), dop853, rk45 (this package's loops), RK45, DOP853, Radau, BDF, LSODA "
+        "(scipy's solve_ivp), rk4 (fixed step), hht, generalized-alpha (implicit, index 3)",
+        INTEGRATOR_NAMES,
+    )  # fmt: skip
+    engine: str = setting(
+        "numpy", "engine", NAME,
+        "numpy (the reference code; the default from Python), compiled (numba; falls back to numpy, saying why, "
+        "where it does not cover the run), auto (compiled when the run repays compiling; the default of mbd run "
+        "and of a model file), cached (compiled where its code for the scene is on disk)",
+        ENGINES,
+    )  # fmt: skip
+    rtol: float | None = setting(
+        None, "rtol", POSITIVE,
+        "relative tolerance of the integrator (default: dynamics.default_rtol, from accuracy and the run's length)",
+    )  # fmt: skip
+    atol: float = setting(1e-10, "atol", POSITIVE, "absolute tolerance of the integrator (default 1e-10)")
+    step: float | None = setting(
+        None, "step", POSITIVE, "the fixed step of rk4 (default: the output spacing); the largest step of the others"
+    )
+    accuracy: float = setting(
+        DEFAULT_ACCURACY, "accuracy", POSITIVE,
+        "position error allowed, as a fraction of the mechanism's size (default 1e-6): the default rtol follows it, "
+        "and the result warns when its estimated error exceeds it",
+    )  # fmt: skip
+    through_singular: bool = setting(
+        False, "through_singular", FLAG,
+        "kinematic analysis: go on through singular positions along the branch of the velocities (listed as "
+        "warnings) instead of stopping there",
+    )  # fmt: skip
+    alpha: float | None = setting(
+        None, "alpha", OFF_AT_ZERO,
+        "Baumgarte's alpha in 1/s (baumgarte, qr, svd, ...; default 5 for baumgarte): "
+        "gamma_bar = gamma - 2 alpha Psi' - beta^2 Psi (eq. 5.29)",
+    )  # fmt: skip
+    beta: float | None = setting(None, "beta", OFF_AT_ZERO, "Baumgarte's beta in 1/s (default 5 for baumgarte)")
+    penalty: float | None = setting(
+        None, "penalty", POSITIVE,
+        "augmented-lagrangian: penalty relative to the largest mass over sigma_max(Psi_q)^2 (default 1e7)",
+    )  # fmt: skip
+    rank_tol: float | None = setting(
+        None, "rank_tol", POSITIVE,
+        "svd: singular values of Psi_q below rank_tol sigma_1 count as zero (default: the package's rank rule)",
+    )  # fmt: skip
+    repartition_ratio: float | None = setting(
+        None, "repartition_ratio", POSITIVE,
+        "partitioning: choose new independent coordinates when cond(Psi_v) grows by this factor (default 10)",
+    )  # fmt: skip
+    max_evaluations: int | None = setting(
+        DEFAULT_MAX_EVALUATIONS, "max_evaluations", WHOLE,
+        "forward dynamics: budget of right-hand-side evaluations; past it the run stops, saying where (and the "
+        "stiffness, when found)",
+    )  # fmt: skip
+    drift_limit: float | None = setting(
+        DRIFT_LIMIT, "drift_limit", OFF_AT_ZERO,
+        "forward dynamics: stop when the positions are off the constraints by this fraction of the mechanism's "
+        "size (default 1e-3, at least 100 rtol; 0: no limit)",
+    )  # fmt: skip
+    singular_ratio: float | None = setting(
+        SINGULAR_RATIO, "singular_ratio", OFF_AT_ZERO,
+        "forward dynamics: stop at a singular position, where the smallest singular value of Psi_q falls below "
+        "this fraction of the largest (default 1e-8; 0: no check)",
+    )  # fmt: skip
+    stiffness: str = setting(
+        "report", "stiffness", NAME,
+        "forward dynamics, explicit integrators bounded by stability: report (the default, in the result's info), "
+        "error (stop at once), off",
+        STIFFNESS,
+    )  # fmt: skip
+    options: dict = field(default_factory=dict)
+    """Further options of the formulation's constructor, from Python only (e.g. ``tol``, ``independent``)."""
+
+    def __post_init__(self):
+        for f in table():
+            if f.name not in FORMULATION_OPTIONS:  # those the formulation checks, saying why (e.g. eq. 5.29)
+                check_setting(f.name, getattr(self, f.name))
+            if f.metadata["takes"] == OFF_AT_ZERO and f.name in CHECKS and getattr(self, f.name) == 0:
+                object.__setattr__(self, f.name, None)  # 0: no such check
+
+    def replace(self, **changes) -> Settings:
+        """A copy with ``changes``; keywords that are not settings are options of the formulation."""
+        names = {f.name for f in fields(self)}
+        extra = {k: v for k, v in changes.items() if k not in names}
+        kept = {k: v for k, v in changes.items() if k in names}
+        return dataclasses.replace(self, **kept, options={**self.options, **extra})
+
+    @property
+    def formulation_options(self) -> dict:
+        """The options of the formulation's constructor: the ones set of alpha, beta, penalty, rank_tol,
+        repartition_ratio, and ``options``."""
+        given = {name: getattr(self, name) for name in FORMULATION_OPTIONS if getattr(self, name) is not None}
+        return {**given, **self.options}
+
+
+FORMULATION_OPTIONS = ("alpha", "beta", "penalty", "rank_tol", "repartition_ratio")
+"""Settings that are options of a formulation's constructor (``formulations.FORMULATIONS``)."""
+CHECKS = ("drift_limit", "singular_ratio")
+"""Settings of a check that 0 turns off."""
+DYNAMIC_ONLY = (
+    "formulation", "integrator", "rtol", "atol", "step", "accuracy", *FORMULATION_OPTIONS, "max_evaluations",
+    *CHECKS, "stiffness",
+)  # fmt: skip
+"""Settings that only a forward dynamic analysis uses."""
+
+
+def table() -> list[dataclasses.Field]:
+    """The settings, in order: every field of ``Settings`` but ``options``."""
+    return [f for f in fields(Settings) if "key" in f.metadata]
+
+
+def check_setting(name: str, value, source: str | None = None) -> None:
+    """Refuse a value that the setting ``name`` does not take; ``source`` is how the user wrote it ('--rtol'
+    on the command line, 'simulation.rtol' in the file; None: a keyword from Python). None leaves the default."""
+    if value is None:
+        return
+    meta = {f.name: f.metadata for f in table()}[name]
+    takes, said = meta["takes"], f"{name} = {value!r}" if source is None else f"{source} {value!r}"
+    if takes == NAME:
+        if value not in meta["names"]:
+            named = f"unknown {name} {value!r}" if source is None else f"{said}: unknown {name}"
+            raise SettingError(f"{named} (one of: {', '.join(meta['names'])})")
+        return
+    if takes == FLAG:
+        if not isinstance(value, bool):
+            raise SettingError(f"{said}: must be true or false")
+        return
+    number = isinstance(value, numbers.Integral if takes == WHOLE else numbers.Real) and not isinstance(value, bool)
+    if not number or not math.isfinite(value) or value < 0 or (takes != OFF_AT_ZERO and value == 0):
+        wanted = {WHOLE: "a whole number >= 1", OFF_AT_ZERO: "a number >= 0"}.get(takes, "a number > 0")
+        raise SettingError(f"{said}: must be {wanted}")
+
+
+def formulations_taking(option: str) -> list[str]:
+    """The formulations whose constructor takes ``option`` (e.g. alpha: baumgarte, qr, svd, ...)."""
+    return [name for name, cls in FORMULATIONS.items() if option in inspect.signature(cls.__init__).parameters]
+
+
+def check_formulation_options(settings: Settings) -> None:
+    """Refuse a formulation option (alpha, penalty, ...) that the run's formulation does not take, naming the
+    formulations that take it."""
+    for option in FORMULATION_OPTIONS:
+        if getattr(settings, option) is None:
+            continue
+        takes = formulations_taking(option)
+        if settings.formulation not in takes:
+            raise SettingError(
+                f"--{option.replace('_', '-')} (simulation.{option}) is an option of the {', '.join(takes)} "
+                f"formulation{'s' if len(takes) > 1 else ''}, not of {settings.formulation}: "
+                f"add --formulation {takes[0]}"
+            )
+
+
+FILE_DEFAULTS = {"engine": "auto"}
+"""Where a model file (and so ``mbd run``) differs from the API's default: the engine is ``auto`` (compiled
+when it pays) for a command, ``numpy`` (the reference, the same numbers on every machine) from Python."""
+
+
+def read_settings(simulation: dict, **given) -> Settings:
+    """The model file's ``simulation`` block, overridden by every given value that is not None (the command
+    line's options, a sweep's): each checked in the words the user wrote it.
+
+    Raises
+    ------
+    SettingError
+        Naming the option ('--rtol') or the file's key ('simulation.rtol') and what it takes.
+    """
+    values = {}
+    for f in table():
+        key, option = f.metadata["key"], f"--{f.name.replace('_', '-')}"
+        if given.get(f.name) is not None:
+            values[f.name], source = given[f.name], option
+        elif key in simulation:
+            values[f.name], source = simulation[key], f"simulation.{key}"
+        elif f.name in FILE_DEFAULTS:
+            values[f.name], source = FILE_DEFAULTS[f.name], f"simulation.{key}"
+        else:
+            continue
+        check_setting(f.name, values[f.name], source)
+    settings = Settings(**values)
+    check_formulation_options(settings)
+    return settings
