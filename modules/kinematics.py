@@ -24,7 +24,7 @@ from .assembly import System
 from .diagnostics import AnalysisError, involved_joints, rank_report, singular_joints
 from .linalg import lu_factor, lu_solve, minimum_norm_solution, numerical_rank, solve
 from .planar.bodies import rotation, rotation_derivative
-from .results import Result
+from .results import KinematicInfo, Result
 
 LOCKUP_CONDITION = 1e10
 """Condition number of Psi_q above which a configuration counts as locked (a singular position)."""
@@ -260,14 +260,12 @@ def kinematic_analysis(
     through_singular : at a singular position go on along the branch the velocities point to
         (``branch_step``) and list the position in ``info['singular_positions']`` (time, joints, the two
         output times around it) instead of stopping with an AnalysisError
-    engine : ``numpy`` (the default: the steps below), ``compiled`` (the steps compiled by numba where its
-        kernels cover the model, else numpy), ``auto`` (compiled when it pays) or ``cached``, as for
-        ``dynamics.forward_dynamics``; ``info['chosen']`` says which and why. The compiled steps stop at the
-        first step where anything unusual happens and the numpy steps go on from there (``_compiled_steps``)
+    engine : ``numpy`` (the default), ``compiled``, ``auto`` or ``cached``, as for ``forward_dynamics``
+        (``settings.Settings``); the compiled steps stop at the first step where anything unusual happens
+        and the numpy steps go on from there (``_compiled_steps``); ``info['chosen']`` says which and why
 
-    Each step (``position_step``, ``check_branch``): predict q from the last step, correct it by
-    Newton-Raphson (eq. 4.8), stop at a singular position (``check_branch``), then q' (eq. 4.5) and q''
-    (eq. 4.6) with the same LU factors of Psi_q.
+    Each step: q predicted from the last step and corrected by Newton-Raphson (eq. 4.8, ``position_step``),
+    a stop at a singular position (``check_branch``), q' (eq. 4.5) and q'' (eq. 4.6) with Psi_q's LU factors.
 
     Raises
     ------
@@ -291,7 +289,7 @@ def kinematic_analysis(
         check_branch(march, k, q, lu)
         qd = velocity_analysis(system, q, march.times[k], lu)
         march.Q[k], march.QD[k], march.QDD[k] = q, qd, acceleration_analysis(system, q, qd, march.times[k], lu)
-    info = {
+    info: KinematicInfo = {
         "analysis": "kinematic",
         "steps": steps,
         "newton_iterations": march.iterations,
@@ -456,80 +454,76 @@ def branch_step(
 
 def _kinematics_through_singular(system, q0, t_end, steps, points) -> Result:
     """``kinematic_analysis(..., through_singular=True)``: each step predicts (q, q', q'') from the last one
-    (Taylor, second order) and corrects on its branch (``branch_step``); a sign change of det Psi_q, a
-    condition number above LOCKUP_CONDITION or a dip of the pivot ratio confirmed by the rank rule
-    (``locate_singular_position``, which also gives its time) is recorded, with the time and the joints, and
-    passed."""
+    (Taylor, second order) and corrects on its branch (``branch_step``); a singular position found on the way
+    (``record_crossing``) is recorded, with the time and the joints, and passed."""
     start = _time.perf_counter()
     q, assembly = assemble(system, q0, 0.0)
     require_no_freedom(system, q, 0.0)
-    times = np.linspace(0.0, t_end, steps + 1)
-    n = system.n_coordinates
-    Q, QD, QDD = (np.empty((times.size, n)) for _ in range(3))
+    march = KinematicSteps.empty(system, np.linspace(0.0, t_end, steps + 1))
     lu = lu_factor(system.jacobian(q, 0.0))
     qd = velocity_analysis(system, q, 0.0, lu)
     qdd = acceleration_analysis(system, q, qd, 0.0, lu)
+    march.sign = determinant_sign(lu)
     crossings: list[dict] = []
-    ratios: list[float] = []
-    previous_sign = determinant_sign(lu)
-    for k, t in enumerate(times):
+    for k, t in enumerate(march.times):
         if k > 0:
-            dt = t - times[k - 1]
+            dt = t - march.times[k - 1]
             prediction = (q + qd * dt + 0.5 * qdd * dt * dt, qd + qdd * dt, qdd)
             q, qd, qdd = branch_step(system, *prediction, t)
-        jacobian = system.jacobian(q, t)
-        lu = lu_factor(jacobian)
-        sign = determinant_sign(lu)
-        ratio = pivot_ratio(lu)
-        locked = not ratio > 1.0 / LOCKUP_CONDITION
-        # a dip of the pivot ratio also flags a crossing: an even rank loss (one per loop of a chain of
-        # parallelograms) leaves the sign of det Psi_q as it was; the rank rule decides (locate_singular_position)
-        ratios.append(ratio)
-        dip = dip_start(ratios, times.size)
-        flagged = sign != previous_sign or locked
-        first = max(k - 1, 0) if flagged else dip
-        if (flagged or dip is not None) and crossings and crossings[-1]["step"] >= first:
-            crossings[-1]["step"] = max(crossings[-1]["step"], k) if flagged else crossings[-1]["step"]
-        elif flagged or dip is not None:
-            found = None
-            if k > 0:
-                found = locate_singular_position(system, times[first], Q[first], QD[first], QDD[first], t)
-            if found is not None:
-                after, until = _bracket(times, found["t"])
-                crossings.append({"t": found["t"], "after": after, "until": until, "step": k,
-                                  "joints": found["joints"], "condition": 1.0 / max(found["ratio"], 1e-300),
-                                  "rank_loss": found["rank_loss"]})  # fmt: skip
-            elif flagged:  # a sign flip or a lock-up is a singular position whatever the search found
-                cond, joints = singular_joints(jacobian, system.row_owners)
-                crossings.append({"t": float(t), "after": float(times[max(k - 1, 0)]), "until": float(t), "step": k,
-                                  "joints": joints, "condition": cond})  # fmt: skip
-        previous_sign = sign
-        Q[k], QD[k], QDD[k] = q, qd, qdd
+        record_crossing(march, crossings, k, q)
+        march.Q[k], march.QD[k], march.QDD[k] = q, qd, qdd
     for crossing in crossings:
         del crossing["step"]
-    return _result(
-        system,
-        times,
-        Q,
-        QD,
-        QDD,
-        {
-            "analysis": "kinematic",
-            "steps": steps,
-            "max_constraint_residual": float(
-                max(np.max(np.abs(system.constraints(qk, tk)), initial=0.0) for qk, tk in zip(Q, times, strict=True))
-            ),
-            "assembly": assembly,
-            "singular_positions": crossings,
-            "warnings": [
-                f"singular position at t = {c['t']:.6g} s, between t = {c['after']:.6g} s and "
-                f"t = {c['until']:.6g} s (joints {', '.join(c['joints'])}): passed on the branch of the velocities"
-                for c in crossings
-            ],
-            "wall_time": _time.perf_counter() - start,
-        },
-        points,
-    )
+    pairs = zip(march.Q, march.times, strict=True)
+    residual = max(np.max(np.abs(system.constraints(qk, tk)), initial=0.0) for qk, tk in pairs)
+    info: KinematicInfo = {
+        "analysis": "kinematic",
+        "steps": steps,
+        "max_constraint_residual": float(residual),
+        "assembly": assembly,
+        "singular_positions": crossings,
+        "warnings": [
+            f"singular position at t = {c['t']:.6g} s, between t = {c['after']:.6g} s and "
+            f"t = {c['until']:.6g} s (joints {', '.join(c['joints'])}): passed on the branch of the velocities"
+            for c in crossings
+        ],
+        "wall_time": _time.perf_counter() - start,
+    }
+    return _result(system, march.times, march.Q, march.QD, march.QDD, info, points)
+
+
+def record_crossing(march: KinematicSteps, crossings: list[dict], k: int, q: np.ndarray) -> None:
+    """At step k of a run through singular positions: a sign change of det Psi_q, a condition number above
+    LOCKUP_CONDITION or a dip of the pivot ratio confirmed by the rank rule (``locate_singular_position``,
+    which also gives its time) adds a singular position to ``crossings`` (or extends the last one)."""
+    system, times, t = march.system, march.times, march.times[k]
+    jacobian = system.jacobian(q, t)
+    lu = lu_factor(jacobian)
+    sign, ratio = determinant_sign(lu), pivot_ratio(lu)
+    locked = not ratio > 1.0 / LOCKUP_CONDITION
+    # a dip of the pivot ratio also flags a crossing: an even rank loss (one per loop of a chain of
+    # parallelograms) leaves the sign of det Psi_q as it was; the rank rule decides (locate_singular_position)
+    march.ratios.append(ratio)
+    dip = dip_start(march.ratios, times.size)
+    flagged = sign != march.sign or locked
+    first = max(k - 1, 0) if flagged else dip
+    march.sign = sign
+    if (flagged or dip is not None) and crossings and crossings[-1]["step"] >= first:
+        crossings[-1]["step"] = max(crossings[-1]["step"], k) if flagged else crossings[-1]["step"]
+        return
+    if not (flagged or dip is not None):
+        return
+    found = None
+    if k > 0:
+        found = locate_singular_position(system, times[first], march.Q[first], march.QD[first], march.QDD[first], t)
+    if found is not None:
+        after, until = _bracket(times, found["t"])
+        crossings.append({"t": found["t"], "after": after, "until": until, "step": k, "joints": found["joints"],
+                          "condition": 1.0 / max(found["ratio"], 1e-300), "rank_loss": found["rank_loss"]})  # fmt: skip
+    elif flagged:  # a sign flip or a lock-up is a singular position whatever the search found
+        cond, joints = singular_joints(jacobian, system.row_owners)
+        crossings.append({"t": float(t), "after": float(times[max(k - 1, 0)]), "until": float(t), "step": k,
+                          "joints": joints, "condition": cond})  # fmt: skip
 
 
 def point_kinematics(q, qd, qdd, body: int, point: np.ndarray):

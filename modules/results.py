@@ -4,11 +4,92 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TypedDict
 
 import numpy as np
 
 DERIVED = ("residual.", "energy.")
 """Prefixes of the result columns every dynamic run makes (constraint residuals, energies), not coordinates."""
+
+
+class Info(TypedDict, total=False):
+    """How a result was obtained (DESIGN section 5): the keys every analysis may write, with their types.
+
+    Each analysis writes the keys of its record below and no others (``tests/solutions/test_results.py``
+    checks every analysis, engine and formulation against them)."""
+
+    analysis: str
+    """'kinematic', 'dynamic' or 'inverse'."""
+    steps: int
+    assembly: dict
+    """The assembly at t = 0 (``kinematics.assemble``): residual, Newton iterations, how far each body moved."""
+    max_constraint_residual: float
+    wall_time: float
+    warnings: list[str]
+    notes: list[str]
+    chosen: dict
+    """What ``auto`` chose and why: the method (``formulation``, ``integrator``, ``why``), the engine
+    (``engine``, ``engine_why``)."""
+
+
+class KinematicInfo(Info, total=False):
+    """A kinematic analysis (``kinematics.kinematic_analysis``)."""
+
+    newton_iterations: int
+    singular_positions: list[dict]
+    """With through_singular: each singular position passed (t, the output times around it, joints)."""
+
+
+class InverseInfo(KinematicInfo, total=False):
+    """An inverse dynamic analysis (``inverse_dynamics.inverse_dynamics``)."""
+
+    max_equation_residual: float
+    """max |M q'' + Psi_q^T lambda - Q| over the run."""
+
+
+class DynamicInfo(Info, total=False):
+    """A forward dynamic analysis (``dynamics.forward_dynamics``)."""
+
+    formulation: str
+    integrator: str
+    rtol: float
+    atol: float
+    step: float | None
+    rtol_rule: str
+    """How the default rtol followed from the accuracy and the motion's periods (``dynamics.default_rtol``)."""
+    rhs_evaluations: int
+    integrator_steps: int
+    rejected_steps: int
+    restarts: int
+    stiffness: str | None
+    closest_singularity: dict | None
+    singular_positions: list[dict]
+    max_velocity_residual: float
+    energy_drift: float
+    energy_drift_relative: float
+    initial_conditions: dict
+    """How far assembly and the velocity projection moved the file's initial state."""
+    compiled: dict
+    """The compiled engine's start: ``cached``, ``load_seconds``."""
+    alpha: float
+    beta: float
+    repartitions: int
+    partitions: list
+    projections: int
+    unconverged_iterations: int
+
+
+class Index3Info(DynamicInfo, total=False):
+    """A forward dynamic analysis by an implicit index-3 method (``implicit.integrate_index3``, eq. 6.52)."""
+
+    rho_inf: float
+    alpha_m: float
+    alpha_f: float
+    gamma: float
+    newton_iterations: int
+    newton_failures: int
+    tangent_updates: int
+    factorizations: int
 
 
 @dataclass
@@ -18,8 +99,7 @@ class Result:
     q, qd, qdd have shape (N, n) with columns ``coordinate_names``; ``lam`` (N, m) holds the Lagrange
     multipliers when the analysis computes them; ``reactions`` maps a column name such as 'O.Fx' to
     its (N,) history; ``points`` likewise holds requested body points ('P.x', 'P.x_d', ...).
-    ``info`` says how the result was obtained (analysis, tolerances, steps,
-    evaluations, wall time, max constraint residual, ...).
+    ``info`` says how the result was obtained (``Info``: ``KinematicInfo``, ``DynamicInfo``, ...).
     """
 
     t: np.ndarray
@@ -31,7 +111,7 @@ class Result:
     lam: np.ndarray | None = None
     points: dict[str, np.ndarray] = field(default_factory=dict)
     reactions: dict[str, np.ndarray] = field(default_factory=dict)
-    info: dict = field(default_factory=dict)
+    info: Info = field(default_factory=Info)
 
     def coordinate(self, name: str, derivative: int = 0) -> np.ndarray:
         """History of one coordinate, e.g. ``result.coordinate('slider.x', 1)`` for its velocity.

@@ -30,6 +30,7 @@ run is made again from the start with the one fallback plan: a formulation that 
 
 from __future__ import annotations
 
+import dataclasses
 import time as _time
 from dataclasses import dataclass
 
@@ -52,7 +53,7 @@ from .kinematics import assemble, point_columns
 from .linalg import RANK_EPS, numerical_rank
 from .mass_matrix import mass_at, mass_matrix
 from .reactions import REDUNDANT_NOTE, driver_efforts, joint_reactions, minimum_norm_multipliers
-from .results import Result
+from .results import DynamicInfo, Result
 from .settings import (
     DEFAULT_ACCURACY,
     DRIFT_LIMIT,
@@ -284,6 +285,7 @@ class Plan:
     formulation: str
     integrator: str
     rtol: float
+    atol: float
     rtol_given: bool
     periods: float | None
     size: float
@@ -316,17 +318,18 @@ def run_plan(run: Run, formulation: str, integrator: str) -> Result:
         )
     made = make_formulation(plan.formulation, system, M, forces, **settings.formulation_options)
     equations = EquationsOfMotion(made, forces, has_drivers=bool(model.motors))
-    rtol, atol, raised = held_tolerances(plan, equations, settings.atol)
-    guard = make_guard(run, plan, equations, q, rtol)
+    plan, raised = held_tolerances(plan, equations)
+    guard = make_guard(run, plan, equations, q)
     times = np.linspace(0.0, settings.t_end, settings.steps + 1)
     try:  # stage 3: the engine
-        history, stats, compiled, chosen = integrate_motion(run, plan, equations, guard, q, qd, times, rtol, atol, M)
+        z0 = equations.initial_state(q, qd, 0.0)
+        history, stats, compiled, chosen = integrate_motion(run, plan, equations, guard, z0, times)
     except AnalysisError as err:
         if formulation == "auto" and restartable(err, guard, plan):
             raise SingularStop(err, plan.formulation, (plan.chosen or {}).get("why", "")) from err
         raise
-    result, energies = build_result(run, equations, guard, history, compiled, times, M, forces)  # stage 4
-    result.info = run_info(plan, equations, guard, stats, result, energies, initial, rtol, atol, run)
+    result, energies = build_result(run, equations, guard, history, compiled, times)  # stage 4
+    result.info = run_info(run, plan, equations, guard, stats, result, energies, initial)
     if chosen is not None:
         result.info["chosen"] = chosen
     if compiled is not None:  # what the compiled engine's start cost: loading (or compiling) the scene's module
@@ -375,7 +378,7 @@ def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str) -
     if integrator not in INDEX3_INTEGRATORS and integrator not in FIXED_STEP_METHODS:
         periods = motion_periods(system, M, forces, q, qd, settings.t_end, formulation, options)
     rtol = settings.rtol if settings.rtol is not None else default_rtol(periods, settings.accuracy)
-    return Plan(formulation, integrator, rtol, settings.rtol is not None, periods, size, chosen)
+    return Plan(formulation, integrator, rtol, settings.atol, settings.rtol is not None, periods, size, chosen)
 
 
 def index3_run(run: Run, plan: Plan, M, forces, q, qd, initial: dict) -> Result:
@@ -393,25 +396,26 @@ def index3_run(run: Run, plan: Plan, M, forces, q, qd, initial: dict) -> Result:
     return result
 
 
-def held_tolerances(plan: Plan, equations: EquationsOfMotion, atol: float) -> tuple[float, float, list[str]]:
-    """(rtol, atol, warnings): raised to what the formulation holds (its ``held_rtol``, a penalty's rounding)."""
+def held_tolerances(plan: Plan, equations: EquationsOfMotion) -> tuple[Plan, list[str]]:
+    """The plan with rtol and atol raised to what the formulation holds (its ``held_rtol``, a penalty's
+    rounding), and the warning that says so."""
     held = getattr(equations.formulation, "held_rtol", None)
-    rtol = plan.rtol
+    rtol, atol = plan.rtol, plan.atol
     if held is None or plan.integrator in FIXED_STEP_METHODS or min(rtol, atol) >= held:
-        return rtol, atol, []
+        return plan, []
     said = (
         f"rtol {rtol:.2g}, atol {atol:.2g} raised to {max(rtol, held):.2g}, {max(atol, held):.2g}: the "
         f"tightest the {plan.formulation} formulation holds is {held:.2g} (its accelerations carry the rounding "
         "errors of its penalty; a smaller step cannot remove them)"
     )
-    return max(rtol, held), max(atol, held), [said]
+    return dataclasses.replace(plan, rtol=max(rtol, held), atol=max(atol, held)), [said]
 
 
-def make_guard(run: Run, plan: Plan, equations: EquationsOfMotion, q: np.ndarray, rtol: float) -> Guard:
+def make_guard(run: Run, plan: Plan, equations: EquationsOfMotion, q: np.ndarray) -> Guard:
     """The run's ``Guard``: drift at least 100 rtol for a loose tolerance; none for an open tree in joint
     coordinates, on the constraints by construction with a full-rank Psi_q everywhere."""
     drift_limit, singular_ratio = run.settings.drift_limit, run.settings.singular_ratio
-    loose = 100.0 * rtol if plan.integrator not in FIXED_STEP_METHODS else 0.0  # a loose tolerance may drift further
+    loose = 100.0 * plan.rtol if plan.integrator not in FIXED_STEP_METHODS else 0.0  # a loose tolerance drifts further
     if plan.formulation == "joint-coordinates" and not equations.formulation.cut_rows:  # an open tree
         drift_limit = singular_ratio = None  # nothing for the Guard to see
     return Guard(
@@ -423,12 +427,13 @@ def make_guard(run: Run, plan: Plan, equations: EquationsOfMotion, q: np.ndarray
     )
 
 
-def integrate_motion(run: Run, plan: Plan, equations, guard, q, qd, times, rtol, atol, M):
-    """Stage 3: the history at the output times, by the compiled engine where it covers the run, else numpy.
-    Returns (history, integrator statistics, the compiled run or None, what was chosen)."""
-    settings = run.settings.replace(formulation=plan.formulation, integrator=plan.integrator, rtol=rtol, atol=atol)
+def integrate_motion(run: Run, plan: Plan, equations, guard: Guard, z0: np.ndarray, times: np.ndarray) -> tuple:
+    """Stage 3: the history at the output times from the state z0, by the compiled engine where it covers the
+    run, else numpy. Returns (history, integrator statistics, the compiled run or None, what was chosen)."""
+    settings = run.settings.replace(
+        formulation=plan.formulation, integrator=plan.integrator, rtol=plan.rtol, atol=plan.atol
+    )
     history = _History(times.size, run.system.n_coordinates, run.system.n_constraints, equations.extra)
-    z0 = equations.initial_state(q, qd, 0.0)
     chosen = plan.chosen
     if settings.engine != "numpy":  # the compiled engine (numba), imported only when asked for
         compiled, stats, engine_choice = compiled_motion(settings, equations, guard, z0, times, history)
@@ -484,7 +489,7 @@ def restartable(err: AnalysisError, guard: Guard, plan: Plan) -> bool:
     return singular and plan.formulation not in THROUGH_SINGULAR and plan.integrator not in MULTISTEP_INTEGRATORS
 
 
-def build_result(run: Run, equations, guard, history, compiled, times, M, forces) -> tuple[Result, object]:
+def build_result(run: Run, equations, guard, history, compiled, times) -> tuple[Result, object]:
     """Stage 4: q, q', q'', lambda with the residuals, energies, points and joint reactions (eq. 5.70); and
     the energy history (``energy.energy_history``)."""
     system = run.system
@@ -504,7 +509,7 @@ def build_result(run: Run, equations, guard, history, compiled, times, M, forces
 
         residuals = compiled_history.residuals(compiled.psi, compiled.jac, compiled.psit, history.qd)
     accumulated = history.energies.T if equations.extra else ()
-    energies = energy_history(M, forces, history.q, history.qd, *accumulated)
+    energies = energy_history(equations.formulation.masses, equations.forces, history.q, history.qd, *accumulated)
     result.points.update(residuals)
     result.points.update(energies.columns())
     for label, (body, point) in (run.points or {}).items():
@@ -522,14 +527,14 @@ def build_result(run: Run, equations, guard, history, compiled, times, M, forces
     return result, energies
 
 
-def run_info(plan: Plan, equations, guard, stats, result, energies, initial: dict, rtol, atol, run: Run) -> dict:
+def run_info(run: Run, plan: Plan, equations, guard, stats, result, energies, initial: dict) -> DynamicInfo:
     """How the result was obtained (DESIGN section 5)."""
     return {
         "analysis": "dynamic",
         "formulation": plan.formulation,
         "integrator": plan.integrator,
-        "rtol": rtol,
-        "atol": atol,
+        "rtol": plan.rtol,
+        "atol": plan.atol,
         "step": run.settings.step,
         "steps": run.settings.steps,
         "rhs_evaluations": stats.rhs_evaluations,

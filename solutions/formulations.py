@@ -103,6 +103,7 @@ class Formulation:
 
     def __init__(self, system: System, M: np.ndarray, forces: ForceModel, alpha: float = 0.0, beta: float = 0.0):
         self.system, self.M, self.forces = system, M, forces
+        self.masses = M  # as given: the matrix, or a spatial model's M(q) (self.M is then the last one evaluated)
         self.n = system.n_coordinates
         self.alpha, self.beta = float(alpha), float(beta)
         if not (self.alpha >= 0.0 and self.beta >= 0.0):

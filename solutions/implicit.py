@@ -69,7 +69,7 @@ from .generalized_forces import ForceModel
 from .linalg import independent_rows
 from .mass_matrix import mass_at
 from .reactions import REDUNDANT_NOTE, minimum_norm_multipliers
-from .results import Result
+from .results import Index3Info, Result
 from .settings import Settings
 
 METHODS = ("generalized-alpha", "hht")
@@ -488,7 +488,7 @@ def index3_result(system: System, masses, forces: ForceModel, out: Index3History
     return result
 
 
-def index3_info(settings: Settings, rho_inf: float, parameters: AlphaParameters, counters: Counters) -> dict:
+def index3_info(settings: Settings, rho_inf: float, parameters: AlphaParameters, counters: Counters) -> Index3Info:
     """How the run was made: the method, its parameters (eq. 6.52) and the counts."""
     return {
         "analysis": "dynamic",

@@ -86,7 +86,7 @@ def choose(settings: Settings, equations, z0: np.ndarray):
     from . import describe, is_cached, plan, unsupported
 
     made = equations.formulation
-    job = plan(describe(made.system, made.M, equations.forces), formulation, made)
+    job = plan(describe(made.system, made.masses, equations.forces), formulation, made)
     why_not = unsupported(job.scene, formulation, integrator, settings.formulation_options)
     if why_not is not None:
         return None, {"engine": "numpy", "engine_why": f"not compiled: {why_not}"}

@@ -619,52 +619,58 @@ def _check_references(model: Model, label: str) -> None:
     }
     for section, items in sections.items():
         for k, item in enumerate(items):
-            where = f"model.{section}[{k}]"
-            for key in ("body1", "body2", "body"):
-                if key in item:
-                    _check_body(item[key], f"{where}.{key}", model, label)
-            if item.get("body1") is not None and item.get("body1") == item.get("body2"):
-                raise ModelError(
-                    f"{label}: {where}.body2: connects '{item['body1']}' to itself; name two different bodies"
-                )
-            for key in VECTOR_KEYS:
-                if key in item:
-                    vec = _vector(item[key], model.dimension, f"{where}.{key}", label)
-                    if key.startswith("axis") and not np.any(vec):
-                        example = "[1.0, 0.0]" if model.dimension == 2 else "[0.0, 0.0, 1.0]"
-                        raise ModelError(f"{label}: {where}.{key}: the axis is zero; give a direction, e.g. {example}")
-            allowed = PLANAR_JOINTS if model.dimension == 2 else SPATIAL_JOINTS
-            if section == "joints" and item["type"] not in allowed:
-                kind = "a spatial" if model.dimension == 2 else "a planar"
-                raise ModelError(
-                    f"{label}: {where}.type: '{item['type']}' is {kind} joint; "
-                    f"{'planar' if model.dimension == 2 else 'spatial'} joints are {', '.join(allowed)}"
-                )
+            _check_element(model, section, f"model.{section}[{k}]", item, label)
     joints = {j["name"]: j for j in model.joints}
     for k, motor in enumerate(model.motors):
-        where = f"model.motors[{k}]"
-        if motor["type"] in ("angle", "linear"):
-            wanted = ("revolute",) if motor["type"] == "angle" else ("prismatic",)
-            if model.dimension == 3:  # a spatial cylindrical joint takes either motor
-                wanted += ("cylindrical",)
-            joint = joints.get(motor["joint"])
-            if joint is None:
-                close = difflib.get_close_matches(motor["joint"], list(joints), n=1)
-                hint = f"did you mean '{close[0]}'? " if close else ""
-                known = f"joints: {', '.join(joints)}" if joints else "the model has no joints"
-                raise ModelError(f"{label}: {where}.joint: no joint named '{motor['joint']}' ({hint}{known})")
-            if joint["type"] not in wanted:
-                raise ModelError(
-                    f"{label}: {where}.joint: an {motor['type']} motor drives a {' or '.join(wanted)} joint, "
-                    f"but '{motor['joint']}' is {joint['type']}"
-                )
-        if motor["type"] == "coordinate":
-            if motor["body"] == GROUND:
-                raise ModelError(f"{label}: {where}.body: ground cannot be driven; name a moving body")
-            if motor["coordinate"] == "z" and model.dimension == 2:
-                raise ModelError(f"{label}: {where}.coordinate: a planar body has x, y and phi")
-            if motor["coordinate"] == "phi" and model.dimension == 3:
-                raise ModelError(
-                    f"{label}: {where}.coordinate: a spatial body's driven coordinate is x, y or z; "
-                    "drive a rotation with an angle motor on a revolute or cylindrical joint"
-                )
+        _check_motor(model, f"model.motors[{k}]", motor, joints, label)
+
+
+def _check_element(model: Model, section: str, where: str, item: dict, label: str) -> None:
+    """One joint, motor, spring or force: the bodies it names, its vectors, a joint type of the model's dimension."""
+    for key in ("body1", "body2", "body"):
+        if key in item:
+            _check_body(item[key], f"{where}.{key}", model, label)
+    if item.get("body1") is not None and item.get("body1") == item.get("body2"):
+        raise ModelError(f"{label}: {where}.body2: connects '{item['body1']}' to itself; name two different bodies")
+    for key in VECTOR_KEYS:
+        if key in item:
+            vec = _vector(item[key], model.dimension, f"{where}.{key}", label)
+            if key.startswith("axis") and not np.any(vec):
+                example = "[1.0, 0.0]" if model.dimension == 2 else "[0.0, 0.0, 1.0]"
+                raise ModelError(f"{label}: {where}.{key}: the axis is zero; give a direction, e.g. {example}")
+    allowed = PLANAR_JOINTS if model.dimension == 2 else SPATIAL_JOINTS
+    if section == "joints" and item["type"] not in allowed:
+        kind = "a spatial" if model.dimension == 2 else "a planar"
+        raise ModelError(
+            f"{label}: {where}.type: '{item['type']}' is {kind} joint; "
+            f"{'planar' if model.dimension == 2 else 'spatial'} joints are {', '.join(allowed)}"
+        )
+
+
+def _check_motor(model: Model, where: str, motor: dict, joints: dict, label: str) -> None:
+    """A motor: the joint it drives exists and is of a kind it drives; a driven coordinate the body has."""
+    if motor["type"] in ("angle", "linear"):
+        wanted = ("revolute",) if motor["type"] == "angle" else ("prismatic",)
+        if model.dimension == 3:  # a spatial cylindrical joint takes either motor
+            wanted += ("cylindrical",)
+        joint = joints.get(motor["joint"])
+        if joint is None:
+            close = difflib.get_close_matches(motor["joint"], list(joints), n=1)
+            hint = f"did you mean '{close[0]}'? " if close else ""
+            known = f"joints: {', '.join(joints)}" if joints else "the model has no joints"
+            raise ModelError(f"{label}: {where}.joint: no joint named '{motor['joint']}' ({hint}{known})")
+        if joint["type"] not in wanted:
+            raise ModelError(
+                f"{label}: {where}.joint: an {motor['type']} motor drives a {' or '.join(wanted)} joint, "
+                f"but '{motor['joint']}' is {joint['type']}"
+            )
+    if motor["type"] == "coordinate":
+        if motor["body"] == GROUND:
+            raise ModelError(f"{label}: {where}.body: ground cannot be driven; name a moving body")
+        if motor["coordinate"] == "z" and model.dimension == 2:
+            raise ModelError(f"{label}: {where}.coordinate: a planar body has x, y and phi")
+        if motor["coordinate"] == "phi" and model.dimension == 3:
+            raise ModelError(
+                f"{label}: {where}.coordinate: a spatial body's driven coordinate is x, y or z; "
+                "drive a rotation with an angle motor on a revolute or cylindrical joint"
+            )
