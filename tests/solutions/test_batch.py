@@ -19,20 +19,20 @@ def _values(where: Executor, task=pow, shared=3, items=ITEMS) -> dict:
 
 
 @pytest.mark.parametrize(
-    ("jobs", "cluster", "tasks", "where"),
+    ("jobs", "cluster", "tasks", "where", "said"),
     [
-        (1, None, None, None),
-        (2, None, None, LOCAL),
-        (2, None, 1, None),  # one task: here, whatever jobs says
-        (1, LOCAL, 1, LOCAL),  # a cluster asked for is used
-        (4, "tcp://10.0.0.1:8786", None, "tcp://10.0.0.1:8786"),
+        (1, None, None, None, "here"),
+        (2, None, None, LOCAL, "on a local Dask cluster"),
+        (2, None, 1, None, "here"),  # one task: here, whatever jobs says
+        (1, LOCAL, 1, LOCAL, "on a local Dask cluster"),  # a cluster asked for is used
+        (4, "tcp://10.0.0.1:8786", None, "tcp://10.0.0.1:8786", "on tcp://10.0.0.1:8786"),
     ],
 )
-def test_one_rule_says_where_a_batch_runs(jobs, cluster, tasks, where):
+def test_one_rule_says_where_a_batch_runs(jobs, cluster, tasks, where, said):
     assert cluster_for(jobs, cluster, tasks) == where
+    assert batch.describe(where) == said
     chosen = executor(jobs, cluster, tasks=tasks)
-    assert isinstance(chosen, Serial if where is None else Dask)
-    assert chosen.where == batch.describe(where)
+    assert isinstance(chosen, Serial) if where is None else (isinstance(chosen, Dask) and chosen.cluster == where)
 
 
 def test_executors_return_the_same_results(cluster):
