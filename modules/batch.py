@@ -101,8 +101,6 @@ class Executor:
     a task may end twice (``run`` takes it once). Used as a context manager: workers, if any, are started at
     the first task and ended on leaving it."""
 
-    where = "here"
-
     def __enter__(self) -> Executor:
         return self
 
@@ -134,7 +132,6 @@ class Dask(Executor):
 
     def __init__(self, cluster: str, jobs: int = 1, setup: Callable[[], None] | None = None):
         self.cluster, self.jobs, self.setup = cluster, jobs, setup
-        self.where = describe(cluster)
         self.client = self.local = None
 
     def start(self) -> None:
