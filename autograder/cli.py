@@ -5,7 +5,8 @@
         ->  grade_command(homework, submissions, out, jobs, unsafe_no_isolation, cluster, publish_hidden, roster)
 
 ``--jobs`` N > 1 (the default: the number of cores, at most 8) grades on a Dask LocalCluster of N worker
-processes (``--cluster local`` implied); ``--jobs 1`` grades one by one in this process.
+processes (``--cluster local`` implied); ``--jobs 1`` grades one by one in this process: the rule of
+``solutions.batch.cluster_for``, the same as ``grade(jobs=N)`` from Python.
 
 Returns the exit code: 0 done (a submission whose grading failed in the grader itself is named on one line
 and graded again on the next run), 2 a user error (unknown homework, no such folder, a missing reference, no
@@ -31,8 +32,8 @@ from pathlib import Path
 from mbdkit.cli import error
 from mbdkit.homework import available_homeworks
 from mbdkit.isolation import IsolationUnavailable
+from solutions.batch import BatchError, cluster_for
 
-from .cluster import ClusterError
 from .grading import ISOLATION_NOTE, Gradebook, GradingInterrupted, grade, read_roster
 from .secret import SecretMissing
 
@@ -55,17 +56,12 @@ def grade_command(
         return error(f"unknown homework {homework!r} (known: {', '.join(available_homeworks())})")
     if not Path(submissions).is_dir():
         return error(f"no folder {submissions} (give nbgrader's submitted/ folder or a folder of student folders)")
-    if cluster is not None:
-        from solutions.sweep import SweepError, check_cluster
-
-        try:
-            check_cluster(cluster)
-        except SweepError as err:
-            return error(str(err))
     out = Path(out or f"grades-{homework}")
     jobs = jobs or min(os.cpu_count() or 1, 8)
-    if cluster is None and jobs > 1:
-        cluster = "local"  # more than one job: a LocalCluster of `jobs` worker processes (issue 17)
+    try:
+        cluster = cluster_for(jobs, cluster)  # more than one job: a LocalCluster of `jobs` worker processes
+    except BatchError as err:
+        return error(str(err))
     isolation = "local" if unsafe_no_isolation else "os"
     try:
         students = read_roster(roster) if roster is not None else []
@@ -86,7 +82,7 @@ def grade_command(
         return interrupted(str(err))
     except FileNotFoundError as err:
         return error(str(err))
-    except (ClusterError, SecretMissing) as err:
+    except (BatchError, SecretMissing) as err:
         return error(str(err))
     except IsolationUnavailable as err:
         return error(f"cannot isolate student code: {err}; give --unsafe-no-isolation to grade without it (unsafe)")

@@ -2,10 +2,17 @@
 
 A submission is a folder holding the student's package ``modules/`` (beside their notebook). Accepted
 layouts: nbgrader's ``submitted/{student}/{assignment}/`` (the course root or its ``submitted`` folder),
-or a plain folder of student folders. Students are graded in parallel over ``jobs`` worker processes;
-each worker runs one student's checks in a sandbox (``sandbox``), one probe at a time.
+or a plain folder of student folders. Students are graded one by one here (``jobs=1``) or in parallel on
+Dask (``solutions.batch``: a LocalCluster of ``jobs`` worker processes, or a scheduler's workers); each
+runs one student's checks in a sandbox (``sandbox``), one probe at a time, and returns the result.
 
-Written to ``out_dir`` as each student finishes, so an interrupted run resumes where it stopped:
+On Dask a task whose worker dies (killed, out of memory) runs again on another worker and a student's result
+is taken once; a task that fails on every retry is that student's internal error. On a cluster of several
+machines every worker must see the submissions folder at the same path (a shared file system) and have
+bubblewrap, the course repository (or the installed ``mbd-course``), its stored references and secret.
+
+Only this process writes, to ``out_dir``, as each student finishes, so an interrupted run resumes where it
+stopped:
 
 - ``results/{student}.json``  Gradescope-like: score, max_score, output, tests (name, score, max_score,
   status, output, visibility); a result is reused when the submission, the checks and the reference
@@ -35,14 +42,11 @@ import csv
 import hashlib
 import json
 import os
-import signal
 import sys
 import time
 import traceback
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from importlib.util import find_spec
-from multiprocessing import get_context
 from pathlib import Path
 
 from mbdkit import isolation as osi
@@ -54,6 +58,8 @@ from mbdkit.runner import PACKAGE, PublicData, failed
 from mbdkit.sandbox import SANDBOX_ENV, Limits, Sandbox, without_main
 from mbdkit.scenes import PUBLIC
 from mbdkit.stored import Reference
+from solutions import batch
+from solutions.batch import write_atomic
 
 from .feedback import feedback_html, publish
 from .reference import (
@@ -156,9 +162,10 @@ class Gradebook:
         student's score, percent and points are empty (not 0: an LMS must not average them in)."""
         if self.out_dir is None:
             return
-        path = self.csv_path
-        tmp = path.with_suffix(".csv.tmp")
-        with open(tmp, "w", newline="") as f:
+        write_atomic(self.csv_path, self._write_rows)
+
+    def _write_rows(self, path: Path) -> None:
+        with open(path, "w", newline="") as f:
             writer = csv.writer(f)
             writer.writerow(["student", "score", "max_score", "percent", "status", *self.checks])
             for student in sorted(self.rows):
@@ -170,7 +177,6 @@ class Gradebook:
                 points = [row["checks"].get(name, 0.0) for name in self.checks]
                 score, top = f"{row['score']:g}", f"{self.max_score:g}"
                 writer.writerow([student, score, top, f"{percent:.1f}", GRADED, *[f"{p:g}" for p in points]])
-        os.replace(tmp, path)
 
 
 # -- finding submissions ---------------------------------------------------------------------------------
@@ -464,13 +470,6 @@ def result_json(
     }
 
 
-def _write_atomic(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text, encoding="utf-8", errors="backslashreplace")  # a lone surrogate never stops a write
-    os.replace(tmp, path)
-
-
 def _summary(result: dict, resumed: bool, seconds: float = 0.0) -> dict:
     return {
         "student": result["extra_data"]["student"],
@@ -556,15 +555,15 @@ def write_graded(out_dir: Path, student: str, result: dict, page: str, log: str,
     """Write one student's feedback page, the instructor's log of an internal error (or remove an old
     one), the seconds grading took (``timing/``, the instructor's) and the result (last: it marks them done);
     returns the gradebook row."""
-    _write_atomic(out_dir / "feedback" / f"{student}.html", page)
+    write_atomic(out_dir / "feedback" / f"{student}.html", page)
     error_log = out_dir / "errors" / f"{student}.txt"
     if log:
-        _write_atomic(error_log, log)
+        write_atomic(error_log, log)
     else:
         error_log.unlink(missing_ok=True)
     if seconds is not None:
-        _write_atomic(out_dir / "timing" / f"{student}.txt", f"{seconds:.3f}\n")
-    _write_atomic(out_dir / "results" / f"{student}.json", json.dumps(result, indent=1))
+        write_atomic(out_dir / "timing" / f"{student}.txt", f"{seconds:.3f}\n")
+    write_atomic(out_dir / "results" / f"{student}.json", json.dumps(result, indent=1))
     return _summary(result, resumed=False, seconds=seconds or 0.0)
 
 
@@ -592,56 +591,20 @@ def _resumable(path: Path, fingerprint: str) -> dict | None:
     return result
 
 
-def _no_interrupt(number: int, frame) -> None:
-    """SIGINT in a grading worker: nothing (the grader ends its workers itself)."""
-
-
-def worker_init(parent: int | None = None, pool: bool = False) -> None:
+def worker_init() -> None:
+    """In this process before it starts workers, and in every Dask worker (``batch.executor``'s ``setup``,
+    also in one that replaces a worker that died): one BLAS thread for the sandboxes it starts. A worker of
+    a LocalCluster dies with the grader, its sandboxes with it (``solutions.batch``: ``PR_SET_PDEATHSIG``;
+    bubblewrap's ``--die-with-parent``)."""
     for key, value in SANDBOX_ENV.items():
         os.environ.setdefault(key, value)
-    if pool:  # a process-pool worker: Ctrl-C is the grader's to handle (it ends the workers), no traceback here;
-        signal.signal(signal.SIGINT, _no_interrupt)  # a handler, not SIG_IGN: the sandbox's exec resets it
-    if parent is not None:  # a grading worker: SIGKILL when the grader dies (its sandboxes die with it)
-        osi.set_parent_death_signal()
-        if os.getppid() != parent:
-            os._exit(1)
 
 
-def _grade_task(
-    homework: Homework, submission: Submission, out_dir: Path, limits: Limits, forbidden: tuple, isolation: str
-) -> dict:
-    return grade_submission(homework, submission, out_dir, limits, forbidden, isolation)
-
-
-class Progress:
-    """A progress bar on stderr: [#####.....] 12/50 students (3 resumed), elapsed and remaining time."""
-
-    def __init__(self, total: int, enabled: bool = True, stream=None):
-        self.total, self.done, self.resumed = total, 0, 0
-        self.enabled = enabled and total > 0
-        self.stream = stream or sys.stderr
-        self.start = time.perf_counter()
-        self.show()
-
-    def update(self, resumed: bool = False) -> None:
-        self.done += 1
-        self.resumed += resumed
-        self.show()
-
-    def show(self) -> None:
-        if not self.enabled:
-            return
-        width = 30
-        filled = int(width * self.done / self.total)
-        elapsed = time.perf_counter() - self.start
-        graded = self.done - self.resumed
-        left = (self.total - self.done) * elapsed / graded if graded else 0.0
-        resumed = f" ({self.resumed} resumed)" if self.resumed else ""
-        line = f"\rgrading [{'#' * filled}{'.' * (width - filled)}] {self.done}/{self.total}{resumed}  {elapsed:.0f} s"
-        if self.done < self.total and graded:
-            line += f", ~{left:.0f} s left"
-        self.stream.write(line + ("\n" if self.done == self.total else ""))
-        self.stream.flush()
+def grade_task(shared: tuple, submission: Submission) -> tuple[dict, str, str, float]:
+    """One task of ``batch.run`` (here or on a worker): ``grade_one`` of ``submission``, writing nothing
+    (the grader writes what it returns); ``shared`` is (homework, limits, forbidden, isolation)."""
+    homework, limits, forbidden, isolation = shared
+    return grade_one(homework, submission, limits, forbidden, isolation)
 
 
 def grade(
@@ -665,7 +628,8 @@ def grade(
     homework : 'hw1', 'hw2', 'hw3' (the checks of autograder/hwN.toml), or a ``Homework``
     submissions_dir : nbgrader's course root or ``submitted/`` folder, or a folder of student folders
     out_dir : where results/, feedback/ and gradebook.csv go (created)
-    jobs : worker processes (students graded at the same time); 1 grades one by one in this process
+    jobs : students graded at the same time: 1 grades one by one in this process, more on a Dask LocalCluster
+        of ``jobs`` worker processes (``solutions.batch.cluster_for``, as ``mbd grade --jobs``)
     limits : the sandbox's resource limits (defaults: ``Limits()``)
     progress : a progress bar on stderr
     resume : reuse the result of a student whose submission, checks and reference did not change
@@ -675,8 +639,9 @@ def grade(
     isolation : ``os`` (default): student code runs under bubblewrap (``mbdkit.isolation``), and grading
         refuses to start (``IsolationUnavailable``) where it cannot; ``local``: the unsafe forkserver
         sandbox (``MBD_UNSAFE_NO_ISOLATION=1`` makes it the default), said so in every result
-    cluster : grade on Dask (``autograder.cluster``): 'local' (a LocalCluster of ``jobs`` workers) or a
-        scheduler address 'tcp://HOST:PORT'; None (default) grades here, in a local process pool
+    cluster : grade on Dask: 'local' (a LocalCluster of ``jobs`` workers) or a scheduler address
+        'tcp://HOST:PORT' (every worker must see the submissions at the same path, have bubblewrap, the course
+        and its secret); None (default): as ``jobs`` says
     publish_hidden : show the hidden checks' results on every feedback page (``publish_feedback``: also the
         pages of students whose result is reused); by default a page holds them back and says so
     roster : student ids expected to hand in (``read_roster``): one without a submission is *missing*, as is
@@ -694,8 +659,12 @@ def grade(
         per-student scenes are made from it. Raised before any output folder is made.
     GradingInterrupted
         On Ctrl-C: what was graded is written; the same call resumes from it.
+    BatchError
+        For ``jobs`` < 1, a ``cluster`` that is neither 'local' nor an address, or a scheduler that does not
+        answer (``solutions.batch``).
     """
     homework = homework if isinstance(homework, Homework) else load_homework(homework)
+    batch.cluster_for(jobs, cluster)  # a bad jobs or cluster refused before any output folder is made
     limits = limits or Limits()
     isolation = isolation_mode(isolation)
     if isolation == "os":
@@ -717,13 +686,9 @@ def grade(
             book.rows[submission.student] = missing_row(submission.student)
             _forget(out_dir, submission.student)
     submissions = [s for s in submissions if not s.missing]
-    bar = Progress(len(submissions), enabled=progress and cluster is None)
     try:
-        settings = (limits, forbidden, isolation, jobs, cluster, resume, bar, progress)
-        book = _grade_all(homework, submissions, book, out_dir, *settings)
+        _grade_all(homework, submissions, book, (limits, forbidden, isolation), jobs, cluster, resume, progress)
     except KeyboardInterrupt:
-        if bar.enabled and bar.done < bar.total:
-            bar.stream.write("\n")
         book.write_csv()
         raise GradingInterrupted(len(book.graded), len(submissions)) from None
     if publish_hidden:
@@ -743,73 +708,43 @@ def _grade_all(
     homework: Homework,
     submissions: list[Submission],
     book: Gradebook,
-    out_dir: Path,
-    limits: Limits,
-    forbidden: tuple,
-    isolation: str,
+    shared: tuple[Limits, tuple, str],
     jobs: int,
     cluster: str | None,
     resume: bool,
-    bar: Progress,
     progress: bool,
-) -> Gradebook:
-    """Grade the handed-in ``submissions`` into ``book`` (resumed ones first), as ``grade`` says."""
-    todo = []
-    for submission in submissions:
-        result = None
-        if resume:
-            result = _resumed(submission, homework, limits, isolation, out_dir)
-        if result is not None:
-            book.rows[submission.student] = _summary(result, resumed=True)
-            bar.update(resumed=True)
-        else:
-            todo.append(submission)
+) -> None:
+    """Grade the handed-in ``submissions`` into ``book``, as ``grade`` says: a submission whose stored result has
+    its fingerprint is resumed; the others are graded where ``solutions.batch`` says (here, or Dask's workers),
+    and only this process writes, as each result arrives."""
+    limits, forbidden, isolation = shared
+    if resume:
+        for submission in submissions:
+            result = _resumed(submission, homework, limits, isolation, book.out_dir)
+            if result is not None:
+                book.rows[submission.student] = _summary(result, resumed=True)
     book.write_csv()
-    if len(todo) >= WARM_MIN_STUDENTS:  # per-student references on the compiled engine: compile once, here
+    items = {s.student: s for s in submissions}
+    todo = len([s for s in items if s not in book.rows])
+    if todo >= WARM_MIN_STUDENTS:  # per-student references on the compiled engine: compile once, here
         warm(homework.name, homework.checks)
-    if cluster is not None:  # Dask: workers grade, this process alone writes (autograder/cluster.py)
-        from .cluster import grade_on_cluster
-
-        done = len(submissions) - len(todo)
-        args = (homework, todo, book, out_dir, limits, forbidden, isolation, cluster, jobs, progress, done)
-        book = grade_on_cluster(*args)
-    elif jobs <= 1 or len(todo) <= 1:
-        for submission in todo:
-            book.rows[submission.student] = grade_submission(
-                homework, submission, out_dir, limits, forbidden, isolation
-            )
+    worker_init()  # a LocalCluster's workers inherit one BLAS thread from here
+    options = {"shared": (homework, *shared), "done": book.rows, "unit": "student", "progress": progress}
+    with without_main(), batch.executor(jobs, cluster, worker_init, tasks=todo) as where:
+        for finished in batch.run(grade_task, items, where, name=f"grade {homework.name}", **options):
+            book.rows[finished.key] = _write_finished(book.out_dir, homework, finished, isolation)
             book.write_csv()
-            bar.update()
-    else:
-        _grade_in_pool(homework, todo, book, out_dir, limits, forbidden, isolation, jobs, bar)
-    return book
 
 
-def _grade_in_pool(homework, todo, book, out_dir, limits, forbidden, isolation, jobs, bar) -> None:
-    """Grade ``todo`` in a pool of ``jobs`` worker processes, writing the gradebook as each finishes."""
-    worker_init()  # one BLAS thread in the workers and their sandboxes: set before they start
-    pool = ProcessPoolExecutor(
-        max_workers=jobs, mp_context=get_context("spawn"), initializer=worker_init, initargs=(os.getpid(), True)
-    )
-    try:
-        with without_main():
-            futures = {pool.submit(_grade_task, homework, s, out_dir, limits, forbidden, isolation): s for s in todo}
-        for future in as_completed(futures):
-            submission = futures[future]
-            try:
-                row = future.result()
-            except Exception as err:  # noqa: BLE001 - the worker itself failed (killed, out of memory)
-                log = f"{submission.student}: the grading worker failed\n{traceback.format_exc()}"
-                result, page = internal_error(homework, submission.student, type(err).__name__, isolation)
-                row = write_graded(out_dir, submission.student, result, page, log)
-            book.rows[row["student"]] = row
-            book.write_csv()
-            bar.update()
-    except KeyboardInterrupt:
-        _stop_pool(pool)
-        raise
-    pool.shutdown()
-    return book
+def _write_finished(out_dir: Path, homework: Homework, finished: batch.Finished, isolation: str) -> dict:
+    """Write what a grading task returned; a task that failed (its worker killed, on every retry) is that
+    student's internal error, graded again on the next run. Returns the gradebook row."""
+    student = finished.key
+    if finished.error is None:
+        return write_graded(out_dir, student, *finished.value)
+    log = f"{student}: the grading worker failed\n{finished.traceback}"
+    result, page = internal_error(homework, student, type(finished.error).__name__, isolation)
+    return write_graded(out_dir, student, result, page, log)
 
 
 def _resumed(submission: Submission, homework: Homework, limits: Limits, isolation: str, out_dir: Path) -> dict | None:
@@ -837,17 +772,6 @@ def publish_feedback(out_dir: str | Path, students: list[str] | None = None) -> 
             continue
         published = publish(page, result)
         if published is not None:
-            _write_atomic(page_path, published)
+            write_atomic(page_path, published)
             written.append(student)
     return written
-
-
-def _stop_pool(pool: ProcessPoolExecutor) -> None:
-    """Ctrl-C: end the pool's workers now (their sandboxes die with them); a result a worker had not
-    written yet is graded again on the next run."""
-    workers = list((pool._processes or {}).values())  # noqa: SLF001 - the executor gives no other handle
-    pool.shutdown(wait=False, cancel_futures=True)
-    for worker in workers:
-        worker.kill()
-    for worker in workers:
-        worker.join(5)

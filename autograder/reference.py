@@ -24,9 +24,9 @@ is written to the repository.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import hashlib
 import json
-import os
 import sys
 from pathlib import Path
 
@@ -37,6 +37,7 @@ from mbdkit.homework import CheckSpec, available_homeworks, load_homework
 from mbdkit.probes import PROBES, REQUIRES, Job, Package, sent_inputs
 from mbdkit.scenes import PUBLIC, job_key
 from mbdkit.stored import Reference
+from solutions.batch import write_atomic
 
 from .replay import stored_replays
 from .scenes import HIDDEN, STUDENT, Scene, course_cache, load_scene, scene_kind, source_fingerprint
@@ -256,12 +257,8 @@ def computed_reference(scene: Scene, specs: dict, replays: bool, engine: str = S
         except (OSError, ValueError, KeyError):
             pass  # a damaged entry: made again
     reference = make_reference(scene, specs, replays=replays, engine=engine)
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.npz")
-    try:
-        stored.save_reference(reference, tmp)
-        os.replace(tmp, path)
-    except OSError:
-        tmp.unlink(missing_ok=True)  # an unwritable cache costs the time, not the grade
+    with contextlib.suppress(OSError):  # an unwritable cache costs the time, not the grade
+        write_atomic(path, lambda tmp: stored.save_reference(reference, tmp))
     return reference
 
 

@@ -26,6 +26,7 @@ many secrets).
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import hashlib
 import json
@@ -36,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from mbdkit.scenes import HIDDEN, STUDENT, Scene, read_scene_file, scene_kind
+from solutions.batch import write_atomic
 
 from .secret import course_secret
 
@@ -128,13 +130,8 @@ def derived_hidden(name: str) -> Scene:
             data = json.loads(path.read_text())
         except (OSError, ValueError):
             data = hidden_variant(base.data, seed, name)
-            try:
-                path.parent.mkdir(parents=True, exist_ok=True)
-                tmp = path.with_name(f".{path.stem}.{os.getpid()}.json")
-                tmp.write_text(json.dumps(data))
-                os.replace(tmp, path)
-            except OSError:
-                pass  # an unwritable cache costs the time, not the scene
+            with contextlib.suppress(OSError):  # an unwritable cache costs the time, not the scene
+                write_atomic(path, json.dumps(data))
         _DERIVED[name, seed] = (data, Scene(name, data, HIDDEN).fingerprint())
     data, fingerprint = _DERIVED[name, seed]
     scene = Scene(name, copy.deepcopy(data), HIDDEN)

@@ -4,13 +4,14 @@ processes, and the overhead per task of Dask against the local process pool.
     .venv/bin/python benchmarks/scaling.py [--workers 1 2] [--runs 48] [--students 6] [--homework hw1]
                                            [--out benchmarks/results/scaling.md]
 
-1. Overhead per task: ``--tasks`` empty tasks through a ``ProcessPoolExecutor`` (spawn, as ``mbd grade``)
-   and through a ``LocalCluster`` (one single-threaded worker process each, started beforehand).
+1. Overhead per task: ``--tasks`` empty tasks through a ``ProcessPoolExecutor`` (spawn: a baseline, which
+   ``mbd grade`` and ``mbd sweep`` no longer use, ``solutions/batch.py``) and through a ``LocalCluster``
+   (one single-threaded worker process each, started beforehand).
 2. Sweep: ``--runs`` forward-dynamic runs of ``course/models/simple_pendulum.yaml`` (4 s, 400 outputs,
    a grid of mass and initial angular velocity): in this process (``--jobs 1``) and on a LocalCluster of
    1, 2, ... workers, started and warmed beforehand (the workers have imported the solver).
 3. Grading: ``--students`` submissions of the whole homework (benchmarks/grading.py's class: reference,
-   skeleton, a mutant) with the local process pool and on a LocalCluster of 1, 2, ... workers, bubblewrap
+   skeleton, a mutant) one by one in this process and on a LocalCluster of 1, 2, ... workers, bubblewrap
    sandbox per submission, start-up included (as a user sees it).
 
 Writes a Markdown table (``--out``) with the figures, and the number of workers a class of 500 needs to be
@@ -101,7 +102,7 @@ def sweep_rates(runs: int, workers: list[int]) -> dict:
 
 
 def grading_rates(homework: str, students: int, workers: list[int]) -> dict:
-    """Submissions per minute: local pool of max(workers) and LocalClusters of each size (start-up included)."""
+    """Submissions per minute: one by one here (jobs 1) and LocalClusters of each size (start-up included)."""
     from autograder.grading import grade
     from benchmarks.grading import make_submissions
 
@@ -110,7 +111,7 @@ def grading_rates(homework: str, students: int, workers: list[int]) -> dict:
         root = Path(tmp)
         make_submissions(root / "submitted", homework, students)
         books = {}
-        for label, options in [("pool", {"jobs": max(workers)})] + [
+        for label, options in [("here", {"jobs": 1})] + [
             (n, {"jobs": n, "cluster": "local"}) for n in workers
         ]:
             start = time.perf_counter()
@@ -153,7 +154,7 @@ def report(over: dict, sweeps: dict, grading: dict, workers: list[int]) -> str:
         "",
         "| engine | submissions/min |",
         "| --- | ---: |",
-        f"| local process pool, {max(workers)} jobs | {grading['rates']['pool']:.1f} |",
+        f"| this process (--jobs 1) | {grading['rates']['here']:.1f} |",
     ]
     lines += [f"| LocalCluster, {n} worker(s) | {grading['rates'][n]:.1f} |" for n in workers]
     per_worker = grading["rates"][min(workers)] / min(workers)

@@ -133,19 +133,6 @@ def _bwrap_options(bwrap: str) -> frozenset[str]:
     return frozenset(re.findall(r"^\s+(--[a-z0-9-]+)", text, re.M))
 
 
-def set_parent_death_signal() -> None:
-    """Ask the kernel to SIGKILL this process when its parent dies (Linux; elsewhere nothing)."""
-    if not sys.platform.startswith("linux"):
-        return
-    import ctypes
-
-    try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(1, signal.SIGKILL, 0, 0, 0)  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        pass
-
-
 # -- what the sandbox shows -------------------------------------------------------------------------------------
 def _key(name: str) -> str:
     return re.sub(r"[-_.]+", "-", name).lower()

@@ -78,7 +78,7 @@ def save_reference(reference: Reference, path: Path) -> Path:
     arrays["meta"] = np.array(json.dumps(reference.meta, sort_keys=True))
     tmp = path.with_suffix(".tmp.npz")
     np.savez_compressed(tmp, **arrays)
-    tmp.replace(path)
+    tmp.replace(path)  # the kit's own atomic write: mbdkit imports nothing of solutions (solutions.batch)
     return path
 
 

@@ -177,13 +177,12 @@ def command_check(args) -> int:
 
 def command_sweep(args) -> int:
     """``mbd sweep``: run a model over parameter values (``solutions.sweep``); a table, an NPZ and plots."""
-    from .sweep import SweepError, check_cluster, make_sweep, run_sweep
+    from .batch import BatchError, cluster_for, describe
+    from .sweep import SweepError, make_sweep, run_sweep
 
-    if args.jobs is not None and args.jobs < 1:
-        raise UsageError(f"--jobs {args.jobs}: must be a whole number >= 1")
-    jobs = args.jobs or (1 if args.cluster is None else 2)
+    jobs = args.jobs if args.jobs is not None else (1 if args.cluster is None else 2)
     try:
-        check_cluster(args.cluster)
+        cluster_for(jobs, args.cluster)  # a bad --jobs or --cluster refused before the model is read
         sweep = make_sweep(
             args.model,
             args.set or [],
@@ -195,11 +194,11 @@ def command_sweep(args) -> int:
             engine=args.engine,
         )
         out = args.out or f"sweep-{Path(args.model).stem}"
-        cluster = args.cluster or ("local" if jobs > 1 else None)
-        where = "here" if cluster is None else ("on a local Dask cluster" if cluster == "local" else f"on {cluster}")
+        where = describe(cluster_for(jobs, args.cluster, len(sweep.sets)))
         print(f"{len(sweep.sets)} runs of {args.model} ({'zipped' if sweep.zipped else 'grid'}) {where}")
-        result = run_sweep(sweep, out, jobs=jobs, cluster=cluster, progress=not args.no_progress, resume=not args.fresh)
-    except SweepError as err:
+        options = {"progress": not args.no_progress, "resume": not args.fresh}
+        result = run_sweep(sweep, out, jobs=jobs, cluster=args.cluster, **options)
+    except (SweepError, BatchError) as err:
         raise UsageError(str(err)) from None
     except OSError as err:
         raise UsageError(f"--out {args.out}: cannot write ({err.strerror})") from None

@@ -19,15 +19,15 @@ Outputs are summaries of one column of the result (``max(slider.x)``, ``min``, `
 fails gives NaN outputs, ``status`` 'failed' and the reason.
 
 Every key, value and output is checked before any run starts (``SweepError``: the message names the key
-and the fix). Runs go one by one in this process (``jobs=1``) or over a Dask cluster (a ``LocalCluster``
-with ``jobs`` worker processes, or an existing scheduler by address); only this process writes the table,
-atomically, so a stopped sweep resumes where it stopped. Results are the same wherever they run: each run
-depends only on its parameter set (the numpy engine, one BLAS thread per worker).
+and the fix). Runs go where ``batch.cluster_for`` says: one by one in this process (``jobs=1``) or over a
+Dask cluster (a ``LocalCluster`` of ``jobs`` worker processes, or an existing scheduler by address); only
+this process writes the table, atomically, so a stopped sweep resumes where it stopped. Results are the same
+wherever they run: each run depends only on its parameter set (the numpy engine, one BLAS thread per worker:
+``solutions`` sets it before numpy loads, in this process and so in the workers it starts).
 """
 
 from __future__ import annotations
 
-import contextlib
 import copy
 import csv
 import difflib
@@ -35,16 +35,16 @@ import hashlib
 import itertools
 import json
 import math
-import os
 import re
-import sys
 import time
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from . import batch
+from .batch import write_atomic
 from .settings import SettingError, read_settings
 
 SECTIONS = ("bodies", "joints", "motors", "spring_dampers", "forces")
@@ -367,9 +367,10 @@ def run_one(data: dict, parameters: list[Parameter], values: tuple, outputs: lis
         return {"outputs": [math.nan] * len(outputs), "status": "failed", "reason": reason[:500]}
 
 
-def _run_task(sweep_data: tuple, index: int) -> tuple[int, dict]:
+def _run_task(sweep_data: tuple, index: int) -> dict:
+    """One task of ``batch.run``: the row of set number ``index``."""
     data, parameters, sets, outputs, settings = sweep_data
-    return index, run_one(data, parameters, tuple(sets[index]), outputs, settings)
+    return run_one(data, parameters, tuple(sets[index]), outputs, settings)
 
 
 # -- building and checking a sweep -------------------------------------------------------------------------------
@@ -486,92 +487,7 @@ def make_sweep(
     return Sweep(source, data, parameters, table, parsed, settings, zipped)
 
 
-# -- running on a cluster ---------------------------------------------------------------------------------------
-def _package_root() -> str:
-    return str(Path(__file__).resolve().parents[1])
-
-
-def check_cluster(cluster: str | None) -> None:
-    """Refuse a ``--cluster`` that is neither 'local' nor a scheduler address (``SweepError``)."""
-    if cluster not in (None, "local") and not re.fullmatch(r"(tcp|tls|inproc|ucx|ws|wss)://\S+", cluster):
-        raise SweepError(f"--cluster {cluster}: write 'local' or a scheduler address such as tcp://HOST:8786")
-
-
-@contextlib.contextmanager
-def open_client(cluster: str | None, jobs: int, worker_setup: Callable[[], None] | None = None) -> Iterator:
-    """A ``dask.distributed.Client``: a ``LocalCluster`` of ``jobs`` single-threaded worker processes
-    (``cluster`` None or 'local') or the scheduler at ``cluster`` ('tcp://HOST:PORT'). ``worker_setup``
-    runs in every worker, also in one that replaces a worker that died.
-
-    Raises
-    ------
-    SweepError
-        If Dask is not installed or the scheduler cannot be reached.
-    """
-    try:
-        import logging
-
-        from dask.distributed import Client, LocalCluster, WorkerPlugin
-    except ImportError:
-        raise SweepError("a cluster needs Dask: pip install 'dask[distributed]'") from None
-
-    class Setup(WorkerPlugin):
-        name = "mbd-setup"
-
-        def __init__(self, function):
-            self.function = function
-
-        def setup(self, worker):
-            self.function()
-
-    check_cluster(cluster)
-    local = cluster in (None, "local")
-    lc = None
-    try:
-        if local:
-            env = {"PYTHONPATH": os.pathsep.join(p for p in (_package_root(), os.environ.get("PYTHONPATH")) if p)}
-            lc = LocalCluster(
-                n_workers=max(1, jobs),
-                threads_per_worker=1,
-                processes=True,
-                memory_limit=0,
-                dashboard_address=":0",
-                silence_logs=logging.ERROR,
-                env=env,
-            )
-            client = Client(lc)
-        else:
-            try:
-                client = Client(cluster, timeout="10s")
-            except OSError as err:
-                raise SweepError(f"--cluster {cluster}: cannot reach the scheduler ({err})") from None
-        with client:
-            if worker_setup is not None:
-                client.register_plugin(Setup(worker_setup))
-            yield client
-    finally:
-        if lc is not None:
-            lc.close()
-
-
-def progress_bar(total: int, desc: str, enabled: bool = True, initial: int = 0, unit: str = "run"):
-    """A tqdm progress bar on stderr (a widget in a notebook), or a stand-in that does nothing."""
-    try:
-        from tqdm.auto import tqdm
-    except ImportError:
-        enabled = False
-    if not enabled:
-        return contextlib.nullcontext(type("NoBar", (), {"update": lambda self, n=1: None})())
-    return tqdm(total=total, initial=initial, desc=desc, unit=unit, file=sys.stderr, dynamic_ncols=True)
-
-
 # -- the table ---------------------------------------------------------------------------------------------------
-def _write_atomic(path: Path, write: Callable[[Path], None]) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    write(tmp)
-    os.replace(tmp, path)
-
-
 def _format(value: float) -> str:
     return repr(float(value)) if not math.isnan(value) else "nan"
 
@@ -598,9 +514,9 @@ def write_table(sweep: Sweep, rows: dict[int, dict], out_dir: Path) -> Path:
         "zipped": sweep.zipped,
         "runs": len(sweep.sets),
     }
-    _write_atomic(out_dir / "sweep.json", lambda tmp: tmp.write_text(json.dumps(manifest, indent=1)))
+    write_atomic(out_dir / "sweep.json", lambda tmp: tmp.write_text(json.dumps(manifest, indent=1)))
     path = out_dir / "sweep.csv"
-    _write_atomic(path, write_csv)
+    write_atomic(path, write_csv)
     return path
 
 
@@ -642,7 +558,7 @@ def write_npz(sweep: Sweep, rows: dict[int, dict], out_dir: Path) -> Path:
         with open(tmp, "wb") as f:
             np.savez(f, **arrays)
 
-    _write_atomic(path, write)
+    write_atomic(path, write)
     return path
 
 
@@ -679,7 +595,7 @@ def plot_sweep(sweep: Sweep, rows: dict[int, dict], out_dir: Path) -> list[Path]
             ax.grid(True, alpha=0.3)
         fig.suptitle(f"{Path(sweep.source).stem}: {output.text}")
         path = folder / f"{_slug(output.text)}.png"
-        _write_atomic(path, lambda tmp, fig=fig: fig.savefig(tmp, dpi=110, format="png"))
+        write_atomic(path, lambda tmp, fig=fig: fig.savefig(tmp, dpi=110, format="png"))
         plt.close(fig)
         paths.append(path)
     return paths
@@ -722,28 +638,25 @@ def run_sweep(
 ) -> SweepResult:
     """Run every parameter set of ``sweep``; write ``sweep.csv``, ``sweep.npz`` and ``plots/`` to ``out_dir``.
 
-    ``jobs=1`` without ``cluster`` runs here, one set after another; otherwise on Dask: a LocalCluster of
-    ``jobs`` worker processes (``cluster`` None or 'local') or an existing scheduler ('tcp://HOST:PORT').
-    Only this process writes files, atomically, so a sweep that is stopped resumes (``resume``) from the
-    rows it has. A worker that dies has its runs retried elsewhere; each run is counted once.
+    Where the runs go is ``batch.cluster_for(jobs, cluster)``: ``jobs=1`` without ``cluster`` runs here, one
+    set after another; otherwise on Dask: a LocalCluster of ``jobs`` worker processes (``cluster`` None or
+    'local') or an existing scheduler ('tcp://HOST:PORT'). Only this process writes files, atomically, so a
+    sweep that is stopped resumes (``resume``) from the rows it has. A worker that dies has its runs retried
+    elsewhere; each run is counted once.
+
+    Raises
+    ------
+    SweepError
+        For a bad ``jobs`` or ``cluster``, or a scheduler that cannot be reached.
     """
     start = time.perf_counter()
     out = Path(out_dir) if out_dir is not None else None
     rows: dict[int, dict] = read_table(sweep, out) if (out is not None and resume) else {}
     resumed = len(rows)
-    todo = [i for i in range(len(sweep.sets)) if i not in rows]
-    last_write = time.perf_counter()
-
-    def done(index: int, row: dict) -> None:
-        nonlocal last_write
-        rows[index] = row
-        if out is not None and time.perf_counter() - last_write > WRITE_EVERY:
-            write_table(sweep, rows, out)
-            last_write = time.perf_counter()
-
-    payload = (sweep.data, sweep.parameters, sweep.sets, sweep.outputs, sweep.settings)
     try:
-        _run_sets(sweep, payload, todo, rows, done, jobs, cluster, progress, resumed)
+        _run_sets(sweep, rows, out, jobs, cluster, progress)
+    except batch.BatchError as err:
+        raise SweepError(str(err)) from None
     except KeyboardInterrupt:
         if out is not None and rows:
             write_table(sweep, rows, out)  # every finished run, so that the same command resumes from it
@@ -759,29 +672,17 @@ def run_sweep(
     return SweepResult(sweep, rows, files, resumed, time.perf_counter() - start)
 
 
-def _run_sets(sweep, payload, todo, rows, done, jobs, cluster, progress, resumed) -> None:
-    """Run the sets ``todo``, here or on Dask, handing each finished row to ``done``."""
-    with progress_bar(len(sweep.sets), "sweep", progress and len(todo) > 0, initial=resumed) as bar:
-        if cluster is None and jobs <= 1:
-            for index in todo:
-                done(*_run_task(payload, index))
-                bar.update(1)
-        elif todo:
-            from dask.distributed import as_completed
-
-            with open_client(cluster, jobs, _single_thread_blas) as client:
-                shared = client.scatter(payload, broadcast=True)
-                futures = [
-                    client.submit(_run_task, shared, i, key=f"sweep-{sweep.fingerprint}-{i}", pure=False) for i in todo
-                ]
-                for future in as_completed(futures):
-                    index, row = future.result()
-                    if index not in rows:  # each run counted once, even if Dask ran it twice
-                        done(index, row)
-                    bar.update(1)
-
-
-def _single_thread_blas() -> None:
-    """In every worker: one BLAS thread, for the worker's own children too."""
-    for key in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ.setdefault(key, "1")
+def _run_sets(sweep: Sweep, rows: dict[int, dict], out: Path | None, jobs: int, cluster: str | None, progress: bool):
+    """Run the sets not in ``rows`` (``batch.run``), adding each row as it arrives; the table is rewritten at
+    most every WRITE_EVERY seconds."""
+    payload = (sweep.data, sweep.parameters, sweep.sets, sweep.outputs, sweep.settings)
+    sets = {index: index for index in range(len(sweep.sets))}
+    last_write = time.perf_counter()
+    with batch.executor(jobs, cluster, tasks=len(sets) - len(rows)) as where:
+        for finished in batch.run(_run_task, sets, where, shared=payload, done=rows, name="sweep", progress=progress):
+            if finished.error is not None:
+                raise finished.error
+            rows[finished.key] = finished.value
+            if out is not None and time.perf_counter() - last_write > WRITE_EVERY:
+                write_table(sweep, rows, out)
+                last_write = time.perf_counter()

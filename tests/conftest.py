@@ -87,6 +87,8 @@ SLOW_TESTS = {
     "solutions/test_cli.py::test_bench_quick_writes_its_table": "bench",
     "solutions/test_examples.py::test_kinematics_benchmark_quick_runs": "bench",
     "autograder/test_secret.py::test_hidden_scenes_assemble_and_run_for_many_secrets": "long",
+    "solutions/test_batch.py::test_executors_return_the_same_results": "cluster",
+    "solutions/test_batch.py::test_a_scheduler_that_does_not_answer_is_one_error": "cluster",
 }
 """Single slow tests of otherwise fast files."""
 

@@ -33,6 +33,8 @@ import fastjsonschema
 import numpy as np
 import yaml
 
+from ..batch import write_atomic
+
 GROUND = "ground"
 
 
@@ -171,14 +173,8 @@ def _validator_code() -> tuple[str, types.CodeType]:
     source = fastjsonschema.compile_to_code(_schema())
     name = re.search(r"^def (\w+)\(", source, re.MULTILINE).group(1)  # the first function validates the root
     code = compile(source, f"<fastjsonschema validator of {SCHEMA}>", "exec")
-    partial = path.with_name(f"{path.name}.{os.getpid()}.tmp")
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        partial.write_bytes(marshal.dumps((name, code)))
-        os.replace(partial, path)  # whole or not at all, when two processes write it at once
-    except OSError:  # a read-only home, a full disk: the next process compiles again
-        with contextlib.suppress(OSError):
-            partial.unlink(missing_ok=True)
+    with contextlib.suppress(OSError):  # a read-only home, a full disk: the next process compiles again
+        write_atomic(path, marshal.dumps((name, code)))  # whole or not at all, when two processes write it at once
     return name, code
 
 

@@ -33,6 +33,7 @@ import sys
 from functools import cache
 from pathlib import Path
 
+from ..batch import write_atomic
 from .scene import PLANAR_CONSTRAINTS, SLOTS, SPATIAL_CONSTRAINTS, Scene
 
 HERE = Path(__file__).parent
@@ -252,10 +253,7 @@ def load_generated(name: str, text: str, probe: str) -> tuple[object, bool]:
     directory = cache_directory()
     path = directory / f"{name}.py"
     if not path.exists():
-        directory.mkdir(parents=True, exist_ok=True)
-        partial = path.with_suffix(f".{os.getpid()}.tmp")
-        partial.write_text(text)
-        os.replace(partial, path)  # atomic: a parallel run never imports half a file
+        write_atomic(path, text)  # a parallel run never imports half a file
     cached = is_generated_cached(name, probe)
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)

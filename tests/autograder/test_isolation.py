@@ -502,25 +502,25 @@ def _alive(pid: int, start: str) -> bool:
     return fields[19] == start and fields[0] != "Z"
 
 
-POOL_GRADER = "import sys; from autograder.grading import grade; grade('hw1', sys.argv[1], sys.argv[2], jobs=2)"
+API_GRADER = "import sys; from autograder.grading import grade; grade('hw1', sys.argv[1], sys.argv[2], jobs=2)"
 
 
 @needs_isolation
-@pytest.mark.parametrize("where", ["dask", "pool"])
+@pytest.mark.parametrize("where", ["cli", "api"])
 def test_sigkill_of_mbd_grade_leaves_no_process(tmp_path, where):
     """Workers die with the grader (PR_SET_PDEATHSIG), sandboxes with their worker (--die-with-parent).
 
-    'dask': ``mbd grade --jobs 2`` (a LocalCluster: its nannies live in the grader, each worker a child of
-    it); 'pool': ``grade(jobs=2)`` from Python (a process pool).
+    'cli': ``mbd grade --jobs 2``; 'api': ``grade(jobs=2)`` from Python: both a LocalCluster
+    (``solutions.batch``), whose nannies live in the grader, each worker a child of it.
     """
     folder = tmp_path / "submitted"
     for student in ("a", "b", "c", "d"):
         make_mutant(folder / student, "hang")  # each costs a 10 s timeout: the workers would grade on
-    if where == "dask":
+    if where == "cli":
         command = [sys.executable, "-m", "solutions.cli", "grade", "hw1", str(folder), "--out", str(tmp_path / "out")]
         command += ["--jobs", "2"]
     else:
-        command = [sys.executable, "-c", POOL_GRADER, str(folder), str(tmp_path / "out")]
+        command = [sys.executable, "-c", API_GRADER, str(folder), str(tmp_path / "out")]
     grader = subprocess.Popen(command, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.monotonic() + 60
     below: dict[int, str] = {}
