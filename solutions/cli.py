@@ -263,6 +263,39 @@ def add_settings(parser: argparse.ArgumentParser, names: tuple[str, ...] | None 
             parser.add_argument(option, type=types.get(takes, float), choices=choices, help=f.metadata["help"])
 
 
+def add_sweep(sub) -> None:
+    """``mbd sweep MODEL --set KEY=VALUES ...`` (``solutions.sweep``)."""
+    sweep = sub.add_parser("sweep", help="run a model over a grid or sample of parameter values (a table and plots)")
+    sweep.add_argument("model", help="model file (YAML or JSON)")
+    sweep.add_argument(
+        "--set",
+        action="append",
+        metavar="KEY=VALUES",
+        help="a key of the model file and its values: bodies[crank].mass=0.5,1,2 (a list), =0.5:2:4 (start:stop:num), "
+        "=uniform(0.5, 2, n=20, seed=1) or =normal(1, 0.1, n=20, seed=1) (repeatable)",
+    )
+    sweep.add_argument(
+        "--output",
+        action="append",
+        metavar="EXPR",
+        help="a summary per run: max|min|mean|rms|absmax|final|initial(COLUMN), e.g. max(slider.x), "
+        "rms(drive.torque), or residual (default: residual; repeatable)",
+    )
+    sweep.add_argument("--zip", action="store_true", help="take the keys' values together instead of their full grid")
+    add_settings(sweep, ("analysis", "t_end", "steps"))
+    sweep.add_argument("--engine", default="numpy", help="numpy (default) or compiled (numba)")
+    sweep.add_argument("--out", help="folder for sweep.csv, sweep.npz and plots/ (default: sweep-MODEL)")
+    sweep.add_argument("--jobs", type=int, help="worker processes (default 1: runs here; more: a local Dask cluster)")
+    sweep.add_argument(
+        "--cluster",
+        metavar="local|tcp://HOST:PORT",
+        help="run on Dask: 'local' (a LocalCluster of --jobs workers, the default when --jobs > 1) or a scheduler",
+    )
+    sweep.add_argument("--fresh", action="store_true", help="run every set again instead of resuming")
+    sweep.add_argument("--no-progress", action="store_true", help="no progress bar")
+    sweep.set_defaults(handler=command_sweep)
+
+
 def build_parser(others: bool = True) -> argparse.ArgumentParser:
     """``mbd``'s parser: the solver's commands and (``others``) those the course's packages register."""
     parser = argparse.ArgumentParser(prog="mbd", description="Multibody dynamics course: reference solver.")
@@ -291,37 +324,7 @@ def build_parser(others: bool = True) -> argparse.ArgumentParser:
     check = sub.add_parser("check", help="validate and assemble a model; report DOF and redundancies")
     check.add_argument("model", help="model file (YAML or JSON)")
     check.set_defaults(handler=command_check)
-    sweep = sub.add_parser("sweep", help="run a model over a grid or sample of parameter values (a table and plots)")
-    sweep.add_argument("model", help="model file (YAML or JSON)")
-    sweep.add_argument(
-        "--set",
-        action="append",
-        metavar="KEY=VALUES",
-        help="a key of the model file and its values: bodies[crank].mass=0.5,1,2 (a list), =0.5:2:4 (start:stop:num), "
-        "=uniform(0.5, 2, n=20, seed=1) or =normal(1, 0.1, n=20, seed=1) (repeatable)",
-    )
-    sweep.add_argument(
-        "--output",
-        action="append",
-        metavar="EXPR",
-        help="a summary per run: max|min|mean|rms|absmax|final|initial(COLUMN), e.g. max(slider.x), "
-        "rms(drive.torque), or residual (default: residual; repeatable)",
-    )
-    sweep.add_argument("--zip", action="store_true", help="take the keys' values together instead of their full grid")
-    sweep.add_argument("--analysis", choices=ANALYSES, help="the analysis of every run (default: the file's, or auto)")
-    sweep.add_argument("--t-end", type=float, help="end time in s (default: the file's simulation.end_time)")
-    sweep.add_argument("--steps", type=int, help="number of output intervals (default: simulation.output_steps)")
-    sweep.add_argument("--engine", default="numpy", help="numpy (default) or compiled (numba)")
-    sweep.add_argument("--out", help="folder for sweep.csv, sweep.npz and plots/ (default: sweep-MODEL)")
-    sweep.add_argument("--jobs", type=int, help="worker processes (default 1: runs here; more: a local Dask cluster)")
-    sweep.add_argument(
-        "--cluster",
-        metavar="local|tcp://HOST:PORT",
-        help="run on Dask: 'local' (a LocalCluster of --jobs workers, the default when --jobs > 1) or a scheduler",
-    )
-    sweep.add_argument("--fresh", action="store_true", help="run every set again instead of resuming")
-    sweep.add_argument("--no-progress", action="store_true", help="no progress bar")
-    sweep.set_defaults(handler=command_sweep)
+    add_sweep(sub)
     add_derive(sub)
     if others:
         for entry in registered_commands():
