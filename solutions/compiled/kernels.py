@@ -36,7 +36,9 @@ jit = njit(cache=True, fastmath=False, nogil=True)
 
 planar_rotation_entries_jit, rotation_entries_jit = jit(planar_rotation_entries), jit(rotation_entries)
 unit_rotation_entries_jit, g_entries_jit, l_entries_jit = jit(unit_rotation_entries), jit(g_entries), jit(l_entries)
-"""A(phi), A(p) (any p; unit p), G(p) and L(p) as ``rotation_matrices`` writes them (once), compiled by numba."""
+"""A(phi), A(p) (any p; unit p), G(p) and L(p) as ``rotation_matrices`` writes them (once), compiled by numba.
+The generated modules' cache names hash ``rotation_matrices.py`` (``codegen``), but numba's on-disk cache of a kernel
+here is keyed by this file only: after an edit of ``rotation_matrices.py``, clear this file's numba cache."""
 
 # -- functions of time (functions.py) -------------------------------------------------------------------
 CONSTANT, POLYNOMIAL, HARMONIC, RAMP, FOURIER, ECCENTRIC = 0, 1, 2, 3, 4, 5

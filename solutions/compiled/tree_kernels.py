@@ -29,6 +29,7 @@ import math
 import numpy as np
 from numba import njit
 
+from ..joint_coordinates import half_transpose_product, scaled_product
 from .kernels import l_entries_jit, lu_solve, planar_rotation_entries_jit, unit_rotation_entries_jit
 from .projection_kernels import cholesky, cholesky_solve
 
@@ -36,6 +37,9 @@ jit = njit(cache=False, fastmath=False, nogil=True)
 """Not cached here: these functions are compiled into the generated modules that call them, which are cached
 under names that hash this file (numba's cache does not follow a cached function's callees into other files:
 a cached kernel here could keep an old copy of a function it calls from another file)."""
+
+_half_transpose_product, _scaled_product = jit(half_transpose_product), jit(scaled_product)
+"""1/2 M^T w and s M x of a 3 x 4 matrix M (G or L), as the joint coordinates write them (``joint_coordinates``)."""
 
 REVOLUTE, PRISMATIC, SPHERICAL = 0, 1, 2
 S_PARENT, S_CHILD, AXIS, OFFSET, A, C, U0, U1, FRAME = 0, 3, 6, 9, 10, 14, 18, 22, 26
@@ -175,24 +179,13 @@ def _rotation9(e0, e1, e2, e3, R):
 @jit
 def _half_l_transpose(e0, e1, e2, e3, w0, w1, w2):
     """p' = 1/2 L(p)^T omega' (eq. 8.17), as ``joint_coordinates.half_l_transpose``."""
-    m = l_entries_jit(e0, e1, e2, e3)
-    return (
-        0.5 * (m[0] * w0 + m[4] * w1 + m[8] * w2),
-        0.5 * (m[1] * w0 + m[5] * w1 + m[9] * w2),
-        0.5 * (m[2] * w0 + m[6] * w1 + m[10] * w2),
-        0.5 * (m[3] * w0 + m[7] * w1 + m[11] * w2),
-    )
+    return _half_transpose_product(l_entries_jit(e0, e1, e2, e3), (w0, w1, w2))
 
 
 @jit
 def _half_l(e0, e1, e2, e3, x0, x1, x2, x3):
     """1/2 L(p) x: the body-frame torque n' of Q_p = 2 L^T n', as ``joint_coordinates.half_l``."""
-    m = l_entries_jit(e0, e1, e2, e3)
-    return (
-        0.5 * (m[0] * x0 + m[1] * x1 + m[2] * x2 + m[3] * x3),
-        0.5 * (m[4] * x0 + m[5] * x1 + m[6] * x2 + m[7] * x3),
-        0.5 * (m[8] * x0 + m[9] * x1 + m[10] * x2 + m[11] * x3),
-    )
+    return _scaled_product(0.5, l_entries_jit(e0, e1, e2, e3), (x0, x1, x2, x3))
 
 
 # -- spatial tree ------------------------------------------------------------------------------------------
