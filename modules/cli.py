@@ -19,6 +19,7 @@ from .diagnostics import AnalysisError, rank_report
 from .io.model import Model, ModelError, load_model
 from .kinematics import assemble
 from .results import DERIVED, Result
+from .rotation_matrices import euler_rotation, planar_rotation
 from .settings import ANALYSES, DYNAMIC_ONLY, FLAG, NAME, WHOLE, read_settings, table
 
 USER_ERROR = 2
@@ -51,12 +52,8 @@ def _parse_point(text: str, model: Model, number: int) -> tuple[str, int, np.nda
         raise UsageError(f"--point {text!r}: give {model.dimension} coordinates ({form}) of a point of a moving body")
     b = model.bodies[index]
     if model.dimension == 3:
-        from .io.model import euler_rotation
-
         return label or f"{body}.p{number}", index, euler_rotation(b.orientation).T @ (values - b.location)
-    c, s = np.cos(b.orientation), np.sin(b.orientation)
-    local = np.array([[c, s], [-s, c]]) @ (values - b.location)
-    return label or f"{body}.p{number}", index, local
+    return label or f"{body}.p{number}", index, planar_rotation(b.orientation).T @ (values - b.location)
 
 
 def _check_coords(names: list[str], system: System, points: dict) -> None:

@@ -82,6 +82,7 @@ from .formulations import (
 from .generalized_forces import ForceModel
 from .io.model import GROUND
 from .linalg import cholesky_solve
+from .rotation_matrices import g_entries, l_entries, planar_rotation, planar_rotation_entries, unit_rotation_entries
 
 SUPPORTED_JOINTS = {2: ("revolute", "prismatic"), 3: ("revolute", "prismatic", "spherical")}
 """Joint types with joint coordinates, by dimension."""
@@ -235,7 +236,7 @@ def planar_joint(spec: dict, parts: list, reverse: bool) -> TreeJoint:
     phi0 = next(p.phi0 for p in parts if hasattr(p, "phi0"))  # phi_j - phi_i
     ux, uy = _floats(slot.axis)  # the slot direction in body i
     if reverse:  # in body j: A_j^T A_i u_i' = A(-phi0) u_i'
-        cos, sin = math.cos(phi0), math.sin(phi0)
+        cos, _, sin, _ = planar_rotation_entries(phi0)
         ux, uy = cos * ux + sin * uy, -sin * ux + cos * uy
     return TreeJoint(spec["name"], "prismatic", -1, -1, s_parent, s_child, (ux, uy), offset=-phi0 if reverse else phi0)
 
@@ -313,58 +314,48 @@ def qmul(a: tuple, b: tuple) -> tuple:
 
 def rotation9(p: tuple) -> tuple:
     """A(p) of unit Euler parameters, row by row (eq. 8.12)."""
-    e0, e1, e2, e3 = p
+    return unit_rotation_entries(*p)
+
+
+def half_transpose_product(m: tuple, w: tuple) -> tuple:
+    """1/2 M^T w of a 3 x 4 matrix M given row by row (G or L) and a 3-vector w."""
+    w0, w1, w2 = w
     return (
-        2 * (e0 * e0 + e1 * e1) - 1, 2 * (e1 * e2 - e0 * e3), 2 * (e1 * e3 + e0 * e2),
-        2 * (e1 * e2 + e0 * e3), 2 * (e0 * e0 + e2 * e2) - 1, 2 * (e2 * e3 - e0 * e1),
-        2 * (e1 * e3 - e0 * e2), 2 * (e2 * e3 + e0 * e1), 2 * (e0 * e0 + e3 * e3) - 1,
-    )  # fmt: skip
+        0.5 * (m[0] * w0 + m[4] * w1 + m[8] * w2),
+        0.5 * (m[1] * w0 + m[5] * w1 + m[9] * w2),
+        0.5 * (m[2] * w0 + m[6] * w1 + m[10] * w2),
+        0.5 * (m[3] * w0 + m[7] * w1 + m[11] * w2),
+    )
 
 
 def half_g_transpose(p: tuple, w: tuple) -> tuple:
     """p' = 1/2 G(p)^T omega (eq. 8.17), G(p) = [-e, e~ + e0 I]."""
-    e0, e1, e2, e3 = p
-    w0, w1, w2 = w
-    return (
-        0.5 * (-e1 * w0 - e2 * w1 - e3 * w2),
-        0.5 * (e0 * w0 + e3 * w1 - e2 * w2),
-        0.5 * (-e3 * w0 + e0 * w1 + e1 * w2),
-        0.5 * (e2 * w0 - e1 * w1 + e0 * w2),
-    )
+    return half_transpose_product(g_entries(*p), w)
 
 
 def half_l_transpose(p: tuple, w: tuple) -> tuple:
     """p' = 1/2 L(p)^T omega' (eq. 8.17), L(p) = [-e, -e~ + e0 I], omega' in the body frame."""
-    e0, e1, e2, e3 = p
-    w0, w1, w2 = w
+    return half_transpose_product(l_entries(*p), w)
+
+
+def scaled_product(scale: float, m: tuple, x: tuple) -> tuple:
+    """scale M x of a 3 x 4 matrix M given row by row (G or L) and a 4-vector x."""
+    x0, x1, x2, x3 = x
     return (
-        0.5 * (-e1 * w0 - e2 * w1 - e3 * w2),
-        0.5 * (e0 * w0 - e3 * w1 + e2 * w2),
-        0.5 * (e3 * w0 + e0 * w1 - e1 * w2),
-        0.5 * (-e2 * w0 + e1 * w1 + e0 * w2),
+        scale * (m[0] * x0 + m[1] * x1 + m[2] * x2 + m[3] * x3),
+        scale * (m[4] * x0 + m[5] * x1 + m[6] * x2 + m[7] * x3),
+        scale * (m[8] * x0 + m[9] * x1 + m[10] * x2 + m[11] * x3),
     )
 
 
 def half_l(p: tuple, x: tuple) -> tuple:
-    """1/2 L(p) x = 1/2 (-x0 e - e x x_e + e0 x_e) of a 4-vector x: the body-frame torque n' of Q_p = 2 L^T n'."""
-    e0, e1, e2, e3 = p
-    x0, x1, x2, x3 = x
-    return (
-        0.5 * (-x0 * e1 + e0 * x1 + e3 * x2 - e2 * x3),
-        0.5 * (-x0 * e2 - e3 * x1 + e0 * x2 + e1 * x3),
-        0.5 * (-x0 * e3 + e2 * x1 - e1 * x2 + e0 * x3),
-    )
+    """1/2 L(p) x of a 4-vector x: the body-frame torque n' of Q_p = 2 L^T n'."""
+    return scaled_product(0.5, l_entries(*p), x)
 
 
 def twice_g(p: tuple, pd: tuple) -> tuple:
     """omega = 2 G(p) p' = 2 (-p0' e + e x e' + e0 e') (eq. 8.16)."""
-    e0, e1, e2, e3 = p
-    d0, d1, d2, d3 = pd
-    return (
-        2.0 * (-d0 * e1 + e0 * d1 - e3 * d2 + e2 * d3),
-        2.0 * (-d0 * e2 + e3 * d1 + e0 * d2 - e1 * d3),
-        2.0 * (-d0 * e3 - e2 * d1 + e1 * d2 + e0 * d3),
-    )
+    return scaled_product(2.0, g_entries(*p), pd)
 
 
 # -- recursive kinematics ---------------------------------------------------------------------------
@@ -407,7 +398,7 @@ class PlanarTree:
             P, C, c = joint.parent, joint.child, joint.position
             revolute = joint.kind == "revolute"
             phi[C] = phi[P] + (theta[c] if revolute else joint.offset)
-            cp, sp, cc, sc = math.cos(phi[P]), math.sin(phi[P]), math.cos(phi[C]), math.sin(phi[C])
+            (cp, _, sp, _), (cc, _, sc, _) = planar_rotation_entries(phi[P]), planar_rotation_entries(phi[C])
             (spx, spy), (scx, scy) = joint.s_parent, joint.s_child
             rcx, rcy = cc * scx - sc * scy, sc * scx + cc * scy  # rho_C = A_C s_C'
             ux = uy = s = sd = w_rel = 0.0
@@ -455,7 +446,7 @@ class PlanarTree:
             if joint.kind == "revolute":
                 theta[c], rate[c] = X[C, 2] - X[P, 2], V[C, 2] - V[P, 2]
                 continue
-            AP, AC = rotation2(X[P, 2]), rotation2(X[C, 2])
+            AP, AC = planar_rotation(X[P, 2]), planar_rotation(X[C, 2])
             rho_p, rho_c, u = AP @ joint.s_parent, AC @ joint.s_child, AP @ joint.axis
             d = X[C, :2] + rho_c - X[P, :2] - rho_p
             d_dot = V[C, :2] + V[C, 2] * (R90 @ rho_c) - V[P, :2] - V[P, 2] * (R90 @ rho_p)
@@ -469,11 +460,6 @@ class PlanarTree:
     def coordinate_accelerations(self, motion: TreeMotion, accelerations: np.ndarray) -> np.ndarray:
         """q'' = D theta'' + xi."""
         return motion.D @ accelerations + motion.xi
-
-
-def rotation2(phi: float) -> np.ndarray:
-    c, s = math.cos(phi), math.sin(phi)
-    return np.array([[c, -s], [s, c]])
 
 
 class SpatialTree:

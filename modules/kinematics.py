@@ -25,6 +25,7 @@ from .diagnostics import AnalysisError, involved_joints, rank_report, singular_j
 from .linalg import lu_factor, lu_solve, minimum_norm_solution, numerical_rank, solve
 from .planar.bodies import rotation, rotation_derivative
 from .results import KinematicInfo, Result
+from .rotation_matrices import euler_rotation, g_entries
 
 LOCKUP_CONDITION = 1e10
 """Condition number of Psi_q above which a configuration counts as locked (a singular position)."""
@@ -549,8 +550,6 @@ def spatial_point_kinematics(q, qd, qdd, body: int, point: np.ndarray):
 
     with omega = 2 G(p) p' and omega' = 2 G(p) p'' (G p' is orthogonal to p', so G' p' = 0).
     """
-    from .io.model import euler_rotation
-
     cols = slice(7 * body, 7 * body + 7)
     r, rd, rdd = q[:, cols], qd[:, cols], qdd[:, cols]
     position, velocity, acceleration = (np.empty((len(q), 3)) for _ in range(3))
@@ -564,9 +563,8 @@ def spatial_point_kinematics(q, qd, qdd, body: int, point: np.ndarray):
 
 
 def angular_rates(p: np.ndarray, pd: np.ndarray, pdd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """omega = 2 G(p) p' and its rate omega' = 2 G(p) p'' (global frame, eq. 8.16), G written out."""
-    e0, e1, e2, e3 = map(float, p)
-    G = np.array([[-e1, e0, -e3, e2], [-e2, e3, e0, -e1], [-e3, -e2, e1, e0]])
+    """omega = 2 G(p) p' and its rate omega' = 2 G(p) p'' (global frame, eq. 8.16)."""
+    G = np.array(g_entries(*map(float, p))).reshape(3, 4)
     return 2.0 * G @ pd, 2.0 * G @ pdd
 
 
@@ -585,8 +583,6 @@ def point_columns(result: Result, label: str, body: int, point: np.ndarray) -> d
 def rotation_columns(result: Result, bodies: list[str]) -> dict[str, np.ndarray]:
     """For each spatial body: angular velocity, global 'B.wx .wy .wz' = 2 G p' and body-frame 'B.wx_body ..'
     = A^T omega (eq. 8.16), and the rotation matrix 'B.A11' .. 'B.A33' (eq. 8.12)."""
-    from .io.model import euler_rotation
-
     columns: dict[str, np.ndarray] = {}
     for b, name in enumerate(bodies):
         p, pd = result.q[:, 7 * b + 3 : 7 * b + 7], result.qd[:, 7 * b + 3 : 7 * b + 7]

@@ -140,23 +140,7 @@ def resolve_key(data: dict, key: str) -> list:
             node, where = node[token], f"{where}.{token}" if where else token
             path.append(token)
             continue
-        if not isinstance(node, list):
-            raise SweepError(f"--set {key}: {where} is not a list")
-        if isinstance(token, tuple):
-            name = token[0]
-            section = path[-1] if len(path) == 2 and path[0] == "model" else None
-            default = SECTION_KIND.get(section or "")
-            names = [
-                item.get("name", f"{default}{i + 1}" if default else str(i)) if isinstance(item, dict) else str(i)
-                for i, item in enumerate(node)
-            ]
-            if name not in names:
-                raise SweepError(f"--set {key}: no element named '{name}' in {where} (names: {', '.join(names)})")
-            index = names.index(name)
-        else:
-            index = token
-            if not -len(node) <= index < len(node):
-                raise SweepError(f"--set {key}: {where} has {len(node)} elements, no index {index}")
+        index = _list_index(key, node, token, path, where)
         label = node[index].get("name", index) if isinstance(node[index], dict) else index
         node, where = node[index], f"{where}[{label}]"
         path.append(index)
@@ -167,6 +151,26 @@ def resolve_key(data: dict, key: str) -> list:
             raise SweepError(f"--set {key}: {where} is a mapping (keys: {', '.join(node)}); sweep one of its numbers")
         raise SweepError(f"--set {key}: {where} holds {node!r}, not a number; only numbers can be swept")
     return path
+
+
+def _list_index(key: str, node, token: int | tuple, path: list, where: str) -> int:
+    """The index in the list ``node`` that ``token`` names: a number, or (name,) an element's name (an unnamed
+    element of a section is called as the model loader calls it: ``spring1``, ``force2``, ...)."""
+    if not isinstance(node, list):
+        raise SweepError(f"--set {key}: {where} is not a list")
+    if not isinstance(token, tuple):
+        if not -len(node) <= token < len(node):
+            raise SweepError(f"--set {key}: {where} has {len(node)} elements, no index {token}")
+        return token
+    section = path[-1] if len(path) == 2 and path[0] == "model" else None
+    default = SECTION_KIND.get(section or "")
+    names = [
+        item.get("name", f"{default}{i + 1}" if default else str(i)) if isinstance(item, dict) else str(i)
+        for i, item in enumerate(node)
+    ]
+    if token[0] not in names:
+        raise SweepError(f"--set {key}: no element named '{token[0]}' in {where} (names: {', '.join(names)})")
+    return names.index(token[0])
 
 
 def _optional_number(data: dict, path: list, node: dict) -> bool:
@@ -418,7 +422,7 @@ def make_sweep(
     SweepError
         Naming the key, value or output and the fix. A model file that cannot be read raises ``ModelError``.
     """
-    from .io.model import ModelError, load_model, read_text
+    from .io.model import load_model, read_text
 
     if isinstance(model, dict):
         data, source = copy.deepcopy(model), "<model>"
@@ -436,56 +440,72 @@ def make_sweep(
         read_settings(base.simulation, **settings)
     except SettingError as err:
         raise SweepError(str(err)) from None
-    parameters = []
-    seen = set()
+    parameters, seen = [], set()
     for key, values in pairs:
-        values = parse_values(values, key) if isinstance(values, str) else np.asarray(list(values), dtype=float)
-        path = resolve_key(data, key)
-        if tuple(path) in seen:
-            raise SweepError(f"--set {key}: this key is set twice; give its values once")
-        seen.add(tuple(path))
-        try:
-            current = _get(data, path)
-        except KeyError:  # a number the file leaves at its default
-            current = None
-        integer = isinstance(current, int) and not isinstance(current, bool)
-        if integer and not np.all(values == np.round(values)):
-            raise SweepError(f"--set {key}: {key} takes whole numbers (the file has {current})")
-        parameter = Parameter(key, path, values, integer)
-        for value in np.unique(values):
-            try:
-                load_model(apply(data, [parameter], [value]))
-            except ModelError as err:
-                message = str(err).removeprefix("<model>: ")
-                raise SweepError(f"--set {key}={value:g}: {message}") from None
-        parameters.append(parameter)
-    if zipped:
-        counts = {p.key: p.values.size for p in parameters}
-        if len(set(counts.values())) != 1:
-            listed = ", ".join(f"{k}: {n}" for k, n in counts.items())
-            raise SweepError(f"--zip takes the same number of values for every key ({listed}); or drop --zip")
-        table = np.column_stack([p.values for p in parameters])
-    else:
-        table = np.array(list(itertools.product(*[p.values for p in parameters])), dtype=float)
+        parameters.append(make_parameter(data, key, values, seen))
+    table = parameter_table(parameters, zipped)
     parsed = [parse_output(o) for o in (outputs or ["residual"])]
     if len({o.text for o in parsed}) != len(parsed):
         raise SweepError("--output: an output is given twice")
     if any(o.column for o in parsed):
-        try:
-            available, ran = _available_columns(data, settings)
-        except Exception as err:  # noqa: BLE001 - the base model must run to say what columns it has
-            raise SweepError(f"{label}: the model as the file gives it does not run ({err})") from None
-        for o in parsed:
-            if o.column and o.column not in available:
-                hint = ""
-                if o.column.endswith((".effort", ".Fx", ".Fy", ".Fz", ".Mx", ".My", ".Mz")):
-                    hint = "; driver efforts come from --analysis inverse, joint reactions from inverse or dynamic"
-                names = ", ".join(sorted(available - {"t"}))
-                raise SweepError(
-                    f"--output {o.text}: the {ran} analysis gives no column {o.column}{hint} (columns: {names})"
-                )
+        check_outputs(data, parsed, settings, label)
     settings = {k: v for k, v in settings.items() if v is not None}
     return Sweep(source, data, parameters, table, parsed, settings, zipped)
+
+
+def make_parameter(data: dict, key: str, values, seen: set) -> Parameter:
+    """One swept key: its path in the file, its values (whole numbers where the file has one), each value
+    checked to make a valid model file; ``seen`` holds the paths taken so far (a key set twice is refused)."""
+    from .io.model import ModelError, load_model
+
+    values = parse_values(values, key) if isinstance(values, str) else np.asarray(list(values), dtype=float)
+    path = resolve_key(data, key)
+    if tuple(path) in seen:
+        raise SweepError(f"--set {key}: this key is set twice; give its values once")
+    seen.add(tuple(path))
+    try:
+        current = _get(data, path)
+    except KeyError:  # a number the file leaves at its default
+        current = None
+    integer = isinstance(current, int) and not isinstance(current, bool)
+    if integer and not np.all(values == np.round(values)):
+        raise SweepError(f"--set {key}: {key} takes whole numbers (the file has {current})")
+    parameter = Parameter(key, path, values, integer)
+    for value in np.unique(values):
+        try:
+            load_model(apply(data, [parameter], [value]))
+        except ModelError as err:
+            message = str(err).removeprefix("<model>: ")
+            raise SweepError(f"--set {key}={value:g}: {message}") from None
+    return parameter
+
+
+def parameter_table(parameters: list[Parameter], zipped: bool) -> np.ndarray:
+    """The sets of values, one row per run: the full grid of the parameters' values, or (``zipped``) their
+    values taken together."""
+    if not zipped:
+        return np.array(list(itertools.product(*[p.values for p in parameters])), dtype=float)
+    counts = {p.key: p.values.size for p in parameters}
+    if len(set(counts.values())) != 1:
+        listed = ", ".join(f"{k}: {n}" for k, n in counts.items())
+        raise SweepError(f"--zip takes the same number of values for every key ({listed}); or drop --zip")
+    return np.column_stack([p.values for p in parameters])
+
+
+def check_outputs(data: dict, outputs: list[Output], settings: dict, label: str) -> None:
+    """Refuse an output whose column the analysis does not give (from a short run of the base model)."""
+    try:
+        available, ran = _available_columns(data, settings)
+    except Exception as err:  # noqa: BLE001 - the base model must run to say what columns it has
+        raise SweepError(f"{label}: the model as the file gives it does not run ({err})") from None
+    for o in outputs:
+        if o.column and o.column not in available:
+            hint = ""
+            if o.column.endswith((".effort", ".Fx", ".Fy", ".Fz", ".Mx", ".My", ".Mz")):
+                hint = "; driver efforts come from --analysis inverse, joint reactions from inverse or dynamic"
+            names = ", ".join(sorted(available - {"t"}))
+            said = f"--output {o.text}: the {ran} analysis gives no column {o.column}"
+            raise SweepError(f"{said}{hint} (columns: {names})")
 
 
 # -- the table ---------------------------------------------------------------------------------------------------

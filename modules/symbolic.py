@@ -34,6 +34,7 @@ import sympy as sp
 from .assembly import System, build_system
 from .functions import Constant, EccentricCircle, Fourier, Harmonic, Polynomial, SmoothRamp
 from .io.model import Model, load_model
+from .rotation_matrices import rotation_entries
 
 Vector = sp.Matrix
 
@@ -75,19 +76,14 @@ def function_expression(function: object, x: sp.Expr) -> sp.Expr:
 
 # -- rotations -----------------------------------------------------------------------------------------------------
 def planar_rotation(phi: sp.Expr) -> sp.Matrix:
-    """A(phi) (eq. 2.2)."""
+    """A(phi) (eq. 2.2). Written with sympy's cos and sin: ``rotation_matrices.planar_rotation_entries`` takes
+    math.cos, which takes no symbol."""
     return sp.Matrix([[sp.cos(phi), -sp.sin(phi)], [sp.sin(phi), sp.cos(phi)]])
-
-
-def skew(a: sp.Matrix) -> sp.Matrix:
-    """a~ with a~ b = a x b (eq. 8.4)."""
-    return sp.Matrix([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
 
 
 def spatial_rotation(p: sp.Matrix) -> sp.Matrix:
     """A(p) = G(p) L(p)^T (eq. 8.12, 8.15), the homogeneous quadratic form (a rotation when p^T p = 1)."""
-    e0, e = p[0], p[1:, 0]
-    return (e0**2 - (e.T * e)[0]) * sp.eye(3) + 2 * e * e.T + 2 * e0 * skew(e)
+    return sp.Matrix(3, 3, rotation_entries(*p))
 
 
 # -- the derivation --------------------------------------------------------------------------------------------------

@@ -8,8 +8,8 @@ the file's configuration, s' = A_0^T (P - r_0) (as the model builders do), and p
 
     P = r + A s'                         (course notes, eq. 2.1 planar; eq. 9.1 spatial)
 
-The drawing uses no function a student writes: the rotation matrices are computed here, so a student's
-package draws its own results before (and while) its ``rotation`` is being written.
+The drawing uses no function a student writes: the rotation matrices come from ``rotation_matrices``, so a
+student's package draws its own results before (and while) its ``rotation`` is being written.
 
     anim = animate_result(model, system, result, "slider_crank.gif")   # also .mp4 (ffmpeg), .html
     notebook_animation(model, system, result)                            # in a notebook (JupyterLab 4)
@@ -29,24 +29,17 @@ from matplotlib.figure import Figure
 
 from .io.model import GROUND, Model
 from .results import Result
+from .rotation_matrices import euler_rotation, planar_rotation
 
 SPRING_COILS = 8
 """Zig-zags of a drawn spring."""
 
 
 # -- body frames, without the student's functions -------------------------------------------------------
-def planar_rotation(phi: float) -> np.ndarray:
-    """A(phi) = [[cos, -sin], [sin, cos]] (eq. 2.2)."""
-    c, s = math.cos(phi), math.sin(phi)
-    return np.array([[c, -s], [s, c]])
-
-
 def spatial_rotation(p: np.ndarray) -> np.ndarray:
-    """A(p) of Euler parameters p = (e0, e), normalized first: A = (2 e0^2 - 1) I + 2 (e e^T + e0 e~) (eq. 8.12)."""
+    """A(p) of Euler parameters p = (e0, e), normalized first (eq. 8.12)."""
     p = np.asarray(p, dtype=float)
-    e0, e = p[0] / np.linalg.norm(p), p[1:] / np.linalg.norm(p)
-    tilde = np.array([[0.0, -e[2], e[1]], [e[2], 0.0, -e[0]], [-e[1], e[0], 0.0]])
-    return (2 * e0**2 - 1) * np.eye(3) + 2 * (np.outer(e, e) + e0 * tilde)
+    return euler_rotation(p / np.linalg.norm(p))
 
 
 def body_frame(q: np.ndarray, body: int, dimension: int) -> tuple[np.ndarray, np.ndarray]:

@@ -22,10 +22,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .elements import ConstraintElement
 from .io.model import Model
 from .planar import batched as planar_batched
 from .planar.build import build_elements, initial_coordinates
-from .planar.joints import PlanarElement
 
 COORDINATES_PER_BODY = {2: 3, 3: 7}
 """Planar bodies have q_i = (x, y, phi); spatial bodies q_i = (x, y, z, e0, e1, e2, e3)."""
@@ -43,7 +43,7 @@ class System:
     """
 
     model: Model
-    elements: list[PlanarElement]
+    elements: list[ConstraintElement]
     vectorized: bool = True
 
     def __post_init__(self):

@@ -30,6 +30,9 @@ theta, spin phi, the classical choice for a top) and 1-2-3 (Cardan, or Bryant, a
 singular orientation (gimbal lock: theta = 0 or pi for 3-1-3, theta = +-pi/2 for 1-2-3) where only
 the sum or difference of the first and last angle is defined; the conversions below return one valid
 triple there (the last angle set to zero).
+
+The functions students write here (``rotation_matrix``, ``g_matrix``, ``l_matrix``) are their homework; the rest
+of the package takes A(p), G(p) and L(p) from ``rotation_matrices``, where each is written once.
 """
 
 from __future__ import annotations

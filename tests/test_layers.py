@@ -96,7 +96,7 @@ def test_no_private_name_is_imported_from_another_module():
     assert not wrong, "\n".join(wrong)
 
 
-PRIVATE_OF_DEPENDENCIES = {("numba.np.linalg", "_LAPACK"): "in-place LU solves in the compiled engine's loop"}
+PRIVATE_OF_DEPENDENCIES: dict[tuple[str, str], str] = {}
 """Private parts of a dependency still used, each with what for (issue 24: to be replaced by public ones)."""
 
 

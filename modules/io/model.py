@@ -34,6 +34,7 @@ import numpy as np
 import yaml
 
 from ..batch import write_atomic
+from ..rotation_matrices import euler_rotation, planar_rotation
 
 GROUND = "ground"
 
@@ -420,14 +421,6 @@ def spatial_orientation(value, where: str, label: str) -> np.ndarray:
     return (from_euler_313 if form == "euler_313" else from_euler_123)(*angles)
 
 
-def euler_rotation(p: np.ndarray) -> np.ndarray:
-    """A(p) = (2 e0^2 - 1) I + 2 (e e^T + e0 e~) for unit p (eq. 8.12), written out here because the
-    students' ``rotations.rotation_matrix`` may be a stub when their package loads a model."""
-    e0, e = float(p[0]), np.asarray(p[1:], dtype=float)
-    tilde = np.array([[0.0, -e[2], e[1]], [e[2], 0.0, -e[0]], [-e[1], e[0], 0.0]])
-    return (2 * e0 * e0 - 1) * np.eye(3) + 2 * (np.outer(e, e) + e0 * tilde)
-
-
 def _mass_properties(b: dict, where: str, label: str, dim: int) -> tuple[float, Any, bool]:
     """(mass, inertia, has_mass): both given, or neither (a kinematic model)."""
     if "mass" not in b and "inertia" not in b:
@@ -475,14 +468,13 @@ def _body(b: dict, where: str, label: str, dim: int) -> Body:
             raise ModelError(f"{label}: {where}.angular_velocity: a spatial body takes a 3-vector (global frame)")
         omega = _vector(angular_velocity, 3, f"{where}.angular_velocity", label)
         orientation: Any = p
-        A = euler_rotation(p)
+        A = euler_rotation(p)  # not the students' rotation_matrix: it may be a stub when their package loads a model
     else:
         if not isinstance(b.get("angular_velocity", 0.0), int | float):
             raise ModelError(f"{label}: {where}.angular_velocity: a planar body takes one number in rad/s")
         orientation = planar_orientation(b.get("orientation", 0.0), f"{where}.orientation", label)
         omega = float(b.get("angular_velocity", 0.0))
-        c, s = math.cos(orientation), math.sin(orientation)
-        A = np.array([[c, -s], [s, c]])
+        A = planar_rotation(orientation)
     location = _vector(b["location"], dim, f"{where}.location", label)
     velocity = _vector(b.get("velocity", [0.0] * dim), dim, f"{where}.velocity", label)
     com = None

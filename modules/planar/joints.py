@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..elements import ConstraintElement
 from ..functions import Constant, ScalarFunction
 from .bodies import (
     R90,
@@ -32,22 +33,8 @@ from .bodies import (
 ANGLE_ROW = np.array([0.0, 0.0, 1.0])
 
 
-@dataclass
-class PlanarElement:
-    """Common data of every constraint element: its name and the two bodies (-1 is ground)."""
-
-    name: str
-    i: int
-    j: int
-    labels: tuple[str, ...] = field(default=(), init=False)
-
-    @property
-    def n_equations(self) -> int:
-        return len(self.labels)
-
-    def psi_t(self, qi: np.ndarray, qj: np.ndarray, t: float) -> np.ndarray:
-        """Psi_t = 0: a joint does not depend explicitly on time."""
-        return np.zeros(self.n_equations)
+class PlanarElement(ConstraintElement):
+    """A planar constraint element (``elements.ConstraintElement``): q_i = (x_i, y_i, phi_i), Psi_q blocks (m, 3)."""
 
 
 def along_direction(qi, si, ui, qj, sj, qdi, qdj):

@@ -148,10 +148,12 @@ def generate(scene: Scene) -> str:
 
 @functools.cache
 def _engine_fingerprint() -> bytes:
-    """The kernels, the loops and numba's version: what every generated module's machine code depends on."""
+    """The kernels (and the rotation matrices they compile), the loops and numba's version: what every generated
+    module's machine code depends on."""
     from importlib.metadata import version
 
-    return (HERE / "kernels.py").read_bytes() + (HERE / "loops.py").read_bytes() + version("numba").encode()
+    sources = ("kernels.py", "../rotation_matrices.py", "loops.py")
+    return b"".join((HERE / name).read_bytes() for name in sources) + version("numba").encode()
 
 
 @functools.lru_cache(maxsize=256)
@@ -214,7 +216,7 @@ def _kinematic_sources() -> bytes:
     """What the compiled kinematic code depends on besides its text: the kernels, the loop, numba's version."""
     from importlib.metadata import version
 
-    sources = ("kernels.py", "kinematic_loop.py")
+    sources = ("kernels.py", "../rotation_matrices.py", "kinematic_loop.py")
     return b"".join((HERE / name).read_bytes() for name in sources) + version("numba").encode()
 
 

@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..rotation_matrices import g_entries, planar_rotation, rotation_entries
+
 
 def constraint_arrays(module, scene, times: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(Psi, Psi_q, Psi_t) at every output time, shapes (N, m), (N, m, n), (N, m), from the compiled module."""
@@ -45,8 +47,8 @@ def _generalized(jac: np.ndarray, lam: np.ndarray, rows: np.ndarray, columns: sl
 
 
 def _rotations_2d(phi: np.ndarray) -> np.ndarray:
-    c, s = np.cos(phi), np.sin(phi)
-    return np.stack([np.stack([c, -s], axis=-1), np.stack([s, c], axis=-1)], axis=-2)
+    """A(phi) (eq. 2.2) of every angle phi (N,): (N, 2, 2)."""
+    return np.array([planar_rotation(angle) for angle in phi]).reshape(-1, 2, 2)
 
 
 def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
@@ -83,19 +85,12 @@ def _unit(p: np.ndarray) -> np.ndarray:
 
 def _g_matrices(p: np.ndarray) -> np.ndarray:
     """G(p) = [-e, e~ + e0 I] for every row p (N, 4): (N, 3, 4) (eq. 8.14)."""
-    e0, e1, e2, e3 = p.T
-    return np.stack(
-        [np.stack([-e1, e0, -e3, e2], -1), np.stack([-e2, e3, e0, -e1], -1), np.stack([-e3, -e2, e1, e0], -1)], -2
-    )
+    return np.stack(g_entries(*p.T), -1).reshape(-1, 3, 4)
 
 
 def _a_matrices(p: np.ndarray) -> np.ndarray:
     """A(p) = G(p) L(p)^T for every row p (N, 4) (eq. 8.12)."""
-    e0, e1, e2, e3 = p.T
-    L = np.stack(
-        [np.stack([-e1, e0, e3, -e2], -1), np.stack([-e2, -e3, e0, e1], -1), np.stack([-e3, e2, -e1, e0], -1)], -2
-    )
-    return _g_matrices(p) @ np.swapaxes(L, 1, 2)
+    return np.stack(rotation_entries(*p.T), -1).reshape(-1, 3, 3)
 
 
 def spatial_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:

@@ -30,7 +30,15 @@ import math
 import numpy as np
 from numba import njit
 
+from ..rotation_matrices import g_entries, l_entries, planar_rotation_entries, rotation_entries, unit_rotation_entries
+
 jit = njit(cache=True, fastmath=False, nogil=True)
+
+planar_rotation_entries_jit, rotation_entries_jit = jit(planar_rotation_entries), jit(rotation_entries)
+unit_rotation_entries_jit, g_entries_jit, l_entries_jit = jit(unit_rotation_entries), jit(g_entries), jit(l_entries)
+"""A(phi), A(p) (any p; unit p), G(p) and L(p) as ``rotation_matrices`` writes them (once), compiled by numba.
+The generated modules' cache names hash ``rotation_matrices.py`` (``codegen``), but numba's on-disk cache of a kernel
+here is keyed by this file only: after an edit of ``rotation_matrices.py``, clear this file's numba cache."""
 
 # -- functions of time (functions.py) -------------------------------------------------------------------
 CONSTANT, POLYNOMIAL, HARMONIC, RAMP, FOURIER, ECCENTRIC = 0, 1, 2, 3, 4, 5
@@ -132,9 +140,9 @@ def _planar(x, b):
 
 @jit
 def _rot(phi, sx, sy):
-    """A s' and B s' = A R90 s' (eq. 2.1, 2.5)."""
-    c, s = math.cos(phi), math.sin(phi)
-    return c * sx - s * sy, s * sx + c * sy, -s * sx - c * sy, c * sx - s * sy
+    """A s' and B s' = A R90 s', R90 s' = (-s_y', s_x') (eq. 2.1, 2.5)."""
+    a11, a12, a21, a22 = planar_rotation_entries_jit(phi)
+    return a11 * sx + a12 * sy, a21 * sx + a22 * sy, a11 * -sy + a12 * sx, a21 * -sy + a22 * sx
 
 
 @jit
@@ -470,11 +478,10 @@ def b_matrix(e0, e1, e2, e3, a1, a2, a3, out):
 
 @jit
 def rotate(e0, e1, e2, e3, a, out):
-    """out = A(p) a' (eq. 9.1), A as ``rotations.rotation_matrix``."""
-    a1, a2, a3 = a[0], a[1], a[2]
-    out[0] = (e0 * e0 + e1 * e1 - e2 * e2 - e3 * e3) * a1 + 2 * (e1 * e2 - e0 * e3) * a2 + 2 * (e1 * e3 + e0 * e2) * a3
-    out[1] = 2 * (e1 * e2 + e0 * e3) * a1 + (e0 * e0 - e1 * e1 + e2 * e2 - e3 * e3) * a2 + 2 * (e2 * e3 - e0 * e1) * a3
-    out[2] = 2 * (e1 * e3 - e0 * e2) * a1 + 2 * (e2 * e3 + e0 * e1) * a2 + (e0 * e0 - e1 * e1 - e2 * e2 + e3 * e3) * a3
+    """out = A(p) a' (eq. 9.1), A(p) of ``rotation_matrices.rotation_entries``."""
+    R = rotation_entries_jit(e0, e1, e2, e3)
+    for r in range(3):
+        out[r] = R[3 * r] * a[0] + R[3 * r + 1] * a[1] + R[3 * r + 2] * a[2]
 
 
 @jit
@@ -694,17 +701,23 @@ def spatial_coordinate(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
 
 # -- spatial mass matrix and forces ------------------------------------------------------------------------------
 @jit
+def _fill(entries, out):
+    """out (3 x 4) from its entries row by row."""
+    for r in range(3):
+        for c in range(4):
+            out[r, c] = entries[4 * r + c]
+
+
+@jit
 def _l_matrix(e0, e1, e2, e3, out):
-    out[0, 0], out[0, 1], out[0, 2], out[0, 3] = -e1, e0, e3, -e2
-    out[1, 0], out[1, 1], out[1, 2], out[1, 3] = -e2, -e3, e0, e1
-    out[2, 0], out[2, 1], out[2, 2], out[2, 3] = -e3, e2, -e1, e0
+    """L(p) (eq. 8.14) into out."""
+    _fill(l_entries_jit(e0, e1, e2, e3), out)
 
 
 @jit
 def _g_matrix(e0, e1, e2, e3, out):
-    out[0, 0], out[0, 1], out[0, 2], out[0, 3] = -e1, e0, -e3, e2
-    out[1, 0], out[1, 1], out[1, 2], out[1, 3] = -e2, e3, e0, -e1
-    out[2, 0], out[2, 1], out[2, 2], out[2, 3] = -e3, -e2, e1, e0
+    """G(p) (eq. 8.14) into out."""
+    _fill(g_entries_jit(e0, e1, e2, e3), out)
 
 
 @jit

@@ -17,9 +17,10 @@ meets an exact zero pivot, where the numpy loop falls back on least squares), wh
 the numpy loop takes the run over from that step, with the same state, and decides as it always does.
 """
 
+import llvmlite.binding
 import numpy as np
 from numba import njit, types
-from numba.np.linalg import _LAPACK, F_INT_nptype
+from numba.extending import get_cython_function_address
 
 _vector, _matrix = types.float64[::1], types.float64[:, ::1]
 _ivector, _imatrix = types.int64[::1], types.int64[:, ::1]
@@ -35,14 +36,33 @@ EVALUATE_SIGNATURE = types.void(types.float64, _vector, _vector, F_TYPE, D_TYPE,
 DONE, NO_CONVERGENCE, ZERO_PIVOT, LOCKUP, SIGN_CHANGE, DIP = 0, 1, 2, 3, 4, 5
 
 
-_GETRF, _GESV = _LAPACK().numba_xxgetrf(types.float64), _LAPACK().numba_xgesv(types.float64)
-"""LAPACK's dgetrf and dgesv through numba's bindings (scipy's LAPACK): the routines of ``linalg.lu_factor`` and
-``linalg.solve`` themselves. The pivot ratio of the numpy loop is not a continuous function of q: where two
-candidates for a pivot are equal but for rounding (frequent in a chain of equal loops), the choice between them
-changes U's diagonal by a factor, and a spurious dip may follow. The same routines on (nearly) the same numbers
-keep those choices, and the corrections, as the numpy engine's; a hand-written elimination departed from them
-on the chain of 64 four-bar loops and stopped at dips the numpy run never saw."""
-_DOUBLE = ord("d")
+def _lapack(name: str, arguments: int) -> types.ExternalFunction:
+    """LAPACK's ``name`` from scipy's public ``scipy.linalg.cython_lapack``, found by numba's public
+    ``get_cython_function_address`` and registered with LLVM under a symbol of its own: compiled code calls it by
+    that name, so the functions that call it are cached on disk (a ctypes pointer would be a dynamic global)."""
+    symbol = f"mbd_lapack_{name}"
+    llvmlite.binding.add_symbol(symbol, get_cython_function_address("scipy.linalg.cython_lapack", name))
+    return types.ExternalFunction(symbol, types.void(*[types.voidptr] * arguments))
+
+
+_GETRF, _GESV = _lapack("dgetrf", 6), _lapack("dgesv", 8)
+"""LAPACK's dgetrf(m, n, a, lda, ipiv, info) and dgesv(n, nrhs, a, lda, ipiv, b, ldb, info), Fortran calls (every
+argument by address, ``_lapack``). They are the routines of
+``linalg.lu_factor`` and ``linalg.solve`` themselves. The pivot ratio of the numpy loop is not a continuous function
+of q: where two candidates for a pivot are equal but for rounding (frequent in a chain of equal loops), the choice
+between them changes U's diagonal by a factor, and a spurious dip may follow. The same routines on (nearly) the
+same numbers keep those choices, and the corrections, as the numpy engine's; a hand-written elimination departed
+from them on the chain of 64 four-bar loops and stopped at dips the numpy run never saw."""
+PIVOT_TYPE = np.int32
+"""LAPACK's integer (scipy's ``cython_lapack`` takes C ints): the type of the pivots array."""
+
+
+@njit(cache=True, nogil=True)
+def _sizes(n, columns):
+    """(n, n, columns, info): the integer arguments LAPACK takes by address (n is both m or n and lda, ldb)."""
+    sizes = np.empty(4, dtype=PIVOT_TYPE)
+    sizes[0], sizes[1], sizes[2], sizes[3] = n, n, columns, 0
+    return sizes
 
 
 @njit(cache=True, nogil=True)
@@ -54,8 +74,9 @@ def lu_factor(A, KT, pivots):
     for r in range(n):
         for c in range(n):
             KT[c, r] = A[r, c]
-    info = _GETRF(_DOUBLE, n, n, KT.ctypes, n, pivots.ctypes)
-    return info == 0
+    sizes = _sizes(n, n)
+    _GETRF(sizes[0:].ctypes, sizes[1:].ctypes, KT.ctypes, sizes[1:].ctypes, pivots.ctypes, sizes[3:].ctypes)
+    return sizes[3] == 0
 
 
 @njit(cache=True, nogil=True)
@@ -68,7 +89,10 @@ def newton_solve(A, KT, pivots, b, x):
         x[r] = b[r]
         for c in range(n):
             KT[c, r] = A[r, c]
-    return _GESV(_DOUBLE, n, 1, KT.ctypes, n, pivots.ctypes, x.ctypes, n) == 0
+    sizes = _sizes(n, 1)
+    _GESV(sizes[0:].ctypes, sizes[2:].ctypes, KT.ctypes, sizes[0:].ctypes, pivots.ctypes, x.ctypes, sizes[0:].ctypes,
+          sizes[3:].ctypes)  # fmt: skip
+    return sizes[3] == 0
 
 
 @njit(cache=True, nogil=True)
@@ -147,7 +171,7 @@ def steps(evaluate, q0, times, F, D, tol, max_iterations, lockup, pivot_dip, sta
     dq = np.empty(n)
     psi, psit, gam, rhs = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
     jac, K = np.empty((m, n)), np.empty((m, n))
-    pivots = np.empty(n, dtype=F_INT_nptype)
+    pivots = np.empty(n, dtype=PIVOT_TYPE)
     for k in range(start, points):
         t = times[k]
         if k > 0:  # second-order predictor from the previous step

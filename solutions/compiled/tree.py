@@ -33,7 +33,7 @@ from ..joint_coordinates import cut_elements, tree_order
 from .codegen import FORCE_CALL, constraint_calls, generated_name, is_generated_cached, load_generated
 from .scene import SLOTS, Scene
 
-SOURCES = ("tree_kernels.py", "projection_kernels.py")
+SOURCES = ("tree_kernels.py", "projection_kernels.py", "../joint_coordinates.py")
 KINDS = {"revolute": 0, "prismatic": 1, "spherical": 2}
 
 

@@ -29,13 +29,17 @@ import math
 import numpy as np
 from numba import njit
 
-from .kernels import lu_solve
+from ..joint_coordinates import half_transpose_product, scaled_product
+from .kernels import l_entries_jit, lu_solve, planar_rotation_entries_jit, unit_rotation_entries_jit
 from .projection_kernels import cholesky, cholesky_solve
 
 jit = njit(cache=False, fastmath=False, nogil=True)
 """Not cached here: these functions are compiled into the generated modules that call them, which are cached
 under names that hash this file (numba's cache does not follow a cached function's callees into other files:
 a cached kernel here could keep an old copy of a function it calls from another file)."""
+
+_half_transpose_product, _scaled_product = jit(half_transpose_product), jit(scaled_product)
+"""1/2 M^T w and s M x of a 3 x 4 matrix M (G or L), as the joint coordinates write them (``joint_coordinates``)."""
 
 REVOLUTE, PRISMATIC, SPHERICAL = 0, 1, 2
 S_PARENT, S_CHILD, AXIS, OFFSET, A, C, U0, U1, FRAME = 0, 3, 6, 9, 10, 14, 18, 22, 26
@@ -55,8 +59,8 @@ def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm):
             P = nb
         revolute = ints[e, 0] == REVOLUTE
         body[2, Cb] = body[2, P] + (theta[c] if revolute else floats[e, OFFSET])
-        cp, sp = math.cos(body[2, P]), math.sin(body[2, P])
-        cc, sc = math.cos(body[2, Cb]), math.sin(body[2, Cb])
+        cp, _, sp, _ = planar_rotation_entries_jit(body[2, P])  # A_P, A_C (eq. 2.2)
+        cc, _, sc, _ = planar_rotation_entries_jit(body[2, Cb])
         spx, spy, scx, scy = floats[e, S_PARENT], floats[e, S_PARENT + 1], floats[e, S_CHILD], floats[e, S_CHILD + 1]
         rcx, rcy = cc * scx - sc * scy, sc * scx + cc * scy  # rho_C = A_C s_C'
         ux = uy = s = sd = w_rel = 0.0
@@ -166,31 +170,22 @@ def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
 
 @jit
 def _rotation9(e0, e1, e2, e3, R):
-    """A(p) of unit Euler parameters, row by row (eq. 8.12), as ``joint_coordinates.rotation9``."""
-    R[0], R[1], R[2] = 2 * (e0 * e0 + e1 * e1) - 1, 2 * (e1 * e2 - e0 * e3), 2 * (e1 * e3 + e0 * e2)
-    R[3], R[4], R[5] = 2 * (e1 * e2 + e0 * e3), 2 * (e0 * e0 + e2 * e2) - 1, 2 * (e2 * e3 - e0 * e1)
-    R[6], R[7], R[8] = 2 * (e1 * e3 - e0 * e2), 2 * (e2 * e3 + e0 * e1), 2 * (e0 * e0 + e3 * e3) - 1
+    """A(p) of unit Euler parameters row by row (eq. 8.12), as ``joint_coordinates.rotation9``."""
+    entries = unit_rotation_entries_jit(e0, e1, e2, e3)
+    for k in range(9):
+        R[k] = entries[k]
 
 
 @jit
 def _half_l_transpose(e0, e1, e2, e3, w0, w1, w2):
-    """p' = 1/2 L(p)^T omega' (eq. 8.17)."""
-    return (
-        0.5 * (-e1 * w0 - e2 * w1 - e3 * w2),
-        0.5 * (e0 * w0 - e3 * w1 + e2 * w2),
-        0.5 * (e3 * w0 + e0 * w1 - e1 * w2),
-        0.5 * (-e2 * w0 + e1 * w1 + e0 * w2),
-    )
+    """p' = 1/2 L(p)^T omega' (eq. 8.17), as ``joint_coordinates.half_l_transpose``."""
+    return _half_transpose_product(l_entries_jit(e0, e1, e2, e3), (w0, w1, w2))
 
 
 @jit
 def _half_l(e0, e1, e2, e3, x0, x1, x2, x3):
-    """1/2 L(p) x: the body-frame torque n' of Q_p = 2 L^T n'."""
-    return (
-        0.5 * (-x0 * e1 + e0 * x1 + e3 * x2 - e2 * x3),
-        0.5 * (-x0 * e2 - e3 * x1 + e0 * x2 + e1 * x3),
-        0.5 * (-x0 * e3 + e2 * x1 - e1 * x2 + e0 * x3),
-    )
+    """1/2 L(p) x: the body-frame torque n' of Q_p = 2 L^T n', as ``joint_coordinates.half_l``."""
+    return _scaled_product(0.5, l_entries_jit(e0, e1, e2, e3), (x0, x1, x2, x3))
 
 
 # -- spatial tree ------------------------------------------------------------------------------------------

@@ -42,6 +42,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..elements import ConstraintElement
 from ..functions import Constant, ScalarFunction
 from .bodies import (
     b_matrix,
@@ -199,22 +200,8 @@ def distance_terms(qi, si, qj, sj, qdi=None, qdj=None):
 
 
 # -- elements: joints, drivers, normalization -----------------------------------------------------
-@dataclass
-class SpatialElement:
-    """Common data of every spatial constraint element: its name and the two bodies (-1 is ground)."""
-
-    name: str
-    i: int
-    j: int
-    labels: tuple[str, ...] = field(default=(), init=False)
-
-    @property
-    def n_equations(self) -> int:
-        return len(self.labels)
-
-    def psi_t(self, qi: np.ndarray, qj: np.ndarray, t: float) -> np.ndarray:
-        """Psi_t = 0: a joint does not depend explicitly on time."""
-        return np.zeros(self.n_equations)
+class SpatialElement(ConstraintElement):
+    """A spatial constraint element (``elements.ConstraintElement``): q_i = (r_i, p_i), Psi_q blocks (m, 7)."""
 
 
 @dataclass
