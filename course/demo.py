@@ -34,13 +34,14 @@ from pathlib import Path
 
 import numpy as np
 
+from solutions.analysis import choose_analysis, run_analysis
 from solutions.assembly import build_system
-from solutions.cli import analysis_settings, choose_analysis, run_analysis
 from solutions.diagnostics import AnalysisError
 from solutions.io.model import ModelError, load_model
 from solutions.io.results import write_csv
 from solutions.kinematics import assemble
 from solutions.plotting import plot_result, save_figure, work_precision_figure
+from solutions.settings import read_settings
 
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "course" / "models"
@@ -80,10 +81,10 @@ def run_examples(out: Path, animate: tuple[str, ...] = ANIMATED) -> list[dict]:
         try:
             model = load_model(path)
             system, q0, qd0 = build_system(model)
-            settings = analysis_settings(model)
-            if settings["analysis"] == "auto":
-                settings["analysis"] = choose_analysis(system, assemble(system, q0)[0])
-            analysis = settings["analysis"]
+            settings = read_settings(model.simulation)
+            if settings.analysis == "auto":
+                settings = settings.replace(analysis=choose_analysis(system, assemble(system, q0)[0]))
+            analysis = settings.analysis
             result = run_analysis(system, q0, qd0, settings)
             outputs = [write_csv(result, out / f"{path.stem}.csv"), plot_result(result, out / f"{path.stem}.png")]
             if path.name in animate:
