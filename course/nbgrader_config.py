@@ -55,15 +55,17 @@ if shutil.which("alembic") is None and os.path.isfile(os.path.join(os.path.dirna
 
 
 def _student_modules() -> list:
-    """Every file of the student package, as it sits beside the notebook: modules/<path of solutions/>."""
+    """Every file of the student package, as it sits beside the notebook: modules/<path of solutions/>, without
+    the instructor-only folders and files (``release.generator.INSTRUCTOR_ONLY``; tests/course/test_release.py
+    checks that the two agree)."""
+    instructor_only = ("compiled", "planar/batched.py", "spatial/batched.py")
     files = []
     for folder, dirs, names in os.walk(SOLUTIONS):
-        top = os.path.samefile(folder, SOLUTIONS)  # the instructor-only packages (release.generator.INSTRUCTOR_ONLY)
-        dirs[:] = sorted(d for d in dirs if d != "__pycache__" and not (top and d in ("compiled",)))
-        for name in sorted(names):
-            if not name.endswith((".pyc", ".pyo")):
-                rel = os.path.relpath(os.path.join(folder, name), SOLUTIONS)
-                files.append(os.path.join("modules", rel))
+        here = os.path.relpath(folder, SOLUTIONS).replace(os.sep, "/")
+        place = {name: name if here == "." else f"{here}/{name}" for name in dirs + names}
+        dirs[:] = sorted(d for d in dirs if d != "__pycache__" and place[d] not in instructor_only)
+        kept = [n for n in sorted(names) if not n.endswith((".pyc", ".pyo")) and place[n] not in instructor_only]
+        files += [f"modules/{place[name]}" for name in kept]
     return files
 
 

@@ -13,19 +13,22 @@ Two ways to evaluate them, with the same results:
   operations (``planar/batched.py``, ``spatial/batched.py``), and the Jacobian is scattered into place
   through index arrays found once from the sparsity pattern (which rows and columns each block
   fills). Each group is checked once against the element methods at a random state; a group that
-  disagrees, or is not implemented, is evaluated by the element loop instead. Elements without a
+  disagrees, or cannot be built, is evaluated by the element loop instead. Elements without a
   batched form (gears, cams, drivers of spatial joints) always are.
+
+The batched forms stay with the instructor, like the compiled engine: a student package has none, and
+its System evaluates every element by the loop (``batched_forms`` is None there).
 """
 
 from __future__ import annotations
 
+import importlib
 from dataclasses import dataclass
 
 import numpy as np
 
 from .elements import ConstraintElement
 from .io.model import Model
-from .planar import batched as planar_batched
 from .planar.build import build_elements, initial_coordinates
 
 COORDINATES_PER_BODY = {2: 3, 3: 7}
@@ -159,8 +162,8 @@ class System:
         if self._rotation is None:
             terms = [group.terms(X) for group in self.groups]
         else:
-            ends, pairs, pairs_perp, parts = self._rotation
-            AB = planar_batched.rotate(X, ends, pairs, pairs_perp)  # [A s', A R90 s'] = [A s', B s'] per row
+            rotate, ends, pairs, pairs_perp, parts = self._rotation
+            AB = rotate(X, ends, pairs, pairs_perp)  # [A s', A R90 s'] = [A s', B s'] per row
             A, B = AB[:, :2], AB[:, 2:]
             terms = [group.terms_from(X, A[part], B[part]) for group, part in zip(self.groups, parts, strict=True)]
         state = (X, terms)
@@ -250,14 +253,12 @@ class System:
 
     def _make_groups(self) -> None:
         """Group the elements by type, find their scatter indices, and keep each group that agrees with the
-        element methods at a random state; the other elements are evaluated one by one."""
-        if self.model.dimension == 3:
-            from .spatial.batched import make_groups
-        else:
-            from .planar.batched import make_groups
+        element methods at a random state; the other elements are evaluated one by one (all of them in a
+        package without the batched forms)."""
+        forms = batched_forms(self.model.dimension)
         try:
-            groups, _ = make_groups(self.elements)
-        except Exception:  # noqa: BLE001 -- stubs of a student package (NotImplementedError): the element loop
+            groups, _ = forms.make_groups(self.elements) if forms is not None else ([], [])
+        except Exception:  # noqa: BLE001 -- a group built on a function that raises (NotImplementedError): the loop
             groups = []
         rng = np.random.default_rng(20240607)
         q = self._random_coordinates(rng)
@@ -283,14 +284,15 @@ class System:
                 batched.update(members)
         self.groups = kept
         self._timed_groups = [group for group in kept if group.time_dependent]
-        self._rotation = self._shared_rotation(kept)
+        self._rotation = self._shared_rotation(kept, forms)
         self._loop = [k for k in range(len(self.elements)) if k not in batched]
 
     @staticmethod
-    def _shared_rotation(groups: list):
-        """The body-frame vectors s' of all planar groups stacked as rows [s', R90 s'] (with R90 of each,
-        [R90 s', -s']), and each group's slice of them, so that one ``rotate`` call per configuration gives
-        A s' and B s' = A R90 s' for every group (eq. 2.1, 2.5); None for spatial groups."""
+    def _shared_rotation(groups: list, forms):
+        """The planar forms' ``rotate``, the body-frame vectors s' of all planar groups stacked as rows
+        [s', R90 s'] (with R90 of each, [R90 s', -s']), and each group's slice of them, so that one ``rotate``
+        call per configuration gives A s' and B s' = A R90 s' for every group (eq. 2.1, 2.5); None for
+        spatial groups."""
         if not groups or not all(hasattr(group, "terms_from") for group in groups):
             return None
         parts, start = [], 0
@@ -300,7 +302,7 @@ class System:
         ends = np.concatenate([group.ends for group in groups])
         vectors = np.concatenate([group.vectors for group in groups]).reshape(-1, 2)
         perp = np.concatenate([group.vectors_perp for group in groups]).reshape(-1, 2)
-        return ends, np.hstack([vectors, perp]), np.hstack([perp, -vectors]), parts
+        return forms.rotate, ends, np.hstack([vectors, perp]), np.hstack([perp, -vectors]), parts
 
     def _random_coordinates(self, rng: np.random.Generator) -> np.ndarray:
         q = rng.standard_normal(self.n_coordinates)
@@ -334,6 +336,19 @@ class System:
             )
         except Exception:  # noqa: BLE001 -- a stub (NotImplementedError) or a broken group: use the element loop
             return False
+
+
+def batched_forms(dimension: int):
+    """The module of the per-type (batched) forms of planar (2) or spatial (3) elements, imported when a System
+    first groups its elements; None in a package without it (a student's: the forms stay with the instructor).
+    """
+    name = f"{__package__}.{'spatial' if dimension == 3 else 'planar'}.batched"
+    try:
+        return importlib.import_module(name)
+    except ModuleNotFoundError as err:
+        if err.name != name:  # a module the batched forms import is missing: a broken install, not a student's
+            raise
+        return None
 
 
 def build_system(model: Model) -> tuple[System, np.ndarray, np.ndarray]:

@@ -45,14 +45,13 @@ HOMEWORKS = ("hw1", "hw2", "hw3")
 
 BEGIN = "### BEGIN SOLUTION"
 END = "### END SOLUTION"
-OPTIONAL = ("planar/batched.py", "spatial/batched.py")
-"""Files whose regions students may leave stubbed: the per-type (batched) forms of the joints, a speed-up
-that the System replaces by the element methods students write while the stubs raise."""
 IGNORED = ("__pycache__", "*.pyc", "*.pyo", ".DS_Store", ".ipynb_checkpoints")
 """Files of ``solutions/`` that never go into a student package."""
-INSTRUCTOR_ONLY = ("compiled",)
-"""Packages of ``solutions/`` that never go into a student package: the compiled engine writes out, for numba,
-every formula the students write (its kernels); a student package runs on numpy (``engine`` falls back)."""
+INSTRUCTOR_ONLY = ("compiled", "planar/batched.py", "spatial/batched.py")
+"""Folders and files of ``solutions/`` (paths relative to it) that never go into a student package: they write
+out, outside any solution region, every formula the students write. The compiled engine's kernels, for numba:
+a student package runs on numpy (``engine`` falls back); the per-type (batched) forms of the joints, a
+speed-up: a student package's System evaluates the element methods one by one."""
 
 REPO = Path(__file__).resolve().parents[2]
 _STUB_TOKEN = "@@MBD_STUB@@"
@@ -94,11 +93,6 @@ class Region:
     def qualified_name(self) -> str:
         """The function as module.function, e.g. ``planar.joints.Revolute.gamma``."""
         return f"{Path(self.path).with_suffix('').as_posix().replace('/', '.')}.{self.function}"
-
-    @property
-    def optional(self) -> bool:
-        """A region students may leave stubbed (``OPTIONAL``)."""
-        return self.path in OPTIONAL
 
     @property
     def homework(self) -> int:
@@ -341,14 +335,21 @@ def _ignored(name: str) -> bool:
     return any(fnmatch.fnmatch(name, pattern) for pattern in IGNORED)
 
 
-def source_files(source: Path) -> list[Path]:
-    """The files of a package tree that go into a student package, sorted, relative to ``source``."""
+def package_files(folder: Path, leave_out: tuple[str, ...] = ()) -> list[Path]:
+    """The files of a package tree, sorted, relative to ``folder``: all but ``IGNORED`` ones and the folders
+    and files at the paths ``leave_out`` (relative to ``folder``)."""
     files = []
-    for folder, dirs, names in os.walk(source):
-        top = Path(folder) == Path(source)
-        dirs[:] = sorted(d for d in dirs if not _ignored(d) and not (top and d in INSTRUCTOR_ONLY))
-        files += [Path(folder, n).relative_to(source) for n in sorted(names) if not _ignored(n)]
+    for current, dirs, names in os.walk(folder):
+        here = Path(current).relative_to(folder)
+        dirs[:] = sorted(d for d in dirs if not _ignored(d) and (here / d).as_posix() not in leave_out)
+        files += [here / n for n in sorted(names) if not _ignored(n) and (here / n).as_posix() not in leave_out]
     return sorted(files)
+
+
+def source_files(source: Path) -> list[Path]:
+    """The files of a package tree that go into a student package (all but the ``INSTRUCTOR_ONLY`` ones),
+    sorted, relative to ``source``."""
+    return package_files(source, INSTRUCTOR_ONLY)
 
 
 def header_for(homework: str | None, relpath: str, stubs: int = 1) -> str:
@@ -381,7 +382,7 @@ def _check_replaceable(destination: Path, source: Path) -> None:
         raise ValueError(f"refusing to write a student package over {destination}: it holds {source}")
     if not target.exists():
         return
-    for rel in source_files(target):
+    for rel in package_files(target):
         if rel.suffix == ".py" and not (target / rel).read_text(errors="replace").startswith(GENERATED):
             raise ValueError(
                 f"refusing to replace {destination}: {rel.as_posix()} was not generated (no generated-file header); "
@@ -467,10 +468,10 @@ def modules_differences(modules: Path | None = None, source: Path | None = None)
     with tempfile.TemporaryDirectory() as tmp:
         fresh = Path(tmp) / "modules"
         build_modules(fresh, source)
-        expected = {p.as_posix() for p in source_files(fresh)}
-        present = {p.as_posix() for p in source_files(modules)}
+        expected = {p.as_posix() for p in package_files(fresh)}
+        present = {p.as_posix() for p in package_files(modules)}
         lines = [f"missing: modules/{p}" for p in sorted(expected - present)]
-        lines += [f"not in solutions/: modules/{p}" for p in sorted(present - expected)]
+        lines += [f"not built from solutions/: modules/{p}" for p in sorted(present - expected)]
         lines += [
             f"out of date: modules/{p}"
             for p in sorted(expected & present)

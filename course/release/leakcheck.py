@@ -14,6 +14,9 @@ For a release of homework N, a leak is
   or embedded in a text file; a stored NPZ of any scene that is not public;
 - a file of ``solutions/`` that holds a region of hwN or later, byte for byte, or any folder named
   ``solutions``, ``autograder`` or ``hidden``;
+- an instructor-only part of ``solutions/`` (``generator.INSTRUCTOR_ONLY``: the compiled engine, the per-type
+  batched forms of the joints), which writes out every formula outside any region: a folder or file at its
+  place under its name (``compiled/``, ``planar/batched.py``), or a file with its text under any name;
 
 The public scenes' expected values are meant to be there: the kit's checker compares with them.
 - compiled Python (``*.pyc``, ``__pycache__``): it carries the code it was compiled from.
@@ -35,7 +38,9 @@ from .generator import BEGIN, END, INSTRUCTOR_ONLY, REPO, build_source, homework
 
 HIDDEN_SCENES = Path("autograder", "scenes", "hidden")
 REFERENCE_RUNS = Path("autograder", "reference", "hidden")
-FORBIDDEN_FOLDERS = ("solutions", "autograder", "hidden", *INSTRUCTOR_ONLY)
+INSTRUCTOR_FILES = tuple(p for p in INSTRUCTOR_ONLY if p.endswith(".py"))
+"""The instructor-only files, found by their path's end: ``planar/batched.py`` anywhere in a release."""
+FORBIDDEN_FOLDERS = ("solutions", "autograder", "hidden", *(p for p in INSTRUCTOR_ONLY if p not in INSTRUCTOR_FILES))
 MIN_LINE = 16
 """A region line shorter than this (whitespace removed) is trivial: ``return value``, ``else:``, ``q = q + dq``."""
 MIN_EMBEDDED = 64
@@ -186,6 +191,18 @@ def _source_of(compiled: Path) -> Path:
     return compiled.parent.parent / f"{compiled.name.split('.', 1)[0]}.py"
 
 
+def _instructor_only_files(solutions: Path) -> list[Path]:
+    """The .py files of the ``INSTRUCTOR_ONLY`` folders and files of ``solutions/``."""
+    files = []
+    for part in INSTRUCTOR_ONLY:
+        place = solutions / part
+        if place.is_dir():
+            files += sorted(place.rglob("*.py"))
+        elif place.is_file():
+            files.append(place)
+    return files
+
+
 def find_leaks(folder: Path, homework: str, course: Path | None = None, installed: bool = False) -> list[Leak]:
     """Every leak in the release folder of ``homework``; [] when it is clean.
 
@@ -221,11 +238,10 @@ def find_leaks(folder: Path, homework: str, course: Path | None = None, installe
             text = (solutions / rel).read_text(encoding="utf-8")
             if any(r.homework >= first for r in scan_regions(text, rel.as_posix())):
                 forbidden_hashes[_sha(text.encode())] = f"reference file solutions/{rel.as_posix()}"
-    for package in INSTRUCTOR_ONLY:  # the compiled engine's kernels hold every formula, outside any region
-        for path in sorted((solutions / package).rglob("*.py")):
-            text = path.read_text(encoding="utf-8")
-            what = f"instructor-only file solutions/{path.relative_to(solutions).as_posix()}"
-            forbidden_hashes[_sha(text.encode())] = forbidden_hashes[_sha(_normalize(text).encode())] = what
+    for path in _instructor_only_files(solutions):  # every formula students write, outside any region
+        text = path.read_text(encoding="utf-8")
+        what = f"instructor-only file solutions/{path.relative_to(solutions).as_posix()}"
+        forbidden_hashes[_sha(text.encode())] = forbidden_hashes[_sha(_normalize(text).encode())] = what
 
     leaks = []
     for current, dirs, names in os.walk(folder):
@@ -240,6 +256,8 @@ def find_leaks(folder: Path, homework: str, course: Path | None = None, installe
             path = here / name
             rel = path.relative_to(folder).as_posix()
             data = path.read_bytes()
+            if any(rel == part or rel.endswith(f"/{part}") for part in INSTRUCTOR_FILES):
+                leaks.append(Leak(rel, "instructor-only file", "the course's own, never in a student package"))
             if path.suffix in (".pyc", ".pyo") and not (installed and _source_of(path).is_file()):
                 leaks.append(Leak(rel, "compiled code", "compiled Python carries the code it was compiled from"))
             if path.suffix == ".npz" and _stored_scene(path) is not None and "/" in _stored_scene(path):

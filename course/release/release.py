@@ -48,7 +48,6 @@ class ReleaseReport:
     notebooks: list[str] = field(default_factory=list)
     files: list[str] = field(default_factory=list)
     to_write: list[str] = field(default_factory=list)
-    optional: list[str] = field(default_factory=list)
     kit: list[str] = field(default_factory=list)
     given: list[str] = field(default_factory=list)
     later: list[str] = field(default_factory=list)
@@ -65,8 +64,6 @@ class ReleaseReport:
             f"  to write:         {len(self.to_write)} functions raise NotImplementedError for {self.homework}",
         ]
         lines += [f"                    {name}" for name in self.to_write]
-        if self.optional:
-            lines.append(f"  optional:         {len(self.optional)} per-type (batched) forms, students may leave them")
         lines.append(
             f"  checker:          {self.folder / 'mbdkit'} (public checks, stored expected values); students "
             f"install the kit with `pip install ./` ({len(self.kit)} files with pyproject.toml and README.md)"
@@ -228,7 +225,7 @@ def release(homework: str, course_dir: Path | None = None) -> ReleaseReport:
     index = HOMEWORKS.index(homework) + 1
     now = [r for r in built.stubbed if r.homework == index]
     later = {r.qualified_name for r in built.stubbed if r.homework > index}
-    asked = list(dict.fromkeys((r.path, r.function) for r in now if not r.optional))
+    asked = list(dict.fromkeys((r.path, r.function) for r in now))
     kit = build_kit(folder, homework, asked, course_dir)
 
     leaks = find_leaks(folder, homework, course_dir)
@@ -244,8 +241,7 @@ def release(homework: str, course_dir: Path | None = None) -> ReleaseReport:
         folder=folder,
         notebooks=sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*.ipynb")),
         files=built.files,
-        to_write=list(dict.fromkeys(r.qualified_name for r in now if not r.optional)),
-        optional=list(dict.fromkeys(r.qualified_name for r in now if r.optional)),
+        to_write=list(dict.fromkeys(r.qualified_name for r in now)),
         kit=kit,
         given=built.filled_functions(),
         later=sorted(later),

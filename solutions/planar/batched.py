@@ -18,8 +18,8 @@ and gives its rows in element order: ``terms(X)``, what the formulas share at on
 ``jacobian(X, terms, t) -> (Psi_qi, Psi_qj)`` (each (rows, 3)), ``psi_t(X, terms, t)`` and
 ``gamma(X, V, terms, t)``. ``assembly.System`` scatters them into the
 system arrays and checks them once against the element methods; it falls back to the element loop for
-any group that disagrees or is not implemented. (You do not write these in homework 1: your element
-methods are what the System uses while these stubs raise NotImplementedError.)
+any group that disagrees. This module stays with the instructor (a student package has none): there the
+System evaluates the element methods one by one.
 """
 
 from __future__ import annotations
@@ -73,11 +73,9 @@ def rotated(X: np.ndarray, bodies: np.ndarray, s: np.ndarray, s_perp: np.ndarray
 
     With c = cos(phi_b), s = sin(phi_b): A s' = c s' + s R90 s',  B s' = c R90 s' - s s'.
     """
-    ### BEGIN SOLUTION hw1
     phi = angles(X, bodies)
     c, sn = np.cos(phi)[:, None], np.sin(phi)[:, None]
     return c * s + sn * s_perp, c * s_perp - sn * s
-    ### END SOLUTION
 
 
 def rotate(X: np.ndarray, bodies: np.ndarray, v: np.ndarray, v_perp: np.ndarray) -> np.ndarray:
@@ -157,31 +155,23 @@ class RevoluteGroup(Group):
 
     def terms_from(self, X, As, Bs):
         """A_i s_i', B_i s_i', A_j s_j', B_j s_j' of every joint: what Psi, Psi_q and gamma are made of."""
-        ### BEGIN SOLUTION hw1
         K = self.size
         return As[:K], Bs[:K], As[K:], Bs[K:]
-        ### END SOLUTION
 
     def constraints(self, X, terms, t):
-        ### BEGIN SOLUTION hw1
         Asi, _, Asj, _ = terms
         return (positions(X, self.i) + Asi - positions(X, self.j) - Asj).ravel()
-        ### END SOLUTION
 
     def jacobian(self, X, terms, t):
-        ### BEGIN SOLUTION hw1
         _, Bsi, _, Bsj = terms
         block_i, block_j = self._block_i.copy(), self._block_j.copy()
         block_i[:, :, 2], block_j[:, :, 2] = Bsi, -Bsj
         return block_i.reshape(-1, 3), block_j.reshape(-1, 3)
-        ### END SOLUTION
 
     def gamma(self, X, V, terms, t):
-        ### BEGIN SOLUTION hw1
         Asi, _, Asj, _ = terms
         wi, wj = rows(V, self.i)[:, 2:], rows(V, self.j)[:, 2:]  # phi_i', phi_j' as (K, 1) columns
         return (Asi * (wi * wi) - Asj * (wj * wj)).ravel()
-        ### END SOLUTION
 
 
 class _TimedGroup(Group):
@@ -221,19 +211,13 @@ class RelativeAngleGroup(_TimedGroup):
         self._rows = self._blocks(-np.ones(self.size), np.ones(self.size))
 
     def constraints(self, X, terms, t):
-        ### BEGIN SOLUTION hw1
         return angles(X, self.j) - angles(X, self.i) - self.phi0 - self.values(t)
-        ### END SOLUTION
 
     def jacobian(self, X, terms, t):
-        ### BEGIN SOLUTION hw1
         return self._rows
-        ### END SOLUTION
 
     def gamma(self, X, V, terms, t):
-        ### BEGIN SOLUTION hw1
         return self.derivatives(t, 2)
-        ### END SOLUTION
 
 
 class BodyCoordinateGroup(_TimedGroup):
@@ -249,19 +233,13 @@ class BodyCoordinateGroup(_TimedGroup):
         self._rows = np.zeros((self.size, 3)), block_j
 
     def constraints(self, X, terms, t):
-        ### BEGIN SOLUTION hw1
         return X[self.j, self.index] - self.values(t)
-        ### END SOLUTION
 
     def jacobian(self, X, terms, t):
-        ### BEGIN SOLUTION hw1
         return self._rows
-        ### END SOLUTION
 
     def gamma(self, X, V, terms, t):
-        ### BEGIN SOLUTION hw1
         return self.derivatives(t, 2)
-        ### END SOLUTION
 
 
 class AlongDirectionGroup(_TimedGroup):
@@ -290,33 +268,26 @@ class AlongDirectionGroup(_TimedGroup):
 
     def terms_from(self, X, A, B):
         """u = A_i u_i', w = B_i u_i', A_i s_i', B_i s_i', A_j s_j', B_j s_j' and d_ij of every element."""
-        ### BEGIN SOLUTION hw1
         K = self.size
         u, w, Asi, Bsi, Asj, Bsj = A[:K], B[:K], A[K : 2 * K], B[K : 2 * K], A[2 * K :], B[2 * K :]
         d = positions(X, self.j) + Asj - positions(X, self.i) - Asi
         return u, w, Asi, Bsi, Asj, Bsj, d
-        ### END SOLUTION
 
     def constraints(self, X, terms, t):
-        ### BEGIN SOLUTION hw1
         u, _, _, _, _, _, d = terms
         psi = dot_rows(u, d) - self.d0 - self.values(t)
         if self.rolls:
             psi += self.rolling * (angles(X, self.j) - angles(X, self.i))
         return psi
-        ### END SOLUTION
 
     def jacobian(self, X, terms, t):
-        ### BEGIN SOLUTION hw1
         u, w, Asi, _, _, Bsj, d = terms
         # w^T d - u^T B_i s_i' = w^T (d + A_i s_i'), since u^T B_i s_i' = u_i'^T R90 s_i' = -w^T A_i s_i'
         angle_i = dot_rows(w, d + Asi) - self.rolling
         angle_j = dot_rows(u, Bsj) + self.rolling
         return self._blocks(angle_i, angle_j, -u, u)
-        ### END SOLUTION
 
     def gamma(self, X, V, terms, t):
-        ### BEGIN SOLUTION hw1
         u, w, Asi, Bsi, Asj, Bsj, d = terms
         Vi, Vj = rows(V, self.i), rows(V, self.j)
         wi, wj = Vi[:, 2:], Vj[:, 2:]  # phi_i', phi_j' as (K, 1) columns
@@ -325,7 +296,6 @@ class AlongDirectionGroup(_TimedGroup):
         quadratic = dot_rows(u, (d - Asi) * (wi * wi) + Asj * (wj * wj))
         gamma = quadratic - 2.0 * wi[:, 0] * dot_rows(w, d_dot)
         return gamma + self.derivatives(t, 2)
-        ### END SOLUTION
 
 
 class DistanceGroup(_TimedGroup):
@@ -343,29 +313,22 @@ class DistanceGroup(_TimedGroup):
 
     def terms_from(self, X, As, Bs):
         """A_i s_i', B_i s_i', A_j s_j', B_j s_j' and d_ij of every element."""
-        ### BEGIN SOLUTION hw1
         K = self.size
         Asi, Bsi, Asj, Bsj = As[:K], Bs[:K], As[K:], Bs[K:]
         return Asi, Bsi, Asj, Bsj, positions(X, self.j) + Asj - positions(X, self.i) - Asi
-        ### END SOLUTION
 
     def psi_t(self, X, terms, t):
         return -self.values(t) * self.derivatives(t, 1)
 
     def constraints(self, X, terms, t):
-        ### BEGIN SOLUTION hw1
         d = terms[4]
         return 0.5 * (dot_rows(d, d) - self.values(t) ** 2)
-        ### END SOLUTION
 
     def jacobian(self, X, terms, t):
-        ### BEGIN SOLUTION hw1
         _, Bsi, _, Bsj, d = terms
         return self._blocks(-dot_rows(d, Bsi), dot_rows(d, Bsj), -d, d)
-        ### END SOLUTION
 
     def gamma(self, X, V, terms, t):
-        ### BEGIN SOLUTION hw1
         Asi, Bsi, Asj, Bsj, d = terms
         Vi, Vj = rows(V, self.i), rows(V, self.j)
         wi, wj = Vi[:, 2:], Vj[:, 2:]
@@ -373,7 +336,6 @@ class DistanceGroup(_TimedGroup):
         quadratic = Asi * (wi * wi) - Asj * (wj * wj)
         L, Ld, Ldd = self.values(t), self.derivatives(t, 1), self.derivatives(t, 2)
         return -dot_rows(d_dot, d_dot) - dot_rows(d, quadratic) + Ld * Ld + L * Ldd
-        ### END SOLUTION
 
 
 GROUPS = (RevoluteGroup, RelativeAngleGroup, BodyCoordinateGroup, AlongDirectionGroup, DistanceGroup)

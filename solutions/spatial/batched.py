@@ -15,8 +15,8 @@ The groups are built by ``make_groups`` and evaluated from the (nb + 1, 7) array
 (last row ground) and V of velocities, with ``terms(X)`` (B and A a' of every body vector) computed
 once per configuration, like the planar ones (``planar/batched.py``); ``assembly.System``
 checks them once against the element methods and uses the element loop for any group that disagrees
-or is not implemented (homework 3 stubs them: your element methods are used then). Drivers are
-always evaluated element by element.
+(and in a student package, which has no batched forms, for every element). Drivers are always evaluated
+element by element.
 """
 
 from __future__ import annotations
@@ -32,32 +32,24 @@ class BodyVectors:
 
     def __init__(self, bodies: np.ndarray, vectors: np.ndarray):
         self.bodies = np.asarray(bodies, dtype=int)
-        ### BEGIN SOLUTION hw3
         unit = np.eye(4)
         basis = np.array([[b_matrix(unit[k], a) for k in range(4)] for a in vectors])  # (K, 4, 3, 4)
         self._basis = basis.reshape(len(vectors), 4, 12)
-        ### END SOLUTION
 
     def b(self, P: np.ndarray) -> np.ndarray:
         """B(p_k, a_k') for every row p_k of P (K, 4): (K, 3, 4) (eq. 9.3)."""
-        ### BEGIN SOLUTION hw3
         return (P[:, None, :] @ self._basis).reshape(-1, 3, 4)
-        ### END SOLUTION
 
     def positions(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(B(p, a'), A(p) a' = B(p, a') p / 2) of every vector (eq. 9.3)."""
-        ### BEGIN SOLUTION hw3
         P = X[self.bodies, 3:]
         B = self.b(P)
         return B, 0.5 * (B @ P[:, :, None])[:, :, 0]
-        ### END SOLUTION
 
     def velocities(self, B: np.ndarray, V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(a' rate B(p, a') p', velocity part of a'' B(p', a') p') of every vector."""
-        ### BEGIN SOLUTION hw3
         Pd = V[self.bodies, 3:]
         return (B @ Pd[:, :, None])[:, :, 0], (self.b(Pd) @ Pd[:, :, None])[:, :, 0]
-        ### END SOLUTION
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -132,7 +124,6 @@ class JointGroup:
         """Psi of every part: -d_ij (spherical, eq. 9.12), a_i^T a_j (dot-1, eq. 9.10), a_i^T d_ij (dot-2, eq. 9.11)."""
         out = np.empty(self.n_rows)
         _, A = terms
-        ### BEGIN SOLUTION hw3
         for kind, (rows, i, j, where) in self.kinds.items():
             if kind == "spherical":
                 out[rows] = X[i, :3] + A[where["si"]] - X[j, :3] - A[where["sj"]]
@@ -140,7 +131,6 @@ class JointGroup:
                 out[rows] = _dot(A[where["ai"]], A[where["aj"]])
             else:
                 out[rows] = _dot(A[where["ai"]], X[j, :3] + A[where["sj"]] - X[i, :3] - A[where["si"]])
-        ### END SOLUTION
         return out
 
     def jacobian(self, X, terms, t):
@@ -148,7 +138,6 @@ class JointGroup:
         [0, a_i^T B_j] (dot-1); [-a_i^T, d^T B(p_i, a_i') - a_i^T B(p_i, s_i')], [a_i^T, a_i^T B(p_j, s_j')] (dot-2)."""
         jac_i, jac_j = np.zeros((self.n_rows, 7)), np.zeros((self.n_rows, 7))
         B, A = terms
-        ### BEGIN SOLUTION hw3
         for kind, (rows, i, j, where) in self.kinds.items():
             if kind == "spherical":
                 jac_i[rows, :3], jac_j[rows, :3] = np.eye(3), -np.eye(3)
@@ -162,7 +151,6 @@ class JointGroup:
                 jac_i[rows, :3], jac_j[rows, :3] = -ai, ai
                 jac_i[rows, 3:] = _vector_row(d, B[where["ai"]]) - _vector_row(ai, B[where["si"]])
                 jac_j[rows, 3:] = _vector_row(ai, B[where["sj"]])
-        ### END SOLUTION
         return jac_i, jac_j
 
     def gamma(self, X, V, terms, t):
@@ -171,7 +159,6 @@ class JointGroup:
         -d^T B(p_i', a_i') p_i' - 2 a_i'^T d' - a_i^T (d'')_v (dot-2) (eq. 9.10-9.12)."""
         out = np.empty(self.n_rows)
         B, A = terms
-        ### BEGIN SOLUTION hw3
         rate, quadratic = self.vectors.velocities(B, V)
         for kind, (rows, i, j, where) in self.kinds.items():
             if kind == "spherical":
@@ -187,7 +174,6 @@ class JointGroup:
                 d_dot = V[j, :3] + rate[where["sj"]] - V[i, :3] - rate[where["si"]]
                 d_quadratic = quadratic[where["sj"]] - quadratic[where["si"]]
                 out[rows] = -(_dot(d, quadratic[where["ai"]]) + 2.0 * _dot(ai_dot, d_dot) + _dot(ai, d_quadratic))
-        ### END SOLUTION
         return out
 
 
@@ -206,23 +192,17 @@ class NormalizationGroup:
         return np.zeros(self.j.size)
 
     def constraints(self, X, terms, t):
-        ### BEGIN SOLUTION hw3
         P = X[self.j, 3:]
         return np.einsum("ki,ki->k", P, P) - 1.0
-        ### END SOLUTION
 
     def jacobian(self, X, terms, t):
-        ### BEGIN SOLUTION hw3
         jac_j = np.zeros((self.j.size, 7))
         jac_j[:, 3:] = 2.0 * X[self.j, 3:]
         return np.zeros((self.j.size, 7)), jac_j
-        ### END SOLUTION
 
     def gamma(self, X, V, terms, t):
-        ### BEGIN SOLUTION hw3
         Pd = V[self.j, 3:]
         return -2.0 * np.einsum("ki,ki->k", Pd, Pd)
-        ### END SOLUTION
 
 
 def make_groups(elements: list) -> tuple[list[tuple[object, list[int]]], list[int]]:

@@ -4,9 +4,8 @@ put back to ``raise NotImplementedError``, a submission scores less than the ref
 For each homework, one mutant per solution region of that homework (``### BEGIN SOLUTION hwN``): the
 reference package with that region's body, and nothing else, replaced by a raise. All mutants of a
 homework are graded together with the reference in one ``grade`` call, with every check of the
-homework. The array versions in ``planar/batched.py`` and ``spatial/batched.py`` are not asked for
-(the notebook tells students to leave them; the system falls back to the element methods when they
-raise), so they are left out.
+homework. (The per-type array versions, ``planar/batched.py`` and ``spatial/batched.py``, have no regions:
+they stay with the instructor, and a student's System evaluates the element methods.)
 """
 
 from __future__ import annotations
@@ -19,12 +18,10 @@ import pytest
 from autograder.grading import grade
 from course.release.generator import HOMEWORKS, Region, all_regions
 
-NOT_ASKED = ("planar/batched.py", "spatial/batched.py")
-
 
 def asked_regions(homework: str) -> list[Region]:
-    """The solution regions students write in ``homework`` (batched array versions excluded)."""
-    return [r for r in all_regions() if r.tag == homework and r.path not in NOT_ASKED]
+    """The solution regions students write in ``homework``."""
+    return [r for r in all_regions() if r.tag == homework]
 
 
 def stub_region(package: Path, region: Region) -> None:

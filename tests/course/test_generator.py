@@ -20,16 +20,19 @@ from course.release.generator import (
     BEGIN,
     END,
     HOMEWORKS,
+    INSTRUCTOR_ONLY,
     REPO,
     RegionError,
     build_package,
     build_source,
+    package_files,
     scan_regions,
     source_files,
 )
 
 SOLUTIONS = REPO / "solutions"
 SLIDER_CRANK = REPO / "course" / "models" / "slider_crank.yaml"
+SPATIAL_SLIDER_CRANK = REPO / "course" / "models" / "spatial_slider_crank.yaml"
 
 
 def expected_text(text: str, regions, first_stubbed: int) -> str:
@@ -128,6 +131,38 @@ def test_the_student_package_does_not_name_solutions(builds):
                 assert not any(a.name.startswith("solutions") for a in node.names), f"{rel}:{node.lineno}"
             elif isinstance(node, ast.Constant) and isinstance(node.value, str):
                 assert node.value != "solutions" and not node.value.startswith("solutions."), f"{rel}:{node.lineno}"
+
+
+def test_no_student_package_holds_the_instructor_only_parts(builds):
+    """The compiled engine and the per-type (batched) forms are in solutions/ and in no build: not in any
+    homework's package, nor in modules/; everything else of solutions/ is in every build."""
+    root, _ = builds
+    reference = {p.as_posix() for p in package_files(SOLUTIONS)}
+    instructor = {f for f in reference for part in INSTRUCTOR_ONLY if f == part or f.startswith(f"{part}/")}
+    assert {"planar/batched.py", "spatial/batched.py", "compiled/kernels.py"} <= instructor
+    for folder in [root / f"student_{name}" for name in (*HOMEWORKS, "none")] + [REPO / "modules"]:
+        assert {p.as_posix() for p in package_files(folder)} == reference - instructor, folder
+
+
+@pytest.mark.parametrize(("homework", "scene"), [("hw2", SLIDER_CRANK), ("none", SPATIAL_SLIDER_CRANK)])
+def test_a_student_system_evaluates_every_element_by_the_loop(builds, tools, homework, scene):
+    """Without the batched forms a student's System (the per-type pass asked for, the default) evaluates the
+    elements one by one, with no error, and gives the reference's arrays, which come from batched groups."""
+    from solutions.assembly import build_system
+    from solutions.io.model import load_model
+
+    root, _ = builds
+    package = tools.load_package(root / f"student_{homework}", f"student_{homework}")
+    assert part(package, "assembly").batched_forms(2) is None and part(package, "assembly").batched_forms(3) is None
+    system, q, qd = part(package, "assembly").build_system(part(package, "io.model").load_model(scene))
+    assert system.vectorized and system.groups == []
+    assert system._loop == list(range(len(system.elements)))
+    reference, _, _ = build_system(load_model(scene))
+    assert reference.groups, "the reference evaluates this scene by batched groups"
+    t = 0.37
+    for name, args in [("constraints", (q, t)), ("jacobian", (q, t)), ("psi_t", (q, t)), ("gamma", (q, qd, t))]:
+        expected = getattr(reference, name)(*args)
+        np.testing.assert_allclose(getattr(system, name)(*args), expected, rtol=1e-12, atol=1e-12, err_msg=name)
 
 
 # -- per homework ----------------------------------------------------------------------------------------

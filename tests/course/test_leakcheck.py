@@ -153,6 +153,19 @@ def test_the_compiled_engine_never_reaches_a_student(tmp_path, course):
     assert ("modules/fast.py", "copied file") in leaks and ("compiled/kernels.py", "copied file") in leaks
 
 
+def test_the_batched_forms_never_reach_a_student(tmp_path, course):
+    """The per-type (batched) forms write out the joints' formulas outside any region: no student package holds
+    them, and a release that does (under their own name, even stubbed, or their text under another name) leaks."""
+    folder = clean_release(tmp_path, "hw3")
+    assert not (folder / "modules" / "planar" / "batched.py").exists()
+    assert not (folder / "modules" / "spatial" / "batched.py").exists()
+    stub = "def make_groups(elements):\n    raise NotImplementedError\n"
+    (folder / "modules" / "planar" / "batched.py").write_text(stub)
+    shutil.copy(REPO / "solutions" / "spatial" / "batched.py", folder / "modules" / "arrays.py")
+    leaks = {(leak.path, leak.kind) for leak in find_leaks(folder, "hw3", course)}
+    assert leaks == {("modules/planar/batched.py", "instructor-only file"), ("modules/arrays.py", "copied file")}
+
+
 def test_a_student_package_runs_on_numpy_when_asked_for_the_compiled_engine(tmp_path):
     """Without the compiled engine a student's forward_dynamics(engine="compiled"|"auto") runs on numpy and
     says why (their `mbd run` defaults to auto)."""

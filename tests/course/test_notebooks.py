@@ -25,14 +25,11 @@ from nbclient import NotebookClient
 
 from course.notes import chapters
 from course.release import HOMEWORKS, build_package, release
-from course.release.generator import REPO
+from course.release.generator import INSTRUCTOR_ONLY, REPO
 from mbdkit.homework import load_homework
 
 LECTURES = sorted((REPO / "course" / "lectures").glob("*.ipynb"))
 NOTES = chapters()
-NOT_ASKED = ("planar/batched.py", "spatial/batched.py")
-"""Array versions of the element formulas, stubbed in a release but not asked for: the system falls back to
-the element methods the student writes (the notebook says so)."""
 SKELETON_ERRORS = {"NotImplementedError", "NameError", "AssertionError"}
 """What a released notebook may raise on the skeleton: a stub, a result never computed, a failed check."""
 
@@ -171,10 +168,11 @@ def test_the_statement_lists_every_function_to_write(homework, tmp_path):
     index = HOMEWORKS.index(homework) + 1
     nb = nbformat.read(REPO / "assignments" / homework / f"{homework}.ipynb", as_version=4)
     text = "\n".join(c.source for c in nb.cells if c.cell_type == "markdown")
-    asked = [r for r in report.stubbed if r.homework == index and r.path not in NOT_ASKED]
+    asked = [r for r in report.stubbed if r.homework == index]
     assert asked
     assert sorted({f"{r.path}: {r.function}" for r in asked if f"`{r.function}`" not in text}) == []
     assert all(f"`modules/{path}`" in text for path in {r.path for r in report.stubbed if r.homework == index})
+    assert not [path for path in INSTRUCTOR_ONLY if f"modules/{path}" in text]  # not in the student's package
 
 
 @pytest.mark.parametrize("homework", HOMEWORKS)

@@ -89,12 +89,9 @@ def test_release_folder_holds_the_notebook_without_solutions_and_the_student_pac
 def test_each_release_stubs_its_own_homework_and_fills_in_the_earlier_ones(released):
     _, reports = released
     tagged = {r.qualified_name: r.homework for r in all_regions()}
-    optional = {r.qualified_name for r in all_regions() if r.optional}
     for index, homework in enumerate(HOMEWORKS, start=1):
         report = reports[homework]
-        asked = {name for name, h in tagged.items() if h == index}
-        assert set(report.to_write) == asked - optional  # the batched forms students may leave are listed apart
-        assert set(report.optional) == asked & optional
+        assert set(report.to_write) == {name for name, h in tagged.items() if h == index}
         assert set(report.given) == {name for name, h in tagged.items() if h < index}
         assert set(report.later) == {name for name, h in tagged.items() if h > index}
 
