@@ -25,6 +25,11 @@ import pytest
 _ISOLATION: dict[str, str | None] = {}
 
 
+COMPILED_CACHE = Path(__file__).resolve().parents[1] / "build" / "test-cache" / "compiled"
+"""The compiled engine's cache of the test run (``$MBD_COMPILED_CACHE``, unless set already): one folder that every
+pytest-xdist worker and every subprocess of the run inherits, so that each scene structure is compiled once per
+run and clone (never the user's own cache, which a clean clone's run does not find warm either)."""
+
 TEST_SECRET = "mbd-course-test-session-secret"
 """The course secret of the test session (``$MBD_GRADER_SECRET``): grading refuses to start without one."""
 
@@ -34,11 +39,13 @@ def pytest_configure(config):
     its namespaces), the isolation tests skip with the reason and the other grading tests run on the local
     backend (``MBD_UNSAFE_NO_ISOLATION=1``, inherited by grading workers and nbgrader's kernels).
 
-    Every test and its subprocesses grade with the session's own course secret (never the user's), from which
+    The compiled engine's cache is the run's (COMPILED_CACHE). Every test and its subprocesses grade with the
+    session's own course secret (never the user's), from which
     the hidden and per-student scenes are derived; their references are cached in the user's cache folder."""
     from mbdkit import isolation
 
     os.environ["MBD_GRADER_SECRET"] = TEST_SECRET
+    os.environ.setdefault("MBD_COMPILED_CACHE", str(COMPILED_CACHE))  # before pytest-xdist starts its workers
 
     _ISOLATION["problem"] = problem = isolation.problem()
     if problem is not None:
@@ -91,8 +98,26 @@ SLOW_TESTS = {
 """Single slow tests of otherwise fast files."""
 
 
+SPLIT = {"course/test_nbgrader_cycle.py": "cycle"}
+"""Files split into several work units of pytest-xdist, by the parameter of a module-scoped fixture: each value
+(there, a homework) is a unit of its own, run on any worker, its fixture built once there."""
+
+
+def work_unit(item, relative: str) -> str:
+    """The item's pytest-xdist work unit (``--dist loadgroup``): its file, or its file and the value of the
+    parameter that splits it (SPLIT)."""
+    split = SPLIT.get(relative)
+    callspec = getattr(item, "callspec", None)
+    if split is None or callspec is None or split not in callspec.params:
+        return relative
+    return f"{relative}:{callspec.params[split]}"
+
+
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist's own hook reads the xdist_group marks
 def pytest_collection_modifyitems(config, items):
-    """Mark the slow tier (``slow`` and the family's marker) and put its files first, longest first."""
+    """Mark the slow tier (``slow`` and the family's marker) and put its files first, longest first; one
+    pytest-xdist work unit per file (SPLIT aside): ``make test`` runs ``--dist loadgroup --no-loadscope-reorder``,
+    so that units are handed out in this order, each unit's module-scoped fixtures built once on its worker."""
     tests = Path(__file__).parent
     order = {name: k for k, name in enumerate(SLOW)}
 
@@ -100,10 +125,12 @@ def pytest_collection_modifyitems(config, items):
         return Path(item.fspath).relative_to(tests).as_posix()
 
     for item in items:
-        family = SLOW.get(where(item)) or SLOW_TESTS.get(f"{where(item)}::{item.name.split('[')[0]}")
+        relative = where(item)
+        family = SLOW.get(relative) or SLOW_TESTS.get(f"{relative}::{item.name.split('[')[0]}")
         if family is not None:
             item.add_marker(pytest.mark.slow)
             item.add_marker(getattr(pytest.mark, family))
+        item.add_marker(pytest.mark.xdist_group(work_unit(item, relative)))
     items.sort(key=lambda item: order.get(where(item), len(order)))  # stable: the rest keep their order
 
 
