@@ -40,7 +40,7 @@ TEST_WORKERS ?= auto
 PYTEST := MPLBACKEND=Agg $(BIN)/python -m pytest -n $(TEST_WORKERS) --dist loadgroup --no-loadscope-reorder
 test: $(STAMP) sandbox-tools
 	$(BIN)/ruff check solutions course autograder mbdkit tests benchmarks
-	$(PYTEST) --durations=20
+	$(PYTEST) --durations=20 --junitxml=build/junit.xml  # per-file times: python benchmarks/durations.py build/junit.xml
 
 test-fast: $(STAMP)
 	$(BIN)/ruff check solutions course autograder mbdkit tests benchmarks

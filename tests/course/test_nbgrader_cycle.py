@@ -39,8 +39,6 @@ from ..autograder import test_hostile_grader as crash
 from ..autograder import test_wall as wall
 from ..autograder import test_withheld as leak
 
-pytestmark = pytest.mark.filterwarnings("ignore:Object of type <Submitted")  # nbgrader's own SQLAlchemy notes
-
 STUDENTS = {
     "hw1": {
         "ada": None,
