@@ -54,42 +54,43 @@ def pytest_configure(config):
 
 SLOW = {
     "course/test_nbgrader_cycle.py": "nbgrader",
-    "course/test_notebooks.py": "notebooks",
-    "autograder/test_grading.py": "isolation",
+    "solutions/test_compiled_formulations.py": "compiled",
     "course/test_kit.py": "kit",
+    "autograder/test_grading.py": "isolation",
     "autograder/test_every_function_graded.py": "isolation",
     "course/test_release.py": "notebooks",
-    "autograder/test_hostile_grader.py": "isolation",
-    "solutions/test_compiled_models.py": "compiled",
-    "autograder/test_withheld.py": "isolation",
-    "autograder/test_wall.py": "isolation",
+    "course/test_notebooks.py": "notebooks",
     "course/test_nbgrader_config.py": "nbgrader",
-    "autograder/test_isolation.py": "isolation",
-    "solutions/test_compiled_formulations.py": "compiled",
-    "autograder/test_kernel.py": "isolation",
-    "autograder/test_cluster.py": "cluster",
-    "course/test_notes.py": "notebooks",
-    "solutions/test_compiled_kinematics.py": "compiled",
-    "solutions/test_compiled_history.py": "compiled",
-    "solutions/test_compiled.py": "compiled",
-    "autograder/test_fairness.py": "isolation",
-    "autograder/test_fair_diagnosis.py": "isolation",
-    "autograder/test_sandbox.py": "isolation",
-    "autograder/test_gradebook.py": "isolation",
-    "autograder/test_api.py": "isolation",
-    "course/test_nbcheck.py": "nbgrader",
-    "solutions/test_singular_redundant.py": "long",
-    "solutions/test_symbolic.py": "long",
     "solutions/test_sweep.py": "cluster",
     "autograder/test_reference.py": "long",
+    "solutions/test_singular_redundant.py": "long",
+    "autograder/test_hostile_grader.py": "isolation",
+    "autograder/test_isolation.py": "isolation",
+    "autograder/test_gradebook.py": "isolation",
+    "autograder/test_fairness.py": "isolation",
+    "autograder/test_wall.py": "isolation",
+    "autograder/test_withheld.py": "isolation",
+    "solutions/test_symbolic.py": "long",
+    "autograder/test_cluster.py": "cluster",
+    "solutions/test_compiled_kinematics.py": "compiled",
+    "solutions/test_compiled_models.py": "compiled",
     "benchmarks/test_bench_smoke.py": "bench",
+    "autograder/test_kernel.py": "isolation",
+    "course/test_notes.py": "notebooks",
+    "solutions/test_compiled_history.py": "compiled",
+    "solutions/test_compiled.py": "compiled",
+    "autograder/test_fair_diagnosis.py": "isolation",
+    "autograder/test_sandbox.py": "isolation",
+    "autograder/test_api.py": "isolation",
+    "course/test_nbcheck.py": "nbgrader",
 }
 """The slow tier, by test file (relative to tests/) and family: notebooks run by nbgrader or nbclient, the
 nbgrader cycle, kits installed in fresh venvs, classes graded in sandboxes, Dask clusters, numba compiles, long
 runs (singular positions, symbolic derivations, every stored reference run again).
 ``make test-fast`` (``-m "not slow"``) leaves them out; ``make test`` (CI) runs everything. Listed longest
-first (the durations of a full run): they are collected first, so that pytest-xdist hands the longest files
-out first and no worker is left with a long one at the end."""
+first (the per-file durations of benchmarks/results/tests.md): they are collected first, then the files that hold
+one of SLOW_TESTS, so that pytest-xdist hands the longest units out first and no worker is left with a long one
+at the end."""
 SLOW_TESTS = {
     "solutions/test_cli.py::test_bench_quick_writes_its_table": "bench",
     "solutions/test_examples.py::test_kinematics_benchmark_quick_runs": "bench",
@@ -119,7 +120,7 @@ def pytest_collection_modifyitems(config, items):
     pytest-xdist work unit per file (SPLIT aside): ``make test`` runs ``--dist loadgroup --no-loadscope-reorder``,
     so that units are handed out in this order, each unit's module-scoped fixtures built once on its worker."""
     tests = Path(__file__).parent
-    order = {name: k for k, name in enumerate(SLOW)}
+    order = {name: k for k, name in enumerate([*SLOW, *(test.split("::")[0] for test in SLOW_TESTS)])}
 
     def where(item) -> str:
         return Path(item.fspath).relative_to(tests).as_posix()
