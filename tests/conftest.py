@@ -25,6 +25,11 @@ import pytest
 _ISOLATION: dict[str, str | None] = {}
 
 
+COMPILED_CACHE = Path(__file__).resolve().parents[1] / "build" / "test-cache" / "compiled"
+"""The compiled engine's cache of the test run (``$MBD_COMPILED_CACHE``, unless set already): one folder that every
+pytest-xdist worker and every subprocess of the run inherits, so that each scene structure is compiled once per
+run and clone (never the user's own cache, which a clean clone's run does not find warm either)."""
+
 TEST_SECRET = "mbd-course-test-session-secret"
 """The course secret of the test session (``$MBD_GRADER_SECRET``): grading refuses to start without one."""
 
@@ -34,11 +39,13 @@ def pytest_configure(config):
     its namespaces), the isolation tests skip with the reason and the other grading tests run on the local
     backend (``MBD_UNSAFE_NO_ISOLATION=1``, inherited by grading workers and nbgrader's kernels).
 
-    Every test and its subprocesses grade with the session's own course secret (never the user's), from which
+    The compiled engine's cache is the run's (COMPILED_CACHE). Every test and its subprocesses grade with the
+    session's own course secret (never the user's), from which
     the hidden and per-student scenes are derived; their references are cached in the user's cache folder."""
     from mbdkit import isolation
 
     os.environ["MBD_GRADER_SECRET"] = TEST_SECRET
+    os.environ.setdefault("MBD_COMPILED_CACHE", str(COMPILED_CACHE))  # before pytest-xdist starts its workers
 
     _ISOLATION["problem"] = problem = isolation.problem()
     if problem is not None:
@@ -47,42 +54,43 @@ def pytest_configure(config):
 
 SLOW = {
     "course/test_nbgrader_cycle.py": "nbgrader",
-    "course/test_notebooks.py": "notebooks",
-    "autograder/test_grading.py": "isolation",
+    "solutions/test_compiled_formulations.py": "compiled",
     "course/test_kit.py": "kit",
+    "autograder/test_grading.py": "isolation",
     "autograder/test_every_function_graded.py": "isolation",
     "course/test_release.py": "notebooks",
-    "autograder/test_hostile_grader.py": "isolation",
-    "solutions/test_compiled_models.py": "compiled",
-    "autograder/test_withheld.py": "isolation",
-    "autograder/test_wall.py": "isolation",
+    "course/test_notebooks.py": "notebooks",
     "course/test_nbgrader_config.py": "nbgrader",
-    "autograder/test_isolation.py": "isolation",
-    "solutions/test_compiled_formulations.py": "compiled",
-    "autograder/test_kernel.py": "isolation",
-    "autograder/test_cluster.py": "cluster",
-    "course/test_notes.py": "notebooks",
-    "solutions/test_compiled_kinematics.py": "compiled",
-    "solutions/test_compiled_history.py": "compiled",
-    "solutions/test_compiled.py": "compiled",
-    "autograder/test_fairness.py": "isolation",
-    "autograder/test_fair_diagnosis.py": "isolation",
-    "autograder/test_sandbox.py": "isolation",
-    "autograder/test_gradebook.py": "isolation",
-    "autograder/test_api.py": "isolation",
-    "course/test_nbcheck.py": "nbgrader",
-    "solutions/test_singular_redundant.py": "long",
-    "solutions/test_symbolic.py": "long",
     "solutions/test_sweep.py": "cluster",
     "autograder/test_reference.py": "long",
+    "solutions/test_singular_redundant.py": "long",
+    "autograder/test_hostile_grader.py": "isolation",
+    "autograder/test_isolation.py": "isolation",
+    "autograder/test_gradebook.py": "isolation",
+    "autograder/test_fairness.py": "isolation",
+    "autograder/test_wall.py": "isolation",
+    "autograder/test_withheld.py": "isolation",
+    "solutions/test_symbolic.py": "long",
+    "autograder/test_cluster.py": "cluster",
+    "solutions/test_compiled_kinematics.py": "compiled",
+    "solutions/test_compiled_models.py": "compiled",
     "benchmarks/test_bench_smoke.py": "bench",
+    "autograder/test_kernel.py": "isolation",
+    "course/test_notes.py": "notebooks",
+    "solutions/test_compiled_history.py": "compiled",
+    "solutions/test_compiled.py": "compiled",
+    "autograder/test_fair_diagnosis.py": "isolation",
+    "autograder/test_sandbox.py": "isolation",
+    "autograder/test_api.py": "isolation",
+    "course/test_nbcheck.py": "nbgrader",
 }
 """The slow tier, by test file (relative to tests/) and family: notebooks run by nbgrader or nbclient, the
 nbgrader cycle, kits installed in fresh venvs, classes graded in sandboxes, Dask clusters, numba compiles, long
 runs (singular positions, symbolic derivations, every stored reference run again).
 ``make test-fast`` (``-m "not slow"``) leaves them out; ``make test`` (CI) runs everything. Listed longest
-first (the durations of a full run): they are collected first, so that pytest-xdist hands the longest files
-out first and no worker is left with a long one at the end."""
+first (the per-file durations of benchmarks/results/tests.md): they are collected first, then the files that hold
+one of SLOW_TESTS, so that pytest-xdist hands the longest units out first and no worker is left with a long one
+at the end."""
 SLOW_TESTS = {
     "solutions/test_cli.py::test_bench_quick_writes_its_table": "bench",
     "solutions/test_examples.py::test_kinematics_benchmark_quick_runs": "bench",
@@ -93,19 +101,39 @@ SLOW_TESTS = {
 """Single slow tests of otherwise fast files."""
 
 
+SPLIT = {"course/test_nbgrader_cycle.py": "cycle"}
+"""Files split into several work units of pytest-xdist, by the parameter of a module-scoped fixture: each value
+(there, a homework) is a unit of its own, run on any worker, its fixture built once there."""
+
+
+def work_unit(item, relative: str) -> str:
+    """The item's pytest-xdist work unit (``--dist loadgroup``): its file, or its file and the value of the
+    parameter that splits it (SPLIT)."""
+    split = SPLIT.get(relative)
+    callspec = getattr(item, "callspec", None)
+    if split is None or callspec is None or split not in callspec.params:
+        return relative
+    return f"{relative}:{callspec.params[split]}"
+
+
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist's own hook reads the xdist_group marks
 def pytest_collection_modifyitems(config, items):
-    """Mark the slow tier (``slow`` and the family's marker) and put its files first, longest first."""
+    """Mark the slow tier (``slow`` and the family's marker) and put its files first, longest first; one
+    pytest-xdist work unit per file (SPLIT aside): ``make test`` runs ``--dist loadgroup --no-loadscope-reorder``,
+    so that units are handed out in this order, each unit's module-scoped fixtures built once on its worker."""
     tests = Path(__file__).parent
-    order = {name: k for k, name in enumerate(SLOW)}
+    order = {name: k for k, name in enumerate([*SLOW, *(test.split("::")[0] for test in SLOW_TESTS)])}
 
     def where(item) -> str:
         return Path(item.fspath).relative_to(tests).as_posix()
 
     for item in items:
-        family = SLOW.get(where(item)) or SLOW_TESTS.get(f"{where(item)}::{item.name.split('[')[0]}")
+        relative = where(item)
+        family = SLOW.get(relative) or SLOW_TESTS.get(f"{relative}::{item.name.split('[')[0]}")
         if family is not None:
             item.add_marker(pytest.mark.slow)
             item.add_marker(getattr(pytest.mark, family))
+        item.add_marker(pytest.mark.xdist_group(work_unit(item, relative)))
     items.sort(key=lambda item: order.get(where(item), len(order)))  # stable: the rest keep their order
 
 

@@ -21,8 +21,6 @@ from traitlets.config.loader import PyFileConfigLoader
 from course.demo import scratch_course
 from course.release.generator import REPO, source_files
 
-pytestmark = pytest.mark.filterwarnings("ignore:Object of type <Submitted")  # nbgrader's own SQLAlchemy notes
-
 ROOT_CONFIG = REPO / "nbgrader_config.py"
 COURSE_CONFIG = REPO / "course" / "nbgrader_config.py"
 

@@ -22,7 +22,7 @@ import shutil
 import subprocess
 import sys
 import time
-from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 
 import nbformat
@@ -38,8 +38,6 @@ from mbdkit.scenes import HIDDEN
 from ..autograder import test_hostile_grader as crash
 from ..autograder import test_wall as wall
 from ..autograder import test_withheld as leak
-
-pytestmark = pytest.mark.filterwarnings("ignore:Object of type <Submitted")  # nbgrader's own SQLAlchemy notes
 
 STUDENTS = {
     "hw1": {
@@ -284,43 +282,56 @@ def mbd_grade(course: Path, homework: str, *options: str) -> tuple[subprocess.Co
     return done, time.monotonic() - start
 
 
+@dataclass(frozen=True)
+class Cycle:
+    """One homework's cycle: its scratch course, nbgrader's exported rows by student, ``grade``'s gradebook,
+    ``mbd grade --jobs 2``'s (process, seconds) and the honest classmates' scores graded alone."""
+
+    homework: str
+    course: Path
+    exported: dict[str, dict]
+    book: object
+    run: tuple[subprocess.CompletedProcess, float]
+    alone: dict[str, float]
+
+
+EACH = pytest.mark.parametrize("cycle", HOMEWORKS, indirect=True)
+HW1 = pytest.mark.parametrize("cycle", ["hw1"], indirect=True)
+
+
 @pytest.fixture(scope="module")
-def cycle(tmp_path_factory):
-    """Every homework through nbgrader, each in a scratch copy of the course of its own (so that two run at
-    once): generate (``mbd release``), submissions, autograde, feedback, export; then ``mbd grade --jobs 2`` of
-    the same submitted/ folder (its gradebook read back by a resuming ``grade``, which grades nothing again),
-    and the honest classmates graded alone."""
-    root = tmp_path_factory.mktemp("nbgrader")
-    courses = {}
-    for homework in HOMEWORKS:
-        course = courses[homework] = scratch_course(root / homework)
-        shutil.copy2(REPO / "nbgrader_config.py", course / "nbgrader_config.py")  # nbgrader run from the root
-        release(homework, course)  # nbgrader's generate step, the student package, the leak check
-        for student, kind in STUDENTS[homework].items():
-            submit(course, homework, student, kind)
-        if "zipped_copy" in STUDENTS[homework].values():
-            nbgrader(course, "zip_collect", homework, where=WHERE.get(homework, "course"))
-    with ThreadPoolExecutor(max_workers=2) as pool:  # separate processes, folders and gradebooks
-        futures = {hw: pool.submit(autograde_and_export, course, hw) for hw, course in courses.items()}
-        exported = {hw: future.result() for hw, future in futures.items()}
-    runs, books, alone = {}, {}, {}
+def cycle(request, tmp_path_factory) -> Cycle:
+    """One homework through nbgrader, in a scratch copy of the course of its own: generate (``mbd release``),
+    submissions, autograde, feedback, export; then ``mbd grade --jobs 2`` of the same submitted/ folder (its
+    gradebook read back by a resuming ``grade``, which grades nothing again), and the honest classmates graded
+    alone. Built once per homework; each homework is a work unit of its own (tests/conftest.py SPLIT), so that
+    pytest-xdist runs the three on different workers."""
+    homework = request.param
+    root = tmp_path_factory.mktemp(f"nbgrader-{homework}")
+    course = scratch_course(root / homework)
+    shutil.copy2(REPO / "nbgrader_config.py", course / "nbgrader_config.py")  # nbgrader run from the root
+    release(homework, course)  # nbgrader's generate step, the student package, the leak check
+    for student, kind in STUDENTS[homework].items():
+        submit(course, homework, student, kind)
+    if "zipped_copy" in STUDENTS[homework].values():
+        nbgrader(course, "zip_collect", homework, where=WHERE.get(homework, "course"))
+    exported = autograde_and_export(course, homework)
+    alone = {}
     with pytest.MonkeyPatch.context() as patch:
         patch.setenv("MBD_GRADER_SECRET", SECRET)
-        for hw, course in courses.items():
-            runs[hw] = mbd_grade(course, hw)
-            submitted, out = course / "build" / "submitted", course / "build" / "grades"
-            books[hw] = grade(hw, submitted, out, jobs=1, progress=False)
-            for student in HONEST[hw]:
-                shutil.copytree(submitted / student, root / "alone" / hw / student / student, symlinks=True)
-                book = grade(hw, root / "alone" / hw / student, root / "alone" / hw / f"{student}-out", progress=False)
-                alone[hw, student] = book.score(student)
-    return courses, exported, books, runs, alone
+        run = mbd_grade(course, homework)
+        submitted, out = course / "build" / "submitted", course / "build" / "grades"
+        book = grade(homework, submitted, out, jobs=1, progress=False)
+        for student in HONEST[homework]:
+            shutil.copytree(submitted / student, root / "alone" / student / student, symlinks=True)
+            alone_out = root / "alone" / f"{student}-out"
+            alone[student] = grade(homework, root / "alone" / student, alone_out, progress=False).score(student)
+    return Cycle(homework, course, exported, book, run, alone)
 
 
-@pytest.mark.parametrize("homework", HOMEWORKS)
-def test_exported_grades_equal_the_autograders(cycle, homework):
-    courses, exported, books, *_ = cycle
-    course, book = courses[homework], books[homework]
+@EACH
+def test_exported_grades_equal_the_autograders(cycle):
+    homework, course, book = cycle.homework, cycle.course, cycle.book
     source = nbformat.read(course / "assignments" / homework / f"{homework}.ipynb", as_version=4)
     written = sum(
         c.metadata["nbgrader"]["points"]
@@ -328,24 +339,24 @@ def test_exported_grades_equal_the_autograders(cycle, homework):
         if c.metadata.get("nbgrader", {}).get("grade") and c.metadata["nbgrader"].get("solution")
     )
     for student in STUDENTS[homework]:
-        row = exported[homework][student]
+        row = cycle.exported[student]
         assert float(row["raw_score"]) == pytest.approx(book.score(student), abs=1e-6), (student, row)
         assert float(row["max_score"]) == pytest.approx(book.max_score + written)  # written answers: by hand
 
 
+@HW1
 def test_the_demo_students_get_what_they_deserve(cycle):
-    _, exported, books, *_ = cycle
-    book = books["hw1"]
+    book, exported = cycle.book, cycle.exported
     assert book.score("ada") == book.max_score and book.score("sam") == 0.0
     assert book.score("eve") == 0.0  # a checker handed in with the submission is not what grades it
-    assert float(exported["hw1"]["eve"]["raw_score"]) == 0.0
+    assert float(exported["eve"]["raw_score"]) == 0.0
     assert 0.0 < book.score("ben") < book.max_score
-    assert float(exported["hw1"]["ben"]["raw_score"]) == pytest.approx(book.score("ben"))
+    assert float(exported["ben"]["raw_score"]) == pytest.approx(book.score("ben"))
 
 
-@pytest.mark.parametrize("homework", HOMEWORKS)
-def test_feedback_pages_show_the_graders_messages(cycle, homework):
-    course = cycle[0][homework]
+@EACH
+def test_feedback_pages_show_the_graders_messages(cycle):
+    homework, course = cycle.homework, cycle.course
     pages = {}
     for student in STUDENTS[homework]:
         page = course / "build" / "feedback" / student / homework / f"{homework}.html"
@@ -358,17 +369,18 @@ def test_feedback_pages_show_the_graders_messages(cycle, homework):
         assert "not implemented yet" in pages["sam"]
 
 
+@HW1
 def test_attacks_on_the_points_score_what_the_skeleton_scores(cycle):
-    courses, exported, books, *_ = cycle
-    book, rows = books["hw1"], exported["hw1"]
+    book, rows = cycle.book, cycle.exported
     for student in ("eve", "mal", "rex"):
         assert book.score(student) == book.score("sam"), student  # mbd grade's route
         assert float(rows[student]["raw_score"]) == float(rows["sam"]["raw_score"]), student  # nbgrader's
     assert book.score("ada") == book.max_score  # the classmate rex wrote into kept every point
 
 
+@HW1
 def test_a_hostile_cell_sees_nothing_of_the_course(cycle):
-    course = cycle[0]["hw1"]
+    course = cycle.course
     nb = nbformat.read(course / "build" / "autograded" / "rex" / "hw1" / "hw1.ipynb", as_version=4)
     probe = next(c for c in nb.cells if "attempt(" in c.source)
     seen = json.loads("".join(o.get("text", "") for o in probe.outputs if o.output_type == "stream"))
@@ -378,11 +390,11 @@ def test_a_hostile_cell_sees_nothing_of_the_course(cycle):
     assert SECRET not in (course / "build" / "feedback" / "rex" / "hw1" / "hw1.html").read_text()
 
 
+@HW1
 def test_the_check_before_autograde_names_and_repairs_the_damaged_notebooks(cycle):
     """dan's and fay's notebooks were damaged as students damage them; the check that autograde runs first
     named each damage, repaired it, and nbgrader's totals equal mbd grade's (test_exported_grades_...)."""
-    courses, exported, books, *_ = cycle
-    course, book = courses["hw1"], books["hw1"]
+    course, book = cycle.course, cycle.book
     log = (course / "build" / "autograde.log").read_text()
     assert "dan: cell test_hw1_revolute is in the notebook twice" in log and "fails the whole submission" in log
     assert re.search(r"dan: graded test cell test_hw1_prismatic deleted \(6 points\).*repaired: restored", log)
@@ -390,7 +402,7 @@ def test_the_check_before_autograde_names_and_repairs_the_damaged_notebooks(cycl
     assert "fay: the notebook is 'hw1-copy.ipynb', not 'hw1.ipynb' (zip_collect dropped it" in log
     assert "repaired: hw1-copy.ipynb collected as hw1.ipynb" in log
     assert book.score("dan") >= 6.0 and book.score("fay") == 0.0  # the joints' points, the prismatic's among them
-    assert float(exported["hw1"]["dan"]["raw_score"]) == pytest.approx(book.score("dan"))
+    assert float(cycle.exported["dan"]["raw_score"]) == pytest.approx(book.score("dan"))
     assert (course / "build" / "autograded" / "fay" / "hw1" / "hw1.ipynb").is_file()
 
 
@@ -401,35 +413,33 @@ def hostile(homework: str) -> list[str]:
     return [s for s, kind in STUDENTS[homework].items() if kind and kind.startswith(ATTACKS)]
 
 
-@pytest.mark.parametrize("homework", HOMEWORKS)
-def test_mbd_grade_ends_the_hostile_class_within_its_budget(cycle, homework):
+@EACH
+def test_mbd_grade_ends_the_hostile_class_within_its_budget(cycle):
     """``mbd grade --jobs 2``: exit 0, no traceback, every student graded (the resuming run grades nothing
     again), within the budget of the class (each submission's budget, two at a time)."""
-    courses, _, books, runs, _ = cycle
-    done, seconds = runs[homework]
+    homework, (done, seconds) = cycle.homework, cycle.run
     assert done.returncode == 0 and "Traceback" not in done.stdout + done.stderr, done.stderr[-3000:]
-    book = books[homework]
+    book = cycle.book
     assert set(book.graded) == set(STUDENTS[homework]) and not book.internal_errors
     assert not [s for s, row in book.rows.items() if not row["resumed"]]
     assert seconds < len(STUDENTS[homework]) * load_homework(homework).budget / 2
 
 
-@pytest.mark.parametrize("homework", HOMEWORKS)
-def test_hostile_students_score_at_most_the_skeleton_on_both_routes(cycle, homework):
-    _, exported, books, *_ = cycle
-    book, rows = books[homework], exported[homework]
-    for student in hostile(homework):
+@EACH
+def test_hostile_students_score_at_most_the_skeleton_on_both_routes(cycle):
+    book, rows = cycle.book, cycle.exported
+    for student in hostile(cycle.homework):
         assert book.score(student) <= book.score("sam"), (student, book.score(student))
         assert float(rows[student]["raw_score"]) <= float(rows["sam"]["raw_score"]), (student, rows[student])
 
 
-@pytest.mark.parametrize("homework", HOMEWORKS)
-def test_honest_classmates_score_exactly_their_score_alone(cycle, homework):
-    _, exported, books, _, alone = cycle
-    for student in HONEST[homework]:
-        assert books[homework].score(student) == alone[homework, student], student
-        assert float(exported[homework][student]["raw_score"]) == pytest.approx(alone[homework, student], abs=1e-6)
-    assert alone[homework, "ada"] == books[homework].max_score > alone[homework, "sam"]
+@EACH
+def test_honest_classmates_score_exactly_their_score_alone(cycle):
+    book, alone = cycle.book, cycle.alone
+    for student in HONEST[cycle.homework]:
+        assert book.score(student) == alone[student], student
+        assert float(cycle.exported[student]["raw_score"]) == pytest.approx(alone[student], abs=1e-6)
+    assert alone["ada"] == book.max_score > alone["sam"]
 
 
 def returned_files(course: Path) -> dict[str, str]:
@@ -465,11 +475,11 @@ def secrets(course: Path, homework: str) -> tuple[set[str], set[str]]:
     return numbers, {n for n in names if not any(n in c.name for c in checks) and n not in released}
 
 
-@pytest.mark.parametrize("homework", HOMEWORKS)
-def test_nothing_hidden_reaches_a_file_returned_to_students(cycle, homework):
+@EACH
+def test_nothing_hidden_reaches_a_file_returned_to_students(cycle):
     """No hidden or own-variant model text, name or number in a feedback page of either route, with the hidden
     checks held back and after ``mbd grade --publish-hidden`` (which grades nothing again)."""
-    course = cycle[0][homework]
+    homework, course = cycle.homework, cycle.course
     numbers, names = secrets(course, homework)
     number = re.compile("(?<![\\d.])(" + "|".join(map(re.escape, sorted(numbers, key=len, reverse=True))) + ")(?!\\d)")
     held = returned_files(course)

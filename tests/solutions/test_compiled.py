@@ -19,8 +19,9 @@ from solutions.io import load_model
 
 pytest.importorskip("numba")
 
-SCENES = {  # planar joints; spatial joints (the slider-crank with loads: test_compiled_models.py, widened)
+SCENES = {  # planar joints only; planar drivers-free slider-crank with loads (energy states); spatial joints
     "double_pendulum": "course/models/double_pendulum.yaml",
+    "slider_crank_flywheel": "course/models/slider_crank_flywheel.yaml",
     "spatial_double_pendulum": "course/models/spatial_double_pendulum.yaml",
 }
 

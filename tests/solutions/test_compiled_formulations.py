@@ -22,10 +22,11 @@ from solutions.io import load_model
 
 pytest.importorskip("numba")
 
-TREES = {  # planar revolute; spatial spherical (two: one structure); spatial prismatic + revolute
+TREES = {  # planar revolute; spatial spherical (two: one structure); spatial revolute; prismatic + revolute + TSDA
     "double_pendulum": "course/models/double_pendulum.yaml",
     "spatial_double_pendulum": "course/models/spatial_double_pendulum.yaml",
     "heavy_top": "course/models/heavy_top.yaml",
+    "revolute_revolute_skew": "course/models/revolute_revolute_skew.yaml",
     "carriage_pendulum": "course/models/carriage_pendulum.yaml",
 }
 PLANAR_CARRIAGE = {  # a planar open tree with a prismatic joint, both joints given child first, a damped spring

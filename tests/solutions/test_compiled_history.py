@@ -16,7 +16,6 @@ from solutions.reactions import joint_reactions
 pytest.importorskip("numba")
 
 from solutions.compiled import codegen, describe, history  # noqa: E402
-from solutions.compiled.scene import widen  # noqa: E402
 from solutions.generalized_forces import build_forces  # noqa: E402
 from solutions.mass_matrix import mass_matrix  # noqa: E402
 
@@ -36,9 +35,9 @@ def _numpy_history(path: str):
     """A short numpy run of the model (its motion is all these tests need) and its compiled module."""
     system, q0, qd0 = build_system(load_model(path))
     run = forward_dynamics(system, q0, qd0, 0.3, 12, formulation="baumgarte", integrator="DOP853", rtol=1e-8)
-    scene = widen(describe(system, mass_matrix(system.model), build_forces(system.model)))
+    scene = describe(system, mass_matrix(system.model), build_forces(system.model))
     assert scene.unsupported is None, scene.unsupported
-    module, _ = codegen.load(scene)  # widened: the models share the modules of test_compiled_models.py
+    module, _ = codegen.load(scene)
     Y = np.hstack([run.q, run.qd])
     return system, run, scene, module, Y
 
@@ -119,7 +118,7 @@ def test_batched_guard_sees_a_rank_loss_between_output_times():
 
     system, q0, qd0 = build_system(load_model(parallelogram_chain(1, end_time=1.0)))
     run = forward_dynamics(system, q0, qd0, 1.0, 40, formulation="augmented-lagrangian", integrator="DOP853")
-    scene = widen(describe(system, mass_matrix(system.model), build_forces(system.model)))
+    scene = describe(system, mass_matrix(system.model), build_forces(system.model))
     module, _ = codegen.load(scene)
     psi, jac, _ = history.constraint_arrays(module, scene, run.t, np.hstack([run.q, run.qd]))
 

@@ -1,0 +1,66 @@
+"""Per-file and per-test durations of a test run, from pytest's JUnit XML, as the Markdown table of
+benchmarks/results/tests.md.
+
+    python -m pytest -n 2 --dist loadgroup --no-loadscope-reorder --durations=0 --junitxml=build/junit.xml
+    python benchmarks/durations.py build/junit.xml --wall SECONDS --note "load ..." >> benchmarks/results/tests.md
+
+A file's time is the sum of its tests' (setup, call and teardown: JUnit's ``time``), which is the time it holds
+one pytest-xdist worker: a file longer than the run's wall time divided by the workers is a unit too long to
+balance (split it: tests/conftest.py SPLIT).
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import xml.etree.ElementTree as ET
+from collections import defaultdict
+
+
+def durations(junit: str) -> dict[str, float]:
+    """Seconds per test (``file::name``), from the JUnit XML file."""
+    times = {}
+    for case in ET.parse(junit).getroot().iter("testcase"):
+        module = case.get("classname", "").split(".")
+        where = "/".join(part for part in module if not part[:1].isupper()) + ".py"
+        times[f"{where}::{case.get('name')}"] = float(case.get("time", 0.0))
+    return times
+
+
+def per_file(times: dict[str, float]) -> dict[str, tuple[float, int]]:
+    """(seconds, tests) per test file."""
+    files: dict[str, list[float]] = defaultdict(list)
+    for test, seconds in times.items():
+        files[test.split("::")[0]].append(seconds)
+    return {name: (sum(values), len(values)) for name, values in files.items()}
+
+
+def table(times: dict[str, float], wall: float | None, note: str, slowest: int = 30) -> str:
+    """The Markdown section: totals, the slowest files, the slowest tests."""
+    files = per_file(times)
+    total = sum(times.values())
+    lines = [f"## {datetime.date.today().isoformat()}: {len(times)} tests, {len(files)} files", ""]
+    if wall is not None:
+        lines.append(f"- wall time {wall:.0f} s ({wall / 60:.1f} min)")
+    lines += [f"- sum of the tests' times {total:.0f} s ({total / 60:.1f} min of worker time)", f"- {note}", ""]
+    lines += ["| file | seconds | tests |", "|---|---:|---:|"]
+    for name, (seconds, count) in sorted(files.items(), key=lambda kv: -kv[1][0])[:slowest]:
+        lines.append(f"| {name} | {seconds:.1f} | {count} |")
+    lines += ["", "| test | seconds |", "|---|---:|"]
+    for name, seconds in sorted(times.items(), key=lambda kv: -kv[1])[:slowest]:
+        lines.append(f"| {name} | {seconds:.1f} |")
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("junit", help="pytest's --junitxml file")
+    parser.add_argument("--wall", type=float, default=None, help="the run's wall time, seconds")
+    parser.add_argument("--note", default="", help="the command, the machine and its load")
+    parser.add_argument("--slowest", type=int, default=30)
+    args = parser.parse_args()
+    print(table(durations(args.junit), args.wall, args.note, args.slowest))
+
+
+if __name__ == "__main__":
+    main()
