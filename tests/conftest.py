@@ -101,13 +101,9 @@ SLOW_TESTS = {
 """Single slow tests of otherwise fast files."""
 
 
-SPLIT: dict[str, str] = {}
+SPLIT = {"course/test_nbgrader_cycle.py": "cycle"}
 """Files split into several work units of pytest-xdist, by the parameter of a module-scoped fixture: each value
-is a unit of its own, run on any worker, its fixture built once there. The nbgrader cycle
-(``{"course/test_nbgrader_cycle.py": "cycle"}``) is not split for now: in the clean-clone run of 199efa4 its
-homeworks ran on both workers at once and a unit errored as a whole (11 errors in a row where the cycle ran;
-nbgrader's commands have a 600 s limit, which two cycles at once on 2 cores can pass), so its three homeworks run
-one after another on one worker, as in the runs CI passed."""
+(there, a homework) is a unit of its own, run on any worker, its fixture built once there."""
 
 
 def work_unit(item, relative: str) -> str:
