@@ -151,7 +151,7 @@ class Settings:
         for f in table():
             if f.name not in FORMULATION_OPTIONS:  # those the formulation checks, saying why (e.g. eq. 5.29)
                 check_setting(f.name, getattr(self, f.name))
-            if f.metadata["takes"] == OFF_AT_ZERO and f.name in CHECKS and getattr(self, f.name) == 0:
+            if f.name in CHECKS and getattr(self, f.name) == 0:
                 object.__setattr__(self, f.name, None)  # 0: no such check
 
     def replace(self, **changes) -> Settings:
