@@ -56,6 +56,12 @@ modules: $(STAMP)
 notes: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/mbd notes --out build/notes
 
+# Golden summaries of the example models (tests/solutions/golden_summaries.json): regenerate after a change meant
+# to change results, then review the diff (tests/solutions/golden.py).
+.PHONY: golden
+golden: $(STAMP)
+	$(BIN)/python tests/solutions/golden.py
+
 bench: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python benchmarks/kinematics.py
 

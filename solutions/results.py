@@ -124,3 +124,22 @@ class Result:
             raise ValueError(f"no coordinate {name!r} (coordinates: {', '.join(self.coordinate_names)})")
         k = self.coordinate_names.index(name)
         return (self.q, self.qd, self.qdd)[derivative][:, k]
+
+    def summary(self) -> dict[str, float]:
+        """The run in a few numbers, by name: the final time, the final q and q' of every coordinate, the largest
+        |lambda| and reaction (when the analysis computes them), the largest constraint residual and the largest
+        energy error |E(t) - E(0)| (a dynamic run). The golden summaries of the example models
+        (``tests/solutions/golden_summaries.json``, ``make golden``) are these numbers."""
+        out = {"t_end": float(self.t[-1])}
+        for k, name in enumerate(self.coordinate_names):
+            out[f"q.{name}"] = float(self.q[-1, k])
+            out[f"qd.{name}"] = float(self.qd[-1, k])
+        if self.lam is not None and self.lam.size:
+            out["max_abs_lambda"] = float(np.max(np.abs(self.lam)))
+        if self.reactions:
+            out["max_abs_reaction"] = float(max(np.max(np.abs(column)) for column in self.reactions.values()))
+        if "max_constraint_residual" in self.info:
+            out["max_constraint_residual"] = float(self.info["max_constraint_residual"])
+        if "energy.error" in self.points:
+            out["energy_drift"] = float(np.max(np.abs(self.points["energy.error"])))
+        return out
