@@ -462,6 +462,31 @@ class PlanarTree:
         return motion.D @ accelerations + motion.xi
 
 
+def joint_rotation(joint: TreeJoint, AP: tuple, theta: list, rate: list, rates: list) -> tuple:
+    """What a spatial joint adds to its parent (A_P the parent's rotation): its own rotation p_joint, its axis h
+    (global), the relative angular velocity (None for a prismatic joint; a spherical joint's comes after the
+    child's rotation), the sliding rate s' and e_P, the vector from the parent's centre to the child's joint
+    point: rho_P, plus s h for a prismatic joint. A spherical joint's Euler parameter rates e' = 1/2 L(e)^T w'
+    go to ``rates`` (eq. 8.17)."""
+    at, c = joint.position, joint.velocity
+    if joint.kind == "revolute":
+        h = rotate(AP, joint.axis)
+        co, si = math.cos(0.5 * theta[at]), math.sin(0.5 * theta[at])
+        (a0, a1, a2, a3), (b0, b1, b2, b3) = joint.u0, joint.u1
+        p_joint = (co * a0 + si * b0, co * a1 + si * b1, co * a2 + si * b2, co * a3 + si * b3)
+        rho_p = rotate(AP, joint.s_parent)
+        return p_joint, h, scale(rate[c], h), 0.0, rho_p
+    if joint.kind == "prismatic":
+        h = rotate(AP, joint.axis)
+        rho_p = rotate(AP, joint.s_parent)
+        return joint.u0, h, None, rate[c], add(rho_p, scale(theta[at], h))  # rho_P + d
+    e0, e1, e2, e3 = theta[at : at + 4]
+    norm = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3)
+    e = (e0 / norm, e1 / norm, e2 / norm, e3 / norm)
+    rates[at : at + 4] = half_l_transpose(e, rate[c : c + 3])  # e' = 1/2 L(e)^T w'
+    return qmul(qmul(joint.a, e), joint.c), None, None, 0.0, rotate(AP, joint.s_parent)
+
+
 class SpatialTree:
     """Recursive kinematics of a spatial tree. A body's velocity is taken as (v, omega'): the velocity of
     its centre of mass (global) and its angular velocity in its own frame, in which its mass matrix
@@ -487,30 +512,11 @@ class SpatialTree:
         Dv, Dw = [[ZERO3] * k for _ in range(nb + 1)], [[ZERO3] * k for _ in range(nb + 1)]  # columns of D
         rates = [0.0] * self.n_positions if self.spherical else rate
         for joint in self.joints:
-            P, C, at, c = joint.parent, joint.child, joint.position, joint.velocity
+            P, C, c = joint.parent, joint.child, joint.velocity
             AP, wp, alp = A[P], w[P], alpha[P]
-            sd, w_rel = 0.0, None
             if self.spherical and joint.kind != "spherical":
-                rates[at] = rate[c]
-            if joint.kind == "revolute":
-                h = rotate(AP, joint.axis)
-                co, si = math.cos(0.5 * theta[at]), math.sin(0.5 * theta[at])
-                (a0, a1, a2, a3), (b0, b1, b2, b3) = joint.u0, joint.u1
-                p_joint = (co * a0 + si * b0, co * a1 + si * b1, co * a2 + si * b2, co * a3 + si * b3)
-                w_rel = scale(rate[c], h)
-                e_p = rho_p = rotate(AP, joint.s_parent)
-            elif joint.kind == "prismatic":
-                h = rotate(AP, joint.axis)
-                p_joint, sd = joint.u0, rate[c]
-                rho_p = rotate(AP, joint.s_parent)
-                e_p = add(rho_p, scale(theta[at], h))  # rho_P + d
-            else:
-                e0, e1, e2, e3 = theta[at : at + 4]
-                norm = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3)
-                e = (e0 / norm, e1 / norm, e2 / norm, e3 / norm)
-                p_joint = qmul(qmul(joint.a, e), joint.c)
-                rates[at : at + 4] = half_l_transpose(e, rate[c : c + 3])  # e' = 1/2 L(e)^T w'
-                e_p = rho_p = rotate(AP, joint.s_parent)
+                rates[joint.position] = rate[c]
+            p_joint, h, w_rel, sd, e_p = joint_rotation(joint, AP, theta, rate, rates)
             p[C] = qmul(p[P], p_joint)
             A[C] = AC = rotation9(p[C])
             if joint.kind == "spherical":
@@ -545,6 +551,13 @@ class SpatialTree:
                     dv[c + n], dw[c + n] = cross(rho_c, axes[n]), axes[n]
             Dv[C], Dw[C] = dv, dw
         omega = [rotate_back(A[b], w[b]) for b in range(nb)]  # omega' = A^T omega
+        q, qd, D, xi = self.pack(r, v, acc, alpha, p, A, omega, Dv, Dw)
+        return TreeMotion(q, qd, D, xi, np.asarray(rates) if self.spherical else velocities, A[:nb], omega)
+
+    def pack(self, r, v, acc, alpha, p, A, omega, Dv, Dw) -> tuple[np.ndarray, ...]:
+        """q, q', D and xi as arrays from the bodies' tuples: q' = (r', 1/2 L(p)^T omega') (eq. 8.17), xi of
+        omega'' = A^T alpha, each column of D as (v, A^T omega) of every body it moves."""
+        nb, k = self.nb, self.k
         columns = [[ZERO6] * k for _ in range(nb)]  # (v, omega') of each body per joint velocity, where not zero
         for b, cols in enumerate(self.moving):
             for col in cols:
@@ -562,7 +575,7 @@ class SpatialTree:
         out = np.array(flat)
         q, qd, xi = out[: 7 * nb], out[7 * nb : 14 * nb], out[14 * nb : 20 * nb]
         D = out[20 * nb :].reshape(nb, k, 6).transpose(0, 2, 1).reshape(6 * nb, k)
-        return TreeMotion(q, qd, D, xi, np.asarray(rates) if self.spherical else velocities, A[:nb], omega)
+        return q, qd, D, xi
 
     def joint_state(self, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The joint state of body coordinates on the constraints, in closed form.

@@ -187,12 +187,12 @@ def run(scene: Scene, q: np.ndarray, times: np.ndarray, system=None) -> Kinemati
     iterations, residuals = np.zeros(points, np.int64), np.zeros(points)
     q, times = np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(times, dtype=float)
     F, D = (scene.function_kinds, scene.function_params), packed(scene)
+    limits = (float(tol), int(max_iterations), float(LOCKUP_CONDITION), float(PIVOT_DIP))
     first, passed = 0, -1
     while True:
         stop, reason = kinematic_loop.steps(
-            module.evaluate, q, times, F, D, tol, max_iterations, float(LOCKUP_CONDITION), float(PIVOT_DIP), first,
-            passed, Q, QD, QDD, ratios, signs, iterations, residuals,
-        )  # fmt: skip
+            module.evaluate, q, times, F, D, limits, first, passed, (Q, QD, QDD), (ratios, signs, iterations, residuals)
+        )
         if reason != kinematic_loop.DIP or system is None or (stop > 0 and signs[stop] != signs[stop - 1]):
             break
         dip = dip_start([float(r) for r in ratios[: stop + 1]], points)

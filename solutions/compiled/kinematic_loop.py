@@ -131,94 +131,102 @@ def dip_flagged(ratios, k, points, pivot_dip):
     return k >= 1 and k == points - 1 and _dips(ratios[k - 1], ratios[k], ratios[k - 1], pivot_dip)
 
 
+@njit(cache=True, nogil=True)
+def _newton(evaluate, t, q, qd, F, D, tol, max_iterations, work):
+    """Newton-Raphson at time t from the predicted q (eq. 4.8), as ``kinematics.newton_raphson``: q corrected in
+    place; returns (status, iterations, residual), status DONE, NO_CONVERGENCE or ZERO_PIVOT. On DONE, work's
+    jac is Psi_q and psit, gam are Psi_t and gamma at the converged q (qd as given)."""
+    psi, jac, psit, gam, rhs, dq, K, pivots = work
+    m = psi.size
+    for iteration in range(max_iterations + 1):
+        evaluate(t, q, qd, F, D, psi, jac, psit, gam)
+        residual = 0.0
+        finite = True
+        for r in range(m):
+            if not np.isfinite(psi[r]):
+                finite = False
+            residual = max(residual, abs(psi[r]))
+        if finite and residual < tol:
+            return DONE, iteration, residual
+        if not finite or iteration == max_iterations:
+            break
+        for r in range(m):
+            rhs[r] = -psi[r]
+        if not newton_solve(jac, K, pivots, rhs, dq):
+            return ZERO_PIVOT, iteration, residual
+        for c in range(q.size):
+            q[c] += dq[c]
+    return NO_CONVERGENCE, max_iterations, 0.0
+
+
+@njit(cache=True, nogil=True)
+def _factor_test(K, pivots, lockup):
+    """From the LU factors of Psi_q: whether they are finite and not locked up (smallest pivot > largest /
+    lockup), the sign of det Psi_q and the pivot ratio smallest / largest."""
+    smallest, largest, negative = np.inf, 0.0, 0
+    finite = True
+    for c in range(K.shape[0]):
+        u = K[c, c]
+        if not np.isfinite(u):
+            finite = False
+        smallest, largest = min(smallest, abs(u)), max(largest, abs(u))
+        if u < 0.0:
+            negative += 1
+        if pivots[c] != c + 1:
+            negative += 1
+    ok = finite and smallest > largest / lockup
+    return ok, -1.0 if negative % 2 else 1.0, smallest / largest if largest > 0.0 else 0.0
+
+
+LIMITS_TYPE = types.Tuple((types.float64, types.int64, types.float64, types.float64))
+"""(Newton tolerance, Newton iterations, lock-up condition, pivot dip) of ``steps``."""
+HISTORY_TYPE = types.UniTuple(_matrix, 3)
+"""(Q, QD, QDD) of ``steps``: one row per output time."""
+RECORD_TYPE = types.Tuple((_vector, _vector, _ivector, _vector))
+"""(pivot ratios, det signs, Newton iterations, residuals) of ``steps``: one entry per output time."""
+
+
 @njit(
     types.UniTuple(types.int64, 2)(
-        types.FunctionType(EVALUATE_SIGNATURE),
-        _vector,
-        _vector,
-        F_TYPE,
-        D_TYPE,
-        types.float64,
-        types.int64,
-        types.float64,
-        types.float64,
-        types.int64,
-        types.int64,
-        _matrix,
-        _matrix,
-        _matrix,
-        _vector,
-        _vector,
-        _ivector,
-        _vector,
+        types.FunctionType(EVALUATE_SIGNATURE), _vector, _vector, F_TYPE, D_TYPE, LIMITS_TYPE, types.int64,
+        types.int64, HISTORY_TYPE, RECORD_TYPE,
     ),
     cache=True,
     nogil=True,
-)
-def steps(evaluate, q0, times, F, D, tol, max_iterations, lockup, pivot_dip, start, passed, Q, QD, QDD, ratios, signs,
-          iterations, residuals):  # fmt: skip
+)  # fmt: skip
+def steps(evaluate, q0, times, F, D, limits, start, passed, history, record):
     """The kinematic steps from step ``start`` (module docstring): from the assembled q0 at times[0] (start 0) or
-    from the state of step start - 1 in Q, QD, QDD. Fills, step by step, the rows of Q, QD, QDD and the pivot
-    ratios, det signs, Newton iterations and residuals; returns (stop, reason): the first step not taken (and why,
-    ``kinematic.REASONS``), or (number of steps, DONE). ``passed``: a step whose pivot dip the caller has judged already
-    (no singular position, ``kinematic.steps``), not to stop at again; -1 for none."""
+    from the state of step start - 1 in the history (Q, QD, QDD). Fills, step by step, the rows of the history and
+    the record (pivot ratios, det signs, Newton iterations, residuals); returns (stop, reason): the first step not
+    taken (and why, ``kinematic.REASONS``), or (number of steps, DONE). ``passed``: a step whose pivot dip the
+    caller has judged already (no singular position, ``kinematic.steps``), not to stop at again; -1 for none."""
+    tol, max_iterations, lockup, pivot_dip = limits
+    (Q, QD, QDD), (ratios, signs, iterations, residuals) = history, record
     n = m = q0.size  # Psi_q is square: kinematics.require_no_freedom refuses any other
     points = times.size
     if start == 0:
         q, qd, qdd = q0.copy(), np.zeros(n), np.zeros(n)
     else:
         q, qd, qdd = Q[start - 1].copy(), QD[start - 1].copy(), QDD[start - 1].copy()
-    dq = np.empty(n)
     psi, psit, gam, rhs = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
     jac, K = np.empty((m, n)), np.empty((m, n))
     pivots = np.empty(n, dtype=PIVOT_TYPE)
+    work = (psi, jac, psit, gam, rhs, np.empty(n), K, pivots)
     for k in range(start, points):
         t = times[k]
         if k > 0:  # second-order predictor from the previous step
             dt = t - times[k - 1]
             for c in range(n):
                 q[c] = q[c] + qd[c] * dt + 0.5 * qdd[c] * dt * dt
-        # Newton-Raphson (eq. 4.8), as kinematics.newton_raphson
-        converged = False
-        for iteration in range(max_iterations + 1):
-            evaluate(t, q, qd, F, D, psi, jac, psit, gam)
-            residual = 0.0
-            finite = True
-            for r in range(m):
-                if not np.isfinite(psi[r]):
-                    finite = False
-                residual = max(residual, abs(psi[r]))
-            if finite and residual < tol:
-                iterations[k], residuals[k] = iteration, residual
-                converged = True
-                break
-            if not finite or iteration == max_iterations:
-                break
-            for r in range(m):
-                rhs[r] = -psi[r]
-            if not newton_solve(jac, K, pivots, rhs, dq):
-                return k, ZERO_PIVOT
-            for c in range(n):
-                q[c] += dq[c]
-        if not converged:
-            return k, NO_CONVERGENCE
+        status, iteration, residual = _newton(evaluate, t, q, qd, F, D, tol, max_iterations, work)
+        if status != DONE:
+            return k, status
+        iterations[k], residuals[k] = iteration, residual
         # the factors at the converged q (jac is Psi_q there): lock-up test, det sign, pivot ratio
         lu_factor(jac, K, pivots)
-        smallest, largest, negative = np.inf, 0.0, 0
-        finite = True
-        for c in range(n):
-            u = K[c, c]
-            if not np.isfinite(u):
-                finite = False
-            smallest, largest = min(smallest, abs(u)), max(largest, abs(u))
-            if u < 0.0:
-                negative += 1
-            if pivots[c] != c + 1:
-                negative += 1
-        if not finite or not smallest > largest / lockup:
+        ok, signs[k], ratios[k] = _factor_test(K, pivots, lockup)
+        if not ok:
             return k, LOCKUP
-        signs[k] = -1.0 if negative % 2 else 1.0
-        ratios[k] = smallest / largest if largest > 0.0 else 0.0
         if k != passed and dip_flagged(ratios, k, points, pivot_dip):
             return k, DIP
         if k > 0 and signs[k] != signs[k - 1]:

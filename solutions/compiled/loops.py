@@ -94,6 +94,97 @@ def _error(dop, K, h, scale, E, E3, E5):
     return _norm((K.T @ E) * h / scale)
 
 
+@njit(cache=True)
+def _starting_step(scene_rhs, t, y, f, span, rtol, atol, max_step, order, P, D):
+    """Hairer's starting step (sec. II.4), as scipy's select_initial_step and integrators.initial_step: one
+    evaluation of the right-hand side."""
+    scale = atol + np.abs(y) * rtol
+    d0, d1 = _norm(y / scale), _norm(f / scale)
+    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
+    h0 = min(h0, span)
+    f1 = np.empty(y.size)
+    scene_rhs(t + h0, y + h0 * f, P, D, f1)
+    d2 = _norm((f1 - f) / scale) / h0
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / (order + 1))
+    return min(100.0 * h0, h1, span, max_step)
+
+
+@njit(cache=True)
+def _combination(y, h, weights, K, scipy_like, out):
+    """out = y + h sum_s weights_s K_s, in the order of operations of the loop it stands for (module docstring)."""
+    if scipy_like:
+        out[:] = y + (K.T @ weights) * h
+    else:
+        out[:] = y + h * (weights @ K)
+
+
+@njit(cache=True)
+def _stages(scene_rhs, t, y, h, K, first, last, A, C, scipy_like, stage, P, D):
+    """The stage derivatives K[first:last]: K_s = f(t + c_s h, y + h sum_j a_sj K_j)."""
+    for s in range(first, last):
+        _combination(y, h, A[s, :s], K[:s], scipy_like, stage)
+        scene_rhs(t + C[s] * h, stage, P, D, K[s])
+
+
+@njit(cache=True)
+def _step_size(t, t_end, h_abs, max_step, span, scipy_like, rejected_now):
+    """The next step h, the step-size memory h_abs and the step's end t_new: scipy's rule (no growth right after
+    a rejected step, the end time clipped exactly) or this package's own (whose t_new is settled on acceptance);
+    h = 0 when the step size collapsed (status 1)."""
+    if scipy_like:
+        min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
+        h_abs = max(min(h_abs, max_step), min_step) if not rejected_now else h_abs
+        if h_abs < min_step:
+            return 0.0, h_abs, t
+        t_new = min(t + h_abs, t_end)
+        h = t_new - t
+        return h, abs(h), t_new
+    h = min(h_abs, max_step, t_end - t)
+    if h < MIN_STEP * span and t_end - t > MIN_STEP * span:
+        return 0.0, h, t
+    return h, h_abs, t + h
+
+
+@njit(cache=True)
+def _dense(scene_rhs, step, states, K, tableau, dop, scipy_like, t_out, k, Y, P, D):
+    """States at the output times t_out[k], ... before the step's end: step = (t, t_new, h), states = (y, y_new,
+    f(t_new, y_new)); DOP853's 7th-order continuous extension (three more stages) or RK45's quartic one.
+    Returns the next k and the evaluations spent."""
+    (t, t_new, h), (y, y_new, f_new) = step, states
+    A, B, C, _, _, _, Dd, Pd = tableau
+    stages, nz, evaluations = B.size, y.size, 0
+    if dop:
+        _stages(scene_rhs, t, y, h, K, stages + 1, K.shape[0], A, C, scipy_like, np.empty(nz), P, D)
+        evaluations = K.shape[0] - stages - 1
+        delta = y_new - y
+        F = np.empty((7, nz))
+        F[0] = delta
+        F[1] = h * K[0] - delta
+        F[2] = 2.0 * delta - h * (f_new + K[0])
+        F[3:] = h * (Dd @ K)
+    else:
+        Q = K.T @ Pd
+    while k < t_out.size and t_out[k] < t_new:
+        x = (t_out[k] - t) / h
+        if dop:
+            out = np.zeros(nz)
+            for r in range(6, -1, -1):
+                out += F[r]
+                out *= x if (6 - r) % 2 == 0 else 1.0 - x
+            Y[k] = out + y
+        else:
+            powers = np.empty(Q.shape[1])
+            powers[0] = x
+            for r in range(1, powers.size):
+                powers[r] = powers[r - 1] * x
+            Y[k] = y + h * (Q @ powers)
+        k += 1
+    return k, evaluations
+
+
 @jit(
     RESULT_TYPE(
         _RHS,
@@ -114,68 +205,30 @@ def _error(dop, K, h, scale, E, E3, E5):
 def embedded(scene_rhs, project, z0, t_out, rtol, atol, max_step, max_evaluations, dop, scipy_like, tableau, P, D):
     """Integrate from z0 at t_out[0] to t_out[-1]; states at every output time (module docstring)."""
     A, B, C, E, E3, E5, Dd, Pd = tableau
-    stages = B.size
-    order = 7 if dop else 4
-    exponent = -1.0 / (order + 1)
-    nz = z0.size
-    nout = t_out.size
+    stages, nz, nout = B.size, z0.size, t_out.size
+    exponent = -1.0 / ((7 if dop else 4) + 1)
     Y = np.empty((nout, nz))
     t, t_end = t_out[0], t_out[-1]
     span = t_end - t
-    y = z0.copy()
-    f = np.empty(nz)
+    y, f = z0.copy(), np.empty(nz)
     scene_rhs(t, y, P, D, f)
-    evaluations = 1
-    # Hairer's starting step (sec. II.4), as scipy's select_initial_step and integrators.initial_step
-    scale = atol + np.abs(y) * rtol
-    d0, d1 = _norm(y / scale), _norm(f / scale)
-    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
-    h0 = min(h0, span)
-    f1 = np.empty(nz)
-    scene_rhs(t + h0, y + h0 * f, P, D, f1)
-    evaluations += 1
-    d2 = _norm((f1 - f) / scale) / h0
-    if d1 <= 1e-15 and d2 <= 1e-15:
-        h1 = max(1e-6, h0 * 1e-3)
-    else:
-        h1 = (0.01 / max(d1, d2)) ** (1.0 / (order + 1))
-    h_abs = min(100.0 * h0, h1, span, max_step)
+    h_abs = _starting_step(scene_rhs, t, y, f, span, rtol, atol, max_step, 7 if dop else 4, P, D)
+    evaluations = 2
     K = np.empty((Dd.shape[1] if dop else stages + 1, nz))
     y_new, f_new, stage = np.empty(nz), np.empty(nz), np.empty(nz)
     Y[0] = y
-    k = 1
-    steps = rejected = 0
-    info = np.zeros(1)
+    k, steps, rejected, info = 1, 0, 0, np.zeros(1)
     while k < nout:
         rejected_now = False
-        while True:
+        while True:  # steps until one is accepted
             if evaluations >= max_evaluations:
                 return Y, evaluations, steps, rejected, 2, t, h_abs
-            if scipy_like:
-                min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
-                h_abs = max(min(h_abs, max_step), min_step) if not rejected_now else h_abs
-                if h_abs < min_step:
-                    return Y, evaluations, steps, rejected, 1, t, h_abs
-                t_new = t + h_abs
-                if t_new > t_end:
-                    t_new = t_end
-                h = t_new - t
-                h_abs = abs(h)
-            else:
-                h = min(h_abs, max_step, t_end - t)
-                if h < MIN_STEP * span and t_end - t > MIN_STEP * span:
-                    return Y, evaluations, steps, rejected, 1, t, h
+            h, h_abs, t_new = _step_size(t, t_end, h_abs, max_step, span, scipy_like, rejected_now)
+            if h == 0.0:
+                return Y, evaluations, steps, rejected, 1, t, h_abs
             K[0] = f
-            for s in range(1, stages):
-                if scipy_like:
-                    stage[:] = y + (K[:s].T @ A[s, :s]) * h
-                else:
-                    stage[:] = y + h * (A[s, :s] @ K[:s])
-                scene_rhs(t + C[s] * h, stage, P, D, K[s])
-            if scipy_like:
-                y_new[:] = y + h * (K[:stages].T @ B)
-            else:
-                y_new[:] = y + h * (B @ K[:stages])
+            _stages(scene_rhs, t, y, h, K, 1, stages, A, C, scipy_like, stage, P, D)
+            _combination(y, h, B, K[:stages], scipy_like, y_new)
             scene_rhs(t + h, y_new, P, D, f_new)
             K[stages] = f_new
             evaluations += stages
@@ -185,52 +238,20 @@ def embedded(scene_rhs, project, z0, t_out, rtol, atol, max_step, max_evaluation
                 factor = MAX_FACTOR if err == 0.0 else min(MAX_FACTOR, SAFETY * err**exponent)
                 if scipy_like and rejected_now:
                     factor = min(1.0, factor)
-                if not scipy_like:
-                    t_new = t_end if t_end - (t + h) < 1e-12 * max(1.0, abs(t_end)) else t + h
                 break
             shrink = max(MIN_FACTOR, SAFETY * err**exponent) if np.isfinite(err) else MIN_FACTOR
-            if scipy_like:
-                h_abs *= shrink
-            else:
-                h_abs = h * shrink
+            h_abs = h_abs * shrink if scipy_like else h * shrink
             rejected_now = True
             rejected += 1
         steps += 1
-        if scipy_like and h < MIN_STEP * span and t_end - t_new > MIN_STEP * span:
+        if not scipy_like:
+            t_new = t_end if t_end - (t + h) < 1e-12 * max(1.0, abs(t_end)) else t + h
+        elif h < MIN_STEP * span and t_end - t_new > MIN_STEP * span:
             return Y, evaluations, steps, rejected, 1, t_new, h
         if t_out[k] < t_new:  # dense output for the output times passed
-            if dop:
-                F = np.empty((7, nz))
-                for s in range(stages + 1, K.shape[0]):
-                    a = A[s, :s]
-                    if scipy_like:
-                        stage[:] = y + (K[:s].T @ a) * h
-                    else:
-                        stage[:] = y + h * (a @ K[:s])
-                    scene_rhs(t + C[s] * h, stage, P, D, K[s])
-                    evaluations += 1
-                delta = y_new - y
-                F[0] = delta
-                F[1] = h * K[0] - delta
-                F[2] = 2.0 * delta - h * (f_new + K[0])
-                F[3:] = h * (Dd @ K)
-            else:
-                Q = K.T @ Pd
-            while k < nout and t_out[k] < t_new:
-                x = (t_out[k] - t) / h
-                if dop:
-                    out = np.zeros(nz)
-                    for r in range(6, -1, -1):
-                        out += F[r]
-                        out *= x if (6 - r) % 2 == 0 else 1.0 - x
-                    Y[k] = out + y
-                else:
-                    powers = np.empty(Q.shape[1])
-                    powers[0] = x
-                    for r in range(1, powers.size):
-                        powers[r] = powers[r - 1] * x
-                    Y[k] = y + h * (Q @ powers)
-                k += 1
+            step, states = (t, t_new, h), (y, y_new, f_new)
+            k, spent = _dense(scene_rhs, step, states, K, tableau, dop, scipy_like, t_out, k, Y, P, D)
+            evaluations += spent
         t = t_new
         y[:] = y_new
         f[:] = f_new
@@ -240,10 +261,7 @@ def embedded(scene_rhs, project, z0, t_out, rtol, atol, max_step, max_evaluation
         if k < nout and t_out[k] == t:
             Y[k] = y
             k += 1
-        if not scipy_like:
-            h_abs = h * factor
-        else:
-            h_abs *= factor
+        h_abs = h_abs * factor if scipy_like else h * factor
         if corrected == 0 and (t < t_end or not scipy_like):  # restart from the corrected state (docstring)
             if scipy_like:
                 h_abs = min(h_abs, t_end - t)

@@ -190,108 +190,119 @@ def _half_l(e0, e1, e2, e3, x0, x1, x2, x3):
 
 # -- spatial tree ------------------------------------------------------------------------------------------
 @jit
-def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates):
-    """q, q' (7 nb), xi (6 nb: a and the body-frame alpha'), D (6 nb x k: v and omega' per joint velocity),
-    omega' (nb x 3) and the rates of the joints' position coordinates (``SpatialTree.motion``)."""
-    size = (nb + 1) * (15 + 4 + 9 + 6 * k)
-    work = np.zeros(size)  # one allocation, cut into: r, v, w, acc, alpha (global), p, A, D; ground last
-    vec = work[: 15 * (nb + 1)].reshape((5, nb + 1, 3))
-    p = work[15 * (nb + 1) : 19 * (nb + 1)].reshape((nb + 1, 4))
-    R = work[19 * (nb + 1) : 28 * (nb + 1)].reshape((nb + 1, 9))
-    Dv = work[28 * (nb + 1) : (28 + 3 * k) * (nb + 1)].reshape((nb + 1, k, 3))
-    Dw = work[(28 + 3 * k) * (nb + 1) :].reshape((nb + 1, k, 3))
-    p[nb, 0] = 1.0
-    R[nb, 0] = R[nb, 4] = R[nb, 8] = 1.0
-    for e in range(ints.shape[0]):
-        kind, P, Cb, at, c = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3], ints[e, 4]
-        if P < 0:
-            P = nb
-        f = floats[e]
-        AP = R[P]
-        wp0, wp1, wp2 = vec[2, P, 0], vec[2, P, 1], vec[2, P, 2]
-        al0, al1, al2 = vec[4, P, 0], vec[4, P, 1], vec[4, P, 2]
-        sd = 0.0
-        h0 = h1 = h2 = 0.0
-        rp0, rp1, rp2 = _rotate(AP, f[S_PARENT], f[S_PARENT + 1], f[S_PARENT + 2])
-        ep0, ep1, ep2 = rp0, rp1, rp2
-        if kind == REVOLUTE:
-            h0, h1, h2 = _rotate(AP, f[AXIS], f[AXIS + 1], f[AXIS + 2])
-            co, si = math.cos(0.5 * theta[at]), math.sin(0.5 * theta[at])
-            j0, j1 = co * f[U0] + si * f[U1], co * f[U0 + 1] + si * f[U1 + 1]
-            j2, j3 = co * f[U0 + 2] + si * f[U1 + 2], co * f[U0 + 3] + si * f[U1 + 3]
-            rates[at] = rate[c]
-        elif kind == PRISMATIC:
-            h0, h1, h2 = _rotate(AP, f[AXIS], f[AXIS + 1], f[AXIS + 2])
-            j0, j1, j2, j3 = f[U0], f[U0 + 1], f[U0 + 2], f[U0 + 3]
-            sd = rate[c]
-            ep0, ep1, ep2 = rp0 + theta[at] * h0, rp1 + theta[at] * h1, rp2 + theta[at] * h2  # rho_P + d
-            rates[at] = rate[c]
-        else:
-            e0, e1, e2, e3 = theta[at], theta[at + 1], theta[at + 2], theta[at + 3]
-            norm = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3)
-            e0, e1, e2, e3 = e0 / norm, e1 / norm, e2 / norm, e3 / norm
-            b0, b1, b2, b3 = _qmul(f[A], f[A + 1], f[A + 2], f[A + 3], e0, e1, e2, e3)
-            j0, j1, j2, j3 = _qmul(b0, b1, b2, b3, f[C], f[C + 1], f[C + 2], f[C + 3])
-            rates[at], rates[at + 1], rates[at + 2], rates[at + 3] = _half_l_transpose(
-                e0, e1, e2, e3, rate[c], rate[c + 1], rate[c + 2]
-            )
-        p[Cb, 0], p[Cb, 1], p[Cb, 2], p[Cb, 3] = _qmul(p[P, 0], p[P, 1], p[P, 2], p[P, 3], j0, j1, j2, j3)
-        _rotation9(p[Cb, 0], p[Cb, 1], p[Cb, 2], p[Cb, 3], R[Cb])
-        AC = R[Cb]
-        wr0 = wr1 = wr2 = 0.0
-        if kind == REVOLUTE:
-            wr0, wr1, wr2 = rate[c] * h0, rate[c] * h1, rate[c] * h2
-        elif kind == SPHERICAL:
-            for n in range(3):
-                x0, x1, x2 = _rotate(AC, f[FRAME + 3 * n], f[FRAME + 3 * n + 1], f[FRAME + 3 * n + 2])
-                rel = rate[c + n]
-                if n == 0:
-                    wr0, wr1, wr2 = rel * x0, rel * x1, rel * x2
-                else:
-                    wr0, wr1, wr2 = wr0 + rel * x0, wr1 + rel * x1, wr2 + rel * x2
-        rc0, rc1, rc2 = _rotate(AC, f[S_CHILD], f[S_CHILD + 1], f[S_CHILD + 2])
-        l0, l1, l2 = ep0 - rc0, ep1 - rc1, ep2 - rc2  # the link
-        vec[0, Cb, 0], vec[0, Cb, 1], vec[0, Cb, 2] = vec[0, P, 0] + l0, vec[0, P, 1] + l1, vec[0, P, 2] + l2
-        # velocities and the accelerations with theta'' = 0
-        x0, x1, x2 = _cross(wp0, wp1, wp2, l0, l1, l2)
-        vc0, vc1, vc2 = vec[1, P, 0] + x0, vec[1, P, 1] + x1, vec[1, P, 2] + x2
-        x0, x1, x2 = _cross(al0, al1, al2, ep0, ep1, ep2)
-        y0, y1, y2 = _cross(wp0, wp1, wp2, ep0, ep1, ep2)
-        y0, y1, y2 = _cross(wp0, wp1, wp2, y0, y1, y2)
-        ac0, ac1, ac2 = vec[3, P, 0] + x0 + y0, vec[3, P, 1] + x1 + y1, vec[3, P, 2] + x2 + y2
-        if kind == PRISMATIC:
-            wc0, wc1, wc2, ac_0, ac_1, ac_2 = wp0, wp1, wp2, al0, al1, al2
-            vc0, vc1, vc2 = vc0 + sd * h0, vc1 + sd * h1, vc2 + sd * h2
-            x0, x1, x2 = _cross(wp0, wp1, wp2, h0, h1, h2)
-            ac0, ac1, ac2 = ac0 + 2.0 * sd * x0, ac1 + 2.0 * sd * x1, ac2 + 2.0 * sd * x2
-        else:
-            wc0, wc1, wc2 = wp0 + wr0, wp1 + wr1, wp2 + wr2
-            x0, x1, x2 = _cross(wp0, wp1, wp2, wr0, wr1, wr2)
-            ac_0, ac_1, ac_2 = al0 + x0, al1 + x1, al2 + x2
-            x0, x1, x2 = _cross(rc0, rc1, rc2, wr0, wr1, wr2)
-            vc0, vc1, vc2 = vc0 + x0, vc1 + x1, vc2 + x2
-        vec[1, Cb, 0], vec[1, Cb, 1], vec[1, Cb, 2] = vc0, vc1, vc2
-        vec[2, Cb, 0], vec[2, Cb, 1], vec[2, Cb, 2] = wc0, wc1, wc2
-        vec[4, Cb, 0], vec[4, Cb, 1], vec[4, Cb, 2] = ac_0, ac_1, ac_2
-        x0, x1, x2 = _cross(ac_0, ac_1, ac_2, rc0, rc1, rc2)
-        y0, y1, y2 = _cross(wc0, wc1, wc2, rc0, rc1, rc2)
-        y0, y1, y2 = _cross(wc0, wc1, wc2, y0, y1, y2)
-        vec[3, Cb, 0], vec[3, Cb, 1], vec[3, Cb, 2] = ac0 - (x0 + y0), ac1 - (x1 + y1), ac2 - (x2 + y2)
-        # columns of D: the parent's moved by omega x l, then the joint's own
-        for col in range(k):
-            x0, x1, x2 = _cross(l0, l1, l2, Dw[P, col, 0], Dw[P, col, 1], Dw[P, col, 2])
-            Dv[Cb, col, 0], Dv[Cb, col, 1], Dv[Cb, col, 2] = Dv[P, col, 0] - x0, Dv[P, col, 1] - x1, Dv[P, col, 2] - x2
-            Dw[Cb, col, 0], Dw[Cb, col, 1], Dw[Cb, col, 2] = Dw[P, col, 0], Dw[P, col, 1], Dw[P, col, 2]
-        if kind == REVOLUTE:
-            Dv[Cb, c, 0], Dv[Cb, c, 1], Dv[Cb, c, 2] = _cross(rc0, rc1, rc2, h0, h1, h2)
-            Dw[Cb, c, 0], Dw[Cb, c, 1], Dw[Cb, c, 2] = h0, h1, h2
-        elif kind == PRISMATIC:
-            Dv[Cb, c, 0], Dv[Cb, c, 1], Dv[Cb, c, 2] = h0, h1, h2
-        else:
-            for n in range(3):
-                x0, x1, x2 = _rotate(AC, f[FRAME + 3 * n], f[FRAME + 3 * n + 1], f[FRAME + 3 * n + 2])
-                Dv[Cb, c + n, 0], Dv[Cb, c + n, 1], Dv[Cb, c + n, 2] = _cross(rc0, rc1, rc2, x0, x1, x2)
-                Dw[Cb, c + n, 0], Dw[Cb, c + n, 1], Dw[Cb, c + n, 2] = x0, x1, x2
+def _spatial_joint(kind, f, AP, theta, rate, rates, at, c):
+    """What a joint adds to its parent, A_P the parent's rotation (``joint_coordinates.joint_rotation``): its own
+    rotation j, its global axis h (zero for a spherical joint), the sliding rate s' and e_P = rho_P (+ s h for a
+    prismatic joint). The rates of its position coordinates go to ``rates`` (a spherical joint's e' = 1/2 L(e)^T
+    w', eq. 8.17)."""
+    rp0, rp1, rp2 = _rotate(AP, f[S_PARENT], f[S_PARENT + 1], f[S_PARENT + 2])
+    if kind == REVOLUTE:
+        h = _rotate(AP, f[AXIS], f[AXIS + 1], f[AXIS + 2])
+        co, si = math.cos(0.5 * theta[at]), math.sin(0.5 * theta[at])
+        j0, j1 = co * f[U0] + si * f[U1], co * f[U0 + 1] + si * f[U1 + 1]
+        j2, j3 = co * f[U0 + 2] + si * f[U1 + 2], co * f[U0 + 3] + si * f[U1 + 3]
+        rates[at] = rate[c]
+        return (j0, j1, j2, j3), h, 0.0, (rp0, rp1, rp2)
+    if kind == PRISMATIC:
+        h0, h1, h2 = _rotate(AP, f[AXIS], f[AXIS + 1], f[AXIS + 2])
+        rates[at] = rate[c]
+        e_p = (rp0 + theta[at] * h0, rp1 + theta[at] * h1, rp2 + theta[at] * h2)  # rho_P + d
+        return (f[U0], f[U0 + 1], f[U0 + 2], f[U0 + 3]), (h0, h1, h2), rate[c], e_p
+    e0, e1, e2, e3 = theta[at], theta[at + 1], theta[at + 2], theta[at + 3]
+    norm = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3)
+    e0, e1, e2, e3 = e0 / norm, e1 / norm, e2 / norm, e3 / norm
+    b0, b1, b2, b3 = _qmul(f[A], f[A + 1], f[A + 2], f[A + 3], e0, e1, e2, e3)
+    j = _qmul(b0, b1, b2, b3, f[C], f[C + 1], f[C + 2], f[C + 3])
+    rates[at], rates[at + 1], rates[at + 2], rates[at + 3] = _half_l_transpose(
+        e0, e1, e2, e3, rate[c], rate[c + 1], rate[c + 2]
+    )
+    return j, (0.0, 0.0, 0.0), 0.0, (rp0, rp1, rp2)
+
+
+@jit
+def _relative_omega(kind, f, AC, rate, c, h):
+    """The child's angular velocity relative to its parent, global: theta' h (revolute), zero (prismatic), the
+    three rates about the child's joint frame A_C (f, g, h) (spherical)."""
+    wr0 = wr1 = wr2 = 0.0
+    if kind == REVOLUTE:
+        wr0, wr1, wr2 = rate[c] * h[0], rate[c] * h[1], rate[c] * h[2]
+    elif kind == SPHERICAL:
+        for n in range(3):
+            x0, x1, x2 = _rotate(AC, f[FRAME + 3 * n], f[FRAME + 3 * n + 1], f[FRAME + 3 * n + 2])
+            rel = rate[c + n]
+            if n == 0:
+                wr0, wr1, wr2 = rel * x0, rel * x1, rel * x2
+            else:
+                wr0, wr1, wr2 = wr0 + rel * x0, wr1 + rel * x1, wr2 + rel * x2
+    return wr0, wr1, wr2
+
+
+@jit
+def _child_motion(vec, P, Cb, e_p, rc, h, w_rel, sd, prismatic):
+    """The child's r, v, omega, alpha and a with theta'' = 0 from its parent's (vec rows r, v, w, acc, alpha):
+    e_P and rho_C the joint point from either centre, h, w_rel and s' the joint's axis and rates (module
+    docstring of ``joint_coordinates.py``). Returns the link e_P - rho_C."""
+    ep0, ep1, ep2 = e_p
+    rc0, rc1, rc2 = rc
+    wp0, wp1, wp2 = vec[2, P, 0], vec[2, P, 1], vec[2, P, 2]
+    al0, al1, al2 = vec[4, P, 0], vec[4, P, 1], vec[4, P, 2]
+    l0, l1, l2 = ep0 - rc0, ep1 - rc1, ep2 - rc2  # the link
+    vec[0, Cb, 0], vec[0, Cb, 1], vec[0, Cb, 2] = vec[0, P, 0] + l0, vec[0, P, 1] + l1, vec[0, P, 2] + l2
+    x0, x1, x2 = _cross(wp0, wp1, wp2, l0, l1, l2)
+    vc0, vc1, vc2 = vec[1, P, 0] + x0, vec[1, P, 1] + x1, vec[1, P, 2] + x2
+    x0, x1, x2 = _cross(al0, al1, al2, ep0, ep1, ep2)
+    y0, y1, y2 = _cross(wp0, wp1, wp2, ep0, ep1, ep2)
+    y0, y1, y2 = _cross(wp0, wp1, wp2, y0, y1, y2)
+    ac0, ac1, ac2 = vec[3, P, 0] + x0 + y0, vec[3, P, 1] + x1 + y1, vec[3, P, 2] + x2 + y2
+    if prismatic:
+        h0, h1, h2 = h
+        wc0, wc1, wc2, ac_0, ac_1, ac_2 = wp0, wp1, wp2, al0, al1, al2
+        vc0, vc1, vc2 = vc0 + sd * h0, vc1 + sd * h1, vc2 + sd * h2
+        x0, x1, x2 = _cross(wp0, wp1, wp2, h0, h1, h2)
+        ac0, ac1, ac2 = ac0 + 2.0 * sd * x0, ac1 + 2.0 * sd * x1, ac2 + 2.0 * sd * x2
+    else:
+        wr0, wr1, wr2 = w_rel
+        wc0, wc1, wc2 = wp0 + wr0, wp1 + wr1, wp2 + wr2
+        x0, x1, x2 = _cross(wp0, wp1, wp2, wr0, wr1, wr2)
+        ac_0, ac_1, ac_2 = al0 + x0, al1 + x1, al2 + x2
+        x0, x1, x2 = _cross(rc0, rc1, rc2, wr0, wr1, wr2)
+        vc0, vc1, vc2 = vc0 + x0, vc1 + x1, vc2 + x2
+    vec[1, Cb, 0], vec[1, Cb, 1], vec[1, Cb, 2] = vc0, vc1, vc2
+    vec[2, Cb, 0], vec[2, Cb, 1], vec[2, Cb, 2] = wc0, wc1, wc2
+    vec[4, Cb, 0], vec[4, Cb, 1], vec[4, Cb, 2] = ac_0, ac_1, ac_2
+    x0, x1, x2 = _cross(ac_0, ac_1, ac_2, rc0, rc1, rc2)
+    y0, y1, y2 = _cross(wc0, wc1, wc2, rc0, rc1, rc2)
+    y0, y1, y2 = _cross(wc0, wc1, wc2, y0, y1, y2)
+    vec[3, Cb, 0], vec[3, Cb, 1], vec[3, Cb, 2] = ac0 - (x0 + y0), ac1 - (x1 + y1), ac2 - (x2 + y2)
+    return l0, l1, l2
+
+
+@jit
+def _child_columns(Dv, Dw, P, Cb, kind, c, link, rc, h, AC, f):
+    """The child's columns of D (v, omega, global): its parent's moved by omega x l, then the joint's own."""
+    l0, l1, l2 = link
+    rc0, rc1, rc2 = rc
+    for col in range(Dv.shape[1]):
+        x0, x1, x2 = _cross(l0, l1, l2, Dw[P, col, 0], Dw[P, col, 1], Dw[P, col, 2])
+        Dv[Cb, col, 0], Dv[Cb, col, 1], Dv[Cb, col, 2] = Dv[P, col, 0] - x0, Dv[P, col, 1] - x1, Dv[P, col, 2] - x2
+        Dw[Cb, col, 0], Dw[Cb, col, 1], Dw[Cb, col, 2] = Dw[P, col, 0], Dw[P, col, 1], Dw[P, col, 2]
+    if kind == REVOLUTE:
+        Dv[Cb, c, 0], Dv[Cb, c, 1], Dv[Cb, c, 2] = _cross(rc0, rc1, rc2, h[0], h[1], h[2])
+        Dw[Cb, c, 0], Dw[Cb, c, 1], Dw[Cb, c, 2] = h
+    elif kind == PRISMATIC:
+        Dv[Cb, c, 0], Dv[Cb, c, 1], Dv[Cb, c, 2] = h
+    else:
+        for n in range(3):
+            x0, x1, x2 = _rotate(AC, f[FRAME + 3 * n], f[FRAME + 3 * n + 1], f[FRAME + 3 * n + 2])
+            Dv[Cb, c + n, 0], Dv[Cb, c + n, 1], Dv[Cb, c + n, 2] = _cross(rc0, rc1, rc2, x0, x1, x2)
+            Dw[Cb, c + n, 0], Dw[Cb, c + n, 1], Dw[Cb, c + n, 2] = x0, x1, x2
+
+
+@jit
+def _spatial_outputs(vec, p, R, Dv, Dw, q, qd, xi, Dm, omega):
+    """q, q' = (r', 1/2 L(p)^T omega'), xi = (a, A^T alpha), D = (v, A^T omega) per column and omega' = A^T
+    omega of every body from the recursion's global vectors (eq. 8.17)."""
+    nb, k = omega.shape[0], Dv.shape[1]
     for b in range(nb):
         Rb = R[b]
         o0, o1, o2 = _rotate_back(Rb, vec[2, b, 0], vec[2, b, 1], vec[2, b, 2])  # omega' = A^T omega
@@ -310,6 +321,35 @@ def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates
             Dm[6 * b, col], Dm[6 * b + 1, col], Dm[6 * b + 2, col] = Dv[b, col, 0], Dv[b, col, 1], Dv[b, col, 2]
             x0, x1, x2 = _rotate_back(Rb, Dw[b, col, 0], Dw[b, col, 1], Dw[b, col, 2])
             Dm[6 * b + 3, col], Dm[6 * b + 4, col], Dm[6 * b + 5, col] = x0, x1, x2
+
+
+@jit
+def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates):
+    """q, q' (7 nb), xi (6 nb: a and the body-frame alpha'), D (6 nb x k: v and omega' per joint velocity),
+    omega' (nb x 3) and the rates of the joints' position coordinates (``SpatialTree.motion``)."""
+    size = (nb + 1) * (15 + 4 + 9 + 6 * k)
+    work = np.zeros(size)  # one allocation, cut into: r, v, w, acc, alpha (global), p, A, D; ground last
+    vec = work[: 15 * (nb + 1)].reshape((5, nb + 1, 3))
+    p = work[15 * (nb + 1) : 19 * (nb + 1)].reshape((nb + 1, 4))
+    R = work[19 * (nb + 1) : 28 * (nb + 1)].reshape((nb + 1, 9))
+    Dv = work[28 * (nb + 1) : (28 + 3 * k) * (nb + 1)].reshape((nb + 1, k, 3))
+    Dw = work[(28 + 3 * k) * (nb + 1) :].reshape((nb + 1, k, 3))
+    p[nb, 0] = 1.0
+    R[nb, 0] = R[nb, 4] = R[nb, 8] = 1.0
+    for e in range(ints.shape[0]):
+        kind, P, Cb, at, c = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3], ints[e, 4]
+        if P < 0:
+            P = nb
+        f = floats[e]
+        (j0, j1, j2, j3), h, sd, e_p = _spatial_joint(kind, f, R[P], theta, rate, rates, at, c)
+        p[Cb, 0], p[Cb, 1], p[Cb, 2], p[Cb, 3] = _qmul(p[P, 0], p[P, 1], p[P, 2], p[P, 3], j0, j1, j2, j3)
+        _rotation9(p[Cb, 0], p[Cb, 1], p[Cb, 2], p[Cb, 3], R[Cb])
+        AC = R[Cb]
+        w_rel = _relative_omega(kind, f, AC, rate, c, h)
+        rc = _rotate(AC, f[S_CHILD], f[S_CHILD + 1], f[S_CHILD + 2])
+        link = _child_motion(vec, P, Cb, e_p, rc, h, w_rel, sd, kind == PRISMATIC)
+        _child_columns(Dv, Dw, P, Cb, kind, c, link, rc, h, AC, f)
+    _spatial_outputs(vec, p, R, Dv, Dw, q, qd, xi, Dm, omega)
 
 
 @jit
