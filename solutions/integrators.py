@@ -221,14 +221,14 @@ def integrate(
     stats = IntegrationStats(method)
     budget = Budget(counted, max_evaluations, method, stats)
     monitor = StiffnessMonitor(budget, method, stats, stiffness == "error") if stiffness != "off" else None
-    y0 = np.asarray(y0, dtype=float)
+    loop = Loop(budget, t_out, record, method, rtol, atol, step, after_step, stats, monitor)
     try:
         if method in FIXED_STEP_METHODS:
-            _integrate_rk4(budget, y0, t_out, record, step, after_step, stats)
+            _integrate_rk4(loop, np.asarray(y0, dtype=float))
         elif method in SOLVE_IVP_METHODS:
-            _integrate_adaptive(budget, y0, t_out, record, method, rtol, atol, step, after_step, stats, monitor)
+            _integrate_adaptive(loop, np.asarray(y0, dtype=float))
         elif method in EMBEDDED_METHODS:
-            _integrate_embedded(budget, y0, t_out, record, method, rtol, atol, step, after_step, stats, monitor)
+            _integrate_embedded(loop, np.asarray(y0, dtype=float))
         else:
             raise AnalysisError(f"unknown integrator {method!r} (one of: {', '.join(INTEGRATORS)})")
     finally:
@@ -236,8 +236,27 @@ def integrate(
     return stats
 
 
-def _integrate_rk4(f, y, t_out, record, step, after_step, stats) -> None:
+@dataclass(frozen=True)
+class Loop:
+    """What each integration loop below is given (``integrate``'s arguments): the right-hand side f, counted
+    within its evaluation budget; the output times and ``record(k, t, y)``; the method with its tolerances and
+    largest step; ``after_step``; the stats it fills and the stiffness monitor (None: off)."""
+
+    f: Budget
+    t_out: np.ndarray
+    record: Record
+    method: str
+    rtol: float
+    atol: float
+    step: float | None
+    after_step: AfterStep | None
+    stats: IntegrationStats
+    monitor: StiffnessMonitor | None
+
+
+def _integrate_rk4(loop: Loop, y: np.ndarray) -> None:
     """Fixed steps: each output interval is cut into the fewest equal steps no longer than ``step``."""
+    f, t_out, record, step, after_step, stats = loop.f, loop.t_out, loop.record, loop.step, loop.after_step, loop.stats
     record(0, t_out[0], y)
     for k in range(1, t_out.size):
         t, span = t_out[k - 1], t_out[k] - t_out[k - 1]
@@ -260,8 +279,10 @@ def _integrate_rk4(f, y, t_out, record, step, after_step, stats) -> None:
         record(k, t_out[k], y)
 
 
-def _integrate_adaptive(f, y, t_out, record, method, rtol, atol, step, after_step, stats, monitor=None) -> None:
+def _integrate_adaptive(loop: Loop, y: np.ndarray) -> None:
     """The solve_ivp loop: step, interpolate the output times passed (dense output), maybe restart."""
+    f, t_out, record, method, rtol, atol = loop.f, loop.t_out, loop.record, loop.method, loop.rtol, loop.atol
+    step, after_step, stats, monitor = loop.step, loop.after_step, loop.stats, loop.monitor
     solver_class = scipy_method(method)
     max_step = step if step else np.inf
     t_end = t_out[-1]
@@ -372,8 +393,10 @@ class DenseOutput:
         return out + self.y
 
 
-def _integrate_embedded(f, y, t_out, record, method, rtol, atol, step, after_step, stats, monitor=None) -> None:
+def _integrate_embedded(loop: Loop, y: np.ndarray) -> None:
     """One loop: stages, error norm, accept or shrink, dense output for the output times passed."""
+    f, t_out, record, method, rtol, atol = loop.f, loop.t_out, loop.record, loop.method, loop.rtol, loop.atol
+    step, after_step, stats, monitor = loop.step, loop.after_step, loop.stats, loop.monitor
     scheme = scipy_method(EMBEDDED_METHODS[method])
     A, B, C, S = scheme.A, scheme.B, scheme.C, scheme.n_stages
     exponent = -1.0 / (scheme.error_estimator_order + 1)
