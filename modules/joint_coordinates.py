@@ -82,7 +82,14 @@ from .formulations import (
 from .generalized_forces import ForceModel
 from .io.model import GROUND
 from .linalg import cholesky_solve
-from .rotation_matrices import g_entries, l_entries, planar_rotation, planar_rotation_entries, unit_rotation_entries
+from .rotation_matrices import (
+    g_entries,
+    l_entries,
+    planar_rotation,
+    planar_rotation_entries,
+    quaternion_product_entries,
+    unit_rotation_entries,
+)
 
 SUPPORTED_JOINTS = {2: ("revolute", "prismatic"), 3: ("revolute", "prismatic", "spherical")}
 """Joint types with joint coordinates, by dimension."""
@@ -301,15 +308,8 @@ def rotate_back(A: tuple, v: tuple) -> tuple:
 
 
 def qmul(a: tuple, b: tuple) -> tuple:
-    """The quaternion product a b = (a0 b0 - a.b, a0 b + b0 a + a x b): A(a b) = A(a) A(b)."""
-    a0, a1, a2, a3 = a
-    b0, b1, b2, b3 = b
-    return (
-        a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
-        a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
-        a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
-        a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0,
-    )
+    """The quaternion product a b: A(a b) = A(a) A(b) (``rotation_matrices.quaternion_product_entries``)."""
+    return quaternion_product_entries(*a, *b)
 
 
 def rotation9(p: tuple) -> tuple:

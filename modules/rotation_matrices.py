@@ -1,5 +1,6 @@
 # Generated from solutions/rotation_matrices.py by `make modules` (every homework stubbed): do not edit by hand.
-"""The rotation matrices, each written once: A(phi) (eq. 2.2), A(p), G(p) and L(p) (eq. 8.12, 8.14).
+"""The rotation matrices, each written once: A(phi) (eq. 2.2), A(p), G(p) and L(p) (eq. 8.12, 8.14), and the
+quaternion product that composes two rotations.
 
 Every part of the package that needs them and is not a student's homework evaluates them here: the model files,
 the drawings, the result columns, the joint coordinates, the compiled engine (numba compiles these functions as
@@ -59,6 +60,17 @@ def g_entries(e0: float, e1: float, e2: float, e3: float) -> tuple[float, ...]:
 def l_entries(e0: float, e1: float, e2: float, e3: float) -> tuple[float, ...]:
     """L(p) = [-e, -e~ + e0 I] (3 x 4) row by row (eq. 8.14): omega' = 2 L p'."""
     return -e1, e0, e3, -e2, -e2, -e3, e0, e1, -e3, e2, -e1, e0
+
+
+def quaternion_product_entries(a0, a1, a2, a3, b0, b1, b2, b3) -> tuple[float, float, float, float]:
+    """The quaternion product a b = (a0 b0 - a.b, a0 b + b0 a + a x b) entry by entry: the rotation b followed by
+    a, A(a b) = A(a) A(b)."""
+    return (
+        a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+        a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+        a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
+        a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0,
+    )
 
 
 def planar_rotation(phi: float) -> np.ndarray:

@@ -43,6 +43,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .rotation_matrices import quaternion_product_entries
+
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 """The Euler parameters of no rotation."""
 
@@ -114,8 +116,7 @@ def normalized(p: np.ndarray) -> np.ndarray:
 
 def quaternion_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a * b = (a0 b0 - a.b, a0 b + b0 a + a x b): the rotation b followed by a, A(a b) = A(a) A(b)."""
-    a0, av, b0, bv = a[0], a[1:], b[0], b[1:]
-    return np.array([a0 * b0 - av @ bv, *(a0 * bv + b0 * av + np.cross(av, bv))])
+    return np.array(quaternion_product_entries(*map(float, a), *map(float, b)))
 
 
 def conjugate(p: np.ndarray) -> np.ndarray:

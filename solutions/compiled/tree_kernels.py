@@ -30,6 +30,7 @@ import numpy as np
 from numba import njit
 
 from ..joint_coordinates import half_transpose_product, scaled_product
+from ..rotation_matrices import quaternion_product_entries
 from .kernels import l_entries_jit, lu_solve, planar_rotation_entries_jit, unit_rotation_entries_jit
 from .projection_kernels import cholesky, cholesky_solve
 
@@ -158,14 +159,8 @@ def _rotate_back(R, v0, v1, v2):
     )
 
 
-@jit
-def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
-    return (
-        a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
-        a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
-        a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
-        a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0,
-    )
+_qmul = jit(quaternion_product_entries)
+"""The quaternion product a b entry by entry (``rotation_matrices.quaternion_product_entries``)."""
 
 
 @jit
