@@ -69,6 +69,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from solutions.assembly import System, build_system  # noqa: E402
+from solutions.batch import progress_bar  # noqa: E402
 from solutions.diagnostics import AnalysisError  # noqa: E402
 from solutions.dynamics import EquationsOfMotion, consistent_initial_conditions, forward_dynamics  # noqa: E402
 from solutions.formulations import make_formulation  # noqa: E402
@@ -686,27 +687,10 @@ def kinematic_step(quick: bool) -> dict:
 
 
 # -- progress ----------------------------------------------------------------------------------------------------
-class Progress:
-    """A one-line progress bar on standard error."""
-
-    def __init__(self, total: int, enabled: bool = True):
-        self.total, self.done, self.enabled, self.start = total, 0, enabled, time.perf_counter()
-
-    def step(self, label: str) -> None:
-        self.done += 1
-        if not self.enabled:
-            return
-        width = 30
-        filled = int(width * self.done / max(self.total, 1))
-        elapsed = time.perf_counter() - self.start
-        sys.stderr.write(
-            f"\r[{'#' * filled}{'.' * (width - filled)}] {self.done}/{self.total} {elapsed:5.0f} s  {label[:60]:60s}"
-        )
-        sys.stderr.flush()
-
-    def close(self) -> None:
-        if self.enabled:
-            sys.stderr.write("\n")
+def _step(bar, label: str) -> None:
+    """One run done on the progress bar (``solutions.batch.progress_bar``), labelled with what comes next."""
+    bar.set_postfix_str(label[:60], refresh=False)
+    bar.update(1)
 
 
 # -- tables and diagrams -------------------------------------------------------------------------------------------
@@ -916,33 +900,32 @@ def main(argv: list[str] | None = None) -> int:
     total = sum(len(settings) for entries in plans.values() for _, settings in entries) + 2 * len(chosen) + 1
     if peers is not None:
         total += sum(len(peers.sweeps(s.key, args.quick)) for s in chosen if s.peers)
-    progress = Progress(total, not args.no_progress)
-    start = time.perf_counter()
+    with progress_bar(total, "bench", not args.no_progress, unit="run") as progress:
+        start = time.perf_counter()
 
-    runs_by_scene: dict[str, list[Run]] = {}
-    peers_by_scene: dict[str, list] = {}
-    costs: dict[str, dict] = {}
-    for scene in chosen:
-        prepare_reference(scene, args.quick)
-        progress.step(f"{scene.key}: reference")
-        costs[scene.key] = rhs_costs(scene, args.quick)
-        progress.step(f"{scene.key}: us per rhs")
-        runs = []
-        for config, settings in plans[scene.key]:
-            for k, setting in enumerate(settings):
-                progress.step(f"{scene.key}: {config.label} {setting:.0e}")
-                memory = k in (0, len(settings) - 1) and config.family != "baseline"
-                runs.append(execute(scene, config, setting, args.repeats, memory))
-        runs_by_scene[scene.key] = runs
-        if peers is not None and scene.peers:
-            peer_runs = []
-            for label, job in peers.sweeps(scene.key, args.quick):
-                progress.step(f"{scene.key}: {label}")
-                peer_runs.append(peers.execute(job, scene, label, args.repeats))
-            peers_by_scene[scene.key] = peer_runs
-    kinematic = kinematic_step(args.quick)
-    progress.step("kinematic step")
-    progress.close()
+        runs_by_scene: dict[str, list[Run]] = {}
+        peers_by_scene: dict[str, list] = {}
+        costs: dict[str, dict] = {}
+        for scene in chosen:
+            prepare_reference(scene, args.quick)
+            _step(progress, f"{scene.key}: reference")
+            costs[scene.key] = rhs_costs(scene, args.quick)
+            _step(progress, f"{scene.key}: us per rhs")
+            runs = []
+            for config, settings in plans[scene.key]:
+                for k, setting in enumerate(settings):
+                    _step(progress, f"{scene.key}: {config.label} {setting:.0e}")
+                    memory = k in (0, len(settings) - 1) and config.family != "baseline"
+                    runs.append(execute(scene, config, setting, args.repeats, memory))
+            runs_by_scene[scene.key] = runs
+            if peers is not None and scene.peers:
+                peer_runs = []
+                for label, job in peers.sweeps(scene.key, args.quick):
+                    _step(progress, f"{scene.key}: {label}")
+                    peer_runs.append(peers.execute(job, scene, label, args.repeats))
+                peers_by_scene[scene.key] = peer_runs
+        kinematic = kinematic_step(args.quick)
+        _step(progress, "kinematic step")
     elapsed = time.perf_counter() - start
 
     lines = report(chosen, runs_by_scene, peers_by_scene, costs, kinematic, peers, args, elapsed)

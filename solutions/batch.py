@@ -281,6 +281,9 @@ class _NoBar:
     def update(self, n: int = 1) -> None:
         """Nothing."""
 
+    def set_postfix_str(self, text: str = "", refresh: bool = True) -> None:
+        """Nothing."""
+
 
 # -- writing -----------------------------------------------------------------------------------------------------
 def write_atomic(path: str | Path, content: str | bytes | Callable[[Path], object]) -> Path:
