@@ -425,6 +425,7 @@ def make_guard(run: Run, plan: Plan, equations: EquationsOfMotion, q: np.ndarray
         None if drift_limit is None else max(drift_limit, loose),
         singular_ratio,
         through=plan.formulation in THROUGH_SINGULAR,
+        size=plan.size,
     )
 
 
@@ -766,13 +767,13 @@ class Guard:
         drift_limit: float | None,
         singular_ratio: float | None,
         through: bool = False,
+        size: float | None = None,
     ):
         self.system, self.singular_ratio, self.through = system, singular_ratio, through
         self.crossings: list[dict] = []  # singular positions passed (with ``through``: the formulation passes them)
         self._last_ratios: tuple[float | None, float | None] = (None, None)
         self._last_q: tuple[np.ndarray, float] = (q, 0.0)
-        size = mechanism_size(system, q)
-        self.size = size
+        self.size = size = mechanism_size(system, q) if size is None else size  # L, as the run's Plan has it
         self.drift_limit = None if drift_limit is None else drift_limit * size
         self.rank = rank_report(system.jacobian(q, 0.0), system.row_owners).rank
         self.closest: dict | None = None
