@@ -30,14 +30,15 @@ sandbox-tools:
 	    echo "bubblewrap (bwrap) not found and not root with apt-get: the isolation tests will be skipped (apt-get install bubblewrap)"; \
 	  fi; }
 
-# Tests run on every core (pytest-xdist). Each work unit is a test file (tests/conftest.py marks each test with
-# its file as its xdist_group; the nbgrader cycle is split per homework), so that a unit's module-scoped fixtures
-# (a nbgrader course, a graded class, a Dask cluster) are built once; units are handed out in collection order
+# Tests run on every core (pytest-xdist). Each work unit is a test file (--dist loadfile; the nbgrader cycle is
+# one file per homework), so that a unit's module-scoped fixtures (a nbgrader course, a graded class, a Dask
+# cluster) are built once. (Not --dist loadgroup: with pytest 9 its xdist_group marks are ignored, every test is a
+# unit of its own and module fixtures were built on both workers.) Units are handed out in collection order
 # (--no-loadscope-reorder: the slow tier first, longest first, tests/conftest.py SLOW), not by test count.
 # One compiled cache for the run (build/test-cache/compiled), warnings are errors (pyproject), 20 slowest listed.
 # `make test-fast` leaves the slow tier out (a quick loop; CI runs `make test`, everything).
 TEST_WORKERS ?= auto
-PYTEST := MPLBACKEND=Agg $(BIN)/python -m pytest -n $(TEST_WORKERS) --dist loadgroup --no-loadscope-reorder
+PYTEST := MPLBACKEND=Agg $(BIN)/python -m pytest -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder
 test: $(STAMP) sandbox-tools
 	$(BIN)/ruff check solutions course autograder mbdkit tests benchmarks
 	$(PYTEST) --durations=20 --junitxml=build/junit.xml  # per-file times: python benchmarks/durations.py build/junit.xml

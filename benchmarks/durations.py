@@ -1,12 +1,12 @@
 """Per-file and per-test durations of a test run, from pytest's JUnit XML, as the Markdown table of
 benchmarks/results/tests.md.
 
-    python -m pytest -n 2 --dist loadgroup --no-loadscope-reorder --durations=0 --junitxml=build/junit.xml
+    python -m pytest -n 2 --dist loadfile --no-loadscope-reorder --durations=0 --junitxml=build/junit.xml
     python benchmarks/durations.py build/junit.xml --wall SECONDS --note "load ..." >> benchmarks/results/tests.md
 
 A file's time is the sum of its tests' (setup, call and teardown: JUnit's ``time``), which is the time it holds
 one pytest-xdist worker: a file longer than the run's wall time divided by the workers is a unit too long to
-balance (split it: tests/conftest.py SPLIT).
+balance (split it into files, as the nbgrader cycle is: tests/course/test_nbgrader_cycle_hwN.py).
 """
 
 from __future__ import annotations

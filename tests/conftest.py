@@ -53,31 +53,33 @@ def pytest_configure(config):
 
 
 SLOW = {
-    "course/test_nbgrader_cycle.py": "nbgrader",
+    "course/test_nbgrader_cycle_hw3.py": "nbgrader",
+    "course/test_nbgrader_cycle_hw1.py": "nbgrader",
+    "autograder/test_grading.py": "isolation",
+    "course/test_notebooks.py": "notebooks",
     "solutions/test_compiled_formulations.py": "compiled",
     "course/test_kit.py": "kit",
-    "autograder/test_grading.py": "isolation",
     "autograder/test_every_function_graded.py": "isolation",
     "course/test_release.py": "notebooks",
-    "course/test_notebooks.py": "notebooks",
-    "course/test_nbgrader_config.py": "nbgrader",
-    "solutions/test_sweep.py": "cluster",
-    "autograder/test_reference.py": "long",
-    "solutions/test_singular_redundant.py": "long",
+    "course/test_nbgrader_cycle_hw2.py": "nbgrader",
     "autograder/test_hostile_grader.py": "isolation",
-    "autograder/test_isolation.py": "isolation",
-    "autograder/test_gradebook.py": "isolation",
-    "autograder/test_fairness.py": "isolation",
-    "autograder/test_wall.py": "isolation",
-    "autograder/test_withheld.py": "isolation",
-    "solutions/test_symbolic.py": "long",
-    "autograder/test_cluster.py": "cluster",
-    "solutions/test_compiled_kinematics.py": "compiled",
     "solutions/test_compiled_models.py": "compiled",
-    "benchmarks/test_bench_smoke.py": "bench",
-    "autograder/test_kernel.py": "isolation",
-    "course/test_notes.py": "notebooks",
+    "autograder/test_isolation.py": "isolation",
+    "autograder/test_fairness.py": "isolation",
     "solutions/test_compiled_history.py": "compiled",
+    "course/test_nbgrader_config.py": "nbgrader",
+    "autograder/test_withheld.py": "isolation",
+    "autograder/test_wall.py": "isolation",
+    "solutions/test_sweep.py": "cluster",
+    "solutions/test_singular_redundant.py": "long",
+    "solutions/test_symbolic.py": "long",
+    "autograder/test_gradebook.py": "isolation",
+    "solutions/test_compiled_kinematics.py": "compiled",
+    "autograder/test_kernel.py": "isolation",
+    "autograder/test_reference.py": "long",
+    "benchmarks/test_bench_smoke.py": "bench",
+    "autograder/test_cluster.py": "cluster",
+    "course/test_notes.py": "notebooks",
     "solutions/test_compiled.py": "compiled",
     "autograder/test_fair_diagnosis.py": "isolation",
     "autograder/test_sandbox.py": "isolation",
@@ -101,26 +103,11 @@ SLOW_TESTS = {
 """Single slow tests of otherwise fast files."""
 
 
-SPLIT = {"course/test_nbgrader_cycle.py": "cycle"}
-"""Files split into several work units of pytest-xdist, by the parameter of a module-scoped fixture: each value
-(there, a homework) is a unit of its own, run on any worker, its fixture built once there."""
-
-
-def work_unit(item, relative: str) -> str:
-    """The item's pytest-xdist work unit (``--dist loadgroup``): its file, or its file and the value of the
-    parameter that splits it (SPLIT)."""
-    split = SPLIT.get(relative)
-    callspec = getattr(item, "callspec", None)
-    if split is None or callspec is None or split not in callspec.params:
-        return relative
-    return f"{relative}:{callspec.params[split]}"
-
-
-@pytest.hookimpl(tryfirst=True)  # before pytest-xdist's own hook reads the xdist_group marks
 def pytest_collection_modifyitems(config, items):
-    """Mark the slow tier (``slow`` and the family's marker) and put its files first, longest first; one
-    pytest-xdist work unit per file (SPLIT aside): ``make test`` runs ``--dist loadgroup --no-loadscope-reorder``,
-    so that units are handed out in this order, each unit's module-scoped fixtures built once on its worker."""
+    """Mark the slow tier (``slow`` and the family's marker) and put its files first, longest first. ``make test``
+    runs ``--dist loadfile --no-loadscope-reorder``: each test file is one pytest-xdist work unit, handed out in
+    this order, its module-scoped fixtures built once on its worker. (A file that should be several units is
+    several files: the nbgrader cycle is one file per homework.)"""
     tests = Path(__file__).parent
     order = {name: k for k, name in enumerate([*SLOW, *(test.split("::")[0] for test in SLOW_TESTS)])}
 
@@ -133,7 +120,6 @@ def pytest_collection_modifyitems(config, items):
         if family is not None:
             item.add_marker(pytest.mark.slow)
             item.add_marker(getattr(pytest.mark, family))
-        item.add_marker(pytest.mark.xdist_group(work_unit(item, relative)))
     items.sort(key=lambda item: order.get(where(item), len(order)))  # stable: the rest keep their order
 
 

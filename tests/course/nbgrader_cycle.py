@@ -1,4 +1,5 @@
-"""The whole nbgrader cycle, headless, for each homework: generate, a submission in ``submitted/``,
+"""The whole nbgrader cycle, headless, for each homework (the tests of every homework: test_nbgrader_cycle_hwN.py
+imports them with its HOMEWORK; hw1's own tests are there): generate, a submission in ``submitted/``,
 autograde, generate feedback, export; the exported grades equal ``mbd grade``'s for the same submissions.
 
 Each homework runs in a scratch copy of the course (``course.demo.scratch_course``: notebooks, nbgrader
@@ -15,7 +16,6 @@ from __future__ import annotations
 import csv
 import hashlib
 import html
-import json
 import os
 import re
 import shutil
@@ -30,7 +30,7 @@ import pytest
 
 from autograder.grading import grade
 from course.demo import MUTATIONS, _mutate, scratch_course
-from course.release import HOMEWORKS, build_package, release
+from course.release import build_package, release
 from course.release.generator import REPO
 from mbdkit.homework import load_homework
 from mbdkit.scenes import HIDDEN
@@ -295,18 +295,15 @@ class Cycle:
     alone: dict[str, float]
 
 
-EACH = pytest.mark.parametrize("cycle", HOMEWORKS, indirect=True)
-HW1 = pytest.mark.parametrize("cycle", ["hw1"], indirect=True)
-
-
 @pytest.fixture(scope="module")
 def cycle(request, tmp_path_factory) -> Cycle:
     """One homework through nbgrader, in a scratch copy of the course of its own: generate (``mbd release``),
     submissions, autograde, feedback, export; then ``mbd grade --jobs 2`` of the same submitted/ folder (its
     gradebook read back by a resuming ``grade``, which grades nothing again), and the honest classmates graded
-    alone. Built once per homework; each homework is a work unit of its own (tests/conftest.py SPLIT), so that
-    pytest-xdist runs the three on different workers."""
-    homework = request.param
+    alone. The homework is the test module's HOMEWORK: each homework's tests are a file of their own
+    (test_nbgrader_cycle_hw1.py, ...), a work unit of pytest-xdist's ``--dist loadfile``, so that the three cycles
+    run on different workers, each built once."""
+    homework = request.module.HOMEWORK
     root = tmp_path_factory.mktemp(f"nbgrader-{homework}")
     course = scratch_course(root / homework)
     shutil.copy2(REPO / "nbgrader_config.py", course / "nbgrader_config.py")  # nbgrader run from the root
@@ -329,7 +326,6 @@ def cycle(request, tmp_path_factory) -> Cycle:
     return Cycle(homework, course, exported, book, run, alone)
 
 
-@EACH
 def test_exported_grades_equal_the_autograders(cycle):
     homework, course, book = cycle.homework, cycle.course, cycle.book
     source = nbformat.read(course / "assignments" / homework / f"{homework}.ipynb", as_version=4)
@@ -344,17 +340,6 @@ def test_exported_grades_equal_the_autograders(cycle):
         assert float(row["max_score"]) == pytest.approx(book.max_score + written)  # written answers: by hand
 
 
-@HW1
-def test_the_demo_students_get_what_they_deserve(cycle):
-    book, exported = cycle.book, cycle.exported
-    assert book.score("ada") == book.max_score and book.score("sam") == 0.0
-    assert book.score("eve") == 0.0  # a checker handed in with the submission is not what grades it
-    assert float(exported["eve"]["raw_score"]) == 0.0
-    assert 0.0 < book.score("ben") < book.max_score
-    assert float(exported["ben"]["raw_score"]) == pytest.approx(book.score("ben"))
-
-
-@EACH
 def test_feedback_pages_show_the_graders_messages(cycle):
     homework, course = cycle.homework, cycle.course
     pages = {}
@@ -369,43 +354,6 @@ def test_feedback_pages_show_the_graders_messages(cycle):
         assert "not implemented yet" in pages["sam"]
 
 
-@HW1
-def test_attacks_on_the_points_score_what_the_skeleton_scores(cycle):
-    book, rows = cycle.book, cycle.exported
-    for student in ("eve", "mal", "rex"):
-        assert book.score(student) == book.score("sam"), student  # mbd grade's route
-        assert float(rows[student]["raw_score"]) == float(rows["sam"]["raw_score"]), student  # nbgrader's
-    assert book.score("ada") == book.max_score  # the classmate rex wrote into kept every point
-
-
-@HW1
-def test_a_hostile_cell_sees_nothing_of_the_course(cycle):
-    course = cycle.course
-    nb = nbformat.read(course / "build" / "autograded" / "rex" / "hw1" / "hw1.ipynb", as_version=4)
-    probe = next(c for c in nb.cells if "attempt(" in c.source)
-    seen = json.loads("".join(o.get("text", "") for o in probe.outputs if o.output_type == "stream"))
-    for attempt in ("course file", "gradebook", "classmate"):
-        assert seen[attempt].startswith("refused"), (attempt, seen[attempt])
-    assert "MBD_GRADER_SECRET" not in seen["environment"] and SECRET not in json.dumps(seen)
-    assert SECRET not in (course / "build" / "feedback" / "rex" / "hw1" / "hw1.html").read_text()
-
-
-@HW1
-def test_the_check_before_autograde_names_and_repairs_the_damaged_notebooks(cycle):
-    """dan's and fay's notebooks were damaged as students damage them; the check that autograde runs first
-    named each damage, repaired it, and nbgrader's totals equal mbd grade's (test_exported_grades_...)."""
-    course, book = cycle.course, cycle.book
-    log = (course / "build" / "autograde.log").read_text()
-    assert "dan: cell test_hw1_revolute is in the notebook twice" in log and "fails the whole submission" in log
-    assert re.search(r"dan: graded test cell test_hw1_prismatic deleted \(6 points\).*repaired: restored", log)
-    assert "dan: the notebook is 'hw1 (1).ipynb', not 'hw1.ipynb'" in log
-    assert "fay: the notebook is 'hw1-copy.ipynb', not 'hw1.ipynb' (zip_collect dropped it" in log
-    assert "repaired: hw1-copy.ipynb collected as hw1.ipynb" in log
-    assert book.score("dan") >= 6.0 and book.score("fay") == 0.0  # the joints' points, the prismatic's among them
-    assert float(cycle.exported["dan"]["raw_score"]) == pytest.approx(book.score("dan"))
-    assert (course / "build" / "autograded" / "fay" / "hw1" / "hw1.ipynb").is_file()
-
-
 ATTACKS = ("forged_", "hostile_notebook", "modules_link", "crash:", "leak:", "wall:")
 
 
@@ -413,7 +361,6 @@ def hostile(homework: str) -> list[str]:
     return [s for s, kind in STUDENTS[homework].items() if kind and kind.startswith(ATTACKS)]
 
 
-@EACH
 def test_mbd_grade_ends_the_hostile_class_within_its_budget(cycle):
     """``mbd grade --jobs 2``: exit 0, no traceback, every student graded (the resuming run grades nothing
     again), within the budget of the class (each submission's budget, two at a time)."""
@@ -425,7 +372,6 @@ def test_mbd_grade_ends_the_hostile_class_within_its_budget(cycle):
     assert seconds < len(STUDENTS[homework]) * load_homework(homework).budget / 2
 
 
-@EACH
 def test_hostile_students_score_at_most_the_skeleton_on_both_routes(cycle):
     book, rows = cycle.book, cycle.exported
     for student in hostile(cycle.homework):
@@ -433,7 +379,6 @@ def test_hostile_students_score_at_most_the_skeleton_on_both_routes(cycle):
         assert float(rows[student]["raw_score"]) <= float(rows["sam"]["raw_score"]), (student, rows[student])
 
 
-@EACH
 def test_honest_classmates_score_exactly_their_score_alone(cycle):
     book, alone = cycle.book, cycle.alone
     for student in HONEST[cycle.homework]:
@@ -475,7 +420,6 @@ def secrets(course: Path, homework: str) -> tuple[set[str], set[str]]:
     return numbers, {n for n in names if not any(n in c.name for c in checks) and n not in released}
 
 
-@EACH
 def test_nothing_hidden_reaches_a_file_returned_to_students(cycle):
     """No hidden or own-variant model text, name or number in a feedback page of either route, with the hidden
     checks held back and after ``mbd grade --publish-hidden`` (which grades nothing again)."""

@@ -1,0 +1,60 @@
+"""The test run itself: ``make test``'s pytest-xdist options keep each test file on one worker, so that a file's
+module-scoped fixtures (a nbgrader course, a graded class, executed notebooks) are built once per run.
+
+Measured in the clean-clone run of 2026-11-28: with ``--dist loadgroup`` under pytest 9 the ``xdist_group`` marks
+were ignored (pytest-xdist 3.8 renames ``item._nodeid``, which pytest 9 no longer reads), every test was a unit
+of its own and the nbgrader cycles, the executed notebooks and the graded classes were built on both workers.
+"""
+
+from __future__ import annotations
+
+import re
+import shlex
+import subprocess
+import sys
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+
+FILE = '''
+import os
+
+import pytest
+
+
+@pytest.fixture(scope="module")
+def built():
+    with open(os.environ["BUILDS"], "a") as f:
+        f.write(__name__ + "\\n")
+
+
+@pytest.mark.parametrize("k", range(6))
+def test_one(built, k):
+    pass
+
+
+@pytest.mark.parametrize("k", range(3))
+def test_two(built, k):
+    pass
+'''
+
+
+def make_test_options() -> list[str]:
+    """The pytest-xdist options of ``make test`` (the Makefile's PYTEST line)."""
+    line = next(line for line in (REPO / "Makefile").read_text().splitlines() if line.startswith("PYTEST :="))
+    words = shlex.split(line.split(":=", 1)[1].replace("$(TEST_WORKERS)", "2"))
+    return words[words.index("pytest") + 1 :]
+
+
+def test_make_test_builds_each_files_module_fixtures_once(tmp_path):
+    for name in ("a", "b", "c", "d"):
+        (tmp_path / f"test_{name}.py").write_text(FILE)
+    builds = tmp_path / "builds.txt"
+    done = subprocess.run(
+        [sys.executable, "-m", "pytest", *make_test_options(), "-p", "no:cacheprovider", "-q", str(tmp_path)],
+        cwd=tmp_path, capture_output=True, text=True, timeout=300, env={"BUILDS": str(builds), "PATH": "/usr/bin:/bin"},
+    )  # fmt: skip
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    assert re.search(r"36 passed", done.stdout), done.stdout[-2000:]
+    built = sorted(builds.read_text().split())
+    assert len(built) == 4 and len(set(built)) == 4, built  # each file's fixture once, on one worker
