@@ -4,7 +4,7 @@ fixes what is safe (a renamed notebook, a duplicated or deleted test cell).
 
 A small damaged class in a folder laid out as the course's build/ (the release's notebook with nbgrader's
 checksums, as ``generate_assignment`` writes them); nbgrader's own autograde of such a class is in
-test_nbgrader_cycle.
+nbgrader_cycle.py (test_nbgrader_cycle_hw1.py).
 """
 
 from __future__ import annotations

@@ -128,7 +128,7 @@ def test_generate_assignment_by_hand_builds_the_whole_kit_or_nothing(scratch):
 
 def test_nbgrader_export_from_the_root_writes_its_csv_into_build_and_nothing_else(scratch):
     """From the course root, build/grades.csv and nothing else. (From course/, after a whole grading cycle:
-    test_nbgrader_cycle.py.)"""
+    tests/course/nbgrader_cycle.py.)"""
     before = tree(scratch)
     done = nbgrader(scratch, "export")
     assert done.returncode == 0, done.stderr[-3000:]
