@@ -1,0 +1,319 @@
+"""Scaling with the number of bodies: chains of N = 2 ... 64 uniform bars, 1 s simulated at rtol = atol = 1e-6.
+
+Three families (issue 25), generated here as model mappings:
+
+- ``planar``: a pendulum chain of N bars (0.5 m, 1 kg) on revolute joints, hanging from the ground, released at
+  rest with the whole chain straight at 45 degrees from the vertical, under gravity;
+- ``spatial``: the same chain in space on spherical joints, the bars along x, then each turned 30 degrees more
+  about the vertical than the one above it (a chain that swings out of every plane), released at rest;
+- ``loops``: an IFToMM-A02-like chain of N parallelogram four-bars: N + 1 cranks (0.5 m, 1 kg) pinned to the
+  ground 0.5 m apart and N couplers (0.5 m, 1 kg) pinning the cranks' tips together: 2N + 1 bodies, N loops, one
+  degree of freedom. The cranks hang 60 degrees from the vertical and start at rest, so the chain swings as one
+  pendulum and never reaches the flat (singular) position.
+
+References that do not come from the solver: the planar chain against Lagrange's equations in the bars' absolute
+angles, sum_j a_ij [cos(t_i - t_j) t_j'' + sin(t_i - t_j) t_j'^2] = -dV/dt_i (a_ij = m l^2 (N - max(i, j) - 1/2) off
+the diagonal, J + m l^2 (N - i - 3/4) on it, counting from 0 at the top); the loop chain against its one-degree-of-
+freedom equation ((N + 1) J_O + N m l^2) t'' = -(N + 1/2) ... (``loop_reference``); both DOP853 at rtol = atol =
+1e-12. The spatial chain has no closed form: its reference is the joint-coordinates formulation at rtol = atol =
+1e-12 (minimal coordinates, a different formulation from the Cartesian ones it judges), said so in the table.
+
+Per family, N and configuration: the wall time of the whole ``forward_dynamics`` call for 1 s (the best of
+``--repeats``; a compiled configuration's compilation is done by a first run and reported apart), the right-hand-
+side evaluations, the time per evaluation and the largest position error of a body centre (m). The growth of the
+time per evaluation with N is fitted as N^p over N >= 8. A configuration whose run at some N takes longer than
+``--limit`` seconds is not run at larger N ("where it breaks").
+
+    .venv/bin/python benchmarks/chains.py                  # N = 2 ... 64, every family (tens of minutes)
+    .venv/bin/python benchmarks/chains.py --quick          # N = 2, 4, 8, numpy only (a minute)
+    .venv/bin/python benchmarks/chains.py --family planar --sizes 2 8 32
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+from scipy.integrate import solve_ivp  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from solutions.assembly import build_system  # noqa: E402
+from solutions.diagnostics import AnalysisError  # noqa: E402
+from solutions.dynamics import forward_dynamics  # noqa: E402
+from solutions.io.model import load_model  # noqa: E402
+
+LENGTH, MASS, GRAVITY = 0.5, 1.0, 9.81
+INERTIA = MASS * LENGTH**2 / 12.0
+T_END, OUTPUTS, TOL = 1.0, 100, 1e-6
+SIZES = (2, 4, 8, 16, 32, 64)
+
+
+# -- the chains ------------------------------------------------------------------------------------------------
+def planar_chain(n: int, angle: float = math.radians(45.0)) -> dict:
+    """N bars hanging from the ground point (0, 0), straight, ``angle`` from the downward vertical."""
+    axis = np.array([math.sin(angle), -math.cos(angle)])
+    phi = math.atan2(axis[1], axis[0])
+    bodies, joints = [], []
+    for i in range(n):
+        centre = (i + 0.5) * LENGTH * axis
+        bodies.append({"name": f"b{i}", "mass": MASS, "inertia": INERTIA, "location": centre.tolist(),
+                       "orientation": phi})  # fmt: skip
+        pin = (i * LENGTH * axis).tolist()
+        joints.append({"name": f"j{i}", "type": "revolute", "body1": "ground" if i == 0 else f"b{i - 1}",
+                       "body2": f"b{i}", "location": pin})  # fmt: skip
+    return {"model": {"name": f"planar-chain-{n}", "dimension": 2, "gravity": [0.0, -GRAVITY],
+                      "bodies": bodies, "joints": joints}}  # fmt: skip
+
+
+def spatial_chain(n: int, turn: float = math.radians(30.0)) -> dict:
+    """N bars on spherical joints, horizontal, bar i turned i * ``turn`` about the vertical from the x axis."""
+    radius = 0.01
+    inertia = [MASS * radius**2 / 2.0, INERTIA + MASS * radius**2 / 4.0, INERTIA + MASS * radius**2 / 4.0]
+    bodies, joints, pin = [], [], np.zeros(3)
+    for i in range(n):
+        direction = np.array([math.cos(i * turn), math.sin(i * turn), 0.0])
+        p = [math.cos(i * turn / 2.0), 0.0, 0.0, math.sin(i * turn / 2.0)]  # about z: the body x axis along the bar
+        bodies.append({"name": f"b{i}", "mass": MASS, "inertia": inertia,
+                       "location": (pin + 0.5 * LENGTH * direction).tolist(), "orientation": p})  # fmt: skip
+        joints.append({"name": f"j{i}", "type": "spherical", "body1": "ground" if i == 0 else f"b{i - 1}",
+                       "body2": f"b{i}", "location": pin.tolist()})  # fmt: skip
+        pin = pin + LENGTH * direction
+    return {"model": {"name": f"spatial-chain-{n}", "dimension": 3, "gravity": [0.0, 0.0, -GRAVITY],
+                      "bodies": bodies, "joints": joints}}  # fmt: skip
+
+
+def loop_chain(n: int, angle: float = math.radians(60.0)) -> dict:
+    """N parallelogram four-bars in a row: cranks c0..cN from ground pivots (k L, 0), couplers k0..k(N-1)."""
+    crank = np.array([math.sin(angle), -math.cos(angle)])  # from the pivot to the tip
+    phi = math.atan2(crank[1], crank[0])
+    bodies, joints = [], []
+    for k in range(n + 1):
+        pivot = np.array([k * LENGTH, 0.0])
+        bodies.append({"name": f"c{k}", "mass": MASS, "inertia": INERTIA,
+                       "location": (pivot + 0.5 * LENGTH * crank).tolist(), "orientation": phi})  # fmt: skip
+        joints.append({"name": f"o{k}", "type": "revolute", "body1": "ground", "body2": f"c{k}",
+                       "location": pivot.tolist()})  # fmt: skip
+    for k in range(n):
+        tip = np.array([k * LENGTH, 0.0]) + LENGTH * crank
+        bodies.append({"name": f"k{k}", "mass": MASS, "inertia": INERTIA,
+                       "location": (tip + [0.5 * LENGTH, 0.0]).tolist(), "orientation": 0.0})  # fmt: skip
+        joints.append({"name": f"a{k}", "type": "revolute", "body1": f"c{k}", "body2": f"k{k}",
+                       "location": tip.tolist()})  # fmt: skip
+        joints.append({"name": f"b{k}", "type": "revolute", "body1": f"k{k}", "body2": f"c{k + 1}",
+                       "location": (tip + [LENGTH, 0.0]).tolist()})  # fmt: skip
+    return {"model": {"name": f"loop-chain-{n}", "dimension": 2, "gravity": [0.0, -GRAVITY],
+                      "bodies": bodies, "joints": joints}}  # fmt: skip
+
+
+# -- references independent of the solver ---------------------------------------------------------------------
+def _tight(f, y0: np.ndarray, times: np.ndarray) -> np.ndarray:
+    solution = solve_ivp(f, (times[0], times[-1]), y0, method="DOP853", t_eval=times, rtol=1e-12, atol=1e-12)
+    assert solution.success, solution.message
+    return solution.y.T
+
+
+def planar_reference(n: int, times: np.ndarray, angle: float = math.radians(45.0)) -> np.ndarray:
+    """Body centres (len(times), n, 2) from Lagrange's equations in the absolute angles (module docstring)."""
+    below = n - 1 - np.arange(n)  # bars below bar i
+    a = MASS * LENGTH**2 * (n - np.maximum.outer(np.arange(n), np.arange(n)) - 0.5)
+    np.fill_diagonal(a, INERTIA + MASS * LENGTH**2 * (below + 0.25))
+    weight = MASS * GRAVITY * LENGTH * (below + 0.5)  # dV/dt_i = weight_i cos t_i, V = sum m g y
+
+    def f(t, y):
+        theta, rate = y[:n], y[n:]
+        difference = theta[:, None] - theta[None, :]
+        matrix = a * np.cos(difference)
+        rhs = -(a * np.sin(difference)) @ rate**2 - weight * np.cos(theta)
+        return np.concatenate([rate, np.linalg.solve(matrix, rhs)])
+
+    theta0 = np.full(n, math.atan2(-math.cos(angle), math.sin(angle)))
+    theta = _tight(f, np.concatenate([theta0, np.zeros(n)]), times)[:, :n]
+    links = LENGTH * np.stack([np.cos(theta), np.sin(theta)], axis=-1)  # (T, n, 2)
+    return np.cumsum(links, axis=1) - 0.5 * links
+
+
+def loop_reference(n: int, times: np.ndarray, angle: float = math.radians(60.0)) -> np.ndarray:
+    """Body centres (len(times), 2n + 1, 2), cranks then couplers, from the chain's one equation in the crank
+    angle t: the cranks turn about their pivots, the couplers translate with the cranks' tips, so
+    T = ((n + 1) J_O + n m l^2) t'^2 / 2 and V = ((n + 1) m l / 2 + n m l) g sin t, J_O = J + m l^2 / 4."""
+    inertia = (n + 1) * (INERTIA + MASS * LENGTH**2 / 4.0) + n * MASS * LENGTH**2
+    weight = ((n + 1) * MASS * LENGTH / 2.0 + n * MASS * LENGTH) * GRAVITY
+
+    def f(t, y):
+        return [y[1], -weight * math.cos(y[0]) / inertia]
+
+    theta = _tight(f, np.array([math.atan2(-math.cos(angle), math.sin(angle)), 0.0]), times)[:, 0]
+    tip = LENGTH * np.stack([np.cos(theta), np.sin(theta)], axis=-1)  # (T, 2)
+    pivots = LENGTH * np.arange(n + 1)
+    cranks = np.stack([pivots[None, :] + 0.5 * tip[:, :1], np.broadcast_to(0.5 * tip[:, 1:], (len(times), n + 1))], -1)
+    couplers = np.stack(
+        [pivots[None, :n] + tip[:, :1] + 0.5 * LENGTH, np.broadcast_to(tip[:, 1:], (len(times), n))], axis=-1
+    )
+    return np.concatenate([cranks, couplers], axis=1)
+
+
+FAMILIES = {"planar": planar_chain, "spatial": spatial_chain, "loops": loop_chain}
+
+
+# -- runs ------------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Config:
+    engine: str
+    formulation: str
+    integrator: str = "dop853"
+
+    @property
+    def label(self) -> str:
+        return f"{self.engine} {self.formulation} {self.integrator}"
+
+
+CONFIGS = (
+    Config("numpy", "baumgarte"),
+    Config("numpy", "joint-coordinates"),
+    Config("compiled", "baumgarte"),
+    Config("compiled", "joint-coordinates"),
+)
+
+
+@dataclass
+class Row:
+    family: str
+    n: int
+    config: str
+    seconds: float = math.nan
+    evaluations: int = 0
+    error: float = math.nan
+    compile_seconds: float = math.nan
+    failure: str = ""
+
+    @property
+    def us_per_evaluation(self) -> float:
+        return 1e6 * self.seconds / self.evaluations if self.evaluations else math.nan
+
+
+def centres(q: np.ndarray, dimension: int) -> np.ndarray:
+    per = 3 if dimension == 2 else 7
+    return q.reshape(q.shape[0], -1, per)[:, :, :dimension]
+
+
+def reference(family: str, n: int, system, q0, qd0, times: np.ndarray) -> np.ndarray:
+    if family == "planar":
+        return planar_reference(n, times)
+    if family == "loops":
+        return loop_reference(n, times)
+    run = forward_dynamics(system, q0, qd0, T_END, OUTPUTS, "joint-coordinates", "DOP853", rtol=1e-12, atol=1e-12)
+    return centres(run.q, 3)
+
+
+def run(family: str, n: int, config: Config, truth: np.ndarray, repeats: int, scene) -> Row:
+    system, q0, qd0, dimension = scene
+    row = Row(family, n, config.label)
+    options = dict(rtol=TOL, atol=TOL, engine=config.engine)
+    try:
+        if config.engine == "compiled":
+            start = time.perf_counter()
+            forward_dynamics(system, q0, qd0, T_END, OUTPUTS, config.formulation, config.integrator, **options)
+            row.compile_seconds = time.perf_counter() - start  # compilation (or loading the cache) and one run
+        best = math.inf
+        for _ in range(repeats):
+            start = time.perf_counter()
+            result = forward_dynamics(system, q0, qd0, T_END, OUTPUTS, config.formulation, config.integrator, **options)
+            best = min(best, time.perf_counter() - start)
+            if best > 1.0:
+                break
+    except AnalysisError as err:
+        row.failure = str(err).splitlines()[0][:80]
+        return row
+    engine = result.info.get("chosen", {}).get("engine", config.engine)
+    if engine != config.engine:
+        row.failure = f"ran on {engine}: {result.info['chosen'].get('engine_why', '')}"[:80]
+    row.seconds, row.evaluations = best, int(result.info["rhs_evaluations"])
+    row.compile_seconds = row.compile_seconds - best if config.engine == "compiled" else math.nan
+    row.error = float(np.max(np.linalg.norm(centres(result.q, dimension) - truth, axis=-1)))
+    return row
+
+
+def growth(rows: list[Row]) -> float:
+    """p of time per evaluation ~ N^p, least squares in log-log over N >= 8 (NaN with fewer than two points)."""
+    points = [(r.n, r.us_per_evaluation) for r in rows if r.n >= 8 and not r.failure and r.evaluations]
+    if len(points) < 2:
+        return math.nan
+    n, us = np.log([p[0] for p in points]), np.log([p[1] for p in points])
+    return float(np.polyfit(n, us, 1)[0])
+
+
+def fmt(x: float, spec: str) -> str:
+    return "" if x is None or not np.isfinite(x) else format(x, spec)
+
+
+def table(family: str, rows: list[Row], configs: tuple[Config, ...]) -> list[str]:
+    judged = "joint-coordinates at 1e-12" if family == "spatial" else "an independent minimal-coordinate ODE at 1e-12"
+    lines = [f"## {family} (error against {judged})", "",
+             "| N | configuration | ms per simulated s | rhs evaluations | us per rhs | error (m) | compile (s) |",
+             "|---:|---|---:|---:|---:|---:|---:|"]  # fmt: skip
+    for r in rows:
+        if r.failure and not r.evaluations:
+            lines.append(f"| {r.n} | {r.config} | failed: {r.failure} | | | | |")
+            continue
+        note = f" ({r.failure})" if r.failure else ""
+        lines.append(
+            f"| {r.n} | {r.config}{note} | {fmt(1e3 * r.seconds / T_END, '.1f')} | {r.evaluations} | "
+            f"{fmt(r.us_per_evaluation, '.0f')} | {fmt(r.error, '.1e')} | {fmt(r.compile_seconds, '.1f')} |"
+        )
+    lines += ["", "| configuration | time per rhs ~ N^p, p over N >= 8 |", "|---|---:|"]
+    for config in configs:
+        lines.append(f"| {config.label} | {fmt(growth([r for r in rows if r.config == config.label]), '.2f')} |")
+    return lines + [""]
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--family", nargs="*", choices=list(FAMILIES), default=list(FAMILIES))
+    parser.add_argument("--sizes", nargs="*", type=int, default=list(SIZES))
+    parser.add_argument("--quick", action="store_true", help="N = 2, 4, 8 on the numpy engine only")
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--limit", type=float, default=60.0, help="seconds a run may take before larger N are left out")
+    parser.add_argument("--out", type=Path, default=None, help="write the Markdown here too")
+    args = parser.parse_args(argv)
+    sizes = [n for n in args.sizes if n <= 8] if args.quick else args.sizes
+    configs = tuple(c for c in CONFIGS if c.engine == "numpy") if args.quick else CONFIGS
+    lines = ["# Scaling with the number of bodies (benchmarks/chains.py)", "",
+             f"{T_END:g} s simulated, {OUTPUTS} output intervals, rtol = atol = {TOL:g}; machine: {os.cpu_count()} "
+             f"cores, load average {os.getloadavg()[0]:.1f} at the start. Command: `python benchmarks/chains.py "
+             f"{' '.join(argv if argv is not None else sys.argv[1:])}`.", ""]  # fmt: skip
+    for family in args.family:
+        rows, broken = [], set()
+        for n in sizes:
+            system, q0, qd0 = build_system(load_model(FAMILIES[family](n)))
+            dimension = system.model.dimension
+            truth = reference(family, n, system, q0, qd0, np.linspace(0.0, T_END, OUTPUTS + 1))
+            for config in configs:
+                if config.label in broken:
+                    continue
+                row = run(family, n, config, truth, args.repeats, (system, q0, qd0, dimension))
+                rows.append(row)
+                said = f"{family} N={n} {config.label}: {fmt(1e3 * row.seconds, '.1f')} ms {row.failure}"
+                print(said, file=sys.stderr, flush=True)
+                if row.failure and not row.evaluations or row.seconds > args.limit:
+                    broken.add(config.label)
+        lines += table(family, rows, configs)
+    text = "\n".join(lines) + "\n"
+    print(text)
+    if args.out:
+        args.out.write_text(text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
