@@ -149,7 +149,8 @@ class Dask(Executor):
                 processes=True,
                 memory_limit=0,
                 dashboard_address=":0",
-                silence_logs=logging.ERROR,
+                silence_logs=logging.CRITICAL,  # a task's error comes back with its result; the rest is Dask's
+                # own noise, such as a worker's heartbeat that meets the scheduler closing at the end of a run
                 env={"PYTHONPATH": os.pathsep.join(p for p in (_package_root(), os.environ.get("PYTHONPATH")) if p)},
             )
             self.client = Client(self.local)

@@ -676,21 +676,24 @@ def run_sweep(
     resumed = len(rows)
     try:
         _run_sets(sweep, rows, out, jobs, cluster, progress)
+        files = _write_outputs(sweep, rows, out, plots)
     except batch.BatchError as err:
         raise SweepError(str(err)) from None
-    except KeyboardInterrupt:
+    except KeyboardInterrupt:  # while running, or while writing the files at the end
         if out is not None and rows:
             write_table(sweep, rows, out)  # every finished run, so that the same command resumes from it
         raise KeyboardInterrupt(
             f"{len(rows)} of {len(sweep.sets)} runs done, run the same command again to resume"
         ) from None
-    files = []
-    if out is not None:
-        files.append(write_table(sweep, rows, out))
-        files.append(write_npz(sweep, rows, out))
-        if plots and rows:
-            files += plot_sweep(sweep, rows, out)
     return SweepResult(sweep, rows, files, resumed, time.perf_counter() - start)
+
+
+def _write_outputs(sweep: Sweep, rows: dict[int, dict], out: Path | None, plots: bool) -> list[Path]:
+    """The table, the histories (.npz) and the plots of a finished sweep, in ``out`` (nothing without it)."""
+    if out is None:
+        return []
+    files = [write_table(sweep, rows, out), write_npz(sweep, rows, out)]
+    return files + (plot_sweep(sweep, rows, out) if plots and rows else [])
 
 
 def _run_sets(sweep: Sweep, rows: dict[int, dict], out: Path | None, jobs: int, cluster: str | None, progress: bool):

@@ -195,7 +195,8 @@ def test_cli_jobs_2_runs_on_a_local_cluster_with_the_same_table(tmp_path, capsys
 
 
 def test_ctrl_c_stops_mbd_sweep_with_one_line_and_the_next_run_resumes(tmp_path):
-    """SIGINT to ``mbd sweep`` once its table is first written: one line, exit 130, and the same command
+    """SIGINT to ``mbd sweep`` once its table is first written (after WRITE_EVERY seconds of runs: the 100 runs
+    take several seconds, so that the signal comes while they run): one line, exit 130, and the same command
     resumes from the runs it had."""
     import subprocess
     import sys
@@ -203,7 +204,7 @@ def test_ctrl_c_stops_mbd_sweep_with_one_line_and_the_next_run_resumes(tmp_path)
     out = tmp_path / "sweep"
     command = [
         sys.executable, "-m", "solutions.cli", "sweep", str(SLIDER_CRANK), "--set", "bodies[crank].mass=0.5:2:100",
-        "--t-end", "0.05", "--steps", "5", "--out", str(out),
+        "--t-end", "0.5", "--steps", "50", "--out", str(out),
     ]  # fmt: skip
     process = subprocess.Popen(command, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 300
