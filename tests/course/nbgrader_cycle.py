@@ -192,8 +192,9 @@ def plant(package: Path, homework: str, kind: str) -> None:
         code = WALL.replace("@@HOOK_OFF@@", wall.HOOK_OFF).replace("@@ATTACK@@", wall._fill(wall.ATTACKS[name]))
         with open(package / "__init__.py", "a") as f:
             f.write(code)
-    else:  # the spin: on the first hidden scene of the homework (one timeout, not one per check)
-        spin = next(c.scene for c in load_homework(homework).checks if c.kind == HIDDEN)
+    else:  # the spin: on the hidden scene whose checks' timeouts add up to the least (one short timeout)
+        hidden = [c for c in load_homework(homework).checks if c.kind == HIDDEN]
+        spin = min({c.scene for c in hidden}, key=lambda scene: sum(c.timeout for c in hidden if c.scene == scene))
         leak.plant(package, name, spin)
 
 
