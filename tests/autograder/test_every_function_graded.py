@@ -52,7 +52,7 @@ def test_each_function_raising_costs_points(homework, make_submissions, referenc
         stub_region(reference_copy(folder / student), region)
         mutants[student] = f"solutions/{region.path}: {region.function}"
 
-    book = grade(homework, folder, tmp_path / "out", jobs=1, progress=False)  # the other worker has the other core
+    book = grade(homework, folder, tmp_path / "out", jobs=2, progress=False)
 
     reference = book.score("reference")
     assert reference == book.max_score, f"{homework}: the reference scores {reference} of {book.max_score}"
