@@ -50,6 +50,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from benchmarks.bench import body_positions  # noqa: E402
 from solutions.assembly import build_system  # noqa: E402
 from solutions.diagnostics import AnalysisError  # noqa: E402
 from solutions.dynamics import forward_dynamics  # noqa: E402
@@ -204,11 +205,6 @@ class Row:
         return 1e6 * self.seconds / self.evaluations if self.evaluations else math.nan
 
 
-def centres(q: np.ndarray, dimension: int) -> np.ndarray:
-    per = 3 if dimension == 2 else 7
-    return q.reshape(q.shape[0], -1, per)[:, :, :dimension]
-
-
 def reference(family: str, n: int, system, q0, qd0, times: np.ndarray) -> np.ndarray:
     if family == "planar":
         return planar_reference(n, times)
@@ -217,7 +213,7 @@ def reference(family: str, n: int, system, q0, qd0, times: np.ndarray) -> np.nda
     run = forward_dynamics(
         system, q0, qd0, T_END, OUTPUTS, "joint-coordinates", "dop853", rtol=1e-12, atol=1e-12, engine="compiled"
     )  # the compiled engine: the numpy one needs minutes at N = 16 and beyond at this tolerance
-    return centres(run.q, 3)
+    return body_positions(run.q, 3)
 
 
 def run(family: str, n: int, config: Config, truth: np.ndarray, repeats: int, scene) -> Row:
@@ -244,7 +240,7 @@ def run(family: str, n: int, config: Config, truth: np.ndarray, repeats: int, sc
         row.failure = f"ran on {engine}: {result.info['chosen'].get('engine_why', '')}"[:80]
     row.seconds, row.evaluations = best, int(result.info["rhs_evaluations"])
     row.compile_seconds = row.compile_seconds - best if config.engine == "compiled" else math.nan
-    row.error = float(np.max(np.linalg.norm(centres(result.q, dimension) - truth, axis=-1)))
+    row.error = float(np.max(np.linalg.norm(body_positions(result.q, dimension) - truth, axis=-1)))
     return row
 
 

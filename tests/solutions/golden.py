@@ -21,6 +21,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 MODELS = sorted((ROOT / "course" / "models").glob("*.yaml"))
 GOLDEN = Path(__file__).with_name("golden_summaries.json")
+if str(ROOT) not in sys.path:  # run as a script (make golden)
+    sys.path.insert(0, str(ROOT))
 
 RESIDUAL_LIMIT = 1e-6
 """The largest constraint residual |Psi| a summary may record (the example models hold theirs to about 1e-8)."""
@@ -31,7 +33,6 @@ with the work of dampers, actuators, loads and drivers (``energy.py``): the exam
 
 def summarize(path: Path) -> dict[str, float]:
     """The summary of ``mbd run PATH --engine numpy``."""
-    sys.path.insert(0, str(ROOT))
     from solutions.analysis import run_analysis
     from solutions.assembly import build_system
     from solutions.io.model import load_model
