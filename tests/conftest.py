@@ -27,7 +27,7 @@ _ISOLATION: dict[str, str | None] = {}
 
 COMPILED_CACHE = Path(__file__).resolve().parents[1] / "build" / "test-cache" / "compiled"
 """The compiled engine's cache of the test run (``$MBD_COMPILED_CACHE``, unless set already): one folder that every
-pytest-xdist worker and every subprocess of the run inherits, so that each scene structure is compiled once per
+pytest-xdist worker and every subprocess of the run inherits, so that each compiled module is compiled once per
 run and clone (never the user's own cache, which a clean clone's run does not find warm either)."""
 
 TEST_SECRET = "mbd-course-test-session-secret"

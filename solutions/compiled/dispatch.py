@@ -4,7 +4,7 @@
 (``solutions.compiled``), else numpy with the reason; ``"auto"`` takes it when it also pays:
 
     the compiled engine when the numpy run is expected to take longer than LOAD_SECONDS and its machine
-    code for the scene's structure is on disk already (loading it costs about that), or longer than
+    code for the scene's dimension is on disk already (loading it costs about that), or longer than
     COMPILE_SECONDS (a first compilation, measured on the course's scenes: ``benchmarks/engines.py``);
     ``"cached"`` takes it whenever its code is on disk (a process that runs many scenes, the grader, pays
     the loading once); the numpy run time is
@@ -95,8 +95,8 @@ def choose(settings: Settings, equations, z0: np.ndarray):
     cached = is_cached(job)
     if engine == "cached":
         if cached:
-            return job, {"engine": "compiled", "engine_why": "compiled code for this scene's structure is cached"}
-        return None, {"engine": "numpy", "engine_why": "no compiled code for this scene's structure is cached"}
+            return job, {"engine": "compiled", "engine_why": "compiled code for this scene's dimension is cached"}
+        return None, {"engine": "numpy", "engine_why": "no compiled code for this scene's dimension is cached"}
     threshold = LOAD_SECONDS if cached else COMPILE_SECONDS
     expected = estimated_numpy_seconds(equations, z0, settings, threshold)
     if cached and expected > LOAD_SECONDS:

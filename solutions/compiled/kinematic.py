@@ -14,7 +14,7 @@ the determinant sign so far: the same errors, the same search for a singular pos
 
 Which engine (``choose``), as ``dispatch.choose`` for forward dynamics: ``numpy``; ``compiled`` whenever the
 kernels cover the model (else numpy, and ``info['chosen']`` says why); ``cached`` when the machine code of the
-scene's structure is on disk; ``auto``:
+scene's dimension is on disk; ``auto``:
 
     the compiled steps when the numpy steps are expected to take longer than LOAD_SECONDS and the machine code
     is on disk, or longer than COMPILE_SECONDS (a first compilation: the scene's ``evaluate`` and, once per
@@ -48,7 +48,7 @@ from .scene import (
 
 COMPILE_SECONDS = 8.0
 """What a first compilation may cost: the step loop and the kernels it calls, once per machine, about 9 s (numba
-0.68, one core of the course machine), then each new structure's ``evaluate`` 0.5-1.2 s with numba's import. The
+0.68, one core of the course machine), then each dimension's ``evaluate`` (every constraint kernel of it) once. The
 rule counts the first as ``dispatch.COMPILE_SECONDS`` does: it leaves to numpy every run it cannot surely repay."""
 NEWTON_PASSES = 3
 """Passes of (Psi, Psi_q, LU, solve) per step in the estimate of the numpy time: about two Newton iterations and
@@ -156,8 +156,8 @@ def choose(engine: str, system, q: np.ndarray, points: int) -> tuple[Scene | Non
     cached = is_kinematic_cached(scene)
     if engine == "cached":
         if cached:
-            return scene, {"engine": "compiled", "engine_why": "compiled code for this scene's structure is cached"}
-        return None, {"engine": "numpy", "engine_why": "no compiled code for this scene's structure is cached"}
+            return scene, {"engine": "compiled", "engine_why": "compiled code for this scene's dimension is cached"}
+        return None, {"engine": "numpy", "engine_why": "no compiled code for this scene's dimension is cached"}
     expected = estimated_numpy_seconds(system, q, points)
     bound, what = (LOAD_SECONDS, "loading the cached code") if cached else (COMPILE_SECONDS, "a first compilation")
     if expected > bound:

@@ -1,19 +1,19 @@
 """What a scene has, for the compiled engine: its element and force types, and their data as arrays.
 
 ``describe(system, forces, masses)`` reads the elements of an assembled ``System`` and a force model and
-returns a ``Scene``: for every element type present, the kernel that evaluates it (``kernels.py``) and its
-data (an int array and a float array, one row per element); the functions of time as a table; the
-constant part of Q (gravity), the masses. ``Scene.key`` names the structure alone (which kernels, in which
-order, which terms): two scenes with the same key share one compiled module, whatever their dimensions,
-masses or initial state. A scene with anything the kernels do not cover gets ``Scene.unsupported``, a
-reason the engine reports when it falls back to numpy.
+returns a ``Scene``: for every element type of its dimension, the kernel that evaluates it (``kernels.py``)
+and its data (an int array and a float array, one row per element; no rows for a type the scene lacks); the
+functions of time as a table; the constant part of Q (gravity), the masses. The model is data: every scene of
+a dimension runs on one compiled module (``Scene.key``), compiled once per machine, whatever its elements,
+dimensions, masses or initial state; the module skips a kernel without rows. A scene with anything the
+kernels do not cover gets ``Scene.unsupported``, a reason the engine reports when it falls back to numpy.
 
 No numba here: this module is imported to decide whether the compiled engine can run at all.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -63,10 +63,10 @@ class Scene:
 
     @property
     def key(self) -> str:
-        """The structure: dimension, kernels in order, which terms; no numbers of the scene."""
-        kernels = "+".join(name for name, _, _ in self.constraint_kernels)
-        loads = "+".join(name for name, _, _ in self.force_kernels)
-        return f"d{self.dimension}|{kernels}|{loads}|e{int(self.energies)}"
+        """What the compiled module depends on: the dimension alone. Every scene of a dimension has every kernel
+        of it (``scene_arrays``: those it lacks with no rows) and the energy terms are chosen at run time, so one
+        module, compiled once per machine, runs every model of the course's element types."""
+        return f"d{self.dimension}"
 
     def data(self) -> tuple:
         """D = (ints, floats): the element data of every kernel in its slot (``loops.SLOTS``), empty when absent."""
@@ -123,12 +123,16 @@ def _group(rows: dict, name: str, ints: list, floats: list) -> None:
 
 
 def scene_arrays(rows: dict, order: tuple[str, ...]) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """(kernel, ints, floats) of every kernel in ``order``: those the scene lacks with no rows (the compiled module
+    of a dimension calls them all, and skips a kernel without rows: one module for every scene)."""
     out = []
     for name in order:
         if name in rows:
             ints, floats = rows[name]
             floats_array = np.array(floats, dtype=float) if floats[0] else np.zeros((len(ints), 1))
             out.append((name, np.array(ints, dtype=np.int64), floats_array))
+        else:
+            out.append((name, np.zeros((0, 1), dtype=np.int64), np.zeros((0, 1))))
     return out
 
 
@@ -317,28 +321,4 @@ def describe(system, M, forces) -> Scene:
     return scene
 
 
-def widen(scene: Scene) -> Scene:
-    """The scene with every kernel of its dimension, in the canonical order, those it lacks with no rows.
-
-    All widened scenes of one dimension and one energy flag share one key, hence one compiled module: a
-    process that runs many structures (the agreement tests over every example model) compiles four modules
-    instead of one per structure, and each evaluation pays a call of the absent kernels (a loop over no rows).
-    The results are the same: the absent kernels add nothing.
-    """
-    if scene.unsupported is not None:
-        return scene
-    empty_ints, empty_floats = np.zeros((0, 1), dtype=np.int64), np.zeros((0, 1))
-
-    def full(kernels: list, order: tuple[str, ...]) -> list:
-        present = {name: (ints, floats) for name, ints, floats in kernels}
-        return [(name, *present.get(name, (empty_ints, empty_floats))) for name in order]
-
-    planar = scene.dimension == 2
-    return replace(
-        scene,
-        constraint_kernels=full(scene.constraint_kernels, PLANAR_CONSTRAINTS if planar else SPATIAL_CONSTRAINTS),
-        force_kernels=full(scene.force_kernels, PLANAR_FORCES if planar else SPATIAL_FORCES),
-    )
-
-
-__all__ = ["Scene", "Unsupported", "describe", "widen"]
+__all__ = ["Scene", "Unsupported", "describe"]

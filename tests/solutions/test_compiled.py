@@ -3,8 +3,7 @@
 The compiled engine evaluates the same equations (a scene-specialized Baumgarte right-hand side) and runs
 the same integrator arithmetic (DOP853 step by step as scipy's), so at rtol = 1e-10 the two trajectories agree
 far below the integrator tolerance: the tests ask for 1e-8 (issue 16), and for the same step counts.
-numba compiles the integrator loops once per machine and each scene structure once (cached on disk): three
-structures here, about 40 s on a clean clone, a second or two afterwards.
+numba compiles the integrator loops and each dimension's module once per machine (cached on disk).
 """
 
 import subprocess

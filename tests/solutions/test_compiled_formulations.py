@@ -4,8 +4,8 @@ Joint coordinates (``solutions/compiled/tree.py``): open trees, planar and spati
 spherical joints, a spring; closed loops cut into trees, with a driver. Projection
 (``solutions/compiled/projection.py``): closed loops with a driver and with a spring-damper-actuator, through
 every compiled integrator loop. At rtol = 1e-10 the trajectories, q'', lambda, energies and reactions agree to
-1e-8 (issue 16). numba compiles each scene structure once (cached on disk): twelve structures here, about a
-minute and a half on a clean cache, a few seconds afterwards.
+1e-8 (issue 16). numba compiles each formulation's module once per dimension (a tree's: per dimension, cut rows
+and energy terms), cached on disk.
 """
 
 from pathlib import Path
@@ -22,7 +22,7 @@ from solutions.io import load_model
 
 pytest.importorskip("numba")
 
-TREES = {  # planar revolute; spatial spherical (two: one structure); spatial revolute; prismatic + revolute + TSDA
+TREES = {  # planar revolute; spatial spherical (two); spatial revolute; prismatic + revolute + TSDA
     "double_pendulum": "course/models/double_pendulum.yaml",
     "spatial_double_pendulum": "course/models/spatial_double_pendulum.yaml",
     "heavy_top": "course/models/heavy_top.yaml",

@@ -4,8 +4,8 @@ The compiled steps solve the same equations (eq. 4.8, 4.5, 4.6) with the same pr
 stopping rule, from the constraint kernels of the compiled engine: on every example model that the kernels cover
 the two engines agree to rounding (the tests ask for 1e-10 relative) with the same Newton iterations. Where
 anything unusual happens the compiled steps stop and the numpy loop goes on: the errors at singular positions
-are the numpy engine's, word for word. numba compiles the step loop once per machine and each structure once
-(cached on disk).
+are the numpy engine's, word for word. numba compiles the step loop and each dimension's
+``evaluate`` once per machine (cached on disk).
 """
 
 import math

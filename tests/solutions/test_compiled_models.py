@@ -6,10 +6,9 @@ engines; the compiled run must give the same trajectories q, q' and the same q''
 size, the same constraint residuals, energies and reactions, the same steps and warnings. The benchmark
 scenes of ``benchmarks/bench.py`` are example models except the free slider-crank, which is run too.
 
-numba compiles a module per scene structure (seconds each). The tests widen every scene to all the kernels
-of its dimension (``scene.widen``: absent kernels with no rows, which add nothing), so the 27 scenes share
-four modules, (planar, spatial) x (with or without the energy states); ``test_compiled.py`` runs the
-engine's own, unwidened, structures. Short runs (0.3 s, Andrews' mechanism its 0.03 s).
+The model is data: every scene of a dimension runs on one compiled module (every kernel of the dimension, each
+called when the scene has its elements), so the 27 scenes share two modules, compiled once per machine. Short
+runs (0.3 s, Andrews' mechanism its 0.03 s).
 """
 
 import sys
@@ -49,16 +48,6 @@ PLANET_IN_RING = {
 }  # fmt: skip
 """An internal gear (sigma = -1, no example model has one): a planet on a swinging arm rolls inside a fixed ring;
 its line of centres starts on atan2's branch cut (theta = pi), so Psi's modulo 2 pi k is crossed at once."""
-
-
-@pytest.fixture(autouse=True)
-def widened(monkeypatch):
-    """Every scene widened to all the kernels of its dimension: one compiled module per (dimension, energies)."""
-    import solutions.compiled as compiled
-    from solutions.compiled.scene import widen
-
-    describe = compiled.describe
-    monkeypatch.setattr(compiled, "describe", lambda *args: widen(describe(*args)))
 
 
 def _close(reference: np.ndarray, value: np.ndarray, floor: float = 1e-10) -> bool:
