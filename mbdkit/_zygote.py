@@ -158,10 +158,11 @@ def _remove_ipc() -> bool:
     return not left
 
 
-def main(fd: int) -> None:
-    """Serve the grader on the inherited socket ``fd`` until it closes it."""
+def main(fd: int, preload: bool = True) -> None:
+    """Serve the grader on the inherited socket ``fd`` until it closes it; ``preload``: import PRELOAD first (not
+    for the probe of ``isolation.problem``, which asks only whether a sandbox starts and forks a child)."""
     control = socket.socket(fileno=fd)
-    for name in PRELOAD:
+    for name in PRELOAD if preload else ():
         try:
             importlib.import_module(name)
         except ImportError:

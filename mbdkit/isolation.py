@@ -94,8 +94,11 @@ CHILD_ENV = {
     "MPLBACKEND": "Agg",
     "LANG": "C.UTF-8",
 }
-BOOT = "import sys; sys.path += sys.argv[1].split(':'); import mbdkit._zygote as z; z.main(int(sys.argv[2]))"
-"""What the sandbox runs (``python -I -S -c BOOT PATHS FD``): mbdkit from its read-only mount, then the
+BOOT = (
+    "import sys; sys.path += sys.argv[1].split(':'); import mbdkit._zygote as z; "
+    "z.main(int(sys.argv[2]), sys.argv[3:] != ['bare'])"
+)
+"""What the sandbox runs (``python -I -S -c BOOT PATHS FD [bare]``): mbdkit from its read-only mount, then the
 zygote (``_zygote``), which forks the children that serve the grader (``_child``)."""
 ZYGOTE_TIMEOUT = 30.0
 """Seconds the zygote may take to answer a fork or a reap (it answers in milliseconds)."""
@@ -242,8 +245,10 @@ def stage_package(folder: str | Path, package: str, destination: str | Path) -> 
 class Plan:
     """The bubblewrap command for one sandbox, and (as root) the private mounts made before it."""
 
-    def __init__(self, tmp: str, staged: str, tmp_size: int, cgroup: list[str] | None = None):
+    def __init__(self, tmp: str, staged: str, tmp_size: int, cgroup: list[str] | None = None, preload: bool = True):
         self.bwrap = bwrap_path()
+        self.preload = preload
+        """Whether the zygote imports numpy and scipy before it answers (``_zygote.PRELOAD``)."""
         if self.bwrap is None:
             raise IsolationUnavailable(NOT_INSTALLED)
         self.tmp, self.staged, self.tmp_size = tmp, staged, tmp_size
@@ -321,7 +326,7 @@ class Plan:
         args += ["--remount-ro", "/", "--remount-ro", "/dev"]  # bubblewrap's root and /dev (/dev/shm) tmpfs
         args += ["--chdir", INNER_SUBMISSION]
         args += [self.executable, "-I", "-S", "-c", BOOT, ":".join(INNER_PATH), str(fd)]
-        return args
+        return args if self.preload else [*args, "bare"]  # no PRELOAD (``_zygote.main``)
 
     def command(self, fd: int) -> list[str]:
         """The command the grader starts: bubblewrap itself, or (as root) the launcher that drops to 65534."""
@@ -401,7 +406,7 @@ class IsolatedHost:
     submission. Between two children everything the first left running is killed (``_zygote``).
     """
 
-    def __init__(self, folder: str | Path, package: str, tmp_size: int, limits=None):
+    def __init__(self, folder: str | Path, package: str, tmp_size: int, limits=None, preload: bool = True):
         self.tmp = tempfile.mkdtemp(prefix="mbd-sandbox-host-")
         staged = os.path.join(self.tmp, "submission")
         self.cgroup = None
@@ -409,7 +414,7 @@ class IsolatedHost:
         try:
             self.skipped = stage_package(folder, package, staged)
             self.cgroup = make_cgroup(limits, tmp_size)
-            self.plan = Plan(self.tmp, staged, tmp_size, self.cgroup.procs if self.cgroup else None)
+            self.plan = Plan(self.tmp, staged, tmp_size, self.cgroup.procs if self.cgroup else None, preload)
         except BaseException:
             self._remove_cgroup()
             shutil.rmtree(self.tmp, ignore_errors=True)
@@ -606,17 +611,26 @@ class IsolatedProcess:
 
 @functools.lru_cache(maxsize=1)
 def _probe() -> str | None:
-    from .sandbox import Sandbox, SandboxError
+    """Start a sandbox on an empty package as grading starts one (bubblewrap, namespaces, mounts, cgroup, the
+    zygote) and fork its child, without the zygote's imports of numpy and scipy (the probe's child needs them
+    not: about a second less before every grading)."""
+    from .sandbox import Limits, Sandbox, SandboxError
 
     with tempfile.TemporaryDirectory(prefix="mbd-probe-") as folder:
         package = Path(folder) / "probe_package"
         package.mkdir()
         (package / "__init__.py").write_text("")
+        host = None
         try:
-            with Sandbox(Path(folder), "probe_package", isolation="os") as sandbox:
+            limits = Limits()
+            host = IsolatedHost(Path(folder), "probe_package", limits.tmp_size, limits, preload=False)
+            with Sandbox(Path(folder), "probe_package", limits=limits, isolation="os", host=host) as sandbox:
                 sandbox.start()
         except (SandboxError, IsolationUnavailable, OSError) as err:
             return " ".join(str(err).split())  # one line
+        finally:
+            if host is not None:
+                host.close()
     return None
 
 

@@ -871,6 +871,126 @@ def spatial_load(q, qd, t, ints, floats, fk, fp, Q, power):
 
 
 # -- the linear solve of eq. 5.30 ------------------------------------------------------------------------------
+RANGE_SPACE_SIZE = 48
+"""The size n + m of eq. 5.30 from which the planar module solves it by eq. 5.31 (``range_space_solve``). Below,
+the LU of eq. 5.30 costs a few microseconds and gives the numpy engine's arithmetic (the same steps on every
+example model); above, it grows as (n + m)^3: per right-hand side on the planar chains of
+``benchmarks/chains.py``, 13.6 against 8.6 us at n + m = 40, 285 against 20 us at 160, 2100 against 48 us at 320."""
+MAX_ROW_ENTRIES = 12
+"""The most nonzeros a row of Psi_q may have for ``range_space_solve`` (a planar element couples two bodies: 6)."""
+
+
+@jit
+def _row_pattern(jac, rows, counts):
+    """The nonzero columns of every row of Psi_q: rows[r, :counts[r]]. False when a row has more than
+    MAX_ROW_ENTRIES of them."""
+    m, n = jac.shape
+    for r in range(m):
+        c = 0
+        for k in range(n):
+            if jac[r, k] != 0.0:
+                if c == MAX_ROW_ENTRIES:
+                    return False
+                rows[r, c] = k
+                c += 1
+        counts[r] = c
+    return True
+
+
+@jit
+def _range_space_matrix(mass, jac, rows, counts, S, first):
+    """S = Psi_q M^-1 Psi_q^T (eq. 5.31), M diagonal, summed column by column over the rows that share it; the
+    envelope: first[r], the first column of row r of S that is not zero."""
+    m, n = jac.shape
+    per_column = np.zeros(n + 1, np.int64)
+    for r in range(m):
+        for a in range(counts[r]):
+            per_column[rows[r, a] + 1] += 1
+    for k in range(n):
+        per_column[k + 1] += per_column[k]
+    members, filled = np.empty(per_column[n], np.int64), per_column[:n].copy()
+    for r in range(m):
+        first[r] = r
+        for a in range(counts[r]):
+            k = rows[r, a]
+            members[filled[k]] = r
+            filled[k] += 1
+    for k in range(n):
+        for a in range(per_column[k], per_column[k + 1]):
+            r = members[a]
+            scaled = jac[r, k] / mass[k]
+            for b in range(per_column[k], a + 1):  # rows in increasing order: s <= r
+                s = members[b]
+                S[r, s] += scaled * jac[s, k]
+                if s < first[r]:
+                    first[r] = s
+
+
+@jit
+def _envelope_cholesky(S, first):
+    """S = L L^T in place (L in the lower triangle of S), within the envelope ``first`` (no fill outside it).
+    False when a pivot is not positive to 1e-12 of its diagonal entry (dependent constraint rows)."""
+    m = S.shape[0]
+    for r in range(m):
+        for s in range(first[r], r + 1):
+            total = S[r, s]
+            for k in range(max(first[r], first[s]), s):
+                total -= S[r, k] * S[s, k]
+            if s < r:
+                S[r, s] = total / S[s, s]
+            elif not total > 1e-12 * S[r, r]:
+                return False
+            else:
+                S[r, r] = math.sqrt(total)
+    return True
+
+
+@jit
+def range_space_solve(mass, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
+    """q'' and lambda of eq. 5.30 for a diagonal M (planar) by eq. 5.31: (Psi_q M^-1 Psi_q^T) lambda =
+    Psi_q M^-1 Q - gamma_bar, q'' = M^-1 (Q - Psi_q^T lambda), gamma_bar of eq. 5.29. S = Psi_q M^-1 Psi_q^T is
+    built from the nonzeros of Psi_q and factored by Cholesky within its envelope: banded when the rows follow
+    the mechanism, so the cost grows with m, not as (n + m)^3. False (nothing written) where it does not apply:
+    a mass that is not positive, a row with many nonzeros, dependent rows; ``augmented_solve`` then."""
+    m, n = jac.shape
+    for k in range(n):
+        if not mass[k] > 0.0:
+            return False
+    rows, counts = np.empty((m, MAX_ROW_ENTRIES), np.int64), np.empty(m, np.int64)
+    if not _row_pattern(jac, rows, counts):
+        return False
+    S, first = np.zeros((m, m)), np.empty(m, np.int64)
+    _range_space_matrix(mass, jac, rows, counts, S, first)
+    if not _envelope_cholesky(S, first):
+        return False
+    stabilized = ab[0] != 0.0 or ab[1] != 0.0
+    x = np.empty(m)
+    for r in range(m):  # x = Psi_q M^-1 Q - gamma_bar, then L y = x (forward)
+        total, psi_dot = 0.0, psit[r]
+        for a in range(counts[r]):
+            k = rows[r, a]
+            total += jac[r, k] * Q[k] / mass[k]
+            psi_dot += jac[r, k] * qd[k]
+        gamma_bar = gam[r] - 2.0 * ab[0] * psi_dot - ab[1] ** 2 * psi[r] if stabilized else gam[r]
+        total -= gamma_bar
+        for k in range(first[r], r):
+            total -= S[r, k] * x[k]
+        x[r] = total / S[r, r]
+    for r in range(m - 1, -1, -1):  # L^T lambda = y (backward, column by column)
+        x[r] /= S[r, r]
+        for k in range(first[r], r):
+            x[k] -= S[r, k] * x[r]
+    force = Q.copy()
+    for r in range(m):
+        for a in range(counts[r]):
+            k = rows[r, a]
+            force[k] -= jac[r, k] * x[r]
+    for k in range(n):
+        qdd[k] = force[k] / mass[k]
+    lam[:] = x
+    return True
+
+
 @jit
 def lu_solve(K, b):
     """x from K x = b by Gaussian elimination with partial pivoting (P K = L U, then two triangular solves):

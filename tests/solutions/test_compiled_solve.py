@@ -1,0 +1,139 @@
+"""The compiled planar solve of eq. 5.30 in its range-space form (eq. 5.31, ``kernels.range_space_solve``) against
+numpy's dense solve of the augmented system, on Jacobians shaped as mechanisms make them: a chain (banded), a
+chain closed into a loop (a wide envelope), rows in shuffled order; and the cases it must hand back to the LU of
+eq. 5.30 (dependent rows, a body without mass, a row with many nonzeros) without writing anything.
+"""
+
+import numpy as np
+import pytest
+
+pytest.importorskip("numba")
+
+from solutions.compiled.kernels import MAX_ROW_ENTRIES, range_space_solve  # noqa: E402
+
+
+def chain_jacobian(bodies: int, closed: bool, rng: np.random.Generator) -> np.ndarray:
+    """Psi_q of planar revolute joints along a chain of ``bodies`` (3 columns each): ground to body 0, then body
+    k - 1 to body k (two rows each, nonzeros in the columns of both bodies); ``closed``: body k - 1 to ground too."""
+    pairs = [(-1, 0), *[(k - 1, k) for k in range(1, bodies)]] + ([(bodies - 1, -1)] if closed else [])
+    jac = np.zeros((2 * len(pairs), 3 * bodies))
+    for e, (i, j) in enumerate(pairs):
+        for body, sign in ((i, 1.0), (j, -1.0)):
+            if body >= 0:
+                jac[2 * e : 2 * e + 2, 3 * body : 3 * body + 2] = sign * np.eye(2)
+                jac[2 * e : 2 * e + 2, 3 * body + 2] = sign * rng.normal(size=2)
+    return jac
+
+
+def augmented(mass, jac, psi, psit, gam, Q, qd, ab):
+    """q'' and lambda of eq. 5.30 with gamma_bar of eq. 5.29, by numpy's dense solve."""
+    m, n = jac.shape
+    K = np.block([[np.diag(mass), jac.T], [jac, np.zeros((m, m))]])
+    gamma_bar = gam - 2.0 * ab[0] * (jac @ qd + psit) - ab[1] ** 2 * psi
+    x = np.linalg.solve(K, np.concatenate([Q, gamma_bar]))
+    return x[:n], x[n:]
+
+
+def problem(jac: np.ndarray, rng: np.random.Generator) -> tuple:
+    m, n = jac.shape
+    mass = rng.uniform(0.5, 3.0, size=n)
+    return mass, jac, rng.normal(size=m), rng.normal(size=m), rng.normal(size=m), rng.normal(size=n), rng.normal(size=n)
+
+
+@pytest.mark.parametrize("bodies", [1, 2, 8, 64])
+@pytest.mark.parametrize("closed", [False, True])
+@pytest.mark.parametrize("shuffled", [False, True])
+@pytest.mark.parametrize("ab", [(0.0, 0.0), (5.0, 7.0)])
+def test_range_space_solve_equals_the_augmented_system(bodies, closed, shuffled, ab):
+    rng = np.random.default_rng(bodies + 10 * closed + 100 * shuffled)
+    jac = chain_jacobian(bodies, closed, rng)
+    if closed and bodies == 1:
+        jac = jac[:2]  # one body between two grounds: six rows on three coordinates would be dependent
+    if shuffled:
+        jac = jac[rng.permutation(jac.shape[0])]
+    mass, jac, psi, psit, gam, Q, qd = problem(jac, rng)
+    ab = np.array(ab)
+    qdd, lam = np.full(jac.shape[1], np.nan), np.full(jac.shape[0], np.nan)
+    assert range_space_solve(mass, jac, psi, psit, gam, Q, qd, ab, qdd, lam)
+    expected_qdd, expected_lam = augmented(mass, jac, psi, psit, gam, Q, qd, ab)
+    np.testing.assert_allclose(qdd, expected_qdd, rtol=1e-9, atol=1e-9 * np.max(np.abs(expected_qdd)))
+    np.testing.assert_allclose(lam, expected_lam, rtol=1e-9, atol=1e-9 * np.max(np.abs(expected_lam)))
+
+
+def test_no_constraints_is_newtons_law():
+    rng = np.random.default_rng(1)
+    mass, jac, psi, psit, gam, Q, qd = problem(np.zeros((0, 6)), rng)
+    qdd, lam = np.empty(6), np.empty(0)
+    assert range_space_solve(mass, jac, psi, psit, gam, Q, qd, np.zeros(2), qdd, lam)
+    np.testing.assert_allclose(qdd, Q / mass, rtol=1e-15)
+
+
+def _refused(mass, jac, psi, psit, gam, Q, qd) -> bool:
+    qdd, lam = np.full(jac.shape[1], 7.0), np.full(jac.shape[0], 7.0)
+    done = range_space_solve(mass, jac, psi, psit, gam, Q, qd, np.zeros(2), qdd, lam)
+    return not done and np.all(qdd == 7.0) and np.all(lam == 7.0)
+
+
+def test_dependent_rows_are_handed_to_the_augmented_lu():
+    rng = np.random.default_rng(2)
+    jac = chain_jacobian(4, False, rng)
+    jac = np.vstack([jac, jac[3] + jac[5]])  # a redundant row: Psi_q M^-1 Psi_q^T is singular
+    assert _refused(*problem(jac, rng))
+
+
+def test_a_body_without_mass_is_handed_to_the_augmented_lu():
+    rng = np.random.default_rng(3)
+    mass, *rest = problem(chain_jacobian(3, False, rng), rng)
+    mass[4] = 0.0
+    assert _refused(mass, *rest)
+
+
+def test_a_row_with_many_nonzeros_is_handed_to_the_augmented_lu():
+    rng = np.random.default_rng(4)
+    jac = chain_jacobian(6, False, rng)
+    jac[0, : MAX_ROW_ENTRIES + 1] = 1.0  # a row coupling five bodies
+    assert _refused(*problem(jac, rng))
+
+
+# -- the compiled engine on scenes large enough for eq. 5.31, against the numpy engine ----------------------------
+@pytest.mark.parametrize("family, size", [("planar", 16), ("loops", 6)])
+def test_a_large_planar_scene_agrees_with_the_numpy_engine(family, size):
+    """A chain of 16 bars (n + m = 80) and a chain of six four-bar loops (n + m = 75) of ``benchmarks/chains.py``,
+    past ``RANGE_SPACE_SIZE``: the compiled run (eq. 5.31) and the numpy run (eq. 5.30 by LU) at rtol = 1e-10 give
+    the same q, q', q'' and lambda to 1e-8 of their size; the step counts within 2 % (the two solves round
+    differently, and the step-size control sees it)."""
+    import sys
+    from pathlib import Path
+
+    from solutions.assembly import build_system
+    from solutions.compiled.kernels import RANGE_SPACE_SIZE
+    from solutions.dynamics import forward_dynamics
+    from solutions.io import load_model
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+    from benchmarks.chains import loop_chain, planar_chain
+
+    model = load_model((planar_chain if family == "planar" else loop_chain)(size))
+    system, q0, qd0 = build_system(model)
+    assert system.n_coordinates + system.n_constraints >= RANGE_SPACE_SIZE
+    runs = {
+        engine: forward_dynamics(
+            system,
+            q0,
+            qd0,
+            0.5,
+            50,
+            formulation="baumgarte",
+            integrator="DOP853",
+            engine=engine,
+            rtol=1e-10,
+            atol=1e-10,
+        )  # fmt: skip
+        for engine in ("numpy", "compiled")
+    }
+    assert runs["compiled"].info["chosen"]["engine"] == "compiled"
+    for name in ("q", "qd", "qdd", "lam"):
+        reference, value = getattr(runs["numpy"], name), getattr(runs["compiled"], name)
+        assert np.max(np.abs(reference - value)) <= 1e-8 * np.max(np.abs(reference)), name
+    steps = [run.info["integrator_steps"] for run in runs.values()]
+    assert abs(steps[0] - steps[1]) <= 0.02 * steps[0], steps
