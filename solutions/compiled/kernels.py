@@ -876,6 +876,9 @@ RANGE_SPACE_SIZE = 48
 the LU of eq. 5.30 costs a few microseconds and gives the numpy engine's arithmetic (the same steps on every
 example model); above, it grows as (n + m)^3: per right-hand side on the planar chains of
 ``benchmarks/chains.py``, 13.6 against 8.6 us at n + m = 40, 285 against 20 us at 160, 2100 against 48 us at 320."""
+PROFILE_WIDTH = 8
+"""The mean envelope width of Psi_q M^-1 Psi_q^T (rows of the lower triangle left of the diagonal) beyond which
+``range_space_solve`` reorders its rows (``_profile_order``) before Cholesky."""
 MAX_ROW_ENTRIES = 12
 """The most nonzeros a row of Psi_q may have for ``range_space_solve`` (a planar element couples two bodies: 6)."""
 
@@ -927,6 +930,74 @@ def _range_space_matrix(mass, jac, rows, counts, S, first):
 
 
 @jit
+def _profile_order(S, first):
+    """An order of the rows of S (symmetric, its lower triangle filled) whose envelope is narrow: reverse
+    Cuthill-McKee (George and Liu, Computer Solution of Large Sparse Positive Definite Systems, 1981, sec. 4.3):
+    breadth first from a row of least degree, each row's unvisited neighbours by increasing degree, the whole
+    order reversed. A chain of loops whose rows come joint type by joint type gets a band again."""
+    m = S.shape[0]
+    degree = np.zeros(m, np.int64)
+    for r in range(m):
+        for c in range(first[r], r):
+            if S[r, c] != 0.0:
+                degree[r] += 1
+                degree[c] += 1
+    start = np.zeros(m + 1, np.int64)
+    for r in range(m):
+        start[r + 1] = start[r] + degree[r]
+    neighbours, filled = np.empty(start[m], np.int64), start[:m].copy()
+    for r in range(m):
+        for c in range(first[r], r):
+            if S[r, c] != 0.0:
+                neighbours[filled[r]] = c
+                filled[r] += 1
+                neighbours[filled[c]] = r
+                filled[c] += 1
+    order, seen, size = np.empty(m, np.int64), np.zeros(m, np.bool_), 0
+    while size < m:
+        root = -1
+        for r in range(m):  # the next part starts at an unvisited row of least degree
+            if not seen[r] and (root < 0 or degree[r] < degree[root]):
+                root = r
+        seen[root] = True
+        order[size] = root
+        head, size = size, size + 1
+        while head < size:
+            r = order[head]
+            head += 1
+            first_new = size
+            for a in range(start[r], start[r + 1]):
+                c = neighbours[a]
+                if not seen[c]:
+                    seen[c] = True
+                    order[size] = c
+                    size += 1
+            for a in range(first_new + 1, size):  # the new rows by increasing degree (insertion sort)
+                c, b = order[a], a - 1
+                while b >= first_new and degree[order[b]] > degree[c]:
+                    order[b + 1] = order[b]
+                    b -= 1
+                order[b + 1] = c
+    return order[::-1].copy()
+
+
+@jit
+def _reordered(S, order, first):
+    """S with its rows and columns in ``order`` (lower triangle), and its envelope ``first`` in that order."""
+    m = S.shape[0]
+    P = np.zeros((m, m))
+    for i in range(m):
+        first[i] = i
+        for j in range(i + 1):
+            a, b = order[i], order[j]
+            value = S[a, b] if a >= b else S[b, a]
+            P[i, j] = value
+            if value != 0.0 and j < first[i]:
+                first[i] = j
+    return P
+
+
+@jit
 def _envelope_cholesky(S, first):
     """S = L L^T in place (L in the lower triangle of S), within the envelope ``first`` (no fill outside it).
     False when a pivot is not positive to 1e-12 of its diagonal entry (dependent constraint rows)."""
@@ -949,8 +1020,9 @@ def _envelope_cholesky(S, first):
 def range_space_solve(mass, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
     """q'' and lambda of eq. 5.30 for a diagonal M (planar) by eq. 5.31: (Psi_q M^-1 Psi_q^T) lambda =
     Psi_q M^-1 Q - gamma_bar, q'' = M^-1 (Q - Psi_q^T lambda), gamma_bar of eq. 5.29. S = Psi_q M^-1 Psi_q^T is
-    built from the nonzeros of Psi_q and factored by Cholesky within its envelope: banded when the rows follow
-    the mechanism, so the cost grows with m, not as (n + m)^3. False (nothing written) where it does not apply:
+    built from the nonzeros of Psi_q and factored by Cholesky within its envelope (its rows reordered first when
+    the envelope is wide): banded when the rows follow the mechanism, so the cost grows with m, not as
+    (n + m)^3. False (nothing written) where it does not apply:
     a mass that is not positive, a row with many nonzeros, dependent rows; ``augmented_solve`` then."""
     m, n = jac.shape
     for k in range(n):
@@ -961,11 +1033,16 @@ def range_space_solve(mass, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
         return False
     S, first = np.zeros((m, m)), np.empty(m, np.int64)
     _range_space_matrix(mass, jac, rows, counts, S, first)
+    order = np.arange(m)
+    if np.sum(np.arange(m) - first) > PROFILE_WIDTH * m:  # a wide envelope: the rows in a narrower order
+        order = _profile_order(S, first)
+        S = _reordered(S, order, first)
     if not _envelope_cholesky(S, first):
         return False
     stabilized = ab[0] != 0.0 or ab[1] != 0.0
-    x = np.empty(m)
-    for r in range(m):  # x = Psi_q M^-1 Q - gamma_bar, then L y = x (forward)
+    y = np.empty(m)
+    for i in range(m):  # y = Psi_q M^-1 Q - gamma_bar (row order[i] in place i), then L y' = y (forward)
+        r = order[i]
         total, psi_dot = 0.0, psit[r]
         for a in range(counts[r]):
             k = rows[r, a]
@@ -973,13 +1050,16 @@ def range_space_solve(mass, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
             psi_dot += jac[r, k] * qd[k]
         gamma_bar = gam[r] - 2.0 * ab[0] * psi_dot - ab[1] ** 2 * psi[r] if stabilized else gam[r]
         total -= gamma_bar
-        for k in range(first[r], r):
-            total -= S[r, k] * x[k]
-        x[r] = total / S[r, r]
-    for r in range(m - 1, -1, -1):  # L^T lambda = y (backward, column by column)
-        x[r] /= S[r, r]
-        for k in range(first[r], r):
-            x[k] -= S[r, k] * x[r]
+        for k in range(first[i], i):
+            total -= S[i, k] * y[k]
+        y[i] = total / S[i, i]
+    for i in range(m - 1, -1, -1):  # L^T lambda = y' (backward, column by column)
+        y[i] /= S[i, i]
+        for k in range(first[i], i):
+            y[k] -= S[i, k] * y[i]
+    x = np.empty(m)
+    for i in range(m):
+        x[order[i]] = y[i]
     force = Q.copy()
     for r in range(m):
         for a in range(counts[r]):

@@ -137,3 +137,25 @@ def test_a_large_planar_scene_agrees_with_the_numpy_engine(family, size):
         assert np.max(np.abs(reference - value)) <= 1e-8 * np.max(np.abs(reference)), name
     steps = [run.info["integrator_steps"] for run in runs.values()]
     assert abs(steps[0] - steps[1]) <= 0.02 * steps[0], steps
+
+
+def test_a_wide_envelope_is_narrowed_by_reordering_the_rows():
+    """Rows of a chain in random order: Psi_q M^-1 Psi_q^T has an envelope as wide as the matrix; in reverse
+    Cuthill-McKee order it is a band again (the order ``range_space_solve`` factors in)."""
+    from solutions.compiled.kernels import PROFILE_WIDTH, _profile_order, _range_space_matrix, _reordered, _row_pattern
+
+    rng = np.random.default_rng(5)
+    jac = chain_jacobian(64, True, rng)[rng.permutation(130)]
+    m, n = jac.shape
+    mass = rng.uniform(0.5, 3.0, size=n)
+    rows, counts = np.empty((m, MAX_ROW_ENTRIES), np.int64), np.empty(m, np.int64)
+    assert _row_pattern(jac, rows, counts)
+    S, first = np.zeros((m, m)), np.empty(m, np.int64)
+    _range_space_matrix(mass, jac, rows, counts, S, first)
+    assert np.sum(np.arange(m) - first) > PROFILE_WIDTH * m
+    order = _profile_order(S, first)
+    assert sorted(order) == list(range(m))
+    P = _reordered(S, order, first)
+    assert np.max(np.arange(m) - first) <= 8  # a band: a joint's rows couple with its neighbours' only
+    full = np.tril(S) + np.tril(S, -1).T
+    np.testing.assert_array_equal(np.tril(full[np.ix_(order, order)]), np.tril(P))
