@@ -20,6 +20,8 @@ from autograder.cli import summary
 from autograder.grading import grade, read_roster
 from mbdkit.homework import Homework, load_homework
 
+from ..shell import as_from_a_shell
+
 REPO = Path(__file__).resolve().parents[2]
 
 
@@ -118,16 +120,9 @@ def test_the_roster_file_must_name_students(tmp_path):
 
 
 # -- Ctrl-C ------------------------------------------------------------------------------------------------------
-def _as_from_a_shell() -> None:
-    """In the child before it starts: SIGINT at its default action and not blocked, as a shell starts a command."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
-
-
 def _interrupt(command: list[str], ready, cwd: Path) -> subprocess.CompletedProcess:
-    """Run ``command`` as from a shell (``_as_from_a_shell``, whatever this test worker's SIGINT is: a library run
-    earlier in the same worker may have left it ignored or blocked, and a child inherits both), send it SIGINT once
-    ``ready()`` holds, and wait for it."""
+    """Run ``command`` as a shell would (``tests.shell.as_from_a_shell``), send it SIGINT once ``ready()`` holds,
+    and wait for it."""
     environment = dict(os.environ, MBD_GRADER_SECRET=os.environ.get("MBD_GRADER_SECRET") or "test")
     process = subprocess.Popen(
         command,
@@ -135,7 +130,7 @@ def _interrupt(command: list[str], ready, cwd: Path) -> subprocess.CompletedProc
         env=environment,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
-        preexec_fn=_as_from_a_shell,
+        preexec_fn=as_from_a_shell,
     )
     deadline = time.monotonic() + 300
     while not ready() and process.poll() is None and time.monotonic() < deadline:

@@ -18,6 +18,8 @@ import pytest
 from solutions.cli import main
 from solutions.sweep import SweepError, make_sweep, parse_values, read_table, run_sweep, write_table
 
+from ..shell import as_from_a_shell
+
 ROOT = Path(__file__).resolve().parents[2]
 SLIDER_CRANK = ROOT / "course" / "models" / "slider_crank.yaml"
 PENDULUM = ROOT / "course" / "models" / "simple_pendulum.yaml"
@@ -206,7 +208,9 @@ def test_ctrl_c_stops_mbd_sweep_with_one_line_and_the_next_run_resumes(tmp_path)
         sys.executable, "-m", "solutions.cli", "sweep", str(SLIDER_CRANK), "--set", "bodies[crank].mass=0.5:2:100",
         "--t-end", "0.5", "--steps", "50", "--out", str(out),
     ]  # fmt: skip
-    process = subprocess.Popen(command, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    process = subprocess.Popen(
+        command, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=as_from_a_shell
+    )
     deadline = time.monotonic() + 300
     while not (out / "sweep.csv").is_file() and process.poll() is None and time.monotonic() < deadline:
         time.sleep(0.05)  # polling for the table (written after the first second of runs), not a fixed wait
