@@ -1034,7 +1034,7 @@ def range_space_solve(mass, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
     S, first = np.zeros((m, m)), np.empty(m, np.int64)
     _range_space_matrix(mass, jac, rows, counts, S, first)
     order = np.arange(m)
-    if np.sum(np.arange(m) - first) > PROFILE_WIDTH * m:  # a wide envelope: the rows in a narrower order
+    if np.sum(order - first) > PROFILE_WIDTH * m:  # a wide envelope: the rows in a narrower order
         order = _profile_order(S, first)
         S = _reordered(S, order, first)
     if not _envelope_cholesky(S, first):
