@@ -17,13 +17,18 @@ import xml.etree.ElementTree as ET
 from collections import defaultdict
 
 
-def durations(junit: str) -> dict[str, float]:
-    """Seconds per test (``file::name``), from the JUnit XML file."""
+def durations(junit: str, what: str = "time") -> dict[str, float]:
+    """Seconds per test (``file::name``), from the JUnit XML file: wall (``time``) or CPU (``cpu``: the property
+    tests/conftest.py records, the worker's and its waited children's CPU seconds)."""
     times = {}
     for case in ET.parse(junit).getroot().iter("testcase"):
         module = case.get("classname", "").split(".")
         where = "/".join(part for part in module if not part[:1].isupper()) + ".py"
-        times[f"{where}::{case.get('name')}"] = float(case.get("time", 0.0))
+        if what == "time":
+            value = case.get("time", 0.0)
+        else:
+            value = next((p.get("value") for p in case.iter("property") if p.get("name") == what), 0.0)
+        times[f"{where}::{case.get('name')}"] = float(value)
     return times
 
 
@@ -35,20 +40,24 @@ def per_file(times: dict[str, float]) -> dict[str, tuple[float, int]]:
     return {name: (sum(values), len(values)) for name, values in files.items()}
 
 
-def table(times: dict[str, float], wall: float | None, note: str, slowest: int = 30) -> str:
-    """The Markdown section: totals, the slowest files, the slowest tests."""
-    files = per_file(times)
+def table(times: dict[str, float], wall: float | None, note: str, slowest: int = 30, cpu=None) -> str:
+    """The Markdown section: totals, the slowest files, the slowest tests (with their CPU seconds when given)."""
+    files, cpu = per_file(times), cpu or {}
+    cpu_files = per_file(cpu)
     total = sum(times.values())
     lines = [f"## {datetime.date.today().isoformat()}: {len(times)} tests, {len(files)} files", ""]
     if wall is not None:
         lines.append(f"- wall time {wall:.0f} s ({wall / 60:.1f} min)")
-    lines += [f"- sum of the tests' times {total:.0f} s ({total / 60:.1f} min of worker time)", f"- {note}", ""]
-    lines += ["| file | seconds | tests |", "|---|---:|---:|"]
+    lines.append(f"- sum of the tests' times {total:.0f} s ({total / 60:.1f} min of worker time)")
+    if cpu:
+        lines.append(f"- CPU of the tests and their waited children {sum(cpu.values()):.0f} s")
+    lines += [f"- {note}", ""]
+    lines += ["| file | seconds | CPU s | tests |", "|---|---:|---:|---:|"]
     for name, (seconds, count) in sorted(files.items(), key=lambda kv: -kv[1][0])[:slowest]:
-        lines.append(f"| {name} | {seconds:.1f} | {count} |")
-    lines += ["", "| test | seconds |", "|---|---:|"]
+        lines.append(f"| {name} | {seconds:.1f} | {cpu_files.get(name, (0.0, 0))[0]:.1f} | {count} |")
+    lines += ["", "| test | seconds | CPU s |", "|---|---:|---:|"]
     for name, seconds in sorted(times.items(), key=lambda kv: -kv[1])[:slowest]:
-        lines.append(f"| {name} | {seconds:.1f} |")
+        lines.append(f"| {name} | {seconds:.1f} | {cpu.get(name, 0.0):.1f} |")
     return "\n".join(lines) + "\n"
 
 
@@ -59,7 +68,7 @@ def main() -> None:
     parser.add_argument("--note", default="", help="the command, the machine and its load")
     parser.add_argument("--slowest", type=int, default=30)
     args = parser.parse_args()
-    print(table(durations(args.junit), args.wall, args.note, args.slowest))
+    print(table(durations(args.junit), args.wall, args.note, args.slowest, durations(args.junit, "cpu")))
 
 
 if __name__ == "__main__":

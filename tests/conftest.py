@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import os
+import resource
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -121,6 +122,31 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(pytest.mark.slow)
             item.add_marker(getattr(pytest.mark, family))
     items.sort(key=lambda item: order.get(where(item), len(order)))  # stable: the rest keep their order
+
+
+def _cpu_seconds() -> float:
+    """CPU seconds (user and system) of this process and of its children that have ended and been waited for
+    (kernels, sandboxes, subprocesses, a Dask cluster's workers), each including its own waited children."""
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
+_CPU_START = pytest.StashKey[float]()
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_runtest_setup(item):
+    item.stash[_CPU_START] = _cpu_seconds()
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    """Each test's CPU seconds (setup, call and teardown; a module fixture's on the test that built it) as the
+    JUnit property ``cpu``: what a test costs the run on a CPU-bound machine, whatever the other worker does
+    meanwhile (``python benchmarks/durations.py build/junit.xml`` lists it beside the wall time)."""
+    if call.when == "teardown" and _CPU_START in item.stash:
+        item.user_properties.append(("cpu", f"{_cpu_seconds() - item.stash[_CPU_START]:.2f}"))
+    yield
 
 
 def pytest_report_header(config):

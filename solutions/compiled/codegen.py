@@ -28,6 +28,7 @@ machine compiles each module once, not once per model.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import importlib.util
@@ -273,12 +274,34 @@ def load_generated(name: str, text: str, probe: str) -> tuple[object, bool]:
     path = directory / f"{name}.py"
     if not path.exists():
         write_atomic(path, text)  # a parallel run never imports half a file
-    cached = is_generated_cached(name, probe)
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
+    with _one_compilation(directory, name, is_generated_cached(name, probe)):
+        cached = is_generated_cached(name, probe)  # another process may have compiled it while this one waited
+        spec = importlib.util.spec_from_file_location(name, path)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        spec.loader.exec_module(module)  # numba compiles the explicit signatures here, or loads them from disk
     return module, cached
+
+
+@contextlib.contextmanager
+def _one_compilation(directory: Path, name: str, cached: bool):
+    """While one process compiles a generated module, the others that need it wait for it (an advisory lock on
+    ``<name>.lock`` in the cache directory) and then load its machine code from disk: a module is compiled once
+    per machine, not once per process that starts at the same time (two runs, pytest's workers). No lock where
+    the module is cached already, or where the platform has no ``fcntl``."""
+    try:
+        import fcntl
+    except ImportError:  # not POSIX: each process compiles what it does not find
+        fcntl = None
+    if cached or fcntl is None:
+        yield
+        return
+    with open(directory / f"{name}.lock", "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
 
 
 def is_generated_cached(name: str, probe: str) -> bool:

@@ -6,6 +6,7 @@ far below the integrator tolerance: the tests ask for 1e-8 (issue 16), and for t
 numba compiles the integrator loops and each dimension's module once per machine (cached on disk).
 """
 
+import os
 import subprocess
 import sys
 
@@ -130,3 +131,30 @@ def test_auto_and_cached_choose_by_what_pays(tmp_path, monkeypatch):
     for engine, why in (("auto", "less than a first compilation"), ("cached", "no compiled code")):
         run = forward_dynamics(system, q0, qd0, 0.05, 2, engine=engine, **kwargs)
         assert run.info["chosen"]["engine"] == "numpy" and why in run.info["chosen"]["engine_why"], run.info
+
+
+SLOW_MODULE = """import time
+from numba import njit
+
+time.sleep(1.5)  # a compilation that takes a while
+
+
+@njit("float64(float64)", cache=True)
+def twice(x):
+    return 2.0 * x
+"""
+LOAD = """import sys
+from solutions.compiled.codegen import load_generated
+module, cached = load_generated("mbd_test_twice", sys.argv[1], "twice")
+print(cached, module.twice(2.0))
+"""
+
+
+def test_a_module_two_processes_need_at_once_is_compiled_by_one(tmp_path):
+    """Two processes start on a cold cache and need the same generated module: one compiles it, the other waits
+    and loads its machine code from disk (without the lock both would compile: both would say False)."""
+    environment = {**os.environ, "MBD_COMPILED_CACHE": str(tmp_path)}
+    command = [sys.executable, "-c", LOAD, SLOW_MODULE]
+    processes = [subprocess.Popen(command, env=environment, stdout=subprocess.PIPE, text=True) for _ in range(2)]
+    said = sorted(process.communicate(timeout=300)[0].split() for process in processes)
+    assert said == [["False", "4.0"], ["True", "4.0"]]
