@@ -59,9 +59,9 @@ class TreeScene:
 
     @property
     def key(self) -> str:
-        """What the tree's module depends on: the dimension and whether the tree has cut rows (the energy terms
-        and the drivers' power are chosen at run time: ``compiled.parameters``)."""
-        return f"tree|{self.scene.key}|cut{int(bool(self.cut_rows.size))}"
+        """What the tree's module depends on: the dimension (cut rows, the energy terms and the drivers' power
+        are data, chosen at run time: P[8], ``compiled.parameters``)."""
+        return f"tree|{self.scene.key}"
 
     def data(self) -> tuple:
         """D of the scene with the tree's joints in their slot."""
@@ -126,10 +126,12 @@ def _multipliers(scene: Scene) -> list[str]:
     return [*lines, "    lam[:] = lu_solve(jac @ jac.T, jac @ residual)"]
 
 
-def _accelerations(tree: TreeScene, rates: str, coordinates: bool) -> list[str]:
+def _accelerations(tree: TreeScene, rates: str, coordinates: bool, body: bool, cut_extra=()) -> list[str]:
     """The lines that make (``coordinates``: q and q'), xi, D, omega', Q and the powers, and theta'' (``thdd``),
-    at the joint state y; the arrays cut from one allocation. With cut rows, Psi, Psi_q, Psi_t and gamma of
-    every row too (``cut_accelerations`` takes the cut rows, P[8][6:])."""
+    at the joint state y; the arrays cut from one allocation. A tree with cut rows (P[8][6:], chosen at run time:
+    one module per dimension) solves the augmented system with Psi, Psi_q, Psi_t and gamma of every row
+    (``cut_accelerations``), then runs ``cut_extra``; one without, (D^T M D) theta'' = D^T (Q - M xi). ``body``:
+    the constraint rows are evaluated in any case (lambda of every row needs them)."""
     scene = tree.scene
     spatial = scene.dimension == 3
     per = 6 if spatial else 3
@@ -155,38 +157,47 @@ def _accelerations(tree: TreeScene, rates: str, coordinates: bool) -> list[str]:
     lines += force_calls(scene, "    ")
     equations = "spatial" if spatial else "planar"
     arguments = "masses, inertias, q, Dm, xi, omega, Q" if spatial else "mass, Dm, xi, Q"
-    if not tree.cut_rows.size:
-        return [*lines, f"    thdd = {equations}_accelerations({arguments}, D[0][{slot}])"]
-    lines += _constraints(scene)
-    lines.append(f"    matrix, rhs = {equations}_equations({arguments}, D[0][{slot}])")
+    if body:
+        lines += _constraints(scene)
+    lines.append("    if dims.size > 6:  # cut rows: the augmented system (eq. 5.29, 5.30 in joint coordinates)")
+    if not body:
+        lines += ["    " + line for line in _constraints(scene)]
+    lines.append(f"        matrix, rhs = {equations}_equations({arguments}, D[0][{slot}])")
     if spatial:
         lines += [
-            "    Dq, xiq = np.empty((n, k)), np.empty(n)",
-            "    spatial_joint_matrix(q, Dm, Dq)",
-            "    spatial_coordinate_accelerations(q, qd, Dm, xi, omega, np.zeros(k), xiq)",
+            "        Dq, xiq = np.empty((n, k)), np.empty(n)",
+            "        spatial_joint_matrix(q, Dm, Dq)",
+            "        spatial_coordinate_accelerations(q, qd, Dm, xi, omega, np.zeros(k), xiq)",
         ]
     else:
-        lines.append("    Dq, xiq = Dm, xi")
+        lines.append("        Dq, xiq = Dm, xi")
     lines.append(
-        "    thdd = cut_accelerations(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, dims[6:], numbers[0], numbers[1])"
+        "        thdd = cut_accelerations("
+        "matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, dims[6:], numbers[0], numbers[1])"
     )
+    lines += cut_extra
+    lines += ["    else:", f"        thdd = {equations}_accelerations({arguments}, D[0][{slot}])"]
     return lines
 
 
 def generate(tree: TreeScene) -> str:
     """The source text of the tree scene's module (module docstring): the joint accelerations written out in
     both functions (P and D stay in the function that receives them: passing them on costs more than the
-    arithmetic of a small tree)."""
+    arithmetic of a small tree). One module per dimension: whether the tree has cut rows is data (P[8])."""
     scene = tree.scene
     spatial = scene.dimension == 3
-    cut = bool(tree.cut_rows.size)
     forces = [name for name, _, _ in scene.force_kernels]
     constraints = [name for name, _, _ in scene.constraint_kernels]
     kernels = sorted({*forces, *constraints, "lu_solve"} | ({"spatial_mass"} if spatial else set()))
     dimension = "spatial" if spatial else "planar"
-    tree_imports = {f"{dimension}_motion", f"{dimension}_equations" if cut else f"{dimension}_accelerations"}
-    tree_imports |= {"spatial_coordinate_accelerations"} if spatial else set()
-    tree_imports |= ({"cut_accelerations"} | ({"spatial_joint_matrix"} if spatial else set())) if cut else set()
+    tree_imports = {f"{dimension}_motion", f"{dimension}_equations", f"{dimension}_accelerations", "cut_accelerations"}
+    tree_imports |= {"spatial_coordinate_accelerations", "spatial_joint_matrix"} if spatial else set()
+    drivers = [  # drivers are cut rows: with the energy balance, their power needs lambda at every evaluation
+        "        if dims[5]:  # the drivers' power (eq. 5.61), from lambda of every row",
+        "            qdd, lam = np.empty(n), np.empty(m)",
+        *["        " + line for line in _multipliers(scene)],
+        "            power[2] = lam @ psit",
+    ]
     lines = [
         f'"""Generated by solutions.compiled.tree for the tree {tree.key!r}: do not edit."""',
         "import numpy as np",
@@ -200,29 +211,17 @@ def generate(tree: TreeScene) -> str:
         "@njit(RHS_SIGNATURE, cache=True, nogil=True)",
         "def scene_rhs(t, y, P, D, out):",
         '    """y\' = (the rates of the joint positions, theta\'\'[, P_dissipated, P_applied, P_drivers])."""',
-        *_accelerations(tree, "out[:npos]", True),
+        *_accelerations(tree, "out[:npos]", True, False, drivers),
         *([] if spatial else ["    out[:npos] = y[npos : npos + k]  # planar: the rates are theta'"]),
         "    out[npos : npos + k] = thdd",
-    ]
-    if cut:  # drivers are cut rows: with the energy balance, their power needs lambda at every evaluation
-        lines += [
-            "    if dims[5]:  # the drivers' power (eq. 5.61), from lambda of every row",
-            "        qdd, lam = np.empty(n), np.empty(m)",
-            *["    " + line for line in _multipliers(scene)],
-            "        power[2] = lam @ psit",
-        ]
-    lines += [
         "    if dims[2]:  # the energy balance's three powers",
         "        out[npos + k], out[npos + k + 1], out[npos + k + 2] = power[0], power[1], power[2]",
-    ]
-    lines += [
         "",
         "",
         "@njit(BODY_STATE_SIGNATURE, cache=True, nogil=True)",
         "def body_state(t, y, P, D, q, qd, qdd, lam):",
         '    """q, q\', q\'\' and lambda (Psi_q^T lambda = Q - M q\'\', normal equations) at the joint state y."""',
-        *_accelerations(tree, "np.empty(npos)", False),
-        *([] if cut else _constraints(scene)),
+        *_accelerations(tree, "np.empty(npos)", False, True),
         *_multipliers(scene),
         "",
         "",

@@ -4,8 +4,8 @@ Joint coordinates (``solutions/compiled/tree.py``): open trees, planar and spati
 spherical joints, a spring; closed loops cut into trees, with a driver. Projection
 (``solutions/compiled/projection.py``): closed loops with a driver and with a spring-damper-actuator, through
 every compiled integrator loop. At rtol = 1e-10 the trajectories, q'', lambda, energies and reactions agree to
-1e-8 (issue 16). numba compiles each formulation's module once per dimension (a tree's: per dimension, cut rows
-and energy terms), cached on disk.
+1e-8 (issue 16). numba compiles each formulation's module once per dimension (a tree's too:
+whether it has cut rows is data), cached on disk.
 """
 
 from pathlib import Path
