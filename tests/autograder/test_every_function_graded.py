@@ -41,7 +41,8 @@ from mbdkit.scenes import job_key, scene_kind
 
 SOLUTIONS = REPO / "solutions"
 TRACED = "mbd-trace"
-"""The student name of the traced run (its own variants of the per-student scenes)."""
+"""The student name of the traced run and of every mutant: one set of per-student variants (the scenes the trace
+ran), whose references are computed once."""
 
 
 def asked_regions(homework: str) -> list[Region]:
@@ -157,7 +158,7 @@ def test_each_function_raising_costs_points(homework, make_submissions, referenc
         first = checks[0]  # the grader's first probe call into the function, alone: enough when it loses points
         for tried in ([c for c in checks if (c.scene, c.probe_key) == (first.scene, first.probe_key)], checks):
             subset = dataclasses.replace(spec, checks=tried)
-            submission = Submission(student, tmp_path / "mutants" / student)
+            submission = Submission(TRACED, tmp_path / "mutants" / student)
             row = grade_submission(subset, submission, tmp_path / "out", Limits(), isolation="local")
             if [c.name for c in tried if row["checks"][c.name] < c.points]:
                 break
