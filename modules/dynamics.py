@@ -740,6 +740,15 @@ ALIGNED = 0.9
 """|det(T_prev^T T)| above which two steps' null spaces are close enough for the sign test of ``Guard``."""
 
 
+def null_space_bases(jacobians: np.ndarray) -> np.ndarray:
+    """An orthonormal basis T (n, n - m) of the null space of each Psi_q (m, n) of full row rank in a stack
+    (N, m, n): the last n - m columns of the complete QR factorization Psi_q^T = Q R (the first m span the rows).
+    Any orthonormal basis serves the guard: replacing T by T R_k (R_k orthogonal) multiplies det [Psi_q; T^T] and
+    det(T_prev^T T) by det R_k = +-1 each, and the product they are judged by by (det R_k)^2 = 1."""
+    q_full, _ = np.linalg.qr(np.swapaxes(jacobians, 1, 2), mode="complete")
+    return q_full[:, :, jacobians.shape[1] :]
+
+
 class Guard:
     """Keeps a run from returning a wrong answer silently (two checks, each with the time and the condition):
 
@@ -849,11 +858,17 @@ class Guard:
             return
         norms = np.linalg.norm(jacobians * self._columns, axis=2, keepdims=True)
         scaled = jacobians * self._columns / np.where(norms > 0, norms, 1.0)
-        _, s, vt = np.linalg.svd(scaled)
-        ratios = np.where(s[:, 0] > 0, s[:, self.rank - 1] / np.where(s[:, 0] > 0, s[:, 0], 1.0), 0.0)
-        tangents = np.swapaxes(vt[:, self.rank :], 1, 2)
         square = scaled.shape[1] == self.rank
-        signs = np.sign(np.linalg.det(np.concatenate([scaled, vt[:, self.rank :]], axis=1))) if square else None
+        if square:  # independent rows: singular values alone, the null space from a QR of Psi_q^T (cheaper)
+            s = np.linalg.svd(scaled, compute_uv=False)
+            tangents = null_space_bases(scaled)
+        else:  # redundant rows: the null space of rank r needs the SVD's V
+            _, s, vt = np.linalg.svd(scaled)
+            tangents = np.swapaxes(vt[:, self.rank :], 1, 2)
+        ratios = np.where(s[:, 0] > 0, s[:, self.rank - 1] / np.where(s[:, 0] > 0, s[:, 0], 1.0), 0.0)
+        signs = None  # det [Psi_q; T^T] is defined without redundant rows only
+        if square:
+            signs = np.sign(np.linalg.det(np.concatenate([scaled, np.swapaxes(tangents, 1, 2)], axis=1)))
         turns = np.linalg.det(np.swapaxes(tangents[:-1], 1, 2) @ tangents[1:])  # det(T_k-1^T T_k), k >= 1
         for k in range(t.size):
             sign = self._sign if signs is None else signs[k]

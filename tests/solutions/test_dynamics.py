@@ -334,3 +334,19 @@ def test_augmented_lagrangian_raises_a_tolerance_it_cannot_hold(double_pendulum)
     assert result.info["rtol"] == pytest.approx(1e-11)
     assert any("raised to 1e-11, 1e-11" in w for w in result.info["warnings"]), result.info["warnings"]
     assert result.info["rhs_evaluations"] < 5000
+
+
+def test_null_space_bases_are_orthonormal_bases_of_each_jacobians_null_space():
+    """The batched guard's null spaces (``dynamics.null_space_bases``, from a complete QR of Psi_q^T): n - m
+    orthonormal columns that Psi_q maps to zero, for each matrix of a stack, as the SVD's last columns of V."""
+    from solutions.dynamics import null_space_bases
+
+    rng = np.random.default_rng(7)
+    stack = rng.standard_normal((5, 3, 7))
+    bases = null_space_bases(stack)
+    assert bases.shape == (5, 7, 4)
+    for jacobian, basis in zip(stack, bases, strict=True):
+        assert np.allclose(jacobian @ basis, 0.0, atol=1e-12)
+        assert np.allclose(basis.T @ basis, np.eye(4), atol=1e-12)
+        v = np.linalg.svd(jacobian)[2][3:].T  # the SVD's basis of the same space: T^T V is orthogonal
+        assert np.allclose(np.abs(np.linalg.det(basis.T @ v)), 1.0, atol=1e-12)
