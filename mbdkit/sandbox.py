@@ -37,8 +37,11 @@ from pathlib import Path
 
 from . import _child, _zygote, wire
 
-PRELOAD = ["mbdkit._child", *_zygote.PRELOAD]
-"""Modules the forkserver imports once; children inherit them. Never the reference package."""
+PRELOAD = ["mbdkit._child", *(name for name in _zygote.PRELOAD if name != "jsonschema")]
+"""Modules the forkserver imports once; children inherit them. Never the reference package. Not ``jsonschema``
+(imported where an invalid model file's errors are listed): outside the grader's sandbox it imports the
+``rfc3987_syntax`` that Jupyter's dependencies install, which builds a grammar at import, about 2 s of every
+forkserver's start (a notebook's first check, each ``mbd selfcheck``); the OS sandbox does not show it."""
 
 SANDBOX_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 STARTUP_TIMEOUT = 120.0
