@@ -861,13 +861,11 @@ class Guard:
         if square:  # independent rows: singular values alone, the null space from a QR of Psi_q^T (cheaper)
             s = np.linalg.svd(scaled, compute_uv=False)
             tangents = null_space_bases(scaled)
-        else:  # redundant rows: the null space of rank r needs the SVD's V
-            _, s, vt = np.linalg.svd(scaled)
-            tangents = np.swapaxes(vt[:, self.rank :], 1, 2)
-        ratios = np.where(s[:, 0] > 0, s[:, self.rank - 1] / np.where(s[:, 0] > 0, s[:, 0], 1.0), 0.0)
-        signs = None  # det [Psi_q; T^T] is defined without redundant rows only
-        if square:
             signs = np.sign(np.linalg.det(np.concatenate([scaled, np.swapaxes(tangents, 1, 2)], axis=1)))
+        else:  # redundant rows: the null space of rank r needs the SVD's V; det [Psi_q; T^T] is not defined
+            _, s, vt = np.linalg.svd(scaled)
+            tangents, signs = np.swapaxes(vt[:, self.rank :], 1, 2), None
+        ratios = np.where(s[:, 0] > 0, s[:, self.rank - 1] / np.where(s[:, 0] > 0, s[:, 0], 1.0), 0.0)
         turns = np.linalg.det(np.swapaxes(tangents[:-1], 1, 2) @ tangents[1:])  # det(T_k-1^T T_k), k >= 1
         for k in range(t.size):
             sign = self._sign if signs is None else signs[k]

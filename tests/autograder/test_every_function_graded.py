@@ -143,10 +143,10 @@ def test_each_function_raising_costs_points(homework, make_submissions, referenc
     assert all(full[c.name] == c.points for c in spec.checks), full  # each check passed: losing one loses points
 
     calls = functions_each_check_calls(homework)
+    order = {call: k for k, call in enumerate(_order(spec.checks))}  # the grader's order of probe calls
     unreached = []
     for number, region in enumerate(asked_regions(homework)):
         student, where = f"mutant{number:03d}", innermost_function(region)
-        order = {call: k for k, call in enumerate(_order(spec.checks))}
         checks: list[CheckSpec] = sorted(
             (c for c in spec.checks if where in calls[c.name]), key=lambda c: order[c.scene, c.probe_key]
         )
