@@ -128,3 +128,15 @@ Stack (most recent call first):
     samples = stack_samples(dump)
     assert len(samples) == 3 and samples[0][0][2] == "velocity"
     assert stuck_function(samples, "/s/modules") == ("/s/modules/kinematics.py", 81, "velocity_analysis")
+
+
+def test_the_local_forkserver_preloads_the_solver_libraries_but_not_jsonschema():
+    """A student's own checks fork from a forkserver that imports numpy and scipy once; not jsonschema, whose
+    import outside the grader's sandbox builds rfc3987_syntax's grammar (about 2 s of every notebook's first
+    check). The grader's OS sandbox keeps it: rfc3987_syntax is not among the distributions it shows."""
+    from mbdkit import _zygote, isolation, sandbox
+
+    assert {"mbdkit._child", "numpy", "scipy.linalg", "scipy.integrate"} <= set(sandbox.PRELOAD)
+    assert "jsonschema" not in sandbox.PRELOAD and "jsonschema" in _zygote.PRELOAD
+    shown = {entry for _, entry in isolation.site_entries()}
+    assert not [entry for entry in shown if entry.startswith("rfc3987_syntax")]
