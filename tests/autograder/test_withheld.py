@@ -246,6 +246,27 @@ def secret_numbers(data: dict) -> set[str]:
     return found
 
 
+NUMBER_START = re.compile(r"(?<![\d.])[-\d.]")
+"""Where a number a message prints can start: a digit, sign or point after neither a digit nor a point."""
+
+
+def secret_number_in(text: str, numbers: set[str]) -> str | None:
+    r"""The first of ``numbers`` that ``text`` holds whole: not after a digit or a point, not before a digit
+    (the regular expression ``(?<![\d.])(n1|n2|...)(?!\d)``, which Python's ``re`` searches in time
+    proportional to the text times the count of numbers: here a set lookup per start and length)."""
+    if not numbers:
+        return None
+    assert all(NUMBER_START.match(n) for n in numbers), "every secret number starts with a digit, sign or point"
+    lengths = sorted({len(n) for n in numbers})
+    for start in NUMBER_START.finditer(text):
+        i = start.start()
+        for k in lengths:
+            piece = text[i : i + k]
+            if piece in numbers and not text[i + k : i + k + 1].isdecimal():
+                return piece
+    return None
+
+
 def secrets() -> tuple[set[str], set[str]]:
     """(numbers, names) of the hidden scenes and of every student's own variant."""
     numbers, names = set(), set()
@@ -268,11 +289,10 @@ def test_the_honest_student_passes_every_hidden_check_and_the_skeleton_none(grad
 def test_no_hidden_or_own_variant_text_or_number_reaches_a_student(graded):
     _, out, *_ = graded
     numbers, names = secrets()
-    number = re.compile("(?<![\\d.])(" + "|".join(map(re.escape, sorted(numbers, key=len, reverse=True))) + ")(?!\\d)")
     for path, text in student_files(out).items():
         assert not re.search(r"[A-Za-z0-9+/]{80,}", text), (path, "a long base64 run")
         assert not [name for name in names if name in text], path
-        assert not number.search(text), (path, number.search(text))
+        assert secret_number_in(text, numbers) is None, (path, secret_number_in(text, numbers))
 
 
 @pytest.mark.parametrize("student", list(STUDENTS))

@@ -426,7 +426,6 @@ def test_nothing_hidden_reaches_a_file_returned_to_students(cycle):
     checks held back and after ``mbd grade --publish-hidden`` (which grades nothing again)."""
     homework, course = cycle.homework, cycle.course
     numbers, names = secrets(course, homework)
-    number = re.compile("(?<![\\d.])(" + "|".join(map(re.escape, sorted(numbers, key=len, reverse=True))) + ")(?!\\d)")
     held = returned_files(course)
     done, _ = mbd_grade(course, homework, "--publish-hidden")
     assert done.returncode == 0, done.stderr[-3000:]
@@ -436,4 +435,4 @@ def test_nothing_hidden_reaches_a_file_returned_to_students(cycle):
         for path, text in pages.items():
             assert not re.search(r"[A-Za-z0-9+/]{80,}", text), (path, "a long base64 run")
             assert not [name for name in names if name in text], path
-            assert not numbers or not number.search(text), (path, number.search(text))
+            assert leak.secret_number_in(text, numbers) is None, (path, leak.secret_number_in(text, numbers))

@@ -1,7 +1,8 @@
-"""The course's notebooks: the three homework (source and released) and the lectures, executed headless.
+"""The course's notebooks: the three released homework and the lectures, executed headless.
 
 - every source notebook (``assignments/hwN``) runs with the reference as the student's package and passes
-  every graded cell;
+  every graded cell: test_kit.py runs it so, as the released notebook in a student's fresh venv (the release
+  keeps every code cell as it is; test_kit checks that too, and this file the source's cells and points);
 - every released notebook with its untouched skeleton package runs to the end, and every graded cell
   fails cleanly (an AssertionError with the grader's message, never a crash or a hang);
 - every lecture notebook (``course/lectures``) and every chapter of the course notes (``course/notes``) runs
@@ -16,7 +17,6 @@ import asyncio
 import json
 import os
 import re
-import shutil
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -85,21 +85,16 @@ def group_of(cell) -> str:
 # -- fixtures ------------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
-    """Every notebook executed once, two kernels at a time: {("source" | "skeleton" | "lecture", name): notebook}.
+    """Every notebook executed once, two kernels at a time: {("skeleton" | "lecture" | "notes", name): notebook}.
 
-    source: each homework's source notebook beside the reference packaged as ``modules`` (animations on);
     skeleton: each homework released (`mbd release hwN` on a scratch copy of the course), with its skeleton;
-    lecture: each lecture notebook, in course/lectures.
+    lecture: each lecture notebook, in course/lectures; notes: each chapter of the course notes.
     """
     from course.demo import scratch_course
 
     course = scratch_course(tmp_path_factory.mktemp("course") / "course")
     jobs = {}
     for homework in HOMEWORKS:
-        folder = tmp_path_factory.mktemp(f"source-{homework}") / homework
-        shutil.copytree(REPO / "assignments" / homework, folder)
-        build_package(folder / "modules", None, header=None)
-        jobs["source", homework] = (folder / f"{homework}.ipynb", folder, {"MBD_ANIMATIONS": "1"})
         released = release(homework, course).folder
         jobs["skeleton", homework] = (released / f"{homework}.ipynb", released)
     for path in LECTURES:
@@ -107,11 +102,6 @@ def runs(tmp_path_factory):
     for path in NOTES:
         jobs["notes", path.stem] = (path, path.parent)
     return execute_all(jobs)
-
-
-@pytest.fixture(scope="module")
-def source_runs(runs):
-    return {name: nb for (kind, name), nb in runs.items() if kind == "source"}
 
 
 @pytest.fixture(scope="module")
@@ -129,23 +119,7 @@ def notes_runs(runs):
     return {name: nb for (kind, name), nb in runs.items() if kind == "notes"}
 
 
-# -- the source notebooks --------------------------------------------------------------------------------------
-@pytest.mark.parametrize("homework", HOMEWORKS)
-def test_source_notebook_passes_every_graded_cell_with_the_reference(source_runs, homework):
-    nb = source_runs[homework]
-    code = [c for c in nb.cells if c.cell_type == "code"]
-    assert all(c.execution_count is not None for c in code)
-    failures = [(c.source.splitlines()[0], errors(c)[0].evalue[:300]) for c in code if errors(c)]
-    assert failures == []
-    assert all(stderr(c) == "" for c in code), [stderr(c) for c in code if stderr(c)]
-    for cell in graded_cells(nb):
-        out = "".join(o.get("text", "") for o in cell.outputs if o.output_type == "stream")
-        assert "checks passed" in out or "checked when the instructor grades" in out, (cell.source, out)
-    data = [o.get("data", {}) for c in code for o in c.outputs]
-    assert sum("image/png" in d for d in data) >= 3  # plots
-    assert any("<script" in d.get("text/html", "") for d in data)  # an animation player
-
-
+# -- the source notebooks (executed by test_kit.py, released, in a fresh venv) --------------------------------------
 @pytest.mark.parametrize("homework", HOMEWORKS)
 def test_graded_cells_are_the_homeworks_check_groups_with_their_points(homework):
     nb = nbformat.read(REPO / "assignments" / homework / f"{homework}.ipynb", as_version=4)
