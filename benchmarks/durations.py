@@ -19,7 +19,8 @@ from collections import defaultdict
 
 def durations(junit: str, what: str = "time") -> dict[str, float]:
     """Seconds per test (``file::name``), from the JUnit XML file: wall (``time``) or CPU (``cpu``: the property
-    tests/conftest.py records, the worker's and its waited children's CPU seconds)."""
+    tests/conftest.py records: the CPU seconds of the worker and all it started, sandboxes too, where the worker
+    has a cpuacct group of its own, else of the worker and its waited children)."""
     times = {}
     for case in ET.parse(junit).getroot().iter("testcase"):
         module = case.get("classname", "").split(".")
@@ -50,7 +51,7 @@ def table(times: dict[str, float], wall: float | None, note: str, slowest: int =
         lines.append(f"- wall time {wall:.0f} s ({wall / 60:.1f} min)")
     lines.append(f"- sum of the tests' times {total:.0f} s ({total / 60:.1f} min of worker time)")
     if cpu:
-        lines.append(f"- CPU of the tests and their waited children {sum(cpu.values()):.0f} s")
+        lines.append(f"- CPU of the tests and what they started {sum(cpu.values()):.0f} s (tests/conftest.py)")
     lines += [f"- {note}", ""]
     lines += ["| file | seconds | CPU s | tests |", "|---|---:|---:|---:|"]
     for name, (seconds, count) in sorted(files.items(), key=lambda kv: -kv[1][0])[:slowest]:

@@ -175,10 +175,10 @@ class Dask(Executor):
             self.start()
         from dask.distributed import as_completed
 
-        if shared is not None:
-            shared = self.client.scatter(shared, broadcast=True, hash=False)
         token = uuid.uuid4().hex[:8]  # task keys unique on a scheduler that several clients share
         prefix = re.sub(r"\s+", "-", name)
+        if shared is not None:  # a task of its own, not scattered data: made again if every worker holding it dies
+            shared = self.client.submit(_shared, shared, key=f"{prefix}-shared-{token}", pure=False)
         keys = {}
         for key, item in items.items():
             keys[self.client.submit(task, shared, item, key=f"{prefix}-{key}-{token}", pure=False)] = key
@@ -188,6 +188,13 @@ class Dask(Executor):
             except Exception as err:  # noqa: BLE001 - its workers died on every retry (KilledWorker), or it raised
                 finished = Finished(keys[future], error=err)
             yield finished
+
+
+def _shared(value: Any) -> Any:
+    """The argument common to a batch's tasks, as a Dask task: the scheduler keeps it in the graph, so a worker
+    killed with the only copy costs a recomputation, not the batch (data sent by ``scatter`` would be lost with
+    it: every task waiting for it cancelled)."""
+    return value
 
 
 def _package_root() -> str:

@@ -14,6 +14,7 @@ Bodies have their centres of mass at the link midpoints and phi equal to the lin
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import resource
@@ -48,6 +49,7 @@ def pytest_configure(config):
     os.environ["MBD_GRADER_SECRET"] = TEST_SECRET
     os.environ.setdefault("MBD_COMPILED_CACHE", str(COMPILED_CACHE))  # before pytest-xdist starts its workers
 
+    _join_cpu_group()
     _ISOLATION["problem"] = problem = isolation.problem()
     if problem is not None:
         os.environ[isolation.UNSAFE_ENV] = "1"
@@ -124,9 +126,52 @@ def pytest_collection_modifyitems(config, items):
     items.sort(key=lambda item: order.get(where(item), len(order)))  # stable: the rest keep their order
 
 
+CPUACCT = Path("/sys/fs/cgroup/cpuacct")
+"""cgroup v1's CPU accounting hierarchy: a group of its own per test process counts every process that process
+starts, waited for or not (the grader's sandboxes too: ``mbdkit.cgroup`` moves them in the memory, pids and cpu
+hierarchies only)."""
+_CPU_GROUP: dict[str, Path] = {}
+
+
+def _join_cpu_group() -> None:
+    """Put this process (and so whatever it starts) into a cpuacct group of its own, where one can be made (root,
+    cgroup v1 with a cpuacct hierarchy of its own); elsewhere the CPU seconds come from ``getrusage``."""
+    if not (CPUACCT / "cpuacct.usage").is_file() or (CPUACCT / "cpu.shares").exists():  # absent, or one with cpu
+        return
+    for stale in CPUACCT.glob("mbd-tests-*"):  # of earlier runs whose processes outlived the test process
+        with contextlib.suppress(OSError):
+            stale.rmdir()  # only an empty group goes: a running test process's is never empty
+    group = CPUACCT / f"mbd-tests-{os.getpid()}"
+    try:
+        group.mkdir(exist_ok=True)
+        (group / "cgroup.procs").write_text(str(os.getpid()))
+    except OSError:
+        return
+    _CPU_GROUP["group"] = group
+
+
+def pytest_unconfigure(config):
+    """This process back into the cpuacct hierarchy's root and its group removed (if a process it started is
+    still in it, the next run's ``_join_cpu_group`` removes it)."""
+    group = _CPU_GROUP.pop("group", None)
+    if group is not None:
+        try:
+            (CPUACCT / "cgroup.procs").write_text(str(os.getpid()))
+            group.rmdir()
+        except OSError:
+            pass
+
+
 def _cpu_seconds() -> float:
-    """CPU seconds (user and system) of this process and of its children that have ended and been waited for
-    (kernels, sandboxes, subprocesses, a Dask cluster's workers), each including its own waited children."""
+    """CPU seconds of this process and all it started: its cpuacct group's usage where it has one, else the user
+    and system time of this process and of its children that have ended and been waited for (kernels,
+    subprocesses, a Dask cluster's workers; not what runs in a sandbox, whose processes bubblewrap reaps)."""
+    group = _CPU_GROUP.get("group")
+    if group is not None:
+        try:
+            return int((group / "cpuacct.usage").read_text()) / 1e9
+        except (OSError, ValueError):
+            pass
     own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
     return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 
@@ -141,9 +186,10 @@ def pytest_runtest_setup(item):
 
 @pytest.hookimpl(hookwrapper=True)
 def pytest_runtest_makereport(item, call):
-    """Each test's CPU seconds (setup, call and teardown; a module fixture's on the test that built it) as the
-    JUnit property ``cpu``: what a test costs the run on a CPU-bound machine, whatever the other worker does
-    meanwhile (``python benchmarks/durations.py build/junit.xml`` lists it beside the wall time)."""
+    """Each test's CPU seconds (setup, call and teardown; a module fixture's on the test that built it;
+    ``_cpu_seconds``) as the JUnit property ``cpu``: what a test costs the run on a CPU-bound machine, whatever
+    the other worker does meanwhile (``python benchmarks/durations.py build/junit.xml`` lists it beside the wall
+    time)."""
     if call.when == "teardown" and _CPU_START in item.stash:
         item.user_properties.append(("cpu", f"{_cpu_seconds() - item.stash[_CPU_START]:.2f}"))
     yield
