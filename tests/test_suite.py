@@ -16,7 +16,7 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 
-FILE = '''
+FILE = """
 import os
 
 import pytest
@@ -36,7 +36,7 @@ def test_one(built, k):
 @pytest.mark.parametrize("k", range(3))
 def test_two(built, k):
     pass
-'''
+"""
 
 
 def make_test_options() -> list[str]:
@@ -58,3 +58,40 @@ def test_make_test_builds_each_files_module_fixtures_once(tmp_path):
     assert re.search(r"36 passed", done.stdout), done.stdout[-2000:]
     built = sorted(builds.read_text().split())
     assert len(built) == 4 and len(set(built)) == 4, built  # each file's fixture once, on one worker
+
+
+ORPHAN = """
+import os, time
+if os.fork() == 0:  # the grandchild: half a CPU second, after its parent has gone (init reaps it, not pytest)
+    start = time.process_time()
+    while time.process_time() - start < 0.5:
+        pass
+os._exit(0)
+"""
+
+
+def test_a_tests_cpu_counts_a_process_it_started_and_never_waited_for(request):
+    """The JUnit ``cpu`` of a test (tests/conftest.py) holds what runs in processes no one in the test waits for,
+    as bubblewrap's sandbox processes: here an orphan that spins for half a CPU second."""
+    import resource
+    import time
+
+    import pytest
+
+    conftest = next(
+        m
+        for m in request.config.pluginmanager.get_plugins()
+        if getattr(m, "__file__", None) == str(REPO / "tests" / "conftest.py")
+    )
+
+    if "group" not in conftest._CPU_GROUP:
+        pytest.skip("no cpuacct group of its own here (root and cgroup v1's cpuacct hierarchy needed)")
+    waited = resource.getrusage(resource.RUSAGE_CHILDREN)
+    before = conftest._cpu_seconds()
+    subprocess.run([sys.executable, "-c", ORPHAN], check=True)
+    deadline = time.monotonic() + 30
+    while conftest._cpu_seconds() - before < 0.5 and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert conftest._cpu_seconds() - before >= 0.5
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    assert after.ru_utime + after.ru_stime - waited.ru_utime - waited.ru_stime < 0.4  # getrusage misses it

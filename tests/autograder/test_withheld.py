@@ -345,3 +345,29 @@ def test_the_page_holds_hidden_checks_back_until_published(graded):
     for student in STUDENTS:  # a Gradescope result keeps them for after publication
         tests = results(out, student)
         assert {tests[c.name]["visibility"] for c in hidden} == {"after_published"}
+
+
+def test_the_secret_number_scan_finds_what_the_regular_expression_finds():
+    """``secret_number_in`` against the regular expression it replaces, on texts made to hold a number with
+    every kind of neighbour (a digit, a point, a sign, a letter, a superscript) and on ones without."""
+    import random
+
+    rng = random.Random(7)
+    numbers = {"0.3512", "-0.3512", "1.25e-05", "351.2", "12.5", "-7.125"}
+    pattern = re.compile("(?<![\\d.])(" + "|".join(map(re.escape, sorted(numbers, key=len, reverse=True))) + ")(?!\\d)")
+    found = 0
+    for _ in range(3000):
+        noise = "".join(rng.choice("0123456789.-e x²=") for _ in range(40))
+        cut = rng.randrange(len(noise))
+        inside = (
+            rng.choice(["", "1", ".", "-", " ", "x", "²"])
+            + rng.choice(sorted(numbers))
+            + rng.choice(["", "1", ".", "e", "²", " "])
+        )
+        text = noise[:cut] + (inside if rng.random() < 0.7 else "") + noise[cut:]
+        expected = pattern.search(text)
+        assert (secret_number_in(text, numbers) is None) == (expected is None), (text, expected)
+        found += expected is not None
+    assert 500 < found < 2900  # both outcomes, often
+    assert secret_number_in("a mass of 0.35120 kg", numbers) is None  # a longer number is another number
+    assert secret_number_in("x=-0.3512;", numbers) == "-0.3512"

@@ -118,3 +118,25 @@ def test_a_bad_cluster_or_jobs_is_one_error_with_the_fix(jobs, cluster, message)
 def test_a_scheduler_that_does_not_answer_is_one_error():
     with Dask("tcp://127.0.0.1:9") as there, pytest.raises(BatchError, match="cannot reach the scheduler"):
         list(batch.run(pow, ITEMS, there, shared=2, progress=False))
+
+
+def _shared_inputs(dask_scheduler) -> list[tuple[str, bool]]:
+    """(key, whether the scheduler could make it again) of every input of the batch's tasks on the scheduler."""
+    tasks = [ts for ts in dask_scheduler.tasks.values() if str(ts.key).startswith("batch-k")]
+    return sorted({(str(d.key), d.run_spec is not None) for ts in tasks for d in ts.dependencies})
+
+
+def test_the_shared_argument_is_a_task_the_scheduler_can_make_again(cluster):
+    """The batch's shared argument reaches the workers as a task of the graph, not as data sent by ``scatter``:
+    a worker killed with its only copy costs a recomputation, not every task waiting for it (cancelled, as
+    test_sweep's killed-worker test once saw)."""
+    address, client = cluster
+    seen = []
+    with Dask(address) as there:
+        got = {}
+        for finished in batch.run(pow, ITEMS, there, shared=3, progress=False):
+            if not seen:  # the first result: the other tasks and their input are still on the scheduler
+                seen.extend(client.run_on_scheduler(_shared_inputs))
+            got[finished.key] = finished.value
+    assert len(seen) == 1 and seen[0][1], seen
+    assert got == {key: 3**n for key, n in ITEMS.items()}
