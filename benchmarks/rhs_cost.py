@@ -5,7 +5,7 @@
 
 For each scene of ``benchmarks/bench.py`` and each compiled formulation (baumgarte, projection,
 joint-coordinates, loops cut into trees): the scene's generated ``scene_rhs`` is called at the
-initial state ``--calls`` times inside compiled code (``solutions.compiled.loops.repeat``: through the same
+initial state ``--calls`` times inside compiled code (``repeat`` below: through the same
 first-class function the integrator loops call, so the figure is what one evaluation costs in a run), best of
 ``--repeats``; beside it, one numpy evaluation (``EquationsOfMotion.rhs``, best of as many calls as take
 about 0.2 s). A projection run evaluates the Baumgarte right-hand side with alpha = beta = 0 and adds one
@@ -24,6 +24,7 @@ for _variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
 
 import argparse  # noqa: E402
+import functools  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -64,11 +65,41 @@ SCENES = {  # the scenes of benchmarks/bench.py
 FORMULATIONS = ("baumgarte", "projection", "joint-coordinates")
 
 
+@functools.cache
+def repeaters():
+    """(repeat, repeat_projection), compiled on first use (cached on disk, as the loops are): ``repeat`` calls
+    scene_rhs at (t, z) ``times`` times, ``repeat_projection`` project from the state z ``times`` times, each
+    through the same first-class function the integrator loops call, so that the time per call is a run's."""
+    from numba import types
+
+    from solutions.compiled import loops
+
+    @loops.jit(types.float64(loops._RHS, types.float64, loops._vector, loops.P_TYPE, loops.D_TYPE, types.int64))
+    def repeat(scene_rhs, t, z, P, D, times):
+        out = np.empty(z.size)
+        total = 0.0
+        for _ in range(times):
+            scene_rhs(t, z, P, D, out)
+            total += out[-1]
+        return total
+
+    @loops.jit(types.float64(loops._PROJECT, types.float64, loops._vector, loops.P_TYPE, loops.D_TYPE, types.int64))
+    def repeat_projection(project, t, z, P, D, times):
+        y, info = np.empty(z.size), np.zeros(1)
+        total = 0.0
+        for _ in range(times):
+            y[:] = z
+            total += project(t, y, P, D, info)
+        return total
+
+    return repeat, repeat_projection
+
+
 def cost(source, formulation: str, calls: int, repeats: int) -> tuple[str, str, str, str]:
     """(compiled us per rhs, numpy us per rhs, compiled us per projection, note) of one scene and formulation."""
     from solutions import compiled
-    from solutions.compiled import loops
 
+    repeat, repeat_projection = repeaters()
     system, q0, qd0 = build_system(load_model(source() if callable(source) else MODELS / source))
     M, forces = mass_matrix(system.model), build_forces(system.model)
     q, qd, _ = consistent_initial_conditions(system, M, q0, qd0)
@@ -86,12 +117,12 @@ def cost(source, formulation: str, calls: int, repeats: int) -> tuple[str, str, 
     start = time.perf_counter()
     module, project, cached = compiled.load(job)
     P, D = compiled.parameters(job.scene, *job.numbers), job.scene.data()
-    loops.repeat(module.scene_rhs, 0.0, z0, P, D, 10)
+    repeat(module.scene_rhs, 0.0, z0, P, D, 10)
     load = time.perf_counter() - start
     best = np.inf
     for _ in range(repeats):
         start = time.perf_counter()
-        loops.repeat(module.scene_rhs, 0.0, z0, P, D, calls)
+        repeat(module.scene_rhs, 0.0, z0, P, D, calls)
         best = min(best, (time.perf_counter() - start) / calls)
     projection = "-"
     if formulation == "projection":
@@ -101,7 +132,7 @@ def cost(source, formulation: str, calls: int, repeats: int) -> tuple[str, str, 
         step = np.inf
         for _ in range(repeats):
             start = time.perf_counter()
-            loops.repeat_projection(project, 0.0, off, P, D, calls // 10)
+            repeat_projection(project, 0.0, off, P, D, calls // 10)
             step = min(step, (time.perf_counter() - start) / (calls // 10))
         projection = f"{step * 1e6:.2f}"
     note = "cached" if cached else f"compiled in {load:.1f} s"

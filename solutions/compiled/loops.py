@@ -329,25 +329,3 @@ def body_outputs(body_state, T, Y, P, D):
         body_state(T[k], Y[k].copy(), P, D, a, b, c, d)
         q[k], qd[k], qdd[k], lam[k] = a, b, c, d
     return q, qd, qdd, lam
-
-
-@jit(types.float64(_RHS, types.float64, _vector, P_TYPE, D_TYPE, types.int64))
-def repeat(scene_rhs, t, z, P, D, times):
-    """scene_rhs at (t, z) ``times`` times, called as the loops call it (``benchmarks/rhs_cost.py`` times it)."""
-    out = np.empty(z.size)
-    total = 0.0
-    for _ in range(times):
-        scene_rhs(t, z, P, D, out)
-        total += out[-1]
-    return total
-
-
-@jit(types.float64(_PROJECT, types.float64, _vector, P_TYPE, D_TYPE, types.int64))
-def repeat_projection(project, t, z, P, D, times):
-    """project from the state z ``times`` times (``benchmarks/rhs_cost.py`` times it)."""
-    y, info = np.empty(z.size), np.zeros(1)
-    total = 0.0
-    for _ in range(times):
-        y[:] = z
-        total += project(t, y, P, D, info)
-    return total
