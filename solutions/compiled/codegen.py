@@ -71,28 +71,27 @@ def cache_directory() -> Path:
     return Path(base) / "mbd-course" / "compiled"
 
 
-def kernel_call(call: str, name: str, indent: str, rows: str = "") -> list[str]:
-    """The call of kernel ``name`` on its slot of the element data D (``rows``: its rows' slice, else the whole
-    slot), made only when the slot has rows: a scene's module calls every kernel of its dimension."""
-    if rows:
-        ints, floats = f"ints[{rows}]", f"floats[{rows}]"
-        first, stop = rows.split(" : ")
-        test = f"{stop} > {first}"
-    else:
-        ints, floats = f"D[0][{SLOTS.index(name)}]", f"D[1][{SLOTS.index(name)}]"
-        test = f"{ints}.shape[0]"
-    return [f"{indent}if {test}:", f"{indent}    " + call.format(name=name, ints=ints, floats=floats)]
+def kernel_call(call: str, name: str, indent: str, slot: int, data: tuple = ("D[0]", "D[1]", "D[2]")) -> list[str]:
+    """The call of kernel ``name`` on its rows of the element data (``data``: the names of ints, floats and offsets;
+    ``scene.packed``), the rows of ``slot``, made only when it has rows: a scene's module calls every kernel of
+    its dimension."""
+    ints, floats, offsets = data
+    first, stop = f"{offsets}[{slot}]", f"{offsets}[{slot + 1}]"
+    rows = f"{first} : {stop}"
+    call = call.format(name=name, ints=f"{ints}[{rows}]", floats=f"{floats}[{rows}]")
+    return [f"{indent}if {stop} > {first}:", f"{indent}    {call}"]
 
 
 def constraint_calls(scene: Scene, indent: str) -> list[str]:
     """The calls of the scene's constraint kernels, each on its slot of the element data D when it has rows."""
-    kernels = scene.constraint_kernels
-    return [line for name, _, _ in kernels for line in kernel_call(CONSTRAINT_CALLS[name], name, indent)]
+    calls = [(CONSTRAINT_CALLS[name], name) for name, _, _ in scene.constraint_kernels]
+    return [line for call, name in calls for line in kernel_call(call, name, indent, SLOTS.index(name))]
 
 
 def force_calls(scene: Scene, indent: str) -> list[str]:
     """The calls of the scene's force kernels, each on its slot of D when it has rows (Q and power += theirs)."""
-    return [line for name, _, _ in scene.force_kernels for line in kernel_call(FORCE_CALL, name, indent)]
+    names = [name for name, _, _ in scene.force_kernels]
+    return [line for name in names for line in kernel_call(FORCE_CALL, name, indent, SLOTS.index(name))]
 
 
 def generate(scene: Scene) -> str:
@@ -225,7 +224,7 @@ def generate_kinematic(scene: Scene) -> str:
     ]
     for name, _, _ in scene.constraint_kernels:
         s = KINEMATIC_SLOTS.index(name)
-        lines += kernel_call(CONSTRAINT_CALLS[name], name, "    ", rows=f"o[{s}] : o[{s + 1}]")
+        lines += kernel_call(CONSTRAINT_CALLS[name], name, "    ", s, ("ints", "floats", "o"))
     return "\n".join(lines) + "\n"
 
 

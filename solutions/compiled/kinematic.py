@@ -45,6 +45,7 @@ from .scene import (
     scene_arrays,
     spatial_constraints,
 )
+from .scene import packed as pack
 
 COMPILE_SECONDS = 8.0
 """What a first compilation may cost: the step loop and the kernels it calls, once per machine, about 9 s (numba
@@ -102,22 +103,11 @@ def describe(system) -> Scene:
 
 
 def packed(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """D = (ints, floats, offsets) of the kinematic loop: the rows of every constraint kernel's data, stacked in the
-    order of ``codegen.KINEMATIC_SLOTS`` (padded with zeros to the widest), kernel s in rows offsets[s]:offsets[s+1]."""
+    """D = (ints, floats, offsets) of the kinematic loop: the constraint kernels' rows in the order of
+    ``codegen.KINEMATIC_SLOTS`` (``scene.packed``)."""
     from .codegen import KINEMATIC_SLOTS
 
-    present = {name: (ints, floats) for name, ints, floats in scene.constraint_kernels}
-    blocks = [present.get(name) for name in KINEMATIC_SLOTS]
-    counts = [0 if block is None else block[0].shape[0] for block in blocks]
-    offsets = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
-    width_i = max([block[0].shape[1] for block in blocks if block is not None] + [1])
-    width_f = max([block[1].shape[1] for block in blocks if block is not None] + [1])
-    ints, floats = np.zeros((offsets[-1], width_i), dtype=np.int64), np.zeros((offsets[-1], width_f))
-    for s, block in enumerate(blocks):
-        if block is not None:
-            ints[offsets[s] : offsets[s + 1], : block[0].shape[1]] = block[0]
-            floats[offsets[s] : offsets[s + 1], : block[1].shape[1]] = block[1]
-    return ints, floats, offsets
+    return pack(scene.constraint_kernels, KINEMATIC_SLOTS)
 
 
 @cache

@@ -35,8 +35,6 @@ success, 1 a step-size collapse, 2 the evaluation budget spent, 3 a state that i
 import numpy as np
 from numba import njit, types
 
-from .scene import SLOTS
-
 _vector, _matrix = types.float64[::1], types.float64[:, ::1]
 _ivector, _imatrix = types.int64[::1], types.int64[:, ::1]
 P_TYPE = types.Tuple(
@@ -45,7 +43,9 @@ P_TYPE = types.Tuple(
 """P = (Q0, planar mass diagonal, spatial masses, inertias, weights, function kinds, function parameters,
 the formulation's numbers (alpha, beta, projection tolerance, projection iterations), (n, m, extra states,
 joint positions, joint velocities, the cut rows of joint coordinates ...))."""
-D_TYPE = types.Tuple((types.UniTuple(_imatrix, len(SLOTS)), types.UniTuple(_matrix, len(SLOTS))))
+D_TYPE = types.Tuple((_imatrix, _matrix, _ivector))
+"""D = (ints, floats, offsets): the element data of every kernel, kernel s (``scene.SLOTS``) in rows offsets[s] to
+offsets[s + 1] (``scene.packed``)."""
 RHS_SIGNATURE = types.void(types.float64, _vector, P_TYPE, D_TYPE, _vector)
 """scene_rhs(t, z, P, D, out)."""
 ACCELERATIONS_SIGNATURE = types.void(types.float64, _vector, _vector, P_TYPE, D_TYPE, _vector, _vector, _vector)

@@ -30,8 +30,8 @@ SLOTS = (
     "spatial_translation", "spatial_rotation", "spatial_distance", "spatial_coordinate",
     "tree",
 )  # fmt: skip
-"""The element data of every kernel has a fixed place in D = (ints, floats): one signature for every scene
-(``tree``: the joints of a joint-coordinates scene, ``tree.py``)."""
+"""The element data of every kernel has a fixed place in D = (ints, floats, offsets) (``packed``): one signature for
+every scene (``tree``: the joints of a joint-coordinates scene, ``tree.py``)."""
 
 
 KIND_NAMES = ("constant", "polynomial", "harmonic", "smooth ramp", "Fourier", "eccentric circle")
@@ -68,13 +68,29 @@ class Scene:
         module, compiled once per machine, runs every model of the course's element types."""
         return f"d{self.dimension}"
 
-    def data(self) -> tuple:
-        """D = (ints, floats): the element data of every kernel in its slot (``loops.SLOTS``), empty when absent."""
-        present = {name: (ints, floats) for name, ints, floats in (*self.constraint_kernels, *self.force_kernels)}
-        empty_ints, empty_floats = np.zeros((0, 1), dtype=np.int64), np.zeros((0, 1))
-        ints = tuple(np.ascontiguousarray(present.get(name, (empty_ints,))[0]) for name in SLOTS)
-        floats = tuple(np.ascontiguousarray(present[name][1] if name in present else empty_floats) for name in SLOTS)
-        return ints, floats
+    def data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """D = (ints, floats, offsets): the element data of every kernel in its slot of ``SLOTS`` (``packed``)."""
+        return packed([*self.constraint_kernels, *self.force_kernels], SLOTS)
+
+
+def packed(kernels: list, slots: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """D = (ints, floats, offsets): the rows of every kernel's data (``kernels``: (name, ints, floats)) stacked in
+    the order of ``slots``, padded with zeros to the widest, kernel s in rows offsets[s]:offsets[s + 1] (none
+    when the scene lacks it). Three arrays, whatever the scene: a compiled call passes each array it takes as
+    about eight machine words, and a tuple of one array per slot made every call (and its compilation) an order
+    of magnitude larger."""
+    present = {name: (ints, floats) for name, ints, floats in kernels}
+    blocks = [present.get(name) for name in slots]
+    counts = [0 if block is None else block[0].shape[0] for block in blocks]
+    offsets = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
+    width_i = max([block[0].shape[1] for block in blocks if block is not None] + [1])
+    width_f = max([block[1].shape[1] for block in blocks if block is not None] + [1])
+    ints, floats = np.zeros((offsets[-1], width_i), dtype=np.int64), np.zeros((offsets[-1], width_f))
+    for s, block in enumerate(blocks):
+        if block is not None:
+            ints[offsets[s] : offsets[s + 1], : block[0].shape[1]] = block[0]
+            floats[offsets[s] : offsets[s + 1], : block[1].shape[1]] = block[1]
+    return ints, floats, offsets
 
 
 class Functions:

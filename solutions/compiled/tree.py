@@ -31,7 +31,7 @@ import numpy as np
 
 from ..joint_coordinates import cut_elements, tree_order
 from .codegen import constraint_calls, force_calls, generated_name, is_generated_cached, load_generated
-from .scene import SLOTS, Scene
+from .scene import SLOTS, Scene, packed
 
 SOURCES = ("tree_kernels.py", "projection_kernels.py", "../joint_coordinates.py")
 KINDS = {"revolute": 0, "prismatic": 1, "spherical": 2}
@@ -63,13 +63,10 @@ class TreeScene:
         are data, chosen at run time: P[8], ``compiled.parameters``)."""
         return f"tree|{self.scene.key}"
 
-    def data(self) -> tuple:
-        """D of the scene with the tree's joints in their slot."""
-        ints, floats = self.scene.data()
-        slot = SLOTS.index("tree")
-        ints = (*ints[:slot], np.ascontiguousarray(self.ints), *ints[slot + 1 :])
-        floats = (*floats[:slot], np.ascontiguousarray(self.floats), *floats[slot + 1 :])
-        return ints, floats
+    def data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """D of the scene with the tree's joints in their slot (``scene.packed``)."""
+        kernels = [*self.scene.constraint_kernels, *self.scene.force_kernels, ("tree", self.ints, self.floats)]
+        return packed(kernels, SLOTS)
 
 
 def _row(joint) -> list[float]:
@@ -136,7 +133,8 @@ def _accelerations(tree: TreeScene, rates: str, coordinates: bool, body: bool, c
     spatial = scene.dimension == 3
     per = 6 if spatial else 3
     slot = SLOTS.index("tree")
-    data = f"D[0][{slot}], D[1][{slot}]"
+    rows = f"D[2][{slot}] : D[2][{slot + 1}]"
+    data = f"D[0][{rows}], D[1][{rows}]"
     lines = [
         "    Q0, mass, masses, inertias, weights, fk, fp, numbers, dims = P",
         "    n, m, npos, k = dims[0], dims[1], dims[3], dims[4]",
@@ -162,7 +160,7 @@ def _accelerations(tree: TreeScene, rates: str, coordinates: bool, body: bool, c
     lines.append("    if dims.size > 6:  # cut rows: the augmented system (eq. 5.29, 5.30 in joint coordinates)")
     if not body:
         lines += ["    " + line for line in _constraints(scene)]
-    lines.append(f"        matrix, rhs = {equations}_equations({arguments}, D[0][{slot}])")
+    lines.append(f"        matrix, rhs = {equations}_equations({arguments}, D[0][{rows}])")
     if spatial:
         lines += [
             "        Dq, xiq = np.empty((n, k)), np.empty(n)",
@@ -176,7 +174,7 @@ def _accelerations(tree: TreeScene, rates: str, coordinates: bool, body: bool, c
         "matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, dims[6:], numbers[0], numbers[1])"
     )
     lines += cut_extra
-    lines += ["    else:", f"        thdd = {equations}_accelerations({arguments}, D[0][{slot}])"]
+    lines += ["    else:", f"        thdd = {equations}_accelerations({arguments}, D[0][{rows}])"]
     return lines
 
 

@@ -158,3 +158,29 @@ def test_a_module_two_processes_need_at_once_is_compiled_by_one(tmp_path):
     processes = [subprocess.Popen(command, env=environment, stdout=subprocess.PIPE, text=True) for _ in range(2)]
     said = sorted(process.communicate(timeout=300)[0].split() for process in processes)
     assert said == [["False", "4.0"], ["True", "4.0"]]
+
+
+@pytest.mark.parametrize("name", ["slider_crank.yaml", "spatial_double_pendulum.yaml", "carriage_pendulum.yaml"])
+def test_the_element_data_is_three_arrays_holding_each_kernels_rows_in_its_slot(name):
+    """D = (ints, floats, offsets) whatever the scene (``scene.packed``): kernel s's rows are rows offsets[s] to
+    offsets[s + 1], its own columns first and zeros after; a kernel the scene lacks has no rows."""
+    from solutions.compiled import describe
+    from solutions.compiled.scene import SLOTS
+    from solutions.generalized_forces import build_forces
+    from solutions.mass_matrix import mass_matrix
+
+    system, _, _ = build_system(load_model(f"course/models/{name}"))
+    scene = describe(system, mass_matrix(system.model), build_forces(system.model))
+    ints, floats, offsets = scene.data()
+    assert ints.dtype == np.int64 and ints.flags.c_contiguous and floats.flags.c_contiguous
+    assert offsets.shape == (len(SLOTS) + 1,) and offsets[0] == 0 and offsets[-1] == ints.shape[0] == floats.shape[0]
+    present = {kernel: (i, f) for kernel, i, f in (*scene.constraint_kernels, *scene.force_kernels)}
+    assert present
+    for s, kernel in enumerate(SLOTS):
+        rows = slice(offsets[s], offsets[s + 1])
+        if kernel not in present:
+            assert offsets[s + 1] == offsets[s], kernel
+            continue
+        i, f = present[kernel]
+        assert np.array_equal(ints[rows, : i.shape[1]], i) and not ints[rows, i.shape[1] :].any(), kernel
+        assert np.array_equal(floats[rows, : f.shape[1]], f) and not floats[rows, f.shape[1] :].any(), kernel
