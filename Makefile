@@ -8,6 +8,8 @@ export OPENBLAS_NUM_THREADS ?= 1
 export OMP_NUM_THREADS ?= 1
 
 .PHONY: demo test test-fast lint bench clean sandbox-tools
+# A target's prerequisites are made side by side (the venv and bubblewrap, each waiting on the network).
+MAKEFLAGS += --jobs=2
 
 # The venv is filled by uv (PyPI's uv wheel, installed first with pip): the same versions pip resolves, 58 s
 # against pip's 83 s on an empty cache (2 cores), on the critical path of `make test` (nothing runs before it).
