@@ -34,17 +34,14 @@ import sys
 PRELOAD = (
     "numpy",
     "scipy.linalg",
+    "scipy.integrate",
+    "scipy.optimize",
     "scipy.sparse",
     "yaml",
     "fastjsonschema",
     "jsonschema",  # validates a model in milliseconds once imported (``solutions.io.model.schema_errors``)
 )
 """What the children inherit already imported (what a solver package imports; never the reference)."""
-INTEGRATE = ("scipy.integrate",)
-"""What a dynamic run imports besides (scipy's integrators, with scipy.optimize): imported too when the grader asks
-for it (``python ... FD integrate``: a submission with checks that integrate), 0.3 s of every other sandbox's
-start (``mbdkit.probes.PRELOADS``)."""
-EXTRA = {"integrate": INTEGRATE}
 
 PR_SET_DUMPABLE = 4
 PR_SET_CHILD_SUBREAPER = 36
@@ -161,20 +158,11 @@ def _remove_ipc() -> bool:
     return not left
 
 
-def to_import(words: list[str]) -> tuple[str, ...]:
-    """The modules the zygote imports before it answers, for the words after its socket (``main``): none for
-    ``["bare"]``; else PRELOAD and the modules of each word that EXTRA names (no other word imports anything)."""
-    if words == ["bare"]:
-        return ()
-    return (*PRELOAD, *(name for word in words for name in EXTRA.get(word, ())))
-
-
-def main(fd: int, words: list[str]) -> None:
-    """Serve the grader on the inherited socket ``fd`` until it closes it. ``words``: ``["bare"]``, import nothing
-    first (the probe of ``isolation.problem``, which asks only whether a sandbox starts and forks a child); else
-    PRELOAD and, for each word that names one in EXTRA, those modules too."""
+def main(fd: int, preload: bool = True) -> None:
+    """Serve the grader on the inherited socket ``fd`` until it closes it; ``preload``: import PRELOAD first (not
+    for the probe of ``isolation.problem``, which asks only whether a sandbox starts and forks a child)."""
     control = socket.socket(fileno=fd)
-    for name in to_import(words):
+    for name in PRELOAD if preload else ():
         try:
             importlib.import_module(name)
         except ImportError:

@@ -89,25 +89,14 @@ REQUIRES: dict[str, tuple[str, ...]] = {}
 INPUTS: dict[str, tuple[str, ...]] = {}
 """Probe name -> the inputs it reads (``job.inputs``): a child is sent these and nothing else (``sent_inputs``)."""
 
-PRELOADS: dict[str, tuple[str, ...]] = {}
-"""Probe name -> what the grader's sandbox imports before it forks a child, besides numpy and scipy.linalg
-(``_zygote.EXTRA``): "integrate" for a probe that runs an integrator."""
 
-
-def probe(
-    name: str,
-    axes: dict[str, tuple[str, ...]],
-    inputs: tuple[str, ...],
-    requires: tuple[str, ...] = (),
-    preload: tuple[str, ...] = (),
-):
-    """Register a probe with the axes of each of its outputs, the inputs it reads and what its sandbox preloads."""
+def probe(name: str, axes: dict[str, tuple[str, ...]], inputs: tuple[str, ...], requires: tuple[str, ...] = ()):
+    """Register a probe with the axes of each of its outputs and the inputs it reads."""
 
     def register(function):
         PROBES[name] = function
         REQUIRES[name] = requires
         INPUTS[name] = inputs
-        PRELOADS[name] = preload
         for output, names in axes.items():
             AXES[f"{name}.{output}"] = names
         return function
@@ -439,7 +428,6 @@ def reactions(pkg: Package, job: Job) -> dict:
     {"t": ("time",), "q": ("time", "coordinate"), "qd": ("time", "coordinate"), "lam": ("time", "row")},
     (),
     requires=("dynamics",),
-    preload=("integrate",),
 )
 def dynamic_run(pkg: Package, job: Job) -> dict:
     """forward_dynamics over the scene's grid with the check's formulation, integrator and tolerances."""

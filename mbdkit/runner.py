@@ -15,7 +15,7 @@ import numpy as np
 from . import withheld
 from .checks import Measure, Mistakes, Outcome, evaluate, reconcile_causes
 from .homework import CheckSpec
-from .probes import PRELOADS, Job, sent_inputs
+from .probes import Job, sent_inputs
 from .sandbox import Limits, Sandbox
 from .scenes import HIDDEN, PUBLIC, STUDENT, Scene, job_key, load_public_scene, scene_kind
 from .stored import Reference, load_reference
@@ -121,18 +121,13 @@ def run_checks(
     if isolation == "os":  # one bubblewrap sandbox per submission; a child for each set of checks
         from .isolation import IsolatedHost
 
-        host = IsolatedHost(folder, PACKAGE, limits.tmp_size, limits, preload=preloads(checks))
+        host = IsolatedHost(folder, PACKAGE, limits.tmp_size, limits)
     try:
         outcomes = _run_all(checks, folder, data, limits, forbidden, hide, isolation, budget, host)
         return reconcile_causes(checks, outcomes)  # a cause must agree with all the student's checks
     finally:
         if host is not None:
             host.close()
-
-
-def preloads(checks: list[CheckSpec]) -> tuple[str, ...]:
-    """What the sandbox of these checks imports before its children besides numpy and scipy (``probes.PRELOADS``)."""
-    return tuple(sorted({name for c in checks for name in PRELOADS.get(c.probe, ())}))
 
 
 KINDS = (PUBLIC, STUDENT, HIDDEN)

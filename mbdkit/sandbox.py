@@ -37,7 +37,7 @@ from pathlib import Path
 
 from . import _child, _zygote, wire
 
-PRELOAD = ["mbdkit._child", *(name for name in (*_zygote.PRELOAD, *_zygote.INTEGRATE) if name != "jsonschema")]
+PRELOAD = ["mbdkit._child", *(name for name in _zygote.PRELOAD if name != "jsonschema")]
 """Modules the forkserver imports once; children inherit them. Never the reference package. Not ``jsonschema``
 (imported where an invalid model file's errors are listed): outside the grader's sandbox it imports the
 ``rfc3987_syntax`` that Jupyter's dependencies install, which builds a grammar at import, about 2 s of every

@@ -140,17 +140,3 @@ def test_the_local_forkserver_preloads_the_solver_libraries_but_not_jsonschema()
     assert "jsonschema" not in sandbox.PRELOAD and "jsonschema" in _zygote.PRELOAD
     shown = {entry for _, entry in isolation.site_entries()}
     assert not [entry for entry in shown if entry.startswith("rfc3987_syntax")]
-
-
-def test_the_graders_sandbox_imports_the_integrators_first_only_for_checks_that_integrate():
-    """A submission's sandbox imports numpy and scipy.linalg before it forks its children, and scipy.integrate
-    (0.3 s) only when one of its checks runs an integrator (``probes.PRELOADS``): not for hw1's kinematics."""
-    from mbdkit import _zygote
-    from mbdkit.homework import load_homework
-    from mbdkit.runner import preloads
-
-    assert preloads(load_homework("hw1").checks) == ()
-    assert preloads(load_homework("hw2").checks) == preloads(load_homework("hw3").checks) == ("integrate",)
-    assert "scipy.integrate" not in _zygote.to_import([])
-    assert _zygote.to_import(["integrate"]) == (*_zygote.PRELOAD, "scipy.integrate")
-    assert _zygote.to_import(["bare"]) == () and _zygote.to_import(["os", "integrate.x"]) == _zygote.PRELOAD
