@@ -71,13 +71,18 @@ def cache_directory() -> Path:
     return Path(base) / "mbd-course" / "compiled"
 
 
+def slot_rows(slot: int, offsets: str = "D[2]") -> str:
+    """The source of the slice of ``slot``'s rows in the element data (``scene.packed``): ``first : stop``."""
+    return f"{offsets}[{slot}] : {offsets}[{slot + 1}]"
+
+
 def kernel_call(call: str, name: str, indent: str, slot: int, data: tuple = ("D[0]", "D[1]", "D[2]")) -> list[str]:
     """The call of kernel ``name`` on its rows of the element data (``data``: the names of ints, floats and offsets;
     ``scene.packed``), the rows of ``slot``, made only when it has rows: a scene's module calls every kernel of
     its dimension."""
     ints, floats, offsets = data
-    first, stop = f"{offsets}[{slot}]", f"{offsets}[{slot + 1}]"
-    rows = f"{first} : {stop}"
+    rows = slot_rows(slot, offsets)
+    first, stop = rows.split(" : ")
     call = call.format(name=name, ints=f"{ints}[{rows}]", floats=f"{floats}[{rows}]")
     return [f"{indent}if {stop} > {first}:", f"{indent}    {call}"]
 

@@ -77,8 +77,8 @@ def packed(kernels: list, slots: tuple[str, ...]) -> tuple[np.ndarray, np.ndarra
     """D = (ints, floats, offsets): the rows of every kernel's data (``kernels``: (name, ints, floats)) stacked in
     the order of ``slots``, padded with zeros to the widest, kernel s in rows offsets[s]:offsets[s + 1] (none
     when the scene lacks it). Three arrays, whatever the scene: a compiled call passes each array it takes as
-    about eight machine words, and a tuple of one array per slot made every call (and its compilation) an order
-    of magnitude larger."""
+    several machine words, and one int and one float array per slot (46 arrays) made every right-hand side 1.2-2.4x
+    slower (benchmarks/results/rhs_cost.md)."""
     present = {name: (ints, floats) for name, ints, floats in kernels}
     blocks = [present.get(name) for name in slots]
     counts = [0 if block is None else block[0].shape[0] for block in blocks]

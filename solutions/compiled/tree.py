@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..joint_coordinates import cut_elements, tree_order
-from .codegen import constraint_calls, force_calls, generated_name, is_generated_cached, load_generated
+from .codegen import constraint_calls, force_calls, generated_name, is_generated_cached, load_generated, slot_rows
 from .scene import SLOTS, Scene, packed
 
 SOURCES = ("tree_kernels.py", "projection_kernels.py", "../joint_coordinates.py")
@@ -133,7 +133,7 @@ def _accelerations(tree: TreeScene, rates: str, coordinates: bool, body: bool, c
     spatial = scene.dimension == 3
     per = 6 if spatial else 3
     slot = SLOTS.index("tree")
-    rows = f"D[2][{slot}] : D[2][{slot + 1}]"
+    rows = slot_rows(slot)
     data = f"D[0][{rows}], D[1][{rows}]"
     lines = [
         "    Q0, mass, masses, inertias, weights, fk, fp, numbers, dims = P",
