@@ -217,7 +217,7 @@ def embedded(scene_rhs, project, z0, t_out, rtol, atol, max_step, max_evaluation
     K = np.empty((Dd.shape[1] if dop else stages + 1, nz))
     y_new, f_new, stage = np.empty(nz), np.empty(nz), np.empty(nz)
     Y[0] = y
-    k, steps, rejected, info = 1, 0, 0, np.zeros(1)
+    k, steps, rejected, info = np.int64(1), 0, 0, np.zeros(1)  # int64, not the literal 1: (*) below
     while k < nout:
         rejected_now = False
         while True:  # steps until one is accepted
@@ -227,7 +227,9 @@ def embedded(scene_rhs, project, z0, t_out, rtol, atol, max_step, max_evaluation
             if h == 0.0:
                 return Y, evaluations, steps, rejected, 1, t, h_abs
             K[0] = f
-            _stages(scene_rhs, t, y, h, K, 1, stages, A, C, scipy_like, stage, P, D)
+            # (*) numba compiles a function called with a constant once more for that constant's literal type:
+            # np.int64(1) keeps _stages and _dense at one machine code each (3-5 s less to compile)
+            _stages(scene_rhs, t, y, h, K, np.int64(1), stages, A, C, scipy_like, stage, P, D)
             _combination(y, h, B, K[:stages], scipy_like, y_new)
             scene_rhs(t + h, y_new, P, D, f_new)
             K[stages] = f_new
