@@ -71,9 +71,14 @@ def cache_directory() -> Path:
     return Path(base) / "mbd-course" / "compiled"
 
 
+def slot_bounds(slot: int, offsets: str = "D[2]") -> tuple[str, str]:
+    """The source of the first row of ``slot`` in the element data (``scene.packed``) and of the row after its last."""
+    return f"{offsets}[{slot}]", f"{offsets}[{slot + 1}]"
+
+
 def slot_rows(slot: int, offsets: str = "D[2]") -> str:
-    """The source of the slice of ``slot``'s rows in the element data (``scene.packed``): ``first : stop``."""
-    return f"{offsets}[{slot}] : {offsets}[{slot + 1}]"
+    """The source of the slice of ``slot``'s rows in the element data: ``first : stop``."""
+    return " : ".join(slot_bounds(slot, offsets))
 
 
 def kernel_call(call: str, name: str, indent: str, slot: int, data: tuple = ("D[0]", "D[1]", "D[2]")) -> list[str]:
@@ -81,8 +86,8 @@ def kernel_call(call: str, name: str, indent: str, slot: int, data: tuple = ("D[
     ``scene.packed``), the rows of ``slot``, made only when it has rows: a scene's module calls every kernel of
     its dimension."""
     ints, floats, offsets = data
+    first, stop = slot_bounds(slot, offsets)
     rows = slot_rows(slot, offsets)
-    first, stop = rows.split(" : ")
     call = call.format(name=name, ints=f"{ints}[{rows}]", floats=f"{floats}[{rows}]")
     return [f"{indent}if {stop} > {first}:", f"{indent}    {call}"]
 
