@@ -237,12 +237,14 @@ def run(
         Y, evaluations, steps, rejected, status, t, h = loops.embedded(
             rhs, project, z0, times, float(rtol), float(atol), max_step, budget, dop, scipy_like, tableau(dop), P, D
         )
-    joint_states = None
-    if isinstance(scene, TreeScene):  # the body coordinates of the joint states, and q'', lambda there
-        q, qd, qdd, lam = loops.body_outputs(module.body_state, times, Y, P, D)
+    joint_states, n, m, ny = None, scene.n, scene.m, Y.shape[1]
+    if isinstance(scene, TreeScene):  # after y': the body coordinates of the joint states, and q'', lambda there
+        out = loops.outputs(rhs, times, Y, P, D, 3 * n + m)
+        q, qd, qdd, lam = (np.ascontiguousarray(a) for a in np.hsplit(out[:, ny:], [n, 2 * n, 3 * n]))
         joint_states, Y = Y, np.hstack([q, qd, Y[:, scene.n_positions + scene.k :]])
-    else:
-        qdd, lam = loops.outputs(module.accelerations, times, Y, P, D)
+    else:  # q'' in y', lambda after it
+        out = loops.outputs(rhs, times, Y, P, D, m)
+        qdd, lam = np.ascontiguousarray(out[:, n : 2 * n]), np.ascontiguousarray(out[:, ny:])
     psi = jac = psit = None
     if status == 0:  # a run that stopped early raises (dispatch.run): no checks to make
         psi, jac, psit = history.constraint_arrays(module, scene, times, Y)

@@ -2,7 +2,9 @@
 
 For a ``Scene`` (``scene.py``) the generator writes a Python module with
 
-- ``accelerations(t, q, qd, P, D, qdd, lam, power)``: the Baumgarte-stabilized augmented system of eq. 5.30,
+- ``scene_rhs(t, z, P, D, out)``: y' = (q', q'') (and D', W_applied', W_drivers' when the run keeps the energy
+  balance: dampers, actuators, loads or drivers, ``dynamics.EquationsOfMotion``; a number of P says so), q'' and
+  lambda from the Baumgarte-stabilized augmented system of eq. 5.30,
 
       [ M      Psi_q^T ] [ q''    ]   [ Q                                  ]
       [ Psi_q  0       ] [ lambda ] = [ gamma - 2 alpha Psi' - beta^2 Psi  ]      (eq. 5.29, 5.30)
@@ -12,11 +14,13 @@ For a ``Scene`` (``scene.py``) the generator writes a Python module with
   spatial mass matrix and quadratic-velocity term only in the spatial module; solved by LU with partial
   pivoting (LAPACK's gesv, as ``formulations.Baumgarte``); a large planar one (M diagonal, n + m from
   ``RANGE_SPACE_SIZE``) by the range-space form of eq. 5.31, Psi_q M^-1 Psi_q^T factored by Cholesky within its
-  envelope (``range_space_solve``);
-- ``scene_rhs(t, z, P, D, out)``: y' = (q', q'') (and D', W_applied', W_drivers' when the run keeps the energy
-  balance: dampers, actuators, loads or drivers, ``dynamics.EquationsOfMotion``; a number of P says so);
+  envelope (``range_space_solve``). Given an ``out`` longer than z, it also writes lambda after y': the
+  outputs at the output times (``loops.outputs``) come from the same function as the integration;
+- ``constraint_arrays(T, Y, P, D, Psi, Psi_q, Psi_t)``: the constraints at the output times, for the checks
+  (``history.py``);
 both with the fixed signatures of ``loops.py``, whose integrator loops (compiled once per machine) take
-them as first-class functions.
+them as first-class functions. (One function for the integration and the outputs: numba optimizes every
+kernel a function calls again in each function that calls it, so each one more costs seconds of compilation.)
 
 Both are compiled by numba with ``cache=True``. The module is written once per dimension to the
 cache directory (``cache_directory()``: ``$MBD_COMPILED_CACHE``, else ``$XDG_CACHE_HOME/mbd-course/compiled``,
@@ -115,18 +119,20 @@ def generate(scene: Scene) -> str:
         "from numba import njit",
         "",
         f"from solutions.compiled.kernels import {', '.join(imports)}",
-        "from solutions.compiled.loops import ACCELERATIONS_SIGNATURE, CONSTRAINT_ARRAYS_SIGNATURE, RHS_SIGNATURE",
+        "from solutions.compiled.loops import CONSTRAINT_ARRAYS_SIGNATURE, RHS_SIGNATURE",
         "",
         "",
-        "@njit(ACCELERATIONS_SIGNATURE, cache=True, nogil=True)",
-        "def accelerations(t, q, qd, P, D, qdd, lam, power):",
-        '    """q\'\' and lambda of eq. 5.30, gamma stabilized (eq. 5.29); power: dissipated, applied, drivers."""',
+        "@njit(RHS_SIGNATURE, cache=True, nogil=True)",
+        "def scene_rhs(t, z, P, D, out):",
+        "    \"\"\"y' = (q', q''[, P_dissipated, P_applied, P_drivers]), q'' and lambda of eq. 5.30 with gamma",
+        '    stabilized (eq. 5.29); when ``out`` is longer than z, lambda after y\' (``loops.outputs``)."""',
         "    Q0, mass, masses, inertias, weights, fk, fp, ab, dims = P",
         "    n, m = dims[0], dims[1]",
+        "    q, qd = z[:n].copy(), z[n : 2 * n].copy()",
         "    psi, psit, gam = np.zeros(m), np.zeros(m), np.zeros(m)",
         "    jac = np.zeros((m, n))",
-        "    Q = Q0.copy()",
-        "    power[:] = 0.0",
+        "    qdd, lam = np.empty(n), np.empty(m)",
+        "    Q, power = Q0.copy(), np.zeros(3)",
     ]
     lines += constraint_calls(scene, "    ") + force_calls(scene, "    ")
     if scene.dimension == 3:
@@ -140,24 +146,14 @@ def generate(scene: Scene) -> str:
             "    if n + m < RANGE_SPACE_SIZE or not range_space_solve(mass, jac, psi, psit, gam, Q, qd, ab, qdd, lam):",
             "        augmented_solve(mass, jac, False, jac, psi, psit, gam, Q, qd, ab, qdd, lam)",
         ]
-    lines.append("    power[2] = lam @ psit  # the drivers' power (eq. 5.61; zero without drivers: Psi_t = 0)")
     lines += [
-        "",
-        "",
-        "@njit(RHS_SIGNATURE, cache=True, nogil=True)",
-        "def scene_rhs(t, z, P, D, out):",
-        '    """y\' = (q\', q\'\'[, P_dissipated, P_applied, P_drivers]) (dynamics.EquationsOfMotion)."""',
-        "    n, m = P[8][0], P[8][1]",
-        "    qdd, lam, power = np.empty(n), np.empty(m), np.empty(3)",
-        "    accelerations(t, z[:n].copy(), z[n : 2 * n].copy(), P, D, qdd, lam, power)",
-        "    out[:n] = z[n : 2 * n]",
+        "    out[:n] = qd",
         "    out[n : 2 * n] = qdd",
-    ]
-    lines += [
-        "    if P[8][2]:  # the energy balance's three powers (``parameters``: three extra states)",
+        "    if dims[2]:  # the energy balance's three powers (``parameters``: three extra states)",
+        "        power[2] = lam @ psit  # the drivers' power (eq. 5.61; zero without drivers: Psi_t = 0)",
         "        out[2 * n], out[2 * n + 1], out[2 * n + 2] = power[0], power[1], power[2]",
-    ]
-    lines += [
+        "    if out.size > z.size:  # the outputs: lambda of every row",
+        "        out[z.size : z.size + m] = lam",
         "",
         "",
         "@njit(CONSTRAINT_ARRAYS_SIGNATURE, cache=True, nogil=True)",

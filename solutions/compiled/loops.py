@@ -28,8 +28,8 @@ Both return the states at the output times and (evaluations, steps, rejected, st
 success, 1 a step-size collapse, 2 the evaluation budget spent, 3 a state that is no longer finite (rk4),
 4 a projection whose position iterations did not converge (then h is the residual max |Psi| instead).
 
-``body_outputs`` gives the body coordinates and q'', lambda of a joint-coordinates state at every output time
-(``tree.py``); ``outputs`` gives q'' and lambda of a body-coordinates state.
+``outputs`` gives what the right-hand side writes at every output time, y' and after it the outputs of the state:
+lambda (``codegen.py``), or the body coordinates, q'' and lambda of a joint-coordinates state (``tree.py``).
 """
 
 import numpy as np
@@ -47,15 +47,12 @@ D_TYPE = types.Tuple((_imatrix, _matrix, _ivector))
 """D = (ints, floats, offsets): the element data of every kernel, kernel s (``scene.SLOTS``) in rows offsets[s] to
 offsets[s + 1] (``scene.packed``)."""
 RHS_SIGNATURE = types.void(types.float64, _vector, P_TYPE, D_TYPE, _vector)
-"""scene_rhs(t, z, P, D, out)."""
-ACCELERATIONS_SIGNATURE = types.void(types.float64, _vector, _vector, P_TYPE, D_TYPE, _vector, _vector, _vector)
-"""accelerations(t, q, q', P, D, q'' (out), lambda (out), powers (out))."""
+"""scene_rhs(t, z, P, D, out): y' in out[:z.size]; an ``out`` longer than z also gets the outputs of the state after
+it (``outputs``)."""
 CONSTRAINT_ARRAYS_SIGNATURE = types.void(_vector, _matrix, P_TYPE, D_TYPE, _matrix, types.float64[:, :, ::1], _matrix)
 """constraint_arrays(T, Y, P, D, Psi (out, N x m), Psi_q (out, N x m x n), Psi_t (out, N x m)): zeros on entry."""
 PROJECT_SIGNATURE = types.int64(types.float64, _vector, P_TYPE, D_TYPE, _vector)
 """project(t, z, P, D, info): -1 (nothing done), 0 (z corrected in place), 1 (not converged; info[0] the residual)."""
-BODY_STATE_SIGNATURE = types.void(types.float64, _vector, P_TYPE, D_TYPE, _vector, _vector, _vector, _vector)
-"""body_state(t, y, P, D, q (out), q' (out), q'' (out), lambda (out)) of a joint-coordinates state y."""
 TABLEAU_TYPE = types.Tuple((_matrix, _vector, _vector, _vector, _vector, _vector, _matrix, _matrix))
 RESULT_TYPE = types.Tuple((_matrix, types.int64, types.int64, types.int64, types.int64, types.float64, types.float64))
 _RHS = types.FunctionType(RHS_SIGNATURE)
@@ -305,29 +302,11 @@ def rk4(scene_rhs, project, z0, t_out, step, P, D):
     return Y, evaluations, steps, 0, 0, t_out[-1], 0.0
 
 
-@jit(types.Tuple((_matrix, _matrix))(types.FunctionType(ACCELERATIONS_SIGNATURE), _vector, _matrix, P_TYPE, D_TYPE))
-def outputs(accelerations, T, Y, P, D):
-    """q'' and lambda at every output time T[k] from the states Y[k]."""
-    n, m = P[8][0], P[8][1]
-    qdd, lam, power = np.empty((T.size, n)), np.empty((T.size, m)), np.empty(3)
-    a, b = np.empty(n), np.empty(m)
+@jit(_matrix(types.FunctionType(RHS_SIGNATURE), _vector, _matrix, P_TYPE, D_TYPE, types.int64))
+def outputs(scene_rhs, T, Y, P, D, width):
+    """At every output time T[k], y' of the state Y[k] and the ``width`` outputs the right-hand side writes after it
+    (body coordinates: lambda; joint coordinates: q, q', q'' and lambda)."""
+    out = np.empty((T.size, Y.shape[1] + width))
     for k in range(T.size):
-        accelerations(T[k], Y[k, :n].copy(), Y[k, n : 2 * n].copy(), P, D, a, b, power)
-        qdd[k], lam[k] = a, b
-    return qdd, lam
-
-
-@jit(
-    types.Tuple((_matrix, _matrix, _matrix, _matrix))(
-        types.FunctionType(BODY_STATE_SIGNATURE), _vector, _matrix, P_TYPE, D_TYPE
-    )
-)
-def body_outputs(body_state, T, Y, P, D):
-    """q, q', q'' and lambda at every output time T[k] from the joint-coordinates states Y[k]."""
-    n, m = P[8][0], P[8][1]
-    q, qd, qdd, lam = np.empty((T.size, n)), np.empty((T.size, n)), np.empty((T.size, n)), np.empty((T.size, m))
-    a, b, c, d = np.empty(n), np.empty(n), np.empty(n), np.empty(m)
-    for k in range(T.size):
-        body_state(T[k], Y[k].copy(), P, D, a, b, c, d)
-        q[k], qd[k], qdd[k], lam[k] = a, b, c, d
-    return q, qd, qdd, lam
+        scene_rhs(T[k], Y[k].copy(), P, D, out[k])
+    return out

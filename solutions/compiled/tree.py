@@ -13,10 +13,11 @@ joint's Euler parameters) into the arrays of ``tree_kernels.py``, and the cut ro
 - ``scene_rhs(t, z, P, D, out)``: y' = (the rates of the joint positions, theta''[, P_dissipated, P_applied,
   P_drivers]) (``loops.RHS_SIGNATURE``: the integrator loops take it as they take the Baumgarte one); with cut
   rows it evaluates every constraint kernel and keeps the cut rows (P[8][6:]); with drivers and the energy
-  balance, lambda too (the drivers' power, eq. 5.61, as ``dynamics.EquationsOfMotion``);
-- ``body_state(t, y, P, D, q, q', q'', lambda)``: the body coordinates at a joint state and lambda of the model's
-  constraint rows from Psi_q^T lambda = Q - M q'' (normal equations; ``JointCoordinates.accelerations``),
-  for the results and reactions (``loops.body_outputs``);
+  balance, lambda too (the drivers' power, eq. 5.61, as ``dynamics.EquationsOfMotion``). Given an ``out``
+  longer than y, it writes after y' the body coordinates q, q' at the joint state, q'' and lambda of the model's
+  constraint rows from Psi_q^T lambda = Q - M q'' (normal equations; ``JointCoordinates.accelerations``), for the
+  results and reactions (``loops.outputs``): one function for both, since numba optimizes the kernels again
+  in every function that calls them;
 - ``constraint_arrays(T, Y, P, D, Psi, Psi_q, Psi_t)`` at the output times from the body coordinates, as the
   scene's own module (``codegen.py``; ``history.py`` makes the residuals and reactions of them).
 
@@ -103,64 +104,79 @@ def describe(scene: Scene, formulation) -> TreeScene:
     return tree
 
 
-def _constraints(scene: Scene) -> list[str]:
-    """The lines that evaluate Psi, Psi_q, Psi_t and gamma of every constraint row at q, q'."""
-    lines = ["    psi, psit, gam = np.zeros(m), np.zeros(m), np.zeros(m)", "    jac = np.zeros((m, n))"]
-    return lines + constraint_calls(scene, "    ")
+ARRAYS = (
+    ("xi", "a", None), ("Dm", "a * k", "(a, k)"), ("omega", "3 * nb", "(nb, 3)"), ("Q", "n", None),
+    ("power", "3", None), ("q", "n", None), ("qd", "n", None),
+)  # fmt: skip
+"""The arrays of every evaluation (name, size, shape): xi and D (eq. 5.44), omega', Q, the powers, q and q'. (Psi,
+Psi_q, Psi_t, gamma, q'' and lambda are made where they are needed: a tree without cut rows needs none of them
+on the way to theta''.)"""
+
+
+def _arrays(spatial: bool) -> list[str]:
+    """The lines that cut one allocation into the ``ARRAYS`` (an allocation each costs more than the arithmetic of a
+    small tree)."""
+    lines = [
+        f"    nb = n // {7 if spatial else 3}",
+        f"    a = {6 if spatial else 3} * nb  # the rows of xi and D",
+        f"    work = np.empty({' + '.join(size for _, size, _ in ARRAYS)})",
+        "    at = 0",
+    ]
+    for name, size, shape in ARRAYS:
+        lines += [f"    {name} = work[at : at + {size}]{f'.reshape({shape})' if shape else ''}", f"    at += {size}"]
+    return lines
 
 
 def _multipliers(scene: Scene) -> list[str]:
     """The lines that make q'' (``qdd``) from theta'' and lambda of every row from Psi_q^T lambda = Q - M q''."""
     if scene.dimension == 3:
         lines = [
-            "    spatial_coordinate_accelerations(q, qd, Dm, xi, omega, thdd, qdd)",
-            "    M = np.zeros((n, n))",
-            "    spatial_mass(q, qd, masses, inertias, weights, M, Q)  # M(q) and Q += Q_v (eq. 10.4, 10.5)",
-            "    residual = Q - M @ qdd",
+            "spatial_coordinate_accelerations(q, qd, Dm, xi, omega, thdd, qdd)",
+            "M = np.zeros((n, n))",
+            "spatial_mass(q, qd, masses, inertias, weights, M, Q)  # M(q) and Q += Q_v (eq. 10.4, 10.5)",
+            "residual = Q - M @ qdd",
         ]
     else:
-        lines = ["    qdd[:] = Dm @ thdd + xi", "    residual = Q - mass * qdd"]
-    return [*lines, "    lam[:] = lu_solve(jac @ jac.T, jac @ residual)"]
+        lines = ["qdd[:] = Dm @ thdd + xi", "residual = Q - mass * qdd"]
+    return [
+        "        " + line
+        for line in ["qdd, lam = np.empty(n), np.empty(m)", *lines, "lam[:] = lu_solve(jac @ jac.T, jac @ residual)"]
+    ]
 
 
-def _accelerations(tree: TreeScene, rates: str, coordinates: bool, body: bool, cut_extra=()) -> list[str]:
-    """The lines that make (``coordinates``: q and q'), xi, D, omega', Q and the powers, and theta'' (``thdd``),
-    at the joint state y; the arrays cut from one allocation. A tree with cut rows (P[8][6:], chosen at run time:
-    one module per dimension) solves the augmented system with Psi, Psi_q, Psi_t and gamma of every row
-    (``cut_accelerations``), then runs ``cut_extra``; one without, (D^T M D) theta'' = D^T (Q - M xi). ``body``:
-    the constraint rows are evaluated in any case (lambda of every row needs them)."""
+def _body(tree: TreeScene) -> list[str]:
+    """The lines of ``scene_rhs``: q and q', xi, D, omega', Q and the powers at the joint state y; Psi, Psi_q, Psi_t
+    and gamma when they are needed; theta'' (``thdd``): a tree with cut rows (P[8][6:], chosen at run time: one
+    module per dimension) solves the augmented system (``cut_accelerations``), one without
+    (D^T M D) theta'' = D^T (Q - M xi); q'' and lambda of every row for the outputs or the drivers' power."""
     scene = tree.scene
     spatial = scene.dimension == 3
-    per = 6 if spatial else 3
-    slot = SLOTS.index("tree")
-    rows = slot_rows(slot)
+    rows = slot_rows(SLOTS.index("tree"))
     data = f"D[0][{rows}], D[1][{rows}]"
+    equations = "spatial" if spatial else "planar"
+    arguments = "masses, inertias, q, Dm, xi, omega, Q" if spatial else "mass, Dm, xi, Q"
     lines = [
         "    Q0, mass, masses, inertias, weights, fk, fp, numbers, dims = P",
         "    n, m, npos, k = dims[0], dims[1], dims[3], dims[4]",
-        f"    nb = n // {7 if spatial else 3}",
-        f"    a, b = {per} * nb, {per} * nb * (k + 1)  # xi, D",
-        f"    work = np.empty(b + 3 * nb + n + 3{' + 2 * n' if coordinates else ''})",
-        "    xi, Dm, omega = work[:a], work[a:b].reshape((a, k)), work[b : b + 3 * nb].reshape((nb, 3))",
-        "    Q, power = work[b + 3 * nb : b + 3 * nb + n], work[b + 3 * nb + n : b + 3 * nb + n + 3]",
+        "    full = out.size > y.size  # the outputs asked for too (loops.outputs): q, q', q'', lambda after y'",
+        *_arrays(spatial),
         "    Q[:] = Q0",
         "    power[:] = 0.0",
     ]
-    if coordinates:
-        lines.append("    q, qd = work[b + 3 * nb + n + 3 : b + 3 * nb + 2 * n + 3], work[b + 3 * nb + 2 * n + 3 :]")
     if spatial:
+        rates = "out[:npos]"  # the rates of the joint positions (Euler parameters: not theta')
         lines.append(f"    spatial_motion(y[:npos], y[npos : npos + k], {data}, nb, k, q, qd, xi, Dm, omega, {rates})")
     else:
         lines.append(f"    planar_motion(y[:npos], y[npos : npos + k], {data}, nb, k, q, qd, xi, Dm)")
     lines += force_calls(scene, "    ")
-    equations = "spatial" if spatial else "planar"
-    arguments = "masses, inertias, q, Dm, xi, omega, Q" if spatial else "mass, Dm, xi, Q"
-    if body:
-        lines += _constraints(scene)
-    lines.append("    if dims.size > 6:  # cut rows: the augmented system (eq. 5.29, 5.30 in joint coordinates)")
-    if not body:
-        lines += ["    " + line for line in _constraints(scene)]
-    lines.append(f"        matrix, rhs = {equations}_equations({arguments}, D[0][{rows}])")
+    lines += [
+        "    if full or dims.size > 6:  # the constraint rows: lambda of every row, or the cut rows",
+        "        psi, psit, gam = np.zeros(m), np.zeros(m), np.zeros(m)",
+        "        jac = np.zeros((m, n))",
+        *constraint_calls(scene, "        "),
+        "    if dims.size > 6:  # cut rows: the augmented system (eq. 5.29, 5.30 in joint coordinates)",
+        f"        matrix, rhs = {equations}_equations({arguments}, D[0][{rows}])",
+    ]
     if spatial:
         lines += [
             "        Dq, xiq = np.empty((n, k)), np.empty(n)",
@@ -169,18 +185,21 @@ def _accelerations(tree: TreeScene, rates: str, coordinates: bool, body: bool, c
         ]
     else:
         lines.append("        Dq, xiq = Dm, xi")
-    lines.append(
+    return lines + [
         "        thdd = cut_accelerations("
-        "matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, dims[6:], numbers[0], numbers[1])"
-    )
-    lines += cut_extra
-    lines += ["    else:", f"        thdd = {equations}_accelerations({arguments}, D[0][{rows}])"]
-    return lines
+        "matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, dims[6:], numbers[0], numbers[1])",
+        "    else:",
+        f"        thdd = {equations}_accelerations({arguments}, D[0][{rows}])",
+        "    if full or (dims.size > 6 and dims[5]):  # lambda: the outputs, or the drivers' power (drivers: cut rows)",
+        *_multipliers(scene),
+        "        if dims[5]:  # the drivers' power (eq. 5.61)",
+        "            power[2] = lam @ psit",
+    ]
 
 
 def generate(tree: TreeScene) -> str:
     """The source text of the tree scene's module (module docstring): the joint accelerations written out in
-    both functions (P and D stay in the function that receives them: passing them on costs more than the
+    the right-hand side (P and D stay in the function that receives them: passing them on costs more than the
     arithmetic of a small tree). One module per dimension: whether the tree has cut rows is data (P[8])."""
     scene = tree.scene
     spatial = scene.dimension == 3
@@ -190,37 +209,31 @@ def generate(tree: TreeScene) -> str:
     dimension = "spatial" if spatial else "planar"
     tree_imports = {f"{dimension}_motion", f"{dimension}_equations", f"{dimension}_accelerations", "cut_accelerations"}
     tree_imports |= {"spatial_coordinate_accelerations", "spatial_joint_matrix"} if spatial else set()
-    drivers = [  # drivers are cut rows: with the energy balance, their power needs lambda at every evaluation
-        "        if dims[5]:  # the drivers' power (eq. 5.61), from lambda of every row",
-        "            qdd, lam = np.empty(n), np.empty(m)",
-        *["        " + line for line in _multipliers(scene)],
-        "            power[2] = lam @ psit",
-    ]
     lines = [
         f'"""Generated by solutions.compiled.tree for the tree {tree.key!r}: do not edit."""',
         "import numpy as np",
         "from numba import njit",
         "",
         f"from solutions.compiled.kernels import {', '.join(kernels)}",
-        "from solutions.compiled.loops import BODY_STATE_SIGNATURE, CONSTRAINT_ARRAYS_SIGNATURE, RHS_SIGNATURE",
+        "from solutions.compiled.loops import CONSTRAINT_ARRAYS_SIGNATURE, RHS_SIGNATURE",
         f"from solutions.compiled.tree_kernels import {', '.join(sorted(tree_imports))}",
         "",
         "",
         "@njit(RHS_SIGNATURE, cache=True, nogil=True)",
         "def scene_rhs(t, y, P, D, out):",
-        '    """y\' = (the rates of the joint positions, theta\'\'[, P_dissipated, P_applied, P_drivers])."""',
-        *_accelerations(tree, "out[:npos]", True, False, drivers),
+        "    \"\"\"y' = (the rates of the joint positions, theta''[, P_dissipated, P_applied, P_drivers]); when",
+        "    ``out`` is longer than y, after y' q, q', q'' and lambda (Psi_q^T lambda = Q - M q'', normal eq.).\"\"\"",
+        *_body(tree),
         *([] if spatial else ["    out[:npos] = y[npos : npos + k]  # planar: the rates are theta'"]),
         "    out[npos : npos + k] = thdd",
         "    if dims[2]:  # the energy balance's three powers",
         "        out[npos + k], out[npos + k + 1], out[npos + k + 2] = power[0], power[1], power[2]",
-        "",
-        "",
-        "@njit(BODY_STATE_SIGNATURE, cache=True, nogil=True)",
-        "def body_state(t, y, P, D, q, qd, qdd, lam):",
-        '    """q, q\', q\'\' and lambda (Psi_q^T lambda = Q - M q\'\', normal equations) at the joint state y."""',
-        *_accelerations(tree, "np.empty(npos)", False, True),
-        *_multipliers(scene),
+        "    if full:  # the outputs at this state",
+        "        o = y.size",
+        "        out[o : o + n] = q",
+        "        out[o + n : o + 2 * n] = qd",
+        "        out[o + 2 * n : o + 3 * n] = qdd",
+        "        out[o + 3 * n : o + 3 * n + m] = lam",
         "",
         "",
         "@njit(CONSTRAINT_ARRAYS_SIGNATURE, cache=True, nogil=True)",
