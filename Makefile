@@ -71,6 +71,11 @@ notes: $(STAMP)
 golden: $(STAMP)
 	$(BIN)/python tests/solutions/golden.py
 
+# The numba engine compiled once for this machine (`mbd compile`): no later run waits for a compilation.
+.PHONY: compile
+compile: $(STAMP)
+	$(BIN)/mbd compile
+
 bench: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python benchmarks/kinematics.py
 

@@ -84,6 +84,7 @@ SLOW = {
     "autograder/test_cluster.py": "cluster",
     "course/test_notes.py": "notebooks",
     "solutions/test_compiled.py": "compiled",
+    "solutions/test_precompile.py": "compiled",  # after the other compiled files: it finds most modules on disk
     "autograder/test_fair_diagnosis.py": "isolation",
     "autograder/test_sandbox.py": "isolation",
     "autograder/test_api.py": "isolation",

@@ -126,7 +126,20 @@ def test_the_packages_import_no_cycle():
             del edges[p]
 
 
-ALL = {"run", "check", "sweep", "derive", "release", "nbcheck", "notes", "bench", "grade", "secret", "selfcheck"}
+ALL = {
+    "run",
+    "check",
+    "sweep",
+    "derive",
+    "release",
+    "nbcheck",
+    "notes",
+    "bench",
+    "grade",
+    "secret",
+    "selfcheck",
+    "compile",
+}
 
 
 def commands(parser) -> set[str]:

@@ -1,0 +1,128 @@
+"""Compile the engine once per machine (``mbd compile``): the loops and every generated module, before any run.
+
+The model is data (``codegen.py``): a generated module depends on the dimension and the formulation, never on the
+model's bodies, elements or numbers. A planar and a spatial pendulum (``PENDULUMS``) therefore make every module
+that any model of the course's element types runs: for each dimension, the scene's module (Baumgarte and the
+other body-coordinate formulations), the projection's, the tree's (joint coordinates) and the kinematic one; with
+the integrator loops and the kinematic step loop, which every module shares. numba keeps the machine code on disk
+(``codegen.cache_directory()`` for the modules, beside the sources for the loops and kernels): afterwards no run
+on the machine waits for a compilation, and ``engine="cached"`` (or ``auto``) finds them all.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+PENDULUMS = {
+    "planar": {"model": {
+        "name": "compile-planar", "dimension": 2, "gravity": [0.0, -9.81],
+        "bodies": [{"name": "bar", "mass": 1.0, "inertia": 0.02, "location": [0.25, 0.0], "orientation": 0.0}],
+        "joints": [{"name": "pin", "type": "revolute", "body1": "ground", "body2": "bar", "location": [0.0, 0.0]}],
+    }},
+    "spatial": {"model": {
+        "name": "compile-spatial", "dimension": 3, "gravity": [0.0, 0.0, -9.81],
+        "bodies": [{"name": "bar", "mass": 1.0, "inertia": [0.001, 0.02, 0.02], "location": [0.25, 0.0, 0.0],
+                    "orientation": [1.0, 0.0, 0.0, 0.0]}],
+        "joints": [{"name": "ball", "type": "spherical", "body1": "ground", "body2": "bar",
+                    "location": [0.0, 0.0, 0.0]}],
+    }},
+}  # fmt: skip
+"""One body on one joint per dimension: the smallest models whose scenes make every module of their dimension."""
+
+FORMULATIONS = ("baumgarte", "projection", "joint-coordinates")
+"""The compiled formulations with a module of their own (the other body-coordinate ones run the scene's module)."""
+
+
+@dataclass(frozen=True)
+class Part:
+    """One part of the engine: what it is, the seconds it took, and whether it was on disk already."""
+
+    name: str
+    seconds: float
+    cached: bool
+
+
+def _loops() -> bool:
+    from numba.core.registry import CPUDispatcher
+
+    from . import kinematic_loop, loops  # compiled, or loaded from disk, at import
+
+    functions = [f for m in (loops, kinematic_loop) for f in vars(m).values() if isinstance(f, CPUDispatcher)]
+    return not any(sum(f.stats.cache_misses.values()) for f in functions)
+
+
+def _dynamic(dimension: str, formulation: str) -> Callable[[], bool]:
+    def load() -> bool:
+        from .. import compiled
+        from ..assembly import build_system
+        from ..formulations import make_formulation
+        from ..generalized_forces import build_forces
+        from ..io import load_model
+        from ..mass_matrix import mass_matrix
+
+        system = build_system(load_model(PENDULUMS[dimension]))[0]
+        M, forces = mass_matrix(system.model), build_forces(system.model)
+        made = make_formulation(formulation, system, M, forces)
+        return compiled.load(compiled.plan(compiled.describe(system, M, forces), formulation, made))[2]
+
+    return load
+
+
+def _kinematic(dimension: str) -> Callable[[], bool]:
+    def load() -> bool:
+        from ..assembly import build_system
+        from ..io import load_model
+        from . import kinematic
+        from .codegen import load_kinematic
+
+        return load_kinematic(kinematic.describe(build_system(load_model(PENDULUMS[dimension]))[0]))[1]
+
+    return load
+
+
+def parts() -> list[tuple[str, Callable[[], bool]]]:
+    """(name, load) of every part, the loops first; ``load()`` compiles the part or loads it from disk and returns
+    whether its machine code was on disk already."""
+    steps = [("integrator and kinematic loops", _loops)]
+    for dimension in PENDULUMS:
+        steps += [(f"{dimension} {formulation}", _dynamic(dimension, formulation)) for formulation in FORMULATIONS]
+        steps.append((f"{dimension} kinematic", _kinematic(dimension)))
+    return steps
+
+
+def compile_engine(progress: bool = True) -> list[Part]:
+    """Compile (or load from disk) every part of the engine, one after the other, with a progress bar."""
+    from tqdm.auto import tqdm
+
+    done = []
+    with tqdm(parts(), desc="compiling the engine", unit="part", disable=not progress) as bar:
+        for name, load in bar:
+            bar.set_postfix_str(name)
+            start = time.perf_counter()
+            cached = load()
+            done.append(Part(name, time.perf_counter() - start, cached))
+    return done
+
+
+def add_compile(sub) -> None:
+    """``mbd compile``: compile the engine once per machine (an entry point of ``mbd.commands``)."""
+    command = sub.add_parser("compile", help="compile the numba engine once per machine: no run waits for it later")
+    command.add_argument("--quiet", action="store_true", help="no progress bar")
+    command.set_defaults(handler=_command)
+
+
+def _command(args: argparse.Namespace) -> int:
+    from .codegen import cache_directory
+
+    start = time.perf_counter()
+    done = compile_engine(progress=not args.quiet)
+    for part in done:
+        print(f"{part.name:32s} {part.seconds:7.1f} s  {'on disk already' if part.cached else 'compiled'}")
+    print(f"the engine is compiled ({time.perf_counter() - start:.1f} s); its modules are in {cache_directory()}")
+    return 0
+
+
+__all__ = ["FORMULATIONS", "PENDULUMS", "Part", "add_compile", "compile_engine", "parts"]
