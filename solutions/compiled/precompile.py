@@ -83,46 +83,84 @@ def _kinematic(dimension: str) -> Callable[[], bool]:
     return load
 
 
-def parts() -> list[tuple[str, Callable[[], bool]]]:
-    """(name, load) of every part, the loops first; ``load()`` compiles the part or loads it from disk and returns
-    whether its machine code was on disk already."""
-    steps = [("integrator and kinematic loops", _loops)]
-    for dimension in PENDULUMS:
-        steps += [(f"{dimension} {formulation}", _dynamic(dimension, formulation)) for formulation in FORMULATIONS]
-        steps.append((f"{dimension} kinematic", _kinematic(dimension)))
-    return steps
+LOOPS = "integrator and kinematic loops"
 
 
-def compile_engine(progress: bool = True) -> list[Part]:
-    """Compile (or load from disk) every part of the engine, one after the other, with a progress bar."""
+def parts(dimension: str) -> list[tuple[str, Callable[[], bool]]]:
+    """(name, load) of the parts of one dimension, the loops first (every module imports them); ``load()``
+    compiles the part or loads it from disk and returns whether its machine code was on disk already."""
+    steps = [(LOOPS, _loops)]
+    steps += [(f"{dimension} {formulation}", _dynamic(dimension, formulation)) for formulation in FORMULATIONS]
+    return [*steps, (f"{dimension} kinematic", _kinematic(dimension))]
+
+
+def _chain(dimension: str, report) -> None:
+    """Compile the parts of one dimension in this process, one after the other, each put on ``report`` when done."""
+    for name, load in parts(dimension):
+        start = time.perf_counter()
+        cached = load()
+        report.put(Part(name, time.perf_counter() - start, cached))
+
+
+def compile_engine(progress: bool = True, jobs: int | None = None) -> list[Part]:
+    """Compile (or load from disk) every part of the engine, with a progress bar: the dimensions side by side in
+    ``jobs`` processes (default: one per dimension, at most one per core; each compiles the loops it needs, or
+    loads them when another has put them on disk first), every part reported once."""
+    import multiprocessing
+    import os
+    import queue
+    from concurrent.futures import ProcessPoolExecutor
+
     from tqdm.auto import tqdm
 
-    done = []
-    with tqdm(parts(), desc="compiling the engine", unit="part", disable=not progress) as bar:
-        for name, load in bar:
-            bar.set_postfix_str(name)
-            start = time.perf_counter()
-            cached = load()
-            done.append(Part(name, time.perf_counter() - start, cached))
-    return done
+    jobs = jobs or max(1, min(len(PENDULUMS), os.cpu_count() or 1))
+    names = list(dict.fromkeys(name for dimension in PENDULUMS for name, _ in parts(dimension)))
+    done: dict[str, Part] = {}
+    context = multiprocessing.get_context("spawn")  # a fresh interpreter: no numba or LLVM state inherited
+    with context.Manager() as manager, ProcessPoolExecutor(jobs, mp_context=context) as pool:
+        report = manager.Queue()
+        chains = [pool.submit(_chain, dimension, report) for dimension in PENDULUMS]
+        with tqdm(total=len(names), desc="compiling the engine", unit="part", disable=not progress) as bar:
+            while len(done) < len(names):
+                try:
+                    part = report.get(timeout=0.5)
+                except queue.Empty:
+                    for chain in chains:
+                        if chain.done():
+                            chain.result()  # a chain that failed raises here
+                    continue
+                if part.name not in done:
+                    done[part.name] = part
+                    bar.set_postfix_str(part.name)
+                    bar.update()
+        for chain in chains:
+            chain.result()
+    return [done[name] for name in names]
 
 
 def add_compile(sub) -> None:
     """``mbd compile``: compile the engine once per machine (an entry point of ``mbd.commands``)."""
     command = sub.add_parser("compile", help="compile the numba engine once per machine: no run waits for it later")
     command.add_argument("--quiet", action="store_true", help="no progress bar")
+    command.add_argument("--jobs", type=_positive, help="processes side by side (default: one per dimension and core)")
     command.set_defaults(handler=_command)
+
+
+def _positive(text: str) -> int:
+    if not text.isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number of at least 1")
+    return int(text)
 
 
 def _command(args: argparse.Namespace) -> int:
     from .codegen import cache_directory
 
     start = time.perf_counter()
-    done = compile_engine(progress=not args.quiet)
+    done = compile_engine(progress=not args.quiet, jobs=args.jobs)
     for part in done:
         print(f"{part.name:32s} {part.seconds:7.1f} s  {'on disk already' if part.cached else 'compiled'}")
     print(f"the engine is compiled ({time.perf_counter() - start:.1f} s); its modules are in {cache_directory()}")
     return 0
 
 
-__all__ = ["FORMULATIONS", "PENDULUMS", "Part", "add_compile", "compile_engine", "parts"]
+__all__ = ["FORMULATIONS", "LOOPS", "PENDULUMS", "Part", "add_compile", "compile_engine", "parts"]
