@@ -59,3 +59,15 @@ def test_bench_runs_the_stress_study_beside_it(tmp_path, capsys):
     summary = capsys.readouterr().out
     assert summary.startswith("Stress study (stress_quick.md): quick run") and "0 SILENT" in summary
     assert "| redundant |" in (tmp_path / "stress_quick.md").read_text()
+
+
+def test_call_cost_times_every_stage_of_a_compiled_call(capsys):
+    """benchmarks/call_cost.py: every stage it wraps is still where it looks, and each was timed in the call."""
+    from benchmarks import call_cost
+
+    call_cost.main(["--scene", "double_pendulum", "--calls", "1"])
+    lines = capsys.readouterr().out.splitlines()
+    rows = [line.split(" | ") for line in lines[4:]]  # | stage | ms |
+    cells = {label.strip("| ").replace("&nbsp;", " "): value.strip(" |*") for label, value in rows}
+    assert [label for _, _, label in call_cost.STAGES] == list(cells)[2:]
+    assert all(float(cells[label]) > 0 for _, _, label in call_cost.STAGES), cells

@@ -1,0 +1,133 @@
+"""What a compiled ``forward_dynamics`` call costs besides its integration loop, stage by stage (issue 25, item 2).
+
+Issue 25 asks that the fixed cost of a call (everything but the integration loop) be at most 1 ms at 2 bodies and
+never more than the integration at any N. This script measures where that cost goes: each named stage of
+``forward_dynamics`` (``solutions/dynamics.py``: initial conditions, the plan and its motion periods, the engine's
+choice, the compiled loop, the outputs at the output times, the checks, the result with its residuals, energies
+and reactions) is wrapped by a timer for the measured calls, and the table gives its milliseconds per call (the
+mean of ``--calls`` calls after one warm-up call), the integration loop (``loops.embedded``) beside the rest.
+Stages nest (``integrate_motion`` holds the engine's choice, the compiled run and the checks), so the rows do
+not add up; "outside the loop" is the whole call minus the loop.
+
+    .venv/bin/python benchmarks/call_cost.py                                  # the three bench scenes
+    .venv/bin/python benchmarks/call_cost.py --scene slider_crank --formulation joint-coordinates
+    .venv/bin/python benchmarks/call_cost.py --chain loops --sizes 4 8 16     # chains of benchmarks/chains.py
+
+Runs use the compiled engine from the machine's cache (the first call of a structure compiles it: warm-up), DOP853
+at rtol = 1e-6, atol = 1e-8, 1 s simulated, 100 output intervals. Nothing is asserted (timing depends on the
+machine): prints a Markdown table.
+"""
+
+from __future__ import annotations
+
+import os
+
+for _variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
+import argparse  # noqa: E402
+import contextlib  # noqa: E402
+import functools  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from solutions import dynamics  # noqa: E402
+from solutions.assembly import build_system  # noqa: E402
+from solutions.compiled import dispatch, history, loops  # noqa: E402
+from solutions.io import load_model  # noqa: E402
+
+SCENES = ("double_pendulum", "slider_crank", "spatial_double_pendulum")
+STAGES = (
+    (dynamics, "consistent_initial_conditions", "initial conditions (assembly)"),
+    (dynamics, "plan_method", "plan: method and tolerance"),
+    (dynamics, "motion_periods", "  motion periods (spectral radius, numpy)"),
+    (dynamics, "integrate_motion", "engine: integrate_motion"),
+    (dispatch, "choose", "  engine's choice"),
+    (dispatch, "run", "  compiled run"),
+    (loops, "embedded", "    integration loop"),
+    (loops, "outputs", "    outputs at the output times"),
+    (history, "constraint_arrays", "    constraints at the output times"),
+    (dynamics.Guard, "check_outputs", "  checks at the output times (Guard)"),
+    (dynamics, "build_result", "result"),
+    (history, "residuals", "  residuals"),
+    (dynamics, "energy_history", "  energies"),
+    (history, "joint_reactions", "  joint reactions"),
+    (dynamics, "effort_columns", "  efforts"),
+    (dynamics, "run_info", "info"),
+)
+"""(owner, attribute, label) of every stage timed, in the order of a call."""
+
+
+@contextlib.contextmanager
+def timed(stages, seconds: dict):
+    """Wrap each stage with a timer that adds its seconds to ``seconds[label]``; restore them afterwards."""
+    saved = []
+    for owner, name, label in stages:
+        original = getattr(owner, name)
+
+        def wrapper(*args, _original=original, _label=label, **kwargs):
+            start = time.perf_counter()
+            try:
+                return _original(*args, **kwargs)
+            finally:
+                seconds[_label] = seconds.get(_label, 0.0) + time.perf_counter() - start
+
+        saved.append((owner, name, original))
+        setattr(owner, name, functools.wraps(original)(wrapper))
+    try:
+        yield seconds
+    finally:
+        for owner, name, original in saved:
+            setattr(owner, name, original)
+
+
+def measure(model, formulation: str, calls: int) -> tuple[float, dict]:
+    """(seconds per call, {stage label: seconds per call}) of the compiled run of ``model``."""
+    system, q0, qd0 = build_system(load_model(model))
+    options = dict(formulation=formulation, integrator="DOP853", rtol=1e-6, atol=1e-8, engine="compiled")
+    first = dynamics.forward_dynamics(system, q0, qd0, 1.0, 100, **options)  # compiles or loads the module
+    if first.info["chosen"]["engine"] != "compiled":
+        raise SystemExit(f"not compiled: {first.info['chosen']['engine_why']}")
+    seconds: dict[str, float] = {}
+    with timed(STAGES, seconds):
+        start = time.perf_counter()
+        for _ in range(calls):
+            dynamics.forward_dynamics(system, q0, qd0, 1.0, 100, **options)
+        total = (time.perf_counter() - start) / calls
+    return total, {label: value / calls for label, value in seconds.items()}
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--scene", action="append", choices=SCENES, help="only these scenes (repeatable)")
+    parser.add_argument("--formulation", default="baumgarte", choices=("baumgarte", "projection", "joint-coordinates"))
+    parser.add_argument("--chain", choices=("planar", "spatial", "loops"), help="chains of benchmarks/chains.py")
+    parser.add_argument("--sizes", type=int, nargs="+", default=[4, 8, 16], help="chain sizes N (with --chain)")
+    parser.add_argument("--calls", type=int, default=20, help="calls timed per case (default 20)")
+    args = parser.parse_args(argv)
+    if args.chain:
+        import chains
+
+        make = {"planar": chains.planar_chain, "spatial": chains.spatial_chain, "loops": chains.loop_chain}
+        cases = [(f"{args.chain} chain N = {n}", make[args.chain](n)) for n in args.sizes]
+    else:
+        cases = [(scene, ROOT / "course" / "models" / f"{scene}.yaml") for scene in args.scene or SCENES]
+    results = [(name, *measure(model, args.formulation, args.calls)) for name, model in cases]
+    print(f"## Cost of a compiled call by stage, ms per call ({args.formulation}, DOP853, 1e-6, 1 s, 100 outputs)\n")
+    print("| stage | " + " | ".join(name for name, _, _ in results) + " |")
+    print("|---|" + "---:|" * len(results))
+    print("| **whole call** | " + " | ".join(f"**{total * 1e3:.2f}**" for _, total, _ in results) + " |")
+    loop = "    integration loop"
+    outside = [total - stages.get(loop, 0.0) for _, total, stages in results]
+    print("| **outside the loop** | " + " | ".join(f"**{value * 1e3:.2f}**" for value in outside) + " |")
+    for _, _, label in STAGES:
+        cells = [f"{stages[label] * 1e3:.3f}" if label in stages else "-" for _, _, stages in results]
+        print(f"| {label.replace('  ', '&nbsp;&nbsp;')} | " + " | ".join(cells) + " |")
+
+
+if __name__ == "__main__":
+    main()
