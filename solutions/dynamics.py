@@ -846,17 +846,17 @@ class Guard:
         """``check_drift`` and ``check_configuration`` at every output time t[k] of a finished run, given
         Psi (N, m) and Psi_q (N, m, n) there (the compiled engine's): the same tests, the arithmetic over all
         output times at once (batched norms, SVDs and determinants), the verdicts in time order."""
+        weighted = jacobians * self._columns  # angles as arc lengths L phi: every column in metres
+        norms = np.linalg.norm(weighted, axis=2, keepdims=True)  # |grad Psi_i| of every row at every time
         if self.drift_limit is not None:
-            norms = np.linalg.norm(jacobians * self._columns, axis=2)
-            distance = np.abs(psi) / np.where(norms > 0, norms, 1.0)
+            distance = np.abs(psi) / np.where(norms[:, :, 0] > 0, norms[:, :, 0], 1.0)
             bad = ~(np.max(distance, axis=1, initial=0.0) <= self.drift_limit)
             if np.any(bad):
                 k = int(np.argmax(bad))
                 self.check_drift(q[k], float(t[k]))  # raises, with the message of the step-by-step check
         if not self.singular_ratio or self.rank == 0:
             return
-        norms = np.linalg.norm(jacobians * self._columns, axis=2, keepdims=True)
-        scaled = jacobians * self._columns / np.where(norms > 0, norms, 1.0)
+        scaled = weighted / np.where(norms > 0, norms, 1.0)
         square = scaled.shape[1] == self.rank
         if square:  # independent rows: singular values alone, the null space from a QR of Psi_q^T (cheaper)
             s = np.linalg.svd(scaled, compute_uv=False)
