@@ -337,7 +337,7 @@ def test_augmented_lagrangian_raises_a_tolerance_it_cannot_hold(double_pendulum)
 
 
 def test_null_space_bases_are_orthonormal_bases_of_each_jacobians_null_space():
-    """The batched guard's null spaces (``dynamics.null_space_bases``, from a complete QR of Psi_q^T): n - m
+    """The batched guard's null spaces (``dynamics.null_space_bases``, from a QR of Psi_q^T): n - m
     orthonormal columns that Psi_q maps to zero, for each matrix of a stack, as the SVD's last columns of V."""
     from solutions.dynamics import null_space_bases
 
@@ -350,3 +350,16 @@ def test_null_space_bases_are_orthonormal_bases_of_each_jacobians_null_space():
         assert np.allclose(basis.T @ basis, np.eye(4), atol=1e-12)
         v = np.linalg.svd(jacobian)[2][3:].T  # the SVD's basis of the same space: T^T V is orthogonal
         assert np.allclose(np.abs(np.linalg.det(basis.T @ v)), 1.0, atol=1e-12)
+
+
+@pytest.mark.parametrize("shape", [(6, 3, 7), (4, 1, 3), (3, 26, 27), (2, 5, 5)])
+def test_null_space_bases_are_the_complete_qrs_last_columns(shape):
+    """The reflectors applied to the identity's last columns (``null_space_bases``) give the columns of Q that
+    numpy's complete QR forms (LAPACK's dorgqr), to rounding: the same basis, not only the same space."""
+    from solutions.dynamics import null_space_bases
+
+    stack = np.random.default_rng(11).standard_normal(shape)
+    q_full, _ = np.linalg.qr(np.swapaxes(stack, 1, 2), mode="complete")
+    bases = null_space_bases(stack)
+    assert bases.shape == (shape[0], shape[2], shape[2] - shape[1])
+    assert np.allclose(bases, q_full[:, :, shape[1] :], rtol=0.0, atol=1e-13)
