@@ -12,6 +12,7 @@ on the machine waits for a compilation, and ``engine="cached"`` (or ``auto``) fi
 from __future__ import annotations
 
 import argparse
+import functools
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -54,16 +55,23 @@ def _loops() -> bool:
     return not any(sum(f.stats.cache_misses.values()) for f in functions)
 
 
+@functools.cache
+def _pendulum(dimension: str):
+    """The assembled ``System`` of the dimension's pendulum (``PENDULUMS``), built once per process."""
+    from ..assembly import build_system
+    from ..io import load_model
+
+    return build_system(load_model(PENDULUMS[dimension]))[0]
+
+
 def _dynamic(dimension: str, formulation: str) -> Callable[[], bool]:
     def load() -> bool:
         from .. import compiled
-        from ..assembly import build_system
         from ..formulations import make_formulation
         from ..generalized_forces import build_forces
-        from ..io import load_model
         from ..mass_matrix import mass_matrix
 
-        system = build_system(load_model(PENDULUMS[dimension]))[0]
+        system = _pendulum(dimension)
         M, forces = mass_matrix(system.model), build_forces(system.model)
         made = make_formulation(formulation, system, M, forces)
         return compiled.load(compiled.plan(compiled.describe(system, M, forces), formulation, made))[2]
@@ -73,12 +81,10 @@ def _dynamic(dimension: str, formulation: str) -> Callable[[], bool]:
 
 def _kinematic(dimension: str) -> Callable[[], bool]:
     def load() -> bool:
-        from ..assembly import build_system
-        from ..io import load_model
         from . import kinematic
         from .codegen import load_kinematic
 
-        return load_kinematic(kinematic.describe(build_system(load_model(PENDULUMS[dimension]))[0]))[1]
+        return load_kinematic(kinematic.describe(_pendulum(dimension)))[1]
 
     return load
 

@@ -24,13 +24,13 @@ pytest.importorskip("numba")
 REPO = Path(__file__).resolve().parents[2]
 
 RUNS = """
-import json, sys
+import glob, json, sys
 from solutions.assembly import build_system
 from solutions.dynamics import forward_dynamics
 from solutions.io import load_model
 from solutions.kinematics import kinematic_analysis
 seen = {}
-for path in sorted(__import__("glob").glob("course/models/*.yaml")):
+for path in sorted(glob.glob("course/models/*.yaml")):
     name = path.split("/")[-1][:-5]
     model = load_model(path)
     system, q0, qd0 = build_system(model)
