@@ -42,6 +42,7 @@ from solutions.io.results import write_csv
 from solutions.kinematics import assemble
 from solutions.plotting import plot_result, save_figure, work_precision_figure
 from solutions.settings import read_settings
+from solutions.viewer import result_view
 
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "course" / "models"
@@ -87,11 +88,8 @@ def run_examples(out: Path, animate: tuple[str, ...] = ANIMATED) -> list[dict]:
             analysis = settings.analysis
             result = run_analysis(system, q0, qd0, settings)
             outputs = [write_csv(result, out / f"{path.stem}.csv"), plot_result(result, out / f"{path.stem}.png")]
-            if path.name in animate:
-                from solutions.animation import animate_result
-
-                animate_result(model, system, result, out / f"{path.stem}.gif", max_frames=60)
-                outputs.append(out / f"{path.stem}.gif")
+            if path.name in animate:  # a page that plays, turns and zooms in any browser, offline
+                outputs.append(result_view(model, system, result).write_html(out / f"{path.stem}.html"))
             row.update(analysis=analysis, status="ok", outputs=", ".join(p.name for p in outputs))
         except (ModelError, AnalysisError, ImportError) as err:
             row.update(analysis="-", status=f"failed: {err}", outputs="-")

@@ -11,14 +11,15 @@ the file's configuration, s' = A_0^T (P - r_0) (as the model builders do), and p
 The drawing uses no function a student writes: the rotation matrices come from ``rotation_matrices``, so a
 student's package draws its own results before (and while) its ``rotation`` is being written.
 
-    anim = animate_result(model, system, result, "slider_crank.gif")   # also .mp4 (ffmpeg), .html
-    notebook_animation(model, system, result)                            # in a notebook (JupyterLab 4)
+    anim = animate_result(model, system, result, "slider_crank.gif")   # also .mp4 (ffmpeg)
+
+In a notebook or a browser, the viewer (``viewer.py``) draws the same geometry from data: it turns, zooms and plays
+without pictures of frames.
 """
 
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -354,7 +355,7 @@ class _Drawing:
         ]
 
 
-def _rail_halves(geometry: Geometry, states: np.ndarray) -> list[float]:
+def rail_halves(geometry: Geometry, states: np.ndarray) -> list[float]:
     """Half-lengths of the drawn rails: the travel of the sliding point over the states, plus a margin."""
     halves = []
     for name, a, axis in geometry.rails:
@@ -369,7 +370,7 @@ def _rail_halves(geometry: Geometry, states: np.ndarray) -> list[float]:
     return halves
 
 
-def _limits(geometry: Geometry, states: np.ndarray, halves: list[float]) -> tuple[np.ndarray, np.ndarray]:
+def drawing_limits(geometry: Geometry, states: np.ndarray, halves: list[float]) -> tuple[np.ndarray, np.ndarray]:
     """The box holding the drawing at every state, with a margin."""
     points = []
     for q in states:
@@ -422,10 +423,10 @@ def draw_mechanism(model: Model, q: np.ndarray, ax=None, title: str | None = Non
     """A picture of the mechanism at the coordinates q (a Figure; in a notebook it shows itself)."""
     geometry = mechanism_geometry(model)
     states = np.atleast_2d(np.asarray(q, dtype=float))
-    halves = _rail_halves(geometry, states)
+    halves = rail_halves(geometry, states)
     if ax is None:
         fig = _figure()
-        ax = _axes(fig, geometry, *_limits(geometry, states, halves))
+        ax = _axes(fig, geometry, *drawing_limits(geometry, states, halves))
     else:
         fig = ax.figure
     _Drawing(ax, geometry, halves).update(states[0])
@@ -433,7 +434,7 @@ def draw_mechanism(model: Model, q: np.ndarray, ax=None, title: str | None = Non
     return fig
 
 
-def _frames(t: np.ndarray, max_frames: int) -> np.ndarray:
+def frame_indices(t: np.ndarray, max_frames: int) -> np.ndarray:
     """Indices of the output points to show: all of them, or every k-th (and the last)."""
     step = max(1, math.ceil(len(t) / max_frames))
     frames = np.arange(0, len(t), step)
@@ -458,14 +459,14 @@ def animate_result(
     model : the model the result was computed for (the drawing comes from its file)
     system : its assembled ``System`` (``build_system(model)[0]``): gives the coordinate layout
     result : any analysis result (kinematic, dynamic, inverse)
-    path : ``.gif`` (Pillow), ``.mp4`` (needs ffmpeg), ``.html`` (self-contained JavaScript player), or None
+    path : ``.gif`` (Pillow), ``.mp4`` (needs ffmpeg), or None (a page in a browser: ``viewer.result_view``)
     max_frames : at most this many frames (output points are skipped evenly); ``speed``: 1 is real time
     trace : joint names whose paths are drawn as they are travelled (e.g. ``["B"]``)
 
     Returns
     -------
     FuncAnimation
-        In a notebook: ``IPython.display.HTML(anim.to_jshtml())`` (works in JupyterLab 4).
+        (a notebook shows ``viewer.notebook_animation`` instead: data, not frames of pixels)
 
     Raises
     ------
@@ -478,11 +479,11 @@ def animate_result(
     if result.q.ndim != 2 or result.q.shape[1] != n:
         raise ValueError(f"the result has {result.q.shape[-1]} coordinates, the model {model.name!r} has {n}")
     geometry = mechanism_geometry(model)
-    frames = _frames(result.t, max_frames)
+    frames = frame_indices(result.t, max_frames)
     states = result.q[frames]
-    halves = _rail_halves(geometry, states)
+    halves = rail_halves(geometry, states)
     fig = _figure(animated=True)
-    ax = _axes(fig, geometry, *_limits(geometry, states, halves))
+    ax = _axes(fig, geometry, *drawing_limits(geometry, states, halves))
     ax.set_title(title if title is not None else f"{model.name}: {result.info.get('analysis', '')} analysis")
     paths = joint_paths(geometry, result, trace) if trace else {}
     traces = {name: ax.plot(*[[] for _ in range(geometry.dimension)], lw=0.8, color="0.4")[0] for name in paths}
@@ -512,50 +513,25 @@ def animate_result(
 def _check_writable(path: Path) -> None:
     """Refuse, before any rendering, a file type that cannot be written."""
     suffix = path.suffix.lower()
-    if suffix not in (".gif", ".mp4", ".html", ".htm"):
-        raise ValueError(f"{path}: an animation is written as .gif, .mp4 or .html, not {suffix or 'no suffix'!r}")
+    if suffix not in (".gif", ".mp4"):
+        raise ValueError(
+            f"{path}: animations are .gif or .mp4 files (a page, by viewer.py: .html), not {suffix or 'no suffix'!r}"
+        )
     if suffix == ".mp4" and not writers.is_available("ffmpeg"):
         raise ValueError(f"{path}: writing .mp4 needs ffmpeg, which is not installed; write a .gif instead")
 
 
 def save_animation(anim: FuncAnimation, path: str | Path, fps: float = 25.0) -> Path:
-    """Write an animation: ``.gif`` with Pillow, ``.mp4`` with ffmpeg, ``.html`` as a JavaScript player."""
+    """Write an animation: ``.gif`` with Pillow, ``.mp4`` with ffmpeg."""
     path = Path(path)
     _check_writable(path)
     fps = max(1, round(fps))
     suffix = path.suffix.lower()
     if suffix == ".gif":
         anim.save(path, writer=PillowWriter(fps=fps))
-    elif suffix == ".mp4":
-        anim.save(path, writer="ffmpeg", fps=fps)
     else:
-        path.write_text(anim.to_jshtml(fps=fps))
+        anim.save(path, writer="ffmpeg", fps=fps)
     return path
-
-
-def animation_html(anim: FuncAnimation) -> str:
-    """The animation as a self-contained JavaScript player (``IPython.display.HTML`` shows it)."""
-    return anim.to_jshtml()
-
-
-def animations_enabled() -> bool:
-    """False while nbgrader grades or validates (it sets ``NBGRADER_EXECUTION``) or when ``MBD_ANIMATIONS=0``."""
-    return not os.environ.get("NBGRADER_EXECUTION") and os.environ.get("MBD_ANIMATIONS", "1") != "0"
-
-
-def notebook_animation(model: Model, system, result: Result, max_frames: int = 60, **options):
-    """The animation as a player for a notebook cell (JupyterLab 4, classic Notebook, VS Code).
-
-    Returns an ``IPython.display.HTML`` object (the cell shows it), or None, after printing one line,
-    while nbgrader grades: an animation takes seconds to render and grading does not need it.
-    ``options`` go to ``animate_result`` (``max_frames``, ``speed``, ``trace``, ``title``).
-    """
-    if not animations_enabled():
-        print("(animation skipped while grading)")
-        return None
-    from IPython.display import HTML
-
-    return HTML(animation_html(animate_result(model, system, result, max_frames=max_frames, **options)))
 
 
 __all__ = [
@@ -563,12 +539,13 @@ __all__ = [
     "Attachment",
     "Geometry",
     "animate_result",
-    "animation_html",
     "body_frame",
     "draw_mechanism",
+    "drawing_limits",
+    "frame_indices",
     "joint_paths",
     "mechanism_geometry",
-    "notebook_animation",
+    "rail_halves",
     "save_animation",
     "zigzag",
 ]

@@ -127,9 +127,13 @@ def command_run(args) -> int:
         print(f"results written to {path}")
     if args.animate:
         from .animation import animate_result
+        from .viewer import result_view
 
         try:
-            animate_result(model, system, result, args.animate)
+            if Path(args.animate).suffix.lower() in (".html", ".htm"):
+                result_view(model, system, result).write_html(args.animate)
+            else:
+                animate_result(model, system, result, args.animate)
         except ValueError as err:
             raise UsageError(f"--animate {args.animate}: {err}") from None
         except OSError as err:
@@ -302,7 +306,10 @@ def build_parser(others: bool = True) -> argparse.ArgumentParser:
     add_settings(run)
     run.add_argument("--out", help="write results to FILE.csv or FILE.npz")
     run.add_argument("--plot", help="plot coordinates and points against time to FILE.png")
-    run.add_argument("--animate", help="animate the mechanism to FILE.gif (or .mp4 with ffmpeg, .html)")
+    run.add_argument(
+        "--animate",
+        help="animate the mechanism to FILE.html (a page that plays, turns and zooms, offline), .gif or .mp4",
+    )
     run.add_argument("--coords", nargs="+", metavar="NAME", help="coordinates to plot, e.g. slider.x crank.phi")
     run.add_argument(
         "--point",

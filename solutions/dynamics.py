@@ -369,7 +369,16 @@ def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str) -
     if "auto" in (formulation, integrator):
         own_masses = run.masses is not None and model.dimension == 3  # the spatial tree takes the model's masses
         chosen = choose_method(
-            system, M, forces, q, qd, settings.t_end, settings.rtol, formulation, integrator, trees=not own_masses,
+            system,
+            M,
+            forces,
+            q,
+            qd,
+            settings.t_end,
+            settings.rtol,
+            formulation,
+            integrator,
+            trees=not own_masses,
             **options,
         )
         formulation, integrator = chosen["formulation"], chosen["integrator"]

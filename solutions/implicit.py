@@ -422,7 +422,6 @@ class Index3History:
     lam: np.ndarray
     accumulated: np.ndarray
 
-
     @classmethod
     def empty(cls, size: int, n: int, m: int) -> Index3History:
         """Zeros for ``size`` output times, n coordinates and m constraints."""

@@ -12,6 +12,7 @@ into site-packages.
 
 from __future__ import annotations
 
+import json
 import shutil
 import subprocess
 import sys
@@ -24,6 +25,7 @@ import pytest
 from course.release import HOMEWORKS, build_package, find_leaks, release
 from course.release.generator import REPO
 from mbdkit.homework import load_homework
+from solutions.viewer import MIME as VIEW
 
 KIT_RUN = """
 import sys
@@ -159,7 +161,7 @@ def test_mbd_run_uses_the_students_own_package(student_env, kits, tmp_path):
 def test_the_notebook_runs_headless_in_the_fresh_venv(student_env, kits, homework, tmp_path):
     """With the reference pasted into modules/, the notebook runs to the end in the student's own kernel: no
     cell raises or writes to stderr, every graded cell passes (or says the instructor grades it), the plots and
-    the animation players are drawn. The release keeps every code cell of the source notebook as it is
+    the viewers are drawn. The release keeps every code cell of the source notebook as it is
     (asserted here), so this is also the run of the source notebook (``assignments/hwN``) with the reference."""
     source = nbformat.read(REPO / "assignments" / homework / f"{homework}.ipynb", as_version=4)
     released = nbformat.read(kits[homework] / f"{homework}.ipynb", as_version=4)
@@ -192,7 +194,9 @@ def test_the_notebook_runs_headless_in_the_fresh_venv(student_env, kits, homewor
         assert "checks passed" in out or "checked when the instructor grades" in out, (cell.source, out)
     data = [o.get("data", {}) for c in code for o in c.outputs]
     assert sum("image/png" in d for d in data) >= 3  # plots
-    assert any("<script" in d.get("text/html", "") for d in data)  # an animation player
+    views = [d[VIEW] for d in data if VIEW in d]  # the viewer (solutions/viewer.py): the motion as data
+    assert views and all(v["frames"] and len(json.dumps(v)) < 200_000 for v in views)
+    assert not any("<script" in d.get("text/html", "") for d in data)  # no player of pictures, no script
     last = "".join(o.get("text", "") for o in code[-1].outputs)
     assert f"PREFIX {python.parent.parent}" in last and "SOLUTIONS None" in last
 

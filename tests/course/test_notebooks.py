@@ -28,6 +28,7 @@ from course.notes import chapters
 from course.release import HOMEWORKS, build_package, release
 from course.release.generator import INSTRUCTOR_ONLY, REPO
 from mbdkit.homework import load_homework
+from solutions.viewer import MIME as VIEW
 
 LECTURES = sorted((REPO / "course" / "lectures").glob("*.ipynb"))
 NOTES = chapters()
@@ -212,7 +213,8 @@ def test_lecture_notebook_executes(lecture_runs, lecture):
     assert failures == []
     data = [o.get("data", {}) for c in code for o in c.outputs]
     if lecture[:3] not in STILL:
-        assert any("<script" in d.get("text/html", "") for d in data), "an animation player where motion is the point"
+        views = [d[VIEW] for d in data if VIEW in d]
+        assert views and all(v["frames"] for v in views), "the viewer where motion is the point"
     assert nb.cells[-1].cell_type == "markdown" and nb.cells[-1].source.startswith("## Exercises")
 
 

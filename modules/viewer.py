@@ -1,0 +1,442 @@
+# Generated from solutions/viewer.py by `make modules` (every homework stubbed): do not edit by hand.
+"""The mechanism in a browser: one viewer for notebooks and HTML files, data rather than pictures.
+
+A result is sent as numbers: at each shown output time, the global points of every body's outline,
+joint, spring, rail and traced point, placed by
+
+    P = r + A s'                         (course notes, eq. 2.1 planar; eq. 9.1 spatial)
+
+from the drawing that ``animation.mechanism_geometry`` takes from the model file. They make a Plotly figure
+(JSON: one trace per kind of part, one frame per output time) with a time slider and play/pause; Plotly's
+JavaScript draws it, and a spatial scene turns and zooms with the mouse. In JupyterLab the figure is a
+``application/vnd.plotly.v1+json`` output, drawn by Plotly's MIME renderer (it ships in the plotly wheel with
+plotly.js and renders untrusted notebooks); ``write_html`` puts plotly.js into the file. Nothing is fetched
+from the network.
+
+    view = result_view(model, system, result, trace=["B"], plots=["crank.phi"])   # a notebook cell shows it
+    view.write_html("slider_crank.html")                                          # any browser, offline
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .animation import (
+    Geometry,
+    body_frame,
+    body_lines,
+    drawing_limits,
+    frame_indices,
+    joint_paths,
+    mechanism_geometry,
+    rail_halves,
+    rail_line,
+    zigzag,
+)
+from .io.model import Model
+from .io.results import result_columns
+from .results import Result
+
+MIME = "application/vnd.plotly.v1+json"
+"""The output type of a figure in a notebook (Plotly's MIME renderer draws it)."""
+
+COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22"]
+"""Body colours, as matplotlib's default cycle (the static pictures of ``animation`` use the same)."""
+
+CONFIG = {"displaylogo": False, "responsive": True, "showLink": False, "showSendToCloud": False}
+"""Plotly's options: no logo, no link to a web service (nothing leaves the machine)."""
+
+DIGITS = 5
+"""Significant digits of a coordinate sent, relative to the mechanism's size: 1e-5 of it is below a pixel."""
+
+
+# -- the parts at one state, as polylines -----------------------------------------------------------------
+def _joined(lines: list[np.ndarray], dimension: int, unit: float) -> dict[str, list]:
+    """Polylines as one trace's coordinates: x, y (and z) lists with None between two lines."""
+    axes: dict[str, list] = {name: [] for name in "xyz"[:dimension]}
+    for line in lines:
+        rounded = np.round(np.asarray(line, dtype=float) / unit) * unit
+        for k, name in enumerate(axes):
+            if axes[name]:
+                axes[name].append(None)
+            axes[name].extend(float(f"{v:.{DIGITS + 2}g}") for v in rounded[:, k])
+    return axes
+
+
+@dataclass(frozen=True)
+class _Parts:
+    """The moving parts of a mechanism, in a fixed order: each becomes one trace of every frame."""
+
+    geometry: Geometry
+    rail_half: list[float]
+    unit: float
+
+    def at(self, q: np.ndarray) -> list[dict[str, list]]:
+        """Rails, links, springs, each body, the centres of mass and the joints at q (global points)."""
+        g, dim = self.geometry, self.geometry.dimension
+        rails = [rail_line(g, rail, q, half) for rail, half in zip(g.rails, self.rail_half, strict=True)]
+        links = [np.vstack([a.at(q, dim), b.at(q, dim)]) for _, a, b in g.links]
+        springs = [zigzag(a.at(q, dim), b.at(q, dim), 0.04 * g.scale) for _, a, b in g.springs]
+        centres = [np.array([body_frame(q, b, dim)[0] for b in range(len(g.shapes))]).reshape(-1, dim)]
+        joints = [np.array([a.at(q, dim) for _, a in g.joints]).reshape(-1, dim)]  # one run: a label per point
+        groups = [rails, links, springs, *body_lines(g, q), centres, joints]
+        return [_joined(lines, dim, self.unit) for lines in groups]
+
+
+def _style(geometry: Geometry) -> list[dict]:
+    """How each trace of ``_Parts.at`` is drawn (same order)."""
+    line = {"mode": "lines", "hoverinfo": "skip", "showlegend": False}
+    bodies = [
+        {"mode": "lines", "name": name, "line": {"color": COLORS[b % len(COLORS)], "width": 6}, "hoverinfo": "name"}
+        for b, name in enumerate(geometry.body_names)
+    ]
+    names = [name for name, _ in geometry.joints]
+    return [
+        {**line, "name": "rails", "line": {"color": "#8c8c8c", "width": 1.5, "dash": "dash"}},
+        {**line, "name": "links", "line": {"color": "#4d4d4d", "width": 2.5}},
+        {**line, "name": "springs", "line": {"color": "#404040", "width": 1.5}},
+        *bodies,
+        {"mode": "markers", "name": "centres of mass", "marker": {"color": "black", "size": 4}, "showlegend": False},
+        {
+            "mode": "markers+text" if geometry.dimension == 2 else "markers",
+            "name": "joints",
+            "text": names,
+            "textposition": "top right",
+            "hovertemplate": "%{text}<extra></extra>",
+            "marker": {"color": "white", "size": 9, "line": {"color": "black", "width": 1.5}},
+            "showlegend": False,
+        },
+    ]
+
+
+def _ground(geometry: Geometry) -> dict:
+    """The trace of the points held by the ground (joints and spring ends on it)."""
+    held = [a.point for _, a in geometry.joints if a.body < 0]
+    held += [p.point for _, a, b in geometry.springs for p in (a, b) if p.body < 0]
+    points = np.array(held).reshape(-1, geometry.dimension)
+    planar = geometry.dimension == 2
+    marker = {"symbol": "triangle-up" if planar else "diamond", "size": 12, "color": "#999999"}
+    return {
+        "type": "scatter" if planar else "scatter3d",
+        "mode": "markers",
+        "name": "ground",
+        "showlegend": False,
+        "marker": marker,
+        "hoverinfo": "skip",
+        **_joined([points], geometry.dimension, geometry.scale * 10.0**-DIGITS),
+    }
+
+
+# -- the figure ---------------------------------------------------------------------------------------------
+def _trace(kind: str, coordinates: dict, style: dict | None = None) -> dict:
+    return {"type": kind, **(style or {}), **coordinates}
+
+
+def _scene_layout(dimension: int, low: np.ndarray, high: np.ndarray, gravity: np.ndarray) -> dict:
+    """Axes that fit the mechanism at equal scale: planar x-y; spatial a box as tall as the motion needs."""
+    if dimension == 2:
+        return {
+            "xaxis": {"range": [low[0], high[0]], "title": {"text": "x [m]"}, "zeroline": False, "domain": [0, 1]},
+            "yaxis": {"range": [low[1], high[1]], "title": {"text": "y [m]"}, "scaleanchor": "x", "zeroline": False},
+        }
+    extent = np.maximum(high - low, 1e-9)
+    ratio = np.maximum(extent / extent.max(), 0.25)
+    axes = {
+        f"{name}axis": {"range": [float(lo), float(hi)], "title": {"text": f"{name} [m]"}}
+        for name, lo, hi in zip("xyz", low, high, strict=True)
+    }
+    up = -gravity / np.linalg.norm(gravity) if np.linalg.norm(gravity) > 0 else np.array([0.0, 0.0, 1.0])
+    eye = np.array([1.0, 1.0, 1.0]) - 0.5 * up  # from above the horizon, at the distance of Plotly's default
+    eye *= 1.9 / np.linalg.norm(eye)
+    camera = {
+        "up": dict(zip("xyz", map(float, up), strict=True)),
+        "eye": dict(zip("xyz", map(float, eye), strict=True)),
+    }
+    return {
+        "scene": {
+            **axes,
+            "aspectmode": "manual",
+            "aspectratio": dict(zip("xyz", map(float, ratio), strict=True)),
+            "camera": camera,
+        }
+    }
+
+
+def _controls(labels: list[str], duration: float, redraw: bool) -> dict:
+    """Play/pause buttons and a time slider over the frames ``labels``."""
+    still = {"frame": {"duration": 0, "redraw": redraw}, "mode": "immediate", "transition": {"duration": 0}}
+    play = {"frame": {"duration": duration, "redraw": redraw}, "fromcurrent": True, "transition": {"duration": 0}}
+    buttons = [
+        {"label": "Play", "method": "animate", "args": [None, play]},
+        {"label": "Pause", "method": "animate", "args": [[None], still]},
+    ]
+    steps = [{"label": label, "method": "animate", "args": [[label], still]} for label in labels]
+    return {
+        "updatemenus": [
+            {
+                "type": "buttons",
+                "direction": "left",
+                "showactive": False,
+                "x": 0.0,
+                "xanchor": "left",
+                "y": 0.0,
+                "yanchor": "top",
+                "pad": {"t": 65, "r": 10},
+                "buttons": buttons,
+            }
+        ],
+        "sliders": [
+            {
+                "active": 0,
+                "x": 0.17,
+                "len": 0.83,
+                "y": 0.0,
+                "yanchor": "top",
+                "pad": {"t": 55},
+                "currentvalue": {"prefix": "t = ", "suffix": " s"},
+                "steps": steps,
+            }
+        ],
+    }
+
+
+@dataclass(frozen=True)
+class View:
+    """A Plotly figure of a mechanism (``figure``: data, layout, frames, config): a notebook shows it,
+    ``write_html`` makes a page of it."""
+
+    figure: dict
+
+    def _repr_mimebundle_(self, include=None, exclude=None) -> dict:
+        return {MIME: self.figure, "text/plain": f"<mechanism view: {self.figure['layout']['title']['text']}>"}
+
+    def to_json(self) -> str:
+        return json.dumps(self.figure, separators=(",", ":"))
+
+    def write_html(self, path: str | Path) -> Path:
+        """One self-contained page (plotly.js inlined): opens offline in any browser."""
+        path = Path(path)
+        path.write_text(page(self.to_json(), self.figure["layout"]["title"]["text"]))
+        return path
+
+
+def plotly_js() -> str:
+    """plotly.js as the plotly wheel ships it (package_data/plotly.min.js)."""
+    from importlib.resources import files
+
+    return files("plotly").joinpath("package_data", "plotly.min.js").read_text(encoding="utf-8")
+
+
+def page(figure_json: str, title: str) -> str:
+    """An HTML page drawing one figure with the inlined plotly.js."""
+    from html import escape
+
+    return (
+        f'<!DOCTYPE html>\n<html><head><meta charset="utf-8"><title>{escape(title)}</title>\n'
+        f"<script>{plotly_js()}</script></head>\n"
+        '<body style="margin:0"><div id="view" style="width:100vw;height:96vh"></div>\n'
+        "<script>const figure = " + figure_json.replace("</", "<\\/") + ";\n"
+        'Plotly.newPlot("view", figure).then(() => Plotly.addFrames("view", figure.frames || []));\n'
+        "</script></body></html>\n"
+    )
+
+
+def result_view(
+    model: Model,
+    system,
+    result: Result,
+    *,
+    max_frames: int = 120,
+    speed: float = 1.0,
+    trace: list[str] | None = None,
+    plots: list[str] | None = None,
+    title: str | None = None,
+) -> View:
+    """The mechanism moving over a result, with the paths of the joints ``trace`` and the result columns ``plots``
+    (CSV names, e.g. ``["crank.phi", "slider.x_d"]``) against time, a marker at the shown time.
+
+    Raises
+    ------
+    ValueError
+        A result of another model, an unknown joint in ``trace`` or an unknown column in ``plots``.
+    """
+    n = system.coordinates_per_body * len(model.bodies)
+    if result.q.ndim != 2 or result.q.shape[1] != n:
+        raise ValueError(f"the result has {result.q.shape[-1]} coordinates, the model {model.name!r} has {n}")
+    columns = result_columns(result)
+    unknown = [name for name in plots or () if name not in columns]
+    if unknown:
+        raise ValueError(f"no result column {', '.join(unknown)} (columns: {', '.join(columns)})")
+    geometry = mechanism_geometry(model)
+    shown = frame_indices(result.t, max_frames)
+    states = result.q[shown]
+    halves = rail_halves(geometry, states)
+    low, high = drawing_limits(geometry, states, halves)
+    parts = _Parts(geometry, halves, geometry.scale * 10.0**-DIGITS)
+    kind = "scatter" if geometry.dimension == 2 else "scatter3d"
+    paths = joint_paths(geometry, result, trace) if trace else {}
+
+    def frame_data(k: int) -> list[dict]:
+        index = shown[k]
+        data = [_trace(kind, c) for c in parts.at(result.q[index])]
+        data += [
+            _trace("scatter", {"x": [float(result.t[index])], "y": [float(columns[c][index])]}) for c in plots or ()
+        ]
+        return data
+
+    first = frame_data(0)
+    styles = _style(geometry)
+    axes = [f"y{k + 2}" for k in range(len(plots or ()))]
+    markers = [
+        {"mode": "markers", "marker": {"color": "black", "size": 8}, "showlegend": False, "yaxis": y, "xaxis": "x2"}
+        for y in axes
+    ]
+    data = [{**style, **trace} for style, trace in zip([*styles, *markers], first, strict=True)]
+    moving = list(range(len(data)))
+    for name, path in paths.items():  # the whole path at once: the frames only move the mechanism along it
+        line = {"color": "#666666", "width": 1, "dash": "dot"}
+        data.append(
+            _trace(
+                kind,
+                _joined([path], geometry.dimension, parts.unit),
+                {"mode": "lines", "line": line, "name": f"path of {name}"},
+            )
+        )
+    data.append(_ground(geometry))
+    for name, y in zip(plots or (), axes, strict=True):
+        data.append(
+            {
+                "type": "scatter",
+                "mode": "lines",
+                "name": name,
+                "x": result.t.tolist(),
+                "y": columns[name].tolist(),
+                "xaxis": "x2",
+                "yaxis": y,
+            }
+        )
+    labels = [f"{result.t[i]:.3f}" for i in shown]
+    frames = [{"name": label, "data": frame_data(k), "traces": moving} for k, label in enumerate(labels)]
+    dt = float(result.t[shown[1]] - result.t[shown[0]]) if len(shown) > 1 else 0.1
+    title = title if title is not None else f"{model.name}: {result.info.get('analysis', '')} analysis"
+    layout = {
+        "title": {"text": title},
+        "height": 560 if geometry.dimension == 2 else 640,
+        "margin": {"l": 50, "r": 20, "t": 50, "b": 130},
+        "legend": {"orientation": "h", "y": 1.0, "yanchor": "bottom", "x": 1.0, "xanchor": "right"},
+        **_scene_layout(geometry.dimension, low, high, np.asarray(model.gravity, dtype=float)),
+        **_controls(labels, max(20.0, 1000.0 * dt / speed), redraw=geometry.dimension == 3),
+    }
+    if plots:
+        _add_plot_axes(layout, plots, axes, spatial=geometry.dimension == 3)
+    config = {**CONFIG, "scrollZoom": True}
+    return View({"data": data, "layout": layout, "frames": frames, "config": config})
+
+
+def _add_plot_axes(layout: dict, plots: list[str], axes: list[str], spatial: bool) -> None:
+    """The mechanism on the left, the plots stacked on the right against one time axis."""
+    split = 0.55
+    if spatial:
+        layout["scene"]["domain"] = {"x": [0.0, split - 0.05], "y": [0.0, 1.0]}
+    else:
+        layout["xaxis"]["domain"] = [0.0, split - 0.07]
+    layout["xaxis2"] = {"domain": [split, 1.0], "anchor": axes[-1], "title": {"text": "t [s]"}}
+    height = 1.0 / len(plots)
+    for k, (name, y) in enumerate(zip(plots, axes, strict=True)):
+        top = 1.0 - k * height
+        layout[f"yaxis{y[1:]}"] = {
+            "domain": [max(top - height + 0.06, 0.0), top],
+            "anchor": "x2",
+            "title": {"text": name},
+        }
+    layout["height"] = max(layout["height"], 200 + 160 * len(plots))
+
+
+def model_view(model: Model, q: np.ndarray | None = None, title: str | None = None) -> View:
+    """The mechanism at the coordinates q (by default as the model file places it), turnable when spatial."""
+    geometry = mechanism_geometry(model)
+    if q is None:
+        q = np.concatenate([np.concatenate([b.location, np.atleast_1d(b.orientation)]) for b in model.bodies])
+    states = np.atleast_2d(np.asarray(q, dtype=float))
+    halves = rail_halves(geometry, states)
+    low, high = drawing_limits(geometry, states, halves)
+    parts = _Parts(geometry, halves, geometry.scale * 10.0**-DIGITS)
+    kind = "scatter" if geometry.dimension == 2 else "scatter3d"
+    data = [{**style, **_trace(kind, c)} for style, c in zip(_style(geometry), parts.at(states[0]), strict=True)]
+    data.append(_ground(geometry))
+    layout = {
+        "title": {"text": title if title is not None else model.name},
+        "margin": {"l": 50, "r": 20, "t": 50, "b": 40},
+        **_scene_layout(geometry.dimension, low, high, np.asarray(model.gravity, dtype=float)),
+    }
+    return View({"data": data, "layout": {"height": 520, **layout}, "config": CONFIG})
+
+
+def polyline_view(frames: list[list[np.ndarray]], labels: list[str], title: str, duration: float = 100.0) -> View:
+    """Any motion drawn as polylines (planar (k, 2) or spatial (k, 3) arrays): ``frames[i]`` the lines shown at the
+    slider's ``labels[i]``, one colour, equal scales, the box fitting every frame, z up."""
+    dimension = frames[0][0].shape[1]
+    points = np.vstack([line for lines in frames for line in lines])
+    low, high = points.min(axis=0), points.max(axis=0)
+    margin = 0.08 * max(float(np.max(high - low)), 1e-3)
+    unit = 10.0**-DIGITS * max(float(np.max(high - low)), 1e-3)
+    kind = "scatter" if dimension == 2 else "scatter3d"
+    style = {"type": kind, "mode": "lines", "line": {"color": COLORS[0], "width": 4}, "hoverinfo": "skip"}
+    steps = [
+        {"name": label, "data": [{**style, **_joined(lines, dimension, unit)}]}
+        for label, lines in zip(labels, frames, strict=True)
+    ]
+    gravity = np.zeros(dimension)
+    gravity[-1] = -1.0
+    layout = {
+        "title": {"text": title},
+        "height": 560,
+        "margin": {"l": 50, "r": 20, "t": 50, "b": 130},
+        "showlegend": False,
+        **_scene_layout(dimension, low - margin, high + margin, gravity),
+        **_controls(labels, duration, redraw=dimension == 3),
+    }
+    layout["sliders"][0]["currentvalue"] = {"prefix": ""}
+    return View({"data": steps[0]["data"], "layout": layout, "frames": steps, "config": CONFIG})
+
+
+def animations_enabled() -> bool:
+    """False while nbgrader grades or validates (it sets ``NBGRADER_EXECUTION``) or when ``MBD_ANIMATIONS=0``."""
+    return not os.environ.get("NBGRADER_EXECUTION") and os.environ.get("MBD_ANIMATIONS", "1") != "0"
+
+
+def notebook_animation(model: Model, system, result: Result, max_frames: int = 60, **options) -> View | None:
+    """The mechanism moving over a result, for a notebook cell (JupyterLab 4, classic Notebook, VS Code).
+
+    Returns a ``View`` (the cell shows it: a slider, play/pause, a spatial scene turned with the mouse), or
+    None, after printing one line, while nbgrader grades (grading does not look at it).
+    ``options`` go to ``result_view`` (``speed``, ``trace``, ``plots``, ``title``).
+    """
+    if not animations_enabled():
+        print("(animation skipped while grading)")
+        return None
+    return result_view(model, system, result, max_frames=max_frames, **options)
+
+
+def size_of(view: View) -> int:
+    """Bytes of the figure as a notebook stores it (compact JSON)."""
+    return len(view.to_json().encode())
+
+
+__all__ = [
+    "MIME",
+    "View",
+    "animations_enabled",
+    "model_view",
+    "notebook_animation",
+    "page",
+    "plotly_js",
+    "polyline_view",
+    "result_view",
+    "size_of",
+]

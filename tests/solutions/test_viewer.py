@@ -1,0 +1,177 @@
+"""The viewer: a result as data (a Plotly figure), checked against the mechanism's closed-form positions, its
+size, its controls, and the self-contained page."""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from solutions.animation import frame_indices
+from solutions.assembly import build_system
+from solutions.cli import main
+from solutions.dynamics import forward_dynamics
+from solutions.io.model import load_model
+from solutions.kinematics import kinematic_analysis
+from solutions.viewer import MIME, View, model_view, notebook_animation, polyline_view, result_view, size_of
+
+MODELS = Path(__file__).resolve().parents[2] / "course" / "models"
+R, L = 0.1, 0.3
+"""The slider-crank's crank and rod (course/models/slider_crank.yaml)."""
+
+
+@pytest.fixture(scope="module")
+def slider_crank():
+    model = load_model(MODELS / "slider_crank.yaml")
+    system, q0, _ = build_system(model)
+    return model, system, kinematic_analysis(system, q0, 2 * math.pi / 10, 200)
+
+
+@pytest.fixture(scope="module")
+def spatial():
+    model = load_model(MODELS / "spatial_double_pendulum.yaml")
+    system, q0, qd0 = build_system(model)
+    return model, system, forward_dynamics(system, q0, qd0, 1.0, 200)
+
+
+def joints_of(frame: dict, figure: dict) -> dict[str, np.ndarray]:
+    """{joint name: position} in one frame (the joints' trace carries the names)."""
+    index = next(k for k, trace in enumerate(figure["data"]) if trace.get("name") == "joints")
+    trace = frame["data"][figure["frames"][0]["traces"].index(index)]
+    names = figure["data"][index]["text"]
+    axes = [a for a in "xyz" if a in trace]
+    return {name: np.array([trace[a][k] for a in axes]) for k, name in enumerate(names)}
+
+
+def strict_json(text: str):
+    """JSON as a browser reads it: NaN or Infinity would be refused."""
+
+    def refuse(constant):
+        raise ValueError(f"{constant} in the figure")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_the_frames_place_the_joints_where_the_closed_form_puts_them(slider_crank):
+    """Crank pin A = r (cos theta, sin theta), slider pin B = (r cos theta + sqrt(l^2 - r^2 sin^2 theta), 0),
+    theta = 10 t, at every frame's time (the slider's label), to the 1e-5 of the size the figure keeps."""
+    model, system, result = slider_crank
+    view = result_view(model, system, result, max_frames=40)
+    figure = strict_json(view.to_json())
+    shown = frame_indices(result.t, 40)
+    assert [f["name"] for f in figure["frames"]] == [f"{result.t[i]:.3f}" for i in shown]
+    assert [s["label"] for s in figure["layout"]["sliders"][0]["steps"]] == [f["name"] for f in figure["frames"]]
+    for frame, index in zip(figure["frames"], shown, strict=True):
+        theta = 10.0 * result.t[index]
+        joints = joints_of(frame, figure)
+        assert np.allclose(joints["O"], [0.0, 0.0], atol=1e-5)
+        assert np.allclose(joints["A"], [R * math.cos(theta), R * math.sin(theta)], atol=1e-5)
+        x_b = R * math.cos(theta) + math.sqrt(L**2 - (R * math.sin(theta)) ** 2)
+        assert np.allclose(joints["B"], [x_b, 0.0], atol=1e-5)
+
+
+def test_the_view_fits_the_motion_at_equal_scale_and_plays(slider_crank):
+    model, system, result = slider_crank
+    figure = result_view(model, system, result).figure
+    layout = figure["layout"]
+    x, y = layout["xaxis"]["range"], layout["yaxis"]["range"]
+    assert layout["yaxis"]["scaleanchor"] == "x"
+    assert x[0] < -R < R + L < x[1] and y[0] < -R < R < y[1]  # every position of the crank pin and the slider
+    assert (x[1] - x[0]) < 1.8 * (2 * R + L)  # not a fixed large box: the motion and the slider's rail
+    play, pause = layout["updatemenus"][0]["buttons"]
+    assert (play["label"], play["method"], play["args"][0]) == ("Play", "animate", None)
+    assert pause["args"][0] == [None]
+    assert len(figure["frames"]) == len(frame_indices(result.t, 120))
+
+
+def test_an_animation_is_data_of_at_most_200_kB(slider_crank, spatial):
+    """The notebook budget of an animation: 120 frames with a trace and a plot, planar and spatial."""
+    model, system, result = slider_crank
+    assert size_of(result_view(model, system, result, trace=["A"], plots=["crank.phi", "slider.x_d"])) < 200_000
+    model, system, result = spatial
+    view = result_view(model, system, result, trace=["A"])
+    assert size_of(view) < 200_000
+    assert all(trace["type"] == "scatter3d" for trace in view.figure["frames"][0]["data"])
+
+
+def test_a_spatial_scene_stands_on_its_gravity_and_fits_the_motion(spatial):
+    model, system, result = spatial
+    scene = result_view(model, system, result).figure["layout"]["scene"]
+    gravity = np.asarray(model.gravity, dtype=float)
+    up = np.array([scene["camera"]["up"][a] for a in "xyz"])
+    assert np.allclose(up, -gravity / np.linalg.norm(gravity))
+    points = np.vstack([result.q[:, 0:3], result.q[:, 7:10]])  # the centres of mass stay inside the box
+    for k, axis in enumerate("xyz"):
+        low, high = scene[f"{axis}axis"]["range"]
+        assert low <= points[:, k].min() and points[:, k].max() <= high
+
+
+def test_linked_plots_follow_the_frames(slider_crank):
+    model, system, result = slider_crank
+    figure = result_view(model, system, result, max_frames=10, plots=["slider.x"]).figure
+    line = next(t for t in figure["data"] if t.get("name") == "slider.x")
+    assert np.allclose(line["y"], result.coordinate("slider.x"))
+    shown = frame_indices(result.t, 10)
+    for frame, index in zip(figure["frames"], shown, strict=True):
+        marker = frame["data"][-1]  # the plot's marker at the frame's time
+        assert marker["x"] == [pytest.approx(result.t[index])]
+        assert marker["y"] == [pytest.approx(result.coordinate("slider.x")[index])]
+
+
+def test_refusals_name_what_exists(slider_crank):
+    model, system, result = slider_crank
+    with pytest.raises(ValueError, match=r"no result column nope \(columns: t, crank.x"):
+        result_view(model, system, result, plots=["nope"])
+    with pytest.raises(ValueError, match=r"no moving joint named Z"):
+        result_view(model, system, result, trace=["Z"])
+    other = load_model(MODELS / "double_pendulum.yaml")
+    with pytest.raises(ValueError, match="the result has 9 coordinates, the model 'double-pendulum' has 6"):
+        result_view(other, build_system(other)[0], result)
+
+
+def test_a_notebook_gets_plotlys_mime_bundle_and_nothing_while_nbgrader_grades(slider_crank, monkeypatch, capsys):
+    model, system, result = slider_crank
+    view = notebook_animation(model, system, result, max_frames=5)
+    bundle = view._repr_mimebundle_()
+    assert set(bundle) == {MIME, "text/plain"} and bundle[MIME]["frames"]  # data, no HTML, no script
+    monkeypatch.setenv("NBGRADER_EXECUTION", "autograde")
+    assert notebook_animation(model, system, result) is None
+    assert "skipped" in capsys.readouterr().out
+
+
+def test_the_page_is_self_contained(slider_crank, tmp_path):
+    """plotly.js inside the page; no script, style sheet or frame taken from anywhere else."""
+    model, system, result = slider_crank
+    page = result_view(model, system, result, max_frames=5).write_html(tmp_path / "run.html").read_text()
+    assert "Plotly.newPlot" in page and len(page) > 3_000_000  # plotly.js is in the file
+    assert not re.search(r"<(script|link|img|iframe)[^>]*\b(src|href)=", page)
+    figure = page.split("const figure = ", 1)[1].split(";\nPlotly.newPlot", 1)[0]
+    assert strict_json(figure)["frames"]
+
+
+def test_mbd_run_animate_writes_the_page_and_a_model_view_draws_the_file(tmp_path):
+    out = tmp_path / "crank.html"
+    assert main(["run", str(MODELS / "slider_crank.yaml"), "--steps", "10", "--animate", str(out)]) == 0
+    assert "Plotly.newPlot" in out.read_text()
+    model = load_model(MODELS / "spatial_slider_crank.yaml")
+    view = model_view(model)
+    assert isinstance(view, View) and view.figure["data"][0]["type"] == "scatter3d"
+    bodies = [t for t in view.figure["data"] if t.get("name") in {b.name for b in model.bodies}]
+    assert len(bodies) == len(model.bodies)
+
+
+def test_any_motion_of_polylines_plays_in_a_box_that_holds_it():
+    """A unit segment turning about the z axis (the L13 screw motion's way of using the viewer)."""
+    angles = np.linspace(0.0, np.pi, 7)
+    frames = [[np.array([[0.0, 0.0, 0.0], [np.cos(a), np.sin(a), 0.5]])] for a in angles]
+    figure = strict_json(polyline_view(frames, [f"{a:.2f}" for a in angles], "turning").to_json())
+    assert [f["name"] for f in figure["frames"]] == [f"{a:.2f}" for a in angles]
+    last = figure["frames"][-1]["data"][0]
+    assert np.allclose([last["x"][1], last["y"][1], last["z"][1]], [-1.0, 0.0, 0.5], atol=1e-5)
+    scene = figure["layout"]["scene"]
+    assert scene["xaxis"]["range"][0] < -1.0 and scene["xaxis"]["range"][1] > 1.0 and scene["zaxis"]["range"][1] > 0.5
+    assert scene["camera"]["up"] == {"x": 0.0, "y": 0.0, "z": 1.0}
