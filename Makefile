@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed
 export OPENBLAS_NUM_THREADS ?= 1
 export OMP_NUM_THREADS ?= 1
 
-.PHONY: demo test test-fast lint bench clean sandbox-tools
+.PHONY: demo test test-fast lint bench clean sandbox-tools browser-tools
 # A target's prerequisites are made side by side (the venv and bubblewrap, each waiting on the network).
 MAKEFLAGS += --jobs=2
 
@@ -38,6 +38,20 @@ sandbox-tools:
 	    echo "bubblewrap (bwrap) not found and not root with apt-get: the isolation tests will be skipped (apt-get install bubblewrap)"; \
 	  fi; }
 
+# The browser tests (tests/solutions/test_viewer_browser.py) drive Debian's chromium with Playwright: installed here
+# when missing and we are root with apt-get (CI), after bubblewrap (one apt-get at a time); otherwise one line says
+# that the browser tests will be skipped.
+browser-tools: sandbox-tools
+	@command -v chromium >/dev/null 2>&1 || { \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+	    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null 2>&1 || { \
+	      apt-get update -qq >/dev/null 2>&1; \
+	      DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null; } || \
+	      echo "apt-get could not install chromium: the browser tests will be skipped"; \
+	  else \
+	    echo "chromium not found and not root with apt-get: the browser tests will be skipped (apt-get install chromium)"; \
+	  fi; }
+
 # Tests run on every core (pytest-xdist). Each work unit is a test file (--dist loadfile; the nbgrader cycle is
 # one file per homework), so that a unit's module-scoped fixtures (a nbgrader course, a graded class, a Dask
 # cluster) are built once. (Not --dist loadgroup: with pytest 9 its xdist_group marks are ignored, every test is a
@@ -47,7 +61,7 @@ sandbox-tools:
 # `make test-fast` leaves the slow tier out (a quick loop; CI runs `make test`, everything).
 TEST_WORKERS ?= auto
 PYTEST := MPLBACKEND=Agg $(BIN)/python -m pytest -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder
-test: $(STAMP) sandbox-tools
+test: $(STAMP) sandbox-tools browser-tools
 	$(BIN)/ruff check solutions course autograder mbdkit tests benchmarks
 	$(PYTEST) --durations=20 --junitxml=build/junit.xml  # per-file times: python benchmarks/durations.py build/junit.xml
 

@@ -49,6 +49,10 @@ SAMPLES = 3
 """Stack dumps taken from a child that timed out (when it cannot answer itself where it is stuck)."""
 STUCK_WINDOW = 0.3
 """Seconds during which a child that timed out counts calls, to tell where it is stuck."""
+STUCK_PATIENCE = 2.0
+"""Seconds more given to a child that has written nothing of where it is stuck: one starved by the submission's
+own busy processes (they share its sandbox's CPU) answers late, and a function whose hang is not located is run
+again by the next check (seen once under a full test run's load)."""
 FRAME_GRACE = 1.0
 """Seconds a reply that has begun by its deadline may take to arrive whole (the grader waits no longer)."""
 CLOSE_TIMEOUT = 2.0
@@ -474,9 +478,11 @@ class Sandbox:
             except (OSError, TypeError):
                 break
             time.sleep(pause)
+        deadline = time.monotonic() + STUCK_PATIENCE  # nothing written yet: a starved child, not a silent one
+        while not self._read("stack.txt").strip() and pid is not None and time.monotonic() < deadline:
+            time.sleep(0.1)
         self._kill()
-        text = self._read("stack.txt")
-        stuck = _stuck_line(text) or stuck_function(stack_samples(text), self.inner_root, self._resolve)
+        stuck = self._stuck()
         where = ""
         if stuck is not None:
             file, line, name = stuck
@@ -484,6 +490,11 @@ class Sandbox:
             where = self._where(file, line, name)
         error = {"type": "timeout", "message": "it began a reply and did not finish it"} if partial else None
         return Reply("timeout", error=error, seconds=seconds, stuck_in=where, printed=self._captured())
+
+    def _stuck(self) -> tuple[str, int, str] | None:
+        """Where the child is stuck, from its stack-dump file: its own answer, or its stack samples."""
+        text = self._read("stack.txt")
+        return _stuck_line(text) or stuck_function(stack_samples(text), self.inner_root, self._resolve)
 
     def _captured(self) -> int:
         try:

@@ -218,10 +218,10 @@ class View:
     def to_json(self) -> str:
         return json.dumps(self.figure, separators=(",", ":"))
 
-    def write_html(self, path: str | Path) -> Path:
-        """One self-contained page (plotly.js inlined): opens offline in any browser."""
+    def write_html(self, path: str | Path, text: str = "") -> Path:
+        """One self-contained page (plotly.js inlined), ``text`` below the figure: opens offline in any browser."""
         path = Path(path)
-        path.write_text(page(self.to_json(), self.figure["layout"]["title"]["text"]))
+        path.write_text(page(self.to_json(), self.figure["layout"]["title"]["text"], text))
         return path
 
 
@@ -232,14 +232,15 @@ def plotly_js() -> str:
     return files("plotly").joinpath("package_data", "plotly.min.js").read_text(encoding="utf-8")
 
 
-def page(figure_json: str, title: str) -> str:
-    """An HTML page drawing one figure with the inlined plotly.js."""
+def page(figure_json: str, title: str, text: str = "") -> str:
+    """An HTML page drawing one figure with the inlined plotly.js; ``text`` (plain, escaped here) below it."""
     from html import escape
 
+    below = f'<pre style="margin:1em 3em;font-size:14px">{escape(text)}</pre>\n' if text else ""
     return (
         f'<!DOCTYPE html>\n<html><head><meta charset="utf-8"><title>{escape(title)}</title>\n'
         f"<script>{plotly_js()}</script></head>\n"
-        '<body style="margin:0"><div id="view" style="width:100vw;height:96vh"></div>\n'
+        f'<body style="margin:0;font-family:sans-serif"><div id="view" style="width:100vw"></div>\n{below}'
         "<script>const figure = " + figure_json.replace("</", "<\\/") + ";\n"
         'Plotly.newPlot("view", figure).then(() => Plotly.addFrames("view", figure.frames || []));\n'
         "</script></body></html>\n"
@@ -357,17 +358,29 @@ def _add_plot_axes(layout: dict, plots: list[str], axes: list[str], spatial: boo
     layout["height"] = max(layout["height"], 200 + 160 * len(plots))
 
 
-def model_view(model: Model, q: np.ndarray | None = None, title: str | None = None) -> View:
-    """The mechanism at the coordinates q (by default as the model file places it), turnable when spatial."""
+def file_configuration(model: Model) -> np.ndarray:
+    """q as the model file places the bodies (before assembly)."""
+    return np.concatenate([np.concatenate([b.location, np.atleast_1d(b.orientation)]) for b in model.bodies])
+
+
+def model_view(
+    model: Model, q: np.ndarray | None = None, *, before: np.ndarray | None = None, title: str | None = None
+) -> View:
+    """The mechanism at the coordinates q (by default as the model file places it), turnable when spatial;
+    with ``before`` (e.g. the file's configuration when q is the assembled one), that configuration too, in grey."""
     geometry = mechanism_geometry(model)
-    if q is None:
-        q = np.concatenate([np.concatenate([b.location, np.atleast_1d(b.orientation)]) for b in model.bodies])
-    states = np.atleast_2d(np.asarray(q, dtype=float))
+    q = file_configuration(model) if q is None else np.asarray(q, dtype=float)
+    states = np.vstack([q] if before is None else [q, before])
     halves = rail_halves(geometry, states)
     low, high = drawing_limits(geometry, states, halves)
     parts = _Parts(geometry, halves, geometry.scale * 10.0**-DIGITS)
     kind = "scatter" if geometry.dimension == 2 else "scatter3d"
-    data = [{**style, **_trace(kind, c)} for style, c in zip(_style(geometry), parts.at(states[0]), strict=True)]
+    data = []
+    if before is not None:
+        grey = {"mode": "lines", "line": {"color": "#b0b0b0", "width": 3, "dash": "dash"}, "hoverinfo": "skip"}
+        for k, lines in enumerate(parts.at(np.asarray(before, dtype=float))[3 : 3 + len(geometry.body_names)]):
+            data.append({**grey, **_trace(kind, lines), "name": "as the file places it", "showlegend": k == 0})
+    data += [{**style, **_trace(kind, c)} for style, c in zip(_style(geometry), parts.at(q), strict=True)]
     data.append(_ground(geometry))
     layout = {
         "title": {"text": title if title is not None else model.name},
@@ -432,6 +445,7 @@ __all__ = [
     "MIME",
     "View",
     "animations_enabled",
+    "file_configuration",
     "model_view",
     "notebook_animation",
     "page",

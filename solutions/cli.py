@@ -152,27 +152,85 @@ def command_run(args) -> int:
     return 0
 
 
+def check_report(model, system, q0) -> tuple[list[str], np.ndarray]:
+    """What ``mbd check`` says of a model (bodies, joints, degrees of freedom, redundant equations by joint,
+    the assembly's residual and moves), and the assembled coordinates."""
+    lines = [f"model {model.name} ({model.source}): {model.dimension}D"]
+    lines.append(f"bodies ({len(model.bodies)}): " + ", ".join(b.name for b in model.bodies))
+    lines += [f"  joint {j['name']}: {j['type']} {j['body1']} - {j['body2']}" for j in model.joints]
+    lines += [f"  motor {m['name']}: {m['type']}" for m in model.motors]
+    q, assembly = assemble(system, q0)
+    report = rank_report(system.jacobian(q, 0.0), system.row_owners)
+    lines.append(
+        f"coordinates: {system.n_coordinates}, constraint equations: {system.n_constraints}, rank: {report.rank}"
+    )
+    lines.append(f"degrees of freedom: {report.degrees_of_freedom}")
+    if report.n_redundant:
+        lines.append(f"redundant equations: {report.n_redundant} (joints: {', '.join(report.redundant_joints)})")
+    else:
+        lines.append("redundant equations: none")
+    lines.append(f"assembly: residual {assembly['residual']:.3g} after {assembly['iterations']} Newton iteration(s)")
+    for name, moved in assembly["moved"].items():
+        lines.append(f"  {name} moved {moved['translation']:.3g} m, {moved['rotation']:.3g} rad")
+    return lines, q
+
+
 def command_check(args) -> int:
     model = load_model(args.model)
     system, q0, _ = build_system(model)
-    print(f"model {model.name} ({model.source}): {model.dimension}D")
-    print(f"bodies ({len(model.bodies)}): " + ", ".join(b.name for b in model.bodies))
-    for joint in model.joints:
-        print(f"  joint {joint['name']}: {joint['type']} {joint['body1']} - {joint['body2']}")
-    for motor in model.motors:
-        print(f"  motor {motor['name']}: {motor['type']}")
-    q, assembly = assemble(system, q0)
-    report = rank_report(system.jacobian(q, 0.0), system.row_owners)
-    print(f"coordinates: {system.n_coordinates}, constraint equations: {system.n_constraints}, rank: {report.rank}")
-    print(f"degrees of freedom: {report.degrees_of_freedom}")
-    if report.n_redundant:
-        print(f"redundant equations: {report.n_redundant} (joints: {', '.join(report.redundant_joints)})")
-    else:
-        print("redundant equations: none")
-    print(f"assembly: residual {assembly['residual']:.3g} after {assembly['iterations']} Newton iteration(s)")
-    for name, moved in assembly["moved"].items():
-        print(f"  {name} moved {moved['translation']:.3g} m, {moved['rotation']:.3g} rad")
+    print("\n".join(check_report(model, system, q0)[0]))
     return 0
+
+
+def command_view(args) -> int:
+    """``mbd view MODEL [RESULT]``: one offline page; the model as the file places it and as assembly makes it
+    consistent, with ``mbd check``'s report, or, with a result of ``mbd run`` (CSV or NPZ), its motion."""
+    from .viewer import model_view, result_view
+
+    model = load_model(args.model)
+    system, q0, _ = build_system(model)
+    lines, q = check_report(model, system, q0)
+    out = Path(args.out or f"{Path(args.model).stem}.html")
+    if out.suffix.lower() not in (".html", ".htm"):
+        raise UsageError(f"--out {out}: the view is a page, FILE.html")
+    if not out.parent.is_dir():
+        raise UsageError(f"--out {out}: no folder {out.parent}")
+    if args.result:
+        result = read_result(args.result, system)
+        try:
+            view = result_view(
+                model, system, result, trace=args.trace, plots=args.plot, title=f"{model.name}: {args.result}"
+            )
+        except ValueError as err:
+            raise UsageError(f"{args.result}: {err}") from None
+    else:
+        view = model_view(model, q, before=q0, title=f"{model.name}: as assembled (grey: as the file places it)")
+    try:
+        view.write_html(out, "\n".join(lines))
+    except OSError as err:
+        raise UsageError(f"--out {out}: cannot write ({err.strerror})") from None
+    print(f"view written to {out}")
+    return 0
+
+
+def read_result(path: str, system) -> Result:
+    """A result as ``mbd run --out`` wrote it (CSV or NPZ), for the model's coordinates."""
+    from .io.results import read_csv
+
+    try:
+        columns = read_csv(path) if not path.endswith(".npz") else dict(np.load(path, allow_pickle=False))
+    except (OSError, ValueError) as err:
+        raise UsageError(f"{path}: cannot read a result ({err})") from None
+    names = system.coordinate_names
+    missing = [n for n in ["t", *names] if n not in columns]
+    if missing:
+        raise UsageError(f"{path}: no column {', '.join(missing[:5])}: not a result of this model (mbd run --out)")
+    zero = np.zeros_like(columns["t"])
+    derived = {n + suffix for n in names for suffix in ("", "_d", "_dd")}
+    arrays = [np.column_stack([columns.get(n + suffix, zero) for n in names]) for suffix in ("", "_d", "_dd")]
+    others = {k: v for k, v in columns.items() if k != "t" and k not in derived and np.ndim(v) == 1}  # points, forces
+    bodies = [b.name for b in system.model.bodies]
+    return Result(columns["t"], *arrays, list(names), bodies, points=others)
 
 
 def command_sweep(args) -> int:
@@ -238,7 +296,7 @@ COMMANDS = "mbd.commands"
 The course's ``pyproject.toml`` registers the instructor's commands and the self-check; this package knows
 none of them, and where the course is not installed (a student's kit) ``mbd`` has the solver's commands only."""
 
-OWN = ("run", "check", "sweep", "derive")
+OWN = ("run", "check", "view", "sweep", "derive")
 """The solver's own commands: ``mbd`` looks for the others only when asked for something else."""
 
 
@@ -328,6 +386,13 @@ def build_parser(others: bool = True) -> argparse.ArgumentParser:
     check = sub.add_parser("check", help="validate and assemble a model; report DOF and redundancies")
     check.add_argument("model", help="model file (YAML or JSON)")
     check.set_defaults(handler=command_check)
+    view = sub.add_parser("view", help="draw a model (as the file places it and assembled) or a result, to FILE.html")
+    view.add_argument("model", help="model file (YAML or JSON)")
+    view.add_argument("result", nargs="?", help="a result of this model written by mbd run --out (CSV or NPZ)")
+    view.add_argument("--out", help="the page to write (default: MODEL's name .html, here)")
+    view.add_argument("--trace", nargs="+", metavar="JOINT", help="joints whose paths are drawn (with a result)")
+    view.add_argument("--plot", nargs="+", metavar="COLUMN", help="result columns plotted against time beside it")
+    view.set_defaults(handler=command_view)
     add_sweep(sub)
     add_derive(sub)
     if others:

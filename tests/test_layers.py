@@ -129,6 +129,7 @@ def test_the_packages_import_no_cycle():
 ALL = {
     "run",
     "check",
+    "view",
     "sweep",
     "derive",
     "release",

@@ -71,3 +71,11 @@ def test_call_cost_times_every_stage_of_a_compiled_call(capsys):
     cells = {label.strip("| ").replace("&nbsp;", " "): value.strip(" |*") for label, value in rows}
     assert [label for _, _, label in call_cost.STAGES] == list(cells)[2:]
     assert all(float(cells[label]) > 0 for _, _, label in call_cost.STAGES), cells
+
+
+def test_viewer_cost_measures_the_player_and_the_viewer_of_one_result():
+    """benchmarks/viewer_cost.py: one row, both builds timed, both sizes counted."""
+    from benchmarks import viewer_cost
+
+    cells = [c.strip() for c in viewer_cost.measure("slider_crank", 3, 1).strip("|").split("|")]
+    assert cells[0] == "slider_crank" and all(float(c) > 0 for c in cells[1:])

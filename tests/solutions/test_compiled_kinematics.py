@@ -9,6 +9,7 @@ are the numpy engine's, word for word. numba compiles the step loop and each dim
 """
 
 import math
+import re
 import sys
 from pathlib import Path
 
@@ -112,7 +113,15 @@ def test_a_singular_position_stops_both_engines_with_the_same_error(n):
     system, q0, _ = _driven_chain(n, {"type": "polynomial", "coefficients": [0.0, 2.0]})
     reference, compiled = _both(system, q0, 4.0, 200)
     assert isinstance(reference, str) and "between t = 0.78 s and t = 0.8 s" in reference
-    assert compiled == reference
+    assert without_noise(compiled) == without_noise(reference)
+
+
+def without_noise(message: str) -> str:
+    """A message with its numbers in exponent notation masked, each checked to be below 1e-8 (at a singular
+    position the pivot ratio is rounding noise: 4.4e-11 on one machine, 4e-11 on another)."""
+    tiny = re.findall(r"\d(?:\.\d+)?e-\d+", message)
+    assert all(float(x) < 1e-8 for x in tiny), tiny
+    return re.sub(r"\d(?:\.\d+)?e-\d+", "<rounding>", message)
 
 
 def test_a_near_singular_pass_is_judged_as_numpy_and_passed(monkeypatch):

@@ -82,8 +82,8 @@ def _agree(model) -> None:
     steps, reference_steps = compiled.info["integrator_steps"], reference.info["integrator_steps"]
     if model.name in AT_REST:
         assert abs(steps - reference_steps) <= 0.1 * reference_steps, (steps, reference_steps)
-    else:
-        assert steps == reference_steps
+    else:  # the same method: the same steps, but for an error estimate that rounding puts across the limit
+        assert abs(steps - reference_steps) <= max(1, 0.02 * reference_steps), (steps, reference_steps)
     assert compiled.info["warnings"] == reference.info["warnings"]
 
 

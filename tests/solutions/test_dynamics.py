@@ -81,8 +81,11 @@ def test_simple_pendulum_returns_after_one_exact_period(formulation, integrator,
     w_bottom = math.sqrt(2 * G * 0.5 * (1 - math.cos(AMPLITUDE)) / (1 / 12 + 0.25))
     assert result.coordinate("rod.phi")[1] == pytest.approx(-math.pi / 2, abs=1e-7)
     assert result.coordinate("rod.phi", 1)[1] == pytest.approx(-w_bottom, rel=1e-7)
-    # after one period: back at phi0, at rest; an error dT in the period would leave phi' = phi''(T) dT
-    assert result.coordinate("rod.phi")[-1] == pytest.approx(phi0, abs=1e-8)
+    # after one period: back at phi0, at rest; an error dT in the period would leave phi' = phi''(T) dT. The
+    # augmented Lagrangian's accelerations carry the rounding of M + alpha Psi_q^T Psi_q (condition ~ its penalty,
+    # 1e7: ~2e-9 relative, AugmentedLagrangian.held_rtol): over a period 1.2e-8 rad on one machine, 4e-9 on another
+    floor = 5e-8 if formulation == "augmented-lagrangian" else 1e-8
+    assert result.coordinate("rod.phi")[-1] == pytest.approx(phi0, abs=floor)
     assert abs(result.coordinate("rod.phi", 1)[-1]) < 1e-7
     if "independent" in options:  # it had to leave the partition it was given on the way down
         assert result.info["repartitions"] >= 1

@@ -175,3 +175,53 @@ def test_any_motion_of_polylines_plays_in_a_box_that_holds_it():
     scene = figure["layout"]["scene"]
     assert scene["xaxis"]["range"][0] < -1.0 and scene["xaxis"]["range"][1] > 1.0 and scene["zaxis"]["range"][1] > 0.5
     assert scene["camera"]["up"] == {"x": 0.0, "y": 0.0, "z": 1.0}
+
+
+BENT = """
+model:
+  name: bent
+  dimension: 2
+  gravity: [0.0, -9.81]
+  bodies:
+    - {name: rod, mass: 1.0, inertia: 0.02, location: [0.505, 0.0], orientation: 0.0}
+  joints:
+    - {name: O, type: revolute, body1: ground, body2: rod, frame: body, point1: [0.0, 0.0], point2: [-0.5, 0.0]}
+"""
+"""A pendulum whose file places the rod 5 mm off its pivot (the joint's points are in the body frames)."""
+
+
+def test_mbd_view_draws_the_file_and_the_assembled_mechanism_with_the_checks(tmp_path):
+    """The page shows the rod where the file puts it, in grey, and where assembly puts it (5 mm left, on the
+    pivot), in colour, with mbd check's report."""
+    (tmp_path / "bent.yaml").write_text(BENT)
+    assert main(["view", str(tmp_path / "bent.yaml"), "--out", str(tmp_path / "bent.html")]) == 0
+    page = (tmp_path / "bent.html").read_text()
+    assert "degrees of freedom: 1" in page and "redundant equations: none" in page
+    assert re.search(r"rod moved 0\.005\d* m", page)
+    figure = strict_json(page.split("const figure = ", 1)[1].split(";\nPlotly.newPlot", 1)[0])
+    grey = next(t for t in figure["data"] if t.get("name") == "as the file places it")
+    coloured = next(t for t in figure["data"] if t.get("name") == "rod")
+    assert min(grey["x"]) == pytest.approx(0.005, abs=1e-4) and min(coloured["x"]) == pytest.approx(0.0, abs=1e-4)
+    assert "frames" not in figure
+
+
+def test_mbd_view_of_a_result_and_its_refusals(tmp_path, capsys):
+    csv = tmp_path / "crank.csv"
+    assert main(["run", str(MODELS / "slider_crank.yaml"), "--steps", "20", "--out", str(csv)]) == 0
+    out = tmp_path / "crank.html"
+    assert main(["view", str(MODELS / "slider_crank.yaml"), str(csv), "--out", str(out), "--plot", "slider.x"]) == 0
+    figure = strict_json(out.read_text().split("const figure = ", 1)[1].split(";\nPlotly.newPlot", 1)[0])
+    assert len(figure["frames"]) == 21
+    capsys.readouterr()
+    for argv, said in (
+        (
+            ["view", str(MODELS / "slider_crank.yaml"), str(csv), "--out", str(out), "--plot", "nope"],
+            "no result column",
+        ),
+        (["view", str(MODELS / "four_bar.yaml"), str(csv), "--out", str(out)], "not a result of this model"),
+        (["view", str(MODELS / "slider_crank.yaml"), str(tmp_path / "none.csv")], "cannot read a result"),
+        (["view", str(MODELS / "slider_crank.yaml"), "--out", str(tmp_path / "x.png")], "the view is a page"),
+    ):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert said in err and "Traceback" not in err and len(err.strip().splitlines()) == 1, err

@@ -1,0 +1,216 @@
+"""The viewer as people see it: JupyterLab 4 in headless Chromium (Playwright), offline, with Lab's default
+notebook windowing; a notebook with a planar and a spatial view, executed headless as a student's Run All leaves
+it, opened untrusted, played, saved, reopened and played again; and the page of ``mbd view``. Every request that
+leaves 127.0.0.1 fails the test. Screenshots are kept in build/test-artifacts/browser/ (look at them).
+
+Chromium is Debian's (``make test`` installs it as it installs bubblewrap); where it or Playwright is missing the
+tests skip with one line saying so."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+from urllib.parse import urlparse
+
+import nbformat
+import pytest
+from nbclient import NotebookClient
+
+from solutions.cli import main
+
+REPO = Path(__file__).resolve().parents[2]
+ARTIFACTS = REPO / "build" / "test-artifacts" / "browser"
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+LOCAL = {"127.0.0.1", "localhost", ""}
+NO_NEWS = {"disabledExtensions": {"@jupyterlab/apputils-extension:announcements": True}}
+"""Lab's page configuration: the plugin that asks to fetch news from the web, off."""
+CURRENT_TIME = ".slider-group > text.slider-label"
+"""The slider's current value ("t = 0.000 s"), the first label of Plotly's slider."""
+
+sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed (make test installs it)")
+if CHROMIUM is None:
+    pytest.skip(
+        "Debian's chromium is not installed (make test installs it as root): browser tests skipped",
+        allow_module_level=True,
+    )
+
+pytestmark = pytest.mark.filterwarnings("ignore::ResourceWarning")  # Playwright's driver pipes, closed at exit
+
+CELLS = [
+    """import os
+os.chdir(os.environ["MBD_REPO"])
+from solutions.assembly import build_system
+from solutions.dynamics import forward_dynamics
+from solutions.io.model import load_model
+from solutions.kinematics import kinematic_analysis
+from solutions.viewer import notebook_animation""",
+    """model = load_model("course/models/slider_crank.yaml")
+system, q0, qd0 = build_system(model)
+result = kinematic_analysis(system, q0, 0.6283185307179586, 100)
+notebook_animation(model, system, result, trace=["A"], plots=["slider.x"])""",
+    "Long text between the two views, as in the homework. " * 300,
+    """model = load_model("course/models/spatial_double_pendulum.yaml")
+system, q0, qd0 = build_system(model)
+notebook_animation(model, system, forward_dynamics(system, q0, qd0, 1.0, 100))""",
+]
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def notebook(tmp_path_factory) -> Path:
+    """The notebook after a headless Run All (unsigned: JupyterLab opens it untrusted)."""
+    folder = tmp_path_factory.mktemp("lab")
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [
+        nbformat.v4.new_markdown_cell(c) if c.startswith("Long") else nbformat.v4.new_code_cell(c) for c in CELLS
+    ]
+    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+    os.environ["MBD_REPO"] = str(REPO)
+    NotebookClient(nb, timeout=300).execute()
+    nbformat.write(nb, folder / "views.ipynb")
+    return folder / "views.ipynb"
+
+
+class Lab:
+    """A JupyterLab server on 127.0.0.1 for one folder, with a Jupyter data folder of its own (a fresh machine:
+    no notebook is trusted), stopped at exit."""
+
+    def __init__(self, folder: Path, data: Path):
+        self.port = free_port()
+        environment = dict(os.environ, JUPYTER_DATA_DIR=str(data), JUPYTER_CONFIG_DIR=str(data / "config"))
+        (data / "config" / "labconfig").mkdir(parents=True)  # no question about fetching news
+        (data / "config" / "labconfig" / "page_config.json").write_text(json.dumps(NO_NEWS))
+        self.process = subprocess.Popen(
+            [sys.executable, "-m", "jupyterlab", "--no-browser", f"--port={self.port}", "--ip=127.0.0.1",
+             "--ServerApp.token=", "--ServerApp.password=", "--ServerApp.disable_check_xsrf=True",
+             "--allow-root", f"--ServerApp.root_dir={folder}", "--LabApp.news_url=",
+             "--LabApp.check_for_updates_class=jupyterlab.NeverCheckForUpdate"],
+            env=environment, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        )  # fmt: skip
+        deadline = time.monotonic() + 60
+        while True:
+            try:
+                urllib.request.urlopen(f"http://127.0.0.1:{self.port}/api/status", timeout=2).close()
+                return
+            except OSError:
+                if time.monotonic() > deadline or self.process.poll() is not None:
+                    raise RuntimeError("JupyterLab did not start") from None
+                time.sleep(0.3)
+
+    def url(self, path: str) -> str:
+        return f"http://127.0.0.1:{self.port}/lab/tree/{path}"
+
+    def stop(self) -> None:
+        self.process.terminate()
+        self.process.wait(timeout=20)
+
+
+@pytest.fixture(scope="module")
+def browser():
+    with sync_api.sync_playwright() as playwright:
+        flags = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-sync",
+                 "--disable-background-networking", "--disable-component-update"]  # fmt: skip
+        chromium = playwright.chromium.launch(executable_path=CHROMIUM, args=flags)
+        yield chromium
+        chromium.close()
+
+
+def open_page(browser, url: str, outside: list[str]):
+    page = browser.new_page(viewport={"width": 1000, "height": 720})
+    page.on("request", lambda r: outside.append(r.url) if urlparse(r.url).hostname not in LOCAL and
+            not r.url.startswith(("data:", "blob:", "file:")) else None)  # fmt: skip
+    page.goto(url)
+    return page
+
+
+def slider_time(view) -> str:
+    return view.locator(CURRENT_TIME).text_content()
+
+
+def play_each_view(page, name: str, count: int = 2) -> list[tuple[str, str]]:
+    """The notebook's ``count`` viewers, scrolled to one after the other (Lab renders a cell only near the view):
+    each of a non-zero size, one click on Play, the slider's time before and after (screenshots kept)."""
+    page.wait_for_selector(".jp-RenderedPlotly", timeout=60_000)
+    views = page.locator(".jp-RenderedPlotly")
+    times = []
+    for k in range(count):
+        for _ in range(40):  # scroll the notebook down until the next view is rendered
+            if views.count() > k:
+                break
+            page.evaluate("document.querySelector('.jp-WindowedPanel-outer').scrollBy(0, 600)")
+            page.wait_for_timeout(250)
+        view = views.nth(k)
+        view.scroll_into_view_if_needed()
+        view.locator(".updatemenu-button").first.wait_for(timeout=30_000)
+        box = view.bounding_box()
+        assert box and box["width"] > 300 and box["height"] > 300, (name, k, box)
+        before = slider_time(view)
+        view.locator(".updatemenu-button").first.click()  # Play
+        page.wait_for_timeout(600)
+        times.append((before, slider_time(view)))
+        page.screenshot(path=str(ARTIFACTS / f"{name}-view{k + 1}.png"))
+    return times
+
+
+def test_the_views_play_in_jupyterlab_untrusted_offline_and_after_save_and_reopen(notebook, browser, tmp_path):
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    outside: list[str] = []
+    lab = Lab(notebook.parent, tmp_path / "data")
+    try:
+        page = open_page(browser, lab.url(notebook.name), outside)
+        first = play_each_view(page, "lab-untrusted")
+        page.keyboard.press("Control+s")
+        page.wait_for_timeout(1500)
+        page.reload()
+        reopened = play_each_view(page, "lab-reopened")
+        page.close()
+    finally:
+        lab.stop()
+    assert len(first) == len(reopened) == 2
+    for before, after in first + reopened:
+        assert before == "t = 0.000 s" and after != before, (before, after)  # it plays on the first click
+    assert outside == []
+    saved = nbformat.read(notebook, as_version=4)
+    assert len(nbformat.writes(saved)) < 2_000_000
+
+
+def test_the_page_of_mbd_view_draws_and_plays_offline(browser, tmp_path):
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    outside: list[str] = []
+    model = REPO / "course" / "models" / "spatial_slider_crank.yaml"
+    assert main(["view", str(model), "--out", str(tmp_path / "model.html")]) == 0
+    page = open_page(browser, (tmp_path / "model.html").as_uri(), outside)
+    page.wait_for_selector(".main-svg", timeout=30_000)
+    page.wait_for_timeout(500)
+    page.screenshot(path=str(ARTIFACTS / "mbd-view-model.png"))
+    assert "degrees of freedom: 0" in page.inner_text("pre")
+    assert page.locator("#view").bounding_box()["height"] > 300
+    csv = tmp_path / "crank.csv"
+    assert main(["run", str(REPO / "course" / "models" / "slider_crank.yaml"), "--steps", "50", "--out", str(csv)]) == 0
+    assert main(["view", str(REPO / "course" / "models" / "slider_crank.yaml"), str(csv), "--out",
+                 str(tmp_path / "run.html"), "--trace", "A", "--plot", "slider.x"]) == 0  # fmt: skip
+    page.goto((tmp_path / "run.html").as_uri())
+    times = play_each_view_page(page)
+    page.screenshot(path=str(ARTIFACTS / "mbd-view-result.png"))
+    assert times[0] == "t = 0.000 s" and times[1] != times[0]
+    assert outside == []
+
+
+def play_each_view_page(page) -> tuple[str, str]:
+    page.wait_for_selector(".updatemenu-button", timeout=30_000)
+    before = page.locator(CURRENT_TIME).text_content()
+    page.locator(".updatemenu-button").first.click()
+    page.wait_for_timeout(600)
+    return before, page.locator(CURRENT_TIME).text_content()
