@@ -199,9 +199,8 @@ def command_view(args) -> int:
     if args.result:
         result = read_result(args.result, system)
         try:
-            view = result_view(
-                model, system, result, trace=args.trace, plots=args.plot, title=f"{model.name}: {args.result}"
-            )
+            title = f"{model.name}: {Path(args.result).name}"
+            view = result_view(model, system, result, trace=args.trace, plots=args.plot, title=title)
         except ValueError as err:
             raise UsageError(f"{args.result}: {err}") from None
     else:

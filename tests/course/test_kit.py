@@ -197,6 +197,7 @@ def test_the_notebook_runs_headless_in_the_fresh_venv(student_env, kits, homewor
     views = [d[VIEW] for d in data if VIEW in d]  # the viewer (solutions/viewer.py): the motion as data
     assert views and all(v["frames"] and len(json.dumps(v)) < 200_000 for v in views)
     assert not any("<script" in d.get("text/html", "") for d in data)  # no player of pictures, no script
+    assert (student / "executed.ipynb").stat().st_size < 2_000_000  # after Run All (hw3 was 13.8 MB with players)
     last = "".join(o.get("text", "") for o in code[-1].outputs)
     assert f"PREFIX {python.parent.parent}" in last and "SOLUTIONS None" in last
 
