@@ -73,7 +73,8 @@ class Geometry:
     """The drawing of a mechanism, in body frames: what ``draw_mechanism`` and ``animate_result`` place.
 
     shapes[b] holds the polylines of body b (body-frame points, one array (k, dimension) each);
-    joints, springs and links are attachments; rails are (attachment, unit axis in that body's frame).
+    joints, springs and links are attachments; rails are (attachment, unit axis in that body's frame); axes the
+    same for the axes of spatial joints that turn (revolute, cylindrical, universal).
     """
 
     dimension: int
@@ -83,6 +84,7 @@ class Geometry:
     springs: list[tuple[str, Attachment, Attachment]] = field(default_factory=list)
     links: list[tuple[str, Attachment, Attachment]] = field(default_factory=list)
     rails: list[tuple[str, Attachment, np.ndarray]] = field(default_factory=list)
+    axes: list[tuple[str, Attachment, np.ndarray]] = field(default_factory=list)
     scale: float = 1.0
 
 
@@ -185,6 +187,8 @@ class _Builder:
             return
         if kind in ("prismatic", "revolute_prismatic", "cylindrical", "rack_pinion") and "axis" in spec:
             g.rails.append((name, first, self.frames.axis(spec["body1"], spec["axis"], spec.get("frame", "global"))))
+        if g.dimension == 3 and kind in ("revolute", "cylindrical", "universal") and "axis" in spec:
+            g.axes.append((name, first, self.frames.axis(spec["body1"], spec["axis"], spec.get("frame", "global"))))
         g.joints.append((name, second))
 
     def between(self, spec: dict) -> tuple[Attachment, Attachment]:

@@ -76,19 +76,27 @@ class _Parts:
     unit: float
 
     def at(self, q: np.ndarray) -> list[dict[str, list]]:
-        """Rails, links, springs, each body, the centres of mass and the joints at q (global points)."""
+        """Rails, links, springs, each body, the centres of mass, the joints, the spatial joints' axes and each
+        body's frame (its x, y (and z) axes from the centre of mass) at q (global points)."""
         g, dim = self.geometry, self.geometry.dimension
         rails = [rail_line(g, rail, q, half) for rail, half in zip(g.rails, self.rail_half, strict=True)]
+        axes = [rail_line(g, axis, q, 0.12 * g.scale) for axis in g.axes]
         links = [np.vstack([a.at(q, dim), b.at(q, dim)]) for _, a, b in g.links]
         springs = [zigzag(a.at(q, dim), b.at(q, dim), 0.04 * g.scale) for _, a, b in g.springs]
         centres = [np.array([body_frame(q, b, dim)[0] for b in range(len(g.shapes))]).reshape(-1, dim)]
         joints = [np.array([a.at(q, dim) for _, a in g.joints]).reshape(-1, dim)]  # one run: a label per point
-        groups = [rails, links, springs, *body_lines(g, q), centres, joints]
+        frames = [[], [], []][:dim]
+        for body in range(len(g.shapes)):
+            r, A = body_frame(q, body, dim)
+            for k in range(dim):  # the body's k-th axis: column k of A (eq. 2.1, eq. 9.1)
+                frames[k].append(np.vstack([r, r + 0.08 * g.scale * A[:, k]]))
+        groups = [rails, links, springs, *body_lines(g, q), centres, joints, axes, *frames]
         return [_joined(lines, dim, self.unit) for lines in groups]
 
 
-def _style(geometry: Geometry) -> list[dict]:
-    """How each trace of ``_Parts.at`` is drawn (same order)."""
+def _style(geometry: Geometry, frames: bool = False) -> list[dict]:
+    """How each trace of ``_Parts.at`` is drawn (same order); the body frames shown (``frames``) or listed in the
+    legend, where a click shows them."""
     line = {"mode": "lines", "hoverinfo": "skip", "showlegend": False}
     bodies = [
         {"mode": "lines", "name": name, "line": {"color": COLORS[b % len(COLORS)], "width": 6}, "hoverinfo": "name"}
@@ -110,6 +118,17 @@ def _style(geometry: Geometry) -> list[dict]:
             "marker": {"color": "white", "size": 9, "line": {"color": "black", "width": 1.5}},
             "showlegend": False,
         },
+        {**line, "name": "joint axes", "line": {"color": "#555555", "width": 2, "dash": "dashdot"}},
+        *(
+            {
+                **line,
+                "name": f"body {axis} axes",
+                "line": {"color": color, "width": 2},
+                "showlegend": True,
+                "visible": True if frames else "legendonly",
+            }
+            for axis, color in zip("xyz"[: geometry.dimension], ("#d62728", "#2ca02c", "#1f77b4"), strict=False)
+        ),
     ]
 
 
@@ -239,7 +258,7 @@ def page(figure_json: str, title: str, text: str = "") -> str:
     return (
         f'<!DOCTYPE html>\n<html><head><meta charset="utf-8"><title>{escape(title)}</title>\n'
         f"<script>{plotly_js()}</script></head>\n"
-        f'<body style="margin:0;font-family:sans-serif"><div id="view" style="width:100vw"></div>\n{below}'
+        f'<body style="margin:0;font-family:sans-serif"><div id="view" style="width:100%"></div>\n{below}'
         "<script>const figure = " + figure_json.replace("</", "<\\/") + ";\n"
         'Plotly.newPlot("view", figure).then(() => Plotly.addFrames("view", figure.frames || []));\n'
         "</script></body></html>\n"
@@ -379,7 +398,7 @@ def model_view(
         grey = {"mode": "lines", "line": {"color": "#b0b0b0", "width": 3, "dash": "dash"}, "hoverinfo": "skip"}
         for k, lines in enumerate(parts.at(np.asarray(before, dtype=float))[3 : 3 + len(geometry.body_names)]):
             data.append({**grey, **_trace(kind, lines), "name": "as the file places it", "showlegend": k == 0})
-    data += [{**style, **_trace(kind, c)} for style, c in zip(_style(geometry), parts.at(q), strict=True)]
+    data += [{**style, **_trace(kind, c)} for style, c in zip(_style(geometry, frames=True), parts.at(q), strict=True)]
     data.append(_ground(geometry))
     layout = {
         "title": {"text": title if title is not None else model.name},

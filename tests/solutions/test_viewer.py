@@ -225,3 +225,35 @@ def test_mbd_view_of_a_result_and_its_refusals(tmp_path, capsys):
         assert main(argv) == 2, argv
         err = capsys.readouterr().err
         assert said in err and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_a_model_view_draws_each_bodys_frame_and_the_spatial_joints_axes():
+    """spatial_slider_crank.yaml: the crank turns about the x axis through O (the file's axis [1, 0, 0]); each
+    body's x, y, z axes start at its centre of mass along the columns of A(p) = (2 e0^2 - 1) I + 2 (e e^T + e0 e~)
+    of its Euler parameters in the file (eq. 8.12, written out here)."""
+    model = load_model(MODELS / "spatial_slider_crank.yaml")
+    figure = strict_json(model_view(model).to_json())
+    traces = {t["name"]: t for t in figure["data"]}
+    axes = traces["joint axes"]
+    names = [j["name"] for j in model.joints if "axis" in j and j["type"] in ("revolute", "cylindrical", "universal")]
+    assert names and "O" in names
+    first = np.array([[axes[a][k] for a in "xyz"] for k in range(2)])  # O's axis: the first segment
+    assert np.allclose(np.cross(first[1] - first[0], [1.0, 0.0, 0.0]), 0.0, atol=1e-6)
+    assert np.allclose((first[0] + first[1]) / 2, [0.0, 0.0, 0.0], atol=1e-6)  # through O
+    for k, axis in enumerate("xyz"):
+        frame = traces[f"body {axis} axes"]
+        assert frame["visible"] is True
+        for b, body in enumerate(model.bodies):  # segment b: from body b's centre of mass along A's column k
+            start = np.array([frame[a][3 * b] for a in "xyz"])
+            end = np.array([frame[a][3 * b + 1] for a in "xyz"])
+            assert np.allclose(start, body.location, atol=1e-6)
+            direction = (end - start) / np.linalg.norm(end - start)
+            assert np.allclose(direction, euler_parameters_rotation(body.orientation)[:, k], atol=3e-4), (
+                body.name
+            )  # 1e-5 rounding over 0.08
+
+
+def euler_parameters_rotation(p) -> np.ndarray:
+    e0, e = p[0] / np.linalg.norm(p), np.asarray(p[1:], dtype=float) / np.linalg.norm(p)
+    tilde = np.array([[0.0, -e[2], e[1]], [e[2], 0.0, -e[0]], [-e[1], e[0], 0.0]])
+    return (2 * e0**2 - 1) * np.eye(3) + 2 * (np.outer(e, e) + e0 * tilde)
