@@ -2,7 +2,7 @@
 
 1. **Examples.** Runs every example model in ``course/models/`` with the analysis it needs (kinematic when
    its drivers leave no degree of freedom, dynamic otherwise), writes each result as CSV and a plot of its
-   coordinates, and two animations (GIF).
+   coordinates, and two animations (offline pages of the viewer, HTML).
 2. **Run time against error.** Forward dynamics of the physical pendulum over one period, against its
    exact period (an elliptic integral), for RK4 at four steps and RK45 and DOP853 at four tolerances.
 3. **Release.** Releases homework 1 as ``mbd release hw1`` does (nbgrader's generate step, the hw1 student
@@ -300,7 +300,7 @@ def step_examples() -> tuple[list, bool]:
     rows = run_examples(OUT / "examples")
     print_examples(rows)
     _done(start)
-    return [("example results (CSV), plots (PNG), animations (GIF)", OUT / "examples")], all(
+    return [("example results (CSV), plots (PNG), animations (HTML pages, offline)", OUT / "examples")], all(
         r["status"] == "ok" for r in rows
     )
 
