@@ -228,7 +228,12 @@ def read_result(path: str, system) -> Result:
     zero = np.zeros_like(columns["t"])
     derived = {n + suffix for n in names for suffix in ("", "_d", "_dd")}
     arrays = [np.column_stack([columns.get(n + suffix, zero) for n in names]) for suffix in ("", "_d", "_dd")]
-    others = {k: v for k, v in columns.items() if k != "t" and k not in derived and np.ndim(v) == 1}  # points, forces
+    length = len(columns["t"])
+    others = {  # the other columns of the file: points, reactions, energies (numbers on the same grid)
+        k: v
+        for k, v in columns.items()
+        if k != "t" and k not in derived and np.shape(v) == (length,) and np.issubdtype(np.asarray(v).dtype, np.number)
+    }
     bodies = [b.name for b in system.model.bodies]
     return Result(columns["t"], *arrays, list(names), bodies, points=others)
 

@@ -212,6 +212,14 @@ def test_mbd_view_of_a_result_and_its_refusals(tmp_path, capsys):
     assert main(["view", str(MODELS / "slider_crank.yaml"), str(csv), "--out", str(out), "--plot", "slider.x"]) == 0
     figure = strict_json(out.read_text().split("const figure = ", 1)[1].split(";\nPlotly.newPlot", 1)[0])
     assert len(figure["frames"]) == 21
+    npz = tmp_path / "crank.npz"  # the same run as NPZ, with a column beside the coordinates plotted
+    assert (
+        main(["run", str(MODELS / "slider_crank.yaml"), "--steps", "20", "--out", str(npz), "--point", "P=rod:0.25,0"])
+        == 0
+    )
+    assert main(["view", str(MODELS / "slider_crank.yaml"), str(npz), "--out", str(out), "--plot", "P.x"]) == 0
+    figure = strict_json(out.read_text().split("const figure = ", 1)[1].split(";\nPlotly.newPlot", 1)[0])
+    assert next(t for t in figure["data"] if t.get("name") == "P.x")["y"]
     capsys.readouterr()
     for argv, said in (
         (
