@@ -89,14 +89,19 @@ class Geometry:
     scale: float = 1.0
 
 
+def file_configuration(model: Model) -> np.ndarray:
+    """q as the model file places the bodies (before assembly)."""
+    q = [np.concatenate([b.location, np.atleast_1d(b.orientation)]) for b in model.bodies]
+    return np.concatenate(q).astype(float) if q else np.zeros(0)
+
+
 class _FileFrames:
     """The bodies' frames in the file's configuration, to take global points into body frames."""
 
     def __init__(self, model: Model):
         self.model = model
         self.dimension = model.dimension
-        q = [np.concatenate([b.location, np.atleast_1d(b.orientation)]) for b in model.bodies]
-        self.q0 = np.concatenate(q).astype(float) if q else np.zeros(0)
+        self.q0 = file_configuration(model)
 
     def attachment(self, body_name: str, point, frame: str = "global") -> Attachment:
         body = self.model.body_index(body_name)
@@ -546,6 +551,7 @@ __all__ = [
     "animate_result",
     "body_frame",
     "draw_mechanism",
+    "file_configuration",
     "drawing_limits",
     "frame_indices",
     "joint_paths",

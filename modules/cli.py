@@ -197,7 +197,12 @@ def command_view(args) -> int:
     if not out.parent.is_dir():
         raise UsageError(f"--out {out}: no folder {out.parent}")
     if args.result:
-        result = read_result(args.result, system)
+        from .io.results import read_result
+
+        try:
+            result = read_result(args.result, system.coordinate_names, [b.name for b in model.bodies])
+        except (OSError, ValueError) as err:
+            raise UsageError(f"{args.result}: {err}") from None
         try:
             title = f"{model.name}: {Path(args.result).name}"
             view = result_view(model, system, result, trace=args.trace, plots=args.plot, title=title)
@@ -211,31 +216,6 @@ def command_view(args) -> int:
         raise UsageError(f"--out {out}: cannot write ({err.strerror})") from None
     print(f"view written to {out}")
     return 0
-
-
-def read_result(path: str, system) -> Result:
-    """A result as ``mbd run --out`` wrote it (CSV or NPZ), for the model's coordinates."""
-    from .io.results import read_csv
-
-    try:
-        columns = read_csv(path) if not path.endswith(".npz") else dict(np.load(path, allow_pickle=False))
-    except (OSError, ValueError) as err:
-        raise UsageError(f"{path}: cannot read a result ({err})") from None
-    names = system.coordinate_names
-    missing = [n for n in ["t", *names] if n not in columns]
-    if missing:
-        raise UsageError(f"{path}: no column {', '.join(missing[:5])}: not a result of this model (mbd run --out)")
-    zero = np.zeros_like(columns["t"])
-    derived = {n + suffix for n in names for suffix in ("", "_d", "_dd")}
-    arrays = [np.column_stack([columns.get(n + suffix, zero) for n in names]) for suffix in ("", "_d", "_dd")]
-    length = len(columns["t"])
-    others = {  # the other columns of the file: points, reactions, energies (numbers on the same grid)
-        k: v
-        for k, v in columns.items()
-        if k != "t" and k not in derived and np.shape(v) == (length,) and np.issubdtype(np.asarray(v).dtype, np.number)
-    }
-    bodies = [b.name for b in system.model.bodies]
-    return Result(columns["t"], *arrays, list(names), bodies, points=others)
 
 
 def command_sweep(args) -> int:

@@ -22,6 +22,8 @@ from __future__ import annotations
 import json
 import os
 from dataclasses import dataclass
+from html import escape
+from importlib.resources import files
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +33,7 @@ from .animation import (
     body_frame,
     body_lines,
     drawing_limits,
+    file_configuration,
     frame_indices,
     joint_paths,
     mechanism_geometry,
@@ -141,7 +144,7 @@ def _ground(geometry: Geometry) -> dict:
     planar = geometry.dimension == 2
     marker = {"symbol": "triangle-up" if planar else "diamond", "size": 12, "color": "#999999"}
     return {
-        "type": "scatter" if planar else "scatter3d",
+        "type": _kind(geometry.dimension),
         "mode": "markers",
         "name": "ground",
         "showlegend": False,
@@ -149,6 +152,18 @@ def _ground(geometry: Geometry) -> dict:
         "hoverinfo": "skip",
         **_joined([points], geometry.dimension, geometry.scale * 10.0**-DIGITS),
     }
+
+
+def _fit(geometry: Geometry, states: np.ndarray) -> tuple[_Parts, np.ndarray, np.ndarray]:
+    """The parts to place at the states, and the box (low, high corners) that holds them at every one."""
+    halves = rail_halves(geometry, states)
+    low, high = drawing_limits(geometry, states, halves)
+    return _Parts(geometry, halves, geometry.scale * 10.0**-DIGITS), low, high
+
+
+def _kind(dimension: int) -> str:
+    """Plotly's trace type of a planar or spatial drawing."""
+    return "scatter" if dimension == 2 else "scatter3d"
 
 
 # -- the figure ---------------------------------------------------------------------------------------------
@@ -246,15 +261,11 @@ class View:
 
 def plotly_js() -> str:
     """plotly.js as the plotly wheel ships it (package_data/plotly.min.js)."""
-    from importlib.resources import files
-
     return files("plotly").joinpath("package_data", "plotly.min.js").read_text(encoding="utf-8")
 
 
 def page(figure_json: str, title: str, text: str = "") -> str:
     """An HTML page drawing one figure with the inlined plotly.js; ``text`` (plain, escaped here) below it."""
-    from html import escape
-
     below = f'<pre style="margin:1em 3em;font-size:14px">{escape(text)}</pre>\n' if text else ""
     return (
         f'<!DOCTYPE html>\n<html><head><meta charset="utf-8"><title>{escape(title)}</title>\n'
@@ -295,10 +306,8 @@ def result_view(
     geometry = mechanism_geometry(model)
     shown = frame_indices(result.t, max_frames)
     states = result.q[shown]
-    halves = rail_halves(geometry, states)
-    low, high = drawing_limits(geometry, states, halves)
-    parts = _Parts(geometry, halves, geometry.scale * 10.0**-DIGITS)
-    kind = "scatter" if geometry.dimension == 2 else "scatter3d"
+    parts, low, high = _fit(geometry, states)
+    kind = _kind(geometry.dimension)
     paths = joint_paths(geometry, result, trace) if trace else {}
 
     def frame_data(k: int) -> list[dict]:
@@ -377,11 +386,6 @@ def _add_plot_axes(layout: dict, plots: list[str], axes: list[str], spatial: boo
     layout["height"] = max(layout["height"], 200 + 160 * len(plots))
 
 
-def file_configuration(model: Model) -> np.ndarray:
-    """q as the model file places the bodies (before assembly)."""
-    return np.concatenate([np.concatenate([b.location, np.atleast_1d(b.orientation)]) for b in model.bodies])
-
-
 def model_view(
     model: Model, q: np.ndarray | None = None, *, before: np.ndarray | None = None, title: str | None = None
 ) -> View:
@@ -390,10 +394,8 @@ def model_view(
     geometry = mechanism_geometry(model)
     q = file_configuration(model) if q is None else np.asarray(q, dtype=float)
     states = np.vstack([q] if before is None else [q, before])
-    halves = rail_halves(geometry, states)
-    low, high = drawing_limits(geometry, states, halves)
-    parts = _Parts(geometry, halves, geometry.scale * 10.0**-DIGITS)
-    kind = "scatter" if geometry.dimension == 2 else "scatter3d"
+    parts, low, high = _fit(geometry, states)
+    kind = _kind(geometry.dimension)
     data = []
     if before is not None:
         grey = {"mode": "lines", "line": {"color": "#b0b0b0", "width": 3, "dash": "dash"}, "hoverinfo": "skip"}
@@ -417,7 +419,7 @@ def polyline_view(frames: list[list[np.ndarray]], labels: list[str], title: str,
     low, high = points.min(axis=0), points.max(axis=0)
     margin = 0.08 * max(float(np.max(high - low)), 1e-3)
     unit = 10.0**-DIGITS * max(float(np.max(high - low)), 1e-3)
-    kind = "scatter" if dimension == 2 else "scatter3d"
+    kind = _kind(dimension)
     style = {"type": kind, "mode": "lines", "line": {"color": COLORS[0], "width": 4}, "hoverinfo": "skip"}
     steps = [
         {"name": label, "data": [{**style, **_joined(lines, dimension, unit)}]}
@@ -464,7 +466,6 @@ __all__ = [
     "MIME",
     "View",
     "animations_enabled",
-    "file_configuration",
     "model_view",
     "notebook_animation",
     "page",

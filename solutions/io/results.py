@@ -50,6 +50,34 @@ def read_csv(path: str | Path) -> dict[str, np.ndarray]:
     return {name: table[:, k] for k, name in enumerate(names)}
 
 
+def read_result(path: str | Path, coordinate_names: list[str], body_names: list[str]) -> Result:
+    """A result as ``write_result`` wrote it (CSV or NPZ) back, for a model with these coordinates: q, q', q''
+    (zero where a column is absent) and the file's other numeric columns (points, reactions, energies) as points.
+
+    Raises
+    ------
+    ValueError
+        A file that cannot be read as a result, or one without t and every coordinate (another model's).
+    """
+    path = str(path)
+    try:
+        columns = dict(np.load(path, allow_pickle=False)) if path.endswith(".npz") else read_csv(path)
+    except (OSError, ValueError) as err:
+        raise ValueError(f"cannot read a result ({err})") from None
+    missing = [n for n in ["t", *coordinate_names] if n not in columns]
+    if missing:
+        raise ValueError(f"no column {', '.join(missing[:5])}: not a result of this model (mbd run --out)")
+    t, suffixes = columns["t"], ("", "_d", "_dd")
+    arrays = [np.column_stack([columns.get(n + s, np.zeros_like(t)) for n in coordinate_names]) for s in suffixes]
+    derived = {n + s for n in coordinate_names for s in suffixes}
+    others = {
+        k: v
+        for k, v in columns.items()
+        if k != "t" and k not in derived and np.shape(v) == t.shape and np.issubdtype(np.asarray(v).dtype, np.number)
+    }
+    return Result(t, *arrays, list(coordinate_names), list(body_names), points=others)
+
+
 def write_result(result: Result, path: str | Path) -> Path:
     """Write by extension: .csv or .npz."""
     path = Path(path)

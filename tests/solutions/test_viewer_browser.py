@@ -210,7 +210,7 @@ def test_the_page_of_mbd_view_draws_and_plays_offline(browser, tmp_path):
 
 def play_each_view_page(page) -> tuple[str, str]:
     page.wait_for_selector(".updatemenu-button", timeout=30_000)
-    before = page.locator(CURRENT_TIME).text_content()
+    before = slider_time(page)
     page.locator(".updatemenu-button").first.click()
     page.wait_for_timeout(600)
-    return before, page.locator(CURRENT_TIME).text_content()
+    return before, slider_time(page)
