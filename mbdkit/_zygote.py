@@ -42,6 +42,13 @@ PRELOAD = (
     "jsonschema",  # validates a model in milliseconds once imported (``solutions.io.model.schema_errors``)
 )
 """What the children inherit already imported (what a solver package imports; never the reference)."""
+INTEGRATION = ("scipy.integrate", "scipy.optimize", "scipy.sparse")
+"""What only the children that integrate need (0.4 s of a sandbox's 1.1 s of imports): left out of the
+preload of a sandbox whose checks are all kinematic (``preload`` "kinematic"); a child that needs one (a
+singular position's search imports scipy.optimize) imports it itself."""
+LEVELS = {"all": PRELOAD, "kinematic": tuple(m for m in PRELOAD if m not in INTEGRATION), "bare": ()}
+"""The zygote's imports by the ``preload`` the grader asks for; "bare" for the probe of ``isolation.problem``,
+which asks only whether a sandbox starts and forks a child."""
 
 PR_SET_DUMPABLE = 4
 PR_SET_CHILD_SUBREAPER = 36
@@ -158,11 +165,11 @@ def _remove_ipc() -> bool:
     return not left
 
 
-def main(fd: int, preload: bool = True) -> None:
-    """Serve the grader on the inherited socket ``fd`` until it closes it; ``preload``: import PRELOAD first (not
-    for the probe of ``isolation.problem``, which asks only whether a sandbox starts and forks a child)."""
+def main(fd: int, preload: str = "all") -> None:
+    """Serve the grader on the inherited socket ``fd`` until it closes it; ``preload``: import the modules of
+    that level first (``LEVELS``)."""
     control = socket.socket(fileno=fd)
-    for name in PRELOAD if preload else ():
+    for name in LEVELS.get(preload, PRELOAD):
         try:
             importlib.import_module(name)
         except ImportError:

@@ -96,10 +96,11 @@ CHILD_ENV = {
 }
 BOOT = (
     "import sys; sys.path += sys.argv[1].split(':'); import mbdkit._zygote as z; "
-    "z.main(int(sys.argv[2]), sys.argv[3:] != ['bare'])"
+    "z.main(int(sys.argv[2]), sys.argv[3])"
 )
-"""What the sandbox runs (``python -I -S -c BOOT PATHS FD [bare]``): mbdkit from its read-only mount, then the
-zygote (``_zygote``), which forks the children that serve the grader (``_child``)."""
+"""What the sandbox runs (``python -I -S -c BOOT PATHS FD PRELOAD``): mbdkit from its read-only mount, then the
+zygote (``_zygote``), which imports the modules of PRELOAD (``_zygote.LEVELS``) and forks the children that
+serve the grader (``_child``)."""
 ZYGOTE_TIMEOUT = 30.0
 """Seconds the zygote may take to answer a fork or a reap (it answers in milliseconds)."""
 
@@ -245,10 +246,10 @@ def stage_package(folder: str | Path, package: str, destination: str | Path) -> 
 class Plan:
     """The bubblewrap command for one sandbox, and (as root) the private mounts made before it."""
 
-    def __init__(self, tmp: str, staged: str, tmp_size: int, cgroup: list[str] | None = None, preload: bool = True):
+    def __init__(self, tmp: str, staged: str, tmp_size: int, cgroup: list[str] | None = None, preload: str = "all"):
         self.bwrap = bwrap_path()
         self.preload = preload
-        """Whether the zygote imports numpy and scipy before it answers (``_zygote.PRELOAD``)."""
+        """What the zygote imports before it answers: "all", "kinematic" or "bare" (``_zygote.LEVELS``)."""
         if self.bwrap is None:
             raise IsolationUnavailable(NOT_INSTALLED)
         self.tmp, self.staged, self.tmp_size = tmp, staged, tmp_size
@@ -325,8 +326,7 @@ class Plan:
         args += ["--tmpfs", INNER_TMP]
         args += ["--remount-ro", "/", "--remount-ro", "/dev"]  # bubblewrap's root and /dev (/dev/shm) tmpfs
         args += ["--chdir", INNER_SUBMISSION]
-        args += [self.executable, "-I", "-S", "-c", BOOT, ":".join(INNER_PATH), str(fd)]
-        return args if self.preload else [*args, "bare"]  # no PRELOAD (``_zygote.main``)
+        return [*args, self.executable, "-I", "-S", "-c", BOOT, ":".join(INNER_PATH), str(fd), self.preload]
 
     def command(self, fd: int) -> list[str]:
         """The command the grader starts: bubblewrap itself, or (as root) the launcher that drops to 65534."""
@@ -406,7 +406,7 @@ class IsolatedHost:
     submission. Between two children everything the first left running is killed (``_zygote``).
     """
 
-    def __init__(self, folder: str | Path, package: str, tmp_size: int, limits=None, preload: bool = True):
+    def __init__(self, folder: str | Path, package: str, tmp_size: int, limits=None, preload: str = "all"):
         self.tmp = tempfile.mkdtemp(prefix="mbd-sandbox-host-")
         staged = os.path.join(self.tmp, "submission")
         self.cgroup = None
@@ -623,7 +623,7 @@ def _probe() -> str | None:
         host = None
         try:
             limits = Limits()
-            host = IsolatedHost(Path(folder), "probe_package", limits.tmp_size, limits, preload=False)
+            host = IsolatedHost(Path(folder), "probe_package", limits.tmp_size, limits, preload="bare")
             with Sandbox(Path(folder), "probe_package", limits=limits, isolation="os", host=host) as sandbox:
                 sandbox.start()
         except (SandboxError, IsolationUnavailable, OSError) as err:

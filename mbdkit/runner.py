@@ -15,7 +15,7 @@ import numpy as np
 from . import withheld
 from .checks import Measure, Mistakes, Outcome, evaluate, reconcile_causes
 from .homework import CheckSpec
-from .probes import Job, sent_inputs
+from .probes import REQUIRES, Job, sent_inputs
 from .sandbox import Limits, Sandbox
 from .scenes import HIDDEN, PUBLIC, STUDENT, Scene, job_key, load_public_scene, scene_kind
 from .stored import Reference, load_reference
@@ -121,13 +121,23 @@ def run_checks(
     if isolation == "os":  # one bubblewrap sandbox per submission; a child for each set of checks
         from .isolation import IsolatedHost
 
-        host = IsolatedHost(folder, PACKAGE, limits.tmp_size, limits)
+        host = IsolatedHost(folder, PACKAGE, limits.tmp_size, limits, preload=preload_for(checks))
     try:
         outcomes = _run_all(checks, folder, data, limits, forbidden, hide, isolation, budget, host)
         return reconcile_causes(checks, outcomes)  # a cause must agree with all the student's checks
     finally:
         if host is not None:
             host.close()
+
+
+INTEGRATING = {"dynamics", "integrators"}
+"""What a probe that integrates requires (``probes.REQUIRES``): its child needs scipy.integrate."""
+
+
+def preload_for(checks: list[CheckSpec]) -> str:
+    """What the sandbox's zygote imports for ``checks`` (``_zygote.LEVELS``): scipy's integrators only when
+    one of them integrates (a kinematic homework's sandbox starts 0.4 s of CPU sooner without them)."""
+    return "all" if any(INTEGRATING & set(REQUIRES.get(c.probe, ())) for c in checks) else "kinematic"
 
 
 KINDS = (PUBLIC, STUDENT, HIDDEN)
