@@ -77,7 +77,7 @@ def _unused_note(args, result: Result) -> str | None:
     return f"note: not used by the {analysis} analysis: {', '.join(unused)}"
 
 
-def _summary(result: Result) -> str:
+def run_summary(result: Result) -> str:
     info = result.info
     lines = [f"{info.get('analysis', 'analysis')} analysis: {result.t.size} output points to t = {result.t[-1]:g} s"]
     moved = info.get("assembly", {}).get("moved", {})
@@ -113,7 +113,7 @@ def command_run(args) -> int:
         from .kinematics import rotation_columns
 
         result.points.update(rotation_columns(result, [b.name for b in model.bodies]))
-    print(_summary(result))
+    print(run_summary(result))
     note = _unused_note(args, result)
     if note:
         print(note)

@@ -75,6 +75,7 @@ SLOW = {
     "autograder/test_wall.py": "isolation",
     "solutions/test_sweep.py": "cluster",
     "solutions/test_singular_redundant.py": "long",
+    "solutions/test_viewer_browser.py": "browser",
     "solutions/test_symbolic.py": "long",
     "autograder/test_gradebook.py": "isolation",
     "solutions/test_compiled_kinematics.py": "compiled",
@@ -89,6 +90,7 @@ SLOW = {
     "autograder/test_sandbox.py": "isolation",
     "autograder/test_api.py": "isolation",
     "course/test_nbcheck.py": "nbgrader",
+    "solutions/test_serve.py": "browser",
 }
 """The slow tier, by test file (relative to tests/) and family: notebooks run by nbgrader or nbclient, the
 nbgrader cycle, kits installed in fresh venvs, classes graded in sandboxes, Dask clusters, numba compiles, long

@@ -140,6 +140,7 @@ ALL = {
     "secret",
     "selfcheck",
     "compile",
+    "serve",
 }
 
 

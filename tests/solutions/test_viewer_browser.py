@@ -25,6 +25,8 @@ from nbclient import NotebookClient
 
 from solutions.cli import main
 
+from .test_serve import Server
+
 REPO = Path(__file__).resolve().parents[2]
 ARTIFACTS = REPO / "build" / "test-artifacts" / "browser"
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -208,9 +210,55 @@ def test_the_page_of_mbd_view_draws_and_plays_offline(browser, tmp_path):
     assert outside == []
 
 
-def play_each_view_page(page) -> tuple[str, str]:
-    page.wait_for_selector(".updatemenu-button", timeout=30_000)
-    before = slider_time(page)
-    page.locator(".updatemenu-button").first.click()
+def play_each_view_page(page, view=None) -> tuple[str, str]:
+    """The slider's time before and after one click on Play of the page's first view (or of ``view``)."""
+    view = view or page
+    view.locator(".updatemenu-button").first.wait_for(timeout=30_000)
+    before = slider_time(view)
+    view.locator(".updatemenu-button").first.click()
     page.wait_for_timeout(600)
-    return before, slider_time(page)
+    return before, slider_time(view)
+
+
+def test_mbd_serve_opens_edits_runs_and_downloads_offline(browser, tmp_path):
+    """An example opened, drawn and checked; a key edited to an error (shown with its line) and back; the model
+    run, its result played and its CSV downloaded: all from the browser, no request leaving the machine."""
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    outside: list[str] = []
+    server = Server()
+    try:
+        page = open_page(browser, server.url + "/", outside)
+        page.set_viewport_size({"width": 1400, "height": 900})
+        page.wait_for_selector("#examples option[value=slider_crank]", state="attached", timeout=30_000)
+        page.select_option("#examples", "slider_crank")
+        page.wait_for_function("document.getElementById('report').textContent.includes('degrees of freedom')")
+        assert "degrees of freedom: 0" in page.inner_text("#report")
+        assert page.locator("#view .main-svg").first.bounding_box()["height"] > 300
+        text = page.input_value("#model")
+        line = next(k for k, row in enumerate(text.splitlines(), start=1) if "name: rod" in row)
+        page.fill("#model", text.replace("name: rod,    mass: 1.0", "name: rod,    mass: abc"))
+        page.wait_for_function("document.getElementById('errors').textContent.length > 0")
+        assert page.inner_text("#errors") == f"line {line}: model.bodies[1].mass: expected number, got 'abc'"
+        page.click("#errors")  # the editor selects the error's line
+        selection = "(m => m.value.slice(m.selectionStart, m.selectionEnd))(document.getElementById('model'))"
+        selected = page.evaluate(selection)
+        assert selected.strip().startswith("- {name: rod,    mass: abc"), selected
+        page.screenshot(path=str(ARTIFACTS / "mbd-serve-error.png"))
+        page.fill("#model", text)
+        page.wait_for_function("document.getElementById('errors').textContent === ''")
+        page.click("#run")
+        page.wait_for_selector("#downloads a", timeout=60_000)
+        assert "kinematic analysis: 201 output points" in page.inner_text("#summary")
+        before, after = play_each_view_page(page, page.locator("#result"))
+        assert before == "t = 0.000 s" and after != before
+        page.screenshot(path=str(ARTIFACTS / "mbd-serve.png"))
+        with page.expect_download() as download:
+            page.click("#downloads a[href$='result.csv']")
+        saved = tmp_path / "result.csv"
+        download.value.save_as(saved)
+        header = saved.read_text().splitlines()[0].split(",")
+        assert header[:2] == ["t", "crank.x"] and "slider.x" in header and len(saved.read_text().splitlines()) == 202
+        page.close()
+    finally:
+        server.stop()
+    assert outside == []

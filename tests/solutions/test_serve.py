@@ -1,0 +1,120 @@
+"""``mbd serve`` (solutions/serve.py) over HTTP, as a hostile client would use it: errors with their line, bodies
+too large, paths that are not the server's, a run that outlives its limit. In a browser (open, edit, run,
+download): tests/solutions/test_viewer_browser.py."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import urllib.error
+import urllib.request
+from pathlib import Path
+
+import pytest
+
+from solutions.serve import MAX_MODEL_BYTES, line_of
+
+REPO = Path(__file__).resolve().parents[2]
+SLIDER_CRANK = (REPO / "course" / "models" / "slider_crank.yaml").read_text()
+
+
+def test_an_error_is_placed_at_the_line_of_its_key_or_of_the_yaml_parser():
+    text = SLIDER_CRANK
+    rows = text.splitlines()
+    rod = next(k for k, row in enumerate(rows, start=1) if "name: rod" in row)
+    drive = next(k for k, row in enumerate(rows, start=1) if "name: drive" in row)
+    simulation = next(k for k, row in enumerate(rows, start=1) if row.startswith("simulation:"))
+    assert line_of(text, "model.bodies[1].mass: expected number, got 'abc'") == rod
+    assert line_of(text, "model.yaml: model.motors[0].function: unknown type") == drive
+    assert line_of(text, "simulation.end_time: must be positive") == simulation
+    assert line_of(text, "model.bodies[7].mass: x") == next(k for k, r in enumerate(rows, 1) if "bodies:" in r)
+    assert line_of(text, "line 4, column 7: malformed YAML (...)") == 4
+    assert line_of(text, "the model has no degrees of freedom") is None
+    assert line_of("model: [", "model.name: x") is None  # not YAML: no tree to place the key in
+
+
+class Server:
+    """``mbd serve --port 0`` in a process of its own (the course's models as examples); ``url`` from the line it
+    prints; ``stop`` ends it."""
+
+    def __init__(self, *options: str):
+        command = [sys.executable, "-m", "solutions.cli", "serve", "--port", "0", *options]
+        command += ["--examples", str(REPO / "course" / "models")]
+        self.process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        line = self.process.stdout.readline()
+        assert line.startswith("mbd serve: http://127.0.0.1:"), line
+        self.url = line.split()[2].rstrip("/")
+
+    def stop(self) -> None:
+        self.process.terminate()
+        self.process.wait(timeout=20)
+        self.process.stdout.close()
+
+    def ask(self, path: str, body: str | bytes | None = None) -> tuple[int, bytes]:
+        data = body.encode() if isinstance(body, str) else body
+        try:
+            with urllib.request.urlopen(urllib.request.Request(self.url + path, data=data), timeout=60) as reply:
+                return reply.status, reply.read()
+        except urllib.error.HTTPError as err:
+            return err.code, err.read()
+
+    def json(self, path: str, body: str | None = None) -> dict:
+        status, data = self.ask(path, body)
+        assert status == 200, (path, status, data[:300])
+        return json.loads(data)
+
+    def finished(self, job: str) -> dict:
+        for _ in range(400):
+            status = self.json(f"/jobs/{job}")
+            if status["state"] in ("done", "failed"):
+                return status
+            subprocess.run(["sleep", "0.1"], check=True)
+        raise AssertionError(f"job {job} did not finish")
+
+
+@pytest.fixture(scope="module")
+def server():
+    running = Server("--run-seconds", "3")
+    yield running
+    running.stop()
+
+
+def test_a_check_answers_the_report_and_the_view_or_the_error_at_its_line(server):
+    good = server.json("/check", SLIDER_CRANK)
+    assert good["ok"] and "degrees of freedom: 0" in good["report"]
+    assert {t["name"] for t in good["figure"]["data"] if "name" in t} >= {"crank", "rod", "slider"}
+    bad = server.json("/check", SLIDER_CRANK.replace("type: prismatic", "type: prismatik"))
+    (error,) = bad["errors"]
+    assert not bad["ok"] and "prismatik" in error["message"] and "did you mean" in error["message"]
+    assert SLIDER_CRANK.splitlines()[error["line"] - 1].lstrip().startswith("- {name: S")
+    broken = server.json("/check", "model:\n  name: [x\n")
+    assert broken["errors"][0]["line"] == 3 and "malformed YAML" in broken["errors"][0]["message"]
+
+
+def test_what_is_not_the_servers_is_refused_and_the_server_stays(server):
+    status, _ = server.ask("/check", b"x" * (MAX_MODEL_BYTES + 10))
+    assert status in (400, 413)
+    assert server.ask("/examples/..%2F..%2Fetc%2Fpasswd")[0] == 404
+    assert server.ask("/examples/no_such_model")[0] == 404
+    assert server.ask("/jobs/" + "0" * 32)[0] == 404
+    assert server.ask("/jobs/../../etc/passwd")[0] == 404
+    job = server.json("/run", SLIDER_CRANK)["job"]
+    assert server.finished(job)["state"] == "done"
+    assert server.ask(f"/jobs/{job}/model.yaml")[0] == 404  # only the result's two files are downloads
+    assert server.ask(f"/jobs/{job}/reply.json")[0] == 404
+    status, csv = server.ask(f"/jobs/{job}/result.csv")
+    assert status == 200 and csv.startswith(b"t,crank.x,")
+    assert "slider_crank" in server.json("/examples")["examples"]
+
+
+def test_a_run_that_outlives_its_limit_is_stopped_with_one_line(server):
+    simulation = "end_time: 0.6283185307179586, output_steps: 200"
+    endless = SLIDER_CRANK.replace(simulation, "end_time: 1.0e+6, output_steps: 1000000")
+    status = server.finished(server.json("/run", endless)["job"])
+    assert status["state"] == "failed" and status["errors"][0]["message"] in (
+        "stopped after 3 s (the server's limit)",
+        "the run failed: out of memory or time",
+    )
+    failed = server.finished(server.json("/run", SLIDER_CRANK.replace("body2: crank", "body2: crankk"))["job"])
+    assert failed["state"] == "failed" and "crankk" in failed["errors"][0]["message"]
