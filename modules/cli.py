@@ -205,7 +205,9 @@ def command_view(args) -> int:
             raise UsageError(f"{args.result}: {err}") from None
         try:
             title = f"{model.name}: {Path(args.result).name}"
-            view = result_view(model, system, result, trace=args.trace, plots=args.plot, title=title)
+            view = result_view(
+                model, system, result, trace=args.trace, plots=args.plot, reactions=args.reactions, title=title
+            )
         except ValueError as err:
             raise UsageError(f"{args.result}: {err}") from None
     else:
@@ -377,6 +379,9 @@ def build_parser(others: bool = True) -> argparse.ArgumentParser:
     view.add_argument("--out", help="the page to write (default: MODEL's name .html, here)")
     view.add_argument("--trace", nargs="+", metavar="JOINT", help="joints whose paths are drawn (with a result)")
     view.add_argument("--plot", nargs="+", metavar="COLUMN", help="result columns plotted against time beside it")
+    view.add_argument(
+        "--reactions", nargs="+", metavar="JOINT", help="joints whose reaction forces are arrows (a dynamic result)"
+    )
     view.set_defaults(handler=command_view)
     add_sweep(sub)
     add_derive(sub)

@@ -113,7 +113,7 @@ def _style(geometry: Geometry, frames: bool = False) -> list[dict]:
         *bodies,
         {"mode": "markers", "name": "centres of mass", "marker": {"color": "black", "size": 4}, "showlegend": False},
         {
-            "mode": "markers+text" if geometry.dimension == 2 else "markers",
+            "mode": "markers+text",
             "name": "joints",
             "text": names,
             "textposition": "top right",
@@ -285,15 +285,19 @@ def result_view(
     speed: float = 1.0,
     trace: list[str] | None = None,
     plots: list[str] | None = None,
+    reactions: list[str] | None = None,
     title: str | None = None,
 ) -> View:
-    """The mechanism moving over a result, with the paths of the joints ``trace`` and the result columns ``plots``
-    (CSV names, e.g. ``["crank.phi", "slider.x_d"]``) against time, a marker at the shown time.
+    """The mechanism moving over a result, with the paths of the joints ``trace``, the result columns ``plots``
+    (CSV names, e.g. ``["crank.phi", "slider.x_d"]``) against time, a marker at the shown time, and the reaction
+    force of each joint of ``reactions`` as an arrow at the joint (what the joint exerts on its second body,
+    eq. 5.41/10.20, ``JOINT.Fx`` ...; the longest arrow of the run 0.4 of the mechanism's size).
 
     Raises
     ------
     ValueError
-        A result of another model, an unknown joint in ``trace`` or an unknown column in ``plots``.
+        A result of another model, an unknown joint in ``trace`` or an unknown column in ``plots``, or a joint of
+        ``reactions`` that the result has no reaction of (a dynamic or inverse-dynamic result has them).
     """
     n = system.coordinates_per_body * len(model.bodies)
     if result.q.ndim != 2 or result.q.shape[1] != n:
@@ -303,6 +307,7 @@ def result_view(
     if unknown:
         raise ValueError(f"no result column {', '.join(unknown)} (columns: {', '.join(columns)})")
     geometry = mechanism_geometry(model)
+    arrows = _Arrows.of(geometry, columns, reactions) if reactions else None
     shown = frame_indices(result.t, max_frames)
     states = result.q[shown]
     parts, low, high = _fit(geometry, states)
@@ -312,13 +317,15 @@ def result_view(
     def frame_data(k: int) -> list[dict]:
         index = shown[k]
         data = [_trace(kind, c) for c in parts.at(result.q[index])]
+        if arrows is not None:
+            data.append(_trace(kind, _joined(arrows.at(result.q[index], index), geometry.dimension, parts.unit)))
         data += [
             _trace("scatter", {"x": [float(result.t[index])], "y": [float(columns[c][index])]}) for c in plots or ()
         ]
         return data
 
     first = frame_data(0)
-    styles = _style(geometry)
+    styles = _style(geometry) + ([_Arrows.STYLE] if arrows is not None else [])
     axes = [f"y{k + 2}" for k in range(len(plots or ()))]
     markers = [
         {"mode": "markers", "marker": {"color": "black", "size": 8}, "showlegend": False, "yaxis": y, "xaxis": "x2"}
@@ -364,6 +371,55 @@ def result_view(
         _add_plot_axes(layout, plots, axes, spatial=geometry.dimension == 3)
     config = {**CONFIG, "scrollZoom": True}
     return View({"data": data, "layout": layout, "frames": frames, "config": config})
+
+
+@dataclass(frozen=True)
+class _Arrows:
+    """Reaction forces as arrows: at each joint of ``names``, its force (``forces``: one (N, dimension) history per
+    joint) scaled by ``scale`` from the joint's point, with a head of two barbs."""
+
+    geometry: Geometry
+    names: list[str]
+    forces: list[np.ndarray]
+    scale: float
+    STYLE = {"mode": "lines", "name": "reaction forces", "line": {"color": "#d62728", "width": 4}, "hoverinfo": "skip"}
+
+    @classmethod
+    def of(cls, geometry: Geometry, columns: dict, names: list[str]) -> _Arrows:
+        axes = "xyz"[: geometry.dimension]
+        joints = dict(geometry.joints)
+        missing = [n for n in names if n not in joints or any(f"{n}.F{a}" not in columns for a in axes)]
+        if missing:
+            have = sorted({c.split(".")[0] for c in columns if c.endswith(".Fx")})
+            raise ValueError(
+                f"no reaction of {', '.join(missing)} in the result (reactions of: {', '.join(have) or 'none'}; "
+                "a dynamic or inverse-dynamic result has them)"
+            )
+        forces = [np.column_stack([columns[f"{n}.F{a}"] for a in axes]) for n in names]
+        largest = max(float(np.max(np.linalg.norm(f, axis=1))) for f in forces)
+        return cls(geometry, list(names), forces, 0.4 * geometry.scale / largest if largest > 0 else 0.0)
+
+    def at(self, q: np.ndarray, index: int) -> list[np.ndarray]:
+        """Each arrow (shaft and head) at the coordinates q of output ``index``, as polylines."""
+        dim, joints, lines = self.geometry.dimension, dict(self.geometry.joints), []
+        for name, force in zip(self.names, self.forces, strict=True):
+            base = joints[name].at(q, dim)
+            arrow = self.scale * force[index]
+            length = float(np.linalg.norm(arrow))
+            if length == 0.0:
+                continue
+            along = arrow / length
+            across = np.array([-along[1], along[0]]) if dim == 2 else np.cross(along, _least_parallel(along))
+            across = across / np.linalg.norm(across)
+            tip, head = base + arrow, 0.25 * min(length, 0.1 * self.geometry.scale)
+            lines.append(np.vstack([base, tip]))
+            lines.append(np.vstack([tip - head * (along - 0.5 * across), tip, tip - head * (along + 0.5 * across)]))
+        return lines or [np.full((1, dim), np.nan)]
+
+
+def _least_parallel(direction: np.ndarray) -> np.ndarray:
+    """The global axis least parallel to ``direction`` (an arrow head's plane in 3D)."""
+    return np.eye(3)[int(np.argmin(np.abs(direction)))]
 
 
 def _add_plot_axes(layout: dict, plots: list[str], axes: list[str], spatial: bool) -> None:

@@ -10,8 +10,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
-from solutions.animation import frame_indices
+from solutions.animation import frame_indices, mechanism_geometry
 from solutions.assembly import build_system
 from solutions.cli import main
 from solutions.dynamics import forward_dynamics
@@ -265,3 +266,37 @@ def euler_parameters_rotation(p) -> np.ndarray:
     e0, e = p[0] / np.linalg.norm(p), np.asarray(p[1:], dtype=float) / np.linalg.norm(p)
     tilde = np.array([[0.0, -e[2], e[1]], [e[2], 0.0, -e[0]], [-e[1], e[0], 0.0]])
     return (2 * e0**2 - 1) * np.eye(3) + 2 * (np.outer(e, e) + e0 * tilde)
+
+
+def test_a_reaction_is_an_arrow_at_its_joint_along_the_force():
+    """A pendulum hanging at rest: the pin holds it up with m g (closed form), so the arrow at O points straight
+    up from the pin, as long as the longest of the run (0.4 of the mechanism's size), its head at the tip; a
+    swinging double pendulum's arrows follow the reaction columns frame by frame."""
+    data = yaml.safe_load((MODELS / "simple_pendulum.yaml").read_text())
+    data["model"]["bodies"][0].update(location=[0.0, -0.5], orientation=-np.pi / 2)
+    data["model"]["joints"][0]["location"] = [0.0, 0.0]
+    model = load_model(data)
+    system, q0, qd0 = build_system(model)
+    result = forward_dynamics(system, q0, qd0, 0.2, 10)
+    assert np.allclose(result.reactions["O.Fy"], 9.81, rtol=1e-6)
+    assert np.allclose(result.reactions["O.Fx"], 0.0, atol=1e-8)
+    view = result_view(model, system, result, reactions=["O"])
+    arrows = next(t for t in view.figure["data"] if t.get("name") == "reaction forces")
+    scale = mechanism_geometry(model).scale
+    assert arrows["x"][:2] == pytest.approx([0.0, 0.0], abs=1e-5)
+    assert arrows["y"][:2] == pytest.approx([0.0, 0.4 * scale], rel=1e-4, abs=1e-5)
+    assert arrows["y"][3:6][1] == pytest.approx(0.4 * scale, rel=1e-4) and max(arrows["y"][3:6]) == arrows["y"][4]
+
+    model = load_model(MODELS / "double_pendulum.yaml")
+    system, q0, qd0 = build_system(model)
+    result = forward_dynamics(system, q0, qd0, 1.0, 20)
+    view = result_view(model, system, result, reactions=["A"])
+    index = len(view.figure["data"]) - 2  # the arrows: after the mechanism's parts, before the ground
+    force = np.array([result.reactions["A.Fx"], result.reactions["A.Fy"]]).T
+    largest = np.linalg.norm(force, axis=1).max()
+    for k, frame in enumerate(view.figure["frames"]):
+        shaft = frame["data"][index]
+        tip = np.array([shaft["x"][1] - shaft["x"][0], shaft["y"][1] - shaft["y"][0]])
+        assert tip == pytest.approx(0.4 * mechanism_geometry(model).scale * force[k] / largest, abs=2e-5)
+    with pytest.raises(ValueError, match="no reaction of Z in the result \\(reactions of: A, O;"):
+        result_view(model, system, result, reactions=["Z"])
