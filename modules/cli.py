@@ -377,7 +377,9 @@ def build_parser(others: bool = True) -> argparse.ArgumentParser:
     view.add_argument("model", help="model file (YAML or JSON)")
     view.add_argument("result", nargs="?", help="a result of this model written by mbd run --out (CSV or NPZ)")
     view.add_argument("--out", help="the page to write (default: MODEL's name .html, here)")
-    view.add_argument("--trace", nargs="+", metavar="JOINT", help="joints whose paths are drawn (with a result)")
+    view.add_argument(
+        "--trace", nargs="+", metavar="NAME", help="joints or points (mbd run --point LABEL) whose paths are drawn"
+    )
     view.add_argument("--plot", nargs="+", metavar="COLUMN", help="result columns plotted against time beside it")
     view.add_argument(
         "--reactions", nargs="+", metavar="JOINT", help="joints whose reaction forces are arrows (a dynamic result)"

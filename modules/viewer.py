@@ -289,7 +289,8 @@ def result_view(
     reactions: list[str] | None = None,
     title: str | None = None,
 ) -> View:
-    """The mechanism moving over a result, with the paths of the joints ``trace``, the result columns ``plots``
+    """The mechanism moving over a result, with the paths of the joints or points ``trace`` (a point: a label of
+    the result's ``LABEL.x`` ... columns, ``mbd run --point``), the result columns ``plots``
     (CSV names, e.g. ``["crank.phi", "slider.x_d"]``) against time, a marker at the shown time, and the reaction
     force of each joint of ``reactions`` as an arrow at the joint (what the joint exerts on its second body,
     eq. 5.41/10.20, ``JOINT.Fx`` ...; the longest arrow of the run 0.4 of the mechanism's size).
@@ -313,11 +314,15 @@ def result_view(
     states = result.q[shown]
     parts, low, high = _fit(geometry, states)
     kind = _kind(geometry.dimension)
-    paths = joint_paths(geometry, result, trace) if trace else {}
+    points = _traced_points(geometry, columns, trace or [])
+    paths = {**(joint_paths(geometry, result, [n for n in trace if n not in points]) if trace else {}), **points}
 
     def frame_data(k: int) -> list[dict]:
         index = shown[k]
         data = [_trace(kind, c) for c in parts.at(result.q[index])]
+        if points:
+            at = np.array([path[index] for path in points.values()])
+            data.append(_trace(kind, _joined([at], geometry.dimension, parts.unit)))
         if arrows is not None:
             data.append(_trace(kind, _joined(arrows.at(result.q[index], index), geometry.dimension, parts.unit)))
         data += [
@@ -326,7 +331,8 @@ def result_view(
         return data
 
     first = frame_data(0)
-    styles = _style(geometry) + ([_Arrows.STYLE] if arrows is not None else [])
+    styles = _style(geometry) + ([_point_style(list(points))] if points else [])
+    styles += [_Arrows.STYLE] if arrows is not None else []
     axes = [f"y{k + 2}" for k in range(len(plots or ()))]
     markers = [
         {"mode": "markers", "marker": {"color": "black", "size": 8}, "showlegend": False, "yaxis": y, "xaxis": "x2"}
@@ -372,6 +378,35 @@ def result_view(
         _add_plot_axes(layout, plots, axes, spatial=geometry.dimension == 3)
     config = {**CONFIG, "scrollZoom": True}
     return View({"data": data, "layout": layout, "frames": frames, "config": config})
+
+
+def _traced_points(geometry: Geometry, columns: dict, names: list[str]) -> dict[str, np.ndarray]:
+    """The paths of the body points among ``names`` that the result has as columns (``LABEL.x``, ``LABEL.y``
+    (, ``LABEL.z``): ``mbd run --point``, ``points=`` of an analysis): {label: (N, dimension)}. The other names
+    must be joints (``animation.joint_paths``); a name that is neither is refused with both lists."""
+    axes = "xyz"[: geometry.dimension]
+    labels = sorted({c.rsplit(".", 1)[0] for c in columns if c.endswith(".x")} - {n for n, _ in geometry.joints})
+    labels = [n for n in labels if all(f"{n}.{a}" in columns for a in axes) and n not in geometry.body_names]
+    joints = {n for n, a in geometry.joints if a.body >= 0}
+    unknown = [n for n in names if n not in labels and n not in joints]
+    if unknown:
+        raise ValueError(
+            f"nothing to trace named {', '.join(unknown)} (joints: {', '.join(sorted(joints))}; "
+            f"points of the result: {', '.join(labels) or 'none (mbd run --point)'})"
+        )
+    return {n: np.column_stack([columns[f"{n}.{a}"] for a in axes]) for n in names if n in labels}
+
+
+def _point_style(labels: list[str]) -> dict:
+    return {
+        "mode": "markers+text",
+        "name": "points",
+        "text": labels,
+        "textposition": "bottom right",
+        "marker": {"color": "#9467bd", "size": 7, "symbol": "diamond"},
+        "hovertemplate": "%{text}<extra></extra>",
+        "showlegend": False,
+    }
 
 
 @dataclass(frozen=True)

@@ -127,7 +127,7 @@ def test_refusals_name_what_exists(slider_crank):
     model, system, result = slider_crank
     with pytest.raises(ValueError, match=r"no result column nope \(columns: t, crank.x"):
         result_view(model, system, result, plots=["nope"])
-    with pytest.raises(ValueError, match=r"no moving joint named Z"):
+    with pytest.raises(ValueError, match=r"nothing to trace named Z \(joints: A, B, O, S; points of the result: none"):
         result_view(model, system, result, trace=["Z"])
     other = load_model(MODELS / "double_pendulum.yaml")
     with pytest.raises(ValueError, match="the result has 9 coordinates, the model 'double-pendulum' has 6"):
@@ -300,3 +300,27 @@ def test_a_reaction_is_an_arrow_at_its_joint_along_the_force():
         assert tip == pytest.approx(0.4 * mechanism_geometry(model).scale * force[k] / largest, abs=2e-5)
     with pytest.raises(ValueError, match="no reaction of Z in the result \\(reactions of: A, O;"):
         result_view(model, system, result, reactions=["Z"])
+
+
+def test_a_chosen_body_point_is_traced_where_the_closed_form_puts_it():
+    """A point of the slider-crank's rod, 5 cm off its centre across it (``points=``, ``mbd run --point``):
+    its path and its marker in every frame at r_rod + A(phi_rod) s' with the rod placed by the closed form
+    (A on the crank circle, B at x_B = r cos(theta) + sqrt(l^2 - r^2 sin^2(theta)), theta = 10 t)."""
+    model = load_model(MODELS / "slider_crank.yaml")
+    system, q0, _ = build_system(model)
+    result = kinematic_analysis(system, q0, 2 * math.pi / 10, 40, points={"M": (1, np.array([0.0, 0.05]))})
+    view = result_view(model, system, result, trace=["M", "A"])
+    theta = 10.0 * result.t
+    a = np.column_stack([0.1 * np.cos(theta), 0.1 * np.sin(theta)])
+    b = np.column_stack([a[:, 0] + np.sqrt(0.3**2 - a[:, 1] ** 2), np.zeros_like(theta)])
+    phi = np.arctan2(b[:, 1] - a[:, 1], b[:, 0] - a[:, 0])
+    exact = (a + b) / 2 + 0.05 * np.column_stack([-np.sin(phi), np.cos(phi)])
+    path = next(t for t in view.figure["data"] if t.get("name") == "path of M")
+    assert np.column_stack([path["x"], path["y"]]) == pytest.approx(exact, abs=1e-5)
+    index = next(k for k, t in enumerate(view.figure["data"]) if t.get("name") == "points")
+    for frame in view.figure["frames"]:
+        k = int(np.argmin(np.abs(result.t - float(frame["name"]))))
+        marker = frame["data"][index]
+        assert [marker["x"][0], marker["y"][0]] == pytest.approx(exact[k], abs=1e-5)
+    with pytest.raises(ValueError, match="nothing to trace named Q \\(joints: A, B, O, S; points of the result: M\\)"):
+        result_view(model, system, result, trace=["Q"])
