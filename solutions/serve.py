@@ -48,7 +48,8 @@ RUNNING = 2
 KEPT_JOBS = 50
 """Finished jobs kept (with their files); the oldest go first."""
 DOWNLOADS = ("result.csv", "result.npz")
-JOB_ID = re.compile(r"[0-9a-f]{32}")
+NAME = re.compile(r"[A-Za-z0-9_.]{1,100}")
+"""A result column or a joint or point name asked for in the view."""
 EXAMPLE_NAME = re.compile(r"[a-z0-9_]{1,64}")
 PATH_IN_MESSAGE = re.compile(r"^(?:[^:\n]*: )?((?:model|simulation)(?:\.[A-Za-z_][A-Za-z0-9_]*|\[\d+\])*)")
 LINE_IN_MESSAGE = re.compile(r"line (\d+), column \d+")
@@ -113,8 +114,9 @@ def check(text: str, folder: Path) -> dict:
 
 
 def run(text: str, folder: Path) -> dict:
-    """The analysis the model asks for, with its ``simulation`` settings: the result's view, its summary, and
-    the result written as ``result.csv`` and ``result.npz`` in the job's folder."""
+    """The analysis the model asks for, with its ``simulation`` settings: the result's view (with the columns
+    ``plots`` and the paths of the joints or points ``trace`` that the server wrote to ``view.json``), its summary,
+    and the result written as ``result.csv`` and ``result.npz`` in the job's folder."""
     from .analysis import run_analysis
     from .assembly import build_system
     from .cli import run_summary
@@ -135,7 +137,11 @@ def run(text: str, folder: Path) -> dict:
     for name in DOWNLOADS:
         write_result(result, folder / name)
     summary = run_summary(result)
-    view = result_view(model, system, result, title=f"{model.name}: {summary.split(':')[0]}")
+    asked = json.loads((folder / "view.json").read_text()) if (folder / "view.json").is_file() else {}
+    try:
+        view = result_view(model, system, result, title=f"{model.name}: {summary.split(':')[0]}", **asked)
+    except ValueError as err:  # a column or a joint the result has not: the message lists those it has
+        return {"ok": False, "errors": [{"line": None, "message": f"the view: {err}"}]}
     return {"ok": True, "summary": summary, "figure": view.figure, "files": list(DOWNLOADS)}
 
 
@@ -193,7 +199,7 @@ def read_reply(folder: Path, kind: str) -> dict:
 async def in_child(kind: str, text: str, folder: Path, seconds: float) -> dict:
     """One check or run in a child process under limits, its reply read by ``read_reply``; a child that fails,
     is killed or outlives ``seconds`` is one line of error."""
-    command = [sys.executable, "-I", "-m", "solutions.serve", "child", kind]
+    command = [sys.executable, "-s", "-P", "-m", "solutions.serve", "child", kind]  # not the job folder, no user site
     root = str(Path(__file__).resolve().parents[1])
     environment = {"PATH": os.environ.get("PATH", "/usr/bin:/bin"), "HOME": str(folder), "PYTHONPATH": root}
     environment.update(OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MPLBACKEND="Agg", XDG_CACHE_HOME=str(folder))
@@ -241,9 +247,11 @@ class Server:
         finally:
             shutil.rmtree(folder, ignore_errors=True)
 
-    def start(self, text: str) -> str:
+    def start(self, text: str, view: dict[str, list[str]]) -> str:
+        """A run of the model text, its view with ``view`` ({"plots": [...], "trace": [...]}); its job's id."""
         ident = secrets.token_hex(16)
         self.jobs[ident] = job = Job(self.folder())
+        (job.folder / "view.json").write_text(json.dumps(view))
         asyncio.get_running_loop().create_task(self._run(job, text))
         self._forget()
         return ident
@@ -319,9 +327,14 @@ def application(server: Server):
 
     class Run(Base):
         def post(self):
+            view = {key: self.get_argument(key, "").replace(",", " ").split() for key in ("plots", "trace")}
+            if any(len(names) > 10 or not all(NAME.fullmatch(n) for n in names) for names in view.values()):
+                self.set_status(400)
+                return self.finish({"ok": False, "errors": [{"line": None, "message": "plots and trace: at most 10 "
+                                    "names of letters, digits, '_' and '.', such as slider.x or A"}]})  # fmt: skip
             text = self.model_text()
             if text is not None:
-                self.finish({"job": server.start(text)})
+                self.finish({"job": server.start(text, {k: v for k, v in view.items() if v})})
 
     class State(Base):
         def get(self, ident: str):
@@ -415,6 +428,8 @@ button,select{margin:2px}
   <div><select id="examples"><option value="">an example model</option></select>
   <input type="file" id="upload" accept=".yaml,.yml,.json">
   <button id="run">Run</button> <span id="state"></span></div>
+  <div><input id="plots" size="28" placeholder="plot columns, e.g. slider.x crank.phi_d">
+  <input id="trace" size="22" placeholder="trace joints or points, e.g. A"></div>
   <textarea id="model" spellcheck="false" placeholder="a model file (YAML): open an example or a file"></textarea>
   <div id="errors"></div>
 </div>
@@ -460,7 +475,10 @@ $("upload").addEventListener("change", () => {
 });
 $("run").addEventListener("click", async () => {
   $("summary").textContent = ""; $("downloads").textContent = ""; Plotly.purge("result");
-  const job = (await (await fetch("/run", {method: "POST", body: $("model").value})).json()).job;
+  const asked = new URLSearchParams({plots: $("plots").value, trace: $("trace").value});
+  const started = await (await fetch("/run?" + asked, {method: "POST", body: $("model").value})).json();
+  if (!started.job) { $("errors").textContent = errorsText(started); return; }
+  const job = started.job;
   while (true) {
     const status = await (await fetch("/jobs/" + job)).json();
     $("state").textContent = status.state + ", " + status.seconds + " s";

@@ -75,7 +75,7 @@ class Server:
 
 @pytest.fixture(scope="module")
 def server():
-    running = Server("--run-seconds", "3")
+    running = Server()
     yield running
     running.stop()
 
@@ -111,10 +111,24 @@ def test_what_is_not_the_servers_is_refused_and_the_server_stays(server):
 def test_a_run_that_outlives_its_limit_is_stopped_with_one_line(server):
     simulation = "end_time: 0.6283185307179586, output_steps: 200"
     endless = SLIDER_CRANK.replace(simulation, "end_time: 1.0e+6, output_steps: 1000000")
-    status = server.finished(server.json("/run", endless)["job"])
+    strict = Server("--run-seconds", "3")
+    try:
+        status = strict.finished(strict.json("/run", endless)["job"])
+    finally:
+        strict.stop()
     assert status["state"] == "failed" and status["errors"][0]["message"] in (
         "stopped after 3 s (the server's limit)",
         "the run failed: out of memory or time",
     )
     failed = server.finished(server.json("/run", SLIDER_CRANK.replace("body2: crank", "body2: crankk"))["job"])
     assert failed["state"] == "failed" and "crankk" in failed["errors"][0]["message"]
+
+
+def test_a_run_is_viewed_with_the_plots_and_traces_asked_for(server):
+    done = server.finished(server.json("/run?plots=slider.x&trace=A", SLIDER_CRANK)["job"])
+    names = {t.get("name") for t in done["figure"]["data"]}
+    assert done["state"] == "done" and {"slider.x", "path of A"} <= names
+    wrong = server.finished(server.json("/run?plots=slider.q", SLIDER_CRANK)["job"])
+    assert wrong["errors"][0]["message"].startswith("the view: no result column slider.q (columns: t, crank.x,")
+    status, reply = server.ask("/run?trace=../etc", SLIDER_CRANK)
+    assert status == 400 and b"at most 10 names" in reply

@@ -246,8 +246,12 @@ def test_mbd_serve_opens_edits_runs_and_downloads_offline(browser, tmp_path):
         page.screenshot(path=str(ARTIFACTS / "mbd-serve-error.png"))
         page.fill("#model", text)
         page.wait_for_function("document.getElementById('errors').textContent === ''")
+        page.fill("#plots", "slider.x crank.phi_d")
+        page.fill("#trace", "A")
         page.click("#run")
         page.wait_for_selector("#downloads a", timeout=60_000)
+        names = page.evaluate("document.getElementById('result').data.map(t => t.name)")
+        assert {"slider.x", "crank.phi_d", "path of A"} <= set(names), names
         assert "kinematic analysis: 201 output points" in page.inner_text("#summary")
         before, after = play_each_view_page(page, page.locator("#result"))
         assert before == "t = 0.000 s" and after != before
