@@ -45,6 +45,10 @@ REPLY_BYTES = 20 * 2**20
 """The largest reply read from a child (a view of a long run is a few hundred kB)."""
 RUNNING = 2
 """Runs at the same time; more wait their turn."""
+WAITING = 20
+"""Runs running or waiting at most; a run asked beyond is refused (503), as is a check beyond ``CHECKING``."""
+CHECKING = 4
+"""Checks at the same time (one per editor being typed in); more wait their turn."""
 KEPT_JOBS = 50
 """Finished jobs kept (with their files); the oldest go first."""
 DOWNLOADS = ("result.csv", "result.npz")
@@ -236,16 +240,29 @@ class Server:
         self.work, self.run_seconds, self.examples = work, run_seconds, examples
         self.jobs: dict[str, Job] = {}
         self.running = asyncio.Semaphore(RUNNING)
+        self.checking = asyncio.Semaphore(CHECKING)
+        self.checks_waiting = 0
 
     def folder(self) -> Path:
         return Path(tempfile.mkdtemp(prefix="job-", dir=self.work))
 
+    def busy(self, kind: str) -> bool:
+        """Whether a new check or run would wait beyond the server's bounds (``WAITING``)."""
+        if kind == "check":
+            return self.checks_waiting >= WAITING
+        return sum(job.finished is None for job in self.jobs.values()) >= WAITING
+
     async def check(self, text: str) -> dict:
-        folder = self.folder()
+        self.checks_waiting += 1
         try:
-            return await in_child("check", text, folder, CHECK_SECONDS)
+            async with self.checking:
+                folder = self.folder()
+                try:
+                    return await in_child("check", text, folder, CHECK_SECONDS)
+                finally:
+                    shutil.rmtree(folder, ignore_errors=True)
         finally:
-            shutil.rmtree(folder, ignore_errors=True)
+            self.checks_waiting -= 1
 
     def start(self, text: str, view: dict[str, list[str]]) -> str:
         """A run of the model text, its view with ``view`` ({"plots": [...], "trace": [...]}); its job's id."""
@@ -292,6 +309,13 @@ def application(server: Server):
             self.set_header("Cache-Control", "no-store")
             self.set_header("X-Content-Type-Options", "nosniff")
 
+        def refused_when_busy(self, kind: str) -> bool:
+            if not server.busy(kind):
+                return False
+            self.set_status(503)
+            self.finish({"ok": False, "errors": [{"line": None, "message": f"the server is busy: {kind} later"}]})
+            return True
+
         def model_text(self) -> str | None:
             body = self.request.body
             if len(body) > MAX_MODEL_BYTES:
@@ -322,7 +346,7 @@ def application(server: Server):
     class Check(Base):
         async def post(self):
             text = self.model_text()
-            if text is not None:
+            if text is not None and not self.refused_when_busy("check"):
                 self.finish(await server.check(text))
 
     class Run(Base):
@@ -333,7 +357,7 @@ def application(server: Server):
                 return self.finish({"ok": False, "errors": [{"line": None, "message": "plots and trace: at most 10 "
                                     "names of letters, digits, '_' and '.', such as slider.x or A"}]})  # fmt: skip
             text = self.model_text()
-            if text is not None:
+            if text is not None and not self.refused_when_busy("run"):
                 self.finish({"job": server.start(text, {k: v for k, v in view.items() if v})})
 
     class State(Base):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import subprocess
 import sys
 from pathlib import Path
 
@@ -79,3 +80,34 @@ def test_viewer_cost_measures_the_player_and_the_viewer_of_one_result():
 
     cells = [c.strip() for c in viewer_cost.measure("slider_crank", 3, 1).strip("|").split("|")]
     assert cells[0] == "slider_crank" and all(float(c) > 0 for c in cells[1:])
+
+
+def test_process_accounting_reads_version_3_records_and_sums_them(tmp_path):
+    """benchmarks/process_accounting.py: records written as the kernel writes them (struct acct_v3, comp_t times)
+    read back and summed by name; where this process may turn accounting on, a real child is found in it."""
+    from benchmarks import process_accounting as acct
+
+    def record(pid, ppid, name, ticks):  # comp_t: 13-bit mantissa, base-8 exponent
+        exponent = 0
+        while ticks >= 1 << 13:
+            ticks, exponent = ticks >> 3, exponent + 1
+        return acct.RECORD.pack(0, 3, 0, 0, 0, 0, pid, ppid, 0, 250.0, ticks | exponent << 13, 0, 0, 0, 0, 0, 0, 0,
+                                name.encode())  # fmt: skip
+
+    path = tmp_path / "acct"
+    path.write_bytes(record(10, 1, "python", 150) + record(11, 10, "python", 16384) + record(12, 10, "bwrap", 7))
+    processes = acct.read(str(path))
+    expected = [(10, "python", 1.5), (11, "python", 163.84), (12, "bwrap", 0.07)]
+    assert [(p.pid, p.name, p.cpu) for p in processes] == expected
+    assert processes[0].seconds == 2.5
+    text = acct.table(processes)
+    assert text.startswith("3 processes, 165 CPU s") and "| python | 2 | 165.3 |" in text
+    try:
+        acct.accounting(str(tmp_path / "real"))
+    except OSError:
+        return  # not root, or no accounting in this kernel
+    try:
+        subprocess.run([sys.executable, "-c", "sum(range(3_000_000))"], check=True)
+    finally:
+        acct.accounting(None)
+    assert any(p.name.startswith("python") and p.cpu > 0 for p in acct.read(str(tmp_path / "real")))

@@ -132,3 +132,35 @@ def test_a_run_is_viewed_with_the_plots_and_traces_asked_for(server):
     assert wrong["errors"][0]["message"].startswith("the view: no result column slider.q (columns: t, crank.x,")
     status, reply = server.ask("/run?trace=../etc", SLIDER_CRANK)
     assert status == 400 and b"at most 10 names" in reply
+
+
+def test_the_server_bounds_what_runs_at_once(tmp_path, monkeypatch):
+    """At most CHECKING checks and RUNNING runs at a time (each a child process); beyond WAITING runs a new one is
+    refused until some finish. The children replaced by a short sleep that counts them."""
+    import asyncio
+
+    from solutions import serve
+
+    now = {"running": 0, "most": 0}
+
+    async def child(kind, text, folder, seconds):
+        now["running"] += 1
+        now["most"] = max(now["most"], now["running"])
+        await asyncio.sleep(0.02)
+        now["running"] -= 1
+        return {"ok": True}
+
+    monkeypatch.setattr(serve, "in_child", child)
+
+    async def scenario():
+        server = serve.Server(tmp_path)
+        await asyncio.gather(*(server.check("model: {}") for _ in range(3 * serve.CHECKING)))
+        checks, now["most"] = now["most"], 0
+        jobs = [server.start("model: {}", {}) for _ in range(serve.WAITING)]
+        full = server.busy("run")
+        while any(server.status(j)["state"] != "done" for j in jobs):
+            await asyncio.sleep(0.02)
+        return checks, now["most"], full, server.busy("run")
+
+    checks, runs, full, later = asyncio.run(scenario())
+    assert (checks, runs, full, later) == (serve.CHECKING, serve.RUNNING, True, False)
