@@ -315,7 +315,8 @@ def result_view(
     parts, low, high = _fit(geometry, states)
     kind = _kind(geometry.dimension)
     points = _traced_points(geometry, columns, trace or [])
-    paths = {**(joint_paths(geometry, result, [n for n in trace if n not in points]) if trace else {}), **points}
+    joints = [name for name in trace or () if name not in points]
+    paths = {**(joint_paths(geometry, result, joints) if joints else {}), **points}
 
     def frame_data(k: int) -> list[dict]:
         index = shown[k]
