@@ -14,7 +14,7 @@ from .assembly import System
 from .diagnostics import AnalysisError, rank_report
 from .dynamics import forward_dynamics
 from .kinematics import assemble, kinematic_analysis, point_columns
-from .results import Result
+from .results import Progress, Result
 from .settings import ANALYSES, Settings
 
 
@@ -25,10 +25,16 @@ def choose_analysis(system: System, q: np.ndarray) -> str:
 
 
 def run_analysis(
-    system: System, q0: np.ndarray, qd0: np.ndarray, settings: Settings, points: dict | None = None
+    system: System,
+    q0: np.ndarray,
+    qd0: np.ndarray,
+    settings: Settings,
+    points: dict | None = None,
+    progress: Progress | None = None,
 ) -> Result:
     """The analysis ``settings.analysis`` names, over ``settings.t_end`` in ``settings.steps`` output intervals;
-    ``points`` {label: (body index, body-frame point)} become result columns in every analysis."""
+    ``points`` {label: (body index, body-frame point)} become result columns in every analysis; ``progress(t)``
+    is told each output time reached (kinematic and forward dynamics on the numpy engine)."""
     analysis = settings.analysis
     if analysis == "auto":
         q, _ = assemble(system, q0)
@@ -36,10 +42,12 @@ def run_analysis(
     if analysis == "kinematic":
         return kinematic_analysis(
             system, q0, settings.t_end, settings.steps, points=points, through_singular=settings.through_singular,
-            engine=settings.engine,
+            engine=settings.engine, progress=progress,
         )  # fmt: skip
     if analysis == "dynamic":
-        return forward_dynamics(system, q0, qd0, settings.t_end, settings.steps, settings=settings, points=points)
+        return forward_dynamics(
+            system, q0, qd0, settings.t_end, settings.steps, settings=settings, points=points, progress=progress
+        )
     if analysis == "inverse":
         from .inverse_dynamics import inverse_dynamics
 

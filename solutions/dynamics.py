@@ -53,7 +53,7 @@ from .kinematics import assemble, point_columns
 from .linalg import RANK_EPS, numerical_rank
 from .mass_matrix import mass_at, mass_matrix
 from .reactions import REDUNDANT_NOTE, driver_efforts, joint_reactions, minimum_norm_multipliers
-from .results import DynamicInfo, Result
+from .results import DynamicInfo, Progress, Result
 from .settings import (
     DEFAULT_ACCURACY,
     DRIFT_LIMIT,
@@ -216,6 +216,7 @@ def forward_dynamics(
     masses: np.ndarray | None = None,
     forces: ForceModel | None = None,
     points: dict[str, tuple[int, np.ndarray]] | None = None,
+    progress: Progress | None = None,
     **options,
 ) -> Result:
     """The motion on the output grid t = 0, t_end/steps, ..., t_end, by the stages of ``run_plan``.
@@ -230,6 +231,8 @@ def forward_dynamics(
     masses, forces : the mass matrix and ``ForceModel`` to use instead of the model's (e.g. with user
         forces added: ``build_forces(model).add(f)``)
     points : optional {label: (body index, body-frame point)} to add as result columns
+    progress : optional ``progress(t)``, called with each output time as the numpy engine reaches it (a long
+        run's progress, e.g. in ``mbd serve``); the compiled engine's loop reports nothing until it returns
 
     Returns
     -------
@@ -248,7 +251,7 @@ def forward_dynamics(
     start = _time.perf_counter()
     named = {k: v for k, v in (("formulation", formulation), ("integrator", integrator)) if v is not None}
     settings = (settings or Settings()).replace(t_end=t_end, steps=steps, **named, **options)
-    run = Run(system, q0, qd0, settings, masses, forces, points)
+    run = Run(system, q0, qd0, settings, masses, forces, points, progress)
     try:
         result = run_plan(run, settings.formulation, settings.integrator)
     except SingularStop as stop:  # ``auto`` met a singular position: the formulation that passes it, from the start
@@ -276,6 +279,7 @@ class Run:
     masses: np.ndarray | None
     forces: ForceModel | None
     points: dict | None
+    progress: Progress | None = None
 
 
 @dataclass(frozen=True)
@@ -456,6 +460,8 @@ def integrate_motion(run: Run, plan: Plan, equations, guard: Guard, z0: np.ndarr
         q, qd = equations.formulation.coordinates(t, y)
         guard.check_drift(q, t)
         history.store(k, q, qd, *equations.formulation.accelerations(q, qd, t), energies)
+        if run.progress is not None:
+            run.progress(float(t))
 
     def after_step(t: float, z: np.ndarray) -> np.ndarray | None:
         corrected = equations.after_step(t, z)

@@ -23,7 +23,7 @@ from .assembly import System
 from .diagnostics import AnalysisError, involved_joints, rank_report, singular_joints
 from .linalg import lu_factor, lu_solve, minimum_norm_solution, numerical_rank, solve
 from .planar.bodies import rotation, rotation_derivative
-from .results import KinematicInfo, Result
+from .results import KinematicInfo, Progress, Result
 from .rotation_matrices import euler_rotation, g_entries
 
 LOCKUP_CONDITION = 1e10
@@ -270,6 +270,7 @@ def kinematic_analysis(
     points: dict[str, tuple[int, np.ndarray]] | None = None,
     through_singular: bool = False,
     engine: str = "numpy",
+    progress: Progress | None = None,
 ) -> Result:
     """Positions, velocities and accelerations on the grid t = 0, t_end/steps, ..., t_end.
 
@@ -286,6 +287,7 @@ def kinematic_analysis(
     engine : ``numpy`` (the default), ``compiled``, ``auto`` or ``cached``, as for ``forward_dynamics``
         (``settings.Settings``); the compiled steps stop at the first step where anything unusual happens
         and the numpy steps go on from there (``_compiled_steps``); ``info['chosen']`` says which and why
+    progress : optional ``progress(t)``, called with each output time the numpy steps reach
 
     Each step: q predicted from the last step and corrected by Newton-Raphson (eq. 4.8, ``position_step``),
     a stop at a singular position (``check_branch``), q' (eq. 4.5) and q'' (eq. 4.6) with Psi_q's LU factors.
@@ -312,6 +314,8 @@ def kinematic_analysis(
         check_branch(march, k, q, lu)
         qd = velocity_analysis(system, q, march.times[k], lu)
         march.Q[k], march.QD[k], march.QDD[k] = q, qd, acceleration_analysis(system, q, qd, march.times[k], lu)
+        if progress is not None:
+            progress(float(march.times[k]))
     info: KinematicInfo = {
         "analysis": "kinematic",
         "steps": steps,

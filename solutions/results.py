@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TypedDict
 
@@ -9,6 +10,9 @@ import numpy as np
 
 DERIVED = ("residual.", "energy.")
 """Prefixes of the result columns every dynamic run makes (constraint residuals, energies), not coordinates."""
+
+Progress = Callable[[float], None]
+"""``progress(t)``: told each output time t an analysis has reached (``forward_dynamics``, ``kinematic_analysis``)."""
 
 
 class Info(TypedDict, total=False):

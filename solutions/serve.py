@@ -52,6 +52,10 @@ CHECKING = 4
 KEPT_JOBS = 50
 """Finished jobs kept (with their files); the oldest go first."""
 DOWNLOADS = ("result.csv", "result.npz")
+PROGRESS = "progress"
+"""The file a running child keeps its progress in: the fraction of t_end reached, as a decimal number."""
+PROGRESS_SECONDS = 0.25
+"""How often at most a child rewrites its progress file."""
 NAME = re.compile(r"[A-Za-z0-9_.]{1,100}")
 """A result column or a joint or point name asked for in the view."""
 EXAMPLE_NAME = re.compile(r"[a-z0-9_]{1,64}")
@@ -135,7 +139,7 @@ def run(text: str, folder: Path) -> dict:
         model = load_model(path)
         system, q0, qd0 = build_system(model)
         settings = read_settings(model.simulation)
-        result = run_analysis(system, q0, qd0, settings)
+        result = run_analysis(system, q0, qd0, settings, progress=progress_file(folder, settings.t_end))
     except (ModelError, ValueError, ArithmeticError, RuntimeError) as err:
         return _refusal(text, err)
     for name in DOWNLOADS:
@@ -147,6 +151,33 @@ def run(text: str, folder: Path) -> dict:
     except ValueError as err:  # a column or a joint the result has not: the message lists those it has
         return {"ok": False, "errors": [{"line": None, "message": f"the view: {err}"}]}
     return {"ok": True, "summary": summary, "figure": view.figure, "files": list(DOWNLOADS)}
+
+
+def progress_file(folder: Path, t_end: float):
+    """``progress(t)`` for a run: the fraction t / t_end written to the job's ``PROGRESS`` file (whole or not at
+    all: written beside it, then renamed), at most every ``PROGRESS_SECONDS``."""
+    last = [0.0]
+
+    def progress(t: float) -> None:
+        now = time.monotonic()
+        if now - last[0] < PROGRESS_SECONDS or t_end <= 0:
+            return
+        last[0] = now
+        (folder / f"{PROGRESS}.tmp").write_text(f"{min(max(t / t_end, 0.0), 1.0):.4f}")
+        os.replace(folder / f"{PROGRESS}.tmp", folder / PROGRESS)
+
+    return progress
+
+
+def read_progress(folder: Path) -> float | None:
+    """A running child's progress (``progress_file``), read bounded and checked: a number from 0 to 1, or None."""
+    try:
+        with open(folder / PROGRESS, "rb") as f:
+            text = f.read(16).decode("ascii")
+        value = float(text) if re.fullmatch(r"[01]\.\d{4}", text) else None
+    except (OSError, UnicodeDecodeError, ValueError):
+        return None
+    return value if value is not None and 0.0 <= value <= 1.0 else None
 
 
 def child(kind: str) -> int:
@@ -289,7 +320,10 @@ class Server:
         if job is None:
             return None
         end = job.finished if job.finished is not None else time.monotonic()
-        return {"state": job.state, "seconds": round(end - job.started, 1), **job.reply}
+        status = {"state": job.state, "seconds": round(end - job.started, 1), **job.reply}
+        if job.state == "running":
+            status["fraction"] = read_progress(job.folder)
+        return status
 
     def example_names(self) -> list[str]:
         """The model files of the ``--examples`` folder offered in the page (their names without .yaml)."""
@@ -505,7 +539,8 @@ $("run").addEventListener("click", async () => {
   const job = started.job;
   while (true) {
     const status = await (await fetch("/jobs/" + job)).json();
-    $("state").textContent = status.state + ", " + status.seconds + " s";
+    const reached = typeof status.fraction === "number" ? Math.round(100 * status.fraction) + " % of t_end, " : "";
+    $("state").textContent = status.state + ", " + reached + status.seconds + " s";
     if (status.state === "done") {
       $("summary").textContent = status.summary;
       $("downloads").innerHTML = status.files.map(

@@ -366,3 +366,23 @@ def test_null_space_bases_are_the_complete_qrs_last_columns(shape):
     bases = null_space_bases(stack)
     assert bases.shape == (shape[0], shape[2], shape[2] - shape[1])
     assert np.allclose(bases, q_full[:, :, shape[1] :], rtol=0.0, atol=1e-13)
+
+
+def test_progress_is_told_every_output_time_in_order():
+    """``progress(t)`` (what ``mbd serve`` shows of a run): each output time once, in order, up to t_end; the same
+    from ``run_analysis`` for a kinematic model."""
+    from solutions.analysis import run_analysis
+    from solutions.kinematics import kinematic_analysis
+    from solutions.settings import Settings
+
+    system, q0, qd0 = build_system(load_model("course/models/double_pendulum.yaml"))
+    told: list[float] = []
+    result = forward_dynamics(system, q0, qd0, 0.5, 20, integrator="DOP853", engine="numpy", progress=told.append)
+    assert told == list(result.t) and told[-1] == 0.5
+    crank, q0, qd0 = build_system(load_model("course/models/slider_crank.yaml"))
+    kinematic: list[float] = []
+    result = kinematic_analysis(crank, q0, 0.3, 6, progress=kinematic.append)
+    assert kinematic == list(result.t)
+    through: list[float] = []
+    run_analysis(crank, q0, qd0, Settings(analysis="kinematic", t_end=0.3, steps=6), progress=through.append)
+    assert through == kinematic

@@ -13,10 +13,11 @@ from pathlib import Path
 
 import pytest
 
-from solutions.serve import MAX_MODEL_BYTES, line_of
+from solutions.serve import MAX_MODEL_BYTES, PROGRESS, line_of, progress_file, read_progress
 
 REPO = Path(__file__).resolve().parents[2]
 SLIDER_CRANK = (REPO / "course" / "models" / "slider_crank.yaml").read_text()
+DOUBLE_PENDULUM = (REPO / "course" / "models" / "double_pendulum.yaml").read_text()
 
 
 def test_an_error_is_placed_at_the_line_of_its_key_or_of_the_yaml_parser():
@@ -164,3 +165,44 @@ def test_the_server_bounds_what_runs_at_once(tmp_path, monkeypatch):
 
     checks, runs, full, later = asyncio.run(scenario())
     assert (checks, runs, full, later) == (serve.CHECKING, serve.RUNNING, True, False)
+
+
+def test_a_run_tells_its_progress_as_the_fraction_of_its_end_time(tmp_path, monkeypatch):
+    """The child's progress file holds t / t_end (at most every PROGRESS_SECONDS); the server reads it bounded and
+    takes only a number from 0 to 1."""
+    clock = iter([100.0, 100.1, 100.4, 101.0])
+    monkeypatch.setattr("solutions.serve.time.monotonic", lambda: next(clock))
+    progress = progress_file(tmp_path, 2.0)
+    progress(0.5)
+    assert read_progress(tmp_path) == 0.25
+    progress(1.0)  # 0.1 s later: not written
+    assert read_progress(tmp_path) == 0.25
+    progress(1.5)
+    assert read_progress(tmp_path) == 0.75
+    progress(2.0)
+    assert read_progress(tmp_path) == 1.0
+    for written in ("2.0000", "-0.5000", "nan", "0.5" * 1000, "\xff\xfe", ""):
+        (tmp_path / PROGRESS).write_text(written, errors="surrogateescape")
+        assert read_progress(tmp_path) is None, written
+    (tmp_path / PROGRESS).unlink()
+    assert read_progress(tmp_path) is None
+
+
+def test_a_long_run_reports_how_far_it_is_while_it_runs(server):
+    """A numpy run of 12 s of motion at tight tolerance: while it runs, its status gives a growing fraction of
+    t_end; once done, none."""
+    slow = DOUBLE_PENDULUM.replace("end_time: 2.0", "end_time: 12.0").replace("output_steps: 200", "output_steps: 600")
+    slow = slow.replace("atol: 1.0e-12}", "atol: 1.0e-12, engine: numpy}")
+    job = server.json("/run", slow)["job"]
+    seen = []
+    for _ in range(600):
+        status = server.json(f"/jobs/{job}")
+        if status["state"] != "running":
+            if status["state"] == "done":
+                break
+            assert status["state"] == "queued", status
+        elif status["fraction"] is not None:
+            seen.append(status["fraction"])
+        subprocess.run(["sleep", "0.1"], check=True)
+    assert status["state"] == "done" and "fraction" not in status, status.get("errors")
+    assert len(seen) >= 2 and seen == sorted(seen) and 0.0 <= seen[0] < seen[-1] <= 1.0, seen
