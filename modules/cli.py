@@ -206,8 +206,9 @@ def command_view(args) -> int:
         try:
             title = f"{model.name}: {Path(args.result).name}"
             view = result_view(
-                model, system, result, trace=args.trace, plots=args.plot, reactions=args.reactions, title=title
-            )
+                model, system, result, trace=args.trace, plots=args.plot, reactions=args.reactions,
+                forces=args.forces, title=title,
+            )  # fmt: skip
         except ValueError as err:
             raise UsageError(f"{args.result}: {err}") from None
     else:
@@ -383,6 +384,9 @@ def build_parser(others: bool = True) -> argparse.ArgumentParser:
     view.add_argument("--plot", nargs="+", metavar="COLUMN", help="result columns plotted against time beside it")
     view.add_argument(
         "--reactions", nargs="+", metavar="JOINT", help="joints whose reaction forces are arrows (a dynamic result)"
+    )
+    view.add_argument(
+        "--forces", nargs="+", metavar="ELEMENT", help="force elements (point forces, spring-dampers) drawn as arrows"
     )
     view.set_defaults(handler=command_view)
     add_sweep(sub)

@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from .animation import (
+    Attachment,
     Geometry,
     body_frame,
     body_lines,
@@ -287,19 +288,23 @@ def result_view(
     trace: list[str] | None = None,
     plots: list[str] | None = None,
     reactions: list[str] | None = None,
+    forces: list[str] | None = None,
     title: str | None = None,
 ) -> View:
     """The mechanism moving over a result, with the paths of the joints or points ``trace`` (a point: a label of
     the result's ``LABEL.x`` ... columns, ``mbd run --point``), the result columns ``plots``
     (CSV names, e.g. ``["crank.phi", "slider.x_d"]``) against time, a marker at the shown time, and the reaction
     force of each joint of ``reactions`` as an arrow at the joint (what the joint exerts on its second body,
-    eq. 5.41/10.20, ``JOINT.Fx`` ...; the longest arrow of the run 0.4 of the mechanism's size).
+    eq. 5.41/10.20, ``JOINT.Fx`` ...; the longest arrow of the run 0.4 of the mechanism's size), and the force of
+    each force element of ``forces`` (a point force; a spring-damper-actuator, on both its bodies) as an arrow at
+    its point (scaled on their own).
 
     Raises
     ------
     ValueError
         A result of another model, an unknown joint in ``trace`` or an unknown column in ``plots``, or a joint of
-        ``reactions`` that the result has no reaction of (a dynamic or inverse-dynamic result has them).
+        ``reactions`` that the result has no reaction of (a dynamic or inverse-dynamic result has them), a name of
+        ``forces`` that is no force element with a point (torques have none).
     """
     n = system.coordinates_per_body * len(model.bodies)
     if result.q.ndim != 2 or result.q.shape[1] != n:
@@ -309,7 +314,8 @@ def result_view(
     if unknown:
         raise ValueError(f"no result column {', '.join(unknown)} (columns: {', '.join(columns)})")
     geometry = mechanism_geometry(model)
-    arrows = _Arrows.of(geometry, columns, reactions) if reactions else None
+    arrows = [_Arrows.reactions(geometry, columns, reactions)] if reactions else []
+    arrows += [_Arrows.applied(geometry, model, result, forces)] if forces else []
     shown = frame_indices(result.t, max_frames)
     states = result.q[shown]
     parts, low, high = _fit(geometry, states)
@@ -324,8 +330,8 @@ def result_view(
         if points:
             at = np.array([path[index] for path in points.values()])
             data.append(_trace(kind, _joined([at], geometry.dimension, parts.unit)))
-        if arrows is not None:
-            data.append(_trace(kind, _joined(arrows.at(result.q[index], index), geometry.dimension, parts.unit)))
+        for arrow in arrows:
+            data.append(_trace(kind, _joined(arrow.at(result.q[index], index), geometry.dimension, parts.unit)))
         data += [
             _trace("scatter", {"x": [float(result.t[index])], "y": [float(columns[c][index])]}) for c in plots or ()
         ]
@@ -333,7 +339,7 @@ def result_view(
 
     first = frame_data(0)
     styles = _style(geometry) + ([_point_style(list(points))] if points else [])
-    styles += [_Arrows.STYLE] if arrows is not None else []
+    styles += [arrow.style for arrow in arrows]
     axes = [f"y{k + 2}" for k in range(len(plots or ()))]
     markers = [
         {"mode": "markers", "marker": {"color": "black", "size": 8}, "showlegend": False, "yaxis": y, "xaxis": "x2"}
@@ -412,17 +418,26 @@ def _point_style(labels: list[str]) -> dict:
 
 @dataclass(frozen=True)
 class _Arrows:
-    """Reaction forces as arrows: at each joint of ``names``, its force (``forces``: one (N, dimension) history per
-    joint) scaled by ``scale`` from the joint's point, with a head of two barbs."""
+    """Forces as arrows: each one a history of where it acts (``places``: one callable of (q, output index) per
+    arrow) and of the force (``forces``: one (N, dimension) history per arrow), scaled by ``scale`` from its
+    point, with a head of two barbs; ``style`` the trace's (its name in the legend and its colour)."""
 
     geometry: Geometry
-    names: list[str]
+    places: list
     forces: list[np.ndarray]
     scale: float
-    STYLE = {"mode": "lines", "name": "reaction forces", "line": {"color": "#d62728", "width": 4}, "hoverinfo": "skip"}
+    style: dict
 
     @classmethod
-    def of(cls, geometry: Geometry, columns: dict, names: list[str]) -> _Arrows:
+    def make(cls, geometry: Geometry, places: list, forces: list[np.ndarray], name: str, color: str) -> _Arrows:
+        """Arrows whose longest one over the run is 0.4 of the mechanism's size."""
+        largest = max((float(np.max(np.linalg.norm(f, axis=1))) for f in forces), default=0.0)
+        style = {"mode": "lines", "name": name, "line": {"color": color, "width": 4}, "hoverinfo": "skip"}
+        return cls(geometry, places, forces, 0.4 * geometry.scale / largest if largest > 0 else 0.0, style)
+
+    @classmethod
+    def reactions(cls, geometry: Geometry, columns: dict, names: list[str]) -> _Arrows:
+        """The reaction force of each joint of ``names`` at the joint (columns ``JOINT.Fx`` ...)."""
         axes = "xyz"[: geometry.dimension]
         joints = dict(geometry.joints)
         missing = [n for n in names if n not in joints or any(f"{n}.F{a}" not in columns for a in axes)]
@@ -433,14 +448,39 @@ class _Arrows:
                 "a dynamic or inverse-dynamic result has them)"
             )
         forces = [np.column_stack([columns[f"{n}.F{a}"] for a in axes]) for n in names]
-        largest = max(float(np.max(np.linalg.norm(f, axis=1))) for f in forces)
-        return cls(geometry, list(names), forces, 0.4 * geometry.scale / largest if largest > 0 else 0.0)
+        places = [lambda q, index, at=joints[n]: at.at(q, geometry.dimension) for n in names]
+        return cls.make(geometry, places, forces, "reaction forces", "#d62728")
+
+    @classmethod
+    def applied(cls, geometry: Geometry, model: Model, result: Result, names: list[str]) -> _Arrows:
+        """The applied force of each force element of ``names`` (a point force, a spring-damper-actuator), on each
+        body it acts on, at its point: the translational rows of the element's generalized forces Q_i
+        (eq. 5.13; ``generalized_forces``), evaluated at every output time."""
+        from .generalized_forces import build_forces
+
+        elements = {e.name: e for e in build_forces(model).elements}
+        drawn = {name: e for name, e in elements.items() if hasattr(e, "point") or hasattr(e, "si")}
+        unknown = [n for n in names if n not in drawn]
+        if unknown:
+            turning = [n for n in unknown if n in elements]
+            why = f" ({', '.join(turning)}: a torque, with no point to draw it at)" if turning else ""
+            raise ValueError(
+                f"no force element {', '.join(unknown)} to draw{why} (forces with a point: "
+                f"{', '.join(sorted(drawn)) or 'none'})"
+            )
+        places, forces = [], []
+        for name in names:
+            for body, point, history in _element_forces(drawn[name], result, geometry.dimension):
+                at = Attachment(body, point)
+                places.append(lambda q, index, at=at: at.at(q, geometry.dimension))
+                forces.append(history)
+        return cls.make(geometry, places, forces, "applied forces", "#2ca02c")
 
     def at(self, q: np.ndarray, index: int) -> list[np.ndarray]:
         """Each arrow (shaft and head) at the coordinates q of output ``index``, as polylines."""
-        dim, joints, lines = self.geometry.dimension, dict(self.geometry.joints), []
-        for name, force in zip(self.names, self.forces, strict=True):
-            base = joints[name].at(q, dim)
+        dim, lines = self.geometry.dimension, []
+        for place, force in zip(self.places, self.forces, strict=True):
+            base = place(q, index)
             arrow = self.scale * force[index]
             length = float(np.linalg.norm(arrow))
             if length == 0.0:
@@ -452,6 +492,31 @@ class _Arrows:
             lines.append(np.vstack([base, tip]))
             lines.append(np.vstack([tip - head * (along - 0.5 * across), tip, tip - head * (along + 0.5 * across)]))
         return lines or [np.full((1, dim), np.nan)]
+
+
+def _element_forces(element, result: Result, dimension: int) -> list[tuple[int, np.ndarray, np.ndarray]]:
+    """(body, body-frame point, (N, dimension) force history) of each body a force element acts on with a point:
+    F_i = Q_i[:dimension], the force rows of its generalized force on body i (its moment rows aside)."""
+    width = 3 if dimension == 2 else 7
+    ground = np.zeros(width) if dimension == 2 else np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+
+    def block(x: np.ndarray, body: int, rest: np.ndarray) -> np.ndarray:
+        return rest if body < 0 else x[width * body : width * body + width]
+
+    sides = [(element.i, getattr(element, "point", getattr(element, "si", None)), 0)]
+    if hasattr(element, "sj"):
+        sides.append((element.j, element.sj, 1))
+    histories = {side: np.zeros((result.t.size, dimension)) for _, _, side in sides}
+    still = np.zeros(width)
+    for k, t in enumerate(result.t):
+        q, qd = result.q[k], result.qd[k]
+        pair = element.forces(
+            block(q, element.i, ground), block(q, element.j, ground), block(qd, element.i, still),
+            block(qd, element.j, still), float(t),
+        )  # fmt: skip
+        for _, _, side in sides:
+            histories[side][k] = pair[side][:dimension]
+    return [(body, np.asarray(point, dtype=float), histories[side]) for body, point, side in sides if body >= 0]
 
 
 def _least_parallel(direction: np.ndarray) -> np.ndarray:

@@ -57,7 +57,10 @@ PROGRESS = "progress"
 PROGRESS_SECONDS = 0.25
 """How often at most a child rewrites its progress file."""
 NAME = re.compile(r"[A-Za-z0-9_.]{1,100}")
-"""A result column or a joint or point name asked for in the view."""
+"""A result column or a joint, point or force element name asked for in the view."""
+VIEW_KEYS = ("plots", "trace", "reactions", "forces")
+"""What a run's view may be asked (``viewer.result_view``'s keywords): result columns plotted, joints or points
+traced, joints whose reaction forces and force elements whose forces are arrows."""
 EXAMPLE_NAME = re.compile(r"[a-z0-9_]{1,64}")
 PATH_IN_MESSAGE = re.compile(r"^(?:[^:\n]*: )?((?:model|simulation)(?:\.[A-Za-z_][A-Za-z0-9_]*|\[\d+\])*)")
 LINE_IN_MESSAGE = re.compile(r"line (\d+), column \d+")
@@ -123,7 +126,8 @@ def check(text: str, folder: Path) -> dict:
 
 def run(text: str, folder: Path) -> dict:
     """The analysis the model asks for, with its ``simulation`` settings: the result's view (with the columns
-    ``plots`` and the paths of the joints or points ``trace`` that the server wrote to ``view.json``), its summary,
+    ``plots``, the paths of the joints or points ``trace`` and the arrows of ``reactions`` and ``forces`` that the
+    server wrote to ``view.json``), its summary,
     and the result written as ``result.csv`` and ``result.npz`` in the job's folder."""
     from .analysis import run_analysis
     from .assembly import build_system
@@ -296,7 +300,8 @@ class Server:
             self.checks_waiting -= 1
 
     def start(self, text: str, view: dict[str, list[str]]) -> str:
-        """A run of the model text, its view with ``view`` ({"plots": [...], "trace": [...]}); its job's id."""
+        """A run of the model text, its view with ``view`` ({"plots": [...], "trace": [...], ...}: ``VIEW_KEYS``);
+        its job's id."""
         ident = secrets.token_hex(16)
         self.jobs[ident] = job = Job(self.folder())
         (job.folder / "view.json").write_text(json.dumps(view))
@@ -385,11 +390,12 @@ def application(server: Server):
 
     class Run(Base):
         def post(self):
-            view = {key: self.get_argument(key, "").replace(",", " ").split() for key in ("plots", "trace")}
+            view = {key: self.get_argument(key, "").replace(",", " ").split() for key in VIEW_KEYS}
             if any(len(names) > 10 or not all(NAME.fullmatch(n) for n in names) for names in view.values()):
                 self.set_status(400)
-                return self.finish({"ok": False, "errors": [{"line": None, "message": "plots and trace: at most 10 "
-                                    "names of letters, digits, '_' and '.', such as slider.x or A"}]})  # fmt: skip
+                return self.finish({"ok": False, "errors": [{"line": None, "message": "plots, trace, reactions and "
+                                    "forces: at most 10 names of letters, digits, '_' and '.', such as slider.x or "
+                                    "A"}]})  # fmt: skip
             text = self.model_text()
             if text is not None and not self.refused_when_busy("run"):
                 self.finish({"job": server.start(text, {k: v for k, v in view.items() if v})})
@@ -488,6 +494,8 @@ button,select{margin:2px}
   <button id="run">Run</button> <span id="state"></span></div>
   <div><input id="plots" size="28" placeholder="plot columns, e.g. slider.x crank.phi_d">
   <input id="trace" size="22" placeholder="trace joints or points, e.g. A"></div>
+  <div><input id="reactions" size="28" placeholder="reaction arrows at joints, e.g. A B">
+  <input id="forces" size="22" placeholder="force arrows, e.g. spring"></div>
   <textarea id="model" spellcheck="false" placeholder="a model file (YAML): open an example or a file"></textarea>
   <div id="errors"></div>
 </div>
@@ -533,7 +541,8 @@ $("upload").addEventListener("change", () => {
 });
 $("run").addEventListener("click", async () => {
   $("summary").textContent = ""; $("downloads").textContent = ""; Plotly.purge("result");
-  const asked = new URLSearchParams({plots: $("plots").value, trace: $("trace").value});
+  const asked = new URLSearchParams(
+    {plots: $("plots").value, trace: $("trace").value, reactions: $("reactions").value, forces: $("forces").value});
   const started = await (await fetch("/run?" + asked, {method: "POST", body: $("model").value})).json();
   if (!started.job) { $("errors").textContent = errorsText(started); return; }
   const job = started.job;

@@ -5,6 +5,7 @@ download): tests/solutions/test_viewer_browser.py."""
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 import urllib.error
@@ -133,6 +134,11 @@ def test_a_run_is_viewed_with_the_plots_and_traces_asked_for(server):
     assert wrong["errors"][0]["message"].startswith("the view: no result column slider.q (columns: t, crank.x,")
     status, reply = server.ask("/run?trace=../etc", SLIDER_CRANK)
     assert status == 400 and b"at most 10 names" in reply
+    four_bar = (REPO / "course" / "models" / "four_bar_spring.yaml").read_text()
+    short = re.sub(r"end_time: [0-9.e+-]+", "end_time: 0.2", four_bar)
+    arrows = server.finished(server.json("/run?reactions=A,B&forces=spring", short)["job"])
+    names = {t.get("name") for t in arrows["figure"]["data"]}
+    assert arrows["state"] == "done" and {"reaction forces", "applied forces"} <= names, arrows.get("errors")
 
 
 def test_the_server_bounds_what_runs_at_once(tmp_path, monkeypatch):

@@ -221,8 +221,16 @@ def test_mbd_view_of_a_result_and_its_refusals(tmp_path, capsys):
     assert main(["view", str(MODELS / "slider_crank.yaml"), str(npz), "--out", str(out), "--plot", "P.x"]) == 0
     figure = strict_json(out.read_text().split("const figure = ", 1)[1].split(";\nPlotly.newPlot", 1)[0])
     assert next(t for t in figure["data"] if t.get("name") == "P.x")["y"]
+    spring = tmp_path / "spring.csv"  # a dynamic run: its reactions and its spring-damper-actuator as arrows
+    four_bar = str(MODELS / "four_bar_spring.yaml")
+    assert main(["run", four_bar, "--t-end", "0.2", "--steps", "10", "--out", str(spring)]) == 0
+    arrows = ["--reactions", "A", "B", "--forces", "spring"]
+    assert main(["view", four_bar, str(spring), "--out", str(out), *arrows]) == 0
+    figure = strict_json(out.read_text().split("const figure = ", 1)[1].split(";\nPlotly.newPlot", 1)[0])
+    assert {"reaction forces", "applied forces"} <= {t.get("name") for t in figure["data"]}
     capsys.readouterr()
     for argv, said in (
+        (["view", four_bar, str(spring), "--out", str(out), "--forces", "nope"], "no force element nope to draw"),
         (
             ["view", str(MODELS / "slider_crank.yaml"), str(csv), "--out", str(out), "--plot", "nope"],
             "no result column",
@@ -324,3 +332,90 @@ def test_a_chosen_body_point_is_traced_where_the_closed_form_puts_it():
         assert [marker["x"][0], marker["y"][0]] == pytest.approx(exact[k], abs=1e-5)
     with pytest.raises(ValueError, match="nothing to trace named Q \\(joints: A, B, O, S; points of the result: M\\)"):
         result_view(model, system, result, trace=["Q"])
+
+
+def _arrow_shafts(view: View, name: str) -> list[list[np.ndarray]]:
+    """Per frame, the shafts (base, tip) of the arrows of the trace ``name``: every second polyline (a shaft, then
+    its head)."""
+    index = next(k for k, t in enumerate(view.figure["data"]) if t.get("name") == name)
+    shafts = []
+    for frame in view.figure["frames"]:
+        trace = frame["data"][index]
+        axes = [a for a in "xyz" if a in trace]
+        coordinates = np.array([[np.nan if v is None else v for v in trace[a]] for a in axes]).T
+        lines = np.split(coordinates, np.flatnonzero(np.isnan(coordinates[:, 0])))
+        lines = [line[~np.isnan(line[:, 0])] for line in lines]
+        shafts.append([line for line in lines if len(line)][0::2])
+    return shafts
+
+
+def test_an_applied_force_is_an_arrow_at_its_point_along_the_force():
+    """Force elements of ``forces`` are arrows at their points, on the bodies they act on: the four-bar's spring
+    (no damper, no actuator) pulls the rocker's point towards the ground anchor with k (l - l0) (l from the points
+    placed by r + A s' of the file's placement); the carriage's spring (spatial) pushes it back with -k x along the
+    rail; a constant point force is an arrow of fixed length 0.4 of the mechanism's size; a torque has no point."""
+    data = yaml.safe_load((MODELS / "four_bar_spring.yaml").read_text())
+    spring = data["model"]["spring_dampers"][0]
+    spring.pop("actuator")
+    spring["damping_coefficient"] = 0.0
+    model = load_model(data)
+    system, q0, qd0 = build_system(model)
+    result = forward_dynamics(system, q0, qd0, 0.5, 10)
+    rocker = [b.name for b in model.bodies].index("rocker")
+    start = np.array(data["model"]["bodies"][rocker]["location"], dtype=float)
+    angle = float(data["model"]["bodies"][rocker].get("orientation", 0.0))
+
+    def rotation(phi: float) -> np.ndarray:
+        return np.array([[math.cos(phi), -math.sin(phi)], [math.sin(phi), math.cos(phi)]])
+
+    local = rotation(angle).T @ (np.array(spring["point2"]) - start)  # the rocker's point in its own frame
+    anchor = np.array(spring["point1"])
+    view = result_view(model, system, result, forces=["spring"])
+    forces, points = [], []
+    for q in result.q:
+        point = q[3 * rocker : 3 * rocker + 2] + rotation(q[3 * rocker + 2]) @ local
+        length = float(np.linalg.norm(point - anchor))
+        forces.append(-spring["spring_coefficient"] * (length - spring["free_length"]) * (point - anchor) / length)
+        points.append(point)
+    scale = 0.4 * mechanism_geometry(model).scale / max(np.linalg.norm(f) for f in forces)
+    for k, shafts in enumerate(_arrow_shafts(view, "applied forces")):
+        (shaft,) = shafts  # the rocker's end only: the ground's is not drawn
+        assert shaft[0] == pytest.approx(points[k], abs=2e-5)
+        assert shaft[1] - shaft[0] == pytest.approx(scale * forces[k], abs=2e-5)
+
+    model = load_model(MODELS / "carriage_pendulum.yaml")
+    system, q0, qd0 = build_system(model)
+    result = forward_dynamics(system, q0, qd0, 0.5, 10)
+    x = result.q[:, 0]
+    view = result_view(model, system, result, forces=["spring"])
+    scale = 0.4 * mechanism_geometry(model).scale / np.max(np.abs(50.0 * x))
+    for k, shafts in enumerate(_arrow_shafts(view, "applied forces")):
+        if x[k] == 0.0:  # the spring at its free length: no force, no arrow
+            assert shafts == []
+            continue
+        (shaft,) = shafts
+        assert shaft[0] == pytest.approx(result.q[k, :3], abs=2e-5)
+        assert shaft[1] - shaft[0] == pytest.approx([-scale * 50.0 * x[k], 0.0, 0.0], abs=2e-5)
+
+    data = yaml.safe_load((MODELS / "simple_pendulum.yaml").read_text())
+    push = {"name": "push", "type": "force", "body": "rod", "point": [1.0, 0.0], "value": [2.0, 0.0]}
+    data["model"]["forces"] = [push]
+    model = load_model(data)
+    system, q0, qd0 = build_system(model)
+    result = forward_dynamics(system, q0, qd0, 0.5, 10)
+    view = result_view(model, system, result, forces=["push"])
+    tip = np.array([1.0, 0.0])  # the rod's end: its centre at (0.5, 0) + A(phi) (0.5, 0)
+    for k, (shaft,) in enumerate(_arrow_shafts(view, "applied forces")):
+        x, y, phi = result.q[k]
+        assert shaft[0] == pytest.approx([x + 0.5 * math.cos(phi), y + 0.5 * math.sin(phi)], abs=2e-5)
+        assert shaft[1] - shaft[0] == pytest.approx([0.4 * mechanism_geometry(model).scale, 0.0], abs=2e-5)
+    assert tip == pytest.approx(_arrow_shafts(view, "applied forces")[0][0][0], abs=2e-5)
+
+    model = load_model(MODELS / "andrews.yaml")
+    system, q0, qd0 = build_system(model)
+    result = forward_dynamics(system, q0, qd0, 0.001, 2)
+    torque = r"no force element mom to draw \(mom: a torque, with no point to draw it at\)"
+    with pytest.raises(ValueError, match=torque):
+        result_view(model, system, result, forces=["mom"])
+    with pytest.raises(ValueError, match=r"no force element gas to draw \(forces with a point: spring\)"):
+        result_view(model, system, result, forces=["gas"])
