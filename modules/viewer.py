@@ -271,10 +271,20 @@ def page(figure_json: str, title: str, text: str = "") -> str:
     return (
         f'<!DOCTYPE html>\n<html><head><meta charset="utf-8"><title>{escape(title)}</title>\n'
         f"<script>{plotly_js()}</script></head>\n"
-        f'<body style="margin:0;font-family:sans-serif"><div id="view" style="width:100%"></div>\n{below}'
-        "<script>const figure = " + figure_json.replace("</", "<\\/") + ";\n"
-        'Plotly.newPlot("view", figure).then(() => Plotly.addFrames("view", figure.frames || []));\n'
-        "</script></body></html>\n"
+        f'<body style="margin:0;font-family:sans-serif">{embedded(figure_json, "view")}\n{below}</body></html>\n'
+    )
+
+
+def embedded(figure_json: str, ident: str) -> str:
+    """The HTML that draws one figure into a page that has plotly.js: its element ``ident`` and the script that
+    plays it. The figure's JSON is written so that nothing in it can end the script (``<``, ``>`` and ``&`` as
+    JSON escapes)."""
+    safe = figure_json.replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
+    name = json.dumps(ident)
+    return (
+        f'<div id="{escape(ident)}" class="mbd-view" style="width:100%"></div>\n'
+        f"<script>(() => {{\nconst figure = {safe};\n"
+        f"Plotly.newPlot({name}, figure).then(() => Plotly.addFrames({name}, figure.frames || []));\n}})();</script>"
     )
 
 

@@ -167,3 +167,28 @@ def test_the_notes_build_as_html_with_an_anchor_for_every_equation(tmp_path):
     assert "<html" in page and 'id="eq-3.17"' in page and "\\tag{3.17}" in page
     links = index.read_text()
     assert all(f'#eq-{label}"' in links for path in few for label in equation_labels(path))
+
+
+def test_a_chapters_mechanism_views_play_in_its_page(tmp_path):
+    """A view output (``solutions.viewer``, which nbconvert does not draw) becomes the page's own player: an element
+    and a script per view, plotly.js once from beside the pages (offline); nothing in a figure's text ends the
+    script. (Played in chromium: tests/solutions/test_viewer_browser.py.)"""
+    import nbformat
+
+    from course.notes.build import PLOTLY, build_notes
+    from solutions.io.model import load_model
+    from solutions.viewer import MIME, model_view
+
+    view = model_view(load_model(REPO / "course" / "models" / "slider_crank.yaml"), title="a </script><b> & title")
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [nbformat.v4.new_markdown_cell("# Chapter 9. Views"), nbformat.v4.new_code_cell("view")]
+    nb.cells[1].outputs = [nbformat.v4.new_output("display_data", data=view._repr_mimebundle_())] * 2
+    path = tmp_path / "ch09_views.ipynb"
+    nbformat.write(nb, path)
+    build_notes(tmp_path / "out", execute=False, paths=[path])
+    page = (tmp_path / "out" / "ch09_views.html").read_text()
+    assert page.count(f'<script src="{PLOTLY}"></script>') == 1 and (tmp_path / "out" / PLOTLY).stat().st_size > 1e6
+    assert page.count('class="mbd-view"') == 2 and 'id="ch09_views-view-2"' in page
+    assert "a </script>" not in page and "a \\u003c/script\\u003e\\u003cb\\u003e \\u0026 title" in page
+    kept = nbformat.read(path, as_version=4).cells[1].outputs[0]["data"]
+    assert MIME in kept and "text/html" not in kept  # the chapter's file as it was

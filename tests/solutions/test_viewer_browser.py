@@ -210,6 +210,29 @@ def test_the_page_of_mbd_view_draws_and_plays_offline(browser, tmp_path):
     assert outside == []
 
 
+def test_the_notes_chapter_plays_its_view_offline(browser, tmp_path):
+    """Chapter 5 of the notes built as `mbd notes` builds it (executed): its view of the slider-crank's turn, with
+    the reaction arrows, plays on the first click in the page opened from disk. The view asks nothing of the
+    network; the notes' template still asks a CDN for MathJax and require.js (issue 27 makes the math offline),
+    and the view plays without them."""
+    from course.notes.build import build_notes
+
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    outside: list[str] = []
+    chapter = REPO / "course" / "notes" / "ch05_planar_dynamics.ipynb"
+    build_notes(tmp_path, paths=[chapter])
+    page = open_page(browser, (tmp_path / "ch05_planar_dynamics.html").as_uri(), outside)
+    view = page.locator(".mbd-view").first
+    view.scroll_into_view_if_needed()
+    times = play_each_view_page(page, view)
+    box = view.bounding_box()
+    page.screenshot(path=str(ARTIFACTS / "notes-ch05-view.png"))
+    assert box and box["width"] > 300 and box["height"] > 300, box
+    assert times[0] == "t = 0.000 s" and times[1] != times[0]
+    template = ("https://cdnjs.cloudflare.com/ajax/libs/require.js/", "https://cdnjs.cloudflare.com/ajax/libs/mathjax/")
+    assert [url for url in outside if not url.startswith(template)] == []
+
+
 def play_each_view_page(page, view=None) -> tuple[str, str]:
     """The slider's time before and after one click on Play of the page's first view (or of ``view``)."""
     view = view or page
