@@ -105,6 +105,19 @@ def _autograde_steps() -> list:
 
 c.Autograde.autograde_preprocessors = _autograde_steps()
 
+
+def _feedback_steps() -> list:
+    """nbgrader's feedback steps, then the notebook's mechanism views given a player in the page, each checked
+    first: the student's code made them (``autograder/views.py``)."""
+    from nbgrader.converters.generate_feedback import GenerateFeedback
+
+    from autograder.views import views_in_feedback
+
+    return [*GenerateFeedback.class_traits()["preprocessors"].default(), views_in_feedback()]
+
+
+c.GenerateFeedback.preprocessors = _feedback_steps()
+
 # Any stderr output, even a warning, zeroes a test cell: drop the harmless ones before grading.
 c.IgnorePattern.enabled = True
 c.IgnorePattern.pattern = r"(?:\w*Warning: |Matplotlib is building the font cache|warnings\.warn\()"

@@ -287,6 +287,23 @@ def embedded(figure_json: str, ident: str) -> str:
     )
 
 
+def embed_views(nb, loader: str, prefix: str, check=None) -> int:
+    """Give every view output of an executed notebook (``MIME``, which nbconvert's HTML does not draw) an HTML form
+    that plays it in the page (``embedded``), ``loader`` (what brings plotly.js) before the first; ``check(figure)``
+    (optional) returns the figure to draw, or None to leave the output as it is. Returns the number of views."""
+    count = 0
+    for cell in nb.cells:
+        for output in cell.get("outputs", []) if cell.cell_type == "code" else []:
+            figure = output.get("data", {}).get(MIME)
+            figure = check(figure) if check is not None and figure is not None else figure
+            if figure is None:
+                continue
+            count += 1
+            html = embedded(json.dumps(figure, separators=(",", ":")), f"{prefix}-{count}")
+            output["data"]["text/html"] = (loader + "\n" if count == 1 else "") + html
+    return count
+
+
 def result_view(
     model: Model,
     system,
@@ -606,19 +623,21 @@ def polyline_view(frames: list[list[np.ndarray]], labels: list[str], title: str,
 
 
 def animations_enabled() -> bool:
-    """False while nbgrader grades or validates (it sets ``NBGRADER_EXECUTION``) or when ``MBD_ANIMATIONS=0``."""
-    return not os.environ.get("NBGRADER_EXECUTION") and os.environ.get("MBD_ANIMATIONS", "1") != "0"
+    """False while nbgrader validates a notebook (``NBGRADER_EXECUTION=validate``: only the grades count) or when
+    ``MBD_ANIMATIONS=0``; while nbgrader autogrades, the views are made for the feedback page
+    (``autograder/views.py``)."""
+    return os.environ.get("NBGRADER_EXECUTION") != "validate" and os.environ.get("MBD_ANIMATIONS", "1") != "0"
 
 
 def notebook_animation(model: Model, system, result: Result, max_frames: int = 60, **options) -> View | None:
     """The mechanism moving over a result, for a notebook cell (JupyterLab 4, classic Notebook, VS Code).
 
-    Returns a ``View`` (the cell shows it: a slider, play/pause, a spatial scene turned with the mouse), or
-    None, after printing one line, while nbgrader grades (grading does not look at it).
+    Returns a ``View`` (the cell shows it: a slider, play/pause, a spatial scene turned with the mouse; nbgrader's
+    feedback page plays it too), or None, after printing one line, while nbgrader validates (``animations_enabled``).
     ``options`` go to ``result_view`` (``speed``, ``trace``, ``plots``, ``title``).
     """
     if not animations_enabled():
-        print("(animation skipped while grading)")
+        print("(animation skipped while nbgrader validates)")
         return None
     return result_view(model, system, result, max_frames=max_frames, **options)
 

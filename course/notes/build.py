@@ -4,8 +4,8 @@
 
 Each chapter becomes ``chNN_name.html``; every labelled equation gets an anchor ``#eq-N.M``, and
 ``index.html`` lists the chapters and every equation with a link to it. A chapter's mechanism views play in its
-page (``embed_views``: plotly.js beside the pages, nothing fetched from the network). Chapters are executed in
-``course/notes`` (their code reads ``../models``), headless, before export.
+page (``solutions.viewer.embed_views``: plotly.js beside the pages, nothing fetched from the network). Chapters
+are executed in ``course/notes`` (their code reads ``../models``), headless, before export.
 """
 
 from __future__ import annotations
@@ -48,26 +48,6 @@ PLOTLY = "plotly.min.js"
 """plotly.js, written once beside the pages that show a mechanism's motion (the plotly wheel's copy: offline)."""
 
 
-def embed_views(nb, stem: str) -> int:
-    """Give every mechanism view of the executed chapter (``solutions.viewer``'s Plotly output, which nbconvert
-    does not draw) an HTML form that plays it in the page; the first loads ``PLOTLY`` from beside the page.
-    Returns the number of views."""
-    import json
-
-    from solutions.viewer import MIME, embedded
-
-    count = 0
-    for cell in nb.cells:
-        for output in cell.get("outputs", []) if cell.cell_type == "code" else []:
-            if MIME not in output.get("data", {}):
-                continue
-            count += 1
-            figure = json.dumps(output["data"][MIME], separators=(",", ":"))
-            loader = f'<script src="{PLOTLY}"></script>\n' if count == 1 else ""
-            output["data"]["text/html"] = loader + embedded(figure, f"{stem}-view-{count}")
-    return count
-
-
 def execute_notebook(nb, folder: Path, timeout: int = 600) -> None:
     """Run every cell of ``nb`` in ``folder`` (a fresh python3 kernel); an error stops the build."""
     from nbclient import NotebookClient
@@ -82,6 +62,8 @@ def build_notes(out: Path = DEFAULT_OUT, execute: bool = True, paths: list[Path]
     import nbformat
     from nbconvert import HTMLExporter
 
+    from solutions.viewer import embed_views, plotly_js
+
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     exporter = HTMLExporter(template_name="lab")
@@ -92,9 +74,7 @@ def build_notes(out: Path = DEFAULT_OUT, execute: bool = True, paths: list[Path]
             execute_notebook(nb, NOTES)
         title = _title(nb)
         target = path.with_suffix(".html").name
-        if embed_views(nb, path.stem):
-            from solutions.viewer import plotly_js
-
+        if embed_views(nb, f'<script src="{PLOTLY}"></script>', f"{path.stem}-view"):  # plotly.js beside the pages
             (out / PLOTLY).write_text(plotly_js(), encoding="utf-8")
         for label in _anchor_equations(nb):
             equations.append((label, target))

@@ -16,6 +16,7 @@ from __future__ import annotations
 import csv
 import hashlib
 import html
+import json
 import os
 import re
 import shutil
@@ -366,6 +367,11 @@ def test_feedback_pages_show_the_graders_messages(cycle):
         assert f'check("{homework}", "hidden")' in pages[student] and " hidden/" in pages[student]  # they ran
         assert "Model answer" not in pages[student]
     assert "ok   hidden/" in pages["ada"]
+    source = nbformat.read(course / "assignments" / homework / f"{homework}.ipynb", as_version=4)
+    animations = sum("notebook_animation(" in c.source for c in source.cells if c.cell_type == "code")
+    ada = (course / "build" / "feedback" / "ada" / homework / f"{homework}.html").read_text()
+    assert animations and ada.count('class="mbd-view"') == animations  # the student's motion, played in the page
+    assert ada.count('<script id="plotly-js">') == 1
     if homework == "hw1":
         assert "FAIL four_bar.gamma.revolute" in pages["ben"] and "Likely cause: a sign error" in pages["ben"]
         assert "not implemented yet" in pages["sam"]
@@ -406,10 +412,15 @@ def test_honest_classmates_score_exactly_their_score_alone(cycle):
 
 def returned_files(course: Path) -> dict[str, str]:
     """Every file a student gets back: nbgrader's feedback pages and ``mbd grade``'s, without what the pages'
-    templates bring (style sheets and scripts) and the plots' PNG data."""
+    templates bring (style sheets, scripts, plotly.js) and the plots' PNG data; the views' figures are kept
+    (their numbers are the student's notebook's: autograder/views.py)."""
     pages = [*(course / "build" / "feedback").rglob("*.html"), *(course / "build" / "grades" / "feedback").glob("*")]
-    template = re.compile(r"<(style|script)\b.*?</\1>|data:image/png;base64,[A-Za-z0-9+/=]+", re.DOTALL)
-    return {str(p): template.sub("", p.read_text()) for p in pages}
+    template = re.compile(r"<style\b.*?</style>|<script\b.*?</script>|data:image/png;base64,[A-Za-z0-9+/=]+", re.DOTALL)
+
+    def unless_a_view(found: re.Match) -> str:
+        return found.group(0) if found.group(0).startswith("<script>(() => {\nconst figure = ") else ""
+
+    return {str(p): template.sub(unless_a_view, p.read_text()) for p in pages}
 
 
 def secrets(course: Path, homework: str) -> tuple[set[str], set[str]]:
@@ -451,4 +462,27 @@ def test_nothing_hidden_reaches_a_file_returned_to_students(cycle):
         for path, text in pages.items():
             assert not re.search(r"[A-Za-z0-9+/]{80,}", text), (path, "a long base64 run")
             assert not [name for name in names if name in text], path
-            assert leak.secret_number_in(text, numbers) is None, (path, leak.secret_number_in(text, numbers))
+            prose = VIEW.sub("", text)  # a view's thousands of coordinates: compared whole below instead
+            assert leak.secret_number_in(prose, numbers) is None, (path, leak.secret_number_in(prose, numbers))
+            views = [json.loads(found) for found in VIEW.findall(text)]
+            assert views == kernel_views(course, homework, Path(path)), path  # what the student's notebook made
+
+
+VIEW = re.compile(r"<script>\(\(\) => \{\nconst figure = (.*?);\nPlotly\.newPlot.*?</script>", re.DOTALL)
+"""A view's player in a feedback page (``solutions.viewer.embedded``), its figure's JSON the group."""
+
+
+def kernel_views(course: Path, homework: str, page: Path) -> list[dict]:
+    """The views that the student's notebook made in nbgrader's kernel (the autograded notebook's outputs), as
+    the feedback step draws them (``autograder.views.safe_figure``), for a page of nbgrader's feedback; none for
+    ``mbd grade``'s pages."""
+    from autograder.views import safe_figure
+    from solutions.viewer import MIME
+
+    if "feedback" not in page.parts or "grades" in page.parts:
+        return []
+    student = page.relative_to(course / "build" / "feedback").parts[0]
+    graded = nbformat.read(course / "build" / "autograded" / student / homework / f"{homework}.ipynb", as_version=4)
+    outputs = [o for c in graded.cells if c.cell_type == "code" for o in c.get("outputs", [])]
+    figures = [safe_figure(o["data"][MIME]) for o in outputs if MIME in o.get("data", {})]
+    return [json.loads(json.dumps(f)) for f in figures if f is not None]

@@ -134,14 +134,16 @@ def test_refusals_name_what_exists(slider_crank):
         result_view(other, build_system(other)[0], result)
 
 
-def test_a_notebook_gets_plotlys_mime_bundle_and_nothing_while_nbgrader_grades(slider_crank, monkeypatch, capsys):
+def test_a_notebook_gets_plotlys_mime_bundle_and_nothing_while_nbgrader_validates(slider_crank, monkeypatch, capsys):
     model, system, result = slider_crank
     view = notebook_animation(model, system, result, max_frames=5)
     bundle = view._repr_mimebundle_()
     assert set(bundle) == {MIME, "text/plain"} and bundle[MIME]["frames"]  # data, no HTML, no script
-    monkeypatch.setenv("NBGRADER_EXECUTION", "autograde")
+    monkeypatch.setenv("NBGRADER_EXECUTION", "autograde")  # for the feedback page (autograder/views.py)
+    assert notebook_animation(model, system, result, max_frames=5).figure == view.figure
+    monkeypatch.setenv("NBGRADER_EXECUTION", "validate")
     assert notebook_animation(model, system, result) is None
-    assert "skipped" in capsys.readouterr().out
+    assert "skipped while nbgrader validates" in capsys.readouterr().out
 
 
 def test_the_page_is_self_contained(slider_crank, tmp_path):

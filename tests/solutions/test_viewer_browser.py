@@ -229,8 +229,52 @@ def test_the_notes_chapter_plays_its_view_offline(browser, tmp_path):
     page.screenshot(path=str(ARTIFACTS / "notes-ch05-view.png"))
     assert box and box["width"] > 300 and box["height"] > 300, box
     assert times[0] == "t = 0.000 s" and times[1] != times[0]
-    template = ("https://cdnjs.cloudflare.com/ajax/libs/require.js/", "https://cdnjs.cloudflare.com/ajax/libs/mathjax/")
-    assert [url for url in outside if not url.startswith(template)] == []
+    assert [url for url in outside if not url.startswith(TEMPLATE_CDN)] == []
+
+
+TEMPLATE_CDN = ("https://cdnjs.cloudflare.com/ajax/libs/require.js/", "https://cdnjs.cloudflare.com/ajax/libs/mathjax/")
+"""What nbconvert's templates still ask a CDN for (MathJax and require.js: issue 27 makes the math offline)."""
+
+
+def feedback_page(nb) -> str:
+    """The notebook's page as ``nbgrader generate_feedback`` writes it: nbgrader's feedback template and the
+    course's feedback steps (course/nbgrader_config.py: the views given their players, autograder/views.py)."""
+    import nbgrader
+    from nbconvert import HTMLExporter
+
+    from autograder.views import views_in_feedback
+
+    formgrader = Path(nbgrader.__file__).parent / "server_extensions" / "formgrader"
+    exporter = HTMLExporter(
+        template_name="feedback",
+        extra_template_basedirs=[str(formgrader / "templates")],
+        extra_template_paths=[str(formgrader / "static" / "node_modules" / "bootstrap" / "dist" / "css")],
+    )
+    exporter.register_preprocessor(views_in_feedback(), enabled=True)
+    graded = {"notebook": "views", "score": 1.0, "max_score": 2.0, "late_penalty": 0.0}
+    body, _ = exporter.from_notebook_node(nb, resources={"nbgrader": graded})
+    return body
+
+
+def test_the_views_play_in_nbgraders_feedback_page_offline(notebook, browser, tmp_path):
+    """The executed notebook's two views (planar and spatial) in the feedback page nbgrader writes: each has a
+    non-zero size and plays on the first click, the page opened from disk, plotly.js inside it."""
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    page_file = tmp_path / "feedback.html"
+    page_file.write_text(feedback_page(nbformat.read(notebook, as_version=4)), encoding="utf-8")
+    outside: list[str] = []
+    page = open_page(browser, page_file.as_uri(), outside)
+    views = page.locator(".mbd-view")
+    assert views.count() == 2
+    for k in range(2):
+        view = views.nth(k)
+        view.scroll_into_view_if_needed()
+        before, after = play_each_view_page(page, view)
+        box = view.bounding_box()
+        page.screenshot(path=str(ARTIFACTS / f"feedback-view{k + 1}.png"))
+        assert box and box["width"] > 300 and box["height"] > 300, box
+        assert before == "t = 0.000 s" and after != before, (k, before, after)
+    assert [url for url in outside if not url.startswith(TEMPLATE_CDN)] == []
 
 
 def play_each_view_page(page, view=None) -> tuple[str, str]:

@@ -1,0 +1,69 @@
+"""The mechanism views of a student's notebook in nbgrader's feedback page (autograder/views.py): drawn only when
+they are what the viewer makes, written so that nothing in them can end their script. Played in chromium in
+nbgrader's own feedback template: tests/solutions/test_viewer_browser.py."""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+
+import nbformat
+import pytest
+
+from autograder.views import MAX_FIGURE_BYTES, safe_figure, views_in_feedback
+from solutions.io.model import load_model
+from solutions.viewer import CONFIG, MIME, model_view
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def figure() -> dict:
+    return model_view(load_model(REPO / "course" / "models" / "slider_crank.yaml")).figure
+
+
+def test_a_view_of_the_viewers_kind_is_drawn_with_the_courses_options_and_no_remote_parts(figure):
+    assert safe_figure(figure) == {**figure, "frames": figure.get("frames", []), "config": CONFIG}
+    dressed = copy.deepcopy(figure)
+    dressed["config"] = {"showLink": True, "linkText": "x", "plotlyServerURL": "https://example.org"}
+    dressed["layout"]["images"] = [{"source": "https://example.org/pixel.png"}]
+    dressed["layout"]["template"] = {"layout": {"images": [{"source": "https://example.org/t.png"}]}}
+    drawn = safe_figure(dressed)
+    assert drawn["config"] == CONFIG and "images" not in drawn["layout"] and "template" not in drawn["layout"]
+
+
+def test_what_the_viewer_does_not_make_is_not_drawn(figure):
+    hostile = []
+    for trace_type in ("scattergeo", "scattermapbox", "choropleth", "image"):
+        bad = copy.deepcopy(figure)
+        bad["data"].append({"type": trace_type, "lon": [0], "lat": [0]})
+        hostile.append(bad)
+        framed = copy.deepcopy(figure)
+        framed["frames"] = [{"data": [{"type": trace_type}]}]
+        hostile.append(framed)
+    hostile += [
+        None, "figure", [figure], {**figure, "extra": 1}, {**figure, "frames": {"a": 1}}, {**figure, "layout": []},
+        {**figure, "data": [{"x": [float("nan")]}]}, {**figure, "data": [{"x": ["y" * MAX_FIGURE_BYTES]}]},
+        {**figure, "data": "scatter"}, {**figure, "data": ["scatter"]},
+    ]  # fmt: skip
+    assert [safe_figure(h) for h in hostile] == [None] * len(hostile)
+
+
+def test_the_feedback_step_gives_each_safe_view_a_player_and_escapes_it(figure):
+    titled = copy.deepcopy(figure)
+    titled["layout"]["title"] = {"text": "</script><script>alert(1)</script> & <b>"}
+    bad = copy.deepcopy(figure)
+    bad["data"].append({"type": "scattergeo"})
+    nb = nbformat.v4.new_notebook()
+    outputs = [nbformat.v4.new_output("display_data", data={MIME: f, "text/plain": "view"}) for f in (titled, bad)]
+    nb.cells = [nbformat.v4.new_code_cell("views", outputs=outputs)]
+    step = views_in_feedback()()
+    nb, _ = step.preprocess(nb, {})
+    html = nb.cells[0].outputs[0]["data"]["text/html"]
+    assert html.startswith('<script id="plotly-js">') and html.count('class="mbd-view"') == 1
+    player = html.split('<div id="view-1"', 1)[1]
+    assert "</script><script>alert" not in player and "<b>" not in player
+    figure_json = player.split("const figure = ", 1)[1].split(";\nPlotly.newPlot", 1)[0]
+    assert json.loads(figure_json)["layout"]["title"]["text"] == titled["layout"]["title"]["text"]
+    assert "text/html" not in nb.cells[0].outputs[1]["data"]  # not the viewer's kind: its plain-text line only
