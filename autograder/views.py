@@ -25,6 +25,11 @@ TRACE_TYPES = {"scatter", "scatter3d"}
 """What the viewer draws with; Plotly's other trace types include maps and geographies fetched from the web."""
 LAYOUT_DROPPED = ("images", "template", "mapbox", "map", "geo")
 """Layout keys that can make Plotly fetch something from the network: removed."""
+PASSIVE_TAGS = (
+    "p", "div", "span", "pre", "br", "hr", "h1", "h2", "h3", "h4", "h5", "h6", "sub", "sup", "dl", "dt", "dd",
+    "table", "thead", "tbody", "tfoot", "tr", "th", "td", "caption",
+)  # fmt: skip
+"""HTML tags a student's output or answer keeps besides bleach's (text and tables: a pandas table stays one)."""
 
 
 def _traces_ok(traces) -> bool:
@@ -69,3 +74,41 @@ def views_in_feedback():
             return nb, resources
 
     return ViewsInFeedback
+
+
+def student_html_sanitized():
+    """The preprocessor of every HTML page nbgrader makes of a submission (``c.HTMLExporter.preprocessors``:
+    ``generate_feedback``'s pages and the formgrader's, which the instructor opens in the Jupyter server's origin):
+    nbconvert's ``SanitizeHTML`` (bleach) over the notebook before its template, so that no script, event handler
+    or other active markup a student wrote into a markdown answer or made a cell output reaches the page. Kept
+    as they are: the outputs nbconvert calls safe (text, PNG, JPEG, LaTeX, JSON) and the mechanism views' data
+    (``safe_figure`` checks them when the feedback step gives them a player, after this one); removed:
+    JavaScript, SVG and every other active output type; of HTML, the tags of text and tables (``PASSIVE_TAGS``)
+    with their classes. A markdown cell is cleaned only when it holds a tag (``<name `` or ``<name>``, ``</``,
+    ``<!``, ``<?``): a ``<`` in a formula or in code stays as written."""
+    import re
+
+    from bleach import ALLOWED_ATTRIBUTES, ALLOWED_TAGS
+    from nbconvert.preprocessors.sanitize import SanitizeHTML
+    from traitlets import Bool
+
+    from solutions.viewer import MIME
+
+    tag = re.compile(r"<(?:[A-Za-z][\w-]*[\s/>]|/[A-Za-z]|!|\?)")
+
+    class StudentHTMLSanitized(SanitizeHTML):
+        enabled = Bool(True)
+
+        def __init__(self, **kwargs):
+            super().__init__(**kwargs)
+            self.safe_output_keys = {*self.safe_output_keys, MIME}
+            self.tags = sorted({*ALLOWED_TAGS, *PASSIVE_TAGS})
+            self.attributes = {**ALLOWED_ATTRIBUTES, "*": ["class"], "td": ["class", "colspan", "rowspan"],
+                               "th": ["class", "colspan", "rowspan"]}  # fmt: skip
+
+        def preprocess_cell(self, cell, resources, index):
+            if cell.cell_type in ("markdown", "raw") and not tag.search(cell.source):
+                return cell, resources
+            return super().preprocess_cell(cell, resources, index)
+
+    return StudentHTMLSanitized

@@ -118,6 +118,18 @@ def _feedback_steps() -> list:
 
 c.GenerateFeedback.preprocessors = _feedback_steps()
 
+
+def _sanitized_pages() -> list:
+    """Every HTML page nbgrader makes of a submission (the feedback pages, the formgrader's): the student's
+    markup cleaned first (``autograder.views.student_html_sanitized``): nbconvert renders a notebook's HTML and
+    scripts as they are, and nbgrader's templates render markdown answers without cleaning them."""
+    from autograder.views import student_html_sanitized
+
+    return [student_html_sanitized()]
+
+
+c.HTMLExporter.preprocessors = _sanitized_pages()
+
 # Any stderr output, even a warning, zeroes a test cell: drop the harmless ones before grading.
 c.IgnorePattern.enabled = True
 c.IgnorePattern.pattern = r"(?:\w*Warning: |Matplotlib is building the font cache|warnings\.warn\()"

@@ -67,3 +67,49 @@ def test_the_feedback_step_gives_each_safe_view_a_player_and_escapes_it(figure):
     figure_json = player.split("const figure = ", 1)[1].split(";\nPlotly.newPlot", 1)[0]
     assert json.loads(figure_json)["layout"]["title"]["text"] == titled["layout"]["title"]["text"]
     assert "text/html" not in nb.cells[0].outputs[1]["data"]  # not the viewer's kind: its plain-text line only
+
+
+HOSTILE_ANSWER = "My answer <script>fetch('/api/contents')</script>, with $a < b$ and `x<y`."
+HOSTILE_OUTPUT = "<img src=x onerror=\"fetch('/api')\"><table><tr><td>1.5</td></tr></table>"
+
+
+def rendered(template: str) -> str:
+    """A submission with a markdown answer and an output that carry scripts, made into nbgrader's page ``template``
+    ("feedback" or "formgrade") by an exporter with the course's nbgrader configuration, as nbgrader makes it."""
+    import nbgrader
+    from nbconvert import HTMLExporter
+    from traitlets.config.loader import PyFileConfigLoader
+
+    config = PyFileConfigLoader("nbgrader_config.py", path=str(REPO / "course")).load_config()
+    formgrader = Path(nbgrader.__file__).parent / "server_extensions" / "formgrader"
+    exporter = HTMLExporter(
+        config=config,
+        template_name=template,
+        extra_template_basedirs=[str(formgrader / "templates")],
+        extra_template_paths=[str(formgrader / "static" / "node_modules" / "bootstrap" / "dist" / "css")],
+    )
+    answer = {"solution": True, "grade": True, "grade_id": "why", "points": 2, "score": 1.0}
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [
+        nbformat.v4.new_markdown_cell(HOSTILE_ANSWER, metadata={"nbgrader": answer}),
+        nbformat.v4.new_markdown_cell("A plain answer: $a < b$ and `x<y`."),
+        nbformat.v4.new_code_cell("show()", outputs=[nbformat.v4.new_output(
+            "display_data", data={"text/html": HOSTILE_OUTPUT, "application/javascript": "alert('js')",
+                                  "image/svg+xml": "<svg onload=\"alert('svg')\"></svg>", "text/plain": "shown"})]),
+    ]  # fmt: skip
+    resources = {"nbgrader": {"notebook": "hw", "score": 1.0, "max_score": 2.0, "late_penalty": 0.0}, "index": 0,
+                 "total": 1, "base_url": "/", "student": "rex", "notebook_path": "hw.ipynb"}  # fmt: skip
+    return exporter.from_notebook_node(nb, resources=resources)[0]
+
+
+@pytest.mark.parametrize("template", ["feedback", "formgrade"])
+def test_no_script_a_student_writes_reaches_nbgraders_pages(template):
+    """nbgrader's feedback page (returned to the student) and the formgrader's page (opened by the instructor in
+    the Jupyter server's origin): the answer's script and the output's event handler are text, the JavaScript and
+    SVG outputs gone; the table stays a table and a markdown cell without a tag as written."""
+    page = rendered(template)
+    assert "<script>fetch(" not in page and "&lt;script&gt;fetch(" in page
+    assert "<img" not in page and "&lt;img src=" in page
+    assert "alert('js')" not in page and "alert('svg')" not in page
+    assert "<td>1.5</td>" in page
+    assert "A plain answer: $a &lt; b$ and <code>x&lt;y</code>." in page

@@ -144,7 +144,13 @@ def hostile_notebook(folder: Path, course: Path) -> None:
     setup = next(i for i, c in enumerate(nb.cells) if c.metadata.get("nbgrader", {}).get("grade_id") == "hw1_setup")
     probe = f"COURSE = {str(course)!r}\n" + PROBE
     nb.cells[setup + 1 : setup + 1] = [nbformat.v4.new_code_cell(OWN_CHECK), nbformat.v4.new_code_cell(probe)]
+    nb.cells.append(nbformat.v4.new_markdown_cell(MARKUP))  # for the instructor's formgrader and the feedback page
+    nb.cells.append(nbformat.v4.new_code_cell(f"from IPython.display import HTML\nHTML({MARKUP!r})"))
     nbformat.write(nb, path)
+
+
+MARKUP = "<script>fetch('/api/contents')</script><img src=x onerror=\"fetch('/api/sessions')\">"
+"""A script and an event handler, written by a hostile student into a markdown cell and made a cell's output."""
 
 
 def submit(course: Path, homework: str, student: str, kind: str | None) -> Path:

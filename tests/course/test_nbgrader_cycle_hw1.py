@@ -41,7 +41,9 @@ def test_a_hostile_cell_sees_nothing_of_the_course(cycle):
     for attempt in ("course file", "gradebook", "classmate"):
         assert seen[attempt].startswith("refused"), (attempt, seen[attempt])
     assert "MBD_GRADER_SECRET" not in seen["environment"] and SECRET not in json.dumps(seen)
-    assert SECRET not in (course / "build" / "feedback" / "rex" / "hw1" / "hw1.html").read_text()
+    page = (course / "build" / "feedback" / "rex" / "hw1" / "hw1.html").read_text()
+    assert SECRET not in page
+    assert "fetch('/api/contents')" in nb.cells[-2].source and "<script>fetch(" not in page and "<img" not in page
 
 
 def test_the_check_before_autograde_names_and_repairs_the_damaged_notebooks(cycle):

@@ -241,11 +241,14 @@ def feedback_page(nb) -> str:
     course's feedback steps (course/nbgrader_config.py: the views given their players, autograder/views.py)."""
     import nbgrader
     from nbconvert import HTMLExporter
+    from traitlets.config.loader import PyFileConfigLoader
 
     from autograder.views import views_in_feedback
 
+    config = PyFileConfigLoader("nbgrader_config.py", path=str(REPO / "course")).load_config()
     formgrader = Path(nbgrader.__file__).parent / "server_extensions" / "formgrader"
     exporter = HTMLExporter(
+        config=config,  # the course's: the student's markup cleaned first (autograder.views.student_html_sanitized)
         template_name="feedback",
         extra_template_basedirs=[str(formgrader / "templates")],
         extra_template_paths=[str(formgrader / "static" / "node_modules" / "bootstrap" / "dist" / "css")],
