@@ -523,8 +523,10 @@ class _Arrows:
 def _element_forces(element, result: Result, dimension: int) -> list[tuple[int, np.ndarray, np.ndarray]]:
     """(body, body-frame point, (N, dimension) force history) of each body a force element acts on with a point:
     F_i = Q_i[:dimension], the force rows of its generalized force on body i (its moment rows aside)."""
+    from .spatial.forces import GROUND
+
     width = 3 if dimension == 2 else 7
-    ground = np.zeros(width) if dimension == 2 else np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+    ground = np.zeros(width) if dimension == 2 else GROUND  # ground's coordinates, as the force models pair them
 
     def block(x: np.ndarray, body: int, rest: np.ndarray) -> np.ndarray:
         return rest if body < 0 else x[width * body : width * body + width]
