@@ -275,7 +275,8 @@ HIDDEN_LAW = (0.8, 1.2)
 HIDDEN_ACCELERATION = (-0.25, 0.35)
 """A polynomial driver gains a t^2 term that changes its rate at the end of the run by 2 x this fraction."""
 HIDDEN_SPIN = (0.5, 1.5)
-"""Largest change of a body's angular velocity (rad/s) in a dynamic hidden variant's initial state."""
+"""Largest change of a body's angular velocity (rad/s), or of its speed over the mechanism's size, in a dynamic
+hidden variant's initial state."""
 
 
 HIDDEN_STRETCH = 0.12
@@ -495,11 +496,26 @@ def _vary_loads(model: dict, rng: np.random.Generator) -> None:
             force["value"] = _vary_load(value, rng)
 
 
+def _reach(data: dict) -> float:
+    """The mechanism's size: the largest distance between two of its bodies' locations and global points (1 m
+    if they all coincide)."""
+    model = data["model"]
+    points = [body["location"] for body in model["bodies"]]
+    for section in ("joints", "motors", "spring_dampers", "forces"):
+        for item in model.get(section, []):
+            if item.get("frame") != "body":
+                points += [item[key] for key in POINT_KEYS if isinstance(item.get(key), list)]
+    points = np.array([[*map(float, p), 0.0][:3] for p in points])  # planar points as z = 0
+    reach = max(float(np.linalg.norm(a - b)) for a in points for b in points)
+    return reach if reach > 1e-9 else 1.0
+
+
 def _vary_velocities(data: dict, rng: np.random.Generator) -> None:
     """Initial velocities that meet the varied drivers' rates at t = 0 (the least change of the file's), plus a
     motion the constraints allow (N z, N spanning the null space of Psi_q at the file's configuration, z
-    random) scaled so that the largest change of a body's angular velocity is HIDDEN_SPIN; written back as the
-    bodies' ``velocity`` and ``angular_velocity``."""
+    random) scaled so that the largest change of a body's angular velocity, or of its speed over the mechanism's
+    size (``_reach``: a slider's sliding counts as a spin), is HIDDEN_SPIN; written back as the bodies'
+    ``velocity`` and ``angular_velocity``."""
     from scipy.linalg import null_space
 
     from solutions.assembly import build_system
@@ -523,7 +539,11 @@ def _vary_velocities(data: dict, rng: np.random.Generator) -> None:
             out.append(angular_velocity(q0[size * i + 3 : size * i + 7], block[3:]) if spatial else block[2:3])
         return out
 
-    largest = max(float(np.linalg.norm(w)) for w in spins(dqd))
+    def speeds(qd: np.ndarray) -> list[float]:  # |v| / size: a slider's speed counts as the spin it would be
+        return [float(np.linalg.norm(qd[size * i : size * i + dimension])) / reach for i in range(len(model.bodies))]
+
+    dimension, reach = (3 if spatial else 2), _reach(data)
+    largest = max(max(float(np.linalg.norm(w)) for w in spins(dqd)), max(speeds(dqd)))
     qd = qd0 + (dqd * float(rng.uniform(*HIDDEN_SPIN)) / largest if largest > 1e-9 else 0.0)
     for i, (body, spec, omega) in enumerate(zip(model.bodies, data["model"]["bodies"], spins(qd), strict=True)):
         velocity = qd[size * i : size * i + (3 if spatial else 2)]

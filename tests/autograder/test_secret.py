@@ -179,6 +179,21 @@ def test_hidden_scenes_assemble_and_run_for_many_secrets(monkeypatch):
             assert residual < 1e-5, f"{name} ({value}): constraints off by {residual:.2g}"
 
 
+def test_a_hidden_slider_is_not_thrown_at_its_springs_anchor(monkeypatch):
+    """A secret whose hidden revolute-prismatic scene once started the slider at 10 m/s along the arm: the null
+    space direction was nearly all sliding, and its spin (0.04 rad/s) was scaled up to HIDDEN_SPIN. The slider
+    reached the hinge, where its spring's two points coincide, and the reference run (the grader's tight settings)
+    stopped with "length 0", so no class could be graded with that secret. A change of speed now counts as a
+    spin of speed / the mechanism's size: the slider keeps well away from the hinge."""
+    monkeypatch.setenv(secret.ENV, "ab" * 32)
+    scene = load_scene("hidden/revolute_prismatic_b")
+    slider = next(b for b in scene.data["model"]["bodies"] if b["name"] == "slider")
+    start = np.linalg.norm(slider["location"])
+    assert np.linalg.norm(slider["velocity"]) <= max(scenes.HIDDEN_SPIN) * scenes._reach(scene.data)
+    run = reference.base_run(scene)
+    assert np.min(np.linalg.norm(run["q"][:, 7:10], axis=1)) > 0.5 * start
+
+
 def test_hidden_references_are_computed_once_and_cached_outside_the_repository(monkeypatch, tmp_path):
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
     name = "hidden/slider_crank_b"
