@@ -8,6 +8,8 @@ student's ``modules/`` in a sandbox process). A notebook test cell is one line::
 
 ``check`` prints one line to stdout when everything passes and nothing at all to stderr (nbgrader
 zeroes a cell that writes to stderr), so no grading logic lives in a notebook a student can damage.
+A process runs each check's requests once while the package's files stay as they are (``remembered``): the
+graded cells that share a run, and ``selfcheck`` after them, reuse it; an edited file runs everything again.
 
 While nbgrader autogrades (it sets ``NBGRADER_EXECUTION=autograde``), the notebook runs in the grader's
 sandbox, where nothing of the course is visible: ``check`` and ``selfcheck`` then print one line and do
@@ -18,6 +20,7 @@ cell by cell: nothing the notebook does can change them.
 
 from __future__ import annotations
 
+import hashlib
 import os
 import sys
 from pathlib import Path
@@ -25,7 +28,7 @@ from pathlib import Path
 from .checks import Outcome
 from .homework import load_homework
 from .runner import PACKAGE, PublicData, run_checks
-from .sandbox import Limits
+from .sandbox import Limits, Replies
 
 
 def folder_of(path: str | Path | None) -> Path:
@@ -50,7 +53,28 @@ def run_public(
         raise FileNotFoundError(f"no folder {folder}")
     if not (folder / PACKAGE / "__init__.py").is_file():
         raise FileNotFoundError(f"no package {PACKAGE}/ (with __init__.py) in {folder}: run it where your notebook is")
-    return run_checks(checks, folder, PublicData(), limits)
+    return run_checks(checks, folder, PublicData(), limits, replies=remembered(folder))
+
+
+_REMEMBERED: dict[Path, tuple[str, Replies]] = {}
+
+
+def remembered(folder: Path) -> Replies:
+    """The replies of this process's earlier checks on ``folder``'s package, while its files are unchanged
+    (``package_digest``): a notebook's graded cells and its ``selfcheck`` run each scene once; an edited file
+    starts afresh."""
+    digest = package_digest(folder / PACKAGE)
+    if folder not in _REMEMBERED or _REMEMBERED[folder][0] != digest:
+        _REMEMBERED[folder] = digest, Replies()
+    return _REMEMBERED[folder][1]
+
+
+def package_digest(package: Path) -> str:
+    """A hash of every file of the package (names and contents; not ``__pycache__``)."""
+    digest = hashlib.sha256()
+    for path in sorted(p for p in package.rglob("*") if p.is_file() and "__pycache__" not in p.parts):
+        digest.update(path.relative_to(package).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
+    return digest.hexdigest()
 
 
 def grading() -> bool:

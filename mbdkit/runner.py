@@ -16,7 +16,7 @@ from . import withheld
 from .checks import Measure, Mistakes, Outcome, evaluate, reconcile_causes
 from .homework import CheckSpec
 from .probes import REQUIRES, Job, sent_inputs
-from .sandbox import Limits, Sandbox
+from .sandbox import Limits, Replies, Sandbox
 from .scenes import HIDDEN, PUBLIC, STUDENT, Scene, job_key, load_public_scene, scene_kind
 from .stored import Reference, load_reference
 from .withheld import title
@@ -97,6 +97,7 @@ def run_checks(
     hide: tuple[Path, ...] = (),
     isolation: str = "local",
     budget: float | None = None,
+    replies: Replies | None = None,
 ) -> list[Outcome]:
     """Run ``checks`` on the package in ``folder`` (``folder/modules``); outcomes in order.
 
@@ -110,6 +111,7 @@ def run_checks(
 
     ``forbidden`` are folders the sandbox may not read, ``hide`` folders removed from its import path;
     ``isolation`` the sandbox's backend: ``local`` (a student's own checks) or ``os`` (the grader's).
+    ``replies``: earlier replies on this same package (``sandbox.Replies``), reused; the grader passes none.
     """
     data = data or PublicData()
     limits = limits or Limits()
@@ -123,7 +125,7 @@ def run_checks(
 
         host = IsolatedHost(folder, PACKAGE, limits.tmp_size, limits, preload=preload_for(checks))
     try:
-        outcomes = _run_all(checks, folder, data, limits, forbidden, hide, isolation, budget, host)
+        outcomes = _run_all(checks, folder, data, limits, forbidden, hide, isolation, budget, host, replies)
         return reconcile_causes(checks, outcomes)  # a cause must agree with all the student's checks
     finally:
         if host is not None:
@@ -145,7 +147,7 @@ KINDS = (PUBLIC, STUDENT, HIDDEN)
 how its public twin did)."""
 
 
-def _run_all(checks, folder, data, limits, forbidden, hide, isolation, budget, host) -> list[Outcome]:
+def _run_all(checks, folder, data, limits, forbidden, hide, isolation, budget, host, replies=None) -> list[Outcome]:
     outcomes: dict[str, Outcome] = {}
     start, hung = time.monotonic(), []
     for kind in KINDS:
@@ -153,6 +155,7 @@ def _run_all(checks, folder, data, limits, forbidden, hide, isolation, budget, h
         if not calls:
             continue
         options = {"forbidden": forbidden, "hide": hide, "limits": limits, "isolation": isolation, "host": host}
+        options["replies"] = replies
         with Sandbox(folder, PACKAGE, **options) as sandbox:
             # a function that hung in the public child is not run again in the others (one timeout per
             # submission); what hung in a hidden or per-student child is told to no other child

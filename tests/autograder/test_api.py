@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from autograder.api import GraderPoints, SandboxedExecute, SaveGraderPoints, autograde_steps, check_call
@@ -90,3 +91,54 @@ def test_nbgraders_steps_run_the_notebook_in_the_sandbox_and_take_the_points_fro
     assert Execute not in steps and steps.index(SandboxedExecute) == default.index(Execute)
     saved = steps.index(SaveAutoGrades)
     assert steps[saved - 1] is GraderPoints and steps[saved + 1] is SaveGraderPoints
+
+
+def test_a_notebook_runs_each_request_once_while_its_package_is_unchanged(students, tmp_path, monkeypatch, capsys):
+    """A notebook's graded cells, then its selfcheck: a request met before on the same package is answered from
+    the process's store (no child, none of the student's code run) with the same outcome; an edited file (a
+    changed gamma) runs again, and says so in its outcome."""
+    import shutil
+
+    from mbdkit import api
+    from mbdkit.sandbox import Sandbox
+
+    run = Sandbox._request
+    requests: list[str] = []
+
+    def counted(self, probe, key, *args):
+        requests.append(f"{probe} {key}")
+        return run(self, probe, key, *args)
+
+    monkeypatch.setattr(Sandbox, "_request", counted)
+    folder = tmp_path / "student"
+    shutil.copytree(students / "good", folder)
+    check("hw1", "revolute", folder)
+    first = len(requests)
+    assert first > 0
+    check("hw1", "revolute", folder)
+    assert len(requests) == first, "the same cell again: nothing runs"
+    assert selfcheck("hw1", folder) == 0
+    every = len(requests)
+    assert every > first and len(set(requests)) == every, "each request of the selfcheck runs once"
+    assert selfcheck("hw1", folder) == 0 and len(requests) == every
+    report = capsys.readouterr().out
+    # the file the bad student got wrong, pasted into this package: its checks run again and fail
+    shutil.copy(students / "bad" / "modules" / "planar" / "joints.py", folder / "modules" / "planar" / "joints.py")
+    assert selfcheck("hw1", folder) == 1
+    assert len(requests) == 2 * every, "every request runs again on the changed package"
+    assert "FAIL four_bar.gamma.revolute" in capsys.readouterr().out and "FAIL" not in report
+    assert api._REMEMBERED[folder.resolve()][0] == api.package_digest(folder / "modules"), "kept for what it is now"
+
+
+def test_timeouts_and_crashes_are_not_kept():
+    from mbdkit.sandbox import Replies, Reply
+
+    replies = Replies()
+    request = Replies.key("newton", "four_bar#1", {"model": {}}, {"q": np.zeros(3)}, {})
+    assert request != Replies.key("newton", "four_bar#1", {"model": {}}, {"q": np.ones(3)}, {})
+    for status in ("timeout", "died", "malformed", "cpu"):
+        replies.keep(request, Reply(status))
+        assert replies.get(request) is None, status
+    replies.keep(request, Reply("error", error={"type": "NotImplementedError"}))
+    kept = replies.get(request)
+    assert kept.status == "error" and kept is not replies.get(request)  # a copy each time
