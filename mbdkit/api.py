@@ -8,8 +8,9 @@ student's ``modules/`` in a sandbox process). A notebook test cell is one line::
 
 ``check`` prints one line to stdout when everything passes and nothing at all to stderr (nbgrader
 zeroes a cell that writes to stderr), so no grading logic lives in a notebook a student can damage.
-A process runs each check's requests once while the package's files stay as they are (``remembered``): the
-graded cells that share a run, and ``selfcheck`` after them, reuse it; an edited file runs everything again.
+A process runs each check's requests once, in one sandbox child, while the package's files stay as they are
+(``remembered``): the graded cells that share a run, and ``selfcheck`` after them, reuse it; an edited file
+runs everything again in a new child.
 
 While nbgrader autogrades (it sets ``NBGRADER_EXECUTION=autograde``), the notebook runs in the grader's
 sandbox, where nothing of the course is visible: ``check`` and ``selfcheck`` then print one line and do
@@ -20,6 +21,7 @@ cell by cell: nothing the notebook does can change them.
 
 from __future__ import annotations
 
+import atexit
 import hashlib
 import os
 import sys
@@ -60,13 +62,21 @@ _REMEMBERED: dict[Path, tuple[str, Replies]] = {}
 
 
 def remembered(folder: Path) -> Replies:
-    """The replies of this process's earlier checks on ``folder``'s package, while its files are unchanged
-    (``package_digest``): a notebook's graded cells and its ``selfcheck`` run each scene once; an edited file
-    starts afresh."""
+    """The replies of this process's earlier checks on ``folder``'s package and the child that gave them, while
+    its files are unchanged (``package_digest``): a notebook's graded cells and its ``selfcheck`` run each
+    scene once, in one child; an edited file starts afresh (a new child imports it)."""
     digest = package_digest(folder / PACKAGE)
     if folder not in _REMEMBERED or _REMEMBERED[folder][0] != digest:
+        if folder in _REMEMBERED:
+            _REMEMBERED[folder][1].close()  # its child imported the files as they were
         _REMEMBERED[folder] = digest, Replies()
     return _REMEMBERED[folder][1]
+
+
+@atexit.register
+def _forget() -> None:
+    for _, replies in _REMEMBERED.values():
+        replies.close()
 
 
 def package_digest(package: Path) -> str:

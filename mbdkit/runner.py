@@ -7,6 +7,7 @@ instructor's grader (``autograder.grading``) adds hidden and per-student scenes.
 
 from __future__ import annotations
 
+import contextlib
 import time
 from pathlib import Path
 
@@ -155,10 +156,10 @@ def _run_all(checks, folder, data, limits, forbidden, hide, isolation, budget, h
         if not calls:
             continue
         options = {"forbidden": forbidden, "hide": hide, "limits": limits, "isolation": isolation, "host": host}
-        options["replies"] = replies
-        with Sandbox(folder, PACKAGE, **options) as sandbox:
+        with _sandbox(kind, folder, options, replies) as sandbox:
             # a function that hung in the public child is not run again in the others (one timeout per
             # submission); what hung in a hidden or per-student child is told to no other child
+            hung = sandbox.hung if kind == PUBLIC and sandbox.hung else hung  # a kept child's, from before
             sandbox.hung = hung if kind == PUBLIC else list(hung)
             for scene_name, key in calls:
                 group = [c for c in checks if c.scene == scene_name and c.probe_key == key]
@@ -171,6 +172,17 @@ def _run_all(checks, folder, data, limits, forbidden, hide, isolation, budget, h
                     continue
                 outcomes.update(_run_group(group, checks, data, sandbox, limits, scene_name, key, outcomes))
     return [outcomes[c.name] for c in checks]
+
+
+def _sandbox(kind: str, folder: Path, options: dict, replies: Replies | None):
+    """The sandbox of one set of checks: a new one, closed after the set; or, for a student's public checks run
+    again on the same package (``replies``, local backend), the one kept with those replies, left running for
+    the next call (a notebook's next graded cell starts no child)."""
+    if replies is None or kind != PUBLIC or options["isolation"] != "local":
+        return Sandbox(folder, PACKAGE, replies=replies, **options)
+    if replies.sandbox is None:
+        replies.sandbox = Sandbox(folder, PACKAGE, replies=replies, **options)
+    return contextlib.nullcontext(replies.sandbox)
 
 
 def _twin_outcome(check: CheckSpec, done: dict[str, Outcome], checks: list[CheckSpec]) -> Outcome | None:

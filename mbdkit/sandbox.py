@@ -124,6 +124,14 @@ class Replies:
 
     def __init__(self) -> None:
         self._replies: dict[str, Reply] = {}
+        self.sandbox: Sandbox | None = None
+        """The child that answered them (a student's public checks, local backend), kept for the next call."""
+
+    def close(self) -> None:
+        """Stop the kept child (the package changed, or the process ends)."""
+        if self.sandbox is not None:
+            self.sandbox.close()
+            self.sandbox = None
 
     @staticmethod
     def key(probe: str, key: str, model: dict, inputs: dict, options: dict) -> str:

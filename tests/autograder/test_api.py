@@ -95,21 +95,27 @@ def test_nbgraders_steps_run_the_notebook_in_the_sandbox_and_take_the_points_fro
 
 def test_a_notebook_runs_each_request_once_while_its_package_is_unchanged(students, tmp_path, monkeypatch, capsys):
     """A notebook's graded cells, then its selfcheck: a request met before on the same package is answered from
-    the process's store (no child, none of the student's code run) with the same outcome; an edited file (a
-    changed gamma) runs again, and says so in its outcome."""
+    the process's store (none of the student's code run) with the same outcome, the others in the one child kept
+    running between cells; an edited file (a changed gamma) runs again in a new child, and says so."""
     import shutil
 
     from mbdkit import api
     from mbdkit.sandbox import Sandbox
 
-    run = Sandbox._request
+    run, start = Sandbox._request, Sandbox._start
     requests: list[str] = []
+    starts: list[int] = []
 
     def counted(self, probe, key, *args):
         requests.append(f"{probe} {key}")
         return run(self, probe, key, *args)
 
+    def started(self):
+        starts.append(1)
+        return start(self)
+
     monkeypatch.setattr(Sandbox, "_request", counted)
+    monkeypatch.setattr(Sandbox, "_start", started)
     folder = tmp_path / "student"
     shutil.copytree(students / "good", folder)
     check("hw1", "revolute", folder)
@@ -121,11 +127,13 @@ def test_a_notebook_runs_each_request_once_while_its_package_is_unchanged(studen
     every = len(requests)
     assert every > first and len(set(requests)) == every, "each request of the selfcheck runs once"
     assert selfcheck("hw1", folder) == 0 and len(requests) == every
+    assert len(starts) == 1, "one child answered every cell"
     report = capsys.readouterr().out
     # the file the bad student got wrong, pasted into this package: its checks run again and fail
     shutil.copy(students / "bad" / "modules" / "planar" / "joints.py", folder / "modules" / "planar" / "joints.py")
     assert selfcheck("hw1", folder) == 1
     assert len(requests) == 2 * every, "every request runs again on the changed package"
+    assert len(starts) == 2, "in a new child, which imported the changed file"
     assert "FAIL four_bar.gamma.revolute" in capsys.readouterr().out and "FAIL" not in report
     assert api._REMEMBERED[folder.resolve()][0] == api.package_digest(folder / "modules"), "kept for what it is now"
 
