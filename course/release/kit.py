@@ -185,7 +185,9 @@ mbd run scenes/<model>.yaml --plot out.png   # your own solver on a model file
 
 The notebook's graded cell for a group of checks is `check("{homework}", "<group>")`; the groups:
 {", ".join(groups)}. The grader also runs hidden variants of these scenes and your own variant of
-each: code that passes here for the right reasons passes there.
+each: code that passes here for the right reasons passes there. In the notebook, a check that ran before
+on the same files is not run again (a cell run twice, `selfcheck(...)` after the graded cells); save a
+change to `modules/` and the next check runs everything on it.
 
 ## 5. Hand in
 
