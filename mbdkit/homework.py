@@ -78,6 +78,9 @@ class Homework:
     instructor_groups: tuple[str, ...] = ()
     budget: float | None = None
     """Wall-clock seconds the grader gives all the checks of one submission (``budget`` in the file)."""
+    to_write: tuple[tuple[str, str], ...] = ()
+    """The (file of the package, function) pairs students write, in the course's order (``to_write`` in a kit's
+    file: ``mbd todo``); empty in the course's own files."""
     """Groups graded only by the instructor (hidden scenes, the student's own variants), named in a kit's
     file, which holds the public checks only."""
 
@@ -169,4 +172,5 @@ def load_homework(homework: str | Path) -> Homework:
         raise ValueError(f"{path.name}: check names used twice: {', '.join(duplicates)}")
     groups = tuple(data.get("instructor_groups", ()))
     budget = float(data["budget"]) if "budget" in data else None
-    return Homework(data.get("homework", path.stem), data.get("title", ""), checks, path, groups, budget)
+    to_write = tuple((str(file), str(function)) for file, function in data.get("to_write", ()))
+    return Homework(data.get("homework", path.stem), data.get("title", ""), checks, path, groups, budget, to_write)

@@ -139,6 +139,8 @@ ALL = {
     "grade",
     "secret",
     "selfcheck",
+    "todo",
+    "handin",
     "compile",
     "serve",
 }

@@ -48,15 +48,22 @@ def _toml_value(value) -> str:
     raise TypeError(f"no TOML form for {value!r}")
 
 
-def checks_toml(homework: str, title: str, checks: list[CheckSpec], instructor_groups: list[str]) -> str:
-    """The kit's ``hwN.toml``: the public checks only, each written out in full (one scene each), and the
-    groups only the instructor's grading runs."""
+def checks_toml(
+    homework: str,
+    title: str,
+    checks: list[CheckSpec],
+    instructor_groups: list[str],
+    to_write: list[tuple[str, str]] = (),
+) -> str:
+    """The kit's ``hwN.toml``: the public checks only, each written out in full (one scene each), the groups
+    only the instructor's grading runs and the functions students write (``mbd todo``)."""
     lines = [
         f"# {homework}: the public checks of the course's autograder (the instructor's grader also runs",
         "# hidden variants of these scenes and your own variant of each).",
         f"homework = {_toml_value(homework)}",
         f"title = {_toml_value(title)}",
         f"instructor_groups = {_toml_value(instructor_groups)}",
+        f"to_write = {_toml_value([list(pair) for pair in to_write])}",
     ]
     for check in checks:
         table = {
@@ -78,9 +85,12 @@ def checks_toml(homework: str, title: str, checks: list[CheckSpec], instructor_g
     return "\n".join(lines) + "\n"
 
 
-def write_checker(folder: Path, homework: str, course_dir: Path = REPO) -> list[CheckSpec]:
+def write_checker(
+    folder: Path, homework: str, course_dir: Path = REPO, to_write: list[tuple[str, str]] = ()
+) -> list[CheckSpec]:
     """``folder/mbdkit``: the checker's code and the homework's public checks, scenes and expected values
-    (from the course's ``autograder/``: its ``hwN.toml``, public scenes and public references)."""
+    (from the course's ``autograder/``: its ``hwN.toml``, public scenes and public references), with the
+    functions students write (``to_write``: (file, function) pairs)."""
     grader = course_dir / "autograder"
     target = folder / CHECKER
     shutil.copytree(course_dir / CHECKER, target, ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "data"))
@@ -89,7 +99,7 @@ def write_checker(folder: Path, homework: str, course_dir: Path = REPO) -> list[
     data = target / "data"
     (data / "scenes").mkdir(parents=True)
     later = [group for group in spec.groups() if spec.graded_later(group)]
-    (data / f"{homework}.toml").write_text(checks_toml(spec.name, spec.title, checks, later))
+    (data / f"{homework}.toml").write_text(checks_toml(spec.name, spec.title, checks, later, to_write))
     for scene in sorted({c.scene for c in checks}):
         shutil.copyfile(grader / "scenes" / f"{scene}.yaml", data / "scenes" / f"{scene}.yaml")
         keys = {c.probe_key for c in checks if c.scene == scene}
@@ -172,7 +182,8 @@ Run the cells from the top; the cells marked *Graded* check your work as you go.
 ## 3. What to write
 
 Replace the `raise NotImplementedError(...)` in these functions (each names its equation in the course
-notes); do not change their signatures. `grep -rn NotImplementedError modules/` lists what is left.
+notes); do not change their signatures. `mbd todo {homework}` lists what is left, file by file, and where
+to start.
 
 {functions}
 
@@ -191,8 +202,9 @@ change to `modules/` and the next check runs everything on it.
 
 ## 5. Hand in
 
-The notebook, run from top to bottom, and your `modules/` folder beside it, as your instructor asks
-(nbgrader's *Submit* button, or a zip of this folder without `.venv/`).
+The notebook, run from top to bottom, and your `modules/` folder beside it, as your instructor asks:
+nbgrader's *Submit* button, or `mbd handin {homework}`, which checks that your package imports and writes
+`{homework}-handin.zip` with the notebook and `modules/` and nothing else.
 """
 
 
@@ -201,7 +213,7 @@ def build_kit(folder: Path, homework: str, to_write: list[tuple[str, str]], cour
     ``to_write``: the (file, function) pairs students write in this homework."""
     folder = Path(folder)
     spec = load_homework(course_dir / "autograder" / f"{homework}.toml")
-    checks = write_checker(folder, homework, course_dir)
+    checks = write_checker(folder, homework, course_dir, to_write)
     (folder / "pyproject.toml").write_text(pyproject(homework, spec.title, course_dir))
     (folder / "README.md").write_text(readme(homework, spec.title, to_write, checks))
     checker = [p for p in (folder / CHECKER).rglob("*") if p.is_file()]

@@ -17,13 +17,14 @@ import shutil
 import subprocess
 import sys
 import sysconfig
+import zipfile
 from pathlib import Path
 
 import nbformat
 import pytest
 
 from course.release import HOMEWORKS, build_package, find_leaks, release
-from course.release.generator import REPO
+from course.release.generator import REPO, all_regions
 from mbdkit.homework import load_homework
 from solutions.viewer import MIME as VIEW
 
@@ -130,6 +131,12 @@ def test_selfcheck_in_a_fresh_venv_on_the_skeleton_and_on_the_reference(student_
     assert skeleton.returncode == 0, skeleton.stderr
     assert "not implemented yet" in skeleton.stdout and skeleton.stderr == ""
     assert f"0 of {len(public)} public checks pass, 0 of " in skeleton.stdout
+    asked = [(r.path, r.function) for r in all_regions() if r.tag == homework]
+    asked = list(dict.fromkeys(asked))  # what the release asked of this homework, from the course's regions
+    todo = run(["mbd", "todo", homework], kit, env)
+    assert todo.returncode == 0 and todo.stdout.startswith(f"{homework}: {len(asked)} of {len(asked)} functions left")
+    assert all(f"  {function} " in todo.stdout for _, function in asked)
+    assert f"Start with {asked[0][1]} in modules/{asked[0][0]}" in todo.stdout
 
     student = tmp_path / "student"
     shutil.copytree(kit, student)
@@ -137,6 +144,14 @@ def test_selfcheck_in_a_fresh_venv_on_the_skeleton_and_on_the_reference(student_
     build_package(student / "modules", None, header=None)  # the reference, as a student who got it all right
     done = run(["mbd", "selfcheck", homework], student, env)
     assert done.returncode == 0 and f"{len(public)} of {len(public)} public checks pass" in done.stdout, done.stdout
+    todo = run(["mbd", "todo", homework], student, env)
+    assert todo.stdout == f"{homework}: all {len(asked)} functions are written. Next: mbd selfcheck {homework}\n"
+    handed = run(["mbd", "handin", homework], student, env)
+    assert handed.returncode == 0 and handed.stderr == "", handed.stderr
+    with zipfile.ZipFile(student / f"{homework}-handin.zip") as archive:
+        names = archive.namelist()
+    assert names[0] == f"{homework}.ipynb"
+    assert all(n.startswith("modules/") and "__pycache__" not in n for n in names[1:])
 
     missing = run(["mbd", "selfcheck", homework, str(tmp_path / "no-such-folder")], kit, env)
     assert missing.returncode == 2 and missing.stderr.count("mbd: error:") == 1 and missing.stdout == ""
