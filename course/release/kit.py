@@ -29,8 +29,11 @@ from .generator import REPO
 CHECKER = "mbdkit"
 KIT_EXTRAS = ("jupyterlab>=4",)
 """What a student needs beyond the solver's own dependencies: JupyterLab (it brings the kernel)."""
-INSTRUCTOR_ONLY = ("nbgrader",)
-"""Dependencies of the course repository that a student does not need."""
+INSTRUCTOR_ONLY = ("nbgrader", "numba", "dask")
+"""Dependencies of the course repository that a student does not need: nbgrader (the instructor's), numba (the
+compiled engine, which no kit holds) and Dask (``mbd sweep --jobs N`` and ``mbd grade`` on a cluster; a kit's
+sweep runs here, and asking it for a cluster says to install Dask): 233 MB of site-packages a kit's venv does not
+fill (numba 35, llvmlite 173, dask 17, distributed 8)."""
 
 
 def _toml_value(value) -> str:

@@ -12,11 +12,14 @@ into site-packages.
 
 from __future__ import annotations
 
+import ast
 import json
+import re
 import shutil
 import subprocess
 import sys
 import sysconfig
+import tomllib
 import zipfile
 from pathlib import Path
 
@@ -116,6 +119,41 @@ def test_the_kit_has_what_its_readme_says(kits, homework):
     assert find_leaks(kit, homework) == []
     course = load_homework(kits["course"] / "autograder" / f"{homework}.toml")
     assert kit_checks(kit, homework) == course.public()  # every public check, with its points, and no other
+
+
+PROVIDES = {"pyyaml": {"yaml"}, "jupyterlab": {"IPython", "ipykernel", "nbformat", "traitlets", "tornado"}}
+"""Import names of a dependency other than its own name (JupyterLab brings the kernel and its libraries)."""
+
+
+def imported_roots(folder: Path) -> dict[str, set[str]]:
+    """{top-level module imported anywhere in the .py files under ``folder``: the files importing it}."""
+    found: dict[str, set[str]] = {}
+    for path in folder.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                names = [node.module]
+            for name in names:
+                found.setdefault(name.split(".")[0], set()).add(path.relative_to(folder).as_posix())
+    return found
+
+
+def test_the_kit_installs_what_it_imports_and_nothing_of_the_instructors(kits):
+    """A light kit: its dependencies hold neither numba (the compiled engine, which no kit holds) nor Dask nor
+    nbgrader, and every module the kit's code imports is the standard library's, the kit's own or a declared
+    dependency's; Dask only where a cluster is asked for, after a check that names the missing package."""
+    kit = kits["hw3"]
+    declared = tomllib.loads((kit / "pyproject.toml").read_text())["project"]["dependencies"]
+    names = {re.split(r"[<>=\[ ;]", d)[0].lower() for d in declared}
+    assert not names & {"numba", "llvmlite", "dask", "distributed", "nbgrader"}, names
+    provided = set(names) | {n for d in names for n in PROVIDES.get(d, ())}
+    roots = imported_roots(kit / "modules") | imported_roots(kit / "mbdkit")
+    foreign = {r: f for r, f in roots.items() if r not in sys.stdlib_module_names and r not in ("modules", "mbdkit")}
+    assert set(foreign) - provided == {"dask"}, {r: foreign[r] for r in set(foreign) - provided}
+    assert foreign["dask"] == {"batch.py"}
+    assert "pip install 'dask[distributed]'" in (kit / "modules" / "batch.py").read_text()
 
 
 @pytest.mark.parametrize("homework", HOMEWORKS)
