@@ -125,8 +125,22 @@ def add_handin(sub) -> None:
     handin.set_defaults(handler=lambda args: handin_command(args.homework, args.path, args.out))
 
 
+class Parser(argparse.ArgumentParser):
+    """Errors in one line ``mbd: error: ...`` (exit code 2), with the closest command to a misspelt one."""
+
+    def error(self, message: str):
+        import difflib
+        import re
+
+        commands = next((a.choices for a in self._actions if isinstance(a, argparse._SubParsersAction)), {})
+        words = re.findall(r"invalid choice: '([^']*)'", message)
+        guesses = [g for word in words for g in difflib.get_close_matches(word, list(commands), n=1, cutoff=0.6)]
+        hint = f"; did you mean {guesses[0]}?" if guesses else ""
+        self.exit(USER_ERROR, f"mbd: error: {message}{hint} (mbd --help lists them)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="mbd", description="The course's student kit: self-check and your solver.")
+    parser = Parser(prog="mbd", description="The course's student kit: self-check and your solver.")
     sub = parser.add_subparsers(dest="command", required=True)
     add_selfcheck(sub)
     add_todo(sub)

@@ -484,7 +484,7 @@ def animate_result(
         An unknown file type or joint name, ffmpeg missing for .mp4, or a result of another model.
     """
     if path is not None:
-        _check_writable(Path(path))
+        check_writable(Path(path))
     n = system.coordinates_per_body * len(model.bodies)
     if result.q.ndim != 2 or result.q.shape[1] != n:
         raise ValueError(f"the result has {result.q.shape[-1]} coordinates, the model {model.name!r} has {n}")
@@ -520,7 +520,7 @@ def animate_result(
     return anim
 
 
-def _check_writable(path: Path) -> None:
+def check_writable(path: Path) -> None:
     """Refuse, before any rendering, a file type that cannot be written."""
     suffix = path.suffix.lower()
     if suffix not in (".gif", ".mp4"):
@@ -534,7 +534,7 @@ def _check_writable(path: Path) -> None:
 def save_animation(anim: FuncAnimation, path: str | Path, fps: float = 25.0) -> Path:
     """Write an animation: ``.gif`` with Pillow, ``.mp4`` with ffmpeg."""
     path = Path(path)
-    _check_writable(path)
+    check_writable(path)
     fps = max(1, round(fps))
     suffix = path.suffix.lower()
     if suffix == ".gif":

@@ -8,6 +8,7 @@ message and exits with code 2; it never shows a traceback.
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from pathlib import Path
 
@@ -98,7 +99,37 @@ def run_summary(result: Result) -> str:
     return "\n".join(lines)
 
 
+RESULT_FILES = (".csv", ".npz")
+"""What ``mbd run --out`` writes (``io.results.write_result``)."""
+
+
+def check_outputs(args) -> None:
+    """Refuse, before anything runs, an output the run could not write (UsageError, one line): --out of another
+    kind than .csv or .npz, --plot of a kind matplotlib does not write, --animate other than .html, .gif or
+    .mp4 (with ffmpeg), a folder that does not exist."""
+    outputs = {"--out": args.out, "--plot": args.plot, "--animate": args.animate}
+    for option, path in ((o, Path(p)) for o, p in outputs.items() if p):
+        if not path.parent.is_dir():
+            raise UsageError(f"{option} {path}: no folder {path.parent} (make it first, or write elsewhere)")
+    if args.out and Path(args.out).suffix.lower() not in RESULT_FILES:
+        raise UsageError(f"--out {args.out}: results are written as FILE.csv (a table) or FILE.npz (numpy arrays)")
+    if args.plot:
+        from matplotlib.backend_bases import FigureCanvasBase
+
+        kinds = FigureCanvasBase.get_supported_filetypes()
+        if Path(args.plot).suffix.lower().lstrip(".") not in kinds:
+            raise UsageError(f"--plot {args.plot}: a plot is written as one of .{', .'.join(sorted(kinds))}")
+    if args.animate and Path(args.animate).suffix.lower() not in (".html", ".htm"):
+        from .animation import check_writable
+
+        try:
+            check_writable(Path(args.animate))
+        except ValueError as err:
+            raise UsageError(f"--animate {err}") from None
+
+
 def command_run(args) -> int:
+    check_outputs(args)
     model = load_model(args.model)
     system, q0, qd0 = build_system(model)
     points = {}
@@ -343,9 +374,44 @@ def add_sweep(sub) -> None:
     sweep.set_defaults(handler=command_sweep)
 
 
+class Parser(argparse.ArgumentParser):
+    """argparse's parser, whose errors are one line ``mbd: error: ...`` (exit code 2) without the usage block,
+    with the closest command or option when a word is misspelt ("did you mean --t-end?")."""
+
+    def error(self, message: str):
+        if message.startswith("unrecognized arguments: "):  # misspelt options: the closest of every command's
+            words = [w for w in message.split(": ", 1)[1].split() if w.startswith("-")]
+            known = [o for parser in _parsers(self) for action in parser._actions for o in action.option_strings]
+        else:  # a misspelt command: "argument command: invalid choice: 'rnu' (choose from ...)"
+            words = re.findall(r"invalid choice: '([^']*)'", message)
+            known = [name for parser in _parsers(self) for name in _commands(parser)]
+        guesses = [guess for word in words for guess in _close(word, known)]
+        hint = f"; did you mean {guesses[0]}?" if guesses else ""
+        self.exit(USER_ERROR, f"mbd: error: {message}{hint} (mbd {self._command()}--help lists them)\n")
+
+    def _command(self) -> str:
+        return "" if self.prog == "mbd" else f"{self.prog.split(' ', 1)[-1]} "
+
+
+def _commands(parser: argparse.ArgumentParser) -> dict:
+    """A parser's subcommands by name ({} for one without)."""
+    return next((a.choices for a in parser._actions if isinstance(a, argparse._SubParsersAction)), {})
+
+
+def _parsers(parser: argparse.ArgumentParser) -> list[argparse.ArgumentParser]:
+    """The parser and its subcommands' parsers."""
+    return [parser, *_commands(parser).values()]
+
+
+def _close(word: str, known: list[str]) -> list[str]:
+    import difflib
+
+    return [] if word in known else difflib.get_close_matches(word.split("=")[0], known, n=1, cutoff=0.6)
+
+
 def build_parser(others: bool = True) -> argparse.ArgumentParser:
     """``mbd``'s parser: the solver's commands and (``others``) those the course's packages register."""
-    parser = argparse.ArgumentParser(prog="mbd", description="Multibody dynamics course: reference solver.")
+    parser = Parser(prog="mbd", description="Multibody dynamics course: reference solver.")
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run an analysis of a model file")
     run.add_argument("model", help="model file (YAML or JSON)")
@@ -404,8 +470,8 @@ def main(argv: list[str] | None = None) -> int:
     args, extra = parser.parse_known_args(argv)
     if getattr(args, "options", False) is True:
         args.options = extra  # the command's own options (mbd notes --help, mbd bench --help)
-    elif extra:
-        parser.error(f"unrecognized arguments: {' '.join(extra)}")
+    elif extra:  # said by the command's parser: its options are the ones to guess from
+        _commands(parser).get(args.command, parser).error(f"unrecognized arguments: {' '.join(extra)}")
     try:
         return args.handler(args)
     except (ModelError, AnalysisError, UsageError) as err:

@@ -115,3 +115,53 @@ def test_checks_can_be_turned_off_by_zero(tmp_path, capsys):
         {"end_time": 0.1, "output_steps": 2, "drift_limit": 0, "singular_ratio": 0, "stiffness": "off"},
     )
     assert main(["run", str(path), "--formulation", "svd", "--rank-tol", "1e-10"]) == 0
+
+
+SLIDER = str(MODELS / "slider_crank.yaml")
+
+
+def _one_line(capsys) -> str:
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1 and err.startswith("mbd: error: "), (out, err)
+    return err
+
+
+@pytest.mark.parametrize(
+    "argv, said",
+    [
+        (["rnu", SLIDER], "did you mean run?"),
+        (["run", SLIDER, "--tend", "2"], "unrecognized arguments: --tend 2; did you mean --t-end? (mbd run --help"),
+        (["run", SLIDER, "--formulaton", "qr"], "did you mean --formulation?"),
+        (["run", SLIDER, "--t-end", "abc"], "argument --t-end: invalid float value: 'abc' (mbd run --help"),
+    ],
+)
+def test_a_misspelt_command_option_or_number_is_one_line_with_the_closest_name(argv, said, capsys):
+    with pytest.raises(SystemExit) as stop:
+        main(argv)
+    assert stop.value.code == 2
+    assert said in _one_line(capsys)
+
+
+@pytest.mark.parametrize(
+    "option, path, said",
+    [
+        ("--out", "r.xlsx", "results are written as FILE.csv (a table) or FILE.npz"),
+        ("--out", "no-such-folder/r.csv", "no folder no-such-folder"),
+        ("--plot", "p.txt", "a plot is written as one of "),
+        ("--animate", "a.avi", "animations are .gif or .mp4 files"),
+        ("--animate", "no-such-folder/a.html", "no folder no-such-folder"),
+    ],
+)
+def test_an_output_that_cannot_be_written_is_refused_before_the_run(option, path, said, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", SLIDER, option, path]) == 2
+    assert said in _one_line(capsys)  # nothing printed on stdout: the run's summary never came
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_kits_mbd_names_the_closest_command(capsys):
+    from mbdkit.cli import main as kit
+
+    with pytest.raises(SystemExit) as stop:
+        kit(["slefcheck", "hw1"])
+    assert stop.value.code == 2 and "did you mean selfcheck?" in _one_line(capsys)
