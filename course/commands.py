@@ -1,4 +1,4 @@
-"""The course's commands of ``mbd`` (instructor): ``release``, ``nbcheck``, ``notes`` and ``bench``.
+"""The course's commands of ``mbd`` (instructor): ``release``, ``nbcheck``, ``notes``, ``bench``, ``gradebook``.
 
 Registered in the course's ``pyproject.toml`` (entry-point group ``mbd.commands``, ``solutions.cli.COMMANDS``);
 each ``add_*`` adds its subparser to ``mbd``'s. The work is imported only when the command runs, so that
@@ -80,3 +80,26 @@ def _bench(args: argparse.Namespace) -> int:
     sys.modules[spec.name] = bench  # its dataclasses look their module up there
     spec.loader.exec_module(bench)
     return bench.main(args.options)
+
+
+def add_gradebook(sub) -> None:
+    """``mbd gradebook HOMEWORK.csv ... --marks MARKS.csv --out FINAL.csv``: the final grade (``course.gradebook``)."""
+    book = sub.add_parser(
+        "gradebook", help="combine the homework grades with test and oral marks into the final grade (instructor)"
+    )
+    book.add_argument(
+        "homework", nargs="+", metavar="GRADES.csv",
+        help="each homework's grades: mbd grade's gradebook.csv (hwN in its path, or hwN=FILE) or nbgrader's export",
+    )  # fmt: skip
+    book.add_argument("--marks", help="CSV with columns student, test, oral (percent; empty: not given)")
+    book.add_argument("--weights", help="percent per part, e.g. homework=50,test=25,oral=25 (course/grading.toml)")
+    book.add_argument("--roster", help="a file of student ids, one per line: who should be in the table")
+    book.add_argument("--missing-as-zero", action="store_true", help="count a missing part as 0 (end of term)")
+    book.add_argument("--out", required=True, help="the final grades, FILE.csv")
+    book.set_defaults(handler=_gradebook)
+
+
+def _gradebook(args: argparse.Namespace) -> int:
+    from course.gradebook import command
+
+    return command(args)

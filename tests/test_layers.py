@@ -135,6 +135,7 @@ ALL = {
     "release",
     "nbcheck",
     "notes",
+    "gradebook",
     "bench",
     "grade",
     "secret",
