@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -29,7 +30,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .generator import HOMEWORKS, REPO, RegionError, build_package, modules_differences
-from .kit import build_kit
+from .kit import build_kit, course_dependencies
 from .leakcheck import find_leaks
 
 CONFIG = Path("course", "nbgrader_config.py")
@@ -54,6 +55,10 @@ class ReleaseReport:
     exchange: str | None = None
     notes: list[str] = field(default_factory=list)
     seconds: float = 0.0
+    size: int = 0
+    """Bytes of the release folder (what is handed out)."""
+    installs: list[str] = field(default_factory=list)
+    """What ``pip install ./`` of the kit installs (its pyproject's dependencies)."""
 
     def summary(self) -> str:
         """What was released, for the instructor (``mbd release`` prints it)."""
@@ -67,6 +72,9 @@ class ReleaseReport:
         lines.append(
             f"  checker:          {self.folder / 'mbdkit'} (public checks, stored expected values); students "
             f"install the kit with `pip install ./` ({len(self.kit)} files with pyproject.toml and README.md)"
+        )
+        lines.append(
+            f"  size:             {self.size / 1e6:.1f} MB to hand out; pip install ./ adds {', '.join(self.installs)}"
         )
         if self.given:
             lines.append(f"  given, filled in: {len(self.given)} functions of earlier homeworks")
@@ -246,6 +254,8 @@ def release(homework: str, course_dir: Path | None = None) -> ReleaseReport:
         given=built.filled_functions(),
         later=sorted(later),
         notes=notes,
+        size=sum(p.stat().st_size for p in folder.rglob("*") if p.is_file()),
+        installs=[re.split(r"[<>=\[ ;]", d)[0] for d in course_dependencies(course_dir)],
     )
     if not report.to_write:
         report.notes.append(f"no solution region is tagged {homework}: students have nothing to write in modules/")

@@ -208,3 +208,7 @@ def test_the_command_prints_the_release_or_the_refusal(clone, capsys):
     out = capsys.readouterr().out
     assert out.startswith(f"released hw3 into {clone / 'build' / 'release' / 'hw3'}")
     assert "functions raise NotImplementedError for hw3" in out
+    folder = clone / "build" / "release" / "hw3"
+    size = sum(p.stat().st_size for p in folder.rglob("*") if p.is_file())
+    said = next(line for line in out.splitlines() if line.lstrip().startswith("size:"))
+    assert f"{size / 1e6:.1f} MB to hand out" in said and "numpy" in said and "numba" not in said and "dask" not in said
