@@ -187,15 +187,12 @@ def _(v):
     "distance-constraint",
     3,
     "A revolute-revolute link: Psi and gamma of the distance constraint",
-    draw=lambda rng: {
-        "d": (pick(rng, 0.2, 0.5), pick(rng, -0.3, 0.3)),
-        "dd": (pick(rng, -1.0, 1.0), pick(rng, -1.0, 1.0)),
-        "L": pick(rng, 0.3, 0.5),
-    },
+    draw=lambda rng: _draw_distance(rng),
     statement=lambda v: (
-        f"Two particles (points at the centres of mass, s' = 0) are at relative position d = ({fmt(v['d'][0])}, "
-        f"{fmt(v['d'][1])}) m, moving apart with d' = ({fmt(v['dd'][0])}, {fmt(v['dd'][1])}) m/s. A link of length "
-        f"L = {fmt(v['L'])} m joins them. Evaluate Psi and gamma of eq. 3.27."
+        f"Two particles (points at the centres of mass, s' = 0), not yet assembled, are at relative position d = "
+        f"({fmt(v['d'][0])}, {fmt(v['d'][1])}) m, {_apart_or_closing(v)} with d' = ({fmt(v['dd'][0])}, "
+        f"{fmt(v['dd'][1])}) m/s. A distance constraint (a link of length L = {fmt(v['L'])} m) is to join them. "
+        "Evaluate Psi and gamma of eq. 3.27 at this state: how far is it from assembled?"
     ),
 )
 def distance_solution(v: dict) -> tuple[str, Answers]:
@@ -207,6 +204,21 @@ def distance_solution(v: dict) -> tuple[str, Answers]:
         f"satisfy the link yet).\nWith s' = 0 and L constant, gamma = -d'^T d' = {fmt(gamma)} m^2/s^2."
     )
     return text, {"psi": psi, "gamma": gamma}
+
+
+def _draw_distance(rng: np.random.Generator) -> dict:
+    """d, d' and a link length L at least 1 cm away from |d| (a state that is not assembled, as the statement says)."""
+    d, dd = (pick(rng, 0.2, 0.5), pick(rng, -0.3, 0.3)), (pick(rng, -1.0, 1.0), pick(rng, -1.0, 1.0))
+    length = pick(rng, 0.3, 0.5)
+    while abs(length - math.hypot(*d)) < 0.01:
+        length = pick(rng, 0.3, 0.5)
+    return {"d": d, "dd": dd, "L": length}
+
+
+def _apart_or_closing(v: dict) -> str:
+    """What d' does to the distance: d^T d' > 0 moves the particles apart, < 0 closes them in."""
+    rate = float(np.dot(v["d"], v["dd"]))
+    return "moving apart" if rate > 0 else "closing in" if rate < 0 else "turning about each other"
 
 
 @distance_solution.solver
@@ -457,7 +469,7 @@ def _(v):
     "gear-pair",
     3,
     "Speed ratio of a gear pair",
-    draw=lambda rng: {"R1": pick(rng, 0.02, 0.06, 3), "R2": pick(rng, 0.05, 0.12, 3), "w1": pick(rng, 5.0, 30.0, 1)},
+    draw=lambda rng: {"R1": pick(rng, 0.02, 0.06, 3), "R2": pick(rng, 0.07, 0.12, 3), "w1": pick(rng, 5.0, 30.0, 1)},
     statement=lambda v: (
         f"Two external spur gears on fixed axles, pitch radii R1 = {fmt(v['R1'])} m and R2 = {fmt(v['R2'])} m; gear 1 "
         f"turns at {fmt(v['w1'])} rad/s. Find the angular velocity of gear 2 (eq. 3.29)."

@@ -55,3 +55,17 @@ def test_sheets_hold_the_statements_and_keep_the_solutions_apart(tmp_path):
         assert v.solution not in test and "Answers" not in test
     assert (tmp_path / "s002-test.md").read_text() != test
     assert main(["--seed", "1", "--students", "x", "--problems", "no-such-problem", "--out", str(tmp_path)]) == 2
+
+
+def test_every_variant_holds_what_its_statement_says():
+    """The statement's own words hold for every student's numbers: the distance problem's particles move apart
+    only where d^T d' > 0 (and close in where it is negative), its link is not already assembled (Psi != 0,
+    as the statement says); a gear pair is a reduction (R1 < R2, never a ratio of 1)."""
+    by_key = {p.key: p for p in PROBLEMS}
+    for student in [f"s{k:03d}" for k in range(60)]:
+        v = variant(by_key["distance-constraint"], student, SEED)
+        rate = sum(a * b for a, b in zip(v.numbers["d"], v.numbers["dd"], strict=True))
+        assert ("moving apart" in v.statement) == (rate > 0) and ("closing in" in v.statement) == (rate < 0)
+        assert v.answers["psi"] != 0.0 and "not yet assembled" in v.statement
+        gear = variant(by_key["gear-pair"], student, SEED).numbers
+        assert gear["R1"] < gear["R2"]
