@@ -31,17 +31,28 @@ def _title(nb) -> str:
 
 
 def _anchor_equations(nb) -> list[str]:
-    """Put an HTML anchor ``eq-N.M`` before every markdown cell's labelled equations; return the labels."""
+    """Put an HTML anchor ``eq-N.M`` just before each labelled equation's display block (``$$ ... \\tag{N.M}``),
+    so that a link lands on the equation, not on the top of its cell; return the labels."""
     labels = []
     for cell in nb.cells:
-        if cell.cell_type != "markdown":
-            continue
-        found = TAG.findall(cell.source)
-        if found:
+        if cell.cell_type == "markdown" and TAG.search(cell.source):
+            cell.source, found = anchored(cell.source)
             labels.extend(found)
-            anchors = "".join(f'<a id="eq-{label}"></a>' for label in found)
-            cell.source = anchors + "\n\n" + cell.source
     return labels
+
+
+def anchored(source: str) -> tuple[str, list[str]]:
+    """``source`` with ``<a id="eq-N.M"></a>`` just before the ``$$`` that opens the display
+    holding ``\\tag{N.M}`` (before the tag itself when no ``$$`` opens it); and the labels, in order."""
+    pieces, labels, done = [], [], 0
+    for match in TAG.finditer(source):
+        label = match.group(1)
+        opening = source.rfind("$$", done, match.start())
+        place = opening if opening >= 0 and source.count("$$", done, opening) % 2 == 0 else match.start()
+        pieces += [source[done:place], f'<a id="eq-{label}"></a>']
+        labels.append(label)
+        done = place
+    return "".join(pieces) + source[done:], labels
 
 
 PLOTLY = "plotly.min.js"

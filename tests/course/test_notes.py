@@ -165,6 +165,8 @@ def test_the_notes_build_as_html_with_an_anchor_for_every_equation(tmp_path):
     index = build_notes(tmp_path, execute=False, paths=few)
     page = (tmp_path / few[0].with_suffix(".html").name).read_text()
     assert "<html" in page and 'id="eq-3.17"' in page and "\\tag{3.17}" in page
+    anchor, tag = page.index('id="eq-3.17"'), page.index("\\tag{3.17}")
+    assert page.index("\\tag{3.13}") < anchor < tag and "\\tag{" not in page[anchor:tag]  # the link lands on it
     links = index.read_text()
     assert all(f'#eq-{label}"' in links for path in few for label in equation_labels(path))
 
@@ -192,3 +194,12 @@ def test_a_chapters_mechanism_views_play_in_its_page(tmp_path):
     assert "a </script>" not in page and "a \\u003c/script\\u003e\\u003cb\\u003e \\u0026 title" in page
     kept = nbformat.read(path, as_version=4).cells[1].outputs[0]["data"]
     assert MIME in kept and "text/html" not in kept  # the chapter's file as it was
+
+
+def test_an_anchor_sits_before_the_display_that_holds_its_tag():
+    from course.notes.build import anchored
+
+    source = "# Ch. 3\n\nText $$ p \\tag{3.1} $$ and $x$, $$y$$, then\n$$\\begin{aligned} c \\end{aligned} \\tag{3.2}$$"
+    out, labels = anchored(source)
+    assert labels == ["3.1", "3.2"]
+    assert out == source.replace("$$ p", '<a id="eq-3.1"></a>$$ p').replace("$$\\begin", '<a id="eq-3.2"></a>$$\\begin')
