@@ -1,5 +1,7 @@
-"""The feedback page of one student: every check with its points and message, and for a run check that
-failed on a scene the student may see, a plot of their trajectory against the reference.
+"""The feedback page of one student: first the points per group of checks and each distinct cause of the failures
+once (how many checks and points it costs, the largest first), then every check with its points and message (a
+cause already listed is referred to by its number), and for a run check that failed on a scene the student may
+see, a plot of their trajectory against the reference and of the difference.
 
 A page never shows hidden data: hidden and per-student checks' messages are the grader's words only
 (``mbdkit.withheld``) and get no plot. The hidden checks' results are held back until the instructor
@@ -21,7 +23,9 @@ h1 { font-size: 1.5rem; } .score { font-size: 1.2rem; }
 table { border-collapse: collapse; width: 100%; } td, th { border-bottom: 1px solid #ddd; padding: .4rem; }
 th { text-align: left; } td.points { white-space: nowrap; text-align: right; }
 tr.passed td.status { color: #176d24; } tr.failed td.status { color: #a11; font-weight: bold; }
-td.message { font-family: ui-monospace, monospace; font-size: .85rem; white-space: pre-wrap; }
+td.message, li.cause code { font-family: ui-monospace, monospace; font-size: .85rem; white-space: pre-wrap;
+  overflow-wrap: anywhere; }
+table.groups { width: auto; } ol.causes li { margin: .3rem 0; }
 figure { margin: 1rem 0; } figcaption { font-size: .9rem; color: #555; }
 """
 
@@ -32,14 +36,18 @@ def plot_png(plot: dict) -> str:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import numpy as np
 
-    fig, ax = plt.subplots(figsize=(6.4, 3.2), dpi=90)
+    fig, (ax, below) = plt.subplots(2, 1, figsize=(6.4, 4.4), dpi=90, sharex=True, height_ratios=(3, 2))
     ax.plot(plot["t"], plot["expected"], label="reference", linewidth=2.0)
     ax.plot(plot["t"], plot["got"], "--", label="your code", linewidth=1.5)
-    ax.set_xlabel("t [s]")
     ax.set_ylabel(plot["label"])
     ax.set_title(plot["quantity"], fontsize=9)
     ax.legend()
+    below.plot(plot["t"], np.asarray(plot["got"], float) - np.asarray(plot["expected"], float), color="#a11")
+    below.axhline(0.0, color="#888", linewidth=0.8)
+    below.set_ylabel("yours - reference")  # curves that overlay still show their difference here
+    below.set_xlabel("t [s]")
     fig.tight_layout()
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png")
@@ -52,13 +60,53 @@ SCORE_START, SCORE_END = "<!-- score -->", "<!-- /score -->"
 """Around the parts ``publish`` rewrites (a student's text in a page is escaped: it cannot forge them)."""
 
 
-def _row(name: str, passed: bool, points: float, max_points: float, message: str) -> str:
+def _row(name: str, passed: bool, points: float, max_points: float, message: str, cause: int | None = None) -> str:
+    """A check's row; ``cause``: the number of its cause in the list above, said instead of the message."""
     status = "passed" if passed else "failed"
+    said = "" if passed else f"cause {cause} above" if cause is not None else message
     return (
         f'<tr class="{status}"><td>{html.escape(name)}</td><td class="status">{status}</td>'
         f'<td class="points">{points:g} / {max_points:g}</td>'
-        f'<td class="message">{html.escape("" if passed else message)}</td></tr>'
+        f'<td class="message">{html.escape(said)}</td></tr>'
     )
+
+
+def cause_of(outcome: Outcome) -> str:
+    """A failed check's message without the scene it names first ('four_bar: not implemented yet: ...'): the same
+    mistake on several scenes is one cause."""
+    prefix = f"{outcome.scene}: "
+    return outcome.message[len(prefix) :] if outcome.message.startswith(prefix) else outcome.message
+
+
+def causes(outcomes: list[Outcome]) -> list[tuple[str, list[Outcome]]]:
+    """Each distinct cause of the failed checks with the checks it fails, the most points lost first."""
+    by_cause: dict[str, list[Outcome]] = {}
+    for o in outcomes:
+        if not o.passed:
+            by_cause.setdefault(cause_of(o), []).append(o)
+    return sorted(by_cause.items(), key=lambda item: -sum(o.max_points - o.points for o in item[1]))
+
+
+def summary_part(outcomes: list[Outcome]) -> str:
+    """Points per group of the checks shown, then each cause of their failures once."""
+    groups: dict[str, list[Outcome]] = {}
+    for o in outcomes:
+        groups.setdefault(o.group, []).append(o)
+    rows = "".join(
+        f'<tr><td>{html.escape(group)}</td><td class="points">{sum(o.points for o in done):g} / '
+        f"{sum(o.max_points for o in done):g}</td><td>{sum(o.passed for o in done)} of {len(done)} passed</td></tr>"
+        for group, done in groups.items()
+    )
+    parts = [f'<h2>By group</h2><table class="groups"><tr><th>group</th><th>points</th><th></th></tr>{rows}</table>']
+    items = []
+    for cause, failed in causes(outcomes):
+        lost, touched = sum(o.max_points - o.points for o in failed), ", ".join(dict.fromkeys(o.group for o in failed))
+        count = f"{len(failed)} check{'s' if len(failed) > 1 else ''}"
+        items.append(f'<li class="cause"><b>{count}, {lost:g} points</b> ({html.escape(touched)}): ')
+        items[-1] += f"<code>{html.escape(cause)}</code></li>"
+    if items:
+        parts.append(f'<h2>What to fix, the costliest first</h2><ol class="causes">{"".join(items)}</ol>')
+    return "\n".join(parts)
 
 
 def hidden_tests(tests: list[dict]) -> list[dict]:
@@ -93,16 +141,16 @@ def feedback_html(student: str, homework: str, title: str, outcomes: list[Outcom
     """The whole page as a string; the hidden checks' results only when ``published`` (``publish`` adds
     them later to a page written without)."""
     tests = [o.to_test() for o in outcomes]
+    shown = [o for o in outcomes if o.kind != "hidden"]
+    numbered = {cause: k for k, (cause, _) in enumerate(causes(shown), start=1)}
     rows, figures = [], []
-    for o in outcomes:
-        if o.kind == "hidden":
-            continue
-        rows.append(_row(o.name, o.passed, o.points, o.max_points, o.message))
+    for o in shown:
+        rows.append(_row(o.name, o.passed, o.points, o.max_points, o.message, numbered.get(cause_of(o))))
         if not o.passed and o.plot is not None and o.kind == "public":
             figures.append(
                 f'<figure><img alt="{html.escape(o.name)}" src="data:image/png;base64,{plot_png(o.plot)}">'
                 f"<figcaption>{html.escape(o.name)}: {html.escape(o.plot['label'])}, your run against the "
-                "reference</figcaption></figure>"
+                "reference, and the difference</figcaption></figure>"
             )
     plots = "<h2>Where your runs leave the reference</h2>" + "".join(figures) if figures else ""
     hidden = hidden_tests(tests)
@@ -111,6 +159,8 @@ def feedback_html(student: str, homework: str, title: str, outcomes: list[Outcom
 <style>{STYLE}</style></head><body>
 <h1>{html.escape(homework)} {html.escape(title)}: feedback for {html.escape(student)}</h1>
 {SCORE_START}{score_part(tests, published)}{SCORE_END}
+{summary_part(shown)}
+<h2>Every check</h2>
 <table><tr><th>check</th><th>status</th><th>points</th><th>message</th></tr>
 {"".join(rows)}
 {HIDDEN_START}{hidden_part(hidden, published)}{HIDDEN_END}
