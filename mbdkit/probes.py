@@ -463,6 +463,41 @@ def _euler_parameters(job: Job) -> np.ndarray:
     return q.reshape(q.shape[0], -1, 7)[:, :, 3:]
 
 
+BODY_VECTORS = (np.array([0.3, -0.1]), np.array([-0.2, 0.25]))
+"""The body-fixed vectors s_i' and s_j' at which ``planar_bodies`` evaluates the point vectors (any will do)."""
+
+
+@probe(
+    "planar_bodies",
+    {
+        "A": ("state", "body", "i", "j"),
+        "B": ("state", "body", "i", "j"),
+        "d": ("state", "body", "i"),
+        "d_dot": ("state", "body", "i"),
+        "d_quadratic": ("state", "body", "i"),
+    },
+    PERTURBED,
+    requires=("planar.bodies",),
+)
+def planar_bodies(pkg: Package, job: Job) -> dict:
+    """The body functions alone, before any joint (eq. 2.1-2.5): A(phi) and B(phi) of every body, and d_ij, d_ij'
+    and the velocity part of d_ij'' from the body before it (ground for the first) to it, with the body vectors
+    BODY_VECTORS, at the perturbed states."""
+    bodies = pkg["planar.bodies"]
+    si, sj = BODY_VECTORS
+    out: dict[str, list] = {name: [] for name in ("A", "B", "d", "d_dot", "d_quadratic")}
+    for _, q, qd in _states(job):
+        q, qd = np.concatenate([np.zeros(3), q]), np.concatenate([np.zeros(3), qd])  # ground first
+        blocks = [(q[3 * k : 3 * k + 3], qd[3 * k : 3 * k + 3]) for k in range(q.size // 3)]
+        pairs = list(zip(blocks[:-1], blocks[1:], strict=True))
+        out["A"].append([real(bodies.rotation(float(qb[2]))) for qb, _ in blocks[1:]])
+        out["B"].append([real(bodies.rotation_derivative(float(qb[2]))) for qb, _ in blocks[1:]])
+        out["d"].append([real(bodies.point_vector(a.copy(), si, b.copy(), sj)) for (a, _), (b, _) in pairs])
+        for name, f in (("d_dot", bodies.point_vector_dot), ("d_quadratic", bodies.point_vector_quadratic)):
+            out[name].append([real(f(a.copy(), si, b.copy(), sj, ad.copy(), bd.copy())) for (a, ad), (b, bd) in pairs])
+    return {name: np.array(values) for name, values in out.items()}
+
+
 @probe(
     "rotation_matrices",
     {"A": ("state", "body", "i", "j"), "G": ("state", "body", "i", "j"), "L": ("state", "body", "i", "j")},

@@ -51,11 +51,11 @@ def test_the_check_before_autograde_names_and_repairs_the_damaged_notebooks(cycl
     named each damage, repaired it, and nbgrader's totals equal mbd grade's (test_exported_grades_...)."""
     course, book = cycle.course, cycle.book
     log = (course / "build" / "autograde.log").read_text()
-    assert "dan: cell test_hw1_revolute is in the notebook twice" in log and "fails the whole submission" in log
-    assert re.search(r"dan: graded test cell test_hw1_prismatic deleted \(6 points\).*repaired: restored", log)
+    assert "dan: cell test_hw1_bodies is in the notebook twice" in log and "fails the whole submission" in log
+    assert re.search(r"dan: graded test cell test_hw1_revolute deleted \(10 points\).*repaired: restored", log)
     assert "dan: the notebook is 'hw1 (1).ipynb', not 'hw1.ipynb'" in log
     assert "fay: the notebook is 'hw1-copy.ipynb', not 'hw1.ipynb' (zip_collect dropped it" in log
     assert "repaired: hw1-copy.ipynb collected as hw1.ipynb" in log
-    assert book.score("dan") >= 6.0 and book.score("fay") == 0.0  # the joints' points, the prismatic's among them
+    assert book.score("dan") >= 10.0 and book.score("fay") == 0.0  # the bodies and joints, the revolute among them
     assert float(cycle.exported["dan"]["raw_score"]) == pytest.approx(book.score("dan"))
     assert (course / "build" / "autograded" / "fay" / "hw1" / "hw1.ipynb").is_file()
