@@ -377,3 +377,18 @@ def cluster():
         env=env,
     ) as lc, distributed.Client(lc) as client:  # fmt: skip
         yield lc.scheduler_address, client
+
+
+def execute_notebook(client) -> None:
+    """``client.execute()`` (an nbclient NotebookClient) on an event loop of this thread's own, closed afterwards:
+    nbclient leaves one open per thread otherwise, which a later test on the worker meets as an unclosed-loop
+    ResourceWarning."""
+    import asyncio
+
+    loop = asyncio.new_event_loop()
+    asyncio.set_event_loop(loop)
+    try:
+        client.execute()
+    finally:
+        asyncio.set_event_loop(None)
+        loop.close()

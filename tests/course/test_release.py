@@ -17,6 +17,8 @@ from course.release import HOMEWORKS, ReleaseError, build_modules, find_leaks, r
 from course.release.generator import REPO, all_regions, source_files
 from course.release.release import load_config
 
+from ..conftest import execute_notebook
+
 COPIED = ("solutions", "course", "assignments", "autograder", "mbdkit", "pyproject.toml")
 IGNORED = shutil.ignore_patterns("__pycache__", "build", ".ipynb_checkpoints")
 GIT = shutil.which("git")
@@ -61,7 +63,8 @@ def load_student_package(folder: Path, name: str, tools):
 
 def run_notebook(notebook: Path, folder: Path) -> None:
     nb = nbformat.read(notebook, as_version=4)
-    NotebookClient(nb, timeout=120, kernel_name="python3", resources={"metadata": {"path": str(folder)}}).execute()
+    client = NotebookClient(nb, timeout=120, kernel_name="python3", resources={"metadata": {"path": str(folder)}})
+    execute_notebook(client)
 
 
 # -- what a release holds --------------------------------------------------------------------------------

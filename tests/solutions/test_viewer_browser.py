@@ -25,6 +25,7 @@ from nbclient import NotebookClient
 
 from solutions.cli import main
 
+from ..conftest import execute_notebook
 from .test_serve import Server
 
 REPO = Path(__file__).resolve().parents[2]
@@ -80,7 +81,7 @@ def notebook(tmp_path_factory) -> Path:
     ]
     nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
     os.environ["MBD_REPO"] = str(REPO)
-    NotebookClient(nb, timeout=300).execute()
+    execute_notebook(NotebookClient(nb, timeout=300))
     nbformat.write(nb, folder / "views.ipynb")
     return folder / "views.ipynb"
 
