@@ -27,6 +27,7 @@ import os
 import sys
 from pathlib import Path
 
+from . import staging
 from .checks import Outcome
 from .homework import load_homework
 from .runner import PACKAGE, PublicData, run_checks
@@ -80,10 +81,10 @@ def _forget() -> None:
 
 
 def package_digest(package: Path) -> str:
-    """A hash of every file of the package (names and contents; not ``__pycache__``)."""
+    """A hash of the package's files as a check takes them (``staging.scan``: names and contents)."""
     digest = hashlib.sha256()
-    for path in sorted(p for p in package.rglob("*") if p.is_file() and "__pycache__" not in p.parts):
-        digest.update(path.relative_to(package).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
+    for file in staging.scan(package.parent, package.name).files:
+        digest.update(os.fsencode(file.path) + b"\0" + (package / file.path).read_bytes() + b"\0")
     return digest.hexdigest()
 
 

@@ -1,7 +1,8 @@
 """The hand-in: a zip of exactly what the instructor grades (``mbd handin hwN``).
 
 What is graded is the notebook ``hwN.ipynb`` and the package ``modules/`` beside it; nothing else of the homework
-folder goes in (no ``.venv/``, ``build/``, ``*.egg-info``, ``mbdkit/``, scenes, caches or notebook checkpoints).
+folder goes in (no ``.venv/``, ``build/``, ``*.egg-info``, ``mbdkit/``, scenes, caches or notebook checkpoints), and of
+``modules/`` what the grader takes of it (``staging``: regular files; a link is left out, a linked ``modules`` refused).
 Before writing, the package is imported in a fresh interpreter, every module of it, so that a package that does
 not import (a syntax error, a missing name at module level) is refused with the error, not handed in.
 """
@@ -14,10 +15,11 @@ import sys
 import zipfile
 from pathlib import Path
 
+from . import staging
 from .runner import PACKAGE
 
-SKIPPED = ("__pycache__", ".ipynb_checkpoints")
-"""Folders of the package left out of the zip (made by Python and JupyterLab, not by the student)."""
+SKIPPED = ".ipynb_checkpoints"
+"""JupyterLab's copies of the package's files, left out of the zip (the grader would take them, and ignore them)."""
 IMPORT_TIMEOUT = 120.0
 IMPORT_EVERY_MODULE = """
 import importlib, pkgutil, sys
@@ -32,13 +34,13 @@ class HandinError(ValueError):
     """What keeps a folder from being handed in (one line for the student)."""
 
 
-def package_files(package: Path) -> list[Path]:
-    """The package's files that go into the hand-in, sorted."""
-    return sorted(
-        p
-        for p in package.rglob("*")
-        if p.is_file() and not any(part in SKIPPED for part in p.parts) and p.suffix != ".pyc"
-    )
+def package_files(folder: Path) -> list[str]:
+    """The package's files that go into the hand-in, as the grader takes them (``staging.scan``: its regular
+    files, without caches and links), relative to ``folder``; HandinError when the grader would take none."""
+    found = staging.scan(folder, PACKAGE)
+    if found.refused is not None:
+        raise HandinError(found.refused)
+    return [f"{PACKAGE}/{f.path}" for f in found.files if SKIPPED not in f.path.split("/")]
 
 
 def import_error(folder: Path) -> str | None:
@@ -79,7 +81,7 @@ def handin(homework: str, folder: Path, out: Path | None = None) -> tuple[Path, 
     out = Path(out) if out is not None else folder / f"{homework}-handin.zip"
     if not out.parent.is_dir():
         raise HandinError(f"no folder {out.parent} for {out.name}")
-    names = [notebook.name] + [p.relative_to(folder).as_posix() for p in package_files(package)]
+    names = [notebook.name, *package_files(folder)]
     partial = out.with_name(out.name + ".partial")
     with zipfile.ZipFile(partial, "w", compression=zipfile.ZIP_DEFLATED) as archive:
         for name in names:

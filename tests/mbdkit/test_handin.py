@@ -72,3 +72,12 @@ def test_what_cannot_be_graded_is_refused_in_one_line_and_nothing_is_written(fol
     joints.write_text(joints.read_text().replace("\nbroken = (\n", "\n"))
     assert handin_command("hw1", folder, str(tmp_path / "no-such-folder" / "x.zip")) == 2
     assert "no folder" in capsys.readouterr().err
+
+
+def test_a_linked_package_is_refused_as_the_grader_refuses_it(folder, tmp_path, capsys):
+    """The hand-in takes modules/ as the grader stages it (mbdkit.staging): a modules that is a link to a
+    folder elsewhere (the course's solutions, say) would grade as nothing, so it is not handed in."""
+    shutil.move(folder / "modules", tmp_path / "elsewhere")
+    (folder / "modules").symlink_to(tmp_path / "elsewhere")
+    assert handin_command("hw1", folder) == 2
+    assert "modules is a symbolic link" in capsys.readouterr().err and not list(folder.glob("*.zip"))
