@@ -11,7 +11,8 @@ joint's Euler parameters) into the arrays of ``tree_kernels.py``, and the cut ro
 ``generate`` writes the module:
 
 - ``scene_rhs(t, z, P, D, out)``: y' = (the rates of the joint positions, theta''[, P_dissipated, P_applied,
-  P_drivers]) (``loops.RHS_SIGNATURE``: the integrator loops take it as they take the Baumgarte one); with cut
+  P_drivers]) (``loops.RHS_SIGNATURE``: the integrator loops take it as they take the Baumgarte one); an open
+  tree's theta'' by the articulated-body algorithm in O(N) (``articulated.py``); with cut
   rows it evaluates every constraint kernel and keeps the cut rows (P[8][6:]); with drivers and the energy
   balance, lambda too (the drivers' power, eq. 5.61, as ``dynamics.EquationsOfMotion``). Given an ``out``
   longer than y, it writes after y' the body coordinates q, q' at the joint state, q'' and lambda of the model's
@@ -34,7 +35,7 @@ from ..joint_coordinates import cut_elements, tree_order
 from .codegen import constraint_calls, force_calls, generated_name, is_generated_cached, load_generated, slot_rows
 from .scene import SLOTS, Scene, packed
 
-SOURCES = ("tree_kernels.py", "projection_kernels.py", "../joint_coordinates.py")
+SOURCES = ("tree_kernels.py", "articulated.py", "projection_kernels.py", "../joint_coordinates.py")
 KINDS = {"revolute": 0, "prismatic": 1, "spherical": 2}
 
 
@@ -106,9 +107,11 @@ def describe(scene: Scene, formulation) -> TreeScene:
 
 ARRAYS = (
     ("xi", "a", None), ("Dm", "a * k", "(a, k)"), ("omega", "3 * nb", "(nb, 3)"), ("Q", "n", None),
-    ("power", "3", None), ("q", "n", None), ("qd", "n", None),
+    ("power", "3", None), ("q", "n", None), ("qd", "n", None), ("S", "3 * nv * ne", "(ne, nv, 3)"),
+    ("links", "3 * ne", "(ne, 3)"), ("thdd", "k", None),
 )  # fmt: skip
-"""The arrays of every evaluation (name, size, shape): xi and D (eq. 5.44), omega', Q, the powers, q and q'. (Psi,
+"""The arrays of every evaluation (name, size, shape): xi and D (eq. 5.44), omega', Q, the powers, q and q', the
+joints' columns S_e and links (``articulated``), theta''. (D is written only where it is used. Psi,
 Psi_q, Psi_t, gamma, q'' and lambda are made where they are needed: a tree without cut rows needs none of them
 on the way to theta''.)"""
 
@@ -118,7 +121,8 @@ def _arrays(spatial: bool) -> list[str]:
     small tree)."""
     lines = [
         f"    nb = n // {7 if spatial else 3}",
-        f"    a = {6 if spatial else 3} * nb  # the rows of xi and D",
+        f"    nv = {6 if spatial else 3}  # a body's velocity: (v, omega) spatial, (v_x, v_y, omega) planar",
+        "    a = nv * nb  # the rows of xi and D",
         f"    work = np.empty({' + '.join(size for _, size, _ in ARRAYS)})",
         "    at = 0",
     ]
@@ -147,27 +151,37 @@ def _multipliers(scene: Scene) -> list[str]:
 def _body(tree: TreeScene) -> list[str]:
     """The lines of ``scene_rhs``: q and q', xi, D, omega', Q and the powers at the joint state y; Psi, Psi_q, Psi_t
     and gamma when they are needed; theta'' (``thdd``): a tree with cut rows (P[8][6:], chosen at run time: one
-    module per dimension) solves the augmented system (``cut_accelerations``), one without
-    (D^T M D) theta'' = D^T (Q - M xi); q'' and lambda of every row for the outputs or the drivers' power."""
+    module per dimension) solves the augmented system (``cut_accelerations``), one without the embedded equations
+    (D^T M D) theta'' = D^T (Q - M xi) by the articulated-body algorithm (``articulated``, O(N), D never formed);
+    q'' and lambda of every row for the outputs or the drivers' power."""
     scene = tree.scene
     spatial = scene.dimension == 3
     rows = slot_rows(SLOTS.index("tree"))
-    data = f"D[0][{rows}], D[1][{rows}]"
     equations = "spatial" if spatial else "planar"
     arguments = "masses, inertias, q, Dm, xi, omega, Q" if spatial else "mass, Dm, xi, Q"
+    articulated = "masses, inertias, q, xi, omega, Q" if spatial else "mass, xi, Q"
     lines = [
         "    Q0, mass, masses, inertias, weights, fk, fp, numbers, dims = P",
         "    n, m, npos, k = dims[0], dims[1], dims[3], dims[4]",
+        f"    joints, joint_floats = D[0][{rows}], D[1][{rows}]",
+        "    ne = joints.shape[0]",
         "    full = out.size > y.size  # the outputs asked for too (loops.outputs): q, q', q'', lambda after y'",
+        "    columns = full or dims.size > 6  # D itself: for the outputs and the cut rows only",
         *_arrays(spatial),
         "    Q[:] = Q0",
         "    power[:] = 0.0",
     ]
     if spatial:
         rates = "out[:npos]"  # the rates of the joint positions (Euler parameters: not theta')
-        lines.append(f"    spatial_motion(y[:npos], y[npos : npos + k], {data}, nb, k, q, qd, xi, Dm, omega, {rates})")
+        lines.append(
+            "    spatial_motion(y[:npos], y[npos : npos + k], joints, joint_floats, nb, k, q, qd, xi, Dm, omega, "
+            f"{rates}, S, links, columns)"
+        )
     else:
-        lines.append(f"    planar_motion(y[:npos], y[npos : npos + k], {data}, nb, k, q, qd, xi, Dm)")
+        lines.append(
+            "    planar_motion(y[:npos], y[npos : npos + k], joints, joint_floats, nb, k, q, qd, xi, Dm, S, links, "
+            "columns)"
+        )
     lines += force_calls(scene, "    ")
     lines += [
         "    if full or dims.size > 6:  # the constraint rows: lambda of every row, or the cut rows",
@@ -175,7 +189,7 @@ def _body(tree: TreeScene) -> list[str]:
         "        jac = np.zeros((m, n))",
         *constraint_calls(scene, "        "),
         "    if dims.size > 6:  # cut rows: the augmented system (eq. 5.29, 5.30 in joint coordinates)",
-        f"        matrix, rhs = {equations}_equations({arguments}, D[0][{rows}])",
+        f"        matrix, rhs = {equations}_equations({arguments}, joints)",
     ]
     if spatial:
         lines += [
@@ -186,10 +200,10 @@ def _body(tree: TreeScene) -> list[str]:
     else:
         lines.append("        Dq, xiq = Dm, xi")
     return lines + [
-        "        thdd = cut_accelerations("
+        "        thdd[:] = cut_accelerations("
         "matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, dims[6:], numbers[0], numbers[1])",
-        "    else:",
-        f"        thdd = {equations}_accelerations({arguments}, D[0][{rows}])",
+        "    else:  # an open tree: the articulated-body algorithm, O(N)",
+        f"        {equations}_articulated({articulated}, joints, S, links, thdd)",
         "    if full or (dims.size > 6 and dims[5]):  # lambda: the outputs, or the drivers' power (drivers: cut rows)",
         *_multipliers(scene),
         "        if dims[5]:  # the drivers' power (eq. 5.61)",
@@ -207,7 +221,7 @@ def generate(tree: TreeScene) -> str:
     constraints = [name for name, _, _ in scene.constraint_kernels]
     kernels = sorted({*forces, *constraints, "lu_solve"} | ({"spatial_mass"} if spatial else set()))
     dimension = "spatial" if spatial else "planar"
-    tree_imports = {f"{dimension}_motion", f"{dimension}_equations", f"{dimension}_accelerations", "cut_accelerations"}
+    tree_imports = {f"{dimension}_motion", f"{dimension}_equations", f"{dimension}_articulated", "cut_accelerations"}
     tree_imports |= {"spatial_coordinate_accelerations", "spatial_joint_matrix"} if spatial else set()
     lines = [
         f'"""Generated by solutions.compiled.tree for the tree {tree.key!r}: do not edit."""',

@@ -11,13 +11,13 @@ numba over the tree's joint data (``tree.py``: one row per joint in topological 
   f, g, h (9)): the constant data of ``TreeJoint``.
 
 Recursion from ground, joint after joint (module docstring of ``joint_coordinates.py``): q, q' (planar:
-body coordinates; spatial: v and the body-frame omega'), D = dq/dtheta and xi (the accelerations with
-theta'' = 0). Then (D^T M D) theta'' = D^T (Q - M xi), solved by Cholesky (eq. 5.44 with Z = D); a matrix
-that is not positive definite gives NaN, which the adaptive integrators reject.
-
-The recursion carries every column of D through every body (zero where a joint does not move a body: the
-same numbers as the numpy code's inherited columns); D^T M D and D^T f sum over the columns that move each
-body only.
+body coordinates; spatial: v and the body-frame omega'), xi (the accelerations with theta'' = 0) and each joint's
+columns S_e and link l. An open tree then gets theta'' from (D^T M D) theta'' = D^T (Q - M xi) (eq. 5.44 with
+Z = D) by the articulated-body algorithm in O(N) (``articulated.py``), without ever forming D. A tree with cut
+joints, and the outputs at the output times, also need D = dq/dtheta: the recursion carries every column of D
+through every body (zero where a joint does not move a body: the same numbers as the numpy code's inherited
+columns), and the cut rows join D^T M D (summed over the columns that move each body) in an augmented system.
+A matrix that is not positive definite gives NaN, which the adaptive integrators reject.
 
 This module imports numba: it is imported only when the compiled engine runs (``solutions.compiled``).
 """
@@ -31,8 +31,8 @@ from numba import njit
 
 from ..joint_coordinates import half_transpose_product, scaled_product
 from ..rotation_matrices import quaternion_product_entries
+from .articulated import articulated_accelerations
 from .kernels import l_entries_jit, lu_solve, planar_rotation_entries_jit, unit_rotation_entries_jit
-from .projection_kernels import cholesky, cholesky_solve
 
 jit = njit(cache=False, fastmath=False, nogil=True)
 """Not cached here: these functions are compiled into the generated modules that call them, which are cached
@@ -43,6 +43,9 @@ _half_transpose_product, _scaled_product = jit(half_transpose_product), jit(scal
 """1/2 M^T w and s M x of a 3 x 4 matrix M (G or L), as the joint coordinates write them (``joint_coordinates``)."""
 
 REVOLUTE, PRISMATIC, SPHERICAL = 0, 1, 2
+WIDTHS = np.array([1, 1, 3])
+"""The velocity columns of a joint of each kind: a revolute joint's angle, a prismatic joint's slide, a spherical
+joint's three rates."""
 S_PARENT, S_CHILD, AXIS, OFFSET, A, C, U0, U1, FRAME = 0, 3, 6, 9, 10, 14, 18, 22, 26
 WIDTH = 35
 """Columns of a joint's floats (module docstring)."""
@@ -50,10 +53,11 @@ WIDTH = 35
 
 # -- planar ------------------------------------------------------------------------------------------------
 @jit
-def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm):
-    """q, q', xi (3 nb) and D (3 nb x k) of a planar tree (``PlanarTree.motion``)."""
+def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, S, links, columns):
+    """q, q', xi (3 nb) of a planar tree (``PlanarTree.motion``), each joint's column S_e (S[e, :, 0]: v_x, v_y,
+    omega) and link l = r_C - r_P (``articulated``); with ``columns``, D (3 nb x k) too."""
     body = np.zeros((8, nb + 1))  # x, y, phi, vx, vy, w, ax, ay; ground last
-    rows = np.zeros((3, nb + 1, k))  # the rows x, y, phi of D per body
+    rows = np.zeros((3, nb + 1, k if columns else 0))  # the rows x, y, phi of D per body
     for e in range(ints.shape[0]):
         P, Cb, c = ints[e, 1], ints[e, 2], ints[e, 3]
         if P < 0:
@@ -81,27 +85,38 @@ def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm):
         body[4, Cb] = body[4, P] + wp * lx + uy * sd - w_rel * rcx
         body[6, Cb] = body[6, P] - wp * wp * ex + wc * wc * rcx - 2.0 * wp * sd * uy
         body[7, Cb] = body[7, P] - wp * wp * ey + wc * wc * rcy + 2.0 * wp * sd * ux
-        for col in range(k):  # D_C = D_P + R90 l (angle row of D_P)
-            rows[0, Cb, col] = rows[0, P, col] - ly * rows[2, P, col]
-            rows[1, Cb, col] = rows[1, P, col] + lx * rows[2, P, col]
-            rows[2, Cb, col] = rows[2, P, col]
+        S[e] = 0.0
+        links[e, 0], links[e, 1], links[e, 2] = lx, ly, 0.0
         if revolute:
-            rows[0, Cb, c], rows[1, Cb, c], rows[2, Cb, c] = rcy, -rcx, 1.0
+            S[e, 0, 0], S[e, 1, 0], S[e, 2, 0] = rcy, -rcx, 1.0
         else:
-            rows[0, Cb, c], rows[1, Cb, c], rows[2, Cb, c] = ux, uy, 0.0
+            S[e, 0, 0], S[e, 1, 0] = ux, uy
+        if columns:
+            for col in range(k):  # D_C = D_P + R90 l (angle row of D_P), then the joint's own column
+                rows[0, Cb, col] = rows[0, P, col] - ly * rows[2, P, col]
+                rows[1, Cb, col] = rows[1, P, col] + lx * rows[2, P, col]
+                rows[2, Cb, col] = rows[2, P, col]
+            rows[0, Cb, c], rows[1, Cb, c], rows[2, Cb, c] = S[e, 0, 0], S[e, 1, 0], S[e, 2, 0]
     for b in range(nb):
         for r in range(3):
             q[3 * b + r] = body[r, b]
             qd[3 * b + r] = body[3 + r, b]
-            Dm[3 * b + r] = rows[r, b]
+            if columns:
+                Dm[3 * b + r] = rows[r, b]
         xi[3 * b], xi[3 * b + 1], xi[3 * b + 2] = body[6, b], body[7, b], 0.0
 
 
 @jit
-def planar_accelerations(mass, Dm, xi, Q, ints):
-    """theta'' from (D^T M D) theta'' = D^T (Q - M xi), M = diag(mass)."""
-    matrix, rhs = planar_equations(mass, Dm, xi, Q, ints)
-    return _solve(matrix, rhs)
+def planar_articulated(mass, xi, Q, ints, S, links, thdd):
+    """theta'' of an open planar tree in O(N) (``articulated``): the bodies' I_b = diag(m, m, J) and bias forces
+    p_b = M_b xi_b - Q_b (no gyroscopic term in the plane)."""
+    nb = mass.size // 3
+    IA, pA = np.zeros((nb + 1, 3, 3)), np.zeros((nb + 1, 3))
+    for b in range(nb):
+        for r in range(3):
+            IA[b, r, r] = mass[3 * b + r]
+            pA[b, r] = mass[3 * b + r] * xi[3 * b + r] - Q[3 * b + r]
+    articulated_accelerations(IA, pA, ints, S, links, WIDTHS, 3, thdd)
 
 
 @jit
@@ -122,15 +137,6 @@ def planar_equations(mass, Dm, xi, Q, ints):
                     if j <= i:
                         matrix[i, j] += weighted * Dm[r, j]
     return matrix, rhs
-
-
-@jit
-def _solve(matrix, rhs):
-    if not cholesky(matrix):
-        rhs[:] = np.nan
-        return rhs
-    cholesky_solve(matrix, rhs)
-    return rhs
 
 
 # -- spatial: 3-vectors and Euler parameters ---------------------------------------------------------------
@@ -273,24 +279,34 @@ def _child_motion(vec, P, Cb, e_p, rc, h, w_rel, sd, prismatic):
 
 
 @jit
-def _child_columns(Dv, Dw, P, Cb, kind, c, link, rc, h, AC, f):
-    """The child's columns of D (v, omega, global): its parent's moved by omega x l, then the joint's own."""
-    l0, l1, l2 = link
+def _joint_columns(kind, rc, h, AC, f, S):
+    """The joint's own columns S_e (v, omega, global; ``articulated``): revolute (rho_C x h, h), prismatic (h, 0),
+    spherical (rho_C x x_n, x_n) about the child's joint axes x_n = A_C f, g, h."""
     rc0, rc1, rc2 = rc
+    S[:] = 0.0
+    if kind == REVOLUTE:
+        S[0, 0], S[1, 0], S[2, 0] = _cross(rc0, rc1, rc2, h[0], h[1], h[2])
+        S[3, 0], S[4, 0], S[5, 0] = h
+    elif kind == PRISMATIC:
+        S[0, 0], S[1, 0], S[2, 0] = h
+    else:
+        for n in range(3):
+            x0, x1, x2 = _rotate(AC, f[FRAME + 3 * n], f[FRAME + 3 * n + 1], f[FRAME + 3 * n + 2])
+            S[0, n], S[1, n], S[2, n] = _cross(rc0, rc1, rc2, x0, x1, x2)
+            S[3, n], S[4, n], S[5, n] = x0, x1, x2
+
+
+@jit
+def _child_columns(Dv, Dw, P, Cb, kind, c, link, S):
+    """The child's columns of D (v, omega, global): its parent's moved by omega x l, then the joint's own S_e."""
+    l0, l1, l2 = link
     for col in range(Dv.shape[1]):
         x0, x1, x2 = _cross(l0, l1, l2, Dw[P, col, 0], Dw[P, col, 1], Dw[P, col, 2])
         Dv[Cb, col, 0], Dv[Cb, col, 1], Dv[Cb, col, 2] = Dv[P, col, 0] - x0, Dv[P, col, 1] - x1, Dv[P, col, 2] - x2
         Dw[Cb, col, 0], Dw[Cb, col, 1], Dw[Cb, col, 2] = Dw[P, col, 0], Dw[P, col, 1], Dw[P, col, 2]
-    if kind == REVOLUTE:
-        Dv[Cb, c, 0], Dv[Cb, c, 1], Dv[Cb, c, 2] = _cross(rc0, rc1, rc2, h[0], h[1], h[2])
-        Dw[Cb, c, 0], Dw[Cb, c, 1], Dw[Cb, c, 2] = h
-    elif kind == PRISMATIC:
-        Dv[Cb, c, 0], Dv[Cb, c, 1], Dv[Cb, c, 2] = h
-    else:
-        for n in range(3):
-            x0, x1, x2 = _rotate(AC, f[FRAME + 3 * n], f[FRAME + 3 * n + 1], f[FRAME + 3 * n + 2])
-            Dv[Cb, c + n, 0], Dv[Cb, c + n, 1], Dv[Cb, c + n, 2] = _cross(rc0, rc1, rc2, x0, x1, x2)
-            Dw[Cb, c + n, 0], Dw[Cb, c + n, 1], Dw[Cb, c + n, 2] = x0, x1, x2
+    for n in range(3 if kind == SPHERICAL else 1):
+        for r in range(3):
+            Dv[Cb, c + n, r], Dw[Cb, c + n, r] = S[r, n], S[3 + r, n]
 
 
 @jit
@@ -319,16 +335,18 @@ def _spatial_outputs(vec, p, R, Dv, Dw, q, qd, xi, Dm, omega):
 
 
 @jit
-def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates):
-    """q, q' (7 nb), xi (6 nb: a and the body-frame alpha'), D (6 nb x k: v and omega' per joint velocity),
-    omega' (nb x 3) and the rates of the joints' position coordinates (``SpatialTree.motion``)."""
-    size = (nb + 1) * (15 + 4 + 9 + 6 * k)
+def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates, S, links, columns):
+    """q, q' (7 nb), xi (6 nb: a and the body-frame alpha'), omega' (nb x 3), the rates of the joints' position
+    coordinates (``SpatialTree.motion``), each joint's columns S_e and link l (``articulated``); with ``columns``,
+    D (6 nb x k: v and omega' per joint velocity) too."""
+    k_d = k if columns else 0
+    size = (nb + 1) * (15 + 4 + 9 + 6 * k_d)
     work = np.zeros(size)  # one allocation, cut into: r, v, w, acc, alpha (global), p, A, D; ground last
     vec = work[: 15 * (nb + 1)].reshape((5, nb + 1, 3))
     p = work[15 * (nb + 1) : 19 * (nb + 1)].reshape((nb + 1, 4))
     R = work[19 * (nb + 1) : 28 * (nb + 1)].reshape((nb + 1, 9))
-    Dv = work[28 * (nb + 1) : (28 + 3 * k) * (nb + 1)].reshape((nb + 1, k, 3))
-    Dw = work[(28 + 3 * k) * (nb + 1) :].reshape((nb + 1, k, 3))
+    Dv = work[28 * (nb + 1) : (28 + 3 * k_d) * (nb + 1)].reshape((nb + 1, k_d, 3))
+    Dw = work[(28 + 3 * k_d) * (nb + 1) :].reshape((nb + 1, k_d, 3))
     p[nb, 0] = 1.0
     R[nb, 0] = R[nb, 4] = R[nb, 8] = 1.0
     for e in range(ints.shape[0]):
@@ -343,41 +361,68 @@ def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates
         w_rel = _relative_omega(kind, f, AC, rate, c, h)
         rc = _rotate(AC, f[S_CHILD], f[S_CHILD + 1], f[S_CHILD + 2])
         link = _child_motion(vec, P, Cb, e_p, rc, h, w_rel, sd, kind == PRISMATIC)
-        _child_columns(Dv, Dw, P, Cb, kind, c, link, rc, h, AC, f)
+        links[e, 0], links[e, 1], links[e, 2] = link
+        _joint_columns(kind, rc, h, AC, f, S[e])
+        if columns:
+            _child_columns(Dv, Dw, P, Cb, kind, c, link, S[e])
     _spatial_outputs(vec, p, R, Dv, Dw, q, qd, xi, Dm, omega)
 
 
 @jit
-def spatial_accelerations(masses, inertias, q, Dm, xi, omega, Q, ints):
-    """theta'' from (D^T diag(m I, J') D) theta'' = D^T f, f per body (F - m a, n' - J' omega'' - omega' x J'
-    omega') with F = Q_r, n' = 1/2 L(p) Q_p (``JointCoordinates.spatial_forces``); Q without Q_v."""
-    matrix, rhs = spatial_equations(masses, inertias, q, Dm, xi, omega, Q, ints)
-    return _solve(matrix, rhs)
+def spatial_articulated(masses, inertias, q, xi, omega, Q, ints, S, links, thdd):
+    """theta'' of an open spatial tree in O(N) (``articulated``): I_b = diag(m I, A J' A^T) and the bias force p_b
+    = -(the body force f of ``body_force``, its torque turned to global axes by A)."""
+    nb = masses.size
+    IA, pA, force, R = np.zeros((nb + 1, 6, 6)), np.zeros((nb + 1, 6)), np.empty(6), np.empty(9)
+    for b in range(nb):
+        J, o = inertias[b], 7 * b
+        body_force(masses[b], J, q, xi, omega, Q, b, force)
+        _rotation9(q[o + 3], q[o + 4], q[o + 5], q[o + 6], R)
+        t0, t1, t2 = _rotate(R, force[3], force[4], force[5])
+        for r in range(3):
+            IA[b, r, r] = masses[b]
+            pA[b, r] = -force[r]
+        pA[b, 3], pA[b, 4], pA[b, 5] = -t0, -t1, -t2
+        for c in range(3):  # A J' A^T, column by column
+            x0, x1, x2 = _rotate(R, J[0, c], J[1, c], J[2, c])  # A J' e_c
+            IA[b, 3, 3 + c], IA[b, 4, 3 + c], IA[b, 5, 3 + c] = x0, x1, x2
+        for r in range(3):  # (A J') A^T, row by row: A times the row
+            row = IA[b, 3 + r, 3:]
+            row[0], row[1], row[2] = _rotate(R, row[0], row[1], row[2])
+    articulated_accelerations(IA, pA, ints, S, links, WIDTHS, 4, thdd)
+
+
+@jit
+def body_force(m, J, q, xi, omega, Q, b, force):
+    """The force on body b at theta'' = 0, f = (F - m a_xi, n' - J' alpha'_xi - omega' x J' omega') with F = Q_r and
+    n' = 1/2 L(p) Q_p (``JointCoordinates.spatial_forces``; Q without Q_v): the right side of eq. 5.44 is D^T f."""
+    o = 7 * b
+    n0, n1, n2 = _half_l(q[o + 3], q[o + 4], q[o + 5], q[o + 6], Q[o + 3], Q[o + 4], Q[o + 5], Q[o + 6])
+    w0, w1, w2 = omega[b, 0], omega[b, 1], omega[b, 2]
+    d0, d1, d2 = xi[6 * b + 3], xi[6 * b + 4], xi[6 * b + 5]
+    Jw0 = J[0, 0] * w0 + J[0, 1] * w1 + J[0, 2] * w2
+    Jw1 = J[1, 0] * w0 + J[1, 1] * w1 + J[1, 2] * w2
+    Jw2 = J[2, 0] * w0 + J[2, 1] * w1 + J[2, 2] * w2
+    g0, g1, g2 = _cross(w0, w1, w2, Jw0, Jw1, Jw2)
+    for r in range(3):
+        force[r] = Q[o + r] - m * xi[6 * b + r]
+    force[3] = n0 - ((J[0, 0] * d0 + J[0, 1] * d1 + J[0, 2] * d2) + g0)
+    force[4] = n1 - ((J[1, 0] * d0 + J[1, 1] * d1 + J[1, 2] * d2) + g1)
+    force[5] = n2 - ((J[2, 0] * d0 + J[2, 1] * d1 + J[2, 2] * d2) + g2)
 
 
 @jit
 def spatial_equations(masses, inertias, q, Dm, xi, omega, Q, ints):
-    """(D^T diag(m I, J') D (its lower triangle), D^T f) of ``spatial_accelerations``."""
+    """(D^T diag(m I, J') D (its lower triangle), D^T f with f of ``body_force``): eq. 5.44 assembled, for a tree
+    with cut rows (``cut_accelerations``)."""
     k = Dm.shape[1]
     work = np.zeros(k * k + k + 6 + 6 * k)  # one allocation: the matrix, the right side, f and B D of one body
     matrix, rhs = work[: k * k].reshape((k, k)), work[k * k : k * k + k]
     force, MD = work[k * k + k : k * k + k + 6], work[k * k + k + 6 :].reshape((6, k))
     for e in range(ints.shape[0]):
         b, count = ints[e, 2], ints[e, 5]
-        m, J, o = masses[b], inertias[b], 7 * b
-        e0, e1, e2, e3 = q[o + 3], q[o + 4], q[o + 5], q[o + 6]
-        n0, n1, n2 = _half_l(e0, e1, e2, e3, Q[o + 3], Q[o + 4], Q[o + 5], Q[o + 6])
-        w0, w1, w2 = omega[b, 0], omega[b, 1], omega[b, 2]
-        d0, d1, d2 = xi[6 * b + 3], xi[6 * b + 4], xi[6 * b + 5]
-        Jw0 = J[0, 0] * w0 + J[0, 1] * w1 + J[0, 2] * w2
-        Jw1 = J[1, 0] * w0 + J[1, 1] * w1 + J[1, 2] * w2
-        Jw2 = J[2, 0] * w0 + J[2, 1] * w1 + J[2, 2] * w2
-        g0, g1, g2 = _cross(w0, w1, w2, Jw0, Jw1, Jw2)
-        for r in range(3):
-            force[r] = Q[o + r] - m * xi[6 * b + r]
-        force[3] = n0 - ((J[0, 0] * d0 + J[0, 1] * d1 + J[0, 2] * d2) + g0)
-        force[4] = n1 - ((J[1, 0] * d0 + J[1, 1] * d1 + J[1, 2] * d2) + g1)
-        force[5] = n2 - ((J[2, 0] * d0 + J[2, 1] * d1 + J[2, 2] * d2) + g2)
+        m, J = masses[b], inertias[b]
+        body_force(m, J, q, xi, omega, Q, b, force)
         for a in range(count):
             col = ints[e, 6 + a]
             for r in range(3):
@@ -460,11 +505,12 @@ def cut_accelerations(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, alpha
 
 
 __all__ = [
+    "body_force",
     "cut_accelerations",
-    "planar_accelerations",
+    "planar_articulated",
     "planar_equations",
     "planar_motion",
-    "spatial_accelerations",
+    "spatial_articulated",
     "spatial_coordinate_accelerations",
     "spatial_equations",
     "spatial_joint_matrix",

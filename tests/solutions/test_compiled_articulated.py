@@ -1,0 +1,126 @@
+"""The articulated-body algorithm of the compiled joint coordinates (``solutions/compiled/articulated.py``).
+
+An open tree's theta'' comes from two O(N) passes over the tree instead of the dense embedded equations
+(D^T M D) theta'' = D^T (Q - M xi) (eq. 5.44 with Z = D). Checked against the numpy reference engine
+(``joint_coordinates.JointCoordinates``, which forms D and solves the dense system) at random joint states of
+random branching trees: revolute and prismatic joints in the plane; revolute, prismatic and spherical joints in
+space, bodies with unequal principal inertias turned every way, a spring between two branches; and the
+algorithm alone on a pendulum (its closed form) and on a massless one (NaN, as the dense solve gives).
+"""
+
+import numpy as np
+import pytest
+
+from solutions.assembly import build_system
+from solutions.dynamics import EquationsOfMotion, mass_matrix
+from solutions.formulations import make_formulation
+from solutions.generalized_forces import build_forces
+from solutions.io import load_model
+
+pytest.importorskip("numba")
+
+
+def _random_tree(dimension: int, n: int, seed: int) -> dict:
+    """n bodies, body i joined to ground or to a random earlier body (a branching tree), joints of every kind."""
+    rng = np.random.default_rng(seed)
+    kinds = ("revolute", "prismatic") if dimension == 2 else ("revolute", "prismatic", "spherical")
+    bodies, joints, centres = [], [], []
+    for i in range(n):
+        parent = int(rng.integers(-1, i))  # -1: ground
+        base = np.zeros(dimension) if parent < 0 else centres[parent]
+        pin = base + rng.uniform(-0.3, 0.3, dimension)
+        centre = pin + rng.uniform(-0.4, 0.4, dimension)
+        centres.append(centre)
+        body = {"name": f"b{i}", "mass": float(rng.uniform(0.5, 3.0)), "location": centre.tolist()}
+        if dimension == 2:
+            body.update(inertia=float(rng.uniform(0.01, 0.2)), orientation=float(rng.uniform(-3, 3)),
+                        velocity=rng.uniform(-1, 1, 2).tolist())  # fmt: skip
+        else:
+            p = rng.standard_normal(4)
+            body.update(inertia=rng.uniform(0.01, 0.2, 3).tolist(), orientation=(p / np.linalg.norm(p)).tolist())
+        bodies.append(body)
+        kind = kinds[(i + seed) % len(kinds)]
+        joint = {"name": f"j{i}", "type": kind, "body1": "ground" if parent < 0 else f"b{parent}",
+                 "body2": f"b{i}", "location": pin.tolist()}  # fmt: skip
+        if kind != "spherical" and (dimension == 3 or kind == "prismatic"):
+            joint["axis"] = rng.standard_normal(dimension).tolist()
+        joints.append(joint)
+    gravity = [0.0, -9.81] if dimension == 2 else [0.0, 0.0, -9.81]
+    spring = {"name": "spring", "type": "TSDA", "body1": f"b{n - 1}", "body2": f"b{n - 2}",
+              "point1": centres[-1].tolist(), "point2": centres[-2].tolist(), "spring_coefficient": 40.0,
+              "damping_coefficient": 0.5, "free_length": 0.2}  # fmt: skip
+    return {"model": {"name": f"tree-{dimension}-{seed}", "dimension": dimension, "gravity": gravity,
+                      "bodies": bodies, "joints": joints, "spring_dampers": [spring]}}  # fmt: skip
+
+
+def _both_sides(model: dict):
+    """(numpy equations of motion, compiled scene_rhs with its data, the joint state at the start)."""
+    from solutions.compiled import describe, load, parameters, plan
+
+    system, q0, qd0 = build_system(load_model(model))
+    forces = build_forces(system.model)
+    made = make_formulation("joint-coordinates", system, mass_matrix(system.model), forces)
+    equations = EquationsOfMotion(made, forces, False)
+    job = plan(describe(system, made.masses, forces), "joint-coordinates", made)
+    assert job.scene.unsupported is None
+    assert job.scene.cut_rows.size == 0  # an open tree: the articulated-body algorithm runs
+    module, _, _ = load(job)
+    P, D = parameters(job.scene, *job.numbers), job.scene.data()
+    return equations, made, (module.scene_rhs, P, D), equations.initial_state(q0, qd0, 0.0)
+
+
+def _random_state(made, y0: np.ndarray, rng) -> np.ndarray:
+    """The joint state moved by a random amount: every angle, slide and rate; spherical joints' Euler parameters
+    turned and normalized."""
+    y = y0 + rng.uniform(-0.5, 0.5, y0.size)
+    for joint in made.joints:
+        if joint.kind == "spherical":
+            e = y[joint.position : joint.position + 4]
+            e /= np.linalg.norm(e)
+    return y
+
+
+@pytest.mark.parametrize(("dimension", "n", "seed"), [(2, 6, 1), (2, 12, 2), (3, 6, 3), (3, 12, 4), (3, 9, 5)])
+def test_articulated_accelerations_equal_the_dense_embedded_equations(dimension, n, seed):
+    equations, made, (rhs, P, D), y0 = _both_sides(_random_tree(dimension, n, seed))
+    rng = np.random.default_rng(seed)
+    kinds = {joint.kind for joint in made.joints}
+    assert kinds == ({"revolute", "prismatic"} if dimension == 2 else {"revolute", "prismatic", "spherical"})
+    positions, k = made.tree.n_positions, made.tree.k
+    for _ in range(5):
+        y = _random_state(made, y0, rng)
+        expected = equations.rhs(0.0, y)[: positions + k]
+        out = np.empty(y.size)
+        rhs(0.0, y, P, D, out)
+        thdd, reference = out[positions : positions + k], expected[positions:]
+        assert np.max(np.abs(thdd - reference)) <= 1e-10 * max(1.0, np.max(np.abs(reference)))
+        assert np.allclose(out[:positions], expected[:positions], rtol=1e-12, atol=1e-12)  # the position rates
+
+
+def _pendulum(mass: float, inertia: float, r: float, theta: float):
+    """The arrays of ``articulated_accelerations`` for one bar on a revolute joint at the origin, its centre r from
+    the pin at angle theta from the downward vertical, at rest under gravity (planar: v_x, v_y, omega)."""
+    IA = np.zeros((2, 3, 3))  # the bar, then ground
+    IA[0] = np.diag([mass, mass, inertia])
+    pA = np.zeros((2, 3))
+    pA[0] = -np.array([0.0, -9.81 * mass, 0.0])  # p_b = M xi - Q, xi = 0 at rest
+    rho = np.array([-r * np.sin(theta), r * np.cos(theta)])  # from the centre to the pin
+    S = np.zeros((1, 3, 3))
+    S[0, :, 0] = [rho[1], -rho[0], 1.0]
+    links = np.array([[-rho[0], -rho[1], 0.0]])  # from ground's origin to the centre
+    ints = np.array([[0, -1, 0, 0]])
+    return IA, pA, ints, S, links
+
+
+def test_a_pendulum_gets_its_closed_form_and_a_massless_one_nan():
+    from solutions.compiled.articulated import articulated_accelerations
+    from solutions.compiled.tree_kernels import WIDTHS
+
+    mass, inertia, r, theta = 2.0, 0.05, 0.3, 0.7
+    thdd = np.zeros(1)
+    IA, pA, ints, S, links = _pendulum(mass, inertia, r, theta)
+    articulated_accelerations(IA, pA, ints, S, links, WIDTHS, 3, thdd)
+    assert thdd[0] == pytest.approx(-mass * 9.81 * r * np.sin(theta) / (inertia + mass * r**2), rel=1e-14)
+    IA, pA, ints, S, links = _pendulum(0.0, 0.0, r, theta)  # no inertia at the end of the tree: D_e = 0
+    articulated_accelerations(IA, pA, ints, S, links, WIDTHS, 3, thdd)
+    assert np.isnan(thdd).all()  # the adaptive integrators reject such a step, as with the dense solve
