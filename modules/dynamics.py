@@ -371,6 +371,7 @@ def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str) -
         )
     if formulation != "auto" and integrator not in INDEX3_INTEGRATORS:
         _check_redundancy(system, q, formulation)  # before ``auto`` evaluates the equations of motion
+    rates = StartRates(system, M, forces, q, qd, options, compiled=settings.engine == "compiled")
     if "auto" in (formulation, integrator):
         own_masses = run.masses is not None and model.dimension == 3  # the spatial tree takes the model's masses
         chosen = choose_method(
@@ -384,13 +385,14 @@ def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str) -
             formulation,
             integrator,
             trees=not own_masses,
+            rates=rates,
             **options,
         )
         formulation, integrator = chosen["formulation"], chosen["integrator"]
     size = mechanism_size(system, q)
     periods = None
     if integrator not in INDEX3_INTEGRATORS and integrator not in FIXED_STEP_METHODS:
-        periods = motion_periods(system, M, forces, q, qd, settings.t_end, formulation, options)
+        periods = motion_periods(system, M, forces, q, qd, settings.t_end, formulation, options, rates=rates)
     rtol = settings.rtol if settings.rtol is not None else default_rtol(periods, settings.accuracy)
     return Plan(formulation, integrator, rtol, settings.atol, settings.rtol is not None, periods, size, chosen)
 
@@ -576,8 +578,68 @@ def mechanism_size(system: System, q: np.ndarray) -> float:
     return max(float(np.max(np.abs(body_positions(system, q)), initial=0.0)), _joint_extent(system.model), 1e-3)
 
 
+class StartRates:
+    """rho, the spectral radius of the ODE's Jacobian at the start (``integrators.spectral_radius``: 21
+    evaluations of the right-hand side), and q'' at the start, for a formulation: computed once per formulation
+    and shared by the integrator's choice (``choose_method``) and the tolerance rule (``motion_periods``). A run
+    asked to be compiled (engine ``compiled``) evaluates them with the compiled engine's right-hand side
+    (``compiled.dispatch.start_rates``: the same equations, microseconds instead of a numpy evaluation's
+    tenths of a millisecond), other runs with numpy's. None where the equations cannot be evaluated at the start
+    (the run itself says why)."""
+
+    def __init__(self, system: System, M, forces: ForceModel, q, qd, options: dict, compiled: bool = False):
+        self.system, self.M, self.forces, self.q, self.qd, self.options = system, M, forces, q, qd, options
+        self.compiled = compiled
+        self.known: dict[str, tuple[float, np.ndarray] | Exception] = {}
+
+    def __call__(self, formulation: str) -> tuple[float, np.ndarray] | None:
+        """(rho, q'') at the start, or None where the equations cannot be evaluated there."""
+        if formulation not in self.known:
+            try:
+                self.known[formulation] = self._evaluate(formulation)
+            except (AnalysisError, np.linalg.LinAlgError, ValueError) as err:
+                self.known[formulation] = err
+        found = self.known[formulation]
+        return None if isinstance(found, Exception) else found
+
+    def required(self, formulation: str) -> tuple[float, np.ndarray]:
+        """(rho, q'') at the start; raises what evaluating the equations there raised."""
+        found = self(formulation)
+        if found is None:
+            raise self.known[formulation]
+        return found
+
+    def _evaluate(self, formulation: str) -> tuple[float, np.ndarray]:
+        made = make_formulation(formulation, self.system, self.M, self.forces, **self.options)
+        equations = EquationsOfMotion(made, self.forces, False)  # the drivers' power left out: it feeds nothing back
+        z = equations.initial_state(self.q, self.qd, 0.0)
+        if self.compiled:
+            found = _compiled_start_rates(equations, formulation, self.options, z)
+            if found is not None:
+                return found
+        y, _ = equations.split(z)  # without the energy states (a dissipative scene has them)
+        qdd, _ = made.accelerations(*made.coordinates(0.0, y), 0.0)
+        return spectral_radius(equations.rhs, 0.0, z, equations.rhs(0.0, z)), qdd
+
+
+def _compiled_start_rates(equations, formulation: str, options: dict, z: np.ndarray):
+    try:
+        from .compiled import dispatch
+    except ImportError:  # a student package: no compiled engine
+        return None
+    return dispatch.start_rates(equations, formulation, options, z)
+
+
 def motion_periods(
-    system: System, M, forces: ForceModel, q, qd, t_end: float, formulation: str, options: dict
+    system: System,
+    M,
+    forces: ForceModel,
+    q,
+    qd,
+    t_end: float,
+    formulation: str,
+    options: dict,
+    rates: StartRates | None = None,
 ) -> float:
     """How many periods of the fastest motion a run spans: t_end w / (2 pi), with the rate w the largest of
 
@@ -585,15 +647,13 @@ def motion_periods(
       largest angular frequency, or decay rate, of the linearized motion; with Baumgarte terms, theirs too),
     - |q'| / L and sqrt(|q''| / L) at the start (L the mechanism's size; the rate of a large motion, such as a
       pendulum released level, whose linearization at the start says nothing: there rho = 0).
+
+    rho and q'' come from ``rates`` (``StartRates``, shared with ``choose_method``), made here when not given.
     """
-    try:
-        formulation_ = make_formulation(formulation, system, M, forces, **options)
-        equations = EquationsOfMotion(formulation_, forces, False)
-        y = equations.initial_state(q, qd, 0.0)
-        rho = spectral_radius(equations.rhs, 0.0, y, equations.rhs(0.0, y))
-        qdd, _ = formulation_.accelerations(*formulation_.coordinates(0.0, y), 0.0)
-    except (AnalysisError, np.linalg.LinAlgError, ValueError):
+    start = (rates or StartRates(system, M, forces, q, qd, options))(formulation)
+    if start is None:
         return 1.0  # the run itself will say what is wrong
+    rho, qdd = start
     size = mechanism_size(system, q)
     speed, acceleration = float(np.max(np.abs(qd), initial=0.0)), float(np.max(np.abs(qdd), initial=0.0))
     rate = max(rho, speed / size, (acceleration / size) ** 0.5)
@@ -706,9 +766,11 @@ def choose_method(
     integrator: str = "auto",
     *,
     trees: bool = True,
+    rates: StartRates | None = None,
     **options,
 ) -> dict:
-    """The cheapest adequate formulation and integrator for a scene (``auto``), and why.
+    """The cheapest adequate formulation and integrator for a scene (``auto``), and why (rho from ``rates``,
+    shared with ``motion_periods``; made here when not given).
 
     - formulation: ``joint-coordinates`` when the joints form an open tree it takes (minimal
       coordinates: a k x k system per evaluation, nothing to stabilize; ``joint_coordinates.open_tree``;
@@ -737,11 +799,7 @@ def choose_method(
             kind = "redundant" if redundant else "independent"
             reasons.append(f"{formulation}: {kind} constraints; not joint-coordinates: {not_a_tree}")
     if integrator == "auto":
-        equations = EquationsOfMotion(
-            make_formulation(formulation, system, M, forces, **options), forces, bool(system.model.motors)
-        )
-        y = equations.initial_state(q, qd, 0.0)
-        rho = spectral_radius(equations.rhs, 0.0, y, equations.rhs(0.0, y))
+        rho = (rates or StartRates(system, M, forces, q, qd, options)).required(formulation)[0]
         stability_steps = t_end * rho / STABILITY_LIMIT["dop853"]
         if stability_steps > STIFF_STEPS:
             integrator = "Radau"
@@ -875,6 +933,8 @@ class Guard:
         """``check_drift`` and ``check_configuration`` at every output time t[k] of a finished run, given
         Psi (N, m) and Psi_q (N, m, n) there (the compiled engine's): the same tests, the arithmetic over all
         output times at once (batched norms, SVDs and determinants), the verdicts in time order."""
+        if self.drift_limit is None and not self.singular_ratio:  # nothing to check (an open tree's joint coordinates)
+            return
         weighted = jacobians * self._columns  # angles as arc lengths L phi: every column in metres
         norms = np.linalg.norm(weighted, axis=2, keepdims=True)  # |grad Psi_i| of every row at every time
         if self.drift_limit is not None:

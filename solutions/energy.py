@@ -101,7 +101,7 @@ def energy_history(
     """The energies of a run from its q, q' histories and the accumulated D, W (zero when not given)."""
     zero = np.zeros(len(q))
     if callable(M):  # a spatial model's M(q) (spatial/mass.py) knows its exact T(q, q')
-        kinetic = np.array([M.kinetic_energy(qk, qdk) for qk, qdk in zip(q, qd, strict=True)])
+        kinetic = M.kinetic_energy_history(q, qd)
     else:
         kinetic = kinetic_energy(M, qd)
     return EnergyHistory(

@@ -38,6 +38,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..io.model import Model
+from ..rotation_matrices import l_entries
 from ..rotations import l_matrix
 
 
@@ -86,6 +87,17 @@ def kinetic_energy(model: Model, q: np.ndarray, qd: np.ndarray) -> float:
     return float(energy)
 
 
+def kinetic_energy_history(model: Model, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+    """T at every row of the histories q, q' (N x 7 nb): ``kinetic_energy`` over all states at once (eq. 10.3)."""
+    N, nb = len(q), len(model.bodies)
+    q, qd = np.asarray(q).reshape(N, nb, 7), np.asarray(qd).reshape(N, nb, 7)
+    L = np.stack(l_entries(*np.moveaxis(q[..., 3:], -1, 0)), axis=-1).reshape(N, nb, 3, 4)  # L(p) of every body
+    omega = 2.0 * np.einsum("kbij,kbj->kbi", L, qd[..., 3:])
+    masses, inertias = np.array([b.mass for b in model.bodies]), np.array([b.inertia for b in model.bodies])
+    translation = np.einsum("b,kbi,kbi->k", masses, qd[..., :3], qd[..., :3])
+    return 0.5 * translation + 0.5 * np.einsum("kbi,bij,kbj->k", omega, inertias, omega)
+
+
 class SpatialMassMatrix:
     """M(q) of a spatial model for dynamic analyses: ``M(q)`` is the regular ``dynamic_mass_matrix``.
 
@@ -106,6 +118,9 @@ class SpatialMassMatrix:
     def kinetic_energy(self, q: np.ndarray, qd: np.ndarray) -> float:
         return kinetic_energy(self.model, q, qd)
 
+    def kinetic_energy_history(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        return kinetic_energy_history(self.model, q, qd)
+
 
 def dynamic_mass_matrix(model: Model, q: np.ndarray, weights: list[float] | None = None) -> np.ndarray:
     """M(q) + sum_k Phi_pk^T w_k Phi_pk: the mass matrix made regular along each p_k (module docstring).
@@ -125,6 +140,7 @@ __all__ = [
     "body_mass_matrix",
     "dynamic_mass_matrix",
     "kinetic_energy",
+    "kinetic_energy_history",
     "mass_matrix",
     "quadratic_velocity_force",
     "quadratic_velocity_vector",

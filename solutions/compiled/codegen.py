@@ -186,8 +186,24 @@ def _fingerprint(text: str) -> str:
 
 
 def _module_name(scene: Scene) -> tuple[str, str]:
-    text = generate(scene)
-    return f"mbd_scene_{_fingerprint(text)}", text
+    return named_module(scene.key, kernel_names(scene), lambda: generate(scene))
+
+
+def kernel_names(scene: Scene) -> tuple[str, ...]:
+    """The kernels a scene's module calls: with its dimension (``Scene.key``) all that its source text depends on."""
+    return tuple(name for name, _, _ in (*scene.constraint_kernels, *scene.force_kernels))
+
+
+_NAMES: dict[tuple, tuple[str, str]] = {}
+
+
+def named_module(key: str, kernels: tuple[str, ...], text, prefix: str = "mbd_scene_", sources: tuple[str, ...] = ()):
+    """(module name, source text) of a generated module, made once per process for its key and kernels (writing the
+    text and hashing it costs a compiled call's fixed time, and a dimension's text never changes)."""
+    if (prefix, key, kernels) not in _NAMES:
+        source = text()
+        _NAMES[prefix, key, kernels] = generated_name(prefix, source, sources), source
+    return _NAMES[prefix, key, kernels]
 
 
 def is_cached(scene: Scene) -> bool:
@@ -267,7 +283,12 @@ def load_kinematic(scene: Scene) -> tuple[object, bool]:
 def generated_name(prefix: str, text: str, sources: tuple[str, ...] = ()) -> str:
     """The cache name of a generated module other than the scene's own (``projection.py``, ``tree.py``): prefix
     and a hash of its text, of the kernel files it imports (``sources``, beside this file) and of ``_fingerprint``'s."""
-    return prefix + _fingerprint(text + "".join((HERE / source).read_text() for source in sources))
+    return prefix + _fingerprint(text + _sources_text(sources))
+
+
+@functools.cache
+def _sources_text(sources: tuple[str, ...]) -> str:
+    return "".join((HERE / source).read_text() for source in sources)
 
 
 def load_generated(name: str, text: str, probe: str) -> tuple[object, bool]:
@@ -320,6 +341,8 @@ __all__ = [
     "KINEMATIC_SLOTS",
     "generate_kinematic",
     "generated_name",
+    "kernel_names",
+    "named_module",
     "is_cached",
     "is_generated_cached",
     "is_kinematic_cached",

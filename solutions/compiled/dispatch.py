@@ -26,7 +26,7 @@ import time
 import numpy as np
 
 from ..diagnostics import AnalysisError
-from ..integrators import IntegrationStats, initial_step
+from ..integrators import IntegrationStats, initial_step, power_start
 from ..settings import ENGINES, Settings
 
 COMPILE_SECONDS = 8.0
@@ -112,6 +112,33 @@ def choose(settings: Settings, equations, z0: np.ndarray):
     return None, {"engine": "numpy", "engine_why": why}
 
 
+def start_rates(equations, formulation: str, options: dict, z: np.ndarray) -> tuple[float, np.ndarray] | None:
+    """(rho, q'') at the state z of ``equations`` by the scene's compiled module, or None where the compiled engine
+    does not cover the formulation's scene: the start rates of a run asked to be compiled (``dynamics.StartRates``).
+    rho: ``loops.spectral_radius`` (the 21 evaluations of ``integrators.spectral_radius`` in one compiled call);
+    q'': a tree's body accelerations are written after y' (with q, q' and lambda), other scenes' are y'[n:2n].
+    Any compiled integrator would do (the right-hand side does not depend on it): DOP853 stands for them."""
+    from . import describe, load, loops, parameters, plan, unsupported
+    from .tree import TreeScene
+
+    made = equations.formulation
+    job = plan(describe(made.system, made.masses, equations.forces), formulation, made)
+    if unsupported(job.scene, formulation, "DOP853", options) is not None:
+        return None
+    module, _, _ = load(job)
+    P, D, n, m = parameters(job.scene, *job.numbers), job.scene.data(), job.scene.n, job.scene.m
+    dims = P[8].copy()  # the energy states as ``equations`` has them; no drivers' power (it feeds nothing back)
+    dims[2], dims[5] = equations.extra, 0
+    P = (*P[:8], dims)
+    z = np.ascontiguousarray(z, dtype=float)
+    out = np.empty(z.size + 3 * n + m)  # y', and after it the outputs of the state
+    module.scene_rhs(0.0, z, P, D, out)
+    fz = out[: z.size].copy()
+    rho = loops.spectral_radius(module.scene_rhs, 0.0, z, fz, power_start(z.size), P, D, 10)
+    qdd = out[z.size + 2 * n : z.size + 3 * n] if isinstance(job.scene, TreeScene) else out[n : 2 * n]
+    return float(rho), qdd.copy()
+
+
 def run(job, z0: np.ndarray, times: np.ndarray, settings: Settings):
     """The compiled run of a ``Plan``, its failures raised as the numpy engine raises them; (CompiledRun,
     IntegrationStats). A projection run also counts its projections and restarts as the numpy run does: one
@@ -149,4 +176,4 @@ def run(job, z0: np.ndarray, times: np.ndarray, settings: Settings):
     return out, stats
 
 
-__all__ = ["COMPILE_SECONDS", "ENGINES", "LOAD_SECONDS", "choose", "estimated_numpy_seconds", "run"]
+__all__ = ["COMPILE_SECONDS", "ENGINES", "LOAD_SECONDS", "choose", "estimated_numpy_seconds", "run", "start_rates"]

@@ -310,3 +310,26 @@ def outputs(scene_rhs, T, Y, P, D, width):
     for k in range(T.size):
         scene_rhs(T[k], Y[k].copy(), P, D, out[k])
     return out
+
+
+@jit(types.float64(_RHS, types.float64, _vector, _vector, _vector, P_TYPE, D_TYPE, types.int64))
+def spectral_radius(scene_rhs, t, y, fy, v, P, D, iterations):
+    """rho(df/dy) at (t, y), fy = f(t, y), by power iteration on J^2 from the unit vector v, J x = (f(t, y + eps x)
+    - fy) / eps: ``integrators.spectral_radius`` step for step with the scene's right-hand side (the start rates
+    of a compiled run, ``dispatch.start_rates``), without a call from Python per evaluation."""
+    eps = np.sqrt(np.finfo(np.float64).eps) * (1.0 + np.linalg.norm(y))
+    fx = np.empty(y.size)
+    rho2 = 0.0
+    for _ in range(iterations):
+        scene_rhs(t, y + eps * v, P, D, fx)
+        w = (fx - fy) / eps
+        size = np.linalg.norm(w)
+        if not np.isfinite(size) or size == 0.0:
+            return 0.0 if size == 0.0 else np.inf
+        scene_rhs(t, y + eps * (w / size), P, D, fx)
+        w = (fx - fy) / eps * size  # J^2 v
+        rho2 = np.linalg.norm(w)
+        if not np.isfinite(rho2) or rho2 == 0.0:
+            return 0.0 if rho2 == 0.0 else np.inf
+        v = w / rho2
+    return np.sqrt(rho2)

@@ -21,7 +21,7 @@ No numba here; the generated module is cached as ``codegen.py`` caches the scene
 
 from __future__ import annotations
 
-from .codegen import constraint_calls, generated_name, is_generated_cached, load_generated
+from .codegen import constraint_calls, is_generated_cached, kernel_names, load_generated, named_module
 from .scene import Scene
 
 SOURCES = ("projection_kernels.py",)
@@ -95,8 +95,12 @@ def generate(scene: Scene) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _named(scene: Scene) -> tuple[str, str]:
+    return named_module(scene.key, kernel_names(scene), lambda: generate(scene), "mbd_projection_", SOURCES)
+
+
 def module_name(scene: Scene) -> str:
-    return generated_name("mbd_projection_", generate(scene), SOURCES)
+    return _named(scene)[0]
 
 
 def is_cached(scene: Scene) -> bool:
@@ -106,8 +110,7 @@ def is_cached(scene: Scene) -> bool:
 
 def load(scene: Scene) -> tuple[object, bool]:
     """The scene's compiled projection module, and whether its machine code was on disk already."""
-    text = generate(scene)
-    return load_generated(generated_name("mbd_projection_", text, SOURCES), text, "project")
+    return load_generated(*_named(scene), "project")
 
 
 __all__ = ["generate", "is_cached", "load"]

@@ -13,7 +13,7 @@ joint's Euler parameters) into the arrays of ``tree_kernels.py``, and the cut ro
 - ``scene_rhs(t, z, P, D, out)``: y' = (the rates of the joint positions, theta''[, P_dissipated, P_applied,
   P_drivers]) (``loops.RHS_SIGNATURE``: the integrator loops take it as they take the Baumgarte one); an open
   tree's theta'' by the articulated-body algorithm in O(N) (``articulated.py``); with cut
-  rows it evaluates every constraint kernel and keeps the cut rows (P[8][6:]); with drivers and the energy
+  rows it evaluates every constraint kernel and keeps the cut rows (P[8][7:]); with drivers and the energy
   balance, lambda too (the drivers' power, eq. 5.61, as ``dynamics.EquationsOfMotion``). Given an ``out``
   longer than y, it writes after y' the body coordinates q, q' at the joint state, q'' and lambda of the model's
   constraint rows from Psi_q^T lambda = Q - M q'' (normal equations; ``JointCoordinates.accelerations``), for the
@@ -32,7 +32,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..joint_coordinates import cut_elements, tree_order
-from .codegen import constraint_calls, force_calls, generated_name, is_generated_cached, load_generated, slot_rows
+from .codegen import (
+    constraint_calls,
+    force_calls,
+    is_generated_cached,
+    kernel_names,
+    load_generated,
+    named_module,
+    slot_rows,
+)
 from .scene import SLOTS, Scene, packed
 
 SOURCES = ("tree_kernels.py", "articulated.py", "projection_kernels.py", "../joint_coordinates.py")
@@ -49,6 +57,9 @@ class TreeScene:
     n_positions: int
     k: int
     cut_rows: np.ndarray
+    owners: np.ndarray = None
+    """An open tree's constraint rows' owners: the child body of the tree joint a row belongs to, or the body whose
+    Euler parameters it normalizes (``tree_kernels.tree_multipliers``); empty with cut rows."""
     unsupported: str | None = None
 
     @property
@@ -100,9 +111,18 @@ def describe(scene: Scene, formulation) -> TreeScene:
         for row in range(where.start, where.stop)
     ]
     tree = TreeScene(scene, ints, floats, formulation.tree.n_positions, k, np.array(rows, dtype=np.int64))
+    tree.owners = np.array([] if rows else _owners(system, joints), dtype=np.int64)
     if not joints:
         tree.unsupported = "a tree without joints"
     return tree
+
+
+def _owners(system, joints) -> list[int]:
+    """The owner of every constraint row of an open tree (``TreeScene.owners``): the child of its tree joint, or the
+    body of its Euler-parameter normalization (element ``<body>.p``)."""
+    child = {joint.name: joint.child for joint in joints}
+    child |= {f"{body.name}.p": b for b, body in enumerate(system.model.bodies)}
+    return [child[element.name] for element in system.elements for _ in element.labels]
 
 
 ARRAYS = (
@@ -132,7 +152,8 @@ def _arrays(spatial: bool) -> list[str]:
 
 
 def _multipliers(scene: Scene) -> list[str]:
-    """The lines that make q'' (``qdd``) from theta'' and lambda of every row from Psi_q^T lambda = Q - M q''."""
+    """The lines that make q'' (``qdd``) from theta'' and lambda of every row from Psi_q^T lambda = Q - M q'' (an open
+    tree's by ``tree_multipliers``, each body's rows from its own columns; with cut rows by the normal equations)."""
     if scene.dimension == 3:
         lines = [
             "spatial_coordinate_accelerations(q, qd, Dm, xi, omega, thdd, qdd)",
@@ -142,15 +163,18 @@ def _multipliers(scene: Scene) -> list[str]:
         ]
     else:
         lines = ["qdd[:] = Dm @ thdd + xi", "residual = Q - mass * qdd"]
-    return [
-        "        " + line
-        for line in ["qdd, lam = np.empty(n), np.empty(m)", *lines, "lam[:] = lu_solve(jac @ jac.T, jac @ residual)"]
+    solve = [
+        "if ncut > 0:  # the normal equations",
+        "    lam[:] = lu_solve(jac @ jac.T, jac @ residual)",
+        "else:  # an open tree: body by body from the leaves, O(N)",
+        f"    tree_multipliers(jac, residual, dims[7:], {7 if scene.dimension == 3 else 3}, joints, lam)",
     ]
+    return ["        " + line for line in ["qdd, lam = np.empty(n), np.empty(m)", *lines, *solve]]
 
 
 def _body(tree: TreeScene) -> list[str]:
     """The lines of ``scene_rhs``: q and q', xi, D, omega', Q and the powers at the joint state y; Psi, Psi_q, Psi_t
-    and gamma when they are needed; theta'' (``thdd``): a tree with cut rows (P[8][6:], chosen at run time: one
+    and gamma when they are needed; theta'' (``thdd``): a tree with cut rows (P[8][7:], chosen at run time: one
     module per dimension) solves the augmented system (``cut_accelerations``), one without the embedded equations
     (D^T M D) theta'' = D^T (Q - M xi) by the articulated-body algorithm (``articulated``, O(N), D never formed);
     q'' and lambda of every row for the outputs or the drivers' power."""
@@ -166,7 +190,8 @@ def _body(tree: TreeScene) -> list[str]:
         f"    joints, joint_floats = D[0][{rows}], D[1][{rows}]",
         "    ne = joints.shape[0]",
         "    full = out.size > y.size  # the outputs asked for too (loops.outputs): q, q', q'', lambda after y'",
-        "    columns = full or dims.size > 6  # D itself: for the outputs and the cut rows only",
+        "    ncut = dims[6]  # cut rows (P[8][7 : 7 + ncut]); an open tree's rows' owners after them",
+        "    columns = full or ncut > 0  # D itself: for the outputs and the cut rows only",
         *_arrays(spatial),
         "    Q[:] = Q0",
         "    power[:] = 0.0",
@@ -184,11 +209,11 @@ def _body(tree: TreeScene) -> list[str]:
         )
     lines += force_calls(scene, "    ")
     lines += [
-        "    if full or dims.size > 6:  # the constraint rows: lambda of every row, or the cut rows",
+        "    if full or ncut > 0:  # the constraint rows: lambda of every row, or the cut rows",
         "        psi, psit, gam = np.zeros(m), np.zeros(m), np.zeros(m)",
         "        jac = np.zeros((m, n))",
         *constraint_calls(scene, "        "),
-        "    if dims.size > 6:  # cut rows: the augmented system (eq. 5.29, 5.30 in joint coordinates)",
+        "    if ncut > 0:  # cut rows: the augmented system (eq. 5.29, 5.30 in joint coordinates)",
         f"        matrix, rhs = {equations}_equations({arguments}, joints)",
     ]
     if spatial:
@@ -201,10 +226,10 @@ def _body(tree: TreeScene) -> list[str]:
         lines.append("        Dq, xiq = Dm, xi")
     return lines + [
         "        thdd[:] = cut_accelerations("
-        "matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, dims[6:], numbers[0], numbers[1])",
+        "matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, dims[7 : 7 + ncut], numbers[0], numbers[1])",
         "    else:  # an open tree: the articulated-body algorithm, O(N)",
         f"        {equations}_articulated({articulated}, joints, S, links, thdd)",
-        "    if full or (dims.size > 6 and dims[5]):  # lambda: the outputs, or the drivers' power (drivers: cut rows)",
+        "    if full or (ncut > 0 and dims[5]):  # lambda: the outputs, or the drivers' power (drivers: cut rows)",
         *_multipliers(scene),
         "        if dims[5]:  # the drivers' power (eq. 5.61)",
         "            power[2] = lam @ psit",
@@ -222,6 +247,7 @@ def generate(tree: TreeScene) -> str:
     kernels = sorted({*forces, *constraints, "lu_solve"} | ({"spatial_mass"} if spatial else set()))
     dimension = "spatial" if spatial else "planar"
     tree_imports = {f"{dimension}_motion", f"{dimension}_equations", f"{dimension}_articulated", "cut_accelerations"}
+    tree_imports.add("tree_multipliers")
     tree_imports |= {"spatial_coordinate_accelerations", "spatial_joint_matrix"} if spatial else set()
     lines = [
         f'"""Generated by solutions.compiled.tree for the tree {tree.key!r}: do not edit."""',
@@ -264,8 +290,12 @@ def generate(tree: TreeScene) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _named(tree: TreeScene) -> tuple[str, str]:
+    return named_module(tree.key, kernel_names(tree.scene), lambda: generate(tree), "mbd_tree_", SOURCES)
+
+
 def module_name(tree: TreeScene) -> str:
-    return generated_name("mbd_tree_", generate(tree), SOURCES)
+    return _named(tree)[0]
 
 
 def is_cached(tree: TreeScene) -> bool:
@@ -275,8 +305,7 @@ def is_cached(tree: TreeScene) -> bool:
 
 def load(tree: TreeScene) -> tuple[object, bool]:
     """The tree scene's compiled module, and whether its machine code was on disk already."""
-    text = generate(tree)
-    return load_generated(generated_name("mbd_tree_", text, SOURCES), text, "scene_rhs")
+    return load_generated(*_named(tree), "scene_rhs")
 
 
 __all__ = ["TreeScene", "describe", "generate", "is_cached", "load"]

@@ -473,6 +473,32 @@ def spatial_joint_matrix(q, Dm, out):
 
 
 @jit
+def tree_multipliers(jac, residual, owners, width, ints, lam):
+    """lambda of an open tree from Psi_q^T lambda = r (r = Q - M q''), body by body from the leaves (the joints in
+    reverse topological order): a body's columns meet only the rows it owns (its joint to its parent, its
+    Euler-parameter normalization; ``TreeScene.owners``) and its children's rows, already known and moved to the
+    right side. So each body solves A lambda_own = r_C (A: its columns of its own rows, at most 7 x 6, full column
+    rank) by least squares, whose residual is zero: O(N), where the normal equations of all rows cost O(m^3).
+    ``width``: a body's columns (3 planar, 7 spatial)."""
+    m = jac.shape[0]
+    r = residual.copy()
+    mine = np.empty(m, dtype=np.int64)
+    for e in range(ints.shape[0] - 1, -1, -1):
+        C, count = ints[e, 2], 0
+        for row in range(m):
+            if owners[row] == C:
+                mine[count] = row
+                count += 1
+        A = np.empty((count, width))
+        for a in range(count):
+            A[a] = jac[mine[a], width * C : width * (C + 1)]
+        x = lu_solve(A @ A.T, A @ r[width * C : width * (C + 1)])
+        for a in range(count):
+            lam[mine[a]] = x[a]
+            r -= x[a] * jac[mine[a]]  # what the body's rows exert on its parent too
+
+
+@jit
 def cut_accelerations(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, alpha, beta):
     """theta'' of a tree with cut constraints (the rows ``rows`` of Psi, Psi_q, Psi_t, gamma): the augmented
     system ``JointCoordinates.joint_accelerations`` solves, LU with partial pivoting,
@@ -515,4 +541,5 @@ __all__ = [
     "spatial_equations",
     "spatial_joint_matrix",
     "spatial_motion",
+    "tree_multipliers",
 ]

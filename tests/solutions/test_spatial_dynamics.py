@@ -431,3 +431,15 @@ def test_a_planar_scene_never_imports_spatial_code():
     )
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+def test_the_kinetic_energy_of_a_history_is_that_of_the_mass_matrix():
+    """``kinetic_energy_history`` (all output times at once, the results' energy column) against T = 1/2 q'^T M(q) q'
+    with the mass matrix of eq. 10.4 at every state: random states of a two-body model."""
+    from solutions.spatial.mass import kinetic_energy_history, mass_matrix
+
+    model = load_model(MODELS / "spatial_double_pendulum.yaml")
+    rng = np.random.default_rng(3)
+    q, qd = rng.standard_normal((6, 14)), rng.standard_normal((6, 14))
+    expected = [0.5 * qdk @ mass_matrix(model, qk) @ qdk for qk, qdk in zip(q, qd, strict=True)]
+    assert np.allclose(kinetic_energy_history(model, q, qd), expected, rtol=1e-13, atol=0.0)

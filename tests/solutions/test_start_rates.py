@@ -1,0 +1,95 @@
+"""The rates at the start of a forward-dynamic run (``dynamics.StartRates``): the spectral radius rho of the ODE's
+Jacobian and q'', which the integrator's choice (``choose_method``) and the tolerance rule (``motion_periods``)
+share.
+
+- rho is estimated once per run (21 right-hand sides), not once for each of the two;
+- a dissipative scene (its state carries the energy integrals) gets them too: its q'' at the start is the
+  formulation's own accelerations, and its periods are counted (they were taken as 1, a failure to evaluate);
+- a run asked to be compiled estimates them with the compiled right-hand side, never numpy's, and the two
+  engines' estimates agree.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from solutions import dynamics
+from solutions.assembly import build_system
+from solutions.dynamics import (
+    EquationsOfMotion,
+    StartRates,
+    consistent_initial_conditions,
+    forward_dynamics,
+    motion_periods,
+)
+from solutions.formulations import make_formulation
+from solutions.generalized_forces import build_forces
+from solutions.io.model import load_model
+from solutions.mass_matrix import mass_matrix
+
+MODELS = Path(__file__).resolve().parents[2] / "course" / "models"
+
+
+def _start(name: str):
+    system, q0, qd0 = build_system(load_model(MODELS / f"{name}.yaml"))
+    M, forces = mass_matrix(system.model), build_forces(system.model)
+    q, qd, _ = consistent_initial_conditions(system, M, q0, qd0)
+    return system, M, forces, q, qd
+
+
+def test_the_spectral_radius_is_estimated_once_per_run(monkeypatch):
+    calls = []
+    original = dynamics.spectral_radius
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(dynamics, "spectral_radius", counted)
+    system, q0, qd0 = build_system(load_model(MODELS / "double_pendulum.yaml"))
+    run = forward_dynamics(system, q0, qd0, 1.0, 10, engine="numpy")  # formulation and integrator: auto
+    assert run.info["chosen"]["integrator"] == "dop853" and "spectral radius" in run.info["chosen"]["why"]
+    assert len(calls) == 1  # shared by choose_method and motion_periods
+    assert "periods" in run.info["rtol_rule"]
+
+
+def test_a_dissipative_scene_gets_its_start_rates():
+    system, M, forces, q, qd = _start("four_bar_spring")
+    assert not forces.is_conservative  # its state carries the energy integrals
+    rates = StartRates(system, M, forces, q, qd, {})
+    start = rates("baumgarte")
+    assert start is not None
+    made = make_formulation("baumgarte", system, M, forces)
+    qdd, _ = made.accelerations(q, qd, 0.0)
+    assert np.allclose(start[1], qdd, rtol=1e-12, atol=1e-12)
+    assert start[0] > 1.0  # the spring and Baumgarte's terms give the linearized motion its rates
+    periods = motion_periods(system, M, forces, q, qd, 20.0, "baumgarte", {}, rates=rates)
+    assert periods == pytest.approx(20.0 * max(start[0], np.max(np.abs(qd)) / dynamics.mechanism_size(system, q),
+                                               (np.max(np.abs(qdd)) / dynamics.mechanism_size(system, q)) ** 0.5)
+                                    / (2 * np.pi), rel=1e-12)  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("name", "formulation"),
+    [("double_pendulum", "baumgarte"), ("slider_crank", "baumgarte"), ("four_bar_spring", "baumgarte"),
+     ("spatial_double_pendulum", "joint-coordinates"), ("carriage_pendulum", "joint-coordinates")],
+)  # fmt: skip
+def test_a_compiled_run_takes_its_start_rates_from_the_compiled_engine(monkeypatch, name, formulation):
+    pytest.importorskip("numba")
+    system, M, forces, q, qd = _start(name)
+    numpy_start = StartRates(system, M, forces, q, qd, {})(formulation)
+    evaluations = []
+    original = EquationsOfMotion.rhs
+
+    def counted(self, t, z):
+        evaluations.append(1)
+        return original(self, t, z)
+
+    monkeypatch.setattr(EquationsOfMotion, "rhs", counted)
+    compiled_start = StartRates(system, M, forces, q, qd, {}, compiled=True)(formulation)
+    assert evaluations == []  # not one numpy right-hand side
+    assert compiled_start[0] == pytest.approx(numpy_start[0], rel=1e-4)  # finite differences of two codes
+    assert np.allclose(compiled_start[1], numpy_start[1], rtol=1e-10, atol=1e-10)
