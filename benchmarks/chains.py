@@ -244,6 +244,101 @@ def run(family: str, n: int, config: Config, truth: np.ndarray, repeats: int, sc
     return row
 
 
+# -- MuJoCo, the same chains in its minimal coordinates -------------------------------------------------------------
+MUJOCO_INTEGRATORS = ("RK4", "implicitfast", "Euler")
+SUBSTEPS = (1, 2, 3, 4, 5, 6, 8, 10, 12, 16, 20, 25, 32, 40, 50, 64, 80, 100, 128, 160, 200, 256, 320, 400, 512)
+"""Steps per output interval tried: h = (output interval) / k. Each integrator's cheapest k that reaches the error
+target is its configuration; the fastest of those is MuJoCo's for the table."""
+MUJOCO_TARGET = TOL
+"""The position error (m) a MuJoCo configuration must reach: the tolerance the project's runs are asked."""
+MUJOCO_SECONDS = 20.0
+"""A MuJoCo integrator whose run takes longer than this stops searching smaller steps."""
+
+
+def mujoco_chain(family: str, n: int, h: float, integrator: str) -> str:
+    """MJCF of the planar or spatial chain (``planar_chain``, ``spatial_chain``): nested bodies, each frame at its
+    joint (hinge about z, or ball), the bar's centre and inertia in it, the file's initial configuration at qpos 0
+    (planar) or at the bodies' orientations (spatial), at rest."""
+    option = f'<option gravity="{{}}" integrator="{integrator}" timestep="{h!r}"/>'
+    bodies, closing = [], []
+    if family == "planar":
+        angle = math.radians(45.0)
+        axis = np.array([math.sin(angle), -math.cos(angle), 0.0])
+        for i in range(n):
+            pos = np.zeros(3) if i == 0 else LENGTH * axis
+            bodies.append(
+                f'<body pos="{_v(pos)}"><joint type="hinge" axis="0 0 1"/><inertial pos="{_v(0.5 * LENGTH * axis)}" '
+                f'mass="{MASS!r}" diaginertia="{INERTIA!r} {INERTIA!r} {INERTIA!r}"/>'
+            )
+            closing.append("</body>")
+        gravity = [0.0, -GRAVITY, 0.0]
+    else:
+        turn, radius = math.radians(30.0), 0.01
+        inertia = [MASS * radius**2 / 2.0, INERTIA + MASS * radius**2 / 4.0, INERTIA + MASS * radius**2 / 4.0]
+        for i in range(n):  # each bar turned `turn` about z from its parent; frame x along the bar
+            pos = np.zeros(3) if i == 0 else np.array([LENGTH, 0.0, 0.0])
+            quat = [1.0, 0.0, 0.0, 0.0] if i == 0 else [math.cos(turn / 2.0), 0.0, 0.0, math.sin(turn / 2.0)]
+            bodies.append(
+                f'<body pos="{_v(pos)}" quat="{_v(quat)}"><joint type="ball"/><inertial pos="{0.5 * LENGTH!r} 0 0" '
+                f'mass="{MASS!r}" diaginertia="{_v(inertia)}"/>'
+            )
+            closing.append("</body>")
+        gravity = [0.0, 0.0, -GRAVITY]
+    return (
+        f"<mujoco>{option.format(_v(gravity))}<worldbody>{''.join(bodies)}{''.join(closing)}</worldbody></mujoco>"
+    )
+
+
+def _v(x) -> str:
+    return " ".join(repr(float(c)) for c in x)
+
+
+def mujoco_attempt(family: str, n: int, k: int, integrator: str, truth: np.ndarray, repeats: int):
+    """(seconds of the best of ``repeats`` rollouts of 1 s, error (m)) at h = interval / k: ``mujoco.rollout`` (the
+    step loop in C, no Python per step), the body centres at the output times from its states afterwards."""
+    import mujoco
+    from mujoco import rollout
+
+    model = mujoco.MjModel.from_xml_string(mujoco_chain(family, n, T_END / OUTPUTS / k, integrator))
+    data = mujoco.MjData(model)
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state = np.empty(mujoco.mj_stateSize(model, spec))
+    mujoco.mj_getState(model, data, state, spec)
+    best, states = math.inf, None
+    for _ in range(repeats):
+        start = time.perf_counter()
+        states, _ = rollout.rollout(model, data, state[None], nstep=OUTPUTS * k)
+        best = min(best, time.perf_counter() - start)
+    qpos = states[0, k - 1 :: k, 1 : 1 + model.nq]  # after every k steps: the output times t_1 ... t_end
+    centres = []
+    for q in [model.qpos0, *qpos]:
+        data.qpos[:] = q
+        mujoco.mj_kinematics(model, data)
+        centres.append(data.xipos[1:, : 2 if family == "planar" else 3].copy())
+    return best, float(np.max(np.linalg.norm(np.array(centres) - truth, axis=-1)))
+
+
+def mujoco_run(family: str, n: int, truth: np.ndarray, repeats: int) -> Row:
+    """MuJoCo's fastest configuration that reaches MUJOCO_TARGET: for each integrator the first k of SUBSTEPS that
+    does, timed; the fastest of them (the table's row names it)."""
+    found = []
+    for integrator in MUJOCO_INTEGRATORS:
+        for k in SUBSTEPS:
+            seconds, error = mujoco_attempt(family, n, k, integrator, truth, 1)
+            if error <= MUJOCO_TARGET:
+                seconds, error = mujoco_attempt(family, n, k, integrator, truth, repeats)
+                found.append((seconds, error, integrator, k))
+                break
+            if seconds > MUJOCO_SECONDS:
+                break
+    if not found:
+        return Row(family, n, "MuJoCo", failure=f"no integrator reached {MUJOCO_TARGET:g} m with k <= {SUBSTEPS[-1]}")
+    seconds, error, integrator, k = min(found)
+    steps = OUTPUTS * k
+    stages = 4 if integrator == "RK4" else 1
+    return Row(family, n, f"MuJoCo {integrator} h = {T_END / steps:.3g}", seconds, stages * steps, error)
+
+
 def growth(rows: list[Row]) -> float:
     """p of time per evaluation ~ N^p, least squares in log-log over N >= 8 (NaN with fewer than two points)."""
     points = [(r.n, r.us_per_evaluation) for r in rows if r.n >= 8 and not r.failure and r.evaluations]
@@ -276,6 +371,8 @@ def table(family: str, rows: list[Row], configs: tuple[Config, ...]) -> list[str
     lines += ["", "| configuration | time per rhs ~ N^p, p over N >= 8 |", "|---|---:|"]
     for config in configs:
         lines.append(f"| {config.label} | {fmt(growth([r for r in rows if r.config == config.label]), '.2f')} |")
+    if any(r.config.startswith("MuJoCo") for r in rows):
+        lines.append(f"| MuJoCo | {fmt(growth([r for r in rows if r.config.startswith('MuJoCo')]), '.2f')} |")
     return lines + [""]
 
 
@@ -287,9 +384,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--limit", type=float, default=60.0, help="seconds a run may take before larger N are left out")
     parser.add_argument("--out", type=Path, default=None, help="write the Markdown here too")
+    parser.add_argument("--mujoco", action="store_true", help="MuJoCo's fastest configuration too (extra [bench])")
+    parser.add_argument("--configs", nargs="*", help="only these configurations ('compiled joint-coordinates dop853')")
     args = parser.parse_args(argv)
     sizes = [n for n in args.sizes if n <= 8] if args.quick else args.sizes
     configs = tuple(c for c in CONFIGS if c.engine == "numpy") if args.quick else CONFIGS
+    configs = tuple(c for c in configs if not args.configs or c.label in args.configs)
     lines = ["# Scaling with the number of bodies (benchmarks/chains.py)", "",
              f"{T_END:g} s simulated, {OUTPUTS} output intervals, rtol = atol = {TOL:g}; machine: {os.cpu_count()} "
              f"cores, load average {os.getloadavg()[0]:.1f} at the start. Command: `python benchmarks/chains.py "
@@ -309,6 +409,10 @@ def main(argv: list[str] | None = None) -> int:
                 print(said, file=sys.stderr, flush=True)
                 if row.failure and not row.evaluations or row.seconds > args.limit:
                     broken.add(config.label)
+            if args.mujoco and family != "loops":
+                row = mujoco_run(family, n, truth, args.repeats)
+                rows.append(row)
+                print(f"{family} N={n} {row.config}: {fmt(1e3 * row.seconds, '.1f')} ms {row.failure}", file=sys.stderr)
         lines += table(family, rows, configs)
         if args.out:  # after each family: a long run that is stopped keeps what it measured
             args.out.write_text("\n".join(lines) + "\n")

@@ -115,6 +115,8 @@ def consistent_initial_conditions(
 
 def effort_columns(system: System, q: np.ndarray, lam: np.ndarray, t: np.ndarray) -> dict[str, np.ndarray]:
     """'DRIVER.effort' for every driver over a run: the name an inverse analysis gives them too."""
+    if not system.model.motors:  # no driver: no effort, and no pass over the output times
+        return {}
     efforts: dict[str, list[float]] = {}
     for k in range(len(t)):
         for name, value in driver_efforts(system, q[k], lam[k], t[k]).items():
@@ -790,7 +792,7 @@ def choose_method(
     reasons = []
     if formulation == "auto":
         not_a_tree = "formulation options given" if options else open_tree(system) if trees else "masses given"
-        redundant = rank_report(system.jacobian(q, 0.0), system.row_owners).n_redundant
+        redundant = rank_at(system, q).n_redundant
         if not_a_tree is None:
             formulation = "joint-coordinates"
             reasons.append("joint-coordinates: an open tree of joints (minimal coordinates)")
@@ -870,7 +872,7 @@ class Guard:
         self._last_q: tuple[np.ndarray, float] = (q, 0.0)
         self.size = size = mechanism_size(system, q) if size is None else size  # L, as the run's Plan has it
         self.drift_limit = None if drift_limit is None else drift_limit * size
-        self.rank = rank_report(system.jacobian(q, 0.0), system.row_owners).rank
+        self.rank = rank_at(system, q).rank
         self.closest: dict | None = None
         self._tangent, self._t, self._sign = None, 0.0, 1.0
         per, dim = system.coordinates_per_body, system.model.dimension
@@ -1031,9 +1033,19 @@ def constraint_residuals(system: System, t: np.ndarray, q: np.ndarray, qd: np.nd
     return {"residual.position": position, "residual.velocity": velocity}
 
 
+def rank_at(system: System, q: np.ndarray):
+    """``rank_report`` of Psi_q at q (an SVD of the whole Jacobian), made once per system and state: a run asks it
+    up to four times at its start (the method's choice, the redundancy check before and after it, the Guard)."""
+    key = np.asarray(q, dtype=float).tobytes()
+    known = system.__dict__.get("_rank_at")
+    if known is None or known[0] != key:
+        known = system.__dict__["_rank_at"] = (key, rank_report(system.jacobian(q, 0.0), system.row_owners))
+    return known[1]
+
+
 def _check_redundancy(system: System, q: np.ndarray, formulation: str) -> None:
     """Only the SVD and augmented Lagrangian formulations cope with redundant constraints: refuse the others."""
-    report = rank_report(system.jacobian(q, 0.0), system.row_owners)
+    report = rank_at(system, q)
     if report.n_redundant and formulation not in ("svd", *THROUGH_SINGULAR):
         raise AnalysisError(
             f"{report.n_redundant} redundant constraint equation(s) among joints "

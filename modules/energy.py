@@ -35,6 +35,8 @@ def potential_energy(forces: ForceModel, q: np.ndarray) -> np.ndarray:
     q = np.asarray(q)
     if q.ndim == 1:
         return np.array(forces.potential_energy(q))
+    if not forces.elements:  # gravity alone: -Q_gravity^T q of every row at once
+        return -(q @ forces.gravity)
     return np.array([forces.potential_energy(row) for row in q])
 
 

@@ -15,6 +15,7 @@ From Python: ``forward_dynamics(system, q0, qd0, t_end, steps, rtol=1e-9)`` buil
 from __future__ import annotations
 
 import dataclasses
+import functools
 import inspect
 import math
 import numbers
@@ -149,7 +150,7 @@ class Settings:
     """Further options of the formulation's constructor, from Python only (e.g. ``tol``, ``independent``)."""
 
     def __post_init__(self):
-        for f in table():
+        for f in _table():
             if f.name not in FORMULATION_OPTIONS:  # those the formulation checks, saying why (e.g. eq. 5.29)
                 check_setting(f.name, getattr(self, f.name))
             if f.name in CHECKS and getattr(self, f.name) == 0:
@@ -181,9 +182,20 @@ DYNAMIC_ONLY = (
 """Settings that only a forward dynamic analysis uses."""
 
 
+@functools.cache
+def _table() -> tuple[dataclasses.Field, ...]:
+    return tuple(f for f in fields(Settings) if "key" in f.metadata)
+
+
 def table() -> list[dataclasses.Field]:
     """The settings, in order: every field of ``Settings`` but ``options``."""
-    return [f for f in fields(Settings) if "key" in f.metadata]
+    return list(_table())
+
+
+@functools.cache
+def _metadata() -> dict:
+    """Each setting's metadata by name (what it takes, its names, its key)."""
+    return {f.name: f.metadata for f in _table()}
 
 
 def check_setting(name: str, value, source: str | None = None) -> None:
@@ -191,7 +203,7 @@ def check_setting(name: str, value, source: str | None = None) -> None:
     on the command line, 'simulation.rtol' in the file; None: a keyword from Python). None leaves the default."""
     if value is None:
         return
-    meta = {f.name: f.metadata for f in table()}[name]
+    meta = _metadata()[name]
     takes, said = meta["takes"], f"{name} = {value!r}" if source is None else f"{source} {value!r}"
     if takes == NAME:
         if value not in meta["names"]:

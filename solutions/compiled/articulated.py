@@ -1,9 +1,9 @@
 """The articulated-body algorithm: theta'' of an open tree in O(N) operations, planar and spatial.
 
-Joint coordinates (``joint_coordinates.py``, course notes eq. 5.44 with Z = D) give the joint accelerations of a
-tree from the embedded equations
+Joint coordinates (``joint_coordinates.py``, course notes ch. 7) give the joint accelerations of a tree from the
+embedded equations (eq. 5.44 with Z = D)
 
-    (D^T M D) theta'' = D^T (Q - M xi)                                                  (eq. 5.44)
+    (D^T M D) theta'' = D^T (Q - M xi)                                                  (eq. 7.4)
 
 Assembled as one dense k x k matrix and factored, they cost O(N^2) to build (every column of D through every
 body) and O(k^3) to solve: on a chain of 64 bodies, hundreds of microseconds per right-hand side. The tree's
@@ -16,7 +16,7 @@ parent P and child C; l = r_C - r_P is the link between their centres, S_e the c
 child's motion when only that joint moves: revolute (rho_C x h, h), prismatic (h, 0), spherical three revolute
 columns about the child's joint axes). Rigidly carried motion and forces move between the two centres by
 
-    X V = (v - l x omega, omega)        X^T F = (f, n + l x f)          (the shift of a motion and of a force)
+    X V = (v - l x omega, omega)        X^T F = (f, n + l x f)                          (eq. 7.7)
 
 so that the θ''-dependent part of every body's acceleration, A_b = (acceleration) - xi_b, satisfies
 A_C = X A_P + S_e theta''_e (the recursion of D's columns, ``tree_kernels``), and eq. 5.44 is the tree's
@@ -27,10 +27,10 @@ equations of motion with the body forces
 Two passes then give theta'' exactly (to rounding) as the dense solve does:
 
 1. from the leaves to ground (articulated inertias I^A and bias forces p^A, starting from I_b and p_b):
-   U = I^A_C S, D_e = S^T U, u = -S^T p^A_C;
-   I^A_P += X^T (I^A_C - U D_e^-1 U^T) X,      p^A_P += X^T (p^A_C + U D_e^-1 u)
+   U = I^A_C S, D_e = S^T U, u = -S^T p^A_C;                                            (eq. 7.8)
+   I^A_P += X^T (I^A_C - U D_e^-1 U^T) X,      p^A_P += X^T (p^A_C + U D_e^-1 u)       (eq. 7.9)
 2. from ground to the leaves (A of ground = 0):
-   A' = X A_P,   theta''_e = D_e^-1 (u - U^T A'),   A_C = A' + S theta''_e
+   A' = X A_P,   theta''_e = D_e^-1 (u - U^T A'),   A_C = A' + S theta''_e              (eq. 7.10)
 
 Each joint costs a fixed number of 3 x 3 or 6 x 6 operations, whatever N. D_e (1 x 1, or 3 x 3 for a spherical
 joint) is factored by Cholesky; a D_e that is not positive definite (a massless end of the tree) gives NaN,

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..rotation_matrices import g_entries, planar_rotation, rotation_entries
+from ..rotation_matrices import g_entries, rotation_entries
 
 
 def constraint_arrays(module, scene, times: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -47,8 +47,9 @@ def _generalized(jac: np.ndarray, lam: np.ndarray, rows: np.ndarray, columns: sl
 
 
 def _rotations_2d(phi: np.ndarray) -> np.ndarray:
-    """A(phi) (eq. 2.2) of every angle phi (N,): (N, 2, 2)."""
-    return np.array([planar_rotation(angle) for angle in phi]).reshape(-1, 2, 2)
+    """A(phi) = [[cos phi, -sin phi], [sin phi, cos phi]] (eq. 2.2) of every angle phi (N,): (N, 2, 2) at once."""
+    c, s = np.cos(phi), np.sin(phi)
+    return np.stack([c, -s, s, c], -1).reshape(-1, 2, 2)
 
 
 def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
