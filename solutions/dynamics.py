@@ -957,10 +957,30 @@ class Guard:
             tangents, signs = np.swapaxes(vt[:, self.rank :], 1, 2), None
         ratios = np.where(s[:, 0] > 0, s[:, self.rank - 1] / np.where(s[:, 0] > 0, s[:, 0], 1.0), 0.0)
         turns = np.linalg.det(np.swapaxes(tangents[:-1], 1, 2) @ tangents[1:])  # det(T_k-1^T T_k), k >= 1
+        if self._quiet(t, ratios, tangents, signs, turns):
+            return
         for k in range(t.size):
             sign = self._sign if signs is None else signs[k]
             turn = None if k == 0 else turns[k - 1]
             self._judge(q[k], float(t[k]), float(ratios[k]), tangents[k], sign, turn)
+
+    def _quiet(self, t, ratios, tangents, signs, turns) -> bool:
+        """Whether no output time is near a singular position nor past one (``_judge``'s two verdicts, for all
+        output times at once); if so, the state ``_judge`` would leave: the closest ratio, the last step's null
+        space and sign. A run that passes singular positions (``through``) and redundant rows take ``_judge``."""
+        if self.through or signs is None or self.rank != self.system.n_constraints:
+            return False
+        first = np.linalg.det(self._tangent.T @ tangents[0]) if self._tangent is not None else np.nan
+        turn = np.concatenate([[first], turns])  # the null space's turn since the step before, at every time
+        before = np.concatenate([[self._sign], signs[:-1]])
+        passed = (np.abs(turn) > ALIGNED) & (turn * signs * before < 0)
+        if np.any(passed) or not np.all(ratios >= self.singular_ratio):
+            return False
+        k = int(np.argmin(ratios))  # the first of the smallest, as the time-ordered verdicts keep it
+        if self.closest is None or ratios[k] < self.closest["ratio"]:
+            self.closest = {"t": float(t[k]), "ratio": float(ratios[k])}
+        self._tangent, self._t, self._sign = tangents[-1], float(t[-1]), signs[-1]
+        return True
 
     def _judge(
         self, q: np.ndarray, t: float, ratio: float, tangent: np.ndarray, sign: float, turn: float | None = None

@@ -97,6 +97,11 @@ def test_batched_guard_gives_the_step_by_step_verdicts():
 
     a, b = step_by_step(run.q), batched(run.q)
     assert a.closest == pytest.approx(b.closest, rel=1e-12)
+    # a history with no verdict to give is judged at once (Guard._quiet): the state the time-ordered verdicts leave
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(Guard, "_quiet", lambda *args: False)
+        c = batched(run.q)
+    assert (b.closest, b._t, b._sign) == (c.closest, c._t, c._sign) and np.array_equal(b._tangent, c._tangent)
     # a singular ratio the motion passes below: both stop at the first output time where sigma_r / sigma_1 dips
     limit = 1.01 * b.closest["ratio"]
     first = _verdict(lambda: step_by_step(run.q, ratio=limit))
