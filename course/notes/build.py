@@ -43,13 +43,17 @@ def _anchor_equations(nb) -> list[str]:
 
 def anchored(source: str) -> tuple[str, list[str]]:
     """``source`` with ``<a id="eq-N.M"></a>`` just before the ``$$`` that opens the display
-    holding ``\\tag{N.M}`` (before the tag itself when no ``$$`` opens it); and the labels, in order."""
+    holding ``\\tag{N.M}`` (before the tag itself when no ``$$`` opens it); and the labels, in order.
+    A display whose ``$$`` starts a line keeps it there, the anchor in a paragraph of its own before it: the
+    markdown parser reads a display as a block only when its ``$$`` starts the line, and a display read as
+    text ends in a ``$$`` that opens a block with the next display's, swallowing what lies between."""
     pieces, labels, done = [], [], 0
     for match in TAG.finditer(source):
         label = match.group(1)
         opening = source.rfind("$$", done, match.start())
         place = opening if opening >= 0 and source.count("$$", done, opening) % 2 == 0 else match.start()
-        pieces += [source[done:place], f'<a id="eq-{label}"></a>']
+        own_line = place == opening and (place == 0 or source[place - 1] == "\n")
+        pieces += [source[done:place], f'<a id="eq-{label}"></a>' + ("\n\n" if own_line else "")]
         labels.append(label)
         done = place
     return "".join(pieces) + source[done:], labels

@@ -51,6 +51,7 @@ from .projection_kernels import cholesky, cholesky_solve
 jit = njit(cache=False, fastmath=False, nogil=True)
 """Not cached here: compiled into the generated tree modules that call them (see ``tree_kernels.jit``)."""
 
+
 @jit
 def shift_matrix(l, X):
     """X of the link l (module docstring), written into X: 6 x 6 [[1, -[l]x], [0, 1]] on (v, omega); planar 3 x 3
