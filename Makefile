@@ -23,7 +23,7 @@ $(STAMP): pyproject.toml
 	  $(BIN)/python -m pip install --quiet -e ".[dev]"
 	touch $(STAMP)
 
-demo: $(STAMP) sandbox-tools
+demo: $(STAMP) sandbox-tools compile
 	MPLBACKEND=Agg $(BIN)/python -m course.demo
 
 # The grader's sandbox is bubblewrap (Debian package bubblewrap): installed here when missing and we are
@@ -85,7 +85,9 @@ notes: $(STAMP)
 golden: $(STAMP)
 	$(BIN)/python tests/solutions/golden.py
 
-# The numba engine compiled once for this machine (`mbd compile`): no later run waits for a compilation.
+# The numba engine compiled once for this machine (`mbd compile`, a progress bar; nothing to do when it is on disk):
+# no later run waits for a compilation, and every run that repays loading it takes it by default (engine auto).
+# `make demo` makes it first.
 .PHONY: compile
 compile: $(STAMP)
 	$(BIN)/mbd compile

@@ -14,7 +14,8 @@ to a callback. Two families:
 
 - "rk45" and "dop853", this package's own loop around the same embedded pairs and step-size control as
   solve_ivp's RK45 (Dormand-Prince 5(4)) and DOP853 (Dormand-Prince 8(5,3)) (Hairer, Norsett and Wanner,
-  Solving ODEs I, sec. II.4-II.6 and II.10), with their dense output; the coefficients are scipy's. It
+  Solving ODEs I, sec. II.4-II.6 and II.10), with their dense output; the coefficients are scipy's
+  (``tableaux.py``: a run on them does not import ``scipy.integrate``). It
   does per step only the stages, the error norm and the step-size update, so a small system whose
   right-hand side costs a few tens of microseconds does not pay solve_ivp's per-step bookkeeping (the
   method object, its step() and its dense-output object), which is of the same order.
@@ -42,6 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .diagnostics import AnalysisError
+from .tableaux import TABLEAUX
 
 RHS = Callable[[float, np.ndarray], np.ndarray]
 AfterStep = Callable[[float, np.ndarray], "np.ndarray | None"]
@@ -51,7 +53,7 @@ SOLVE_IVP_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
 """The methods of ``solve_ivp``: the names of their classes in ``scipy.integrate`` (``scipy_method``)."""
 FIXED_STEP_METHODS = ("rk4",)
 EMBEDDED_METHODS = {"rk45": "RK45", "dop853": "DOP853"}
-"""This package's own loop around solve_ivp's pairs: the tableaux (A, B, C, E, P) are taken from scipy's class."""
+"""This package's own loop around solve_ivp's pairs: their tableaux (``tableaux.py``) are scipy's coefficients."""
 INTEGRATORS = (*SOLVE_IVP_METHODS, *FIXED_STEP_METHODS, *EMBEDDED_METHODS)
 EXPLICIT_METHODS = ("RK45", "RK23", "DOP853", "rk45", "dop853")
 STABILITY_LIMIT = {"RK23": 2.5, "RK45": 3.3, "rk45": 3.3, "DOP853": 6.0, "dop853": 6.0}
@@ -93,6 +95,8 @@ class IntegrationStats:
     restarts: int = 0
     rejected: int = 0
     stiffness: dict | None = None
+    step_size: float = float("nan")
+    """The last accepted step (this package's loops)."""
 
 
 class StiffnessError(AnalysisError):
@@ -210,19 +214,22 @@ def integrate(
     after_step: AfterStep | None = None,
     max_evaluations: int | None = DEFAULT_MAX_EVALUATIONS,
     stiffness: str = "report",
+    max_steps: int | None = None,
 ) -> IntegrationStats:
     """Advance y' = f(t, y) from y(t_out[0]) = y0, calling ``record(k, t_out[k], y)`` at every output time.
 
     ``after_step(t, y)`` (optional) is called after every step; when it returns a state, the
     integration continues from that state instead. ``max_evaluations`` bounds the right-hand-side
     evaluations (None: no bound); ``stiffness`` is "report" (in the stats), "error" (raise
-    StiffnessError when found) or "off" (no monitor).
+    StiffnessError when found) or "off" (no monitor). ``max_steps`` (rk45 and dop853 only) ends the loop after
+    that many accepted steps, the output times not reached left unrecorded: a trial of the method
+    (``compiled.dispatch.trial_seconds``).
     """
     counted = Counter(f)
     stats = IntegrationStats(method)
     budget = Budget(counted, max_evaluations, method, stats)
     monitor = StiffnessMonitor(budget, method, stats, stiffness == "error") if stiffness != "off" else None
-    loop = Loop(budget, t_out, record, method, rtol, atol, step, after_step, stats, monitor)
+    loop = Loop(budget, t_out, record, method, rtol, atol, step, after_step, stats, monitor, max_steps)
     try:
         if method in FIXED_STEP_METHODS:
             _integrate_rk4(loop, np.asarray(y0, dtype=float))
@@ -253,6 +260,7 @@ class Loop:
     after_step: AfterStep | None
     stats: IntegrationStats
     monitor: StiffnessMonitor | None
+    max_steps: int | None = None
 
 
 def _integrate_rk4(loop: Loop, y: np.ndarray) -> None:
@@ -341,7 +349,7 @@ def collapse_message(method: str, t: float, h: float, span: float, stats: Integr
 def error_norm(scheme, K: np.ndarray, h: float, scale: np.ndarray) -> float:
     """The scaled RMS norm of the local error estimate: h E^T K for Dormand-Prince 5(4); DOP853's
     combination of its 5th- and 3rd-order estimates (Hairer, Norsett and Wanner, sec. II.10)."""
-    if scheme.__name__ == "DOP853":
+    if scheme.name == "DOP853":
         err5 = (scheme.E5 @ K) / scale
         err3 = (scheme.E3 @ K) / scale
         e5, e3 = float(err5 @ err5), float(err3 @ err3)
@@ -369,7 +377,7 @@ class DenseOutput:
 
     def __init__(self, scheme, f, t, h, y, y_new, fy_new, K):
         self.t, self.h, self.y = t, h, y
-        if scheme.__name__ == "DOP853":
+        if scheme.name == "DOP853":
             S = scheme.n_stages + 1
             extended = np.empty((S + len(scheme.C_EXTRA), y.size))
             extended[:S] = K
@@ -398,7 +406,7 @@ def _integrate_embedded(loop: Loop, y: np.ndarray) -> None:
     """One loop: stages, error norm, accept or shrink, dense output for the output times passed."""
     f, t_out, record, method, rtol, atol = loop.f, loop.t_out, loop.record, loop.method, loop.rtol, loop.atol
     step, after_step, stats, monitor = loop.step, loop.after_step, loop.stats, loop.monitor
-    scheme = scipy_method(EMBEDDED_METHODS[method])
+    scheme = TABLEAUX[EMBEDDED_METHODS[method]]
     A, B, C, S = scheme.A, scheme.B, scheme.C, scheme.n_stages
     exponent = -1.0 / (scheme.error_estimator_order + 1)
     rows = [A[s, :s] for s in range(S)]
@@ -425,7 +433,7 @@ def _integrate_embedded(loop: Loop, y: np.ndarray) -> None:
             h *= max(MIN_FACTOR, SAFETY * err**exponent) if np.isfinite(err) else MIN_FACTOR
             stats.rejected += 1
             continue
-        stats.steps += 1
+        stats.steps, stats.step_size = stats.steps + 1, h
         t_new = t_end if t_end - (t + h) < 1e-12 * max(1.0, abs(t_end)) else t + h
         if t_out[k] < t_new:
             dense = DenseOutput(scheme, f, t, h, y, y_new, fy_new, K)
@@ -443,6 +451,8 @@ def _integrate_embedded(loop: Loop, y: np.ndarray) -> None:
         if k < t_out.size and t_out[k] == t:
             record(k, t, y)
             k += 1
+        if stats.steps == loop.max_steps:
+            return
         h *= MAX_FACTOR if err == 0.0 else min(MAX_FACTOR, SAFETY * err**exponent)
 
 

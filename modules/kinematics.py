@@ -26,6 +26,7 @@ from .linalg import lu_factor, lu_solve, minimum_norm_solution, numerical_rank, 
 from .planar.bodies import rotation, rotation_derivative
 from .results import KinematicInfo, Progress, Result
 from .rotation_matrices import euler_rotation, g_entries
+from .settings import default_engine
 
 LOCKUP_CONDITION = 1e10
 """Condition number of Psi_q above which a configuration counts as locked (a singular position)."""
@@ -247,7 +248,7 @@ def kinematic_analysis(
     steps: int,
     points: dict[str, tuple[int, np.ndarray]] | None = None,
     through_singular: bool = False,
-    engine: str = "numpy",
+    engine: str | None = None,
     progress: Progress | None = None,
 ) -> Result:
     """Positions, velocities and accelerations on the grid t = 0, t_end/steps, ..., t_end.
@@ -262,8 +263,8 @@ def kinematic_analysis(
     through_singular : at a singular position go on along the branch the velocities point to
         (``branch_step``) and list the position in ``info['singular_positions']`` (time, joints, the two
         output times around it) instead of stopping with an AnalysisError
-    engine : ``numpy`` (the default), ``compiled``, ``auto`` or ``cached``, as for ``forward_dynamics``
-        (``settings.Settings``); the compiled steps stop at the first step where anything unusual happens
+    engine : ``auto``, ``numpy``, ``compiled`` or ``cached``, as for ``forward_dynamics`` (``settings.Settings``;
+        None: ``auto``, or ``$MBD_ENGINE``); the compiled steps stop at the first step where anything unusual happens
         and the numpy steps go on from there (``_compiled_steps``); ``info['chosen']`` says which and why
     progress : optional ``progress(t)``, called with each output time the numpy steps reach
 
@@ -275,6 +276,7 @@ def kinematic_analysis(
     AnalysisError
         Degrees of freedom left, redundant constraints, lock-up, non-convergence: by name.
     """
+    engine = engine or default_engine()
     if through_singular:
         result = _kinematics_through_singular(system, q0, t_end, steps, points)
         if engine != "numpy":

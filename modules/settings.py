@@ -19,6 +19,7 @@ import functools
 import inspect
 import math
 import numbers
+import os
 from dataclasses import dataclass, field, fields
 
 from .diagnostics import AnalysisError
@@ -35,6 +36,9 @@ INTEGRATOR_NAMES = ("auto", *INTEGRATORS, *INDEX3_INTEGRATORS)
 """What ``integrator`` takes: ``auto`` (``dynamics.choose_method``), an ODE integrator or an index-3 one."""
 ENGINES = ("auto", "numpy", "compiled", "cached")
 """What ``engine`` takes (``compiled.dispatch``): numba is imported only when a run is compiled."""
+ENGINE_VARIABLE = "MBD_ENGINE"
+"""The environment variable that names the engine of every run that does not name one (default ``auto``): e.g.
+``MBD_ENGINE=numpy`` for the reference code's numbers in every run of a session, script or test suite."""
 STIFFNESS = ("report", "error", "off")
 """What ``stiffness`` takes (``integrators.integrate``)."""
 DRIFT_LIMIT = 1e-3
@@ -49,8 +53,20 @@ NAME, FLAG, WHOLE, POSITIVE, OFF_AT_ZERO = "name", "flag", "whole", "positive", 
 
 
 def setting(default, key: str, takes: str, help: str, names: tuple = ()):
-    """A field of ``Settings``: its default, the model file's key, what it takes and what it does."""
-    return field(default=default, metadata={"key": key, "takes": takes, "help": help, "names": names})
+    """A field of ``Settings``: its default (a value, or a function that gives it), the model file's key, what it
+    takes and what it does."""
+    metadata = {"key": key, "takes": takes, "help": help, "names": names}
+    if callable(default):
+        return field(default_factory=default, metadata=metadata)
+    return field(default=default, metadata=metadata)
+
+
+def default_engine() -> str:
+    """The engine of a run that names none: ``$MBD_ENGINE`` when set, else ``auto``."""
+    engine = os.environ.get(ENGINE_VARIABLE) or "auto"
+    if engine not in ENGINES:
+        raise SettingError(f"{ENGINE_VARIABLE}={engine!r}: unknown engine (one of: {', '.join(ENGINES)})")
+    return engine
 
 
 class SettingError(AnalysisError, ValueError):
@@ -83,10 +99,11 @@ class Settings:
         INTEGRATOR_NAMES,
     )  # fmt: skip
     engine: str = setting(
-        "numpy", "engine", NAME,
-        "numpy (the reference code; the default from Python), compiled (numba; falls back to numpy, saying why, "
-        "where it does not cover the run), auto (compiled when the run repays compiling; the default of mbd run "
-        "and of a model file), cached (compiled where its code for the scene is on disk)",
+        default_engine, "engine", NAME,
+        "auto (the default, or $MBD_ENGINE): compiled where the compiled engine takes the run and its code is on "
+        "disk (mbd compile, once per machine) unless the run is shorter than loading it, numpy elsewhere, saying "
+        "why; numpy (the reference code); compiled (numba, compiling what is not on disk; numpy, saying why, "
+        "where it does not cover the run); cached (compiled whenever its code is on disk)",
         ENGINES,
     )  # fmt: skip
     rtol: float | None = setting(
@@ -240,11 +257,6 @@ def check_formulation_options(settings: Settings) -> None:
             )
 
 
-FILE_DEFAULTS = {"engine": "auto"}
-"""Where a model file (and so ``mbd run``) differs from the API's default: the engine is ``auto`` (compiled
-when it pays) for a command, ``numpy`` (the reference, the same numbers on every machine) from Python."""
-
-
 def read_settings(simulation: dict, **given) -> Settings:
     """The model file's ``simulation`` block, overridden by every given value that is not None (the command
     line's options, a sweep's): each checked in the words the user wrote it.
@@ -261,8 +273,6 @@ def read_settings(simulation: dict, **given) -> Settings:
             values[f.name], source = given[f.name], option
         elif key in simulation:
             values[f.name], source = simulation[key], f"simulation.{key}"
-        elif f.name in FILE_DEFAULTS:
-            values[f.name], source = FILE_DEFAULTS[f.name], f"simulation.{key}"
         else:
             continue
         check_setting(f.name, values[f.name], source)

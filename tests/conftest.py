@@ -41,13 +41,18 @@ def pytest_configure(config):
     its namespaces), the isolation tests skip with the reason and the other grading tests run on the local
     backend (``MBD_UNSAFE_NO_ISOLATION=1``, inherited by grading workers and nbgrader's kernels).
 
-    The compiled engine's cache is the run's (COMPILED_CACHE). Every test and its subprocesses grade with the
-    session's own course secret (never the user's), from which
-    the hidden and per-student scenes are derived; their references are cached in the user's cache folder."""
+    The compiled engine's cache is the run's (COMPILED_CACHE). A run that names no engine runs the numpy
+    engine (``MBD_ENGINE=numpy``): a test of the reference code tests it, whatever the tests before it compiled
+    (the default ``auto`` takes the compiled engine for a long run once its code is on disk); the tests of the
+    default engine (tests/solutions/test_default_engine.py) remove the variable. Every test and its subprocesses
+    grade with the session's own course secret (never the user's), from which the hidden and per-student scenes
+    are derived; their references are cached in the user's cache folder."""
     from mbdkit import isolation
+    from solutions.settings import ENGINE_VARIABLE
 
     os.environ["MBD_GRADER_SECRET"] = TEST_SECRET
     os.environ.setdefault("MBD_COMPILED_CACHE", str(COMPILED_CACHE))  # before pytest-xdist starts its workers
+    os.environ.setdefault(ENGINE_VARIABLE, "numpy")
 
     _join_cpu_group()
     _ISOLATION["problem"] = problem = isolation.problem()

@@ -127,21 +127,20 @@ def unsupported(scene: Scene, formulation: str, integrator: str, options: dict) 
 
 
 def tableau(dop: bool) -> tuple:
-    """(A, B, C, E, E3, E5, D, P) of DOP853 or RK45, scipy's coefficients (the unused ones empty). DOP853's
-    A and C are those of all 16 stages: the 12 of a step, the 13th (B at t + h, first of the next step) and
-    the 3 extra ones of the dense output, taken from the public class ``scipy.integrate.DOP853``."""
-    import scipy.integrate
+    """(A, B, C, E, E3, E5, D, P) of DOP853 or RK45 (``tableaux.py``: scipy's coefficients; the unused ones empty).
+    DOP853's A and C are those of all 16 stages: the 12 of a step, the 13th (B at t + h, first of the next step)
+    and the 3 extra ones of the dense output."""
+    from ..tableaux import DOP853, RK45
 
     empty1, empty2 = np.zeros(1), np.zeros((1, 1))
     if dop:
-        d = scipy.integrate.DOP853
+        d = DOP853
         n, extra = d.n_stages, len(d.C_EXTRA)
         A = np.zeros((n + 1 + extra, n + 1 + extra))
         A[:n, :n], A[n, :n], A[n + 1 :] = d.A, d.B, d.A_EXTRA
         C = np.concatenate([d.C, [1.0], d.C_EXTRA])
         return (A, d.B, C, empty1, d.E3, d.E5, d.D, empty2)
-    rk = scipy.integrate.RK45
-    return (rk.A, rk.B, rk.C, rk.E, empty1, empty1, empty2, rk.P)
+    return (RK45.A, RK45.B, RK45.C, RK45.E, empty1, empty1, empty2, RK45.P)
 
 
 def parameters(

@@ -1,19 +1,20 @@
 """Which engine runs a forward-dynamic analysis, and the compiled run handed back to ``forward_dynamics``.
 
 ``engine="numpy"`` is the reference; ``"compiled"`` takes the compiled engine whenever it covers the run
-(``solutions.compiled``), else numpy with the reason; ``"auto"`` takes it when it also pays:
+(``solutions.compiled``), else numpy with the reason; ``"auto"`` (the default) takes it when it also pays:
 
-    the compiled engine when the numpy run is expected to take longer than LOAD_SECONDS and its machine
-    code for the scene's dimension is on disk already (loading it costs about that), or longer than
-    COMPILE_SECONDS (a first compilation, measured on the course's scenes: ``benchmarks/engines.py``);
-    ``"cached"`` takes it whenever its code is on disk (a process that runs many scenes, the grader, pays
-    the loading once); the numpy run time is
-    estimated as (evaluations) x (one numpy evaluation, timed at the initial state), with evaluations
-    = stages x t_end / h, h the starting step of Hairer's rule (sec. II.4) at the run's tolerance (a
-    fixed-step run: its steps); where that comes within a tenth of the bound, h is the step that a trial
-    of TRIAL_STEPS steps of the same pair reached, and the evaluation its trial's mean (the starting step
-    alone was 0.3 to 18 times off on the course's scenes, the trial 0.6 to 0.8 of the measured run:
-    ``benchmarks/engines.py --calibrate``). Short runs stay on numpy, whose start is free.
+    the compiled engine when its machine code for the run's dimension and formulation is on disk (``mbd
+    compile`` makes all of it once per machine; ``make demo`` runs it) and the numpy run is expected to take
+    longer than LOAD_SECONDS (importing numba and loading that code costs about that: a one-step run stays on
+    numpy, whose start is free); when it is not on disk, when the numpy run is expected to take longer than
+    COMPILE_SECONDS (a first compilation, measured on the course's scenes: ``benchmarks/engines.py``), saying
+    so on stderr while it compiles. ``"cached"`` takes it whenever its code is on disk (a process that runs
+    many scenes, the grader, pays the loading once). The numpy run time is estimated as (evaluations) x (one
+    numpy evaluation, timed at the initial state), with evaluations = stages x t_end / h, h the starting step
+    of Hairer's rule (sec. II.4) at the run's tolerance (a fixed-step run: its steps); where that comes within a
+    tenth of the bound, h is the step that a trial of TRIAL_STEPS steps of the same pair (this package's loop)
+    reached, and the evaluation its trial's mean (the starting step alone was 0.3 to 18 times off on the
+    course's scenes, the trial 0.6 to 0.8 of the measured run: ``benchmarks/engines.py --calibrate``).
 
 The choice and its reason go into ``info['chosen']`` (``engine``, ``engine_why``).
 """
@@ -21,12 +22,13 @@ The choice and its reason go into ``info['chosen']`` (``engine``, ``engine_why``
 from __future__ import annotations
 
 import math
+import sys
 import time
 
 import numpy as np
 
 from ..diagnostics import AnalysisError
-from ..integrators import IntegrationStats, initial_step, power_start
+from ..integrators import IntegrationStats, initial_step, integrate, power_start
 from ..settings import ENGINES, Settings
 
 COMPILE_SECONDS = 8.0
@@ -61,19 +63,18 @@ def estimated_numpy_seconds(equations, z0: np.ndarray, settings: Settings, thres
 
 
 def trial_seconds(f, z0: np.ndarray, t_end: float, integrator: str, rtol: float, atol: float, step) -> float:
-    """The run time extrapolated from TRIAL_STEPS steps of scipy's stepper of the same pair (DOP853 or RK45) with the
-    numpy right-hand side: (time per evaluation) x stages x t_end / (the last step), the step grown from h0 to
-    what the motion allows (the controller grows it at most tenfold a step)."""
-    import scipy.integrate
-
-    method = scipy.integrate.DOP853 if integrator in ("DOP853", "dop853") else scipy.integrate.RK45
-    solver = method(f, 0.0, z0, t_end, rtol=rtol, atol=atol, max_step=step or np.inf)
+    """The run time extrapolated from TRIAL_STEPS steps of this package's loop of the same pair (dop853 or rk45,
+    ``integrators.integrate``) with the numpy right-hand side: (time per evaluation) x stages x t_end / (the last
+    step), the step grown from h0 to what the motion allows (the controller grows it at most tenfold a step)."""
+    method = "dop853" if integrator in ("DOP853", "dop853") else "rk45"
+    times = np.array([0.0, t_end])
     start = time.perf_counter()
-    for _ in range(TRIAL_STEPS):
-        if solver.step() is not None or solver.status != "running":
-            break
-    per_call = (time.perf_counter() - start) / max(solver.nfev, 1)
-    h = solver.step_size if solver.step_size else t_end
+    stats = integrate(
+        f, z0, times, lambda k, t, y: None, method, rtol, atol, step, max_evaluations=None, stiffness="off",
+        max_steps=TRIAL_STEPS,
+    )  # fmt: skip
+    per_call = (time.perf_counter() - start) / max(stats.rhs_evaluations, 1)
+    h = stats.step_size if np.isfinite(stats.step_size) else t_end
     return per_call * STAGES[integrator] * t_end / max(h, 1e-300)
 
 
@@ -83,6 +84,12 @@ def choose(settings: Settings, equations, z0: np.ndarray):
     engine, formulation, integrator = settings.engine, settings.formulation, settings.integrator
     if engine == "numpy":
         return None, {"engine": "numpy", "engine_why": "numpy engine asked for"}
+    expected = None
+    if engine == "auto":  # a run shorter than loading the compiled code stays on numpy, whatever is on disk
+        expected = estimated_numpy_seconds(equations, z0, settings, LOAD_SECONDS)
+        if expected <= LOAD_SECONDS:
+            why = f"numpy run estimated at {expected:.3g} s, less than loading the compiled code ({LOAD_SECONDS:g} s)"
+            return None, {"engine": "numpy", "engine_why": why}
     from . import describe, is_cached, plan, unsupported
 
     made = equations.formulation
@@ -90,26 +97,38 @@ def choose(settings: Settings, equations, z0: np.ndarray):
     why_not = unsupported(job.scene, formulation, integrator, settings.formulation_options)
     if why_not is not None:
         return None, {"engine": "numpy", "engine_why": f"not compiled: {why_not}"}
-    if engine == "compiled":
-        return job, {"engine": "compiled", "engine_why": "compiled engine asked for"}
     cached = is_cached(job)
+    if engine == "compiled":
+        return _compiling(job, cached), {"engine": "compiled", "engine_why": "compiled engine asked for"}
     if engine == "cached":
         if cached:
             return job, {"engine": "compiled", "engine_why": "compiled code for this scene's dimension is cached"}
         return None, {"engine": "numpy", "engine_why": "no compiled code for this scene's dimension is cached"}
-    threshold = LOAD_SECONDS if cached else COMPILE_SECONDS
-    expected = estimated_numpy_seconds(equations, z0, settings, threshold)
-    if cached and expected > LOAD_SECONDS:
-        why = f"numpy run estimated at {expected:.3g} s, more than loading the cached code ({LOAD_SECONDS:g} s)"
-        return job, {"engine": "compiled", "engine_why": why}
     if cached:
-        why = f"numpy run estimated at {expected:.3g} s, less than loading the cached code ({LOAD_SECONDS:g} s)"
-        return None, {"engine": "numpy", "engine_why": why}
+        why = f"numpy run estimated at {expected:.3g} s, more than loading the compiled code ({LOAD_SECONDS:g} s)"
+        return job, {"engine": "compiled", "engine_why": why}
     if expected > COMPILE_SECONDS:
         why = f"numpy run estimated at {expected:.3g} s, more than a first compilation ({COMPILE_SECONDS:g} s)"
-        return job, {"engine": "compiled", "engine_why": why}
-    why = f"numpy run estimated at {expected:.3g} s, less than a first compilation ({COMPILE_SECONDS:g} s)"
+        return _compiling(job, cached), {"engine": "compiled", "engine_why": why}
+    why = (
+        f"numpy run estimated at {expected:.3g} s, less than a first compilation ({COMPILE_SECONDS:g} s): "
+        "mbd compile makes the compiled engine once per machine"
+    )
     return None, {"engine": "numpy", "engine_why": why}
+
+
+def _compiling(job, cached: bool):
+    """The job, after one line on stderr when its machine code is not on disk: a first compilation takes a while."""
+    if not cached:
+        from .tree import TreeScene
+
+        scene = job.scene.scene if isinstance(job.scene, TreeScene) else job.scene
+        dimension = "planar" if scene.dimension == 2 else "spatial"
+        print(
+            f"mbd: compiling the engine of {dimension} {job.formulation} runs, once per machine (10-60 s; "
+            "mbd compile makes all of it) ...", file=sys.stderr, flush=True,
+        )  # fmt: skip
+    return job
 
 
 def start_rates(equations, formulation: str, options: dict, z: np.ndarray) -> tuple[float, np.ndarray] | None:

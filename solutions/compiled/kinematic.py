@@ -17,9 +17,9 @@ kernels cover the model (else numpy, and ``info['chosen']`` says why); ``cached`
 scene's dimension is on disk; ``auto``:
 
     the compiled steps when the numpy steps are expected to take longer than LOAD_SECONDS and the machine code
-    is on disk, or longer than COMPILE_SECONDS (a first compilation: the scene's ``evaluate`` and, once per
-    machine, the loop); the numpy time is estimated as (output times) x NEWTON_PASSES x (one pass of Psi,
-    Psi_q, LU and solve, timed at the assembled q).
+    is on disk (``mbd compile``), or longer than COMPILE_SECONDS (a first compilation: the scene's ``evaluate``
+    and, once per machine, the loop; one line on stderr says so); the numpy time is estimated as (output
+    times) x NEWTON_PASSES x (one pass of Psi, Psi_q, LU and solve, timed at the assembled q).
 
 No numba here: it is imported (by ``run``) only when the compiled steps run.
 """
@@ -27,6 +27,7 @@ No numba here: it is imported (by ``run``) only when the compiled steps run.
 from __future__ import annotations
 
 import inspect
+import sys
 import time
 from dataclasses import dataclass
 from functools import cache
@@ -136,25 +137,45 @@ def choose(engine: str, system, q: np.ndarray, points: int) -> tuple[Scene | Non
         raise AnalysisError(f"unknown engine {engine!r} (one of: {', '.join(ENGINES)})")
     if engine == "numpy":
         return None, {"engine": "numpy", "engine_why": "numpy engine asked for"}
+    expected = estimated_numpy_seconds(system, q, points) if engine == "auto" else None
+    if expected is not None and expected <= LOAD_SECONDS:  # shorter than loading the compiled code: numpy
+        why = f"numpy steps estimated at {expected:.3g} s, less than loading the compiled code ({LOAD_SECONDS:g} s)"
+        return None, {"engine": "numpy", "engine_why": why}
     scene = describe(system)
     if scene.unsupported is not None:
         return None, {"engine": "numpy", "engine_why": f"not compiled: {scene.unsupported}"}
-    if engine == "compiled":
-        return scene, {"engine": "compiled", "engine_why": "compiled engine asked for"}
     from .codegen import is_kinematic_cached
 
     cached = is_kinematic_cached(scene)
+    if engine == "compiled":
+        _announce(scene, cached)
+        return scene, {"engine": "compiled", "engine_why": "compiled engine asked for"}
     if engine == "cached":
         if cached:
             return scene, {"engine": "compiled", "engine_why": "compiled code for this scene's dimension is cached"}
         return None, {"engine": "numpy", "engine_why": "no compiled code for this scene's dimension is cached"}
-    expected = estimated_numpy_seconds(system, q, points)
-    bound, what = (LOAD_SECONDS, "loading the cached code") if cached else (COMPILE_SECONDS, "a first compilation")
-    if expected > bound:
-        why = f"numpy steps estimated at {expected:.3g} s, more than {what} ({bound:g} s)"
+    if cached:
+        why = f"numpy steps estimated at {expected:.3g} s, more than loading the compiled code ({LOAD_SECONDS:g} s)"
         return scene, {"engine": "compiled", "engine_why": why}
-    why = f"numpy steps estimated at {expected:.3g} s, less than {what} ({bound:g} s)"
+    if expected > COMPILE_SECONDS:
+        _announce(scene, cached)
+        why = f"numpy steps estimated at {expected:.3g} s, more than a first compilation ({COMPILE_SECONDS:g} s)"
+        return scene, {"engine": "compiled", "engine_why": why}
+    why = (
+        f"numpy steps estimated at {expected:.3g} s, less than a first compilation ({COMPILE_SECONDS:g} s): "
+        "mbd compile makes the compiled engine once per machine"
+    )
     return None, {"engine": "numpy", "engine_why": why}
+
+
+def _announce(scene: Scene, cached: bool) -> None:
+    """One line on stderr when the machine code is not on disk: a first compilation takes a while."""
+    if not cached:
+        dimension = "planar" if scene.dimension == 2 else "spatial"
+        print(
+            f"mbd: compiling the engine of {dimension} kinematic runs, once per machine (10-60 s; mbd compile makes "
+            "all of it) ...", file=sys.stderr, flush=True,
+        )  # fmt: skip
 
 
 def run(scene: Scene, q: np.ndarray, times: np.ndarray, system=None) -> KinematicRun:

@@ -119,15 +119,23 @@ def test_numba_is_not_imported_by_the_package():
 
 
 def test_auto_and_cached_choose_by_what_pays(tmp_path, monkeypatch):
-    """``auto`` keeps a short run on numpy even with the code on disk (loading it costs about a second);
-    ``cached`` takes the compiled engine whenever the code is on disk (the grader, which loads it once); with
-    nothing on disk both stay on numpy and say why."""
+    """``auto`` keeps a run shorter than loading the compiled code on numpy, on disk or not, and takes the code on
+    disk for a longer one (LOAD_SECONDS set to 0 makes this short run one); ``cached`` takes the compiled engine
+    whenever the code is on disk (the grader, which loads it once); with nothing on disk both stay on numpy and
+    say why (``auto``: a first compilation costs more than this run)."""
+    from solutions.compiled import dispatch
+
     system, q0, qd0 = build_system(load_model(SCENES["double_pendulum"]))
     kwargs = dict(formulation="baumgarte", integrator="DOP853", rtol=1e-10, atol=1e-12)
     forward_dynamics(system, q0, qd0, 0.05, 2, engine="compiled", **kwargs)  # on disk now (test_engines_agree)
-    for engine, chosen in (("auto", "numpy"), ("cached", "compiled")):
-        run = forward_dynamics(system, q0, qd0, 0.05, 2, engine=engine, **kwargs)
-        assert run.info["chosen"]["engine"] == chosen, run.info["chosen"]
+    auto = forward_dynamics(system, q0, qd0, 0.05, 2, engine="auto", **kwargs).info["chosen"]
+    assert auto["engine"] == "numpy" and "less than loading the compiled code" in auto["engine_why"], auto
+    run = forward_dynamics(system, q0, qd0, 0.05, 2, engine="cached", **kwargs)
+    assert run.info["chosen"]["engine"] == "compiled", run.info["chosen"]
+    monkeypatch.setattr(dispatch, "LOAD_SECONDS", 0.0)
+    run = forward_dynamics(system, q0, qd0, 0.05, 2, engine="auto", **kwargs)
+    assert run.info["chosen"]["engine"] == "compiled", run.info["chosen"]
+    assert "more than loading the compiled code (0 s)" in run.info["chosen"]["engine_why"]
     monkeypatch.setenv("MBD_COMPILED_CACHE", str(tmp_path))  # an empty cache, and no generated module loaded
     for name in [name for name in sys.modules if name.startswith("mbd_")]:
         monkeypatch.delitem(sys.modules, name)

@@ -174,12 +174,18 @@ def test_unknown_engine_is_refused():
 
 
 def test_auto_and_cached_choose_by_what_pays(tmp_path, monkeypatch):
-    """A short run stays on numpy under ``auto``; ``cached`` takes the compiled steps when their code is on disk."""
+    """A short run stays on numpy under ``auto``, and a longer one (LOAD_SECONDS set to 0) takes the code on disk;
+    ``cached`` takes the compiled steps when their code is on disk; with nothing on disk both stay on numpy."""
+    from solutions.compiled import kinematic
+
     system, q0, _ = build_system(load_model(MODELS / "slider_crank.yaml"))
     kinematic_analysis(system, q0, 0.1, 10, engine="compiled")  # on disk now
     auto = kinematic_analysis(system, q0, 0.1, 10, engine="auto").info["chosen"]
-    assert auto["engine"] == "numpy" and "less than loading the cached code" in auto["engine_why"], auto
+    assert auto["engine"] == "numpy" and "less than loading the compiled code" in auto["engine_why"], auto
     assert kinematic_analysis(system, q0, 0.1, 10, engine="cached").info["chosen"]["engine"] == "compiled"
+    monkeypatch.setattr(kinematic, "LOAD_SECONDS", 0.0)
+    auto = kinematic_analysis(system, q0, 0.1, 10, engine="auto").info["chosen"]
+    assert auto["engine"] == "compiled" and "more than loading the compiled code (0 s)" in auto["engine_why"], auto
     monkeypatch.setenv("MBD_COMPILED_CACHE", str(tmp_path))  # an empty cache, and no generated module loaded
     for name in [name for name in sys.modules if name.startswith("mbd_")]:
         monkeypatch.delitem(sys.modules, name)
