@@ -4,7 +4,7 @@
 (``solutions.compiled``), else numpy with the reason; ``"auto"`` (the default) takes it when it also pays:
 
     the compiled engine when its machine code for the run's dimension and formulation is on disk (``mbd
-    compile`` makes all of it once per machine; ``make demo`` runs it) and the numpy run is expected to take
+    compile`` makes all of it once per machine) and the numpy run is expected to take
     longer than LOAD_SECONDS (importing numba and loading that code costs about that: a one-step run stays on
     numpy, whose start is free); when it is not on disk, when the numpy run is expected to take longer than
     COMPILE_SECONDS (a first compilation, measured on the course's scenes: ``benchmarks/engines.py``), saying
