@@ -438,6 +438,7 @@ def dynamic_run(pkg: Package, job: Job) -> dict:
         for k, v in job.options.items()
         if k not in ("formulation", "integrator", "rtol", "atol", "step", "t_end", "steps")
     }
+    extra.setdefault("engine", "numpy")  # the numpy code the student wrote; the reference's runs name theirs
     result = pkg["dynamics"].forward_dynamics(
         system,
         q0,

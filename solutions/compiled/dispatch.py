@@ -97,7 +97,12 @@ def choose(settings: Settings, equations, z0: np.ndarray):
     why_not = unsupported(job.scene, formulation, integrator, settings.formulation_options)
     if why_not is not None:
         return None, {"engine": "numpy", "engine_why": f"not compiled: {why_not}"}
-    cached = is_cached(job)
+    try:
+        cached = is_cached(job)
+    except ImportError as err:  # numba missing (or its metadata: a sandbox), where the run did not ask for it
+        if engine == "compiled":
+            raise
+        return None, {"engine": "numpy", "engine_why": f"the compiled engine cannot load here ({err})"}
     if engine == "compiled":
         return _compiling(job, cached), {"engine": "compiled", "engine_why": "compiled engine asked for"}
     if engine == "cached":

@@ -146,7 +146,12 @@ def choose(engine: str, system, q: np.ndarray, points: int) -> tuple[Scene | Non
         return None, {"engine": "numpy", "engine_why": f"not compiled: {scene.unsupported}"}
     from .codegen import is_kinematic_cached
 
-    cached = is_kinematic_cached(scene)
+    try:
+        cached = is_kinematic_cached(scene)
+    except ImportError as err:  # numba missing (or its metadata: a sandbox), where the run did not ask for it
+        if engine == "compiled":
+            raise
+        return None, {"engine": "numpy", "engine_why": f"the compiled engine cannot load here ({err})"}
     if engine == "compiled":
         _announce(scene, cached)
         return scene, {"engine": "compiled", "engine_why": "compiled engine asked for"}

@@ -121,3 +121,24 @@ def test_mbd_run_says_which_engine_ran_and_why(default):
         command, cwd=REPO, env={**env, ENGINE_VARIABLE: "numpy"}, capture_output=True, text=True, timeout=120
     )
     assert out.returncode == 0 and "engine:" not in out.stdout, out.stdout
+
+
+def test_auto_stays_on_numpy_where_the_compiled_engine_cannot_load(default, monkeypatch):
+    """A package with the compiled engine but no numba to load it (a sandbox without numba's metadata, an install
+    without it): ``auto`` runs numpy and says why; ``compiled``, asked for by name, raises."""
+    from importlib.metadata import PackageNotFoundError
+
+    import solutions.compiled as compiled
+    from solutions.compiled import dispatch
+
+    def missing(job):
+        raise PackageNotFoundError("No package metadata was found for numba")
+
+    monkeypatch.setattr(compiled, "is_cached", missing)
+    monkeypatch.setattr(dispatch, "LOAD_SECONDS", 0.0)
+    system, q0, qd0 = build_system(load_model(MODELS / "double_pendulum.yaml"))
+    run = forward_dynamics(system, q0, qd0, 0.05, 2, formulation="baumgarte", integrator="dop853")
+    assert run.info["chosen"]["engine"] == "numpy"
+    assert run.info["chosen"]["engine_why"].startswith("the compiled engine cannot load here (No package metadata")
+    with pytest.raises(PackageNotFoundError):
+        forward_dynamics(system, q0, qd0, 0.05, 2, formulation="baumgarte", integrator="dop853", engine="compiled")
