@@ -228,7 +228,8 @@ def run(
     P, D = parameters(scene, *plan.numbers), scene.data()
     z0 = np.ascontiguousarray(z0, dtype=float)
     times = np.ascontiguousarray(times, dtype=float)
-    rhs = module.scene_rhs
+    rhs = loops.first_class(module.scene_rhs, loops.RHS_SIGNATURE)  # numba's type of each found once
+    project = loops.first_class(project, loops.PROJECT_SIGNATURE)
     if integrator in FIXED:
         Y, evaluations, steps, rejected, status, t, h = loops.rk4(rhs, project, z0, times, float(step or 0.0), P, D)
     else:

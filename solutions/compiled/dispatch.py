@@ -158,7 +158,8 @@ def start_rates(equations, formulation: str, options: dict, z: np.ndarray) -> tu
     out = np.empty(z.size + 3 * n + m)  # y', and after it the outputs of the state
     module.scene_rhs(0.0, z, P, D, out)
     fz = out[: z.size].copy()
-    rho = loops.spectral_radius(module.scene_rhs, 0.0, z, fz, power_start(z.size), P, D, 10)
+    rhs = loops.first_class(module.scene_rhs, loops.RHS_SIGNATURE)
+    rho = loops.spectral_radius(rhs, 0.0, z, fz, power_start(z.size), P, D, 10)
     qdd = out[z.size + 2 * n : z.size + 3 * n] if isinstance(job.scene, TreeScene) else out[n : 2 * n]
     return float(rho), qdd.copy()
 

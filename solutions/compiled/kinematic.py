@@ -193,9 +193,11 @@ def run(scene: Scene, q: np.ndarray, times: np.ndarray, system=None) -> Kinemati
     from ..kinematics import LOCKUP_CONDITION, PIVOT_DIP, dip_start, locate_singular_position
     from . import kinematic_loop  # imports numba
     from .codegen import load_kinematic
+    from .loops import first_class
 
     start = time.perf_counter()
     module, cached = load_kinematic(scene)
+    evaluate = first_class(module.evaluate, kinematic_loop.EVALUATE_SIGNATURE)
     tol, max_iterations = _newton_defaults()
     points, n = times.size, scene.n
     Q, QD, QDD = np.empty((points, n)), np.empty((points, n)), np.empty((points, n))
@@ -207,7 +209,7 @@ def run(scene: Scene, q: np.ndarray, times: np.ndarray, system=None) -> Kinemati
     first, passed = 0, -1
     while True:
         stop, reason = kinematic_loop.steps(
-            module.evaluate, q, times, F, D, limits, first, passed, (Q, QD, QDD), (ratios, signs, iterations, residuals)
+            evaluate, q, times, F, D, limits, first, passed, (Q, QD, QDD), (ratios, signs, iterations, residuals)
         )
         if reason != kinematic_loop.DIP or system is None or (stop > 0 and signs[stop] != signs[stop - 1]):
             break

@@ -63,6 +63,35 @@ def jit(signature):
     return njit(signature, cache=True, nogil=True)
 
 
+class FirstClass:
+    """A compiled function handed to a loop as a first-class function, with its numba type and the address of
+    its machine code found once (numba's wrapper address protocol: ``__wrapper_address__``, and ``_numba_type_``
+    for ``typeof``). Handed over as the dispatcher itself, numba derives the function type from the signature
+    anew at every call, rebuilding P's nested tuple types: about 0.2 ms a call, more than a 2-body scene's
+    whole output stage (``benchmarks/call_cost.py``)."""
+
+    def __init__(self, function, signature):
+        from numba.experimental.function_type import _get_wrapper_address
+
+        self.function = function  # kept alive as long as its address is used
+        self._numba_type_ = types.FunctionType(signature)
+        self._address = _get_wrapper_address(function, signature)
+
+    def __wrapper_address__(self) -> int:
+        return self._address
+
+
+_FIRST_CLASS: dict = {}
+
+
+def first_class(function, signature) -> FirstClass:
+    """``FirstClass(function, signature)``, made once per function and signature in a process."""
+    key = (function, id(signature))  # a signature's own hash rebuilds its types: the loops' signatures are constants
+    if key not in _FIRST_CLASS:
+        _FIRST_CLASS[key] = FirstClass(function, signature)
+    return _FIRST_CLASS[key]
+
+
 SAFETY, MIN_FACTOR, MAX_FACTOR, MIN_STEP = 0.9, 0.2, 10.0, 1e-12
 
 

@@ -9,6 +9,7 @@ numba compiles the integrator loops and each dimension's module once per machine
 import os
 import subprocess
 import sys
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -195,3 +196,25 @@ def test_the_element_data_is_three_arrays_holding_each_kernels_rows_in_its_slot(
         i, f = present[kernel]
         assert np.array_equal(ints[rows, : i.shape[1]], i) and not ints[rows, i.shape[1] :].any(), kernel
         assert np.array_equal(floats[rows, : f.shape[1]], f) and not floats[rows, f.shape[1] :].any(), kernel
+
+
+def test_a_function_handed_to_the_loops_is_typed_once_and_computes_the_same():
+    """``loops.first_class``: the scene's right-hand side handed to a loop with its numba type and address found
+    once (handed as the dispatcher, numba derives the type anew at every call): the same numbers as the
+    dispatcher, one object per function and signature."""
+    from solutions.compiled import describe, load, loops, parameters, plan
+    from solutions.generalized_forces import build_forces
+    from solutions.mass_matrix import mass_matrix
+
+    system, _, _ = build_system(load_model(SCENES["double_pendulum"]))
+    scene = describe(system, mass_matrix(system.model), build_forces(system.model))
+    job = plan(scene, "baumgarte", SimpleNamespace(alpha=5.0, beta=5.0))
+    module, _, _ = load(job)
+    P, D = parameters(job.scene, *job.numbers), job.scene.data()
+    rng = np.random.default_rng(3)
+    times, Y = np.linspace(0.0, 1.0, 7), rng.normal(size=(7, 2 * job.scene.n))
+    rhs = loops.first_class(module.scene_rhs, loops.RHS_SIGNATURE)
+    assert loops.first_class(module.scene_rhs, loops.RHS_SIGNATURE) is rhs
+    by_dispatcher = loops.outputs(module.scene_rhs, times, Y, P, D, job.scene.m)
+    assert np.array_equal(loops.outputs(rhs, times, Y, P, D, job.scene.m), by_dispatcher)
+    assert np.isfinite(by_dispatcher).all() and np.abs(by_dispatcher).max() > 0
