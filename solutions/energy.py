@@ -25,8 +25,9 @@ from .generalized_forces import ForceModel
 
 
 def kinetic_energy(M: np.ndarray, qd: np.ndarray) -> np.ndarray:
-    """T = 1/2 q'^T M q' for one state (qd of shape (n,)) or a history (shape (N, n)) (eq. 5.2)."""
-    return 0.5 * np.einsum("...i,ij,...j->...", qd, M, qd)
+    """T = 1/2 q'^T M q' for one state (qd of shape (n,)) or a history (shape (N, n)) (eq. 5.2): the products
+    M q' of every row by one matrix product."""
+    return 0.5 * np.sum((qd @ M) * qd, axis=-1)
 
 
 def potential_energy(forces: ForceModel, q: np.ndarray) -> np.ndarray:

@@ -46,37 +46,44 @@ def _generalized(jac: np.ndarray, lam: np.ndarray, rows: np.ndarray, columns: sl
     return -np.einsum("krc,kr->kc", jac[:, rows, columns], lam[:, rows])
 
 
-def _rotations_2d(phi: np.ndarray) -> np.ndarray:
-    """A(phi) = [[cos phi, -sin phi], [sin phi, cos phi]] (eq. 2.2) of every angle phi (N,): (N, 2, 2) at once."""
-    c, s = np.cos(phi), np.sin(phi)
-    return np.stack([c, -s, s, c], -1).reshape(-1, 2, 2)
-
-
 def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
-    """``reactions.joint_reactions(system, q, lam, t)`` over the histories q (N, n), lambda (N, m)."""
+    """``reactions.joint_reactions(system, q, lam, t)`` over the histories q (N, n), lambda (N, m), every joint at
+    once: each row's part -(Psi_q)_r^T lambda_r of the generalized force on the three columns of either body (eq.
+    5.70), summed over the rows of its joint, the moment taken about the joint point; a ground side gets the
+    opposite of the other side's."""
     from ..reactions import joint_groups
 
     N = q.shape[0]
     X = np.concatenate([q.reshape(N, -1, 3), np.zeros((N, 1, 3))], axis=1)  # ground last: body -1
-    columns = {}
+    names, rows, starts, sides, carriers, points = [], [], [], [], [], []
     for name, indices in joint_groups(system).items():
         first = next((system.elements[k] for k in indices if getattr(system.elements[k], "sj", None) is not None), None)
-        owner = system.elements[indices[0]] if first is None else first
-        point = X[:, owner.j, :2].copy()
-        if first is not None:
-            point += np.einsum("kab,b->ka", _rotations_2d(X[:, owner.j, 2]), np.asarray(first.sj, dtype=float))
-        rows = np.concatenate([np.arange(system.n_constraints)[system.rows[k]] for k in indices])
-        i, j = system.elements[indices[0]].i, system.elements[indices[0]].j
-        force, moment = {}, {}
-        for body in (i, j):
-            if body >= 0:
-                g = _generalized(jac, lam, rows, slice(3 * body, 3 * body + 3))
-                arm = point - X[:, body, :2]
-                force[body], moment[body] = g[:, :2], g[:, 2] - (arm[:, 0] * g[:, 1] - arm[:, 1] * g[:, 0])
-        for body, other in ((i, j), (j, i)):
-            if body < 0:
-                force[body], moment[body] = -force[other], -moment[other]
-        columns[f"{name}.Fx"], columns[f"{name}.Fy"], columns[f"{name}.Mz"] = force[j][:, 0], force[j][:, 1], moment[j]
+        owner = system.elements[indices[0]]
+        joint_rows = np.concatenate([np.arange(system.n_constraints)[system.rows[k]] for k in indices])
+        names.append(name)
+        starts.append(sum(len(r) for r in rows))
+        rows.append(joint_rows)
+        sides.append((owner.i, owner.j))
+        carriers.append((owner if first is None else first).j)
+        points.append((0.0, 0.0) if first is None else first.sj)
+    rows_all, (i, j) = np.concatenate(rows), np.array(sides).T
+    carrier, s = np.array(carriers), np.asarray(points, dtype=float)
+    c, sn = np.cos(X[:, carrier, 2]), np.sin(X[:, carrier, 2])  # the joint point r_j + A(phi_j) s_j (eq. 2.2)
+    point = X[:, carrier, :2] + np.stack([c * s[:, 0] - sn * s[:, 1], sn * s[:, 0] + c * s[:, 1]], axis=-1)
+    force, moment = {}, {}
+    for side, body in (("i", i), ("j", j)):
+        per_row = np.repeat(body, [len(r) for r in rows])
+        columns = 3 * np.maximum(per_row, 0)[:, None] + np.arange(3)  # ground's rows read column 0, then zeroed
+        parts = -jac[:, rows_all[:, None], columns] * (lam[:, rows_all] * (per_row >= 0))[:, :, None]
+        g = np.add.reduceat(parts, starts, axis=1)  # (N, joints, 3): x, y and the angle's column
+        arm = point - X[:, body, :2]
+        force[side], moment[side] = g[..., :2], g[..., 2] - (arm[..., 0] * g[..., 1] - arm[..., 1] * g[..., 0])
+    ground = j < 0
+    Fj = np.where(ground[:, None], -force["i"], force["j"])
+    Mj = np.where(ground, -moment["i"], moment["j"])
+    columns = {}
+    for k, name in enumerate(names):
+        columns[f"{name}.Fx"], columns[f"{name}.Fy"], columns[f"{name}.Mz"] = Fj[:, k, 0], Fj[:, k, 1], Mj[:, k]
     return columns
 
 

@@ -4,8 +4,11 @@ System's, the residual and reaction columns against ``constraint_residuals`` and
 batched checks of the Guard against its step-by-step checks (the same verdicts, the same messages).
 """
 
+from pathlib import Path
+
 import numpy as np
 import pytest
+import yaml
 
 from solutions.assembly import build_system
 from solutions.diagnostics import AnalysisError, SingularConfigurationError
@@ -61,6 +64,27 @@ def test_history_matches_numpy_functions(path):
     for key, value in expected.items():
         assert np.max(np.abs(got[key] - value)) <= 1e-12 * size, key
 
+
+
+@pytest.mark.parametrize("name", ["four_bar", "quick_return", "six_bar", "rack_pinion", "slider_crank", "andrews"])
+def test_planar_reactions_of_every_joint_kind_at_any_state(name):
+    """The batched planar reactions (every joint at once) against ``reactions.joint_reactions`` on planar models
+    with motors (rows with Psi_t), revolute-prismatic, gear and prismatic pairs (two elements), joints to ground on
+    either side: the reactions are algebraic in (q, lambda), so random states and multipliers test every term."""
+    model = yaml.safe_load(Path(f"course/models/{name}.yaml").read_text())
+    for joint in model["model"]["joints"][::2]:  # every other joint written the other way round: ground as body2
+        joint["body1"], joint["body2"] = joint["body2"], joint["body1"]
+    system, q0, _ = build_system(load_model(model))
+    rng = np.random.default_rng(11)
+    t = np.linspace(0.0, 0.5, 5)
+    q = q0 + 0.3 * rng.normal(size=(t.size, q0.size))
+    lam = rng.normal(size=(t.size, system.n_constraints))
+    jac = np.stack([system.jacobian(q[k], t[k]) for k in range(t.size)])
+    expected = joint_reactions(system, q, lam, t)
+    got = history.joint_reactions(system, q, lam, jac)
+    assert list(got) == list(expected)
+    for key, value in expected.items():
+        assert np.max(np.abs(got[key] - value)) <= 1e-12 * max(1.0, float(np.max(np.abs(value)))), key
 
 def _verdict(check):
     try:
