@@ -64,6 +64,7 @@ An open tree has no cut rows, and this is (D^T M D) theta'' = D^T (Q - M xi) abo
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -108,12 +109,19 @@ def tree_order(system: System) -> tuple[list[tuple[dict, bool]], str | None]:
     """
     model = system.model
     supported = SUPPORTED_JOINTS[model.dimension]
-    pending = [spec for spec in model.joints if spec["type"] in supported]
-    reached, order, queue = {GROUND}, [], [GROUND]
+    touching: dict[str, list[int]] = {}  # body -> the supported joints at it, in the file's order
+    for k, spec in enumerate(model.joints):
+        if spec["type"] in supported:
+            for name in dict.fromkeys((spec["body1"], spec["body2"])):
+                touching.setdefault(name, []).append(k)
+    reached, order, queue, taken = {GROUND}, [], deque([GROUND]), set()
     while queue:
-        body = queue.pop(0)
-        for spec in [spec for spec in pending if body in (spec["body1"], spec["body2"])]:
-            pending.remove(spec)
+        body = queue.popleft()
+        for k in touching.get(body, []):
+            if k in taken:
+                continue
+            taken.add(k)
+            spec = model.joints[k]
             other = spec["body2"] if spec["body1"] == body else spec["body1"]
             if other not in reached:
                 order.append((spec, spec["body1"] != body))
@@ -217,8 +225,9 @@ def build_tree(system: System) -> list[TreeJoint]:
         elements.setdefault(element.name, []).append(element)
     joints, position, velocity = [], 0, 0
     moving: dict[int, tuple] = {-1: ()}  # body -> the velocity columns that move it
+    index = {GROUND: -1} | {body.name: k for k, body in enumerate(model.bodies)}
     for spec, reverse in order:
-        i, j = model.body_index(spec["body1"]), model.body_index(spec["body2"])
+        i, j = index[spec["body1"]], index[spec["body2"]]
         parent, child = (j, i) if reverse else (i, j)
         joint = (planar_joint if model.dimension == 2 else spatial_joint)(spec, elements[spec["name"]], reverse)
         joint.parent, joint.child = parent, child

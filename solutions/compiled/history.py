@@ -55,24 +55,24 @@ def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) ->
 
     N = q.shape[0]
     X = np.concatenate([q.reshape(N, -1, 3), np.zeros((N, 1, 3))], axis=1)  # ground last: body -1
-    names, rows, starts, sides, carriers, points = [], [], [], [], [], []
+    names, rows, sides, carriers, points, every_row = [], [], [], [], [], np.arange(system.n_constraints)
     for name, indices in joint_groups(system).items():
         first = next((system.elements[k] for k in indices if getattr(system.elements[k], "sj", None) is not None), None)
         owner = system.elements[indices[0]]
-        joint_rows = np.concatenate([np.arange(system.n_constraints)[system.rows[k]] for k in indices])
         names.append(name)
-        starts.append(sum(len(r) for r in rows))
-        rows.append(joint_rows)
+        rows.append(np.concatenate([every_row[system.rows[k]] for k in indices]))
         sides.append((owner.i, owner.j))
         carriers.append((owner if first is None else first).j)
         points.append((0.0, 0.0) if first is None else first.sj)
+    lengths = [len(r) for r in rows]
+    starts = np.cumsum([0, *lengths[:-1]])  # each joint's first row in rows_all
     rows_all, (i, j) = np.concatenate(rows), np.array(sides).T
     carrier, s = np.array(carriers), np.asarray(points, dtype=float)
     c, sn = np.cos(X[:, carrier, 2]), np.sin(X[:, carrier, 2])  # the joint point r_j + A(phi_j) s_j (eq. 2.2)
     point = X[:, carrier, :2] + np.stack([c * s[:, 0] - sn * s[:, 1], sn * s[:, 0] + c * s[:, 1]], axis=-1)
     force, moment = {}, {}
     for side, body in (("i", i), ("j", j)):
-        per_row = np.repeat(body, [len(r) for r in rows])
+        per_row = np.repeat(body, lengths)
         columns = 3 * np.maximum(per_row, 0)[:, None] + np.arange(3)  # ground's rows read column 0, then zeroed
         parts = -jac[:, rows_all[:, None], columns] * (lam[:, rows_all] * (per_row >= 0))[:, :, None]
         g = np.add.reduceat(parts, starts, axis=1)  # (N, joints, 3): x, y and the angle's column
