@@ -68,7 +68,6 @@ from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 
 from .assembly import System
 from .diagnostics import AnalysisError, rank_report
@@ -682,8 +681,10 @@ class JointCoordinates(Formulation):
             diagonal = np.diag(self.M)
             self._m = diagonal if np.array_equal(self.M, np.diag(diagonal)) else None  # M diagonal: D^T M = D^T * m
         else:  # constant: diag(m I, J') per body, and the weights
-            blocks = [scipy.linalg.block_diag(np.eye(3) * b.mass, b.inertia) for b in model.bodies]
-            self._body_mass = scipy.linalg.block_diag(*blocks)
+            self._body_mass = np.zeros((6 * nb, 6 * nb))
+            for k, b in enumerate(model.bodies):
+                self._body_mass[6 * k : 6 * k + 3, 6 * k : 6 * k + 3] = b.mass * np.eye(3)
+                self._body_mass[6 * k + 3 : 6 * k + 6, 6 * k + 3 : 6 * k + 6] = b.inertia
             self._masses = [float(b.mass) for b in model.bodies]
             self._inertias = [_floats(np.asarray(b.inertia).ravel()) for b in model.bodies]
             self._weights = [scale(b.mass, _floats(model.gravity)) for b in model.bodies]

@@ -34,16 +34,11 @@ def constraint_arrays(module, scene, times: np.ndarray, Y: np.ndarray) -> tuple[
 
 def residuals(psi: np.ndarray, jac: np.ndarray, psit: np.ndarray, qd: np.ndarray) -> dict[str, np.ndarray]:
     """'residual.position' max |Psi| and 'residual.velocity' max |Psi_q q' + Psi_t| at every output time."""
-    velocity = np.einsum("kij,kj->ki", jac, qd) + psit
+    velocity = (jac @ qd[:, :, None])[:, :, 0] + psit  # Psi_q q' at every time, by BLAS
     return {
         "residual.position": np.max(np.abs(psi), axis=1, initial=0.0),
         "residual.velocity": np.max(np.abs(velocity), axis=1, initial=0.0),
     }
-
-
-def _generalized(jac: np.ndarray, lam: np.ndarray, rows: np.ndarray, columns: slice) -> np.ndarray:
-    """Q_i^k = -(Psi_qi^k)^T lambda_k at every output time: (N, columns) (eq. 5.70, 10.20)."""
-    return -np.einsum("krc,kr->kc", jac[:, rows, columns], lam[:, rows])
 
 
 def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
@@ -87,57 +82,60 @@ def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) ->
     return columns
 
 
-def _unit(p: np.ndarray) -> np.ndarray:
-    return p / np.linalg.norm(p, axis=1, keepdims=True)
-
-
-def _g_matrices(p: np.ndarray) -> np.ndarray:
-    """G(p) = [-e, e~ + e0 I] for every row p (N, 4): (N, 3, 4) (eq. 8.14)."""
-    return np.stack(g_entries(*p.T), -1).reshape(-1, 3, 4)
-
-
-def _a_matrices(p: np.ndarray) -> np.ndarray:
-    """A(p) = G(p) L(p)^T for every row p (N, 4) (eq. 8.12)."""
-    return np.stack(rotation_entries(*p.T), -1).reshape(-1, 3, 3)
+def _axes(frame) -> np.ndarray:
+    """[f g h] of a joint frame, its axes in the body as columns."""
+    return np.column_stack([frame.f, frame.g, frame.h])
 
 
 def spatial_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
-    """``spatial.reactions.joint_reactions(system, q, lam, t)`` over the histories q (N, n), lambda (N, m)."""
+    """``spatial.reactions.joint_reactions(system, q, lam, t)`` over the histories q (N, n), lambda (N, m), every
+    element at once: each row's part -(Psi_q)_r^T lambda_r of the generalized force on the seven columns of either
+    body (eq. 10.20), summed over the element's rows; the force F and the torque n = 1/2 G(p) Q_p (eq. 8.14), its
+    moment taken about the joint point; a ground side gets the opposite of the other side's."""
     from ..spatial.joints import EulerNormalization, Joint
 
     N = q.shape[0]
     X = np.concatenate([q.reshape(N, -1, 7), np.tile([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0], (N, 1, 1))], axis=1)
+    p = X[..., 3:] / np.linalg.norm(X[..., 3:], axis=2, keepdims=True)  # every body's unit Euler parameters
+    A = np.stack(rotation_entries(*np.moveaxis(p, 2, 0)), -1).reshape(N, -1, 3, 3)  # (eq. 8.12)
+    G = np.stack(g_entries(*np.moveaxis(p, 2, 0)), -1).reshape(N, -1, 3, 4)  # (eq. 8.14)
+    every_row = np.arange(system.n_constraints)
+    elements = [(k, e) for k, e in enumerate(system.elements) if not isinstance(e, EulerNormalization)]
+    rows = [every_row[system.rows[k]] for k, _ in elements]
+    lengths = [len(r) for r in rows]
+    starts, rows_all = np.cumsum([0, *lengths[:-1]]), np.concatenate(rows)
+    i, j = np.array([e.i for _, e in elements]), np.array([e.j for _, e in elements])
+    framed = [isinstance(e, Joint) and bool(e.frames) for _, e in elements]
+    offsets = np.zeros((len(elements), 3))  # the joint point in body j (its centre where none is given)
+    for row, ((_, e), has_frames) in enumerate(zip(elements, framed, strict=True)):
+        given = e.frames[1].origin if has_frames else getattr(e, "sj", None)
+        offsets[row] = 0.0 if given is None else given
+    point = X[:, j, :3] + (A[:, j] @ offsets[:, :, None])[..., 0]
+    force, moment = {}, {}
+    for side, body in (("i", i), ("j", j)):
+        per_row = np.repeat(body, lengths)
+        columns = 7 * np.maximum(per_row, 0)[:, None] + np.arange(7)  # ground's rows read column 0, then zeroed
+        parts = -jac[:, rows_all[:, None], columns] * (lam[:, rows_all] * (per_row >= 0))[:, :, None]
+        g = np.add.reduceat(parts, starts, axis=1)  # (N, elements, 7): Q_r, Q_p of the body
+        n = 0.5 * (G[:, body] @ g[..., 3:, None])[..., 0]
+        force[side], moment[side] = g[..., :3], n - np.cross(point - X[:, body, :3], g[..., :3])
+    ground = (j < 0)[:, None]
+    F, M = np.where(ground, -force["i"], force["j"]), np.where(ground, -moment["i"], moment["j"])
+    joints = np.flatnonzero(framed)  # F and M in the joint frame too: its f, g, h in body j, turned to global axes
+    frames = np.array([_axes(elements[e][1].frames[1]) for e in joints]).reshape(-1, 3, 3)
+    axes_t = np.swapaxes(A[:, j[joints]] @ frames, 2, 3)  # rows f, g, h (global)
+    F_joint, M_joint = (axes_t @ F[:, joints, :, None])[..., 0], (axes_t @ M[:, joints, :, None])[..., 0]
+    at_joint = {e: position for position, e in enumerate(joints)}
     columns = {}
-    for k, element in enumerate(system.elements):
-        if isinstance(element, EulerNormalization):
-            continue
-        rows = np.arange(system.n_constraints)[system.rows[k]]
-        i, j = element.i, element.j
-        Aj = _a_matrices(_unit(X[:, j, 3:]))
-        s = element.frames[1].origin if isinstance(element, Joint) and element.frames else getattr(element, "sj", None)
-        point = X[:, j, :3] if s is None else X[:, j, :3] + Aj @ np.asarray(s, dtype=float)
-        force, moment = {}, {}
-        for body in (i, j):
-            if body >= 0:
-                g = _generalized(jac, lam, rows, slice(7 * body, 7 * body + 7))
-                F = g[:, :3]
-                n = 0.5 * np.einsum("kab,kb->ka", _g_matrices(_unit(X[:, body, 3:])), g[:, 3:])
-                force[body], moment[body] = F, n - np.cross(point - X[:, body, :3], F)
-        for body, other in ((i, j), (j, i)):
-            if body < 0:
-                force[body], moment[body] = -force[other], -moment[other]
-        F, M = force[j], moment[j]
+    for row, (_, element) in enumerate(elements):
         for axis, c in zip("xyz", range(3), strict=True):
-            columns[f"{element.name}.F{axis}"] = F[:, c]
+            columns[f"{element.name}.F{axis}"] = F[:, row, c]
         for axis, c in zip("xyz", range(3), strict=True):
-            columns[f"{element.name}.M{axis}"] = M[:, c]
-        if isinstance(element, Joint) and element.frames:
-            frame = element.frames[1]
-            axes = Aj @ np.column_stack([frame.f, frame.g, frame.h])  # the joint frame's f, g, h (global)
-            F_joint, M_joint = np.einsum("kab,ka->kb", axes, F), np.einsum("kab,ka->kb", axes, M)
+            columns[f"{element.name}.M{axis}"] = M[:, row, c]
+        if row in at_joint:
             for axis, c in zip("xyz", range(3), strict=True):  # in the order of the numpy engine's columns
-                columns[f"{element.name}.F{axis}_joint"] = F_joint[:, c]
-                columns[f"{element.name}.M{axis}_joint"] = M_joint[:, c]
+                columns[f"{element.name}.F{axis}_joint"] = F_joint[:, at_joint[row], c]
+                columns[f"{element.name}.M{axis}_joint"] = M_joint[:, at_joint[row], c]
     return columns
 
 

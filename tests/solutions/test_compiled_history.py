@@ -66,11 +66,19 @@ def test_history_matches_numpy_functions(path):
 
 
 
-@pytest.mark.parametrize("name", ["four_bar", "quick_return", "six_bar", "rack_pinion", "slider_crank", "andrews"])
-def test_planar_reactions_of_every_joint_kind_at_any_state(name):
-    """The batched planar reactions (every joint at once) against ``reactions.joint_reactions`` on planar models
-    with motors (rows with Psi_t), revolute-prismatic, gear and prismatic pairs (two elements), joints to ground on
-    either side: the reactions are algebraic in (q, lambda), so random states and multipliers test every term."""
+@pytest.mark.parametrize(
+    "name",
+    [
+        *("four_bar", "quick_return", "six_bar", "rack_pinion", "slider_crank", "andrews"),
+        *("spatial_slider_crank", "cylindrical_driven", "heavy_top_driven", "revolute_revolute_skew_driven"),
+        "carriage_pendulum_driven",
+    ],
+)
+def test_reactions_of_every_joint_kind_at_any_state(name):
+    """The batched reactions (every joint at once) against the numpy engine's ``joint_reactions`` on planar models
+    with motors (rows with Psi_t), revolute-prismatic, gear and prismatic pairs (two elements), and spatial ones
+    with every joint kind and motors, joints to ground on either side: the reactions are algebraic in (q, lambda),
+    so random states and multipliers test every term."""
     model = yaml.safe_load(Path(f"course/models/{name}.yaml").read_text())
     for joint in model["model"]["joints"][::2]:  # every other joint written the other way round: ground as body2
         joint["body1"], joint["body2"] = joint["body2"], joint["body1"]
@@ -79,6 +87,9 @@ def test_planar_reactions_of_every_joint_kind_at_any_state(name):
     t = np.linspace(0.0, 0.5, 5)
     q = q0 + 0.3 * rng.normal(size=(t.size, q0.size))
     lam = rng.normal(size=(t.size, system.n_constraints))
+    if system.model.dimension == 3:  # unit Euler parameters of every body
+        bodies = q.reshape(t.size, -1, 7)
+        bodies[..., 3:] /= np.linalg.norm(bodies[..., 3:], axis=2, keepdims=True)
     jac = np.stack([system.jacobian(q[k], t[k]) for k in range(t.size)])
     expected = joint_reactions(system, q, lam, t)
     got = history.joint_reactions(system, q, lam, jac)
