@@ -90,12 +90,15 @@ def consistent_initial_conditions(
 
         q' = q0' - M^-1 Psi_q^T x,   (Psi_q M^-1 Psi_q^T) x = Psi_q q0' + Psi_t
 
-    solved in the least-squares sense, so redundant constraints are fine.
+    solved in the least-squares sense, so redundant constraints are fine; where q0' satisfies the velocity
+    constraints exactly (a mechanism released at rest), x = 0 and nothing is solved.
     """
     q, assembly = assemble(system, q0, t)
     jacobian = system.jacobian(q, t)
     residual = jacobian @ qd0 + system.psi_t(q, t)
-    if point_masses(system.model):  # M singular: the same minimum, from [M Psi_q^T; Psi_q 0] (eq. 5.30's matrix)
+    if not np.any(residual):  # q0' satisfies the velocity constraints exactly (e.g. at rest): x = 0
+        qd = np.array(qd0, dtype=float)
+    elif point_masses(system.model):  # M singular: the same minimum, from [M Psi_q^T; Psi_q 0] (eq. 5.30's matrix)
         n, m = jacobian.shape[1], jacobian.shape[0]
         kkt = np.block([[mass_at(M, q), jacobian.T], [jacobian, np.zeros((m, m))]])
         qd = qd0 + np.linalg.lstsq(kkt, np.concatenate([np.zeros(n), -residual]), rcond=None)[0][:n]
