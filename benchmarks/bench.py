@@ -858,7 +858,20 @@ def compiled_table(all_scenes, runs_by_scene) -> list[str]:
 
 # -- main ---------------------------------------------------------------------------------------------------------
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if "--scaling" in argv:  # the scaling study instead, with its own options (chains.py)
+        try:
+            from benchmarks import chains
+        except ImportError:  # run as a script from benchmarks/
+            import chains  # type: ignore[no-redef]
+        return chains.main([a for a in argv if a != "--scaling"])
     parser = argparse.ArgumentParser(prog="mbd bench", description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "--scaling",
+        action="store_true",
+        help="the scaling study instead: chains of N = 2 ... 64 bodies, with MuJoCo in paired rounds (benchmarks/"
+        "chains.py; its own options: mbd bench --scaling --help)",
+    )
     parser.add_argument("--quick", action="store_true", help="smoke run: two short scenes, one tolerance")
     parser.add_argument("--repeats", type=int, default=3, help="timed runs per entry (median); 1 for runs over 0.5 s")
     parser.add_argument("--scene", action="append", help="only these scenes (keys: double_pendulum, slider_crank, ...)")

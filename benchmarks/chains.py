@@ -263,6 +263,7 @@ class Row:
     error: float = math.nan
     compile_seconds: float = math.nan
     failure: str = ""
+    setting: tuple = ()  # MuJoCo's (integrator, k): what the paired rounds run again
 
     @property
     def us_per_evaluation(self) -> float:
@@ -354,22 +355,40 @@ def _v(x) -> str:
     return " ".join(repr(float(c)) for c in x)
 
 
-def mujoco_attempt(family: str, n: int, k: int, integrator: str, truth: np.ndarray, repeats: int):
-    """(seconds of the best of ``repeats`` rollouts of 1 s, error (m)) at h = interval / k: ``mujoco.rollout`` (the
-    step loop in C, no Python per step), the body centres at the output times from its states afterwards."""
-    import mujoco
-    from mujoco import rollout
+class MujocoRun:
+    """One MuJoCo configuration of a chain, ready to run 1 s: h = interval / k, ``mujoco.rollout`` (the step loop in
+    C, no Python per step) from the chain's initial state."""
 
-    model = mujoco.MjModel.from_xml_string(mujoco_chain(family, n, T_END / OUTPUTS / k, integrator))
-    data = mujoco.MjData(model)
-    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
-    state = np.empty(mujoco.mj_stateSize(model, spec))
-    mujoco.mj_getState(model, data, state, spec)
+    def __init__(self, family: str, n: int, k: int, integrator: str):
+        import mujoco
+
+        self.k = k
+        self.model = mujoco.MjModel.from_xml_string(mujoco_chain(family, n, T_END / OUTPUTS / k, integrator))
+        self.data = mujoco.MjData(self.model)
+        spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+        self.state = np.empty(mujoco.mj_stateSize(self.model, spec))
+        mujoco.mj_getState(self.model, self.data, self.state, spec)
+
+    def __call__(self) -> tuple[float, np.ndarray]:
+        """(seconds, the states after every step) of one rollout."""
+        from mujoco import rollout
+
+        start = time.perf_counter()
+        states, _ = rollout.rollout(self.model, self.data, self.state[None], nstep=OUTPUTS * self.k)
+        return time.perf_counter() - start, states
+
+
+def mujoco_attempt(family: str, n: int, k: int, integrator: str, truth: np.ndarray, repeats: int):
+    """(seconds of the best of ``repeats`` rollouts of 1 s, error (m)) at h = interval / k, the body centres at the
+    output times from its states afterwards."""
+    import mujoco
+
+    run = MujocoRun(family, n, k, integrator)
+    model, data = run.model, run.data
     best, states = math.inf, None
     for _ in range(repeats):
-        start = time.perf_counter()
-        states, _ = rollout.rollout(model, data, state[None], nstep=OUTPUTS * k)
-        best = min(best, time.perf_counter() - start)
+        seconds, states = run()
+        best = min(best, seconds)
     qpos = states[0, k - 1 :: k, 1 : 1 + model.nq]  # after every k steps: the output times t_1 ... t_end
     centres = []
     for q in [model.qpos0, *qpos]:
@@ -400,7 +419,47 @@ def mujoco_run(family: str, n: int, truth: np.ndarray, repeats: int, target: flo
     seconds, error, integrator, k = min(found)
     steps = OUTPUTS * k
     stages = 4 if integrator == "RK4" else 1
-    return Row(family, n, f"MuJoCo {integrator} h = {T_END / steps:.3g}{matched}", seconds, stages * steps, error)
+    label = f"MuJoCo {integrator} h = {T_END / steps:.3g}{matched}"
+    return Row(family, n, label, seconds, stages * steps, error, setting=(integrator, k))
+
+
+def paired(family: str, n: int, config: Config, scene, mujoco: Row, rounds: int) -> list[float]:
+    """Ours / MuJoCo's time in each of ``rounds`` interleaved rounds: a round times one call of ``config`` and one
+    rollout of MuJoCo's configuration, the order alternating from round to round, so that both meet the same state
+    of the machine; the spread of the ratios is the measurement's own."""
+    system, q0, qd0, _ = scene
+    integrator, k = mujoco.setting
+    theirs = MujocoRun(family, n, k, integrator)
+    options = dict(rtol=TOL, atol=TOL, engine=config.engine)
+
+    def ours() -> float:
+        start = time.perf_counter()
+        forward_dynamics(system, q0, qd0, T_END, OUTPUTS, config.formulation, config.integrator, **options)
+        return time.perf_counter() - start
+
+    ratios = []
+    for r in range(rounds):
+        if r % 2:
+            mine, (other, _) = ours(), theirs()
+        else:
+            (other, _), mine = theirs(), ours()
+        ratios.append(mine / other)
+    return ratios
+
+
+PAIRED = Config("compiled", "joint-coordinates")
+"""Our configuration that the paired rounds set against MuJoCo's."""
+
+
+def paired_table(pairs: list, rounds: int) -> list[str]:
+    """The paired rounds' ratios, per N and MuJoCo configuration: median and range."""
+    if not pairs:
+        return []
+    lines = [f"Paired rounds ({PAIRED.label} / MuJoCo, {rounds} interleaved rounds each; below 1: ours faster):", "",
+             "| N | MuJoCo configuration | median ratio | lowest | highest |", "|---:|---|---:|---:|---:|"]  # fmt: skip
+    for n, label, ratios in pairs:
+        lines.append(f"| {n} | {label} | {np.median(ratios):.2f} | {min(ratios):.2f} | {max(ratios):.2f} |")
+    return lines + [""]
 
 
 def growth(rows: list[Row]) -> float:
@@ -440,16 +499,24 @@ def table(family: str, rows: list[Row], configs: tuple[Config, ...]) -> list[str
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--family", nargs="*", choices=list(FAMILIES), default=list(FAMILIES))
-    parser.add_argument("--sizes", nargs="*", type=int, default=list(SIZES))
+    parser = argparse.ArgumentParser(prog="mbd bench --scaling", description=__doc__.splitlines()[0])
+    parser.add_argument("--family", nargs="*", choices=list(FAMILIES), default=list(FAMILIES), help="default: all")
+    parser.add_argument("--sizes", nargs="*", type=int, default=list(SIZES), help="chain sizes N (default 2 ... 64)")
     parser.add_argument("--quick", action="store_true", help="N = 2, 4, 8 on the numpy engine only")
-    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--repeats", type=int, default=3, help="timed calls per run, the best kept (default 3)")
     parser.add_argument("--limit", type=float, default=60.0, help="seconds a run may take before larger N are left out")
     parser.add_argument("--out", type=Path, default=None, help="write the Markdown here too")
     parser.add_argument("--mujoco", action="store_true", help="MuJoCo's fastest configuration too (extra [bench])")
     parser.add_argument("--configs", nargs="*", help="only these configurations ('compiled joint-coordinates dop853')")
+    parser.add_argument(
+        "--rounds", type=int, default=7, help="interleaved rounds of ours against MuJoCo's configuration (--mujoco)"
+    )
     args = parser.parse_args(argv)
+    if args.mujoco:
+        try:
+            import mujoco  # noqa: F401
+        except ImportError:
+            parser.error("--mujoco needs MuJoCo: pip install -e '.[bench]' (or pip install mujoco)")
     sizes = [n for n in args.sizes if n <= 8] if args.quick else args.sizes
     configs = tuple(c for c in CONFIGS if c.engine == "numpy") if args.quick else CONFIGS
     configs = tuple(c for c in configs if not args.configs or c.label in args.configs)
@@ -458,7 +525,7 @@ def main(argv: list[str] | None = None) -> int:
              f"cores, load average {os.getloadavg()[0]:.1f} at the start. Command: `python benchmarks/chains.py "
              f"{' '.join(argv if argv is not None else sys.argv[1:])}`.", ""]  # fmt: skip
     for family in args.family:
-        rows, broken = [], set()
+        rows, broken, pairs = [], set(), []
         for n in sizes:
             system, q0, qd0 = build_system(load_model(FAMILIES[family](n)))
             dimension = system.model.dimension
@@ -473,14 +540,17 @@ def main(argv: list[str] | None = None) -> int:
                 if row.failure and not row.evaluations or row.seconds > args.limit:
                     broken.add(config.label)
             if args.mujoco and family != "loops":
-                ours = [r.error for r in rows if r.n == n and r.config.startswith("compiled joint") and not r.failure]
-                targets = [MUJOCO_TARGET] + [e for e in ours if e > MUJOCO_TARGET]  # also at the error ours reached
+                ours = [r for r in rows if r.n == n and r.config == PAIRED.label and not r.failure]
+                targets = [MUJOCO_TARGET] + [r.error for r in ours if r.error > MUJOCO_TARGET]  # and at our error
                 for target in targets:
                     row = mujoco_run(family, n, truth, args.repeats, target)
                     rows.append(row)
                     said = f"{family} N={n} {row.config}: {fmt(1e3 * row.seconds, '.1f')} ms {row.failure}"
                     print(said, file=sys.stderr)
-        lines += table(family, rows, configs)
+                    if ours and row.setting and args.rounds:
+                        scene = (system, q0, qd0, dimension)
+                        pairs.append((n, row.config, paired(family, n, PAIRED, scene, row, args.rounds)))
+        lines += table(family, rows, configs) + paired_table(pairs, args.rounds)
         if args.out:  # after each family: a long run that is stopped keeps what it measured
             args.out.write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
