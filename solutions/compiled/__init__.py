@@ -149,7 +149,7 @@ def parameters(
     """P: the numbers the generated module takes besides the element data D (``codegen``, ``loops.P_TYPE``): the
     formulation's (Baumgarte's alpha, beta; the projection's tolerance and iterations, ``Plan.numbers``) and the
     sizes and switches P[8] = (n, m, 3 with the energy states else 0, joint positions, joint velocities, 1 when a
-    tree's drivers' power needs lambda at every evaluation, the number of cut rows, the cut rows..., an open tree's
+    tree's drivers' power needs lambda at every evaluation, the number of cut rows, the cut rows..., the tree's
     rows' owners...)."""
     tree = scene if isinstance(scene, TreeScene) else None
     scene = scene.scene if tree is not None else scene

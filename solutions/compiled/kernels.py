@@ -1071,11 +1071,23 @@ def range_space_solve(mass, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
     return True
 
 
+LAPACK_SIZE = 32
+"""Systems with more unknowns than this go to LAPACK's gesv (blocked LU on BLAS: 3.3x faster at 129 unknowns, 5x at
+260); smaller ones, where LAPACK's call costs more than the arithmetic (3.5x slower at 6 unknowns), are eliminated
+by ``lu_solve`` itself (``benchmarks/call_cost.py``; numba's np.linalg.solve)."""
+
+
 @jit
 def lu_solve(K, b):
-    """x from K x = b by Gaussian elimination with partial pivoting (P K = L U, then two triangular solves):
-    the algorithm of LAPACK's gesv, written out for the small dense systems of one evaluation (K is overwritten)."""
+    """x from K x = b by Gaussian elimination with partial pivoting (P K = L U, then two triangular solves): LAPACK's
+    gesv for a system of more than LAPACK_SIZE unknowns (NaN where it finds K singular or not finite), otherwise its
+    algorithm written out for the small dense systems of one evaluation (K is overwritten)."""
     n = b.size
+    if n > LAPACK_SIZE:
+        try:
+            return np.linalg.solve(K, b)
+        except Exception:  # singular: the NaN that the elimination below gives, for the loop's checks to see
+            return np.full(n, np.nan)
     x = b.copy()
     for c in range(n):
         pivot = c

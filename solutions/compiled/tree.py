@@ -58,8 +58,8 @@ class TreeScene:
     k: int
     cut_rows: np.ndarray
     owners: np.ndarray = None
-    """An open tree's constraint rows' owners: the child body of the tree joint a row belongs to, or the body whose
-    Euler parameters it normalizes (``tree_kernels.tree_multipliers``); empty with cut rows."""
+    """The constraint rows' owners: the child body of the tree joint a row belongs to, or the body whose Euler
+    parameters it normalizes (``tree_kernels.tree_multipliers``); -1 for a cut row."""
     unsupported: str | None = None
 
     @property
@@ -111,18 +111,19 @@ def describe(scene: Scene, formulation) -> TreeScene:
         for row in range(where.start, where.stop)
     ]
     tree = TreeScene(scene, ints, floats, formulation.tree.n_positions, k, np.array(rows, dtype=np.int64))
-    tree.owners = np.array([] if rows else _owners(system, joints), dtype=np.int64)
+    tree.owners = np.array(_owners(system, joints), dtype=np.int64)
     if not joints:
         tree.unsupported = "a tree without joints"
     return tree
 
 
 def _owners(system, joints) -> list[int]:
-    """The owner of every constraint row of an open tree (``TreeScene.owners``): the child of its tree joint, or the
-    body of its Euler-parameter normalization (element ``<body>.p``)."""
+    """The owner of every constraint row of the tree (``TreeScene.owners``): the child of its tree joint, or the
+    body of its Euler-parameter normalization (element ``<body>.p``); -1 for a cut row (a cut joint's or a
+    driver's), whose multiplier comes from the augmented system (``cut_accelerations``)."""
     child = {joint.name: joint.child for joint in joints}
     child |= {f"{body.name}.p": b for b, body in enumerate(system.model.bodies)}
-    return [child[element.name] for element in system.elements for _ in element.labels]
+    return [child.get(element.name, -1) for element in system.elements for _ in element.labels]
 
 
 ARRAYS = (
@@ -164,10 +165,11 @@ def _multipliers(scene: Scene) -> list[str]:
     else:
         lines = ["qdd[:] = Dm @ thdd + xi", "residual = Q - mass * qdd"]
     solve = [
-        "if ncut > 0:  # the normal equations",
-        "    lam[:] = lu_solve(jac @ jac.T, jac @ residual)",
-        "else:  # an open tree: body by body from the leaves, O(N)",
-        f"    tree_multipliers(jac, residual, dims[7:], {7 if scene.dimension == 3 else 3}, joints, lam)",
+        "for a in range(ncut):  # the cut rows' lambda: mu of the augmented system; the tree's from what is left",
+        "    lam[dims[7 + a]] = mu[a]",
+        "    residual -= mu[a] * jac[dims[7 + a]]",
+        "# the tree's rows body by body from the leaves, O(N)",
+        f"tree_multipliers(jac, residual, dims[7 + ncut :], {7 if scene.dimension == 3 else 3}, joints, lam)",
     ]
     return ["        " + line for line in ["qdd, lam = np.empty(n), np.empty(m)", *lines, *solve]]
 
@@ -190,7 +192,8 @@ def _body(tree: TreeScene) -> list[str]:
         f"    joints, joint_floats = D[0][{rows}], D[1][{rows}]",
         "    ne = joints.shape[0]",
         "    full = out.size > y.size  # the outputs asked for too (loops.outputs): q, q', q'', lambda after y'",
-        "    ncut = dims[6]  # cut rows (P[8][7 : 7 + ncut]); an open tree's rows' owners after them",
+        "    ncut = dims[6]  # cut rows (P[8][7 : 7 + ncut]); the rows' owners after them",
+        "    mu = np.empty(ncut)  # the cut rows' multipliers",
         "    columns = full or ncut > 0  # D itself: for the outputs and the cut rows only",
         *_arrays(spatial),
         "    Q[:] = Q0",
@@ -226,7 +229,7 @@ def _body(tree: TreeScene) -> list[str]:
         lines.append("        Dq, xiq = Dm, xi")
     return lines + [
         "        thdd[:] = cut_accelerations("
-        "matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, dims[7 : 7 + ncut], numbers[0], numbers[1])",
+        "matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, dims[7 : 7 + ncut], numbers[0], numbers[1], mu)",
         "    else:  # an open tree: the articulated-body algorithm, O(N)",
         f"        {equations}_articulated({articulated}, joints, S, links, thdd)",
         "    if full or (ncut > 0 and dims[5]):  # lambda: the outputs, or the drivers' power (drivers: cut rows)",
@@ -244,7 +247,7 @@ def generate(tree: TreeScene) -> str:
     spatial = scene.dimension == 3
     forces = [name for name, _, _ in scene.force_kernels]
     constraints = [name for name, _, _ in scene.constraint_kernels]
-    kernels = sorted({*forces, *constraints, "lu_solve"} | ({"spatial_mass"} if spatial else set()))
+    kernels = sorted({*forces, *constraints} | ({"spatial_mass"} if spatial else set()))
     dimension = "spatial" if spatial else "planar"
     tree_imports = {f"{dimension}_motion", f"{dimension}_equations", f"{dimension}_articulated", "cut_accelerations"}
     tree_imports.add("tree_multipliers")

@@ -499,35 +499,35 @@ def tree_multipliers(jac, residual, owners, width, ints, lam):
 
 
 @jit
-def cut_accelerations(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, alpha, beta):
-    """theta'' of a tree with cut constraints (the rows ``rows`` of Psi, Psi_q, Psi_t, gamma): the augmented
-    system ``JointCoordinates.joint_accelerations`` solves, LU with partial pivoting,
+def cut_accelerations(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, alpha, beta, mu):
+    """theta'' of a tree with cut constraints (the rows ``rows`` of Psi, Psi_q, Psi_t, gamma), and their multipliers
+    mu in ``mu``: the augmented system ``JointCoordinates.joint_accelerations`` solves, LU with partial pivoting,
 
         [ D^T M D    Psi_theta^T ] [ theta'' ]   [ D^T (Q - M xi)                                   ]
         [ Psi_theta  0           ] [ mu      ] = [ gamma_c - Psi_c,q xi - 2 alpha Psi_c' - beta^2 Psi_c ]
 
-    with Psi_theta = Psi_c,q D (Dq: dq/dtheta, xiq: q'' at theta'' = 0); ``matrix`` holds its lower triangle."""
+    with Psi_theta = Psi_c,q D (Dq: dq/dtheta, xiq: q'' at theta'' = 0), its products by BLAS; ``matrix`` holds
+    the lower triangle of D^T M D. mu is lambda of the cut rows (D^T Psi_tree,q^T = 0: the tree's rows drop out)."""
     k, mc = rhs.size, rows.size
+    cut = np.empty((mc, jac.shape[1]))
+    for a in range(mc):
+        cut[a] = jac[rows[a]]
     K = np.zeros((k + mc, k + mc))
     b = np.empty(k + mc)
     for i in range(k):
         b[i] = rhs[i]
         for j in range(i + 1):
             K[i, j] = K[j, i] = matrix[i, j]
-    n = qd.size
+    theta = cut @ Dq  # Psi_theta
+    K[k:, :k] = theta
+    K[:k, k:] = theta.T
+    psi_dot, convective = cut @ qd, cut @ xiq
     for a in range(mc):
         r = rows[a]
-        psi_dot, convective = psit[r], 0.0
-        for c in range(n):
-            psi_dot += jac[r, c] * qd[c]
-            convective += jac[r, c] * xiq[c]
-        b[k + a] = gam[r] - 2.0 * alpha * psi_dot - beta * beta * psi[r] - convective
-        for col in range(k):
-            s = 0.0
-            for c in range(n):
-                s += jac[r, c] * Dq[c, col]
-            K[k + a, col] = K[col, k + a] = s
-    return lu_solve(K, b)[:k]
+        b[k + a] = gam[r] - 2.0 * alpha * (psit[r] + psi_dot[a]) - beta * beta * psi[r] - convective[a]
+    x = lu_solve(K, b)
+    mu[:] = x[k:]
+    return x[:k]
 
 
 __all__ = [

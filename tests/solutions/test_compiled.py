@@ -218,3 +218,17 @@ def test_a_function_handed_to_the_loops_is_typed_once_and_computes_the_same():
     by_dispatcher = loops.outputs(module.scene_rhs, times, Y, P, D, job.scene.m)
     assert np.array_equal(loops.outputs(rhs, times, Y, P, D, job.scene.m), by_dispatcher)
     assert np.isfinite(by_dispatcher).all() and np.abs(by_dispatcher).max() > 0
+
+
+@pytest.mark.parametrize("n", [6, 40])
+def test_lu_solve_small_by_elimination_large_by_lapack(n):
+    """``kernels.lu_solve``: the solution of K x = b on either side of LAPACK_SIZE; LAPACK's singular K gives NaN (the
+    elimination's, a ZeroDivisionError: issue 29)."""
+    from solutions.compiled.kernels import LAPACK_SIZE, lu_solve
+
+    assert (n > LAPACK_SIZE) == (n == 40)
+    rng = np.random.default_rng(n)
+    K, b = rng.normal(size=(n, n)) + n * np.eye(n), rng.normal(size=n)
+    assert np.allclose(lu_solve(K.copy(), b), np.linalg.solve(K, b), rtol=1e-12, atol=1e-12)
+    if n > LAPACK_SIZE:
+        assert np.all(np.isnan(lu_solve(np.ones((n, n)), b)))
