@@ -818,9 +818,12 @@ ALIGNED = 0.9
 """|det(T_prev^T T)| above which two steps' null spaces are close enough for the sign test of ``Guard``."""
 
 
-def null_space_bases(jacobians: np.ndarray) -> np.ndarray:
+def null_space_bases(jacobians: np.ndarray, signs: bool = False):
     """An orthonormal basis T (n, n - m) of the null space of each Psi_q (m, n) of full row rank in a stack
     (N, m, n): the last n - m columns of Q in the QR factorization Psi_q^T = Q R (the first m span the rows).
+    With ``signs``, also the sign of det [Psi_q; T^T] of each (the Guard's test function), from the same QR:
+    [Psi_q; T^T] = diag(R_1^T, I) Q^T with R_1 the top m x m of R, so det = det R_1 det Q, and each Householder
+    reflector with tau != 0 has determinant -1.
     Any orthonormal basis serves the guard: replacing T by T R_k (R_k orthogonal) multiplies det [Psi_q; T^T] and
     det(T_prev^T T) by det R_k = +-1 each, and the product they are judged by by (det R_k)^2 = 1.
 
@@ -837,7 +840,10 @@ def null_space_bases(jacobians: np.ndarray) -> np.ndarray:
         v[:, 0] = 1.0
         products = np.einsum("kj,kjr->kr", v, bases[:, i:, :])  # v_i^T T
         bases[:, i:, :] -= (tau[:, i, None] * v)[:, :, None] * products[:, None, :]
-    return bases
+    if not signs:
+        return bases
+    diagonal = np.diagonal(h, axis1=1, axis2=2)  # R's diagonal (``h`` holds R transposed, above its reflectors)
+    return bases, np.sign(np.prod(diagonal, axis=1)) * (-1.0) ** np.count_nonzero(tau, axis=1)
 
 
 class Guard:
@@ -954,8 +960,7 @@ class Guard:
         square = scaled.shape[1] == self.rank
         if square:  # independent rows: singular values alone, the null space from a QR of Psi_q^T (cheaper)
             s = np.linalg.svd(scaled, compute_uv=False)
-            tangents = null_space_bases(scaled)
-            signs = np.sign(np.linalg.det(np.concatenate([scaled, np.swapaxes(tangents, 1, 2)], axis=1)))
+            tangents, signs = null_space_bases(scaled, signs=True)  # signs: det [Psi_q; T^T]
         else:  # redundant rows: the null space of rank r needs the SVD's V; det [Psi_q; T^T] is not defined
             _, s, vt = np.linalg.svd(scaled)
             tangents, signs = np.swapaxes(vt[:, self.rank :], 1, 2), None

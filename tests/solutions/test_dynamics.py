@@ -368,6 +368,21 @@ def test_null_space_bases_are_the_complete_qrs_last_columns(shape):
     assert np.allclose(bases, q_full[:, :, shape[1] :], rtol=0.0, atol=1e-13)
 
 
+
+@pytest.mark.parametrize("shape", [(40, 3, 7), (40, 1, 3), (10, 26, 27), (40, 5, 5)])
+def test_null_space_signs_are_the_determinants_of_the_bordered_matrices(shape):
+    """``null_space_bases(..., signs=True)``: the sign of det [Psi_q; T^T] read off the QR (det R_1 times the
+    reflectors' -1 each) is numpy's determinant's sign, both signs occurring."""
+    from solutions.dynamics import null_space_bases
+
+    stack = np.random.default_rng(13).standard_normal(shape)
+    bases, signs = null_space_bases(stack, signs=True)
+    expected = np.sign(np.linalg.det(np.concatenate([stack, np.swapaxes(bases, 1, 2)], axis=1)))
+    assert np.array_equal(signs, expected)
+    assert np.array_equal(bases, null_space_bases(stack))
+    if shape[0] >= 40:
+        assert set(signs) == {-1.0, 1.0}
+
 def test_progress_is_told_every_output_time_in_order():
     """``progress(t)`` (what ``mbd serve`` shows of a run): each output time once, in order, up to t_end; the same
     from ``run_analysis`` for a kinematic model."""
