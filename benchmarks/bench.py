@@ -865,12 +865,24 @@ def main(argv: list[str] | None = None) -> int:
         except ImportError:  # run as a script from benchmarks/
             import chains  # type: ignore[no-redef]
         return chains.main([a for a in argv if a != "--scaling"])
+    if "--processes" in argv:  # the whole-process table instead (processes.py)
+        try:
+            from benchmarks import processes
+        except ImportError:  # run as a script from benchmarks/
+            import processes  # type: ignore[no-redef]
+        return processes.main([a for a in argv if a != "--processes"])
     parser = argparse.ArgumentParser(prog="mbd bench", description=__doc__.splitlines()[0])
     parser.add_argument(
         "--scaling",
         action="store_true",
         help="the scaling study instead: chains of N = 2 ... 64 bodies, with MuJoCo in paired rounds (benchmarks/"
         "chains.py; its own options: mbd bench --scaling --help)",
+    )
+    parser.add_argument(
+        "--processes",
+        action="store_true",
+        help="the whole-process table instead: default mbd run against a MuJoCo program as accurate, per peer scene "
+        "(benchmarks/processes.py; mbd bench --processes --help)",
     )
     parser.add_argument("--quick", action="store_true", help="smoke run: two short scenes, one tolerance")
     parser.add_argument("--repeats", type=int, default=3, help="timed runs per entry (median); 1 for runs over 0.5 s")
