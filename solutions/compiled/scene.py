@@ -60,6 +60,7 @@ class Scene:
     energies: bool = False
     drivers: bool = False
     unsupported: str | None = None
+    packed_data: tuple | None = field(default=None, repr=False, compare=False)  # ``data()``, made once
 
     @property
     def key(self) -> str:
@@ -69,8 +70,11 @@ class Scene:
         return f"d{self.dimension}"
 
     def data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """D = (ints, floats, offsets): the element data of every kernel in its slot of ``SLOTS`` (``packed``)."""
-        return packed([*self.constraint_kernels, *self.force_kernels], SLOTS)
+        """D = (ints, floats, offsets): the element data of every kernel in its slot of ``SLOTS`` (``packed``), made
+        at the first call (a run asks for it at its start rates, its loop and its output checks)."""
+        if self.packed_data is None:
+            self.packed_data = packed([*self.constraint_kernels, *self.force_kernels], SLOTS)
+        return self.packed_data
 
 
 def packed(kernels: list, slots: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

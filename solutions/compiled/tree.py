@@ -27,7 +27,7 @@ No numba here; the generated module is cached as ``codegen.py`` caches the scene
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -61,6 +61,7 @@ class TreeScene:
     """The constraint rows' owners: the child body of the tree joint a row belongs to, or the body whose Euler
     parameters it normalizes (``tree_kernels.tree_multipliers``); -1 for a cut row."""
     unsupported: str | None = None
+    packed_data: tuple | None = field(default=None, repr=False, compare=False)  # ``data()``, made once
 
     @property
     def n(self) -> int:
@@ -77,9 +78,11 @@ class TreeScene:
         return f"tree|{self.scene.key}"
 
     def data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """D of the scene with the tree's joints in their slot (``scene.packed``)."""
-        kernels = [*self.scene.constraint_kernels, *self.scene.force_kernels, ("tree", self.ints, self.floats)]
-        return packed(kernels, SLOTS)
+        """D of the scene with the tree's joints in their slot (``scene.packed``), made at the first call."""
+        if self.packed_data is None:
+            kernels = [*self.scene.constraint_kernels, *self.scene.force_kernels, ("tree", self.ints, self.floats)]
+            self.packed_data = packed(kernels, SLOTS)
+        return self.packed_data
 
 
 def _row(joint) -> list[float]:
