@@ -47,9 +47,10 @@ def test_without_mujoco_it_says_what_to_install(monkeypatch, capsys):
     assert "needs MuJoCo: pip install" in capsys.readouterr().err
 
 
-def test_the_mujoco_program_computes_the_chosen_configuration_s_motion(tmp_path):
+@pytest.mark.parametrize("key", ["double_pendulum", "spatial_double_pendulum"])
+def test_the_mujoco_program_computes_the_chosen_configuration_s_motion(tmp_path, key):
     pytest.importorskip("mujoco")
-    scene = _scene("double_pendulum")
+    scene = _scene(key)
     family, h, error, _ = processes.cheapest_mujoco(scene, 1e-4)
     assert error <= 1e-4
     xml, state, per_output = processes.mujoco_files(scene, family, h, tmp_path)
