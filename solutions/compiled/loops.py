@@ -71,11 +71,11 @@ class FirstClass:
     whole output stage (``benchmarks/call_cost.py``)."""
 
     def __init__(self, function, signature):
-        from numba.experimental.function_type import _get_wrapper_address
+        from numba.core.types.function_type import CompileResultWAP
 
         self.function = function  # kept alive as long as its address is used
         self._numba_type_ = types.FunctionType(signature)
-        self._address = _get_wrapper_address(function, signature)
+        self._address = CompileResultWAP(function.get_compile_result(signature)).address
 
     def __wrapper_address__(self) -> int:
         return self._address
