@@ -97,12 +97,9 @@ def choose(settings: Settings, equations, z0: np.ndarray):
     why_not = unsupported(job.scene, formulation, integrator, settings.formulation_options)
     if why_not is not None:
         return None, {"engine": "numpy", "engine_why": f"not compiled: {why_not}"}
-    try:
-        cached = is_cached(job)
-    except ImportError as err:  # numba missing (or its metadata: a sandbox), where the run did not ask for it
-        if engine == "compiled":
-            raise
-        return None, {"engine": "numpy", "engine_why": f"the compiled engine cannot load here ({err})"}
+    cached, cannot = on_disk(is_cached, job, engine)
+    if cannot:
+        return None, {"engine": "numpy", "engine_why": cannot}
     if engine == "compiled":
         return _compiling(job, cached), {"engine": "compiled", "engine_why": "compiled engine asked for"}
     if engine == "cached":
@@ -120,6 +117,17 @@ def choose(settings: Settings, equations, z0: np.ndarray):
         "mbd compile makes the compiled engine once per machine"
     )
     return None, {"engine": "numpy", "engine_why": why}
+
+
+def on_disk(is_cached, target, engine: str) -> tuple[bool, str | None]:
+    """(whether the machine code of ``target`` is on disk, by ``is_cached``; None), or (False, why numpy) where numba
+    cannot be loaded (missing, or its metadata: a sandbox) and the run did not ask for the compiled engine."""
+    try:
+        return is_cached(target), None
+    except ImportError as err:
+        if engine == "compiled":
+            raise
+        return False, f"the compiled engine cannot load here ({err})"
 
 
 def _compiling(job, cached: bool):

@@ -35,7 +35,7 @@ from functools import cache
 import numpy as np
 
 from ..diagnostics import AnalysisError
-from .dispatch import ENGINES, LOAD_SECONDS
+from .dispatch import ENGINES, LOAD_SECONDS, on_disk
 from .scene import (
     PLANAR_CONSTRAINTS,
     SPATIAL_CONSTRAINTS,
@@ -146,12 +146,9 @@ def choose(engine: str, system, q: np.ndarray, points: int) -> tuple[Scene | Non
         return None, {"engine": "numpy", "engine_why": f"not compiled: {scene.unsupported}"}
     from .codegen import is_kinematic_cached
 
-    try:
-        cached = is_kinematic_cached(scene)
-    except ImportError as err:  # numba missing (or its metadata: a sandbox), where the run did not ask for it
-        if engine == "compiled":
-            raise
-        return None, {"engine": "numpy", "engine_why": f"the compiled engine cannot load here ({err})"}
+    cached, cannot = on_disk(is_kinematic_cached, scene, engine)
+    if cannot:
+        return None, {"engine": "numpy", "engine_why": cannot}
     if engine == "compiled":
         _announce(scene, cached)
         return scene, {"engine": "compiled", "engine_why": "compiled engine asked for"}

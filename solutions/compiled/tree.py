@@ -132,12 +132,12 @@ def _owners(system, joints) -> list[int]:
 ARRAYS = (
     ("xi", "a", None), ("Dm", "a * k", "(a, k)"), ("omega", "3 * nb", "(nb, 3)"), ("Q", "n", None),
     ("power", "3", None), ("q", "n", None), ("qd", "n", None), ("S", "3 * nv * ne", "(ne, nv, 3)"),
-    ("links", "3 * ne", "(ne, 3)"), ("thdd", "k", None),
+    ("links", "3 * ne", "(ne, 3)"), ("thdd", "k", None), ("mu", "ncut", None),
 )  # fmt: skip
 """The arrays of every evaluation (name, size, shape): xi and D (eq. 5.44), omega', Q, the powers, q and q', the
-joints' columns S_e and links (``articulated``), theta''. (D is written only where it is used. Psi,
-Psi_q, Psi_t, gamma, q'' and lambda are made where they are needed: a tree without cut rows needs none of them
-on the way to theta''.)"""
+joints' columns S_e and links (``articulated``), theta'', the cut rows' multipliers mu. (D is written only where it
+is used. Psi, Psi_q, Psi_t, gamma, q'' and lambda are made where they are needed: a tree without cut rows needs none
+of them on the way to theta''.)"""
 
 
 def _arrays(spatial: bool) -> list[str]:
@@ -196,7 +196,6 @@ def _body(tree: TreeScene) -> list[str]:
         "    ne = joints.shape[0]",
         "    full = out.size > y.size  # the outputs asked for too (loops.outputs): q, q', q'', lambda after y'",
         "    ncut = dims[6]  # cut rows (P[8][7 : 7 + ncut]); the rows' owners after them",
-        "    mu = np.empty(ncut)  # the cut rows' multipliers",
         "    columns = full or ncut > 0  # D itself: for the outputs and the cut rows only",
         *_arrays(spatial),
         "    Q[:] = Q0",
