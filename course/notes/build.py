@@ -1,24 +1,61 @@
-"""Build the course notes as HTML: every chapter executed (optional) and exported, with an index page.
+"""Build the course notes as a documentation site: the chapters and the lectures as pages, math offline, search.
 
     python -m course.notes.build [--out build/notes] [--no-execute]      (also: mbd notes, make notes)
 
-Each chapter becomes ``chNN_name.html``; every labelled equation gets an anchor ``#eq-N.M``, and
-``index.html`` lists the chapters and every equation with a link to it. A chapter's mechanism views play in its
-page (``solutions.viewer.embed_views``: plotly.js beside the pages, nothing fetched from the network). Chapters
-are executed in ``course/notes`` (their code reads ``../models``), headless, before export.
+Each notebook (``course/notes/chNN_*.ipynb``, ``course/lectures/LNN_*.ipynb``) is executed (optional; chapters in
+``course/notes``, lectures in ``course/lectures``, whose code reads ``../models``), given an anchor ``eq-N.M`` just
+before each labelled equation, and staged with an index page; Sphinx with MyST-NB (``conf.py``) makes the site:
+``index.html`` (the contents and every equation with the section it is in), a page per chapter and lecture
+(``chNN_name.html``, ``LNN_name.html``), ``search.html``. Nothing in it is fetched from the network: MathJax 2.7 is
+copied from the jupyter-server-mathjax wheel into ``_static/mathjax`` (``mathjax_files``), plotly.js (a chapter's
+mechanism views, ``solutions.viewer.embed_views``) into ``_static``. A link to ``chNN_name.html#eq-N.M`` lands on
+the equation.
 """
 
 from __future__ import annotations
 
 import argparse
+import fcntl
+import hashlib
 import html
+import io
 import os
+import re
+import shutil
 import sys
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from . import NOTES, TAG, chapters
 
 DEFAULT_OUT = Path("build") / "notes"
+LECTURES = NOTES.parent / "lectures"
+PLOTLY = "plotly.min.js"
+"""plotly.js, written once into the site's _static when a page shows a mechanism's motion (the plotly wheel's copy)."""
+MATHJAX_PARTS = (
+    "MathJax.js",
+    "config/TeX-AMS-MML_HTMLorMML-full.js",
+    "jax/element/mml/optable",
+    "jax/output/HTML-CSS",
+    "fonts/HTML-CSS/STIX-Web",
+)
+"""What the site's MathJax loads (conf.py's configuration: the combined configuration file holds the TeX input,
+its extensions and the HTML-CSS output; the STIX web fonts and their tables are loaded as a page needs them):
+2.6 of the wheel's 12 MB (no SVG output, no translations, no separate extensions)."""
+
+
+def lectures() -> list[Path]:
+    """The lecture notebooks in order."""
+    return sorted(LECTURES.glob("L[0-9][0-9]_*.ipynb"))
+
+
+@dataclass
+class Page:
+    """A staged notebook: its page name, title and labelled equations with the section each is in."""
+
+    name: str
+    title: str
+    equations: list[tuple[str, str]] = field(default_factory=list)
 
 
 def _title(nb) -> str:
@@ -28,17 +65,6 @@ def _title(nb) -> str:
                 if line.startswith("# "):
                     return line[2:].strip()
     return "untitled"
-
-
-def _anchor_equations(nb) -> list[str]:
-    """Put an HTML anchor ``eq-N.M`` just before each labelled equation's display block (``$$ ... \\tag{N.M}``),
-    so that a link lands on the equation, not on the top of its cell; return the labels."""
-    labels = []
-    for cell in nb.cells:
-        if cell.cell_type == "markdown" and TAG.search(cell.source):
-            cell.source, found = anchored(cell.source)
-            labels.extend(found)
-    return labels
 
 
 def anchored(source: str) -> tuple[str, list[str]]:
@@ -59,8 +85,49 @@ def anchored(source: str) -> tuple[str, list[str]]:
     return "".join(pieces) + source[done:], labels
 
 
-PLOTLY = "plotly.min.js"
-"""plotly.js, written once beside the pages that show a mechanism's motion (the plotly wheel's copy: offline)."""
+def _anchor_equations(nb) -> list[tuple[str, str]]:
+    """Anchor every labelled equation of ``nb`` (``anchored``); return (label, the heading of its section)."""
+    found, section = [], ""
+    for cell in nb.cells:
+        if cell.cell_type != "markdown":
+            continue
+        pieces = re.split(r"^(#{1,3} .*)$", cell.source, flags=re.M)  # text, heading, text, heading, ...
+        for k, piece in enumerate(pieces):
+            if k % 2:
+                section = piece.lstrip("#").strip()
+            else:
+                found += [(label, section) for label in TAG.findall(piece)]
+        if TAG.search(cell.source):
+            cell.source, _ = anchored(cell.source)
+    return found
+
+
+CITED_FILE = re.compile(r"\bsolutions((?:/[A-Za-z0-9_.]+)*/?)")
+"""A file or folder of the reference solver cited in a page: solutions/planar/bodies.py, solutions/io/."""
+FOR_STUDENTS = (
+    (re.compile(r"\bcourse/models\b"), "models"),
+    (re.compile(r"\btests/[A-Za-z0-9_/]*?([A-Za-z0-9_]+\.py)"), r"the course's test \1 (not in the kit)"),
+    (re.compile(r"\bcourse/exam/"), "the course's exam bank (not in the kit)"),
+)
+"""What else a page cites that a kit holds elsewhere (the example models: ``models/``) or not at all."""
+
+
+def for_students(nb, modules: Path) -> None:
+    """Make ``nb`` cite what a student has: ``solutions/X`` becomes ``modules/X`` (the student package's file of
+    the same name) where the kit's ``modules/`` holds X, and "the reference solver's X" where it does not (the
+    compiled engine); ``FOR_STUDENTS`` the rest; code cells use the student's package and the kit's models."""
+
+    def cited(match: re.Match) -> str:
+        rest = match.group(1)
+        return f"modules{rest}" if (modules / rest.strip("/")).exists() else f"the reference solver's {rest.strip('/')}"
+
+    for cell in nb.cells:
+        for pattern, replacement in FOR_STUDENTS:
+            cell.source = pattern.sub(replacement, cell.source)
+        if cell.cell_type == "markdown":
+            cell.source = CITED_FILE.sub(cited, cell.source)
+        elif cell.cell_type == "code":
+            cell.source = re.sub(r"\bsolutions\b", "modules", cell.source)
 
 
 def execute_notebook(nb, folder: Path, timeout: int = 600) -> None:
@@ -72,48 +139,160 @@ def execute_notebook(nb, folder: Path, timeout: int = 600) -> None:
     client.execute(env=environment)
 
 
-def build_notes(out: Path = DEFAULT_OUT, execute: bool = True, paths: list[Path] | None = None) -> Path:
-    """Export the chapters (``paths``, default all) to ``out``; return the index page."""
+def stage_notebook(path: Path, stage: Path, execute: bool, modules: Path | None = None) -> Page:
+    """Write ``path`` into ``stage`` as the site will show it (executed in its folder, equations anchored, views
+    playable; for students, ``for_students`` with their package's folder ``modules``); return its page."""
     import nbformat
-    from nbconvert import HTMLExporter
 
     from solutions.viewer import embed_views, plotly_js
 
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    exporter = HTMLExporter(template_name="lab")
-    rows, equations = [], []
-    for path in paths if paths is not None else chapters():
-        nb = nbformat.read(path, as_version=4)
-        if execute:
-            execute_notebook(nb, NOTES)
-        title = _title(nb)
-        target = path.with_suffix(".html").name
-        if embed_views(nb, f'<script src="{PLOTLY}"></script>', f"{path.stem}-view"):  # plotly.js beside the pages
-            (out / PLOTLY).write_text(plotly_js(), encoding="utf-8")
-        for label in _anchor_equations(nb):
-            equations.append((label, target))
-        body, _ = exporter.from_notebook_node(nb, resources={"metadata": {"name": title}})
-        (out / target).write_text(body, encoding="utf-8")
-        rows.append(f'<li><a href="{target}">{html.escape(title)}</a></li>')
-    links = " ".join(f'<a href="{target}#eq-{label}">({label})</a>' for label, target in equations)
-    index = out / "index.html"
-    index.write_text(
-        "<!DOCTYPE html>\n<html><head><meta charset='utf-8'><title>Course notes</title></head><body>\n"
-        "<h1>Computational multibody dynamics: course notes</h1>\n"
-        f"<ol>\n{chr(10).join(rows)}\n</ol>\n<h2>Equations</h2>\n<p>{links}</p>\n</body></html>\n",
-        encoding="utf-8",
-    )
-    return index
+    nb = nbformat.read(path, as_version=4)
+    if execute:
+        execute_notebook(nb, path.parent)
+    if embed_views(nb, f'<script src="_static/{PLOTLY}"></script>', f"{path.stem}-view"):
+        (stage / "_static" / PLOTLY).write_text(plotly_js(), encoding="utf-8")
+    page = Page(path.stem, _title(nb), _anchor_equations(nb))
+    if modules is not None:
+        for_students(nb, modules)
+    nb.metadata.setdefault("language_info", {"name": "python"})  # the code cells' highlighting
+    nbformat.write(nb, stage / path.name)
+    return page
+
+
+def mathjax_files(target: Path) -> int:
+    """Copy MathJax (``MATHJAX_PARTS`` of the jupyter-server-mathjax wheel) into ``target``; its size in bytes."""
+    from jupyter_server_mathjax.app import STATIC_ASSETS_PATH
+
+    for part in MATHJAX_PARTS:
+        source, destination = Path(STATIC_ASSETS_PATH) / part, target / part
+        destination.parent.mkdir(parents=True, exist_ok=True)
+        if source.is_dir():
+            shutil.copytree(source, destination, dirs_exist_ok=True)
+        else:
+            shutil.copy2(source, destination)
+    return sum(p.stat().st_size for p in target.rglob("*") if p.is_file())
+
+
+def index_page(chapter_pages: list[Page], lecture_pages: list[Page]) -> str:
+    """The site's front page (MyST): the contents, then every equation by chapter with its section, linked."""
+    lines = ["# Computational multibody dynamics: course notes", ""]
+    lines += ["The chapters carry the theory and number its equations; the lectures work through it with the", ""]
+    lines += ["solver. Every *eq. N.M* cited in the homework, its stubs and its checks is listed below.", ""]
+    for caption, pages in (("Chapters", chapter_pages), ("Lectures", lecture_pages)):
+        if pages:
+            lines += ["```{toctree}", f":caption: {caption}", ":maxdepth: 1", "", *(p.name for p in pages), "```", ""]
+    rows = []
+    for page in chapter_pages:
+        if not page.equations:
+            continue
+        rows.append(f'<h3><a href="{page.name}.html">{html.escape(page.title)}</a></h3>\n<table class="equations">')
+        for label, section in page.equations:
+            link = f'<a href="{page.name}.html#eq-{label}">({label})</a>'
+            rows.append(f"<tr><td>{link}</td><td>{html.escape(section)}</td></tr>")
+        rows.append("</table>")
+    if rows:
+        lines += ["## Equations", "", "```{raw} html", *rows, "```", ""]
+    return "\n".join(lines)
+
+
+def sphinx_build(stage: Path, out: Path) -> None:
+    """Sphinx's HTML build of ``stage`` into ``out`` with ``conf.py``; a warning stops it (SphinxWarning)."""
+    from sphinx.application import Sphinx
+    from sphinx.util.docutils import docutils_namespace, patch_docutils
+
+    warnings = io.StringIO()
+    with patch_docutils(NOTES), docutils_namespace():  # as sphinx-build: docutils' registries for this build only
+        app = Sphinx(
+            str(stage), str(NOTES), str(out), str(stage / ".doctrees"), "html",
+            status=None, warning=warnings, freshenv=True, warningiserror=True,
+            confoverrides={"html_static_path": [str(stage / "_static")]},  # conf.py's folder is not the stage
+        )  # fmt: skip
+        app.build()
+    if app.statuscode:
+        raise RuntimeError(f"the notes' site did not build:\n{warnings.getvalue()}")
+
+
+def build_notes(
+    out: Path = DEFAULT_OUT,
+    execute: bool = True,
+    paths: list[Path] | None = None,
+    lecture_paths: list[Path] | None = None,
+    modules: Path | None = None,
+) -> Path:
+    """Build the site of the chapters ``paths`` (default all) and the lectures ``lecture_paths`` (default all with
+    all chapters, none with a choice of chapters) into ``out``; return its index page. ``modules``: the site of
+    a student kit, whose pages cite that student package (``for_students``) instead of the reference solver."""
+    out = Path(out).resolve()
+    stage = out.parent / f".{out.name}-pages"
+    shutil.rmtree(stage, ignore_errors=True)
+    (stage / "_static").mkdir(parents=True)
+    chapter_paths = chapters() if paths is None else list(paths)
+    lecture_paths = (lectures() if paths is None else []) if lecture_paths is None else list(lecture_paths)
+    chapter_pages = [stage_notebook(path, stage, execute, modules) for path in chapter_paths]
+    lecture_pages = [stage_notebook(path, stage, execute, modules) for path in lecture_paths]
+    (stage / "index.md").write_text(index_page(chapter_pages, lecture_pages), encoding="utf-8")
+    mathjax_files(stage / "_static" / "mathjax")
+    shutil.rmtree(out, ignore_errors=True)
+    sphinx_build(stage, stage / "site")  # MyST-NB writes its outputs beside the build folder: in the stage
+    shutil.move(stage / "site", out)
+    shutil.rmtree(stage, ignore_errors=True)
+    return out / "index.html"
+
+
+MODULES = NOTES.parent.parent / "modules"
+"""The student package of this course (generated from solutions/), whose files a kit's notes cite."""
+
+
+def sources_digest(execute: bool) -> str:
+    """SHA-256 of everything a kit's site is made of: the chapters, the lectures, this file, conf.py, the student
+    package's files (the pages cite them) and whether the notebooks were executed."""
+    digest = hashlib.sha256(b"executed" if execute else b"as written")
+    for path in [*chapters(), *lectures(), NOTES / "build.py", NOTES / "conf.py", *sorted(MODULES.rglob("*.py"))]:
+        digest.update(path.relative_to(NOTES.parent.parent).as_posix().encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()
+
+
+def notes_cache() -> Path:
+    """Where the kits' sites are kept: ``$XDG_CACHE_HOME/mbd-course/kit-notes`` (else ``~/.cache/...``)."""
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "mbd-course" / "kit-notes"
+
+
+def kit_notes(execute: bool | None = None) -> tuple[Path, bool]:
+    """The notes' site a kit holds (pages citing the student package, ``for_students``) and whether its notebooks
+    were executed. One site per content of the sources (``sources_digest``) in ``notes_cache()``: the executed
+    one if ``mbd notes --kit`` made it (figures and outputs), else the pages as written (text and equations),
+    built here once (execute=None); ``execute`` True or False builds that one if it is missing. Releases at once
+    (tests, a class's homework) build it once: the first holds a lock, the others then find it."""
+    root = notes_cache()
+    root.mkdir(parents=True, exist_ok=True)
+    with open(root / ".lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        for executed in (True, False) if execute is None else (execute,):
+            folder = root / sources_digest(executed)
+            if (folder / "index.html").exists():
+                return folder, executed
+        executed = bool(execute)
+        folder = root / sources_digest(executed)
+        for old in root.iterdir():  # sites of earlier sources
+            if old.is_dir() and old.name != sources_digest(not executed):
+                shutil.rmtree(old, ignore_errors=True)
+        build_notes(folder, execute=executed, modules=MODULES)
+        return folder, executed
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="mbd notes", description="Build the course notes as HTML pages.")
+    parser = argparse.ArgumentParser(prog="mbd notes", description="Build the course notes as a site of HTML pages.")
     parser.add_argument("--out", default=str(DEFAULT_OUT), help=f"output folder (default: {DEFAULT_OUT})")
-    parser.add_argument("--no-execute", action="store_true", help="export without running the chapters' code")
+    parser.add_argument("--no-execute", action="store_true", help="build without running the notebooks' code")
+    parser.add_argument("--kit", action="store_true", help="the site mbd release puts in every kit (cited: modules/)")
     args = parser.parse_args(argv)
-    index = build_notes(Path(args.out), execute=not args.no_execute)
-    print(f"course notes: {index} ({len(chapters())} chapters)")
+    if args.kit:
+        folder, _ = kit_notes(execute=not args.no_execute)
+        index = folder / "index.html"
+    else:
+        index = build_notes(Path(args.out), execute=not args.no_execute)
+    print(f"course notes: {index} ({len(chapters())} chapters, {len(lectures())} lectures; offline, search.html)")
     return 0
 
 

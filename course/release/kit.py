@@ -7,6 +7,9 @@
     modules/           the student package: hwN and later stubbed, earlier homework filled in
     mbdkit/            the checker (``mbdkit``'s code) with, in ``mbdkit/data/``, the homework's public
                        checks, their scenes and stored expected values (no hidden or per-student scene)
+    models/            the course's example model files (``course/models/``), which the notes use
+    notes/             the course notes as a site that opens from disk (``course.notes.build.kit_notes``: every
+                       chapter and lecture, equations rendered offline, ``#eq-N.M`` anchors, search)
     pyproject.toml     ``pip install ./`` installs ``mbdkit``, the ``mbd`` command and what they need
     README.md          for students: install, open, what to write, self-check, hand in
 
@@ -21,19 +24,25 @@ import shutil
 import tomllib
 from pathlib import Path
 
+from course.notes.build import kit_notes
 from mbdkit.homework import CheckSpec, load_homework
 from mbdkit.stored import load_reference, save_reference
 
 from .generator import REPO
 
 CHECKER = "mbdkit"
+NOTES = "notes"
+"""The kit's folder of the course notes' site."""
+MODELS = "models"
+"""The kit's folder of the course's example model files."""
 KIT_EXTRAS = ("jupyterlab>=4",)
 """What a student needs beyond the solver's own dependencies: JupyterLab (it brings the kernel)."""
-INSTRUCTOR_ONLY = ("nbgrader", "numba", "dask")
+INSTRUCTOR_ONLY = ("nbgrader", "numba", "dask", "sphinx", "myst-nb", "jupyter-server-mathjax")
 """Dependencies of the course repository that a student does not need: nbgrader (the instructor's), numba (the
 compiled engine, which no kit holds) and Dask (``mbd sweep --jobs N`` and ``mbd grade`` on a cluster; a kit's
 sweep runs here, and asking it for a cluster says to install Dask): 233 MB of site-packages a kit's venv does not
-fill (numba 35, llvmlite 173, dask 17, distributed 8)."""
+fill (numba 35, llvmlite 173, dask 17, distributed 8); the notes' site builder (Sphinx, MyST-NB, the MathJax wheel):
+a kit holds the built site (``notes/``)."""
 
 
 def _toml_value(value) -> str:
@@ -163,6 +172,8 @@ Your kit for this homework:
 | `modules/` | your package: the functions you write raise `NotImplementedError` |
 | `scenes/` | the model files the notebook uses |
 | `mbdkit/` | the self-check (public checks, with expected values) and the `mbd` command |
+| `models/` | the course's example mechanisms (model files), which the notes and lectures use |
+| `notes/` | the course notes: open `notes/index.html` in a browser (no network needed) |
 
 ## 1. Install (once)
 
@@ -185,7 +196,8 @@ Run the cells from the top; the cells marked *Graded* check your work as you go.
 ## 3. What to write
 
 Replace the `raise NotImplementedError(...)` in these functions (each names its equation in the course
-notes); do not change their signatures. `mbd todo {homework}` lists what is left, file by file, and where
+notes: eq. 3.17 is at `notes/ch03_planar_constraints.html#eq-3.17`, and `notes/index.html` lists every
+equation with a link); do not change their signatures. `mbd todo {homework}` lists what is left, file by file, and where
 to start.
 
 {functions}
@@ -219,5 +231,10 @@ def build_kit(folder: Path, homework: str, to_write: list[tuple[str, str]], cour
     checks = write_checker(folder, homework, course_dir, to_write)
     (folder / "pyproject.toml").write_text(pyproject(homework, spec.title, course_dir))
     (folder / "README.md").write_text(readme(homework, spec.title, to_write, checks))
+    site, _ = kit_notes()
+    shutil.copytree(site, folder / NOTES, dirs_exist_ok=True)
+    shutil.copytree(course_dir / "course" / "models", folder / MODELS, dirs_exist_ok=True)
     checker = [p for p in (folder / CHECKER).rglob("*") if p.is_file()]
-    return sorted(p.relative_to(folder).as_posix() for p in [folder / "pyproject.toml", folder / "README.md", *checker])
+    models = sorted((folder / MODELS).iterdir())
+    written = [folder / "pyproject.toml", folder / "README.md", folder / NOTES / "index.html", *models, *checker]
+    return sorted(p.relative_to(folder).as_posix() for p in written)

@@ -29,6 +29,8 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from course.notes.build import kit_notes
+
 from .generator import HOMEWORKS, REPO, RegionError, build_package, modules_differences
 from .kit import build_kit, course_dependencies
 from .leakcheck import find_leaks
@@ -59,6 +61,8 @@ class ReleaseReport:
     """Bytes of the release folder (what is handed out)."""
     installs: list[str] = field(default_factory=list)
     """What ``pip install ./`` of the kit installs (its pyproject's dependencies)."""
+    notes_kind: str = ""
+    """Whether the kit's notes show the notebooks' outputs (``course.notes.build.kit_notes``)."""
 
     def summary(self) -> str:
         """What was released, for the instructor (``mbd release`` prints it)."""
@@ -76,6 +80,7 @@ class ReleaseReport:
         lines.append(
             f"  size:             {self.size / 1e6:.1f} MB to hand out; pip install ./ adds {', '.join(self.installs)}"
         )
+        lines.append(f"  course notes:     {self.folder / 'notes' / 'index.html'} (offline; {self.notes_kind})")
         if self.given:
             lines.append(f"  given, filled in: {len(self.given)} functions of earlier homeworks")
         if self.later:
@@ -88,6 +93,9 @@ class ReleaseReport:
         )
         lines += [f"  note: {note}" for note in self.notes]
         return "\n".join(lines)
+
+
+NOTES_AS_WRITTEN = "text and equations; `mbd notes --kit` once adds the figures and outputs to every later release"
 
 
 def load_config(course_dir: Path):
@@ -256,6 +264,7 @@ def release(homework: str, course_dir: Path | None = None) -> ReleaseReport:
         notes=notes,
         size=sum(p.stat().st_size for p in folder.rglob("*") if p.is_file()),
         installs=[re.split(r"[<>=\[ ;]", d)[0] for d in course_dependencies(course_dir)],
+        notes_kind="with the notebooks' outputs" if kit_notes()[1] else NOTES_AS_WRITTEN,
     )
     if not report.to_write:
         report.notes.append(f"no solution region is tagged {homework}: students have nothing to write in modules/")

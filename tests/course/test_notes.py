@@ -158,17 +158,105 @@ def test_every_section_and_chapter_the_course_cites_exists(cited):
     assert {n: sorted(f) for n, f in cited["chapter"].items() if n not in numbers} == {}
 
 
-def test_the_notes_build_as_html_with_an_anchor_for_every_equation(tmp_path):
-    from course.notes.build import build_notes
+@pytest.fixture(scope="module")
+def site(tmp_path_factory):
+    """The chapters and lecture 1 built as ``mbd notes`` builds the site, as written (not executed)."""
+    from course.notes.build import build_notes, lectures
 
+    out = tmp_path_factory.mktemp("notes") / "site"
+    build_notes(out, execute=False, paths=chapters(), lecture_paths=lectures()[:1])
+    return out
+
+
+def test_the_notes_build_as_a_site_with_an_anchor_for_every_equation(site):
     few = chapters()[2:4]
-    index = build_notes(tmp_path, execute=False, paths=few)
-    page = (tmp_path / few[0].with_suffix(".html").name).read_text()
+    page = (site / few[0].with_suffix(".html").name).read_text()
     assert "<html" in page and 'id="eq-3.17"' in page and "\\tag{3.17}" in page
     anchor, tag = page.index('id="eq-3.17"'), page.index("\\tag{3.17}")
     assert page.index("\\tag{3.13}") < anchor < tag and "\\tag{" not in page[anchor:tag]  # the link lands on it
-    links = index.read_text()
-    assert all(f'#eq-{label}"' in links for path in few for label in equation_labels(path))
+    assert "\\begin{split}" not in page  # a display holding \\ is given as written (a tag inside split is an error)
+    index = (site / "index.html").read_text()
+    for path in few:
+        for label in equation_labels(path):
+            assert f'href="{path.stem}.html#eq-{label}"' in index
+    row = re.search(r'#eq-3\.17">\(3\.17\)</a></td><td>([^<]*)</td>', index)
+    assert row and row.group(1).startswith("3.3 "), "the index gives each equation's section"
+    assert 'href="L01_planar_kinematics.html"' in index and (site / "L01_planar_kinematics.html").exists()
+    assert (site / "search.html").exists() and "Computational" in (site / "searchindex.js").read_text()
+
+
+def test_the_site_asks_nothing_of_the_network(site):
+    """Every script and style a page loads is a file of the site; MathJax is the wheel's copy in _static."""
+    from course.notes.build import mathjax_files
+
+    page = (site / "ch03_planar_constraints.html").read_text()
+    sources = re.findall(r'<(?:script|link)[^>]*(?:src|href)="([^"]+)"', page)
+    assert any(src.startswith("_static/mathjax/MathJax.js?config=") for src in sources)
+    assert [src for src in sources if "://" in src or src.startswith("//")] == []
+    for src in sources:
+        assert (site / src.split("?")[0].split("#")[0]).exists(), src
+    assert "cdn" not in page.lower() and "window.MathJax =" not in page  # no MathJax 3 object to stop MathJax 2
+    size = mathjax_files(site.parent / "mathjax")
+    assert 1e6 < size < 4e6, size  # what loads (no SVG output, no translations): a kit carries it
+
+
+def test_a_kits_pages_cite_the_students_package(tmp_path):
+    """In a kit, solutions/X becomes the package's modules/X, a file the student has, or names the reference
+    solver's file the kit does not hold; code imports from the student's package."""
+    import nbformat
+
+    from course.notes.build import for_students
+
+    modules = tmp_path / "modules"
+    (modules / "planar").mkdir(parents=True)
+    (modules / "planar" / "bodies.py").write_text("")
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [
+        nbformat.v4.new_markdown_cell(
+            "Code: `solutions/planar/bodies.py`, `solutions/compiled/tree.py`, solutions/. Run "
+            "`mbd run course/models/four_bar.yaml` (tests/solutions/test_x.py; course/exam/)."
+        ),
+        nbformat.v4.new_code_cell("from solutions.planar.bodies import rotation\nimport solutions.linalg as s"),
+    ]
+    for_students(nb, modules)
+    assert nb.cells[0].source == (
+        "Code: `modules/planar/bodies.py`, `the reference solver's compiled/tree.py`, modules/. Run "
+        "`mbd run models/four_bar.yaml` (the course's test test_x.py (not in the kit); the course's exam bank (not "
+        "in the kit))."
+    )
+    assert nb.cells[1].source == "from modules.planar.bodies import rotation\nimport modules.linalg as s"
+
+
+def test_kits_share_one_site_per_content_of_the_sources(tmp_path, monkeypatch):
+    """kit_notes builds the site once for given sources (a class's releases, the test run's), an executed one
+    made by `mbd notes --kit` first; new sources build anew and the old site goes."""
+    from course.notes import build
+
+    built = []
+
+    def fake_build(out, execute, modules):
+        built.append((out.name, execute))
+        out.mkdir(parents=True)
+        (out / "index.html").write_text("site")
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    monkeypatch.setattr(build, "build_notes", fake_build)
+    monkeypatch.setattr(build, "sources_digest", lambda execute: f"v1-{execute}")
+    first, executed = build.kit_notes()
+    assert executed is False and first.name == "v1-False" and build.kit_notes() == (first, False)
+    assert built == [("v1-False", False)]
+    assert build.kit_notes(execute=True) == (tmp_path / "mbd-course" / "kit-notes" / "v1-True", True)
+    assert build.kit_notes() == (tmp_path / "mbd-course" / "kit-notes" / "v1-True", True)  # executed preferred
+    monkeypatch.setattr(build, "sources_digest", lambda execute: f"v2-{execute}")
+    assert build.kit_notes()[0].name == "v2-False" and not first.exists()
+    assert built == [("v1-False", False), ("v1-True", True), ("v2-False", False)]
+
+
+def test_the_sources_digest_follows_every_page_and_the_package():
+    from course.notes.build import sources_digest
+
+    assert sources_digest(True) != sources_digest(False)
+    assert len(sources_digest(False)) == 64 and sources_digest(False) == sources_digest(False)
 
 
 def test_a_chapters_mechanism_views_play_in_its_page(tmp_path):
@@ -189,7 +277,8 @@ def test_a_chapters_mechanism_views_play_in_its_page(tmp_path):
     nbformat.write(nb, path)
     build_notes(tmp_path / "out", execute=False, paths=[path])
     page = (tmp_path / "out" / "ch09_views.html").read_text()
-    assert page.count(f'<script src="{PLOTLY}"></script>') == 1 and (tmp_path / "out" / PLOTLY).stat().st_size > 1e6
+    loader = f'<script src="_static/{PLOTLY}"></script>'
+    assert page.count(loader) == 1 and (tmp_path / "out" / "_static" / PLOTLY).stat().st_size > 1e6
     assert page.count('class="mbd-view"') == 2 and 'id="ch09_views-view-2"' in page
     assert "a </script>" not in page and "a \\u003c/script\\u003e\\u003cb\\u003e \\u0026 title" in page
     kept = nbformat.read(path, as_version=4).cells[1].outputs[0]["data"]
@@ -209,18 +298,14 @@ def test_an_anchor_sits_before_the_display_that_holds_its_tag():
 
 
 @pytest.mark.parametrize("path", chapters(), ids=lambda path: path.stem)
-def test_anchors_leave_every_heading_and_display_where_it_was(path):
-    """nbconvert's markdown of each chapter with its anchors has the headings and the display equations of the
-    markdown without them (an anchor in front of a display's line once made the parser read the display as text,
-    and its closing $$ opened a block that swallowed the headings up to the next display: ch. 3 showed 3 of its 9
-    section headings)."""
-    import nbformat
-    from nbconvert.filters.markdown_mistune import markdown2html_mistune
-
-    from course.notes.build import anchored
-
-    for cell in nbformat.read(path, as_version=4).cells:
-        if cell.cell_type == "markdown":
-            plain, with_anchors = markdown2html_mistune(cell.source), markdown2html_mistune(anchored(cell.source)[0])
-            for mark in ("<h1", "<h2", "<h3", "<p>$$"):
-                assert with_anchors.count(mark) == plain.count(mark), (mark, cell.source[:60])
+def test_every_heading_and_display_of_a_chapter_is_on_its_page(site, path):
+    """The page of each chapter, anchors and all, has every heading and every display equation of its markdown
+    (an anchor in front of a display's line once made a parser read the display as text, and its closing $$ opened
+    a block that swallowed the headings up to the next display: ch. 3 showed 3 of its 9 section headings)."""
+    markdown = "\n".join(markdown_sources(path))
+    headings = len(re.findall(r"^#{1,3} ", markdown, flags=re.M))
+    displays = markdown.count("$$") // 2
+    page = (site / path.with_suffix(".html").name).read_text()
+    page = page[page.index('role="main"') : page.index('class="footer"')]  # the chapter, not the sidebar
+    assert len(re.findall(r"<h[123][ >]", page)) == headings
+    assert page.count('<div class="math notranslate nohighlight">') == displays

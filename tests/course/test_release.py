@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -87,6 +88,25 @@ def test_release_folder_holds_the_notebook_without_solutions_and_the_student_pac
     summary = report.summary()
     assert f"released {homework} into {folder}" in summary and "leak check:       clean" in summary
     assert report.exchange is None and not (course / "assignments" / homework / "modules").exists()
+
+
+@pytest.mark.parametrize("homework", HOMEWORKS)
+def test_the_kit_holds_the_notes_citing_only_what_it_holds(released, homework):
+    """Every kit has the course notes' site (each chapter with its equations' anchors, the lectures, search, MathJax
+    beside them) and the example models; no page cites a file the kit does not have: no solutions/, tests/,
+    course/ or DESIGN, and every modules/X or models/X a page names is in the kit."""
+    course, reports = released
+    folder = course / "build" / "release" / homework
+    notes = folder / "notes"
+    pages = {p.name: p.read_text(encoding="utf-8") for p in notes.glob("*.html")}
+    assert {"index.html", "search.html", "ch03_planar_constraints.html", "L01_planar_kinematics.html"} <= set(pages)
+    assert 'id="eq-3.17"' in pages["ch03_planar_constraints.html"] and (notes / "_static/mathjax/MathJax.js").exists()
+    assert (folder / "models" / "slider_crank.yaml").exists() and "notes/index.html" in reports[homework].kit
+    text = "\n".join(re.sub(r"<[^>]+>", "", page) for page in pages.values())  # what a reader sees
+    assert re.findall(r"\b(?:solutions|tests|course|DESIGN)/\S*", text) == []
+    cited = set(re.findall(r"\b((?:modules|models)/[\w/]+\.(?:py|yaml))", text))
+    assert len(cited) > 10 and [path for path in sorted(cited) if not (folder / path).exists()] == []
+    assert "course notes:     " in reports[homework].summary()
 
 
 def test_each_release_stubs_its_own_homework_and_fills_in_the_earlier_ones(released):
