@@ -240,6 +240,15 @@ VELOCITY_MISTAKE = Hypothesis(
 )
 
 
+LOOP_VELOCITY_MISTAKE = Hypothesis(
+    "the sign of Psi_t: q' solves Psi_q q' = -Psi_t (eq. 4.5)", "kinematics.velocity_analysis", _negated
+)
+LOOP_ACCELERATION_MISTAKE = Hypothesis(
+    "the sign of gamma: q'' solves Psi_q q'' = gamma (eq. 4.6)", "kinematics.acceleration_analysis", _negated
+)
+"""The solvers' own sign mistakes, on the slider-crank of the loop_* probes (its Psi_t and gamma are given)."""
+
+
 SPATIAL_ROTATION_MISTAKES = [
     Hypothesis(
         "a transposed rotation matrix: A(p)^T used where A(p) belongs (eq. 8.12)",
@@ -324,6 +333,8 @@ def hypotheses(probe: str, job: Job) -> list[Hypothesis]:
         "velocity": lambda: rotation[:1] + psi_t_signs() if planar else psi_t_signs(),
         "acceleration": lambda: quadratic + gamma_signs(),
         "kinematic_run": lambda: quadratic + gamma_signs() + psi_t_signs(),
+        "loop_velocity": lambda: [LOOP_VELOCITY_MISTAKE],
+        "loop_acceleration": lambda: [LOOP_ACCELERATION_MISTAKE],
         "baumgarte_gamma": lambda: BAUMGARTE_MISTAKES,
         "accelerations": lambda: (
             BAUMGARTE_MISTAKES + quadratic + gamma_signs() + ([] if planar else SPATIAL_MASS_MISTAKES)

@@ -14,7 +14,7 @@ import numpy as np
 
 from . import diagnosis
 from .homework import CheckSpec
-from .probes import AXES, RK4_STEPS, reaction_labels
+from .probes import AXES, LOOP_TIMES, RK4_STEPS, SliderCrankLoop, reaction_labels
 from .sandbox import Limits, Reply
 from .scenes import HIDDEN
 from .stored import Reference
@@ -39,6 +39,9 @@ QUANTITIES = {
     "newton.q": "the positions newton_raphson converges to",
     "velocity.qd": "the velocities of velocity_analysis",
     "acceleration.qdd": "the accelerations of acceleration_analysis",
+    "loop_newton.q": "the positions newton_raphson converges to on the slider-crank given by its loop closure",
+    "loop_velocity.qd": "the velocities of velocity_analysis on the slider-crank given by its loop closure",
+    "loop_acceleration.qdd": "the accelerations of acceleration_analysis on the slider-crank given by its loop closure",
     "kinematic_run.q": "the positions of kinematic_analysis",
     "kinematic_run.qd": "the velocities of kinematic_analysis",
     "kinematic_run.qdd": "the accelerations of kinematic_analysis",
@@ -196,6 +199,11 @@ class Labels:
             return f"{'row' if name == 'i' else 'column'} {index + 1}"
         if name == "steps":
             return f"{RK4_STEPS[index]} steps"
+        if name == "crank":
+            theta = SliderCrankLoop().driver(LOOP_TIMES[index])[0]
+            return f"t = {LOOP_TIMES[index]:.4g} s (crank angle {theta:.4g} rad)"
+        if name == "loop":
+            return SliderCrankLoop.coordinate_names[index]
         if name == "component":
             return ("y", "y'")[index] if index < 2 else str(index)
         return f"{name} {index}"

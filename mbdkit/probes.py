@@ -287,6 +287,100 @@ def kinematic_run(pkg: Package, job: Job) -> dict:
     return {"t": result.t, "q": result.q, "qd": result.qd, "qdd": result.qdd}
 
 
+class SliderCrankLoop:
+    """A slider-crank given by its loop-closure equations, not by joints: what the ``loop_*`` probes hand
+    newton_raphson, velocity_analysis and acceleration_analysis, so that kinematics.py earns its points before
+    any joint of planar/joints.py is written.
+
+    Coordinates q = (theta, phi, x): the crank's angle, the rod's angle (both from the x axis) and the slider's
+    position on its guide y = e. The crank (length r, from the origin) and the rod (length l) close the loop
+    at the slider, and a driver turns the crank by theta_d(t) = theta_0 + omega t + alpha t^2 / 2:
+
+        Psi = (r cos theta + l cos phi - x,  r sin theta + l sin phi - e,  theta - theta_d(t)) = 0
+
+    It offers what the three functions use of a System: Psi, Psi_q, Psi_t, gamma and the rows' labels."""
+
+    r, l, e = 0.1, 0.3, 0.05
+    theta_0, omega, alpha = 0.3, 10.0, 20.0
+    labels = ["loop x", "loop y", "crank driver"]
+    coordinate_names = ["crank.theta", "rod.phi", "slider.x"]
+    n_coordinates = n_constraints = 3
+
+    def driver(self, t: float) -> tuple[float, float, float]:
+        """theta_d and its first and second time derivatives."""
+        return self.theta_0 + self.omega * t + 0.5 * self.alpha * t**2, self.omega + self.alpha * t, self.alpha
+
+    def constraints(self, q: np.ndarray, t: float) -> np.ndarray:
+        theta, phi, x = q
+        r, l = self.r, self.l
+        return np.array(
+            [
+                r * np.cos(theta) + l * np.cos(phi) - x,
+                r * np.sin(theta) + l * np.sin(phi) - self.e,
+                theta - self.driver(t)[0],
+            ]
+        )
+
+    def jacobian(self, q: np.ndarray, t: float) -> np.ndarray:
+        theta, phi, _ = q
+        r, l = self.r, self.l
+        return np.array(
+            [[-r * np.sin(theta), -l * np.sin(phi), -1.0], [r * np.cos(theta), l * np.cos(phi), 0.0], [1.0, 0.0, 0.0]]
+        )
+
+    def psi_t(self, q: np.ndarray, t: float) -> np.ndarray:
+        return np.array([0.0, 0.0, -self.driver(t)[1]])
+
+    def gamma(self, q: np.ndarray, qd: np.ndarray, t: float) -> np.ndarray:
+        """-(Psi_q q')_q q' - 2 Psi_qt q' - Psi_tt: the loop's centripetal terms and the driver's alpha."""
+        (theta, phi, _), (w, v, _) = q, qd
+        r, l = self.r, self.l
+        return np.array(
+            [
+                r * np.cos(theta) * w**2 + l * np.cos(phi) * v**2,
+                r * np.sin(theta) * w**2 + l * np.sin(phi) * v**2,
+                self.driver(t)[2],
+            ]
+        )
+
+    def state(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """The consistent (q, q') at time t, the slider right of the crank (cos phi > 0)."""
+        theta, w, _ = self.driver(t)
+        phi = np.arcsin((self.e - self.r * np.sin(theta)) / self.l)
+        v = -self.r * np.cos(theta) * w / (self.l * np.cos(phi))
+        q = np.array([theta, phi, self.r * np.cos(theta) + self.l * np.cos(phi)])
+        return q, np.array([w, v, -self.r * np.sin(theta) * w - self.l * np.sin(phi) * v])
+
+
+LOOP_TIMES = (0.0, 0.15, 0.3, 0.45)
+"""The times at which the ``loop_*`` probes solve the slider-crank: crank angles 0.3, 2.0, 4.2 and 6.8 rad."""
+LOOP_START = np.array([0.15, -0.25, 0.05])
+"""newton_raphson starts from the consistent positions moved by this much (rad, rad, m): several iterations."""
+LOOP_AXES = ("crank", "loop")
+
+
+@probe("loop_newton", {"q": LOOP_AXES}, (), requires=("kinematics",))
+def loop_newton(pkg: Package, job: Job) -> dict:
+    """newton_raphson on SliderCrankLoop (no joint of the package's) from estimates LOOP_START off its positions
+    at LOOP_TIMES: the positions it converges to."""
+    solve, loop = pkg["kinematics"].newton_raphson, SliderCrankLoop()
+    return {"q": np.array([real(solve(loop, loop.state(t)[0] + LOOP_START, t).q) for t in LOOP_TIMES])}
+
+
+@probe("loop_velocity", {"qd": LOOP_AXES}, (), requires=("kinematics",))
+def loop_velocity(pkg: Package, job: Job) -> dict:
+    """velocity_analysis on SliderCrankLoop (no joint of the package's) at its positions at LOOP_TIMES."""
+    solve, loop = pkg["kinematics"].velocity_analysis, SliderCrankLoop()
+    return {"qd": np.array([real(solve(loop, loop.state(t)[0], t)) for t in LOOP_TIMES])}
+
+
+@probe("loop_acceleration", {"qdd": LOOP_AXES}, (), requires=("kinematics",))
+def loop_acceleration(pkg: Package, job: Job) -> dict:
+    """acceleration_analysis on SliderCrankLoop (no joint of the package's) at its states at LOOP_TIMES."""
+    solve, loop = pkg["kinematics"].acceleration_analysis, SliderCrankLoop()
+    return {"qdd": np.array([real(solve(loop, *loop.state(t), t)) for t in LOOP_TIMES])}
+
+
 # -- hw2: planar forward dynamics ----------------------------------------------------------------------
 def model_of(pkg: Package, job: Job):
     """The package's validated Model of the scene (cached per scene)."""

@@ -83,10 +83,14 @@ def _failing(homework: str, probes: set[str]) -> set[str]:
 @pytest.mark.parametrize(
     "student, probes, message",
     [
-        ("hang", {"velocity", "kinematic_run"}, "skipped: velocity_analysis did not finish in an earlier check"),
-        ("memory", {"acceleration", "kinematic_run"}, "ran out of memory"),
-        ("exit", {"newton", "kinematic_run"}, "exit code 3"),
-        ("flood", {"velocity", "kinematic_run"}, "printed"),
+        (
+            "hang",
+            {"velocity", "loop_velocity", "kinematic_run"},
+            "skipped: velocity_analysis did not finish in an earlier check",
+        ),
+        ("memory", {"acceleration", "loop_acceleration", "kinematic_run"}, "ran out of memory"),
+        ("exit", {"newton", "loop_newton", "kinematic_run"}, "exit code 3"),
+        ("flood", {"velocity", "loop_velocity", "kinematic_run"}, "printed"),
     ],
 )
 def test_misbehaving_code_costs_only_the_checks_it_touches(hw1, student, probes, message):

@@ -94,7 +94,7 @@ def test_the_report_names_each_damage_and_what_nbgrader_will_do(course, capsys):
     assert any(
         "test_hw1_revolute is in the notebook twice" in f and "fails the whole submission" in f for f in found["ben"]
     )
-    assert any("test cell test_hw1_newton deleted (4.5 points)" in f and "0, silently" in f for f in found["cat"])
+    assert any("test cell test_hw1_newton deleted (3.75 points)" in f and "0, silently" in f for f in found["cat"])
     assert any("answer cell hw1_answer_slider deleted (3 points)" in f for f in found["cat"])
     assert any("'hw1 (1).ipynb', not 'hw1.ipynb'" in f and "--repair: hw1 (1).ipynb renamed" in f for f in found["dan"])
     assert any("'hw1-copy.ipynb'" in f and "zip_collect dropped it" in f for f in found["eve"])
