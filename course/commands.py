@@ -91,8 +91,15 @@ def add_gradebook(sub) -> None:
         "homework", nargs="+", metavar="GRADES.csv",
         help="each homework's grades: mbd grade's gradebook.csv (hwN in its path, or hwN=FILE) or nbgrader's export",
     )  # fmt: skip
-    book.add_argument("--marks", help="CSV with columns student, test, oral (percent; empty: not given)")
+    book.add_argument(
+        "--marks", help="CSV with columns student, test, oral (percent; empty: not given) and hwN_doc (the "
+        "documentation rubric's manual points)",
+    )  # fmt: skip
     book.add_argument("--weights", help="percent per part, e.g. homework=50,test=25,oral=25 (course/grading.toml)")
+    book.add_argument(
+        "--documentation-share", metavar="PERCENT",
+        help="the documentation's share of each homework's grade (course/grading.toml: 10; 0 leaves it out)",
+    )  # fmt: skip
     book.add_argument("--roster", help="a file of student ids, one per line: who should be in the table")
     book.add_argument("--missing-as-zero", action="store_true", help="count a missing part as 0 (end of term)")
     book.add_argument("--out", required=True, help="the final grades, FILE.csv")
