@@ -209,9 +209,10 @@ def parse(text: str | ValueError, path: str) -> dict[str, ast.FunctionDef] | str
     try:
         return functions_of(ast.parse(text))
     except SyntaxError as err:
-        return f"{PACKAGE}/{path} does not parse (line {err.lineno}: {err.msg})"
-    except (ValueError, RecursionError, MemoryError) as err:
-        return f"{PACKAGE}/{path} does not parse ({type(err).__name__})"
+        where = f"line {err.lineno}: " if err.lineno else ""
+        return f"{PACKAGE}/{path} does not parse ({where}{err.msg})"
+    except (ValueError, RecursionError, MemoryError):  # nested deeper than Python's parser goes
+        return f"{PACKAGE}/{path} does not parse (too deeply nested for Python's parser)"
 
 
 def explains(note: str) -> bool:

@@ -150,6 +150,19 @@ def test_a_file_that_does_not_parse_scores_zero_with_the_reason_and_the_others_c
     assert result.percent == 0.0 and "modules/shapes.py does not parse (line 1: " in result.line()
 
 
+@pytest.mark.parametrize(
+    "text, said",
+    [
+        ("def f():\n    return 1\x00\n", "(source code string cannot contain null bytes)"),
+        ("def f():\n    return " + "-" * 200_000 + "x\n", "(too deeply nested for Python's parser)"),
+        ("x = " + "(" * 300 + ")" * 300 + "\n", "(line 1: too many nested parentheses)"),
+    ],
+)
+def test_hostile_files_score_zero_with_the_reason(course, tmp_path, text, said):
+    result = measure("hw1", student(tmp_path, dict(STUDENT, **{"other.py": text})), course)
+    assert verdicts(result)["f"] == (False, f"modules/other.py does not parse {said}")
+
+
 def test_a_deleted_docstring_a_link_and_a_missing_package_count_nothing(course, tmp_path):
     text = textwrap.dedent(STUDENT["shapes.py"]).replace('    """Area of a circle of radius r (eq. 1.1)."""\n', "")
     folder = student(tmp_path, dict(STUDENT, **{"shapes.py": text}))
