@@ -266,20 +266,21 @@ def final_rows(
         given = {p: marks.get(p, {}).get(student) for p in parts}
         lacking = [h for h in names if done[h] is None]
         lacking += [f"{h} documentation" for h in names if share and documented[h] is None]
-        late = [p for p in parts if given[p] is None]
-
-        def zero(value):
-            return 0.0 if value is None else value
-
-        grades = [(100 - share) / 100 * zero(done[h]) + share / 100 * zero(documented[h]) for h in names]
+        unmarked = [p for p in parts if given[p] is None]
+        grades = [(100 - share) / 100 * _zero(done[h]) + share / 100 * _zero(documented[h]) for h in names]
         mean = None if lacking and not missing_as_zero else (sum(grades) / len(names) if names else 0.0)
         final = None
-        if missing_as_zero or not (lacking or late):
-            final = weights["homework"] / 100 * zero(mean) + sum(weights[p] / 100 * zero(given[p]) for p in parts)
-        status = "complete" if not (lacking or late) else f"{MISSING}: {', '.join(lacking + late)}"
+        if missing_as_zero or not (lacking or unmarked):
+            final = weights["homework"] / 100 * _zero(mean) + sum(weights[p] / 100 * _zero(given[p]) for p in parts)
+        status = "complete" if not (lacking or unmarked) else f"{MISSING}: {', '.join(lacking + unmarked)}"
         cells = [_cell(v) for h in names for v in ((done[h], documented[h]) if share else (done[h],))]
         rows.append([student, *cells, _cell(mean), *[_cell(given[p]) for p in parts], _cell(final), status])
     return header, rows
+
+
+def _zero(value: float | None) -> float:
+    """A missing part counted as 0 (``--missing-as-zero``)."""
+    return 0.0 if value is None else value
 
 
 def _cell(value: float | None) -> str:
