@@ -101,8 +101,7 @@ class Documentation:
     def html(self) -> str:
         """The feedback page's part: the sentence, then every function's verdict (folded)."""
         items = "".join(
-            f"<li>{'documented' if v.documented else 'not documented'}: <code>{html.escape(v.path)}</code> "
-            f"<code>{html.escape(v.function)}</code>: {html.escape(v.why)}</li>"
+            f"<li><code>{html.escape(v.path)}</code> <code>{html.escape(v.function)}</code>: {html.escape(v.why)}</li>"
             for v in self.verdicts
         )
         rule = (
