@@ -101,6 +101,10 @@ def add_gradebook(sub) -> None:
         "--documentation-share", metavar="PERCENT",
         help="the documentation's share of each homework's grade (course/grading.toml: 10; 0 leaves it out)",
     )  # fmt: skip
+    book.add_argument(
+        "--submitted", metavar="FOLDER",
+        help="the submissions (nbgrader's submitted/): the documentation's automatic part of nbgrader's homework",
+    )  # fmt: skip
     book.add_argument("--roster", help="a file of student ids, one per line: who should be in the table")
     book.add_argument("--missing-as-zero", action="store_true", help="count a missing part as 0 (end of term)")
     book.add_argument("--out", required=True, help="the final grades, FILE.csv")

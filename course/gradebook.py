@@ -19,8 +19,9 @@ documentation's (``[documentation]`` in ``course/grading.toml``: 10 %). The docu
 rubric's points over its maximum: the automatic part, ``automatic`` points times the share of the homework's
 functions the student documented (``mbd grade``'s gradebook, column ``documentation``), and the manual part,
 points the instructor enters in the marks CSV (column ``hwN_doc``, 0 to ``manual``). Either part not given
-leaves the homework's documentation missing, as any other part (nbgrader's export has no automatic part: set
-``automatic = 0`` or grade the folder with ``mbd grade`` too). ``--documentation-share 0`` leaves it out.
+leaves the homework's documentation missing, as any other part. nbgrader's export has no automatic part:
+``--submitted FOLDER`` measures it from the submissions (nbgrader's ``submitted/{student}/{hwN}/``, as ``mbd
+grade`` finds them: read, never run). ``--documentation-share 0`` leaves documentation out.
 
 Every input is checked before anything is written: a file, column or number that is not what it should be is
 one line naming the file, the row and what to do (exit code 2).
@@ -194,6 +195,20 @@ def read_documented(text: str) -> dict[str, dict[str, float | None]]:
     return {name: cells}
 
 
+def measured(folder: Path, homework: list[str]) -> dict[str, dict[str, float | None]]:
+    """{homework: {student: percent of its functions documented}} measured from the submissions in ``folder``
+    (``autograder.documentation``: the files are read, never run); a student who handed nothing in: None."""
+    from autograder.documentation import measure
+    from autograder.grading import find_submissions
+
+    if not Path(folder).is_dir():
+        raise GradebookError(f"--submitted {folder}: no such folder (nbgrader's submitted/, or a folder of students)")
+    return {
+        name: {s.student: None if s.missing else measure(name, s.path).percent for s in find_submissions(folder, name)}
+        for name in homework
+    }
+
+
 def read_manual(path: Path | None, homework: list[str], top: float) -> dict[str, dict[str, float | None]]:
     """{homework: {student: the manual documentation points}} from the marks CSV's ``hwN_doc`` columns (a
     column not there: no points given yet)."""
@@ -295,9 +310,11 @@ def combine(
     roster: list[str] = (),
     missing_as_zero: bool = False,
     rubric: Rubric = Rubric(0.0, 1.0, 0.0),
+    submitted: Path | None = None,
 ) -> list[list[str]]:
     """Read every input (all checked first), write ``out``; the rows written. ``rubric``: the documentation's
-    share of each homework's grade and its points (the default leaves documentation out)."""
+    share of each homework's grade and its points (the default leaves documentation out); ``submitted``: the
+    submissions, to measure the automatic part of the homeworks whose grades carry none (nbgrader's)."""
     homework: dict[str, dict[str, float | None]] = {}
     automatic: dict[str, dict[str, float | None]] = {}
     for text in homework_files:
@@ -313,6 +330,8 @@ def combine(
     if not Path(out).parent.is_dir():
         raise GradebookError(f"--out {out}: no folder {Path(out).parent}")
     documentation = {}
+    if rubric.share and rubric.automatic and submitted is not None:
+        automatic.update(measured(submitted, [h for h in homework if h not in automatic]))
     if rubric.share:
         students = sorted({s for grades in homework.values() for s in grades} | set(roster))
         manual = read_manual(marks, list(homework), rubric.manual)
@@ -338,7 +357,8 @@ def command(args) -> int:
 
             roster = read_roster(args.roster)
         marks = Path(args.marks) if args.marks else None
-        table = combine(args.homework, marks, Path(args.out), weights, roster, args.missing_as_zero, rubric)
+        submitted = Path(args.submitted) if args.submitted else None
+        table = combine(args.homework, marks, Path(args.out), weights, roster, args.missing_as_zero, rubric, submitted)
     except (GradebookError, FileNotFoundError, ValueError) as err:
         print(f"mbd: error: {err}", file=sys.stderr)
         return 2

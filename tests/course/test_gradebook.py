@@ -152,3 +152,23 @@ def test_documentation_is_its_share_of_each_homework_automatic_and_manual_points
     assert main(["gradebook", str(hw1), "--marks", str(marks), "--out", str(out), "--documentation-share", "x"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--documentation-share x" in err
+
+
+def test_the_automatic_part_of_nbgrader_homework_is_measured_from_the_submissions(term):
+    """hw3 came through nbgrader's export, which has no documentation column: --submitted measures it from
+    nbgrader's submitted/{student}/hw3/ (ada explains Dot1.value, one of hw3's 33 functions; bob has no folder)."""
+    folder, homework, marks = term
+    package = folder / "submitted" / "ada" / "hw3" / "modules" / "spatial"
+    package.mkdir(parents=True)
+    (package / "joints.py").write_text(
+        "class Dot1:\n    def value(self, qi, qj, t):\n        # a_i^T a_j of eq. 9.10: the axes stay perpendicular\n"
+        "        return 0.0\n"
+    )
+    marks.write_text("student,test,oral,hw3_doc\nada,70,60,4\nbob,50,,5\n")
+    out = folder / "final.csv"
+    argv = ["gradebook", *homework, "--marks", str(marks), "--out", str(out)]
+    assert main([*argv, "--submitted", str(folder / "submitted")]) == 0
+    ada, bob = read(out)["ada"], read(out)["bob"]
+    assert ada["hw3_doc"] == "41.5"  # (5 points x 1/33 + 4) / 10 = 41.52 %
+    assert bob["hw3_doc"] == MISSING and "hw3 documentation" in bob["status"]
+    assert main(argv) == 0 and read(out)["ada"]["hw3_doc"] == MISSING  # not measured without --submitted
