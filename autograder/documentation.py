@@ -41,6 +41,7 @@ MIN_WORDS = 5
 """Words a student's docstring must add to the skeleton's to count as their documentation."""
 MAX_BYTES = 2 * 2**20
 """A file of the student's larger than this is not read (no homework file comes near it)."""
+UNDOCUMENTED = "not documented: "
 PRAGMAS = ("noqa", "type:", "fmt:", "pragma", "pylint", "mypy", "ruff:", "isort", "begin solution", "end solution")
 """Comments that talk to a tool (nbgrader's region markers too), not to a reader."""
 
@@ -61,6 +62,11 @@ class Verdict:
     function: str
     documented: bool
     why: str
+
+    @property
+    def written(self) -> bool:
+        """Whether the student wrote it (documented or not): not a stub, and its file parses."""
+        return self.documented or self.why.startswith(UNDOCUMENTED)
 
 
 @dataclass
@@ -237,12 +243,12 @@ def verdict(path: str, name: str, node: ast.FunctionDef, notes: dict[int, str], 
     docstring = ast.get_docstring(node) or ""
     added = len(re.findall(r"\w+", docstring)) - len(re.findall(r"\w+", gift.docstring))
     if gift.docstring and not docstring:
-        return Verdict(path, name, False, "not documented: the skeleton's docstring was deleted")
+        return Verdict(path, name, False, f"{UNDOCUMENTED}the skeleton's docstring was deleted")
     if mine:
         return Verdict(path, name, True, f"documented: {len(mine)} comment line(s) of yours")
     if added >= MIN_WORDS:
         return Verdict(path, name, True, f"documented: your docstring (+{added} words)")
-    return Verdict(path, name, False, "not documented: no comment of yours, and the docstring is the skeleton's")
+    return Verdict(path, name, False, f"{UNDOCUMENTED}no comment of yours, and the docstring is the skeleton's")
 
 
 def measure(homework: str, folder: str | os.PathLike, source: Path = SOLUTIONS) -> Documentation:

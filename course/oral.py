@@ -38,8 +38,8 @@ from .exam import PROBLEMS, variant
 from .release.generator import all_regions
 
 BANK = Path(__file__).resolve().parent / "exam" / "oral.toml"
-EXCERPT_LINES = 40
-"""Lines of a function shown at most (the rest is counted)."""
+EXCERPT_LINES, EXCERPT_WIDTH = 40, 160
+"""Lines of a function shown at most (the rest is counted), and characters of a line."""
 
 
 @dataclass(frozen=True)
@@ -106,11 +106,11 @@ def rng_for(student: str, homework: str, seed: int) -> np.random.Generator:
 def draw_functions(documentation: Documentation, homework: str, count: int, rng: np.random.Generator) -> list[Drawn]:
     """``count`` functions of the homework, the written ones first, in a random order of the student's."""
     said = stubs(homework)
-    written = [v for v in documentation.verdicts if v.documented or v.why.startswith("not documented")]
+    written = [v for v in documentation.verdicts if v.written]
     others = [v for v in documentation.verdicts if v not in written]
     chosen = [written[k] for k in rng.permutation(len(written))]
     chosen += [others[k] for k in rng.permutation(len(others))]
-    return [Drawn(v.path, v.function, *said[(v.path, v.function)], v in written, v.why) for v in chosen[:count]]
+    return [Drawn(v.path, v.function, *said[(v.path, v.function)], v.written, v.why) for v in chosen[:count]]
 
 
 def questions_for(function: str, bank: list[Question], rng: np.random.Generator) -> list[Question]:
@@ -130,9 +130,10 @@ def excerpt(text: str | ValueError, path: str, function: str) -> str:
         return f"*Not shown: {function} is not in {PACKAGE}/{path} (renamed or deleted?).*"
     node: ast.FunctionDef = functions[function]
     first = min([node.lineno] + [d.lineno for d in node.decorator_list])
-    lines = text.splitlines()[first - 1 : node.end_lineno]
+    lines = re.split(r"\r\n|\r|\n", text)[first - 1 : node.end_lineno]  # Python's line ends, as ast counts
     more = len(lines) - EXCERPT_LINES
-    body = textwrap.dedent("\n".join(lines[:EXCERPT_LINES]))
+    cut = [line if len(line) <= EXCERPT_WIDTH else line[:EXCERPT_WIDTH] + " ..." for line in lines[:EXCERPT_LINES]]
+    body = textwrap.dedent("\n".join(cut))
     fence = "`" * max(3, 1 + max((len(run) for run in re.findall(r"`+", body)), default=0))
     tail = f"\n*... {more} more lines ({PACKAGE}/{path}, line {node.end_lineno}).*" if more > 0 else ""
     return f"{PACKAGE}/{path}, line {node.lineno}:\n\n{fence}python\n{body}\n{fence}{tail}"

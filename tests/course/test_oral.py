@@ -122,3 +122,13 @@ def test_bad_input_is_one_line(skeleton, tmp_path, capsys, argv, said):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("mbd: error: ") and said in err, err
     assert not list(tmp_path.rglob("*.md")) and not list(tmp_path.rglob("*.html"))
+
+
+def test_the_excerpt_keeps_its_fence_and_cuts_long_lines():
+    from course.oral import excerpt
+
+    text = 'def rotation(phi):\r\n    """```"""\r\n    return "' + "x" * 500 + '"\r\n'
+    shown = excerpt(text, "planar/bodies.py", "rotation")
+    assert shown.startswith("modules/planar/bodies.py, line 1:\n\n````python\ndef rotation(phi):\n")
+    assert shown.endswith("\n````") and '    """```"""\n' in shown
+    assert '    return "' + "x" * 148 + " ...\n" in shown  # 160 characters of the line
