@@ -137,9 +137,12 @@ def hidden_part(tests: list[dict], published: bool) -> str:
     return "".join(_row(t["name"], t["status"] == "passed", t["score"], t["max_score"], t["output"]) for t in tests)
 
 
-def feedback_html(student: str, homework: str, title: str, outcomes: list[Outcome], published: bool = False) -> str:
+def feedback_html(
+    student: str, homework: str, title: str, outcomes: list[Outcome], published: bool = False, documentation: str = ""
+) -> str:
     """The whole page as a string; the hidden checks' results only when ``published`` (``publish`` adds
-    them later to a page written without)."""
+    them later to a page written without); ``documentation``: the rubric's part of the page (HTML, made by
+    ``autograder.documentation``), after the summary."""
     tests = [o.to_test() for o in outcomes]
     shown = [o for o in outcomes if o.kind != "hidden"]
     numbered = {cause: k for k, (cause, _) in enumerate(causes(shown), start=1)}
@@ -160,6 +163,7 @@ def feedback_html(student: str, homework: str, title: str, outcomes: list[Outcom
 <h1>{html.escape(homework)} {html.escape(title)}: feedback for {html.escape(student)}</h1>
 {SCORE_START}{score_part(tests, published)}{SCORE_END}
 {summary_part(shown)}
+{documentation}
 <h2>Every check</h2>
 <table><tr><th>check</th><th>status</th><th>points</th><th>message</th></tr>
 {"".join(rows)}

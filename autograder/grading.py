@@ -19,7 +19,8 @@ stopped:
   are unchanged (its fingerprint);
 - ``feedback/{student}.html`` every check with its message, plots of failed public runs; the hidden checks'
   results only once published (``publish_hidden``, ``publish_feedback``);
-- ``gradebook.csv``           one row per student, a column per check (points), LMS-friendly;
+- ``gradebook.csv``           one row per student, a column per check (points), LMS-friendly, and the share of
+  the homework's functions the student documented (``documentation``, percent: ``autograder.documentation``);
 - ``errors/{student}.txt``    for the instructor: the traceback of an internal error (a bug of the grader,
   or its sandbox failing) while grading that student, whose result then says so and is graded again on
   the next run; the other students are graded as usual (``grade_one`` never raises for one submission).
@@ -61,6 +62,7 @@ from mbdkit.stored import Reference
 from solutions import batch
 from solutions.batch import write_atomic
 
+from .documentation import measure as measure_documentation
 from .feedback import feedback_html, publish
 from .reference import (
     FORMAT,
@@ -80,7 +82,7 @@ from .scenes import HIDDEN, STUDENT, Scene, course_cache, hidden_override, load_
 from .secret import config_dir, course_secret, secret_digest
 from .tolerances import invariants
 
-GRADER_VERSION = "5"  # 5: hidden and per-student checks in the grader's words (mbdkit.withheld), validated replies
+GRADER_VERSION = "6"  # 6: the documentation rubric's automatic part (autograder.documentation) in every result
 
 ISOLATION_NOTE = {
     "os": "isolated by the operating system (bubblewrap: namespaces, uid 65534 or the user's, seccomp)",
@@ -158,8 +160,9 @@ class Gradebook:
         return None if self.out_dir is None else self.out_dir / "gradebook.csv"
 
     def write_csv(self) -> None:
-        """The gradebook: student, score, max_score, percent, status, then one column per check; a missing
-        student's score, percent and points are empty (not 0: an LMS must not average them in)."""
+        """The gradebook: student, score, max_score, percent, status, documentation (the share of the homework's
+        functions documented, percent), then one column per check; a missing student's score, percent,
+        documentation and points are empty (not 0: an LMS must not average them in)."""
         if self.out_dir is None:
             return
         write_atomic(self.csv_path, self._write_rows)
@@ -167,16 +170,19 @@ class Gradebook:
     def _write_rows(self, path: Path) -> None:
         with open(path, "w", newline="") as f:
             writer = csv.writer(f)
-            writer.writerow(["student", "score", "max_score", "percent", "status", *self.checks])
+            writer.writerow(["student", "score", "max_score", "percent", "status", "documentation", *self.checks])
             for student in sorted(self.rows):
                 row = self.rows[student]
                 if self.status(student) == MISSING:
-                    writer.writerow([student, "", f"{self.max_score:g}", "", MISSING, *["" for _ in self.checks]])
+                    empty = ["" for _ in self.checks]
+                    writer.writerow([student, "", f"{self.max_score:g}", "", MISSING, "", *empty])
                     continue
                 percent = 100.0 * row["score"] / self.max_score if self.max_score else 0.0
                 points = [row["checks"].get(name, 0.0) for name in self.checks]
                 score, top = f"{row['score']:g}", f"{self.max_score:g}"
-                writer.writerow([student, score, top, f"{percent:.1f}", GRADED, *[f"{p:g}" for p in points]])
+                documented = "" if row.get("documentation") is None else f"{row['documentation']:.1f}"
+                cells = [student, score, top, f"{percent:.1f}", GRADED, documented, *[f"{p:g}" for p in points]]
+                writer.writerow(cells)
 
 
 # -- finding submissions ---------------------------------------------------------------------------------
@@ -479,6 +485,7 @@ def _summary(result: dict, resumed: bool, seconds: float = 0.0) -> dict:
         "seconds": seconds,
         "internal_error": bool(result["extra_data"].get("internal_error")),
         "status": GRADED,
+        "documentation": result["extra_data"].get("documentation", {}).get("percent"),
     }
 
 
@@ -534,7 +541,10 @@ def grade_one(
         result = result_json(homework, student, outcomes, fingerprint, isolation)
         if note:
             result["output"] += f" (note: {note})"
-        return result, feedback_html(student, homework.name, homework.title, outcomes), "", time.perf_counter() - start
+        documentation = measure_documentation(homework.name, submission.path)  # read, never run
+        result["extra_data"]["documentation"] = documentation.to_json()
+        page = feedback_html(student, homework.name, homework.title, outcomes, documentation=documentation.html())
+        return result, page, "", time.perf_counter() - start
     except Exception as err:  # noqa: BLE001 - the last guard: one submission never stops the others
         log = f"{student}: internal error while grading {homework.name}\n{traceback.format_exc()}"
         result, page = internal_error(homework, student, type(err).__name__, isolation)

@@ -1,4 +1,5 @@
-"""The course's commands of ``mbd`` (instructor): ``release``, ``nbcheck``, ``notes``, ``bench``, ``gradebook``.
+"""The course's commands of ``mbd`` (instructor): ``release``, ``nbcheck``, ``notes``, ``bench``, ``gradebook``,
+``oral``.
 
 Registered in the course's ``pyproject.toml`` (entry-point group ``mbd.commands``, ``solutions.cli.COMMANDS``);
 each ``add_*`` adds its subparser to ``mbd``'s. The work is imported only when the command runs, so that
@@ -91,8 +92,19 @@ def add_gradebook(sub) -> None:
         "homework", nargs="+", metavar="GRADES.csv",
         help="each homework's grades: mbd grade's gradebook.csv (hwN in its path, or hwN=FILE) or nbgrader's export",
     )  # fmt: skip
-    book.add_argument("--marks", help="CSV with columns student, test, oral (percent; empty: not given)")
+    book.add_argument(
+        "--marks", help="CSV with columns student, test, oral (percent; empty: not given) and hwN_doc (the "
+        "documentation rubric's manual points)",
+    )  # fmt: skip
     book.add_argument("--weights", help="percent per part, e.g. homework=50,test=25,oral=25 (course/grading.toml)")
+    book.add_argument(
+        "--documentation-share", metavar="PERCENT",
+        help="the documentation's share of each homework's grade (course/grading.toml: 10; 0 leaves it out)",
+    )  # fmt: skip
+    book.add_argument(
+        "--submitted", metavar="FOLDER",
+        help="the submissions (nbgrader's submitted/): the documentation's automatic part of nbgrader's homework",
+    )  # fmt: skip
     book.add_argument("--roster", help="a file of student ids, one per line: who should be in the table")
     book.add_argument("--missing-as-zero", action="store_true", help="count a missing part as 0 (end of term)")
     book.add_argument("--out", required=True, help="the final grades, FILE.csv")
@@ -101,5 +113,25 @@ def add_gradebook(sub) -> None:
 
 def _gradebook(args: argparse.Namespace) -> int:
     from course.gradebook import command
+
+    return command(args)
+
+
+def add_oral(sub) -> None:
+    """``mbd oral hwN SUBMISSION [--out FILE.md]``: a student's oral-exam marking sheet (``course.oral``)."""
+    oral = sub.add_parser(
+        "oral", help="the oral exam's marking sheet of one student, from their own code and the bank (instructor)"
+    )
+    oral.add_argument("homework", help="hw1, hw2 or hw3")
+    oral.add_argument("submission", metavar="SUBMISSION", help="the student's folder, the one holding modules/")
+    oral.add_argument("--student", help="the student's id (default: the folder's name, or its parent's for .../hwN)")
+    oral.add_argument("--seed", type=int, default=0, help="the semester's seed of the draw (default 0)")
+    oral.add_argument("--functions", type=int, default=3, help="functions of the student's to ask about (default 3)")
+    oral.add_argument("--out", help="the sheet, FILE.md (default: STUDENT-hwN-oral.md here)")
+    oral.set_defaults(handler=_oral)
+
+
+def _oral(args: argparse.Namespace) -> int:
+    from course.oral import command
 
     return command(args)

@@ -14,6 +14,15 @@ The weights are the course's (``course/grading.toml``: 50 % homework, the mean o
 mark not given) is written as ``missing``, never as 0: the final grade of such a student is left empty and the
 ``status`` column names what is missing (``--missing-as-zero`` counts it as 0 instead, at the end of a term).
 
+Students document their code: each homework's grade is (100 - share) % of its checks' percent and share % of its
+documentation's (``[documentation]`` in ``course/grading.toml``: 10 %). The documentation's percent is the
+rubric's points over its maximum: the automatic part, ``automatic`` points times the share of the homework's
+functions the student documented (``mbd grade``'s gradebook, column ``documentation``), and the manual part,
+points the instructor enters in the marks CSV (column ``hwN_doc``, 0 to ``manual``). Either part not given
+leaves the homework's documentation missing, as any other part. nbgrader's export has no automatic part:
+``--submitted FOLDER`` measures it from the submissions (nbgrader's ``submitted/{student}/{hwN}/``, as ``mbd
+grade`` finds them: read, never run). ``--documentation-share 0`` leaves documentation out.
+
 Every input is checked before anything is written: a file, column or number that is not what it should be is
 one line naming the file, the row and what to do (exit code 2).
 """
@@ -67,6 +76,41 @@ def read_weights(text: str | None = None, path: Path = CONFIGURATION) -> dict[st
     if "homework" not in weights or any(w < 0 for w in weights.values()) or abs(sum(weights.values()) - 100) > 1e-9:
         raise GradebookError(f"weights {weights}: a 'homework' weight and the others, >= 0, summing to 100")
     return weights
+
+
+@dataclass(frozen=True)
+class Rubric:
+    """The documentation rubric: its share of each homework's grade (percent) and its points."""
+
+    share: float
+    automatic: float
+    manual: float
+
+    def percent(self, automatic: float | None, manual: float | None) -> float | None:
+        """The documentation's percent from the automatic part's percent and the manual points; None when a
+        part that has points is not given."""
+        if (self.automatic and automatic is None) or (self.manual and manual is None):
+            return None
+        points = self.automatic * (automatic or 0.0) / 100 + (manual or 0.0)
+        return 100.0 * points / (self.automatic + self.manual)
+
+
+def read_rubric(share: str | None = None, path: Path = CONFIGURATION) -> Rubric:
+    """The course's documentation rubric; ``share`` (from ``--documentation-share``) replaces its share."""
+    data = tomllib.loads(path.read_text()).get("documentation", {"share": 0, "automatic": 1, "manual": 0})
+    try:
+        rubric = Rubric(*(float(data[key]) for key in ("share", "automatic", "manual")))
+        rubric = rubric if share is None else Rubric(float(share), rubric.automatic, rubric.manual)
+    except (KeyError, ValueError):
+        raise GradebookError(
+            f"--documentation-share {share} or {path} [documentation]: numbers share, automatic, manual"
+        ) from None
+    if not 0 <= rubric.share <= 100 or min(rubric.automatic, rubric.manual) < 0 or not rubric.automatic + rubric.manual:
+        raise GradebookError(
+            f"documentation share {rubric.share:g} (0 to 100), automatic {rubric.automatic:g} and manual "
+            f"{rubric.manual:g} points (>= 0, not both 0): fix {path} or --documentation-share"
+        )
+    return rubric
 
 
 def _rows(path: Path) -> list[dict[str, str]]:
@@ -140,6 +184,59 @@ def read_homework(text: str) -> dict[str, dict[str, float | None]]:
     return grades
 
 
+def read_documented(text: str) -> dict[str, dict[str, float | None]]:
+    """{homework: {student: percent of its functions documented, or None}} from ``mbd grade``'s gradebook.csv
+    (its ``documentation`` column); {} for a file without one (nbgrader's export, an older gradebook)."""
+    name, path = homework_name(text)
+    rows = _rows(path)
+    if not rows or "documentation" not in rows[0] or name is None:
+        return {}
+    cells = {row["student"]: _number(row["documentation"], path, k, "documentation") for k, row in enumerate(rows, 2)}
+    return {name: cells}
+
+
+def measured(folder: Path, homework: list[str]) -> dict[str, dict[str, float | None]]:
+    """{homework: {student: percent of its functions documented}} measured from the submissions in ``folder``
+    (``autograder.documentation``: the files are read, never run); a student who handed nothing in: None."""
+    from autograder.documentation import measure
+    from autograder.grading import find_submissions
+
+    if not Path(folder).is_dir():
+        raise GradebookError(f"--submitted {folder}: no such folder (nbgrader's submitted/, or a folder of students)")
+    return {
+        name: {s.student: None if s.missing else measure(name, s.path).percent for s in find_submissions(folder, name)}
+        for name in homework
+    }
+
+
+def read_manual(path: Path | None, homework: list[str], top: float) -> dict[str, dict[str, float | None]]:
+    """{homework: {student: the manual documentation points}} from the marks CSV's ``hwN_doc`` columns (a
+    column not there: no points given yet)."""
+    rows = _rows(path) if path is not None and top else []
+    manual: dict[str, dict[str, float | None]] = {}
+    for name in homework:
+        column = f"{name}_doc"
+        for number, row in enumerate(rows, start=2):
+            value = _number(row.get(column), path, number, column)
+            if value is not None and value > top:
+                raise GradebookError(
+                    f"{path}, row {number}, column {column}: {value:g} is over {top:g}, the rubric's manual points "
+                    "(course/grading.toml, [documentation] manual)"
+                )
+            manual.setdefault(name, {})[row["student"]] = value
+    return manual
+
+
+def documentation_percents(
+    homework: list[str], automatic: dict, manual: dict, rubric: Rubric, students: list[str]
+) -> dict[str, dict[str, float | None]]:
+    """{homework: {student: the documentation's percent, or None when a part is not given}}."""
+    return {
+        h: {s: rubric.percent(automatic.get(h, {}).get(s), manual.get(h, {}).get(s)) for s in students}
+        for h in homework
+    }
+
+
 def read_marks(path: Path, parts: list[str]) -> dict[str, dict[str, float | None]]:
     """{part: {student: percent or None}} for the other parts of the grade (``test``, ``oral``)."""
     rows = _rows(path)
@@ -159,29 +256,46 @@ def read_marks(path: Path, parts: list[str]) -> dict[str, dict[str, float | None
     return marks
 
 
-def final_rows(homework: dict, marks: dict, weights: dict[str, float], roster: list[str], missing_as_zero: bool):
-    """The header and one row per student: each homework's percent, their mean, each mark, the final grade
-    (weights in percent) and what is missing. A missing part leaves the grade empty, or counts as 0."""
+def final_rows(
+    homework: dict,
+    marks: dict,
+    weights: dict[str, float],
+    roster: list[str],
+    missing_as_zero: bool,
+    documentation: dict | None = None,
+    share: float = 0.0,
+):
+    """The header and one row per student: each homework's percent (and its documentation's, when it has a
+    ``share`` of the homework's grade), the mean of the homework grades, each mark, the final grade (weights
+    in percent) and what is missing. A missing part leaves the grade empty, or counts as 0."""
     names = sorted(homework, key=lambda h: int(h[2:]))
     parts = [p for p in weights if p != "homework"]
     students = sorted(set(roster) | {s for g in (*homework.values(), *marks.values()) for s in g})
-    header = ["student", *names, "homework", *parts, "final", "status"]
+    documentation = documentation or {}
+    columns = [c for h in names for c in ((h, f"{h}_doc") if share else (h,))]
+    header = ["student", *columns, "homework", *parts, "final", "status"]
     rows = []
     for student in students:
         done = {h: homework[h].get(student) for h in names}
+        documented = {h: documentation.get(h, {}).get(student) for h in names}
         given = {p: marks.get(p, {}).get(student) for p in parts}
-        lacking = [k for k, v in (*done.items(), *given.items()) if v is None]
-        counted = {k: 0.0 if v is None else v for k, v in (*done.items(), *given.items())}
-        mean = sum(counted[h] for h in names) / len(names) if names else 0.0
-        if any(done[h] is None for h in names) and not missing_as_zero:
-            mean = None
+        lacking = [h for h in names if done[h] is None]
+        lacking += [f"{h} documentation" for h in names if share and documented[h] is None]
+        unmarked = [p for p in parts if given[p] is None]
+        grades = [(100 - share) / 100 * _zero(done[h]) + share / 100 * _zero(documented[h]) for h in names]
+        mean = None if lacking and not missing_as_zero else (sum(grades) / len(names) if names else 0.0)
         final = None
-        if missing_as_zero or not lacking:
-            final = weights["homework"] / 100 * mean + sum(weights[p] / 100 * counted[p] for p in parts)
-        status = "complete" if not lacking else f"{MISSING}: {', '.join(lacking)}"
-        cells = [_cell(done[h]) for h in names] + [_cell(mean)] + [_cell(given[p]) for p in parts]
-        rows.append([student, *cells, _cell(final), status])
+        if missing_as_zero or not (lacking or unmarked):
+            final = weights["homework"] / 100 * _zero(mean) + sum(weights[p] / 100 * _zero(given[p]) for p in parts)
+        status = "complete" if not (lacking or unmarked) else f"{MISSING}: {', '.join(lacking + unmarked)}"
+        cells = [_cell(v) for h in names for v in ((done[h], documented[h]) if share else (done[h],))]
+        rows.append([student, *cells, _cell(mean), *[_cell(given[p]) for p in parts], _cell(final), status])
     return header, rows
+
+
+def _zero(value: float | None) -> float:
+    """A missing part counted as 0 (``--missing-as-zero``)."""
+    return 0.0 if value is None else value
 
 
 def _cell(value: float | None) -> str:
@@ -195,21 +309,34 @@ def combine(
     weights: dict[str, float],
     roster: list[str] = (),
     missing_as_zero: bool = False,
+    rubric: Rubric = Rubric(0.0, 1.0, 0.0),
+    submitted: Path | None = None,
 ) -> list[list[str]]:
-    """Read every input (all checked first), write ``out``; the rows written."""
+    """Read every input (all checked first), write ``out``; the rows written. ``rubric``: the documentation's
+    share of each homework's grade and its points (the default leaves documentation out); ``submitted``: the
+    submissions, to measure the automatic part of the homeworks whose grades carry none (nbgrader's)."""
     homework: dict[str, dict[str, float | None]] = {}
+    automatic: dict[str, dict[str, float | None]] = {}
     for text in homework_files:
         for name, grades in read_homework(text).items():
             if name in homework:
                 raise GradebookError(f"{text}: {name} is given twice")
             homework[name] = grades
+        automatic.update(read_documented(text))
     parts = [p for p in weights if p != "homework"]
     given = read_marks(marks, parts) if marks is not None else {}
     if parts and marks is None:
         raise GradebookError(f"the weights give {', '.join(parts)}: --marks FILE.csv with a column for each")
     if not Path(out).parent.is_dir():
         raise GradebookError(f"--out {out}: no folder {Path(out).parent}")
-    header, rows = final_rows(homework, given, weights, list(roster), missing_as_zero)
+    documentation = {}
+    if rubric.share and rubric.automatic and submitted is not None:
+        automatic.update(measured(submitted, [h for h in homework if h not in automatic]))
+    if rubric.share:
+        students = sorted({s for grades in homework.values() for s in grades} | set(roster))
+        manual = read_manual(marks, list(homework), rubric.manual)
+        documentation = documentation_percents(list(homework), automatic, manual, rubric, students)
+    header, rows = final_rows(homework, given, weights, list(roster), missing_as_zero, documentation, rubric.share)
 
     def write(path: Path) -> None:
         with open(path, "w", newline="") as f:
@@ -223,13 +350,15 @@ def command(args) -> int:
     """``mbd gradebook``: 0, or 2 with one line."""
     try:
         weights = read_weights(args.weights)
+        rubric = read_rubric(args.documentation_share)
         roster = []
         if args.roster:
             from autograder.grading import read_roster
 
             roster = read_roster(args.roster)
         marks = Path(args.marks) if args.marks else None
-        table = combine(args.homework, marks, Path(args.out), weights, roster, args.missing_as_zero)
+        submitted = Path(args.submitted) if args.submitted else None
+        table = combine(args.homework, marks, Path(args.out), weights, roster, args.missing_as_zero, rubric, submitted)
     except (GradebookError, FileNotFoundError, ValueError) as err:
         print(f"mbd: error: {err}", file=sys.stderr)
         return 2

@@ -24,7 +24,7 @@ class Left:
     says: str
 
 
-def _functions(tree: ast.Module) -> dict[str, ast.FunctionDef]:
+def functions_of(tree: ast.Module) -> dict[str, ast.FunctionDef]:
     """The module's functions and the methods of its classes, by ``name`` and ``Class.name``."""
     found = {}
     for node in tree.body:
@@ -35,7 +35,7 @@ def _functions(tree: ast.Module) -> dict[str, ast.FunctionDef]:
     return found
 
 
-def _stub_message(function: ast.FunctionDef) -> str | None:
+def stub_message(function: ast.FunctionDef) -> str | None:
     """The message of the first ``raise NotImplementedError(...)`` in the function ('' without one); None when
     the function raises none."""
     for node in ast.walk(function):
@@ -55,7 +55,7 @@ def left_to_write(package: Path, to_write: list[tuple[str, str]]) -> list[Left]:
     for path, name in to_write:
         if path not in trees:
             try:
-                trees[path] = _functions(ast.parse((package / path).read_text(encoding="utf-8")))
+                trees[path] = functions_of(ast.parse((package / path).read_text(encoding="utf-8")))
             except (OSError, UnicodeDecodeError) as err:
                 trees[path] = f"cannot read it ({type(err).__name__})"
             except SyntaxError as err:
@@ -66,7 +66,7 @@ def left_to_write(package: Path, to_write: list[tuple[str, str]]) -> list[Left]:
         elif name not in functions:
             left.append(Left(path, name, 0, "not found in this file (renamed or deleted?)"))
         else:
-            says = _stub_message(functions[name])
+            says = stub_message(functions[name])
             if says is not None:
                 says = says.split(": ", 1)[1] if _is_stub(name, says) else says
                 left.append(Left(path, name, functions[name].lineno, says))
@@ -81,11 +81,11 @@ def every_stub(package: Path) -> list[tuple[str, str]]:
         if "__pycache__" in path.parts:
             continue
         try:
-            functions = _functions(ast.parse(path.read_text(encoding="utf-8")))
+            functions = functions_of(ast.parse(path.read_text(encoding="utf-8")))
         except (OSError, UnicodeDecodeError, SyntaxError):
             continue
         relative = path.relative_to(package).as_posix()
-        pairs += [(relative, name) for name, node in functions.items() if _is_stub(name, _stub_message(node))]
+        pairs += [(relative, name) for name, node in functions.items() if _is_stub(name, stub_message(node))]
     return pairs
 
 

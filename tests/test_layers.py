@@ -136,6 +136,7 @@ ALL = {
     "nbcheck",
     "notes",
     "gradebook",
+    "oral",
     "bench",
     "grade",
     "secret",

@@ -208,7 +208,7 @@ def test_gradebook_csv(hw1):
         rows = list(csv.DictReader(f))
     assert {r["student"] for r in rows} == set(HW1)
     names = [c.name for c in load_homework("hw1").checks]
-    assert list(rows[0].keys()) == ["student", "score", "max_score", "percent", "status", *names]
+    assert list(rows[0].keys()) == ["student", "score", "max_score", "percent", "status", "documentation", *names]
     assert {r["status"] for r in rows} == {"graded"}
     for row in rows:
         assert float(row["score"]) == pytest.approx(sum(float(row[n]) for n in names))
