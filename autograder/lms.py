@@ -466,12 +466,9 @@ QUIET = (
 a Moodle download of 30 hand-ins gave hundreds)."""
 
 
-class _Quiet:
-    """A logging filter that drops nbgrader's per-file skip warnings."""
-
-    @staticmethod
-    def filter(record) -> bool:
-        return not str(record.msg).startswith(QUIET)
+def quiet(record) -> bool:
+    """A logging filter: False for nbgrader's per-file warnings (QUIET)."""
+    return not str(record.msg).startswith(QUIET)
 
 
 def zip_collect_plugin():
@@ -494,7 +491,7 @@ def zip_collect_plugin():
         def __init__(self, **kwargs):
             super().__init__(**kwargs)
             self.answers: dict[str, dict] | None = None
-            self.log.addFilter(_Quiet)
+            self.log.addFilter(quiet)
             downloaded = self.folder(getattr(self.parent, "archive_directory", ""))
             extracted = self.folder(getattr(self.parent, "extracted_directory", ""))
             if downloaded and not any_file(downloaded) and not any_file(extracted):
