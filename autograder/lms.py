@@ -258,10 +258,10 @@ def plan(
         parts = split(path)
         if problems and path in problems:
             found.skip(problems[path], path)
-        elif not parts or hidden(parts):
-            found.skip(HIDDEN, path)
         elif ".." in parts:
             found.skip(UNSAFE, path)
+        elif not parts or hidden(parts):
+            found.skip(HIDDEN, path)
         elif parts[-1].lower().endswith(ARCHIVES):
             found.archives += 1
         else:
@@ -365,7 +365,7 @@ class Download:
         if self.path.is_dir():
             self._walk_folder()
         elif zipfile.is_zipfile(self.path):
-            self._walk_zip(self._keep(zipfile.ZipFile(self.path)), "")
+            self._walk_zip(self._keep(zipfile.ZipFile(self.path)), "", nested=False)
         elif self.path.exists():
             raise LmsError(f"{self.path} is neither a zip nor a folder: give the platform's download (a .zip)")
         else:
@@ -383,11 +383,15 @@ class Download:
         self._opened.append(handle)
         return handle
 
-    def _add(self, logical: str, archive: zipfile.ZipFile | None, name: str) -> None:
+    def _add(self, logical: str, archive: zipfile.ZipFile | None, name: str, nested: bool) -> None:
+        """A file of the download; a zip in it is opened (a hand-in), a zip in a hand-in is not."""
         self.paths.append(logical)
         self._where[logical] = (archive, name)
         if logical.lower().endswith(ARCHIVES) and not hidden(split(logical)):
-            self._open_nested(logical)
+            if nested:
+                self.problems[logical] = "zips inside a hand-in zip (not opened)"
+            else:
+                self._open_nested(logical)
 
     def _walk_folder(self) -> None:
         for folder, dirs, names in os.walk(self.path):
@@ -399,12 +403,12 @@ class Download:
                     self.paths.append(logical)
                     self.problems[logical] = "links and special files (not followed)"
                 else:
-                    self._add(logical, None, full)
+                    self._add(logical, None, full, nested=False)
 
-    def _walk_zip(self, archive: zipfile.ZipFile, prefix: str) -> None:
+    def _walk_zip(self, archive: zipfile.ZipFile, prefix: str, nested: bool) -> None:
         for info in archive.infolist():
             if not info.is_dir():
-                self._add(prefix + info.filename, archive, info.filename)
+                self._add(prefix + info.filename, archive, info.filename, nested)
 
     def _open_nested(self, logical: str) -> None:
         """Open a hand-in zip as the folder ``logical`` without .zip; one inside the download is copied to an
@@ -412,15 +416,15 @@ class Download:
         archive, name = self._where[logical]
         try:
             if archive is None:
-                nested = self._keep(zipfile.ZipFile(name))
+                inner = self._keep(zipfile.ZipFile(name))
             else:
                 if archive.getinfo(name).file_size > NESTED_ZIP_BYTES:  # a zip yields no more than it declares
                     raise zipfile.BadZipFile("too large")
                 copy = self._keep(tempfile.TemporaryFile())
                 with archive.open(name) as f:
                     shutil.copyfileobj(f, copy)
-                nested = self._keep(zipfile.ZipFile(copy))
-            self._walk_zip(nested, logical[: -len(Path(logical).suffix)] + "/")
+                inner = self._keep(zipfile.ZipFile(copy))
+            self._walk_zip(inner, logical[: -len(Path(logical).suffix)] + "/", nested=True)
         except (zipfile.BadZipFile, OSError, RuntimeError, NotImplementedError, EOFError):
             self.problems[logical] = "hand-in zips that cannot be opened (damaged, encrypted, over 256 MB)"
 
@@ -442,10 +446,13 @@ def unpack(download: str | Path, chosen: Preset, homework: str, dest: str | Path
         found = plan(source.paths, chosen, homework, problems=source.problems)
         for student in found.handed_in:
             for file_id, path in list(student.files.items()):
-                data = source.read(path, NOTEBOOK_BYTES if file_id.endswith(".ipynb") else MAX_FILE_BYTES)
+                try:
+                    data = source.read(path, NOTEBOOK_BYTES if file_id.endswith(".ipynb") else MAX_FILE_BYTES)
+                except (zipfile.BadZipFile, OSError, RuntimeError, EOFError):
+                    data = None
                 if data is None:
                     del student.files[file_id]
-                    found.skip("too large to be graded", path)
+                    found.skip("too large to be graded or damaged in the zip", path)
                     continue
                 target = dest / student.id / Path(*file_id.split("/"))
                 target.parent.mkdir(parents=True, exist_ok=True)

@@ -161,16 +161,38 @@ def test_a_documented_regexp_names_another_platform_and_the_later_attempt_wins(t
         lms.preset(r"(?P<id>\d+)_.*")
 
 
-def test_names_that_climb_out_are_not_written(tmp_path):
+def test_hostile_hand_ins_climb_nowhere_and_cost_a_line_each(tmp_path, monkeypatch):
     evil = zipped(
-        {"../../escaped.py": b"", "modules/../../../up.py": b"", "hw1.ipynb": NOTEBOOK, "modules/__init__.py": b""}
+        {
+            "../../escaped.py": b"",
+            "modules/../../../up.py": b"",
+            "hw1.ipynb": NOTEBOOK,
+            "modules/__init__.py": b"",
+            "modules/inner.zip": kit("inner"),  # a zip in a hand-in is not opened
+        }
     )
-    archive = download(tmp_path / "d.zip", {"Mal Icious_107_assignsubmission_file/hw1-handin.zip": evil})
+    archive = download(
+        tmp_path / "d.zip",
+        {
+            "Mal Icious_107_assignsubmission_file/hw1-handin.zip": evil,
+            "Nil Zip_108_assignsubmission_file/hw1-handin.zip": b"not a zip",
+            "Big Book_109_assignsubmission_file/hw1-handin.zip": kit("109"),
+        },
+    )
+    monkeypatch.setattr(lms, "NOTEBOOK_BYTES", len(NOTEBOOK) - 1)
     out = tmp_path / "deep" / "out"
-    lms.unpack(archive, lms.preset("moodle"), "hw1", out)
+    found = lms.unpack(archive, lms.preset("moodle"), "hw1", out)
     assert sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*.py")) == [
-        "deep/out/107/modules/__init__.py"
+        "deep/out/107/modules/__init__.py",
+        "deep/out/109/modules/__init__.py",
+        "deep/out/109/modules/planar/bodies.py",
     ]
+    assert not list(out.rglob("*.ipynb"))  # both notebooks over the (patched) size
+    reasons = {reason: len(paths) for reason, paths in found.skipped.items()}
+    assert reasons["with '..' in their names (not written)"] == 2
+    assert reasons["zips inside a hand-in zip (not opened)"] == 1
+    assert reasons["hand-in zips that cannot be opened (damaged, encrypted, over 256 MB)"] == 1
+    assert reasons["too large to be graded or damaged in the zip"] == 2
 
 
 def test_mbd_grade_collects_a_download_then_grades_the_student_folders(moodle, tmp_path, monkeypatch, capsys):
