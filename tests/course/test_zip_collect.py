@@ -91,12 +91,15 @@ def test_a_canvas_download_with_the_moodle_preset_exits_2_naming_canvas(course, 
 
 def test_without_a_preset_the_course_layout_is_collected_as_before(course, course_config, capsys):
     (archive(course) / "ada.zip").write_bytes(kit("ada", top="kit/"))
-    (archive(course) / "ben.zip").write_bytes(zipped({"notes.txt": b""}))
+    (archive(course) / "ben.zip").write_bytes(kit("ben", top="kit/", notebook="hw1-copy.ipynb"))
+    (archive(course) / "cy.zip").write_bytes(zipped({"notes.txt": b""}))
     assert zip_collect(course, course_config) == 0
-    folder = course / "build" / "submitted" / "ada" / HW
-    assert (folder / "modules" / "planar" / "bodies.py").read_text() == "# ada\n"
-    assert (folder / f"{HW}.ipynb").read_bytes() == NOTEBOOK
-    assert "named_regexp: 1 students, 3 files matched" in capsys.readouterr().err
+    submitted = course / "build" / "submitted"
+    assert (submitted / "ada" / HW / "modules" / "planar" / "bodies.py").read_text() == "# ada\n"
+    assert (submitted / "ada" / HW / f"{HW}.ipynb").read_bytes() == NOTEBOOK
+    assert sorted(p.name for p in (submitted / "ben" / HW).iterdir()) == ["modules"]  # strict: the copy dropped
+    assert sorted(p.name for p in submitted.iterdir()) == ["ada", "ben"]
+    assert "named_regexp: 2 students, 6 files matched" in capsys.readouterr().err
 
 
 def test_nothing_downloaded_is_one_line_and_exit_2(course, course_config, capsys):
