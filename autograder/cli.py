@@ -68,7 +68,7 @@ def grade_command(
     out = Path(out or f"grades-{homework}")
     if lms is not None or Path(submissions).is_file():
         with tempfile.TemporaryDirectory(prefix="mbd-lms-") as folder:
-            code = collected(homework, submissions, lms, Path(folder))
+            code = collect_download(homework, submissions, lms, Path(folder))
             if code is not None:
                 return code
             code = grade_command(homework, folder, out, jobs, unsafe_no_isolation, cluster, publish_hidden, roster)
@@ -125,7 +125,7 @@ def grade_command(
     return 0
 
 
-def collected(homework: str, download: str | Path, lms: str | None, folder: Path) -> int | None:
+def collect_download(homework: str, download: str | Path, lms: str | None, folder: Path) -> int | None:
     """Unpack a platform's download into ``folder`` (one folder per student) and print what was collected; the
     exit code when nothing can be graded (2, one line), None to go on."""
     try:

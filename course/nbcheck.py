@@ -241,12 +241,13 @@ def students(course: Path, homework: str) -> list[str]:
     extracted/ per student, or, after a platform's download (``LmsCollector.lms``), the students of its
     ``collected.csv`` (extracted/ then holds the download's own folders)."""
     downloaded = course / "build" / "downloaded" / homework
+    record = downloaded / COLLECTED
     names = set()
-    for folder in (course / "build" / "submitted", downloaded / "extracted"):
-        if folder.is_dir() and not (folder == downloaded / "extracted" and (downloaded / COLLECTED).is_file()):
+    for folder in (course / "build" / "submitted", *([] if record.is_file() else [downloaded / "extracted"])):
+        if folder.is_dir():
             names |= {p.name for p in folder.iterdir() if p.is_dir() and not p.name.startswith(".")}
-    if (downloaded / COLLECTED).is_file():
-        with open(downloaded / COLLECTED, newline="") as f:
+    if record.is_file():
+        with open(record, newline="") as f:
             names |= {row["student"] for row in csv.DictReader(f) if row.get("student")}
     return sorted(names)
 
