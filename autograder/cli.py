@@ -1,8 +1,14 @@
 """What ``mbd grade`` calls (``autograder/commands.py`` registers it; ``mbd selfcheck`` is ``mbdkit.cli``).
 
     mbd grade hwN SUBMISSIONS [--out DIR] [--jobs N] [--cluster local|tcp://HOST:PORT] [--unsafe-no-isolation]
-              [--publish-hidden] [--roster CSV]
-        ->  grade_command(homework, submissions, out, jobs, unsafe_no_isolation, cluster, publish_hidden, roster)
+              [--publish-hidden] [--roster CSV] [--lms moodle|canvas|REGEXP]
+        ->  grade_command(homework, submissions, out, jobs, unsafe_no_isolation, cluster, publish_hidden, roster, lms)
+
+With ``--lms`` (or given a zip), SUBMISSIONS is a learning platform's "download all submissions", its zip or the
+folder it was unpacked into: each student's notebook and ``modules/`` are collected into one folder per student
+id (``autograder.lms``: Moodle's participant number, Canvas's user id), counted in a few lines, then graded; the
+folders stay in ``OUT/submissions/`` with ``collected.csv`` (ids, names, late, notes). Nothing collected: one
+line saying what the preset expected (and the preset the names fit), exit code 2, no output folder.
 
 ``--jobs`` N > 1 (the default: the number of cores, at most 8) grades on a Dask LocalCluster of N worker
 processes (``--cluster local`` implied); ``--jobs 1`` grades one by one in this process: the rule of
@@ -27,6 +33,9 @@ nothing in are counted apart (``3 missing: ada, bob, eve``) and are "missing" in
 from __future__ import annotations
 
 import os
+import shutil
+import tempfile
+import zipfile
 from pathlib import Path
 
 from mbdkit.cli import error
@@ -34,6 +43,7 @@ from mbdkit.homework import available_homeworks
 from mbdkit.isolation import IsolationUnavailable
 from solutions.batch import BatchError, cluster_for
 
+from . import lms as platforms
 from .grading import ISOLATION_NOTE, Gradebook, GradingInterrupted, grade, read_roster
 from .secret import SecretMissing
 
@@ -50,13 +60,25 @@ def grade_command(
     cluster: str | None = None,
     publish_hidden: bool = False,
     roster: str | Path | None = None,
+    lms: str | None = None,
 ) -> int:
     """Grade every submission; print where the gradebook is and the score distribution."""
     if homework not in available_homeworks():
         return error(f"unknown homework {homework!r} (known: {', '.join(available_homeworks())})")
+    out = Path(out or f"grades-{homework}")
+    if lms is not None or Path(submissions).is_file():
+        with tempfile.TemporaryDirectory(prefix="mbd-lms-") as folder:
+            code = collect_download(homework, submissions, lms, Path(folder))
+            if code is not None:
+                return code
+            code = grade_command(homework, folder, out, jobs, unsafe_no_isolation, cluster, publish_hidden, roster)
+            if out.is_dir():
+                shutil.rmtree(out / "submissions", ignore_errors=True)
+                shutil.copytree(folder, out / "submissions")
+                print(f"submissions: {out / 'submissions'} (ids, names, notes: {platforms.COLLECTED} there)")
+            return code
     if not Path(submissions).is_dir():
         return error(f"no folder {submissions} (give nbgrader's submitted/ folder or a folder of student folders)")
-    out = Path(out or f"grades-{homework}")
     jobs = jobs or min(os.cpu_count() or 1, 8)
     try:
         cluster = cluster_for(jobs, cluster)  # more than one job: a LocalCluster of `jobs` worker processes
@@ -101,6 +123,29 @@ def grade_command(
     if book.isolation != "os":
         print(f"warning: graded {ISOLATION_NOTE[book.isolation]}")
     return 0
+
+
+def collect_download(homework: str, download: str | Path, lms: str | None, folder: Path) -> int | None:
+    """Unpack a platform's download into ``folder`` (one folder per student) and print what was collected; the
+    exit code when nothing can be graded (2, one line), None to go on."""
+    try:
+        chosen = platforms.preset(lms) if lms is not None else None
+    except platforms.LmsError as err:
+        return error(f"--lms: {err}")
+    try:
+        if chosen is None:
+            with platforms.Download(download) as found:
+                guess = platforms.hint(found.paths, homework, "--lms {}")
+            raise platforms.LmsError(
+                f"{download} is a file: say which platform it was downloaded from, --lms moodle|canvas|REGEXP{guess}"
+            )
+        found = platforms.unpack(download, chosen, homework, folder)
+    except (platforms.LmsError, OSError, zipfile.BadZipFile) as err:
+        return error(str(err))
+    if not found.handed_in:
+        return error(found.nothing(str(download), "--lms {}"))
+    print(found.summary(str(download)))
+    return None
 
 
 def summary(book: Gradebook) -> str:

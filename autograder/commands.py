@@ -13,7 +13,10 @@ def add_grade(sub) -> None:
     """``mbd grade hwN SUBMISSIONS [...]`` (``autograder.cli.grade_command``)."""
     grade = sub.add_parser("grade", help="grade every submission of homework hwN (instructor)")
     grade.add_argument("homework", help="hw1, hw2 or hw3")
-    grade.add_argument("submissions", help="nbgrader's submitted/ folder, or a folder of student folders")
+    grade.add_argument(
+        "submissions",
+        help="nbgrader's submitted/ folder, a folder of student folders, or a platform's download (--lms)",
+    )
     grade.add_argument("--out", help="folder for the gradebook, results and feedback (default: grades-hwN)")
     grade.add_argument(
         "--jobs",
@@ -41,6 +44,12 @@ def add_grade(sub) -> None:
         metavar="CSV",
         help="the class list (a column 'student'): a student without a submission is 'missing' in the gradebook",
     )
+    grade.add_argument(
+        "--lms",
+        metavar="moodle|canvas|REGEXP",
+        help="SUBMISSIONS is this platform's 'download all submissions' (its zip or unpacked folder): collected into "
+        "one folder per student id first; REGEXP names one student's folder or file with (?P<student_id>...)",
+    )
     grade.set_defaults(handler=_grade)
 
 
@@ -56,6 +65,7 @@ def _grade(args: argparse.Namespace) -> int:
         cluster=args.cluster,
         publish_hidden=args.publish_hidden,
         roster=args.roster,
+        lms=args.lms,
     )
 
 

@@ -26,12 +26,15 @@ student has nothing collected), else 0. nbgrader's ``autograde`` runs this check
 from __future__ import annotations
 
 import copy
+import csv
 import shutil
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import nbformat
+
+from autograder.lms import COLLECTED
 
 ROOT = Path(__file__).resolve().parents[1]
 FORMAT = 4
@@ -234,11 +237,18 @@ def check_student(course: Path, homework: str, student: str, release: dict, repa
 
 
 def students(course: Path, homework: str) -> list[str]:
-    """The students with a folder in build/submitted/ or an archive unpacked for ``homework``."""
+    """The students with a folder in build/submitted/ or an archive unpacked for ``homework``: a folder of
+    extracted/ per student, or, after a platform's download (``LmsCollector.lms``), the students of its
+    ``collected.csv`` (extracted/ then holds the download's own folders)."""
+    downloaded = course / "build" / "downloaded" / homework
+    record = downloaded / COLLECTED
     names = set()
-    for folder in (course / "build" / "submitted", course / "build" / "downloaded" / homework / "extracted"):
+    for folder in (course / "build" / "submitted", *([] if record.is_file() else [downloaded / "extracted"])):
         if folder.is_dir():
             names |= {p.name for p in folder.iterdir() if p.is_dir() and not p.name.startswith(".")}
+    if record.is_file():
+        with open(record, newline="") as f:
+            names |= {row["student"] for row in csv.DictReader(f) if row.get("student")}
     return sorted(names)
 
 

@@ -187,12 +187,37 @@ def _release_the_kit(assignment, student, notebooks):
 # the formgrader call nbgrader's API, where this section does not apply.
 c.GenerateAssignmentApp.GenerateAssignment.post_convert_hook = _release_the_kit
 
-# `nbgrader zip_collect hwN`: put one zip (or folder) per student, named with the student's id, into
-# build/downloaded/hwN/archive/ (unpack a platform's "download all" archive that way). It holds hwN.ipynb and
-# modules/, directly or in one folder (the kit folder the student zipped); nothing else is collected (the
-# scenes come from assignments/hwN/ at autograde). Adapt named_regexp where the platform names files otherwise.
+# `nbgrader zip_collect hwN`: put what the learning platform gave into build/downloaded/hwN/archive/, and say
+# which platform it came from (autograder/lms.py has how each names its files):
+#   - LmsCollector.lms = "moodle": Moodle's "Download all submissions" zip (folders or files named
+#     'Full Name_12345_assignsubmission_file...'); the student id is the participant number 12345;
+#   - LmsCollector.lms = "canvas": Canvas's "Download Submissions" zip ('lastnamefirstname_12345_67890_hw1-handin.zip',
+#     '..._LATE_12345_...' when late); the student id is the user id 12345;
+#   - LmsCollector.lms = r"REGEXP", any other platform: a regular expression matching the name of ONE student's
+#     folder or file (re.fullmatch), with (?P<student_id>...) and optionally (?P<name>...), (?P<late>...),
+#     (?P<timestamp>...) (the later of two hand-ins wins) and (?P<file_id>...) (the student's own file name, when
+#     the platform puts it in the same name). E.g. files named 'hw1_s1234567_2026-05-01T10-00_hw1-handin.zip':
+#     r"hw1_(?P<student_id>s\d+)_(?P<timestamp>[\dT-]+)_(?P<file_id>.+)";
+#   - LmsCollector.lms = "" (the default): nbgrader's own named_regexp below, one zip or folder per student,
+#     named with the student's id, as before.
+# Set it here, or per command: `nbgrader zip_collect hw1 --LmsCollector.lms=moodle`. With a preset, each
+# student's hwN.ipynb and modules/ are taken from the shallowest folder holding modules/ (the hand-in zip of
+# `mbd handin`, or a zip of the whole kit folder); nothing else is collected (the scenes come from
+# assignments/hwN/ at autograde). zip_collect prints what it collected and skipped, by reason, in a few lines
+# (build/downloaded/hwN/collected.csv: ids, names, late, notes), and exits with code 2 and one line saying
+# what was expected when it collected nothing.
 c.ZipCollectApp.downloaded_directory = os.path.join("build", "downloaded")  # relative to the root, as nbgrader needs
 c.ZipCollectApp.strict = True  # skip notebooks that are not the released one (copies, renamed files)
+
+
+def _collector():
+    from autograder.lms import zip_collect_plugin
+
+    return zip_collect_plugin()
+
+
+c.ZipCollectApp.collector_plugin = _collector()
+c.LmsCollector.lms = ""
 c.FileNameCollectorPlugin.valid_ext = [".ipynb", ".py", ".json"]
 c.FileNameCollectorPlugin.named_regexp = (
     r".*[/\\]extracted[/\\](?P<student_id>[^/\\._][^/\\]*)[/\\](?:[^/\\._][^/\\]*[/\\])?"
