@@ -119,6 +119,32 @@ def _feedback_steps() -> list:
 c.GenerateFeedback.preprocessors = _feedback_steps()
 
 
+def _generate_steps() -> list:
+    """nbgrader's generate steps, after one that makes each 'eq. N.M' of the statement a link into the kit's
+    notes (``notes/chNN_*.html#eq-N.M``, the site ``mbd release`` puts beside the notebook): before the locked
+    cells' checksums are computed, so a student's notebook validates."""
+    from nbconvert.preprocessors import Preprocessor
+    from nbgrader.converters.generate_assignment import GenerateAssignment
+    from traitlets import Bool
+
+    from course.notes import linked, note_pages
+
+    class LinkEquations(Preprocessor):
+        enabled = Bool(True)
+
+        def preprocess(self, nb, resources):
+            pages = note_pages()
+            for cell in nb.cells:
+                if cell.cell_type == "markdown":
+                    cell.source = linked(cell.source, pages)
+            return nb, resources
+
+    return [LinkEquations, *GenerateAssignment.class_traits()["preprocessors"].default()]
+
+
+c.GenerateAssignment.preprocessors = _generate_steps()
+
+
 def _sanitized_pages() -> list:
     """Every HTML page nbgrader makes of a submission (the feedback pages, the formgrader's): the student's
     markup cleaned first (``autograder.views.student_html_sanitized``): nbconvert renders a notebook's HTML and

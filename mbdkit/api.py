@@ -27,7 +27,7 @@ import os
 import sys
 from pathlib import Path
 
-from . import staging
+from . import notes, staging
 from .checks import Outcome
 from .homework import load_homework
 from .runner import PACKAGE, PublicData, run_checks
@@ -120,9 +120,23 @@ def check(homework: str, group: str, path: str | Path | None = None) -> None:
     if failed:
         lines = [f"{len(failed)} of {len(outcomes)} checks of {homework} {group} failed:"]
         lines += [f"- {o.name}: {o.message}" for o in failed]
+        show_equations("\n".join(lines), Path(path or "."))
         raise AssertionError("\n".join(lines))
     print(f"{homework} {group}: all {len(outcomes)} checks passed")
     return None
+
+
+def show_equations(text: str, folder: Path) -> None:
+    """In a notebook, display the equations ``text`` cites, rendered, each linked into the kit's notes
+    (``notes.markdown``); elsewhere, or with nothing cited, nothing."""
+    shown = notes.markdown(text, folder)
+    if shown is None or "IPython" not in sys.modules:
+        return
+    from IPython import get_ipython
+    from IPython.display import Markdown, display
+
+    if get_ipython() is not None:
+        display(Markdown(shown))
 
 
 def selfcheck(homework: str, path: str | Path | None = None, stream=None) -> int:
@@ -143,6 +157,10 @@ def selfcheck(homework: str, path: str | Path | None = None, stream=None) -> int
         if not o.passed:
             stream.write(f"     {o.message}\n")
     passed = sum(o.passed for o in outcomes)
+    cited = notes.terminal_lines("\n".join(o.message for o in outcomes if not o.passed), Path(path or "."))
+    if cited:
+        stream.write("\nThe equations cited above, in the course notes (open in a browser):\n")
+        stream.write("\n".join(cited) + "\n")
     stream.write(
         f"\n{homework}: {passed} of {len(outcomes)} public checks pass, {score:g} of {total:g} points. "
         "The grader also runs hidden variants of these scenes and your own variant of each.\n"

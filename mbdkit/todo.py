@@ -13,6 +13,8 @@ import ast
 from dataclasses import dataclass
 from pathlib import Path
 
+from . import notes
+
 
 @dataclass(frozen=True)
 class Left:
@@ -113,4 +115,8 @@ def report(
     if not every:
         first = left[0]
         lines.append(f"Start with {first.function} in {package_name}/{first.path} (the list is in the course's order).")
+        lines += [
+            f"Its equation in the course notes (open in a browser): {notes.link(label)}"
+            for label in notes.cited(first.says)[:1]
+        ]
     return "\n".join(lines) + "\n"

@@ -40,3 +40,44 @@ def equation_labels(path: Path) -> list[str]:
 def section_numbers(path: Path) -> list[str]:
     """The numbered sections of a chapter: headings '## N.M title'."""
     return [m.group(1) for source in markdown_sources(path) for m in re.finditer(r"^##\s+(\d+\.\d+)\s", source, re.M)]
+
+
+DISPLAY = re.compile(r"\$\$(.*?)\$\$", re.S)
+"""A display equation of a chapter's markdown."""
+
+
+def equation_texts(path: Path) -> dict[str, str]:
+    """{label: the TeX of the display that holds ``\\tag{label}``, tag left out} of a chapter."""
+    texts = {}
+    for source in markdown_sources(path):
+        for display in DISPLAY.finditer(source):
+            for label in TAG.findall(display.group(1)):
+                texts[label] = " ".join(TAG.sub("", display.group(1)).split())
+    return texts
+
+
+CITED = re.compile(r"\b(eqs?\.\s*)(\d+\.\d+(?:\s*(?:,|-|–|and|to)\s*\d+\.\d+)*)")
+"""'eq. 3.17', 'eqs. 4.5, 4.6' in a notebook's prose: each number becomes a link into the notes."""
+LITERAL = re.compile(r"(`[^`]*`|\$\$.*?\$\$|\$[^$]*\$)", re.S)
+"""Code spans and math, left as they are."""
+
+
+def linked(source: str, pages: dict[str, str]) -> str:
+    """Markdown ``source`` with each 'eq. N.M' of its prose a link to ``pages[N.M]#eq-N.M`` (``pages``: the
+    label's page in the notes' site as seen from the notebook, e.g. 'notes/ch03_planar_constraints.html');
+    code spans, math and labels the notes do not hold are left as they are."""
+
+    def one(match: re.Match) -> str:
+        label = match.group(0)
+        return f"[{label}]({pages[label]}#eq-{label})" if label in pages else label
+
+    def link(match: re.Match) -> str:
+        return match.group(1) + re.sub(r"\d+\.\d+", one, match.group(2))
+
+    parts = LITERAL.split(source)
+    return "".join(part if k % 2 else CITED.sub(link, part) for k, part in enumerate(parts))
+
+
+def note_pages(folder: str = "notes") -> dict[str, str]:
+    """{label: its chapter's page in the site ``folder``} for every labelled equation of the notes."""
+    return {label: f"{folder}/{path.stem}.html" for path in chapters() for label in equation_labels(path)}

@@ -24,6 +24,7 @@ import shutil
 import tomllib
 from pathlib import Path
 
+from course.notes import chapters, equation_texts
 from course.notes.build import kit_notes
 from mbdkit.homework import CheckSpec, load_homework
 from mbdkit.stored import load_reference, save_reference
@@ -117,7 +118,18 @@ def write_checker(
         keys = {c.probe_key for c in checks if c.scene == scene}
         stored = load_reference(scene, grader / "reference" / "public" / f"{scene}.npz").restricted(keys)
         save_reference(stored, data / "reference" / "public" / f"{scene}.npz")
+    (data / EQUATIONS).write_text(json.dumps(equations_of_the_notes(), indent=0, sort_keys=True))
     return checks
+
+
+EQUATIONS = "equations.json"
+"""The checker's copy of the notes' labelled equations (``mbdkit.notes``: a failed check shows those it cites)."""
+
+
+def equations_of_the_notes() -> dict[str, list[str]]:
+    """{"3.17": [its chapter's page in the kit's notes/, its TeX]} for every labelled equation of the notes."""
+    pages = {path.with_suffix(".html").name: equation_texts(path) for path in chapters()}
+    return {label: [page, tex] for page, texts in pages.items() for label, tex in texts.items()}
 
 
 def course_dependencies(course_dir: Path = REPO) -> list[str]:
@@ -233,7 +245,7 @@ def build_kit(folder: Path, homework: str, to_write: list[tuple[str, str]], cour
     (folder / "README.md").write_text(readme(homework, spec.title, to_write, checks))
     site, _ = kit_notes()
     shutil.copytree(site, folder / NOTES, dirs_exist_ok=True)
-    shutil.copytree(course_dir / "course" / "models", folder / MODELS, dirs_exist_ok=True)
+    shutil.copytree(REPO / "course" / "models", folder / MODELS, dirs_exist_ok=True)  # as the notes: the code's
     checker = [p for p in (folder / CHECKER).rglob("*") if p.is_file()]
     models = sorted((folder / MODELS).iterdir())
     written = [folder / "pyproject.toml", folder / "README.md", folder / NOTES / "index.html", *models, *checker]

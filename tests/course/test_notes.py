@@ -309,3 +309,18 @@ def test_every_heading_and_display_of_a_chapter_is_on_its_page(site, path):
     page = page[page.index('role="main"') : page.index('class="footer"')]  # the chapter, not the sidebar
     assert len(re.findall(r"<h[123][ >]", page)) == headings
     assert page.count('<div class="math notranslate nohighlight">') == displays
+
+
+def test_a_statement_links_each_equation_it_cites_into_the_notes():
+    from course.notes import linked, note_pages
+
+    pages = note_pages()
+    text = "Write eq. 3.17 (see `eq. 3.17` and $eq. 3.17$); eqs. 4.5, 4.6; eq. 2.1-2.5; eq. 99.9."
+    assert linked(text, pages) == (
+        "Write eq. [3.17](notes/ch03_planar_constraints.html#eq-3.17) (see `eq. 3.17` and $eq. 3.17$); "
+        "eqs. [4.5](notes/ch04_assembly_kinematic_analysis.html#eq-4.5), "
+        "[4.6](notes/ch04_assembly_kinematic_analysis.html#eq-4.6); "
+        "eq. [2.1](notes/ch02_planar_body_kinematics.html#eq-2.1)-"
+        "[2.5](notes/ch02_planar_body_kinematics.html#eq-2.5); "
+        "eq. 99.9."
+    )

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib
+import json
 import re
 import shutil
 import subprocess
@@ -107,6 +108,11 @@ def test_the_kit_holds_the_notes_citing_only_what_it_holds(released, homework):
     cited = set(re.findall(r"\b((?:modules|models)/[\w/]+\.(?:py|yaml))", text))
     assert len(cited) > 10 and [path for path in sorted(cited) if not (folder / path).exists()] == []
     assert "course notes:     " in reports[homework].summary()
+    statement = "\n".join(c.source for c in nbformat.read(folder / f"{homework}.ipynb", as_version=4).cells)
+    links = re.findall(r"\]\((notes/[\w.]+\.html)#eq-(\d+\.\d+)\)", statement)  # eq. N.M of the statement
+    assert len(links) >= 5 and all((folder / page).exists() and f'id="eq-{n}"' in pages[page[6:]] for page, n in links)
+    equations = json.loads((folder / "mbdkit" / "data" / "equations.json").read_text())  # what a check cites
+    assert len(equations) > 150 and all((notes / page).exists() for page, _ in equations.values())
 
 
 def test_each_release_stubs_its_own_homework_and_fills_in_the_earlier_ones(released):
