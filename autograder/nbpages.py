@@ -82,6 +82,16 @@ def written_outcomes(outcomes: list) -> list[dict]:
     return [{key: getattr(o, key) for key in keys} for o in outcomes]
 
 
+def likely_cause(outcome) -> str:
+    """A failed check's cause on nbgrader's page: its likely cause where the checker names one (the checks that
+    a sign error in Revolute.gamma fails on every scene are one cause there; each cell below keeps its message
+    with the numbers), else its message without the scene (``autograder.feedback.cause_of``)."""
+    from .feedback import cause_of
+
+    _, named, cause = outcome.message.partition("Likely cause: ")
+    return f"Likely cause: {cause}" if named else cause_of(outcome)
+
+
 def feedback_summary():
     """The ``generate_feedback`` step after ``GetGrades``: each graded test cell labelled by its group
     (``cell.metadata.nbgrader.mbd_group``), and ``resources["mbd"]``: the checks' points and maximum (the
@@ -121,7 +131,7 @@ def feedback_summary():
                 "max_score": round(checks[1], 6),
                 "written": round(written[0], 6),
                 "written_max": round(written[1], 6),
-                "causes": causes_part(outcomes),
+                "causes": causes_part(outcomes, likely_cause),
                 "passed": {
                     g: f"{sum(o.passed for o in outcomes if o.group == g)} of "
                     f"{sum(o.group == g for o in outcomes)} checks passed"
