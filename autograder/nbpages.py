@@ -82,6 +82,26 @@ def written_outcomes(outcomes: list) -> list[dict]:
     return [{key: getattr(o, key) for key in keys} for o in outcomes]
 
 
+def kept_outcomes(nb) -> list:
+    """The outcomes ``GraderPoints`` kept in an autograded notebook (none in one autograded before it kept them,
+    or whose entry is not what it writes)."""
+    from mbdkit.checks import Outcome
+
+    kept = nb.metadata.get(OUTCOMES, {}).get("outcomes", [])
+    try:
+        return [Outcome(**o) for o in kept]
+    except TypeError:
+        return []
+
+
+def passed_by_group(outcomes: list) -> dict[str, str]:
+    """{group: "4 of 6 checks passed"} of the outcomes."""
+    groups: dict[str, list] = {}
+    for o in outcomes:
+        groups.setdefault(o.group, []).append(o.passed)
+    return {group: f"{sum(passed)} of {len(passed)} checks passed" for group, passed in groups.items()}
+
+
 def likely_cause(outcome) -> str:
     """A failed check's cause on nbgrader's page: its likely cause where the checker names one (the checks that
     a sign error in Revolute.gamma fails on every scene are one cause there; each cell below keeps its message
@@ -100,8 +120,6 @@ def feedback_summary():
     from nbconvert.preprocessors import Preprocessor
     from nbgrader.utils import is_grade, is_solution
     from traitlets import Bool
-
-    from mbdkit.checks import Outcome
 
     from .api import check_call
     from .feedback import causes_part
@@ -124,19 +142,14 @@ def feedback_summary():
                 grades["mbd_group"] = call[1] if call else grades.get("grade_id", "test")
                 checks[0] += score
                 checks[1] += points
-            kept = nb.metadata.get(OUTCOMES, {}).get("outcomes", [])
-            outcomes = [Outcome(**o) for o in kept if isinstance(o, dict)] if isinstance(kept, list) else []
+            outcomes = kept_outcomes(nb)
             resources["mbd"] = {
                 "score": round(checks[0], 6),
                 "max_score": round(checks[1], 6),
                 "written": round(written[0], 6),
                 "written_max": round(written[1], 6),
                 "causes": causes_part(outcomes, likely_cause),
-                "passed": {
-                    g: f"{sum(o.passed for o in outcomes if o.group == g)} of "
-                    f"{sum(o.group == g for o in outcomes)} checks passed"
-                    for g in {o.group for o in outcomes}
-                },
+                "passed": passed_by_group(outcomes),
             }
             return nb, resources
 
