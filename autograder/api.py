@@ -11,7 +11,8 @@ preprocessors (``autograde_steps``):
   grader itself, outside the notebook: every check of the homework in the grader's sandbox, as ``mbd grade``
   does (``autograder.grading.run_checks``, the student's id being nbgrader's), and puts in place of each test
   cell's output the grader's report of that cell's group, with its points as the cell's result, which is
-  what nbgrader's ``SaveAutoGrades`` then records.
+  what nbgrader's ``SaveAutoGrades`` then records; the outcomes of the graded cells' checks are kept in the
+  notebook's metadata (``autograder.nbpages.OUTCOMES``: the feedback page's summary).
 - ``SaveGraderPoints`` (after ``SaveAutoGrades``) writes the same points through nbgrader's gradebook API
   (``Gradebook.find_grade``, ``auto_score``) for every test cell of the notebook as the instructor released
   it, also a cell the student deleted: nothing the notebook does changes them.
@@ -32,6 +33,7 @@ from nbgrader.preprocessors import Execute, NbGraderPreprocessor
 from nbgrader.utils import is_grade, is_solution
 
 from .kernel import SandboxedKernelManager
+from .nbpages import OUTCOMES, written_outcomes
 
 POINTS = "grader_points"
 """Where ``GraderPoints`` leaves the points, per test cell, in nbgrader's resources for ``SaveGraderPoints``."""
@@ -139,6 +141,8 @@ class GraderPoints(NbGraderPreprocessor):
                     new_output("execute_result", data={"text/plain": repr(points[name])}, execution_count=None),
                 ]
         resources[POINTS] = points
+        graded = [o for group in dict.fromkeys(group for group, _ in cells.values()) for o in outcomes[group]]
+        nb.metadata[OUTCOMES] = {"outcomes": written_outcomes(graded)}  # the feedback page's summary (nbpages.py)
         return nb, resources
 
 

@@ -78,12 +78,13 @@ def cause_of(outcome: Outcome) -> str:
     return outcome.message[len(prefix) :] if outcome.message.startswith(prefix) else outcome.message
 
 
-def causes(outcomes: list[Outcome]) -> list[tuple[str, list[Outcome]]]:
-    """Each distinct cause of the failed checks with the checks it fails, the most points lost first."""
+def causes(outcomes: list[Outcome], key=cause_of) -> list[tuple[str, list[Outcome]]]:
+    """Each distinct cause of the failed checks (``key`` of a check: its cause) with the checks it fails, the
+    most points lost first."""
     by_cause: dict[str, list[Outcome]] = {}
     for o in outcomes:
         if not o.passed:
-            by_cause.setdefault(cause_of(o), []).append(o)
+            by_cause.setdefault(key(o), []).append(o)
     return sorted(by_cause.items(), key=lambda item: -sum(o.max_points - o.points for o in item[1]))
 
 
@@ -98,15 +99,19 @@ def summary_part(outcomes: list[Outcome]) -> str:
         for group, done in groups.items()
     )
     parts = [f'<h2>By group</h2><table class="groups"><tr><th>group</th><th>points</th><th></th></tr>{rows}</table>']
+    return "\n".join([*parts, causes_part(outcomes)]).rstrip("\n")
+
+
+def causes_part(outcomes: list[Outcome], key=cause_of) -> str:
+    """Each cause of the failures once (``key``: see ``causes``), with the checks and points it costs, the
+    costliest first ("" if none failed); nbgrader's feedback page shows it first too (autograder/nbpages.py)."""
     items = []
-    for cause, failed in causes(outcomes):
+    for cause, failed in causes(outcomes, key):
         lost, touched = sum(o.max_points - o.points for o in failed), ", ".join(dict.fromkeys(o.group for o in failed))
         count = f"{len(failed)} check{'s' if len(failed) > 1 else ''}"
         items.append(f'<li class="cause"><b>{count}, {lost:g} points</b> ({html.escape(touched)}): ')
         items[-1] += f"<code>{html.escape(cause)}</code></li>"
-    if items:
-        parts.append(f'<h2>What to fix, the costliest first</h2><ol class="causes">{"".join(items)}</ol>')
-    return "\n".join(parts)
+    return f'<h2>What to fix, the costliest first</h2><ol class="causes">{"".join(items)}</ol>' if items else ""
 
 
 def hidden_tests(tests: list[dict]) -> list[dict]:

@@ -107,13 +107,16 @@ c.Autograde.autograde_preprocessors = _autograde_steps()
 
 
 def _feedback_steps() -> list:
-    """nbgrader's feedback steps, then the notebook's mechanism views given a player in the page, each checked
+    """nbgrader's feedback steps, then each graded cell's group, the page's total and summary
+    (``autograder/nbpages.py``), and the notebook's mechanism views given a player in the page, each checked
     first: the student's code made them (``autograder/views.py``)."""
     from nbgrader.converters.generate_feedback import GenerateFeedback
 
+    from autograder.nbpages import feedback_summary, mathjax_beside
     from autograder.views import views_in_feedback
 
-    return [*GenerateFeedback.class_traits()["preprocessors"].default(), views_in_feedback()]
+    defaults = GenerateFeedback.class_traits()["preprocessors"].default()
+    return [*defaults, feedback_summary(), mathjax_beside(), views_in_feedback()]
 
 
 c.GenerateFeedback.preprocessors = _feedback_steps()
@@ -143,6 +146,33 @@ def _generate_steps() -> list:
 
 
 c.GenerateAssignment.preprocessors = _generate_steps()
+
+
+def _templates() -> tuple[list, list]:
+    """(template base folders, further template folders) of nbgrader's pages: nbgrader's own and the course's
+    (``autograder/templates``: mbd_feedback and mbd_formgrade extend nbgrader's feedback and formgrade pages,
+    found through nbgrader's templates folder; mbd_shared holds their MathJax set-up)."""
+    import nbgrader
+
+    from autograder.nbpages import TEMPLATES
+
+    formgrader = os.path.join(os.path.dirname(nbgrader.__file__), "server_extensions", "formgrader")
+    bootstrap = os.path.join(formgrader, "static", "node_modules", "bootstrap", "dist", "css")  # the feedback's CSS
+    folders = [os.path.join(formgrader, "templates"), str(TEMPLATES)]
+    return folders, [bootstrap, folders[0], str(TEMPLATES / "mbd_shared")]
+
+
+# nbgrader's pages of a submission with the course's templates (autograder/nbpages.py): the feedback page labels each
+# graded cell by its group, has one total and mbd grade's summary, wraps long lines and renders its equations
+# with the MathJax written beside it; the formgrader's page (its exporter has no parent: c.HTMLExporter) loads
+# the Jupyter server's MathJax (jupyter_server_mathjax). The feedback's exporter is GenerateFeedback's child:
+# its section wins over c.HTMLExporter there.
+c.HTMLExporter.extra_template_basedirs, c.HTMLExporter.extra_template_paths = _templates()
+c.HTMLExporter.template_name = "mbd_formgrade"
+c.GenerateFeedback.HTMLExporter.template_name = "mbd_feedback"
+c.GenerateFeedback.HTMLExporter.extra_template_basedirs, c.GenerateFeedback.HTMLExporter.extra_template_paths = (
+    _templates()
+)
 
 
 def _sanitized_pages() -> list:

@@ -161,8 +161,10 @@ def selfcheck(homework: str, path: str | Path | None = None, stream=None) -> int
     if cited:
         stream.write("\nThe equations cited above, in the course notes (open in a browser):\n")
         stream.write("\n".join(cited) + "\n")
+    scale = load_homework(homework).out_of  # the homework's total as it is graded (a kit holds the public checks)
     stream.write(
-        f"\n{homework}: {passed} of {len(outcomes)} public checks pass, {score:g} of {total:g} points. "
-        "The grader also runs hidden variants of these scenes and your own variant of each.\n"
+        f"\n{homework}: {passed} of {len(outcomes)} public checks pass, {score:g} of the {total:g} points they carry. "
+        f"The homework is out of {scale:g}: the other {scale - total:g} points are the hidden variants of these "
+        "scenes and your own variant of each, which the grader runs when the instructor grades.\n"
     )
     return 0 if passed == len(outcomes) else 1

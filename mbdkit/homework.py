@@ -83,10 +83,18 @@ class Homework:
     file: ``mbd todo``); empty in the course's own files."""
     """Groups graded only by the instructor (hidden scenes, the student's own variants), named in a kit's
     file, which holds the public checks only."""
+    total: float | None = None
+    """The points of all the homework's checks where the file holds only some (``total`` in a kit's file: the
+    self-check says the homework's scale, not the public checks' points alone)."""
 
     @property
     def max_score(self) -> float:
         return sum(c.points for c in self.checks)
+
+    @property
+    def out_of(self) -> float:
+        """The homework's total as it is graded (``total``, else the points of its checks)."""
+        return self.total if self.total is not None else self.max_score
 
     def public(self) -> list[CheckSpec]:
         """The checks a student can run before submitting (public scenes only)."""
@@ -173,4 +181,7 @@ def load_homework(homework: str | Path) -> Homework:
     groups = tuple(data.get("instructor_groups", ()))
     budget = float(data["budget"]) if "budget" in data else None
     to_write = tuple((str(file), str(function)) for file, function in data.get("to_write", ()))
-    return Homework(data.get("homework", path.stem), data.get("title", ""), checks, path, groups, budget, to_write)
+    total = float(data["total"]) if "total" in data else None
+    return Homework(
+        data.get("homework", path.stem), data.get("title", ""), checks, path, groups, budget, to_write, total
+    )

@@ -67,14 +67,17 @@ def checks_toml(
     checks: list[CheckSpec],
     instructor_groups: list[str],
     to_write: list[tuple[str, str]] = (),
+    total: float | None = None,
 ) -> str:
     """The kit's ``hwN.toml``: the public checks only, each written out in full (one scene each), the groups
-    only the instructor's grading runs and the functions students write (``mbd todo``)."""
+    only the instructor's grading runs, the functions students write (``mbd todo``) and the homework's total
+    (all its checks' points: what the self-check says the homework is out of)."""
     lines = [
         f"# {homework}: the public checks of the course's autograder (the instructor's grader also runs",
         "# hidden variants of these scenes and your own variant of each).",
         f"homework = {_toml_value(homework)}",
         f"title = {_toml_value(title)}",
+        *([f"total = {_toml_value(float(total))}"] if total is not None else []),
         f"instructor_groups = {_toml_value(instructor_groups)}",
         f"to_write = {_toml_value([list(pair) for pair in to_write])}",
     ]
@@ -112,7 +115,7 @@ def write_checker(
     data = target / "data"
     (data / "scenes").mkdir(parents=True)
     later = [group for group in spec.groups() if spec.graded_later(group)]
-    (data / f"{homework}.toml").write_text(checks_toml(spec.name, spec.title, checks, later, to_write))
+    (data / f"{homework}.toml").write_text(checks_toml(spec.name, spec.title, checks, later, to_write, spec.out_of))
     for scene in sorted({c.scene for c in checks}):
         shutil.copyfile(grader / "scenes" / f"{scene}.yaml", data / "scenes" / f"{scene}.yaml")
         keys = {c.probe_key for c in checks if c.scene == scene}

@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import copy
 import json
+import re
 from pathlib import Path
+from urllib.parse import urljoin
 
 import nbformat
 import pytest
@@ -74,20 +76,18 @@ HOSTILE_OUTPUT = "<img src=x onerror=\"fetch('/api')\"><table><tr><td>1.5</td></
 
 
 def rendered(template: str) -> str:
-    """A submission with a markdown answer and an output that carry scripts, made into nbgrader's page ``template``
-    ("feedback" or "formgrade") by an exporter with the course's nbgrader configuration, as nbgrader makes it."""
-    import nbgrader
+    """A submission with a markdown answer and an output that carry scripts, made into the course's page ``template``
+    ("mbd_feedback" or "mbd_formgrade", which extend nbgrader's) by an exporter with the course's nbgrader
+    configuration (its template folders, its steps), as nbgrader makes it."""
     from nbconvert import HTMLExporter
     from traitlets.config.loader import PyFileConfigLoader
 
+    from autograder.nbpages import feedback_summary
+
     config = PyFileConfigLoader("nbgrader_config.py", path=str(REPO / "course")).load_config()
-    formgrader = Path(nbgrader.__file__).parent / "server_extensions" / "formgrader"
-    exporter = HTMLExporter(
-        config=config,
-        template_name=template,
-        extra_template_basedirs=[str(formgrader / "templates")],
-        extra_template_paths=[str(formgrader / "static" / "node_modules" / "bootstrap" / "dist" / "css")],
-    )
+    exporter = HTMLExporter(config=config, template_name=template)
+    if template == "mbd_feedback":
+        exporter.register_preprocessor(feedback_summary(), enabled=True)  # the page's total (generate_feedback's)
     answer = {"solution": True, "grade": True, "grade_id": "why", "points": 2, "score": 1.0}
     nb = nbformat.v4.new_notebook()
     nb.cells = [
@@ -102,7 +102,7 @@ def rendered(template: str) -> str:
     return exporter.from_notebook_node(nb, resources=resources)[0]
 
 
-@pytest.mark.parametrize("template", ["feedback", "formgrade"])
+@pytest.mark.parametrize("template", ["mbd_feedback", "mbd_formgrade"])
 def test_no_script_a_student_writes_reaches_nbgraders_pages(template):
     """nbgrader's feedback page (returned to the student) and the formgrader's page (opened by the instructor in
     the Jupyter server's origin): the answer's script and the output's event handler are text, the JavaScript and
@@ -113,3 +113,31 @@ def test_no_script_a_student_writes_reaches_nbgraders_pages(template):
     assert "alert('js')" not in page and "alert('svg')" not in page
     assert "<td>1.5</td>" in page
     assert "A plain answer: $a &lt; b$ and <code>x&lt;y</code>." in page
+
+
+@pytest.mark.parametrize("template", ["mbd_feedback", "mbd_formgrade"])
+def test_nbgraders_pages_load_mathjax_from_the_wheel_not_a_cdn(template):
+    """nbgrader's templates call nbconvert's mathjax() without a URL (a CDN): the course's load the feedback
+    page's copy beside it (written by its step, autograder.nbpages.mathjax_beside) or the Jupyter server's
+    (jupyter_server_mathjax, relative to the formgrader's BASE/formgrader/submissions/ID/)."""
+    import jupyter_server_mathjax
+
+    from autograder.nbpages import MATHJAX_FILES, mathjax_beside
+
+    page = rendered(template)
+    sources = re.findall(r'<script[^>]* src="([^"]*)"', page)
+    mathjax = [url for url in sources if "MathJax.js" in url]
+    assert "cdnjs" not in page and not [url for url in sources if "://" in url], sources
+    assert len(mathjax) == 1 and 'webFont: "STIX-Web"' in page  # the only fonts the wheel ships
+    path = mathjax[0].split("?", 1)[0]
+    if template == "mbd_feedback":
+        assert path == "mathjax/MathJax.js"
+        _, resources = mathjax_beside()().preprocess(nbformat.v4.new_notebook(), {})
+        written = resources["outputs"]
+        assert "mathjax/MathJax.js" in written and "mathjax/config/TeX-AMS-MML_HTMLorMML-full.js" in written
+        assert mathjax[0].split("config=")[1].split(",")[0] == "TeX-AMS-MML_HTMLorMML-full"
+        assert len(MATHJAX_FILES) < len(written) < 300 and sum(map(len, written.values())) < 3_000_000
+    else:  # the server's static path of jupyter_server_mathjax, from the submission's page three folders down
+        server = urljoin("http://host/base/formgrader/submissions/1234/", path)
+        assert server == "http://host/base/static/jupyter_server_mathjax/MathJax.js"
+        assert (Path(jupyter_server_mathjax.__file__).parent / "static" / "MathJax.js").is_file()

@@ -30,6 +30,7 @@ from pathlib import Path
 import nbformat
 import pytest
 
+from autograder.api import check_call
 from autograder.grading import grade
 from course.demo import MUTATIONS, _mutate, scratch_course
 from course.release import build_package, release
@@ -381,6 +382,39 @@ def test_feedback_pages_show_the_graders_messages(cycle):
     if homework == "hw1":
         assert "FAIL four_bar.gamma.revolute" in pages["ben"] and "Likely cause: a sign error" in pages["ben"]
         assert "not implemented yet" in pages["sam"]
+    groups = [
+        check_call(c.source)[1]
+        for c in source.cells
+        if c.metadata.get("nbgrader", {}).get("grade_id", "")[:5] == "test_"
+    ]
+    for student in STUDENTS[homework]:
+        page = course / "build" / "feedback" / student / homework / f"{homework}.html"
+        read_as_the_course_returns_it(page, homework, cycle.book.score(student), cycle.book.max_score, groups)
+    if homework == "hw1":  # the likely cause before the cells, once for its two checks
+        text = pages["ben"]
+        assert text.index("What to fix, the costliest first") < text.index("Checks: bodies")
+        assert text.count("Likely cause: a sign error: you get minus the expected value") == 1 + 2  # summary, cell
+
+
+def read_as_the_course_returns_it(page: Path, homework: str, score: float, max_score: float, groups: list[str]):
+    """nbgrader's feedback page with the course's template (autograder/nbpages.py): one total, the checks' points
+    on the homework's scale (what mbd grade gives); every graded cell named by its group, none "Test cell";
+    long lines wrapped; MathJax from the folder beside the page, none from the network."""
+    text = page.read_text()
+    plain = html.unescape(
+        re.sub(r"<[^>]+>", "", re.sub(r"<script\b.*?</script>|<style\b.*?</style>", "", text, flags=re.S))
+    )
+    totals = re.findall(r"\b\d+(?:\.\d+)? / (\d+(?:\.\d+)?) points", plain)
+    assert totals == [f"{round(max_score, 2)}"] and f"{homework}: {round(score, 2)} / " in plain, (page, totals)
+    assert "Test cell" not in plain and "Grade cell" not in plain and "/ 110" not in plain
+    assert [g for g in groups if f"Checks: {g}" not in plain] == [], page
+    assert "white-space: pre-wrap" in text
+    sources = re.findall(r'<script[^>]* src="([^"]*)"', text)
+    assert sources == ["mathjax/MathJax.js?config=TeX-AMS-MML_HTMLorMML-full,Safe"], sources
+    assert "cdnjs.cloudflare.com/ajax/libs/mathjax" not in text
+    beside = page.parent / sources[0].split("?")[0]
+    assert beside.is_file() and (beside.parent / "config" / "TeX-AMS-MML_HTMLorMML-full.js").is_file()
+    assert (beside.parent / "fonts" / "HTML-CSS" / "STIX-Web" / "woff" / "STIXMathJax_Main-Regular.woff").is_file()
 
 
 ATTACKS = ("forged_", "hostile_notebook", "modules_link", "crash:", "leak:", "wall:")

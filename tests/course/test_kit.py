@@ -169,6 +169,7 @@ def test_selfcheck_in_a_fresh_venv_on_the_skeleton_and_on_the_reference(student_
     assert skeleton.returncode == 0, skeleton.stderr
     assert "not implemented yet" in skeleton.stdout and skeleton.stderr == ""
     assert f"0 of {len(public)} public checks pass, 0 of " in skeleton.stdout
+    assert "The homework is out of 100: the other " in skeleton.stdout  # its scale, as graded, not the public points
     asked = [(r.path, r.function) for r in all_regions() if r.tag == homework]
     asked = list(dict.fromkeys(asked))  # what the release asked of this homework, from the course's regions
     todo = run(["mbd", "todo", homework], kit, env)

@@ -18,6 +18,7 @@ from nbclient.exceptions import CellExecutionError
 from course.release import HOMEWORKS, ReleaseError, build_modules, find_leaks, release
 from course.release.generator import REPO, all_regions, source_files
 from course.release.release import load_config
+from mbdkit.homework import load_homework
 
 from ..conftest import execute_notebook
 
@@ -84,6 +85,9 @@ def test_release_folder_holds_the_notebook_without_solutions_and_the_student_pac
     stubs = {"code": "raise NotImplementedError()", "markdown": "YOUR ANSWER HERE"}  # code, or a written answer
     assert solution_cells and all(stubs[c.cell_type] in c.source for c in solution_cells)
     assert graded_cells and all(c.metadata["nbgrader"]["points"] > 0 for c in graded_cells)
+    tests = sum(c.metadata["nbgrader"]["points"] for c in graded_cells if c not in solution_cells)
+    kit = load_homework(folder / "mbdkit" / "data" / f"{homework}.toml")  # the self-check's: public checks only
+    assert kit.out_of == tests == 100 and kit.max_score < kit.out_of  # it says the homework's scale, not 75
     assert sorted(report.files) == sorted(p.as_posix() for p in source_files(folder / "modules"))
     assert find_leaks(folder, homework, course) == []
     summary = report.summary()

@@ -246,37 +246,52 @@ TEMPLATE_CDN = ("https://cdnjs.cloudflare.com/ajax/libs/require.js/", "https://c
 """What nbconvert's templates still ask a CDN for (MathJax and require.js: issue 27 makes the math offline)."""
 
 
-def feedback_page(nb) -> str:
-    """The notebook's page as ``nbgrader generate_feedback`` writes it: nbgrader's feedback template and the
-    course's feedback steps (course/nbgrader_config.py: the views given their players, autograder/views.py)."""
-    import nbgrader
+def feedback_page(nb, folder: Path) -> Path:
+    """The notebook's page as ``nbgrader generate_feedback`` writes it into ``folder``: the course's feedback
+    template and steps (course/nbgrader_config.py: the views given their players, autograder/views.py; the total
+    and MathJax written beside the page, autograder/nbpages.py)."""
     from nbconvert import HTMLExporter
+    from nbconvert.writers import FilesWriter
     from traitlets.config.loader import PyFileConfigLoader
 
+    from autograder.nbpages import feedback_summary, mathjax_beside
     from autograder.views import views_in_feedback
 
     config = PyFileConfigLoader("nbgrader_config.py", path=str(REPO / "course")).load_config()
-    formgrader = Path(nbgrader.__file__).parent / "server_extensions" / "formgrader"
-    exporter = HTMLExporter(
-        config=config,  # the course's: the student's markup cleaned first (autograder.views.student_html_sanitized)
-        template_name="feedback",
-        extra_template_basedirs=[str(formgrader / "templates")],
-        extra_template_paths=[str(formgrader / "static" / "node_modules" / "bootstrap" / "dist" / "css")],
-    )
-    exporter.register_preprocessor(views_in_feedback(), enabled=True)
-    graded = {"notebook": "views", "score": 1.0, "max_score": 2.0, "late_penalty": 0.0}
-    body, _ = exporter.from_notebook_node(nb, resources={"nbgrader": graded})
-    return body
+    exporter = HTMLExporter(config=config, template_name="mbd_feedback")  # the student's markup cleaned first
+    for step in (feedback_summary(), mathjax_beside(), views_in_feedback()):
+        exporter.register_preprocessor(step, enabled=True)
+    graded = {"notebook": "feedback", "score": 1.0, "max_score": 2.0, "late_penalty": 0.0}
+    body, resources = exporter.from_notebook_node(nb, resources={"nbgrader": graded})
+    FilesWriter(build_directory=str(folder)).write(body, resources, notebook_name="feedback")  # as nbgrader's writer
+    return folder / "feedback.html"
+
+
+EQUATION = "The revolute joint, eq. 3.17: $$\\Psi = \\mathbf{r}_i + \\mathbf{A}_i \\mathbf{s}'_i - \\mathbf{r}_j = 0$$"
+"""A cell with an equation for the feedback page (the notebook's cells have none; hw1's statement has 24)."""
 
 
 def test_the_views_play_in_nbgraders_feedback_page_offline(notebook, browser, tmp_path):
     """The executed notebook's two views (planar and spatial) in the feedback page nbgrader writes: each has a
-    non-zero size and plays on the first click, the page opened from disk, plotly.js inside it."""
+    non-zero size and plays on the first click, the page opened from disk, plotly.js inside it; its equation
+    rendered by the MathJax written beside it, every request that is not a file aborted."""
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
-    page_file = tmp_path / "feedback.html"
-    page_file.write_text(feedback_page(nbformat.read(notebook, as_version=4)), encoding="utf-8")
+    nb = nbformat.read(notebook, as_version=4)
+    nb.cells.insert(0, nbformat.v4.new_markdown_cell(EQUATION))
+    page_file = feedback_page(nb, tmp_path)
     outside: list[str] = []
-    page = open_page(browser, page_file.as_uri(), outside)
+    page = browser.new_page(viewport={"width": 1000, "height": 720})
+    page.route("**/*", lambda route: route.continue_() if route.request.url.startswith("file:") else route.abort())
+    page.on(
+        "request", lambda r: None if r.url.startswith(("file:", "data:", "blob:", "about:")) else outside.append(r.url)
+    )
+    page.goto(page_file.as_uri())
+    page.wait_for_function("window.MathJax && MathJax.Hub && MathJax.Hub.queue.pending === 0", timeout=30_000)
+    formula = page.locator(".MathJax_Display").first
+    formula.wait_for(timeout=30_000)
+    page.screenshot(path=str(ARTIFACTS / "feedback-math.png"))
+    assert formula.bounding_box()["height"] > 10 and "\\mathbf" not in page.inner_text("body")  # typeset, not TeX
+    assert page.locator(".MathJax_Display .MathJax span").count() > 10  # MathJax's HTML-CSS glyphs
     views = page.locator(".mbd-view")
     assert views.count() == 2
     for k in range(2):
@@ -287,7 +302,7 @@ def test_the_views_play_in_nbgraders_feedback_page_offline(notebook, browser, tm
         page.screenshot(path=str(ARTIFACTS / f"feedback-view{k + 1}.png"))
         assert box and box["width"] > 300 and box["height"] > 300, box
         assert before == "t = 0.000 s" and after != before, (k, before, after)
-    assert [url for url in outside if not url.startswith(TEMPLATE_CDN)] == []
+    assert outside == []
 
 
 def play_each_view_page(page, view=None) -> tuple[str, str]:
