@@ -42,7 +42,11 @@ c.CourseDirectory.solution_directory = os.path.join("build", "solution")
 c.CourseDirectory.source_with_tests_directory = os.path.join("build", "source_with_tests")
 c.CourseDirectory.db_url = "sqlite:///" + os.path.join(ROOT, "build", "gradebook.db")
 os.makedirs(os.path.join(ROOT, "build"), exist_ok=True)  # the gradebook's folder: sqlite does not create it
-c.CourseDirectory.ignore = [".ipynb_checkpoints", "*.pyc", "__pycache__", "feedback", ".pytest_cache"]
+# The kit's notes/ (the course notes' site, ~4 MB) and models/ (the example models) are the course's, not the
+# student's work: not submitted, not copied into autograded/ or feedback/ (course/release/kit.py writes them).
+c.CourseDirectory.ignore = [
+    ".ipynb_checkpoints", "*.pyc", "__pycache__", "feedback", ".pytest_cache", "notes", "models"
+]  # fmt: skip
 
 # `nbgrader export` writes its CSV here, not into the folder it is run from (`--to FILE` still overrides it:
 # the option sets ExportPlugin.to too, and the command line wins over this file).

@@ -7,7 +7,7 @@ Each notebook (``course/notes/chNN_*.ipynb``, ``course/lectures/LNN_*.ipynb``) i
 before each labelled equation, and staged with an index page; Sphinx with MyST-NB (``conf.py``) makes the site:
 ``index.html`` (the contents and every equation with the section it is in), a page per chapter and lecture
 (``chNN_name.html``, ``LNN_name.html``), ``search.html``. Nothing in it is fetched from the network: MathJax 2.7 is
-copied from the jupyter-server-mathjax wheel into ``_static/mathjax`` (``mathjax_files``), plotly.js (a chapter's
+copied from the jupyter-server-mathjax wheel into ``_static/mathjax`` (``write_mathjax``), plotly.js (a chapter's
 mechanism views, ``solutions.viewer.embed_views``) into ``_static``. A link to ``chNN_name.html#eq-N.M`` lands on
 the equation.
 """
@@ -32,18 +32,6 @@ DEFAULT_OUT = Path("build") / "notes"
 LECTURES = NOTES.parent / "lectures"
 PLOTLY = "plotly.min.js"
 """plotly.js, written once into the site's _static when a page shows a mechanism's motion (the plotly wheel's copy)."""
-MATHJAX_PARTS = (
-    "MathJax.js",
-    "config/TeX-AMS-MML_HTMLorMML-full.js",
-    "jax/element/mml/optable",
-    "jax/output/HTML-CSS",
-    "fonts/HTML-CSS/STIX-Web",
-)
-"""What the site's MathJax loads (conf.py's configuration: the combined configuration file holds the TeX input,
-its extensions and the HTML-CSS output; the STIX web fonts and their tables are loaded as a page needs them):
-2.6 of the wheel's 12 MB (no SVG output, no translations, no separate extensions)."""
-
-
 def lectures() -> list[Path]:
     """The lecture notebooks in order."""
     return sorted(LECTURES.glob("L[0-9][0-9]_*.ipynb"))
@@ -159,18 +147,16 @@ def stage_notebook(path: Path, stage: Path, execute: bool, modules: Path | None 
     return page
 
 
-def mathjax_files(target: Path) -> int:
-    """Copy MathJax (``MATHJAX_PARTS`` of the jupyter-server-mathjax wheel) into ``target``; its size in bytes."""
-    from jupyter_server_mathjax.app import STATIC_ASSETS_PATH
+def write_mathjax(target: Path) -> int:
+    """Write MathJax into ``target``: the files of the jupyter-server-mathjax wheel a page loads, the same set
+    nbgrader's feedback pages carry (``autograder.nbpages.mathjax_files``); return its size in bytes."""
+    from autograder.nbpages import mathjax_files
 
-    for part in MATHJAX_PARTS:
-        source, destination = Path(STATIC_ASSETS_PATH) / part, target / part
-        destination.parent.mkdir(parents=True, exist_ok=True)
-        if source.is_dir():
-            shutil.copytree(source, destination, dirs_exist_ok=True)
-        else:
-            shutil.copy2(source, destination)
-    return sum(p.stat().st_size for p in target.rglob("*") if p.is_file())
+    files = mathjax_files()
+    for name, data in files.items():
+        (target / name).parent.mkdir(parents=True, exist_ok=True)
+        (target / name).write_bytes(data)
+    return sum(len(data) for data in files.values())
 
 
 def index_page(chapter_pages: list[Page], lecture_pages: list[Page]) -> str:
@@ -231,7 +217,7 @@ def build_notes(
     chapter_pages = [stage_notebook(path, stage, execute, modules) for path in chapter_paths]
     lecture_pages = [stage_notebook(path, stage, execute, modules) for path in lecture_paths]
     (stage / "index.md").write_text(index_page(chapter_pages, lecture_pages), encoding="utf-8")
-    mathjax_files(stage / "_static" / "mathjax")
+    write_mathjax(stage / "_static" / "mathjax")
     shutil.rmtree(out, ignore_errors=True)
     sphinx_build(stage, stage / "site")  # MyST-NB writes its outputs beside the build folder: in the stage
     shutil.move(stage / "site", out)

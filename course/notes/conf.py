@@ -2,7 +2,7 @@
 
 The pages are the chapters and lectures as executed notebooks (MyST-NB reads them; nothing is run again here),
 the math is MathJax 2.7 from the ``jupyter-server-mathjax`` wheel copied into the site's ``_static/mathjax``
-(``build.mathjax_files``): a page renders its equations from disk, with no network. Search is Sphinx's own
+(``build.write_mathjax``): a page renders its equations from disk, with no network. Search is Sphinx's own
 (``search.html``, its index a local script). The theme is Sphinx's built-in alabaster: no theme package to fetch.
 """
 

@@ -4,6 +4,7 @@ reference solver's for many students' variants; variants are seeded per student;
 from __future__ import annotations
 
 import math
+import re
 
 import pytest
 
@@ -69,3 +70,41 @@ def test_every_variant_holds_what_its_statement_says():
         assert v.answers["psi"] != 0.0 and "not yet assembled" in v.statement
         gear = variant(by_key["gear-pair"], student, SEED).numbers
         assert gear["R1"] < gear["R2"]
+
+
+# -- sheets as PDF ---------------------------------------------------------------------------------------------------
+def test_a_sheet_is_a_printable_page_with_each_problem_kept_whole():
+    from course.exam.pdf import sheet_html
+
+    markdown = "# Written test: s001\n\n## Problem 1: A\n\nText <b> & d = (0.3, -0.1) m.\n\n## Problem 2: B\n\nMore.\n"
+    page = sheet_html(markdown, "s001-test")
+    assert page.count("<section><h2>") == 2 and page.count("</section>") == 2
+    assert '<p class="name">Name: </p>' in page and "Text &lt;b&gt; &amp; d = (0.3, -0.1) m." in page
+    assert "Name:" not in sheet_html(markdown, "s001-solutions") and "size: A4" in page
+
+
+def test_sheets_print_to_pdf_beside_the_markdown(tmp_path):
+    import shutil
+
+    pytest.importorskip("playwright.sync_api", reason="playwright is not installed (make test installs it)")
+    if not (shutil.which("chromium") or shutil.which("chromium-browser")):
+        pytest.skip("Debian's chromium is not installed (make test installs it as root)")
+    from course.exam.__main__ import main
+
+    assert main(["--seed", "3", "--students", "s001", "--out", str(tmp_path), "--pdf"]) == 0
+    pdfs = {path.name: path.read_bytes() for path in tmp_path.glob("*.pdf")}
+    assert set(pdfs) == {"s001-test.pdf", "s001-solutions.pdf"}
+    pages = {name: len(re.findall(rb"/Type\s*/Page[^s]", data)) for name, data in pdfs.items()}
+    assert all(data.startswith(b"%PDF-") for data in pdfs.values())
+    assert 1 <= pages["s001-test.pdf"] < pages["s001-solutions.pdf"], pages  # the solutions are the longer sheet
+
+
+def test_pdf_without_chromium_is_one_line_and_writes_nothing(tmp_path, monkeypatch, capsys):
+    import shutil
+
+    from course.exam.__main__ import main
+
+    monkeypatch.setattr(shutil, "which", lambda name: None)
+    assert main(["--seed", "3", "--students", "s001", "--out", str(tmp_path / "out"), "--pdf"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "apt-get install chromium" in err and not (tmp_path / "out").exists()

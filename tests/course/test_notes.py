@@ -187,7 +187,7 @@ def test_the_notes_build_as_a_site_with_an_anchor_for_every_equation(site):
 
 def test_the_site_asks_nothing_of_the_network(site):
     """Every script and style a page loads is a file of the site; MathJax is the wheel's copy in _static."""
-    from course.notes.build import mathjax_files
+    from course.notes.build import write_mathjax
 
     page = (site / "ch03_planar_constraints.html").read_text()
     sources = re.findall(r'<(?:script|link)[^>]*(?:src|href)="([^"]+)"', page)
@@ -196,7 +196,7 @@ def test_the_site_asks_nothing_of_the_network(site):
     for src in sources:
         assert (site / src.split("?")[0].split("#")[0]).exists(), src
     assert "cdn" not in page.lower() and "window.MathJax =" not in page  # no MathJax 3 object to stop MathJax 2
-    size = mathjax_files(site.parent / "mathjax")
+    size = write_mathjax(site.parent / "mathjax")
     assert 1e6 < size < 4e6, size  # what loads (no SVG output, no translations): a kit carries it
 
 
