@@ -15,6 +15,7 @@ import base64
 import html
 import io
 
+from mbdkit import notes
 from mbdkit.checks import Outcome
 
 STYLE = """
@@ -67,7 +68,7 @@ def _row(name: str, passed: bool, points: float, max_points: float, message: str
     return (
         f'<tr class="{status}"><td>{html.escape(name)}</td><td class="status">{status}</td>'
         f'<td class="points">{points:g} / {max_points:g}</td>'
-        f'<td class="message">{html.escape(said)}</td></tr>'
+        f'<td class="message">{notes.html_links(html.escape(said))}</td></tr>'
     )
 
 
@@ -110,7 +111,7 @@ def causes_part(outcomes: list[Outcome], key=cause_of) -> str:
         lost, touched = sum(o.max_points - o.points for o in failed), ", ".join(dict.fromkeys(o.group for o in failed))
         count = f"{len(failed)} check{'s' if len(failed) > 1 else ''}"
         items.append(f'<li class="cause"><b>{count}, {lost:g} points</b> ({html.escape(touched)}): ')
-        items[-1] += f"<code>{html.escape(cause)}</code></li>"
+        items[-1] += f"<code>{notes.html_links(html.escape(cause))}</code></li>"
     return f'<h2>What to fix, the costliest first</h2><ol class="causes">{"".join(items)}</ol>' if items else ""
 
 
@@ -166,6 +167,8 @@ def feedback_html(
 <html lang="en"><head><meta charset="utf-8"><title>{html.escape(homework)}: {html.escape(student)}</title>
 <style>{STYLE}</style></head><body>
 <h1>{html.escape(homework)} {html.escape(title)}: feedback for {html.escape(student)}</h1>
+<p class="notes">Each <i>eq. N.M</i> below opens the course notes of your homework kit (its <code>notes/</code>
+folder): save this page in your homework's folder, beside <code>notes/</code>.</p>
 {SCORE_START}{score_part(tests, published)}{SCORE_END}
 {summary_part(shown)}
 {documentation}

@@ -9,27 +9,33 @@ with its link into the notes; in a terminal, each cited equation's page as a fil
 
 from __future__ import annotations
 
+import html
 import json
 import re
 from functools import cache
 from pathlib import Path
 
-from .paths import data_dir
+from .paths import COURSE_DATA, data_dir
 
 CITATION = re.compile(r"\beqs?\.\s*(\d+\.\d+(?:\s*(?:-|,|and|to)\s*\d+\.\d+)*)")
 """'eq. 3.17', 'eqs. 4.5, 4.6', 'eq. 2.1-2.5' (the numbers a citation names; a range names its two ends)."""
 NOTES = "notes"
 """The kit's folder of the notes' site."""
+COURSE_NOTES = COURSE_DATA.parent / "course" / "notes"
+"""The course's notes (chapter notebooks), where the checker runs from the course repository (``mbd grade``)."""
 
 
 @cache
 def equations() -> dict[str, tuple[str, str]]:
-    """{label: (page of the notes' site, TeX)} of the kit's ``equations.json``; {} where there is none (the
-    course repository, whose notes are built by ``mbd notes``)."""
+    """{label: (page of the notes' site, TeX)} of the kit's ``equations.json``; in the course repository (no such
+    file), the labels and pages read off the chapters' files, without their TeX."""
     path = data_dir() / "equations.json"
-    if not path.is_file():
-        return {}
-    return {label: (page, tex) for label, (page, tex) in json.loads(path.read_text(encoding="utf-8")).items()}
+    if path.is_file():
+        return {label: (page, tex) for label, (page, tex) in json.loads(path.read_text(encoding="utf-8")).items()}
+    chapters = sorted(COURSE_NOTES.glob("ch[0-9][0-9]_*.ipynb"))
+    return {
+        label: (f"{p.stem}.html", "") for p in chapters for label in re.findall(r"tag\{(\d+\.\d+)\}", p.read_text())
+    }
 
 
 def cited(text: str) -> list[str]:
@@ -47,13 +53,26 @@ def link(label: str) -> str:
 def markdown(text: str, folder: Path) -> str | None:
     """Markdown of the equations ``text`` cites, each rendered and linked into the notes (None: none cited, or
     no notes beside the package in ``folder``)."""
-    labels = cited(text)
+    labels = [label for label in cited(text) if equations()[label][1]]
     if not labels or not (Path(folder) / NOTES).is_dir():
         return None
     lines = ["**The equations these messages cite** (course notes):", ""]
     for label in labels:
         lines += [f"[eq. {label}]({link(label)}): $$ {equations()[label][1]} \\tag{{{label}}} $$", ""]
     return "\n".join(lines)
+
+
+def html_links(escaped: str) -> str:
+    """HTML text ``escaped`` with each 'eq. N.M' it cites a link into ``notes/`` (a page kept beside the kit's
+    notes: the feedback a student gets, saved in the homework's folder)."""
+
+    def linked(match: re.Match) -> str:
+        label = match.group(2)
+        if label not in equations():
+            return match.group(0)
+        return f'{match.group(1)}<a href="{html.escape(link(label))}">{label}</a>'
+
+    return re.sub(r"\b(eqs?\.\s*)(\d+\.\d+)", linked, escaped)
 
 
 def terminal_lines(text: str, folder: Path) -> list[str]:

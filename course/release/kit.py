@@ -166,7 +166,7 @@ mbd = "mbdkit.cli:main"
 packages = ["mbdkit"]
 
 [tool.setuptools.package-data]
-mbdkit = ["data/*.toml", "data/scenes/*.yaml", "data/reference/public/*.npz"]
+mbdkit = ["data/*.toml", "data/*.json", "data/scenes/*.yaml", "data/reference/public/*.npz"]
 """
 
 

@@ -365,6 +365,28 @@ def test_exported_grades_equal_the_autograders(cycle):
         assert float(row["max_score"]) == pytest.approx(book.max_score + written)  # written answers: by hand
 
 
+def test_the_per_check_export_adds_up_to_nbgraders_total(cycle, tmp_path):
+    """`nbgrader export --exporter course.nbexport.ChecksExportPlugin`: a column per graded cell whose scores add
+    up to the total nbgrader's own export gives, every graded cell of the homework a column."""
+    from nbgrader.api import Gradebook
+
+    from course.nbexport import ChecksExportPlugin
+
+    homework, course = cycle.homework, cycle.course
+    target = tmp_path / "checks.csv"
+    with Gradebook(f"sqlite:///{course / 'build' / 'gradebook.db'}") as gradebook:
+        ChecksExportPlugin(to=str(target), assignment=[homework]).export(gradebook)
+    with open(target, newline="") as f:
+        rows = {row["student_id"]: row for row in csv.DictReader(f)}
+    source = nbformat.read(course / "assignments" / homework / f"{homework}.ipynb", as_version=4)
+    graded = [c.metadata["nbgrader"]["grade_id"] for c in source.cells if c.metadata.get("nbgrader", {}).get("grade")]
+    for student, exported in cycle.exported.items():
+        row = rows[student]
+        assert row["status"] == "submitted" and {k for k in row if k in graded} == set(graded)
+        assert sum(float(row[cell]) for cell in graded) == pytest.approx(float(exported["raw_score"]))
+        assert float(row["score"]) == pytest.approx(float(exported["raw_score"]))
+
+
 def test_feedback_pages_show_the_graders_messages(cycle):
     homework, course = cycle.homework, cycle.course
     pages = {}

@@ -20,6 +20,7 @@ import subprocess
 import sys
 import sysconfig
 import tomllib
+import urllib.parse
 import zipfile
 from pathlib import Path
 
@@ -170,12 +171,19 @@ def test_selfcheck_in_a_fresh_venv_on_the_skeleton_and_on_the_reference(student_
     assert "not implemented yet" in skeleton.stdout and skeleton.stderr == ""
     assert f"0 of {len(public)} public checks pass, 0 of " in skeleton.stdout
     assert "The homework is out of 100: the other " in skeleton.stdout  # its scale, as graded, not the public points
+    urls = re.findall(r"^  eq\. (\d+\.\d+): (file://\S+)#eq-(\d+\.\d+)$", skeleton.stdout, flags=re.M)
+    assert urls and "The equations cited above, in the course notes" in skeleton.stdout  # the stubs cite them
+    for label, url, anchor in urls:  # each opens the kit's own notes at the equation
+        page = Path(urllib.parse.unquote(urllib.parse.urlparse(url).path))
+        assert label == anchor and page.parent == (kit / "notes").resolve() and f'id="eq-{label}"' in page.read_text()
     asked = [(r.path, r.function) for r in all_regions() if r.tag == homework]
     asked = list(dict.fromkeys(asked))  # what the release asked of this homework, from the course's regions
     todo = run(["mbd", "todo", homework], kit, env)
     assert todo.returncode == 0 and todo.stdout.startswith(f"{homework}: {len(asked)} of {len(asked)} functions left")
     assert all(f"  {function} " in todo.stdout for _, function in asked)
     assert f"Start with {asked[0][1]} in modules/{asked[0][0]}" in todo.stdout
+    where = re.search(r"Its equation in the course notes \(open in a browser\): (notes/\S+)#eq-(\S+)$", todo.stdout)
+    assert where and f'id="eq-{where.group(2)}"' in (kit / where.group(1)).read_text()
 
     student = tmp_path / "student"
     shutil.copytree(kit, student)

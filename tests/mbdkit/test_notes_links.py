@@ -83,3 +83,13 @@ def test_todo_points_at_the_first_functions_equation(kit):
         "Its equation in the course notes (open in a browser): notes/ch03_planar_constraints.html#eq-3.17"
     )
     assert Path(kit / text.splitlines()[-1].split(": ")[1].split("#")[0]).exists()
+
+
+def test_a_feedback_page_links_each_equation_into_the_kits_notes():
+    """mbd grade's page (autograder/feedback.py): an 'eq. N.M' of a message is a link to notes/chNN_*.html#eq-N.M,
+    the kit's notes beside the page; the labels come from the course's chapters where no kit data is."""
+    from autograder.feedback import _row
+
+    row = _row("four_bar", False, 0, 2, "rotation: A(phi) <wrong>, see eq. 2.2; and eq. 99.9")
+    assert 'see eq. <a href="notes/ch02_planar_body_kinematics.html#eq-2.2">2.2</a>; and eq. 99.9' in row
+    assert "&lt;wrong&gt;" in row
