@@ -231,8 +231,9 @@ def test_notes_chapter_executes_with_numbers_from_the_solver(notes_runs, chapter
     assert printed, "a worked example prints its numbers"
 
 
-def test_there_are_fifteen_lectures_listed_in_the_schedule_and_the_syllabus_with_their_notes():
-    assert [path.name[:3] for path in LECTURES] == [f"L{k:02d}" for k in range(1, 16)]
+def test_there_are_sixteen_lectures_listed_in_the_schedule_and_the_syllabus_with_their_notes():
+    """Fifteen weeks of one lecture and L16 (Denavit-Hartenberg and dual numbers), beside L13 or as reading."""
+    assert [path.name[:3] for path in LECTURES] == [f"L{k:02d}" for k in range(1, 17)]
     schedule = (REPO / "course" / "schedule.md").read_text()
     syllabus = (REPO / "course" / "syllabus.md").read_text()
     chapters_there = {int(path.name[2:4]) for path in NOTES}
