@@ -258,3 +258,16 @@ def test_nothing_in_the_course_names_a_lecture_that_does_not_exist():
     texts = [p for p in (REPO / "course").rglob("*") if p.suffix in (".md", ".ipynb", ".py") and p.is_file()]
     named = {(m, str(p.relative_to(REPO))) for p in texts for m in re.findall(r"\bL\d\d\b", p.read_text())}
     assert sorted((m, f) for m, f in named if m not in lectures) == []
+
+
+def test_every_lecture_exercise_has_an_instructor_solution():
+    """course/lectures/solutions/LNN.md answers each numbered exercise of LNN's last cell, in order, and nothing
+    else (the folder is the instructor's: a release refuses it, tests/course/test_leakcheck.py)."""
+    folder = REPO / "course" / "lectures" / "solutions"
+    for path in LECTURES:
+        exercises = nbformat.read(path, as_version=4).cells[-1].source
+        asked = [int(n) for n in re.findall(r"^(\d+)\. ", exercises, re.MULTILINE)]
+        answers = folder / f"{path.name[:3]}.md"
+        assert answers.is_file(), f"no solutions for {path.name}: write {answers.relative_to(REPO)}"
+        answered = [int(n) for n in re.findall(r"^\*\*Exercise (\d+)\.\*\*", answers.read_text(), re.MULTILINE)]
+        assert asked == list(range(1, len(asked) + 1)) and answered == asked, (path.name, asked, answered)
