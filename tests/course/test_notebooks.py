@@ -260,14 +260,18 @@ def test_nothing_in_the_course_names_a_lecture_that_does_not_exist():
     assert sorted((m, f) for m, f in named if m not in lectures) == []
 
 
-def test_every_lecture_exercise_has_an_instructor_solution():
-    """course/lectures/solutions/LNN.md answers each numbered exercise of LNN's last cell, in order, and nothing
-    else (the folder is the instructor's: a release refuses it, tests/course/test_leakcheck.py)."""
+def test_every_exercise_of_the_lectures_and_notes_has_an_instructor_solution():
+    """course/lectures/solutions/LNN.md (chNN.md) answers each numbered exercise of lecture LNN (notes chapter
+    NN), in order, and nothing else (the folder is the instructor's: a release refuses it, test_leakcheck.py)."""
     folder = REPO / "course" / "lectures" / "solutions"
-    for path in LECTURES:
-        exercises = nbformat.read(path, as_version=4).cells[-1].source
+    for path in [*LECTURES, *NOTES]:
+        cells = nbformat.read(path, as_version=4).cells
+        text = "\n".join(cell.source for cell in cells if cell.cell_type == "markdown")
+        exercises = text.partition("## Exercises")[2]
         asked = [int(n) for n in re.findall(r"^(\d+)\. ", exercises, re.MULTILINE)]
-        answers = folder / f"{path.name[:3]}.md"
+        if not asked and path in NOTES:
+            continue  # a chapter without exercises (chapter 1)
+        answers = folder / f"{path.name[:4] if path in NOTES else path.name[:3]}.md"
         assert answers.is_file(), f"no solutions for {path.name}: write {answers.relative_to(REPO)}"
         answered = [int(n) for n in re.findall(r"^\*\*Exercise (\d+)\.\*\*", answers.read_text(), re.MULTILINE)]
         assert asked == list(range(1, len(asked) + 1)) and answered == asked, (path.name, asked, answered)
