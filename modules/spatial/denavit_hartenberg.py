@@ -21,7 +21,9 @@ A DH transform is two screws about coordinate axes, with the dual angles theta +
 (eq. 8.30; Yang and Freudenstein 1964); as 3 x 3 dual matrices, the rotation block of T_i with the dual angles put
 in for the angles is A + eps t~ A (eq. 8.31: the principle of transference).
 
-The rotations come from ``rotation_matrices`` (written once for the whole package); nothing here is homework.
+Rotation matrices come from ``rotation_matrices`` (written once for the whole package) and Euler parameters from
+``rotations.euler_parameters``: nothing here is homework, and it runs in a student package whose rotations are
+still stubs.
 """
 
 from __future__ import annotations
