@@ -184,12 +184,15 @@ def test_kinematics_benchmark_quick_runs():
 
 
 # -- redundant constraints: the parallel swing ---------------------------------------------------------------
-def test_mbd_check_reports_the_parallel_swings_redundant_equation(capsys):
+def test_mbd_check_and_run_report_the_parallel_swings_redundant_equation(capsys):
     """12 coordinates and 12 equations count no freedom; the rank says one equation repeats the others."""
     assert main(["check", str(REPO / "course" / "models" / "parallel_swing.yaml")]) == 0
     out = capsys.readouterr().out
     assert "coordinates: 12, constraint equations: 12, rank: 11" in out
     assert "degrees of freedom: 1" in out and "redundant equations: 1 (joints: " in out
+    assert main(["run", str(REPO / "course" / "models" / "parallel_swing.yaml"), "--t-end", "0.05"]) == 0
+    out = capsys.readouterr().out  # mbd run says what the redundancy means for the reactions
+    assert "formulation: augmented-lagrangian" in out and "note: redundant constraints: the multipliers" in out
 
 
 def test_parallel_swing_translates_and_swings_as_its_pendulum():
