@@ -218,3 +218,8 @@ def test_parallel_swing_translates_and_swings_as_its_pendulum():
     x, y = result.coordinate("platform.x"), result.coordinate("platform.y")
     assert np.max(np.abs(x - (0.3 + length * np.sin(psi)))) < 1e-7
     assert np.max(np.abs(y + length * np.cos(psi))) < 1e-7
+    # the joint forces are not unique, their resultant on the swing is: the three pivots carry the momentum's rate
+    masses = np.array([body.mass for body in model.bodies])
+    momentum_rate = sum(m * result.qdd[:, 3 * k : 3 * k + 2] for k, m in enumerate(masses)) + [0.0, g * masses.sum()]
+    pivots = sum(np.stack([result.reactions[f"O{k}.Fx"], result.reactions[f"O{k}.Fy"]], axis=1) for k in (1, 2, 3))
+    assert np.max(np.abs(pivots - momentum_rate)) < 1e-7 * np.max(np.abs(momentum_rate))
