@@ -94,6 +94,7 @@ def run_summary(result: Result) -> str:
         lines.append(f"engine: {info['chosen']['engine']} ({info['chosen']['engine_why']})")
     if "wall_time" in info:
         lines.append(f"wall time: {info['wall_time']:.3g} s")
+    lines += [f"note: {note}" for note in info.get("notes", [])]  # e.g. redundant joints: reactions not unique
     lines += [f"warning: {warning}" for warning in info.get("warnings", [])]
     return "\n".join(lines)
 

@@ -19,7 +19,10 @@ For a release of homework N, a leak is
   place under its name (``compiled/``, ``planar/batched.py``), or a file with its text under any name;
 
 The public scenes' expected values are meant to be there: the kit's checker compares with them.
-- compiled Python (``*.pyc``, ``__pycache__``): it carries the code it was compiled from.
+- compiled Python (``*.pyc``, ``__pycache__``): it carries the code it was compiled from;
+- the instructor's solutions of the lecture exercises (``course/lectures/solutions/``): a file of them, whole,
+  renamed or embedded, or any line of one (whitespace ignored, at least ``MIN_PROSE_LINE`` long) that the
+  course's public material (lecture notebooks, notes, ``solutions/``, ``assignments/``) does not hold too.
 
 Notebooks are read as JSON: every string in them (sources, outputs, metadata) is scanned.
 """
@@ -37,6 +40,14 @@ import numpy as np
 from .generator import BEGIN, END, INSTRUCTOR_ONLY, REPO, build_source, homework_index, scan_regions, source_files
 
 HIDDEN_SCENES = Path("autograder", "scenes", "hidden")
+LECTURE_SOLUTIONS = Path("course", "lectures", "solutions")
+"""The worked solutions of the lecture exercises, one Markdown file per lecture: the instructor's only."""
+PUBLIC_MATERIAL = (Path("course", "lectures"), Path("course", "notes"), Path("assignments"))
+"""Folders whose notebooks and Markdown students may read: a line of a lecture solution quoted from them (an
+equation of the notes, say) is public."""
+MIN_PROSE_LINE = 40
+"""A line of a lecture solution shorter than this (whitespace removed) is not searched for: a table rule, a
+heading, a short formula."""
 REFERENCE_RUNS = Path("autograder", "reference", "hidden")
 INSTRUCTOR_FILES = tuple(p for p in INSTRUCTOR_ONLY if p.endswith(".py"))
 """The instructor-only files, found by their path's end: ``planar/batched.py`` anywhere in a release."""
@@ -104,6 +115,48 @@ def _grader_files(course: Path) -> list[Path]:
         if root is not None and root.is_dir():
             files += sorted(p for p in root.rglob("*") if p.is_file())
     return files
+
+
+def lecture_solution_files(course: Path) -> list[Path]:
+    """The Markdown files of ``course/lectures/solutions/`` (none when the folder is not there)."""
+    folder = course / LECTURE_SOLUTIONS
+    return sorted(folder.glob("*.md")) if folder.is_dir() else []
+
+
+def _public_text(course: Path) -> str:
+    """The squeezed text students may read anyway: every cell of the lecture and notes notebooks and the
+    assignments, their Markdown files, and every source file of ``solutions/`` (docstrings and comments)."""
+    texts = []
+    for folder in PUBLIC_MATERIAL:
+        for path in sorted((course / folder).rglob("*")) if (course / folder).is_dir() else []:
+            if LECTURE_SOLUTIONS.as_posix() in path.as_posix() or ".ipynb_checkpoints" in path.parts:
+                continue
+            if path.suffix == ".ipynb":
+                cells = json.loads(path.read_text(encoding="utf-8"))["cells"]
+                texts += ["".join(cell["source"]) for cell in cells]
+            elif path.suffix == ".md":
+                texts.append(path.read_text(encoding="utf-8"))
+    solutions = course / "solutions"
+    if solutions.is_dir():
+        texts += [
+            (solutions / rel).read_text(encoding="utf-8") for rel in source_files(solutions) if rel.suffix == ".py"
+        ]
+    return "\n".join(_squeeze(line) for text in texts for line in text.splitlines())
+
+
+def lecture_solution_lines(course: Path) -> dict[str, str]:
+    """{squeezed line: 'course/lectures/solutions/LNN.md:line'} of every line of the lecture solutions at least
+    MIN_PROSE_LINE long that appears nowhere, not even inside a longer line, in the public material."""
+    found = {}
+    for path in lecture_solution_files(course):
+        for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
+            squeezed = _squeeze(line)
+            if len(squeezed) >= MIN_PROSE_LINE:
+                found.setdefault(squeezed, f"{path.relative_to(course).as_posix()}:{number}")
+    if not found:
+        return {}
+    public = _public_text(course)
+    return {line: where for line, where in found.items() if line not in public}
 
 
 MIN_NUMBERS = 3
@@ -238,6 +291,13 @@ def find_leaks(folder: Path, homework: str, course: Path | None = None, installe
             text = (solutions / rel).read_text(encoding="utf-8")
             if any(r.homework >= first for r in scan_regions(text, rel.as_posix())):
                 forbidden_hashes[_sha(text.encode())] = f"reference file solutions/{rel.as_posix()}"
+    for path in lecture_solution_files(course):  # the instructor's worked answers of the lecture exercises
+        text = path.read_text(encoding="utf-8")
+        what = f"lecture solutions {path.relative_to(course).as_posix()}"
+        forbidden_hashes[_sha(text.encode())] = forbidden_hashes[_sha(_normalize(text).encode())] = what
+        if len(_normalize(text)) >= MIN_EMBEDDED:
+            embedded[_normalize(text)] = what
+    answers = lecture_solution_lines(course)
     for path in _instructor_only_files(solutions):  # every formula students write, outside any region
         text = path.read_text(encoding="utf-8")
         what = f"instructor-only file solutions/{path.relative_to(solutions).as_posix()}"
@@ -290,4 +350,11 @@ def find_leaks(folder: Path, homework: str, course: Path | None = None, installe
             for wheres in found.values():
                 more = f" and {len(wheres) - 1} more of its lines" if len(wheres) > 1 else ""
                 leaks.append(Leak(rel, "solution text", f"line {wheres[0]}{more}"))
+            quoted = {}  # one leak per lecture-solution file, naming its first quoted line
+            for line, where in answers.items():
+                if line in squeezed_text:
+                    quoted.setdefault(where.split(":")[0], []).append(where)
+            for wheres in quoted.values():
+                more = f" and {len(wheres) - 1} more of its lines" if len(wheres) > 1 else ""
+                leaks.append(Leak(rel, "lecture solution", f"line {wheres[0]}{more}"))
     return leaks

@@ -9,7 +9,14 @@ import numpy as np
 import pytest
 
 from course.release.generator import HOMEWORKS, REPO, all_regions, build_package
-from course.release.leakcheck import MIN_LINE, find_leaks, secret_lines
+from course.release.leakcheck import (
+    LECTURE_SOLUTIONS,
+    MIN_LINE,
+    MIN_PROSE_LINE,
+    find_leaks,
+    lecture_solution_lines,
+    secret_lines,
+)
 
 HIDDEN_SCENE = """\
 # hidden variation of the slider-crank: longer rod, heavier slider
@@ -23,9 +30,10 @@ model:
 
 @pytest.fixture(scope="module")
 def course(tmp_path_factory):
-    """A course tree with the real solutions/ and planted grader data."""
+    """A course tree with the real solutions/, the real lecture solutions and planted grader data."""
     root = tmp_path_factory.mktemp("course")
     shutil.copytree(REPO / "solutions", root / "solutions", ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(REPO / LECTURE_SOLUTIONS, root / LECTURE_SOLUTIONS)
     hidden = root / "autograder" / "scenes" / "hidden"
     hidden.mkdir(parents=True)
     (hidden / "slider_crank_long.yaml").write_text(HIDDEN_SCENE)
@@ -212,3 +220,34 @@ def test_a_derived_hidden_scene_is_found_by_its_text_or_its_numbers(tmp_path, co
         ("hw1.ipynb", "hidden values"),
         ("notes.md", "hidden values"),
     }
+
+
+# -- the instructor's solutions of the lecture exercises -----------------------------------------------------------
+def _answer_line(course, name: str = "L05.md") -> str:
+    text = (course / LECTURE_SOLUTIONS / name).read_text()
+    return next(line for line in text.splitlines() if "".join(line.split()) in lecture_solution_lines(course))
+
+
+def test_a_lecture_solution_is_a_leak_whole_renamed_or_one_line_of_it(tmp_path, course):
+    folder = clean_release(tmp_path, "hw1")
+    line = _answer_line(course)
+    nb = nbformat.read(folder / "hw1.ipynb", as_version=4)
+    nb.cells.append(nbformat.v4.new_markdown_cell(f"A hint:\n\n{line.strip()}\n"))
+    nbformat.write(nb, folder / "hw1.ipynb")
+    (folder / "reading.md").write_text((course / LECTURE_SOLUTIONS / "L12.md").read_text())
+    (folder / "more.md").write_text("Notes:\n" + (course / LECTURE_SOLUTIONS / "L13.md").read_text() + "\nend\n")
+    found = {(leak.path, leak.kind) for leak in find_leaks(folder, "hw1", course)}
+    assert ("hw1.ipynb", "lecture solution") in found
+    assert ("reading.md", "copied file") in found and ("more.md", "embedded file") in found
+
+
+def test_a_lecture_solutions_line_is_public_when_the_course_publishes_it(tmp_path, course):
+    """A line the lecture solutions quote from a lecture or the notes is not a secret: a kit may hold it."""
+    secret = lecture_solution_lines(course)
+    assert len(secret) > 100 and all(len(line) >= MIN_PROSE_LINE for line in secret)
+    copy = tmp_path / "course"
+    shutil.copytree(course / LECTURE_SOLUTIONS, copy / LECTURE_SOLUTIONS)
+    before, line = lecture_solution_lines(copy), _answer_line(course)
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_markdown_cell(f"Said in the lecture:\n{line}\n")])
+    nbformat.write(nb, copy / "course" / "lectures" / "L05_quoted.ipynb")
+    assert set(before) - set(lecture_solution_lines(copy)) == {"".join(line.split())}

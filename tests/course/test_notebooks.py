@@ -231,8 +231,9 @@ def test_notes_chapter_executes_with_numbers_from_the_solver(notes_runs, chapter
     assert printed, "a worked example prints its numbers"
 
 
-def test_there_are_fifteen_lectures_listed_in_the_schedule_and_the_syllabus_with_their_notes():
-    assert [path.name[:3] for path in LECTURES] == [f"L{k:02d}" for k in range(1, 16)]
+def test_there_are_sixteen_lectures_listed_in_the_schedule_and_the_syllabus_with_their_notes():
+    """Fifteen weeks of one lecture and L16 (Denavit-Hartenberg and dual numbers), beside L13 or as reading."""
+    assert [path.name[:3] for path in LECTURES] == [f"L{k:02d}" for k in range(1, 17)]
     schedule = (REPO / "course" / "schedule.md").read_text()
     syllabus = (REPO / "course" / "syllabus.md").read_text()
     chapters_there = {int(path.name[2:4]) for path in NOTES}
@@ -257,3 +258,20 @@ def test_nothing_in_the_course_names_a_lecture_that_does_not_exist():
     texts = [p for p in (REPO / "course").rglob("*") if p.suffix in (".md", ".ipynb", ".py") and p.is_file()]
     named = {(m, str(p.relative_to(REPO))) for p in texts for m in re.findall(r"\bL\d\d\b", p.read_text())}
     assert sorted((m, f) for m, f in named if m not in lectures) == []
+
+
+def test_every_exercise_of_the_lectures_and_notes_has_an_instructor_solution():
+    """course/lectures/solutions/LNN.md (chNN.md) answers each numbered exercise of lecture LNN (notes chapter
+    NN), in order, and nothing else (the folder is the instructor's: a release refuses it, test_leakcheck.py)."""
+    folder = REPO / "course" / "lectures" / "solutions"
+    for path in [*LECTURES, *NOTES]:
+        cells = nbformat.read(path, as_version=4).cells
+        text = "\n".join(cell.source for cell in cells if cell.cell_type == "markdown")
+        exercises = text.partition("## Exercises")[2]
+        asked = [int(n) for n in re.findall(r"^(\d+)\. ", exercises, re.MULTILINE)]
+        if not asked and path in NOTES:
+            continue  # a chapter without exercises (chapter 1)
+        answers = folder / f"{path.name[:4] if path in NOTES else path.name[:3]}.md"
+        assert answers.is_file(), f"no solutions for {path.name}: write {answers.relative_to(REPO)}"
+        answered = [int(n) for n in re.findall(r"^\*\*Exercise (\d+)\.\*\*", answers.read_text(), re.MULTILINE)]
+        assert asked == list(range(1, len(asked) + 1)) and answered == asked, (path.name, asked, answered)

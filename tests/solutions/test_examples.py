@@ -13,19 +13,27 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import scipy.special
 
+from solutions.analysis import choose_analysis, run_analysis
 from solutions.assembly import build_system
+from solutions.cli import main
+from solutions.diagnostics import rank_report
 from solutions.io.model import load_model
 from solutions.kinematics import assemble, kinematic_analysis
+from solutions.settings import read_settings
 
 REPO = Path(__file__).resolve().parents[2]
 MODELS = sorted((REPO / "course" / "models").glob("*.yaml"))
 
 
 def _is_kinematic(path: Path) -> bool:
-    """Drivers leave no degree of freedom (counted); a file that fails to load fails its own test below."""
+    """Drivers leave no degree of freedom, by the rank of Psi_q as ``mbd run`` decides (``choose_analysis``: a
+    count n - m says 0 for parallel_swing.yaml, whose redundant row leaves it one); a file that fails to load fails
+    its own test below."""
     try:
-        return build_system(load_model(path))[0].degrees_of_freedom == 0
+        system, q0, _ = build_system(load_model(path))
+        return choose_analysis(system, q0) == "kinematic"
     except Exception:
         return False
 
@@ -173,3 +181,45 @@ def test_kinematics_benchmark_quick_runs():
     for row in ("| four_bar.yaml |", "| six_bar.yaml |", "| 1 | 3 | 9 |", "| 4 | 9 | 27 |"):
         assert row in done.stdout
     assert "failed" not in done.stdout
+
+
+# -- redundant constraints: the parallel swing ---------------------------------------------------------------
+def test_mbd_check_and_run_report_the_parallel_swings_redundant_equation(capsys):
+    """12 coordinates and 12 equations count no freedom; the rank says one equation repeats the others."""
+    assert main(["check", str(REPO / "course" / "models" / "parallel_swing.yaml")]) == 0
+    out = capsys.readouterr().out
+    assert "coordinates: 12, constraint equations: 12, rank: 11" in out
+    assert "degrees of freedom: 1" in out and "redundant equations: 1 (joints: " in out
+    assert main(["run", str(REPO / "course" / "models" / "parallel_swing.yaml"), "--t-end", "0.05"]) == 0
+    out = capsys.readouterr().out  # mbd run says what the redundancy means for the reactions
+    assert "formulation: augmented-lagrangian" in out and "note: redundant constraints: the multipliers" in out
+
+
+def test_parallel_swing_translates_and_swings_as_its_pendulum():
+    """``mbd run``'s analysis of the file (auto) against the closed form of its header: the platform keeps its
+    angle, its middle pin stays on the middle arm's circle, and the arms' angle psi from the downward vertical is
+    the pendulum psi'' = -omega0^2 sin(psi) released at psi0 = 60 deg: sin(psi / 2) = k sn(K(k) - omega0 t; k)."""
+    model = load_model(REPO / "course" / "models" / "parallel_swing.yaml")
+    system, q0, qd0 = build_system(model)
+    result = run_analysis(system, q0, qd0, read_settings(model.simulation))
+    assert result.info["formulation"] == "augmented-lagrangian" and "not unique" in result.info["notes"][0]
+    for q in result.q[::50]:  # rank 11 of 12 all along, not at the start only
+        assert rank_report(system.jacobian(q, 0.0), system.row_owners).n_redundant == 1
+    bodies = {body.name: body for body in model.bodies}
+    arm, platform, g, length = bodies["arm1"], bodies["platform"], 9.81, 0.4
+    moment = 3 * (arm.inertia + arm.mass * length**2 / 4) + platform.mass * length**2  # about the pivots
+    omega0 = math.sqrt(g * length * (1.5 * arm.mass + platform.mass) / moment)
+    k = math.sin(math.radians(60) / 2)
+    psi = 2 * np.arcsin(k * scipy.special.ellipj(scipy.special.ellipk(k * k) - omega0 * result.t, k * k)[0])
+    assert np.max(np.abs(psi)) == pytest.approx(math.radians(60), abs=1e-3)  # it swings to both sides
+    for name in ("arm1", "arm2", "arm3"):  # body x axis along the arm, from the pivot down
+        assert np.max(np.abs(result.coordinate(f"{name}.phi") - (psi - math.pi / 2))) < 1e-7
+    assert np.max(np.abs(result.coordinate("platform.phi"))) < 1e-12
+    x, y = result.coordinate("platform.x"), result.coordinate("platform.y")
+    assert np.max(np.abs(x - (0.3 + length * np.sin(psi)))) < 1e-7
+    assert np.max(np.abs(y + length * np.cos(psi))) < 1e-7
+    # the joint forces are not unique, their resultant on the swing is: the three pivots carry the momentum's rate
+    masses = np.array([body.mass for body in model.bodies])
+    momentum_rate = sum(m * result.qdd[:, 3 * k : 3 * k + 2] for k, m in enumerate(masses)) + [0.0, g * masses.sum()]
+    pivots = sum(np.stack([result.reactions[f"O{k}.Fx"], result.reactions[f"O{k}.Fy"]], axis=1) for k in (1, 2, 3))
+    assert np.max(np.abs(pivots - momentum_rate)) < 1e-7 * np.max(np.abs(momentum_rate))
