@@ -32,6 +32,8 @@ DEFAULT_OUT = Path("build") / "notes"
 LECTURES = NOTES.parent / "lectures"
 PLOTLY = "plotly.min.js"
 """plotly.js, written once into the site's _static when a page shows a mechanism's motion (the plotly wheel's copy)."""
+
+
 def lectures() -> list[Path]:
     """The lecture notebooks in order."""
     return sorted(LECTURES.glob("L[0-9][0-9]_*.ipynb"))
@@ -244,27 +246,40 @@ def notes_cache() -> Path:
     return Path(base) / "mbd-course" / "kit-notes"
 
 
+AS_WRITTEN = "MBD_KIT_NOTES"
+"""Set to ``as-written``, releases give kits the notes as written (text and equations, built in 4 s) where they
+would execute every notebook first (figures and outputs, about a minute once per change of the notes): the
+tests' and the demo's setting."""
+
+
 def kit_notes(execute: bool | None = None) -> tuple[Path, bool]:
     """The notes' site a kit holds (pages citing the student package, ``for_students``) and whether its notebooks
-    were executed. One site per content of the sources (``sources_digest``) in ``notes_cache()``: the executed
-    one if ``mbd notes --kit`` made it (figures and outputs), else the pages as written (text and equations),
-    built here once (execute=None); ``execute`` True or False builds that one if it is missing. Releases at once
-    (tests, a class's homework) build it once: the first holds a lock, the others then find it."""
+    were executed. One site per content of the sources (``sources_digest``) in ``notes_cache()``, built once:
+    the executed one (figures and outputs) whenever it is there; else, with ``execute`` None, the one
+    ``$MBD_KIT_NOTES`` asks for (executed unless ``as-written``), built if missing, with a line on stderr when
+    that takes a minute. Releases at once (tests, a class's homework) build it once: the first holds a lock."""
+    if execute is None:
+        execute = os.environ.get(AS_WRITTEN, "") != "as-written"
     root = notes_cache()
     root.mkdir(parents=True, exist_ok=True)
     with open(root / ".lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
-        for executed in (True, False) if execute is None else (execute,):
+        for executed in (True, execute):
             folder = root / sources_digest(executed)
             if (folder / "index.html").exists():
                 return folder, executed
-        executed = bool(execute)
-        folder = root / sources_digest(executed)
+        folder = root / sources_digest(execute)
         for old in root.iterdir():  # sites of earlier sources
-            if old.is_dir() and old.name != sources_digest(not executed):
+            if old.is_dir() and old.name != sources_digest(not execute):
                 shutil.rmtree(old, ignore_errors=True)
-        build_notes(folder, execute=executed, modules=MODULES)
-        return folder, executed
+        if execute:
+            print(
+                "building the course notes for the kits: every chapter and lecture executed (about a minute, once "
+                f"per change of the notes; {AS_WRITTEN}=as-written builds them as written in seconds)",
+                file=sys.stderr,
+            )
+        build_notes(folder, execute=execute, modules=MODULES)
+        return folder, execute
 
 
 def main(argv: list[str] | None = None) -> int:

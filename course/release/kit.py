@@ -212,8 +212,11 @@ Run the cells from the top; the cells marked *Graded* check your work as you go.
 
 Replace the `raise NotImplementedError(...)` in these functions (each names its equation in the course
 notes: eq. 3.17 is at `notes/ch03_planar_constraints.html#eq-3.17`, and `notes/index.html` lists every
-equation with a link); do not change their signatures. `mbd todo {homework}` lists what is left, file by file, and where
-to start.
+equation with a link); do not change their signatures. In the notebook each "eq. N.M" is a link: open it in a
+new browser tab (middle-click, or right-click and *Open Link in New Tab*) to land on the equation; a plain click
+opens the chapter inside JupyterLab, which typesets its equations once you press *Trust HTML* (the page is the
+course's own). A failed check shows the equations it cites, typeset, under its cell. `mbd todo {homework}`
+lists what is left, file by file, and where to start.
 
 {functions}
 

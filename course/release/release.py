@@ -95,7 +95,7 @@ class ReleaseReport:
         return "\n".join(lines)
 
 
-NOTES_AS_WRITTEN = "text and equations; `mbd notes --kit` once adds the figures and outputs to every later release"
+NOTES_AS_WRITTEN = "text and equations, as MBD_KIT_NOTES=as-written asks; without it a release executes them once"
 
 
 def load_config(course_dir: Path):

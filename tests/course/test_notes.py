@@ -227,9 +227,9 @@ def test_a_kits_pages_cite_the_students_package(tmp_path):
     assert nb.cells[1].source == "from modules.planar.bodies import rotation\nimport modules.linalg as s"
 
 
-def test_kits_share_one_site_per_content_of_the_sources(tmp_path, monkeypatch):
-    """kit_notes builds the site once for given sources (a class's releases, the test run's), an executed one
-    made by `mbd notes --kit` first; new sources build anew and the old site goes."""
+def test_kits_share_one_site_per_content_of_the_sources(tmp_path, monkeypatch, capsys):
+    """kit_notes builds the site once for given sources (a class's releases, the test run's): executed unless
+    MBD_KIT_NOTES=as-written, an executed one taken whenever it is there; new sources build anew, the old go."""
     from course.notes import build
 
     built = []
@@ -240,16 +240,21 @@ def test_kits_share_one_site_per_content_of_the_sources(tmp_path, monkeypatch):
         (out / "index.html").write_text("site")
 
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    monkeypatch.setenv("MBD_KIT_NOTES", "as-written")
     monkeypatch.setattr(build, "build_notes", fake_build)
     monkeypatch.setattr(build, "sources_digest", lambda execute: f"v1-{execute}")
     first, executed = build.kit_notes()
     assert executed is False and first.name == "v1-False" and build.kit_notes() == (first, False)
-    assert built == [("v1-False", False)]
-    assert build.kit_notes(execute=True) == (tmp_path / "mbd-course" / "kit-notes" / "v1-True", True)
-    assert build.kit_notes() == (tmp_path / "mbd-course" / "kit-notes" / "v1-True", True)  # executed preferred
+    assert built == [("v1-False", False)] and capsys.readouterr().err == ""
+    cache = tmp_path / "mbd-course" / "kit-notes"
+    assert build.kit_notes(execute=True) == (cache / "v1-True", True)
+    assert build.kit_notes() == (cache / "v1-True", True)  # the executed one, whenever it is there
     monkeypatch.setattr(build, "sources_digest", lambda execute: f"v2-{execute}")
     assert build.kit_notes()[0].name == "v2-False" and not first.exists()
-    assert built == [("v1-False", False), ("v1-True", True), ("v2-False", False)]
+    monkeypatch.delenv("MBD_KIT_NOTES")
+    assert build.kit_notes() == (cache / "v2-True", True)  # a release as users run it: executed, once
+    assert "executed (about a minute" in capsys.readouterr().err
+    assert built == [("v1-False", False), ("v1-True", True), ("v2-False", False), ("v2-True", True)]
 
 
 def test_the_sources_digest_follows_every_page_and_the_package():

@@ -23,6 +23,8 @@ import nbformat
 import pytest
 from nbclient import NotebookClient
 
+from course.notes import linked, note_pages
+from course.notes.build import build_notes
 from solutions.cli import main
 
 from ..conftest import execute_notebook
@@ -34,6 +36,11 @@ CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 LOCAL = {"127.0.0.1", "localhost", ""}
 NO_NEWS = {"disabledExtensions": {"@jupyterlab/apputils-extension:announcements": True}}
 """Lab's page configuration: the plugin that asks to fetch news from the web, off."""
+TYPESET = (
+    "() => window.MathJax && MathJax.Hub && MathJax.Hub.queue.pending === 0 && "
+    "document.querySelectorAll('.MathJax_Display').length > 0"
+)
+"""A page of the notes whose MathJax has typeset its displays."""
 CURRENT_TIME = ".slider-group > text.slider-label"
 """The slider's current value ("t = 0.000 s"), the first label of Plotly's slider."""
 
@@ -82,7 +89,9 @@ def notebook(tmp_path_factory) -> Path:
     nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
     os.environ["MBD_REPO"] = str(REPO)
     execute_notebook(NotebookClient(nb, timeout=300))
-    nbformat.write(nb, folder / "views.ipynb")
+    nb.cells.insert(0, nbformat.v4.new_markdown_cell(linked("The revolute joint (eq. 3.17).", note_pages())))
+    build_notes(folder / "notes", execute=False, paths=[REPO / "course" / "notes" / "ch03_planar_constraints.ipynb"])
+    nbformat.write(nb, folder / "views.ipynb")  # with a statement's link into a kit's notes/ beside it
     return folder / "views.ipynb"
 
 
@@ -178,9 +187,15 @@ def test_the_views_play_in_jupyterlab_untrusted_offline_and_after_save_and_reope
         page.wait_for_timeout(1500)
         page.reload()
         reopened = play_each_view(page, "lab-reopened")
+        link = page.locator(".jp-RenderedMarkdown a", has_text="3.17").get_attribute("href")  # Lab's /files/ URL
+        notes = open_page(browser, link, outside)  # as a middle-click opens it: a tab of its own
         page.close()
+        notes.wait_for_function(TYPESET, timeout=30000)
+        top = notes.evaluate("() => document.getElementById('eq-3.17').getBoundingClientRect().top")
+        notes.screenshot(path=str(ARTIFACTS / "lab-link-eq-3.17.png"))
     finally:
         lab.stop()
+    assert -2 < top < 60, top  # the statement's link, opened in a tab, lands on eq. 3.17, typeset by the notes' MathJax
     assert len(first) == len(reopened) == 2
     for before, after in first + reopened:
         assert before == "t = 0.000 s" and after != before, (before, after)  # it plays on the first click
@@ -223,15 +238,14 @@ def test_the_notes_chapter_plays_its_view_offline(browser, tmp_path):
     chapter = REPO / "course" / "notes" / "ch05_planar_dynamics.ipynb"
     build_notes(tmp_path, paths=[chapter])
     page = open_page(browser, (tmp_path / "ch05_planar_dynamics.html").as_uri() + "#eq-5.25", outside)
-    page.wait_for_function("() => window.MathJax && MathJax.Hub && MathJax.Hub.queue.pending === 0 && "
-                           "document.querySelectorAll('.MathJax_Display').length > 0", timeout=30000)  # fmt: skip
+    page.wait_for_function(TYPESET, timeout=30000)
     page.wait_for_timeout(500)
     page.screenshot(path=str(ARTIFACTS / "notes-ch05-eq-5.25.png"))
     displays = page.locator(".MathJax_Display").count()
     assert displays == page.locator("div.math").count() > 20, displays  # every display typeset
     assert page.locator(".MathJax .merror").count() == 0 and "\\tag{" not in page.inner_text("div.body")
     top = page.evaluate("() => document.getElementById('eq-5.25').getBoundingClientRect().top")
-    assert 0 <= top < 60, top  # the window opens on the equation
+    assert -2 < top < 60, top  # the window opens on the equation
     view = page.locator(".mbd-view").first
     view.scroll_into_view_if_needed()
     times = play_each_view_page(page, view)
