@@ -338,7 +338,10 @@ def test_forks_share_one_memory_bound(walled):
     book, out = walled
     said = report(out, "forks")
     held, killed = (int(part.split("=")[1]) for part in said.split(" | ")[-1].split())
-    assert held * FORK_BYTES < LIMITS.sandbox_memory and killed >= 1, said  # each alone fits in RLIMIT_AS
+    # each alone fits in RLIMIT_AS, the three together (960 MiB) not in the group's 640 MiB: the kernel kills at
+    # least one; two may still end well, one after the other (held counts endings, not blocks held at once: on a
+    # fast machine a fork's block was taken back before the third allocated its own). Without the group: held=3.
+    assert held < 3 and killed >= 1 and 2 * FORK_BYTES >= LIMITS.sandbox_memory, said
     only_the_attacked_check_fails(out, "forks")
 
 
