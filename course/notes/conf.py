@@ -25,6 +25,9 @@ suppress_warnings = ["mystnb.unknown_mime_type", "myst.header"]
 """A view's plotly MIME output also carries the HTML that plays it (build.py); chapters open with '# Chapter N.'
 and number their sections themselves ('## 3.2 ...')."""
 
+templates_path = ["_templates"]
+"""layout.html: a line at the top of every page that says what to do where scripts do not run (JupyterLab's
+viewer of an HTML file, until it is trusted): the equations are typeset by MathJax."""
 html_theme = "alabaster"
 html_title = "Course notes"
 html_static_path: list[str] = []
@@ -59,3 +62,4 @@ def _displays_as_written(app, doctree) -> None:
 
 def setup(app):
     app.connect("doctree-read", _displays_as_written)
+

@@ -196,6 +196,8 @@ def test_the_site_asks_nothing_of_the_network(site):
     for src in sources:
         assert (site / src.split("?")[0].split("#")[0]).exists(), src
     assert "cdn" not in page.lower() and "window.MathJax =" not in page  # no MathJax 3 object to stop MathJax 2
+    notice = page.index("<noscript>")  # where scripts are off (JupyterLab's viewer): what to do, first thing
+    assert page.index("<body") < notice < page.index("sphinxsidebar") and "Trust HTML" in page[notice:]
     size = write_mathjax(site.parent / "mathjax")
     assert 1e6 < size < 4e6, size  # what loads (no SVG output, no translations): a kit carries it
 
