@@ -17,8 +17,9 @@ from pathlib import Path
 
 from .paths import COURSE_DATA, data_dir
 
-CITATION = re.compile(r"\beqs?\.\s*(\d+\.\d+(?:\s*(?:-|,|and|to)\s*\d+\.\d+)*)")
-"""'eq. 3.17', 'eqs. 4.5, 4.6', 'eq. 2.1-2.5' (the numbers a citation names; a range names its two ends)."""
+CITATION = re.compile(r"\b(eqs?\.\s*)(\d+\.\d+(?:\s*(?:,|-|–|and|to)\s*\d+\.\d+)*)")
+"""'eq. 3.17', 'eqs. 4.5, 4.6', 'eq. 2.1-2.5': the word, then the numbers it names (a range names its two ends)."""
+LABEL = re.compile(r"\d+\.\d+")
 NOTES = "notes"
 """The kit's folder of the notes' site."""
 COURSE_NOTES = COURSE_DATA.parent / "course" / "notes"
@@ -40,7 +41,7 @@ def equations() -> dict[str, tuple[str, str]]:
 
 def cited(text: str) -> list[str]:
     """The equation labels ``text`` cites, in order, once each, that the notes hold."""
-    labels = [n for group in CITATION.findall(text) for n in re.findall(r"\d+\.\d+", group)]
+    labels = [n for _, group in CITATION.findall(text) for n in LABEL.findall(group)]
     known = equations()
     return [label for label in dict.fromkeys(labels) if label in known]
 
@@ -62,17 +63,21 @@ def markdown(text: str, folder: Path) -> str | None:
     return "\n".join(lines)
 
 
+def link_citations(text: str, linked, known) -> str:
+    """``text`` with each number of each citation ('eq. 3.17', 'eqs. 4.5, 4.6') that ``known`` holds replaced by
+    ``linked(label)``; the rest as it is."""
+
+    def numbers(match: re.Match) -> str:
+        each = LABEL.sub(lambda m: linked(m.group(0)) if m.group(0) in known else m.group(0), match.group(2))
+        return match.group(1) + each
+
+    return CITATION.sub(numbers, text)
+
+
 def html_links(escaped: str) -> str:
     """HTML text ``escaped`` with each 'eq. N.M' it cites a link into ``notes/`` (a page kept beside the kit's
     notes: the feedback a student gets, saved in the homework's folder)."""
-
-    def linked(match: re.Match) -> str:
-        label = match.group(2)
-        if label not in equations():
-            return match.group(0)
-        return f'{match.group(1)}<a href="{html.escape(link(label))}">{label}</a>'
-
-    return re.sub(r"\b(eqs?\.\s*)(\d+\.\d+)", linked, escaped)
+    return link_citations(escaped, lambda label: f'<a href="{html.escape(link(label))}">{label}</a>', equations())
 
 
 def terminal_lines(text: str, folder: Path) -> list[str]:

@@ -56,8 +56,6 @@ def equation_texts(path: Path) -> dict[str, str]:
     return texts
 
 
-CITED = re.compile(r"\b(eqs?\.\s*)(\d+\.\d+(?:\s*(?:,|-|–|and|to)\s*\d+\.\d+)*)")
-"""'eq. 3.17', 'eqs. 4.5, 4.6' in a notebook's prose: each number becomes a link into the notes."""
 LITERAL = re.compile(r"(`[^`]*`|\$\$.*?\$\$|\$[^$]*\$)", re.S)
 """Code spans and math, left as they are."""
 
@@ -65,17 +63,15 @@ LITERAL = re.compile(r"(`[^`]*`|\$\$.*?\$\$|\$[^$]*\$)", re.S)
 def linked(source: str, pages: dict[str, str]) -> str:
     """Markdown ``source`` with each 'eq. N.M' of its prose a link to ``pages[N.M]#eq-N.M`` (``pages``: the
     label's page in the notes' site as seen from the notebook, e.g. 'notes/ch03_planar_constraints.html');
-    code spans, math and labels the notes do not hold are left as they are."""
+    code spans, math and labels the notes do not hold are left as they are (``mbdkit.notes.link_citations``,
+    what the checker's messages are linked by)."""
+    from mbdkit.notes import link_citations
 
-    def one(match: re.Match) -> str:
-        label = match.group(0)
-        return f"[{label}]({pages[label]}#eq-{label})" if label in pages else label
-
-    def link(match: re.Match) -> str:
-        return match.group(1) + re.sub(r"\d+\.\d+", one, match.group(2))
+    def link(label: str) -> str:
+        return f"[{label}]({pages[label]}#eq-{label})"
 
     parts = LITERAL.split(source)
-    return "".join(part if k % 2 else CITED.sub(link, part) for k, part in enumerate(parts))
+    return "".join(part if k % 2 else link_citations(part, link, pages) for k, part in enumerate(parts))
 
 
 def note_pages(folder: str = "notes") -> dict[str, str]:

@@ -164,8 +164,11 @@ def write_mathjax(target: Path) -> int:
 def index_page(chapter_pages: list[Page], lecture_pages: list[Page]) -> str:
     """The site's front page (MyST): the contents, then every equation by chapter with its section, linked."""
     lines = ["# Computational multibody dynamics: course notes", ""]
-    lines += ["The chapters carry the theory and number its equations; the lectures work through it with the", ""]
-    lines += ["solver. Every *eq. N.M* cited in the homework, its stubs and its checks is listed below.", ""]
+    lines += [
+        "The chapters carry the theory and number its equations; the lectures work through it with the solver.",
+        "Every *eq. N.M* cited in the homework, its stubs and its checks is listed below.",
+        "",
+    ]
     for caption, pages in (("Chapters", chapter_pages), ("Lectures", lecture_pages)):
         if pages:
             lines += ["```{toctree}", f":caption: {caption}", ":maxdepth: 1", "", *(p.name for p in pages), "```", ""]
@@ -264,14 +267,14 @@ def kit_notes(execute: bool | None = None) -> tuple[Path, bool]:
     root.mkdir(parents=True, exist_ok=True)
     with open(root / ".lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
+        digests = {executed: sources_digest(executed) for executed in (True, False)}
         for executed in (True, execute):
-            folder = root / sources_digest(executed)
-            if (folder / "index.html").exists():
-                return folder, executed
-        folder = root / sources_digest(execute)
+            if (root / digests[executed] / "index.html").exists():
+                return root / digests[executed], executed
         for old in root.iterdir():  # sites of earlier sources
-            if old.is_dir() and old.name != sources_digest(not execute):
+            if old.is_dir() and old.name not in digests.values():
                 shutil.rmtree(old, ignore_errors=True)
+        folder = root / digests[execute]
         if execute:
             print(
                 "building the course notes for the kits: every chapter and lecture executed (about a minute, once "

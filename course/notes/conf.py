@@ -62,4 +62,3 @@ def _displays_as_written(app, doctree) -> None:
 
 def setup(app):
     app.connect("doctree-read", _displays_as_written)
-

@@ -241,18 +241,21 @@ nbgrader's *Submit* button, or `mbd handin {homework}`, which checks that your p
 """
 
 
-def build_kit(folder: Path, homework: str, to_write: list[tuple[str, str]], course_dir: Path = REPO) -> list[str]:
-    """Add the checker, ``pyproject.toml`` and ``README.md`` to a release folder; the files written.
+def build_kit(
+    folder: Path, homework: str, to_write: list[tuple[str, str]], course_dir: Path = REPO
+) -> tuple[list[str], bool]:
+    """Add the checker, ``pyproject.toml``, ``README.md``, the notes and the models to a release folder; the files
+    written, and whether the notes hold the notebooks' outputs (``kit_notes``).
     ``to_write``: the (file, function) pairs students write in this homework."""
     folder = Path(folder)
     spec = load_homework(course_dir / "autograder" / f"{homework}.toml")
     checks = write_checker(folder, homework, course_dir, to_write)
     (folder / "pyproject.toml").write_text(pyproject(homework, spec.title, course_dir))
     (folder / "README.md").write_text(readme(homework, spec.title, to_write, checks))
-    site, _ = kit_notes()
+    site, executed = kit_notes()
     shutil.copytree(site, folder / NOTES, dirs_exist_ok=True)
     shutil.copytree(REPO / "course" / "models", folder / MODELS, dirs_exist_ok=True)  # as the notes: the code's
     checker = [p for p in (folder / CHECKER).rglob("*") if p.is_file()]
     models = sorted((folder / MODELS).iterdir())
     written = [folder / "pyproject.toml", folder / "README.md", folder / NOTES / "index.html", *models, *checker]
-    return sorted(p.relative_to(folder).as_posix() for p in written)
+    return sorted(p.relative_to(folder).as_posix() for p in written), executed

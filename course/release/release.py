@@ -29,8 +29,6 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from course.notes.build import kit_notes
-
 from .generator import HOMEWORKS, REPO, RegionError, build_package, modules_differences
 from .kit import build_kit, course_dependencies
 from .leakcheck import find_leaks
@@ -242,7 +240,7 @@ def release(homework: str, course_dir: Path | None = None) -> ReleaseReport:
     now = [r for r in built.stubbed if r.homework == index]
     later = {r.qualified_name for r in built.stubbed if r.homework > index}
     asked = list(dict.fromkeys((r.path, r.function) for r in now))
-    kit = build_kit(folder, homework, asked, course_dir)
+    kit, notes_executed = build_kit(folder, homework, asked, course_dir)
 
     leaks = find_leaks(folder, homework, course_dir)
     if leaks:
@@ -264,7 +262,7 @@ def release(homework: str, course_dir: Path | None = None) -> ReleaseReport:
         notes=notes,
         size=sum(p.stat().st_size for p in folder.rglob("*") if p.is_file()),
         installs=[re.split(r"[<>=\[ ;]", d)[0] for d in course_dependencies(course_dir)],
-        notes_kind="with the notebooks' outputs" if kit_notes()[1] else NOTES_AS_WRITTEN,
+        notes_kind="with the notebooks' outputs" if notes_executed else NOTES_AS_WRITTEN,
     )
     if not report.to_write:
         report.notes.append(f"no solution region is tagged {homework}: students have nothing to write in modules/")
