@@ -815,6 +815,9 @@ def choose_method(
 
 ALIGNED = 0.9
 """|det(T_prev^T T)| above which two steps' null spaces are close enough for the sign test of ``Guard``."""
+BAND_SMALLEST = 64
+"""Coordinates from which ``square_spectra`` takes the band of Psi_q (below, numpy's batched dense SVDs and QRs
+cost less than the band's setup: ``benchmarks/call_cost.py --chain loops``)."""
 
 
 def null_space_bases(jacobians: np.ndarray, signs: bool = False):
@@ -843,6 +846,39 @@ def null_space_bases(jacobians: np.ndarray, signs: bool = False):
         return bases
     diagonal = np.diagonal(h, axis1=1, axis2=2)  # R's diagonal (``h`` holds R transposed, above its reflectors)
     return bases, np.sign(np.prod(diagonal, axis=1)) * (-1.0) ** np.count_nonzero(tau, axis=1)
+
+
+def singular_ratios(s: np.ndarray, rank: int) -> np.ndarray:
+    """sigma_r / sigma_1 of each row of singular values s (N, ...) sorted largest first; 0 where sigma_1 = 0."""
+    return np.where(s[:, 0] > 0, s[:, rank - 1] / np.where(s[:, 0] > 0, s[:, 0], 1.0), 0.0)
+
+
+def square_spectra(scaled: np.ndarray, before: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(sigma_m / sigma_1, null-space bases T, signs of det [Psi_q; T^T]) of each scaled Psi_q (N, m, n) of full row
+    rank m, for ``Guard.check_outputs``. Dense: SVDs and ``null_space_bases``, O(m^2 n) each. A large mechanism's
+    Psi_q is a band once its rows and columns are ordered (``compiled.singular``, the compiled runs' code that
+    calls this): bidiagonal reduction and bisection for the ratio, banded LU for T and the sign, O(n^2 b) and
+    O(n b^2); 3.3x faster on a chain of 32 loops (195 coordinates), 8.6x on 64. ``before``: a null-space basis
+    just before the first time (which picks the band's independent coordinates), None if none is known."""
+    N, m, n = scaled.shape
+    banded = None
+    if m < n and n >= BAND_SMALLEST:
+        try:
+            from .compiled import singular
+        except ImportError:  # no compiled engine here: dense
+            singular = None
+        if singular is not None:
+            first = null_space_bases(scaled[:1])[0] if before is None else before
+            banded = singular.spectra(scaled, first)
+    if banded is None:
+        tangents, signs = null_space_bases(scaled, signs=True)
+        return singular_ratios(np.linalg.svd(scaled, compute_uv=False), m), tangents, signs
+    ratios, tangents, signs = banded
+    failed = ~(np.isfinite(ratios) & np.isfinite(signs) & np.all(np.isfinite(tangents), axis=(1, 2)))
+    if np.any(failed):  # LAPACK met an exact zero pivot there: those times densely
+        tangents[failed], signs[failed] = null_space_bases(scaled[failed], signs=True)
+        ratios[failed] = singular_ratios(np.linalg.svd(scaled[failed], compute_uv=False), m)
+    return ratios, tangents, signs
 
 
 class Guard:
@@ -957,13 +993,12 @@ class Guard:
             return
         scaled = weighted / np.where(norms > 0, norms, 1.0)
         square = scaled.shape[1] == self.rank
-        if square:  # independent rows: singular values alone, the null space from a QR of Psi_q^T (cheaper)
-            s = np.linalg.svd(scaled, compute_uv=False)
-            tangents, signs = null_space_bases(scaled, signs=True)  # signs: det [Psi_q; T^T]
+        if square:  # independent rows: sigma_m / sigma_1, T and det [Psi_q; T^T], from the band where it pays
+            ratios, tangents, signs = square_spectra(scaled, self._tangent)
         else:  # redundant rows: the null space of rank r needs the SVD's V; det [Psi_q; T^T] is not defined
             _, s, vt = np.linalg.svd(scaled)
             tangents, signs = np.swapaxes(vt[:, self.rank :], 1, 2), None
-        ratios = np.where(s[:, 0] > 0, s[:, self.rank - 1] / np.where(s[:, 0] > 0, s[:, 0], 1.0), 0.0)
+            ratios = singular_ratios(s, self.rank)
         turns = np.linalg.det(np.swapaxes(tangents[:-1], 1, 2) @ tangents[1:])  # det(T_k-1^T T_k), k >= 1
         if self._quiet(t, ratios, tangents, signs, turns):
             return

@@ -36,7 +36,7 @@ EVALUATE_SIGNATURE = types.void(types.float64, _vector, _vector, F_TYPE, D_TYPE,
 DONE, NO_CONVERGENCE, ZERO_PIVOT, LOCKUP, SIGN_CHANGE, DIP = 0, 1, 2, 3, 4, 5
 
 
-def _lapack(name: str, arguments: int) -> types.ExternalFunction:
+def lapack(name: str, arguments: int) -> types.ExternalFunction:
     """LAPACK's ``name`` from scipy's public ``scipy.linalg.cython_lapack``, found by numba's public
     ``get_cython_function_address`` and registered with LLVM under a symbol of its own: compiled code calls it by
     that name, so the functions that call it are cached on disk (a ctypes pointer would be a dynamic global)."""
@@ -45,9 +45,9 @@ def _lapack(name: str, arguments: int) -> types.ExternalFunction:
     return types.ExternalFunction(symbol, types.void(*[types.voidptr] * arguments))
 
 
-_GETRF, _GESV = _lapack("dgetrf", 6), _lapack("dgesv", 8)
+_GETRF, _GESV = lapack("dgetrf", 6), lapack("dgesv", 8)
 """LAPACK's dgetrf(m, n, a, lda, ipiv, info) and dgesv(n, nrhs, a, lda, ipiv, b, ldb, info), Fortran calls (every
-argument by address, ``_lapack``). They are the routines of
+argument by address, ``lapack``). They are the routines of
 ``linalg.lu_factor`` and ``linalg.solve`` themselves. The pivot ratio of the numpy loop is not a continuous function
 of q: where two candidates for a pivot are equal but for rounding (frequent in a chain of equal loops), the choice
 between them changes U's diagonal by a factor, and a spurious dip may follow. The same routines on (nearly) the

@@ -1,0 +1,290 @@
+"""The Guard's singularity test at the output times of a large mechanism, from the band of Psi_q (issue 25).
+
+``dynamics.Guard.check_outputs`` needs, at every output time of a compiled run, three things of the scaled
+Jacobian Psi_q (m x n, full row rank m at the start):
+
+- the ratio sigma_m / sigma_1 of its smallest and largest singular values (how near a rank loss it is);
+- an orthonormal basis T (n x d, d = n - m) of its null space (the directions the mechanism can move in);
+- the sign of det [Psi_q; T^T] (the test function whose flip between two times says that a rank loss lies
+  between them).
+
+Dense, they cost an SVD and a QR of Psi_q at every output time: O(m^2 n) each, on a chain of 32 parallelogram
+loops (194 x 195) 326 ms for 101 times against the integration's 35 ms. But Psi_q is sparse: each row holds the
+columns of one or two bodies. Ordered by reverse Cuthill-McKee (``band_order``: George and Liu, Computer
+Solution of Large Sparse Positive Definite Systems, 1981, ch. 4), the columns of bodies that share a joint lie
+close together, and so do the rows; with d empty rows slotted in where the rows do not reach, the square
+matrix [Psi_q; 0] is a band whose half-widths kl, ku do not grow with the number of bodies on a chain. Then:
+
+- sigma_1 and sigma_m: LAPACK's dgbbrd reduces the band to bidiagonal form B by Givens rotations, O(n^2 (kl +
+  ku)) (Kaufman, "Band reduction algorithms revisited", ACM TOMS 26, 2000); the singular values of B are the
+  positive eigenvalues of its Golub-Kahan form, the 2n x 2n tridiagonal with zero diagonal and off-diagonal
+  (b_11, b_12, b_22, b_23, ...), of which bisection on Sturm counts (dstebz) finds the two wanted ones, each in
+  O(n) per halving and to high relative accuracy (Demmel and Kahan, SIAM J. Sci. Stat. Comput. 11, 1990).
+  [Psi_q; 0] has Psi_q's singular values and d zeros. (All n singular values by dqds, dlasq1, cost four times
+  the reduction on a chain of 32 loops.)
+- null space and sign: with d unit rows E^T in the empty slots (``e_c`` for the d coordinates in which the null
+  space of the time before is largest, the independent coordinates of coordinate partitioning, eq. 5.35), the
+  square band A = [Psi_q; E^T] is factored by LAPACK's banded LU (dgbtrf, O(n kl (kl + ku))); then
+  T_0 = A^-1 [0; I_d] (dgbtrs) spans the null space (Psi_q T_0 = 0, E^T T_0 = I), T = T_0 S^-1 by Gram-Schmidt
+  with S's diagonal positive, and det [Psi_q; T^T] = det S det A, so its sign is that of det A: the product of
+  U's diagonal, the pivots' swaps and the two orderings' parities. (Proof: with W = A^-1 [I_m; 0],
+  [Psi_q; T^T] [W T_0] = [[I, 0], [T^T W, S]] and det [W T_0] = 1 / det A.)
+
+Any orthonormal basis serves the Guard (``dynamics.null_space_bases``): a different E gives T R with R
+orthogonal, which multiplies det [Psi_q; T^T] and the turn det(T_prev^T T) by the same det R = +-1.
+
+``spectra`` returns, for a stack of scaled Jacobians (N, m, n), the ratios (N,), the bases (N, n, d) and the
+signs (N,); a time where LAPACK reports a failure (a zero pivot: Psi_q singular to the last bit at an output
+time) gets NaN there, and the Guard computes that time densely. No numba in the numpy engine: this module is
+imported by compiled runs only (``dynamics.square_spectra``, from ``Guard.check_outputs``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, types
+
+from .kinematic_loop import PIVOT_TYPE, lapack
+
+_GBBRD, _STEBZ = lapack("dgbbrd", 18), lapack("dstebz", 18)
+_GBTRF, _GBTRS = lapack("dgbtrf", 8), lapack("dgbtrs", 11)
+"""LAPACK's dgbbrd(vect, m, n, ncc, kl, ku, ab, ldab, d, e, q, ldq, pt, ldpt, c, ldc, work, info), dstebz(range,
+order, n, vl, vu, il, iu, abstol, d, e, m, nsplit, w, iblock, isplit, work, iwork, info), dgbtrf(m, n, kl, ku, ab,
+ldab, ipiv, info) and dgbtrs(trans, n, kl, ku, nrhs, ab, ldab, ipiv, b, ldb, info): Fortran calls, every argument
+by address (``kinematic_loop.lapack``)."""
+
+WIDEST = 8
+"""The band pays where its width kl + ku + 1 is at most an eighth of the coordinates (``spectra``: None otherwise)."""
+
+_vector, _ivector = types.float64[::1], types.int64[::1]
+_SPECTRA = types.Tuple((_vector, types.float64[:, :, ::1], _vector))(
+    types.float64[:, :, ::1], _ivector, _vector, _ivector, _ivector, types.float64[:, ::1]
+)
+
+
+def band_order(pattern: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(columns, keys) of a band ordering of a sparsity pattern (m, n), m <= n: the columns in reverse
+    Cuthill-McKee order of the graph where two columns are adjacent when a row holds both, and each row's key,
+    the mean position of its columns in that order, which places it along the diagonal of the square n x n band
+    (``_layout``: with the unit rows of E at their column's position)."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import reverse_cuthill_mckee
+
+    boolean = np.asarray(pattern, dtype=bool)
+    adjacency = csr_matrix(boolean.T.astype(float) @ boolean.astype(float))
+    columns = np.asarray(reverse_cuthill_mckee(adjacency, symmetric_mode=True), dtype=np.int64)
+    position = np.empty(columns.size, dtype=np.int64)
+    position[columns] = np.arange(columns.size)
+    keys = np.array([position[np.flatnonzero(row)].mean() if row.any() else 0.0 for row in boolean])
+    return columns, keys
+
+
+def spectra(scaled: np.ndarray, first: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(sigma_m / sigma_1 (N,), null-space bases (N, n, d), signs of det [Psi_q; T^T] (N,)) of each scaled Psi_q
+    (N, m, n) of full row rank, from the band (module docstring); None where the ordered Psi_q is not a band
+    narrower than an eighth of n. ``first`` (n, d): a null-space basis at (or just before) the first time, which
+    picks its independent coordinates. NaN at a time where LAPACK failed."""
+    pattern = np.any(scaled != 0.0, axis=0)
+    columns, keys = band_order(pattern)
+    position = np.empty(columns.size, dtype=np.int64)
+    position[columns] = np.arange(columns.size)
+    starts = np.concatenate([[0], np.cumsum(pattern.sum(axis=1))]).astype(np.int64)
+    indices = np.concatenate([np.flatnonzero(row) for row in pattern]).astype(np.int64)
+    first = np.ascontiguousarray(first, dtype=float)
+    chosen = _independent(first, first.shape[1])
+    kl, ku = _widths(_layout(keys, position, chosen), keys.size, starts, indices, position, chosen, True)
+    if WIDEST * (kl + ku + 1) > columns.size:  # not a band: dense costs less
+        return None
+    return _spectra(np.ascontiguousarray(scaled), position, keys, starts, indices, first)
+
+
+@njit(cache=True, nogil=True)
+def _parity(permutation):
+    """+1 or -1: the sign of a permutation (its number of even-length cycles)."""
+    seen = np.zeros(permutation.size, dtype=np.bool_)
+    sign = 1.0
+    for start in range(permutation.size):
+        if seen[start]:
+            continue
+        length, at = 0, start
+        while not seen[at]:
+            seen[at] = True
+            at = permutation[at]
+            length += 1
+        if length % 2 == 0:
+            sign = -sign
+    return sign
+
+
+@njit(cache=True, nogil=True)
+def _independent(basis, d):
+    """The d coordinates in which the null-space basis (n, d) is largest: greedy pivoting of its rows (the
+    columns of T^T), each chosen row's direction removed from the rest (Gram-Schmidt), so that [Psi_q; E^T] is
+    as far from singular as a choice of d unit rows makes it."""
+    rest = basis.copy()
+    chosen = np.empty(d, dtype=np.int64)
+    for a in range(d):
+        best, size = 0, -1.0
+        for r in range(rest.shape[0]):
+            norm = 0.0
+            for c in range(d):
+                norm += rest[r, c] * rest[r, c]
+            if norm > size:
+                best, size = r, norm
+        chosen[a] = best
+        direction = rest[best] / np.sqrt(size) if size > 0.0 else rest[best] * 0.0
+        for r in range(rest.shape[0]):
+            along = 0.0
+            for c in range(d):
+                along += rest[r, c] * direction[c]
+            for c in range(d):
+                rest[r, c] -= along * direction[c]
+    return np.sort(chosen)
+
+
+@njit(cache=True, nogil=True)
+def _layout(keys, position, chosen):
+    """The rows of the square band: slot[i] the row of A = [Psi_q; E^T] at band row i (E's rows m, m + 1, ...),
+    by their places along the diagonal (Psi_q's rows at the mean position of their columns, ``band_order``; E's
+    unit rows at their column's position)."""
+    m = keys.size
+    places = np.empty(m + chosen.size)
+    places[:m] = keys
+    for a in range(chosen.size):
+        places[m + a] = position[chosen[a]]
+    return np.argsort(places, kind="mergesort")
+
+
+@njit(cache=True, nogil=True)
+def _widths(slot, m, starts, indices, position, chosen, with_e):
+    """(kl, ku) of the square band: the largest distance below and above the diagonal of a structural nonzero."""
+    kl, ku = 0, 0
+    for i in range(slot.size):
+        r = slot[i]
+        if r < m:
+            for p in range(starts[r], starts[r + 1]):
+                j = position[indices[p]]
+                kl, ku = max(kl, i - j), max(ku, j - i)
+        elif with_e:
+            j = position[chosen[r - m]]
+            kl, ku = max(kl, i - j), max(ku, j - i)
+    return kl, ku
+
+
+@njit(cache=True, nogil=True)
+def _ratio(J, slot, m, starts, indices, position, chosen):
+    """sigma_m / sigma_1 of Psi_q from the band [Psi_q; 0] (dgbbrd, then dstebz on the Golub-Kahan form: module
+    docstring); 0 where sigma_1 = 0 (as the dense ratio), NaN where LAPACK failed."""
+    n = slot.size
+    kl, ku = _widths(slot, m, starts, indices, position, chosen, False)
+    ldab = kl + ku + 1
+    ab = np.zeros((n, ldab))  # Fortran's AB(ldab, n): ab[j, ku + i - j] = A[i, j]
+    for i in range(n):
+        r = slot[i]
+        if r < m:
+            for p in range(starts[r], starts[r + 1]):
+                c = indices[p]
+                ab[position[c], ku + i - position[c]] = J[r, c]
+    d, e = np.empty(n), np.zeros(n)
+    dummy, work = np.zeros(1), np.empty(8 * n)
+    letter = np.full(3, ord("N"), dtype=np.uint8)  # vect 'N'; then range 'I' and order 'E' for dstebz
+    sizes = np.array([n, n, 0, kl, ku, ldab, 1, 0], dtype=PIVOT_TYPE)  # m, n, ncc, kl, ku, ldab, ldq/ldpt/ldc, info
+    _GBBRD(letter[0:].ctypes, sizes[0:].ctypes, sizes[1:].ctypes, sizes[2:].ctypes, sizes[3:].ctypes, sizes[4:].ctypes,
+           ab.ctypes, sizes[5:].ctypes, d.ctypes, e.ctypes, dummy.ctypes, sizes[6:].ctypes, dummy.ctypes,
+           sizes[6:].ctypes, dummy.ctypes, sizes[6:].ctypes, work.ctypes, sizes[7:].ctypes)  # fmt: skip
+    if sizes[7] != 0:
+        return np.nan
+    diagonal, off = np.zeros(2 * n), np.empty(2 * n)  # the Golub-Kahan tridiagonal of B
+    for i in range(n):
+        off[2 * i] = d[i]
+        off[2 * i + 1] = e[i] if i < n - 1 else 0.0
+    letter[1], letter[2] = ord("I"), ord("E")
+    found = np.empty(2)
+    for a, index in enumerate((2 * n - m + 1, 2 * n)):  # ascending: sigma_m, then sigma_1 (1-based indices)
+        numbers = np.array([2 * n, index, index, 0, 0, 0], dtype=PIVOT_TYPE)  # n, il, iu, m, nsplit, info
+        bounds = np.array([0.0, 0.0, 2.0 * np.finfo(np.float64).tiny])  # vl, vu (unused), abstol
+        w = np.empty(2 * n)
+        block, split = np.empty(2 * n, dtype=PIVOT_TYPE), np.empty(2 * n, dtype=PIVOT_TYPE)
+        iwork = np.empty(6 * n, dtype=PIVOT_TYPE)
+        _STEBZ(letter[1:].ctypes, letter[2:].ctypes, numbers[0:].ctypes, bounds[0:].ctypes, bounds[1:].ctypes,
+               numbers[1:].ctypes, numbers[2:].ctypes, bounds[2:].ctypes, diagonal.ctypes, off.ctypes,
+               numbers[3:].ctypes, numbers[4:].ctypes, w.ctypes, block.ctypes, split.ctypes, work.ctypes,
+               iwork.ctypes, numbers[5:].ctypes)  # fmt: skip
+        if numbers[5] != 0 or numbers[3] != 1:
+            return np.nan
+        found[a] = abs(w[0])
+    return found[0] / found[1] if found[1] > 0.0 else 0.0
+
+
+@njit(cache=True, nogil=True)
+def _null_space(J, slot, m, starts, indices, position, chosen):
+    """(T, sign of det [Psi_q; T^T]) from the banded LU of A = [Psi_q; E^T] (module docstring); NaN on failure."""
+    n, d = slot.size, chosen.size
+    kl, ku = _widths(slot, m, starts, indices, position, chosen, True)
+    ldab = 2 * kl + ku + 1
+    ab = np.zeros((n, ldab))  # dgbtrf's AB: ab[j, kl + ku + i - j] = A[i, j], kl rows above for the fill
+    rhs = np.zeros((d, n))  # Fortran's B(n, d): the unit vectors of E's rows in the band layout
+    for i in range(n):
+        r = slot[i]
+        if r < m:
+            for p in range(starts[r], starts[r + 1]):
+                j = position[indices[p]]
+                ab[j, kl + ku + i - j] = J[r, indices[p]]
+        else:
+            j = position[chosen[r - m]]
+            ab[j, kl + ku + i - j] = 1.0
+            rhs[r - m, i] = 1.0
+    pivots = np.empty(n, dtype=PIVOT_TYPE)
+    sizes = np.array([n, n, kl, ku, ldab, 0, d], dtype=PIVOT_TYPE)  # m, n, kl, ku, ldab, info, nrhs
+    _GBTRF(sizes[0:].ctypes, sizes[1:].ctypes, sizes[2:].ctypes, sizes[3:].ctypes, ab.ctypes, sizes[4:].ctypes,
+           pivots.ctypes, sizes[5:].ctypes)  # fmt: skip
+    if sizes[5] != 0:
+        return np.full((n, d), np.nan), np.nan
+    sign = 1.0
+    for i in range(n):
+        if ab[i, kl + ku] < 0.0:
+            sign = -sign
+        if pivots[i] - 1 != i:
+            sign = -sign
+    trans = np.full(1, ord("N"), dtype=np.uint8)
+    _GBTRS(trans.ctypes, sizes[0:].ctypes, sizes[2:].ctypes, sizes[3:].ctypes, sizes[6:].ctypes, ab.ctypes,
+           sizes[4:].ctypes, pivots.ctypes, rhs.ctypes, sizes[0:].ctypes, sizes[5:].ctypes)  # fmt: skip
+    # B[i, j] = A[slot[i], columns[j]] (A's rows: Psi_q's, then E's): det B = sign(slot) det A sign(columns)
+    sign *= _parity(slot) * _parity(position)
+    basis = np.empty((n, d))
+    for c in range(n):
+        for a in range(d):
+            basis[c, a] = rhs[a, position[c]]
+    for a in range(d):  # Gram-Schmidt: T = T_0 S^-1, S upper triangular with a positive diagonal
+        for b in range(a):
+            along = 0.0
+            for c in range(n):
+                along += basis[c, b] * basis[c, a]
+            for c in range(n):
+                basis[c, a] -= along * basis[c, b]
+        norm = 0.0
+        for c in range(n):
+            norm += basis[c, a] * basis[c, a]
+        norm = np.sqrt(norm)
+        for c in range(n):
+            basis[c, a] /= norm
+    return basis, sign
+
+
+@njit(_SPECTRA, cache=True, nogil=True)
+def _spectra(scaled, position, keys, starts, indices, first):
+    N, m, n = scaled.shape
+    d = n - m
+    ratios, bases, signs = np.empty(N), np.empty((N, n, d)), np.empty(N)
+    before = first
+    for k in range(N):
+        chosen = _independent(before, d)
+        slot = _layout(keys, position, chosen)
+        ratios[k] = _ratio(scaled[k], slot, m, starts, indices, position, chosen)
+        bases[k], signs[k] = _null_space(scaled[k], slot, m, starts, indices, position, chosen)
+        if np.all(np.isfinite(bases[k])):
+            before = bases[k]
+    return ratios, bases, signs
+
+
+__all__ = ["WIDEST", "band_order", "spectra"]

@@ -1,0 +1,116 @@
+"""The Guard's singularity test from the band of Psi_q (solutions/compiled/singular.py) against the dense one.
+
+Independent of the code under test: numpy's SVD for sigma_m / sigma_1, numpy's determinant of [Psi_q; T^T] for the
+sign, Psi_q T = 0 and T^T T = I for the basis; and the Guard's verdict on a chain of parallelogram loops driven
+through its flat (singular) position, the same with the band as with the dense SVDs and QRs."""
+
+from __future__ import annotations
+
+import functools
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("numba")
+
+from solutions import dynamics  # noqa: E402
+from solutions.assembly import build_system  # noqa: E402
+from solutions.compiled import singular  # noqa: E402
+from solutions.diagnostics import SingularConfigurationError  # noqa: E402
+from solutions.dynamics import Guard, null_space_bases  # noqa: E402
+from solutions.io import load_model  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+from benchmarks.chains import loop_chain  # noqa: E402
+
+LOOPS = 25  # 76 bodies, 152 rows, 153 coordinates: past dynamics.BAND_SMALLEST. Flat, each loop loses a rank: an
+# odd count flips the sign of det [Psi_q; T^T] (an even one cancels in pairs, and only the ratio's dip tells)
+
+
+@functools.cache
+def _chain_at(angles_deg: tuple[float, ...]):
+    system, _, _ = build_system(load_model(loop_chain(LOOPS)))
+    qs = [build_system(load_model(loop_chain(LOOPS, math.radians(a))))[1] for a in angles_deg]
+    return system, np.array(qs)
+
+
+def chain_at(angles_deg):
+    """The chain's system, and its q at each crank angle from the vertical (90 degrees: flat, singular)."""
+    return _chain_at(tuple(float(a) for a in angles_deg))
+
+
+@pytest.fixture(scope="module")
+def perturbed():
+    """Scaled Jacobians of the chain at 60 degrees and at random states about it (the Guard's scaling)."""
+    system, qs = chain_at([60.0])
+    guard = Guard(system, qs[0], 1e-3, 1e-8)
+    rng = np.random.default_rng(7)
+    states = [qs[0] + 0.02 * k * rng.standard_normal(qs[0].size) for k in range(12)]
+    return np.array([guard._scaled(system.jacobian(q, 0.0)) for q in states])
+
+
+def test_band_gives_the_dense_ratio_basis_and_sign(perturbed):
+    ratios, bases, signs = singular.spectra(perturbed, null_space_bases(perturbed[:1])[0])
+    s = np.linalg.svd(perturbed, compute_uv=False)
+    m = perturbed.shape[1]
+    np.testing.assert_allclose(ratios, s[:, m - 1] / s[:, 0], rtol=1e-11)
+    assert np.max(np.abs(perturbed @ bases)) < 1e-13  # the null space
+    d = bases.shape[2]
+    np.testing.assert_allclose(np.swapaxes(bases, 1, 2) @ bases, np.broadcast_to(np.eye(d), (len(bases), d, d)),
+                               atol=1e-13)  # fmt: skip
+    determinants = [np.linalg.det(np.vstack([J, T.T])) for J, T in zip(perturbed, bases, strict=True)]
+    np.testing.assert_array_equal(signs, np.sign(determinants))
+
+
+def test_near_singular_ratio_to_its_relative_accuracy():
+    """Within a hundredth of a degree of flat, sigma_m / sigma_1 ~ 1e-5: the band's bisection keeps its digits."""
+    system, qs = chain_at([89.99, 90.01])
+    guard = Guard(system, chain_at([60.0])[1][0], 1e-3, 1e-8)
+    scaled = np.array([guard._scaled(system.jacobian(q, 0.0)) for q in qs])
+    ratios, _, _ = singular.spectra(scaled, null_space_bases(scaled[:1])[0])
+    s = np.linalg.svd(scaled, compute_uv=False)
+    dense = s[:, -1] / s[:, 0]
+    assert np.all(dense < 1e-3)
+    np.testing.assert_allclose(ratios, dense, rtol=1e-8)
+
+
+def test_not_a_band_is_left_to_the_dense_code():
+    rng = np.random.default_rng(3)
+    dense = rng.standard_normal((2, 60, 70))
+    assert singular.spectra(dense, null_space_bases(dense[:1])[0]) is None
+
+
+def _through(smallest: int, monkeypatch, through: bool = False):
+    """The Guard's message on the chain driven from 80 to 100 degrees through flat (not at an output time: there the
+    ratio is rounding, ~1e-18 both ways), at 20 output times; with ``through``, the crossings it records."""
+    monkeypatch.setattr(dynamics, "BAND_SMALLEST", smallest)
+    angles = np.linspace(80.0, 100.0, 20)
+    system, qs = chain_at(angles)
+    times = np.linspace(0.0, 1.0, angles.size)
+    guard = Guard(system, qs[0], 1e-3, 1e-8, through=through)
+    psi = np.array([system.constraints(q, 0.0) for q in qs])
+    jacobians = np.array([system.jacobian(q, 0.0) for q in qs])
+    if through:
+        guard.check_outputs(times, qs, psi, jacobians)
+        return guard.crossings, guard.closest
+    with pytest.raises(SingularConfigurationError) as stop:
+        guard.check_outputs(times, qs, psi, jacobians)
+    return str(stop.value)
+
+
+def test_guard_stops_at_the_crossing_with_the_dense_message(monkeypatch):
+    banded = _through(64, monkeypatch)
+    assert "singular configuration between t = 0.473684 s and t = 0.526316 s" in banded
+    assert banded == _through(10**9, monkeypatch)
+
+
+def test_a_run_through_records_the_dense_crossings(monkeypatch):
+    crossings, closest = _through(64, monkeypatch, through=True)
+    dense_crossings, dense_closest = _through(10**9, monkeypatch, through=True)
+    assert [c["t"] for c in crossings] == [c["t"] for c in dense_crossings]
+    assert len(crossings) == 1 and abs(crossings[0]["t"] - 0.5) < 0.06  # flat at t = 0.5, between two output times
+    assert closest["t"] == dense_closest["t"]
+    assert closest["ratio"] == pytest.approx(dense_closest["ratio"], rel=1e-10)
