@@ -197,3 +197,20 @@ def test_a_loop_only_a_slide_could_close_is_refused():
     model = load_model({"model": {"name": "two-slides", "bodies": [block], "joints": joints}})
     with pytest.raises(ValueError, match=r"model\.joints\[1\] \(sy\): a prismatic joint that closes a loop"):
         export_mjcf(model)
+
+
+def test_step_and_softness_are_options(tmp_path, capsys):
+    """--timestep, --solref (the equalities' time constant; default two steps) and --solimp reach MuJoCo's model;
+    a softness MuJoCo would not take is refused."""
+    out, source = tmp_path / "f.xml", str(MODELS / "four_bar.yaml")
+    assert main(["export", source, "--to", "mjcf", "--out", str(out), "--timestep", "2e-4"]) == 0
+    m = mujoco.MjModel.from_xml_path(str(out))
+    assert m.opt.timestep == 2e-4 and m.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4
+    assert m.eq_solref[:, 0].tolist() == [4e-4, 4e-4]
+    options = ["--solref", "5e-4", "--solimp", "0.99", "0.999", "0.01"]
+    assert main(["export", source, "--to", "mjcf", "--out", str(out), *options]) == 0
+    m = mujoco.MjModel.from_xml_path(str(out))
+    assert m.eq_solref[0, 0] == 5e-4 and m.eq_solimp[0, :3].tolist() == [0.99, 0.999, 0.01]
+    capsys.readouterr()
+    assert main(["export", source, "--to", "mjcf", "--out", str(out), "--solimp", "0.9", "1.2", "0.01"]) == 2
+    assert "--solimp 0.9 1.2 0.01" in capsys.readouterr().err
