@@ -105,7 +105,8 @@ def inertial(model: Model, body) -> str:
 
 
 def relative_pose(mech: Mechanism, parent: int, child: int) -> tuple[np.ndarray, np.ndarray]:
-    """The child's frame in the parent's: pos = A_P^T (r_C - r_P), quat = p_P^* p_C (eq. 8.29)."""
+    """The child's frame in the parent's: pos = A_P^T (r_C - r_P) and the Euler parameters of A_P^T A_C, the
+    quaternion product quat = p_P^* p_C."""
     P, C = mech.frame(parent), mech.frame(child)
     conjugate = P.p * np.array([1.0, -1.0, -1.0, -1.0])
     return P.A.T @ (C.r - P.r), np.array(quaternion_product_entries(*conjugate, *C.p))
