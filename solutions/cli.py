@@ -308,6 +308,69 @@ def add_derive(sub) -> None:
     derive.set_defaults(handler=command_derive)
 
 
+EXPORTS = {"mjcf": ".xml", "urdf": ".urdf", "fmu": ".fmu"}
+"""The formats of ``mbd export`` and the suffix of the file written by default."""
+
+
+def command_export(args) -> int:
+    """``mbd export MODEL --to mjcf|urdf|fmu [--out FILE]``: the model in another code's format (``io.mjcf``,
+    ``io.urdf``; the FMU by ``io.fmu`` where installed), written to FILE or MODEL's stem here."""
+    out = Path(args.out or f"{Path(args.model).stem}{EXPORTS[args.to]}")
+    if not out.parent.is_dir():
+        raise UsageError(f"--out {out}: no folder {out.parent} (make it first, or write elsewhere)")
+    if args.to == "fmu":
+        try:
+            from .io.fmu import export_fmu
+        except ImportError:
+            raise UsageError(
+                "--to fmu: the FMU export needs the module solutions/io/fmu.py, not installed here"
+            ) from None
+        export_fmu(args.model, out)
+        print(f"FMU written to {out}")
+        return 0
+    model = load_model(args.model)
+    if args.to == "mjcf":
+        from .io.mjcf import Stiffness, export_mjcf
+
+        for option, value in (("--timestep", args.timestep), ("--solref", args.solref)):
+            if value is not None and not value > 0:
+                raise UsageError(f"{option} {value}: give a time > 0 in s, e.g. 1e-4")
+        if args.solimp is not None and not (0 < args.solimp[0] <= args.solimp[1] < 1 and args.solimp[2] > 0):
+            raise UsageError(f"--solimp {' '.join(map(str, args.solimp))}: give 0 < DMIN <= DMAX < 1 and WIDTH > 0")
+        given = {"timestep": args.timestep, "time_constant": args.solref, "solimp": args.solimp and tuple(args.solimp)}
+        stiffness = Stiffness(**{key: value for key, value in given.items() if value is not None})
+        text, notes = export_mjcf(model, stiffness), []
+    else:
+        from .io.urdf import export_urdf
+
+        text, notes = export_urdf(model)
+    try:
+        out.write_text(text)
+    except OSError as err:
+        raise UsageError(f"--out {out}: cannot write ({err.strerror})") from None
+    for note in notes:
+        print(f"note: {note}")
+    print(f"{args.to.upper()} written to {out}")
+    return 0
+
+
+def add_export(sub) -> None:
+    """``mbd export MODEL --to mjcf|urdf|fmu [--out FILE] [--timestep H] [--solref T]``."""
+    export = sub.add_parser("export", help="write a model for another code: MuJoCo's MJCF, URDF (open trees), an FMU")
+    export.add_argument("model", help="model file (YAML or JSON)")
+    export.add_argument("--to", required=True, choices=list(EXPORTS), help="the format: mjcf, urdf or fmu")
+    export.add_argument("--out", help="the file to write (default: MODEL's name with .xml, .urdf or .fmu, here)")
+    export.add_argument("--timestep", type=float, help="MJCF: MuJoCo's integration step in s (default 1e-4)")
+    export.add_argument(
+        "--solref", type=float, metavar="T", help="MJCF: the equalities' time constant in s (default: two steps)"
+    )
+    export.add_argument(
+        "--solimp", type=float, nargs=3, metavar=("DMIN", "DMAX", "WIDTH"),
+        help="MJCF: the equalities' impedance (default 0.9999 0.9999 0.001: stiff)",
+    )  # fmt: skip
+    export.set_defaults(handler=command_export)
+
+
 COMMANDS = "mbd.commands"
 """The entry-point group through which the course's other packages add their commands to ``mbd`` (as
 ``jupyter`` finds ``jupyter-NAME``): each entry is a function ``add(sub)`` that adds its subparser, with
@@ -315,7 +378,7 @@ COMMANDS = "mbd.commands"
 The course's ``pyproject.toml`` registers the instructor's commands and the self-check; this package knows
 none of them, and where the course is not installed (a student's kit) ``mbd`` has the solver's commands only."""
 
-OWN = ("run", "check", "view", "sweep", "derive")
+OWN = ("run", "check", "view", "sweep", "derive", "export")
 """The solver's own commands: ``mbd`` looks for the others only when asked for something else."""
 
 
@@ -457,6 +520,7 @@ def build_parser(others: bool = True) -> argparse.ArgumentParser:
     view.set_defaults(handler=command_view)
     add_sweep(sub)
     add_derive(sub)
+    add_export(sub)
     if others:
         for entry in registered_commands():
             entry.load()(sub)

@@ -132,6 +132,7 @@ ALL = {
     "view",
     "sweep",
     "derive",
+    "export",
     "release",
     "nbcheck",
     "notes",
