@@ -68,8 +68,10 @@ def shift_matrix(l, X):
 
 
 @jit
-def articulated_accelerations(IA, pA, ints, S, links, widths, first, thdd):
-    """theta'' of an open tree by the two passes of the module docstring (written into ``thdd``).
+def articulated_accelerations(IA, pA, ints, S, links, widths, first, thdd, acc):
+    """theta'' of an open tree by the two passes of the module docstring (written into ``thdd``), and every body's
+    acceleration A_b = (D theta'')_b on the way (``acc``, (nb + 1) x nv, ground last: zero): the outputs' q'' is
+    A_b + xi_b, with no D formed (``tree_kernels.planar_body_accelerations``, ``spatial_body_accelerations``).
 
     IA, pA: every body's inertia I_b and bias force p_b at its centre (nv x nv and nv: nv = 3 planar, 6 spatial),
     nb + 1 of them with ground last (overwritten by the articulated ones); ints: the tree's joints in topological
@@ -131,7 +133,8 @@ def articulated_accelerations(IA, pA, ints, S, links, widths, first, thdd):
                         for b in range(nv):
                             s += X[a, i] * Ia[a, b] * X[b, j]
                 IA[P, i, j] += s
-    acc, shifted = np.zeros((nb + 1, nv)), np.empty(nv)  # 2. from ground to the leaves: A of ground is zero
+    acc[nb] = 0.0  # 2. from ground to the leaves: A of ground is zero
+    shifted = np.empty(nv)
     for e in range(ne):
         P, C, d, at = ints[e, 1], ints[e, 2], widths[ints[e, 0]], ints[e, first]
         if P < 0:

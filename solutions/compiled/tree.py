@@ -133,11 +133,13 @@ ARRAYS = (
     ("xi", "a", None), ("Dm", "a * k", "(a, k)"), ("omega", "3 * nb", "(nb, 3)"), ("Q", "n", None),
     ("power", "3", None), ("q", "n", None), ("qd", "n", None), ("S", "3 * nv * ne", "(ne, nv, 3)"),
     ("links", "3 * ne", "(ne, 3)"), ("thdd", "k", None), ("mu", "ncut", None),
+    ("acc", "nv * (nb + 1)", "(nb + 1, nv)"),
 )  # fmt: skip
 """The arrays of every evaluation (name, size, shape): xi and D (eq. 5.44), omega', Q, the powers, q and q', the
-joints' columns S_e and links (``articulated``), theta'', the cut rows' multipliers mu. (D is written only where it
-is used. Psi, Psi_q, Psi_t, gamma, q'' and lambda are made where they are needed: a tree without cut rows needs none
-of them on the way to theta''.)"""
+joints' columns S_e and links (``articulated``), theta'', the cut rows' multipliers mu, the bodies' accelerations of
+the articulated pass (an open tree's q'' at the outputs). (D is written only where it is used. Psi, Psi_q, Psi_t,
+gamma, q'' and lambda are made where they are needed: a tree without cut rows needs none of them on the way to
+theta''.)"""
 
 
 def _arrays(spatial: bool) -> list[str]:
@@ -157,16 +159,25 @@ def _arrays(spatial: bool) -> list[str]:
 
 def _multipliers(scene: Scene) -> list[str]:
     """The lines that make q'' (``qdd``) from theta'' and lambda of every row from Psi_q^T lambda = Q - M q'' (an open
-    tree's by ``tree_multipliers``, each body's rows from its own columns; with cut rows by the normal equations)."""
+    tree's q'' from the articulated pass's body accelerations and lambda by ``tree_multipliers``, each body's rows
+    from its own columns, O(N); with cut rows q'' = D theta'' + xi and their lambda from the augmented system)."""
     if scene.dimension == 3:
         lines = [
-            "spatial_coordinate_accelerations(q, qd, Dm, xi, omega, thdd, qdd)",
-            "M = np.zeros((n, n))",
-            "spatial_mass(q, qd, masses, inertias, weights, M, Q)  # M(q) and Q += Q_v (eq. 10.4, 10.5)",
-            "residual = Q - M @ qdd",
+            "if ncut > 0:",
+            "    spatial_coordinate_accelerations(q, qd, Dm, xi, omega, thdd, qdd)",
+            "else:  # the articulated pass's body accelerations: no D",
+            "    spatial_body_accelerations(q, qd, acc, xi, omega, qdd)",
+            "residual = np.empty(n)",
+            "spatial_mass_residual(q, qd, qdd, masses, inertias, weights, Q, residual)  # Q += Q_v; Q - M q''",
         ]
     else:
-        lines = ["qdd[:] = Dm @ thdd + xi", "residual = Q - mass * qdd"]
+        lines = [
+            "if ncut > 0:",
+            "    qdd[:] = Dm @ thdd + xi",
+            "else:  # the articulated pass's body accelerations: no D",
+            "    planar_body_accelerations(acc, xi, qdd)",
+            "residual = Q - mass * qdd",
+        ]
     solve = [
         "for a in range(ncut):  # the cut rows' lambda: mu of the augmented system; the tree's from what is left",
         "    lam[dims[7 + a]] = mu[a]",
@@ -196,7 +207,7 @@ def _body(tree: TreeScene) -> list[str]:
         "    ne = joints.shape[0]",
         "    full = out.size > y.size  # the outputs asked for too (loops.outputs): q, q', q'', lambda after y'",
         "    ncut = dims[6]  # cut rows (P[8][7 : 7 + ncut]); the rows' owners after them",
-        "    columns = full or ncut > 0  # D itself: for the outputs and the cut rows only",
+        "    columns = ncut > 0  # D itself: for the cut rows only (an open tree's outputs: the body accelerations)",
         *_arrays(spatial),
         "    Q[:] = Q0",
         "    power[:] = 0.0",
@@ -233,7 +244,7 @@ def _body(tree: TreeScene) -> list[str]:
         "        thdd[:] = cut_accelerations("
         "matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, dims[7 : 7 + ncut], numbers[0], numbers[1], mu)",
         "    else:  # an open tree: the articulated-body algorithm, O(N)",
-        f"        {equations}_articulated({articulated}, joints, S, links, thdd)",
+        f"        {equations}_articulated({articulated}, joints, S, links, thdd, acc)",
         "    if full or (ncut > 0 and dims[5]):  # lambda: the outputs, or the drivers' power (drivers: cut rows)",
         *_multipliers(scene),
         "        if dims[5]:  # the drivers' power (eq. 5.61)",
@@ -249,11 +260,12 @@ def generate(tree: TreeScene) -> str:
     spatial = scene.dimension == 3
     forces = [name for name, _, _ in scene.force_kernels]
     constraints = [name for name, _, _ in scene.constraint_kernels]
-    kernels = sorted({*forces, *constraints} | ({"spatial_mass"} if spatial else set()))
+    kernels = sorted({*forces, *constraints})
     dimension = "spatial" if spatial else "planar"
     tree_imports = {f"{dimension}_motion", f"{dimension}_equations", f"{dimension}_articulated", "cut_accelerations"}
     tree_imports.add("tree_multipliers")
-    tree_imports |= {"spatial_coordinate_accelerations", "spatial_joint_matrix"} if spatial else set()
+    spatial_kernels = {"spatial_coordinate_accelerations", "spatial_joint_matrix", "spatial_body_accelerations"}
+    tree_imports |= spatial_kernels | {"spatial_mass_residual"} if spatial else {"planar_body_accelerations"}
     lines = [
         f'"""Generated by solutions.compiled.tree for the tree {tree.key!r}: do not edit."""',
         "import numpy as np",

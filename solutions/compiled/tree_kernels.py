@@ -107,16 +107,16 @@ def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, S, links, col
 
 
 @jit
-def planar_articulated(mass, xi, Q, ints, S, links, thdd):
+def planar_articulated(mass, xi, Q, ints, S, links, thdd, acc):
     """theta'' of an open planar tree in O(N) (``articulated``): the bodies' I_b = diag(m, m, J) and bias forces
-    p_b = M_b xi_b - Q_b (no gyroscopic term in the plane)."""
+    p_b = M_b xi_b - Q_b (no gyroscopic term in the plane); the bodies' accelerations D theta'' in ``acc``."""
     nb = mass.size // 3
     IA, pA = np.zeros((nb + 1, 3, 3)), np.zeros((nb + 1, 3))
     for b in range(nb):
         for r in range(3):
             IA[b, r, r] = mass[3 * b + r]
             pA[b, r] = mass[3 * b + r] * xi[3 * b + r] - Q[3 * b + r]
-    articulated_accelerations(IA, pA, ints, S, links, WIDTHS, 3, thdd)
+    articulated_accelerations(IA, pA, ints, S, links, WIDTHS, 3, thdd, acc)
 
 
 @jit
@@ -369,9 +369,10 @@ def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates
 
 
 @jit
-def spatial_articulated(masses, inertias, q, xi, omega, Q, ints, S, links, thdd):
+def spatial_articulated(masses, inertias, q, xi, omega, Q, ints, S, links, thdd, acc):
     """theta'' of an open spatial tree in O(N) (``articulated``): I_b = diag(m I, A J' A^T) and the bias force p_b
-    = -(the body force f of ``body_force``, its torque turned to global axes by A)."""
+    = -(the body force f of ``body_force``, its torque turned to global axes by A); the bodies' accelerations
+    D theta'' (a, and omega'' in global axes) in ``acc``."""
     nb = masses.size
     IA, pA, force, R = np.zeros((nb + 1, 6, 6)), np.zeros((nb + 1, 6)), np.empty(6), np.empty(9)
     for b in range(nb):
@@ -389,7 +390,7 @@ def spatial_articulated(masses, inertias, q, xi, omega, Q, ints, S, links, thdd)
         for r in range(3):  # (A J') A^T, row by row: A times the row
             row = IA[b, 3 + r, 3:]
             row[0], row[1], row[2] = _rotate(R, row[0], row[1], row[2])
-    articulated_accelerations(IA, pA, ints, S, links, WIDTHS, 4, thdd)
+    articulated_accelerations(IA, pA, ints, S, links, WIDTHS, 4, thdd, acc)
 
 
 @jit
@@ -478,24 +479,91 @@ def tree_multipliers(jac, residual, owners, width, ints, lam):
     reverse topological order): a body's columns meet only the rows it owns (its joint to its parent, its
     Euler-parameter normalization; ``TreeScene.owners``) and its children's rows, already known and moved to the
     right side. So each body solves A lambda_own = r_C (A: its columns of its own rows, at most 7 x 6, full column
-    rank) by least squares, whose residual is zero: O(N), where the normal equations of all rows cost O(m^3).
+    rank) by least squares, whose residual is zero, and moves what its rows exert on its parent, the only other
+    body they hold, to the parent's columns: O(N), where the normal equations of all rows cost O(m^3).
     ``width``: a body's columns (3 planar, 7 spatial)."""
-    m = jac.shape[0]
+    m, nb = jac.shape[0], residual.size // width
     r = residual.copy()
-    mine = np.empty(m, dtype=np.int64)
+    start = np.zeros(nb + 1, dtype=np.int64)  # the rows of body b: mine[start[b] : start[b + 1]] (counting sort)
+    for row in range(m):
+        if owners[row] >= 0:
+            start[owners[row] + 1] += 1
+    for b in range(nb):
+        start[b + 1] += start[b]
+    mine, filled = np.empty(start[nb], dtype=np.int64), start[:nb].copy()
+    for row in range(m):
+        if owners[row] >= 0:
+            mine[filled[owners[row]]] = row
+            filled[owners[row]] += 1
     for e in range(ints.shape[0] - 1, -1, -1):
-        C, count = ints[e, 2], 0
-        for row in range(m):
-            if owners[row] == C:
-                mine[count] = row
-                count += 1
+        P, C = ints[e, 1], ints[e, 2]
+        first, count = start[C], start[C + 1] - start[C]
         A = np.empty((count, width))
         for a in range(count):
-            A[a] = jac[mine[a], width * C : width * (C + 1)]
+            A[a] = jac[mine[first + a], width * C : width * (C + 1)]
         x = lu_solve(A @ A.T, A @ r[width * C : width * (C + 1)])
         for a in range(count):
-            lam[mine[a]] = x[a]
-            r -= x[a] * jac[mine[a]]  # what the body's rows exert on its parent too
+            row = mine[first + a]
+            lam[row] = x[a]
+            if P >= 0:  # what the body's rows exert on its parent
+                for c in range(width * P, width * (P + 1)):
+                    r[c] -= x[a] * jac[row, c]
+
+
+@jit
+def planar_body_accelerations(acc, xi, qdd):
+    """q'' = D theta'' + xi of a planar tree from the bodies' accelerations of the articulated pass (``acc``: D
+    theta'' per body, (x'', y'', phi'') at its centre): no D formed."""
+    for b in range(xi.size // 3):
+        for r in range(3):
+            qdd[3 * b + r] = acc[b, r] + xi[3 * b + r]
+
+
+@jit
+def spatial_body_accelerations(q, qd, acc, xi, omega, qdd):
+    """q'' = (r'', p'') of a spatial tree from the bodies' accelerations of the articulated pass (``acc``: a and
+    the angular acceleration of D theta'' in global axes) and xi (a, A^T alpha): r'' = a + xi_a, the body-frame
+    angular acceleration w = A^T (D theta'')_alpha + xi_alpha, p'' = 1/2 L(p)^T w + 1/2 L(p')^T omega' (eq. 8.17;
+    ``spatial_coordinate_accelerations`` without D)."""
+    R = np.empty(9)
+    for b in range(omega.shape[0]):
+        o = 7 * b
+        _rotation9(q[o + 3], q[o + 4], q[o + 5], q[o + 6], R)
+        for r in range(3):
+            qdd[o + r] = acc[b, r] + xi[6 * b + r]
+        w0, w1, w2 = _rotate_back(R, acc[b, 3], acc[b, 4], acc[b, 5])
+        x = _half_l_transpose(q[o + 3], q[o + 4], q[o + 5], q[o + 6], w0 + xi[6 * b + 3], w1 + xi[6 * b + 4],
+                              w2 + xi[6 * b + 5])  # fmt: skip
+        y = _half_l_transpose(qd[o + 3], qd[o + 4], qd[o + 5], qd[o + 6], omega[b, 0], omega[b, 1], omega[b, 2])
+        for r in range(4):
+            qdd[o + 3 + r] = x[r] + y[r]
+
+
+@jit
+def _l_fill(p, out):
+    """L(p) (eq. 8.14) into out (3 x 4)."""
+    entries = l_entries_jit(p[0], p[1], p[2], p[3])
+    for r in range(3):
+        for c in range(4):
+            out[r, c] = entries[4 * r + c]
+
+
+@jit
+def spatial_mass_residual(q, qd, qdd, masses, inertias, weights, Q, residual):
+    """Q += Q_v = 8 L(p')^T J' L(p') p (eq. 10.5) and residual = Q - M q'' body by body, M_b = diag(m I, 4 L^T J' L
+    + 4 w p p^T) (eq. 10.4, regularized as ``dynamic_mass_matrix``): ``kernels.spatial_mass`` without the n x n M."""
+    L, Ld = np.empty((3, 4)), np.empty((3, 4))
+    for b in range(masses.size):
+        o = 7 * b
+        p, pd, pdd = q[o + 3 : o + 7], qd[o + 3 : o + 7], qdd[o + 3 : o + 7]
+        _l_fill(p, L)
+        _l_fill(pd, Ld)
+        J = inertias[b]
+        Q[o + 3 : o + 7] += 8.0 * (Ld.T @ (J @ (Ld @ p)))
+        for r in range(3):
+            residual[o + r] = Q[o + r] - masses[b] * qdd[o + r]
+        Mp = 4.0 * (L.T @ (J @ L)) + 4.0 * weights[b] * np.outer(p, p)
+        residual[o + 3 : o + 7] = Q[o + 3 : o + 7] - Mp @ pdd
 
 
 @jit

@@ -117,10 +117,13 @@ def test_a_pendulum_gets_its_closed_form_and_a_massless_one_nan():
     from solutions.compiled.tree_kernels import WIDTHS
 
     mass, inertia, r, theta = 2.0, 0.05, 0.3, 0.7
-    thdd = np.zeros(1)
+    thdd, acc = np.zeros(1), np.full((2, 3), np.nan)
     IA, pA, ints, S, links = _pendulum(mass, inertia, r, theta)
-    articulated_accelerations(IA, pA, ints, S, links, WIDTHS, 3, thdd)
+    articulated_accelerations(IA, pA, ints, S, links, WIDTHS, 3, thdd, acc)
     assert thdd[0] == pytest.approx(-mass * 9.81 * r * np.sin(theta) / (inertia + mass * r**2), rel=1e-14)
+    # at rest the centre (r sin theta, -r cos theta) accelerates by theta'' (r cos theta, r sin theta); ground not
+    np.testing.assert_allclose(acc, [[r * np.cos(theta) * thdd[0], r * np.sin(theta) * thdd[0], thdd[0]], [0, 0, 0]],
+                               rtol=1e-14, atol=1e-15)  # fmt: skip
     IA, pA, ints, S, links = _pendulum(0.0, 0.0, r, theta)  # no inertia at the end of the tree: D_e = 0
-    articulated_accelerations(IA, pA, ints, S, links, WIDTHS, 3, thdd)
+    articulated_accelerations(IA, pA, ints, S, links, WIDTHS, 3, thdd, acc)
     assert np.isnan(thdd).all()  # the adaptive integrators reject such a step, as with the dense solve
