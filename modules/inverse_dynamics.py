@@ -23,7 +23,7 @@ import numpy as np
 import scipy.linalg
 
 from .assembly import System
-from .generalized_forces import ForceModel, build_forces
+from .generalized_forces import ForceModel, build_forces, element_columns
 from .kinematics import kinematic_analysis
 from .mass_matrix import mass_at, mass_matrix
 from .reactions import driver_efforts, joint_reactions
@@ -86,6 +86,7 @@ def inverse_dynamics(
     result.lam = lam
     result.reactions = joint_reactions(system, result.q, lam, result.t)
     result.reactions.update({f"{name}.effort": np.array(values) for name, values in efforts.items()})
+    result.forces = element_columns(forces, result.t, result.q, result.qd)
     result.info.update(
         analysis="inverse",
         max_equation_residual=residual,

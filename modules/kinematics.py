@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .assembly import System
-from .diagnostics import AnalysisError, involved_joints, rank_report, singular_joints
+from .diagnostics import AnalysisError, involved_joints, rank_report, setting_words, singular_joints
 from .linalg import lu_factor, lu_solve, minimum_norm_solution, numerical_rank, solve
 from .planar.bodies import rotation, rotation_derivative
 from .results import KinematicInfo, Progress, Result
@@ -368,7 +368,7 @@ def check_branch(march: KinematicSteps, k: int, q: np.ndarray, lu) -> None:
     sign = determinant_sign(lu)
     march.ratios.append(pivot_ratio(lu))
     first = dip_start(march.ratios, times.size)
-    hint = "through_singular=True (mbd run --through-singular) goes on along the branch of the velocities"
+    hint = f"{setting_words('through_singular', True)} goes on along the branch of the velocities"
     if first is not None and sign == march.sign:
         found = locate_singular_position(system, times[first], march.Q[first], march.QD[first], march.QDD[first], t)
         if found is not None:
@@ -588,16 +588,21 @@ def point_columns(result: Result, label: str, body: int, point: np.ndarray) -> d
 
 def rotation_columns(result: Result, bodies: list[str]) -> dict[str, np.ndarray]:
     """For each spatial body: angular velocity, global 'B.wx .wy .wz' = 2 G p' and body-frame 'B.wx_body ..'
-    = A^T omega (eq. 8.16), and the rotation matrix 'B.A11' .. 'B.A33' (eq. 8.12)."""
+    = A^T omega (eq. 8.16); angular acceleration, global 'B.wx_d ..' = omega' = 2 G p'' and body-frame
+    'B.wx_body_d ..' = A^T omega' (the rate of A^T omega too: its other term A'^T omega = -A^T omega~ omega is
+    zero); and the rotation matrix 'B.A11' .. 'B.A33' (eq. 8.12)."""
     columns: dict[str, np.ndarray] = {}
     for b, name in enumerate(bodies):
-        p, pd = result.q[:, 7 * b + 3 : 7 * b + 7], result.qd[:, 7 * b + 3 : 7 * b + 7]
+        p, pd, pdd = (x[:, 7 * b + 3 : 7 * b + 7] for x in (result.q, result.qd, result.qdd))
         A = np.array([euler_rotation(pk / np.linalg.norm(pk)) for pk in p])
-        omega = np.array([angular_rates(pk, pdk, pdk)[0] for pk, pdk in zip(p, pd, strict=True)])
-        local = np.einsum("kji,kj->ki", A, omega)
+        omega, alpha = (np.array(w) for w in zip(*map(angular_rates, p, pd, pdd), strict=True))
+        local, local_rate = (np.einsum("kji,kj->ki", A, w) for w in (omega, alpha))
         for i, axis in enumerate("xyz"):
             columns[f"{name}.w{axis}"] = omega[:, i]
             columns[f"{name}.w{axis}_body"] = local[:, i]
+        for i, axis in enumerate("xyz"):
+            columns[f"{name}.w{axis}_d"] = alpha[:, i]
+            columns[f"{name}.w{axis}_body_d"] = local_rate[:, i]
         for i in range(3):
             for j in range(3):
                 columns[f"{name}.A{i + 1}{j + 1}"] = A[:, i, j]

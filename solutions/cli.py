@@ -15,7 +15,7 @@ import numpy as np
 
 from .analysis import run_analysis
 from .assembly import System, build_system
-from .diagnostics import AnalysisError, rank_report
+from .diagnostics import AnalysisError, command_line_words, rank_report
 from .io.model import Model, ModelError, load_model
 from .kinematics import assemble
 from .results import DERIVED, Result
@@ -29,20 +29,33 @@ class UsageError(ValueError):
     """A command-line option that does not fit the model."""
 
 
-def _parse_point(text: str, model: Model, number: int) -> tuple[str, int, np.ndarray]:
-    """'[LABEL=]BODY:x,y' (spatial: x,y,z) -> (label, body index, body-frame point s' = A^T (P - r)).
+POINT_FRAMES = ("global", "body")
+"""How ``--point`` reads x, y (, z): ``@global`` (the default) a point in the file's configuration, ``@body`` a
+point in the body's frame as the file gives it, as ``frame: body`` reads a model file's points (from the centre
+of mass, or from ``location`` for a body with ``com:``)."""
 
-    x, y (, z) are global, in the file's configuration; the label defaults to 'BODY.pN'.
+
+def _parse_point(text: str, model: Model, number: int) -> tuple[str, int, np.ndarray]:
+    """'[LABEL=]BODY:x,y[,z][@body]' -> (label, body index, body-frame point s').
+
+    x, y (, z) are global, in the file's configuration (s' = A^T (P - r), eq. 2.10 read backwards), or with
+    '@body' in the file's body frame (s' = x - c' for a body with ``com`` c', else s' = x); the label defaults
+    to 'BODY.pN'.
     """
     form = "x,y" if model.dimension == 2 else "x,y,z"
+    usage = (
+        f"--point {text!r}: write [LABEL=]BODY:{form} (a global point in the file's configuration) or "
+        f"[LABEL=]BODY:{form}@body (in the body's frame, as frame: body reads a model file)"
+    )
     label, _, spec = text.rpartition("=")
+    spec, _, frame = spec.partition("@")
+    if (frame or "global") not in POINT_FRAMES:
+        raise UsageError(usage)
     try:
         body, coords = spec.split(":")
         values = np.array([float(v) for v in coords.split(",")])
     except ValueError:
-        raise UsageError(
-            f"--point {text!r}: write [LABEL=]BODY:{form} (a global point in the file's configuration)"
-        ) from None
+        raise UsageError(usage) from None
     try:
         index = model.body_index(body)
     except KeyError:
@@ -50,10 +63,12 @@ def _parse_point(text: str, model: Model, number: int) -> tuple[str, int, np.nda
         raise UsageError(f"--point {text!r}: no body named '{body}' (bodies: {names})") from None
     if values.size != model.dimension or index < 0:
         raise UsageError(f"--point {text!r}: give {model.dimension} coordinates ({form}) of a point of a moving body")
-    b = model.bodies[index]
+    label, b = label or f"{body}.p{number}", model.bodies[index]
+    if frame == "body":
+        return label, index, values if b.com is None else values - b.com
     if model.dimension == 3:
-        return label or f"{body}.p{number}", index, euler_rotation(b.orientation).T @ (values - b.location)
-    return label or f"{body}.p{number}", index, planar_rotation(b.orientation).T @ (values - b.location)
+        return label, index, euler_rotation(b.orientation).T @ (values - b.location)
+    return label, index, planar_rotation(b.orientation).T @ (values - b.location)
 
 
 def _check_coords(names: list[str], system: System, points: dict) -> None:
@@ -78,6 +93,19 @@ def _unused_note(args, result: Result) -> str | None:
     return f"note: not used by the {analysis} analysis: {', '.join(unused)}"
 
 
+def restart_line(result: Result) -> str | None:
+    """One line for a run that ``auto`` made again with another formulation (``info['restarted']``): when the
+    first run stopped, why, and which formulation ran instead; None for a run that went through at once."""
+    restarted = result.info.get("restarted")
+    if not restarted:
+        return None
+    when = "" if restarted["t"] is None else f" at t = {restarted['t']:.6g} s"
+    return (
+        f"mbd run: restarted: the {restarted['stopped']} formulation stopped{when} ({restarted['why']}); auto ran "
+        f"the analysis again from t = 0 with {restarted['formulation']}, which passes singular positions"
+    )
+
+
 def run_summary(result: Result) -> str:
     info = result.info
     lines = [f"{info.get('analysis', 'analysis')} analysis: {result.t.size} output points to t = {result.t[-1]:g} s"]
@@ -96,7 +124,7 @@ def run_summary(result: Result) -> str:
         lines.append(f"wall time: {info['wall_time']:.3g} s")
     lines += [f"note: {note}" for note in info.get("notes", [])]  # e.g. redundant joints: reactions not unique
     lines += [f"warning: {warning}" for warning in info.get("warnings", [])]
-    return "\n".join(lines)
+    return command_line_words("\n".join(lines))
 
 
 RESULT_FILES = (".csv", ".npz")
@@ -139,8 +167,14 @@ def command_run(args) -> int:
     settings = read_settings(model.simulation, **{f.name: getattr(args, f.name) for f in table()})
     _check_coords(args.coords or [], system, points)
     if args.rotations and model.dimension != 3:
-        raise UsageError("--rotations: a planar body's angle phi and its rate are the columns BODY.phi, BODY.phi_d")
+        raise UsageError(
+            "--rotations: a planar body's angle phi, its rate and acceleration are the columns BODY.phi, BODY.phi_d, "
+            "BODY.phi_dd"
+        )
     result = run_analysis(system, q0, qd0, settings, points=points)
+    restarted = restart_line(result)
+    if restarted:
+        print(restarted, file=sys.stderr)
     if args.rotations:
         from .kinematics import rotation_columns
 
@@ -479,7 +513,13 @@ def build_parser(others: bool = True) -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="run an analysis of a model file")
     run.add_argument("model", help="model file (YAML or JSON)")
     add_settings(run)
-    run.add_argument("--out", help="write results to FILE.csv or FILE.npz")
+    run.add_argument(
+        "--out",
+        help="write results to FILE.csv or FILE.npz: t, BODY.x .. with _d and _dd, --point columns, JOINT.Fx .., "
+        "DRIVER.effort and (dynamic, inverse) each force element's ELEMENT.force (a spring-damper's tension, N, "
+        "positive pulling), ELEMENT.torque (rotational, N m), ELEMENT.Fx .. (point force) and ELEMENT.power (W put "
+        "into the bodies)",
+    )
     run.add_argument("--plot", help="plot coordinates and points against time to FILE.png")
     run.add_argument(
         "--animate",
@@ -489,15 +529,17 @@ def build_parser(others: bool = True) -> argparse.ArgumentParser:
     run.add_argument(
         "--point",
         action="append",
-        metavar="[LABEL=]BODY:x,y[,z]",
+        metavar="[LABEL=]BODY:x,y[,z][@body]",
         help="also report position, velocity and acceleration (LABEL.x .y [.z], _d, _dd) of a body point given "
-        "globally in the file's configuration, in every analysis (repeatable)",
+        "globally in the file's configuration, or with @body in the body's frame (as frame: body in a model file), "
+        "in every analysis (repeatable)",
     )
     run.add_argument(
         "--rotations",
         action="store_true",
         help="spatial models: also report each body's angular velocity in rad/s, global (BODY.wx .wy .wz) and "
-        "in the body frame (BODY.wx_body ..), and its rotation matrix (BODY.A11 .. BODY.A33)",
+        "in the body frame (BODY.wx_body ..), its angular acceleration in rad/s^2 (BODY.wx_d .., BODY.wx_body_d ..) "
+        "and its rotation matrix (BODY.A11 .. BODY.A33)",
     )
     run.set_defaults(handler=command_run)
     check = sub.add_parser("check", help="validate and assemble a model; report DOF and redundancies")
@@ -539,7 +581,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.handler(args)
     except (ModelError, AnalysisError, UsageError) as err:
-        print(f"mbd: error: {err}", file=sys.stderr)
+        print(f"mbd: error: {command_line_words(str(err))}", file=sys.stderr)
         return USER_ERROR
     except BrokenPipeError:  # output piped into a command that stopped reading (e.g. `| head`)
         sys.stderr.close()

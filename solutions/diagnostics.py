@@ -8,6 +8,7 @@ rows depend on each other, hence which joints are redundant or locked.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,9 +20,33 @@ class AnalysisError(RuntimeError):
     """An analysis that cannot go on, with a message that says why and what to do."""
 
 
+def setting_words(name: str, value, option_value: str | None = None) -> str:
+    """A setting as a message names it for both of its readers, the API's keyword and the command line's option:
+    ``setting_words("singular_ratio", None, "0")`` is 'singular_ratio=None (mbd run --singular-ratio 0)', a flag
+    ``setting_words("through_singular", True)`` 'through_singular=True (mbd run --through-singular)'.
+    ``command_line_words`` keeps the option alone in what the command line prints."""
+    option = "--" + name.replace("_", "-")
+    given = option if value is True else f"{option} {value if option_value is None else option_value}"
+    return f"{name}={value!r} (mbd run {given})"
+
+
+SETTING_WORDS = re.compile(r"\b[a-z_]+=\S+ \(mbd run (--[^()]*)\)")
+"""A setting in both spellings, as ``setting_words`` writes it; group 1 is the command line's."""
+
+
+def command_line_words(message: str) -> str:
+    """A message in the command line's words: each setting ``setting_words`` named in both spellings by its option
+    alone ('--singular-ratio 0 runs on regardless', not 'singular_ratio=None (mbd run --singular-ratio 0) ...')."""
+    return SETTING_WORDS.sub(r"\1", message)
+
+
 class SingularConfigurationError(AnalysisError):
     """A run stopped at a singular configuration of Psi_q (``formulation="auto"`` then takes a formulation
-    that passes it: the augmented Lagrangian one)."""
+    that passes it: the augmented Lagrangian one); ``t`` is the time it stopped at, when known."""
+
+    def __init__(self, message: str, t: float | None = None):
+        super().__init__(message)
+        self.t = t
 
 
 @dataclass

@@ -4,7 +4,9 @@ A run (course notes, chapter 6):
 
 1. **Consistent initial conditions.** The file's configuration is assembled, Psi(q0, 0) = 0, by
    Newton-Raphson; the file's velocities are projected onto Psi_q q' = -Psi_t with the correction
-   of least kinetic-energy norm. The result's info reports how far both moved.
+   of least kinetic-energy norm. The result's info reports how far both moved. A point mass that its
+   joints leave free to turn about its centre gets a nominal inertia on that turn alone, at rest
+   (``nominal_inertia``): the turn moves no mass, and M becomes regular on the motions allowed.
 2. **Integration.** The chosen formulation (``formulations.py``) turns M q'' + Psi_q^T lambda = Q,
    Psi_q q'' = gamma into a first-order ODE y' = f(t, y), which the chosen integrator
    (``integrators.py``) advances. When the scene has dampers, actuators, loads or drivers, the
@@ -30,17 +32,26 @@ run is made again from the start with the one fallback plan: a formulation that 
 
 from __future__ import annotations
 
+import copy
 import dataclasses
+import re
 import time as _time
 from dataclasses import dataclass
 
 import numpy as np
 
 from .assembly import System
-from .diagnostics import NEAR_SINGULAR, AnalysisError, SingularConfigurationError, passes_zero, rank_report
+from .diagnostics import (
+    NEAR_SINGULAR,
+    AnalysisError,
+    SingularConfigurationError,
+    passes_zero,
+    rank_report,
+    setting_words,
+)
 from .energy import driver_power, energy_history
 from .formulations import FORMULATIONS, Formulation, make_formulation
-from .generalized_forces import ForceModel, build_forces
+from .generalized_forces import ForceModel, build_forces, element_columns
 from .integrators import (
     FIXED_STEP_METHODS,
     STABILITY_LIMIT,
@@ -51,7 +62,7 @@ from .integrators import (
 from .joint_coordinates import open_tree
 from .kinematics import assemble, point_columns
 from .linalg import RANK_EPS, numerical_rank
-from .mass_matrix import mass_at, mass_matrix
+from .mass_matrix import mass_at, mass_matrix, singular_inertia
 from .reactions import REDUNDANT_NOTE, driver_efforts, joint_reactions, minimum_norm_multipliers
 from .results import DynamicInfo, Progress, Result
 from .settings import (
@@ -127,46 +138,136 @@ def effort_columns(system: System, q: np.ndarray, lam: np.ndarray, t: np.ndarray
 
 
 def point_masses(model) -> list[int]:
-    """Indices of the bodies the file gives as point masses (inertia 0, spatial [0, 0, 0])."""
-    return [k for k, b in enumerate(model.bodies) if b.has_mass and not np.any(np.asarray(b.inertia))]
+    """Indices of the bodies with a singular inertia (``mass_matrix.singular_inertia``): point masses (inertia 0,
+    spatial [0, 0, 0]) and spatial bodies with a zero principal moment."""
+    return singular_inertia(model)
 
 
-def check_point_masses(system: System, M, q: np.ndarray, formulation: str = "auto") -> None:
-    """Accept point masses only where the equations of motion stay solvable: M regular on the motions the
-    constraints allow, Z^T M Z positive definite for Z spanning the null space of Psi_q (eq. 5.44), which
-    makes the matrix of eq. 5.30 regular; a point mass whose rotation is free makes it singular.
+@dataclass(frozen=True)
+class FreeTurns:
+    """The motions a run's constraints allow that carry no kinetic energy (``free_turns``): ``motions`` (n, k)
+    spans them; ``axes`` {body index: body-frame axes (3, r), orthonormal (planar: [[1.0]])} are what they turn."""
+
+    motions: np.ndarray
+    axes: dict
+
+
+def free_turns(system: System, M, q: np.ndarray) -> FreeTurns:
+    """Motions Z v the constraints allow (Z spanning the null space of Psi_q) with no kinetic energy, v^T Z^T M Z v
+    = 0 (eq. 5.44): the rotation of a point mass about its own centre (a bead pinned at its centre; a point mass on a
+    spherical joint about the line to the joint), which moves no mass. Which bodies they turn and about which
+    body-frame axes (omega' = 2 L(p) p' of a spatial body, eq. 8.16)."""
+    jacobian = system.jacobian(q, 0.0)
+    _, sigma, vt = np.linalg.svd(jacobian)
+    Z = vt[numerical_rank(sigma, jacobian.shape) :].T
+    reduced = Z.T @ mass_at(M, q) @ Z
+    values, vectors = np.linalg.eigh(0.5 * (reduced + reduced.T)) if Z.shape[1] else (np.zeros(0), Z[:0, :0])
+    motions = Z @ vectors[:, ~(values > RANK_EPS * max(values.max(initial=0.0), 0.0))]
+    axes, per = {}, system.coordinates_per_body
+    for k in point_masses(system.model) if motions.size else ():
+        block = motions[per * k : per * k + per]
+        turn = block[2:3] if per == 3 else 2.0 * _l_matrix(q[per * k + 3 : per * k + 7]) @ block[3:]
+        U, s, _ = np.linalg.svd(turn)
+        if s.size and s[0] > RANK_EPS:
+            axes[k] = U[:, : int(np.sum(s > RANK_EPS * s[0]))]
+    return FreeTurns(motions, axes)
+
+
+def nominal_inertia(run: Run, M, q: np.ndarray) -> tuple[Run, FreeTurns, list[str]]:
+    """A run whose point masses turn about their free axes (``free_turns``) with a nominal inertia m L^2 about those
+    axes alone (L the mechanism's size), and what the result says of it.
+
+    Such a rotation moves no mass, so M q'' + Psi_q^T lambda = Q leaves it undetermined (M singular on it); with the
+    nominal inertia it is decoupled: no constraint or force turns it (a torque on it is refused), it starts at rest
+    (its speed taken out of q' by the caller, ``without_turns``) and stays so, and every mass moves as before, in
+    every formulation (eq. 5.44: Z^T M Z becomes regular). A run whose free motions are not such turns is refused.
 
     Raises
     ------
     AnalysisError
-        Naming the point mass that can rotate (with the fix), or a formulation that needs M^-1.
+        Naming the body: a free motion that is not a point mass's turn, or a torque on a free turn.
+    """
+    system, model = run.system, run.system.model
+    turns = free_turns(system, M, q)
+    if not turns.motions.size:
+        return run, turns, []
+    size = mechanism_size(system, q)
+    bodies = list(model.bodies)
+    for k, axes in turns.axes.items():
+        check_free_torque(run, q, k, axes)
+        moment = model.bodies[k].mass * size**2
+        planar = model.dimension == 2
+        inertia = moment if planar else np.asarray(model.bodies[k].inertia, dtype=float) + moment * axes @ axes.T
+        bodies[k] = dataclasses.replace(model.bodies[k], inertia=inertia)
+    spun = copy.copy(system)
+    spun.model = dataclasses.replace(model, bodies=bodies)
+    check_point_masses(spun, mass_matrix(spun.model), q)  # a free motion left: no point mass's turn, refused
+    names = ", ".join(f"'{model.bodies[k].name}'" for k in turns.axes)
+    note = (
+        f"{names}: singular inertia (a point mass) free to turn about its centre, which moves no mass; given a "
+        f"nominal inertia m L^2 (L = {size:.3g} m) about the free axes only, at rest: every mass moves as without it"
+    )
+    return dataclasses.replace(run, system=spun), turns, [note]
+
+
+def check_free_torque(run: Run, q: np.ndarray, k: int, axes: np.ndarray) -> None:
+    """Refuse a torque on the free turn of point mass k (its axes, body frame): applied forces off its centre, or a
+    torque, would spin it without bound. Q of the model's forces at q, at rest and t = 0: its rotation rows are the
+    moment (planar), or 2 L^T n' with n' the body-frame moment (spatial, eq. 10.10: n' = L Q_p / 2)."""
+    if run.forces is not None:  # the caller's own forces: theirs to judge
+        return
+    model = run.system.model
+    Q = build_forces(model).generalized_forces(q, np.zeros_like(q), 0.0)
+    if model.dimension == 2:
+        moment = Q[3 * k + 2 : 3 * k + 3]
+    else:
+        moment = 0.5 * _l_matrix(q[7 * k + 3 : 7 * k + 7]) @ Q[7 * k + 3 : 7 * k + 7]
+    if np.linalg.norm(axes.T @ moment) > 1e-12 * max(np.linalg.norm(Q), 1.0):
+        raise AnalysisError(
+            f"{model.source}: model.bodies[{k}].inertia: '{model.bodies[k].name}' has a singular inertia and a "
+            "torque acts on the rotation its joints leave free (a load or a spring off its centre), which would "
+            "spin it without bound; give it an inertia > 0, or apply the load at its centre"
+        )
+
+
+def without_turns(turns: FreeTurns, qd: np.ndarray) -> np.ndarray:
+    """q' less its part along the free turns of point masses (``free_turns``): they move no mass and satisfy the
+    velocity constraints, so the masses' velocities and Psi_q q' are unchanged; the turns start at rest."""
+    if not turns.motions.size:
+        return qd
+    return qd - turns.motions @ np.linalg.lstsq(turns.motions, qd, rcond=None)[0]
+
+
+def _l_matrix(p: np.ndarray) -> np.ndarray:
+    """L(p) of a spatial body (omega' = 2 L p', eq. 8.16), imported only for a spatial model: a planar run loads no
+    spatial code."""
+    from .rotations import l_matrix
+
+    return l_matrix(p)
+
+
+def check_point_masses(system: System, M, q: np.ndarray) -> None:
+    """Refuse a run whose mass matrix is singular on a motion the constraints allow that is not a point mass's
+    free turn (``nominal_inertia`` takes those): Z^T M Z must be positive definite for Z spanning the null space of
+    Psi_q (eq. 5.44), which makes the matrix of eq. 5.30 regular.
+
+    Raises
+    ------
+    AnalysisError
+        Naming the body with a singular inertia that the motion moves, with the fix.
     """
     bodies = point_masses(system.model)
-    if not bodies:
+    turns = free_turns(system, M, q)
+    if not bodies or not turns.motions.size:
         return
-    if formulation == "projection":
-        raise AnalysisError(
-            "the projection formulation needs M^-1, which a point mass (inertia 0) does not have: choose "
-            "baumgarte, qr, svd or augmented-lagrangian"
-        )
-    jacobian = system.jacobian(q, 0.0)
-    _, sigma, vt = np.linalg.svd(jacobian)
-    rank = numerical_rank(sigma, jacobian.shape)
-    Z = vt[rank:].T
-    if Z.shape[1] == 0:
-        return
-    reduced = Z.T @ mass_at(M, q) @ Z
-    values, vectors = np.linalg.eigh(0.5 * (reduced + reduced.T))
-    if values[0] > RANK_EPS * max(values[-1], 0.0):
-        return
-    motion = Z @ vectors[:, 0]  # a motion the constraints allow that has no kinetic energy
+    motion = turns.motions[:, 0]  # a motion the constraints allow that has no kinetic energy
     size = 3 if system.model.dimension == 2 else 7
     turning = max(bodies, key=lambda k: float(np.linalg.norm(motion[size * k : size * k + size])))
     name = system.model.bodies[turning].name
     raise AnalysisError(
         f"{system.model.source}: model.bodies[{turning}].inertia: '{name}' is a point mass (inertia 0) that the "
-        "joints leave free to rotate, so the mass matrix is singular on its motion; give it an inertia > 0, or "
-        "fix its rotation (e.g. a rigid joint)"
+        "joints leave free to move without kinetic energy, so the mass matrix is singular on that motion; give it "
+        "an inertia > 0, or fix its rotation (e.g. a rigid joint)"
     )
 
 
@@ -268,6 +369,12 @@ def forward_dynamics(
             "why": f"{fallback}: {stop.formulation} stopped near a singular configuration ({stop.first}), "
             "which it passes; " + stop.why,
         }
+        result.info["restarted"] = {
+            "t": stop.t,
+            "stopped": stop.formulation,
+            "formulation": fallback,
+            "why": stop.reason,
+        }
     result.info["wall_time"] = _time.perf_counter() - start
     return result
 
@@ -302,23 +409,34 @@ class Plan:
 
 
 class SingularStop(AnalysisError):
-    """``auto``'s method stopped at a singular position: ``forward_dynamics`` runs again with one that passes it."""
+    """``auto``'s method stopped at a singular position: ``forward_dynamics`` runs again with one that passes it.
+    ``t`` is when it stopped: the Guard's time, or (an integrator that lost its step next to a singular position)
+    the time of the closest approach the Guard saw."""
 
-    def __init__(self, err: AnalysisError, formulation: str, why: str):
+    def __init__(self, err: AnalysisError, formulation: str, why: str, t: float | None):
         super().__init__(str(err))
-        self.formulation, self.why, self.first = formulation, why, str(err).split(":")[0]
+        self.formulation, self.why, self.first, self.t = formulation, why, str(err).split(":")[0], t
+        kind = re.sub(r"\s*(at|between) t = .*$", "", self.first)  # 'singular configuration', 'integrator x failed'
+        self.reason = kind if isinstance(err, SingularConfigurationError) else f"{kind} next to a singular position"
 
 
 def run_plan(run: Run, formulation: str, integrator: str) -> Result:
     """One run of the stages: initial conditions -> method -> engine -> result."""
+    M, forces = dynamic_model(run.system, run.masses, run.forces)
+    notes, turns = [], None
+    if run.masses is None and point_masses(run.system.model):  # M singular: free turns of point masses
+        run, turns, notes = nominal_inertia(run, M, assemble(run.system, run.q0)[0])
+        M, forces = dynamic_model(run.system, None, run.forces)
     system, model, settings = run.system, run.system.model, run.settings
-    M, forces = dynamic_model(system, run.masses, run.forces)
     q, qd, initial = consistent_initial_conditions(system, M, run.q0, run.qd0)  # stage 1
-    if run.masses is None:
-        check_point_masses(system, M, q, formulation)
+    if turns is not None:
+        qd = without_turns(turns, qd)
     plan = plan_method(run, M, forces, q, qd, formulation, integrator)  # stage 2
     if plan.integrator in INDEX3_INTEGRATORS:
-        return index3_run(run, plan, M, forces, q, qd, initial)
+        result = index3_run(run, plan, M, forces, q, qd, initial)
+        if notes:
+            result.info["notes"] = notes + result.info.get("notes", [])
+        return result
     _check_redundancy(system, q, plan.formulation)
     if plan.formulation in RESTARTING and plan.integrator in MULTISTEP_INTEGRATORS:
         raise AnalysisError(
@@ -335,7 +453,9 @@ def run_plan(run: Run, formulation: str, integrator: str) -> Result:
         history, stats, compiled, chosen = integrate_motion(run, plan, equations, guard, z0, times)
     except AnalysisError as err:
         if formulation == "auto" and restartable(err, guard, plan):
-            raise SingularStop(err, plan.formulation, (plan.chosen or {}).get("why", "")) from err
+            t = getattr(err, "t", None)
+            t = (guard.closest or {}).get("t") if t is None else t
+            raise SingularStop(err, plan.formulation, (plan.chosen or {}).get("why", ""), t) from err
         raise
     result, energies = build_result(run, equations, guard, history, compiled, times)  # stage 4
     result.info = run_info(run, plan, equations, guard, stats, result, energies, initial)
@@ -343,8 +463,9 @@ def run_plan(run: Run, formulation: str, integrator: str) -> Result:
         result.info["chosen"] = chosen
     if compiled is not None:  # what the compiled engine's start cost: loading (or compiling) the scene's module
         result.info["compiled"] = {"cached": compiled.cached, "load_seconds": compiled.load_seconds}
-    if guard.rank < system.n_constraints:
-        result.info["notes"] = [REDUNDANT_NOTE]
+    notes += [REDUNDANT_NOTE] if guard.rank < system.n_constraints else []
+    if notes:
+        result.info["notes"] = notes
     result.info["warnings"] = drift_warnings(result.info, guard.size, plan.formulation, settings.formulation_options)
     result.info["warnings"] += raised + accuracy_warnings(result.info, guard.size, settings.accuracy, plan.periods)
     if not plan.rtol_given and plan.periods is not None:
@@ -411,6 +532,7 @@ def index3_run(run: Run, plan: Plan, M, forces, q, qd, initial: dict) -> Result:
         result.points.update(point_columns(result, label, body, point))
     result.reactions.update(joint_reactions(system, result.q, result.lam, result.t))
     result.reactions.update(effort_columns(system, result.q, result.lam, result.t))
+    result.forces.update(element_columns(forces, result.t, result.q, result.qd))
     result.info.update(assembly=initial["assembly"], initial_conditions=initial)
     result.info["warnings"] = accuracy_warnings(result.info, plan.size, run.settings.accuracy, None)
     return result
@@ -513,7 +635,8 @@ def restartable(err: AnalysisError, guard: Guard, plan: Plan) -> bool:
 
 
 def build_result(run: Run, equations, guard, history, compiled, times) -> tuple[Result, object]:
-    """Stage 4: q, q', q'', lambda with the residuals, energies, points and joint reactions (eq. 5.70); and
+    """Stage 4: q, q', q'', lambda with the residuals, energies, points, joint reactions (eq. 5.70) and what the
+    force elements exert (from q, q': the same whichever engine ran); and
     the energy history (``energy.energy_history``)."""
     system = run.system
     result = Result(
@@ -547,6 +670,7 @@ def build_result(run: Run, equations, guard, history, compiled, times) -> tuple[
 
         result.reactions.update(compiled_history.joint_reactions(system, history.q, history.lam, compiled.jac))
     result.reactions.update(effort_columns(system, history.q, history.lam, times))
+    result.forces.update(element_columns(equations.forces, times, history.q, history.qd))
     return result, energies
 
 
@@ -1055,7 +1179,8 @@ class Guard:
                 f"(smallest singular value {ratio:.2g} of the largest, condition number {1 / max(ratio, 1e-300):.3g}); "
                 f"joints involved: {', '.join(joints)}. The mechanism can switch assembly branch there (a change "
                 "point or a toggle); --formulation augmented-lagrangian (or auto) carries it through on the branch "
-                "its velocities point along; singular_ratio=None runs on regardless"
+                f"its velocities point along; {setting_words('singular_ratio', None, '0')} runs on regardless",
+                t=float(t),
             )
         self._tangent, self._t, self._sign = tangent, t, sign
 

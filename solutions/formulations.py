@@ -39,6 +39,7 @@ from .assembly import System
 from .diagnostics import AnalysisError
 from .generalized_forces import ForceModel
 from .linalg import numerical_rank, solve
+from .mass_matrix import singular_inertia
 
 SINGULAR_CONDITION = 1e12
 """Condition number of Psi_u above which coordinate partitioning refuses a partition."""
@@ -112,6 +113,11 @@ class Formulation:
                 "constraint error grow as exp(|alpha| t) instead of dying out (eq. 5.29)"
             )
         self._mass = M if callable(M) else None  # a spatial model's M(q): evaluated at every state
+        # a point mass: M^-1 does not exist (``mass_orthogonal_correction``); a spatial M(q) is singular with a body's
+        # inertia (``singular_inertia``), a matrix where it has an eigenvalue <= 0
+        self.singular_mass = (
+            bool(singular_inertia(system.model)) if callable(M) else not np.linalg.eigvalsh(0.5 * (M + M.T))[0] > 0.0
+        )
         if self._mass is None:
             self.factor_mass(M)
         self._Q_constant = (
@@ -311,8 +317,7 @@ def project_positions(
         jacobian = system.jacobian(q, t)
         if np.max(np.abs(psi), initial=0.0) < tol:
             return q, jacobian
-        weighted = formulation.mass_solve(jacobian.T)  # M^-1 Psi_q^T
-        q = q - weighted @ np.linalg.solve(jacobian @ weighted, psi)
+        q = q - mass_orthogonal_correction(formulation, q, jacobian, psi)
     raise AnalysisError(f"position projection did not converge at t = {t:.6g} s (residual {np.abs(psi).max():.3g})")
 
 
@@ -320,9 +325,20 @@ def project_velocities(formulation: Formulation, q: np.ndarray, qd: np.ndarray, 
     """Mass-orthogonal projection of q' onto Psi_q q' + Psi_t = 0 (eq. 5.50)."""
     system = formulation.system
     jacobian = system.jacobian(q, t)
-    weighted = formulation.mass_solve(jacobian.T)
     residual = jacobian @ qd + system.psi_t(q, t)
-    return qd - weighted @ np.linalg.solve(jacobian @ weighted, residual)
+    return qd - mass_orthogonal_correction(formulation, q, jacobian, residual)
+
+
+def mass_orthogonal_correction(formulation: Formulation, q: np.ndarray, jacobian: np.ndarray, r: np.ndarray):
+    """The correction of least kinetic-energy norm that removes the residual r to first order (eq. 5.50),
+    M^-1 Psi_q^T (Psi_q M^-1 Psi_q^T)^-1 r. Where M is singular (a point mass, regular on the motions the joints
+    allow: eq. 5.44) the same x from the matrix of eq. 5.30: [M Psi_q^T; Psi_q 0] [x; mu] = [0; r]."""
+    if formulation.singular_mass:
+        n, m = jacobian.shape[1], jacobian.shape[0]
+        kkt = np.block([[formulation.mass(q), jacobian.T], [jacobian, np.zeros((m, m))]])
+        return np.linalg.solve(kkt, np.concatenate([np.zeros(n), r]))[:n]
+    weighted = formulation.mass_solve(jacobian.T)  # M^-1 Psi_q^T
+    return weighted @ np.linalg.solve(jacobian @ weighted, r)
 
 
 DEFAULT_PENALTY = 1e7
@@ -436,13 +452,14 @@ class AugmentedLagrangian(Formulation):
         )
         return qdd, lam
 
-    def project(self, q: np.ndarray, residual, t: float) -> np.ndarray:
+    def project(self, q: np.ndarray, residual, t: float, M: np.ndarray | None = None) -> np.ndarray:
         """Repeat x <- x - (M + alpha Psi_q^T Psi_q)^-1 alpha Psi_q^T r(x) until |r| < tol (eq. 5.53, 5.54).
 
         ``residual(x)`` gives (r, Psi_q); the same function serves positions (r = Psi) and velocities
-        (r = Psi_q q' + Psi_t). Stops after ``max_iterations`` where Psi_q has lost rank.
+        (r = Psi_q q' + Psi_t), the latter with ``M`` at the positions (a spatial M(q) is a function of the
+        positions, not of the velocities being projected). Stops after ``max_iterations`` where Psi_q has lost rank.
         """
-        M = self.mass(q)
+        M = self.mass(q) if M is None else M
         for _ in range(self.max_iterations):
             r, jacobian = residual(q)
             if not np.max(np.abs(r), initial=0.0) >= self.tol:  # converged (or NaN: the integrator rejects it)
@@ -455,7 +472,7 @@ class AugmentedLagrangian(Formulation):
         system = self.system
         q = self.project(y[: self.n], lambda x: (system.constraints(x, t), system.jacobian(x, t)), t)
         jacobian, psi_t = system.jacobian(q, t), system.psi_t(q, t)
-        qd = self.project(y[self.n :], lambda v: (jacobian @ v + psi_t, jacobian), t)
+        qd = self.project(y[self.n :], lambda v: (jacobian @ v + psi_t, jacobian), t, self.mass(q))
         self.projections += 1
         return np.concatenate([q, qd])
 

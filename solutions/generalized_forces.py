@@ -92,6 +92,10 @@ class ForceModel:
             Q += force(q, qd, t)
         return Q
 
+    def element_state(self, element: ForceElement, q: np.ndarray, qd: np.ndarray) -> tuple:
+        """(q_i, q_j, q_i', q_j') of an element's two bodies (ground's for -1)."""
+        return (*self._pair(element, q), *self._pair(element, qd))
+
     # -- energies ------------------------------------------------------------------------------
     def potential_energy(self, q: np.ndarray) -> float:
         """V(q) = -sum_k m_k g^T r_k + sum of spring potentials (eq. 5.20).
@@ -125,6 +129,23 @@ class ForceModel:
         return power
 
 
+def element_columns(forces, t: np.ndarray, q: np.ndarray, qd: np.ndarray) -> dict[str, np.ndarray]:
+    """Result columns of every force element e of a planar or spatial force model over a run (rows of q, q'):
+    what it exerts ('E.force', the tension of a spring-damper-actuator, positive pulling; 'E.torque' of a
+    rotational one or of a planar torque; 'E.Fx' .. of a point force, 'E.Mx' .. of a spatial torque, global)
+    and 'E.power' = q_i'^T Q_i^e + q_j'^T Q_j^e, the power it puts into the bodies (eq. 5.60: -f l' for a
+    spring-damper; the powers of all elements and the drivers add up to d(T + V_gravity)/dt)."""
+    columns: dict[str, list[float]] = {}
+    for e in forces.elements:
+        for k in range(len(t)):
+            state = forces.element_state(e, q[k], qd[k])
+            for suffix, value in e.measures(*state, t[k]).items():
+                columns.setdefault(f"{e.name}.{suffix}", []).append(value)
+            Qi, Qj = e.forces(*state, t[k])
+            columns.setdefault(f"{e.name}.power", []).append(float(state[2] @ Qi + state[3] @ Qj))
+    return {name: np.array(values) for name, values in columns.items()}
+
+
 def build_forces(model: Model, user_forces: list[UserForce] | None = None) -> ForceModel:
     """The ForceModel of a planar model: gravity, its spring-dampers and loads, and optional user forces."""
     if model.dimension == 3:  # spatial elements, and the quadratic-velocity term of M(q)
@@ -135,4 +156,4 @@ def build_forces(model: Model, user_forces: list[UserForce] | None = None) -> Fo
     return ForceModel(n, gravity_vector(model), force_elements(model), list(user_forces or []))
 
 
-__all__ = ["ForceModel", "UserForce", "build_forces", "gravity_vector"]
+__all__ = ["ForceModel", "UserForce", "build_forces", "element_columns", "gravity_vector"]

@@ -41,7 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .diagnostics import AnalysisError
+from .diagnostics import AnalysisError, setting_words
 from .tableaux import TABLEAUX
 
 RHS = Callable[[float, np.ndarray], np.ndarray]
@@ -186,7 +186,10 @@ class Budget:
             if self.stats.stiffness is not None:
                 message += ". " + stiffness_message(self.method, self.stats.stiffness)
             else:
-                message += ": the motion is too fast for the tolerance, or the scene is stiff; raise max_evaluations"
+                message += (
+                    ": the motion is too fast for the tolerance, or the scene is stiff; raise the budget, e.g. "
+                    + setting_words("max_evaluations", 4 * self.limit)
+                )
             raise BudgetError(message)
         return self.counted(t, y)
 

@@ -42,9 +42,22 @@ def mass_matrix(model: Model) -> np.ndarray:
     return M
 
 
+def singular_inertia(model: Model) -> list[int]:
+    """Bodies with mass whose inertia about the centre of mass is singular: a point mass (inertia 0, spatial
+    [0, 0, 0]) or a spatial body with a zero principal moment (a slender rod's about its axis). M is then
+    singular; the equations of motion stay solvable where it is regular on the motions the joints allow (eq. 5.44)."""
+    bodies = []
+    for k, body in enumerate(model.bodies):
+        inertia = np.atleast_2d(np.asarray(body.inertia, dtype=float))
+        smallest = np.linalg.eigvalsh(0.5 * (inertia + inertia.T))[0]
+        if body.has_mass and not smallest > 1e-12 * np.max(np.abs(inertia)):
+            bodies.append(k)
+    return bodies
+
+
 def mass_at(M, q: np.ndarray) -> np.ndarray:
     """The mass matrix at q: the constant array of a planar model, M(q) of a spatial one."""
     return M(q) if callable(M) else M
 
 
-__all__ = ["body_mass_matrix", "mass_at", "mass_matrix"]
+__all__ = ["body_mass_matrix", "mass_at", "mass_matrix", "singular_inertia"]

@@ -64,6 +64,11 @@ class DynamicInfo(Info, total=False):
     integrator_steps: int
     rejected_steps: int
     restarts: int
+    """How often the integrator started afresh after a correction of the state (projection, ...)."""
+    restarted: dict
+    """``auto``'s run made again from t = 0 with another formulation (``SingularStop``): the time the first one
+    stopped at ``t``, its formulation ``stopped`` and why (``why``: 'singular configuration', ...), the new
+    ``formulation``."""
     stiffness: str | None
     closest_singularity: dict | None
     singular_positions: list[dict]
@@ -101,7 +106,9 @@ class Result:
 
     q, qd, qdd have shape (N, n) with columns ``coordinate_names``; ``lam`` (N, m) holds the Lagrange
     multipliers when the analysis computes them; ``reactions`` maps a column name such as 'O.Fx' to
-    its (N,) history; ``points`` likewise holds requested body points ('P.x', 'P.x_d', ...).
+    its (N,) history; ``points`` likewise holds requested body points ('P.x', 'P.x_d', ...); ``forces`` what
+    each force element exerts and its power ('SPRING.force', 'SPRING.power', ...: ``element_columns``) in the
+    analyses that have forces (dynamic, inverse).
     ``info`` says how the result was obtained (``Info``: ``KinematicInfo``, ``DynamicInfo``, ...).
     """
 
@@ -114,6 +121,7 @@ class Result:
     lam: np.ndarray | None = None
     points: dict[str, np.ndarray] = field(default_factory=dict)
     reactions: dict[str, np.ndarray] = field(default_factory=dict)
+    forces: dict[str, np.ndarray] = field(default_factory=dict)
     info: Info = field(default_factory=Info)
 
     def coordinate(self, name: str, derivative: int = 0) -> np.ndarray:

@@ -12,13 +12,15 @@ from ..results import Result
 
 
 def result_columns(result: Result) -> dict[str, np.ndarray]:
-    """Columns in file order: t, coordinates, velocities (_d), accelerations (_dd), points, reactions."""
+    """Columns in file order: t, coordinates, velocities (_d), accelerations (_dd), points, reactions, force
+    elements."""
     columns = {"t": result.t}
     for suffix, array in (("", result.q), ("_d", result.qd), ("_dd", result.qdd)):
         for k, name in enumerate(result.coordinate_names):
             columns[name + suffix] = array[:, k]
     columns.update(result.points)
     columns.update(result.reactions)
+    columns.update(result.forces)
     return columns
 
 

@@ -130,6 +130,10 @@ class ForceElement:
         """(dissipated power, applied power) in one evaluation."""
         return self.dissipated_power(qi, qj, qdi, qdj, t), self.applied_power(qi, qj, qdi, qdj, t)
 
+    def measures(self, qi, qj, qdi, qdj, t) -> dict[str, float]:
+        """What the element exerts, by the suffix of its result column ('force', 'torque', 'Fx', ...)."""
+        return {}
+
 
 @dataclass
 class PointForce(ForceElement):
@@ -154,6 +158,10 @@ class PointForce(ForceElement):
         Qi, _ = self.forces(qi, qj, qdi, qdj, t)
         return float(qdi @ Qi)  # = F^T v_P
 
+    def measures(self, qi, qj, qdi, qdj, t):
+        """The global force: 'Fx', 'Fy'."""
+        return dict(zip(("Fx", "Fy"), map(float, self.force(qi, t)), strict=True))
+
 
 @dataclass
 class Torque(ForceElement):
@@ -166,6 +174,10 @@ class Torque(ForceElement):
 
     def applied_power(self, qi, qj, qdi, qdj, t):
         return self.function.value(t) * qdi[2]
+
+    def measures(self, qi, qj, qdi, qdj, t):
+        """The torque T, counter-clockwise positive."""
+        return {"torque": self.function.value(t)}
 
 
 @dataclass
@@ -218,6 +230,10 @@ class TSDA(ForceElement):
         length, velocity = self.state(qi, qj, qdi, qdj)
         return self.damping * velocity**2, -self.actuator(t, length, velocity) * velocity
 
+    def measures(self, qi, qj, qdi, qdj, t):
+        """The tension f = k (l - l0) + c l' + f_a, positive when it pulls the points together (eq. 5.14)."""
+        return {"force": self.tension(t, *self.state(qi, qj, qdi, qdj))}
+
 
 @dataclass
 class RSDA(ForceElement):
@@ -253,6 +269,10 @@ class RSDA(ForceElement):
     def applied_power(self, qi, qj, qdi, qdj, t):
         angle, velocity = qj[2] - qi[2], qdj[2] - qdi[2]
         return -self.actuator(t, angle, velocity) * velocity
+
+    def measures(self, qi, qj, qdi, qdj, t):
+        """The torque f = k (theta - theta0) + c theta' + f_a, positive when it turns body j back (eq. 5.15)."""
+        return {"torque": self.torque(t, qj[2] - qi[2], qdj[2] - qdi[2])}
 
 
 __all__ = [

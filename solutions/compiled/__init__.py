@@ -123,7 +123,18 @@ def unsupported(scene: Scene, formulation: str, integrator: str, options: dict) 
         return f"formulation options {', '.join(sorted(extra))} are not compiled"
     if formulation == "joint-coordinates" and scene.unsupported is None and not isinstance(scene, TreeScene):
         return "joint coordinates without the tree (``plan``)"
+    if formulation == "projection" and singular_mass(scene):
+        return "the projection formulation with a singular mass matrix (a point mass), which the compiled code inverts"
     return scene.unsupported
+
+
+def singular_mass(scene: Scene) -> bool:
+    """Whether a scene's M is singular (a point mass): a zero on a planar diagonal, a spatial inertia with an
+    eigenvalue <= 0 (``mass_matrix.singular_inertia``)."""
+    diagonal, inertias = getattr(scene, "mass_diagonal", None), getattr(scene, "inertias", None)
+    if diagonal is not None and np.any(diagonal <= 0.0):
+        return True
+    return inertias is not None and bool(np.any(np.linalg.eigvalsh(inertias)[:, 0] <= 0.0))
 
 
 def tableau(dop: bool) -> tuple:

@@ -27,7 +27,7 @@ import time
 
 import numpy as np
 
-from ..diagnostics import AnalysisError
+from ..diagnostics import AnalysisError, setting_words
 from ..integrators import IntegrationStats, initial_step, integrate, power_start
 from ..settings import ENGINES, Settings
 
@@ -192,7 +192,8 @@ def run(job, z0: np.ndarray, times: np.ndarray, settings: Settings):
         raise AnalysisError(
             f"integrator {integrator} spent its budget of {max_evaluations} right-hand-side evaluations by "
             f"t = {out.t:.6g} s (last step {out.h:.3g} s, {out.steps} steps): the motion is too fast for the "
-            "tolerance, or the scene is stiff; raise max_evaluations"
+            "tolerance, or the scene is stiff; raise the budget, e.g. "
+            + setting_words("max_evaluations", 4 * max_evaluations)
         )
     if out.status == 3:
         raise AnalysisError(

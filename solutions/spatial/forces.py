@@ -104,6 +104,10 @@ class PointForce(ForceElement):
     def applied_power(self, qi, qj, qdi, qdj, t):
         return float(qdi @ self.forces(qi, qj, qdi, qdj, t)[0])  # = F^T v_P
 
+    def measures(self, qi, qj, qdi, qdj, t):
+        """The global force: 'Fx', 'Fy', 'Fz'."""
+        return dict(zip(("Fx", "Fy", "Fz"), map(float, self.force(qi, t)), strict=True))
+
 
 @dataclass
 class Torque(ForceElement):
@@ -118,6 +122,13 @@ class Torque(ForceElement):
 
     def applied_power(self, qi, qj, qdi, qdj, t):
         return float(qdi @ self.forces(qi, qj, qdi, qdj, t)[0])  # = n^T omega
+
+    def measures(self, qi, qj, qdi, qdj, t):
+        """The global torque: 'Mx', 'My', 'Mz'."""
+        torque = np.array([c.value(t) for c in self.components])
+        return dict(
+            zip(("Mx", "My", "Mz"), map(float, body_vector(qi, torque) if self.body_fixed else torque), strict=True)
+        )
 
 
 @dataclass
@@ -173,6 +184,11 @@ class TSDA(ForceElement):
         length, velocity, _ = self.state(qi, qj, qdi, qdj)
         return -self.actuator(t, length, velocity) * velocity
 
+    def measures(self, qi, qj, qdi, qdj, t):
+        """The tension f = k (l - l0) + c l' + f_a, positive when it pulls the points together (eq. 10.12)."""
+        length, velocity, _ = self.state(qi, qj, qdi, qdj)
+        return {"force": self.tension(t, length, velocity)}
+
 
 @dataclass
 class RSDA(ForceElement):
@@ -226,6 +242,11 @@ class RSDA(ForceElement):
         angle, velocity = self.angle(qi, qj), self.rate(qi, qj, qdi, qdj)
         return -self.actuator(t, angle, velocity) * velocity
 
+    def measures(self, qi, qj, qdi, qdj, t):
+        """The torque f = k (theta - theta0) + c theta' + f_a about h_i, positive when it turns body j back
+        (eq. 10.13)."""
+        return {"torque": self.torque(t, self.angle(qi, qj), self.rate(qi, qj, qdi, qdj))}
+
 
 # -- the force model of a spatial system ------------------------------------------------------------
 UserForce = Callable[[np.ndarray, np.ndarray, float], np.ndarray]
@@ -271,6 +292,10 @@ class SpatialForceModel:
 
     def _pairs(self, element, q, qd):
         return (*self._pair(element, q, GROUND), *self._pair(element, qd, ZERO7))
+
+    def element_state(self, element: ForceElement, q: np.ndarray, qd: np.ndarray) -> tuple:
+        """(q_i, q_j, q_i', q_j') of an element's two bodies (ground's for -1)."""
+        return self._pairs(element, q, qd)
 
     def applied_forces(self, q: np.ndarray, qd: np.ndarray, t: float) -> np.ndarray:
         """Q of gravity, the elements and the user forces (eq. 10.14), without Q_v."""
