@@ -6,10 +6,13 @@ writes a Functional Mock-up Unit built with pythonfmu3 (FMI 3.0, co-simulation).
 - ``resources/model.yaml``: the model file as written, with its ``simulation`` settings;
 - ``resources/solutions/``: this package's source (all but the compiled engine), and ``resources/fastjsonschema/``
   (pure Python, with its licence), so that the FMU runs wherever Python with numpy, scipy and pyyaml is installed,
-  without mbd-course; ``resources/fmu_slave.py`` (``fmu_slave.py`` beside this file), the slave class, and
-  ``resources/pythonfmu3/``, the library's side of it;
+  without mbd-course (``resources/requirements.txt`` names them, for ``pythonfmu3 deploy``);
+  ``resources/fmu_slave.py`` (``fmu_slave.py`` beside this file), the slave class, and ``resources/pythonfmu3/``,
+  the library's side of it;
 - ``binaries/``: pythonfmu3's prebuilt loader (Linux x86_64, Windows x86_64), which runs the slave in the Python
-  interpreter of the importing process (or starts one), and ``sources/``, the loader's C++ to build it elsewhere.
+  interpreter of the importing process, and ``sources/``, the loader's C++ to build it elsewhere. The loader
+  links to no libpython: an importer that is not itself Python loads one first (on Linux, e.g.
+  ``LD_PRELOAD=libpython3.11.so``), whose interpreter must find numpy, scipy and pyyaml.
 
 An FMU carries the reference solver's source: the formulas the students write. It is an instructor's and an
 engineer's file, not one to hand out during the course.
@@ -74,6 +77,8 @@ SLAVE = Path(__file__).with_name("fmu_slave.py")
 LEFT_OUT = ("compiled",)
 """Folders of ``solutions/`` the FMU does not carry: the compiled engine (numba), which co-simulation does not use."""
 INSTALL = "pip install 'mbd-course[dev]'"
+RUNTIME = ("numpy", "scipy", "pyyaml")
+"""What the FMU needs where it runs (its resources' requirements.txt, which ``pythonfmu3 deploy`` installs)."""
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 FUNCTION_PARAMETERS = {"spring_dampers": "actuator", "motors": "function"}
 """The function of an element whose numbers are parameters, by section."""
@@ -272,17 +277,28 @@ def _copy_package(source: Path, target: Path, leave_out: tuple[str, ...] = ()) -
             shutil.copy2(path, target / relative)
 
 
+def requirements() -> list[str]:
+    """What the FMU needs installed (RUNTIME), with mbd-course's bounds on them when it is installed."""
+    try:
+        declared = importlib.metadata.requires("mbd-course") or []
+    except importlib.metadata.PackageNotFoundError:  # run from a checkout that is not installed
+        declared = []
+    bounds = {re.split(r"[<>=!~\[ ;]", r)[0].lower(): r for r in declared if ";" not in r}
+    return [bounds.get(name, name) for name in RUNTIME]
+
+
 def _stage(folder: Path, model_path: Path) -> list[Path]:
     """The files the FMU's resources carry besides the slave (module docstring), written into ``folder``."""
     import fastjsonschema
 
     shutil.copy2(model_path, folder / MODEL_FILE)
+    (folder / "requirements.txt").write_text("\n".join(requirements()) + "\n")
     _copy_package(Path(__file__).parents[1], folder / "solutions", LEFT_OUT)
     _copy_package(Path(fastjsonschema.__file__).parent, folder / "fastjsonschema")
     for file in importlib.metadata.distribution("fastjsonschema").files or []:
         if file.name in ("LICENSE", "AUTHORS"):
             shutil.copy2(file.locate(), folder / "fastjsonschema" / file.name)
-    return [folder / MODEL_FILE, folder / "solutions", folder / "fastjsonschema"]
+    return [folder / name for name in (MODEL_FILE, "requirements.txt", "solutions", "fastjsonschema")]
 
 
 def export_fmu(model_path: str | Path, out: str | Path) -> Path:

@@ -9,21 +9,29 @@ parameter was) at the same tolerances. The FMUs are built once for the module.
 
 from __future__ import annotations
 
+import importlib.util
 import json
+import os
+import platform
+import shutil
 import subprocess
 import sys
+import sysconfig
 import textwrap
+import zipfile
 from pathlib import Path
+from xml.etree import ElementTree
 
 import numpy as np
 import pytest
 import yaml
 
 from solutions import cli
-from solutions.io.fmu import FmuError, export_fmu, fmi_name, main, model_parameters, with_parameters
+from solutions.io.fmu import FmuError, export_fmu, fmi_name, main, model_parameters, requirements, with_parameters
 from solutions.io.results import read_csv
 
 MODELS = Path(__file__).resolve().parents[3] / "course" / "models"
+HOST = Path(__file__).with_name("fmi3_host.c")
 HEAVIER = 1.5
 """The upper rod's mass in the parameter study (the file's: 1.0 kg)."""
 STIFFER = 80.0
@@ -120,6 +128,17 @@ def test_fmpy_validates_the_fmus_and_the_slave_runs_on_what_the_fmu_carries(fmpy
         assert any(d / "resources" in Path(file).resolve().parents for d in unzipped), (module, file)
 
 
+def test_the_fmu_names_what_it_needs_where_it_runs(fmus):
+    """resources/requirements.txt (pythonfmu3's convention, for ``pythonfmu3 deploy``): numpy, scipy, pyyaml."""
+    with zipfile.ZipFile(fmus["double_pendulum"]) as fmu:
+        needed = fmu.read("resources/requirements.txt").decode().split()
+        assert {"resources/model.yaml", "resources/fmu_slave.py", "resources/solutions/dynamics.py"} <= set(
+            fmu.namelist()
+        )
+        assert not any(name.startswith("resources/solutions/compiled/") for name in fmu.namelist())
+    assert needed == requirements() and [n.split(">")[0] for n in needed] == ["numpy", "scipy", "pyyaml"]
+
+
 def test_the_double_pendulum_fmu_runs_in_fmpy_as_mbd_run(fmpy_runs, folder):
     """Done-when of issue 28: every column of ``mbd run``'s CSV within 1e-6 (measured: 9e-9, the accelerations;
     positions 2e-10), on the same output times; the parameters are the file's masses and inertias and the
@@ -203,3 +222,31 @@ def test_what_an_fmu_cannot_run_is_refused_in_one_line(tmp_path, capsys, monkeyp
     with pytest.raises(FmuError, match=r"pip install 'mbd-course\[dev\]'"):
         export_fmu(MODELS / "double_pendulum.yaml", tmp_path / "d.fmu")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_an_importer_in_c_runs_the_fmu_once_libpython_is_loaded(fmus, fmpy_runs, folder):
+    """The FMI 3.0 C API, as a tool that is not Python calls it (fmi3_host.c, built here): without libpython
+    loaded the FMU's binary does not load (pythonfmu3's loader links to none, as fmu.py says); with it preloaded
+    and the environment's packages on PYTHONPATH, 200 steps give the end position that fmpy's run gave. (The host
+    ends with _exit: pythonfmu3's loader crashes when it finalizes Python at unload, fmi3_host.c says why.)"""
+    gcc = shutil.which("gcc")
+    if gcc is None or not sysconfig.get_config_var("Py_ENABLE_SHARED") or platform.machine() != "x86_64":
+        pytest.skip("needs gcc and a shared libpython on Linux x86_64")
+    headers = Path(importlib.util.find_spec("fmpy").origin).parent / "c-code"
+    host = folder / "fmi3_host"
+    subprocess.run([gcc, "-O1", "-o", str(host), str(HOST), f"-I{headers}", "-ldl"], check=True)
+    unzipped = folder / "double_pendulum"
+    with zipfile.ZipFile(fmus["double_pendulum"]) as fmu:
+        fmu.extractall(unzipped)
+    description = ElementTree.parse(unzipped / "modelDescription.xml").getroot()
+    reference = next(v.get("valueReference") for v in description.iter("Float64") if v.get("name") == "lower.x")
+    binary = unzipped / "binaries" / "x86_64-linux" / "double_pendulum.so"
+    command = [str(host), str(binary), str(unzipped / "resources"), description.get("instantiationToken"), reference]
+    command += ["200", "0.01"]
+    alone = subprocess.run(command, capture_output=True, text=True)
+    assert alone.returncode == 1 and "undefined symbol" in alone.stderr
+    libpython = Path(sysconfig.get_config_var("LIBDIR")) / sysconfig.get_config_var("LDLIBRARY")
+    env = {**os.environ, "LD_PRELOAD": str(libpython), "PYTHONPATH": sysconfig.get_paths()["purelib"]}
+    done = subprocess.run(command, capture_output=True, text=True, env=env, cwd=folder)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert abs(float(done.stdout) - fmpy_runs["results"]["pendulum"]["lower.x"][-1]) < 1e-9
