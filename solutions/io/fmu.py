@@ -1,4 +1,4 @@
-"""A model as an FMU: FMI 3.0 co-simulation of its forward dynamics, for any tool that imports FMUs (issue 28).
+"""A model as an FMU: FMI 3.0 co-simulation of its analysis, for any tool that imports FMUs (issue 28).
 
 ``export_fmu(MODEL, OUT)`` (``mbd export MODEL --to fmu``, or ``python -m solutions.io.fmu MODEL --out FILE.fmu``)
 writes a Functional Mock-up Unit built with pythonfmu3 (FMI 3.0, co-simulation). What it holds:
@@ -12,19 +12,29 @@ writes a Functional Mock-up Unit built with pythonfmu3 (FMI 3.0, co-simulation).
 - ``binaries/``: pythonfmu3's prebuilt loader (Linux x86_64, Windows x86_64), which runs the slave in the Python
   interpreter of the importing process, and ``sources/``, the loader's C++ to build it elsewhere. The loader
   links to no libpython: an importer that is not itself Python loads one first (on Linux, e.g.
-  ``LD_PRELOAD=libpython3.11.so``), whose interpreter must find numpy, scipy and pyyaml.
+  ``LD_PRELOAD=libpython3.11.so``), whose interpreter must find numpy, scipy and pyyaml. Where a host unloads it,
+  the loader finalizes that interpreter, which can crash once numpy and scipy were imported (seen in a C host at
+  its exit, tests/solutions/io/fmi3_host.c; a pythonfmu3 FMU that only imports them does the same): the results
+  are complete by then.
 
 An FMU carries the reference solver's source: the formulas the students write. It is an instructor's and an
 engineer's file, not one to hand out during the course.
 
-**Co-simulation.** The importer calls doStep(t, h) for each communication step; the slave advances the numpy
-engine's forward dynamics (``Stepper``) from the state it holds at t to t + h, with the model's formulation and
-integrator and the relative tolerance of the parameter ``rtol`` (by default the one ``mbd run`` uses for the file:
-``simulation.rtol``, or the rule of ``dynamics.default_rtol`` over the file's span). Consistent initial conditions
-and the method are found once, at initialization; the state (coordinates, velocities, the accumulated energies)
-is carried from step to step and the integrator restarts at every communication point (an explicit Runge-Kutta
-method loses only its step size there: the double pendulum at the file's output interval stays within 1e-9 of
-``mbd run``, tests/solutions/io/test_fmu.py). The default experiment is the file's span and output interval.
+**Co-simulation.** The importer calls doStep(t, h) for each communication step; the slave (``start_stepper``)
+advances the analysis ``mbd run`` makes of the file, on the numpy engine, from the state it holds at t to t + h:
+
+- forward dynamics (``DynamicStepper``), with the model's formulation and integrator and the relative tolerance of
+  the parameter ``rtol`` (by default the one ``mbd run`` uses for the file: ``simulation.rtol``, or the rule of
+  ``dynamics.default_rtol`` over the file's span). Consistent initial conditions and the method are found once, at
+  initialization; the state (coordinates, velocities, the accumulated energies) is carried from step to step and
+  the integrator restarts at every communication point (an explicit Runge-Kutta method loses only its step size
+  there: the double pendulum at the file's output interval stays within 1e-8 of ``mbd run``, every dynamic
+  example within rtol times the size of each column, benchmarks/results/fmu.md);
+- a kinematic analysis where the drivers leave no degree of freedom (``KinematicStepper``): at each communication
+  point the step of ``mbd run`` (predictor, Newton-Raphson, velocities and accelerations), so the same numbers.
+
+The index-3 integrators, an inverse analysis and a kinematic one through singular positions are refused (their
+loops are not stepped). The default experiment is the file's span and output interval.
 
 **Outputs** are the columns of ``mbd run --out FILE.csv`` (DESIGN section 5) but ``t`` (FMI's independent
 variable ``time``): coordinates ``BODY.x``, velocities ``BODY.x_d``, accelerations ``BODY.x_dd``, the residuals
@@ -39,9 +49,9 @@ output's description names its CSV column.
 ``NAME.spring_coefficient``, ``NAME.damping_coefficient``, ``NAME.free_length``, ``NAME.free_angle`` and its
 actuator function's numbers, each motor's function numbers (``drive.function.coefficients[2]``,
 ``drive.function.amplitude``, or ``drive.function`` for a constant), where the file gives them; an element without
-a name is named by its place (``spring_dampers[1].spring_coefficient``); and ``rtol`` and ``atol``. A changed
-parameter edits the model file's data and the run starts from it: the FMU then gives what ``mbd run`` gives for
-the edited file.
+a name is named by its place (``spring_dampers[1].spring_coefficient``); and, for forward dynamics, ``rtol`` and
+``atol``. A changed parameter edits the model file's data and the run starts from it: the FMU then gives what
+``mbd run`` gives for the edited file.
 """
 
 from __future__ import annotations
@@ -65,7 +75,8 @@ from ..assembly import build_system
 from ..diagnostics import AnalysisError
 from ..dynamics import Run, build_result, guarded_after_step, ode_motion, start_motion
 from ..integrators import integrate
-from ..kinematics import assemble
+from ..kinematics import KinematicSteps, assemble, kinematic_step, require_no_freedom
+from ..results import Result
 from ..settings import INDEX3_INTEGRATORS, read_settings
 from .model import ModelError, load_model, read_text
 from .results import result_columns
@@ -171,43 +182,80 @@ def with_parameters(data: Mapping, values: Mapping[str, float]) -> dict:
 # -- the co-simulation ------------------------------------------------------------------------------------------
 
 
-class Stepper:
-    """Forward dynamics advanced one communication step at a time (FMI's doStep): the numpy engine of
-    ``dynamics.forward_dynamics``, its stages 1 and 2 (consistent initial conditions, method and tolerances)
-    done once, the state carried from step to step.
-
-    ``columns`` holds the result columns (``io.results.result_columns``) at the time ``t`` reached.
+def start_stepper(data: Mapping, rtol: float | None = None, atol: float | None = None) -> Stepper:
+    """The co-simulation of a model file's data: its forward dynamics (``DynamicStepper``), or its kinematic
+    analysis where the drivers leave no degree of freedom (``KinematicStepper``), as ``mbd run`` chooses; ``rtol``
+    and ``atol`` over the file's (forward dynamics only).
 
     Raises
     ------
     ModelError, AnalysisError
-        A model that cannot be read or run, as ``mbd run`` says it; FmuError for a run that is not a forward
-        dynamic one, or one of the index-3 integrators (their own loop: not advanced step by step here).
+        A model that cannot be read or run, as ``mbd run`` says it; FmuError for what an FMU does not advance step
+        by step: an inverse analysis, the index-3 integrators, a kinematic analysis through singular positions.
     """
+    model = load_model(data)
+    system, q0, qd0 = build_system(model)
+    settings = read_settings(model.simulation, rtol=rtol, atol=atol, engine="numpy")
+    analysis = settings.analysis
+    if analysis == "auto":
+        analysis = choose_analysis(system, assemble(system, q0)[0])
+    if analysis == "dynamic":
+        return DynamicStepper(Run(system, q0, qd0, settings, None, None, None))
+    if analysis == "kinematic" and not settings.through_singular:
+        return KinematicStepper(system, q0, settings)
+    said = "simulation.through_singular" if analysis == "kinematic" else f"simulation.analysis {analysis}"
+    raise FmuError(f"{model.name}: {said}: an FMU runs a forward dynamic or a kinematic analysis step by step")
 
-    def __init__(self, data: Mapping, rtol: float | None = None, atol: float | None = None):
-        model = load_model(data)
-        system, q0, qd0 = build_system(model)
-        settings = read_settings(model.simulation, rtol=rtol, atol=atol, engine="numpy")
-        analysis = settings.analysis
-        if analysis == "auto":
-            analysis = choose_analysis(system, assemble(system, q0)[0])
-        if analysis != "dynamic":
-            raise FmuError(
-                f"{model.name}: an FMU runs forward dynamics; this model's analysis is {analysis} (its drivers leave "
-                "no degree of freedom, or simulation.analysis says so): free a degree of freedom or set "
-                "simulation.analysis: dynamic"
-            )
-        self.run = Run(system, q0, qd0, settings, None, None, None)
-        start = start_motion(self.run, settings.formulation, settings.integrator)
+
+class Stepper:
+    """An analysis advanced one communication step at a time (FMI's doStep), its state carried from step to step.
+
+    ``columns`` holds the result columns (``io.results.result_columns``) at the time ``t`` reached; ``method``
+    says how the steps are taken; ``tolerances`` are the (rtol, atol) the steps hold, or None."""
+
+    t: float
+    columns: dict[str, float]
+    method: str
+    tolerances: tuple[float, float] | None = None
+
+    def __init__(self, system, settings):
+        self.system, self.model, self.settings = system, system.model, settings
+        self.t = 0.0
+
+    def advance(self, t_end: float, t_from: float | None = None) -> None:
+        """Advance from ``t`` to ``t_end`` and take the columns there. ``t_from``: the time the importer believes
+        reached (FMI's currentCommunicationPoint), which must be ``t`` but for rounding."""
+        if t_from is not None:
+            if abs(t_from - self.t) > TIME_TOLERANCE * max(1.0, abs(self.t)):
+                raise AnalysisError(
+                    f"a communication step from t = {t_from:.9g} s: the FMU's state is at t = {self.t:.9g} s (it "
+                    "steps forward from where it is, without going back)"
+                )
+            self.t = t_from
+        self._step(t_end)
+        self.t = t_end
+
+    def _step(self, t_end: float) -> None:
+        raise NotImplementedError
+
+
+class DynamicStepper(Stepper):
+    """Forward dynamics: the numpy engine of ``dynamics.forward_dynamics``, its stages 1 and 2 (consistent initial
+    conditions, method and tolerances) done once; at each communication step the integrator starts again from the
+    state held (coordinates, velocities, accumulated energies)."""
+
+    def __init__(self, run: Run):
+        super().__init__(run.system, run.settings)
+        start = start_motion(run, run.settings.formulation, run.settings.integrator)
         if start.plan.integrator in INDEX3_INTEGRATORS:
             raise FmuError(
-                f"{model.name}: simulation.integrator {start.plan.integrator}: the index-3 integrators are not "
-                "advanced step by step in an FMU; choose an ODE integrator (e.g. DOP853, RK45, Radau)"
+                f"{self.model.name}: simulation.integrator {start.plan.integrator}: the index-3 integrators are "
+                "not advanced step by step in an FMU; choose an ODE integrator (e.g. DOP853, RK45, Radau)"
             )
-        self.plan, self.equations, self.guard, self.warnings = ode_motion(self.run, start)
-        self.model, self.settings = model, settings
-        self.t = 0.0
+        self.run = run
+        self.plan, self.equations, self.guard, self.warnings = ode_motion(run, start)
+        self.method = f"forward dynamics, {self.plan.formulation} formulation, {self.plan.integrator}"
+        self.tolerances = (self.plan.rtol, self.plan.atol)
         self.z = self.equations.initial_state(start.q, start.qd, 0.0)
         self.first = self._row(self.t, self.z)
         self.columns = self._columns(self.first)
@@ -227,17 +275,9 @@ class Stepper:
         result, _ = build_result(self.run, self.equations, self.guard, history, None, times)
         return {name: float(values[-1]) for name, values in result_columns(result).items() if name != "t"}
 
-    def advance(self, t_end: float, t_from: float | None = None) -> None:
-        """Integrate from ``t`` to ``t_end`` (a restart of the integrator from the state held) and take the columns
-        there; the Guard watches the run as in ``forward_dynamics``. ``t_from``: the time the importer believes
-        reached (FMI's currentCommunicationPoint), which must be ``t`` but for rounding."""
-        if t_from is not None:
-            if abs(t_from - self.t) > TIME_TOLERANCE * max(1.0, abs(self.t)):
-                raise AnalysisError(
-                    f"a communication step from t = {t_from:.9g} s: the FMU's state is at t = {self.t:.9g} s (it "
-                    "steps forward from where it is, without going back)"
-                )
-            self.t = t_from
+    def _step(self, t_end: float) -> None:
+        """Integrate from ``t`` to ``t_end`` (the integrator restarted from the state held); the Guard watches the
+        run as in ``forward_dynamics``."""
         reached = []
         plan, settings = self.plan, self.settings
 
@@ -253,7 +293,38 @@ class Stepper:
         self.rhs_evaluations += stats.rhs_evaluations
         row = self._row(t_end, reached[-1])
         self.guard.check_drift(row[1], t_end)
-        self.t, self.z, self.columns = t_end, reached[-1], self._columns(row)
+        self.z, self.columns = reached[-1], self._columns(row)
+
+
+class KinematicStepper(Stepper):
+    """A kinematic analysis (``kinematics.kinematic_analysis``, numpy engine): the file's configuration assembled
+    at t = 0, then at each communication point the step of eq. 4.8 (predictor and Newton-Raphson), q' (eq. 4.5) and
+    q'' (eq. 4.6), with its stop at a singular position passed (``kinematics.kinematic_step``). The branch check at
+    the last point reached sees no ratio after it, as ``mbd run``'s at its end time."""
+
+    method = "kinematic analysis (the drivers leave no degree of freedom)"
+
+    def __init__(self, system, q0: np.ndarray, settings):
+        super().__init__(system, settings)
+        q, _ = assemble(system, q0, 0.0)
+        require_no_freedom(system, q, 0.0)
+        self.march = KinematicSteps.empty(system, np.zeros(1))
+        kinematic_step(self.march, 0, q)
+        self.columns = self._columns()
+
+    def _columns(self) -> dict[str, float]:
+        march = self.march
+        names = [b.name for b in self.model.bodies]
+        result = Result(march.times, march.Q, march.QD, march.QDD, self.system.coordinate_names, names)
+        return {name: float(values[-1]) for name, values in result_columns(result).items() if name != "t"}
+
+    def _step(self, t_end: float) -> None:
+        march = self.march
+        march.times = np.append(march.times, t_end)
+        for name in ("Q", "QD", "QDD"):
+            setattr(march, name, np.vstack([getattr(march, name), np.empty(self.system.n_coordinates)]))
+        kinematic_step(march, march.times.size - 1, march.predict(march.times.size - 1))
+        self.columns = self._columns()
 
 
 # -- the export -------------------------------------------------------------------------------------------------
@@ -319,7 +390,7 @@ def export_fmu(model_path: str | Path, out: str | Path) -> Path:
     if not out.parent.is_dir():
         raise FmuError(f"{out}: no folder {out.parent} (make it first, or write elsewhere)")
     builder = _builder()
-    Stepper(read_text(model_path))  # refuses what the FMU could not run, before building
+    start_stepper(read_text(model_path))  # refuses what the FMU could not run, before building
     with tempfile.TemporaryDirectory(prefix="mbd-fmu-") as tmp:
         stage, built = Path(tmp) / "stage", Path(tmp) / "built"
         stage.mkdir()

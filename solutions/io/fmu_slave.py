@@ -22,7 +22,7 @@ from pythonfmu3 import (
 )
 
 from solutions.diagnostics import AnalysisError
-from solutions.io.fmu import MODEL_FILE, Stepper, fmi_name, model_parameters, with_parameters
+from solutions.io.fmu import MODEL_FILE, fmi_name, model_parameters, start_stepper, with_parameters
 from solutions.io.model import ModelError, read_text
 
 TOLERANCES = {
@@ -38,15 +38,16 @@ class MbdModel(Fmi3Slave):
         super().__init__(**kwargs)
         self.data = read_text(Path(self.resources) / MODEL_FILE)
         self.in_file = {name: value for name, (_, value) in model_parameters(self.data).items()}
-        self.stepper = Stepper(self.data)
-        model, plan, settings = self.stepper.model, self.stepper.plan, self.stepper.settings
-        self.values = {**self.in_file, "rtol": plan.rtol, "atol": plan.atol}
+        self.stepper = start_stepper(self.data)
+        model, settings, tolerances = self.stepper.model, self.stepper.settings, self.stepper.tolerances
+        self.values = {**self.in_file, **dict(zip(TOLERANCES, tolerances or (), strict=False))}
         self.modelName = re.sub(r"\W|^(?=\d)", "_", model.name)
         self.description = (
-            f"{model.name}: forward dynamics by mbd-course ({plan.formulation} formulation, {plan.integrator}), "
-            "co-simulation; outputs are the columns of mbd run --out FILE.csv"
+            f"{model.name}: {self.stepper.method}, by mbd-course in co-simulation; outputs are the columns of mbd "
+            "run --out FILE.csv"
         )
-        self.default_experiment = DefaultExperiment(0.0, settings.t_end, settings.t_end / settings.steps, plan.rtol)
+        rtol = tolerances[0] if tolerances else None
+        self.default_experiment = DefaultExperiment(0.0, settings.t_end, settings.t_end / settings.steps, rtol)
         time = Float64("time", causality=Fmi3Causality.independent, variability=Fmi3Variability.continuous)
         time.getter = lambda: self.stepper.t
         self.register_variable(time, nested=False)
@@ -73,10 +74,10 @@ class MbdModel(Fmi3Slave):
     def exit_initialization_mode(self):
         """Start the run again from the edited model when a parameter was set to another value than the file's."""
         edited = {name: value for name, value in self.values.items() if self.in_file.get(name, value) != value}
-        rtol, atol = self.values["rtol"], self.values["atol"]
-        if edited or (rtol, atol) != (self.stepper.plan.rtol, self.stepper.plan.atol):
+        tolerances = tuple(self.values[name] for name in TOLERANCES if name in self.values) or None
+        if edited or tolerances != self.stepper.tolerances:
             try:
-                self.stepper = Stepper(with_parameters(self.data, edited), rtol, atol)
+                self.stepper = start_stepper(with_parameters(self.data, edited), *(tolerances or ()))
             except (ModelError, AnalysisError) as err:
                 self.log(f"parameters {', '.join(edited)}: {err}", Fmi3Status.error)
                 raise

@@ -38,6 +38,10 @@ STIFFER = 80.0
 """The four-bar spring's stiffness in the parameter study (the file's: 50 N/m)."""
 LOOP_SPAN = 0.5
 """The closed loop's span here (s): a quarter of the file's, at the file's output interval."""
+FASTER = 15.0
+"""The slider-crank's crank speed in the parameter study, rad/s (the file's drive: phi = 10 t)."""
+TURN = 0.6283185307179586
+"""The slider-crank file's span: one crank turn at 10 rad/s, 200 output steps."""
 
 FMPY = textwrap.dedent(
     """
@@ -70,11 +74,10 @@ def folder(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="module")
 def fmus(folder) -> dict[str, Path]:
-    """The FMUs of the double pendulum (a chain) and of the spring-loaded four-bar (a closed loop)."""
-    return {
-        name: export_fmu(MODELS / f"{name}.yaml", folder / f"{name}.fmu")
-        for name in ("double_pendulum", "four_bar_spring")
-    }
+    """The FMUs of the double pendulum (a chain), of the spring-loaded four-bar (a closed loop) and of the
+    slider-crank (a closed loop driven by its motor: a kinematic analysis)."""
+    names = ("double_pendulum", "four_bar_spring", "slider_crank")
+    return {name: export_fmu(MODELS / f"{name}.yaml", folder / f"{name}.fmu") for name in names}
 
 
 @pytest.fixture(scope="module")
@@ -86,6 +89,8 @@ def fmpy_runs(fmus, folder) -> dict:
         "heavier": (pendulum, 2.0, 0.01, {"upper.mass": HEAVIER}),
         "loop": (loop, LOOP_SPAN, 0.005, {}),
         "stiffer": (loop, LOOP_SPAN, 0.005, {"spring.spring_coefficient": STIFFER}),
+        "crank": (str(fmus["slider_crank"]), TURN, TURN / 200, {}),
+        "faster": (str(fmus["slider_crank"]), TURN, TURN / 200, {"drive.function.coefficients[2]": FASTER}),
     }
     done = subprocess.run(
         [sys.executable, "-c", FMPY, json.dumps(runs), str(folder)], cwd=folder, capture_output=True, text=True
@@ -192,6 +197,19 @@ def test_a_closed_loop_with_a_spring_damper_and_actuator_runs_in_fmpy_as_mbd_run
     assert max(differences(fmpy_runs["results"]["loop"], csv).values()) > 1e-3  # the stiffness changes the run
 
 
+def test_a_driven_slider_crank_runs_its_kinematics_in_fmpy_as_mbd_run(fmpy_runs, folder):
+    """Drivers that leave no degree of freedom: the FMU runs mbd run's kinematic analysis (measured: the same
+    numbers, to the bit), no tolerances among its parameters; the crank speed set in the FMU (the drive's second
+    polynomial coefficient) runs as the edited file."""
+    starts = fmpy_runs["starts"][next(f for f in fmpy_runs["starts"] if "slider_crank" in f)]
+    assert starts["drive.function.coefficients[2]"] == 10.0 and "rtol" not in starts
+    faster = edited(folder, "slider_crank", lambda m: m["motors"][0]["function"]["coefficients"].__setitem__(1, FASTER))
+    for run, model in (("crank", MODELS / "slider_crank.yaml"), ("faster", faster)):
+        found = differences(fmpy_runs["results"][run], mbd_run(model, folder / f"{run}.csv"))
+        assert len(found) == 1 + 3 * 9 and max(found.values()) < 1e-9, found  # t, q q' q'' of three bodies
+    assert abs(fmpy_runs["results"]["faster"]["crank.phi_d"][-1] - FASTER) < 1e-9
+
+
 def test_structured_names_and_parameters_of_a_spatial_driven_model():
     """A name part that is not an identifier is quoted; a spatial body's principal moments are inertia[1..3];
     a motor's function gives its numbers; an unnamed element is named by its place; an edit lands in its key."""
@@ -211,17 +229,21 @@ def test_structured_names_and_parameters_of_a_spatial_driven_model():
 
 
 def test_what_an_fmu_cannot_run_is_refused_in_one_line(tmp_path, capsys, monkeypatch):
-    """A model whose drivers leave no degree of freedom (kinematic), a file that is not .fmu, a missing builder:
-    exit 2, one line that says what to do; nothing written."""
-    assert main([str(MODELS / "slider_crank.yaml"), "--out", str(tmp_path / "s.fmu")]) == 2
+    """An index-3 integrator (its own loop, not stepped), a file that is not .fmu, a missing builder: exit 2, one
+    line that says what to do; nothing written but the edited model."""
+    model = edited(tmp_path, "double_pendulum", lambda m: None)
+    data = yaml.safe_load(model.read_text())
+    data["simulation"]["integrator"] = "hht"
+    model.write_text(yaml.safe_dump(data))
+    assert main([str(model), "--out", str(tmp_path / "s.fmu")]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "analysis is kinematic" in err and "simulation.analysis: dynamic" in err
+    assert err.count("\n") == 1 and "simulation.integrator hht" in err and "choose an ODE integrator" in err
     with pytest.raises(FmuError, match="FILE.fmu"):
         export_fmu(MODELS / "double_pendulum.yaml", tmp_path / "d.zip")
     monkeypatch.setitem(sys.modules, "pythonfmu3", None)  # as if not installed
     with pytest.raises(FmuError, match=r"pip install 'mbd-course\[dev\]'"):
         export_fmu(MODELS / "double_pendulum.yaml", tmp_path / "d.fmu")
-    assert list(tmp_path.iterdir()) == []
+    assert list(tmp_path.iterdir()) == [model]
 
 
 def test_an_importer_in_c_runs_the_fmu_once_libpython_is_loaded(fmus, fmpy_runs, folder):
