@@ -93,9 +93,10 @@ RUNTIME = ("numpy", "scipy", "pyyaml")
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 FUNCTION_PARAMETERS = {"spring_dampers": "actuator", "motors": "function"}
 """The function of an element whose numbers are parameters, by section."""
+SPRING_PARAMETERS = ("spring_coefficient", "damping_coefficient", "free_length", "free_angle")
+"""The keys of a spring-damper whose numbers are parameters (besides its actuator's)."""
 TIME_TOLERANCE = 1e-9
 """How far (relative) a communication point may be from the time the FMU reached: rounding of t + h sums."""
-SPRING_PARAMETERS = ("spring_coefficient", "damping_coefficient", "free_length", "free_angle")
 
 
 class FmuError(ModelError):
