@@ -25,10 +25,12 @@ The mass matrix is built once and the force loop is skipped for a scene with gra
 
 In the code, ``forward_dynamics`` runs a plan (``run_plan``) as named stages, flowing one way:
 ``dynamic_model`` (M and the forces) -> ``consistent_initial_conditions`` (1) -> ``plan_method`` (the method
-and the tolerance rule, computed once) -> ``integrate_motion`` (2 and 4: the numpy engine, or the compiled
-one where it covers the run; ``index3_run`` for the implicit index-3 integrators) -> ``build_result`` (3) ->
-``run_info`` and the warnings. When ``auto``'s method stops at a singular position (``SingularStop``), the
-run is made again from the start with the one fallback plan: a formulation that passes it.
+and the tolerance rule, computed once; the three are ``start_motion``) -> ``ode_motion`` (the equations of
+motion and the Guard; an FMU's co-simulation, ``io/fmu.py``, advances them step by step) -> ``integrate_motion``
+(2 and 4: the numpy engine, or the compiled one where it covers the run; ``index3_run`` for the implicit index-3
+integrators) -> ``build_result`` (3) -> ``run_info`` and the warnings. When ``auto``'s method stops at a singular
+position (``SingularStop``), the run is made again from the start with the one fallback plan: a formulation that
+passes it.
 """
 
 from __future__ import annotations
@@ -421,33 +423,63 @@ class SingularStop(AnalysisError):
         self.reason = kind if isinstance(err, SingularConfigurationError) else f"{kind} next to a singular position"
 
 
-def run_plan(run: Run, formulation: str, integrator: str) -> Result:
-    """One run of the stages: initial conditions -> method -> engine -> result."""
+@dataclass(frozen=True)
+class Start:
+    """Stages 1 and 2 of a run (``start_motion``): the run as it is integrated (point masses free to turn about
+    their centres given a nominal inertia on those axes: ``nominal_inertia``), M and the forces, the consistent
+    initial state with its report, the plan, and the notes said on the way."""
+
+    run: Run
+    M: np.ndarray
+    forces: ForceModel
+    q: np.ndarray
+    qd: np.ndarray
+    initial: dict
+    plan: Plan
+    notes: list[str]
+
+
+def start_motion(run: Run, formulation: str, integrator: str) -> Start:
+    """Stages 1 and 2: the model's M and forces, consistent initial conditions, the method and tolerances."""
     M, forces = dynamic_model(run.system, run.masses, run.forces)
     notes, turns = [], None
     if run.masses is None and point_masses(run.system.model):  # M singular: free turns of point masses
         run, turns, notes = nominal_inertia(run, M, assemble(run.system, run.q0)[0])
         M, forces = dynamic_model(run.system, None, run.forces)
-    system, model, settings = run.system, run.system.model, run.settings
-    q, qd, initial = consistent_initial_conditions(system, M, run.q0, run.qd0)  # stage 1
+    q, qd, initial = consistent_initial_conditions(run.system, M, run.q0, run.qd0)  # stage 1
     if turns is not None:
         qd = without_turns(turns, qd)
     plan = plan_method(run, M, forces, q, qd, formulation, integrator)  # stage 2
-    if plan.integrator in INDEX3_INTEGRATORS:
-        result = index3_run(run, plan, M, forces, q, qd, initial)
-        if notes:
-            result.info["notes"] = notes + result.info.get("notes", [])
-        return result
-    _check_redundancy(system, q, plan.formulation)
+    return Start(run, M, forces, q, qd, initial, plan, notes)
+
+
+def ode_motion(run: Run, start: Start) -> tuple[Plan, EquationsOfMotion, Guard, list[str]]:
+    """What an ODE integrator advances for a plan that is not index-3: the plan with the tolerances the formulation
+    holds (``held_tolerances``), the equations of motion, the run's ``Guard`` and the warnings said on the way."""
+    system, plan = run.system, start.plan
+    _check_redundancy(system, start.q, plan.formulation)
     if plan.formulation in RESTARTING and plan.integrator in MULTISTEP_INTEGRATORS:
         raise AnalysisError(
             f"the {plan.formulation} formulation restarts the integrator after every step, which a multistep "
             f"method ({plan.integrator}) cannot afford: use rk4, RK45, DOP853 or Radau"
         )
-    made = make_formulation(plan.formulation, system, M, forces, **settings.formulation_options)
-    equations = EquationsOfMotion(made, forces, has_drivers=bool(model.motors))
+    made = make_formulation(plan.formulation, system, start.M, start.forces, **run.settings.formulation_options)
+    equations = EquationsOfMotion(made, start.forces, has_drivers=bool(system.model.motors))
     plan, raised = held_tolerances(plan, equations)
-    guard = make_guard(run, plan, equations, q)
+    return plan, equations, make_guard(run, plan, equations, start.q), raised
+
+
+def run_plan(run: Run, formulation: str, integrator: str) -> Result:
+    """One run of the stages: initial conditions -> method -> engine -> result."""
+    start = start_motion(run, formulation, integrator)
+    run, q, qd, initial, notes = start.run, start.q, start.qd, start.initial, start.notes
+    system, settings = run.system, run.settings
+    if start.plan.integrator in INDEX3_INTEGRATORS:
+        result = index3_run(run, start.plan, start.M, start.forces, q, qd, initial)
+        if notes:
+            result.info["notes"] = notes + result.info.get("notes", [])
+        return result
+    plan, equations, guard, raised = ode_motion(run, start)
     times = np.linspace(0.0, settings.t_end, settings.steps + 1)
     try:  # stage 3: the engine
         z0 = equations.initial_state(q, qd, 0.0)
@@ -593,17 +625,26 @@ def integrate_motion(run: Run, plan: Plan, equations, guard: Guard, z0: np.ndarr
         if run.progress is not None:
             run.progress(float(t))
 
+    stats = integrate(
+        equations.rhs, z0, times, record, method=settings.integrator, rtol=settings.rtol, atol=settings.atol,
+        step=settings.step, after_step=guarded_after_step(equations, guard),
+        max_evaluations=settings.max_evaluations, stiffness=settings.stiffness,
+    )  # fmt: skip
+    return history, stats, None, chosen
+
+
+def guarded_after_step(equations: EquationsOfMotion, guard: Guard):
+    """What the numpy engine does after every step: the formulation's correction, then the Guard's look at the
+    configuration (when it watches for singular ones)."""
+    if not guard.singular_ratio:
+        return equations.after_step
+
     def after_step(t: float, z: np.ndarray) -> np.ndarray | None:
         corrected = equations.after_step(t, z)
         guard.check_configuration(equations.formulation, t, equations.split(z if corrected is None else corrected)[0])
         return corrected
 
-    stats = integrate(
-        equations.rhs, z0, times, record, method=settings.integrator, rtol=settings.rtol, atol=settings.atol,
-        step=settings.step, after_step=after_step if guard.singular_ratio else equations.after_step,
-        max_evaluations=settings.max_evaluations, stiffness=settings.stiffness,
-    )  # fmt: skip
-    return history, stats, None, chosen
+    return after_step
 
 
 def compiled_motion(settings: Settings, equations, guard, z0, times, history) -> tuple:

@@ -289,11 +289,7 @@ def kinematic_analysis(
     if engine != "numpy":  # the compiled steps fill the first rows
         _compiled_steps(engine, march, q)
     for k in range(march.first, march.times.size):  # 2. the steps
-        q = position_step(march, k, q if k == 0 else march.predict(k))
-        lu = _factor_checked(system, q, march.times[k])
-        check_branch(march, k, q, lu)
-        qd = velocity_analysis(system, q, march.times[k], lu)
-        march.Q[k], march.QD[k], march.QDD[k] = q, qd, acceleration_analysis(system, q, qd, march.times[k], lu)
+        kinematic_step(march, k, q if k == 0 else march.predict(k))
         if progress is not None:
             progress(float(march.times[k]))
     info: KinematicInfo = {
@@ -337,6 +333,17 @@ class KinematicSteps:
         """q at step k by the second-order Taylor predictor from step k - 1."""
         dt = self.times[k] - self.times[k - 1]
         return self.Q[k - 1] + self.QD[k - 1] * dt + 0.5 * self.QDD[k - 1] * dt * dt
+
+
+def kinematic_step(march: KinematicSteps, k: int, q: np.ndarray) -> None:
+    """Step k from the prediction q: the position (``position_step``), a stop at a singular position passed
+    (``check_branch``), q' (eq. 4.5) and q'' (eq. 4.6) with Psi_q's LU factors, stored in row k of ``march``."""
+    system, t = march.system, march.times[k]
+    q = position_step(march, k, q)
+    lu = _factor_checked(system, q, t)
+    check_branch(march, k, q, lu)
+    qd = velocity_analysis(system, q, t, lu)
+    march.Q[k], march.QD[k], march.QDD[k] = q, qd, acceleration_analysis(system, q, qd, t, lu)
 
 
 def position_step(march: KinematicSteps, k: int, q: np.ndarray) -> np.ndarray:

@@ -47,12 +47,13 @@ BEGIN = "### BEGIN SOLUTION"
 END = "### END SOLUTION"
 IGNORED = ("__pycache__", "*.pyc", "*.pyo", ".DS_Store", ".ipynb_checkpoints")
 """Files of ``solutions/`` that never go into a student package."""
-INSTRUCTOR_ONLY = ("compiled", "planar/batched.py", "spatial/batched.py", "serve.py")
+INSTRUCTOR_ONLY = ("compiled", "planar/batched.py", "spatial/batched.py", "serve.py", "io/fmu.py", "io/fmu_slave.py")
 """Folders and files of ``solutions/`` (paths relative to it) that never go into a student package. The first
 three write out, outside any solution region, every formula the students write: the compiled engine's kernels,
 for numba (a student package runs on numpy: ``engine`` falls back); the per-type (batched) forms of the joints,
 a speed-up (a student package's System evaluates the element methods one by one). ``serve.py`` is ``mbd
-serve``, a command of the instructor's and the lab's, not the kit's."""
+serve``, a command of the instructor's and the lab's, not the kit's; ``io/fmu.py`` and its slave build an FMU,
+which carries the reference solver's source, with a dev dependency (pythonfmu3)."""
 
 REPO = Path(__file__).resolve().parents[2]
 _STUB_TOKEN = "@@MBD_STUB@@"
