@@ -153,7 +153,15 @@ def open_tree(system: System) -> str | None:
 def supports(system: System) -> str | None:
     """None when joint coordinates can take the scene, else a one-line reason: a body not reached from
     ground by supported joints, or redundant constraints (the cut rows' augmented system needs
-    independent rows; the model's q0 from its file is where they are counted)."""
+    independent rows; the model's q0 from its file is where they are counted). Decided once per system (an
+    SVD of the whole Psi_q: on a chain of 32 loops more than the integration, and every run makes the
+    formulation twice: for its start rates and to integrate)."""
+    if "_supports" not in system.__dict__:
+        system.__dict__["_supports"] = _supports(system)
+    return system.__dict__["_supports"]
+
+
+def _supports(system: System) -> str | None:
     order, reason = tree_order(system)
     if reason is not None or not cut_elements(system, order):
         return reason
