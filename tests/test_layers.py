@@ -132,6 +132,7 @@ ALL = {
     "view",
     "sweep",
     "derive",
+    "import",
     "release",
     "nbcheck",
     "notes",
