@@ -16,7 +16,7 @@ The configuration written is the file's own: URDF's joint positions are zero the
 A model is always spatial (``dimension: 3``), also when every joint keeps the motion in one plane: the planar
 motion then comes out of the spatial equations (redundant out-of-plane loop equations are allowed), which is
 simpler, and exact, rather than guessing a plane. Fixed joints (URDF ``fixed``, an MJCF body without a joint) merge
-the child into its parent as one rigid body (mass, centre of mass and inertia combined, eq. 11.1's parallel axis
+the child into its parent as one rigid body (mass, centre of mass and inertia combined by the parallel axis
 theorem), as MuJoCo's ``fusestatic`` does. What the model cannot hold (limits, transmissions and actuators, geometry
 and contacts, ...) is listed in ``Imported.dropped``, one line per kind of element; what would change the model's
 degrees of freedom or mass in a way this format cannot say (a planar joint, a body with two joints, mass from
