@@ -12,10 +12,11 @@ first step of each configuration to reach 1e-3, 1e-6 and 1e-9 is timed again (me
 ``bench.py`` takes the fastest configuration per target. The time of a run is the simulation alone (model built
 outside the timing): MuJoCo's by ``mujoco.rollout`` (its step loop in C), Exudyn's ``SolveDynamic``.
 
-- MuJoCo (minimal coordinates): RK4, Euler, implicit and implicitfast; the double pendulum (two hinges), the
-  free slider-crank (a hinge-hinge tree plus the piston on a slide joint, the loop closed by a ``connect``
-  equality, which MuJoCo enforces softly: with the constraint time constant at two steps and a stiff solimp, or
-  at MuJoCo's defaults), the spatial double pendulum (two ball joints).
+- MuJoCo (minimal coordinates): RK4, Euler, implicit and implicitfast, on the MJCF of ``mbd export --to mjcf``
+  (``mujoco_exported``): the double pendulum (two hinges), the free slider-crank (a hinge-hinge tree plus the piston
+  on a slide joint, the loop closed by a ``connect`` equality, which MuJoCo enforces softly: with the constraint
+  time constant at two steps and a stiff solimp, or at MuJoCo's defaults), the spatial double pendulum (two ball
+  joints).
 - Exudyn: the double pendulum in minimal coordinates (``ObjectKinematicTree``, its explicit RK44 and RK67) and
   in redundant body coordinates (2D rigid bodies with revolute joints), the free slider-crank and the spatial
   double pendulum in redundant coordinates: generalized-alpha (index 3) and the trapezoidal rule (index 2).
@@ -83,80 +84,21 @@ def _joint(model, name: str) -> np.ndarray:
     return np.asarray(next(j for j in model.joints if j["name"] == name)["location"], dtype=float)
 
 
-def _v(x) -> str:
-    return " ".join(f"{float(c):.17g}" for c in x)
-
-
-def _planar_inertial(body, offset) -> str:
-    j = float(body.inertia)
-    return f'<inertial pos="{_v([*offset, 0.0])}" mass="{body.mass}" diaginertia="{j} {j} {j}"/>'
-
-
-def mujoco_double_pendulum(model, dt: float) -> tuple[str, np.ndarray, np.ndarray]:
-    """Two hinges about z; body frames at the joints, parallel to the world in the file's configuration."""
-    upper, lower = model.bodies
-    o, a = _joint(model, "O"), _joint(model, "A")
-    gravity = [*model.gravity, 0.0]
-    xml = f"""<mujoco><option gravity="{_v(gravity)}" integrator="RK4" timestep="{dt}"/>
-<worldbody><body name="upper" pos="{_v([*o, 0])}"><joint type="hinge" axis="0 0 1"/>
-{_planar_inertial(upper, upper.location - o)}
-<body name="lower" pos="{_v([*(a - o), 0])}"><joint type="hinge" axis="0 0 1"/>
-{_planar_inertial(lower, lower.location - a)}</body></body></worldbody></mujoco>"""
-    qvel = [upper.angular_velocity, lower.angular_velocity - upper.angular_velocity]
-    return xml, np.zeros(2), np.array(qvel, dtype=float)
-
-
-def mujoco_slider_crank(model, dt: float) -> tuple[str, np.ndarray, np.ndarray]:
-    """Crank and rod as a hinge-hinge tree, the piston on a slide joint, the loop closed at B by ``connect``."""
-    crank, rod, piston = model.bodies
-    o, a, b = _joint(model, "O"), _joint(model, "A"), _joint(model, "B")
-    gravity = [*model.gravity, 0.0]
-    xml = f"""<mujoco><option gravity="{_v(gravity)}" integrator="RK4" timestep="{dt}"/>
-<worldbody><body name="crank" pos="{_v([*o, 0])}"><joint type="hinge" axis="0 0 1"/>
-{_planar_inertial(crank, crank.location - o)}
-<body name="rod" pos="{_v([*(a - o), 0])}"><joint type="hinge" axis="0 0 1"/>
-{_planar_inertial(rod, rod.location - a)}</body></body>
-<body name="piston" pos="{_v([*b, 0])}"><joint type="slide" axis="1 0 0"/>
-{_planar_inertial(piston, piston.location - b)}</body></worldbody>
-<equality><connect body1="rod" body2="piston" anchor="{_v([*(b - a), 0])}" solref="{2 * dt} 1"
-solimp="0.9999 0.9999 0.001"/></equality></mujoco>"""
-    qvel = [crank.angular_velocity, rod.angular_velocity - crank.angular_velocity, piston.velocity[0]]
-    return xml, np.zeros(3), np.array(qvel, dtype=float)
-
-
-def _quat_conj(p):
-    return np.array([p[0], -p[1], -p[2], -p[3]])
-
-
-def _quat_mul(a, b):
-    a0, av, b0, bv = a[0], a[1:], b[0], b[1:]
-    return np.concatenate([[a0 * b0 - av @ bv], a0 * bv + b0 * av + np.cross(av, bv)])
-
-
 def _rotation(p):
     from solutions.rotations import rotation_matrix
 
     return rotation_matrix(np.asarray(p, dtype=float))
 
 
-def mujoco_spatial_double_pendulum(model, dt: float) -> tuple[str, np.ndarray, np.ndarray]:
-    """Two ball joints; each body frame at its joint with the body's orientation from the file."""
-    rod1, rod2 = model.bodies
-    o, a = _joint(model, "O"), _joint(model, "A")
-    p1, p2 = np.asarray(rod1.orientation, float), np.asarray(rod2.orientation, float)
-    r1, r2 = _rotation(p1), _rotation(p2)
+def mujoco_exported(model, dt: float) -> tuple[str, np.ndarray, np.ndarray]:
+    """The scene's MJCF as ``mbd export --to mjcf`` writes it (``solutions.io.mjcf``: a spanning tree of hinges,
+    slides and balls, a loop closed by a ``connect`` equality at a time constant of two steps and a stiff solimp),
+    with the step dt, and the initial state of its keyframe (the state ``mbd run`` starts from)."""
+    from solutions.io.mjcf import Stiffness, export_mjcf
 
-    def inertial(body, rot, joint):
-        inertia = np.asarray(body.inertia, float)
-        inertia = np.diag(inertia) if inertia.ndim == 2 else inertia
-        return f'<inertial pos="{_v(rot.T @ (body.location - joint))}" mass="{body.mass}" diaginertia="{_v(inertia)}"/>'
-
-    xml = f"""<mujoco><option gravity="{_v(model.gravity)}" integrator="RK4" timestep="{dt}"/>
-<worldbody><body name="rod1" pos="{_v(o)}" quat="{_v(p1)}"><joint type="ball"/>{inertial(rod1, r1, o)}
-<body name="rod2" pos="{_v(r1.T @ (a - o))}" quat="{_v(_quat_mul(_quat_conj(p1), p2))}"><joint type="ball"/>
-{inertial(rod2, r2, a)}</body></body></worldbody></mujoco>"""
-    qpos = np.array([1.0, 0, 0, 0, 1.0, 0, 0, 0])
-    return xml, qpos, np.zeros(6)
+    xml = export_mjcf(model, Stiffness(timestep=dt))
+    m = mujoco.MjModel.from_xml_string(xml)
+    return xml, m.key_qpos[0].copy(), m.key_qvel[0].copy()
 
 
 MUJOCO_INTEGRATORS = ("RK4", "Euler", "implicit", "implicitfast")
@@ -168,7 +110,7 @@ def mujoco_xml(scene, build, dt: float, integrator: str, solref: str | None) -> 
     constant of two steps, the stiffest MuJoCo keeps stable; the builder's) or MuJoCo's default (solref 0.02 s and
     the default solimp)."""
     xml, qpos, qvel = build(scene.load(), dt)
-    xml = xml.replace('integrator="RK4"', f'integrator="{integrator}"')
+    xml = xml.replace('integrator="RK4"', f'integrator="{integrator}"', 1)
     if solref == "default":
         xml = re.sub(r'\s+solref="[^"]*"', "", xml)
         xml = re.sub(r'\s+solimp="[^"]*"', "", xml)
@@ -195,17 +137,19 @@ def mujoco_run(scene, build, dt: float, integrator: str = "RK4", solref: str | N
     start = time.perf_counter()
     states, _ = rollout.rollout(m, d, state[None], nstep=scene.outputs * per_output)
     elapsed = time.perf_counter() - start
-    out = np.empty((scene.outputs + 1, m.nbody - 1, scene.dimension))
-    out[0] = _centres(m, d, qpos, scene.dimension)
+    ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, body.name) for body in scene.load().bodies]
+    out = np.empty((scene.outputs + 1, len(ids), scene.dimension))
+    out[0] = _centres(m, d, qpos, ids, scene.dimension)
     for k, q in enumerate(states[0, per_output - 1 :: per_output, 1 : 1 + m.nq], start=1):
-        out[k] = _centres(m, d, q, scene.dimension)
+        out[k] = _centres(m, d, q, ids, scene.dimension)
     return elapsed, out
 
 
-def _centres(m, d, qpos: np.ndarray, dimension: int) -> np.ndarray:
+def _centres(m, d, qpos: np.ndarray, ids: list[int], dimension: int) -> np.ndarray:
+    """The centres of the model's bodies (MuJoCo's bodies ``ids``, in the model's order)."""
     d.qpos[:] = qpos
     mujoco.mj_kinematics(m, d)
-    return d.xipos[1:, :dimension].copy()
+    return d.xipos[ids, :dimension].copy()
 
 
 # -- Exudyn ----------------------------------------------------------------------------------------------------
@@ -383,9 +327,7 @@ def exudyn_planar(scene, dt: float, solver: str = "GeneralizedAlpha") -> tuple[f
     return _exudyn_solve(mbs, sensors, scene, dt, solver)
 
 
-def exudyn_spatial_double_pendulum(
-    scene, dt: float, solver: str = "GeneralizedAlpha"
-) -> tuple[float, np.ndarray]:
+def exudyn_spatial_double_pendulum(scene, dt: float, solver: str = "GeneralizedAlpha") -> tuple[float, np.ndarray]:
     """Redundant coordinates: Euler-parameter rigid bodies with spherical joints, an implicit method."""
     from exudyn.utilities import RigidBodyInertia
 
@@ -417,9 +359,9 @@ def exudyn_spatial_double_pendulum(
 
 # -- the search -------------------------------------------------------------------------------------------------
 MUJOCO_SCENES = {
-    "double_pendulum": mujoco_double_pendulum,
-    "slider_crank": mujoco_slider_crank,
-    "spatial_double_pendulum": mujoco_spatial_double_pendulum,
+    "double_pendulum": mujoco_exported,
+    "slider_crank": mujoco_exported,
+    "spatial_double_pendulum": mujoco_exported,
 }
 LOOP_SCENES = ("slider_crank",)
 """Scenes whose MuJoCo model closes a loop by an equality constraint: its solref is searched too."""

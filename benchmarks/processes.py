@@ -58,6 +58,7 @@ from mujoco import rollout
 xml, state, out = sys.argv[1:4]
 outputs, per_output, dimension = (int(a) for a in sys.argv[4:7])
 m = mujoco.MjModel.from_xml_path(xml)
+bodies = [m.body(name).id for name in sys.argv[7].split(",")]  # the model's bodies, in its order
 d = mujoco.MjData(m)
 qpos, qvel = np.split(np.load(state), [m.nq])
 d.qpos[:], d.qvel[:] = qpos, qvel
@@ -70,10 +71,11 @@ rows = []
 for q in [qpos, *states[0, per_output - 1 :: per_output, 1 : 1 + m.nq]]:
     d.qpos[:] = q
     mujoco.mj_kinematics(m, d)
-    rows.append(d.xipos[1:, :dimension].copy().ravel())  # a copy: xipos is overwritten at the next state
+    rows.append(d.xipos[bodies, :dimension].copy().ravel())  # a copy: xipos is overwritten at the next state
 np.savetxt(out, np.array(rows), delimiter=",")
 """
-"""The MuJoCo user's program: MJCF file, initial state (qpos, qvel), CSV out, outputs, steps per output, dimension."""
+"""The MuJoCo user's program: MJCF file, initial state (qpos, qvel), CSV out, outputs, steps per output, dimension,
+the bodies' names (comma-separated)."""
 
 
 def our_positions(path: Path, scene) -> np.ndarray:
@@ -150,7 +152,7 @@ def compare(scene, rounds: int, folder: Path, env: dict) -> dict:
     program.write_text(PROGRAM)
     theirs_csv = folder / f"{scene.key}_mujoco.csv"
     theirs = [sys.executable, str(program), str(xml), str(state), str(theirs_csv), str(scene.outputs),
-              str(per_output), str(scene.dimension)]  # fmt: skip
+              str(per_output), str(scene.dimension), ",".join(b.name for b in scene.load().bodies)]  # fmt: skip
     seconds(theirs, env)  # warm-up, and its output checked: the program computes what the in-process run did
     written = np.loadtxt(theirs_csv, delimiter=",").reshape(scene.ref_positions.shape)
     program_error = error(scene, written)

@@ -352,6 +352,63 @@ def add_import(sub) -> None:
     command.set_defaults(handler=command_import)
 
 
+EXPORTS = {"mjcf": ".xml", "urdf": ".urdf", "fmu": ".fmu"}
+"""The formats of ``mbd export`` and the suffix of the file written by default."""
+
+
+def command_export(args) -> int:
+    """``mbd export MODEL --to mjcf|urdf|fmu [--out FILE]``: the model in another code's format (``io.mjcf``,
+    ``io.urdf``; the FMU by ``io.fmu`` where installed), written to FILE or MODEL's stem here."""
+    out = Path(args.out or f"{Path(args.model).stem}{EXPORTS[args.to]}")
+    if not out.parent.is_dir():
+        raise UsageError(f"--out {out}: no folder {out.parent} (make it first, or write elsewhere)")
+    if args.to == "fmu":
+        try:
+            from .io.fmu import export_fmu
+        except ImportError:
+            raise UsageError(
+                "--to fmu: the FMU export needs the module solutions/io/fmu.py, not installed here"
+            ) from None
+        export_fmu(args.model, out)
+        print(f"FMU written to {out}")
+        return 0
+    model = load_model(args.model)
+    if args.to == "mjcf":
+        from .io.mjcf import Stiffness, export_mjcf
+
+        if args.timestep is not None and not args.timestep > 0:
+            raise UsageError(f"--timestep {args.timestep}: give a step > 0 in s, e.g. 1e-4")
+        stiffness = Stiffness(
+            **({} if args.timestep is None else {"timestep": args.timestep}), time_constant=args.solref
+        )
+        text, notes = export_mjcf(model, stiffness), []
+    else:
+        from .io.urdf import export_urdf
+
+        text, notes = export_urdf(model)
+    try:
+        out.write_text(text)
+    except OSError as err:
+        raise UsageError(f"--out {out}: cannot write ({err.strerror})") from None
+    for note in notes:
+        print(f"note: {note}")
+    print(f"{args.to.upper()} written to {out}")
+    return 0
+
+
+def add_export(sub) -> None:
+    """``mbd export MODEL --to mjcf|urdf|fmu [--out FILE] [--timestep H] [--solref T]``."""
+    export = sub.add_parser("export", help="write a model for another code: MuJoCo's MJCF, URDF (open trees), an FMU")
+    export.add_argument("model", help="model file (YAML or JSON)")
+    export.add_argument("--to", required=True, choices=list(EXPORTS), help="the format: mjcf, urdf or fmu")
+    export.add_argument("--out", help="the file to write (default: MODEL's name with .xml, .urdf or .fmu, here)")
+    export.add_argument("--timestep", type=float, help="MJCF: MuJoCo's integration step in s (default 1e-4)")
+    export.add_argument(
+        "--solref", type=float, metavar="T", help="MJCF: the equalities' time constant in s (default: two steps)"
+    )
+    export.set_defaults(handler=command_export)
+
+
 COMMANDS = "mbd.commands"
 """The entry-point group through which the course's other packages add their commands to ``mbd`` (as
 ``jupyter`` finds ``jupyter-NAME``): each entry is a function ``add(sub)`` that adds its subparser, with
@@ -359,7 +416,7 @@ COMMANDS = "mbd.commands"
 The course's ``pyproject.toml`` registers the instructor's commands and the self-check; this package knows
 none of them, and where the course is not installed (a student's kit) ``mbd`` has the solver's commands only."""
 
-OWN = ("run", "check", "view", "sweep", "derive", "import")
+OWN = ("run", "check", "view", "sweep", "derive", "export", "import")
 """The solver's own commands: ``mbd`` looks for the others only when asked for something else."""
 
 
@@ -501,6 +558,7 @@ def build_parser(others: bool = True) -> argparse.ArgumentParser:
     view.set_defaults(handler=command_view)
     add_sweep(sub)
     add_derive(sub)
+    add_export(sub)
     add_import(sub)
     if others:
         for entry in registered_commands():

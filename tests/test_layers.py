@@ -132,6 +132,7 @@ ALL = {
     "view",
     "sweep",
     "derive",
+    "export",
     "import",
     "release",
     "nbcheck",

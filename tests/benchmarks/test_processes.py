@@ -56,7 +56,8 @@ def test_the_mujoco_program_computes_the_chosen_configuration_s_motion(tmp_path,
     xml, state, per_output = processes.mujoco_files(scene, family, h, tmp_path)
     program, out = tmp_path / "program.py", tmp_path / "out.csv"
     program.write_text(processes.PROGRAM)
-    arguments = [str(xml), str(state), str(out), str(scene.outputs), str(per_output), str(scene.dimension)]
+    names = ",".join(b.name for b in scene.load().bodies)
+    arguments = [str(xml), str(state), str(out), str(scene.outputs), str(per_output), str(scene.dimension), names]
     subprocess.run([sys.executable, str(program), *arguments], check=True, capture_output=True)
     written = np.loadtxt(out, delimiter=",").reshape(scene.ref_positions.shape)
     assert processes.error(scene, written) == pytest.approx(error, rel=1e-9, abs=1e-15)
