@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from ..rotation_matrices import euler_rotation
-from ..rotations import rodrigues
+from ..rotations import euler_parameters, rodrigues
 from .model import GROUND, ModelError
 
 SUFFIXES = (".urdf", ".xml", ".mjcf")
@@ -74,6 +74,9 @@ class Link:
     inertia: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
     has_inertial: bool = False
     springs: list[dict] = field(default_factory=list)
+    sites: dict[str, tuple] = field(default_factory=dict)  # MJCF: named frames (point, axes) in the link frame
+    velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))  # of the frame's origin, global
+    angular_velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))  # global
 
 
 def import_file(path: str | Path) -> Imported:
@@ -337,11 +340,9 @@ MJCF_REFUSED = {
 """MJCF elements an import refuses, and what to do instead."""
 
 MJCF_TOP_DROPPED = {
-    "actuator": "dropped (no inputs: the joints are unactuated; a position actuator's kp pull is gone too)",
     "tendon": "dropped (no tendons)",
     "sensor": "dropped (results report every coordinate)",
     "contact": "dropped (no contacts)",
-    "keyframe": "dropped (the model starts at qpos0, the file's own pose)",
     "asset": "dropped (meshes, textures, materials)",
     "visual": "dropped (appearance)",
     "statistic": "dropped",
@@ -464,6 +465,11 @@ def mjcf_model(root: ET.Element, label: str, folder: Path) -> Imported:
     order: list[Link] = []
     if world.find("geom") is not None:
         kinds.setdefault("<geom>", []).append("world")
+    for site in world.findall("site"):
+        placed["world"].sites[site.get("name") or "site"] = (
+            _numbers(site, "pos", label, 3, [0, 0, 0]),
+            mjcf.rotation(site),
+        )
     stack = [(body, placed["world"], "main") for body in reversed(world.findall("body"))]
     while stack:
         element, parent, childclass = stack.pop()
@@ -472,24 +478,31 @@ def mjcf_model(root: ET.Element, label: str, folder: Path) -> Imported:
         order.append(link)
         inner = element.get("childclass", childclass)
         stack.extend((body, link, inner) for body in reversed(element.findall("body")))
+    rest = _site_points([placed["world"], *order])  # qpos0, where MuJoCo measures a tendon's rest length
+    _mjcf_keyframe(root, order, mjcf, dropped)
     loops = _mjcf_loops(root, placed, mjcf, dropped, taken[1])
+    tendons = _mjcf_tendons(root, [placed["world"], *order], rest, mjcf, dropped)
+    loads = _mjcf_actuators(root, [placed["world"], *order], mjcf, dropped)
     for kind, what in MJCF_DROPPED.items():
         if kinds.get(kind):
             dropped.append(f"{kind} of {_list(kinds[kind])}: {what}")
     for tag, what in MJCF_TOP_DROPPED.items():
         for section in root.findall(tag):
+            if tag in ("tendon", "actuator"):
+                continue  # _mjcf_tendons and _mjcf_actuators say what they drop
             if len(section) or tag in ("statistic", "size"):
                 dropped.append(f"<{tag}> ({', '.join(sorted({e.tag for e in section})) or 'settings'}): {what}")
     if any(key in option.attrib for option in root.findall("option") for key in ("timestep", "integrator")):
         dropped.append("<option> timestep/integrator: dropped (mbd run chooses its own; see --integrator)")
-    return Imported(_model_data(root.get("model") or label, order, gravity, loops, label, dropped), dropped)
+    model = _model_data(root.get("model") or label, order, gravity, loops, label, dropped, tendons, loads)
+    return Imported(model, dropped)
 
 
 MJCF_DROPPED = {
     "range/limited": "dropped (the joints move without limits)",
     "armature": "dropped (no rotor inertia added to the joints)",
     "frictionloss": "dropped (no joint friction)",
-    "damping/stiffness of slide joints": "dropped (no translational joint springs)",
+    "damping/stiffness of slide joints": "dropped (springs about a hinge only)",
     "<geom>": "dropped (no contacts; bodies are drawn as in any model file)",
 }
 """Joint attributes and body elements that the model cannot hold, and what that means."""
@@ -526,37 +539,84 @@ def _mjcf_body(element, parent: Link, mjcf: Mjcf, childclass: str, taken: tuple[
         )
     if element.find("geom") is not None:
         kinds.setdefault("<geom>", []).append(name)
+    for site in element.findall("site"):
+        point = _numbers(site, "pos", label, 3, [0, 0, 0])
+        link.sites[site.get("name") or f"site{len(link.sites)}"] = (point, mjcf.rotation(site))
     joints = [(j, mjcf.attrs(j, childclass)) for j in element.findall("joint")]
     joints += [(j, {"type": "free", **j.attrib}) for j in element.findall("freejoint")]
-    if len(joints) > 1:
-        raise ModelError(
-            f"{label}: {where}: {len(joints)} joints in one body; a body moves on one joint here: nest a light body "
-            "per joint (or use a ball joint for three rotations)"
-        )
     if not joints:
-        link.joint = {"name": f"{name}_weld", "type": "fixed"}
+        link.joint = {"name": f"{name}_weld", "type": "fixed", "parts": []}
         return link
-    joint, attrs = joints[0]
-    kind = attrs.get("type", "hinge")
-    if kind not in MJCF_JOINTS:
-        raise ModelError(f"{label}: {where} <joint type={kind!r}>: unknown; MuJoCo's are {', '.join(MJCF_JOINTS)}")
-    jname = _name(attrs.get("name"), f"{name}_joint", taken[1])
-    axis = _unit(_numbers(joint, "axis", label, 3, [0, 0, 1], attrs=attrs), label, f"joint '{jname}' axis")
-    location = link.r + link.R @ _numbers(joint, "pos", label, 3, [0, 0, 0], attrs=attrs)
-    link.joint = {"name": jname, "type": MJCF_JOINTS[kind], "location": location, "axis": link.R @ axis}
-    _mjcf_joint_extras(joint, attrs, link, mjcf, kinds)
+    parts = []
+    for joint, attrs in joints:
+        kind = attrs.get("type", "hinge")
+        if kind not in MJCF_JOINTS:
+            raise ModelError(f"{label}: {where} <joint type={kind!r}>: unknown; MuJoCo's are {', '.join(MJCF_JOINTS)}")
+        jname = _name(attrs.get("name"), f"{name}_joint", taken[1])
+        axis = _unit(_numbers(joint, "axis", label, 3, [0, 0, 1], attrs=attrs), label, f"joint '{jname}' axis")
+        ref = float(_numbers(joint, "ref", label, 1, [0.0], attrs=attrs)[0]) * (mjcf.angle if kind == "hinge" else 1.0)
+        anchor = _numbers(joint, "pos", label, 3, [0, 0, 0], attrs=attrs)
+        parts.append({"kind": MJCF_JOINTS[kind], "name": jname, "anchor": anchor, "axis": axis, "ref": ref})
+        _mjcf_joint_extras(joint, attrs, link, mjcf, kinds, parts[-1])
+    link.joint = _combined(parts, link, label, where, taken[1])
+    if link.springs and link.joint["type"] not in ("revolute", "cylindrical"):
+        kinds.setdefault("damping/stiffness of slide joints", []).append(link.joint["name"])
+        link.springs = []
     return link
 
 
-def _mjcf_joint_extras(joint, attrs: dict, link: Link, mjcf: Mjcf, kinds: dict) -> None:
+def _combined(parts: list[dict], link: Link, label: str, where: str, taken: set) -> dict:
+    """The model's joint of a body's MuJoCo joints: one joint as it is; a hinge and a slide along one line, a
+    cylindrical joint; two hinges through one point with normal axes (the first fixed in the parent, the second
+    in the body, as MuJoCo turns a body by its joints in turn), a universal joint. Global location and axes."""
+    first = parts[0]
+    joint = {"name": first["name"], "type": first["kind"], "parts": parts,
+             "location": link.r + link.R @ first["anchor"], "axis": link.R @ first["axis"]}  # fmt: skip
+    if len(parts) == 1:
+        return joint
+    kinds = sorted(p["kind"] for p in parts)
+    second = parts[1]
+    along = np.cross(second["anchor"] - first["anchor"], first["axis"])
+    if (
+        kinds == ["prismatic", "revolute"]
+        and np.linalg.norm(np.cross(first["axis"], second["axis"])) < 1e-9
+        and (np.linalg.norm(along) < 1e-9)
+    ):
+        joint["type"] = "cylindrical"
+    elif (
+        kinds == ["revolute", "revolute"]
+        and abs(first["axis"] @ second["axis"]) < 1e-9
+        and (np.linalg.norm(second["anchor"] - first["anchor"]) < 1e-12)
+    ):
+        joint["type"], joint["axis2"] = "universal", link.R @ second["axis"]
+    else:
+        raise ModelError(
+            f"{label}: {where}: joints {_list([p['name'] for p in parts])} in one body; one body takes one joint here, "
+            "or a hinge and a slide along one line (cylindrical), or two hinges with normal axes through one point "
+            "(universal): nest a light body per joint"
+        )
+    common = re.sub(r"[._\-]+$", "", _common_prefix([p["name"] for p in parts]))
+    joint["name"] = _name(common or first["name"], "joint", taken)
+    return joint
+
+
+def _common_prefix(names: list[str]) -> str:
+    prefix = names[0]
+    for name in names[1:]:
+        while not name.startswith(prefix):
+            prefix = prefix[:-1]
+    return prefix
+
+
+def _mjcf_joint_extras(joint, attrs: dict, link: Link, mjcf: Mjcf, kinds: dict, part: dict) -> None:
     """A hinge's damping and stiffness as a rotational spring-damper (RSDA, eq. 10.13) about it: MuJoCo's torque
     -k (q - springref) - c q', with q = ref in the file's pose, is the RSDA's with free angle springref - ref."""
-    label, name, kind = mjcf.label, link.joint["name"], link.joint["type"]
+    label, name, kind = mjcf.label, part["name"], part["kind"]
     value = {key: float(_numbers(joint, key, label, 1, [0.0], attrs=attrs)[0])
-             for key in ("damping", "stiffness", "springref", "ref", "armature", "frictionloss")}  # fmt: skip
+             for key in ("damping", "stiffness", "springref", "armature", "frictionloss")}  # fmt: skip
     if kind == "revolute" and (value["damping"] or value["stiffness"]):
         spring = {"damping_coefficient": value["damping"], "spring_coefficient": value["stiffness"]}
-        free = (value["springref"] - value["ref"]) * mjcf.angle
+        free = value["springref"] * mjcf.angle - part["ref"]
         if value["stiffness"] and free:
             spring["free_angle"] = free
         link.springs.append(spring)
@@ -567,6 +627,168 @@ def _mjcf_joint_extras(joint, attrs: dict, link: Link, mjcf: Mjcf, kinds: dict) 
             kinds.setdefault(key, []).append(name)
     if "range" in attrs and attrs.get("limited", "auto") != "false":
         kinds.setdefault("range/limited", []).append(name)
+
+
+QPOS = {"revolute": (1, 1), "prismatic": (1, 1), "spherical": (4, 3), "free": (7, 6)}
+"""The numbers each of MuJoCo's joints takes in qpos and qvel."""
+
+
+def _mjcf_keyframe(root: ET.Element, order: list[Link], mjcf: Mjcf, dropped: list[str]) -> None:
+    """Start from the ``<key name="initial">`` (what ``mbd export`` writes) when the file has one; MuJoCo itself
+    starts from qpos0 and takes a key only when asked, so other keys are dropped, said by name.
+
+    qpos and qvel list the joints in the order of the bodies in the file (depth first, as ``order``): a hinge's
+    angle and a slide's position (their file pose at ``ref``), a ball's quaternion and its angular velocity in the
+    body's frame, a free joint's position and quaternion of the body frame and its linear (global) and angular
+    (body frame) velocity. Each body is placed by its joints from its parent (``_move``).
+    """
+    keys = [key for section in root.findall("keyframe") for key in section.findall("key")]
+    chosen = next((key for key in keys if key.get("name") == "initial"), None)
+    others = [key.get("name") or f"#{k + 1}" for k, key in enumerate(keys) if key is not chosen]
+    if others:
+        dropped.append(f"<keyframe> key(s) {_list(others)}: dropped (the model starts at qpos0, or at key 'initial')")
+    if chosen is None:
+        return
+    parts = [part for link in order for part in link.joint["parts"]]
+    n_pos, n_vel = (sum(QPOS[p["kind"]][k] for p in parts) for k in (0, 1))
+    qpos = _numbers(chosen, "qpos", mjcf.label, n_pos, _qpos0(order))
+    qvel = _numbers(chosen, "qvel", mjcf.label, n_vel, np.zeros(n_vel))
+    moved = {GROUND: Link(GROUND, np.eye(3), np.zeros(3))}
+    before = {GROUND: moved[GROUND]}
+    i = j = 0
+    for link in order:
+        before[link.name] = Link(link.name, link.R.copy(), link.r.copy())
+        sizes = [QPOS[p["kind"]] for p in link.joint["parts"]]
+        di, dj = sum(n for n, _ in sizes), sum(n for _, n in sizes)
+        _move(link, before[link.parent], moved[link.parent], qpos[i : i + di], qvel[j : j + dj])
+        moved[link.name] = link
+        i, j = i + di, j + dj
+
+
+def _qpos0(order: list[Link]) -> list[float]:
+    """MuJoCo's qpos0: hinges and slides at ref, balls at the unit quaternion, free bodies where the file puts them."""
+    out: list[float] = []
+    for link in order:
+        for part in link.joint["parts"]:
+            if part["kind"] in ("revolute", "prismatic"):
+                out.append(part["ref"])
+            elif part["kind"] == "spherical":
+                out += [1.0, 0.0, 0.0, 0.0]
+            else:
+                out += [*link.r, *euler_parameters(link.R)]
+    return out
+
+
+def _move(link: Link, parent0: Link, parent: Link, qpos: np.ndarray, qvel: np.ndarray) -> None:
+    """Place ``link`` by its joint values from its parent (``parent0``: the parent in the file's pose), as MuJoCo's
+    kinematics does, joint after joint: from the file's relative pose, a slide shifts the frame by u (q - ref), a
+    hinge turns it by q - ref about u through the joint's anchor, a ball by its quaternion, each axis and anchor
+    taken in the frame as the joints before left it; a free joint gives the pose itself. The velocity composes
+    the parent's, v = v_p + w_p x (r - r_p), w = w_p, with each joint's own: a slide's u q', a hinge's or ball's
+    w_j x (r - anchor) and w_j. The model's joint location and axes move with the body."""
+    A0, s0 = parent0.R.T @ link.R, parent0.R.T @ (link.r - parent0.r)  # the file's pose in the parent's frame
+    R, r = parent.R @ A0, parent.r + parent.R @ s0
+    twists = []  # (w_j, v_j, point of w_j's axis) of each joint, global
+    i = j = 0
+    for part in link.joint["parts"]:
+        kind, a, u = part["kind"], part["anchor"], part["axis"]
+        n_pos, n_vel = QPOS[kind]
+        q, qd = qpos[i : i + n_pos], qvel[j : j + n_vel]
+        anchor, axis = r + R @ a, R @ u
+        if kind == "prismatic":
+            r = r + axis * (q[0] - part["ref"])
+            twists.append((np.zeros(3), axis * qd[0], anchor))
+        elif kind == "free":
+            R, r = euler_rotation(q[3:] / np.linalg.norm(q[3:])), q[:3].copy()
+            twists.append((R @ qd[3:], qd[:3] - np.cross(R @ qd[3:], r), np.zeros(3)))
+        else:
+            turn = rodrigues(u, q[0] - part["ref"]) if kind == "revolute" else euler_rotation(q / np.linalg.norm(q))
+            R = R @ turn
+            r = anchor - R @ a
+            twists.append((axis * qd[0] if kind == "revolute" else R @ qd, np.zeros(3), anchor))
+        part["global"] = (anchor, axis)
+        i, j = i + n_pos, j + n_vel
+    link.R, link.r = R, r
+    link.angular_velocity = parent.angular_velocity.copy()
+    link.velocity = parent.velocity + np.cross(parent.angular_velocity, r - parent.r)
+    for w, v, point in twists:
+        link.angular_velocity = link.angular_velocity + w
+        link.velocity = link.velocity + v + np.cross(w, r - point)
+    if link.joint["parts"]:
+        first = link.joint["parts"][0]["global"]
+        link.joint["location"], link.joint["axis"] = first
+        if "axis2" in link.joint:
+            link.joint["axis2"] = link.joint["parts"][1]["global"][1]
+
+
+def _site_points(links: list[Link]) -> dict[str, tuple[str, np.ndarray, np.ndarray]]:
+    """{site: (its body, its global position, its global axes)} in the links' present pose."""
+    return {site: (link.name, link.r + link.R @ point, link.R @ axes)
+            for link in links for site, (point, axes) in link.sites.items()}  # fmt: skip
+
+
+def _mjcf_tendons(root, links: list[Link], rest: dict, mjcf: Mjcf, dropped: list[str]) -> list[dict]:
+    """A spatial tendon through two sites, with stiffness or damping, is a TSDA (eq. 10.12) between their bodies:
+    MuJoCo's force -k (l - l0) - c l' along it, l0 its ``springlength`` or, when not given, its length at qpos0.
+    Other tendons (more sites, wrapping, fixed tendons, none with a spring) are dropped by name."""
+    points = _site_points(links)
+    out, other = [], []
+    for section in root.findall("tendon"):
+        for k, tendon in enumerate(section):
+            name = tendon.get("name") or f"tendon{k + 1}"
+            sites = [s.get("site") for s in tendon]
+            stiffness = float(_numbers(tendon, "stiffness", mjcf.label, 1, [0.0])[0])
+            damping = float(_numbers(tendon, "damping", mjcf.label, 1, [0.0])[0])
+            if tendon.tag != "spatial" or len(sites) != 2 or None in sites or not (stiffness or damping):
+                other.append(name)
+                continue
+            for site in sites:
+                if site not in points:
+                    raise ModelError(f"{mjcf.label}: <tendon><spatial name={name!r}>: no site named {site!r}")
+            lengths = [float(v) for v in tendon.get("springlength", "-1").split()]
+            if len(lengths) == 2 and lengths[0] != lengths[1]:
+                other.append(name)  # a dead band: no counterpart
+                continue
+            (body1, p1, _), (body2, p2, _) = (points[site] for site in sites)
+            free = lengths[0] if lengths[0] >= 0 else float(np.linalg.norm(rest[sites[1]][1] - rest[sites[0]][1]))
+            ends = {"body1": body1, "body2": body2, "point1": p1, "point2": p2}
+            coefficients = {"spring_coefficient": stiffness, "damping_coefficient": damping, "free_length": free}
+            out.append({"name": name, "type": "TSDA", **ends, **coefficients})
+    if other:
+        dropped.append(f"<tendon> {_list(other)}: dropped (a spring-damper is a spatial tendon through two sites)")
+    return out
+
+
+def _mjcf_actuators(root, links: list[Link], mjcf: Mjcf, dropped: list[str]) -> list[dict]:
+    """Actuators with their control at 0, as MuJoCo leaves it without a controller: force = gain 0 + bias. A
+    ``<general>`` on a site with an affine bias (b0, 0, 0) is a constant wrench b0 gear (force, torque in the site's
+    frame), so a force and a torque fixed in its body; an actuator without bias exerts nothing and is dropped as
+    such; any other (position and velocity servos, muscles, ...) is dropped by name: it would pull."""
+    points = _site_points(links)
+    loads, idle, other = [], [], []
+    for section in root.findall("actuator"):
+        for k, actuator in enumerate(section):
+            name = actuator.get("name") or f"actuator{k + 1}"
+            bias = actuator.get("biastype", "none")
+            if actuator.tag == "motor" or (actuator.tag == "general" and bias == "none"):
+                idle.append(name)
+                continue
+            prm = [float(v) for v in actuator.get("biasprm", "0 0 0").split()] + [0.0] * 3
+            site = actuator.get("site")
+            if actuator.tag != "general" or bias != "affine" or any(prm[1:3]) or site not in points:
+                other.append(name)
+                continue
+            gear = np.zeros(6)
+            values = [float(v) for v in actuator.get("gear", "1").split()]
+            gear[: len(values)] = values
+            body, point, axes = points[site]
+            force, torque = axes @ gear[:3] * prm[0], axes @ gear[3:] * prm[0]
+            loads.append({"name": name, "body": body, "point": point, "force": force, "torque": torque})
+    if idle:
+        dropped.append(f"<actuator> {_list(idle)}: dropped (no force while the control stays 0, as here)")
+    if other:
+        dropped.append(f"<actuator> {_list(other)}: dropped (no inputs here; a servo's pull towards 0 is gone too)")
+    return loads
 
 
 def _mjcf_loops(root: ET.Element, placed: dict[str, Link], mjcf: Mjcf, dropped: list[str], taken: set) -> list[dict]:
@@ -634,7 +856,9 @@ def _clean(values) -> list:
     return array.tolist()
 
 
-def _model_data(name: str, links: list[Link], gravity, loops: list[dict], label: str, dropped: list[str]) -> dict:
+def _model_data(
+    name: str, links: list[Link], gravity, loops: list[dict], label: str, dropped: list[str], tsdas=(), loads=()
+) -> dict:
     """The model file's content: fixed joints merged, a body per remaining link, its joint, the loops' joints."""
     owner = {GROUND: GROUND}
     bodies: dict[str, Link] = {}
@@ -672,8 +896,10 @@ def _model_data(name: str, links: list[Link], gravity, loops: list[dict], label:
             continue
         item = {"name": joint["name"], "type": joint["type"], "body1": owner[body.parent], "body2": body.name,
                 "location": _clean(joint["location"])}  # fmt: skip
-        if joint["type"] in ("revolute", "prismatic"):
+        if joint["type"] in ("revolute", "prismatic", "cylindrical", "universal"):
             item["axis"] = _clean(joint["axis"])
+        if joint["type"] == "universal":
+            item["axis2"] = _clean(joint["axis2"])
         joints.append(item)
         for k, spring in enumerate(body.springs):
             springs.append({"name": f"{joint['name']}_spring{k + 1 if k else ''}", "type": "RSDA",
@@ -684,10 +910,32 @@ def _model_data(name: str, links: list[Link], gravity, loops: list[dict], label:
             raise ModelError(f"{label}: <equality> '{loop['name']}': joins one rigid body to itself; remove it")
         joints.append({"name": loop["name"], "type": "rigid" if loop["type"] == "fixed" else loop["type"],
                        "body1": body1, "body2": body2, "location": _clean(loop["location"])})  # fmt: skip
+    for tsda in tsdas:
+        body1, body2 = owner[tsda["body1"]], owner[tsda["body2"]]
+        if body1 == body2:
+            dropped.append(f"<tendon> '{tsda['name']}': both ends on one rigid body, dropped")
+            continue
+        point1, point2 = _clean(tsda["point1"]), _clean(tsda["point2"])
+        springs.append({**tsda, "body1": body1, "body2": body2, "point1": point1, "point2": point2})
+    forces = []
+    for load in loads:
+        body = bodies.get(owner[load["body"]])
+        if body is None:
+            continue  # on the ground
+        for kind in ("force", "torque"):
+            if np.any(load[kind]):
+                item = {"name": f"{load['name']}_{kind}" if np.any(load["force"]) and np.any(load["torque"])
+                        else load["name"], "type": kind, "body": body.name, "frame": "body",
+                        "value": _clean(body.R.T @ load[kind])}  # fmt: skip
+                if kind == "force":
+                    item["point"] = _clean(body.R.T @ (load["point"] - body.r))
+                forces.append(item)
     if joints:
         model["joints"] = joints
     if springs:
         model["spring_dampers"] = springs
+    if forces:
+        model["forces"] = forces
     return {"model": model}
 
 
@@ -705,6 +953,10 @@ def _body_data(link: Link, with_mass: bool) -> dict:
         body["orientation"] = {"rotation_matrix": _clean(link.R)}
     if with_mass and np.any(np.abs(link.com) > 1e-15):
         body["com"] = _clean(link.com)
+    if np.any(link.velocity):
+        body["velocity"] = _clean(link.velocity)
+    if np.any(link.angular_velocity):
+        body["angular_velocity"] = _clean(link.angular_velocity)
     return body
 
 
