@@ -12,7 +12,8 @@ body and joint globally, in one configuration. So an import walks the tree once 
 - joints with their global ``location`` (the joint's origin) and ``axis``; closed loops (MJCF only) as joints too.
 
 The configuration written is the file's own: URDF's joint positions are zero there; MJCF's qpos0 is each joint's
-``ref``, at which the file's body poses hold by definition. Initial velocities are zero.
+``ref``, at which the file's body poses hold by definition; initial velocities are zero. An MJCF key named
+``initial`` (what ``mbd export`` writes) gives the initial state instead, velocities included.
 
 A model is always spatial (``dimension: 3``), also when every joint keeps the motion in one plane: the planar
 motion then comes out of the spatial equations (redundant out-of-plane loop equations are allowed), which is
@@ -278,6 +279,7 @@ URDF_DROPPED = {
 
 URDF_TOP = {
     "transmission": "dropped (no actuators: the joints are unactuated)",
+    "mujoco": "dropped (MuJoCo's settings for compiling the URDF)",
     "gazebo": "dropped (simulator settings)",
     "material": "dropped (appearance)",
 }
@@ -341,7 +343,6 @@ MJCF_REFUSED = {
 """MJCF elements an import refuses, and what to do instead."""
 
 MJCF_TOP_DROPPED = {
-    "tendon": "dropped (no tendons)",
     "sensor": "dropped (results report every coordinate)",
     "contact": "dropped (no contacts)",
     "asset": "dropped (meshes, textures, materials)",
@@ -438,6 +439,26 @@ def mjcf_model(root: ET.Element, label: str, folder: Path) -> Imported:
         element = root.find(f".//{tag}")
         if element is not None:
             raise ModelError(f"{label}: <{tag}>: import does not expand it; {what}")
+    mjcf = _mjcf_compiler(root, label)
+    gravity = np.array(STANDARD_GRAVITY)
+    for option in root.findall("option"):
+        gravity = _numbers(option, "gravity", label, 3, gravity)
+    dropped: list[str] = []
+    kinds: dict[str, list[str]] = {}
+    placed, order = _mjcf_tree(root, mjcf, kinds)
+    links = [placed["world"], *order]
+    rest = _site_points(links)  # at qpos0, where MuJoCo measures a tendon's rest length
+    _mjcf_keyframe(root, order, mjcf, dropped)
+    loops = _mjcf_loops(root, placed, mjcf, dropped, {link.joint["name"] for link in order})
+    tendons = _mjcf_tendons(root, links, rest, mjcf, dropped)
+    loads = _mjcf_actuators(root, links, mjcf, dropped)
+    _mjcf_dropped(root, kinds, dropped)
+    model = _model_data(root.get("model") or label, order, gravity, loops, label, dropped, tendons, loads)
+    return Imported(model, dropped)
+
+
+def _mjcf_compiler(root: ET.Element, label: str) -> Mjcf:
+    """What ``<compiler>`` and ``<default>`` say: the unit of angles, the Euler sequence, the default classes."""
     compiler = {k: v for c in root.findall("compiler") for k, v in c.attrib.items()}
     if compiler.get("coordinate", "local") != "local":
         raise ModelError(f"{label}: <compiler coordinate=...>: global coordinates are gone from MuJoCo; use local")
@@ -452,25 +473,23 @@ def mjcf_model(root: ET.Element, label: str, folder: Path) -> Imported:
     eulerseq = compiler.get("eulerseq", "xyz")
     if len(eulerseq) != 3 or any(a not in "xyzXYZ" for a in eulerseq):
         raise ModelError(f"{label}: <compiler eulerseq={eulerseq!r}>: three letters of xyzXYZ, e.g. xyz")
-    mjcf = Mjcf(label, angle, eulerseq, _mjcf_classes(root))
-    gravity = np.array(STANDARD_GRAVITY)
-    for option in root.findall("option"):
-        gravity = _numbers(option, "gravity", label, 3, gravity)
-    dropped: list[str] = []
-    kinds: dict[str, list[str]] = {}
+    return Mjcf(label, angle, eulerseq, _mjcf_classes(root))
+
+
+def _mjcf_tree(root: ET.Element, mjcf: Mjcf, kinds: dict) -> tuple[dict[str, Link], list[Link]]:
+    """The bodies of ``<worldbody>`` placed in the file's pose, parents first (depth first, the file's order, which
+    is MuJoCo's), by the file's names ('world': the ground, with the world's sites)."""
     world = root.find("worldbody")
     if world is None:
-        raise ModelError(f"{label}: <mujoco>: no <worldbody>; the bodies of an MJCF model are in it")
+        raise ModelError(f"{mjcf.label}: <mujoco>: no <worldbody>; the bodies of an MJCF model are in it")
     taken = ({GROUND}, set())
     placed = {"world": Link(GROUND, np.eye(3), np.zeros(3))}
-    order: list[Link] = []
     if world.find("geom") is not None:
         kinds.setdefault("<geom>", []).append("world")
     for site in world.findall("site"):
-        placed["world"].sites[site.get("name") or "site"] = (
-            _numbers(site, "pos", label, 3, [0, 0, 0]),
-            mjcf.rotation(site),
-        )
+        point = _numbers(site, "pos", mjcf.label, 3, [0, 0, 0])
+        placed["world"].sites[site.get("name") or "site"] = (point, mjcf.rotation(site))
+    order: list[Link] = []
     stack = [(body, placed["world"], "main") for body in reversed(world.findall("body"))]
     while stack:
         element, parent, childclass = stack.pop()
@@ -479,39 +498,35 @@ def mjcf_model(root: ET.Element, label: str, folder: Path) -> Imported:
         order.append(link)
         inner = element.get("childclass", childclass)
         stack.extend((body, link, inner) for body in reversed(element.findall("body")))
-    rest = _site_points([placed["world"], *order])  # qpos0, where MuJoCo measures a tendon's rest length
-    _mjcf_keyframe(root, order, mjcf, dropped)
-    loops = _mjcf_loops(root, placed, mjcf, dropped, taken[1])
-    tendons = _mjcf_tendons(root, [placed["world"], *order], rest, mjcf, dropped)
-    loads = _mjcf_actuators(root, [placed["world"], *order], mjcf, dropped)
+    return placed, order
+
+
+def _mjcf_dropped(root: ET.Element, kinds: dict, dropped: list[str]) -> None:
+    """One line per kind of element the model does not hold (joint attributes, geoms, whole sections)."""
     for kind, what in MJCF_DROPPED.items():
         if kinds.get(kind):
             dropped.append(f"{kind} of {_list(kinds[kind])}: {what}")
     for tag, what in MJCF_TOP_DROPPED.items():
         for section in root.findall(tag):
-            if tag in ("tendon", "actuator"):
-                continue  # _mjcf_tendons and _mjcf_actuators say what they drop
             if len(section) or tag in ("statistic", "size"):
                 dropped.append(f"<{tag}> ({', '.join(sorted({e.tag for e in section})) or 'settings'}): {what}")
     if any(key in option.attrib for option in root.findall("option") for key in ("timestep", "integrator")):
         dropped.append("<option> timestep/integrator: dropped (mbd run chooses its own; see --integrator)")
-    model = _model_data(root.get("model") or label, order, gravity, loops, label, dropped, tendons, loads)
-    return Imported(model, dropped)
 
 
 MJCF_DROPPED = {
     "range/limited": "dropped (the joints move without limits)",
     "armature": "dropped (no rotor inertia added to the joints)",
     "frictionloss": "dropped (no joint friction)",
-    "damping/stiffness of slide joints": "dropped (springs about a hinge only)",
+    "damping/stiffness of joints other than hinges": "dropped (springs about a hinge only)",
     "<geom>": "dropped (no contacts; bodies are drawn as in any model file)",
 }
 """Joint attributes and body elements that the model cannot hold, and what that means."""
 
 
 def _mjcf_body(element, parent: Link, mjcf: Mjcf, childclass: str, taken: tuple[set, set], kinds: dict) -> Link:
-    """A body placed in its parent (r = r_p + A_p pos, A = A_p A_rel), its inertial, its one joint (or none: welded
-    to the parent, or a free joint: no joint)."""
+    """A body placed in its parent (r = r_p + A_p pos, A = A_p A_rel), its inertial, its sites and its joints
+    (``_combined``; none: welded to the parent; a free joint: no joint of the model)."""
     label = mjcf.label
     childclass = element.get("childclass", childclass)
     name = _name(element.get("name"), f"body{len(taken[0])}", taken[0])
@@ -561,7 +576,7 @@ def _mjcf_body(element, parent: Link, mjcf: Mjcf, childclass: str, taken: tuple[
         _mjcf_joint_extras(joint, attrs, link, mjcf, kinds, parts[-1])
     link.joint = _combined(parts, link, label, where, taken[1])
     if link.springs and link.joint["type"] not in ("revolute", "cylindrical"):
-        kinds.setdefault("damping/stiffness of slide joints", []).append(link.joint["name"])
+        kinds.setdefault("damping/stiffness of joints other than hinges", []).append(link.joint["name"])
         link.springs = []
     return link
 
@@ -597,7 +612,8 @@ def _combined(parts: list[dict], link: Link, label: str, where: str, taken: set)
             "(universal): nest a light body per joint"
         )
     common = re.sub(r"[._\-]+$", "", _common_prefix([p["name"] for p in parts]))
-    joint["name"] = _name(common or first["name"], "joint", taken)
+    if common:  # the exporter's 'B.hinge1', 'B.hinge2' are the model's joint 'B'
+        joint["name"] = _name(common, "joint", taken)
     return joint
 
 
@@ -622,7 +638,7 @@ def _mjcf_joint_extras(joint, attrs: dict, link: Link, mjcf: Mjcf, kinds: dict, 
             spring["free_angle"] = free
         link.springs.append(spring)
     elif value["damping"] or value["stiffness"]:
-        kinds.setdefault("damping/stiffness of slide joints", []).append(name)
+        kinds.setdefault("damping/stiffness of joints other than hinges", []).append(name)
     for key in ("armature", "frictionloss"):
         if value[key]:
             kinds.setdefault(key, []).append(name)
