@@ -376,11 +376,13 @@ def command_export(args) -> int:
     if args.to == "mjcf":
         from .io.mjcf import Stiffness, export_mjcf
 
-        if args.timestep is not None and not args.timestep > 0:
-            raise UsageError(f"--timestep {args.timestep}: give a step > 0 in s, e.g. 1e-4")
-        stiffness = Stiffness(
-            **({} if args.timestep is None else {"timestep": args.timestep}), time_constant=args.solref
-        )
+        for option, value in (("--timestep", args.timestep), ("--solref", args.solref)):
+            if value is not None and not value > 0:
+                raise UsageError(f"{option} {value}: give a time > 0 in s, e.g. 1e-4")
+        if args.solimp is not None and not (0 < args.solimp[0] <= args.solimp[1] < 1 and args.solimp[2] > 0):
+            raise UsageError(f"--solimp {' '.join(map(str, args.solimp))}: give 0 < DMIN <= DMAX < 1 and WIDTH > 0")
+        given = {"timestep": args.timestep, "time_constant": args.solref, "solimp": args.solimp and tuple(args.solimp)}
+        stiffness = Stiffness(**{key: value for key, value in given.items() if value is not None})
         text, notes = export_mjcf(model, stiffness), []
     else:
         from .io.urdf import export_urdf
@@ -406,6 +408,10 @@ def add_export(sub) -> None:
     export.add_argument(
         "--solref", type=float, metavar="T", help="MJCF: the equalities' time constant in s (default: two steps)"
     )
+    export.add_argument(
+        "--solimp", type=float, nargs=3, metavar=("DMIN", "DMAX", "WIDTH"),
+        help="MJCF: the equalities' impedance (default 0.9999 0.9999 0.001: stiff)",
+    )  # fmt: skip
     export.set_defaults(handler=command_export)
 
 

@@ -87,6 +87,11 @@ def _element(tag: str, **attributes) -> str:
     return f"<{tag} {_attrs(**attributes)}/>"
 
 
+def spatial_tendon(site1: str, site2: str, **attributes) -> str:
+    """A ``<spatial>`` tendon: the straight line between two sites (its length is their distance)."""
+    return f"<spatial {_attrs(**attributes)}>{_element('site', site=site1)}{_element('site', site=site2)}</spatial>"
+
+
 # -- bodies -----------------------------------------------------------------------------------------------------
 def inertial(model: Model, body) -> str:
     """``<inertial>`` at the centre of mass: a planar polar moment J as (J, J, J); a spatial inertia as its principal
@@ -101,7 +106,8 @@ def inertial(model: Model, body) -> str:
 
 
 def relative_pose(mech: Mechanism, parent: int, child: int) -> tuple[np.ndarray, np.ndarray]:
-    """The child's frame in the parent's: pos = A_P^T (r_C - r_P), quat = p_P^* p_C (eq. 8.29)."""
+    """The child's frame in the parent's: pos = A_P^T (r_C - r_P) and the Euler parameters of A_P^T A_C, the
+    quaternion product quat = p_P^* p_C."""
     P, C = mech.frame(parent), mech.frame(child)
     conjugate = P.p * np.array([1.0, -1.0, -1.0, -1.0])
     return P.A.T @ (C.r - P.r), np.array(quaternion_product_entries(*conjugate, *C.p))
@@ -313,7 +319,7 @@ def close_loops(doc: Document) -> None:
         elif joint.kind == "revolute_revolute":
             s1 = doc.site(joint.body1, joint.point1, f"{joint.name}.1")
             s2 = doc.site(joint.body2, joint.point2, f"{joint.name}.2")
-            doc.tendons.append(f'<spatial name="{joint.name}"><site site="{s1}"/><site site="{s2}"/></spatial>')
+            doc.tendons.append(spatial_tendon(s1, s2, name=joint.name))
             doc.equality("tendon", name=joint.name, tendon1=joint.name, polycoef="0 0 0 0 0")
         else:
             doc.equality("connect", name=joint.name, body1=b1, body2=b2, anchor=_v(joint.point1))
@@ -337,8 +343,8 @@ def drive(doc: Document, names: dict[str, TreeEdge]) -> None:
         if spec["type"] == "distance":  # a spatial tendon's length against a fixed tendon of the clock
             e, name = elements[spec["name"]], spec["name"]
             s1, s2 = doc.site(e.i, _3(e.si), f"{name}.1"), doc.site(e.j, _3(e.sj), f"{name}.2")
-            doc.tendons.append(f'<spatial name="{name}"><site site="{s1}"/><site site="{s2}"/></spatial>')
-            doc.tendons.append(f'<fixed name="{clock}"><joint joint="{clock}" coef="1"/></fixed>')
+            doc.tendons.append(spatial_tendon(s1, s2, name=name))
+            doc.tendons.append(f"<fixed {_attrs(name=clock)}>{_element('joint', joint=clock, coef='1')}</fixed>")
             doc.equality("tendon", name=name, tendon1=name, tendon2=clock, polycoef=_v(coefficients))
             continue
         joint, sign = driven_joint(mech, where, spec, names)
@@ -390,10 +396,8 @@ def springs(doc: Document, names: dict[str, TreeEdge], joint_extra: dict[str, di
             continue
         s1 = doc.site(e.i, _3(e.si), f"{spec['name']}.1")
         s2 = doc.site(e.j, _3(e.sj), f"{spec['name']}.2")
-        attributes = _attrs(
-            name=spec["name"], stiffness=_v(e.stiffness), damping=_v(e.damping), springlength=_v(e.free_length)
-        )
-        doc.tendons.append(f'<spatial {attributes}><site site="{s1}"/><site site="{s2}"/></spatial>')
+        spring = {"stiffness": _v(e.stiffness), "damping": _v(e.damping), "springlength": _v(e.free_length)}
+        doc.tendons.append(spatial_tendon(s1, s2, name=spec["name"], **spring))
 
 
 def _3(v) -> np.ndarray:
@@ -491,6 +495,9 @@ def body_xml(doc: Document, body: int, children: dict, joint_extra: dict, parent
 def export_mjcf(model: Model, stiffness: Stiffness | None = None) -> str:
     """The MJCF text of a model (see the module's docstring), or ExportError naming what MJCF cannot hold."""
     stiffness = stiffness or Stiffness()
+    for k, body in enumerate(model.bodies):
+        if body.name == "world":
+            raise refuse(model, f"model.bodies[{k}].name", "'world' is MJCF's fixed frame", "rename the body")
     mech = mechanism(model)
     _check_joints(mech)
     doc = Document(mech, stiffness, {}, [], [], [], [], [])

@@ -141,3 +141,76 @@ def test_fmu_needs_its_module(tmp_path, capsys):
         assert code == 2 and "solutions/io/fmu.py" in capsys.readouterr().err
     else:
         assert code == 0 and (tmp_path / "p.fmu").is_file()
+
+
+def variant(stem: str, end_time: float, steps: int, change) -> dict:
+    """An example model's content changed by ``change(model)`` and run over a shorter span."""
+    import yaml
+
+    data = yaml.safe_load((MODELS / f"{stem}.yaml").read_text())
+    change(data["model"])
+    data["simulation"] = {**data.get("simulation", {}), "end_time": end_time, "output_steps": steps}
+    return data
+
+
+def harmonic_road(model):
+    """The quarter-car's road lifted by a sine (a smooth ramp is refused): coordinate motors of a floating body."""
+    next(m for m in model["motors"] if m["name"] == "road_y")["function"] = {
+        "type": "harmonic", "amplitude": 0.02, "frequency": 20.0, "phase": 0.3,
+    }  # fmt: skip
+
+
+def constant_gas(model):
+    next(f for f in model["forces"] if f["name"] == "gas")["value"] = [-150.0, 20.0]
+
+
+def pushed_top(model):
+    model["forces"] = [
+        {"name": "push", "type": "force", "body": "top", "point": [0.0, -0.025, 0.0433], "value": [0.5, 0.0, 0.0]},
+        {"name": "twist", "type": "torque", "body": "top", "value": [0.0, 0.0, 0.01]},
+    ]
+
+
+VARIANTS = {
+    "quarter_car with a sine road": ("quarter_car", 0.15, 30, harmonic_road),
+    "slider_crank_flywheel with a constant gas force": ("slider_crank_flywheel", 0.2, 100, constant_gas),
+    "heavy_top pushed and twisted": ("heavy_top", 0.5, 100, pushed_top),
+}
+"""Elements no exportable example has: coordinate motors of a planar floating body (with a harmonic function, RSDA
+and TSDAs), a constant planar point force, a spatial point force and torque."""
+
+
+@pytest.mark.parametrize("label", VARIANTS)
+def test_elements_no_example_has(label):
+    model = load_model(variant(*VARIANTS[label]))
+    result = ours(model)
+    step = step_for(result.t)
+    theirs = mujoco_run(model, export_mjcf(model, Stiffness(timestep=step)), result.t, step)
+    assert np.max(np.abs(theirs - centres(model, result.q))) < TOLERANCE
+
+
+def test_a_loop_only_a_slide_could_close_is_refused():
+    """A block on two slides (x and y): the second closes a loop, and MJCF has no equality of a prismatic joint."""
+    slide = {"type": "prismatic", "body1": "ground", "body2": "block", "location": [0.0, 0.0]}
+    joints = [{"name": "sx", **slide, "axis": [1.0, 0.0]}, {"name": "sy", **slide, "axis": [0.0, 1.0]}]
+    block = {"name": "block", "mass": 1.0, "inertia": 0.1, "location": [0.0, 0.0]}
+    model = load_model({"model": {"name": "two-slides", "bodies": [block], "joints": joints}})
+    with pytest.raises(ValueError, match=r"model\.joints\[1\] \(sy\): a prismatic joint that closes a loop"):
+        export_mjcf(model)
+
+
+def test_step_and_softness_are_options(tmp_path, capsys):
+    """--timestep, --solref (the equalities' time constant; default two steps) and --solimp reach MuJoCo's model;
+    a softness MuJoCo would not take is refused."""
+    out, source = tmp_path / "f.xml", str(MODELS / "four_bar.yaml")
+    assert main(["export", source, "--to", "mjcf", "--out", str(out), "--timestep", "2e-4"]) == 0
+    m = mujoco.MjModel.from_xml_path(str(out))
+    assert m.opt.timestep == 2e-4 and m.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4
+    assert m.eq_solref[:, 0].tolist() == [4e-4, 4e-4]
+    options = ["--solref", "5e-4", "--solimp", "0.99", "0.999", "0.01"]
+    assert main(["export", source, "--to", "mjcf", "--out", str(out), *options]) == 0
+    m = mujoco.MjModel.from_xml_path(str(out))
+    assert m.eq_solref[0, 0] == 5e-4 and m.eq_solimp[0, :3].tolist() == [0.99, 0.999, 0.01]
+    capsys.readouterr()
+    assert main(["export", source, "--to", "mjcf", "--out", str(out), "--solimp", "0.9", "1.2", "0.01"]) == 2
+    assert "--solimp 0.9 1.2 0.01" in capsys.readouterr().err
