@@ -231,6 +231,8 @@ def test_mbd_import_writes_a_model_file_that_runs_as_the_file_itself(tmp_path, c
         np.testing.assert_array_equal(a[column], b[column])
     assert main(["check", str(FOUR_BAR)]) == 0
     assert "degrees of freedom: 1" in capsys.readouterr().out
+    assert main(["view", str(ARM), "--out", str(tmp_path / "arm.html")]) == 0
+    assert "'tool' into 'forearm'" in capsys.readouterr().err and "forearm" in (tmp_path / "arm.html").read_text()
 
 
 REFUSED = {
