@@ -357,3 +357,18 @@ def test_a_driven_export_is_refused_by_import_naming_its_motor(tmp_path):
     path = exported("four_bar", "mjcf", tmp_path)
     with pytest.raises(Exception, match=r'<equality><joint name="drive">: an equality between joint'):
         load_model(path)
+
+
+def test_a_floating_urdf_link_is_a_free_body_that_falls_as_a_stone(tmp_path):
+    path = tmp_path / "free.urdf"
+    path.write_text(
+        '<robot name="drop"><link name="world"/><link name="stone"><inertial><origin xyz="0.1 0 0"/>'
+        '<mass value="2"/><inertia ixx="0.01" iyy="0.02" izz="0.03" ixy="0.001"/></inertial></link>'
+        '<joint name="float" type="floating"><parent link="world"/><child link="stone"/>'
+        '<origin xyz="0 0 3" rpy="0.2 0.3 0.4"/></joint></robot>'
+    )
+    model = import_file(path).data["model"]
+    assert "joints" not in model and model["bodies"][0]["name"] == "stone"
+    names, ours = centres(path, 0.5)
+    start = np.array([0.0, 0.0, 3.0]) + Rotation.from_euler("xyz", [0.2, 0.3, 0.4]).apply([0.1, 0.0, 0.0])
+    np.testing.assert_allclose(ours[-1, 0], start - [0.0, 0.0, 0.5 * 9.81 * 0.5**2], atol=1e-9)
