@@ -20,8 +20,10 @@ simpler, and exact, rather than guessing a plane. Fixed joints (URDF ``fixed``, 
 the child into its parent as one rigid body (mass, centre of mass and inertia combined by the parallel axis
 theorem), as MuJoCo's ``fusestatic`` does. What the model cannot hold (limits, transmissions and actuators, geometry
 and contacts, ...) is listed in ``Imported.dropped``, one line per kind of element; what would change the model's
-degrees of freedom or mass in a way this format cannot say (a planar joint, a body with two joints, mass from
-geoms, an equality on joint values) is refused with a ``ModelError`` naming the file, the element and what to do.
+degrees of freedom or mass in a way this format cannot say (a planar joint, two joints of one body other than a
+cylindrical or universal pair, the mass of a mesh, an equality on joint values) is refused with a ``ModelError``
+naming the file, the element and what to do. An MJCF body without ``<inertial>`` takes the mass of its primitive
+geoms as MuJoCo's compiler does (``_geom_inertia``).
 """
 
 from __future__ import annotations
@@ -364,6 +366,7 @@ class Mjcf:
     angle: float  # factor from the file's angles to rad: compiler angle="degree" (MuJoCo's default) or "radian"
     eulerseq: str
     classes: dict[str, dict[str, dict]]
+    fromgeom: str = "auto"  # compiler inertiafromgeom: a body's mass from its geoms (true), its inertial, or either
 
     def attrs(self, element: ET.Element, childclass: str) -> dict:
         """The element's attributes over those of its default class (its ``class``, else the body's childclass)."""
@@ -399,12 +402,16 @@ class Mjcf:
             y = _unit(values[3:] - (values[3:] @ x) * x, label, f"<{element.tag}> xyaxes")
             return np.column_stack([x, y, np.cross(x, y)])
         if "zaxis" in attrs:
-            z = _unit(_numbers(element, "zaxis", label, 3, attrs=attrs), label, f"<{element.tag}> zaxis")
-            turn = np.cross([0.0, 0.0, 1.0], z)
-            if np.linalg.norm(turn) < 1e-12:
-                return np.eye(3) if z[2] > 0 else np.diag([1.0, -1.0, -1.0])
-            return rodrigues(turn, math.atan2(np.linalg.norm(turn), z[2]))
+            return z_rotation(_unit(_numbers(element, "zaxis", label, 3, attrs=attrs), label, f"<{element.tag}> zaxis"))
         return np.eye(3)
+
+
+def z_rotation(z: np.ndarray) -> np.ndarray:
+    """The shortest rotation that turns 0 0 1 into the unit vector z (MuJoCo's zaxis and fromto frames)."""
+    turn = np.cross([0.0, 0.0, 1.0], z)
+    if np.linalg.norm(turn) < 1e-12:
+        return np.eye(3) if z[2] > 0 else np.diag([1.0, -1.0, -1.0])
+    return rodrigues(turn, math.atan2(np.linalg.norm(turn), z[2]))
 
 
 def _mjcf_classes(root: ET.Element) -> dict[str, dict[str, dict]]:
@@ -461,18 +468,19 @@ def _mjcf_compiler(root: ET.Element, label: str) -> Mjcf:
     compiler = {k: v for c in root.findall("compiler") for k, v in c.attrib.items()}
     if compiler.get("coordinate", "local") != "local":
         raise ModelError(f"{label}: <compiler coordinate=...>: global coordinates are gone from MuJoCo; use local")
-    if compiler.get("inertiafromgeom", "auto") == "true":
-        raise ModelError(
-            f'{label}: <compiler inertiafromgeom="true">: mass from geoms is not computed by import; '
-            "give each body an <inertial> and remove the attribute"
-        )
+    fromgeom = compiler.get("inertiafromgeom", "auto")
+    if fromgeom not in ("auto", "true", "false"):
+        raise ModelError(f"{label}: <compiler inertiafromgeom={fromgeom!r}>: write auto, true or false")
+    for key in ("settotalmass", "boundmass", "boundinertia", "balanceinertia"):
+        if key in compiler:
+            raise ModelError(f"{label}: <compiler {key}=...>: import keeps the file's masses as given; remove it")
     angle = {"degree": math.pi / 180.0, "radian": 1.0}.get(compiler.get("angle", "degree"))
     if angle is None:
         raise ModelError(f"{label}: <compiler angle={compiler['angle']!r}>: write degree or radian")
     eulerseq = compiler.get("eulerseq", "xyz")
     if len(eulerseq) != 3 or any(a not in "xyzXYZ" for a in eulerseq):
         raise ModelError(f"{label}: <compiler eulerseq={eulerseq!r}>: three letters of xyzXYZ, e.g. xyz")
-    return Mjcf(label, angle, eulerseq, _mjcf_classes(root))
+    return Mjcf(label, angle, eulerseq, _mjcf_classes(root), fromgeom)
 
 
 def _mjcf_tree(root: ET.Element, mjcf: Mjcf, kinds: dict) -> tuple[dict[str, Link], list[Link]]:
@@ -518,7 +526,7 @@ MJCF_DROPPED = {
     "armature": "dropped (no rotor inertia added to the joints)",
     "frictionloss": "dropped (no joint friction)",
     "damping/stiffness of joints other than hinges": "dropped (springs about a hinge only)",
-    "<geom>": "dropped (no contacts; bodies are drawn as in any model file)",
+    "<geom>": "contacts dropped (a body without <inertial> keeps the mass of its geoms, as MuJoCo computes it)",
 }
 """Joint attributes and body elements that the model cannot hold, and what that means."""
 
@@ -537,8 +545,12 @@ def _mjcf_body(element, parent: Link, mjcf: Mjcf, childclass: str, taken: tuple[
         raise ModelError(f'{label}: {where} mocap="true": a body moved by the user; remove mocap to import it')
     s = _numbers(element, "pos", label, 3, [0, 0, 0])
     link = Link(name, parent.R @ mjcf.rotation(element), parent.r + parent.R @ s, parent=parent.name)
-    inertial = element.find("inertial")
-    if inertial is not None:
+    inertial, geoms = element.find("inertial"), element.findall("geom")
+    if mjcf.fromgeom == "true" or (mjcf.fromgeom == "auto" and inertial is None):
+        if geoms:
+            link.mass, link.com, link.inertia = _geom_inertia(geoms, mjcf, childclass, where)
+            link.has_inertial = True
+    elif inertial is not None:
         link.mass = float(_numbers(inertial, "mass", label, 1)[0])
         if "fullinertia" in inertial.attrib:
             xx, yy, zz, xy, xz, yz = _numbers(inertial, "fullinertia", label, 6)
@@ -547,12 +559,7 @@ def _mjcf_body(element, parent: Link, mjcf: Mjcf, childclass: str, taken: tuple[
             J = np.diag(_numbers(inertial, "diaginertia", label, 3))
         A = mjcf.rotation(inertial)
         link.com, link.inertia, link.has_inertial = _numbers(inertial, "pos", label, 3), A @ J @ A.T, True
-    elif element.find("geom") is not None:
-        raise ModelError(
-            f"{label}: {where}: no <inertial>, so MuJoCo takes its mass from its geoms, which import does not "
-            "compute; add <inertial pos=... mass=... diaginertia=.../> to the body"
-        )
-    if element.find("geom") is not None:
+    if geoms:
         kinds.setdefault("<geom>", []).append(name)
     for site in element.findall("site"):
         point = _numbers(site, "pos", label, 3, [0, 0, 0])
@@ -578,6 +585,74 @@ def _mjcf_body(element, parent: Link, mjcf: Mjcf, childclass: str, taken: tuple[
         kinds.setdefault("damping/stiffness of joints other than hinges", []).append(link.joint["name"])
         link.springs = []
     return link
+
+
+GEOM_SHAPES = ("sphere", "capsule", "cylinder", "box", "ellipsoid")
+"""The geoms whose mass and inertia import computes (MuJoCo's primitive solids)."""
+
+
+def _geom_inertia(geoms: list, mjcf: Mjcf, childclass: str, where: str) -> tuple[float, np.ndarray, np.ndarray]:
+    """A body's mass, centre of mass and inertia tensor (body frame) from its geoms, as MuJoCo's compiler takes them
+    when the body has no <inertial>: each a solid of density 1000 kg/m^3 (or its ``density``, or its ``mass``),
+    combined by the parallel axis theorem (``_merge``). Planes and height fields have none; meshes are refused."""
+    total = Link("geoms", np.eye(3), np.zeros(3))
+    for geom in geoms:
+        attrs = mjcf.attrs(geom, childclass)
+        kind = attrs.get("type", "sphere")
+        if kind in ("plane", "hfield"):
+            continue
+        if kind not in GEOM_SHAPES:
+            raise ModelError(
+                f"{mjcf.label}: {where} <geom type={kind!r}>: import computes the mass of {', '.join(GEOM_SHAPES)} "
+                "only; give the body an <inertial>"
+            )
+        solid = _solid(geom, attrs, kind, mjcf, where)
+        _merge(total, solid)
+    return total.mass, total.com, total.inertia
+
+
+def _solid(geom, attrs: dict, kind: str, mjcf: Mjcf, where: str) -> Link:
+    """One geom as a solid in the body frame: its pose (pos and orientation, or ``fromto``: the midpoint, z along
+    the segment, half length |to - from| / 2), volume V and principal moments per unit mass, e.g. a capsule's
+    cylinder and two hemispheres: J_z = m_c r^2/2 + 2 m_s r^2/5, J_x = m_c (3 r^2 + 4 h^2)/12 + m_s (2 r^2/5 + h^2 +
+    3 h r/4)."""
+    label = mjcf.label
+    size = [float(v) for v in attrs.get("size", "").split()]
+    if "fromto" in attrs:
+        ends = _numbers(geom, "fromto", label, 6, attrs=attrs)
+        axis = ends[3:] - ends[:3]
+        R = z_rotation(_unit(axis, label, f"{where} <geom> fromto"))
+        pos, half = 0.5 * (ends[:3] + ends[3:]), 0.5 * float(np.linalg.norm(axis))
+        size = size[:2] + [half] if kind in ("box", "ellipsoid") else size[:1] + [half]
+    else:
+        pos, R = _numbers(geom, "pos", label, 3, [0, 0, 0], attrs=attrs), mjcf.rotation(geom, attrs)
+    needed = {"sphere": 1, "capsule": 2, "cylinder": 2, "box": 3, "ellipsoid": 3}[kind]
+    if len(size) < needed:
+        raise ModelError(f"{label}: {where} <geom type={kind!r}> size: give {needed} number(s) (or fromto)")
+    r = size[0]
+    if kind == "sphere":
+        volume, moments = 4.0 / 3.0 * math.pi * r**3, np.full(3, 0.4 * r**2)
+    elif kind == "ellipsoid" or kind == "box":
+        a, b, c = size[:3]
+        volume = (4.0 / 3.0 * math.pi if kind == "ellipsoid" else 8.0) * a * b * c
+        moments = np.array([b * b + c * c, a * a + c * c, a * a + b * b]) / (5.0 if kind == "ellipsoid" else 3.0)
+    elif kind == "cylinder":
+        h = size[1]
+        volume, moments = 2.0 * math.pi * r * r * h, np.array([(3 * r * r + 4 * h * h) / 12] * 2 + [r * r / 2])
+    else:
+        h = size[1]
+        cylinder, sphere = 2.0 * math.pi * r * r * h, 4.0 / 3.0 * math.pi * r**3
+        volume = cylinder + sphere
+        c, s = cylinder / volume, sphere / volume  # the mass fractions
+        transverse = c * (3 * r * r + 4 * h * h) / 12 + s * (0.4 * r * r + h * h + 0.75 * h * r)
+        moments = np.array([transverse, transverse, c * r * r / 2 + s * 0.4 * r * r])
+    if "mass" in attrs:
+        mass = float(_numbers(geom, "mass", label, 1, attrs=attrs)[0])
+    else:
+        mass = float(_numbers(geom, "density", label, 1, [1000.0], attrs=attrs)[0]) * volume
+    solid = Link("geom", np.eye(3), np.zeros(3), mass=mass, com=pos, has_inertial=True)
+    solid.inertia = R @ np.diag(mass * moments) @ R.T
+    return solid
 
 
 def _combined(parts: list[dict], link: Link, label: str, where: str, taken: set) -> dict:

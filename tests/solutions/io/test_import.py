@@ -24,6 +24,7 @@ from solutions.cli import main
 from solutions.io.importers import import_file, rpy_matrix
 from solutions.io.model import load_model
 from solutions.io.results import read_csv
+from solutions.rotation_matrices import euler_rotation
 from solutions.settings import read_settings
 
 mujoco = pytest.importorskip("mujoco")
@@ -198,6 +199,27 @@ def test_two_hinges_of_one_body_are_a_universal_joint_started_from_the_initial_k
     assert np.max(np.abs(ours[-1, 0] - d.xipos[1])) < 1e-8
 
 
+GEOM_ARM = DATA / "geom_arm.xml"
+
+
+def test_mass_from_geoms_is_mujocos_and_moves_as_mujoco_runs_it():
+    """Bodies without <inertial> take the mass of their solids (density or mass, by default class): the import's
+    mass, centre and inertia tensor are those MuJoCo's compiler gives (body_mass, xipos, body_inertia turned by
+    ximat), and the arm moves as MuJoCo runs it."""
+    model = load_model(GEOM_ARM)
+    m = mujoco.MjModel.from_xml_path(str(GEOM_ARM))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    for k, body in enumerate(model.bodies, start=1):
+        A, R = euler_rotation(body.orientation), d.ximat[k].reshape(3, 3)
+        assert body.mass == pytest.approx(m.body_mass[k], rel=1e-12)
+        np.testing.assert_allclose(body.location, d.xipos[k], atol=1e-12)
+        np.testing.assert_allclose(A @ body.inertia @ A.T, R @ np.diag(m.body_inertia[k]) @ R.T, atol=1e-12)
+    names, ours = centres(GEOM_ARM, 1.0)
+    assert np.max(np.abs(ours - ours[0])) > 0.2
+    assert np.max(np.abs(ours - mujoco_centres(GEOM_ARM, names, 1.0))) < 1e-8
+
+
 def test_mbd_run_takes_the_urdf_in_one_command_and_says_what_it_dropped(tmp_path):
     out = tmp_path / "arm.csv"
     done = subprocess.run(
@@ -256,9 +278,9 @@ REFUSED = {
         "body 'b': no mass",
     ),
     "broken.urdf": ('<robot name="r"><link name="a">', "malformed XML"),
-    "geoms.xml": (
-        '<mujoco><worldbody><body name="b"><joint/><geom size="0.1"/></body></worldbody></mujoco>',
-        "body 'b': no <inertial>",
+    "mesh.xml": (
+        '<mujoco><worldbody><body name="b"><joint/><geom type="mesh" mesh="m"/></body></worldbody></mujoco>',
+        "body 'b' <geom type='mesh'>: import computes the mass of sphere, capsule",
     ),
     "two_joints.xml": (
         '<mujoco><worldbody><body name="b"><joint name="h1"/><joint name="h2" axis="1 0 0" pos="0.1 0 0"/>'
