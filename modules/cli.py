@@ -17,7 +17,7 @@ import numpy as np
 from .analysis import run_analysis
 from .assembly import System, build_system
 from .diagnostics import AnalysisError, command_line_words, rank_report
-from .io.model import Model, ModelError, load_model
+from .io.model import IMPORTED, Model, ModelError, load_model
 from .kinematics import assemble
 from .results import DERIVED, Result
 from .rotation_matrices import euler_rotation, planar_rotation
@@ -157,9 +157,43 @@ def check_outputs(args) -> None:
             raise UsageError(f"--animate {err}") from None
 
 
+def read_model(path: str) -> Model:
+    """``load_model``, saying on stderr what an import of a URDF or MJCF file left out (one line each)."""
+    model = load_model(path)
+    for line in model.dropped:
+        print(f"mbd: import {Path(path).name}: {line}", file=sys.stderr)
+    return model
+
+
+def command_import(args) -> int:
+    """``mbd import FILE.urdf|FILE.xml [--out MODEL.yaml]``: write the model file of a URDF or MJCF file
+    (``io.importers``), with what it dropped on stderr and in the file's header; the model is checked by loading
+    it, so a file that imports is a file that ``mbd run`` takes."""
+    from .io.importers import import_file, model_text
+
+    source = Path(args.file)
+    if source.suffix.lower() not in IMPORTED:
+        raise UsageError(f"{source}: import reads URDF (.urdf) and MJCF (.xml) files; a .yaml model runs as it is")
+    out = Path(args.out or f"{source.stem}.yaml")
+    if out.suffix.lower() not in (".yaml", ".yml"):
+        raise UsageError(f"--out {out}: the model file is YAML, FILE.yaml")
+    if not out.parent.is_dir():
+        raise UsageError(f"--out {out}: no folder {out.parent} (make it first, or write elsewhere)")
+    imported = import_file(source)
+    load_model(imported.data)  # a model the schema and the references accept (ModelError otherwise)
+    try:
+        out.write_text(model_text(imported, source.name))
+    except OSError as err:
+        raise UsageError(f"--out {out}: cannot write ({err.strerror})") from None
+    for line in imported.dropped:
+        print(f"mbd: import {source.name}: {line}", file=sys.stderr)
+    print(f"model written to {out}")
+    return 0
+
+
 def command_run(args) -> int:
     check_outputs(args)
-    model = load_model(args.model)
+    model = read_model(args.model)
     system, q0, qd0 = build_system(model)
     points = {}
     for number, text in enumerate(args.point or [], start=1):
@@ -243,7 +277,7 @@ def check_report(model, system, q0) -> tuple[list[str], np.ndarray]:
 
 
 def command_check(args) -> int:
-    model = load_model(args.model)
+    model = read_model(args.model)
     system, q0, _ = build_system(model)
     print("\n".join(check_report(model, system, q0)[0]))
     return 0
@@ -254,7 +288,7 @@ def command_view(args) -> int:
     consistent, with ``mbd check``'s report, or, with a result of ``mbd run`` (CSV or NPZ), its motion."""
     from .viewer import model_view, result_view
 
-    model = load_model(args.model)
+    model = read_model(args.model)
     system, q0, _ = build_system(model)
     lines, q = check_report(model, system, q0)
     out = Path(args.out or f"{Path(args.model).stem}.html")
@@ -343,6 +377,16 @@ def add_derive(sub) -> None:
     derive.set_defaults(handler=command_derive)
 
 
+def add_import(sub) -> None:
+    """``mbd import FILE.urdf|FILE.xml [--out MODEL.yaml]``."""
+    command = sub.add_parser(
+        "import", help="write the model file of a URDF or MJCF (MuJoCo) file; says on stderr what it drops"
+    )
+    command.add_argument("file", help="a URDF (.urdf) or MJCF (.xml) file")
+    command.add_argument("--out", help="the model file to write (default: FILE's name .yaml, here)")
+    command.set_defaults(handler=command_import)
+
+
 EXPORTS = {"mjcf": ".xml", "urdf": ".urdf", "fmu": ".fmu"}
 """The formats of ``mbd export`` and the suffix of the file written by default."""
 
@@ -413,7 +457,7 @@ COMMANDS = "mbd.commands"
 The course's ``pyproject.toml`` registers the instructor's commands and the self-check; this package knows
 none of them, and where the course is not installed (a student's kit) ``mbd`` has the solver's commands only."""
 
-OWN = ("run", "check", "view", "sweep", "derive", "export")
+OWN = ("run", "check", "view", "sweep", "derive", "export", "import")
 """The solver's own commands: ``mbd`` looks for the others only when asked for something else."""
 
 
@@ -512,7 +556,7 @@ def build_parser(others: bool = True) -> argparse.ArgumentParser:
     parser = Parser(prog="mbd", description="Multibody dynamics course: reference solver.")
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run an analysis of a model file")
-    run.add_argument("model", help="model file (YAML or JSON)")
+    run.add_argument("model", help="model file (YAML or JSON; a URDF or MJCF file is imported)")
     add_settings(run)
     run.add_argument(
         "--out",
@@ -544,10 +588,10 @@ def build_parser(others: bool = True) -> argparse.ArgumentParser:
     )
     run.set_defaults(handler=command_run)
     check = sub.add_parser("check", help="validate and assemble a model; report DOF and redundancies")
-    check.add_argument("model", help="model file (YAML or JSON)")
+    check.add_argument("model", help="model file (YAML or JSON; a URDF or MJCF file is imported)")
     check.set_defaults(handler=command_check)
     view = sub.add_parser("view", help="draw a model (as the file places it and assembled) or a result, to FILE.html")
-    view.add_argument("model", help="model file (YAML or JSON)")
+    view.add_argument("model", help="model file (YAML or JSON; a URDF or MJCF file is imported)")
     view.add_argument("result", nargs="?", help="a result of this model written by mbd run --out (CSV or NPZ)")
     view.add_argument("--out", help="the page to write (default: MODEL's name .html, here)")
     view.add_argument(
@@ -564,6 +608,7 @@ def build_parser(others: bool = True) -> argparse.ArgumentParser:
     add_sweep(sub)
     add_derive(sub)
     add_export(sub)
+    add_import(sub)
     if others:
         for entry in registered_commands():
             entry.load()(sub)

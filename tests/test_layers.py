@@ -133,6 +133,7 @@ ALL = {
     "sweep",
     "derive",
     "export",
+    "import",
     "release",
     "nbcheck",
     "notes",

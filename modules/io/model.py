@@ -72,6 +72,7 @@ class Model:
     forces: list[dict] = field(default_factory=list)
     simulation: dict = field(default_factory=dict)
     source: str = "<model>"
+    dropped: list[str] = field(default_factory=list)  # imported from URDF or MJCF: what the import left out
 
     def require_masses(self, analysis: str) -> None:
         """Refuse an analysis that needs the mass matrix when a body of the file gives no mass properties.
@@ -263,7 +264,24 @@ def _schema_message(error) -> str:
     return f"{where}: {error.message}"
 
 
+IMPORTED = (".urdf", ".xml", ".mjcf")
+"""Files of other codes that a model is imported from on the fly (``importers.py``): URDF and MJCF."""
+
+
+def read_data(path: Path) -> tuple[dict, list[str]]:
+    """A model file's content and, for a URDF or MJCF file (imported on the fly), what the import dropped."""
+    if path.suffix.lower() in IMPORTED:
+        from .importers import import_file
+
+        imported = import_file(path)
+        return imported.data, imported.dropped
+    return read_text(path), []
+
+
 def read_text(path: Path) -> dict:
+    """A model file's content: YAML or JSON as written, or a URDF or MJCF file imported (``read_data``)."""
+    if path.suffix.lower() in IMPORTED:
+        return read_data(path)[0]
     try:
         text = path.read_text()
     except OSError as err:
@@ -289,7 +307,9 @@ def load_model(source: str | Path | Mapping) -> Model:
 
     Parameters
     ----------
-    source : path to a ``.yaml``/``.yml``/``.json`` file, or a mapping ``{"model": ..., "simulation": ...}``
+    source : path to a ``.yaml``/``.yml``/``.json`` file, or a mapping ``{"model": ..., "simulation": ...}``;
+        a ``.urdf`` or MJCF ``.xml`` file is imported (``importers.import_file``), and the model's ``dropped``
+        lists what the import left out
 
     Returns
     -------
@@ -300,18 +320,21 @@ def load_model(source: str | Path | Mapping) -> Model:
     ModelError
         With a message naming the file, the key path and the fix.
     """
+    dropped: list[str] = []
     if isinstance(source, Mapping):
         data, label = dict(source), "<model>"
     else:
         path = Path(source)
-        data, label = read_text(path), path.name
+        (data, dropped), label = read_data(path), path.name
     errors = schema_errors(data)
     if errors:
         import jsonschema
 
         best = jsonschema.exceptions.best_match(errors, key=_error_rank)
         raise ModelError(f"{label}: {_schema_message(best)}")
-    return _build(data, label)
+    model = _build(data, label)
+    model.dropped = dropped
+    return model
 
 
 def _error_rank(error):
