@@ -62,12 +62,15 @@ def test_bench_runs_the_stress_study_beside_it(tmp_path, capsys):
     assert "| redundant |" in (tmp_path / "stress_quick.md").read_text()
 
 
-def test_call_cost_times_every_stage_of_a_compiled_call(capsys):
-    """benchmarks/call_cost.py: every stage it wraps is still where it looks, and each was timed in the call."""
+@pytest.mark.parametrize("clock", [[], ["--cpu"]], ids=["wall", "cpu"])
+def test_call_cost_times_every_stage_of_a_compiled_call(capsys, clock):
+    """benchmarks/call_cost.py: every stage it wraps is still where it looks, and each was timed in the call, by
+    the wall clock or (--cpu) this thread's CPU time."""
     from benchmarks import call_cost
 
-    call_cost.main(["--scene", "double_pendulum", "--calls", "1"])
+    call_cost.main(["--scene", "double_pendulum", "--calls", "1", *clock])
     lines = capsys.readouterr().out.splitlines()
+    assert lines[0].endswith("thread CPU)" if clock else "wall)")
     rows = [line.split(" | ") for line in lines[4:]]  # | stage | ms |
     cells = {label.strip("| ").replace("&nbsp;", " "): value.strip(" |*") for label, value in rows}
     assert [label for _, _, label in call_cost.STAGES] == list(cells)[2:]
