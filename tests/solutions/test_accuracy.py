@@ -201,3 +201,17 @@ def test_an_energy_error_above_the_accuracy_warns_with_its_figure():
     held = accuracy_warnings({**info, "rtol": 1e-11}, 1.0, DEFAULT_ACCURACY, 1.0, held=1e-11)
     assert "cannot bring it down" in held[0]
     assert accuracy_warnings({**info, "energy_drift_relative": 1e-7}, 1.0, DEFAULT_ACCURACY, 1.0) == []
+
+
+def test_radau_goes_on_from_each_projected_state_to_the_accuracy():
+    """Radau with a formulation that corrects the state after every step (projection) continues from the corrected
+    state with its Jacobian (before: a new solver, and a finite-difference Jacobian, every step): the pendulum
+    released level against Jacobi's solution over 1 s."""
+    from .test_singular_redundant import pendulum_reference
+
+    system, q0, qd0 = build_system(load_model(MODELS / "simple_pendulum.yaml"))
+    result = forward_dynamics(system, q0, qd0, 1.0, 20, "projection", "Radau", engine="numpy")
+    phi = result.q[:, 2]
+    error = float(np.max(np.abs(np.stack([np.cos(phi), np.sin(phi)], 1) - pendulum_reference(result.t))))
+    assert result.info["restarts"] > 10
+    assert error <= DEFAULT_ACCURACY * mechanism_size(system, q0) or warned(result), (error, result.info["warnings"])
