@@ -299,8 +299,6 @@ class Plan:
     periods: float | None
     size: float
     chosen: dict | None
-    rate: float | None = None
-    """w, the fastest rate of the motion at the start in 1/s (``motion_rate``): the velocity estimate's omega."""
 
 
 class SingularStop(AnalysisError):
@@ -348,13 +346,11 @@ def run_plan(run: Run, formulation: str, integrator: str) -> Result:
     if guard.rank < system.n_constraints:
         result.info["notes"] = [REDUNDANT_NOTE]
     result.info["warnings"] = drift_warnings(result.info, guard.size, plan.formulation, settings.formulation_options)
-    speed, acceleration = (
-        float(np.max(np.abs(body_positions(system, x)), initial=0.0)) for x in (result.qd, result.qdd)
-    )
-    result.info["accuracy_estimate"] = accuracy_estimate(result.info, guard.size, plan.periods, speed, acceleration)
+    speed = float(np.max(np.abs(body_positions(system, result.qd)), initial=0.0))  # V: the largest speed, m/s
+    result.info["accuracy_estimate"] = accuracy_estimate(result.info, guard.size, plan.periods)
     held = max(HELD_RTOL, getattr(equations.formulation, "held_rtol", 0.0))
     result.info["warnings"] += raised + accuracy_warnings(
-        result.info, guard.size, settings.accuracy, plan.periods, speed, acceleration, held
+        result.info, guard.size, settings.accuracy, plan.periods, speed, held
     )
     if not plan.rtol_given and plan.periods is not None:
         result.info["rtol_rule"] = (
@@ -403,12 +399,11 @@ def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str) -
         )
         formulation, integrator = chosen["formulation"], chosen["integrator"]
     size = mechanism_size(system, q)
-    periods = rate = None
+    periods = None
     if integrator not in INDEX3_INTEGRATORS and integrator not in FIXED_STEP_METHODS:
-        rate = motion_rate(system, M, forces, q, qd, formulation, options, rates=rates)
-        periods = max(1.0, float(settings.t_end) * rate / (2.0 * np.pi)) if np.isfinite(rate) else 1.0
+        periods = motion_periods(system, M, forces, q, qd, settings.t_end, formulation, options, rates=rates)
     rtol = settings.rtol if settings.rtol is not None else default_rtol(periods, settings.accuracy)
-    return Plan(formulation, integrator, rtol, settings.atol, settings.rtol is not None, periods, size, chosen, rate)
+    return Plan(formulation, integrator, rtol, settings.atol, settings.rtol is not None, periods, size, chosen)
 
 
 def index3_run(run: Run, plan: Plan, M, forces, q, qd, initial: dict) -> Result:
@@ -655,31 +650,23 @@ def motion_periods(
     options: dict,
     rates: StartRates | None = None,
 ) -> float:
-    """How many periods of the fastest motion a run spans: t_end w / (2 pi), w from ``motion_rate``."""
-    rate = motion_rate(system, M, forces, q, qd, formulation, options, rates)
-    return max(1.0, float(t_end) * rate / (2.0 * np.pi)) if np.isfinite(rate) else 1.0
-
-
-def motion_rate(
-    system: System, M, forces: ForceModel, q, qd, formulation: str, options: dict, rates: StartRates | None = None
-) -> float:
-    """w, the rate of the fastest motion at the start in 1/s: the largest of
+    """How many periods of the fastest motion a run spans: t_end w / (2 pi), with the rate w the largest of
 
     - rho, the spectral radius of the ODE's Jacobian at the start (``integrators.spectral_radius``: the
       largest angular frequency, or decay rate, of the linearized motion; with Baumgarte terms, theirs too),
     - |q'| / L and sqrt(|q''| / L) at the start (L the mechanism's size; the rate of a large motion, such as a
       pendulum released level, whose linearization at the start says nothing: there rho = 0).
 
-    rho and q'' come from ``rates`` (``StartRates``, shared with ``choose_method``), made here when not given;
-    0 where the equations cannot be evaluated at the start (the run itself says why).
+    rho and q'' come from ``rates`` (``StartRates``, shared with ``choose_method``), made here when not given.
     """
     start = (rates or StartRates(system, M, forces, q, qd, options))(formulation)
     if start is None:
-        return 0.0
+        return 1.0  # the run itself will say what is wrong
     rho, qdd = start
     size = mechanism_size(system, q)
     speed, acceleration = float(np.max(np.abs(qd), initial=0.0)), float(np.max(np.abs(qdd), initial=0.0))
-    return float(max(rho, speed / size, (acceleration / size) ** 0.5))
+    rate = max(rho, speed / size, (acceleration / size) ** 0.5)
+    return max(1.0, float(t_end) * rate / (2.0 * np.pi)) if np.isfinite(rate) else 1.0
 
 
 def default_rtol(periods: float | None, accuracy: float = DEFAULT_ACCURACY) -> float:
@@ -699,9 +686,7 @@ def default_rtol(periods: float | None, accuracy: float = DEFAULT_ACCURACY) -> f
     return float(max(MIN_RTOL, min(DEFAULT_RTOL, accuracy / max(1.0, periods) ** 2)))
 
 
-def accuracy_estimate(
-    info: dict, size: float, periods: float | None, speed: float | None = None, acceleration: float | None = None
-) -> dict | None:
+def accuracy_estimate(info: dict, size: float, periods: float | None) -> dict | None:
     """The estimated errors of a run (eq. 6.61), each a figure to hold against ``accuracy``; None for rk4 (a fixed
     step has no error control) and where no rtol is known.
 
@@ -712,11 +697,11 @@ def accuracy_estimate(
       e / 2 x 2 pi radians a period, pi e L over the period of the large motion at least (the augmented
       Lagrangian's penalty error and a singular position passed show here: their errors are not the
       integrator's, so rtol does not bound them);
-    - velocities (relative to the largest speed V of the run): a phase error x of a motion of rate w is one of
-      w x in its velocities; w = A / V for the motion of the largest acceleration A and speed V (an oscillation
-      of amplitude a: A = w^2 a, V = w a), so (positions / L) A L / V^2: a stiff mode's small, fast oscillation
-      errs in velocity by more than in position, relative to either's scale. A run whose speed never reaches
-      ``accuracy`` sqrt(A L) is at rest to within it: its positions say all;
+    - velocities (relative to the largest speed V of the run): the same fraction, positions / L. The rule bounds
+      the phase error theta (radians) of every motion the run spans; a motion of amplitude a <= L and rate w errs
+      by theta a in position and theta w a in velocity, and w a, its speed, is at most V. (Measured: a four-bar
+      with a 1e5 N/m spring asked for 1e-5, whose small fast oscillation errs 7 times more in velocity than in
+      position, relative to V and L: qr 1.4e-5, baumgarte 1.2e-6; the position estimate 1e-5.);
     - energy (relative to the energy scale, ``EnergyHistory.scale``): the measured max |E(t) - E(0)| (eq. 5.60),
       for every scene (the balance counts dampers, loads and drivers).
     """
@@ -738,10 +723,7 @@ def accuracy_estimate(
     if energy is not None and np.pi * energy * size > positions:
         positions = np.pi * energy * size
         how = f"pi x the energy error {energy:.2g} x size: a period's phase lag of a speed off by half of it"
-    velocities = None
-    if speed and acceleration and speed > DEFAULT_ACCURACY * (acceleration * size) ** 0.5:
-        velocities = positions / size * max(1.0, acceleration * size / speed**2)
-    return {"positions": float(positions), "velocities": velocities, "energy": energy, "how": how}
+    return {"positions": float(positions), "velocities": float(positions / size), "energy": energy, "how": how}
 
 
 def accuracy_warnings(
@@ -750,17 +732,13 @@ def accuracy_warnings(
     accuracy: float,
     periods: float | None,
     speed: float | None = None,
-    acceleration: float | None = None,
     held: float = HELD_RTOL,
 ) -> list[str]:
-    """One line for positions and one for energy when the estimated error (``accuracy_estimate``) exceeds
-    ``accuracy`` (positions: times the mechanism's size; energy: of the energy scale), with the figure and what
-    to do (``held``: the tightest rtol the run's formulation holds, ``held_tolerances``).
-
-    The velocity estimate is reported (``info['accuracy_estimate']``) but warns of nothing: on the example models
-    at the defaults it stands 40 to 5000 times above the velocity error measured against runs at rtol 1e-12 (the
-    P^2 rule's own margin, times A L / V^2), a warning on every stiff scene that would say nothing."""
-    found = accuracy_estimate(info, size, periods, speed, acceleration)
+    """One line for positions and velocities and one for energy when the estimated error (``accuracy_estimate``)
+    exceeds ``accuracy`` (positions: times the mechanism's size; velocities: times ``speed``, the run's largest;
+    energy: of the energy scale), with the figure and what to do (``held``: the tightest rtol the run's formulation
+    holds, ``held_tolerances``)."""
+    found = accuracy_estimate(info, size, periods)
     if found is None:
         return []
     rtol, p = info["rtol"], 1.0 if periods is None else periods
@@ -795,9 +773,12 @@ def accuracy_warnings(
             + energy_remedy
         )
     if found["positions"] > accuracy * size:
+        velocities = f" and velocity error {found['velocities'] * speed:.2g} m/s" if speed else ""
         lines.append(
-            f"accuracy: estimated position error {found['positions']:.2g} m ({found['how']}) exceeds the accuracy "
-            f"{accuracy:g} x {size:.3g} m = {accuracy * size:.2g} m; {remedy}"
+            f"accuracy: estimated position error {found['positions']:.2g} m{velocities} ({found['how']}) exceeds the "
+            f"accuracy {accuracy:g} x {size:.3g} m = {accuracy * size:.2g} m"
+            + (f" (x {speed:.3g} m/s, the largest speed, = {accuracy * speed:.2g} m/s)" if speed else "")
+            + f"; {remedy}"
         )
     return lines
 
@@ -1185,7 +1166,6 @@ __all__ = [
     "DEFAULT_RTOL",
     "accuracy_estimate",
     "accuracy_warnings",
-    "motion_rate",
     "DRIFT_LIMIT",
     "SINGULAR_RATIO",
     "Settings",
