@@ -688,8 +688,8 @@ def default_rtol(periods: float | None, accuracy: float = DEFAULT_ACCURACY) -> f
 
 
 def accuracy_estimate(info: dict, size: float, periods: float | None) -> dict | None:
-    """The estimated errors of a run (eq. 6.61), each a figure to hold against ``accuracy``; None for rk4 (a fixed
-    step has no error control) and where no rtol is known.
+    """The estimated errors of a run (eq. 6.61), each a figure to hold against ``accuracy``; for rk4 (a fixed step
+    has no error control) the energy alone; None where neither rtol nor the energy is known.
 
     - positions (m): rtol P^2 L for an explicit adaptive method (``default_rtol``; rtol no smaller than HELD_RTOL,
       what double precision holds), rtol N L for the second-order implicit ones (hht, generalized-alpha), whose
@@ -706,11 +706,12 @@ def accuracy_estimate(info: dict, size: float, periods: float | None) -> dict | 
     - energy (relative to the energy scale, ``EnergyHistory.scale``): the measured max |E(t) - E(0)| (eq. 5.60),
       for every scene (the balance counts dampers, loads and drivers).
     """
-    rtol = info.get("rtol")
-    if rtol is None or info.get("integrator") in FIXED_STEP_METHODS:
+    rtol, energy = info.get("rtol"), info.get("energy_drift_relative")
+    if info.get("integrator") in FIXED_STEP_METHODS:  # no error control: the measured energy alone
+        return None if energy is None else {"positions": None, "velocities": None, "energy": energy, "how": ""}
+    if rtol is None:
         return None
     p = 1.0 if periods is None else periods
-    energy = info.get("energy_drift_relative")
     if info.get("integrator") in INDEX3_INTEGRATORS:
         steps = max(1, int(info.get("integrator_steps", 1)))
         positions, how = (
@@ -742,8 +743,10 @@ def accuracy_warnings(
     found = accuracy_estimate(info, size, periods)
     if found is None:
         return []
-    rtol, p = info["rtol"], 1.0 if periods is None else periods
-    if info.get("integrator") in INDEX3_INTEGRATORS:
+    rtol, p = info.get("rtol"), 1.0 if periods is None else periods
+    if found["positions"] is None:  # rk4: a smaller step is its only remedy
+        remedy = "a smaller --step"
+    elif info.get("integrator") in INDEX3_INTEGRATORS:
         steps = max(1, int(info.get("integrator_steps", 1)))
         remedy = (
             f"dop853 at the same rtol reaches about {rtol * size:.2g} m over a few periods; use it, or rtol <= "
@@ -756,16 +759,9 @@ def accuracy_warnings(
             else ", the tightest a double-precision run can hold; or split the run, or ask for less (accuracy)"
         )
     energy = found["energy"]
-    if energy is not None and energy > 0.0:
-        smaller = rtol * accuracy / energy / 3.0  # the energy error follows rtol: a third of it for margin
-        energy_remedy = (
-            f"use rtol <= {smaller:.2g}"
-            if smaller >= max(held, HELD_RTOL)
-            else "a tighter rtol cannot bring it down (the error is the formulation's, e.g. at a singular position "
-            "passed, not the integrator's): check the result against a run with another formulation or rtol"
-        )
-        if found["how"].startswith("pi x the energy"):
-            remedy = energy_remedy
+    energy_remedy = _energy_remedy(found, rtol, accuracy, held, remedy)
+    if found["how"].startswith("pi x the energy"):  # the position estimate is the energy's
+        remedy = energy_remedy
     lines = []
     if energy is not None and energy > accuracy:
         lines.append(
@@ -773,7 +769,7 @@ def accuracy_warnings(
             f"{info.get('energy_drift', float('nan')):.2g} J, eq. 5.60), more than the accuracy {accuracy:g}; "
             + energy_remedy
         )
-    if found["positions"] > accuracy * size:
+    if found["positions"] is not None and found["positions"] > accuracy * size:
         velocities = f" and velocity error {found['velocities'] * speed:.2g} m/s" if speed else ""
         lines.append(
             f"accuracy: estimated position error {found['positions']:.2g} m{velocities} ({found['how']}) exceeds the "
@@ -782,6 +778,20 @@ def accuracy_warnings(
             + f"; {remedy}"
         )
     return lines
+
+
+def _energy_remedy(found: dict, rtol: float | None, accuracy: float, held: float, remedy: str) -> str:
+    """What to do about an energy error: the rtol that brings it below a third of ``accuracy`` (it follows rtol),
+    or, below what the formulation holds, that no rtol will; rk4: ``remedy`` (a smaller step)."""
+    if found["positions"] is None or not found["energy"]:
+        return remedy
+    smaller = rtol * accuracy / found["energy"] / 3.0
+    if smaller >= max(held, HELD_RTOL):
+        return f"use rtol <= {smaller:.2g}"
+    return (
+        "a tighter rtol cannot bring it down (the error is the formulation's, e.g. at a singular position passed, "
+        "not the integrator's): check the result against a run with another formulation or rtol"
+    )
 
 
 DRIFT_WARNING = 1e-6

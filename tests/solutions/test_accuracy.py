@@ -215,3 +215,17 @@ def test_radau_goes_on_from_each_projected_state_to_the_accuracy():
     error = float(np.max(np.abs(np.stack([np.cos(phi), np.sin(phi)], 1) - pendulum_reference(result.t))))
     assert result.info["restarts"] > 10
     assert error <= DEFAULT_ACCURACY * mechanism_size(system, q0) or warned(result), (error, result.info["warnings"])
+
+
+def test_a_fixed_step_run_is_judged_by_its_energy():
+    """rk4 has no error control, so no estimate from rtol; its measured energy error still warns: the pendulum released
+    level with 20 steps over 1 s against the energy it starts with (released at rest: E(t) - E(0) = T + V - V(0))."""
+    system, q0, qd0 = build_system(load_model(MODELS / "simple_pendulum.yaml"))
+    result = forward_dynamics(system, q0, qd0, 1.0, 20, "baumgarte", "rk4", engine="numpy")
+    total = result.points["energy.kinetic"] + result.points["energy.potential"]
+    drift = float(np.max(np.abs(total - total[0])))
+    potential = result.points["energy.potential"] - result.points["energy.potential"][0]
+    scale = float(max(np.max(result.points["energy.kinetic"]), np.max(np.abs(potential))))
+    assert drift / scale > DEFAULT_ACCURACY  # 20 steps of rk4 over a swing lose more than a millionth
+    lines = [w for w in result.info["warnings"] if w.startswith("accuracy: energy")]
+    assert len(lines) == 1 and f"{drift / scale:.2g} of the energy scale" in lines[0] and "--step" in lines[0]
