@@ -324,7 +324,12 @@ def _integrate_adaptive(loop: Loop, y: np.ndarray) -> None:
         if k < t_out.size and t_out[k] == t:
             record(k, t, y)
             k += 1
-        if corrected is not None and solver.status == "running":
+        if corrected is not None and solver.status == "running" and method == "Radau":
+            # go on from the corrected state with Radau's Jacobian and factors (a new solver would form the
+            # Jacobian anew by finite differences, n evaluations a step); the stage values start from zero
+            solver.y, solver.f, solver.sol = y, solver.fun(t, y), None
+            stats.restarts += 1
+        elif corrected is not None and solver.status == "running":
             first_step = min(getattr(solver, "h_abs", solver.step_size), t_end - t)
             solver = solver_class(f, t, y, t_end, rtol=rtol, atol=atol, max_step=max_step, first_step=first_step)
             stats.restarts += 1

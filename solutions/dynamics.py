@@ -499,7 +499,12 @@ def run_plan(run: Run, formulation: str, integrator: str) -> Result:
     if notes:
         result.info["notes"] = notes
     result.info["warnings"] = drift_warnings(result.info, guard.size, plan.formulation, settings.formulation_options)
-    result.info["warnings"] += raised + accuracy_warnings(result.info, guard.size, settings.accuracy, plan.periods)
+    speed = float(np.max(np.abs(body_positions(system, result.qd)), initial=0.0))  # V: the largest speed, m/s
+    result.info["accuracy_estimate"] = accuracy_estimate(result.info, guard.size, plan.periods)
+    held = max(HELD_RTOL, getattr(equations.formulation, "held_rtol", 0.0))
+    result.info["warnings"] += raised + accuracy_warnings(
+        result.info, guard.size, settings.accuracy, plan.periods, speed, held
+    )
     if not plan.rtol_given and plan.periods is not None:
         result.info["rtol_rule"] = (
             f"rtol = max({MIN_RTOL:g}, min({DEFAULT_RTOL:g}, accuracy / periods^2)) with {plan.periods:.3g} periods"
@@ -846,44 +851,111 @@ def default_rtol(periods: float | None, accuracy: float = DEFAULT_ACCURACY) -> f
     return float(max(MIN_RTOL, min(DEFAULT_RTOL, accuracy / max(1.0, periods) ** 2)))
 
 
-def accuracy_warnings(info: dict, size: float, accuracy: float, periods: float | None) -> list[str]:
-    """One line when the estimated position error of a run exceeds ``accuracy`` times the mechanism's size.
+def accuracy_estimate(info: dict, size: float, periods: float | None) -> dict | None:
+    """The estimated errors of a run (eq. 6.61), each a figure to hold against ``accuracy``; for rk4 (a fixed step
+    has no error control) the energy alone; None where neither rtol nor the energy is known.
 
-    The estimate (eq. 6.61): rtol P^2 L for an explicit adaptive method (``default_rtol``; rtol no smaller
-    than HELD_RTOL, what double precision holds), rtol N L for the
-    second-order implicit ones (hht, generalized-alpha), whose local errors, each held near rtol L, add up
-    over their N steps; for rk4, no estimate (a fixed step has no error control).
+    - positions (m): rtol P^2 L for an explicit adaptive method (``default_rtol``; rtol no smaller than HELD_RTOL,
+      what double precision holds), rtol N L for the second-order implicit ones (hht, generalized-alpha), whose
+      local errors, each held near rtol L, add up over their N steps; and no less than what the measured energy
+      error implies: a relative error e of the energy is one of e / 2 in the speed, so the phase lags by
+      e / 2 x 2 pi radians a period, pi e L over the period of the large motion at least (the augmented
+      Lagrangian's penalty error and a singular position passed show here: their errors are not the
+      integrator's, so rtol does not bound them);
+    - velocities (relative to the largest speed V of the run): the same fraction, positions / L. The rule bounds
+      the phase error theta (radians) of every motion the run spans; a motion of amplitude a <= L and rate w errs
+      by theta a in position and theta w a in velocity, and w a, its speed, is at most V. (Measured: a four-bar
+      with a 1e5 N/m spring asked for 1e-5, whose small fast oscillation errs 7 times more in velocity than in
+      position, relative to V and L: qr 1.4e-5, baumgarte 1.2e-6; the position estimate 1e-5.);
+    - energy (relative to the energy scale, ``EnergyHistory.scale``): the measured max |E(t) - E(0)| (eq. 5.60),
+      for every scene (the balance counts dampers, loads and drivers).
     """
-    rtol = info.get("rtol")
-    if rtol is None or info.get("integrator") in FIXED_STEP_METHODS:
-        return []
+    rtol, energy = info.get("rtol"), info.get("energy_drift_relative")
+    if info.get("integrator") in FIXED_STEP_METHODS:  # no error control: the measured energy alone
+        return None if energy is None else {"positions": None, "velocities": None, "energy": energy, "how": ""}
+    if rtol is None:
+        return None
+    p = 1.0 if periods is None else periods
     if info.get("integrator") in INDEX3_INTEGRATORS:
         steps = max(1, int(info.get("integrator_steps", 1)))
-        estimate, how = (
+        positions, how = (
             rtol * steps * size,
             f"rtol x {steps} steps x size: the local errors of a second-order method add up",
         )
+    else:
+        positions, how = max(rtol, HELD_RTOL) * p * p * size, f"rtol x ({p:.3g} periods of the fastest motion)^2 x size"
+        if rtol < HELD_RTOL:
+            how += f", with rtol {rtol:.2g} held only to {HELD_RTOL:g} in double precision"
+    if energy is not None and np.pi * energy * size > positions:
+        positions = np.pi * energy * size
+        how = f"pi x the energy error {energy:.2g} x size: a period's phase lag of a speed off by half of it"
+    return {"positions": float(positions), "velocities": float(positions / size), "energy": energy, "how": how}
+
+
+def accuracy_warnings(
+    info: dict,
+    size: float,
+    accuracy: float,
+    periods: float | None,
+    speed: float | None = None,
+    held: float = HELD_RTOL,
+) -> list[str]:
+    """One line for positions and velocities and one for energy when the estimated error (``accuracy_estimate``)
+    exceeds ``accuracy`` (positions: times the mechanism's size; velocities: times ``speed``, the run's largest;
+    energy: of the energy scale), with the figure and what to do (``held``: the tightest rtol the run's formulation
+    holds, ``held_tolerances``)."""
+    found = accuracy_estimate(info, size, periods)
+    if found is None:
+        return []
+    rtol, p = info.get("rtol"), 1.0 if periods is None else periods
+    if found["positions"] is None:  # rk4: a smaller step is its only remedy
+        remedy = "a smaller --step"
+    elif info.get("integrator") in INDEX3_INTEGRATORS:
+        steps = max(1, int(info.get("integrator_steps", 1)))
         remedy = (
             f"dop853 at the same rtol reaches about {rtol * size:.2g} m over a few periods; use it, or rtol <= "
             f"{accuracy / steps:.2g}"
         )
     else:
-        p = 1.0 if periods is None else periods
-        held = max(rtol, HELD_RTOL)
-        estimate, how = held * p * p * size, f"rtol x ({p:.3g} periods of the fastest motion)^2 x size"
-        if held > rtol:
-            how += f", with rtol {rtol:.2g} held only to {HELD_RTOL:g} in double precision"
         remedy = f"use rtol <= {max(accuracy / p / p, MIN_RTOL):.2g}" + (
             " (or leave rtol unset: the default follows this rule)"
             if accuracy / p / p >= HELD_RTOL
             else ", the tightest a double-precision run can hold; or split the run, or ask for less (accuracy)"
         )
-    if estimate <= accuracy * size:
-        return []
-    return [
-        f"accuracy: estimated position error {estimate:.2g} m ({how}) exceeds the accuracy {accuracy:g} x "
-        f"{size:.3g} m = {accuracy * size:.2g} m; {remedy}"
-    ]
+    energy = found["energy"]
+    energy_remedy = _energy_remedy(found, rtol, accuracy, held, remedy)
+    if found["how"].startswith("pi x the energy"):  # the position estimate is the energy's
+        remedy = energy_remedy
+    lines = []
+    if energy is not None and energy > accuracy:
+        lines.append(
+            f"accuracy: energy balance off by {energy:.2g} of the energy scale (max |E(t) - E(0)| = "
+            f"{info.get('energy_drift', float('nan')):.2g} J, eq. 5.60), more than the accuracy {accuracy:g}; "
+            + energy_remedy
+        )
+    if found["positions"] is not None and found["positions"] > accuracy * size:
+        velocities = f" and velocity error {found['velocities'] * speed:.2g} m/s" if speed else ""
+        lines.append(
+            f"accuracy: estimated position error {found['positions']:.2g} m{velocities} ({found['how']}) exceeds the "
+            f"accuracy {accuracy:g} x {size:.3g} m = {accuracy * size:.2g} m"
+            + (f" (x {speed:.3g} m/s, the largest speed, = {accuracy * speed:.2g} m/s)" if speed else "")
+            + f"; {remedy}"
+        )
+    return lines
+
+
+def _energy_remedy(found: dict, rtol: float | None, accuracy: float, held: float, remedy: str) -> str:
+    """What to do about an energy error: the rtol that brings it below a third of ``accuracy`` (it follows rtol),
+    or, below what the formulation holds, that no rtol will; rk4: ``remedy`` (a smaller step)."""
+    if found["positions"] is None or not found["energy"]:
+        return remedy
+    smaller = rtol * accuracy / found["energy"] / 3.0
+    if smaller >= max(held, HELD_RTOL):
+        return f"use rtol <= {smaller:.2g}"
+    return (
+        "a tighter rtol cannot bring it down (the error is the formulation's, e.g. at a singular position passed, "
+        "not the integrator's): check the result against a run with another formulation or rtol"
+    )
 
 
 DRIFT_WARNING = 1e-6
@@ -1303,6 +1375,7 @@ __all__ = [
     "EquationsOfMotion",
     "DEFAULT_ACCURACY",
     "DEFAULT_RTOL",
+    "accuracy_estimate",
     "accuracy_warnings",
     "DRIFT_LIMIT",
     "SINGULAR_RATIO",

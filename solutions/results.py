@@ -75,6 +75,8 @@ class DynamicInfo(Info, total=False):
     max_velocity_residual: float
     energy_drift: float
     energy_drift_relative: float
+    accuracy_estimate: dict | None
+    """The estimated errors (``dynamics.accuracy_estimate``): positions (m), velocities and energy (relative)."""
     initial_conditions: dict
     """How far assembly and the velocity projection moved the file's initial state."""
     compiled: dict

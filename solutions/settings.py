@@ -115,8 +115,9 @@ class Settings:
     )
     accuracy: float = setting(
         DEFAULT_ACCURACY, "accuracy", POSITIVE,
-        "position error allowed, as a fraction of the mechanism's size (default 1e-6): the default rtol follows it, "
-        "and the result warns when its estimated error exceeds it",
+        "error allowed in positions, as a fraction of the mechanism's size (default 1e-6), in velocities, of the "
+        "largest speed, and in the energy balance, of the energy scale: the default rtol follows it, and the result "
+        "warns when an estimated error exceeds it (dynamics.accuracy_estimate)",
     )  # fmt: skip
     through_singular: bool = setting(
         False, "through_singular", FLAG,
