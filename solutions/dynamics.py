@@ -495,12 +495,28 @@ def compiled_motion(settings: Settings, equations, guard, z0, times, history) ->
         return None, None, chosen
     compiled, stats = dispatch.run(scene, z0, times, settings)
     n = equations.formulation.n
+    stopped = dispatch.stop(compiled, stats, settings, times[-1] - times[0])
+    if stopped is not None:  # the numpy engine's Guard saw every step up to the stop: this one sees where it stopped
+        judge_stop(guard, compiled, times, n)
+        raise stopped
     history.q, history.qd = compiled.Y[:, :n].copy(), compiled.Y[:, n : 2 * n].copy()
     history.qdd, history.lam, history.energies = compiled.qdd, compiled.lam, compiled.Y[:, 2 * n :]
     # the checks at the output times (the numpy engine: drift at output times, configuration after every
     # step), from Psi and Psi_q the compiled module gives for all of them at once
     guard.check_outputs(times, history.q, compiled.psi, compiled.jac)
     return compiled, stats, chosen
+
+
+def judge_stop(guard: Guard, compiled, times: np.ndarray, n: int) -> None:
+    """The Guard's checks over a compiled run that stopped early: the output times it reached and the state where
+    it stopped. The numpy engine's Guard judges every step on the way, so a stop next to a singular position
+    raises its SingularConfigurationError, or leaves ``guard.closest`` near zero, which makes ``auto`` run again
+    with a formulation that passes it (``restartable``), on either engine. A state that is no longer finite
+    (rk4's stop) is no configuration: the reached output times alone are judged."""
+    k, q = compiled.reached, compiled.Y[:, :n]
+    guard.check_outputs(times[:k], q[:k], compiled.psi[:k], compiled.jac[:k])
+    if np.all(np.isfinite(compiled.Y[k])):
+        guard.check_outputs(np.array([compiled.t]), q[k:], compiled.psi[k:], compiled.jac[k:], drift=False)
 
 
 def restartable(err: AnalysisError, guard: Guard, plan: Plan) -> bool:
@@ -939,15 +955,18 @@ class Guard:
         sign = np.sign(np.linalg.det(np.vstack([jacobian, tangent.T]))) if square else self._sign
         self._judge(q, t, ratio, tangent, sign)
 
-    def check_outputs(self, t: np.ndarray, q: np.ndarray, psi: np.ndarray, jacobians: np.ndarray) -> None:
+    def check_outputs(
+        self, t: np.ndarray, q: np.ndarray, psi: np.ndarray, jacobians: np.ndarray, drift: bool = True
+    ) -> None:
         """``check_drift`` and ``check_configuration`` at every output time t[k] of a finished run, given
         Psi (N, m) and Psi_q (N, m, n) there (the compiled engine's): the same tests, the arithmetic over all
-        output times at once (batched norms, SVDs and determinants), the verdicts in time order."""
+        output times at once (batched norms, SVDs and determinants), the verdicts in time order. ``drift=False``:
+        the configuration alone (a state between output times, where the numpy engine checks no drift)."""
         if self.drift_limit is None and not self.singular_ratio:  # nothing to check (an open tree's joint coordinates)
             return
         weighted = jacobians * self._columns  # angles as arc lengths L phi: every column in metres
         norms = np.linalg.norm(weighted, axis=2, keepdims=True)  # |grad Psi_i| of every row at every time
-        if self.drift_limit is not None:
+        if drift and self.drift_limit is not None:
             distance = np.abs(psi) / np.where(norms[:, :, 0] > 0, norms[:, :, 0], 1.0)
             bad = ~(np.max(distance, axis=1, initial=0.0) <= self.drift_limit)
             if np.any(bad):

@@ -110,6 +110,9 @@ class CompiledRun:
     joint_states: np.ndarray | None = None
     """A joint-coordinates run's integrated states (joint positions, joint velocities, energies) at the output
     times; its ``Y`` holds the body coordinates made from them (q, q', energies), as every other run's."""
+    reached: int = 0
+    """How many output times the run reached (all on success). A run that stopped early (status > 0) has only
+    those rows, and after them one more: the state where it stopped, at ``t``."""
 
 
 def unsupported(scene: Scene, formulation: str, integrator: str, options: dict) -> str | None:
@@ -231,14 +234,18 @@ def run(
     rhs = loops.first_class(module.scene_rhs, loops.RHS_SIGNATURE)  # numba's type of each found once
     project = loops.first_class(project, loops.PROJECT_SIGNATURE)
     if integrator in FIXED:
-        Y, evaluations, steps, rejected, status, t, h = loops.rk4(rhs, project, z0, times, float(step or 0.0), P, D)
+        Y, evaluations, steps, rejected, status, t, h, reached = loops.rk4(
+            rhs, project, z0, times, float(step or 0.0), P, D
+        )
     else:
         dop, scipy_like = COMPILED_INTEGRATORS[integrator]
         budget = np.iinfo(np.int64).max if max_evaluations is None else int(max_evaluations)
         max_step = float(step) if step else np.inf
-        Y, evaluations, steps, rejected, status, t, h = loops.embedded(
+        Y, evaluations, steps, rejected, status, t, h, reached = loops.embedded(
             rhs, project, z0, times, float(rtol), float(atol), max_step, budget, dop, scipy_like, tableau(dop), P, D
         )
+    if status != 0:  # the output times reached and, after them, the state where the loop stopped (no others)
+        times, Y = np.append(times[:reached], t), Y[: reached + 1]
     joint_states, n, m, ny = None, scene.n, scene.m, Y.shape[1]
     if isinstance(scene, TreeScene):  # after y': the body coordinates of the joint states, and q'', lambda there
         out = loops.outputs(rhs, times, Y, P, D, 3 * n + m)
@@ -247,12 +254,10 @@ def run(
     else:  # q'' in y', lambda after it
         out = loops.outputs(rhs, times, Y, P, D, m)
         qdd, lam = np.ascontiguousarray(out[:, n : 2 * n]), np.ascontiguousarray(out[:, ny:])
-    psi = jac = psit = None
-    if status == 0:  # a run that stopped early raises (dispatch.run): no checks to make
-        psi, jac, psit = history.constraint_arrays(module, scene, times, Y)
+    psi, jac, psit = history.constraint_arrays(module, scene, times, Y)
     return CompiledRun(
         Y, qdd, lam, int(evaluations), int(steps), int(rejected), int(status), float(t), float(h), load_seconds, cached,
-        psi, jac, psit, joint_states,
+        psi, jac, psit, joint_states, int(reached),
     )  # fmt: skip
 
 

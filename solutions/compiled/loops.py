@@ -24,9 +24,12 @@ does: the state at an output time that falls on the step's end is the corrected 
 the step interpolates the step itself), and the next step starts from f(t, corrected) (``scipy_like``: a new
 solver with the next step size, clipped to the end; not after the last step; own loop: always).
 
-Both return the states at the output times and (evaluations, steps, rejected, status, t, h); status 0 is
-success, 1 a step-size collapse, 2 the evaluation budget spent, 3 a state that is no longer finite (rk4),
-4 a projection whose position iterations did not converge (then h is the residual max |Psi| instead).
+Both return the states at the output times and (evaluations, steps, rejected, status, t, h, reached); status 0
+is success, 1 a step-size collapse, 2 the evaluation budget spent, 3 a state that is no longer finite (rk4),
+4 a projection whose position iterations did not converge (then h is the residual max |Psi| instead). The
+first ``reached`` rows are states at output times (all of them on success); a run that stops early leaves
+the state where it stopped, at t, in the row after them, for the checks the numpy engine makes at every step
+(``dynamics.compiled_motion``), and the rows after it unfilled.
 
 ``outputs`` gives what the right-hand side writes at every output time, y' and after it the outputs of the state:
 lambda (``codegen.py``), or the body coordinates, q'' and lambda of a joint-coordinates state (``tree.py``).
@@ -54,7 +57,9 @@ CONSTRAINT_ARRAYS_SIGNATURE = types.void(_vector, _matrix, P_TYPE, D_TYPE, _matr
 PROJECT_SIGNATURE = types.int64(types.float64, _vector, P_TYPE, D_TYPE, _vector)
 """project(t, z, P, D, info): -1 (nothing done), 0 (z corrected in place), 1 (not converged; info[0] the residual)."""
 TABLEAU_TYPE = types.Tuple((_matrix, _vector, _vector, _vector, _vector, _vector, _matrix, _matrix))
-RESULT_TYPE = types.Tuple((_matrix, types.int64, types.int64, types.int64, types.int64, types.float64, types.float64))
+RESULT_TYPE = types.Tuple(
+    (_matrix, types.int64, types.int64, types.int64, types.int64, types.float64, types.float64, types.int64)
+)
 _RHS = types.FunctionType(RHS_SIGNATURE)
 _PROJECT = types.FunctionType(PROJECT_SIGNATURE)
 
@@ -248,10 +253,12 @@ def embedded(scene_rhs, project, z0, t_out, rtol, atol, max_step, max_evaluation
         rejected_now = False
         while True:  # steps until one is accepted
             if evaluations >= max_evaluations:
-                return Y, evaluations, steps, rejected, 2, t, h_abs
+                Y[k] = y
+                return Y, evaluations, steps, rejected, 2, t, h_abs, k
             h, h_abs, t_new = _step_size(t, t_end, h_abs, max_step, span, scipy_like, rejected_now)
             if h == 0.0:
-                return Y, evaluations, steps, rejected, 1, t, h_abs
+                Y[k] = y
+                return Y, evaluations, steps, rejected, 1, t, h_abs, k
             K[0] = f
             # (*) numba compiles a function called with a constant once more for that constant's literal type:
             # np.int64(1) keeps _stages and _dense at one machine code each (3-5 s less to compile)
@@ -275,7 +282,8 @@ def embedded(scene_rhs, project, z0, t_out, rtol, atol, max_step, max_evaluation
         if not scipy_like:
             t_new = t_end if t_end - (t + h) < 1e-12 * max(1.0, abs(t_end)) else t + h
         elif h < MIN_STEP * span and t_end - t_new > MIN_STEP * span:
-            return Y, evaluations, steps, rejected, 1, t_new, h
+            Y[k] = y_new
+            return Y, evaluations, steps, rejected, 1, t_new, h, k
         if t_out[k] < t_new:  # dense output for the output times passed
             step, states = (t, t_new, h), (y, y_new, f_new)
             k, spent = _dense(scene_rhs, step, states, K, tableau, dop, scipy_like, t_out, k, Y, P, D)
@@ -285,7 +293,8 @@ def embedded(scene_rhs, project, z0, t_out, rtol, atol, max_step, max_evaluation
         f[:] = f_new
         corrected = project(t, y, P, D, info)
         if corrected > 0:
-            return Y, evaluations, steps, rejected, 4, t, info[0]
+            Y[k] = y
+            return Y, evaluations, steps, rejected, 4, t, info[0], k
         if k < nout and t_out[k] == t:
             Y[k] = y
             k += 1
@@ -295,7 +304,7 @@ def embedded(scene_rhs, project, z0, t_out, rtol, atol, max_step, max_evaluation
                 h_abs = min(h_abs, t_end - t)
             scene_rhs(t, y, P, D, f)
             evaluations += 1
-    return Y, evaluations, steps, rejected, 0, t, h_abs
+    return Y, evaluations, steps, rejected, 0, t, h_abs, k
 
 
 @jit(RESULT_TYPE(_RHS, _PROJECT, _vector, _vector, types.float64, P_TYPE, D_TYPE))
@@ -324,11 +333,13 @@ def rk4(scene_rhs, project, z0, t_out, step, P, D):
             evaluations += 4
             steps += 1
             if not np.all(np.isfinite(y)):
-                return Y, evaluations, steps, 0, 3, ts + h, h
+                Y[k] = y
+                return Y, evaluations, steps, 0, 3, ts + h, h, k
             if project(ts + h, y, P, D, info) > 0:
-                return Y, evaluations, steps, 0, 4, ts + h, info[0]
+                Y[k] = y
+                return Y, evaluations, steps, 0, 4, ts + h, info[0], k
         Y[k] = y
-    return Y, evaluations, steps, 0, 0, t_out[-1], 0.0
+    return Y, evaluations, steps, 0, 0, t_out[-1], 0.0, nout
 
 
 @jit(_matrix(types.FunctionType(RHS_SIGNATURE), _vector, _matrix, P_TYPE, D_TYPE, types.int64))
