@@ -30,6 +30,7 @@ run is made again from the start with the one fallback plan: a formulation that 
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import time as _time
 from dataclasses import dataclass
@@ -499,12 +500,39 @@ def compiled_motion(settings: Settings, equations, guard, z0, times, history) ->
     if stopped is not None:  # the numpy engine's Guard saw every step up to the stop: this one sees where it stopped
         judge_stop(guard, compiled, times, n)
         raise stopped
-    history.q, history.qd = compiled.Y[:, :n].copy(), compiled.Y[:, n : 2 * n].copy()
-    history.qdd, history.lam, history.energies = compiled.qdd, compiled.lam, compiled.Y[:, 2 * n :]
     # the checks at the output times (the numpy engine: drift at output times, configuration after every
     # step), from Psi and Psi_q the compiled module gives for all of them at once
-    guard.check_outputs(times, history.q, compiled.psi, compiled.jac)
+    judged = copy.copy(guard)
+    judged.check_outputs(times, compiled.Y[:, :n], compiled.psi, compiled.jac)
+    dip = None if guard.through or not guard.singular_ratio else singular_dip(guard, times, compiled.jac)
+    if dip is not None:  # it passed one between output times, unseen: the numpy engine's verdict
+        why = (
+            f"the compiled run passed near a singular position at t = {dip[0]:.6g} s (smallest singular value "
+            f"{dip[1]:.2g} of the largest at an output time), where only the numpy engine checks every step"
+        )
+        return None, None, {**chosen, "engine": "numpy", "engine_why": why}
+    guard.__dict__.update(judged.__dict__)
+    history.q, history.qd = compiled.Y[:, :n].copy(), compiled.Y[:, n : 2 * n].copy()
+    history.qdd, history.lam, history.energies = compiled.qdd, compiled.lam, compiled.Y[:, 2 * n :]
     return compiled, stats, chosen
+
+
+def singular_dip(guard: Guard, times: np.ndarray, jacobians: np.ndarray) -> tuple[float, float] | None:
+    """(t, sigma_r / sigma_1) where the ratio of the Guard's scaled Psi_q dips towards zero at an output time
+    (``diagnostics.passes_zero``: a local minimum below NEAR_SINGULAR, deep against its neighbours), else None.
+    There a run passed close to a rank loss between output times, where the numpy engine's Guard judges every
+    step and the compiled engine's only the output times: an even rank loss (one per loop of a chain of
+    parallelograms) keeps the sign of det [Psi_q; T^T], and the run may have left its branch unseen."""
+    if guard.rank == 0 or times.size < 3:
+        return None
+    scaled = jacobians * guard._columns
+    norms = np.linalg.norm(scaled, axis=2, keepdims=True)
+    s = np.linalg.svd(scaled / np.where(norms > 0, norms, 1.0), compute_uv=False)
+    ratios = s[:, guard.rank - 1] / np.where(s[:, 0] > 0, s[:, 0], 1.0)
+    for k in range(1, ratios.size - 1):
+        if passes_zero(ratios[k - 1], ratios[k], ratios[k + 1]):
+            return float(times[k]), float(ratios[k])
+    return None
 
 
 def judge_stop(guard: Guard, compiled, times: np.ndarray, n: int) -> None:
