@@ -486,7 +486,12 @@ def integrate_motion(run: Run, plan: Plan, equations, guard: Guard, z0: np.ndarr
 
 def compiled_motion(settings: Settings, equations, guard, z0, times, history) -> tuple:
     """The compiled engine's run into ``history`` when it covers it (``compiled.dispatch``); (the compiled run or
-    None, integrator statistics or None, what was chosen and why)."""
+    None, integrator statistics or None, what was chosen and why).
+
+    One verdict on either engine: the compiled loop runs without the Guard, which then judges its output times;
+    a run that stopped early is judged where it stopped too (``judge_stop``), and one that passed close to a
+    singular position between output times (``singular_dip``) is handed back to the numpy engine, whose Guard
+    judges every step (issue 29)."""
     try:
         from .compiled import dispatch
     except ImportError:  # a student package: the compiled engine stays with the instructor
