@@ -180,15 +180,16 @@ def start_rates(equations, formulation: str, options: dict, z: np.ndarray) -> tu
     return float(rho), qdd.copy()
 
 
-def run(job, z0: np.ndarray, times: np.ndarray, settings: Settings):
+def run(job, z0: np.ndarray, times: np.ndarray, settings: Settings, on_pause=None):
     """The compiled run of a ``Plan``: (CompiledRun, IntegrationStats); a run that stopped early says why in
-    ``stop(out, settings)``. A projection run also counts its projections and restarts as the numpy run does: one
-    projection per accepted step, a restart after each (``integrators.integrate``; the solve_ivp loop does not
-    restart after its last step, rk4 never counts restarts)."""
+    ``stop(out, settings)``; ``on_pause(t, q, Psi, Psi_q)`` judges the configuration between steps (``run``). A
+    projection run also counts its projections and restarts as the numpy run does: one projection per accepted
+    step, a restart after each (``integrators.integrate``; the solve_ivp loop does not restart after its last step,
+    rk4 never counts restarts)."""
     from . import run as compiled_run
 
     integrator, budget = settings.integrator, settings.max_evaluations
-    out = compiled_run(job, z0, times, integrator, settings.rtol, settings.atol, settings.step, budget)
+    out = compiled_run(job, z0, times, integrator, settings.rtol, settings.atol, settings.step, budget, on_pause)
     stats = IntegrationStats(integrator, rhs_evaluations=out.evaluations, steps=out.steps, rejected=out.rejected)
     if job.formulation == "projection":
         job.formulation_object.projections = out.steps

@@ -26,7 +26,8 @@ solver with the next step size, clipped to the end; not after the last step; own
 
 Both return the states at the output times and (evaluations, steps, rejected, status, t, h, reached); status 0
 is success, 1 a step-size collapse, 2 the evaluation budget spent, 3 a state that is no longer finite (rk4),
-4 a projection whose position iterations did not converge (then h is the residual max |Psi| instead). The
+4 a projection whose position iterations did not converge (then h is the residual max |Psi| instead), 5 a pause
+of ``embedded`` after its ``max_steps`` steps (then h is the next step, to resume with). The
 first ``reached`` rows are states at output times (all of them on success); a run that stops early leaves
 the state where it stopped, at t, in the row after them, for the checks the numpy engine makes at every step
 (``dynamics.compiled_motion``), and the rows after it unfilled.
@@ -231,25 +232,41 @@ def _dense(scene_rhs, step, states, K, tableau, dop, scipy_like, t_out, k, Y, P,
         TABLEAU_TYPE,
         P_TYPE,
         D_TYPE,
+        types.float64,
+        types.float64,
+        types.int64,
     )
 )
-def embedded(scene_rhs, project, z0, t_out, rtol, atol, max_step, max_evaluations, dop, scipy_like, tableau, P, D):
-    """Integrate from z0 at t_out[0] to t_out[-1]; states at every output time (module docstring)."""
+def embedded(
+    scene_rhs, project, z0, t_out, rtol, atol, max_step, max_evaluations, dop, scipy_like, tableau, P, D, span,
+    h_start, max_steps,
+):  # fmt: skip
+    """Integrate from z0 at t_out[0] to t_out[-1]; states at every output time (module docstring). ``span``: the
+    whole run's time span (the step-size collapse is judged against it); ``h_start`` > 0: the step to start with
+    instead of Hairer's starting step (a run resumed after a pause); after ``max_steps`` accepted steps the loop
+    pauses between two steps with status 5 (t, the state in the row after those reached, h the next step), so
+    that the caller can judge the configuration as the numpy engine does after every step, and resume."""
     A, B, C, E, E3, E5, Dd, Pd = tableau
     stages, nz, nout = B.size, z0.size, t_out.size
     exponent = -1.0 / ((7 if dop else 4) + 1)
     Y = np.empty((nout, nz))
     t, t_end = t_out[0], t_out[-1]
-    span = t_end - t
     y, f = z0.copy(), np.empty(nz)
     scene_rhs(t, y, P, D, f)
-    h_abs = _starting_step(scene_rhs, t, y, f, span, rtol, atol, max_step, 7 if dop else 4, P, D)
-    evaluations = 2
+    evaluations = 1
+    if h_start > 0.0:
+        h_abs = h_start
+    else:
+        h_abs = _starting_step(scene_rhs, t, y, f, t_end - t, rtol, atol, max_step, 7 if dop else 4, P, D)
+        evaluations = 2
     K = np.empty((Dd.shape[1] if dop else stages + 1, nz))
     y_new, f_new, stage = np.empty(nz), np.empty(nz), np.empty(nz)
     Y[0] = y
     k, steps, rejected, info = np.int64(1), 0, 0, np.zeros(1)  # int64, not the literal 1: (*) below
     while k < nout:
+        if steps >= max_steps:
+            Y[k] = y
+            return Y, evaluations, steps, rejected, 5, t, h_abs, k
         rejected_now = False
         while True:  # steps until one is accepted
             if evaluations >= max_evaluations:
