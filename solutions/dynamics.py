@@ -499,7 +499,8 @@ def compiled_motion(settings: Settings, equations, guard, z0, times, history) ->
     scene, chosen = dispatch.choose(settings, equations, z0)
     if scene is None:
         return None, None, chosen
-    compiled, stats = dispatch.run(scene, z0, times, settings, on_pause=lambda *state: judge_pause(guard, *state))
+    pauses = copy.copy(guard)  # the checks between steps, in time order, apart from those of the output times
+    compiled, stats = dispatch.run(scene, z0, times, settings, on_pause=lambda *state: judge_pause(pauses, *state))
     n = equations.formulation.n
     stopped = dispatch.stop(compiled, stats, settings, times[-1] - times[0])
     if stopped is not None:  # the numpy engine's Guard saw every step up to the stop: this one sees where it stopped
@@ -542,14 +543,11 @@ def singular_dip(guard: Guard, times: np.ndarray, jacobians: np.ndarray) -> tupl
 
 def judge_pause(guard: Guard, t: float, q: np.ndarray, psi: np.ndarray, jacobian: np.ndarray) -> None:
     """The numpy engine's check after a step, at a pause of the compiled loop between two steps (every
-    ``compiled.PAUSE_STEPS``): SingularConfigurationError where Psi_q is about to lose rank, so that a compiled run
-    crawling at a singular position stops there as the numpy run does (the sign test needs the step before: the
-    output times' checks make it). The Guard itself is left as it was: it judges the output times in order."""
-    if guard.through or not guard.singular_ratio:
-        return
-    probe = copy.copy(guard)
-    probe._tangent = None
-    probe.check_outputs(np.array([t]), q[None, :], psi, jacobian, drift=False)
+    ``compiled.PAUSE_STEPS``), by ``guard``, a copy of the run's Guard that sees the pauses in time order (the run's
+    own judges the output times): SingularConfigurationError where Psi_q is about to lose rank or lost it since the
+    pause before, so that a compiled run crawling at a singular position stops there as the numpy run does."""
+    if not guard.through:
+        guard.check_outputs(np.array([t]), q[None, :], psi, jacobian, drift=False)
 
 
 def judge_stop(guard: Guard, compiled, times: np.ndarray, n: int) -> None:

@@ -28,7 +28,10 @@ import numpy as np
 import pytest
 import yaml
 
+from solutions.assembly import build_system
 from solutions.cli import main
+from solutions.diagnostics import SingularConfigurationError
+from solutions.dynamics import forward_dynamics
 from solutions.io.model import load_model
 from solutions.settings import DEFAULT_ACCURACY
 
@@ -195,3 +198,37 @@ def test_a_joint_origin_file_runs_as_its_centre_of_mass_file_on_both_engines(run
         for key in ("code", "error", "warnings", "formulation"):
             assert found[key] == reference[key], (engine, key)
         assert same_motion(reference["result"], found["result"]), engine
+
+
+def test_a_paused_compiled_run_goes_on_as_one_call(monkeypatch):
+    """The compiled loop pauses every PAUSE_STEPS steps for the configuration check and resumes with its next step:
+    the same states, steps and rejections as one call, one evaluation more per pause (f at the resumed state)."""
+    import solutions.compiled as compiled
+
+    system, q0, qd0 = build_system(load_model(MODELS[0].parent / "four_bar_spring.yaml"))
+    kwargs = dict(formulation="baumgarte", integrator="dop853", engine="compiled", rtol=1e-10, atol=1e-10)
+    whole = forward_dynamics(system, q0, qd0, 0.5, 20, **kwargs)
+    monkeypatch.setattr(compiled, "PAUSE_STEPS", 7)
+    paused = forward_dynamics(system, q0, qd0, 0.5, 20, **kwargs)
+    assert whole.info["chosen"]["engine"] == paused.info["chosen"]["engine"] == "compiled"
+    assert np.array_equal(whole.q, paused.q) and np.array_equal(whole.qd, paused.qd)
+    steps = whole.info["integrator_steps"]
+    assert paused.info["integrator_steps"] == steps and paused.info["rejected_steps"] == whole.info["rejected_steps"]
+    assert paused.info["rhs_evaluations"] - whole.info["rhs_evaluations"] == (steps - 1) // 7
+
+
+def test_a_compiled_run_checked_after_every_step_stops_as_the_numpy_run(monkeypatch):
+    """Checked after every step (PAUSE_STEPS = 1), the compiled run of the chain of one loop, Baumgarte, with the
+    Guard's threshold raised to 1e-2, stops with the numpy run's message, the times of the two steps and the singular
+    value included: the same steps of the same arithmetic, the same checks (without the pauses' checks it stopped
+    later, at the output time 0.7 s, 'about to lose rank')."""
+    import solutions.compiled as compiled
+
+    monkeypatch.setattr(compiled, "PAUSE_STEPS", 1)
+    system, q0, qd0 = build_system(load_model(parallelogram_chain(1, end_time=1.0)))
+    said = {}
+    for engine in ("numpy", "compiled"):
+        with pytest.raises(SingularConfigurationError) as stop:
+            forward_dynamics(system, q0, qd0, 1.0, 10, "baumgarte", "dop853", engine=engine, singular_ratio=1e-2)
+        said[engine] = str(stop.value)
+    assert said["numpy"] == said["compiled"] and said["numpy"].startswith("singular configuration between t = ")
