@@ -29,6 +29,7 @@ import numpy as np
 
 from ..diagnostics import AnalysisError
 from ..integrators import (
+    FIXED_STEP_METHODS,
     BudgetError,
     IntegrationStats,
     budget_message,
@@ -92,6 +93,8 @@ def choose(settings: Settings, equations, z0: np.ndarray):
     engine, formulation, integrator = settings.engine, settings.formulation, settings.integrator
     if engine == "numpy":
         return None, {"engine": "numpy", "engine_why": "numpy engine asked for"}
+    if settings.stiffness == "error" and integrator not in FIXED_STEP_METHODS:  # the same verdict: the numpy loop's
+        return None, {"engine": "numpy", "engine_why": "stiffness error: the stiffness monitor is not compiled"}
     expected = None
     if engine == "auto":  # a run shorter than loading the compiled code stays on numpy, whatever is on disk
         expected = estimated_numpy_seconds(equations, z0, settings, LOAD_SECONDS)

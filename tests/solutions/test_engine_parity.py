@@ -232,3 +232,11 @@ def test_a_compiled_run_checked_after_every_step_stops_as_the_numpy_run(monkeypa
             forward_dynamics(system, q0, qd0, 1.0, 10, "baumgarte", "dop853", engine=engine, singular_ratio=1e-2)
         said[engine] = str(stop.value)
     assert said["numpy"] == said["compiled"] and said["numpy"].startswith("singular configuration between t = ")
+
+
+def test_a_run_that_stops_when_stiff_stays_on_the_numpy_engine():
+    """``stiffness="error"`` stops an explicit run bounded by stability; the compiled loops have no stiffness monitor,
+    so such a run is the numpy engine's, which says so (it stopped, or not, as the numpy run does)."""
+    system, q0, qd0 = build_system(load_model(MODELS[0].parent / "simple_pendulum.yaml"))
+    result = forward_dynamics(system, q0, qd0, 0.1, 5, "baumgarte", "dop853", engine="compiled", stiffness="error")
+    assert result.info["chosen"]["engine"] == "numpy" and "stiffness" in result.info["chosen"]["engine_why"]
