@@ -200,13 +200,14 @@ def test_a_joint_origin_file_runs_as_its_centre_of_mass_file_on_both_engines(run
         assert same_motion(reference["result"], found["result"]), engine
 
 
-def test_a_paused_compiled_run_goes_on_as_one_call(monkeypatch):
+@pytest.mark.parametrize("integrator", ["dop853", "DOP853", "RK45"])
+def test_a_paused_compiled_run_goes_on_as_one_call(monkeypatch, integrator):
     """The compiled loop pauses every PAUSE_STEPS steps for the configuration check and resumes with its next step:
     the same states, steps and rejections as one call, one evaluation more per pause (f at the resumed state)."""
     import solutions.compiled as compiled
 
     system, q0, qd0 = build_system(load_model(MODELS[0].parent / "four_bar_spring.yaml"))
-    kwargs = dict(formulation="baumgarte", integrator="dop853", engine="compiled", rtol=1e-10, atol=1e-10)
+    kwargs = dict(formulation="baumgarte", integrator=integrator, engine="compiled", rtol=1e-10, atol=1e-10)
     whole = forward_dynamics(system, q0, qd0, 0.5, 20, **kwargs)
     monkeypatch.setattr(compiled, "PAUSE_STEPS", 7)
     paused = forward_dynamics(system, q0, qd0, 0.5, 20, **kwargs)
