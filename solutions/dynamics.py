@@ -510,7 +510,8 @@ def compiled_motion(settings: Settings, equations, guard, z0, times, history) ->
     # step), from Psi and Psi_q the compiled module gives for all of them at once
     judged = copy.copy(guard)
     judged.check_outputs(times, compiled.Y[:, :n], compiled.psi, compiled.jac)
-    dip = None if guard.through or not guard.singular_ratio else singular_dip(guard, times, compiled.jac)
+    near = judged.closest is not None and judged.closest["ratio"] < NEAR_SINGULAR  # else no output time dips
+    dip = singular_dip(guard, times, compiled.jac) if near and not guard.through else None
     if dip is not None:  # it passed one between output times, unseen: the numpy engine's verdict
         why = (
             f"the compiled run passed near a singular position at t = {dip[0]:.6g} s (smallest singular value "
