@@ -98,19 +98,27 @@ def scenes(tmp: Path) -> dict[str, Path]:
         for form, data in (("com", chain), ("joint-origin", joint_origin(chain))):
             files[f"chain{n}-{form}"] = path = tmp / f"chain{n}-{form}.yaml"
             path.write_text(yaml.safe_dump(data))
+    driven = parallelogram_chain(2, end_time=4.0)  # theta = pi/2 + 2 t: every bar on the ground line at 0.785 s
+    driven["model"]["motors"] = [
+        {"name": "drive", "type": "angle", "joint": "O0", "function": {"type": "polynomial", "coefficients": [0, 2]}}
+    ]
+    driven["simulation"].update(analysis="kinematic", output_steps=200)
+    files["chain2-driven"] = files["chain2-driven-through"] = path = tmp / "chain2-driven.yaml"
+    path.write_text(yaml.safe_dump(driven))
     files["sarrus"] = path = tmp / "sarrus.yaml"
     path.write_text(yaml.safe_dump(sarrus(end_time=0.3)))
     return files
 
 
-def outcome(model: Path, engine: str, out: Path) -> dict:
-    """What ``mbd run MODEL --engine ENGINE`` says and gives: exit code, error, warnings, formulation, result."""
+def outcome(model: Path, engine: str, out: Path, *options: str) -> dict:
+    """What ``mbd run MODEL --engine ENGINE [OPTIONS]`` says and gives: exit code, error, warnings, formulation,
+    result."""
     span = []  # the mechanisms of the test suite: their files' spans; the example models: at most 0.3 s
     if not model.stem.startswith(("chain", "sarrus")):
         span = ["--steps", "30"] + (["--t-end", "0.3"] if load_model(model).simulation.get("end_time", 1) > 0.3 else [])
     printed, errors = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(printed), contextlib.redirect_stderr(errors):
-        code = main(["run", str(model), "--engine", engine, *span, "--out", str(out)])
+        code = main(["run", str(model), "--engine", engine, *span, *options, "--out", str(out)])
     lines = printed.getvalue().splitlines()
     said = {key: value for key, _, value in (line.partition(": ") for line in lines)}
     return {
@@ -130,7 +138,8 @@ def runs(tmp_path_factory) -> dict:
     found = {}
     for name, model in scenes(tmp).items():
         for engine in ("numpy", "compiled"):
-            found[name, engine] = outcome(model, engine, tmp / f"{name}-{engine}.csv")
+            options = ["--through-singular"] if name.endswith("-through") else []
+            found[name, engine] = outcome(model, engine, tmp / f"{name}-{engine}.csv", *options)
     with pytest.MonkeyPatch.context() as patch:
         patch.setenv("MBD_COMPILED_CACHE", str(tmp / "empty-cache"))
         found["chain2-com", "empty"] = outcome(tmp / "chain2-com.yaml", "compiled", tmp / "empty.csv")
@@ -149,7 +158,8 @@ def same_motion(a, b) -> bool:
 
 
 NAMES = [path.stem for path in MODELS]
-SCENES = [*NAMES, *(f"{name}-joint-origin" for name in NAMES), "chain1-com", "chain2-com", "sarrus"]
+SCENES = [*NAMES, *(f"{name}-joint-origin" for name in NAMES), "chain1-com", "chain2-com", "sarrus", "chain2-driven",
+          "chain2-driven-through"]  # fmt: skip
 
 
 @pytest.mark.parametrize("name", SCENES)
