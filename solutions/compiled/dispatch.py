@@ -185,7 +185,7 @@ def start_rates(equations, formulation: str, options: dict, z: np.ndarray) -> tu
 
 def run(job, z0: np.ndarray, times: np.ndarray, settings: Settings, on_pause=None):
     """The compiled run of a ``Plan``: (CompiledRun, IntegrationStats); a run that stopped early says why in
-    ``stop(out, settings)``; ``on_pause(t, q, Psi, Psi_q)`` judges the configuration between steps (``run``). A
+    ``stop``; ``on_pause(t, q, Psi, Psi_q)`` judges the configuration between steps (``run``). A
     projection run also counts its projections and restarts as the numpy run does: one projection per accepted
     step, a restart after each (``integrators.integrate``; the solve_ivp loop does not restart after its last step,
     rk4 never counts restarts)."""
