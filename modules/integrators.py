@@ -180,19 +180,22 @@ class Budget:
 
     def __call__(self, t: float, y: np.ndarray) -> np.ndarray:
         if self.limit is not None and self.counted.evaluations >= self.limit:
-            message = (
-                f"integrator {self.method} spent its budget of {self.limit} right-hand-side evaluations by "
-                f"t = {self.t:.6g} s (last step {self.h:.3g} s, {self.stats.steps} steps)"
-            )
-            if self.stats.stiffness is not None:
-                message += ". " + stiffness_message(self.method, self.stats.stiffness)
-            else:
-                message += (
-                    ": the motion is too fast for the tolerance, or the scene is stiff; raise the budget, e.g. "
-                    + setting_words("max_evaluations", 4 * self.limit)
-                )
-            raise BudgetError(message)
+            raise BudgetError(budget_message(self.method, self.limit, self.t, self.h, self.stats))
         return self.counted(t, y)
+
+
+def budget_message(method: str, limit: int, t: float, h: float, stats: IntegrationStats) -> str:
+    """What a run that spent its evaluation budget says (either engine's)."""
+    message = (
+        f"integrator {method} spent its budget of {limit} right-hand-side evaluations by "
+        f"t = {t:.6g} s (last step {h:.3g} s, {stats.steps} steps)"
+    )
+    if stats.stiffness is not None:
+        return message + ". " + stiffness_message(method, stats.stiffness)
+    return message + (
+        ": the motion is too fast for the tolerance, or the scene is stiff; raise the budget, e.g. "
+        + setting_words("max_evaluations", 4 * limit)
+    )
 
 
 def rk4_step(f: RHS, t: float, y: np.ndarray, h: float) -> np.ndarray:

@@ -95,14 +95,16 @@ def _unused_note(args, result: Result) -> str | None:
 
 def restart_line(result: Result) -> str | None:
     """One line for a run that ``auto`` made again with another formulation (``info['restarted']``): when the
-    first run stopped, why, and which formulation ran instead; None for a run that went through at once."""
+    first run stopped next to a singular position and which formulation ran instead; None for a run that went
+    through at once. The line is the same whichever engine ran (what stopped the first run there, the Guard or
+    the integrator's step, is ``info['restarted']['why']``, and may differ: the engines check at other times)."""
     restarted = result.info.get("restarted")
     if not restarted:
         return None
     when = "" if restarted["t"] is None else f" at t = {restarted['t']:.6g} s"
     return (
-        f"mbd run: restarted: the {restarted['stopped']} formulation stopped{when} ({restarted['why']}); auto ran "
-        f"the analysis again from t = 0 with {restarted['formulation']}, which passes singular positions"
+        f"mbd run: restarted: the {restarted['stopped']} formulation stopped next to a singular position{when}; auto "
+        f"ran the analysis again from t = 0 with {restarted['formulation']}, which passes singular positions"
     )
 
 

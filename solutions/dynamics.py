@@ -653,7 +653,12 @@ def guarded_after_step(equations: EquationsOfMotion, guard: Guard):
 
 def compiled_motion(settings: Settings, equations, guard, z0, times, history) -> tuple:
     """The compiled engine's run into ``history`` when it covers it (``compiled.dispatch``); (the compiled run or
-    None, integrator statistics or None, what was chosen and why)."""
+    None, integrator statistics or None, what was chosen and why).
+
+    One verdict on either engine: the compiled loop runs without the Guard, which then judges its output times;
+    a run that stopped early is judged where it stopped too (``judge_stop``), and one that passed close to a
+    singular position between output times (``singular_dip``) is handed back to the numpy engine, whose Guard
+    judges every step (issue 29)."""
     try:
         from .compiled import dispatch
     except ImportError:  # a student package: the compiled engine stays with the instructor
@@ -661,14 +666,68 @@ def compiled_motion(settings: Settings, equations, guard, z0, times, history) ->
     scene, chosen = dispatch.choose(settings, equations, z0)
     if scene is None:
         return None, None, chosen
-    compiled, stats = dispatch.run(scene, z0, times, settings)
+    pauses = copy.copy(guard)  # the checks between steps, in time order, apart from those of the output times
+    compiled, stats = dispatch.run(scene, z0, times, settings, on_pause=lambda *state: judge_pause(pauses, *state))
     n = equations.formulation.n
-    history.q, history.qd = compiled.Y[:, :n].copy(), compiled.Y[:, n : 2 * n].copy()
-    history.qdd, history.lam, history.energies = compiled.qdd, compiled.lam, compiled.Y[:, 2 * n :]
+    stopped = dispatch.stop(compiled, stats, settings, times[-1] - times[0])
+    if stopped is not None:  # the numpy engine's Guard saw every step up to the stop: this one sees where it stopped
+        judge_stop(guard, compiled, times, n)
+        raise stopped
     # the checks at the output times (the numpy engine: drift at output times, configuration after every
     # step), from Psi and Psi_q the compiled module gives for all of them at once
-    guard.check_outputs(times, history.q, compiled.psi, compiled.jac)
+    judged = copy.copy(guard)
+    judged.check_outputs(times, compiled.Y[:, :n], compiled.psi, compiled.jac)
+    near = judged.closest is not None and judged.closest["ratio"] < NEAR_SINGULAR  # else no output time dips
+    dip = singular_dip(guard, times, compiled.jac) if near and not guard.through else None
+    if dip is not None:  # it passed one between output times, unseen: the numpy engine's verdict
+        why = (
+            f"the compiled run passed near a singular position at t = {dip[0]:.6g} s (smallest singular value "
+            f"{dip[1]:.2g} of the largest at an output time), where only the numpy engine checks every step"
+        )
+        return None, None, {**chosen, "engine": "numpy", "engine_why": why}
+    guard.__dict__.update(judged.__dict__)
+    history.q, history.qd = compiled.Y[:, :n].copy(), compiled.Y[:, n : 2 * n].copy()
+    history.qdd, history.lam, history.energies = compiled.qdd, compiled.lam, compiled.Y[:, 2 * n :]
     return compiled, stats, chosen
+
+
+def singular_dip(guard: Guard, times: np.ndarray, jacobians: np.ndarray) -> tuple[float, float] | None:
+    """(t, sigma_r / sigma_1) where the ratio of the Guard's scaled Psi_q dips towards zero at an output time
+    (``diagnostics.passes_zero``: a local minimum below NEAR_SINGULAR, deep against its neighbours), else None.
+    There a run passed close to a rank loss between output times, where the numpy engine's Guard judges every
+    step and the compiled engine's only the output times: an even rank loss (one per loop of a chain of
+    parallelograms) keeps the sign of det [Psi_q; T^T], and the run may have left its branch unseen."""
+    if guard.rank == 0 or times.size < 3:
+        return None
+    scaled = jacobians * guard._columns
+    norms = np.linalg.norm(scaled, axis=2, keepdims=True)
+    s = np.linalg.svd(scaled / np.where(norms > 0, norms, 1.0), compute_uv=False)
+    ratios = s[:, guard.rank - 1] / np.where(s[:, 0] > 0, s[:, 0], 1.0)
+    for k in range(1, ratios.size - 1):
+        if passes_zero(ratios[k - 1], ratios[k], ratios[k + 1]):
+            return float(times[k]), float(ratios[k])
+    return None
+
+
+def judge_pause(guard: Guard, t: float, q: np.ndarray, psi: np.ndarray, jacobian: np.ndarray) -> None:
+    """The numpy engine's check after a step, at a pause of the compiled loop between two steps (every
+    ``compiled.PAUSE_STEPS``), by ``guard``, a copy of the run's Guard that sees the pauses in time order (the run's
+    own judges the output times): SingularConfigurationError where Psi_q is about to lose rank or lost it since the
+    pause before, so that a compiled run crawling at a singular position stops there as the numpy run does."""
+    if not guard.through:
+        guard.check_outputs(np.array([t]), q[None, :], psi, jacobian, drift=False)
+
+
+def judge_stop(guard: Guard, compiled, times: np.ndarray, n: int) -> None:
+    """The Guard's checks over a compiled run that stopped early: the output times it reached and the state where
+    it stopped. The numpy engine's Guard judges every step on the way, so a stop next to a singular position
+    raises its SingularConfigurationError, or leaves ``guard.closest`` near zero, which makes ``auto`` run again
+    with a formulation that passes it (``restartable``), on either engine. A state that is no longer finite
+    (rk4's stop) is no configuration: the reached output times alone are judged."""
+    k, q = compiled.reached, compiled.Y[:, :n]
+    guard.check_outputs(times[:k], q[:k], compiled.psi[:k], compiled.jac[:k])
+    if np.all(np.isfinite(compiled.Y[k])):
+        guard.check_outputs(np.array([compiled.t]), q[k:], compiled.psi[k:], compiled.jac[k:], drift=False)
 
 
 def restartable(err: AnalysisError, guard: Guard, plan: Plan) -> bool:
@@ -1212,15 +1271,18 @@ class Guard:
         sign = np.sign(np.linalg.det(np.vstack([jacobian, tangent.T]))) if square else self._sign
         self._judge(q, t, ratio, tangent, sign)
 
-    def check_outputs(self, t: np.ndarray, q: np.ndarray, psi: np.ndarray, jacobians: np.ndarray) -> None:
+    def check_outputs(
+        self, t: np.ndarray, q: np.ndarray, psi: np.ndarray, jacobians: np.ndarray, drift: bool = True
+    ) -> None:
         """``check_drift`` and ``check_configuration`` at every output time t[k] of a finished run, given
         Psi (N, m) and Psi_q (N, m, n) there (the compiled engine's): the same tests, the arithmetic over all
-        output times at once (batched norms, SVDs and determinants), the verdicts in time order."""
+        output times at once (batched norms, SVDs and determinants), the verdicts in time order. ``drift=False``:
+        the configuration alone (a state between output times, where the numpy engine checks no drift)."""
         if self.drift_limit is None and not self.singular_ratio:  # nothing to check (an open tree's joint coordinates)
             return
         weighted = jacobians * self._columns  # angles as arc lengths L phi: every column in metres
         norms = np.linalg.norm(weighted, axis=2, keepdims=True)  # |grad Psi_i| of every row at every time
-        if self.drift_limit is not None:
+        if drift and self.drift_limit is not None:
             distance = np.abs(psi) / np.where(norms[:, :, 0] > 0, norms[:, :, 0], 1.0)
             bad = ~(np.max(distance, axis=1, initial=0.0) <= self.drift_limit)
             if np.any(bad):

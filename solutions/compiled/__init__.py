@@ -110,6 +110,9 @@ class CompiledRun:
     joint_states: np.ndarray | None = None
     """A joint-coordinates run's integrated states (joint positions, joint velocities, energies) at the output
     times; its ``Y`` holds the body coordinates made from them (q, q', energies), as every other run's."""
+    reached: int = 0
+    """How many output times the run reached (all on success). A run that stopped early (status > 0) has only
+    those rows, and after them one more: the state where it stopped, at ``t``."""
 
 
 def unsupported(scene: Scene, formulation: str, integrator: str, options: dict) -> str | None:
@@ -219,6 +222,48 @@ def is_cached(plan: Plan) -> bool:
     return scene_cached(plan.scene)
 
 
+PAUSE_STEPS = 1000
+"""The compiled loop pauses after this many steps for the configuration check of ``on_pause`` (``run``): a run that
+crawls at a singular position stops there as the numpy engine's run, which checks after every step, stops."""
+
+
+def _embedded(loops, rhs, project, z0: np.ndarray, times: np.ndarray, numbers: tuple, on_pause) -> tuple:
+    """``loops.embedded`` over the output grid in pieces of PAUSE_STEPS steps, ``on_pause(t, z)`` between them (it
+    raises to stop the run); the same results as one call (the loop resumes with its next step size, and f(t, z) is
+    evaluated anew, one evaluation more per pause). (Y, evaluations, steps, rejected, status, t, h, reached)."""
+    rtol, atol, max_step, budget, dop, scipy_like, tableau_, P, D = numbers
+    span, Y = float(times[-1] - times[0]), np.empty((times.size, z0.size))
+    every = PAUSE_STEPS if on_pause is not None else np.iinfo(np.int64).max
+    Y[0], k, t, z, h, spent, steps, rejected = z0, 1, float(times[0]), z0, 0.0, 0, 0, 0
+    while True:
+        piece = np.ascontiguousarray(np.append(t, times[k:]))
+        Yp, evaluations, done, refused, status, t, h, reached = loops.embedded(
+            rhs, project, z, piece, rtol, atol, max_step, budget - spent, dop, scipy_like, tableau_, P, D, span, h,
+            every,
+        )  # fmt: skip
+        spent, steps, rejected = spent + evaluations, steps + done, rejected + refused
+        Y[k : k + reached - 1] = Yp[1:reached]
+        k += reached - 1
+        if status != 5:
+            if status != 0:
+                Y[k] = Yp[reached]
+            return Y, spent, steps, rejected, status, t, h, k
+        z = Yp[reached].copy()
+        on_pause(t, z)
+
+
+def configuration(t: float, z: np.ndarray, module, scene, P, D, rhs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(q, Psi, Psi_q) of the state z at t (rows of one output time), a tree's body coordinates made first."""
+    from . import history, loops
+
+    Y, times = np.ascontiguousarray(z[None, :]), np.array([float(t)])
+    if isinstance(scene, TreeScene):
+        out = loops.outputs(rhs, times, Y, P, D, 3 * scene.n + scene.m)
+        Y = np.hstack([out[:, z.size : z.size + 2 * scene.n], Y[:, scene.n_positions + scene.k :]])
+    psi, jac, _ = history.constraint_arrays(module, scene, times, Y)
+    return Y[0, : scene.n], psi, jac
+
+
 def run(
     plan: Plan,
     z0: np.ndarray,
@@ -228,8 +273,10 @@ def run(
     atol: float,
     step: float | None,
     max_evaluations: int | None,
+    on_pause=None,
 ) -> CompiledRun:
-    """Integrate the plan's scene from z0 over the output grid ``times`` with the compiled loop."""
+    """Integrate the plan's scene from z0 over the output grid ``times`` with the compiled loop; an adaptive loop
+    calls ``on_pause(t, q, Psi, Psi_q)`` every PAUSE_STEPS steps, which raises to stop the run."""
     start = time.perf_counter()
     from . import history, loops  # imports numba
 
@@ -242,14 +289,22 @@ def run(
     rhs = loops.first_class(module.scene_rhs, loops.RHS_SIGNATURE)  # numba's type of each found once
     project = loops.first_class(project, loops.PROJECT_SIGNATURE)
     if integrator in FIXED:
-        Y, evaluations, steps, rejected, status, t, h = loops.rk4(rhs, project, z0, times, float(step or 0.0), P, D)
+        Y, evaluations, steps, rejected, status, t, h, reached = loops.rk4(
+            rhs, project, z0, times, float(step or 0.0), P, D
+        )
     else:
         dop, scipy_like = COMPILED_INTEGRATORS[integrator]
         budget = np.iinfo(np.int64).max if max_evaluations is None else int(max_evaluations)
         max_step = float(step) if step else np.inf
-        Y, evaluations, steps, rejected, status, t, h = loops.embedded(
-            rhs, project, z0, times, float(rtol), float(atol), max_step, budget, dop, scipy_like, tableau(dop), P, D
+        numbers = (float(rtol), float(atol), max_step, budget, dop, scipy_like, tableau(dop), P, D)
+        judge = None
+        if on_pause is not None:
+            judge = lambda t, z: on_pause(t, *configuration(t, z, module, scene, P, D, rhs))  # noqa: E731
+        Y, evaluations, steps, rejected, status, t, h, reached = _embedded(
+            loops, rhs, project, z0, times, numbers, judge
         )
+    if status != 0:  # the output times reached and, after them, the state where the loop stopped (no others)
+        times, Y = np.append(times[:reached], t), Y[: reached + 1]
     joint_states, n, m, ny = None, scene.n, scene.m, Y.shape[1]
     if isinstance(scene, TreeScene):  # after y': the body coordinates of the joint states, and q'', lambda there
         out = loops.outputs(rhs, times, Y, P, D, 3 * n + m)
@@ -258,12 +313,10 @@ def run(
     else:  # q'' in y', lambda after it
         out = loops.outputs(rhs, times, Y, P, D, m)
         qdd, lam = np.ascontiguousarray(out[:, n : 2 * n]), np.ascontiguousarray(out[:, ny:])
-    psi = jac = psit = None
-    if status == 0:  # a run that stopped early raises (dispatch.run): no checks to make
-        psi, jac, psit = history.constraint_arrays(module, scene, times, Y)
+    psi, jac, psit = history.constraint_arrays(module, scene, times, Y)
     return CompiledRun(
         Y, qdd, lam, int(evaluations), int(steps), int(rejected), int(status), float(t), float(h), load_seconds, cached,
-        psi, jac, psit, joint_states,
+        psi, jac, psit, joint_states, int(reached),
     )  # fmt: skip
 
 

@@ -27,8 +27,17 @@ import time
 
 import numpy as np
 
-from ..diagnostics import AnalysisError, setting_words
-from ..integrators import IntegrationStats, initial_step, integrate, power_start
+from ..diagnostics import AnalysisError
+from ..integrators import (
+    FIXED_STEP_METHODS,
+    BudgetError,
+    IntegrationStats,
+    budget_message,
+    collapse_message,
+    initial_step,
+    integrate,
+    power_start,
+)
 from ..settings import ENGINES, Settings
 
 COMPILE_SECONDS = 8.0
@@ -84,6 +93,8 @@ def choose(settings: Settings, equations, z0: np.ndarray):
     engine, formulation, integrator = settings.engine, settings.formulation, settings.integrator
     if engine == "numpy":
         return None, {"engine": "numpy", "engine_why": "numpy engine asked for"}
+    if settings.stiffness == "error" and integrator not in FIXED_STEP_METHODS:  # the same verdict: the numpy loop's
+        return None, {"engine": "numpy", "engine_why": "stiffness error: the stiffness monitor is not compiled"}
     expected = None
     if engine == "auto":  # a run shorter than loading the compiled code stays on numpy, whatever is on disk
         expected = estimated_numpy_seconds(equations, z0, settings, LOAD_SECONDS)
@@ -172,42 +183,39 @@ def start_rates(equations, formulation: str, options: dict, z: np.ndarray) -> tu
     return float(rho), qdd.copy()
 
 
-def run(job, z0: np.ndarray, times: np.ndarray, settings: Settings):
-    """The compiled run of a ``Plan``, its failures raised as the numpy engine raises them; (CompiledRun,
-    IntegrationStats). A projection run also counts its projections and restarts as the numpy run does: one
-    projection per accepted step, a restart after each (``integrators.integrate``; the solve_ivp loop does not
-    restart after its last step, rk4 never counts restarts)."""
+def run(job, z0: np.ndarray, times: np.ndarray, settings: Settings, on_pause=None):
+    """The compiled run of a ``Plan``: (CompiledRun, IntegrationStats); a run that stopped early says why in
+    ``stop``; ``on_pause(t, q, Psi, Psi_q)`` judges the configuration between steps (``run``). A
+    projection run also counts its projections and restarts as the numpy run does: one projection per accepted
+    step, a restart after each (``integrators.integrate``; the solve_ivp loop does not restart after its last step,
+    rk4 never counts restarts)."""
     from . import run as compiled_run
 
-    integrator, max_evaluations = settings.integrator, settings.max_evaluations
-    out = compiled_run(job, z0, times, integrator, settings.rtol, settings.atol, settings.step, max_evaluations)
-    span = times[-1] - times[0]
-    if out.status == 1:
-        raise AnalysisError(
-            f"integrator {integrator} at t = {out.t:.6g} s: the step size fell to {out.h:.3g} s, below 1e-12 of the "
-            f"time span {span:.3g} s ({out.steps} steps, {out.rejected} rejected): the motion cannot be followed past "
-            "here (a singular configuration, or a state the formulation cannot take)"
-        )
-    if out.status == 2:
-        raise AnalysisError(
-            f"integrator {integrator} spent its budget of {max_evaluations} right-hand-side evaluations by "
-            f"t = {out.t:.6g} s (last step {out.h:.3g} s, {out.steps} steps): the motion is too fast for the "
-            "tolerance, or the scene is stiff; raise the budget, e.g. "
-            + setting_words("max_evaluations", 4 * max_evaluations)
-        )
-    if out.status == 3:
-        raise AnalysisError(
-            f"rk4: the state is no longer finite at t = {out.t:.6g} s with step {out.h:.3g} s: the step is beyond the "
-            "scene's stability limit (or left the mechanism's reach); use a smaller --step or an adaptive integrator"
-        )
-    if out.status == 4:
-        raise AnalysisError(f"position projection did not converge at t = {out.t:.6g} s (residual {out.h:.3g})")
+    integrator, budget = settings.integrator, settings.max_evaluations
+    out = compiled_run(job, z0, times, integrator, settings.rtol, settings.atol, settings.step, budget, on_pause)
     stats = IntegrationStats(integrator, rhs_evaluations=out.evaluations, steps=out.steps, rejected=out.rejected)
     if job.formulation == "projection":
         job.formulation_object.projections = out.steps
         if integrator != "rk4":
             stats.restarts = out.steps - (1 if integrator in ("DOP853", "RK45") else 0)
     return out, stats
+
+
+def stop(out, stats: IntegrationStats, settings: Settings, span: float) -> AnalysisError | None:
+    """Why the compiled run ``out`` stopped early, in the numpy engine's words (``integrators``), or None."""
+    integrator = settings.integrator
+    if out.status == 1:
+        return AnalysisError(collapse_message(integrator, out.t, out.h, span, stats))
+    if out.status == 2:
+        return BudgetError(budget_message(integrator, settings.max_evaluations, out.t, out.h, stats))
+    if out.status == 3:
+        return AnalysisError(
+            f"rk4: the state is no longer finite at t = {out.t:.6g} s with step {out.h:.3g} s: the step is beyond the "
+            "scene's stability limit (or left the mechanism's reach); use a smaller --step or an adaptive integrator"
+        )
+    if out.status == 4:
+        return AnalysisError(f"position projection did not converge at t = {out.t:.6g} s (residual {out.h:.3g})")
+    return None
 
 
 __all__ = ["COMPILE_SECONDS", "ENGINES", "LOAD_SECONDS", "choose", "estimated_numpy_seconds", "run", "start_rates"]

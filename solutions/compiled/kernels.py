@@ -1080,8 +1080,10 @@ by ``lu_solve`` itself (``benchmarks/call_cost.py``; numba's np.linalg.solve).""
 @jit
 def lu_solve(K, b):
     """x from K x = b by Gaussian elimination with partial pivoting (P K = L U, then two triangular solves): LAPACK's
-    gesv for a system of more than LAPACK_SIZE unknowns (NaN where it finds K singular or not finite), otherwise its
-    algorithm written out for the small dense systems of one evaluation (K is overwritten)."""
+    gesv for a system of more than LAPACK_SIZE unknowns, otherwise its algorithm written out for the small dense
+    systems of one evaluation (K is overwritten). A singular K (a zero pivot) gives NaN on both branches, for the
+    loop's checks to see as a state the formulation cannot take: numba's division by zero raises (its error model
+    is Python's), which would end the run in a traceback instead of the message the numpy engine gives."""
     n = b.size
     if n > LAPACK_SIZE:
         try:
@@ -1099,6 +1101,8 @@ def lu_solve(K, b):
             for k in range(n):
                 K[c, k], K[pivot, k] = K[pivot, k], K[c, k]
             x[c], x[pivot] = x[pivot], x[c]
+        if K[c, c] == 0.0:  # every remaining entry of the column is zero: K is singular
+            return np.full(n, np.nan)
         inverse = 1.0 / K[c, c]
         for r in range(c + 1, n):
             factor = K[r, c] * inverse

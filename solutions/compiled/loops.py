@@ -24,9 +24,13 @@ does: the state at an output time that falls on the step's end is the corrected 
 the step interpolates the step itself), and the next step starts from f(t, corrected) (``scipy_like``: a new
 solver with the next step size, clipped to the end; not after the last step; own loop: always).
 
-Both return the states at the output times and (evaluations, steps, rejected, status, t, h); status 0 is
-success, 1 a step-size collapse, 2 the evaluation budget spent, 3 a state that is no longer finite (rk4),
-4 a projection whose position iterations did not converge (then h is the residual max |Psi| instead).
+Both return the states at the output times and (evaluations, steps, rejected, status, t, h, reached); status 0
+is success, 1 a step-size collapse, 2 the evaluation budget spent, 3 a state that is no longer finite (rk4),
+4 a projection whose position iterations did not converge (then h is the residual max |Psi| instead), 5 a pause
+of ``embedded`` after its ``max_steps`` steps (then h is the next step, to resume with). The
+first ``reached`` rows are states at output times (all of them on success); a run that stops early leaves
+the state where it stopped, at t, in the row after them, for the checks the numpy engine makes at every step
+(``dynamics.compiled_motion``), and the rows after it unfilled.
 
 ``outputs`` gives what the right-hand side writes at every output time, y' and after it the outputs of the state:
 lambda (``codegen.py``), or the body coordinates, q'' and lambda of a joint-coordinates state (``tree.py``).
@@ -54,7 +58,9 @@ CONSTRAINT_ARRAYS_SIGNATURE = types.void(_vector, _matrix, P_TYPE, D_TYPE, _matr
 PROJECT_SIGNATURE = types.int64(types.float64, _vector, P_TYPE, D_TYPE, _vector)
 """project(t, z, P, D, info): -1 (nothing done), 0 (z corrected in place), 1 (not converged; info[0] the residual)."""
 TABLEAU_TYPE = types.Tuple((_matrix, _vector, _vector, _vector, _vector, _vector, _matrix, _matrix))
-RESULT_TYPE = types.Tuple((_matrix, types.int64, types.int64, types.int64, types.int64, types.float64, types.float64))
+RESULT_TYPE = types.Tuple(
+    (_matrix, types.int64, types.int64, types.int64, types.int64, types.float64, types.float64, types.int64)
+)
 _RHS = types.FunctionType(RHS_SIGNATURE)
 _PROJECT = types.FunctionType(PROJECT_SIGNATURE)
 
@@ -226,32 +232,50 @@ def _dense(scene_rhs, step, states, K, tableau, dop, scipy_like, t_out, k, Y, P,
         TABLEAU_TYPE,
         P_TYPE,
         D_TYPE,
+        types.float64,
+        types.float64,
+        types.int64,
     )
 )
-def embedded(scene_rhs, project, z0, t_out, rtol, atol, max_step, max_evaluations, dop, scipy_like, tableau, P, D):
-    """Integrate from z0 at t_out[0] to t_out[-1]; states at every output time (module docstring)."""
+def embedded(
+    scene_rhs, project, z0, t_out, rtol, atol, max_step, max_evaluations, dop, scipy_like, tableau, P, D, span,
+    h_start, max_steps,
+):  # fmt: skip
+    """Integrate from z0 at t_out[0] to t_out[-1]; states at every output time (module docstring). ``span``: the
+    whole run's time span (the step-size collapse is judged against it); ``h_start`` > 0: the step to start with
+    instead of Hairer's starting step (a run resumed after a pause); after ``max_steps`` accepted steps the loop
+    pauses between two steps with status 5 (t, the state in the row after those reached, h the next step), so
+    that the caller can judge the configuration as the numpy engine does after every step, and resume."""
     A, B, C, E, E3, E5, Dd, Pd = tableau
     stages, nz, nout = B.size, z0.size, t_out.size
     exponent = -1.0 / ((7 if dop else 4) + 1)
     Y = np.empty((nout, nz))
     t, t_end = t_out[0], t_out[-1]
-    span = t_end - t
     y, f = z0.copy(), np.empty(nz)
     scene_rhs(t, y, P, D, f)
-    h_abs = _starting_step(scene_rhs, t, y, f, span, rtol, atol, max_step, 7 if dop else 4, P, D)
-    evaluations = 2
+    evaluations = 1
+    if h_start > 0.0:
+        h_abs = h_start
+    else:
+        h_abs = _starting_step(scene_rhs, t, y, f, t_end - t, rtol, atol, max_step, 7 if dop else 4, P, D)
+        evaluations = 2
     K = np.empty((Dd.shape[1] if dop else stages + 1, nz))
     y_new, f_new, stage = np.empty(nz), np.empty(nz), np.empty(nz)
     Y[0] = y
     k, steps, rejected, info = np.int64(1), 0, 0, np.zeros(1)  # int64, not the literal 1: (*) below
     while k < nout:
+        if steps >= max_steps:
+            Y[k] = y
+            return Y, evaluations, steps, rejected, 5, t, h_abs, k
         rejected_now = False
         while True:  # steps until one is accepted
             if evaluations >= max_evaluations:
-                return Y, evaluations, steps, rejected, 2, t, h_abs
+                Y[k] = y
+                return Y, evaluations, steps, rejected, 2, t, h_abs, k
             h, h_abs, t_new = _step_size(t, t_end, h_abs, max_step, span, scipy_like, rejected_now)
             if h == 0.0:
-                return Y, evaluations, steps, rejected, 1, t, h_abs
+                Y[k] = y
+                return Y, evaluations, steps, rejected, 1, t, h_abs, k
             K[0] = f
             # (*) numba compiles a function called with a constant once more for that constant's literal type:
             # np.int64(1) keeps _stages and _dense at one machine code each (3-5 s less to compile)
@@ -275,7 +299,8 @@ def embedded(scene_rhs, project, z0, t_out, rtol, atol, max_step, max_evaluation
         if not scipy_like:
             t_new = t_end if t_end - (t + h) < 1e-12 * max(1.0, abs(t_end)) else t + h
         elif h < MIN_STEP * span and t_end - t_new > MIN_STEP * span:
-            return Y, evaluations, steps, rejected, 1, t_new, h
+            Y[k] = y_new
+            return Y, evaluations, steps, rejected, 1, t_new, h, k
         if t_out[k] < t_new:  # dense output for the output times passed
             step, states = (t, t_new, h), (y, y_new, f_new)
             k, spent = _dense(scene_rhs, step, states, K, tableau, dop, scipy_like, t_out, k, Y, P, D)
@@ -285,7 +310,8 @@ def embedded(scene_rhs, project, z0, t_out, rtol, atol, max_step, max_evaluation
         f[:] = f_new
         corrected = project(t, y, P, D, info)
         if corrected > 0:
-            return Y, evaluations, steps, rejected, 4, t, info[0]
+            Y[k] = y
+            return Y, evaluations, steps, rejected, 4, t, info[0], k
         if k < nout and t_out[k] == t:
             Y[k] = y
             k += 1
@@ -295,7 +321,7 @@ def embedded(scene_rhs, project, z0, t_out, rtol, atol, max_step, max_evaluation
                 h_abs = min(h_abs, t_end - t)
             scene_rhs(t, y, P, D, f)
             evaluations += 1
-    return Y, evaluations, steps, rejected, 0, t, h_abs
+    return Y, evaluations, steps, rejected, 0, t, h_abs, k
 
 
 @jit(RESULT_TYPE(_RHS, _PROJECT, _vector, _vector, types.float64, P_TYPE, D_TYPE))
@@ -324,11 +350,13 @@ def rk4(scene_rhs, project, z0, t_out, step, P, D):
             evaluations += 4
             steps += 1
             if not np.all(np.isfinite(y)):
-                return Y, evaluations, steps, 0, 3, ts + h, h
+                Y[k] = y
+                return Y, evaluations, steps, 0, 3, ts + h, h, k
             if project(ts + h, y, P, D, info) > 0:
-                return Y, evaluations, steps, 0, 4, ts + h, info[0]
+                Y[k] = y
+                return Y, evaluations, steps, 0, 4, ts + h, info[0], k
         Y[k] = y
-    return Y, evaluations, steps, 0, 0, t_out[-1], 0.0
+    return Y, evaluations, steps, 0, 0, t_out[-1], 0.0, nout
 
 
 @jit(_matrix(types.FunctionType(RHS_SIGNATURE), _vector, _matrix, P_TYPE, D_TYPE, types.int64))

@@ -222,13 +222,12 @@ def test_a_function_handed_to_the_loops_is_typed_once_and_computes_the_same():
 
 @pytest.mark.parametrize("n", [6, 40])
 def test_lu_solve_small_by_elimination_large_by_lapack(n):
-    """``kernels.lu_solve``: the solution of K x = b on either side of LAPACK_SIZE; LAPACK's singular K gives NaN (the
-    elimination's, a ZeroDivisionError: issue 29)."""
+    """``kernels.lu_solve``: the solution of K x = b on either side of LAPACK_SIZE; a singular K gives NaN on both
+    (the written-out elimination raised numba's ZeroDivisionError at a zero pivot: issue 29)."""
     from solutions.compiled.kernels import LAPACK_SIZE, lu_solve
 
     assert (n > LAPACK_SIZE) == (n == 40)
     rng = np.random.default_rng(n)
     K, b = rng.normal(size=(n, n)) + n * np.eye(n), rng.normal(size=n)
     assert np.allclose(lu_solve(K.copy(), b), np.linalg.solve(K, b), rtol=1e-12, atol=1e-12)
-    if n > LAPACK_SIZE:
-        assert np.all(np.isnan(lu_solve(np.ones((n, n)), b)))
+    assert np.all(np.isnan(lu_solve(np.ones((n, n)), b)))  # rank 1: the second pivot is exactly zero

@@ -181,7 +181,8 @@ def with_com(data: dict, offsets: dict[str, list[float]]) -> dict:
         body["velocity"] = (b.velocity - spin).tolist()
         body["com"] = c.tolist()
     pair = (("point1", "body1"), ("point2", "body2"))
-    for section, keys in (("joints", pair), ("spring_dampers", pair), ("forces", (("point", "body"),))):
+    sections = (("joints", pair), ("motors", pair), ("spring_dampers", pair), ("forces", (("point", "body"),)))
+    for section, keys in sections:
         for item in data["model"].get(section, []):
             if item.get("frame") != "body":
                 continue
