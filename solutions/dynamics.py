@@ -37,7 +37,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from .assembly import System
-from .diagnostics import NEAR_SINGULAR, AnalysisError, SingularConfigurationError, passes_zero, rank_report
+from .diagnostics import (
+    NEAR_SINGULAR,
+    AnalysisError,
+    BranchSwitchError,
+    SingularConfigurationError,
+    passes_zero,
+    rank_report,
+)
 from .energy import driver_power, energy_history
 from .formulations import FORMULATIONS, Formulation, make_formulation
 from .generalized_forces import ForceModel, build_forces
@@ -347,6 +354,7 @@ def run_plan(run: Run, formulation: str, integrator: str) -> Result:
         result.info["notes"] = [REDUNDANT_NOTE]
     result.info["warnings"] = drift_warnings(result.info, guard.size, plan.formulation, settings.formulation_options)
     result.info["warnings"] += raised + accuracy_warnings(result.info, guard.size, settings.accuracy, plan.periods)
+    result.info["warnings"] += guard.warnings
     if not plan.rtol_given and plan.periods is not None:
         result.info["rtol_rule"] = (
             f"rtol = max({MIN_RTOL:g}, min({DEFAULT_RTOL:g}, accuracy / periods^2)) with {plan.periods:.3g} periods"
@@ -480,6 +488,9 @@ def integrate_motion(run: Run, plan: Plan, equations, guard: Guard, z0: np.ndarr
         step=settings.step, after_step=after_step if guard.singular_ratio else equations.after_step,
         max_evaluations=settings.max_evaluations, stiffness=settings.stiffness,
     )  # fmt: skip
+    if guard.singular_ratio and guard.rank:  # the branch at every singular position passed (as the compiled run's)
+        jacobians = np.array([run.system.jacobian(q, t) for q, t in zip(history.q, times, strict=True)])
+        guard.check_branches(times, history.q, history.qd, history.qdd, jacobians)
     return history, stats, None, chosen
 
 
@@ -500,6 +511,7 @@ def compiled_motion(settings: Settings, equations, guard, z0, times, history) ->
     # the checks at the output times (the numpy engine: drift at output times, configuration after every
     # step), from Psi and Psi_q the compiled module gives for all of them at once
     guard.check_outputs(times, history.q, compiled.psi, compiled.jac)
+    guard.check_branches(times, history.q, history.qd, history.qdd, compiled.jac)
     return compiled, stats, chosen
 
 
@@ -876,6 +888,7 @@ class Guard:
     ):
         self.system, self.singular_ratio, self.through = system, singular_ratio, through
         self.crossings: list[dict] = []  # singular positions passed (with ``through``: the formulation passes them)
+        self.warnings: list[str] = []  # crossings whose branch the velocities cannot decide (``check_branches``)
         self._last_ratios: tuple[float | None, float | None] = (None, None)
         self._last_q: tuple[np.ndarray, float] = (q, 0.0)
         self.size = size = mechanism_size(system, q) if size is None else size  # L, as the run's Plan has it
@@ -887,6 +900,9 @@ class Guard:
         columns = np.ones(per)
         columns[dim:] = 1.0 / size  # derivatives by an angle (Euler parameter) times its arc length, in 1/m
         self._columns = np.tile(columns, system.n_bodies)
+        speeds = np.ones(per)
+        speeds[dim:] = size if dim == 2 else 2.0 * size  # phi' L, or |omega| L = 2 |p'| L: every column in m/s
+        self._speeds = speeds
 
     def _scaled(self, jacobian: np.ndarray) -> np.ndarray:
         """Psi_q made free of units and size: derivatives by angles per arc length (divided by the mechanism's
@@ -972,6 +988,75 @@ class Guard:
             turn = None if k == 0 else turns[k - 1]
             self._judge(q[k], float(t[k]), float(ratios[k]), tangents[k], sign, turn)
 
+    def check_branches(
+        self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, jacobians: np.ndarray
+    ) -> None:
+        """The branch the motion took at every singular position it passed between output times t[k] of a run
+        (``branch_verdict``), from q, q', q'' and Psi_q (N, m, n) there: the same check on both engines, on the
+        same samples. A crossing is a dip of sigma_r / sigma_1 to zero around t[k] (``diagnostics.passes_zero``:
+        any rank loss, even one per loop of a chain of parallelograms, which keeps the sign of det [Psi_q; T^T]),
+        judged from t[k-1] to t[k+1]; or a flip of that sign between t[k-1] and t[k] (an odd rank loss), judged
+        there. Each is listed in ``crossings`` with its verdict ('branch'); a switch stops the run
+        (``BranchSwitchError``), a crossing the velocities cannot decide is a warning (``warnings``)."""
+        if not self.singular_ratio or self.rank == 0 or t.size < 2:
+            return
+        weighted = jacobians * self._columns
+        norms = np.linalg.norm(weighted, axis=2, keepdims=True)
+        scaled = weighted / np.where(norms > 0, norms, 1.0)
+        s = np.linalg.svd(scaled, compute_uv=False)
+        ratios = np.where(s[:, 0] > 0, s[:, self.rank - 1] / np.where(s[:, 0] > 0, s[:, 0], 1.0), 0.0)
+        intervals = [(k - 1, k, k + 1) for k in 1 + np.flatnonzero(dips(ratios))]
+        if scaled.shape[1] == self.rank == self.system.n_constraints:  # det [Psi_q; T^T] defined: its sign flips
+            tangents, signs = null_space_bases(scaled, signs=True)
+            turns = np.linalg.det(np.swapaxes(tangents[:-1], 1, 2) @ tangents[1:])
+            flips = (np.abs(turns) > ALIGNED) & (turns * signs[1:] * signs[:-1] < 0)
+            for k in 1 + np.flatnonzero(flips):
+                if not any(a <= k - 1 and k <= b for a, _, b in intervals):  # not within a dip's interval
+                    intervals.append((k - 1, k - 1 if ratios[k - 1] <= ratios[k] else k, k))
+        # a switch onto a branch that stays singular (a parallelogram folded flat: no dip) shows in the velocities
+        # of the step onto it: every step next to a singular position is judged too, but only a switch counts
+        near = np.flatnonzero((ratios[:-1] < NEAR_SINGULAR) | (ratios[1:] < NEAR_SINGULAR))
+        steps = [(k, k if ratios[k] <= ratios[k + 1] else k + 1, k + 1) for k in near]
+        for a, middle, b, crossing in sorted([(*i, True) for i in intervals] + [(*i, False) for i in steps]):
+            self._judge_branch(t, q, qd, qdd, a, middle, b, float(ratios[middle]), crossing)
+
+    def _judge_branch(self, t, q, qd, qdd, a: int, middle: int, b: int, ratio: float, crossing: bool) -> None:
+        """``check_branches``' verdict on the crossing (or, not ``crossing``, the step next to a singular
+        position) near t[middle], from the samples a and b on either side."""
+        from .diagnostics import singular_joints
+
+        verdict, figure, body = branch_verdict(
+            self.system, self._speeds, float(t[b] - t[a]), (qd[a], qdd[a]), (qd[b], qdd[b])
+        )
+        if not crossing and verdict != "switched":
+            return
+        _, joints = singular_joints(self.system.jacobian(q[middle], t[middle]), self.system.row_owners)
+        known = [c for c in self.crossings if t[a] <= c["t"] <= t[b]]  # recorded step by step (``through``)
+        passed = known[0] if known else {"t": float(t[middle]), "ratio": ratio, "joints": joints}
+        passed["branch"] = verdict
+        if not known:
+            self.crossings.append(passed)
+            self.crossings.sort(key=lambda c: c["t"])
+        where = (
+            f"the singular position near t = {passed['t']:.6g} s (joints {', '.join(passed['joints'])}; "
+            f"judged from t = {t[a]:.6g} s to t = {t[b]:.6g} s)"
+        )
+        if verdict == "switched":
+            raise BranchSwitchError(
+                f"branch switch at {where}: the velocity of {body} changed by {figure:.3g} m/s more than its "
+                "acceleration explains, where the physical motion keeps every velocity continuous: the run left "
+                "the assembly branch it came along (e.g. a parallelogram folding or crossing over) and its result "
+                "past there is wrong; --formulation augmented-lagrangian (or auto) carries the motion through on "
+                "its branch; or try a tighter --rtol"
+            )
+        if verdict == "cannot tell":
+            self.warnings.append(
+                f"branch: cannot tell whether the motion stayed on its assembly branch at {where}: the speed "
+                f"there ({figure:.3g} m/s, {body}) is small against its change between those output times "
+                "(a mechanism that comes to rest at a singular position is decided by its accelerations); check "
+                "the result past it, e.g. against --formulation augmented-lagrangian, or ask more output --steps"
+            )
+
     def _quiet(self, t, ratios, tangents, signs, turns) -> bool:
         """Whether no output time is near a singular position nor past one (``_judge``'s two verdicts, for all
         output times at once); if so, the state ``_judge`` would leave: the closest ratio, the last step's null
@@ -1023,6 +1108,58 @@ class Guard:
                 "its velocities point along; singular_ratio=None runs on regardless"
             )
         self._tangent, self._t, self._sign = tangent, t, sign
+
+
+BRANCH_JUMP = 0.1
+"""Largest change of a body's velocity across a singular position beyond what its accelerations explain, as a
+fraction of the fastest body's speed there, that ``branch_verdict`` takes for the branch the motion came along
+(a switch stops or reverses a body: a change of the order of its speed)."""
+
+
+def branch_verdict(system: System, speeds: np.ndarray, h: float, before: tuple, after: tuple) -> tuple:
+    """Whether a motion through a singular position stayed on the branch it came along, from (q', q'') before
+    and after it, h apart: ('kept' | 'switched' | 'cannot tell', a figure in m/s, the body it names).
+
+    At a rank loss of Psi_q two branches of the constraint manifold meet (a parallelogram and its crossed or
+    folded form), with different tangents. The physical motion keeps the generalized velocity continuous: it
+    leaves along the tangent it came along, so each body's velocity changes by what its acceleration gives,
+
+        q'_after - q'_before = h (q''_before + q''_after) / 2 + O(h^3)      (the trapezoidal rule)
+
+    A branch switch turns the velocity onto the other tangent: it stops or reverses some body, a change of the
+    order of its speed that no acceleration at the two samples explains. So, per body, with every column in m/s
+    (``speeds``: angle rates times the mechanism's size L), the mismatch J = |q'_a - q'_b - h (q''_b + q''_a) / 2|,
+    the spread S = h |q''_a - q''_b| / 2 (what the trapezoidal rule cannot vouch for) and the speed V:
+
+    - 'cannot tell' when max S >= BRANCH_JUMP max V (samples too far apart for the motion, or a mechanism that
+      comes to rest at the singular position: then its accelerations decide the branch, not its velocities);
+    - 'switched' when max J > BRANCH_JUMP max V;
+    - 'kept' otherwise."""
+    per = system.coordinates_per_body
+    names = [b.name for b in system.model.bodies]
+
+    def per_body(x: np.ndarray) -> np.ndarray:
+        return np.linalg.norm(x.reshape(-1, per) * speeds, axis=1)
+
+    (qd0, qdd0), (qd1, qdd1) = before, after
+    jump = per_body(qd1 - qd0 - 0.5 * h * (qdd0 + qdd1))
+    spread = per_body(0.5 * h * (qdd1 - qdd0))
+    speed = np.maximum(per_body(qd0), per_body(qd1))
+    fastest = float(np.max(speed, initial=0.0))
+    if not np.max(spread, initial=0.0) < BRANCH_JUMP * fastest:
+        return "cannot tell", fastest, names[int(np.argmax(speed))]
+    k = int(np.argmax(jump))
+    return ("switched" if jump[k] > BRANCH_JUMP * fastest else "kept"), float(jump[k]), names[k]
+
+
+def dips(ratios: np.ndarray) -> np.ndarray:
+    """``diagnostics.passes_zero`` at every interior sample of a sequence of ratios at once (``check_branches``)."""
+    before, middle, after = ratios[:-2], ratios[1:-1], ratios[2:]
+    return (
+        (middle < NEAR_SINGULAR)
+        & (middle <= np.minimum(before, after))
+        & (middle < np.maximum(before - middle, after - middle))
+    )
 
 
 def body_positions(system: System, q: np.ndarray) -> np.ndarray:
