@@ -31,6 +31,7 @@ run is made again from the start with the one fallback plan: a formulation that 
 from __future__ import annotations
 
 import dataclasses
+import math
 import time as _time
 from dataclasses import dataclass
 
@@ -470,11 +471,14 @@ def integrate_motion(run: Run, plan: Plan, equations, guard: Guard, z0: np.ndarr
         if compiled is not None:
             return history, stats, compiled, chosen
 
+    filled = [0]  # output times stored so far
+
     def record(k: int, t: float, z: np.ndarray) -> None:
         y, energies = equations.split(z)
         q, qd = equations.formulation.coordinates(t, y)
         guard.check_drift(q, t)
         history.store(k, q, qd, *equations.formulation.accelerations(q, qd, t), energies)
+        filled[0] = k + 1
         if run.progress is not None:
             run.progress(float(t))
 
@@ -483,14 +487,18 @@ def integrate_motion(run: Run, plan: Plan, equations, guard: Guard, z0: np.ndarr
         guard.check_configuration(equations.formulation, t, equations.split(z if corrected is None else corrected)[0])
         return corrected
 
-    stats = integrate(
-        equations.rhs, z0, times, record, method=settings.integrator, rtol=settings.rtol, atol=settings.atol,
-        step=settings.step, after_step=after_step if guard.singular_ratio else equations.after_step,
-        max_evaluations=settings.max_evaluations, stiffness=settings.stiffness,
-    )  # fmt: skip
+    try:
+        stats = integrate(
+            equations.rhs, z0, times, record, method=settings.integrator, rtol=settings.rtol, atol=settings.atol,
+            step=settings.step, after_step=after_step if guard.singular_ratio else equations.after_step,
+            max_evaluations=settings.max_evaluations, stiffness=settings.stiffness,
+        )  # fmt: skip
+    except AnalysisError as err:  # a branch switch before the stop is its cause: said first, as the compiled run
+        k = filled[0]
+        guard.check_branches_before(err, times[:k], history.q[:k], history.qd[:k], history.qdd[:k])
+        raise
     if guard.singular_ratio and guard.rank:  # the branch at every singular position passed (as the compiled run's)
-        jacobians = np.array([run.system.jacobian(q, t) for q, t in zip(history.q, times, strict=True)])
-        guard.check_branches(times, history.q, history.qd, history.qdd, jacobians)
+        guard.check_branches(times, history.q, history.qd, history.qdd, guard.jacobians(times, history.q))
     return history, stats, None, chosen
 
 
@@ -504,13 +512,26 @@ def compiled_motion(settings: Settings, equations, guard, z0, times, history) ->
     scene, chosen = dispatch.choose(settings, equations, z0)
     if scene is None:
         return None, None, chosen
-    compiled, stats = dispatch.run(scene, z0, times, settings)
+    try:
+        compiled, stats = dispatch.run(scene, z0, times, settings)
+    except AnalysisError as err:  # a branch switch before the stop is its cause: said first, as the numpy run
+        partial = getattr(err, "partial", None)
+        if partial is not None:
+            k, n = int(np.searchsorted(times, partial.t, side="left")), equations.formulation.n
+            Y = partial.Y[:k]
+            guard.check_branches_before(err, times[:k], Y[:, :n], Y[:, n : 2 * n], partial.qdd[:k])
+        raise
     n = equations.formulation.n
     history.q, history.qd = compiled.Y[:, :n].copy(), compiled.Y[:, n : 2 * n].copy()
     history.qdd, history.lam, history.energies = compiled.qdd, compiled.lam, compiled.Y[:, 2 * n :]
     # the checks at the output times (the numpy engine: drift at output times, configuration after every
     # step), from Psi and Psi_q the compiled module gives for all of them at once
-    guard.check_outputs(times, history.q, compiled.psi, compiled.jac)
+    try:
+        guard.check_outputs(times, history.q, compiled.psi, compiled.jac)
+    except AnalysisError as err:  # a branch switch before the stop is its cause: said first, as the numpy run
+        k = int(np.searchsorted(times, guard.judged, side="left"))
+        guard.check_branches_before(err, times[:k], history.q[:k], history.qd[:k], history.qdd[:k])
+        raise
     guard.check_branches(times, history.q, history.qd, history.qdd, compiled.jac)
     return compiled, stats, chosen
 
@@ -889,6 +910,7 @@ class Guard:
         self.system, self.singular_ratio, self.through = system, singular_ratio, through
         self.crossings: list[dict] = []  # singular positions passed (with ``through``: the formulation passes them)
         self.warnings: list[str] = []  # crossings whose branch the velocities cannot decide (``check_branches``)
+        self.judged = 0.0  # the time of the last check
         self._last_ratios: tuple[float | None, float | None] = (None, None)
         self._last_q: tuple[np.ndarray, float] = (q, 0.0)
         self.size = size = mechanism_size(system, q) if size is None else size  # L, as the run's Plan has it
@@ -900,9 +922,7 @@ class Guard:
         columns = np.ones(per)
         columns[dim:] = 1.0 / size  # derivatives by an angle (Euler parameter) times its arc length, in 1/m
         self._columns = np.tile(columns, system.n_bodies)
-        speeds = np.ones(per)
-        speeds[dim:] = size if dim == 2 else 2.0 * size  # phi' L, or |omega| L = 2 |p'| L: every column in m/s
-        self._speeds = speeds
+        self._speeds = gyration_weights(system)
 
     def _scaled(self, jacobian: np.ndarray) -> np.ndarray:
         """Psi_q made free of units and size: derivatives by angles per arc length (divided by the mechanism's
@@ -929,6 +949,7 @@ class Guard:
         self._last_q = (q, float(t))
 
     def check_drift(self, q: np.ndarray, t: float) -> None:
+        self.judged = float(t)
         if self.drift_limit is None:
             return
         psi = self.system.constraints(q, t)
@@ -1013,12 +1034,33 @@ class Guard:
             for k in 1 + np.flatnonzero(flips):
                 if not any(a <= k - 1 and k <= b for a, _, b in intervals):  # not within a dip's interval
                     intervals.append((k - 1, k - 1 if ratios[k - 1] <= ratios[k] else k, k))
-        # a switch onto a branch that stays singular (a parallelogram folded flat: no dip) shows in the velocities
-        # of the step onto it: every step next to a singular position is judged too, but only a switch counts
+        # a fall into (or rise out of) a configuration that stays singular, e.g. a parallelogram folded flat onto
+        # itself, has no dip: a step over which the ratio changes a hundredfold below NEAR_SINGULAR is a crossing
+        low, high = np.minimum(ratios[:-1], ratios[1:]), np.maximum(ratios[:-1], ratios[1:])
+        for k in np.flatnonzero((low < NEAR_SINGULAR) & (low < FALL * high)):
+            if not any(a <= k and k + 1 <= b for a, _, b in intervals):
+                intervals.append((k, k if ratios[k] <= ratios[k + 1] else k + 1, k + 1))
+        # a switch between two regular branches shows in the velocities of the step onto the other: every step next
+        # to a singular position is judged too, but only a switch counts there
         near = np.flatnonzero((ratios[:-1] < NEAR_SINGULAR) | (ratios[1:] < NEAR_SINGULAR))
         steps = [(k, k if ratios[k] <= ratios[k + 1] else k + 1, k + 1) for k in near]
         for a, middle, b, crossing in sorted([(*i, True) for i in intervals] + [(*i, False) for i in steps]):
             self._judge_branch(t, q, qd, qdd, a, middle, b, float(ratios[middle]), crossing)
+
+    def jacobians(self, t: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """Psi_q at every output time (N, m, n), for ``check_branches``."""
+        return np.array([self.system.jacobian(q_k, t_k) for q_k, t_k in zip(q, t, strict=True)])
+
+    def check_branches_before(self, err: AnalysisError, t, q, qd, qdd) -> None:
+        """``check_branches`` over the output times a run stored before it stopped with ``err``: a branch switch
+        there is the first thing that went wrong (the motion on the wrong branch then meets what stopped it), so
+        its ``BranchSwitchError`` is raised instead, from ``err``; otherwise nothing (the caller raises ``err``)."""
+        if not self.singular_ratio or self.rank == 0 or len(t) < 2:
+            return
+        try:
+            self.check_branches(t, q, qd, qdd, self.jacobians(t, q))
+        except BranchSwitchError as switch:
+            raise switch from err
 
     def _judge_branch(self, t, q, qd, qdd, a: int, middle: int, b: int, ratio: float, crossing: bool) -> None:
         """``check_branches``' verdict on the crossing (or, not ``crossing``, the step next to a singular
@@ -1026,12 +1068,13 @@ class Guard:
         from .diagnostics import singular_joints
 
         verdict, figure, body = branch_verdict(
-            self.system, self._speeds, float(t[b] - t[a]), (qd[a], qdd[a]), (qd[b], qdd[b])
+            self._speeds, float(t[b] - t[a]), (qd[a], qdd[a]), (qd[b], qdd[b]), self.system.model.bodies
         )
         if not crossing and verdict != "switched":
             return
         _, joints = singular_joints(self.system.jacobian(q[middle], t[middle]), self.system.row_owners)
-        known = [c for c in self.crossings if t[a] <= c["t"] <= t[b]]  # recorded step by step (``through``)
+        near = t[max(a - 1, 0)], t[min(b + 1, t.size - 1)]  # a crossing recorded step by step (``through``)
+        known = [c for c in self.crossings if near[0] <= c["t"] <= near[1]]
         passed = known[0] if known else {"t": float(t[middle]), "ratio": ratio, "joints": joints}
         passed["branch"] = verdict
         if not known:
@@ -1042,12 +1085,19 @@ class Guard:
             f"judged from t = {t[a]:.6g} s to t = {t[b]:.6g} s)"
         )
         if verdict == "switched":
+            undecided = [f"{c['t']:.6g}" for c in self.crossings if c.get("branch") == "cannot tell"]
+            earlier = (
+                f" (the crossings before it, at t = {', '.join(undecided)} s, could not be judged: it may have "
+                "left there already)"
+                if undecided
+                else ""
+            )
             raise BranchSwitchError(
                 f"branch switch at {where}: the velocity of {body} changed by {figure:.3g} m/s more than its "
                 "acceleration explains, where the physical motion keeps every velocity continuous: the run left "
                 "the assembly branch it came along (e.g. a parallelogram folding or crossing over) and its result "
-                "past there is wrong; --formulation augmented-lagrangian (or auto) carries the motion through on "
-                "its branch; or try a tighter --rtol"
+                f"past there is wrong{earlier}; --formulation augmented-lagrangian (or auto) carries the motion "
+                "through on its branch; or try a tighter --rtol, more output --steps"
             )
         if verdict == "cannot tell":
             self.warnings.append(
@@ -1080,6 +1130,7 @@ class Guard:
     ) -> None:
         """The verdict of ``check_configuration`` from sigma_r / sigma_1, the null-space basis T, the sign of
         det [Psi_q; T^T] and, if known, the turn det(T_prev^T T) of the null space since the last check."""
+        self.judged = float(t)  # the time of the check, of a stop too (``check_branches_before``)
         if self.closest is None or ratio < self.closest["ratio"]:
             self.closest = {"t": float(t), "ratio": ratio}
         passed = False
@@ -1111,45 +1162,66 @@ class Guard:
 
 
 BRANCH_JUMP = 0.1
-"""Largest change of a body's velocity across a singular position beyond what its accelerations explain, as a
+"""Largest change of a body's velocity across a singular position beyond what its accelerations allow, as a
 fraction of the fastest body's speed there, that ``branch_verdict`` takes for the branch the motion came along
 (a switch stops or reverses a body: a change of the order of its speed)."""
+FALL = 0.01
+"""``Guard.check_branches`` takes a step over which sigma_r / sigma_1 changes by more than 1 / FALL below
+NEAR_SINGULAR for a crossing (into or out of a configuration that stays singular: no dip to see)."""
+BRANCH_BLIND = 0.25
+"""``branch_verdict`` cannot tell when the accelerations at the two samples allow a change of velocity over the
+interval of this fraction of the fastest body's speed (samples too far apart, or a body nearly at rest)."""
 
 
-def branch_verdict(system: System, speeds: np.ndarray, h: float, before: tuple, after: tuple) -> tuple:
-    """Whether a motion through a singular position stayed on the branch it came along, from (q', q'') before
-    and after it, h apart: ('kept' | 'switched' | 'cannot tell', a figure in m/s, the body it names).
+def gyration_weights(system: System) -> np.ndarray:
+    """Weights that make every velocity coordinate of a body a speed in m/s: 1 for its centre's, its radius of
+    gyration rho = sqrt(J / m) for phi' (planar), 2 rho for the Euler parameters' rates (|omega| = 2 |p'|;
+    J the mean principal moment); so |weights * q'| of a body is sqrt(2 T / m), T its kinetic energy."""
+    per, dim = system.coordinates_per_body, system.model.dimension
+    weights = np.ones((system.n_bodies, per))
+    for k, body in enumerate(system.model.bodies):
+        inertia = np.asarray(body.inertia if body.inertia is not None else 0.0, dtype=float)
+        moment = float(np.trace(inertia) / 3.0 if inertia.ndim == 2 else np.mean(inertia))
+        radius = math.sqrt(moment / body.mass) if body.mass and moment > 0 else 0.0
+        weights[k, dim:] = radius if dim == 2 else 2.0 * radius
+    return weights
+
+
+def branch_verdict(weights: np.ndarray, h: float, before: tuple, after: tuple, bodies) -> tuple:
+    """Whether a motion through a singular position stayed on the branch it came along, from (q', q'') at two
+    samples h apart on either side of it: ('kept' | 'switched' | 'cannot tell', a figure in m/s, a body's name).
 
     At a rank loss of Psi_q two branches of the constraint manifold meet (a parallelogram and its crossed or
-    folded form), with different tangents. The physical motion keeps the generalized velocity continuous: it
-    leaves along the tangent it came along, so each body's velocity changes by what its acceleration gives,
+    folded form) with different tangents. The physical motion keeps the generalized velocity continuous: it
+    leaves along the tangent it came along, and each body's velocity changes by what its acceleration gives,
 
-        q'_after - q'_before = h (q''_before + q''_after) / 2 + O(h^3)      (the trapezoidal rule)
+        q'_after - q'_before = h (q''_before + q''_after) / 2 + e,   |e| <= h max |q'' - (q''_before + q''_after) / 2|
 
-    A branch switch turns the velocity onto the other tangent: it stops or reverses some body, a change of the
-    order of its speed that no acceleration at the two samples explains. So, per body, with every column in m/s
-    (``speeds``: angle rates times the mechanism's size L), the mismatch J = |q'_a - q'_b - h (q''_b + q''_a) / 2|,
-    the spread S = h |q''_a - q''_b| / 2 (what the trapezoidal rule cannot vouch for) and the speed V:
+    A branch switch turns the velocity onto the other tangent: it stops or reverses a body, a change of the order
+    of its speed that the accelerations do not give. Per body, every coordinate a speed (``gyration_weights``):
+    the mismatch J = |q'_a - q'_b - h (q''_b + q''_a) / 2|, the allowance R = h max(|q''_b|, |q''_a|) (the most
+    the accelerations can change the velocity, if they do not peak in between) and the speed V:
 
-    - 'cannot tell' when max S >= BRANCH_JUMP max V (samples too far apart for the motion, or a mechanism that
-      comes to rest at the singular position: then its accelerations decide the branch, not its velocities);
-    - 'switched' when max J > BRANCH_JUMP max V;
-    - 'kept' otherwise."""
-    per = system.coordinates_per_body
-    names = [b.name for b in system.model.bodies]
+    - 'switched' when max (J - R) > BRANCH_JUMP max V, the samples close enough that the accelerations change the
+      velocities by less than their size (max R < max V: they cannot peak far above their values at the samples);
+    - else 'cannot tell' when max R >= BRANCH_BLIND max V (samples too far apart for the motion, or a mechanism
+      that comes to rest at the singular position: then its accelerations decide the branch, not its velocities);
+    - else 'kept'."""
 
     def per_body(x: np.ndarray) -> np.ndarray:
-        return np.linalg.norm(x.reshape(-1, per) * speeds, axis=1)
+        return np.linalg.norm(x.reshape(weights.shape) * weights, axis=1)
 
     (qd0, qdd0), (qd1, qdd1) = before, after
-    jump = per_body(qd1 - qd0 - 0.5 * h * (qdd0 + qdd1))
-    spread = per_body(0.5 * h * (qdd1 - qdd0))
+    mismatch = per_body(qd1 - qd0 - 0.5 * h * (qdd0 + qdd1))
+    allowance = h * np.maximum(per_body(qdd0), per_body(qdd1))
     speed = np.maximum(per_body(qd0), per_body(qd1))
     fastest = float(np.max(speed, initial=0.0))
-    if not np.max(spread, initial=0.0) < BRANCH_JUMP * fastest:
-        return "cannot tell", fastest, names[int(np.argmax(speed))]
-    k = int(np.argmax(jump))
-    return ("switched" if jump[k] > BRANCH_JUMP * fastest else "kept"), float(jump[k]), names[k]
+    k = int(np.argmax(mismatch - allowance))
+    if mismatch[k] - allowance[k] > BRANCH_JUMP * fastest and np.max(allowance) < fastest:
+        return "switched", float(mismatch[k]), bodies[k].name
+    if not np.max(allowance, initial=0.0) < BRANCH_BLIND * fastest:
+        return "cannot tell", fastest, bodies[int(np.argmax(speed))].name
+    return "kept", float(mismatch[k]), bodies[k].name
 
 
 def dips(ratios: np.ndarray) -> np.ndarray:

@@ -181,7 +181,20 @@ def run(job, z0: np.ndarray, times: np.ndarray, settings: Settings):
 
     integrator, max_evaluations = settings.integrator, settings.max_evaluations
     out = compiled_run(job, z0, times, integrator, settings.rtol, settings.atol, settings.step, max_evaluations)
-    span = times[-1] - times[0]
+    try:
+        stats = _stopped(out, integrator, max_evaluations, times[-1] - times[0])
+    except AnalysisError as err:
+        err.partial = out  # its output times before out.t are filled: ``dynamics.compiled_motion`` checks them
+        raise
+    if job.formulation == "projection":
+        job.formulation_object.projections = out.steps
+        if integrator != "rk4":
+            stats.restarts = out.steps - (1 if integrator in ("DOP853", "RK45") else 0)
+    return out, stats
+
+
+def _stopped(out, integrator: str, max_evaluations, span: float) -> IntegrationStats:
+    """The run's statistics; raises for a run that stopped early, as the numpy engine does."""
     if out.status == 1:
         raise AnalysisError(
             f"integrator {integrator} at t = {out.t:.6g} s: the step size fell to {out.h:.3g} s, below 1e-12 of the "
@@ -201,12 +214,7 @@ def run(job, z0: np.ndarray, times: np.ndarray, settings: Settings):
         )
     if out.status == 4:
         raise AnalysisError(f"position projection did not converge at t = {out.t:.6g} s (residual {out.h:.3g})")
-    stats = IntegrationStats(integrator, rhs_evaluations=out.evaluations, steps=out.steps, rejected=out.rejected)
-    if job.formulation == "projection":
-        job.formulation_object.projections = out.steps
-        if integrator != "rk4":
-            stats.restarts = out.steps - (1 if integrator in ("DOP853", "RK45") else 0)
-    return out, stats
+    return IntegrationStats(integrator, rhs_evaluations=out.evaluations, steps=out.steps, rejected=out.rejected)
 
 
 __all__ = ["COMPILE_SECONDS", "ENGINES", "LOAD_SECONDS", "choose", "estimated_numpy_seconds", "run", "start_rates"]
