@@ -909,7 +909,6 @@ class Guard:
     ):
         self.system, self.singular_ratio, self.through = system, singular_ratio, through
         self.crossings: list[dict] = []  # singular positions passed (with ``through``: the formulation passes them)
-        self.warnings: list[str] = []  # crossings whose branch the velocities cannot decide (``check_branches``)
         self.judged = 0.0  # the time of the last check
         self._last_ratios: tuple[float | None, float | None] = (None, None)
         self._last_q: tuple[np.ndarray, float] = (q, 0.0)
@@ -1016,10 +1015,15 @@ class Guard:
         (``branch_verdict``), from q, q', q'' and Psi_q (N, m, n) there: the same check on both engines, on the
         same samples. A crossing is a dip of sigma_r / sigma_1 to zero around t[k] (``diagnostics.passes_zero``:
         any rank loss, even one per loop of a chain of parallelograms, which keeps the sign of det [Psi_q; T^T]),
-        judged from t[k-1] to t[k+1]; or a flip of that sign between t[k-1] and t[k] (an odd rank loss), judged
-        there. Each is listed in ``crossings`` with its verdict ('branch'); a switch stops the run
-        (``BranchSwitchError``), a crossing the velocities cannot decide is a warning (``warnings``)."""
+        judged from t[k-1] to t[k+1]; a flip of that sign between t[k-1] and t[k] (an odd rank loss), or a fall
+        of the ratio by more than 1 / FALL into a configuration that stays singular (no dip), judged there. Each is
+        listed in ``crossings`` with its verdict ('branch'); a switch stops the run (``BranchSwitchError``), a
+        crossing the velocities cannot decide is a warning (``warnings``). Every other step with a ratio below
+        NEAR_SINGULAR is judged too, a switch alone counting. A run that never came near a singular position
+        (``closest``, what the checks before saw) has nothing to judge."""
         if not self.singular_ratio or self.rank == 0 or t.size < 2:
+            return
+        if self.closest is not None and self.closest["ratio"] >= NEAR_SINGULAR:
             return
         weighted = jacobians * self._columns
         norms = np.linalg.norm(weighted, axis=2, keepdims=True)
@@ -1046,6 +1050,20 @@ class Guard:
         steps = [(k, k if ratios[k] <= ratios[k + 1] else k + 1, k + 1) for k in near]
         for a, middle, b, crossing in sorted([(*i, True) for i in intervals] + [(*i, False) for i in steps]):
             self._judge_branch(t, q, qd, qdd, a, middle, b, float(ratios[middle]), crossing)
+
+    @property
+    def warnings(self) -> list[str]:
+        """One line naming the singular positions passed whose branch ``check_branches`` could not judge."""
+        undecided = [f"{c['t']:.6g}" for c in self.crossings if c.get("branch") == "cannot tell"]
+        if not undecided:
+            return []
+        return [
+            f"branch: cannot tell whether the motion stayed on its assembly branch at the singular position(s) "
+            f"near t = {', '.join(undecided)} s: the output times around them are too far apart for the motion "
+            "(its velocities change there by as much as a switch would), or it comes to rest there (then its "
+            "accelerations decide the branch); check the result past them, e.g. against --formulation "
+            "augmented-lagrangian, or ask more output --steps"
+        ]
 
     def jacobians(self, t: np.ndarray, q: np.ndarray) -> np.ndarray:
         """Psi_q at every output time (N, m, n), for ``check_branches``."""
@@ -1098,13 +1116,6 @@ class Guard:
                 "the assembly branch it came along (e.g. a parallelogram folding or crossing over) and its result "
                 f"past there is wrong{earlier}; --formulation augmented-lagrangian (or auto) carries the motion "
                 "through on its branch; or try a tighter --rtol, more output --steps"
-            )
-        if verdict == "cannot tell":
-            self.warnings.append(
-                f"branch: cannot tell whether the motion stayed on its assembly branch at {where}: the speed "
-                f"there ({figure:.3g} m/s, {body}) is small against its change between those output times "
-                "(a mechanism that comes to rest at a singular position is decided by its accelerations); check "
-                "the result past it, e.g. against --formulation augmented-lagrangian, or ask more output --steps"
             )
 
     def _quiet(self, t, ratios, tangents, signs, turns) -> bool:
