@@ -16,7 +16,8 @@ A run (course notes, chapter 6):
 
 4. **Guards.** No run returns a wrong answer silently: the integrators stop on their evaluation
    budget and report stiffness (``integrators.py``); ``Guard`` stops a run whose positions leave the
-   constraints or that passes a singular configuration, each with the time and the condition.
+   constraints, that passes a singular configuration, or that leaves the assembly branch it came along
+   there (its velocities jump), each with the time and the condition.
 
 The mass matrix is built once and the force loop is skipped for a scene with gravity only.
 ``formulation="auto"`` and ``integrator="auto"`` pick the cheapest adequate method (``choose_method``).
@@ -880,7 +881,7 @@ def null_space_bases(jacobians: np.ndarray, signs: bool = False):
 
 
 class Guard:
-    """Keeps a run from returning a wrong answer silently (two checks, each with the time and the condition):
+    """Keeps a run from returning a wrong answer silently (three checks, each with the time and the condition):
 
     - constraint drift: at every output time, how far q is off each constraint, |Psi_i| / |grad Psi_i| (with
       angles measured as arc lengths L phi, so every row gives metres), must stay below drift_limit L, with
@@ -896,7 +897,13 @@ class Guard:
       sigma_r / sigma_1 of Psi_q falls below singular_ratio (r the rank at the start, so redundant
       constraints do not count; angle columns divided by the mechanism's size and rows to unit length,
       so the ratio does not depend on units).
-    The smallest ratio met is reported (``info['closest_singularity']``).
+    - branch switches (``check_branches``, on both engines at the output times): at every singular position a
+      run passes (even rank losses too: one per loop of a chain of parallelograms, which keep the sign of det),
+      the velocities must change by what the accelerations give (``branch_verdict``), as the physical motion's
+      do; a jump means the run left the branch it came along and stops it; a crossing the output times are
+      too coarse to judge is a warning.
+    The smallest ratio met is reported (``info['closest_singularity']``), the crossings judged with their
+    verdicts (``info['singular_positions']``, 'branch').
     """
 
     def __init__(
