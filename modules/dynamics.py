@@ -1090,12 +1090,16 @@ class Guard:
 
     def _judge_branch(self, t, q, qd, qdd, a: int, middle: int, b: int, ratio: float, crossing: bool) -> None:
         """``check_branches``' verdict on the crossing (or, not ``crossing``, the step next to a singular
-        position) near t[middle], from the samples a and b on either side."""
+        position) near t[middle], between the samples a and b on either side: step by step (a dip's two steps
+        each, the shorter the interval the surer the verdict), switched if one step is, kept if every one is."""
         from .diagnostics import singular_joints
 
-        verdict, figure, body = branch_verdict(
-            self._speeds, float(t[b] - t[a]), (qd[a], qdd[a]), (qd[b], qdd[b]), self.system.model.bodies
-        )
+        verdicts = [
+            branch_verdict(self._speeds, float(t[j] - t[i]), (qd[i], qdd[i]), (qd[j], qdd[j]), self.system.model.bodies)
+            for i, j in ((a, middle), (middle, b)) if i < j
+        ]  # fmt: skip
+        judged = {v[0]: v for v in verdicts}
+        verdict, figure, body = judged.get("switched") or judged.get("cannot tell") or verdicts[0]
         if not crossing and verdict != "switched":
             return
         _, joints = singular_joints(self.system.jacobian(q[middle], t[middle]), self.system.row_owners)
