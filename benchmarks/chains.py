@@ -97,21 +97,35 @@ def spatial_chain(n: int, turn: float = math.radians(30.0)) -> dict:
                       "bodies": bodies, "joints": joints}}  # fmt: skip
 
 
-def loop_chain(n: int, angle: float = math.radians(60.0)) -> dict:
-    """N parallelogram four-bars in a row: cranks c0..cN from ground pivots (k L, 0), couplers k0..k(N-1)."""
+def loop_chain(n: int, angle: float = math.radians(60.0), rate: float = 0.0, frames: str = "centre") -> dict:
+    """N parallelogram four-bars in a row: cranks c0..cN from ground pivots (k L, 0), couplers k0..k(N-1).
+
+    ``rate``: the cranks' starting angular velocity (rad/s; fast enough, the chain swings through the flat,
+    singular position). ``frames``: "centre" places each body's frame at its centre of mass; "joint" at its
+    first joint (a crank at its pivot, a coupler at its left pin) with the centre given as ``com`` in that frame,
+    as engineers write bodies (then a body's velocity is that of its frame's origin)."""
     crank = np.array([math.sin(angle), -math.cos(angle)])  # from the pivot to the tip
+    turn = np.array([-crank[1], crank[0]])  # crank turned +90 degrees: a tip's velocity is rate L turn
     phi = math.atan2(crank[1], crank[0])
+    joint = frames == "joint"
     bodies, joints = [], []
     for k in range(n + 1):
         pivot = np.array([k * LENGTH, 0.0])
-        bodies.append({"name": f"c{k}", "mass": MASS, "inertia": INERTIA,
-                       "location": (pivot + 0.5 * LENGTH * crank).tolist(), "orientation": phi})  # fmt: skip
+        frame = pivot if joint else pivot + 0.5 * LENGTH * crank
+        bodies.append({"name": f"c{k}", "mass": MASS, "inertia": INERTIA, "location": frame.tolist(),
+                       "orientation": phi, "angular_velocity": rate,
+                       "velocity": (rate * (frame - pivot) @ crank * turn).tolist()})  # fmt: skip
+        if joint:
+            bodies[-1]["com"] = [0.5 * LENGTH, 0.0]
         joints.append({"name": f"o{k}", "type": "revolute", "body1": "ground", "body2": f"c{k}",
                        "location": pivot.tolist()})  # fmt: skip
     for k in range(n):
         tip = np.array([k * LENGTH, 0.0]) + LENGTH * crank
-        bodies.append({"name": f"k{k}", "mass": MASS, "inertia": INERTIA,
-                       "location": (tip + [0.5 * LENGTH, 0.0]).tolist(), "orientation": 0.0})  # fmt: skip
+        frame = tip if joint else tip + [0.5 * LENGTH, 0.0]
+        bodies.append({"name": f"k{k}", "mass": MASS, "inertia": INERTIA, "location": frame.tolist(),
+                       "orientation": 0.0, "velocity": (rate * LENGTH * turn).tolist()})  # fmt: skip
+        if joint:
+            bodies[-1]["com"] = [0.5 * LENGTH, 0.0]
         joints.append({"name": f"a{k}", "type": "revolute", "body1": f"c{k}", "body2": f"k{k}",
                        "location": tip.tolist()})  # fmt: skip
         joints.append({"name": f"b{k}", "type": "revolute", "body1": f"k{k}", "body2": f"c{k + 1}",
@@ -147,17 +161,18 @@ def planar_reference(n: int, times: np.ndarray, angle: float = math.radians(45.0
     return np.cumsum(links, axis=1) - 0.5 * links
 
 
-def loop_reference(n: int, times: np.ndarray, angle: float = math.radians(60.0)) -> np.ndarray:
+def loop_reference(n: int, times: np.ndarray, angle: float = math.radians(60.0), rate: float = 0.0) -> np.ndarray:
     """Body centres (len(times), 2n + 1, 2), cranks then couplers, from the chain's one equation in the crank
-    angle t: the cranks turn about their pivots, the couplers translate with the cranks' tips, so
-    T = ((n + 1) J_O + n m l^2) t'^2 / 2 and V = ((n + 1) m l / 2 + n m l) g sin t, J_O = J + m l^2 / 4."""
+    angle t (starting at ``rate``): the cranks turn about their pivots, the couplers translate with the cranks'
+    tips, so T = ((n + 1) J_O + n m l^2) t'^2 / 2 and V = ((n + 1) m l / 2 + n m l) g sin t, J_O = J + m l^2 / 4.
+    The parallelogram branch throughout, through every flat position (t = k pi)."""
     inertia = (n + 1) * (INERTIA + MASS * LENGTH**2 / 4.0) + n * MASS * LENGTH**2
     weight = ((n + 1) * MASS * LENGTH / 2.0 + n * MASS * LENGTH) * GRAVITY
 
     def f(t, y):
         return [y[1], -weight * math.cos(y[0]) / inertia]
 
-    theta = _tight(f, np.array([math.atan2(-math.cos(angle), math.sin(angle)), 0.0]), times)[:, 0]
+    theta = _tight(f, np.array([math.atan2(-math.cos(angle), math.sin(angle)), rate]), times)[:, 0]
     tip = LENGTH * np.stack([np.cos(theta), np.sin(theta)], axis=-1)  # (T, 2)
     pivots = LENGTH * np.arange(n + 1)
     cranks = np.stack([pivots[None, :] + 0.5 * tip[:, :1], np.broadcast_to(0.5 * tip[:, 1:], (len(times), n + 1))], -1)

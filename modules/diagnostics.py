@@ -50,6 +50,11 @@ class SingularConfigurationError(AnalysisError):
         self.t = t
 
 
+class BranchSwitchError(SingularConfigurationError):
+    """A run left a singular position on another branch than the one it came along (``dynamics.branch_verdict``):
+    its velocities jumped there, where the physical motion keeps them continuous."""
+
+
 @dataclass
 class RankReport:
     """What the SVD of Psi_q says about a configuration."""

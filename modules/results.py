@@ -73,6 +73,8 @@ class DynamicInfo(Info, total=False):
     stiffness: str | None
     closest_singularity: dict | None
     singular_positions: list[dict]
+    """Each singular position passed (t, ratio, joints) and the branch the motion took there ('branch': 'kept', or
+    'cannot tell' when the output times are too coarse to judge: ``dynamics.Guard.check_branches``)."""
     max_velocity_residual: float
     energy_drift: float
     energy_drift_relative: float

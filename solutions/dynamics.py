@@ -17,7 +17,8 @@ A run (course notes, chapter 6):
 
 4. **Guards.** No run returns a wrong answer silently: the integrators stop on their evaluation
    budget and report stiffness (``integrators.py``); ``Guard`` stops a run whose positions leave the
-   constraints or that passes a singular configuration, each with the time and the condition.
+   constraints, that passes a singular configuration, or that leaves the assembly branch it came along
+   there (its velocities jump), each with the time and the condition.
 
 The mass matrix is built once and the force loop is skipped for a scene with gravity only.
 ``formulation="auto"`` and ``integrator="auto"`` pick the cheapest adequate method (``choose_method``).
@@ -36,6 +37,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import math
 import re
 import time as _time
 from dataclasses import dataclass
@@ -46,6 +48,7 @@ from .assembly import System
 from .diagnostics import (
     NEAR_SINGULAR,
     AnalysisError,
+    BranchSwitchError,
     SingularConfigurationError,
     passes_zero,
     rank_report,
@@ -505,6 +508,7 @@ def run_plan(run: Run, formulation: str, integrator: str) -> Result:
     result.info["warnings"] += raised + accuracy_warnings(
         result.info, guard.size, settings.accuracy, plan.periods, speed, held
     )
+    result.info["warnings"] += guard.warnings
     if not plan.rtol_given and plan.periods is not None:
         result.info["rtol_rule"] = (
             f"rtol = max({MIN_RTOL:g}, min({DEFAULT_RTOL:g}, accuracy / periods^2)) with {plan.periods:.3g} periods"
@@ -621,19 +625,29 @@ def integrate_motion(run: Run, plan: Plan, equations, guard: Guard, z0: np.ndarr
         if compiled is not None:
             return history, stats, compiled, chosen
 
+    filled = [0]  # output times stored so far
+
     def record(k: int, t: float, z: np.ndarray) -> None:
         y, energies = equations.split(z)
         q, qd = equations.formulation.coordinates(t, y)
         guard.check_drift(q, t)
         history.store(k, q, qd, *equations.formulation.accelerations(q, qd, t), energies)
+        filled[0] = k + 1
         if run.progress is not None:
             run.progress(float(t))
 
-    stats = integrate(
-        equations.rhs, z0, times, record, method=settings.integrator, rtol=settings.rtol, atol=settings.atol,
-        step=settings.step, after_step=guarded_after_step(equations, guard),
-        max_evaluations=settings.max_evaluations, stiffness=settings.stiffness,
-    )  # fmt: skip
+    try:
+        stats = integrate(
+            equations.rhs, z0, times, record, method=settings.integrator, rtol=settings.rtol, atol=settings.atol,
+            step=settings.step, after_step=guarded_after_step(equations, guard),
+            max_evaluations=settings.max_evaluations, stiffness=settings.stiffness,
+        )  # fmt: skip
+    except AnalysisError as err:  # a branch switch before the stop is its cause: said first, as the compiled run
+        k = filled[0]
+        guard.check_branches_before(err, times[:k], history.q[:k], history.qd[:k], history.qdd[:k])
+        raise
+    if guard.singular_ratio and guard.rank:  # the branch at every singular position passed (as the compiled run's)
+        guard.check_branches(times, history.q, history.qd, history.qdd, guard.jacobians(times, history.q))
     return history, stats, None, chosen
 
 
@@ -669,14 +683,25 @@ def compiled_motion(settings: Settings, equations, guard, z0, times, history) ->
     pauses = copy.copy(guard)  # the checks between steps, in time order, apart from those of the output times
     compiled, stats = dispatch.run(scene, z0, times, settings, on_pause=lambda *state: judge_pause(pauses, *state))
     n = equations.formulation.n
+    Y, k = compiled.Y, compiled.reached
     stopped = dispatch.stop(compiled, stats, settings, times[-1] - times[0])
     if stopped is not None:  # the numpy engine's Guard saw every step up to the stop: this one sees where it stopped
-        judge_stop(guard, compiled, times, n)
+        try:
+            judge_stop(guard, compiled, times, n)
+        except AnalysisError as err:  # a branch switch before the stop is its cause: said first, as the numpy run
+            guard.check_branches_before(err, times[:k], Y[:k, :n], Y[:k, n : 2 * n], compiled.qdd[:k])
+            raise
+        guard.check_branches_before(stopped, times[:k], Y[:k, :n], Y[:k, n : 2 * n], compiled.qdd[:k])
         raise stopped
     # the checks at the output times (the numpy engine: drift at output times, configuration after every
     # step), from Psi and Psi_q the compiled module gives for all of them at once
     judged = copy.copy(guard)
-    judged.check_outputs(times, compiled.Y[:, :n], compiled.psi, compiled.jac)
+    try:
+        judged.check_outputs(times, Y[:, :n], compiled.psi, compiled.jac)
+    except AnalysisError as err:  # a branch switch before the stop is its cause: said first, as the numpy run
+        k = int(np.searchsorted(times, judged.judged, side="left"))
+        guard.check_branches_before(err, times[:k], Y[:k, :n], Y[:k, n : 2 * n], compiled.qdd[:k])
+        raise
     near = judged.closest is not None and judged.closest["ratio"] < NEAR_SINGULAR  # else no output time dips
     dip = singular_dip(guard, times, compiled.jac) if near and not guard.through else None
     if dip is not None:  # it passed one between output times, unseen: the numpy engine's verdict
@@ -686,8 +711,9 @@ def compiled_motion(settings: Settings, equations, guard, z0, times, history) ->
         )
         return None, None, {**chosen, "engine": "numpy", "engine_why": why}
     guard.__dict__.update(judged.__dict__)
-    history.q, history.qd = compiled.Y[:, :n].copy(), compiled.Y[:, n : 2 * n].copy()
-    history.qdd, history.lam, history.energies = compiled.qdd, compiled.lam, compiled.Y[:, 2 * n :]
+    history.q, history.qd = Y[:, :n].copy(), Y[:, n : 2 * n].copy()
+    history.qdd, history.lam, history.energies = compiled.qdd, compiled.lam, Y[:, 2 * n :]
+    guard.check_branches(times, history.q, history.qd, history.qdd, compiled.jac)
     return compiled, stats, chosen
 
 
@@ -1178,7 +1204,7 @@ def square_spectra(scaled: np.ndarray, before: np.ndarray | None) -> tuple[np.nd
 
 
 class Guard:
-    """Keeps a run from returning a wrong answer silently (two checks, each with the time and the condition):
+    """Keeps a run from returning a wrong answer silently (three checks, each with the time and the condition):
 
     - constraint drift: at every output time, how far q is off each constraint, |Psi_i| / |grad Psi_i| (with
       angles measured as arc lengths L phi, so every row gives metres), must stay below drift_limit L, with
@@ -1194,7 +1220,13 @@ class Guard:
       sigma_r / sigma_1 of Psi_q falls below singular_ratio (r the rank at the start, so redundant
       constraints do not count; angle columns divided by the mechanism's size and rows to unit length,
       so the ratio does not depend on units).
-    The smallest ratio met is reported (``info['closest_singularity']``).
+    - branch switches (``check_branches``, on both engines at the output times): at every singular position a
+      run passes (even rank losses too: one per loop of a chain of parallelograms, which keep the sign of det),
+      the velocities must change by what the accelerations give (``branch_verdict``), as the physical motion's
+      do; a jump means the run left the branch it came along and stops it; a crossing the output times are
+      too coarse to judge is a warning.
+    The smallest ratio met is reported (``info['closest_singularity']``), the crossings judged with their
+    verdicts (``info['singular_positions']``, 'branch').
     """
 
     def __init__(
@@ -1208,6 +1240,7 @@ class Guard:
     ):
         self.system, self.singular_ratio, self.through = system, singular_ratio, through
         self.crossings: list[dict] = []  # singular positions passed (with ``through``: the formulation passes them)
+        self.judged = 0.0  # the time of the last check
         self._last_ratios: tuple[float | None, float | None] = (None, None)
         self._last_q: tuple[np.ndarray, float] = (q, 0.0)
         self.size = size = mechanism_size(system, q) if size is None else size  # L, as the run's Plan has it
@@ -1219,6 +1252,7 @@ class Guard:
         columns = np.ones(per)
         columns[dim:] = 1.0 / size  # derivatives by an angle (Euler parameter) times its arc length, in 1/m
         self._columns = np.tile(columns, system.n_bodies)
+        self._speeds = gyration_weights(system)
 
     def _scaled(self, jacobian: np.ndarray) -> np.ndarray:
         """Psi_q made free of units and size: derivatives by angles per arc length (divided by the mechanism's
@@ -1245,6 +1279,7 @@ class Guard:
         self._last_q = (q, float(t))
 
     def check_drift(self, q: np.ndarray, t: float) -> None:
+        self.judged = float(t)
         if self.drift_limit is None:
             return
         psi = self.system.constraints(q, t)
@@ -1306,6 +1341,120 @@ class Guard:
             turn = None if k == 0 else turns[k - 1]
             self._judge(q[k], float(t[k]), float(ratios[k]), tangents[k], sign, turn)
 
+    def check_branches(
+        self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, jacobians: np.ndarray
+    ) -> None:
+        """The branch the motion took at every singular position it passed between output times t[k] of a run
+        (``branch_verdict``), from q, q', q'' and Psi_q (N, m, n) there: the same check on both engines, on the
+        same samples. A crossing is a dip of sigma_r / sigma_1 to zero around t[k] (``diagnostics.passes_zero``:
+        any rank loss, even one per loop of a chain of parallelograms, which keeps the sign of det [Psi_q; T^T]),
+        judged from t[k-1] to t[k+1]; a flip of that sign between t[k-1] and t[k] (an odd rank loss), or a fall
+        of the ratio by more than 1 / FALL into a configuration that stays singular (no dip), judged there. Each is
+        listed in ``crossings`` with its verdict ('branch'); a switch stops the run (``BranchSwitchError``), a
+        crossing the velocities cannot decide is a warning (``warnings``). Every other step with a ratio below
+        NEAR_SINGULAR is judged too, a switch alone counting. A run that never came near a singular position
+        (``closest``, what the checks before saw) has nothing to judge."""
+        if not self.singular_ratio or self.rank == 0 or t.size < 2:
+            return
+        if self.closest is not None and self.closest["ratio"] >= NEAR_SINGULAR:
+            return
+        weighted = jacobians * self._columns
+        norms = np.linalg.norm(weighted, axis=2, keepdims=True)
+        scaled = weighted / np.where(norms > 0, norms, 1.0)
+        s = np.linalg.svd(scaled, compute_uv=False)
+        ratios = np.where(s[:, 0] > 0, s[:, self.rank - 1] / np.where(s[:, 0] > 0, s[:, 0], 1.0), 0.0)
+        intervals = [(k - 1, k, k + 1) for k in 1 + np.flatnonzero(dips(ratios))]
+        if scaled.shape[1] == self.rank == self.system.n_constraints:  # det [Psi_q; T^T] defined: its sign flips
+            tangents, signs = null_space_bases(scaled, signs=True)
+            turns = np.linalg.det(np.swapaxes(tangents[:-1], 1, 2) @ tangents[1:])
+            flips = (np.abs(turns) > ALIGNED) & (turns * signs[1:] * signs[:-1] < 0)
+            for k in 1 + np.flatnonzero(flips):
+                if not any(a <= k - 1 and k <= b for a, _, b in intervals):  # not within a dip's interval
+                    intervals.append((k - 1, k - 1 if ratios[k - 1] <= ratios[k] else k, k))
+        # a fall into (or rise out of) a configuration that stays singular, e.g. a parallelogram folded flat onto
+        # itself, has no dip: a step over which the ratio changes a hundredfold below NEAR_SINGULAR is a crossing
+        low, high = np.minimum(ratios[:-1], ratios[1:]), np.maximum(ratios[:-1], ratios[1:])
+        for k in np.flatnonzero((low < NEAR_SINGULAR) & (low < FALL * high)):
+            if not any(a <= k and k + 1 <= b for a, _, b in intervals):
+                intervals.append((k, k if ratios[k] <= ratios[k + 1] else k + 1, k + 1))
+        # a switch between two regular branches shows in the velocities of the step onto the other: every step next
+        # to a singular position is judged too, but only a switch counts there
+        near = np.flatnonzero((ratios[:-1] < NEAR_SINGULAR) | (ratios[1:] < NEAR_SINGULAR))
+        steps = [(k, k if ratios[k] <= ratios[k + 1] else k + 1, k + 1) for k in near]
+        for a, middle, b, crossing in sorted([(*i, True) for i in intervals] + [(*i, False) for i in steps]):
+            self._judge_branch(t, q, qd, qdd, a, middle, b, float(ratios[middle]), crossing)
+
+    @property
+    def warnings(self) -> list[str]:
+        """One line naming the singular positions passed whose branch ``check_branches`` could not judge."""
+        undecided = [f"{c['t']:.6g}" for c in self.crossings if c.get("branch") == "cannot tell"]
+        if not undecided:
+            return []
+        return [
+            f"branch: cannot tell whether the motion stayed on its assembly branch at the singular position(s) "
+            f"near t = {', '.join(undecided)} s: the output times around them are too far apart for the motion "
+            "(its velocities change there by as much as a switch would), or it comes to rest there (then its "
+            "accelerations decide the branch); check the result past them, e.g. against --formulation "
+            "augmented-lagrangian, or ask more output --steps"
+        ]
+
+    def jacobians(self, t: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """Psi_q at every output time (N, m, n), for ``check_branches``."""
+        return np.array([self.system.jacobian(q_k, t_k) for q_k, t_k in zip(q, t, strict=True)])
+
+    def check_branches_before(self, err: AnalysisError, t, q, qd, qdd) -> None:
+        """``check_branches`` over the output times a run stored before it stopped with ``err``: a branch switch
+        there is the first thing that went wrong (the motion on the wrong branch then meets what stopped it), so
+        its ``BranchSwitchError`` is raised instead, from ``err``; otherwise nothing (the caller raises ``err``)."""
+        if not self.singular_ratio or self.rank == 0 or len(t) < 2:
+            return
+        try:
+            self.check_branches(t, q, qd, qdd, self.jacobians(t, q))
+        except BranchSwitchError as switch:
+            raise switch from err
+
+    def _judge_branch(self, t, q, qd, qdd, a: int, middle: int, b: int, ratio: float, crossing: bool) -> None:
+        """``check_branches``' verdict on the crossing (or, not ``crossing``, the step next to a singular
+        position) near t[middle], between the samples a and b on either side: step by step (a dip's two steps
+        each, the shorter the interval the surer the verdict), switched if one step is, kept if every one is."""
+        from .diagnostics import singular_joints
+
+        verdicts = [
+            branch_verdict(self._speeds, float(t[j] - t[i]), (qd[i], qdd[i]), (qd[j], qdd[j]), self.system.model.bodies)
+            for i, j in ((a, middle), (middle, b)) if i < j
+        ]  # fmt: skip
+        judged = {v[0]: v for v in verdicts}
+        verdict, figure, body = judged.get("switched") or judged.get("cannot tell") or verdicts[0]
+        if not crossing and verdict != "switched":
+            return
+        _, joints = singular_joints(self.system.jacobian(q[middle], t[middle]), self.system.row_owners)
+        near = t[max(a - 1, 0)], t[min(b + 1, t.size - 1)]  # a crossing recorded step by step (``through``)
+        known = [c for c in self.crossings if near[0] <= c["t"] <= near[1]]
+        passed = known[0] if known else {"t": float(t[middle]), "ratio": ratio, "joints": joints}
+        passed["branch"] = verdict
+        if not known:
+            self.crossings.append(passed)
+            self.crossings.sort(key=lambda c: c["t"])
+        where = (
+            f"the singular position near t = {passed['t']:.6g} s (joints {', '.join(passed['joints'])}; "
+            f"judged from t = {t[a]:.6g} s to t = {t[b]:.6g} s)"
+        )
+        if verdict == "switched":
+            undecided = [f"{c['t']:.6g}" for c in self.crossings if c.get("branch") == "cannot tell"]
+            earlier = (
+                f" (the crossings before it, at t = {', '.join(undecided)} s, could not be judged: it may have "
+                "left there already)"
+                if undecided
+                else ""
+            )
+            raise BranchSwitchError(
+                f"branch switch at {where}: the velocity of {body} changed by {figure:.3g} m/s more than its "
+                "acceleration explains, where the physical motion keeps every velocity continuous: the run left "
+                "the assembly branch it came along (e.g. a parallelogram folding or crossing over) and its result "
+                f"past there is wrong{earlier}; --formulation augmented-lagrangian (or auto) carries the motion "
+                "through on its branch; or try a tighter --rtol, more output --steps"
+            )
+
     def _quiet(self, t, ratios, tangents, signs, turns) -> bool:
         """Whether no output time is near a singular position nor past one (``_judge``'s two verdicts, for all
         output times at once); if so, the state ``_judge`` would leave: the closest ratio, the last step's null
@@ -1329,6 +1478,7 @@ class Guard:
     ) -> None:
         """The verdict of ``check_configuration`` from sigma_r / sigma_1, the null-space basis T, the sign of
         det [Psi_q; T^T] and, if known, the turn det(T_prev^T T) of the null space since the last check."""
+        self.judged = float(t)  # the time of the check, of a stop too (``check_branches_before``)
         if self.closest is None or ratio < self.closest["ratio"]:
             self.closest = {"t": float(t), "ratio": ratio}
         passed = False
@@ -1358,6 +1508,79 @@ class Guard:
                 t=float(t),
             )
         self._tangent, self._t, self._sign = tangent, t, sign
+
+
+BRANCH_JUMP = 0.1
+"""Largest change of a body's velocity across a singular position beyond what its accelerations allow, as a
+fraction of the fastest body's speed there, that ``branch_verdict`` takes for the branch the motion came along
+(a switch stops or reverses a body: a change of the order of its speed)."""
+FALL = 0.01
+"""``Guard.check_branches`` takes a step over which sigma_r / sigma_1 changes by more than 1 / FALL below
+NEAR_SINGULAR for a crossing (into or out of a configuration that stays singular: no dip to see)."""
+BRANCH_BLIND = 0.25
+"""``branch_verdict`` cannot tell when the accelerations at the two samples allow a change of velocity over the
+interval of this fraction of the fastest body's speed (samples too far apart, or a body nearly at rest)."""
+
+
+def gyration_weights(system: System) -> np.ndarray:
+    """Weights that make every velocity coordinate of a body a speed in m/s: 1 for its centre's, its radius of
+    gyration rho = sqrt(J / m) for phi' (planar), 2 rho for the Euler parameters' rates (|omega| = 2 |p'|;
+    J the mean principal moment); so |weights * q'| of a body is sqrt(2 T / m), T its kinetic energy."""
+    per, dim = system.coordinates_per_body, system.model.dimension
+    weights = np.ones((system.n_bodies, per))
+    for k, body in enumerate(system.model.bodies):
+        inertia = np.asarray(body.inertia if body.inertia is not None else 0.0, dtype=float)
+        moment = float(np.trace(inertia) / 3.0 if inertia.ndim == 2 else np.mean(inertia))
+        radius = math.sqrt(moment / body.mass) if body.mass and moment > 0 else 0.0
+        weights[k, dim:] = radius if dim == 2 else 2.0 * radius
+    return weights
+
+
+def branch_verdict(weights: np.ndarray, h: float, before: tuple, after: tuple, bodies) -> tuple:
+    """Whether a motion through a singular position stayed on the branch it came along, from (q', q'') at two
+    samples h apart on either side of it: ('kept' | 'switched' | 'cannot tell', a figure in m/s, a body's name).
+
+    At a rank loss of Psi_q two branches of the constraint manifold meet (a parallelogram and its crossed or
+    folded form) with different tangents. The physical motion keeps the generalized velocity continuous: it
+    leaves along the tangent it came along, and each body's velocity changes by what its acceleration gives,
+
+        q'_after - q'_before = h (q''_before + q''_after) / 2 + e,   |e| <= h max |q'' - (q''_before + q''_after) / 2|
+
+    A branch switch turns the velocity onto the other tangent: it stops or reverses a body, a change of the order
+    of its speed that the accelerations do not give. Per body, every coordinate a speed (``gyration_weights``):
+    the mismatch J = |q'_a - q'_b - h (q''_b + q''_a) / 2|, the allowance R = h max(|q''_b|, |q''_a|) (the most
+    the accelerations can change the velocity, if they do not peak in between) and the speed V:
+
+    - 'switched' when max (J - R) > BRANCH_JUMP max V, the samples close enough that the accelerations change the
+      velocities by less than their size (max R < max V: they cannot peak far above their values at the samples);
+    - else 'cannot tell' when max R >= BRANCH_BLIND max V (samples too far apart for the motion, or a mechanism
+      that comes to rest at the singular position: then its accelerations decide the branch, not its velocities);
+    - else 'kept'."""
+
+    def per_body(x: np.ndarray) -> np.ndarray:
+        return np.linalg.norm(x.reshape(weights.shape) * weights, axis=1)
+
+    (qd0, qdd0), (qd1, qdd1) = before, after
+    mismatch = per_body(qd1 - qd0 - 0.5 * h * (qdd0 + qdd1))
+    allowance = h * np.maximum(per_body(qdd0), per_body(qdd1))
+    speed = np.maximum(per_body(qd0), per_body(qd1))
+    fastest = float(np.max(speed, initial=0.0))
+    k = int(np.argmax(mismatch - allowance))
+    if mismatch[k] - allowance[k] > BRANCH_JUMP * fastest and np.max(allowance) < fastest:
+        return "switched", float(mismatch[k]), bodies[k].name
+    if not np.max(allowance, initial=0.0) < BRANCH_BLIND * fastest:
+        return "cannot tell", fastest, bodies[int(np.argmax(speed))].name
+    return "kept", float(mismatch[k]), bodies[k].name
+
+
+def dips(ratios: np.ndarray) -> np.ndarray:
+    """``diagnostics.passes_zero`` at every interior sample of a sequence of ratios at once (``check_branches``)."""
+    before, middle, after = ratios[:-2], ratios[1:-1], ratios[2:]
+    return (
+        (middle < NEAR_SINGULAR)
+        & (middle <= np.minimum(before, after))
+        & (middle < np.maximum(before - middle, after - middle))
+    )
 
 
 def body_positions(system: System, q: np.ndarray) -> np.ndarray:
