@@ -680,6 +680,7 @@ def compiled_motion(settings: Settings, equations, guard, z0, times, history) ->
     scene, chosen = dispatch.choose(settings, equations, z0)
     if scene is None:
         return None, None, chosen
+    guard.banded = True  # numba is loaded: the output times' checks may take the band of a large Psi_q
     pauses = copy.copy(guard)  # the checks between steps, in time order, apart from those of the output times
     compiled, stats = dispatch.run(scene, z0, times, settings, on_pause=lambda *state: judge_pause(pauses, *state))
     n = equations.formulation.n
@@ -703,7 +704,7 @@ def compiled_motion(settings: Settings, equations, guard, z0, times, history) ->
         guard.check_branches_before(err, times[:k], Y[:k, :n], Y[:k, n : 2 * n], compiled.qdd[:k])
         raise
     near = judged.closest is not None and judged.closest["ratio"] < NEAR_SINGULAR  # else no output time dips
-    dip = singular_dip(guard, times, compiled.jac) if near and not guard.through else None
+    dip = singular_dip(judged, times, compiled.jac) if near and not guard.through else None
     if dip is not None:  # it passed one between output times, unseen: the numpy engine's verdict
         why = (
             f"the compiled run passed near a singular position at t = {dip[0]:.6g} s (smallest singular value "
@@ -725,10 +726,7 @@ def singular_dip(guard: Guard, times: np.ndarray, jacobians: np.ndarray) -> tupl
     parallelograms) keeps the sign of det [Psi_q; T^T], and the run may have left its branch unseen."""
     if guard.rank == 0 or times.size < 3:
         return None
-    scaled = jacobians * guard._columns
-    norms = np.linalg.norm(scaled, axis=2, keepdims=True)
-    s = np.linalg.svd(scaled / np.where(norms > 0, norms, 1.0), compute_uv=False)
-    ratios = s[:, guard.rank - 1] / np.where(s[:, 0] > 0, s[:, 0], 1.0)
+    ratios = guard.spectra(times, jacobians)[0]  # those of the output times' checks
     for k in range(1, ratios.size - 1):
         if passes_zero(ratios[k - 1], ratios[k], ratios[k + 1]):
             return float(times[k]), float(ratios[k])
@@ -1175,32 +1173,36 @@ def singular_ratios(s: np.ndarray, rank: int) -> np.ndarray:
     return np.where(s[:, 0] > 0, s[:, rank - 1] / np.where(s[:, 0] > 0, s[:, 0], 1.0), 0.0)
 
 
-def square_spectra(scaled: np.ndarray, before: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def square_spectra(
+    scaled: np.ndarray, before: np.ndarray | None, banded: bool = True
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(sigma_m / sigma_1, null-space bases T, signs of det [Psi_q; T^T]) of each scaled Psi_q (N, m, n) of full row
     rank m, for ``Guard.check_outputs``. Dense: SVDs and ``null_space_bases``, O(m^2 n) each. A large mechanism's
     Psi_q is a band once its rows and columns are ordered (``compiled.singular``, the compiled runs' code that
     calls this): bidiagonal reduction and bisection for the ratio, banded LU for T and the sign, O(n^2 b) and
     O(n b^2); 3.3x faster on a chain of 32 loops (195 coordinates), 8.6x on 64. ``before``: a null-space basis
-    just before the first time (which picks the band's independent coordinates), None if none is known."""
+    just before the first time (which picks the band's independent coordinates), None if none is known.
+    ``banded=False``: dense whatever the size (a numpy engine's run, which loads no compiled code)."""
     N, m, n = scaled.shape
-    banded = None
-    if m < n and n >= BAND_SMALLEST:
-        try:
-            from .compiled import singular
-        except ImportError:  # no compiled engine here: dense
-            singular = None
-        if singular is not None:
-            first = null_space_bases(scaled[:1])[0] if before is None else before
-            banded = singular.spectra(scaled, first)
-    if banded is None:
+    found = _band_spectra(scaled, before) if banded and m < n and n >= BAND_SMALLEST else None
+    if found is None:
         tangents, signs = null_space_bases(scaled, signs=True)
         return singular_ratios(np.linalg.svd(scaled, compute_uv=False), m), tangents, signs
-    ratios, tangents, signs = banded
+    ratios, tangents, signs = found
     failed = ~(np.isfinite(ratios) & np.isfinite(signs) & np.all(np.isfinite(tangents), axis=(1, 2)))
     if np.any(failed):  # LAPACK met an exact zero pivot there: those times densely
         tangents[failed], signs[failed] = null_space_bases(scaled[failed], signs=True)
         ratios[failed] = singular_ratios(np.linalg.svd(scaled[failed], compute_uv=False), m)
     return ratios, tangents, signs
+
+
+def _band_spectra(scaled: np.ndarray, before: np.ndarray | None):
+    """``compiled.singular.spectra`` of the scaled Psi_q, or None (no compiled engine here, or not a band)."""
+    try:
+        from .compiled import singular
+    except ImportError:  # a student package: dense
+        return None
+    return singular.spectra(scaled, null_space_bases(scaled[:1])[0] if before is None else before)
 
 
 class Guard:
@@ -1240,6 +1242,7 @@ class Guard:
     ):
         self.system, self.singular_ratio, self.through = system, singular_ratio, through
         self.crossings: list[dict] = []  # singular positions passed (with ``through``: the formulation passes them)
+        self.banded = False  # Psi_q's singular values from its band where it pays (a compiled run: compiled_motion)
         self.judged = 0.0  # the time of the last check
         self._last_ratios: tuple[float | None, float | None] = (None, None)
         self._last_q: tuple[np.ndarray, float] = (q, 0.0)
@@ -1325,14 +1328,7 @@ class Guard:
                 self.check_drift(q[k], float(t[k]))  # raises, with the message of the step-by-step check
         if not self.singular_ratio or self.rank == 0:
             return
-        scaled = weighted / np.where(norms > 0, norms, 1.0)
-        square = scaled.shape[1] == self.rank
-        if square:  # independent rows: sigma_m / sigma_1, T and det [Psi_q; T^T], from the band where it pays
-            ratios, tangents, signs = square_spectra(scaled, self._tangent)
-        else:  # redundant rows: the null space of rank r needs the SVD's V; det [Psi_q; T^T] is not defined
-            _, s, vt = np.linalg.svd(scaled)
-            tangents, signs = np.swapaxes(vt[:, self.rank :], 1, 2), None
-            ratios = singular_ratios(s, self.rank)
+        ratios, tangents, signs = self._spectra(t, weighted / np.where(norms > 0, norms, 1.0))
         turns = np.linalg.det(np.swapaxes(tangents[:-1], 1, 2) @ tangents[1:])  # det(T_k-1^T T_k), k >= 1
         if self._quiet(t, ratios, tangents, signs, turns):
             return
@@ -1340,6 +1336,29 @@ class Guard:
             sign = self._sign if signs is None else signs[k]
             turn = None if k == 0 else turns[k - 1]
             self._judge(q[k], float(t[k]), float(ratios[k]), tangents[k], sign, turn)
+
+    def _spectra(self, t: np.ndarray, scaled: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """(sigma_r / sigma_1, null-space bases T, signs of det [Psi_q; T^T] or None) of the scaled Psi_q (N, m, n) at
+        the times t, kept for ``spectra``: the run's later looks at the same output times (``singular_dip``,
+        ``check_branches``) take them instead of a second and third batch of SVDs (on a chain of 32 loops each
+        batch cost more than the integration)."""
+        if scaled.shape[1] == self.rank:  # independent rows: T and det [Psi_q; T^T], from the band where it pays
+            made = square_spectra(scaled, self._tangent, self.banded)
+        else:  # redundant rows: the null space of rank r needs the SVD's V; det [Psi_q; T^T] is not defined
+            _, s, vt = np.linalg.svd(scaled)
+            made = singular_ratios(s, self.rank), np.swapaxes(vt[:, self.rank :], 1, 2), None
+        self._made = (np.array(t, dtype=float), made)
+        return made
+
+    def spectra(self, t: np.ndarray, jacobians: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """``_spectra`` of Psi_q (N, m, n) at the output times t: those ``check_outputs`` made for the same times,
+        else made here."""
+        made = self.__dict__.get("_made")
+        if made is not None and made[0].shape == np.shape(t) and np.array_equal(made[0], t):
+            return made[1]
+        weighted = jacobians * self._columns
+        norms = np.linalg.norm(weighted, axis=2, keepdims=True)
+        return self._spectra(t, weighted / np.where(norms > 0, norms, 1.0))
 
     def check_branches(
         self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, jacobians: np.ndarray
@@ -1358,14 +1377,9 @@ class Guard:
             return
         if self.closest is not None and self.closest["ratio"] >= NEAR_SINGULAR:
             return
-        weighted = jacobians * self._columns
-        norms = np.linalg.norm(weighted, axis=2, keepdims=True)
-        scaled = weighted / np.where(norms > 0, norms, 1.0)
-        s = np.linalg.svd(scaled, compute_uv=False)
-        ratios = np.where(s[:, 0] > 0, s[:, self.rank - 1] / np.where(s[:, 0] > 0, s[:, 0], 1.0), 0.0)
+        ratios, tangents, signs = self.spectra(t, jacobians)
         intervals = [(k - 1, k, k + 1) for k in 1 + np.flatnonzero(dips(ratios))]
-        if scaled.shape[1] == self.rank == self.system.n_constraints:  # det [Psi_q; T^T] defined: its sign flips
-            tangents, signs = null_space_bases(scaled, signs=True)
+        if signs is not None:  # det [Psi_q; T^T] defined (independent rows): its sign flips
             turns = np.linalg.det(np.swapaxes(tangents[:-1], 1, 2) @ tangents[1:])
             flips = (np.abs(turns) > ALIGNED) & (turns * signs[1:] * signs[:-1] < 0)
             for k in 1 + np.flatnonzero(flips):

@@ -87,18 +87,22 @@ def _through(smallest: int, monkeypatch, through: bool = False):
     """The Guard's message on the chain driven from 80 to 100 degrees through flat (not at an output time: there the
     ratio is rounding, ~1e-18 both ways), at 20 output times; with ``through``, the crossings it records."""
     monkeypatch.setattr(dynamics, "BAND_SMALLEST", smallest)
+    banded, spectra = [], singular.spectra
+    monkeypatch.setattr(singular, "spectra", lambda *args: banded.append(1) or spectra(*args))
     angles = np.linspace(80.0, 100.0, 20)
     system, qs = chain_at(angles)
     times = np.linspace(0.0, 1.0, angles.size)
     guard = Guard(system, qs[0], 1e-3, 1e-8, through=through)
+    guard.banded = True  # as a compiled run's (dynamics.compiled_motion)
     psi = np.array([system.constraints(q, 0.0) for q in qs])
     jacobians = np.array([system.jacobian(q, 0.0) for q in qs])
     if through:
         guard.check_outputs(times, qs, psi, jacobians)
-        return guard.crossings, guard.closest
-    with pytest.raises(SingularConfigurationError) as stop:
-        guard.check_outputs(times, qs, psi, jacobians)
-    return str(stop.value)
+    else:
+        with pytest.raises(SingularConfigurationError) as stop:
+            guard.check_outputs(times, qs, psi, jacobians)
+    assert bool(banded) == (smallest <= jacobians.shape[2])  # the band taken, or the dense code
+    return (guard.crossings, guard.closest) if through else str(stop.value)
 
 
 def test_guard_stops_at_the_crossing_with_the_dense_message(monkeypatch):
