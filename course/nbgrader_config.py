@@ -62,7 +62,8 @@ def _student_modules() -> list:
     """Every file of the student package, as it sits beside the notebook: modules/<path of solutions/>, without
     the instructor-only folders and files (``release.generator.INSTRUCTOR_ONLY``; tests/course/test_release.py
     checks that the two agree)."""
-    instructor_only = ("compiled", "planar/batched.py", "spatial/batched.py", "serve.py")
+    instructor_only = ("compiled", "planar/batched.py", "spatial/batched.py", "serve.py", "io/fmu.py")
+    instructor_only += ("io/fmu_slave.py",)
     files = []
     for folder, dirs, names in os.walk(SOLUTIONS):
         here = os.path.relpath(folder, SOLUTIONS).replace(os.sep, "/")

@@ -23,7 +23,7 @@ matrix [Psi_q; 0] is a band whose half-widths kl, ku do not grow with the number
   [Psi_q; 0] has Psi_q's singular values and d zeros. (All n singular values by dqds, dlasq1, cost four times
   the reduction on a chain of 32 loops.)
 - null space and sign: with d unit rows E^T in the empty slots (``e_c`` for the d coordinates in which the null
-  space of the time before is largest, the independent coordinates of coordinate partitioning, eq. 5.35), the
+  space of the time before is largest, the independent coordinates of coordinate partitioning, eq. 5.40), the
   square band A = [Psi_q; E^T] is factored by LAPACK's banded LU (dgbtrf, O(n kl (kl + ku))); then
   T_0 = A^-1 [0; I_d] (dgbtrs) spans the null space (Psi_q T_0 = 0, E^T T_0 = I), T = T_0 S^-1 by Gram-Schmidt
   with S's diagonal positive, and det [Psi_q; T^T] = det S det A, so its sign is that of det A: the product of
