@@ -1261,8 +1261,8 @@ class Guard:
     def _scaled(self, jacobian: np.ndarray) -> np.ndarray:
         """Psi_q made free of units and size: derivatives by angles per arc length (divided by the mechanism's
         size), rows to unit length, so that its singular values measure nearness to a rank loss alone."""
-        scaled = jacobian * self._columns
-        norms = np.linalg.norm(scaled, axis=1, keepdims=True)
+        scaled = jacobian * self._columns  # one Psi_q (m, n), or a stack of them (N, m, n)
+        norms = np.linalg.norm(scaled, axis=-1, keepdims=True)
         return scaled / np.where(norms > 0, norms, 1.0)
 
     def _record(self, passed: bool, q: np.ndarray, t: float, ratio: float) -> None:
@@ -1357,9 +1357,7 @@ class Guard:
         made = self.__dict__.get("_made")
         if made is not None and made[0].shape == np.shape(t) and np.array_equal(made[0], t):
             return made[1]
-        weighted = jacobians * self._columns
-        norms = np.linalg.norm(weighted, axis=2, keepdims=True)
-        return self._spectra(t, weighted / np.where(norms > 0, norms, 1.0))
+        return self._spectra(t, self._scaled(jacobians))
 
     def check_branches(
         self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, jacobians: np.ndarray
