@@ -646,7 +646,7 @@ def integrate_motion(run: Run, plan: Plan, equations, guard: Guard, z0: np.ndarr
         k = filled[0]
         guard.check_branches_before(err, times[:k], history.q[:k], history.qd[:k], history.qdd[:k])
         raise
-    if guard.singular_ratio and guard.rank:  # the branch at every singular position passed (as the compiled run's)
+    if guard.judges_branches(times):  # the branch at every singular position passed (as the compiled run's)
         guard.check_branches(times, history.q, history.qd, history.qdd, guard.jacobians(times, history.q))
     return history, stats, None, chosen
 
@@ -1371,9 +1371,7 @@ class Guard:
         crossing the velocities cannot decide is a warning (``warnings``). Every other step with a ratio below
         NEAR_SINGULAR is judged too, a switch alone counting. A run that never came near a singular position
         (``closest``, what the checks before saw) has nothing to judge."""
-        if not self.singular_ratio or self.rank == 0 or t.size < 2:
-            return
-        if self.closest is not None and self.closest["ratio"] >= NEAR_SINGULAR:
+        if not self.judges_branches(t):
             return
         ratios, tangents, signs = self.spectra(t, jacobians)
         intervals = [(k - 1, k, k + 1) for k in 1 + np.flatnonzero(dips(ratios))]
@@ -1414,11 +1412,19 @@ class Guard:
         """Psi_q at every output time (N, m, n), for ``check_branches``."""
         return np.array([self.system.jacobian(q_k, t_k) for q_k, t_k in zip(q, t, strict=True)])
 
+    def judges_branches(self, t) -> bool:
+        """Whether ``check_branches`` has anything to judge at the output times t: a Guard that watches for
+        singular positions, two times at least, and a run that came near one (``closest``, what the checks before
+        saw; none seen yet counts as near). Asked before Psi_q is evaluated at every output time for it."""
+        if not self.singular_ratio or self.rank == 0 or len(t) < 2:
+            return False
+        return self.closest is None or self.closest["ratio"] < NEAR_SINGULAR
+
     def check_branches_before(self, err: AnalysisError, t, q, qd, qdd) -> None:
         """``check_branches`` over the output times a run stored before it stopped with ``err``: a branch switch
         there is the first thing that went wrong (the motion on the wrong branch then meets what stopped it), so
         its ``BranchSwitchError`` is raised instead, from ``err``; otherwise nothing (the caller raises ``err``)."""
-        if not self.singular_ratio or self.rank == 0 or len(t) < 2:
+        if not self.judges_branches(t):
             return
         try:
             self.check_branches(t, q, qd, qdd, self.jacobians(t, q))
