@@ -61,8 +61,8 @@ import numpy as np
 import scipy.linalg
 
 from .assembly import System
-from .diagnostics import AnalysisError
-from .dynamics import constraint_residuals
+from .diagnostics import NEAR_SINGULAR, AnalysisError
+from .dynamics import Guard, constraint_residuals
 from .energy import constraint_power, energy_history
 from .formulations import augmented_accelerations
 from .generalized_forces import ForceModel
@@ -266,6 +266,62 @@ class Index3Stepper:
         return None
 
 
+class GuardedSteps:
+    """The run's ``dynamics.Guard`` on an index-3 run, with the checks it makes on the other formulations (issue 29):
+
+    - drift: at every output time, how far q is off the constraints (``Guard.check_drift``);
+    - singular positions: after every accepted step, sigma_r / sigma_1 of Psi_q and the sign of det [Psi_q; T^T]
+      (``Guard.check_position``). The index-3 equations pass a singular position (their iteration matrix loses
+      rank only at it, and a step lands there with probability zero), as the augmented Lagrangian does: the Guard
+      records it (``Guard.through``) instead of stopping;
+    - branch switches: at each singular position passed, whether the velocities changed by what the accelerations
+      give (``Guard.check_branches``, ``dynamics.branch_verdict``), judged from the accepted steps around it, not
+      the output times: a crossing between two output times is judged too, from samples much closer together.
+      The steps since the motion was last away from singular positions are kept and judged once it is away again
+      (two steps in a row with sigma_r / sigma_1 >= NEAR_SINGULAR), so a long run keeps a few steps only.
+    ``GuardedSteps(None)`` checks nothing (``integrate_index3`` without a Guard)."""
+
+    def __init__(self, guard: Guard | None):
+        self.guard = guard
+        self.steps: list[tuple] = []  # (t, q, q', q'', sigma_r / sigma_1) of the steps kept for the branch check
+
+    def accepted(self, t: float, state) -> None:
+        """After an accepted step to t (and at t = 0), state = (q, q', q'', a, lambda)."""
+        if self.guard is None:
+            return
+        ratio = self.guard.check_position(state[0], t)
+        if ratio is None:  # the Guard watches for no singular position (singular_ratio None)
+            return
+        self.steps.append((float(t), state[0], state[1], state[2], ratio))
+        if len(self.steps) > 2 and min(self.steps[-1][4], self.steps[-2][4]) >= NEAR_SINGULAR:
+            self.judge()
+
+    def output(self, t: float, q: np.ndarray) -> None:
+        """At an output time: the drift, as the numpy engine checks it on the other formulations."""
+        if self.guard is not None:
+            self.guard.check_drift(q, t)
+
+    def _kept(self):
+        """The kept steps as arrays t, q, q', q'' if one of them is near a singular position, else None."""
+        if not any(step[4] < NEAR_SINGULAR for step in self.steps):
+            return None
+        return tuple(np.array([step[k] for step in self.steps]) for k in range(4))
+
+    def judge(self) -> None:
+        """``Guard.check_branches`` over the kept steps (BranchSwitchError at a switch); then keeps the last two."""
+        kept = self._kept()
+        if kept is not None:
+            t, q, qd, qdd = kept
+            self.guard.check_branches(t, q, qd, qdd, self.guard.jacobians(t, q))
+        self.steps = self.steps[-2:]
+
+    def before(self, err: AnalysisError) -> None:
+        """A run that stopped with ``err``: a branch switch in the kept steps is raised instead, from ``err``."""
+        kept = self._kept() if self.guard is not None else None
+        if kept is not None:
+            self.guard.check_branches_before(err, *kept)
+
+
 def fixed_steps(t0: float, t1: float, h: float) -> list[float]:
     """Fixed steps: [t0, t1] split into the fewest equal steps no longer than h."""
     count = max(1, math.ceil((t1 - t0) / h - 1e-9))
@@ -369,7 +425,13 @@ class Index3Options:
 
 
 def integrate_index3(
-    system: System, masses: np.ndarray, forces: ForceModel, q0: np.ndarray, qd0: np.ndarray, settings: Settings
+    system: System,
+    masses: np.ndarray,
+    forces: ForceModel,
+    q0: np.ndarray,
+    qd0: np.ndarray,
+    settings: Settings,
+    guard: Guard | None = None,
 ) -> Result:
     """Integrate the index-3 DAE with generalized-alpha or HHT from a consistent (q0, q0') at t = 0.
 
@@ -380,6 +442,8 @@ def integrate_index3(
     settings : ``integrator`` ('generalized-alpha' or 'hht'); the output grid t = 0, t_end/steps, ..., t_end
         (every step ends on it); ``rtol``, ``atol``: local error tolerances of the positions (step control and
         Newton iterations); ``step``: a fixed step size instead of step control; the options ``Index3Options``
+    guard : the run's ``dynamics.Guard`` (drift, singular positions passed, the branch at each: ``GuardedSteps``),
+        or None for none
 
     Returns
     -------
@@ -401,7 +465,13 @@ def integrate_index3(
     times = np.linspace(0.0, settings.t_end, settings.steps + 1)
     out = Index3History.empty(times.size, system.n_coordinates, system.n_constraints)
     q, qd = np.asarray(q0, dtype=float), np.asarray(qd0, dtype=float)
-    march(stepper, energy, out, rows, q, qd, times, settings, options)
+    watch = GuardedSteps(guard)
+    try:
+        march(stepper, energy, out, rows, q, qd, times, settings, options, watch)
+    except AnalysisError as err:  # a branch switch before the stop is its cause: said first, as the other runs
+        watch.before(err)
+        raise
+    watch.judge()
     if rows.size < system.n_constraints:  # the multipliers are not unique: the minimum-norm set (eq. 5.73)
         out.lam = minimum_norm_multipliers(system, out.q, out.lam, times)
     result = index3_result(system, masses, forces, out, times)
@@ -428,27 +498,44 @@ class Index3History:
         return cls(*(np.zeros((size, k)) for k in (n, n, n, m, 3)))
 
 
-def march(stepper: Index3Stepper, energy: EnergyAccount, out: Index3History, rows, q, qd, times, settings, options):
+def march(
+    stepper: Index3Stepper,
+    energy: EnergyAccount,
+    out: Index3History,
+    rows,
+    q,
+    qd,
+    times,
+    settings,
+    options,
+    watch: GuardedSteps | None = None,
+):
     """From the consistent (q, q') over the output times into ``out``: fixed steps, or steps with error control;
-    the multipliers of the solved constraint ``rows`` (the others are left 0)."""
+    the multipliers of the solved constraint ``rows`` (the others are left 0); ``watch`` sees every accepted
+    step and output time."""
+    watch = watch or GuardedSteps(None)
     system = stepper.system
     Q = stepper.forces.generalized_forces(q, qd, 0.0)
     qdd, lam = augmented_accelerations(mass_at(stepper.M, q), system.jacobian(q, 0.0), Q, system.gamma(q, qd, 0.0))
     state = (q, qd, qdd, qdd.copy(), lam)  # (q, q', q'', a, lambda), a_0 = q''_0
     energy.start(q, qd, lam, 0.0)
     out.q[0], out.qd[0], out.qdd[0], out.lam[0, rows] = q, qd, qdd, lam
+    watch.accepted(0.0, state)
     step, t = settings.step, 0.0
     h = step or options.first_step or initial_step(q, qd, qdd, settings.rtol, settings.atol, times[-1])
     for k in range(1, times.size):
         if step is not None:
-            state, t = _fixed_interval(stepper, energy, t, times[k], step, state, settings.integrator), times[k]
+            state, t = _fixed_interval(stepper, energy, t, times[k], step, state, settings.integrator, watch), times[k]
         else:
-            t, h, state = _adaptive_interval(stepper, energy, t, times[k], h, state, options.min_step)
+            t, h, state = _adaptive_interval(stepper, energy, t, times[k], h, state, options.min_step, watch)
+        watch.output(t, state[0])
         out.q[k], out.qd[k], out.qdd[k], out.lam[k, rows] = state[0], state[1], state[2], state[4]
         out.accumulated[k] = energy.totals
 
 
-def _fixed_interval(stepper: Index3Stepper, energy: EnergyAccount, t: float, t_out: float, step: float, state, method):
+def _fixed_interval(
+    stepper: Index3Stepper, energy: EnergyAccount, t: float, t_out: float, step: float, state, method, watch
+):
     """Fixed steps from t to the output time t_out (the last one shortened to land on it); returns the state."""
     for h in fixed_steps(t, t_out, step):
         new = stepper.step(t, h, *state)
@@ -460,6 +547,7 @@ def _fixed_interval(stepper: Index3Stepper, energy: EnergyAccount, t: float, t_o
         state, t = new[:5], t + h
         stepper.counters.accepted_steps += 1
         energy.advance(h, state[0], state[1], state[4], t)
+        watch.accepted(t, state)
     return state
 
 
@@ -513,7 +601,7 @@ def index3_info(settings: Settings, rho_inf: float, parameters: AlphaParameters,
 
 
 def _adaptive_interval(
-    stepper: Index3Stepper, energy: EnergyAccount, t: float, t_out: float, h: float, state, min_step: float
+    stepper: Index3Stepper, energy: EnergyAccount, t: float, t_out: float, h: float, state, min_step: float, watch
 ):
     """Steps with error control from t to the output time t_out (eq. 6.58); returns (t_out, next h, state)."""
     while t < t_out:
@@ -531,6 +619,7 @@ def _adaptive_interval(
             state = new[:5]
             t = t_out if last else t + h_try
             energy.advance(h_try, state[0], state[1], state[4], t)
+            watch.accepted(t, state)
             grow = 2.0 if new[5] == 0.0 else min(2.0, max(0.2, 0.9 * new[5] ** (-1.0 / 3.0)))
             h = max(h, h_try * grow) if h_try < h else h_try * grow
             continue
@@ -548,6 +637,7 @@ __all__ = [
     "METHODS",
     "AlphaParameters",
     "EnergyAccount",
+    "GuardedSteps",
     "IndependentRows",
     "Index3Stepper",
     "alpha_parameters",
