@@ -577,6 +577,8 @@ def index3_run(run: Run, plan: Plan, M, forces, q, qd, initial: dict) -> Result:
     result.forces.update(element_columns(forces, result.t, result.q, result.qd))
     result.info.update(assembly=initial["assembly"], initial_conditions=initial)
     result.info.update(closest_singularity=guard.closest, singular_positions=guard.crossings)
+    why = "numpy engine asked for" if run.settings.engine == "numpy" else "not compiled: no index-3 integrator is"
+    result.info["chosen"] = {**(plan.chosen or {}), "engine": "numpy", "engine_why": why}  # one verdict: numpy's
     result.info["warnings"] = accuracy_warnings(result.info, plan.size, run.settings.accuracy, None) + guard.warnings
     return result
 

@@ -154,3 +154,111 @@ def test_branch_verdict_on_motions_made_by_hand():
     stopped = (np.zeros(3), np.zeros(3))
     assert branch_verdict(weights, 0.01, state(0.3), stopped, bodies)[0] == "switched"
     assert BRANCH_JUMP < 0.5
+
+
+# -- the index-3 integrators (hht, generalized-alpha: solutions/implicit.py) ---------------------------------------
+INDEX3_TOL = 1e-6
+"""rtol = atol of the index-3 runs: a few hundred steps over 1.35 s; second order, so 2-3 mm off the reference
+(each run says so: its accuracy warning), where a branch switch puts bodies 0.4 m off."""
+
+
+def flat_times(n: int) -> np.ndarray:
+    """When the reference chain is flat (the cranks' centres at height 0, interpolated between output times)."""
+    times, truth = reference(n)
+    height = truth[:, 0, 1]
+    k = np.flatnonzero(np.diff(np.sign(height)))
+    return times[k] - height[k] * (times[k + 1] - times[k]) / (height[k + 1] - height[k])
+
+
+@cache
+def index3_outcome(n: int, integrator: str, frames: str, steps: int | None = None, engine: str = "numpy"):
+    """('result', Result) or ('stopped', the AnalysisError) of an index-3 run of the chain over SPANS[n], with the
+    output times of ``reference`` (or ``steps`` of them)."""
+    system, q0, qd0 = build_system(load_model(chains.loop_chain(n, ANGLE, RATE, frames)))
+    times, _ = reference(n)
+    try:
+        result = forward_dynamics(system, q0, qd0, times[-1], steps or times.size - 1, "auto", integrator,
+                                  rtol=INDEX3_TOL, atol=INDEX3_TOL, engine=engine)  # fmt: skip
+    except AnalysisError as err:
+        return "stopped", err
+    return "result", result
+
+
+def centre_error(result, n: int) -> float:
+    """The largest distance of a body centre from the reference (m), at the reference's output times."""
+    times, truth = reference(n)
+    k = np.searchsorted(times, result.t - 1e-12)
+    assert np.allclose(times[k], result.t)
+    return float(np.max(np.linalg.norm(result.q.reshape(result.t.size, -1, 3)[:, :, :2] - truth[k], axis=-1)))
+
+
+@pytest.mark.parametrize("frames", ["centre", "joint"])
+@pytest.mark.parametrize("integrator", ["hht", "generalized-alpha"])
+@pytest.mark.parametrize("n", [1, 2])
+def test_index3_integrators_stay_on_the_physical_branch_or_say_so(n, integrator, frames):
+    """Through the three flat positions: on the reference within the run's accuracy, with every crossing recorded
+    near the reference's flat times and judged 'kept' (or a stop or warning by name)."""
+    kind, found = index3_outcome(n, integrator, frames)
+    if kind == "stopped":
+        message = str(found)
+        assert ("singular configuration" in message or "branch switch" in message) and "t = " in message, message
+        return
+    assert found.info["integrator"] == integrator
+    if any(w.startswith("branch:") for w in found.info["warnings"]):
+        return
+    error = centre_error(found, n)
+    assert error < 1e-2  # a switch: 0.4 m
+    assert any(w.startswith("accuracy:") for w in found.info["warnings"])  # 2-3 mm is more than 1e-6 L: it says so
+    passed = found.info["singular_positions"]
+    assert [c["branch"] for c in passed] == ["kept"] * 3, passed
+    assert np.allclose([c["t"] for c in passed], flat_times(n), atol=0.01)
+
+
+def test_index3_crossings_between_output_times_are_judged():
+    """Output times 0.05 s apart (27 over 1.35 s): each of the three flat positions is recorded at a step between
+    two output times, near the reference's, and judged from the steps around it: 'kept'."""
+    kind, coarse = index3_outcome(2, "hht", "centre", steps=27)
+    assert kind == "result"
+    passed = coarse.info["singular_positions"]
+    assert [c["branch"] for c in passed] == ["kept"] * 3, passed
+    assert np.allclose([c["t"] for c in passed], flat_times(2), atol=0.01)
+    assert not np.any(np.isin([c["t"] for c in passed], coarse.t))  # each found at a step between output times
+    assert centre_error(coarse, 2) < 1e-2
+
+
+def test_index3_runs_on_numpy_whatever_the_engine_asked_and_says_why():
+    """One verdict: the compiled engine has no index-3 integrator, so ``engine="compiled"`` gives the numpy run, bit
+    for bit, and says so."""
+    _, numpy_run = index3_outcome(2, "hht", "centre")
+    kind, asked = index3_outcome(2, "hht", "centre", engine="compiled")
+    assert kind == "result" and np.array_equal(asked.q, numpy_run.q)
+    assert asked.info["chosen"]["engine"] == "numpy" and "index-3" in asked.info["chosen"]["engine_why"]
+
+
+def test_an_index3_run_that_leaves_the_branch_stops_by_name(monkeypatch):
+    """A branch switch made by hand: the velocities reversed at the first step past the first flat position
+    (t = 0.072 s), the accelerations kept (a motion that turns back there, as a folding crank does). Unchecked, the
+    run completes and ends 0.4 m and more off the reference, with no branch warning; checked, it stops with the
+    branch switch named near t = 0.072 s."""
+    from solutions import implicit
+
+    step = implicit.Index3Stepper.step
+    flat = float(flat_times(1)[0])
+
+    def reversing(self, t, h, *state):
+        new = step(self, t, h, *state)
+        if new is not None and t < flat + 5e-4 <= t + h:
+            return (new[0], -new[1], *new[2:])
+        return new
+
+    monkeypatch.setattr(implicit.Index3Stepper, "step", reversing)
+    with monkeypatch.context() as patch:
+        patch.setattr(Guard, "check_branches", lambda *args, **kwargs: None)
+        patch.setattr(Guard, "check_branches_before", lambda *args, **kwargs: None)
+        kind, unchecked = index3_outcome.__wrapped__(1, "hht", "centre")
+    assert kind == "result" and centre_error(unchecked, 1) > 0.1
+    assert not any(w.startswith("branch:") for w in unchecked.info["warnings"])
+    kind, checked = index3_outcome.__wrapped__(1, "hht", "centre")
+    assert kind == "stopped" and isinstance(checked, BranchSwitchError), checked
+    near = float(str(checked).split("near t = ")[1].split(" s")[0])
+    assert abs(near - flat) < 0.005 and "augmented-lagrangian" in str(checked)
