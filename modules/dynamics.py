@@ -569,15 +569,29 @@ def index3_run(run: Run, plan: Plan, M, forces, q, qd, initial: dict) -> Result:
     from .implicit import integrate_index3
 
     system, settings = run.system, run.settings.replace(integrator=plan.integrator, rtol=plan.rtol)
-    result = integrate_index3(system, M, forces, q, qd, settings)
+    guard = index3_guard(run, plan, q)
+    result = integrate_index3(system, M, forces, q, qd, settings, guard)
     for label, (body, point) in (run.points or {}).items():
         result.points.update(point_columns(result, label, body, point))
     result.reactions.update(joint_reactions(system, result.q, result.lam, result.t))
     result.reactions.update(effort_columns(system, result.q, result.lam, result.t))
     result.forces.update(element_columns(forces, result.t, result.q, result.qd))
     result.info.update(assembly=initial["assembly"], initial_conditions=initial)
-    result.info["warnings"] = accuracy_warnings(result.info, plan.size, run.settings.accuracy, None)
+    result.info.update(closest_singularity=guard.closest, singular_positions=guard.crossings)
+    why = "numpy engine asked for" if run.settings.engine == "numpy" else "not compiled: no index-3 integrator is"
+    result.info["chosen"] = {**(plan.chosen or {}), "engine": "numpy", "engine_why": why}  # one verdict: numpy's
+    result.info["warnings"] = accuracy_warnings(result.info, plan.size, run.settings.accuracy, None) + guard.warnings
     return result
+
+
+def index3_guard(run: Run, plan: Plan, q: np.ndarray) -> Guard:
+    """The ``Guard`` of an index-3 run (``implicit.GuardedSteps`` makes its checks): drift as ``make_guard``'s, and
+    singular positions recorded as passed (``through``), as with the augmented Lagrangian: the index-3 equations
+    carry the motion through them, and the branch check judges the branch it took at each."""
+    drift_limit = run.settings.drift_limit
+    loose = 100.0 * plan.rtol if run.settings.step is None else 0.0  # a loose tolerance drifts further
+    drift_limit = None if drift_limit is None else max(drift_limit, loose)
+    return Guard(run.system, q, drift_limit, run.settings.singular_ratio, through=True, size=plan.size)
 
 
 def held_tolerances(plan: Plan, equations: EquationsOfMotion) -> tuple[Plan, list[str]]:

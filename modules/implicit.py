@@ -62,8 +62,8 @@ import numpy as np
 import scipy.linalg
 
 from .assembly import System
-from .diagnostics import AnalysisError
-from .dynamics import constraint_residuals
+from .diagnostics import NEAR_SINGULAR, AnalysisError
+from .dynamics import Guard, constraint_residuals
 from .energy import constraint_power, energy_history
 from .formulations import augmented_accelerations
 from .generalized_forces import ForceModel
@@ -267,6 +267,74 @@ class Index3Stepper:
         return None
 
 
+BATCH_STEPS = 50
+"""Accepted steps ``GuardedSteps`` checks at once (batched SVDs: a fraction of the cost of one check per step)."""
+
+
+class GuardedSteps:
+    """The run's ``dynamics.Guard`` on an index-3 run, with the checks it makes on the other formulations (issue 29):
+
+    - drift: at every output time, how far q is off the constraints (``Guard.check_drift``);
+    - singular positions: at every accepted step, sigma_r / sigma_1 of Psi_q and the sign of det [Psi_q; T^T]
+      (``Guard.check_outputs`` over BATCH_STEPS steps at a time, in time order, as the numpy engine's Guard checks
+      every step of the other formulations). The index-3 equations pass a singular position (their iteration
+      matrix loses rank only at it, and a step lands there with probability zero), as the augmented Lagrangian
+      does: the Guard records it (``Guard.through``) instead of stopping;
+    - branch switches: at each singular position passed, whether the velocities changed by what the accelerations
+      give (``Guard.check_branches``, ``dynamics.branch_verdict``), judged from the accepted steps around it, not
+      the output times: a crossing between two output times is judged too, from samples much closer together.
+      Each batch with a step near a singular position is judged with the last two steps of the batch before (a
+      crossing at the border has its neighbours on both sides); so a long run keeps a few steps only.
+    ``GuardedSteps(None)`` checks nothing (``integrate_index3`` without a Guard)."""
+
+    def __init__(self, guard: Guard | None):
+        self.guard = guard
+        self.steps: list[tuple] = []  # (t, q, q', q'') of the steps not yet checked
+        self.before_batch: list[tuple] = []  # the last two steps of the batch checked before, with their Psi_q
+
+    def accepted(self, t: float, state) -> None:
+        """After an accepted step to t (and at t = 0), state = (q, q', q'', a, lambda)."""
+        if self.guard is not None and self.guard.singular_ratio and self.guard.rank:
+            self.steps.append((float(t), state[0], state[1], state[2]))
+            if len(self.steps) >= BATCH_STEPS:
+                self.judge()
+
+    def output(self, t: float, q: np.ndarray) -> None:
+        """At an output time: the drift, as the numpy engine checks it on the other formulations."""
+        if self.guard is not None:
+            self.guard.check_drift(q, t)
+
+    def _configurations(self) -> tuple | None:
+        """The singular-position check of the steps not yet checked; then (t, q, q', q'', Psi_q) of those steps and
+        the two before them if one of them is near a singular position, else None."""
+        if not self.steps:
+            return None
+        t, q = np.array([step[0] for step in self.steps]), np.array([step[1] for step in self.steps])
+        jacobians = self.guard.jacobians(t, q)
+        self.guard.check_outputs(t, q, None, jacobians, drift=False)
+        near = np.min(self.guard.spectra(t, jacobians)[0]) < NEAR_SINGULAR
+        steps = self.before_batch + [(*step, jacobian) for step, jacobian in zip(self.steps, jacobians, strict=True)]
+        self.steps, self.before_batch = [], steps[-2:]
+        return tuple(np.array([step[k] for step in steps]) for k in range(5)) if near else None
+
+    def judge(self) -> None:
+        """The steps not yet checked: their configurations, and ``Guard.check_branches`` if one is near a singular
+        position (BranchSwitchError at a switch)."""
+        if self.guard is None:
+            return
+        kept = self._configurations()
+        if kept is not None:
+            self.guard.check_branches(*kept)
+
+    def before(self, err: AnalysisError) -> None:
+        """A run that stopped with ``err``: a branch switch in the last steps is raised instead, from ``err``."""
+        if self.guard is None:
+            return
+        kept = self._configurations()
+        if kept is not None:
+            self.guard.check_branches_before(err, *kept[:4])
+
+
 def fixed_steps(t0: float, t1: float, h: float) -> list[float]:
     """Fixed steps: [t0, t1] split into the fewest equal steps no longer than h."""
     count = max(1, math.ceil((t1 - t0) / h - 1e-9))
@@ -370,7 +438,13 @@ class Index3Options:
 
 
 def integrate_index3(
-    system: System, masses: np.ndarray, forces: ForceModel, q0: np.ndarray, qd0: np.ndarray, settings: Settings
+    system: System,
+    masses: np.ndarray,
+    forces: ForceModel,
+    q0: np.ndarray,
+    qd0: np.ndarray,
+    settings: Settings,
+    guard: Guard | None = None,
 ) -> Result:
     """Integrate the index-3 DAE with generalized-alpha or HHT from a consistent (q0, q0') at t = 0.
 
@@ -381,6 +455,8 @@ def integrate_index3(
     settings : ``integrator`` ('generalized-alpha' or 'hht'); the output grid t = 0, t_end/steps, ..., t_end
         (every step ends on it); ``rtol``, ``atol``: local error tolerances of the positions (step control and
         Newton iterations); ``step``: a fixed step size instead of step control; the options ``Index3Options``
+    guard : the run's ``dynamics.Guard`` (drift, singular positions passed, the branch at each: ``GuardedSteps``),
+        or None for none
 
     Returns
     -------
@@ -402,7 +478,13 @@ def integrate_index3(
     times = np.linspace(0.0, settings.t_end, settings.steps + 1)
     out = Index3History.empty(times.size, system.n_coordinates, system.n_constraints)
     q, qd = np.asarray(q0, dtype=float), np.asarray(qd0, dtype=float)
-    march(stepper, energy, out, rows, q, qd, times, settings, options)
+    watch = GuardedSteps(guard)
+    try:
+        march(stepper, energy, out, rows, q, qd, times, settings, options, watch)
+    except AnalysisError as err:  # a branch switch before the stop is its cause: said first, as the other runs
+        watch.before(err)
+        raise
+    watch.judge()
     if rows.size < system.n_constraints:  # the multipliers are not unique: the minimum-norm set (eq. 5.73)
         out.lam = minimum_norm_multipliers(system, out.q, out.lam, times)
     result = index3_result(system, masses, forces, out, times)
@@ -429,27 +511,44 @@ class Index3History:
         return cls(*(np.zeros((size, k)) for k in (n, n, n, m, 3)))
 
 
-def march(stepper: Index3Stepper, energy: EnergyAccount, out: Index3History, rows, q, qd, times, settings, options):
+def march(
+    stepper: Index3Stepper,
+    energy: EnergyAccount,
+    out: Index3History,
+    rows,
+    q,
+    qd,
+    times,
+    settings,
+    options,
+    watch: GuardedSteps | None = None,
+):
     """From the consistent (q, q') over the output times into ``out``: fixed steps, or steps with error control;
-    the multipliers of the solved constraint ``rows`` (the others are left 0)."""
+    the multipliers of the solved constraint ``rows`` (the others are left 0); ``watch`` sees every accepted
+    step and output time."""
+    watch = watch or GuardedSteps(None)
     system = stepper.system
     Q = stepper.forces.generalized_forces(q, qd, 0.0)
     qdd, lam = augmented_accelerations(mass_at(stepper.M, q), system.jacobian(q, 0.0), Q, system.gamma(q, qd, 0.0))
     state = (q, qd, qdd, qdd.copy(), lam)  # (q, q', q'', a, lambda), a_0 = q''_0
     energy.start(q, qd, lam, 0.0)
     out.q[0], out.qd[0], out.qdd[0], out.lam[0, rows] = q, qd, qdd, lam
+    watch.accepted(0.0, state)
     step, t = settings.step, 0.0
     h = step or options.first_step or initial_step(q, qd, qdd, settings.rtol, settings.atol, times[-1])
     for k in range(1, times.size):
         if step is not None:
-            state, t = _fixed_interval(stepper, energy, t, times[k], step, state, settings.integrator), times[k]
+            state, t = _fixed_interval(stepper, energy, t, times[k], step, state, settings.integrator, watch), times[k]
         else:
-            t, h, state = _adaptive_interval(stepper, energy, t, times[k], h, state, options.min_step)
+            t, h, state = _adaptive_interval(stepper, energy, t, times[k], h, state, options.min_step, watch)
+        watch.output(t, state[0])
         out.q[k], out.qd[k], out.qdd[k], out.lam[k, rows] = state[0], state[1], state[2], state[4]
         out.accumulated[k] = energy.totals
 
 
-def _fixed_interval(stepper: Index3Stepper, energy: EnergyAccount, t: float, t_out: float, step: float, state, method):
+def _fixed_interval(
+    stepper: Index3Stepper, energy: EnergyAccount, t: float, t_out: float, step: float, state, method, watch
+):
     """Fixed steps from t to the output time t_out (the last one shortened to land on it); returns the state."""
     for h in fixed_steps(t, t_out, step):
         new = stepper.step(t, h, *state)
@@ -461,6 +560,7 @@ def _fixed_interval(stepper: Index3Stepper, energy: EnergyAccount, t: float, t_o
         state, t = new[:5], t + h
         stepper.counters.accepted_steps += 1
         energy.advance(h, state[0], state[1], state[4], t)
+        watch.accepted(t, state)
     return state
 
 
@@ -514,7 +614,7 @@ def index3_info(settings: Settings, rho_inf: float, parameters: AlphaParameters,
 
 
 def _adaptive_interval(
-    stepper: Index3Stepper, energy: EnergyAccount, t: float, t_out: float, h: float, state, min_step: float
+    stepper: Index3Stepper, energy: EnergyAccount, t: float, t_out: float, h: float, state, min_step: float, watch
 ):
     """Steps with error control from t to the output time t_out (eq. 6.58); returns (t_out, next h, state)."""
     while t < t_out:
@@ -532,6 +632,7 @@ def _adaptive_interval(
             state = new[:5]
             t = t_out if last else t + h_try
             energy.advance(h_try, state[0], state[1], state[4], t)
+            watch.accepted(t, state)
             grow = 2.0 if new[5] == 0.0 else min(2.0, max(0.2, 0.9 * new[5] ** (-1.0 / 3.0)))
             h = max(h, h_try * grow) if h_try < h else h_try * grow
             continue
@@ -549,6 +650,7 @@ __all__ = [
     "METHODS",
     "AlphaParameters",
     "EnergyAccount",
+    "GuardedSteps",
     "IndependentRows",
     "Index3Stepper",
     "alpha_parameters",

@@ -1312,14 +1312,9 @@ class Guard:
             )
 
     def check_configuration(self, formulation, t: float, y: np.ndarray) -> None:
-        if self.singular_ratio and self.rank:
-            self.check_position(formulation.coordinates(t, y)[0], t)
-
-    def check_position(self, q: np.ndarray, t: float) -> float | None:
-        """``check_configuration`` at the positions q after a step (the index-3 integrators' own, ``implicit.py``);
-        returns sigma_r / sigma_1 of the scaled Psi_q there, None if the Guard watches for no singular position."""
         if not self.singular_ratio or self.rank == 0:
-            return None
+            return
+        q, _ = formulation.coordinates(t, y)
         jacobian = self._scaled(self.system.jacobian(q, t))
         _, s, vt = np.linalg.svd(jacobian)
         ratio = float(s[self.rank - 1] / s[0]) if s[0] > 0 else 0.0
@@ -1327,7 +1322,6 @@ class Guard:
         square = jacobian.shape[0] == self.rank
         sign = np.sign(np.linalg.det(np.vstack([jacobian, tangent.T]))) if square else self._sign
         self._judge(q, t, ratio, tangent, sign)
-        return ratio
 
     def check_outputs(
         self, t: np.ndarray, q: np.ndarray, psi: np.ndarray, jacobians: np.ndarray, drift: bool = True

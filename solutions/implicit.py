@@ -266,60 +266,72 @@ class Index3Stepper:
         return None
 
 
+BATCH_STEPS = 50
+"""Accepted steps ``GuardedSteps`` checks at once (batched SVDs: a fraction of the cost of one check per step)."""
+
+
 class GuardedSteps:
     """The run's ``dynamics.Guard`` on an index-3 run, with the checks it makes on the other formulations (issue 29):
 
     - drift: at every output time, how far q is off the constraints (``Guard.check_drift``);
-    - singular positions: after every accepted step, sigma_r / sigma_1 of Psi_q and the sign of det [Psi_q; T^T]
-      (``Guard.check_position``). The index-3 equations pass a singular position (their iteration matrix loses
-      rank only at it, and a step lands there with probability zero), as the augmented Lagrangian does: the Guard
-      records it (``Guard.through``) instead of stopping;
+    - singular positions: at every accepted step, sigma_r / sigma_1 of Psi_q and the sign of det [Psi_q; T^T]
+      (``Guard.check_outputs`` over BATCH_STEPS steps at a time, in time order, as the numpy engine's Guard checks
+      every step of the other formulations). The index-3 equations pass a singular position (their iteration
+      matrix loses rank only at it, and a step lands there with probability zero), as the augmented Lagrangian
+      does: the Guard records it (``Guard.through``) instead of stopping;
     - branch switches: at each singular position passed, whether the velocities changed by what the accelerations
       give (``Guard.check_branches``, ``dynamics.branch_verdict``), judged from the accepted steps around it, not
       the output times: a crossing between two output times is judged too, from samples much closer together.
-      The steps since the motion was last away from singular positions are kept and judged once it is away again
-      (two steps in a row with sigma_r / sigma_1 >= NEAR_SINGULAR), so a long run keeps a few steps only.
+      Each batch with a step near a singular position is judged with the last two steps of the batch before (a
+      crossing at the border has its neighbours on both sides); so a long run keeps a few steps only.
     ``GuardedSteps(None)`` checks nothing (``integrate_index3`` without a Guard)."""
 
     def __init__(self, guard: Guard | None):
         self.guard = guard
-        self.steps: list[tuple] = []  # (t, q, q', q'', sigma_r / sigma_1) of the steps kept for the branch check
+        self.steps: list[tuple] = []  # (t, q, q', q'') of the steps not yet checked
+        self.before_batch: list[tuple] = []  # the last two steps of the batch checked before, with their Psi_q
 
     def accepted(self, t: float, state) -> None:
         """After an accepted step to t (and at t = 0), state = (q, q', q'', a, lambda)."""
-        if self.guard is None:
-            return
-        ratio = self.guard.check_position(state[0], t)
-        if ratio is None:  # the Guard watches for no singular position (singular_ratio None)
-            return
-        self.steps.append((float(t), state[0], state[1], state[2], ratio))
-        if len(self.steps) > 2 and min(self.steps[-1][4], self.steps[-2][4]) >= NEAR_SINGULAR:
-            self.judge()
+        if self.guard is not None and self.guard.singular_ratio and self.guard.rank:
+            self.steps.append((float(t), state[0], state[1], state[2]))
+            if len(self.steps) >= BATCH_STEPS:
+                self.judge()
 
     def output(self, t: float, q: np.ndarray) -> None:
         """At an output time: the drift, as the numpy engine checks it on the other formulations."""
         if self.guard is not None:
             self.guard.check_drift(q, t)
 
-    def _kept(self):
-        """The kept steps as arrays t, q, q', q'' if one of them is near a singular position, else None."""
-        if not any(step[4] < NEAR_SINGULAR for step in self.steps):
+    def _configurations(self) -> tuple | None:
+        """The singular-position check of the steps not yet checked; then (t, q, q', q'', Psi_q) of those steps and
+        the two before them if one of them is near a singular position, else None."""
+        if not self.steps:
             return None
-        return tuple(np.array([step[k] for step in self.steps]) for k in range(4))
+        t, q = np.array([step[0] for step in self.steps]), np.array([step[1] for step in self.steps])
+        jacobians = self.guard.jacobians(t, q)
+        self.guard.check_outputs(t, q, None, jacobians, drift=False)
+        near = np.min(self.guard.spectra(t, jacobians)[0]) < NEAR_SINGULAR
+        steps = self.before_batch + [(*step, jacobian) for step, jacobian in zip(self.steps, jacobians, strict=True)]
+        self.steps, self.before_batch = [], steps[-2:]
+        return tuple(np.array([step[k] for step in steps]) for k in range(5)) if near else None
 
     def judge(self) -> None:
-        """``Guard.check_branches`` over the kept steps (BranchSwitchError at a switch); then keeps the last two."""
-        kept = self._kept()
+        """The steps not yet checked: their configurations, and ``Guard.check_branches`` if one is near a singular
+        position (BranchSwitchError at a switch)."""
+        if self.guard is None:
+            return
+        kept = self._configurations()
         if kept is not None:
-            t, q, qd, qdd = kept
-            self.guard.check_branches(t, q, qd, qdd, self.guard.jacobians(t, q))
-        self.steps = self.steps[-2:]
+            self.guard.check_branches(*kept)
 
     def before(self, err: AnalysisError) -> None:
-        """A run that stopped with ``err``: a branch switch in the kept steps is raised instead, from ``err``."""
-        kept = self._kept() if self.guard is not None else None
+        """A run that stopped with ``err``: a branch switch in the last steps is raised instead, from ``err``."""
+        if self.guard is None:
+            return
+        kept = self._configurations()
         if kept is not None:
-            self.guard.check_branches_before(err, *kept)
+            self.guard.check_branches_before(err, *kept[:4])
 
 
 def fixed_steps(t0: float, t1: float, h: float) -> list[float]:

@@ -262,3 +262,12 @@ def test_an_index3_run_that_leaves_the_branch_stops_by_name(monkeypatch):
     assert kind == "stopped" and isinstance(checked, BranchSwitchError), checked
     near = float(str(checked).split("near t = ")[1].split(" s")[0])
     assert abs(near - flat) < 0.005 and "augmented-lagrangian" in str(checked)
+
+
+def test_an_index3_run_checks_the_drift_as_the_others():
+    """The Guard's drift check at the output times, with its message: a fixed step (no tolerance to loosen the limit)
+    and a limit below the round-off of the constraints (1e-16 of the size) stop the run at an output time."""
+    system, q0, qd0 = build_system(load_model(chains.loop_chain(1, ANGLE, RATE)))
+    drift = r"constraint drift at t = 0\.0[1-5] s: the positions are .* m off constraint"
+    with pytest.raises(AnalysisError, match=drift):
+        forward_dynamics(system, q0, qd0, 0.05, 5, "auto", "hht", step=0.005, drift_limit=1e-16, engine="numpy")
