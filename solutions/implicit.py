@@ -289,7 +289,7 @@ class GuardedSteps:
     def __init__(self, guard: Guard | None):
         self.guard = guard
         self.steps: list[tuple] = []  # (t, q, q', q'') of the steps not yet checked
-        self.before_batch: list[tuple] = []  # the last two steps of the batch checked before, with their Psi_q
+        self.before_batch: list[tuple] = []  # the last two steps checked, with their Psi_q and sigma_r / sigma_1
 
     def accepted(self, t: float, state) -> None:
         """After an accepted step to t (and at t = 0), state = (q, q', q'', a, lambda)."""
@@ -311,9 +311,10 @@ class GuardedSteps:
         t, q = np.array([step[0] for step in self.steps]), np.array([step[1] for step in self.steps])
         jacobians = self.guard.jacobians(t, q)
         self.guard.check_outputs(t, q, None, jacobians, drift=False)
-        near = np.min(self.guard.spectra(t, jacobians)[0]) < NEAR_SINGULAR
-        steps = self.before_batch + [(*step, jacobian) for step, jacobian in zip(self.steps, jacobians, strict=True)]
+        ratios = self.guard.spectra(t, jacobians)[0]
+        steps = self.before_batch + [(*step, *more) for step, *more in zip(self.steps, jacobians, ratios, strict=True)]
         self.steps, self.before_batch = [], steps[-2:]
+        near = min(step[5] for step in steps) < NEAR_SINGULAR  # a crossing at the border is judged from this batch
         return tuple(np.array([step[k] for step in steps]) for k in range(5)) if near else None
 
     def judge(self) -> None:
