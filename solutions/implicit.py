@@ -66,6 +66,7 @@ from .dynamics import Guard, constraint_residuals
 from .energy import constraint_power, energy_history
 from .formulations import augmented_accelerations
 from .generalized_forces import ForceModel
+from .integrators import BudgetError, IntegrationStats, budget_message
 from .linalg import independent_rows
 from .mass_matrix import mass_at
 from .reactions import REDUNDANT_NOTE, minimum_norm_multipliers
@@ -150,15 +151,23 @@ class Index3Stepper:
     newton_tol: float = 1e-3
     max_iterations: int = 8
     counters: Counters = field(default_factory=Counters)
+    max_evaluations: int | None = None
+    """The evaluation budget of Q (``settings.max_evaluations``, as the ODE integrators'), None for none."""
+    method: str = "generalized-alpha"
 
     def __post_init__(self):
         self._tangent = None  # (K, C), kept while the Newton iterations converge fast
         self._lu = None  # factored iteration matrix and the h it was made for
         self._lu_h = 0.0
+        self._at = (0.0, float("nan"))  # (t, h) of the step under way, for the budget's message
 
     # -- the pieces of the residual ------------------------------------------------------------
     def _generalized_forces(self, q: np.ndarray, qd: np.ndarray, t: float) -> np.ndarray:
-        self.counters.rhs_evaluations += 1
+        counters = self.counters
+        if self.max_evaluations is not None and counters.rhs_evaluations >= self.max_evaluations:
+            stats = IntegrationStats(self.method, counters.rhs_evaluations, counters.accepted_steps)
+            raise BudgetError(budget_message(self.method, self.max_evaluations, *self._at, stats))
+        counters.rhs_evaluations += 1
         return self.forces.generalized_forces(q, qd, t)
 
     def _constraint_term(self, q: np.ndarray, lam: np.ndarray, t: float) -> np.ndarray:
@@ -213,7 +222,7 @@ class Index3Stepper:
         Returns (q, q', q'', a, lambda, error) at t + h, ``error`` the weighted local error estimate
         (eq. 6.58), or None when the Newton iterations do not converge.
         """
-        p = self.parameters
+        p, self._at = self.parameters, (t, h)
         # the parts of a_n+1, q_n+1 and q'_n+1 that do not depend on q''_n+1 (eq. 6.52, 6.53)
         a_known = (p.alpha_f * qdd - p.alpha_m * a) / (1.0 - p.alpha_m)
         q_known = q + h * qd + h * h * ((0.5 - p.beta) * a + p.beta * a_known)
@@ -472,8 +481,9 @@ def integrate_index3(
     rows = independent_rows(system.jacobian(np.asarray(q0, dtype=float), 0.0))
     solved = system if rows.size == system.n_constraints else IndependentRows(system, rows)  # redundant: fewer rows
     stepper = Index3Stepper(
-        solved, masses, forces, parameters, settings.rtol, settings.atol, options.newton_tol, options.max_iterations
-    )
+        solved, masses, forces, parameters, settings.rtol, settings.atol, options.newton_tol, options.max_iterations,
+        max_evaluations=settings.max_evaluations, method=settings.integrator,
+    )  # fmt: skip
     energy = EnergyAccount(solved, forces, active=not forces.is_conservative or bool(system.model.motors))
     times = np.linspace(0.0, settings.t_end, settings.steps + 1)
     out = Index3History.empty(times.size, system.n_coordinates, system.n_constraints)

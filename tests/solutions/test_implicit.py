@@ -213,3 +213,14 @@ def test_parameters_and_errors():
         alpha_parameters("hht", 0.2)
     with pytest.raises(AnalysisError, match="implicit method"):
         alpha_parameters("newmark", 0.9)
+
+
+def test_the_evaluation_budget_stops_an_index3_run_by_name():
+    """``max_evaluations`` bounds the index-3 runs as it bounds the ODE integrators (an undamped rho_inf = 1 run whose
+    step control shrinks its step without end meets it instead of crawling): the double pendulum at 1e-10 needs
+    thousands of evaluations of Q; a budget of 300 stops it with the ODE integrators' message."""
+    system, q0, qd0 = build_system(load_model(double_pendulum_model()))
+    with pytest.raises(AnalysisError, match=r"integrator hht spent its budget of 300 right-hand-side evaluations by t"):
+        forward_dynamics(system, q0, qd0, 1.0, 10, integrator="hht", rtol=1e-10, atol=1e-10, max_evaluations=300)
+    result = forward_dynamics(system, q0, qd0, 0.05, 2, integrator="hht", max_evaluations=300)  # within it: runs
+    assert 0 < result.info["rhs_evaluations"] <= 300
