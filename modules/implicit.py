@@ -300,6 +300,7 @@ class GuardedSteps:
         self.guard = guard
         self.steps: list[tuple] = []  # (t, q, q', q'') of the steps not yet checked
         self.before_batch: list[tuple] = []  # the last two steps checked, with their Psi_q and sigma_r / sigma_1
+        self.last: tuple | None = None  # (t, q, sigma_r / sigma_1) of the last step checked
 
     def accepted(self, t: float, state) -> None:
         """After an accepted step to t (and at t = 0), state = (q, q', q'', a, lambda)."""
@@ -322,6 +323,7 @@ class GuardedSteps:
         jacobians = self.guard.jacobians(t, q)
         self.guard.check_outputs(t, q, None, jacobians, drift=False)
         ratios = self.guard.spectra(t, jacobians)[0]
+        self.last = (float(t[-1]), q[-1], float(ratios[-1]))
         steps = self.before_batch + [(*step, *more) for step, *more in zip(self.steps, jacobians, ratios, strict=True)]
         self.steps, self.before_batch = [], steps[-2:]
         near = min(step[5] for step in steps) < NEAR_SINGULAR  # a crossing at the border is judged from this batch
@@ -343,6 +345,22 @@ class GuardedSteps:
         kept = self._configurations()
         if kept is not None:
             self.guard.check_branches_before(err, *kept[:4])
+
+    def named(self, err: AnalysisError) -> AnalysisError:
+        """``err`` (Newton iterations or step control that failed) naming the singular position the last accepted
+        step was next to, if it was: there the iteration matrix S (eq. 6.56) loses rank with Psi_q."""
+        if self.last is None or self.last[2] >= NEAR_SINGULAR or isinstance(err, BudgetError):
+            return err
+        from .diagnostics import singular_joints
+
+        t, q, ratio = self.last
+        system = self.guard.system
+        _, joints = singular_joints(system.jacobian(q, t), system.row_owners)
+        return AnalysisError(
+            f"{err}. The last step, at t = {t:.6g} s, was next to a singular position (smallest singular value "
+            f"{ratio:.2g} of the largest of Psi_q; joints {', '.join(joints)}), where the iteration matrix loses rank "
+            "with Psi_q: another --step (one that does not land next to it), or --formulation augmented-lagrangian"
+        )
 
 
 def fixed_steps(t0: float, t1: float, h: float) -> list[float]:
@@ -494,7 +512,10 @@ def integrate_index3(
         march(stepper, energy, out, rows, q, qd, times, settings, options, watch)
     except AnalysisError as err:  # a branch switch before the stop is its cause: said first, as the other runs
         watch.before(err)
-        raise
+        named = watch.named(err)
+        if named is err:
+            raise
+        raise named from err
     watch.judge()
     if rows.size < system.n_constraints:  # the multipliers are not unique: the minimum-norm set (eq. 5.73)
         out.lam = minimum_norm_multipliers(system, out.q, out.lam, times)

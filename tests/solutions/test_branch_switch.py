@@ -271,3 +271,21 @@ def test_an_index3_run_checks_the_drift_as_the_others():
     drift = r"constraint drift at t = 0\.0[1-5] s: the positions are .* m off constraint"
     with pytest.raises(AnalysisError, match=drift):
         forward_dynamics(system, q0, qd0, 0.05, 5, "auto", "hht", step=0.005, drift_limit=1e-16, engine="numpy")
+
+
+def test_an_index3_run_whose_newton_iterations_fail_at_a_singular_position_says_so():
+    """N = 2 at a fixed step of 1 ms: a step lands next to the second flat position (t = 0.903 s), where the iteration
+    matrix loses rank with Psi_q, and Newton fails (here; rounding decides, so another machine may pass it: then the
+    run is judged as the others). The stop names the singular position, its joints, and what to try."""
+    system, q0, qd0 = build_system(load_model(chains.loop_chain(2, ANGLE, RATE)))
+    times, _ = reference(2)
+    try:
+        result = forward_dynamics(system, q0, qd0, times[-1], times.size - 1, "auto", "hht", step=0.001, engine="numpy")
+    except AnalysisError as err:
+        message = str(err)
+        assert "Newton iterations did not converge" in message and "next to a singular position" in message
+        t = float(message.split("The last step, at t = ")[1].split(" s")[0])
+        assert abs(t - flat_times(2)[1]) < 0.005 and "joints o0, o1, o2" in message, message
+        return
+    assert centre_error(result, 2) < 1e-2
+    assert [c["branch"] for c in result.info["singular_positions"]] == ["kept"] * 3
