@@ -50,6 +50,13 @@ A step with err <= 1 is accepted; the next step is h min(2, max(0.2, 0.9 err^(-1
 second order, the error is O(h^3)). A rejected step or a failed Newton iteration is retried with a
 smaller h. Steps end on every output time. With ``step`` given the step is fixed (each output interval
 is split into equal steps no longer than ``step``) and there is no error control.
+
+Guards (``GuardedSteps``, issue 29): the run's ``dynamics.Guard`` checks the drift at every output time and
+Psi_q at every accepted step, as on the other formulations. The method passes singular positions (S is singular
+only at one, and a step lands there with probability zero); each one passed is listed with the run, and the branch
+the motion took there is judged from the steps on either side (a switch stops the run by name, a crossing it
+cannot judge is a warning). The evaluation budget (``max_evaluations``) bounds Q's evaluations, as the ODE
+integrators' right-hand sides.
 """
 
 from __future__ import annotations

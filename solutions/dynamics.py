@@ -1236,7 +1236,8 @@ class Guard:
       sigma_r / sigma_1 of Psi_q falls below singular_ratio (r the rank at the start, so redundant
       constraints do not count; angle columns divided by the mechanism's size and rows to unit length,
       so the ratio does not depend on units).
-    - branch switches (``check_branches``, on both engines at the output times): at every singular position a
+    - branch switches (``check_branches``, on both engines at the output times; the index-3 integrators' at their
+      accepted steps, ``implicit.GuardedSteps``): at every singular position a
       run passes (even rank losses too: one per loop of a chain of parallelograms, which keep the sign of det),
       the velocities must change by what the accelerations give (``branch_verdict``), as the physical motion's
       do; a jump means the run left the branch it came along and stops it; a crossing the output times are
