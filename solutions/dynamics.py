@@ -1667,6 +1667,7 @@ def _formulation_info(formulation: Formulation) -> dict:
         info["projections"] = formulation.projections
     if hasattr(formulation, "unconverged"):
         info["unconverged_iterations"] = formulation.unconverged
+        info["augmented_iterations"] = formulation.iterations
     return info
 
 
