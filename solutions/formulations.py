@@ -40,7 +40,7 @@ import scipy.linalg
 from .assembly import System
 from .diagnostics import AnalysisError
 from .generalized_forces import ForceModel
-from .linalg import numerical_rank, solve
+from .linalg import cho_solve, numerical_rank, solve
 from .mass_matrix import singular_inertia
 
 EPS = float(np.finfo(float).eps)
@@ -478,7 +478,7 @@ class AugmentedLagrangian(Formulation):
         changes = []  # ||q''_k+1 - q''_k||_M
         for _ in range(self.max_iterations):
             lam = lam + alpha * (jacobian @ qdd - gamma)
-            new = scipy.linalg.cho_solve(factor, base - jacobian.T @ lam)
+            new = cho_solve(factor, base - jacobian.T @ lam)
             step = new - qdd
             changes.append(math.sqrt(max(float(step @ M @ step), 0.0)))
             qdd = new
