@@ -361,7 +361,8 @@ class AugmentedLagrangian(Formulation):
     parallelogram whose bars line up) and with redundant constraints (an over-constrained loop). Starting
     from lambda_0 = 0, every update lies in the range of Psi_q, so lambda is the minimum-norm set of
     multipliers: redundant constraints share the reaction in the least-squares sense, which is one of many
-    sets that give the same constraint forces Psi_q^T lambda. Where Psi_q has lost rank the iterations stop
+    sets that give the same constraint forces Psi_q^T lambda. The iterations stop where what is left of the
+    error is rounding (``converged``: two to five where Psi_q keeps its rank); where Psi_q has lost rank they stop
     after ``max_iterations`` with the least-squares compromise, and the motion goes on.
 
     Projections (eq. 5.53, 5.54). After every step the positions and velocities are moved back onto the
