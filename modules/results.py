@@ -90,6 +90,8 @@ class DynamicInfo(Info, total=False):
     partitions: list
     projections: int
     unconverged_iterations: int
+    augmented_iterations: int
+    """The augmented Lagrangian's iterations of eq. 5.52 over the run (``AugmentedLagrangian.converged``)."""
 
 
 class Index3Info(DynamicInfo, total=False):

@@ -13,7 +13,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import lapack
 
-_GETRF, _GETRS, _GESV, _POSV = lapack.get_lapack_funcs(("getrf", "getrs", "gesv", "posv"), (np.zeros((1, 1)),))
+_GETRF, _GETRS, _GESV, _POSV, _POTRS = lapack.get_lapack_funcs(
+    ("getrf", "getrs", "gesv", "posv", "potrs"), (np.zeros((1, 1)),)
+)
 
 
 def lu_factor(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -56,6 +58,14 @@ def cholesky_solve(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     _, x, info = _POSV(matrix, rhs)
     if info != 0:
         raise np.linalg.LinAlgError(f"not positive definite (LAPACK posv info {info})")
+    return x
+
+
+def cho_solve(factor: tuple[np.ndarray, bool], rhs: np.ndarray) -> np.ndarray:
+    """x from A x = rhs with the Cholesky factor of ``scipy.linalg.cho_factor(A)`` (as ``scipy.linalg.cho_solve``
+    without its argument checks: the augmented Lagrangian's iterations call it a few times per evaluation)."""
+    c, lower = factor
+    x, _ = _POTRS(c, rhs, lower=lower)
     return x
 
 
@@ -112,6 +122,7 @@ def minimum_norm_solution(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
 
 __all__ = [
     "RANK_EPS",
+    "cho_solve",
     "cholesky_solve",
     "independent_rows",
     "lu_factor",
