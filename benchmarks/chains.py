@@ -66,6 +66,15 @@ LENGTH, MASS, GRAVITY = 0.5, 1.0, 9.81
 INERTIA = MASS * LENGTH**2 / 12.0
 T_END, OUTPUTS, TOL = 1.0, 100, 1e-6
 SIZES = (2, 4, 8, 16, 32, 64)
+CPU = [False]
+"""With ``--cpu`` every timer reads this thread's CPU time (``time.thread_time``, as ``call_cost.py --cpu``): steadier
+on a machine other work shares; what it leaves out is waiting, and neither our call nor MuJoCo's rollout (its step
+loop in the calling thread) waits."""
+
+
+def now() -> float:
+    """The timers' clock: wall time, or this thread's CPU time with ``--cpu``."""
+    return time.thread_time() if CPU[0] else time.perf_counter()
 
 
 # -- the chains ------------------------------------------------------------------------------------------------
@@ -304,14 +313,14 @@ def run(family: str, n: int, config: Config, truth: np.ndarray, repeats: int, sc
     options = dict(rtol=tol, atol=tol, engine=config.engine)
     try:
         if config.engine == "compiled":
-            start = time.perf_counter()
+            start = now()
             forward_dynamics(system, q0, qd0, T_END, OUTPUTS, config.formulation, config.integrator, **options)
-            row.compile_seconds = time.perf_counter() - start  # compilation (or loading the cache) and one run
+            row.compile_seconds = now() - start  # compilation (or loading the cache) and one run
         best = math.inf
         for _ in range(repeats):
-            start = time.perf_counter()
+            start = now()
             result = forward_dynamics(system, q0, qd0, T_END, OUTPUTS, config.formulation, config.integrator, **options)
-            best = min(best, time.perf_counter() - start)
+            best = min(best, now() - start)
             if best > 1.0:
                 break
     except AnalysisError as err:
@@ -438,9 +447,9 @@ class MujocoRun:
         """(seconds, the states after every step) of one rollout."""
         from mujoco import rollout
 
-        start = time.perf_counter()
+        start = now()
         states, _ = rollout.rollout(self.model, self.data, self.state[None], nstep=OUTPUTS * self.k)
-        return time.perf_counter() - start, states
+        return now() - start, states
 
 
 def mujoco_attempt(family: str, n: int, k: int, integrator: str, truth: np.ndarray, repeats: int, closure=None):
@@ -531,9 +540,9 @@ def paired(family: str, n: int, config: Config, scene, mujoco: Row, rounds: int,
     options = dict(rtol=tol, atol=tol, engine=config.engine)
 
     def ours() -> float:
-        start = time.perf_counter()
+        start = now()
         forward_dynamics(system, q0, qd0, T_END, OUTPUTS, config.formulation, config.integrator, **options)
-        return time.perf_counter() - start
+        return now() - start
 
     ratios = []
     for r in range(rounds):
@@ -612,7 +621,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--rounds", type=int, default=7, help="interleaved rounds of ours against MuJoCo's configuration (--mujoco)"
     )
+    parser.add_argument("--cpu", action="store_true", help="time this thread's CPU, not the wall (a shared machine)")
     args = parser.parse_args(argv)
+    CPU[0] = args.cpu
     if args.mujoco:
         try:
             import mujoco  # noqa: F401
@@ -621,9 +632,11 @@ def main(argv: list[str] | None = None) -> int:
     sizes = [n for n in args.sizes if n <= 8] if args.quick else args.sizes
     configs = tuple(c for c in CONFIGS if c.engine == "numpy") if args.quick else CONFIGS
     configs = tuple(c for c in configs if not args.configs or c.label in args.configs)
+    clock = "thread CPU" if args.cpu else "wall"
     lines = ["# Scaling with the number of bodies (benchmarks/chains.py)", "",
              f"{T_END:g} s simulated, {OUTPUTS} output intervals, rtol = atol = {TOL:g}; machine: {os.cpu_count()} "
-             f"cores, load average {os.getloadavg()[0]:.1f} at the start. Command: `python benchmarks/chains.py "
+             f"cores, load average {os.getloadavg()[0]:.1f} at the start; times: {clock}."
+             f" Command: `python benchmarks/chains.py "
              f"{' '.join(argv if argv is not None else sys.argv[1:])}`.", ""]  # fmt: skip
     for family in args.family:
         rows, broken, pairs = [], set(), []

@@ -104,14 +104,17 @@ def test_mujoco_s_loop_chain_follows_the_reference_and_its_closure_s_softness_co
 
 def test_mbd_bench_scaling_sets_mujoco_s_loop_chain_against_ours(mujoco_loops, tmp_path, monkeypatch):
     """``mbd bench --scaling --family loops --mujoco``: MuJoCo's row names its closure, reaches 1e-6 m, and the paired
-    rounds run it again with that closure (ours: the numpy engine here, no compilation in a test)."""
+    rounds run it again with that closure (ours: the numpy engine here, no compilation in a test); ``--cpu`` times
+    this thread's CPU and says so."""
     from benchmarks import bench
 
     monkeypatch.setattr(chains, "PAIRED", chains.Config("numpy", "joint-coordinates"))
+    monkeypatch.setattr(chains, "CPU", [False])  # --cpu sets the module's clock: a list of its own here
     out = tmp_path / "chains.md"
-    argv = ["--scaling", "--family", "loops", "--sizes", "1", "--repeats", "1", "--mujoco", "--rounds", "1"]
+    argv = ["--scaling", "--family", "loops", "--sizes", "1", "--repeats", "1", "--mujoco", "--rounds", "1", "--cpu"]
     assert bench.main([*argv, "--configs", "numpy joint-coordinates dop853", "--out", str(out)]) == 0
     lines = out.read_text().splitlines()
+    assert "times: thread CPU" in lines[2]
     row = next(line for line in lines if line.startswith("| 1 | MuJoCo RK4 h = "))
     assert "solref 2h, solimp 0.9999 0.9999" in row
     assert float(row.split("|")[6]) <= chains.MUJOCO_TARGET  # the error column
