@@ -103,7 +103,8 @@ def test_mujoco_s_loop_chain_follows_the_reference_and_its_closure_s_softness_co
 
 
 def test_mbd_bench_scaling_sets_mujoco_s_loop_chain_against_ours(mujoco_loops, tmp_path, monkeypatch):
-    """``mbd bench --scaling --family loops --mujoco``: MuJoCo's row names its closure, reaches 1e-6 m, and the paired
+    """``mbd bench --scaling --family loops --mujoco``: MuJoCo's row names its closure (the stiff solimp: RK4 at
+    h = 10 ms with solref 2h, or 5 ms with 0.02 s when the machine's noise says so), reaches 1e-6 m, and the paired
     rounds run it again with that closure (ours: the numpy engine here, no compilation in a test); ``--cpu`` times
     this thread's CPU and says so."""
     from benchmarks import bench
@@ -116,7 +117,7 @@ def test_mbd_bench_scaling_sets_mujoco_s_loop_chain_against_ours(mujoco_loops, t
     lines = out.read_text().splitlines()
     assert "times: thread CPU" in lines[2]
     row = next(line for line in lines if line.startswith("| 1 | MuJoCo RK4 h = "))
-    assert "solref 2h, solimp 0.9999 0.9999" in row
+    assert "solimp 0.9999 0.9999" in row
     assert float(row.split("|")[6]) <= chains.MUJOCO_TARGET  # the error column
     paired = next(line for line in lines if line.startswith("| 1 | rtol = "))
     assert "solref" in paired.split("|")[3] and float(paired.split("|")[4]) > 0
