@@ -27,6 +27,11 @@ side evaluations, the time per evaluation and the largest position error of a bo
 time per evaluation with N is fitted as N^p over N >= 8. A configuration whose run at some N takes longer than
 ``--limit`` seconds is not run at larger N ("where it breaks").
 
+With ``--mujoco``, MuJoCo's fastest configuration reaching 1e-6 m against the same references and ours at its
+cheapest tolerance reaching it, then both in interleaved rounds (``paired``): the planar and spatial chains as nested
+bodies written here (``mujoco_chain``), the loop chain as ``mbd export --to mjcf`` writes it (``mujoco_loops``: a
+tree of hinges, each loop closed by a soft ``connect`` equality whose solref and solimp are searched too, CLOSURES).
+
     .venv/bin/python benchmarks/chains.py                  # N = 2 ... 64, every family (tens of minutes)
     .venv/bin/python benchmarks/chains.py --quick          # N = 2, 4, 8, numpy only (a minute)
     .venv/bin/python benchmarks/chains.py --family planar --sizes 2 8 32
@@ -61,6 +66,15 @@ LENGTH, MASS, GRAVITY = 0.5, 1.0, 9.81
 INERTIA = MASS * LENGTH**2 / 12.0
 T_END, OUTPUTS, TOL = 1.0, 100, 1e-6
 SIZES = (2, 4, 8, 16, 32, 64)
+CPU = [False]
+"""With ``--cpu`` every timer reads this thread's CPU time (``time.thread_time``, as ``call_cost.py --cpu``): steadier
+on a machine other work shares; what it leaves out is waiting, and neither our call nor MuJoCo's rollout (its step
+loop in the calling thread) waits."""
+
+
+def now() -> float:
+    """The timers' clock: wall time, or this thread's CPU time with ``--cpu``."""
+    return time.thread_time() if CPU[0] else time.perf_counter()
 
 
 # -- the chains ------------------------------------------------------------------------------------------------
@@ -278,7 +292,7 @@ class Row:
     error: float = math.nan
     compile_seconds: float = math.nan
     failure: str = ""
-    setting: tuple = ()  # MuJoCo's (integrator, k): what the paired rounds run again
+    setting: tuple = ()  # MuJoCo's (integrator, k[, closure]): what the paired rounds run again
 
     @property
     def us_per_evaluation(self) -> float:
@@ -299,14 +313,14 @@ def run(family: str, n: int, config: Config, truth: np.ndarray, repeats: int, sc
     options = dict(rtol=tol, atol=tol, engine=config.engine)
     try:
         if config.engine == "compiled":
-            start = time.perf_counter()
+            start = now()
             forward_dynamics(system, q0, qd0, T_END, OUTPUTS, config.formulation, config.integrator, **options)
-            row.compile_seconds = time.perf_counter() - start  # compilation (or loading the cache) and one run
+            row.compile_seconds = now() - start  # compilation (or loading the cache) and one run
         best = math.inf
         for _ in range(repeats):
-            start = time.perf_counter()
+            start = now()
             result = forward_dynamics(system, q0, qd0, T_END, OUTPUTS, config.formulation, config.integrator, **options)
-            best = min(best, time.perf_counter() - start)
+            best = min(best, now() - start)
             if best > 1.0:
                 break
     except AnalysisError as err:
@@ -321,7 +335,7 @@ def run(family: str, n: int, config: Config, truth: np.ndarray, repeats: int, sc
     return row
 
 
-# -- MuJoCo, the same chains in its minimal coordinates -------------------------------------------------------------
+# -- MuJoCo, the same chains in its minimal coordinates (the loop chain: a tree and connect equalities) ------------
 MUJOCO_INTEGRATORS = ("RK4", "implicitfast", "Euler")
 SUBSTEPS = (1, 2, 3, 4, 5, 6, 8, 10, 12, 16, 20, 25, 32, 40, 50, 64, 80, 100, 128, 160, 200, 256, 320, 400, 512)
 """Steps per output interval tried: h = (output interval) / k. Each integrator's cheapest k that reaches the error
@@ -330,6 +344,20 @@ MUJOCO_TARGET = TOL
 """The position error (m) a MuJoCo configuration must reach: the tolerance the project's runs are asked."""
 MUJOCO_SECONDS = 20.0
 """A MuJoCo integrator whose run takes longer than this stops searching smaller steps."""
+MUJOCO_SLOWER = 2.0
+"""A scan also stops once a run takes this many times the fastest configuration already found: smaller steps cost
+more still, so it cannot win (first-order Euler and implicitfast need some 10^4 steps per second for 1e-6 m)."""
+CLOSURES = (
+    (None, (0.9999, 0.9999, 0.001)),
+    (None, (0.99, 0.99, 0.001)),
+    (None, (0.9, 0.95, 0.001)),
+    (0.02, (0.9999, 0.9999, 0.001)),
+    (0.02, (0.9, 0.95, 0.001)),
+)
+"""The loop closures' softness tried on the loop chain, stiff first: (solref time constant, solimp). A time constant
+None is two steps (the exporter's default, the stiffest MuJoCo keeps stable: it raises a shorter one to 2h), 0.02 s
+MuJoCo's default; solimp (dmin, dmax, width) from the stiffest MuJoCo allows (0.9999) to its default (0.9, 0.95,
+0.001). A connect equality is a soft constraint: the error it lets the loop open by counts in the position error."""
 
 
 def mujoco_chain(family: str, n: int, h: float, integrator: str) -> str:
@@ -361,25 +389,56 @@ def mujoco_chain(family: str, n: int, h: float, integrator: str) -> str:
             )
             closing.append("</body>")
         gravity = [0.0, 0.0, -GRAVITY]
-    return (
-        f"<mujoco>{option.format(_v(gravity))}<worldbody>{''.join(bodies)}{''.join(closing)}</worldbody></mujoco>"
-    )
+    return f"<mujoco>{option.format(_v(gravity))}<worldbody>{''.join(bodies)}{''.join(closing)}</worldbody></mujoco>"
 
 
 def _v(x) -> str:
     return " ".join(repr(float(c)) for c in x)
 
 
+def mujoco_loops(n: int, h: float, integrator: str, closure: tuple = CLOSURES[0]) -> str:
+    """MJCF of the loop chain (``loop_chain``) as ``mbd export --to mjcf`` writes it (``solutions.io.mjcf``): a
+    spanning tree of hinges, each loop closed by a ``connect`` equality with the ``closure``'s solref time constant
+    and solimp (CLOSURES), its keyframe 'initial' the chain's starting state; the step h and ``integrator`` set."""
+    from solutions.io.mjcf import Stiffness, export_mjcf
+
+    time_constant, solimp = closure
+    xml = export_mjcf(load_model(loop_chain(n)), Stiffness(timestep=h, time_constant=time_constant, solimp=solimp))
+    return xml.replace('integrator="RK4"', f'integrator="{integrator}"', 1)
+
+
+def effective_closure(closure: tuple, h: float) -> tuple:
+    """The closure MuJoCo integrates at step h: its time constant raised to 2h at least (MuJoCo's refsafe)."""
+    time_constant, solimp = closure
+    return max(time_constant or 0.0, 2.0 * h), solimp
+
+
+def closure_label(closure: tuple) -> str:
+    time_constant, solimp = closure
+    return f"solref {'2h' if time_constant is None else f'{time_constant:g}'}, solimp {solimp[0]:g} {solimp[1]:g}"
+
+
 class MujocoRun:
     """One MuJoCo configuration of a chain, ready to run 1 s: h = interval / k, ``mujoco.rollout`` (the step loop in
-    C, no Python per step) from the chain's initial state."""
+    C, no Python per step) from the chain's initial state (the loop chain: its MJCF's keyframe). ``ids``: MuJoCo's
+    bodies in the order of the family's model (the reference's)."""
 
-    def __init__(self, family: str, n: int, k: int, integrator: str):
+    def __init__(self, family: str, n: int, k: int, integrator: str, closure: tuple | None = None):
         import mujoco
 
         self.k = k
-        self.model = mujoco.MjModel.from_xml_string(mujoco_chain(family, n, T_END / OUTPUTS / k, integrator))
-        self.data = mujoco.MjData(self.model)
+        h = T_END / OUTPUTS / k
+        if family == "loops":
+            self.model = mujoco.MjModel.from_xml_string(mujoco_loops(n, h, integrator, closure or CLOSURES[0]))
+            self.data = mujoco.MjData(self.model)
+            mujoco.mj_resetDataKeyframe(self.model, self.data, 0)
+            names = [body["name"] for body in loop_chain(n)["model"]["bodies"]]
+            self.ids = [self.model.body(name).id for name in names]
+        else:
+            self.model = mujoco.MjModel.from_xml_string(mujoco_chain(family, n, h, integrator))
+            self.data = mujoco.MjData(self.model)
+            self.ids = list(range(1, self.model.nbody))
+        self.qpos0 = self.data.qpos.copy()
         spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
         self.state = np.empty(mujoco.mj_stateSize(self.model, spec))
         mujoco.mj_getState(self.model, self.data, self.state, spec)
@@ -388,54 +447,68 @@ class MujocoRun:
         """(seconds, the states after every step) of one rollout."""
         from mujoco import rollout
 
-        start = time.perf_counter()
+        start = now()
         states, _ = rollout.rollout(self.model, self.data, self.state[None], nstep=OUTPUTS * self.k)
-        return time.perf_counter() - start, states
+        return now() - start, states
 
 
-def mujoco_attempt(family: str, n: int, k: int, integrator: str, truth: np.ndarray, repeats: int):
+def mujoco_attempt(family: str, n: int, k: int, integrator: str, truth: np.ndarray, repeats: int, closure=None):
     """(seconds of the best of ``repeats`` rollouts of 1 s, error (m)) at h = interval / k, the body centres at the
-    output times from its states afterwards."""
-    import mujoco
-
-    run = MujocoRun(family, n, k, integrator)
-    model, data = run.model, run.data
+    output times from its states afterwards (``closure``: the loop chain's, CLOSURES)."""
+    run = MujocoRun(family, n, k, integrator, *([closure] if closure else []))
     best, states = math.inf, None
     for _ in range(repeats):
         seconds, states = run()
         best = min(best, seconds)
-    qpos = states[0, k - 1 :: k, 1 : 1 + model.nq]  # after every k steps: the output times t_1 ... t_end
+    centres = mujoco_centres(run, states, 3 if family == "spatial" else 2)
+    return best, float(np.max(np.linalg.norm(centres - truth, axis=-1)))
+
+
+def mujoco_centres(run: MujocoRun, states: np.ndarray, dimension: int) -> np.ndarray:
+    """The body centres (OUTPUTS + 1, bodies, dimension) at the output times from a rollout's states: its first
+    state, then the state after every k steps (t_1 ... t_end)."""
+    import mujoco
+
+    model, data, k = run.model, run.data, run.k
     centres = []
-    for q in [model.qpos0, *qpos]:
+    for q in [run.qpos0, *states[0, k - 1 :: k, 1 : 1 + model.nq]]:
         data.qpos[:] = q
         mujoco.mj_kinematics(model, data)
-        centres.append(data.xipos[1:, : 2 if family == "planar" else 3].copy())
-    return best, float(np.max(np.linalg.norm(np.array(centres) - truth, axis=-1)))
+        centres.append(data.xipos[run.ids, :dimension].copy())
+    return np.array(centres)
 
 
 def mujoco_run(family: str, n: int, truth: np.ndarray, repeats: int, target: float = MUJOCO_TARGET) -> Row:
-    """MuJoCo's fastest configuration that reaches ``target`` (m): for each integrator the first k of SUBSTEPS that
-    does, timed; the fastest of them (the table's row names it, and the target when it is not MUJOCO_TARGET: the
-    error the project's joint-coordinates run reached, where that is larger)."""
-    found = []
+    """MuJoCo's fastest configuration that reaches ``target`` (m): for each integrator (and, on the loop chain, each
+    closure of CLOSURES) the first k of SUBSTEPS that does, timed; the fastest of them (the table's row names it, and
+    the target when it is not MUJOCO_TARGET: the error the project's joint-coordinates run reached, where that is
+    larger). A scan gives up after a run longer than MUJOCO_SECONDS, or than MUJOCO_SLOWER times the fastest found."""
+    found, tried = [], set()
     for integrator in MUJOCO_INTEGRATORS:
-        for k in SUBSTEPS:
-            seconds, error = mujoco_attempt(family, n, k, integrator, truth, 1)
-            if error <= target:
-                seconds, error = mujoco_attempt(family, n, k, integrator, truth, repeats)
-                found.append((seconds, error, integrator, k))
-                break
-            if seconds > MUJOCO_SECONDS:
-                break
+        for closure in CLOSURES if family == "loops" else (None,):
+            for k in SUBSTEPS:
+                model = (integrator, k, closure and effective_closure(closure, T_END / OUTPUTS / k))
+                if model in tried:  # a time constant under 2h is 2h: this closure is an earlier one at this k
+                    continue
+                tried.add(model)
+                seconds, error = mujoco_attempt(family, n, k, integrator, truth, 1, closure)
+                if error <= target:
+                    seconds, error = mujoco_attempt(family, n, k, integrator, truth, repeats, closure)
+                    found.append((seconds, error, integrator, k, closure))
+                    break
+                if seconds > MUJOCO_SECONDS or found and seconds > MUJOCO_SLOWER * min(f[0] for f in found):
+                    break
     matched = "" if target == MUJOCO_TARGET else f" (error <= {target:.2g}, as joint coordinates)"
     if not found:
         failure = f"no integrator reached {target:g} m with k <= {SUBSTEPS[-1]}"
         return Row(family, n, f"MuJoCo{matched}", failure=failure)
-    seconds, error, integrator, k = min(found)
+    seconds, error, integrator, k, closure = min(found, key=lambda f: f[0])
     steps = OUTPUTS * k
     stages = 4 if integrator == "RK4" else 1
-    label = f"MuJoCo {integrator} h = {T_END / steps:.3g}{matched}"
-    return Row(family, n, label, seconds, stages * steps, error, setting=(integrator, k))
+    soft = f", {closure_label(closure)}" if closure else ""
+    label = f"MuJoCo {integrator} h = {T_END / steps:.3g}{soft}{matched}"
+    setting = (integrator, k, closure) if closure else (integrator, k)
+    return Row(family, n, label, seconds, stages * steps, error, setting=setting)
 
 
 OUR_TOLERANCES = (1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6, 3e-7, 1e-7, 3e-8, 1e-8, 3e-9, 1e-9)
@@ -462,14 +535,14 @@ def paired(family: str, n: int, config: Config, scene, mujoco: Row, rounds: int,
     rollout of MuJoCo's configuration, the order alternating from round to round, so that both meet the same state
     of the machine; the spread of the ratios is the measurement's own."""
     system, q0, qd0, _ = scene
-    integrator, k = mujoco.setting
-    theirs = MujocoRun(family, n, k, integrator)
+    integrator, k, *closure = mujoco.setting  # the loop chain's closure too
+    theirs = MujocoRun(family, n, k, integrator, *closure)
     options = dict(rtol=tol, atol=tol, engine=config.engine)
 
     def ours() -> float:
-        start = time.perf_counter()
+        start = now()
         forward_dynamics(system, q0, qd0, T_END, OUTPUTS, config.formulation, config.integrator, **options)
-        return time.perf_counter() - start
+        return now() - start
 
     ratios = []
     for r in range(rounds):
@@ -548,7 +621,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--rounds", type=int, default=7, help="interleaved rounds of ours against MuJoCo's configuration (--mujoco)"
     )
+    parser.add_argument("--cpu", action="store_true", help="time this thread's CPU, not the wall (a shared machine)")
     args = parser.parse_args(argv)
+    CPU[0] = args.cpu
     if args.mujoco:
         try:
             import mujoco  # noqa: F401
@@ -557,9 +632,11 @@ def main(argv: list[str] | None = None) -> int:
     sizes = [n for n in args.sizes if n <= 8] if args.quick else args.sizes
     configs = tuple(c for c in CONFIGS if c.engine == "numpy") if args.quick else CONFIGS
     configs = tuple(c for c in configs if not args.configs or c.label in args.configs)
+    clock = "thread CPU" if args.cpu else "wall"
     lines = ["# Scaling with the number of bodies (benchmarks/chains.py)", "",
              f"{T_END:g} s simulated, {OUTPUTS} output intervals, rtol = atol = {TOL:g}; machine: {os.cpu_count()} "
-             f"cores, load average {os.getloadavg()[0]:.1f} at the start. Command: `python benchmarks/chains.py "
+             f"cores, load average {os.getloadavg()[0]:.1f} at the start; times: {clock}."
+             f" Command: `python benchmarks/chains.py "
              f"{' '.join(argv if argv is not None else sys.argv[1:])}`.", ""]  # fmt: skip
     for family in args.family:
         rows, broken, pairs = [], set(), []
@@ -576,7 +653,7 @@ def main(argv: list[str] | None = None) -> int:
                 print(said, file=sys.stderr, flush=True)
                 if row.failure and not row.evaluations or row.seconds > args.limit:
                     broken.add(config.label)
-            if args.mujoco and family != "loops":  # both at their cheapest setting reaching MUJOCO_TARGET
+            if args.mujoco:  # both at their cheapest setting reaching MUJOCO_TARGET
                 scene = (system, q0, qd0, dimension)
                 ours = ours_at_target(family, n, truth, args.repeats, scene, args.limit)
                 theirs = mujoco_run(family, n, truth, args.repeats, MUJOCO_TARGET)
