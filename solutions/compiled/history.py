@@ -41,15 +41,21 @@ def residuals(psi: np.ndarray, jac: np.ndarray, psit: np.ndarray, qd: np.ndarray
     }
 
 
-def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
-    """``reactions.joint_reactions(system, q, lam, t)`` over the histories q (N, n), lambda (N, m), every joint at
-    once: each row's part -(Psi_q)_r^T lambda_r of the generalized force on the three columns of either body (eq.
-    5.70), summed over the rows of its joint, the moment taken about the joint point; a ground side gets the
-    opposite of the other side's."""
+def layout(system, make):
+    """``make(system)``, the index arrays of the reaction columns that depend only on the system's structure, made
+    once per system (every run of a system asks for the same columns)."""
+    kept = system.__dict__.setdefault("_reaction_layouts", {})
+    if make not in kept:
+        kept[make] = make(system)
+    return kept[make]
+
+
+def _planar_layout(system) -> tuple:
+    """(joint names, the rows of all joints in joint order, each joint's first row among them, the rows' joint
+    lengths, its two bodies (i, j), the body carrying its point and the point in that body, and per side (i, j)
+    the columns of its body for every row and whether the row's body moves (ground: -1))."""
     from ..reactions import joint_groups
 
-    N = q.shape[0]
-    X = np.concatenate([q.reshape(N, -1, 3), np.zeros((N, 1, 3))], axis=1)  # ground last: body -1
     names, rows, sides, carriers, points, every_row = [], [], [], [], [], np.arange(system.n_constraints)
     for name, indices in joint_groups(system).items():
         first = next((system.elements[k] for k in indices if getattr(system.elements[k], "sj", None) is not None), None)
@@ -62,20 +68,35 @@ def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) ->
     lengths = [len(r) for r in rows]
     starts = np.cumsum([0, *lengths[:-1]])  # each joint's first row in rows_all
     rows_all, (i, j) = np.concatenate(rows), np.array(sides).T
-    carrier, s = np.array(carriers), np.asarray(points, dtype=float)
-    c, sn = np.cos(X[:, carrier, 2]), np.sin(X[:, carrier, 2])  # the joint point r_j + A(phi_j) s_j (eq. 2.2)
-    point = X[:, carrier, :2] + np.stack([c * s[:, 0] - sn * s[:, 1], sn * s[:, 0] + c * s[:, 1]], axis=-1)
-    force, moment = {}, {}
-    for side, body in (("i", i), ("j", j)):
+    per_side = []
+    for body in (i, j):
         per_row = np.repeat(body, lengths)
         columns = 3 * np.maximum(per_row, 0)[:, None] + np.arange(3)  # ground's rows read column 0, then zeroed
-        parts = -jac[:, rows_all[:, None], columns] * (lam[:, rows_all] * (per_row >= 0))[:, :, None]
+        per_side.append((body, rows_all[:, None], columns, per_row >= 0))
+    return names, rows_all, starts, i, j, np.array(carriers), np.asarray(points, dtype=float), per_side
+
+
+def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
+    """``reactions.joint_reactions(system, q, lam, t)`` over the histories q (N, n), lambda (N, m), every joint at
+    once: each row's part -(Psi_q)_r^T lambda_r of the generalized force on the three columns of either body (eq.
+    5.70), summed over the rows of its joint, the moment taken about the joint point; a ground side gets the
+    opposite of the other side's."""
+    names, rows_all, starts, i, j, carrier, s, per_side = layout(system, _planar_layout)
+    N = q.shape[0]
+    X = np.concatenate([q.reshape(N, -1, 3), np.zeros((N, 1, 3))], axis=1)  # ground last: body -1
+    c, sn = np.cos(X[:, carrier, 2]), np.sin(X[:, carrier, 2])  # the joint point r_j + A(phi_j) s_j (eq. 2.2)
+    point = X[:, carrier, :2] + np.stack([c * s[:, 0] - sn * s[:, 1], sn * s[:, 0] + c * s[:, 1]], axis=-1)
+    lam_rows = lam[:, rows_all]
+    force, moment = [], []
+    for body, rows, columns, moving in per_side:
+        parts = -jac[:, rows, columns] * (lam_rows * moving)[:, :, None]
         g = np.add.reduceat(parts, starts, axis=1)  # (N, joints, 3): x, y and the angle's column
         arm = point - X[:, body, :2]
-        force[side], moment[side] = g[..., :2], g[..., 2] - (arm[..., 0] * g[..., 1] - arm[..., 1] * g[..., 0])
+        force.append(g[..., :2])
+        moment.append(g[..., 2] - (arm[..., 0] * g[..., 1] - arm[..., 1] * g[..., 0]))
     ground = j < 0
-    Fj = np.where(ground[:, None], -force["i"], force["j"])
-    Mj = np.where(ground, -moment["i"], moment["j"])
+    Fj = np.where(ground[:, None], -force[0], force[1])
+    Mj = np.where(ground, -moment[0], moment[1])
     columns = {}
     for k, name in enumerate(names):
         columns[f"{name}.Fx"], columns[f"{name}.Fy"], columns[f"{name}.Mz"] = Fj[:, k, 0], Fj[:, k, 1], Mj[:, k]
@@ -87,18 +108,12 @@ def _axes(frame) -> np.ndarray:
     return np.column_stack([frame.f, frame.g, frame.h])
 
 
-def spatial_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
-    """``spatial.reactions.joint_reactions(system, q, lam, t)`` over the histories q (N, n), lambda (N, m), every
-    element at once: each row's part -(Psi_q)_r^T lambda_r of the generalized force on the seven columns of either
-    body (eq. 10.20), summed over the element's rows; the force F and the torque n = 1/2 G(p) Q_p (eq. 8.14), its
-    moment taken about the joint point; a ground side gets the opposite of the other side's."""
+def _spatial_layout(system) -> tuple:
+    """(element names, the rows of all elements (the Euler parameters' normalization left out), each element's
+    first row among them, its bodies (i, j), the joint point in body j, the elements with joint frames and those
+    frames' axes, and per side (i, j) the columns of its body for every row and whether the row's body moves)."""
     from ..spatial.joints import EulerNormalization, Joint
 
-    N = q.shape[0]
-    X = np.concatenate([q.reshape(N, -1, 7), np.tile([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0], (N, 1, 1))], axis=1)
-    p = X[..., 3:] / np.linalg.norm(X[..., 3:], axis=2, keepdims=True)  # every body's unit Euler parameters
-    A = np.stack(rotation_entries(*np.moveaxis(p, 2, 0)), -1).reshape(N, -1, 3, 3)  # (eq. 8.12)
-    G = np.stack(g_entries(*np.moveaxis(p, 2, 0)), -1).reshape(N, -1, 3, 4)  # (eq. 8.14)
     every_row = np.arange(system.n_constraints)
     elements = [(k, e) for k, e in enumerate(system.elements) if not isinstance(e, EulerNormalization)]
     rows = [every_row[system.rows[k]] for k, _ in elements]
@@ -110,32 +125,52 @@ def spatial_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -
     for row, ((_, e), has_frames) in enumerate(zip(elements, framed, strict=True)):
         given = e.frames[1].origin if has_frames else getattr(e, "sj", None)
         offsets[row] = 0.0 if given is None else given
-    point = X[:, j, :3] + (A[:, j] @ offsets[:, :, None])[..., 0]
-    force, moment = {}, {}
-    for side, body in (("i", i), ("j", j)):
+    joints = np.flatnonzero(framed)  # F and M in the joint frame too: its f, g, h in body j
+    frames = np.array([_axes(elements[e][1].frames[1]) for e in joints]).reshape(-1, 3, 3)
+    per_side = []
+    for body in (i, j):
         per_row = np.repeat(body, lengths)
         columns = 7 * np.maximum(per_row, 0)[:, None] + np.arange(7)  # ground's rows read column 0, then zeroed
-        parts = -jac[:, rows_all[:, None], columns] * (lam[:, rows_all] * (per_row >= 0))[:, :, None]
+        per_side.append((body, rows_all[:, None], columns, per_row >= 0))
+    names = [e.name for _, e in elements]
+    return names, rows_all, starts, i, j, offsets, joints, frames, per_side
+
+
+def spatial_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
+    """``spatial.reactions.joint_reactions(system, q, lam, t)`` over the histories q (N, n), lambda (N, m), every
+    element at once: each row's part -(Psi_q)_r^T lambda_r of the generalized force on the seven columns of either
+    body (eq. 10.20), summed over the element's rows; the force F and the torque n = 1/2 G(p) Q_p (eq. 8.14), its
+    moment taken about the joint point; a ground side gets the opposite of the other side's."""
+    names, rows_all, starts, i, j, offsets, joints, frames, per_side = layout(system, _spatial_layout)
+    N = q.shape[0]
+    X = np.concatenate([q.reshape(N, -1, 7), np.tile([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0], (N, 1, 1))], axis=1)
+    p = X[..., 3:] / np.linalg.norm(X[..., 3:], axis=2, keepdims=True)  # every body's unit Euler parameters
+    A = np.stack(rotation_entries(*np.moveaxis(p, 2, 0)), -1).reshape(N, -1, 3, 3)  # (eq. 8.12)
+    G = np.stack(g_entries(*np.moveaxis(p, 2, 0)), -1).reshape(N, -1, 3, 4)  # (eq. 8.14)
+    point = X[:, j, :3] + (A[:, j] @ offsets[:, :, None])[..., 0]
+    lam_rows = lam[:, rows_all]
+    force, moment = [], []
+    for body, rows, columns, moving in per_side:
+        parts = -jac[:, rows, columns] * (lam_rows * moving)[:, :, None]
         g = np.add.reduceat(parts, starts, axis=1)  # (N, elements, 7): Q_r, Q_p of the body
         n = 0.5 * (G[:, body] @ g[..., 3:, None])[..., 0]
-        force[side], moment[side] = g[..., :3], n - np.cross(point - X[:, body, :3], g[..., :3])
+        force.append(g[..., :3])
+        moment.append(n - np.cross(point - X[:, body, :3], g[..., :3]))
     ground = (j < 0)[:, None]
-    F, M = np.where(ground, -force["i"], force["j"]), np.where(ground, -moment["i"], moment["j"])
-    joints = np.flatnonzero(framed)  # F and M in the joint frame too: its f, g, h in body j, turned to global axes
-    frames = np.array([_axes(elements[e][1].frames[1]) for e in joints]).reshape(-1, 3, 3)
-    axes_t = np.swapaxes(A[:, j[joints]] @ frames, 2, 3)  # rows f, g, h (global)
+    F, M = np.where(ground, -force[0], force[1]), np.where(ground, -moment[0], moment[1])
+    axes_t = np.swapaxes(A[:, j[joints]] @ frames, 2, 3)  # the joint frames' rows f, g, h (global)
     F_joint, M_joint = (axes_t @ F[:, joints, :, None])[..., 0], (axes_t @ M[:, joints, :, None])[..., 0]
     at_joint = {e: position for position, e in enumerate(joints)}
     columns = {}
-    for row, (_, element) in enumerate(elements):
+    for row, name in enumerate(names):
         for axis, c in zip("xyz", range(3), strict=True):
-            columns[f"{element.name}.F{axis}"] = F[:, row, c]
+            columns[f"{name}.F{axis}"] = F[:, row, c]
         for axis, c in zip("xyz", range(3), strict=True):
-            columns[f"{element.name}.M{axis}"] = M[:, row, c]
+            columns[f"{name}.M{axis}"] = M[:, row, c]
         if row in at_joint:
             for axis, c in zip("xyz", range(3), strict=True):  # in the order of the numpy engine's columns
-                columns[f"{element.name}.F{axis}_joint"] = F_joint[:, at_joint[row], c]
-                columns[f"{element.name}.M{axis}_joint"] = M_joint[:, at_joint[row], c]
+                columns[f"{name}.F{axis}_joint"] = F_joint[:, at_joint[row], c]
+                columns[f"{name}.M{axis}_joint"] = M_joint[:, at_joint[row], c]
     return columns
 
 
