@@ -529,9 +529,7 @@ def dynamic_model(system: System, masses, forces) -> tuple[np.ndarray, ForceMode
     return M, build_forces(system.model) if forces is None else forces
 
 
-def plan_method(
-    run: Run, M, forces, q, qd, formulation: str, integrator: str, rates: StartRates | None = None
-) -> Plan:
+def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str, rates: StartRates | None = None) -> Plan:
     """Stage 2: the formulation and integrator (``choose_method`` for ``auto``) and the tolerance rule
     (``default_rtol`` over the motion's periods), computed once; ``rates``: the run's ``StartRates``, made here
     when not given."""

@@ -21,7 +21,6 @@ from __future__ import annotations
 import numpy as np
 
 
-
 def constraint_arrays(module, scene, times: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(Psi, Psi_q, Psi_t) at every output time, shapes (N, m), (N, m, n), (N, m), from the compiled module."""
     from . import parameters
