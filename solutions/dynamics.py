@@ -68,7 +68,7 @@ from .joint_coordinates import open_tree
 from .kinematics import assemble, point_columns
 from .linalg import RANK_EPS, numerical_rank
 from .mass_matrix import mass_at, mass_matrix, singular_inertia
-from .reactions import REDUNDANT_NOTE, driver_efforts, joint_reactions, minimum_norm_multipliers
+from .reactions import REDUNDANT_NOTE, joint_reactions, minimum_norm_multipliers
 from .results import DynamicInfo, Progress, Result
 from .settings import (
     DEFAULT_ACCURACY,
@@ -132,14 +132,19 @@ def consistent_initial_conditions(
 
 
 def effort_columns(system: System, q: np.ndarray, lam: np.ndarray, t: np.ndarray) -> dict[str, np.ndarray]:
-    """'DRIVER.effort' for every driver over a run: the name an inverse analysis gives them too."""
+    """'DRIVER.effort' for every driver over a run: the name an inverse analysis gives them too. The effort of
+    ``reactions.driver_efforts``, -lambda dPsi/ds, over all output times at once: -lambda of the driver's row, times
+    the driven distance L(t) for a distance driver."""
     if not system.model.motors:  # no driver: no effort, and no pass over the output times
         return {}
-    efforts: dict[str, list[float]] = {}
-    for k in range(len(t)):
-        for name, value in driver_efforts(system, q[k], lam[k], t[k]).items():
-            efforts.setdefault(name, []).append(value)
-    return {f"{name}.effort": np.array(values) for name, values in efforts.items()}
+    motors, lam = {m["name"] for m in system.model.motors}, np.asarray(lam, dtype=float)
+    efforts: dict[str, np.ndarray] = {}
+    for k, element in enumerate(system.elements):
+        if element.name in motors:
+            length = getattr(element, "length", None)
+            scale = 1.0 if length is None else np.array([length.value(float(time)) for time in t])
+            efforts[element.name] = -lam[:, system.rows[k]][:, 0] * scale
+    return {f"{name}.effort": values for name, values in efforts.items()}
 
 
 def point_masses(model) -> list[int]:
