@@ -795,7 +795,7 @@ def build_result(run: Run, equations, guard, history, compiled, times) -> tuple[
     else:
         from .compiled import history as compiled_history
 
-        residuals = compiled_history.residuals(compiled.psi, compiled.jac, compiled.psit, history.qd)
+        residuals = compiled_history.residuals(compiled.psi, compiled.jac, compiled.psit, history.qd, system)
     accumulated = history.energies.T if equations.extra else ()
     energies = energy_history(equations.formulation.masses, equations.forces, history.q, history.qd, *accumulated)
     result.points.update(residuals)

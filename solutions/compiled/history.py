@@ -4,7 +4,7 @@ The numpy engine evaluates Psi, Psi_q and Psi_t once per output time through the
 reactions joint by joint (``reactions.py``, ``spatial/reactions.py``: what students write). A compiled run
 has the same arrays from its generated module at every output time in one call (``constraint_arrays``), and
 here they are turned into the same result columns over all output times at once: the residuals by array
-operations, the reactions by compiled loops (``reaction_kernels.py``) over an index layout made once per system:
+operations, the reactions by compiled loops (``history_kernels.py``) over an index layout made once per system:
 
 - residuals: max |Psi| and max |Psi_q q' + Psi_t| per output time (``dynamics.constraint_residuals``);
 - reactions: for joint k and each of its moving bodies i, Q_i^k = -(Psi_qi^k)^T lambda_k (eq. 5.70, 10.20),
@@ -31,9 +31,18 @@ def constraint_arrays(module, scene, times: np.ndarray, Y: np.ndarray) -> tuple[
     return psi, jac, psit
 
 
-def residuals(psi: np.ndarray, jac: np.ndarray, psit: np.ndarray, qd: np.ndarray) -> dict[str, np.ndarray]:
-    """'residual.position' max |Psi| and 'residual.velocity' max |Psi_q q' + Psi_t| at every output time."""
-    velocity = (jac @ qd[:, :, None])[:, :, 0] + psit  # Psi_q q' at every time, by BLAS
+def residuals(psi: np.ndarray, jac: np.ndarray, psit: np.ndarray, qd: np.ndarray, system=None) -> dict[str, np.ndarray]:
+    """'residual.position' max |Psi| and 'residual.velocity' max |Psi_q q' + Psi_t| at every output time. With the
+    ``system``, Psi_q q' over each row's nonzero columns (``history_kernels.velocity_residuals``), else by BLAS."""
+    columns = None if system is None else layout(system, _row_columns)
+    if columns is None:
+        velocity = (jac @ qd[:, :, None])[:, :, 0] + psit  # Psi_q q' at every time, by BLAS
+    else:
+        from . import history_kernels
+
+        velocity = np.empty(psit.shape)
+        jac, qd, psit = (np.ascontiguousarray(a, dtype=float) for a in (jac, qd, psit))
+        history_kernels.velocity_residuals(jac, qd, psit, columns, velocity)
     return {
         "residual.position": np.max(np.abs(psi), axis=1, initial=0.0),
         "residual.velocity": np.max(np.abs(velocity), axis=1, initial=0.0),
@@ -49,9 +58,31 @@ def layout(system, make):
     return kept[make]
 
 
+def _row_columns(system) -> np.ndarray | None:
+    """(m, w): the columns of Psi_q where each row can be nonzero, those of the bodies its element joins (-1 after
+    the last), or None where an element's rows reach other columns (checked once, at a configuration off the
+    model's: then the dense product)."""
+    per, m = system.coordinates_per_body, system.n_constraints
+    columns = np.full((m, 2 * per), -1, dtype=np.int64)
+    every_row = np.arange(m)
+    for k, element in enumerate(system.elements):
+        bodies = sorted(b for b in (getattr(element, "i", -1), getattr(element, "j", -1)) if b is not None and b >= 0)
+        reach = np.concatenate([per * b + np.arange(per) for b in bodies]) if bodies else np.zeros(0, np.int64)
+        columns[every_row[system.rows[k]], : reach.size] = reach
+    q = np.random.default_rng(3).uniform(0.5, 1.5, system.n_coordinates)  # no zero an element's rows could hide
+    pattern = np.zeros((m, system.n_coordinates), dtype=bool)
+    rows, slots = np.nonzero(columns >= 0)
+    pattern[rows, columns[rows, slots]] = True
+    try:
+        outside = np.any((system.jacobian(q, 0.5) != 0.0) & ~pattern)
+    except (ArithmeticError, ValueError, np.linalg.LinAlgError):  # not evaluable there: the dense product
+        return None
+    return None if outside else columns
+
+
 def _planar_layout(system) -> tuple:
     """(joint names, the rows of all joints in joint order, each joint's first row among them, its two bodies (i, j),
-    the body carrying its point and the point in that body), as ``reaction_kernels.planar_reactions`` takes them."""
+    the body carrying its point and the point in that body), as ``history_kernels.planar_reactions`` takes them."""
     from ..reactions import joint_groups
 
     names, rows, sides, carriers, points, every_row = [], [], [], [], [], np.arange(system.n_constraints)
@@ -76,15 +107,15 @@ def _histories(q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> tuple[np.ndar
 
 def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
     """``reactions.joint_reactions(system, q, lam, t)`` over the histories q (N, n), lambda (N, m), every joint at
-    once (``reaction_kernels.planar_reactions``): each row's part -(Psi_q)_r^T lambda_r of the generalized force on
+    once (``history_kernels.planar_reactions``): each row's part -(Psi_q)_r^T lambda_r of the generalized force on
     the three columns of either body (eq. 5.70), summed over the rows of its joint, the moment taken about the joint
     point (eq. 5.71); a ground side gets the opposite of the other side's."""
-    from . import reaction_kernels
+    from . import history_kernels
 
     names, arrays = layout(system, _planar_layout)
     N = q.shape[0]
     F, M = np.empty((N, len(names), 2)), np.empty((N, len(names)))
-    reaction_kernels.planar_reactions(*_histories(q, lam, jac), *arrays, F, M)
+    history_kernels.planar_reactions(*_histories(q, lam, jac), *arrays, F, M)
     columns = {}
     for k, name in enumerate(names):
         columns[f"{name}.Fx"], columns[f"{name}.Fy"], columns[f"{name}.Mz"] = F[:, k, 0], F[:, k, 1], M[:, k]
@@ -98,7 +129,7 @@ def _axes(frame) -> np.ndarray:
 
 def _spatial_layout(system) -> tuple:
     """(element names, each element's place among those with joint frames or -1, and the arrays
-    ``reaction_kernels.spatial_reactions`` takes: the rows of all elements (the Euler parameters' normalization
+    ``history_kernels.spatial_reactions`` takes: the rows of all elements (the Euler parameters' normalization
     left out), each element's first row among them, its bodies (i, j), the joint point in body j, the frames' axes
     as columns, each element's place among the framed ones)."""
     from ..spatial.joints import EulerNormalization, Joint
@@ -124,17 +155,17 @@ def _spatial_layout(system) -> tuple:
 
 def spatial_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
     """``spatial.reactions.joint_reactions(system, q, lam, t)`` over the histories q (N, n), lambda (N, m), every
-    element at once (``reaction_kernels.spatial_reactions``): each row's part -(Psi_q)_r^T lambda_r of the
+    element at once (``history_kernels.spatial_reactions``): each row's part -(Psi_q)_r^T lambda_r of the
     generalized force on the seven columns of either body (eq. 10.20), summed over the element's rows; the force F
     and the torque n = 1/2 G(p) Q_p (eq. 8.14), its moment taken about the joint point (eq. 10.21); a ground side
     gets the opposite of the other side's."""
-    from . import reaction_kernels
+    from . import history_kernels
 
     names, place, arrays = layout(system, _spatial_layout)
     N, framed = q.shape[0], int(np.count_nonzero(place >= 0))
     F, M = np.empty((N, len(names), 3)), np.empty((N, len(names), 3))
     F_joint, M_joint = np.empty((N, framed, 3)), np.empty((N, framed, 3))
-    reaction_kernels.spatial_reactions(*_histories(q, lam, jac), *arrays, F, M, F_joint, M_joint)
+    history_kernels.spatial_reactions(*_histories(q, lam, jac), *arrays, F, M, F_joint, M_joint)
     columns = {}
     for row, name in enumerate(names):
         for axis, c in zip("xyz", range(3), strict=True):
