@@ -459,7 +459,8 @@ def start_motion(run: Run, formulation: str, integrator: str) -> Start:
     if turns is not None:
         qd = without_turns(turns, qd)
     settings = run.settings
-    rates = StartRates(run.system, M, forces, q, qd, settings.formulation_options, settings.engine == "compiled")
+    compiled, cached_only = settings.engine in ("compiled", "cached"), settings.engine == "cached"
+    rates = StartRates(run.system, M, forces, q, qd, settings.formulation_options, compiled, cached_only)
     plan = plan_method(run, M, forces, q, qd, formulation, integrator, rates)  # stage 2
     return Start(run, M, forces, q, qd, initial, plan, notes, rates)
 
@@ -795,7 +796,7 @@ def build_result(run: Run, equations, guard, history, compiled, times) -> tuple[
     else:
         from .compiled import history as compiled_history
 
-        residuals = compiled_history.residuals(compiled.psi, compiled.jac, compiled.psit, history.qd)
+        residuals = compiled_history.residuals(compiled.psi, compiled.jac, compiled.psit, history.qd, system)
     accumulated = history.energies.T if equations.extra else ()
     energies = energy_history(equations.formulation.masses, equations.forces, history.q, history.qd, *accumulated)
     result.points.update(residuals)
@@ -854,12 +855,15 @@ class StartRates:
     and shared by the integrator's choice (``choose_method``) and the tolerance rule (``motion_periods``). A run
     asked to be compiled (engine ``compiled``) evaluates them with the compiled engine's right-hand side
     (``compiled.dispatch.start_rates``: the same equations, microseconds instead of a numpy evaluation's
-    tenths of a millisecond), other runs with numpy's. None where the equations cannot be evaluated at the start
-    (the run itself says why)."""
+    tenths of a millisecond), and so does a run on engine ``cached`` whose scene's machine code is on disk
+    (``cached_only``: the run itself loads it), other runs with numpy's. None where the equations cannot be
+    evaluated at the start (the run itself says why)."""
 
-    def __init__(self, system: System, M, forces: ForceModel, q, qd, options: dict, compiled: bool = False):
+    def __init__(
+        self, system: System, M, forces: ForceModel, q, qd, options: dict, compiled: bool = False, cached_only=False
+    ):
         self.system, self.M, self.forces, self.q, self.qd, self.options = system, M, forces, q, qd, options
-        self.compiled = compiled
+        self.compiled, self.cached_only = compiled, cached_only
         self.known: dict[str, tuple[float, np.ndarray] | Exception] = {}
         self.untouched: dict[str, Formulation] = {}  # made, and evaluated only by the compiled engine
 
@@ -892,7 +896,7 @@ class StartRates:
         equations = EquationsOfMotion(made, self.forces, False)  # the drivers' power left out: it feeds nothing back
         z = equations.initial_state(self.q, self.qd, 0.0)
         if self.compiled:
-            found = _compiled_start_rates(equations, formulation, self.options, z)
+            found = _compiled_start_rates(equations, formulation, self.options, z, self.cached_only)
             if found is not None:
                 self.untouched[formulation] = made
                 return found
@@ -901,12 +905,12 @@ class StartRates:
         return spectral_radius(equations.rhs, 0.0, z, equations.rhs(0.0, z)), qdd
 
 
-def _compiled_start_rates(equations, formulation: str, options: dict, z: np.ndarray):
+def _compiled_start_rates(equations, formulation: str, options: dict, z: np.ndarray, cached_only: bool = False):
     try:
         from .compiled import dispatch
     except ImportError:  # a student package: no compiled engine
         return None
-    return dispatch.start_rates(equations, formulation, options, z)
+    return dispatch.start_rates(equations, formulation, options, z, cached_only)
 
 
 def motion_periods(
