@@ -78,6 +78,7 @@ from .settings import (
     INTEGRATOR_NAMES,
     SINGULAR_RATIO,
     Settings,
+    default_settings,
 )
 
 MULTISTEP_INTEGRATORS = ("BDF", "LSODA")
@@ -366,7 +367,7 @@ def forward_dynamics(
     """
     start = _time.perf_counter()
     named = {k: v for k, v in (("formulation", formulation), ("integrator", integrator)) if v is not None}
-    settings = (settings or Settings()).replace(t_end=t_end, steps=steps, **named, **options)
+    settings = (settings or default_settings()).replace(t_end=t_end, steps=steps, **named, **options)
     run = Run(system, q0, qd0, settings, masses, forces, points, progress)
     try:
         result = run_plan(run, settings.formulation, settings.integrator)

@@ -210,6 +210,17 @@ DYNAMIC_ONLY = (
 """Settings that only a forward dynamic analysis uses."""
 
 
+def default_settings() -> Settings:
+    """``Settings()``, made and checked once per value of ``$MBD_ENGINE`` (a frozen object: every run that is given
+    none starts from the same one, and ``replace`` makes its own)."""
+    return _default_settings(os.environ.get(ENGINE_VARIABLE))
+
+
+@functools.lru_cache(maxsize=8)
+def _default_settings(engine: str | None) -> Settings:
+    return Settings()
+
+
 @functools.cache
 def _table() -> tuple[dataclasses.Field, ...]:
     return tuple(f for f in fields(Settings) if "key" in f.metadata)
