@@ -187,6 +187,7 @@ def start_rates(
     if cached_only and not on_disk(is_cached, job, "cached")[0]:
         return None
     from . import load, loops  # imports numba
+
     module, _, _ = load(job)
     P, D, n, m = parameters(job.scene, *job.numbers), job.scene.data(), job.scene.n, job.scene.m
     dims = P[8].copy()  # the energy states as ``equations`` has them; no drivers' power (it feeds nothing back)
