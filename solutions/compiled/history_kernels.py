@@ -17,7 +17,9 @@ minus what it exerts on its moving body (the second body's reaction, DESIGN sect
 same columns come out of numpy's array operations within rounding (``tests/solutions/test_compiled_history.py``);
 the loops spare a 2-body run the hundred small array operations that cost more than its integration.
 
-This module imports numba: it is imported only when the compiled engine runs (``solutions.compiled``).
+This module imports numba: it is imported only when the compiled engine runs (``solutions.compiled``). Its three
+loops are compiled at import (``eager``), with the integrator loops by ``mbd compile``; loading them from disk takes
+some 30 ms, once per process.
 """
 
 from __future__ import annotations
@@ -25,14 +27,22 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 
 from .kernels import g_entries_jit, rotation_entries_jit
 
 jit = njit(cache=True, fastmath=False, nogil=True)
+_vector, _ivector = types.float64[::1], types.int64[::1]
+_matrix, _imatrix, _cube = types.float64[:, ::1], types.int64[:, ::1], types.float64[:, :, ::1]
 
 
-@jit
+def eager(*arguments):
+    """Compiled at import with these argument types (or loaded from disk): ``mbd compile`` makes them with the
+    loops (``precompile._loops``), so that no run waits for them."""
+    return njit(types.void(*arguments), cache=True, fastmath=False, nogil=True)
+
+
+@eager(_cube, _matrix, _matrix, _imatrix, _matrix)
 def velocity_residuals(jac, qd, psit, columns, velocity):
     """velocity[t, r] = (Psi_q q')_r + (Psi_t)_r at every output time t, the product over ``columns[r]`` (the
     row's nonzero columns, -1 after the last): the residual of the velocity equation (eq. 4.5)."""
@@ -59,7 +69,7 @@ def _joint_force(jac, lam, t, rows, first, last, column, size, g):
         g[c] = total
 
 
-@jit
+@eager(_matrix, _matrix, _cube, _ivector, _ivector, _ivector, _ivector, _ivector, _matrix, _cube, _matrix)
 def planar_reactions(q, lam, jac, rows, starts, i, j, carrier, s, F, M):
     """F (N, joints, 2) and M (N, joints): every planar joint's force and moment about its point on its second
     body (module docstring), at every output time."""
@@ -81,6 +91,32 @@ def planar_reactions(q, lam, jac, rows, starts, i, j, carrier, s, F, M):
 
 
 @jit
+def _unit_parameters(q, t, body):
+    """The unit Euler parameters of ``body`` at output time t (ground: (1, 0, 0, 0))."""
+    if body < 0:
+        return 1.0, 0.0, 0.0, 0.0
+    e0, e1, e2, e3 = q[t, 7 * body + 3], q[t, 7 * body + 4], q[t, 7 * body + 5], q[t, 7 * body + 6]
+    size = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3)
+    return e0 / size, e1 / size, e2 / size, e3 / size
+
+
+@jit
+def _rotation(q, t, body, A):
+    """A(p) of ``body`` at output time t, p normalized (eq. 8.12)."""
+    entries = rotation_entries_jit(*_unit_parameters(q, t, body))
+    for a in range(9):
+        A[a // 3, a % 3] = entries[a]
+
+
+@jit
+def _g_matrix(q, t, body, G):
+    """G(p) of ``body`` at output time t, p normalized (eq. 8.14)."""
+    entries = g_entries_jit(*_unit_parameters(q, t, body))
+    for a in range(12):
+        G[a // 4, a % 4] = entries[a]
+
+
+@eager(_matrix, _matrix, _cube, *(_ivector,) * 4, _matrix, _cube, _ivector, _cube, _cube, _cube, _cube)
 def spatial_reactions(q, lam, jac, rows, starts, i, j, offsets, frames, framed, F, M, F_joint, M_joint):
     """F, M (N, elements, 3): every spatial element's force and moment about its point on its second body, and of
     the elements with joint frames (``framed``: their place in ``frames``, else -1) F and M in that frame, the
@@ -118,29 +154,3 @@ def spatial_reactions(q, lam, jac, rows, starts, i, j, offsets, frames, framed, 
                 for b in range(3):
                     F_joint[t, f, b] = axes[0, b] * F[t, k, 0] + axes[1, b] * F[t, k, 1] + axes[2, b] * F[t, k, 2]
                     M_joint[t, f, b] = axes[0, b] * M[t, k, 0] + axes[1, b] * M[t, k, 1] + axes[2, b] * M[t, k, 2]
-
-
-@jit
-def _unit_parameters(q, t, body):
-    """The unit Euler parameters of ``body`` at output time t (ground: (1, 0, 0, 0))."""
-    if body < 0:
-        return 1.0, 0.0, 0.0, 0.0
-    e0, e1, e2, e3 = q[t, 7 * body + 3], q[t, 7 * body + 4], q[t, 7 * body + 5], q[t, 7 * body + 6]
-    size = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3)
-    return e0 / size, e1 / size, e2 / size, e3 / size
-
-
-@jit
-def _rotation(q, t, body, A):
-    """A(p) of ``body`` at output time t, p normalized (eq. 8.12)."""
-    entries = rotation_entries_jit(*_unit_parameters(q, t, body))
-    for a in range(9):
-        A[a // 3, a % 3] = entries[a]
-
-
-@jit
-def _g_matrix(q, t, body, G):
-    """G(p) of ``body`` at output time t, p normalized (eq. 8.14)."""
-    entries = g_entries_jit(*_unit_parameters(q, t, body))
-    for a in range(12):
-        G[a // 4, a % 4] = entries[a]
