@@ -459,8 +459,7 @@ def start_motion(run: Run, formulation: str, integrator: str) -> Start:
     if turns is not None:
         qd = without_turns(turns, qd)
     settings = run.settings
-    compiled, cached_only = settings.engine in ("compiled", "cached"), settings.engine == "cached"
-    rates = StartRates(run.system, M, forces, q, qd, settings.formulation_options, compiled, cached_only)
+    rates = StartRates(run.system, M, forces, q, qd, settings.formulation_options, settings.engine == "compiled")
     plan = plan_method(run, M, forces, q, qd, formulation, integrator, rates)  # stage 2
     return Start(run, M, forces, q, qd, initial, plan, notes, rates)
 
@@ -855,15 +854,12 @@ class StartRates:
     and shared by the integrator's choice (``choose_method``) and the tolerance rule (``motion_periods``). A run
     asked to be compiled (engine ``compiled``) evaluates them with the compiled engine's right-hand side
     (``compiled.dispatch.start_rates``: the same equations, microseconds instead of a numpy evaluation's
-    tenths of a millisecond), and so does a run on engine ``cached`` whose scene's machine code is on disk
-    (``cached_only``: the run itself loads it), other runs with numpy's. None where the equations cannot be
-    evaluated at the start (the run itself says why)."""
+    tenths of a millisecond), other runs with numpy's. None where the equations cannot be evaluated at the start
+    (the run itself says why)."""
 
-    def __init__(
-        self, system: System, M, forces: ForceModel, q, qd, options: dict, compiled: bool = False, cached_only=False
-    ):
+    def __init__(self, system: System, M, forces: ForceModel, q, qd, options: dict, compiled: bool = False):
         self.system, self.M, self.forces, self.q, self.qd, self.options = system, M, forces, q, qd, options
-        self.compiled, self.cached_only = compiled, cached_only
+        self.compiled = compiled
         self.known: dict[str, tuple[float, np.ndarray] | Exception] = {}
         self.untouched: dict[str, Formulation] = {}  # made, and evaluated only by the compiled engine
 
@@ -896,7 +892,7 @@ class StartRates:
         equations = EquationsOfMotion(made, self.forces, False)  # the drivers' power left out: it feeds nothing back
         z = equations.initial_state(self.q, self.qd, 0.0)
         if self.compiled:
-            found = _compiled_start_rates(equations, formulation, self.options, z, self.cached_only)
+            found = _compiled_start_rates(equations, formulation, self.options, z)
             if found is not None:
                 self.untouched[formulation] = made
                 return found
@@ -905,12 +901,12 @@ class StartRates:
         return spectral_radius(equations.rhs, 0.0, z, equations.rhs(0.0, z)), qdd
 
 
-def _compiled_start_rates(equations, formulation: str, options: dict, z: np.ndarray, cached_only: bool = False):
+def _compiled_start_rates(equations, formulation: str, options: dict, z: np.ndarray):
     try:
         from .compiled import dispatch
     except ImportError:  # a student package: no compiled engine
         return None
-    return dispatch.start_rates(equations, formulation, options, z, cached_only)
+    return dispatch.start_rates(equations, formulation, options, z)
 
 
 def motion_periods(

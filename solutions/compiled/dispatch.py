@@ -169,22 +169,17 @@ def _compiling(job, cached: bool):
     return job
 
 
-def start_rates(
-    equations, formulation: str, options: dict, z: np.ndarray, cached_only: bool = False
-) -> tuple[float, np.ndarray] | None:
+def start_rates(equations, formulation: str, options: dict, z: np.ndarray) -> tuple[float, np.ndarray] | None:
     """(rho, q'') at the state z of ``equations`` by the scene's compiled module, or None where the compiled engine
     does not cover the formulation's scene: the start rates of a run asked to be compiled (``dynamics.StartRates``).
     rho: ``loops.spectral_radius`` (the 21 evaluations of ``integrators.spectral_radius`` in one compiled call);
     q'': a tree's body accelerations are written after y' (with q, q' and lambda), other scenes' are y'[n:2n].
-    Any compiled integrator would do (the right-hand side does not depend on it): DOP853 stands for them.
-    ``cached_only``: None too where the scene's machine code is not on disk (engine ``cached``: no compilation)."""
-    from . import is_cached, parameters, unsupported
+    Any compiled integrator would do (the right-hand side does not depend on it): DOP853 stands for them."""
+    from . import parameters, unsupported
     from .tree import TreeScene
 
     job = compiled_plan(equations, formulation)
     if unsupported(job.scene, formulation, "DOP853", options) is not None:
-        return None
-    if cached_only and not on_disk(is_cached, job, "cached")[0]:
         return None
     from . import load, loops  # imports numba
 

@@ -6,7 +6,7 @@ share.
 - a dissipative scene (its state carries the energy integrals) gets them too: its q'' at the start is the
   formulation's own accelerations, and its periods are counted (they were taken as 1, a failure to evaluate);
 - a run asked to be compiled estimates them with the compiled right-hand side, never numpy's, and the two
-  engines' estimates agree; so does a run on engine ``cached`` whose machine code is on disk;
+  engines' estimates agree;
 - the formulation object and compiled plan the compiled start rates made are the run's own (one of each per run).
 """
 
@@ -132,23 +132,3 @@ def test_a_compiled_run_makes_its_formulation_once(monkeypatch):
     numpy_rates = StartRates(system, M, forces, q, qd, {})
     numpy_rates("baumgarte")
     assert numpy_rates.take("baumgarte") is None  # evaluated by numpy: not handed over
-
-
-def test_a_cached_run_takes_its_start_rates_from_the_compiled_engine_where_cached(monkeypatch):
-    """Engine ``cached``: the compiled start rates where the scene's machine code is on disk, numpy's where not
-    (no compilation for the start rates of a run that will not compile)."""
-    pytest.importorskip("numba")
-    system, q0, qd0 = build_system(load_model(MODELS / "double_pendulum.yaml"))
-    options = dict(formulation="baumgarte", integrator="DOP853", rtol=1e-6, atol=1e-8)
-    forward_dynamics(system, q0, qd0, 0.2, 4, engine="compiled", **options)  # on disk from here on
-    spectral = []
-    original = dynamics.spectral_radius
-    monkeypatch.setattr(dynamics, "spectral_radius", lambda *a, **k: spectral.append(1) or original(*a, **k))
-    cached = forward_dynamics(system, q0, qd0, 0.2, 4, engine="cached", **options)
-    assert cached.info["chosen"]["engine"] == "compiled" and spectral == []  # no numpy spectral radius
-    from solutions import compiled
-
-    monkeypatch.setattr(compiled, "is_cached", lambda job: False)
-    uncached = forward_dynamics(system, q0, qd0, 0.2, 4, engine="cached", **options)
-    assert uncached.info["chosen"]["engine"] == "numpy" and spectral == [1]
-    assert uncached.info["rtol"] == cached.info["rtol"] and abs(uncached.q[-1] - cached.q[-1]).max() < 1e-7
