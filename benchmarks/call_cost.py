@@ -44,7 +44,7 @@ SCENES = ("double_pendulum", "slider_crank", "spatial_double_pendulum")
 STAGES = (
     (dynamics, "consistent_initial_conditions", "initial conditions (assembly)"),
     (dynamics, "plan_method", "plan: method and tolerance"),
-    (dynamics, "motion_periods", "  motion periods (spectral radius, numpy)"),
+    (dynamics, "motion_periods", "  motion periods (start rates: rho, q'')"),
     (dynamics, "integrate_motion", "engine: integrate_motion"),
     (dispatch, "choose", "  engine's choice"),
     (dispatch, "run", "  compiled run"),

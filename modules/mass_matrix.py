@@ -42,13 +42,17 @@ def singular_inertia(model: Model) -> list[int]:
     """Bodies with mass whose inertia about the centre of mass is singular: a point mass (inertia 0, spatial
     [0, 0, 0]) or a spatial body with a zero principal moment (a slender rod's about its axis). M is then
     singular; the equations of motion stay solvable where it is regular on the motions the joints allow (eq. 5.44)."""
-    bodies = []
-    for k, body in enumerate(model.bodies):
-        inertia = np.atleast_2d(np.asarray(body.inertia, dtype=float))
-        smallest = np.linalg.eigvalsh(0.5 * (inertia + inertia.T))[0]
-        if body.has_mass and not smallest > 1e-12 * np.max(np.abs(inertia)):
-            bodies.append(k)
-    return bodies
+    inertias = [np.atleast_2d(np.asarray(body.inertia, dtype=float)) for body in model.bodies]
+    if all(inertia.shape == (1, 1) for inertia in inertias):  # planar: the moment is its own eigenvalue
+        smallest = [inertia[0, 0] for inertia in inertias]
+    else:  # every body's 3 x 3 at once (the same LAPACK call per matrix as one by one)
+        stacked = np.array(inertias)
+        smallest = np.linalg.eigvalsh(0.5 * (stacked + np.swapaxes(stacked, 1, 2)))[:, 0]
+    return [
+        k
+        for k, (body, inertia, least) in enumerate(zip(model.bodies, inertias, smallest, strict=True))
+        if body.has_mass and not least > 1e-12 * np.max(np.abs(inertia))
+    ]
 
 
 def mass_at(M, q: np.ndarray) -> np.ndarray:

@@ -68,7 +68,7 @@ from .joint_coordinates import open_tree
 from .kinematics import assemble, point_columns
 from .linalg import RANK_EPS, numerical_rank
 from .mass_matrix import mass_at, mass_matrix, singular_inertia
-from .reactions import REDUNDANT_NOTE, driver_efforts, joint_reactions, minimum_norm_multipliers
+from .reactions import REDUNDANT_NOTE, joint_reactions, minimum_norm_multipliers
 from .results import DynamicInfo, Progress, Result
 from .settings import (
     DEFAULT_ACCURACY,
@@ -78,6 +78,7 @@ from .settings import (
     INTEGRATOR_NAMES,
     SINGULAR_RATIO,
     Settings,
+    default_settings,
 )
 
 MULTISTEP_INTEGRATORS = ("BDF", "LSODA")
@@ -141,14 +142,19 @@ def consistent_initial_conditions(
 
 
 def effort_columns(system: System, q: np.ndarray, lam: np.ndarray, t: np.ndarray) -> dict[str, np.ndarray]:
-    """'DRIVER.effort' for every driver over a run: the name an inverse analysis gives them too."""
+    """'DRIVER.effort' for every driver over a run: the name an inverse analysis gives them too. The effort of
+    ``reactions.driver_efforts``, -lambda dPsi/ds, over all output times at once: -lambda of the driver's row, times
+    the driven distance L(t) for a distance driver."""
     if not system.model.motors:  # no driver: no effort, and no pass over the output times
         return {}
-    efforts: dict[str, list[float]] = {}
-    for k in range(len(t)):
-        for name, value in driver_efforts(system, q[k], lam[k], t[k]).items():
-            efforts.setdefault(name, []).append(value)
-    return {f"{name}.effort": np.array(values) for name, values in efforts.items()}
+    motors, lam = {m["name"] for m in system.model.motors}, np.asarray(lam, dtype=float)
+    efforts: dict[str, np.ndarray] = {}
+    for k, element in enumerate(system.elements):
+        if element.name in motors:
+            length = getattr(element, "length", None)
+            scale = 1.0 if length is None else np.array([length.value(float(time)) for time in t])
+            efforts[element.name] = -lam[:, system.rows[k]][:, 0] * scale
+    return {f"{name}.effort": values for name, values in efforts.items()}
 
 
 def point_masses(model) -> list[int]:
@@ -370,7 +376,7 @@ def forward_dynamics(
     """
     start = _time.perf_counter()
     named = {k: v for k, v in (("formulation", formulation), ("integrator", integrator)) if v is not None}
-    settings = (settings or Settings()).replace(t_end=t_end, steps=steps, **named, **options)
+    settings = (settings or default_settings()).replace(t_end=t_end, steps=steps, **named, **options)
     run = Run(system, q0, qd0, settings, masses, forces, points, progress)
     try:
         result = run_plan(run, settings.formulation, settings.integrator)
@@ -448,6 +454,7 @@ class Start:
     initial: dict
     plan: Plan
     notes: list[str]
+    rates: StartRates | None = None
 
 
 def start_motion(run: Run, formulation: str, integrator: str) -> Start:
@@ -460,8 +467,10 @@ def start_motion(run: Run, formulation: str, integrator: str) -> Start:
     q, qd, initial = consistent_initial_conditions(run.system, M, run.q0, run.qd0)  # stage 1
     if turns is not None:
         qd = without_turns(turns, qd)
-    plan = plan_method(run, M, forces, q, qd, formulation, integrator)  # stage 2
-    return Start(run, M, forces, q, qd, initial, plan, notes)
+    settings = run.settings
+    rates = StartRates(run.system, M, forces, q, qd, settings.formulation_options, settings.engine == "compiled")
+    plan = plan_method(run, M, forces, q, qd, formulation, integrator, rates)  # stage 2
+    return Start(run, M, forces, q, qd, initial, plan, notes, rates)
 
 
 def ode_motion(run: Run, start: Start) -> tuple[Plan, EquationsOfMotion, Guard, list[str]]:
@@ -474,7 +483,9 @@ def ode_motion(run: Run, start: Start) -> tuple[Plan, EquationsOfMotion, Guard, 
             f"the {plan.formulation} formulation restarts the integrator after every step, which a multistep "
             f"method ({plan.integrator}) cannot afford: use rk4, RK45, DOP853 or Radau"
         )
-    made = make_formulation(plan.formulation, system, start.M, start.forces, **run.settings.formulation_options)
+    made = start.rates.take(plan.formulation) if start.rates is not None else None  # made for the start rates
+    if made is None:
+        made = make_formulation(plan.formulation, system, start.M, start.forces, **run.settings.formulation_options)
     equations = EquationsOfMotion(made, start.forces, has_drivers=bool(system.model.motors))
     plan, raised = held_tolerances(plan, equations)
     return plan, equations, make_guard(run, plan, equations, start.q), raised
@@ -533,9 +544,10 @@ def dynamic_model(system: System, masses, forces) -> tuple[np.ndarray, ForceMode
     return M, build_forces(system.model) if forces is None else forces
 
 
-def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str) -> Plan:
+def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str, rates: StartRates | None = None) -> Plan:
     """Stage 2: the formulation and integrator (``choose_method`` for ``auto``) and the tolerance rule
-    (``default_rtol`` over the motion's periods), computed once."""
+    (``default_rtol`` over the motion's periods), computed once; ``rates``: the run's ``StartRates``, made here
+    when not given."""
     system, model, settings = run.system, run.system.model, run.settings
     options = settings.formulation_options
     chosen = None
@@ -546,7 +558,8 @@ def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str) -
         )
     if formulation != "auto" and integrator not in INDEX3_INTEGRATORS:
         _check_redundancy(system, q, formulation)  # before ``auto`` evaluates the equations of motion
-    rates = StartRates(system, M, forces, q, qd, options, compiled=settings.engine == "compiled")
+    if rates is None:
+        rates = StartRates(system, M, forces, q, qd, options, compiled=settings.engine == "compiled")
     if "auto" in (formulation, integrator):
         own_masses = run.masses is not None and model.dimension == 3  # the spatial tree takes the model's masses
         chosen = choose_method(
@@ -567,7 +580,7 @@ def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str) -
     size = mechanism_size(system, q)
     periods = None
     if integrator not in INDEX3_INTEGRATORS and integrator not in FIXED_STEP_METHODS:
-        periods = motion_periods(system, M, forces, q, qd, settings.t_end, formulation, options, rates=rates)
+        periods = motion_periods(system, M, forces, q, qd, settings.t_end, formulation, options, rates, size)
     rtol = settings.rtol if settings.rtol is not None else default_rtol(periods, settings.accuracy)
     if settings.rtol is None and formulation == "partitioning":  # its dependent velocities: outside the control
         rtol = max(MIN_RTOL, rtol / PARTITIONING_VELOCITIES)
@@ -807,7 +820,7 @@ def build_result(run: Run, equations, guard, history, compiled, times) -> tuple[
     else:
         from .compiled import history as compiled_history
 
-        residuals = compiled_history.residuals(compiled.psi, compiled.jac, compiled.psit, history.qd)
+        residuals = compiled_history.residuals(compiled.psi, compiled.jac, compiled.psit, history.qd, system)
     accumulated = history.energies.T if equations.extra else ()
     energies = energy_history(equations.formulation.masses, equations.forces, history.q, history.qd, *accumulated)
     result.points.update(residuals)
@@ -873,6 +886,14 @@ class StartRates:
         self.system, self.M, self.forces, self.q, self.qd, self.options = system, M, forces, q, qd, options
         self.compiled = compiled
         self.known: dict[str, tuple[float, np.ndarray] | Exception] = {}
+        self.untouched: dict[str, Formulation] = {}  # made, and evaluated only by the compiled engine
+
+    def take(self, formulation: str) -> Formulation | None:
+        """The formulation object made for the compiled start rates, handed over once (to the run itself, which
+        would make the same object from the same system, M, forces and options: ``ode_motion``), or None where
+        there is none or the numpy equations were evaluated on it (a formulation may keep state between
+        evaluations: the partition of ``partitioning``, the last motion of ``joint-coordinates``)."""
+        return self.untouched.pop(formulation, None)
 
     def __call__(self, formulation: str) -> tuple[float, np.ndarray] | None:
         """(rho, q'') at the start, or None where the equations cannot be evaluated there."""
@@ -898,6 +919,7 @@ class StartRates:
         if self.compiled:
             found = _compiled_start_rates(equations, formulation, self.options, z)
             if found is not None:
+                self.untouched[formulation] = made
                 return found
         y, _ = equations.split(z)  # without the energy states (a dissipative scene has them)
         qdd, _ = made.accelerations(*made.coordinates(0.0, y), 0.0)
@@ -922,6 +944,7 @@ def motion_periods(
     formulation: str,
     options: dict,
     rates: StartRates | None = None,
+    size: float | None = None,
 ) -> float:
     """How many periods of the fastest motion a run spans: t_end w / (2 pi), with the rate w the largest of
 
@@ -930,13 +953,14 @@ def motion_periods(
     - |q'| / L and sqrt(|q''| / L) at the start (L the mechanism's size; the rate of a large motion, such as a
       pendulum released level, whose linearization at the start says nothing: there rho = 0).
 
-    rho and q'' come from ``rates`` (``StartRates``, shared with ``choose_method``), made here when not given.
+    rho and q'' come from ``rates`` (``StartRates``, shared with ``choose_method``), made here when not given; L is
+    ``size`` when given (``mechanism_size``).
     """
     start = (rates or StartRates(system, M, forces, q, qd, options))(formulation)
     if start is None:
         return 1.0  # the run itself will say what is wrong
     rho, qdd = start
-    size = mechanism_size(system, q)
+    size = mechanism_size(system, q) if size is None else size
     speed, acceleration = float(np.max(np.abs(qd), initial=0.0)), float(np.max(np.abs(qdd), initial=0.0))
     rate = max(rho, speed / size, (acceleration / size) ** 0.5)
     return max(1.0, float(t_end) * rate / (2.0 * np.pi)) if np.isfinite(rate) else 1.0

@@ -13,6 +13,7 @@ From Python: ``forward_dynamics(system, q0, qd0, t_end, steps, rtol=1e-9)`` buil
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import functools
 import inspect
@@ -174,11 +175,19 @@ class Settings:
                 object.__setattr__(self, f.name, None)  # 0: no such check
 
     def replace(self, **changes) -> Settings:
-        """A copy with ``changes``; keywords that are not settings are options of the formulation."""
-        names = {f.name for f in fields(self)}
+        """A copy with ``changes``; keywords that are not settings are options of the formulation. Only the
+        changed settings are checked (``__post_init__`` checked the others when this object was made): a run makes
+        several copies, each of which checked every setting anew (a tenth of a millisecond)."""
+        names = _metadata()
         extra = {k: v for k, v in changes.items() if k not in names}
-        kept = {k: v for k, v in changes.items() if k in names}
-        return dataclasses.replace(self, **kept, options={**self.options, **extra})
+        copied = copy.copy(self)
+        for name, value in changes.items():
+            if name in names:
+                if name not in FORMULATION_OPTIONS:
+                    check_setting(name, value)
+                object.__setattr__(copied, name, None if name in CHECKS and value == 0 else value)
+        object.__setattr__(copied, "options", {**self.options, **extra})
+        return copied
 
     @property
     def formulation_options(self) -> dict:
@@ -197,6 +206,17 @@ DYNAMIC_ONLY = (
     *CHECKS, "stiffness",
 )  # fmt: skip
 """Settings that only a forward dynamic analysis uses."""
+
+
+def default_settings() -> Settings:
+    """``Settings()``, made and checked once per value of ``$MBD_ENGINE`` (a frozen object: every run that is given
+    none starts from the same one, and ``replace`` makes its own)."""
+    return _default_settings(os.environ.get(ENGINE_VARIABLE))
+
+
+@functools.lru_cache(maxsize=8)
+def _default_settings(engine: str | None) -> Settings:
+    return Settings()
 
 
 @functools.cache

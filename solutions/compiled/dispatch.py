@@ -101,10 +101,9 @@ def choose(settings: Settings, equations, z0: np.ndarray):
         if expected <= LOAD_SECONDS:
             why = f"numpy run estimated at {expected:.3g} s, less than loading the compiled code ({LOAD_SECONDS:g} s)"
             return None, {"engine": "numpy", "engine_why": why}
-    from . import describe, is_cached, plan, unsupported
+    from . import is_cached, unsupported
 
-    made = equations.formulation
-    job = plan(describe(made.system, made.masses, equations.forces), formulation, made)
+    job = compiled_plan(equations, formulation)
     why_not = unsupported(job.scene, formulation, integrator, settings.formulation_options)
     if why_not is not None:
         return None, {"engine": "numpy", "engine_why": f"not compiled: {why_not}"}
@@ -128,6 +127,21 @@ def choose(settings: Settings, equations, z0: np.ndarray):
         "mbd compile makes the compiled engine once per machine"
     )
     return None, {"engine": "numpy", "engine_why": why}
+
+
+def compiled_plan(equations, formulation: str):
+    """The compiled engine's ``Plan`` of ``equations`` (``solutions.compiled.plan`` of the scene ``describe`` makes),
+    made once per formulation object and force model: a run's start rates and its engine's choice share it (the
+    formulation object is made once for both, ``dynamics.StartRates.take``)."""
+    from . import describe, plan
+
+    made = equations.formulation
+    key = (formulation, id(equations.forces))
+    kept = made.__dict__.get("_compiled_plan")
+    if kept is None or kept[0] != key or kept[1] is not equations.forces:
+        job = plan(describe(made.system, made.masses, equations.forces), formulation, made)
+        made.__dict__["_compiled_plan"] = kept = (key, equations.forces, job)
+    return kept[2]
 
 
 def on_disk(is_cached, target, engine: str) -> tuple[bool, str | None]:
@@ -161,13 +175,14 @@ def start_rates(equations, formulation: str, options: dict, z: np.ndarray) -> tu
     rho: ``loops.spectral_radius`` (the 21 evaluations of ``integrators.spectral_radius`` in one compiled call);
     q'': a tree's body accelerations are written after y' (with q, q' and lambda), other scenes' are y'[n:2n].
     Any compiled integrator would do (the right-hand side does not depend on it): DOP853 stands for them."""
-    from . import describe, load, loops, parameters, plan, unsupported
+    from . import parameters, unsupported
     from .tree import TreeScene
 
-    made = equations.formulation
-    job = plan(describe(made.system, made.masses, equations.forces), formulation, made)
+    job = compiled_plan(equations, formulation)
     if unsupported(job.scene, formulation, "DOP853", options) is not None:
         return None
+    from . import load, loops  # imports numba
+
     module, _, _ = load(job)
     P, D, n, m = parameters(job.scene, *job.numbers), job.scene.data(), job.scene.n, job.scene.m
     dims = P[8].copy()  # the energy states as ``equations`` has them; no drivers' power (it feeds nothing back)

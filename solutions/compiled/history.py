@@ -3,7 +3,8 @@
 The numpy engine evaluates Psi, Psi_q and Psi_t once per output time through the ``System`` and builds the
 reactions joint by joint (``reactions.py``, ``spatial/reactions.py``: what students write). A compiled run
 has the same arrays from its generated module at every output time in one call (``constraint_arrays``), and
-here they are turned into the same result columns with array operations over all output times at once:
+here they are turned into the same result columns over all output times at once: the residuals by array
+operations, the reactions by compiled loops (``history_kernels.py``) over an index layout made once per system:
 
 - residuals: max |Psi| and max |Psi_q q' + Psi_t| per output time (``dynamics.constraint_residuals``);
 - reactions: for joint k and each of its moving bodies i, Q_i^k = -(Psi_qi^k)^T lambda_k (eq. 5.70, 10.20),
@@ -19,8 +20,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..rotation_matrices import g_entries, rotation_entries
-
 
 def constraint_arrays(module, scene, times: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(Psi, Psi_q, Psi_t) at every output time, shapes (N, m), (N, m, n), (N, m), from the compiled module."""
@@ -32,24 +31,60 @@ def constraint_arrays(module, scene, times: np.ndarray, Y: np.ndarray) -> tuple[
     return psi, jac, psit
 
 
-def residuals(psi: np.ndarray, jac: np.ndarray, psit: np.ndarray, qd: np.ndarray) -> dict[str, np.ndarray]:
-    """'residual.position' max |Psi| and 'residual.velocity' max |Psi_q q' + Psi_t| at every output time."""
-    velocity = (jac @ qd[:, :, None])[:, :, 0] + psit  # Psi_q q' at every time, by BLAS
+def residuals(psi: np.ndarray, jac: np.ndarray, psit: np.ndarray, qd: np.ndarray, system=None) -> dict[str, np.ndarray]:
+    """'residual.position' max |Psi| and 'residual.velocity' max |Psi_q q' + Psi_t| at every output time. With the
+    ``system``, Psi_q q' over each row's nonzero columns (``history_kernels.velocity_residuals``), else by BLAS."""
+    columns = None if system is None else layout(system, _row_columns)
+    if columns is None:
+        velocity = (jac @ qd[:, :, None])[:, :, 0] + psit  # Psi_q q' at every time, by BLAS
+    else:
+        from . import history_kernels
+
+        velocity = np.empty(psit.shape)
+        jac, qd, psit = (np.ascontiguousarray(a, dtype=float) for a in (jac, qd, psit))
+        history_kernels.velocity_residuals(jac, qd, psit, columns, velocity)
     return {
         "residual.position": np.max(np.abs(psi), axis=1, initial=0.0),
         "residual.velocity": np.max(np.abs(velocity), axis=1, initial=0.0),
     }
 
 
-def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
-    """``reactions.joint_reactions(system, q, lam, t)`` over the histories q (N, n), lambda (N, m), every joint at
-    once: each row's part -(Psi_q)_r^T lambda_r of the generalized force on the three columns of either body (eq.
-    5.70), summed over the rows of its joint, the moment taken about the joint point; a ground side gets the
-    opposite of the other side's."""
+def layout(system, make):
+    """``make(system)``, the index arrays of the reaction columns that depend only on the system's structure, made
+    once per system (every run of a system asks for the same columns)."""
+    kept = system.__dict__.setdefault("_reaction_layouts", {})
+    if make not in kept:
+        kept[make] = make(system)
+    return kept[make]
+
+
+def _row_columns(system) -> np.ndarray | None:
+    """(m, w): the columns of Psi_q where each row can be nonzero, those of the bodies its element joins (-1 after
+    the last), or None where an element's rows reach other columns (checked once, at a configuration off the
+    model's: then the dense product)."""
+    per, m = system.coordinates_per_body, system.n_constraints
+    columns = np.full((m, 2 * per), -1, dtype=np.int64)
+    every_row = np.arange(m)
+    for k, element in enumerate(system.elements):
+        bodies = sorted(b for b in (getattr(element, "i", -1), getattr(element, "j", -1)) if b is not None and b >= 0)
+        reach = np.concatenate([per * b + np.arange(per) for b in bodies]) if bodies else np.zeros(0, np.int64)
+        columns[every_row[system.rows[k]], : reach.size] = reach
+    q = np.random.default_rng(3).uniform(0.5, 1.5, system.n_coordinates)  # no zero an element's rows could hide
+    pattern = np.zeros((m, system.n_coordinates), dtype=bool)
+    rows, slots = np.nonzero(columns >= 0)
+    pattern[rows, columns[rows, slots]] = True
+    try:
+        outside = np.any((system.jacobian(q, 0.5) != 0.0) & ~pattern)
+    except (ArithmeticError, ValueError, np.linalg.LinAlgError):  # not evaluable there: the dense product
+        return None
+    return None if outside else columns
+
+
+def _planar_layout(system) -> tuple:
+    """(joint names, the rows of all joints in joint order, each joint's first row among them, its two bodies (i, j),
+    the body carrying its point and the point in that body), as ``history_kernels.planar_reactions`` takes them."""
     from ..reactions import joint_groups
 
-    N = q.shape[0]
-    X = np.concatenate([q.reshape(N, -1, 3), np.zeros((N, 1, 3))], axis=1)  # ground last: body -1
     names, rows, sides, carriers, points, every_row = [], [], [], [], [], np.arange(system.n_constraints)
     for name, indices in joint_groups(system).items():
         first = next((system.elements[k] for k in indices if getattr(system.elements[k], "sj", None) is not None), None)
@@ -59,26 +94,31 @@ def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) ->
         sides.append((owner.i, owner.j))
         carriers.append((owner if first is None else first).j)
         points.append((0.0, 0.0) if first is None else first.sj)
-    lengths = [len(r) for r in rows]
-    starts = np.cumsum([0, *lengths[:-1]])  # each joint's first row in rows_all
-    rows_all, (i, j) = np.concatenate(rows), np.array(sides).T
-    carrier, s = np.array(carriers), np.asarray(points, dtype=float)
-    c, sn = np.cos(X[:, carrier, 2]), np.sin(X[:, carrier, 2])  # the joint point r_j + A(phi_j) s_j (eq. 2.2)
-    point = X[:, carrier, :2] + np.stack([c * s[:, 0] - sn * s[:, 1], sn * s[:, 0] + c * s[:, 1]], axis=-1)
-    force, moment = {}, {}
-    for side, body in (("i", i), ("j", j)):
-        per_row = np.repeat(body, lengths)
-        columns = 3 * np.maximum(per_row, 0)[:, None] + np.arange(3)  # ground's rows read column 0, then zeroed
-        parts = -jac[:, rows_all[:, None], columns] * (lam[:, rows_all] * (per_row >= 0))[:, :, None]
-        g = np.add.reduceat(parts, starts, axis=1)  # (N, joints, 3): x, y and the angle's column
-        arm = point - X[:, body, :2]
-        force[side], moment[side] = g[..., :2], g[..., 2] - (arm[..., 0] * g[..., 1] - arm[..., 1] * g[..., 0])
-    ground = j < 0
-    Fj = np.where(ground[:, None], -force["i"], force["j"])
-    Mj = np.where(ground, -moment["i"], moment["j"])
+    starts = np.cumsum([0, *[len(r) for r in rows[:-1]]])  # each joint's first row in the rows of all
+    i, j = (np.ascontiguousarray(side, dtype=np.int64) for side in np.array(sides, dtype=np.int64).reshape(-1, 2).T)
+    layout = (np.concatenate(rows).astype(np.int64), starts.astype(np.int64), i, j, np.array(carriers, np.int64))
+    return names, (*layout, np.asarray(points, dtype=float).reshape(-1, 2))
+
+
+def _histories(q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """q, lambda, Psi_q as the compiled loops take them: C-contiguous float arrays (one machine code for all)."""
+    return tuple(np.ascontiguousarray(a, dtype=float) for a in (q, lam, jac))
+
+
+def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
+    """``reactions.joint_reactions(system, q, lam, t)`` over the histories q (N, n), lambda (N, m), every joint at
+    once (``history_kernels.planar_reactions``): each row's part -(Psi_q)_r^T lambda_r of the generalized force on
+    the three columns of either body (eq. 5.70), summed over the rows of its joint, the moment taken about the joint
+    point (eq. 5.71); a ground side gets the opposite of the other side's."""
+    from . import history_kernels
+
+    names, arrays = layout(system, _planar_layout)
+    N = q.shape[0]
+    F, M = np.empty((N, len(names), 2)), np.empty((N, len(names)))
+    history_kernels.planar_reactions(*_histories(q, lam, jac), *arrays, F, M)
     columns = {}
     for k, name in enumerate(names):
-        columns[f"{name}.Fx"], columns[f"{name}.Fy"], columns[f"{name}.Mz"] = Fj[:, k, 0], Fj[:, k, 1], Mj[:, k]
+        columns[f"{name}.Fx"], columns[f"{name}.Fy"], columns[f"{name}.Mz"] = F[:, k, 0], F[:, k, 1], M[:, k]
     return columns
 
 
@@ -87,55 +127,55 @@ def _axes(frame) -> np.ndarray:
     return np.column_stack([frame.f, frame.g, frame.h])
 
 
-def spatial_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
-    """``spatial.reactions.joint_reactions(system, q, lam, t)`` over the histories q (N, n), lambda (N, m), every
-    element at once: each row's part -(Psi_q)_r^T lambda_r of the generalized force on the seven columns of either
-    body (eq. 10.20), summed over the element's rows; the force F and the torque n = 1/2 G(p) Q_p (eq. 8.14), its
-    moment taken about the joint point; a ground side gets the opposite of the other side's."""
+def _spatial_layout(system) -> tuple:
+    """(element names, each element's place among those with joint frames or -1, and the arrays
+    ``history_kernels.spatial_reactions`` takes: the rows of all elements (the Euler parameters' normalization
+    left out), each element's first row among them, its bodies (i, j), the joint point in body j, the frames' axes
+    as columns, each element's place among the framed ones)."""
     from ..spatial.joints import EulerNormalization, Joint
 
-    N = q.shape[0]
-    X = np.concatenate([q.reshape(N, -1, 7), np.tile([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0], (N, 1, 1))], axis=1)
-    p = X[..., 3:] / np.linalg.norm(X[..., 3:], axis=2, keepdims=True)  # every body's unit Euler parameters
-    A = np.stack(rotation_entries(*np.moveaxis(p, 2, 0)), -1).reshape(N, -1, 3, 3)  # (eq. 8.12)
-    G = np.stack(g_entries(*np.moveaxis(p, 2, 0)), -1).reshape(N, -1, 3, 4)  # (eq. 8.14)
     every_row = np.arange(system.n_constraints)
     elements = [(k, e) for k, e in enumerate(system.elements) if not isinstance(e, EulerNormalization)]
     rows = [every_row[system.rows[k]] for k, _ in elements]
-    lengths = [len(r) for r in rows]
-    starts, rows_all = np.cumsum([0, *lengths[:-1]]), np.concatenate(rows)
-    i, j = np.array([e.i for _, e in elements]), np.array([e.j for _, e in elements])
+    starts = np.cumsum([0, *[len(r) for r in rows[:-1]]]).astype(np.int64)
+    i = np.array([e.i for _, e in elements], dtype=np.int64)
+    j = np.array([e.j for _, e in elements], dtype=np.int64)
     framed = [isinstance(e, Joint) and bool(e.frames) for _, e in elements]
     offsets = np.zeros((len(elements), 3))  # the joint point in body j (its centre where none is given)
     for row, ((_, e), has_frames) in enumerate(zip(elements, framed, strict=True)):
         given = e.frames[1].origin if has_frames else getattr(e, "sj", None)
         offsets[row] = 0.0 if given is None else given
-    point = X[:, j, :3] + (A[:, j] @ offsets[:, :, None])[..., 0]
-    force, moment = {}, {}
-    for side, body in (("i", i), ("j", j)):
-        per_row = np.repeat(body, lengths)
-        columns = 7 * np.maximum(per_row, 0)[:, None] + np.arange(7)  # ground's rows read column 0, then zeroed
-        parts = -jac[:, rows_all[:, None], columns] * (lam[:, rows_all] * (per_row >= 0))[:, :, None]
-        g = np.add.reduceat(parts, starts, axis=1)  # (N, elements, 7): Q_r, Q_p of the body
-        n = 0.5 * (G[:, body] @ g[..., 3:, None])[..., 0]
-        force[side], moment[side] = g[..., :3], n - np.cross(point - X[:, body, :3], g[..., :3])
-    ground = (j < 0)[:, None]
-    F, M = np.where(ground, -force["i"], force["j"]), np.where(ground, -moment["i"], moment["j"])
-    joints = np.flatnonzero(framed)  # F and M in the joint frame too: its f, g, h in body j, turned to global axes
-    frames = np.array([_axes(elements[e][1].frames[1]) for e in joints]).reshape(-1, 3, 3)
-    axes_t = np.swapaxes(A[:, j[joints]] @ frames, 2, 3)  # rows f, g, h (global)
-    F_joint, M_joint = (axes_t @ F[:, joints, :, None])[..., 0], (axes_t @ M[:, joints, :, None])[..., 0]
-    at_joint = {e: position for position, e in enumerate(joints)}
+    joints = np.flatnonzero(framed)  # F and M in the joint frame too: its f, g, h in body j
+    frames = np.array([_axes(elements[e][1].frames[1]) for e in joints], dtype=float).reshape(-1, 3, 3)
+    place = np.full(len(elements), -1, dtype=np.int64)
+    place[joints] = np.arange(joints.size)
+    names = [e.name for _, e in elements]
+    return names, place, (np.concatenate(rows).astype(np.int64), starts, i, j, offsets, frames, place)
+
+
+def spatial_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
+    """``spatial.reactions.joint_reactions(system, q, lam, t)`` over the histories q (N, n), lambda (N, m), every
+    element at once (``history_kernels.spatial_reactions``): each row's part -(Psi_q)_r^T lambda_r of the
+    generalized force on the seven columns of either body (eq. 10.20), summed over the element's rows; the force F
+    and the torque n = 1/2 G(p) Q_p (eq. 8.14), its moment taken about the joint point (eq. 10.21); a ground side
+    gets the opposite of the other side's."""
+    from . import history_kernels
+
+    names, place, arrays = layout(system, _spatial_layout)
+    N, framed = q.shape[0], int(np.count_nonzero(place >= 0))
+    F, M = np.empty((N, len(names), 3)), np.empty((N, len(names), 3))
+    F_joint, M_joint = np.empty((N, framed, 3)), np.empty((N, framed, 3))
+    history_kernels.spatial_reactions(*_histories(q, lam, jac), *arrays, F, M, F_joint, M_joint)
     columns = {}
-    for row, (_, element) in enumerate(elements):
+    for row, name in enumerate(names):
         for axis, c in zip("xyz", range(3), strict=True):
-            columns[f"{element.name}.F{axis}"] = F[:, row, c]
+            columns[f"{name}.F{axis}"] = F[:, row, c]
         for axis, c in zip("xyz", range(3), strict=True):
-            columns[f"{element.name}.M{axis}"] = M[:, row, c]
-        if row in at_joint:
+            columns[f"{name}.M{axis}"] = M[:, row, c]
+        if place[row] >= 0:
             for axis, c in zip("xyz", range(3), strict=True):  # in the order of the numpy engine's columns
-                columns[f"{element.name}.F{axis}_joint"] = F_joint[:, at_joint[row], c]
-                columns[f"{element.name}.M{axis}_joint"] = M_joint[:, at_joint[row], c]
+                columns[f"{name}.F{axis}_joint"] = F_joint[:, place[row], c]
+                columns[f"{name}.M{axis}_joint"] = M_joint[:, place[row], c]
     return columns
 
 

@@ -55,8 +55,11 @@ def test_history_matches_numpy_functions(path):
         assert np.allclose(psit[k], system.psi_t(run.q[k], t), rtol=1e-13, atol=1e-13)
     expected = constraint_residuals(system, run.t, run.q, run.qd)
     got = history.residuals(psi, jac, psit, run.qd)
+    sparse = history.residuals(psi, jac, psit, run.qd, system)  # over each row's nonzero columns
+    assert history.layout(system, history._row_columns) is not None  # every element's rows: its bodies' columns
     for key in expected:
         assert np.allclose(got[key], expected[key], rtol=1e-10, atol=1e-14), key
+        assert np.allclose(sparse[key], expected[key], rtol=1e-10, atol=1e-14), key
     expected = joint_reactions(system, run.q, run.lam, run.t)
     got = history.joint_reactions(system, run.q, run.lam, jac)
     assert list(got) == list(expected)  # the same columns in the same order (the CSV's)
@@ -64,6 +67,27 @@ def test_history_matches_numpy_functions(path):
     for key, value in expected.items():
         assert np.max(np.abs(got[key] - value)) <= 1e-12 * size, key
 
+
+def test_residuals_take_the_dense_product_where_a_row_reaches_other_bodies():
+    """The nonzero columns of each row are those of its element's bodies (``history._row_columns``), checked once
+    against Psi_q: where a row reaches another body's columns (here made so), the residuals come from the dense
+    product, which counts that column."""
+    from types import SimpleNamespace
+
+    system, q0, qd0 = build_system(load_model("course/models/slider_crank.yaml"))
+    reaching = system.jacobian(q0, 0.0)
+    reaching[0, -1] = 1.0  # the first row (a joint of the crank) reaches the slider's angle column
+    other = SimpleNamespace(**{
+        name: getattr(system, name)
+        for name in ("coordinates_per_body", "n_constraints", "n_coordinates", "elements", "rows")
+    }, jacobian=lambda q, t: reaching)  # fmt: skip
+    assert history.layout(other, history._row_columns) is None
+    jac = np.zeros((1, *reaching.shape))
+    jac[0, 0, -1] = 1.0  # only that entry: Psi_q q' = 2 in row 0 with q' on that column
+    qd, zeros = np.zeros((1, system.n_coordinates)), np.zeros((1, reaching.shape[0]))
+    qd[0, -1] = 2.0
+    assert history.residuals(zeros, jac, zeros, qd, other)["residual.velocity"][0] == 2.0  # the dense product
+    assert history.residuals(zeros, jac, zeros, qd, system)["residual.velocity"][0] == 0.0  # the crank's columns
 
 
 @pytest.mark.parametrize(
@@ -96,6 +120,7 @@ def test_reactions_of_every_joint_kind_at_any_state(name):
     assert list(got) == list(expected)
     for key, value in expected.items():
         assert np.max(np.abs(got[key] - value)) <= 1e-12 * max(1.0, float(np.max(np.abs(value)))), key
+
 
 def _verdict(check):
     try:

@@ -6,7 +6,8 @@ share.
 - a dissipative scene (its state carries the energy integrals) gets them too: its q'' at the start is the
   formulation's own accelerations, and its periods are counted (they were taken as 1, a failure to evaluate);
 - a run asked to be compiled estimates them with the compiled right-hand side, never numpy's, and the two
-  engines' estimates agree.
+  engines' estimates agree;
+- the formulation object and compiled plan the compiled start rates made are the run's own (one of each per run).
 """
 
 from __future__ import annotations
@@ -93,3 +94,41 @@ def test_a_compiled_run_takes_its_start_rates_from_the_compiled_engine(monkeypat
     assert evaluations == []  # not one numpy right-hand side
     assert compiled_start[0] == pytest.approx(numpy_start[0], rel=1e-4)  # finite differences of two codes
     assert np.allclose(compiled_start[1], numpy_start[1], rtol=1e-10, atol=1e-10)
+
+
+def test_a_compiled_run_makes_its_formulation_once(monkeypatch):
+    """The formulation object the compiled start rates made is the run's own (``StartRates.take``), with the
+    compiled plan made for it (``dispatch.compiled_plan``): one of each per run, where both the start rates and the
+    run used to make their own; a second take finds none (the next run makes its own)."""
+    pytest.importorskip("numba")
+    from solutions.compiled import dispatch
+
+    made, described = [], []
+    original_make, original_plan = dynamics.make_formulation, dispatch.compiled_plan
+
+    def counted_make(*args, **kwargs):
+        made.append(original_make(*args, **kwargs))
+        return made[-1]
+
+    def counted_plan(equations, formulation):
+        described.append(id(equations.formulation))
+        return original_plan(equations, formulation)
+
+    monkeypatch.setattr(dynamics, "make_formulation", counted_make)
+    monkeypatch.setattr(dispatch, "compiled_plan", counted_plan)
+    system, q0, qd0 = build_system(load_model(MODELS / "double_pendulum.yaml"))
+    options = dict(formulation="baumgarte", integrator="DOP853", rtol=1e-6, atol=1e-8)
+    run = forward_dynamics(system, q0, qd0, 0.2, 4, engine="compiled", **options)
+    assert run.info["chosen"]["engine"] == "compiled"
+    assert len(made) == 1 and set(described) == {id(made[0])}  # the start rates and the engine: one object
+    numpy_run = forward_dynamics(system, q0, qd0, 0.2, 4, engine="numpy", **options)
+    assert len(made) == 3  # numpy's start rates evaluate theirs: the run makes its own
+    assert np.allclose(run.q, numpy_run.q, rtol=0, atol=1e-7)
+
+    system, M, forces, q, qd = _start("double_pendulum")
+    rates = StartRates(system, M, forces, q, qd, {}, compiled=True)
+    rates("baumgarte")
+    assert rates.take("baumgarte") is made[-1] and rates.take("baumgarte") is None
+    numpy_rates = StartRates(system, M, forces, q, qd, {})
+    numpy_rates("baumgarte")
+    assert numpy_rates.take("baumgarte") is None  # evaluated by numpy: not handed over

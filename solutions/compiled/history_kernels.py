@@ -1,0 +1,156 @@
+"""What a compiled run reports at every output time besides its motion, compiled: ``history.py`` hands its index
+layouts (made once per system) and the run's histories q, q', lambda, Psi_q and Psi_t to these loops.
+
+``velocity_residuals``: Psi_q q' + Psi_t of every row at every output time over the columns of the bodies the row's
+element joins (its nonzeros: at most 2 x 7 of n columns), where a batched product of the dense Psi_q with q'
+multiplies every zero too (101 x 256 x 448 on a spatial chain of 64 bodies: 6 ms, more than a tenth of the
+integration).
+
+``planar_reactions``, ``spatial_reactions``: the force and moment of every joint at every output time in one pass.
+
+The arithmetic is that of the numpy engine's ``reactions.py`` and ``spatial/reactions.py`` (what students write),
+term by term: the generalized force of joint k on its body b, Q_b^k = -(Psi_qb^k)^T lambda_k summed over the
+joint's rows (eq. 5.70, 10.20); planar, the force F = (Q_x, Q_y) and the moment about the joint point P,
+M = Q_phi - (r_P - r_b) x F (eq. 5.71); spatial, the torque n = 1/2 G(p_b) Q_p (eq. 8.14) and the moment
+M = n - (r_P - r_b) x F (eq. 10.21), F and M also in the joint frame fixed in body j. A joint on ground reports
+minus what it exerts on its moving body (the second body's reaction, DESIGN section 5). Over the output times the
+same columns come out of numpy's array operations within rounding (``tests/solutions/test_compiled_history.py``);
+the loops spare a 2-body run the hundred small array operations that cost more than its integration.
+
+This module imports numba: it is imported only when the compiled engine runs (``solutions.compiled``). Its three
+loops are compiled at import (``eager``), with the integrator loops by ``mbd compile``; loading them from disk takes
+some 30 ms, once per process.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, types
+
+from .kernels import g_entries_jit, rotation_entries_jit
+
+jit = njit(cache=True, fastmath=False, nogil=True)
+_vector, _ivector = types.float64[::1], types.int64[::1]
+_matrix, _imatrix, _cube = types.float64[:, ::1], types.int64[:, ::1], types.float64[:, :, ::1]
+
+
+def eager(*arguments):
+    """Compiled at import with these argument types (or loaded from disk): ``mbd compile`` makes them with the
+    loops (``precompile._loops``), so that no run waits for them."""
+    return njit(types.void(*arguments), cache=True, fastmath=False, nogil=True)
+
+
+@eager(_cube, _matrix, _matrix, _imatrix, _matrix)
+def velocity_residuals(jac, qd, psit, columns, velocity):
+    """velocity[t, r] = (Psi_q q')_r + (Psi_t)_r at every output time t, the product over ``columns[r]`` (the
+    row's nonzero columns, -1 after the last): the residual of the velocity equation (eq. 4.5)."""
+    for t in range(jac.shape[0]):
+        for r in range(jac.shape[1]):
+            total = 0.0
+            for c in range(columns.shape[1]):
+                column = columns[r, c]
+                if column < 0:
+                    break
+                total += jac[t, r, column] * qd[t, column]
+            velocity[t, r] = total + psit[t, r]
+
+
+@jit
+def _joint_force(jac, lam, t, rows, first, last, column, size, g):
+    """g = -(Psi_q)^T lambda on the ``size`` columns of a body from ``column`` on, summed over the joint's rows
+    rows[first:last] (eq. 5.70, 10.20), at output time t."""
+    for c in range(size):
+        total = 0.0
+        for r in range(first, last):
+            row = rows[r]
+            total += -jac[t, row, column + c] * lam[t, row]
+        g[c] = total
+
+
+@eager(_matrix, _matrix, _cube, _ivector, _ivector, _ivector, _ivector, _ivector, _matrix, _cube, _matrix)
+def planar_reactions(q, lam, jac, rows, starts, i, j, carrier, s, F, M):
+    """F (N, joints, 2) and M (N, joints): every planar joint's force and moment about its point on its second
+    body (module docstring), at every output time."""
+    N, joints = q.shape[0], i.size
+    g = np.empty(3)
+    for t in range(N):
+        for k in range(joints):
+            first = starts[k]
+            last = starts[k + 1] if k + 1 < joints else rows.size
+            b = carrier[k]  # the joint point r_b + A(phi_b) s (eq. 2.2); ground: the origin
+            x, y, phi = (q[t, 3 * b], q[t, 3 * b + 1], q[t, 3 * b + 2]) if b >= 0 else (0.0, 0.0, 0.0)
+            c, sn = math.cos(phi), math.sin(phi)
+            px, py = x + (c * s[k, 0] - sn * s[k, 1]), y + (sn * s[k, 0] + c * s[k, 1])
+            body, sign = (j[k], 1.0) if j[k] >= 0 else (i[k], -1.0)
+            _joint_force(jac, lam, t, rows, first, last, 3 * body, 3, g)
+            ax, ay = px - q[t, 3 * body], py - q[t, 3 * body + 1]
+            F[t, k, 0], F[t, k, 1] = sign * g[0], sign * g[1]
+            M[t, k] = sign * (g[2] - (ax * g[1] - ay * g[0]))
+
+
+@jit
+def _unit_parameters(q, t, body):
+    """The unit Euler parameters of ``body`` at output time t (ground: (1, 0, 0, 0))."""
+    if body < 0:
+        return 1.0, 0.0, 0.0, 0.0
+    e0, e1, e2, e3 = q[t, 7 * body + 3], q[t, 7 * body + 4], q[t, 7 * body + 5], q[t, 7 * body + 6]
+    size = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3)
+    return e0 / size, e1 / size, e2 / size, e3 / size
+
+
+@jit
+def _rotation(q, t, body, A):
+    """A(p) of ``body`` at output time t, p normalized (eq. 8.12)."""
+    entries = rotation_entries_jit(*_unit_parameters(q, t, body))
+    for a in range(9):
+        A[a // 3, a % 3] = entries[a]
+
+
+@jit
+def _g_matrix(q, t, body, G):
+    """G(p) of ``body`` at output time t, p normalized (eq. 8.14)."""
+    entries = g_entries_jit(*_unit_parameters(q, t, body))
+    for a in range(12):
+        G[a // 4, a % 4] = entries[a]
+
+
+@eager(_matrix, _matrix, _cube, *(_ivector,) * 4, _matrix, _cube, _ivector, _cube, _cube, _cube, _cube)
+def spatial_reactions(q, lam, jac, rows, starts, i, j, offsets, frames, framed, F, M, F_joint, M_joint):
+    """F, M (N, elements, 3): every spatial element's force and moment about its point on its second body, and of
+    the elements with joint frames (``framed``: their place in ``frames``, else -1) F and M in that frame, the
+    frame's axes f, g, h (columns of ``frames``) turned to global axes by A(p_j) (module docstring)."""
+    N, elements = q.shape[0], i.size
+    g, n, arm = np.empty(7), np.empty(3), np.empty(3)
+    A, G, axes = np.empty((3, 3)), np.empty((3, 4)), np.empty((3, 3))
+    for t in range(N):
+        for k in range(elements):
+            first = starts[k]
+            last = starts[k + 1] if k + 1 < elements else rows.size
+            _rotation(q, t, j[k], A)
+            point = np.empty(3)
+            for a in range(3):
+                origin = q[t, 7 * j[k] + a] if j[k] >= 0 else 0.0
+                point[a] = origin + (A[a, 0] * offsets[k, 0] + A[a, 1] * offsets[k, 1] + A[a, 2] * offsets[k, 2])
+            body, sign = (j[k], 1.0) if j[k] >= 0 else (i[k], -1.0)
+            _joint_force(jac, lam, t, rows, first, last, 7 * body, 7, g)
+            _g_matrix(q, t, body, G)
+            for a in range(3):  # n = 1/2 G(p) Q_p (eq. 8.14)
+                n[a] = 0.5 * (G[a, 0] * g[3] + G[a, 1] * g[4] + G[a, 2] * g[5] + G[a, 3] * g[6])
+                arm[a] = point[a] - q[t, 7 * body + a]
+            moment = (
+                n[0] - (arm[1] * g[2] - arm[2] * g[1]),
+                n[1] - (arm[2] * g[0] - arm[0] * g[2]),
+                n[2] - (arm[0] * g[1] - arm[1] * g[0]),
+            )
+            for a in range(3):
+                F[t, k, a], M[t, k, a] = sign * g[a], sign * moment[a]
+            f = framed[k]
+            if f >= 0:  # [f g h]^T A(p_j)^T F: the joint frame's axes, global, as rows
+                for a in range(3):
+                    for b in range(3):
+                        axes[a, b] = A[a, 0] * frames[f, 0, b] + A[a, 1] * frames[f, 1, b] + A[a, 2] * frames[f, 2, b]
+                for b in range(3):
+                    F_joint[t, f, b] = axes[0, b] * F[t, k, 0] + axes[1, b] * F[t, k, 1] + axes[2, b] * F[t, k, 2]
+                    M_joint[t, f, b] = axes[0, b] * M[t, k, 0] + axes[1, b] * M[t, k, 1] + axes[2, b] * M[t, k, 2]
