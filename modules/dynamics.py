@@ -55,6 +55,7 @@ from .diagnostics import (
     rank_report,
     setting_words,
 )
+from .divergence import Divergence, companion_factor, departure, estimate, needed_rtol, scaled
 from .energy import driver_power, energy_history
 from .formulations import FORMULATIONS, Formulation, make_formulation
 from .generalized_forces import ForceModel, build_forces, element_columns
@@ -381,6 +382,7 @@ def forward_dynamics(
             "formulation": fallback,
             "why": stop.reason,
         }
+    result = judge_divergence(run, result)  # stage 5's last guard: a second run where the motion can be chaotic
     result.info["wall_time"] = _time.perf_counter() - start
     return result
 
@@ -506,6 +508,7 @@ def run_plan(run: Run, formulation: str, integrator: str) -> Result:
     speed = float(np.max(np.abs(body_positions(system, result.qd)), initial=0.0))  # V: the largest speed, m/s
     result.info["accuracy_estimate"] = accuracy_estimate(result.info, guard.size, plan.periods)
     held = max(HELD_RTOL, getattr(equations.formulation, "held_rtol", 0.0))
+    result.info["held_rtol"] = held
     result.info["warnings"] += raised + accuracy_warnings(
         result.info, guard.size, settings.accuracy, plan.periods, speed, held
     )
@@ -515,6 +518,119 @@ def run_plan(run: Run, formulation: str, integrator: str) -> Result:
             f"rtol = max({MIN_RTOL:g}, min({DEFAULT_RTOL:g}, accuracy / periods^2)) with {plan.periods:.3g} periods"
         )
     return result
+
+
+def judge_divergence(run: Run, result: Result) -> Result:
+    """The run's position error from a companion run at k x rtol (eqs. 6.62-6.64, ``divergence``), where the motion
+    can be chaotic (``cannot_be_chaotic``) and the integrator controls its error. Within the accuracy: the result,
+    with the estimate in info['divergence']. Above it, a run at the default rtol runs again at the rtol of eq. 6.64
+    (info['tightened']), on the same engine with the same method; a run at a given rtol, or one that no rtol held in
+    double precision can bring within it, warns with the figure (a chaotic one: how often its errors double and up
+    to which time it meets the accuracy)."""
+    info, settings = result.info, run.settings
+    if settings.divergence == "off" or info.get("integrator") in (*FIXED_STEP_METHODS, *INDEX3_INTEGRATORS):
+        return result
+    why = cannot_be_chaotic(run, result)
+    if why is not None:
+        info["divergence"] = {"positions": None, "why": why}
+        return result
+    rtol, size = info["rtol"], mechanism_size(run.system, result.q[0])
+    k = companion_factor(rtol)
+    try:
+        companion = run_plan(same_method(run, result, rtol=k * rtol, atol=k * info["atol"]), *_method(result))
+    except AnalysisError as err:
+        info["divergence"] = {"positions": None, "why": f"the run at {k:g} x rtol stopped: {err}"}
+        return result
+    found = estimate(result.t, departure(*(centres(run.system, x.q) for x in (result, companion))), size, k)
+    bound, held = settings.accuracy * size, info.get("held_rtol", HELD_RTOL)
+    info["divergence"] = divergence_info(found, rtol, k)
+    if found.final <= bound:
+        return result
+    need = needed_rtol(found, rtol, bound)
+    if settings.rtol is None and need >= held:  # the default rtol: run again at the one eq. 6.64 asks
+        try:
+            tightened = run_plan(same_method(run, result, rtol=need), *_method(result))
+        except AnalysisError as err:
+            info["warnings"].append(divergence_warning(found, rtol, k, size, settings.accuracy, held) + f" ({err})")
+            return result
+        for key in ("chosen", "restarted"):
+            if key in info:
+                tightened.info[key] = info[key]
+        tightened.info["divergence"] = divergence_info(found, rtol, k, scale=need)
+        tightened.info["tightened"] = {"rtol": need, "was": rtol, "estimate": found.final, "bound": bound}
+        return tightened
+    if not found.chaotic and any(w.startswith("accuracy: estimated position error") for w in info["warnings"]):
+        return result  # the tolerance rule's estimate says it already
+    info["warnings"].append(divergence_warning(found, rtol, k, size, settings.accuracy, held))
+    return result
+
+
+def cannot_be_chaotic(run: Run, result: Result) -> str | None:
+    """Why the run's motion cannot be chaotic, or None: one degree of freedom and nothing that changes with time
+    (no driver, every force from a potential) leaves a state (q, q') on a plane or cylinder, where by the
+    Poincare-Bendixson theorem no motion is chaotic; a regular motion's error is eq. 6.61's."""
+    system = run.system
+    forces = run.forces if run.forces is not None else build_forces(system.model)
+    if system.model.motors or not forces.is_conservative:
+        return None
+    jacobian = system.jacobian(result.q[0], 0.0)
+    rank = numerical_rank(np.linalg.svd(jacobian, compute_uv=False), jacobian.shape) if jacobian.size else 0
+    if system.n_coordinates - rank > 1:
+        return None
+    return "one degree of freedom and no driver or force that changes with time: no chaotic motion (Poincare-Bendixson)"
+
+
+def same_method(run: Run, result: Result, **changes) -> Run:
+    """The run again with ``changes`` to its settings, by the formulation, integrator and engine that made
+    ``result`` (no points, no progress: a second run for the guards)."""
+    engine = "compiled" if "compiled" in result.info else "numpy"
+    formulation, integrator = _method(result)
+    settings = run.settings.replace(formulation=formulation, integrator=integrator, engine=engine, **changes)
+    return dataclasses.replace(run, settings=settings, points=None, progress=None)
+
+
+def _method(result: Result) -> tuple[str, str]:
+    return result.info["formulation"], result.info["integrator"]
+
+
+def centres(system: System, q: np.ndarray) -> np.ndarray:
+    """The body centres of a history of coordinates: (N, bodies, dimension)."""
+    per, dim = system.coordinates_per_body, system.model.dimension
+    return q.reshape(len(q), -1, per)[:, :, :dim]
+
+
+def divergence_info(found: Divergence, rtol: float, k: float, scale: float | None = None) -> dict:
+    """info['divergence']: the estimated position error (m) of eqs. 6.62-6.63 at the end of the span, of the run
+    (or, a tightened run, of one at rtol ``scale``: the estimate of the first, scaled), and how it was found."""
+    return {
+        "positions": found.final * (1.0 if scale is None else scaled(rtol, scale)),
+        "how": f"a run at {k:g} x rtol {rtol:.2g} departs by (k^beta - 1) x the error (eq. 6.62)"
+        + (f", scaled to rtol {scale:.2g}" if scale is not None else ""),
+        "measured_until": found.measured_until,
+        "growth": found.growth,
+        "doubling_time": found.doubling_time,
+    }
+
+
+def divergence_warning(found: Divergence, rtol: float, k: float, size: float, accuracy: float, held: float) -> str:
+    """The line for an estimated error (eqs. 6.62-6.63) above ``accuracy`` x size, with the rtol of eq. 6.64, or,
+    below what double precision holds (``held``), the time up to which the results meet the accuracy."""
+    bound, need = accuracy * size, needed_rtol(found, rtol, accuracy * size)
+    figure = (
+        f"estimated position error about {min(found.final, size):.2g} m by t = {found.t[-1]:.3g} s (the run at "
+        f"{k:g} x rtol departs from this one by (k^beta - 1) x its error, eq. 6.62), more than the accuracy "
+        f"{accuracy:g} x {size:.3g} m = {bound:.2g} m"
+    )
+    if need >= held:
+        return f"accuracy: {figure}; use rtol <= {need:.2g}"
+    until, best = found.meets_until(bound), found.meets_until(bound, scaled(rtol, held))
+    said = "the motion is chaotic: " if found.chaotic else ""
+    doubling = f"errors double every {found.doubling_time:.2g} s; " if found.chaotic else ""
+    return (
+        f"accuracy: {said}{doubling}{figure}; results meet it up to t = {until:.3g} s"
+        + (f" (at rtol {held:g}, the tightest double precision holds, up to t = {best:.3g} s)" if best > until else "")
+        + "; no rtol holds it over the whole span: split the run, or ask for less (accuracy)"
+    )
 
 
 def dynamic_model(system: System, masses, forces) -> tuple[np.ndarray, ForceModel]:

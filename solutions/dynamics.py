@@ -54,7 +54,7 @@ from .diagnostics import (
     rank_report,
     setting_words,
 )
-from .divergence import Divergence, companion_factor, departure, estimate, needed_rtol
+from .divergence import Divergence, companion_factor, departure, estimate, needed_rtol, scaled
 from .energy import driver_power, energy_history
 from .formulations import FORMULATIONS, Formulation, make_formulation
 from .generalized_forces import ForceModel, build_forces, element_columns
@@ -555,7 +555,7 @@ def judge_divergence(run: Run, result: Result) -> Result:
         for key in ("chosen", "restarted"):
             if key in info:
                 tightened.info[key] = info[key]
-        tightened.info["divergence"] = divergence_info(found, rtol, k, scale=need / rtol)
+        tightened.info["divergence"] = divergence_info(found, rtol, k, scale=need)
         tightened.info["tightened"] = {"rtol": need, "was": rtol, "estimate": found.final, "bound": bound}
         return tightened
     if not found.chaotic and any(w.startswith("accuracy: estimated position error") for w in info["warnings"]):
@@ -598,13 +598,13 @@ def centres(system: System, q: np.ndarray) -> np.ndarray:
     return q.reshape(len(q), -1, per)[:, :, :dim]
 
 
-def divergence_info(found: Divergence, rtol: float, k: float, scale: float = 1.0) -> dict:
-    """info['divergence']: the estimated position error (m) of eqs. 6.62-6.63 at the end of the span, of a run at
-    ``scale`` x rtol (a tightened run: the estimate of the first, scaled), and how it was found."""
+def divergence_info(found: Divergence, rtol: float, k: float, scale: float | None = None) -> dict:
+    """info['divergence']: the estimated position error (m) of eqs. 6.62-6.63 at the end of the span, of the run
+    (or, a tightened run, of one at rtol ``scale``: the estimate of the first, scaled), and how it was found."""
     return {
-        "positions": scale * found.final,
-        "how": f"a run at {k:g} x rtol {rtol:.2g} departs by (k - 1) x the error (eq. 6.62)"
-        + (f", scaled to rtol {scale * rtol:.2g}" if scale != 1.0 else ""),
+        "positions": found.final * (1.0 if scale is None else scaled(rtol, scale)),
+        "how": f"a run at {k:g} x rtol {rtol:.2g} departs by (k^beta - 1) x the error (eq. 6.62)"
+        + (f", scaled to rtol {scale:.2g}" if scale is not None else ""),
         "measured_until": found.measured_until,
         "growth": found.growth,
         "doubling_time": found.doubling_time,
@@ -617,12 +617,12 @@ def divergence_warning(found: Divergence, rtol: float, k: float, size: float, ac
     bound, need = accuracy * size, needed_rtol(found, rtol, accuracy * size)
     figure = (
         f"estimated position error about {min(found.final, size):.2g} m by t = {found.t[-1]:.3g} s (the run at "
-        f"{k:g} x rtol departs from this one by (k - 1) x its error, eq. 6.62), more than the accuracy {accuracy:g} "
-        f"x {size:.3g} m = {bound:.2g} m"
+        f"{k:g} x rtol departs from this one by (k^beta - 1) x its error, eq. 6.62), more than the accuracy "
+        f"{accuracy:g} x {size:.3g} m = {bound:.2g} m"
     )
     if need >= held:
         return f"accuracy: {figure}; use rtol <= {need:.2g}"
-    until, best = found.meets_until(bound), found.meets_until(bound, held / rtol)
+    until, best = found.meets_until(bound), found.meets_until(bound, scaled(rtol, held))
     said = "the motion is chaotic: " if found.chaotic else ""
     doubling = f"errors double every {found.doubling_time:.2g} s; " if found.chaotic else ""
     return (
