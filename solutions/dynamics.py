@@ -365,10 +365,10 @@ def forward_dynamics(
     settings = (settings or Settings()).replace(t_end=t_end, steps=steps, **named, **options)
     run = Run(system, q0, qd0, settings, masses, forces, points, progress)
     try:
-        result = run_plan(run, settings.formulation, settings.integrator)
+        result, began = run_stages(run, settings.formulation, settings.integrator)
     except SingularStop as stop:  # ``auto`` met a singular position: the formulation that passes it, from the start
         fallback = THROUGH_SINGULAR[0]
-        result = run_plan(run, fallback, settings.integrator)
+        result, began = run_stages(run, fallback, settings.integrator)
         result.info["chosen"] = {
             "formulation": fallback,
             "integrator": result.info["integrator"],
@@ -381,7 +381,7 @@ def forward_dynamics(
             "formulation": fallback,
             "why": stop.reason,
         }
-    result = judge_divergence(run, result)  # stage 5's last guard: a second run where the motion can be chaotic
+    result = judge_divergence(run, result, began)  # stage 5's last guard: a second run where the motion can be chaotic
     result.info["wall_time"] = _time.perf_counter() - start
     return result
 
@@ -475,6 +475,11 @@ def ode_motion(run: Run, start: Start) -> tuple[Plan, EquationsOfMotion, Guard, 
 
 def run_plan(run: Run, formulation: str, integrator: str) -> Result:
     """One run of the stages: initial conditions -> method -> engine -> result."""
+    return run_stages(run, formulation, integrator)[0]
+
+
+def run_stages(run: Run, formulation: str, integrator: str) -> tuple[Result, Start]:
+    """``run_plan``'s result, and its stages 1 and 2 (``Start``: a second run from the same start needs no more)."""
     start = start_motion(run, formulation, integrator)
     run, q, qd, initial, notes = start.run, start.q, start.qd, start.initial, start.notes
     system, settings = run.system, run.settings
@@ -482,7 +487,7 @@ def run_plan(run: Run, formulation: str, integrator: str) -> Result:
         result = index3_run(run, start.plan, start.M, start.forces, q, qd, initial)
         if notes:
             result.info["notes"] = notes + result.info.get("notes", [])
-        return result
+        return result, start
     plan, equations, guard, raised = ode_motion(run, start)
     times = np.linspace(0.0, settings.t_end, settings.steps + 1)
     try:  # stage 3: the engine
@@ -516,10 +521,10 @@ def run_plan(run: Run, formulation: str, integrator: str) -> Result:
         result.info["rtol_rule"] = (
             f"rtol = max({MIN_RTOL:g}, min({DEFAULT_RTOL:g}, accuracy / periods^2)) with {plan.periods:.3g} periods"
         )
-    return result
+    return result, start
 
 
-def judge_divergence(run: Run, result: Result) -> Result:
+def judge_divergence(run: Run, result: Result, start: Start) -> Result:
     """The run's position error from a companion run at k x rtol (eqs. 6.62-6.64, ``divergence``), where the motion
     can be chaotic (``cannot_be_chaotic``) and the integrator controls its error. Within the accuracy: the result,
     with the estimate in info['divergence']. Above it, a run at the default rtol runs again at the rtol of eq. 6.64
@@ -536,11 +541,11 @@ def judge_divergence(run: Run, result: Result) -> Result:
     rtol, size = info["rtol"], mechanism_size(run.system, result.q[0])
     k = companion_factor(rtol)
     try:
-        companion = run_plan(same_method(run, result, rtol=k * rtol, atol=k * info["atol"]), *_method(result))
+        companion = companion_centres(start, result, k * rtol, k * info["atol"])
     except AnalysisError as err:
         info["divergence"] = {"positions": None, "why": f"the run at {k:g} x rtol stopped: {err}"}
         return result
-    found = estimate(result.t, departure(*(centres(run.system, x.q) for x in (result, companion))), size, k)
+    found = estimate(result.t, departure(centres(run.system, result.q), companion), size, k)
     bound, held = settings.accuracy * size, info.get("held_rtol", HELD_RTOL)
     info["divergence"] = divergence_info(found, rtol, k)
     if found.final <= bound:
@@ -577,6 +582,18 @@ def cannot_be_chaotic(run: Run, result: Result) -> str | None:
     if system.n_coordinates - rank > 1:
         return None
     return "one degree of freedom and no driver or force that changes with time: no chaotic motion (Poincare-Bendixson)"
+
+
+def companion_centres(start: Start, result: Result, rtol: float, atol: float) -> np.ndarray:
+    """The body centres (N, bodies, dimension) at ``result``'s output times of the run again at rtol and atol, from
+    its start (stages 1 and 2 done: ``start``) by the same method and engine; the engine's stage only, with its
+    Guard (no result: reactions, energies and the like are not needed)."""
+    run = same_method(start.run, result)
+    plan = dataclasses.replace(start.plan, rtol=rtol, atol=atol, rtol_given=True)
+    plan, equations, guard, _ = ode_motion(run, dataclasses.replace(start, run=run, plan=plan))
+    z0 = equations.initial_state(start.q, start.qd, 0.0)
+    history = integrate_motion(run, plan, equations, guard, z0, result.t)[0]
+    return centres(run.system, history.q)
 
 
 def same_method(run: Run, result: Result, **changes) -> Run:
