@@ -366,10 +366,10 @@ def forward_dynamics(
     settings = (settings or Settings()).replace(t_end=t_end, steps=steps, **named, **options)
     run = Run(system, q0, qd0, settings, masses, forces, points, progress)
     try:
-        result = run_plan(run, settings.formulation, settings.integrator)
+        result, began = run_stages(run, settings.formulation, settings.integrator)
     except SingularStop as stop:  # ``auto`` met a singular position: the formulation that passes it, from the start
         fallback = THROUGH_SINGULAR[0]
-        result = run_plan(run, fallback, settings.integrator)
+        result, began = run_stages(run, fallback, settings.integrator)
         result.info["chosen"] = {
             "formulation": fallback,
             "integrator": result.info["integrator"],
@@ -382,7 +382,7 @@ def forward_dynamics(
             "formulation": fallback,
             "why": stop.reason,
         }
-    result = judge_divergence(run, result)  # stage 5's last guard: a second run where the motion can be chaotic
+    result = judge_divergence(run, result, began)  # stage 5's last guard: a second run where the motion can be chaotic
     result.info["wall_time"] = _time.perf_counter() - start
     return result
 
@@ -414,6 +414,8 @@ class Plan:
     periods: float | None
     size: float
     chosen: dict | None
+    rate: float | None = None
+    """w of ``motion_rate`` (1/s): the fastest rate of the motion at the start; None where it was not estimated."""
 
 
 class SingularStop(AnalysisError):
@@ -476,6 +478,11 @@ def ode_motion(run: Run, start: Start) -> tuple[Plan, EquationsOfMotion, Guard, 
 
 def run_plan(run: Run, formulation: str, integrator: str) -> Result:
     """One run of the stages: initial conditions -> method -> engine -> result."""
+    return run_stages(run, formulation, integrator)[0]
+
+
+def run_stages(run: Run, formulation: str, integrator: str) -> tuple[Result, Start]:
+    """``run_plan``'s result, and its stages 1 and 2 (``Start``: a second run from the same start needs no more)."""
     start = start_motion(run, formulation, integrator)
     run, q, qd, initial, notes = start.run, start.q, start.qd, start.initial, start.notes
     system, settings = run.system, run.settings
@@ -483,7 +490,7 @@ def run_plan(run: Run, formulation: str, integrator: str) -> Result:
         result = index3_run(run, start.plan, start.M, start.forces, q, qd, initial)
         if notes:
             result.info["notes"] = notes + result.info.get("notes", [])
-        return result
+        return result, start
     plan, equations, guard, raised = ode_motion(run, start)
     times = np.linspace(0.0, settings.t_end, settings.steps + 1)
     try:  # stage 3: the engine
@@ -517,10 +524,10 @@ def run_plan(run: Run, formulation: str, integrator: str) -> Result:
         result.info["rtol_rule"] = (
             f"rtol = max({MIN_RTOL:g}, min({DEFAULT_RTOL:g}, accuracy / periods^2)) with {plan.periods:.3g} periods"
         )
-    return result
+    return result, start
 
 
-def judge_divergence(run: Run, result: Result) -> Result:
+def judge_divergence(run: Run, result: Result, start: Start) -> Result:
     """The run's position error from a companion run at k x rtol (eqs. 6.62-6.64, ``divergence``), where the motion
     can be chaotic (``cannot_be_chaotic``) and the integrator controls its error. Within the accuracy: the result,
     with the estimate in info['divergence']. Above it, a run at the default rtol runs again at the rtol of eq. 6.64
@@ -530,18 +537,18 @@ def judge_divergence(run: Run, result: Result) -> Result:
     info, settings = result.info, run.settings
     if settings.divergence == "off" or info.get("integrator") in (*FIXED_STEP_METHODS, *INDEX3_INTEGRATORS):
         return result
-    why = cannot_be_chaotic(run, result)
+    why = cannot_be_chaotic(run, result) or too_short_to_diverge(start.plan, result.info["rtol"], settings)
     if why is not None:
         info["divergence"] = {"positions": None, "why": why}
         return result
     rtol, size = info["rtol"], mechanism_size(run.system, result.q[0])
     k = companion_factor(rtol)
     try:
-        companion = run_plan(same_method(run, result, rtol=k * rtol, atol=k * info["atol"]), *_method(result))
+        companion = companion_centres(start, result, k * rtol, k * info["atol"])
     except AnalysisError as err:
         info["divergence"] = {"positions": None, "why": f"the run at {k:g} x rtol stopped: {err}"}
         return result
-    found = estimate(result.t, departure(*(centres(run.system, x.q) for x in (result, companion))), size, k)
+    found = estimate(result.t, departure(centres(run.system, result.q), companion), size, k)
     bound, held = settings.accuracy * size, info.get("held_rtol", HELD_RTOL)
     info["divergence"] = divergence_info(found, rtol, k)
     if found.final <= bound:
@@ -578,6 +585,35 @@ def cannot_be_chaotic(run: Run, result: Result) -> str | None:
     if system.n_coordinates - rank > 1:
         return None
     return "one degree of freedom and no driver or force that changes with time: no chaotic motion (Poincare-Bendixson)"
+
+
+def companion_centres(start: Start, result: Result, rtol: float, atol: float) -> np.ndarray:
+    """The body centres (N, bodies, dimension) at ``result``'s output times of the run again at rtol and atol, from
+    its start (stages 1 and 2 done: ``start``) by the same method and engine; the engine's stage only, with its
+    Guard (no result: reactions, energies and the like are not needed)."""
+    run = same_method(start.run, result)
+    plan = dataclasses.replace(start.plan, rtol=rtol, atol=atol, rtol_given=True)
+    plan, equations, guard, _ = ode_motion(run, dataclasses.replace(start, run=run, plan=plan))
+    z0 = equations.initial_state(start.q, start.qd, 0.0)
+    history = integrate_motion(run, plan, equations, guard, z0, result.t)[0]
+    return centres(run.system, history.q)
+
+
+FASTEST = 2.0
+"""How many times the fastest rate of the motion at its start (``motion_rate``) errors are taken to grow at, at most:
+measured, a double pendulum released level has lambda = 1.2 to 1.3/s against w = 3.1/s at its start."""
+
+
+def too_short_to_diverge(plan: Plan, rtol: float, settings: Settings) -> str | None:
+    """Why a run is too short for its errors to grow exponentially from rtol past the accuracy, or None: growing at
+    FASTEST w (``motion_rate``), they take ln(accuracy / rtol) / (FASTEST w) to, longer than the run."""
+    needed = math.log(settings.accuracy / rtol)
+    if plan.rate is None or FASTEST * plan.rate * settings.t_end >= needed:
+        return None
+    return (
+        f"too short to diverge: errors growing at {FASTEST:g} x the motion's fastest rate at the start "
+        f"({plan.rate:.3g}/s) would take {needed / (FASTEST * plan.rate):.3g} s to grow from rtol to the accuracy"
+    )
 
 
 def same_method(run: Run, result: Result, **changes) -> Run:
@@ -673,11 +709,12 @@ def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str) -
         )
         formulation, integrator = chosen["formulation"], chosen["integrator"]
     size = mechanism_size(system, q)
-    periods = None
+    periods = rate = None
     if integrator not in INDEX3_INTEGRATORS and integrator not in FIXED_STEP_METHODS:
-        periods = motion_periods(system, M, forces, q, qd, settings.t_end, formulation, options, rates=rates)
+        rate = motion_rate(system, M, forces, q, qd, formulation, options, rates=rates)
+        periods = 1.0 if rate is None else max(1.0, settings.t_end * rate / (2.0 * np.pi))  # motion_periods
     rtol = settings.rtol if settings.rtol is not None else default_rtol(periods, settings.accuracy)
-    return Plan(formulation, integrator, rtol, settings.atol, settings.rtol is not None, periods, size, chosen)
+    return Plan(formulation, integrator, rtol, settings.atol, settings.rtol is not None, periods, size, chosen, rate)
 
 
 def index3_run(run: Run, plan: Plan, M, forces, q, qd, initial: dict) -> Result:
@@ -1024,14 +1061,20 @@ def motion_periods(
 
     rho and q'' come from ``rates`` (``StartRates``, shared with ``choose_method``), made here when not given.
     """
+    rate = motion_rate(system, M, forces, q, qd, formulation, options, rates)
+    return 1.0 if rate is None else max(1.0, float(t_end) * rate / (2.0 * np.pi))
+
+
+def motion_rate(system: System, M, forces, q, qd, formulation: str, options: dict, rates=None) -> float | None:
+    """w of ``motion_periods`` (1/s), or None where the equations cannot be evaluated at the start."""
     start = (rates or StartRates(system, M, forces, q, qd, options))(formulation)
     if start is None:
-        return 1.0  # the run itself will say what is wrong
+        return None  # the run itself will say what is wrong
     rho, qdd = start
     size = mechanism_size(system, q)
     speed, acceleration = float(np.max(np.abs(qd), initial=0.0)), float(np.max(np.abs(qdd), initial=0.0))
     rate = max(rho, speed / size, (acceleration / size) ** 0.5)
-    return max(1.0, float(t_end) * rate / (2.0 * np.pi)) if np.isfinite(rate) else 1.0
+    return float(rate) if np.isfinite(rate) else None
 
 
 def default_rtol(periods: float | None, accuracy: float = DEFAULT_ACCURACY) -> float:
