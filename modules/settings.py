@@ -41,7 +41,7 @@ ENGINE_VARIABLE = "MBD_ENGINE"
 ``MBD_ENGINE=numpy`` for the reference code's numbers in every run of a session, script or test suite."""
 STIFFNESS = ("report", "error", "off")
 """What ``stiffness`` takes (``integrators.integrate``)."""
-DIVERGENCE = ("check", "off")
+DIVERGENCE = ("check", "skip")
 """What ``divergence`` takes (``dynamics.judge_divergence``)."""
 DRIFT_LIMIT = 1e-3
 """Default ``drift_limit``: positions off the constraints by a thousandth of the mechanism's size are a wrong answer."""
@@ -171,7 +171,7 @@ class Settings:
         "forward dynamics, adaptive integrators: check (the default) compares the run with one at 100 x rtol "
         "(eq. 6.62) where the motion can be chaotic (two degrees of freedom or more, or a force or driver that "
         "changes with time): a default rtol is tightened where the estimated error exceeds the accuracy, a given "
-        "one warns; off: no second run",
+        "one warns; skip: no second run (a YAML file reads off as false)",
         DIVERGENCE,
     )  # fmt: skip
     options: dict = field(default_factory=dict)

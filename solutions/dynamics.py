@@ -534,7 +534,7 @@ def judge_divergence(run: Run, result: Result, start: Start) -> Result:
     double precision can bring within it, warns with the figure (a chaotic one: how often its errors double and up
     to which time it meets the accuracy)."""
     info, settings = result.info, run.settings
-    if settings.divergence == "off" or info.get("integrator") in (*FIXED_STEP_METHODS, *INDEX3_INTEGRATORS):
+    if settings.divergence == "skip" or info.get("integrator") in (*FIXED_STEP_METHODS, *INDEX3_INTEGRATORS):
         return result
     why = cannot_be_chaotic(run, result) or too_short_to_diverge(start.plan, result.info["rtol"], settings)
     if why is not None:
