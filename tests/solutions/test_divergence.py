@@ -97,6 +97,22 @@ def test_a_chaotic_span_no_rtol_holds_warns_with_the_doubling_time_and_how_long_
     assert until >= 0.5 * result.t[np.argmax(found > ACCURACY * size())], line  # not uselessly cautious
 
 
+def test_the_revolute_spherical_double_pendulum_over_20_s_warns_that_it_is_chaotic():
+    """The run of issue 29 (a spatial revolute-spherical double pendulum, 20 s at the defaults: 0.037 m off, L = 1 m,
+    energy kept, no warning before this guard) says that it is chaotic and up to when it holds 1e-6 L."""
+    from .test_accuracy import revolute_spherical_pendulum
+
+    spatial = build_system(load_model(revolute_spherical_pendulum()))
+    result = forward_dynamics(*spatial, 20.0, 100, engine="numpy")
+    reference = forward_dynamics(*spatial, 20.0, 100, "joint-coordinates", "DOP853", rtol=1e-12, atol=1e-14,
+                                 divergence="skip", engine="numpy")  # fmt: skip
+    (line,) = [w for w in result.info["warnings"] if "chaotic" in w]
+    until = float(re.search(r"results meet it up to t = (\S+) s", line).group(1))
+    found = np.max(np.linalg.norm(centres(spatial[0], result.q) - centres(spatial[0], reference.q), axis=2), axis=1)
+    bound = ACCURACY * mechanism_size(spatial[0], spatial[1])
+    assert found[result.t <= until].max() <= bound < found.max(), line
+
+
 def test_regular_motion_is_not_rerun_and_not_warned():
     """A pendulum (one degree of freedom: never chaotic, no second run) and the course's double pendulum released
     at 60 and 90 degrees over 2 s (regular so far: a second run, an estimate within the accuracy, no rerun)."""
