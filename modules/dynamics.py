@@ -55,6 +55,7 @@ from .diagnostics import (
     rank_report,
     setting_words,
 )
+from .divergence import Divergence, companion_factor, departure, estimate, needed_rtol, scaled
 from .energy import driver_power, energy_history
 from .formulations import FORMULATIONS, Formulation, make_formulation
 from .generalized_forces import ForceModel, build_forces, element_columns
@@ -380,10 +381,10 @@ def forward_dynamics(
     settings = (settings or default_settings()).replace(t_end=t_end, steps=steps, **named, **options)
     run = Run(system, q0, qd0, settings, masses, forces, points, progress)
     try:
-        result = run_plan(run, settings.formulation, settings.integrator)
+        result, began = run_stages(run, settings.formulation, settings.integrator)
     except SingularStop as stop:  # ``auto`` met a singular position: the formulation that passes it, from the start
         fallback = THROUGH_SINGULAR[0]
-        result = run_plan(run, fallback, settings.integrator)
+        result, began = run_stages(run, fallback, settings.integrator)
         result.info["chosen"] = {
             "formulation": fallback,
             "integrator": result.info["integrator"],
@@ -396,6 +397,7 @@ def forward_dynamics(
             "formulation": fallback,
             "why": stop.reason,
         }
+    result = judge_divergence(run, result, began)  # stage 5's last guard: a second run where the motion can be chaotic
     result.info["wall_time"] = _time.perf_counter() - start
     return result
 
@@ -427,6 +429,8 @@ class Plan:
     periods: float | None
     size: float
     chosen: dict | None
+    rate: float | None = None
+    """w of ``motion_rate`` (1/s): the fastest rate of the motion at the start; None where it was not estimated."""
 
 
 class SingularStop(AnalysisError):
@@ -494,6 +498,11 @@ def ode_motion(run: Run, start: Start) -> tuple[Plan, EquationsOfMotion, Guard, 
 
 def run_plan(run: Run, formulation: str, integrator: str) -> Result:
     """One run of the stages: initial conditions -> method -> engine -> result."""
+    return run_stages(run, formulation, integrator)[0]
+
+
+def run_stages(run: Run, formulation: str, integrator: str) -> tuple[Result, Start]:
+    """``run_plan``'s result, and its stages 1 and 2 (``Start``: a second run from the same start needs no more)."""
     start = start_motion(run, formulation, integrator)
     run, q, qd, initial, notes = start.run, start.q, start.qd, start.initial, start.notes
     system, settings = run.system, run.settings
@@ -501,7 +510,7 @@ def run_plan(run: Run, formulation: str, integrator: str) -> Result:
         result = index3_run(run, start.plan, start.M, start.forces, q, qd, initial)
         if notes:
             result.info["notes"] = notes + result.info.get("notes", [])
-        return result
+        return result, start
     plan, equations, guard, raised = ode_motion(run, start)
     times = np.linspace(0.0, settings.t_end, settings.steps + 1)
     try:  # stage 3: the engine
@@ -526,6 +535,7 @@ def run_plan(run: Run, formulation: str, integrator: str) -> Result:
     speed = float(np.max(np.abs(body_positions(system, result.qd)), initial=0.0))  # V: the largest speed, m/s
     result.info["accuracy_estimate"] = accuracy_estimate(result.info, guard.size, plan.periods)
     held = max(HELD_RTOL, getattr(equations.formulation, "held_rtol", 0.0))
+    result.info["held_rtol"] = held
     result.info["warnings"] += raised + accuracy_warnings(
         result.info, guard.size, settings.accuracy, plan.periods, speed, held
     )
@@ -534,7 +544,161 @@ def run_plan(run: Run, formulation: str, integrator: str) -> Result:
         result.info["rtol_rule"] = (
             f"rtol = max({MIN_RTOL:g}, min({DEFAULT_RTOL:g}, accuracy / periods^2)) with {plan.periods:.3g} periods"
         )
+    return result, start
+
+
+def judge_divergence(run: Run, result: Result, start: Start) -> Result:
+    """The run's position error from a companion run at k x rtol (eqs. 6.62-6.64, ``divergence``), where the motion
+    can be chaotic (``cannot_be_chaotic``) and the integrator controls its error. Within the accuracy: the result,
+    with the estimate in info['divergence']. Above it, a run at the default rtol runs again at the rtol of eq. 6.64
+    (info['tightened']), on the same engine with the same method; a run at a given rtol, or one that no rtol held in
+    double precision can bring within it, warns with the figure (a chaotic one: how often its errors double and up
+    to which time it meets the accuracy)."""
+    info, settings = result.info, run.settings
+    if settings.divergence == "skip" or info.get("integrator") in (*FIXED_STEP_METHODS, *INDEX3_INTEGRATORS):
+        return result
+    why = cannot_be_chaotic(run, result) or too_short_to_diverge(start.plan, result.info["rtol"], settings)
+    if why is not None:
+        info["divergence"] = {"positions": None, "why": why}
+        return result
+    rtol, size = info["rtol"], mechanism_size(run.system, result.q[0])
+    k = companion_factor(rtol)
+    try:
+        companion = companion_centres(start, result, k * rtol, k * info["atol"])
+    except AnalysisError as err:
+        info["divergence"] = {"positions": None, "why": f"the run at {k:g} x rtol stopped: {err}"}
+        return result
+    found = estimate(result.t, departure(centres(run.system, result.q), companion), size, k)
+    bound, held = settings.accuracy * size, info.get("held_rtol", HELD_RTOL)
+    info["divergence"] = divergence_info(found, rtol, k)
+    if found.final <= bound:
+        return result
+    need = needed_rtol(found, rtol, bound)
+    if settings.rtol is None and need >= held:  # the default rtol: run again at the one eq. 6.64 asks
+        try:
+            tightened = run_plan(same_method(run, result, rtol=need), *_method(result))
+        except AnalysisError as err:
+            info["warnings"].append(divergence_warning(found, rtol, k, size, settings.accuracy, held) + f" ({err})")
+            return result
+        for key in ("chosen", "restarted"):
+            if key in info:
+                tightened.info[key] = info[key]
+        tightened.info["divergence"] = divergence_info(found, rtol, k, scale=need)
+        tightened.info["tightened"] = {"rtol": need, "was": rtol, "estimate": found.final, "bound": bound}
+        return tightened
+    if not found.chaotic and any(w.startswith("accuracy: estimated position error") for w in info["warnings"]):
+        return result  # the tolerance rule's estimate says it already
+    info["warnings"].append(divergence_warning(found, rtol, k, size, settings.accuracy, held))
     return result
+
+
+def cannot_be_chaotic(run: Run, result: Result) -> str | None:
+    """Why the run's motion cannot be chaotic, or None: no degree of freedom left by the joints and drivers (the
+    motion is prescribed), or one and nothing that changes with time (no driver, no actuator, every force from a
+    potential or a damper): the state (q, q') then moves on a plane or cylinder, where by the Poincare-Bendixson
+    theorem no motion is chaotic; a regular motion's error is eq. 6.61's."""
+    system = run.system
+    jacobian = system.jacobian(result.q[0], 0.0)
+    rank = numerical_rank(np.linalg.svd(jacobian, compute_uv=False), jacobian.shape) if jacobian.size else 0
+    freedom = system.n_coordinates - rank
+    if freedom == 0:
+        return "no degree of freedom left by the joints and drivers: the motion is prescribed"
+    forces = run.forces if run.forces is not None else build_forces(system.model)
+    if system.model.motors or freedom > 1 or not autonomous(forces):
+        return None
+    return "one degree of freedom and no driver or force that changes with time: no chaotic motion (Poincare-Bendixson)"
+
+
+def autonomous(forces: ForceModel) -> bool:
+    """True when no force changes with time: gravity, springs and dampers without an actuator (Q(q, q') only)."""
+    from .planar.forces import no_actuator
+
+    def timeless(element) -> bool:
+        return element.is_conservative or getattr(element, "actuator", None) is no_actuator
+
+    return not forces.user_forces and all(timeless(e) for e in forces.elements)
+
+
+def companion_centres(start: Start, result: Result, rtol: float, atol: float) -> np.ndarray:
+    """The body centres (N, bodies, dimension) at ``result``'s output times of the run again at rtol and atol, from
+    its start (stages 1 and 2 done: ``start``) by the same method and engine; the engine's stage only, with its
+    Guard (no result: reactions, energies and the like are not needed)."""
+    run = same_method(start.run, result)
+    plan = dataclasses.replace(start.plan, rtol=rtol, atol=atol, rtol_given=True)
+    plan, equations, guard, _ = ode_motion(run, dataclasses.replace(start, run=run, plan=plan))
+    z0 = equations.initial_state(start.q, start.qd, 0.0)
+    history = integrate_motion(run, plan, equations, guard, z0, result.t)[0]
+    return centres(run.system, history.q)
+
+
+FASTEST = 2.0
+"""How many times the fastest rate of the motion at its start (``motion_rate``) errors are taken to grow at, at most:
+measured, a double pendulum released level has lambda = 1.2 to 1.3/s against w = 3.1/s at its start."""
+
+
+def too_short_to_diverge(plan: Plan, rtol: float, settings: Settings) -> str | None:
+    """Why a run is too short for its errors to grow exponentially from rtol past the accuracy, or None: growing at
+    FASTEST w (``motion_rate``), they take ln(accuracy / rtol) / (FASTEST w) to, longer than the run."""
+    needed = math.log(settings.accuracy / rtol)
+    if plan.rate is None or FASTEST * plan.rate * settings.t_end >= needed:
+        return None
+    return (
+        f"too short to diverge: errors growing at {FASTEST:g} x the motion's fastest rate at the start "
+        f"({plan.rate:.3g}/s) would take {needed / (FASTEST * plan.rate):.3g} s to grow from rtol to the accuracy"
+    )
+
+
+def same_method(run: Run, result: Result, **changes) -> Run:
+    """The run again with ``changes`` to its settings, by the formulation, integrator and engine that made
+    ``result`` (no points, no progress: a second run for the guards)."""
+    engine = "compiled" if "compiled" in result.info else "numpy"
+    formulation, integrator = _method(result)
+    settings = run.settings.replace(formulation=formulation, integrator=integrator, engine=engine, **changes)
+    return dataclasses.replace(run, settings=settings, points=None, progress=None)
+
+
+def _method(result: Result) -> tuple[str, str]:
+    return result.info["formulation"], result.info["integrator"]
+
+
+def centres(system: System, q: np.ndarray) -> np.ndarray:
+    """The body centres of a history of coordinates: (N, bodies, dimension)."""
+    per, dim = system.coordinates_per_body, system.model.dimension
+    return q.reshape(len(q), -1, per)[:, :, :dim]
+
+
+def divergence_info(found: Divergence, rtol: float, k: float, scale: float | None = None) -> dict:
+    """info['divergence']: the estimated position error (m) of eqs. 6.62-6.63 at the end of the span, of the run
+    (or, a tightened run, of one at rtol ``scale``: the estimate of the first, scaled), and how it was found."""
+    return {
+        "positions": found.final * (1.0 if scale is None else scaled(rtol, scale)),
+        "how": f"a run at {k:g} x rtol {rtol:.2g} departs by (k^beta - 1) x the error (eq. 6.62)"
+        + (f", scaled to rtol {scale:.2g}" if scale is not None else ""),
+        "measured_until": found.measured_until,
+        "growth": found.growth,
+        "doubling_time": found.doubling_time,
+    }
+
+
+def divergence_warning(found: Divergence, rtol: float, k: float, size: float, accuracy: float, held: float) -> str:
+    """The line for an estimated error (eqs. 6.62-6.63) above ``accuracy`` x size, with the rtol of eq. 6.64, or,
+    below what double precision holds (``held``), the time up to which the results meet the accuracy."""
+    bound, need = accuracy * size, needed_rtol(found, rtol, accuracy * size)
+    figure = (
+        f"estimated position error about {min(found.final, size):.2g} m by t = {found.t[-1]:.3g} s (the run at "
+        f"{k:g} x rtol departs from this one by (k^beta - 1) x its error, eq. 6.62), more than the accuracy "
+        f"{accuracy:g} x {size:.3g} m = {bound:.2g} m"
+    )
+    if need >= held:
+        return f"accuracy: {figure}; use rtol <= {need:.2g}"
+    until, best = found.meets_until(bound), found.meets_until(bound, scaled(rtol, held))
+    said = "the motion is chaotic: " if found.chaotic else ""
+    doubling = f"errors double every {found.doubling_time:.2g} s; " if found.chaotic else ""
+    return (
+        f"accuracy: {said}{doubling}{figure}; results meet it up to t = {until:.3g} s"
+        + (f" (at rtol {held:g}, the tightest double precision holds, up to t = {best:.3g} s)" if best > until else "")
+        + "; no rtol holds it over the whole span: split the run, or ask for less (accuracy)"
+    )
 
 
 def dynamic_model(system: System, masses, forces) -> tuple[np.ndarray, ForceModel]:
@@ -579,13 +743,14 @@ def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str, r
         )
         formulation, integrator = chosen["formulation"], chosen["integrator"]
     size = mechanism_size(system, q)
-    periods = None
+    periods = rate = None
     if integrator not in INDEX3_INTEGRATORS and integrator not in FIXED_STEP_METHODS:
-        periods = motion_periods(system, M, forces, q, qd, settings.t_end, formulation, options, rates, size)
+        rate = motion_rate(system, M, forces, q, qd, formulation, options, rates, size)
+        periods = 1.0 if rate is None else max(1.0, settings.t_end * rate / (2.0 * np.pi))  # motion_periods
     rtol = settings.rtol if settings.rtol is not None else default_rtol(periods, settings.accuracy)
     if settings.rtol is None and formulation == "partitioning":  # its dependent velocities: outside the control
         rtol = max(MIN_RTOL, rtol / PARTITIONING_VELOCITIES)
-    return Plan(formulation, integrator, rtol, settings.atol, settings.rtol is not None, periods, size, chosen)
+    return Plan(formulation, integrator, rtol, settings.atol, settings.rtol is not None, periods, size, chosen, rate)
 
 
 def index3_run(run: Run, plan: Plan, M, forces, q, qd, initial: dict) -> Result:
@@ -957,14 +1122,23 @@ def motion_periods(
     rho and q'' come from ``rates`` (``StartRates``, shared with ``choose_method``), made here when not given; L is
     ``size`` when given (``mechanism_size``).
     """
+    rate = motion_rate(system, M, forces, q, qd, formulation, options, rates, size)
+    return 1.0 if rate is None else max(1.0, float(t_end) * rate / (2.0 * np.pi))
+
+
+def motion_rate(
+    system: System, M, forces, q, qd, formulation: str, options: dict, rates=None, size: float | None = None
+) -> float | None:
+    """w of ``motion_periods`` (1/s), or None where the equations cannot be evaluated at the start; L is ``size``
+    when given (``mechanism_size``)."""
     start = (rates or StartRates(system, M, forces, q, qd, options))(formulation)
     if start is None:
-        return 1.0  # the run itself will say what is wrong
+        return None  # the run itself will say what is wrong
     rho, qdd = start
     size = mechanism_size(system, q) if size is None else size
     speed, acceleration = float(np.max(np.abs(qd), initial=0.0)), float(np.max(np.abs(qdd), initial=0.0))
     rate = max(rho, speed / size, (acceleration / size) ** 0.5)
-    return max(1.0, float(t_end) * rate / (2.0 * np.pi)) if np.isfinite(rate) else 1.0
+    return float(rate) if np.isfinite(rate) else None
 
 
 def default_rtol(periods: float | None, accuracy: float = DEFAULT_ACCURACY) -> float:

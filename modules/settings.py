@@ -42,6 +42,8 @@ ENGINE_VARIABLE = "MBD_ENGINE"
 ``MBD_ENGINE=numpy`` for the reference code's numbers in every run of a session, script or test suite."""
 STIFFNESS = ("report", "error", "off")
 """What ``stiffness`` takes (``integrators.integrate``)."""
+DIVERGENCE = ("check", "skip")
+"""What ``divergence`` takes (``dynamics.judge_divergence``)."""
 DRIFT_LIMIT = 1e-3
 """Default ``drift_limit``: positions off the constraints by a thousandth of the mechanism's size are a wrong answer."""
 SINGULAR_RATIO = 1e-8
@@ -165,6 +167,14 @@ class Settings:
         "error (stop at once), off",
         STIFFNESS,
     )  # fmt: skip
+    divergence: str = setting(
+        "check", "divergence", NAME,
+        "forward dynamics, adaptive integrators: check (the default) compares the run with one at 100 x rtol "
+        "(eq. 6.62) where the motion can be chaotic (two degrees of freedom or more, or a force or driver that "
+        "changes with time): a default rtol is tightened where the estimated error exceeds the accuracy, a given "
+        "one warns; skip: no second run (a YAML file reads off as false)",
+        DIVERGENCE,
+    )  # fmt: skip
     options: dict = field(default_factory=dict)
     """Further options of the formulation's constructor, from Python only (e.g. ``tol``, ``independent``)."""
 
@@ -204,7 +214,7 @@ CHECKS = ("drift_limit", "singular_ratio")
 """Settings of a check that 0 turns off."""
 DYNAMIC_ONLY = (
     "formulation", "integrator", "rtol", "atol", "step", "accuracy", *FORMULATION_OPTIONS, "max_evaluations",
-    *CHECKS, "stiffness",
+    *CHECKS, "stiffness", "divergence",
 )  # fmt: skip
 """Settings that only a forward dynamic analysis uses."""
 

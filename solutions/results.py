@@ -79,6 +79,15 @@ class DynamicInfo(Info, total=False):
     energy_drift_relative: float
     accuracy_estimate: dict | None
     """The estimated errors (``dynamics.accuracy_estimate``): positions (m), velocities and energy (relative)."""
+    held_rtol: float
+    """The tightest rtol the run's formulation holds in double precision (``dynamics.HELD_RTOL`` or its own)."""
+    divergence: dict
+    """The position error (m) estimated from a second run at 100 x rtol (``dynamics.judge_divergence``, eqs.
+    6.62-6.63): ``positions``, ``how``, ``measured_until``, ``growth``, ``doubling_time`` (chaotic motion); or
+    ``positions`` None and ``why`` no second run was made."""
+    tightened: dict
+    """A run at the default rtol made again at ``rtol`` (eq. 6.64), the first (at ``was``) estimated ``estimate`` m
+    off, more than ``bound`` (accuracy x size)."""
     initial_conditions: dict
     """How far assembly and the velocity projection moved the file's initial state."""
     compiled: dict
