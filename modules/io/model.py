@@ -299,6 +299,21 @@ def read_text(path: Path) -> dict:
         raise ModelError(f"{path.name}: the file holds only comments; a model file starts with 'model:'")
     if not isinstance(data, dict):
         raise ModelError(f"{path.name}: expected a mapping with the key 'model', got {type(data).__name__}")
+    return _words_read_as_booleans(data)
+
+
+OFF_WORDS = ("stiffness",)
+"""Simulation keys one of whose values is the word ``off``, which YAML 1.1 (PyYAML) reads as false."""
+
+
+def _words_read_as_booleans(data: dict) -> dict:
+    """``simulation: {stiffness: off}`` as written: YAML 1.1 reads an unquoted off as the boolean false, which the
+    schema would refuse ("unknown value False"); the word is what the writer meant."""
+    simulation = data.get("simulation")
+    if isinstance(simulation, dict):
+        for key in OFF_WORDS:
+            if simulation.get(key) is False:
+                simulation[key] = "off"
     return data
 
 

@@ -165,3 +165,12 @@ def test_the_kits_mbd_names_the_closest_command(capsys):
     with pytest.raises(SystemExit) as stop:
         kit(["slefcheck", "hw1"])
     assert stop.value.code == 2 and "did you mean selfcheck?" in _one_line(capsys)
+
+
+def test_stiffness_off_unquoted_in_a_yaml_file_is_the_word(tmp_path):
+    """YAML 1.1 reads an unquoted ``off`` as false; ``simulation: {stiffness: off}`` means the setting's word."""
+    data = yaml.safe_load((MODELS / "double_pendulum.yaml").read_text())
+    path = tmp_path / "off.yaml"
+    path.write_text(yaml.safe_dump({"model": data["model"]}) + "simulation:\n  stiffness: off\n")
+    assert yaml.safe_load(path.read_text())["simulation"]["stiffness"] is False  # what PyYAML makes of it
+    assert load_model(path).simulation["stiffness"] == "off"
