@@ -112,6 +112,8 @@ def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) ->
     point (eq. 5.71); a ground side gets the opposite of the other side's."""
     from . import history_kernels
 
+    if not system.elements:  # free bodies: no joint, no reaction
+        return {}
     names, arrays = layout(system, _planar_layout)
     N = q.shape[0]
     F, M = np.empty((N, len(names), 2)), np.empty((N, len(names)))
@@ -161,6 +163,10 @@ def spatial_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -
     gets the opposite of the other side's."""
     from . import history_kernels
 
+    from ..spatial.joints import EulerNormalization
+
+    if all(isinstance(e, EulerNormalization) for e in system.elements):  # free bodies: no joint, no reaction
+        return {}
     names, place, arrays = layout(system, _spatial_layout)
     N, framed = q.shape[0], int(np.count_nonzero(place >= 0))
     F, M = np.empty((N, len(names), 3)), np.empty((N, len(names), 3))

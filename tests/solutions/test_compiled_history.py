@@ -203,3 +203,21 @@ def test_batched_guard_sees_a_rank_loss_between_output_times():
     first = _verdict(step_by_step)
     assert first is not None and "lost rank there" in first[1], first
     assert _verdict(batched) == first
+
+
+@pytest.mark.parametrize("dimension", [2, 3])
+def test_a_free_body_runs_compiled_with_no_reaction_columns(dimension):
+    """A body with no joint (no constraint but a spatial body's Euler-parameter normalization) moves at constant
+    velocity without gravity: x = v t on both engines; no joint, so no reaction column (the compiled output stage
+    took the rows of no joint and failed)."""
+    body = {"name": "b", "mass": 1.0, "location": [0.0] * dimension, "velocity": [1.0, 2.0, 0.0][:dimension]}
+    if dimension == 2:
+        body.update(inertia=0.1, orientation=0.0, angular_velocity=1.0)
+    else:
+        body.update(inertia=[0.1, 0.2, 0.3], angular_velocity=[1.0, 0.5, 0.2])
+    model = load_model({"model": {"dimension": dimension, "gravity": [0.0] * dimension, "bodies": [body]}})
+    for engine in ("numpy", "compiled"):
+        run = forward_dynamics(*build_system(model), 1.0, 4, engine=engine, rtol=1e-10, atol=1e-12)
+        np.testing.assert_allclose(run.q[:, :2], np.outer(run.t, [1.0, 2.0]), atol=1e-9)
+        assert not run.reactions
+    assert run.info["chosen"]["engine"] == "compiled"
