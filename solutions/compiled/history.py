@@ -161,9 +161,8 @@ def spatial_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -
     generalized force on the seven columns of either body (eq. 10.20), summed over the element's rows; the force F
     and the torque n = 1/2 G(p) Q_p (eq. 8.14), its moment taken about the joint point (eq. 10.21); a ground side
     gets the opposite of the other side's."""
-    from . import history_kernels
-
     from ..spatial.joints import EulerNormalization
+    from . import history_kernels
 
     if all(isinstance(e, EulerNormalization) for e in system.elements):  # free bodies: no joint, no reaction
         return {}
