@@ -44,7 +44,7 @@ SCENES = ("double_pendulum", "slider_crank", "spatial_double_pendulum")
 STAGES = (
     (dynamics, "consistent_initial_conditions", "initial conditions (assembly)"),
     (dynamics, "plan_method", "plan: method and tolerance"),
-    (dynamics, "motion_periods", "  motion periods (start rates: rho, q'')"),
+    (dynamics, "motion_rate", "  motion rate (start rates: rho, q'')"),
     (dynamics, "integrate_motion", "engine: integrate_motion"),
     (dispatch, "choose", "  engine's choice"),
     (dispatch, "run", "  compiled run"),
@@ -88,8 +88,10 @@ def timed(stages, seconds: dict):
             setattr(owner, name, original)
 
 
-def measure(model, formulation: str, calls: int) -> tuple[float, dict]:
-    """(seconds per call, {stage label: seconds per call}) of the compiled run of ``model``."""
+def measure(model, formulation: str, calls: int) -> tuple[float, dict, float]:
+    """(seconds per call, {stage label: seconds per call}, seconds per call with the divergence check) of the
+    compiled run of ``model``: the stages of one run (``divergence="skip"``), then the whole call as a user makes
+    it, whose divergence check (``dynamics.judge_divergence``) may add a second run at 100 x rtol."""
     system, q0, qd0 = build_system(load_model(model))
     options = dict(formulation=formulation, integrator="DOP853", rtol=1e-6, atol=1e-8, engine="compiled")
     first = dynamics.forward_dynamics(system, q0, qd0, 1.0, 100, **options)  # compiles or loads the module
@@ -99,9 +101,13 @@ def measure(model, formulation: str, calls: int) -> tuple[float, dict]:
     with timed(STAGES, seconds):
         start = CLOCK[0]()
         for _ in range(calls):
-            dynamics.forward_dynamics(system, q0, qd0, 1.0, 100, **options)
+            dynamics.forward_dynamics(system, q0, qd0, 1.0, 100, divergence="skip", **options)
         total = (CLOCK[0]() - start) / calls
-    return total, {label: value / calls for label, value in seconds.items()}
+    start = CLOCK[0]()
+    for _ in range(calls):
+        dynamics.forward_dynamics(system, q0, qd0, 1.0, 100, **options)
+    checked = (CLOCK[0]() - start) / calls
+    return total, {label: value / calls for label, value in seconds.items()}, checked
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -124,14 +130,15 @@ def main(argv: list[str] | None = None) -> None:
     results = [(name, *measure(model, args.formulation, args.calls)) for name, model in cases]
     setting = f"{args.formulation}, DOP853, 1e-6, 1 s, 100 outputs, {'thread CPU' if args.cpu else 'wall'}"
     print(f"## Cost of a compiled call by stage, ms per call ({setting})\n")
-    print("| stage | " + " | ".join(name for name, _, _ in results) + " |")
+    print("| stage | " + " | ".join(name for name, *_ in results) + " |")
     print("|---|" + "---:|" * len(results))
-    print("| **whole call** | " + " | ".join(f"**{total * 1e3:.2f}**" for _, total, _ in results) + " |")
+    print("| **whole call** | " + " | ".join(f"**{total * 1e3:.2f}**" for _, total, _, _ in results) + " |")
     loop = "    integration loop"
-    outside = [total - stages.get(loop, 0.0) for _, total, stages in results]
+    outside = [total - stages.get(loop, 0.0) for _, total, stages, _ in results]
     print("| **outside the loop** | " + " | ".join(f"**{value * 1e3:.2f}**" for value in outside) + " |")
+    print("| whole call with the divergence check | " + " | ".join(f"{c * 1e3:.2f}" for *_, c in results) + " |")
     for _, _, label in STAGES:
-        cells = [f"{stages[label] * 1e3:.3f}" if label in stages else "-" for _, _, stages in results]
+        cells = [f"{stages[label] * 1e3:.3f}" if label in stages else "-" for _, _, stages, _ in results]
         print(f"| {label.replace('  ', '&nbsp;&nbsp;')} | " + " | ".join(cells) + " |")
 
 
