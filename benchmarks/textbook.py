@@ -209,7 +209,7 @@ def spatial_double_pendulum_rhs(t, y):
         M[7 * k : 7 * k + 3, 7 * k : 7 * k + 3] = SDP_MASS * np.eye(3)
         M[7 * k + 3 : 7 * k + 7, 7 * k + 3 : 7 * k + 7] = 4 * L.T @ SDP_INERTIA @ L
         Q[7 * k + 2] = -SDP_MASS * G
-        Q[7 * k + 3 : 7 * k + 7] = 8 * Ld.T @ SDP_INERTIA @ Ld @ p      # the quadratic-velocity term
+        Q[7 * k + 3 : 7 * k + 7] = 8 * Ld.T @ SDP_INERTIA @ Ld @ p  # the quadratic-velocity term
     rhs_c = g - 2 * ALPHA * (J @ qd) - BETA**2 * psi
     A = np.block([[M, J.T], [J, np.zeros((8, 8))]])
     qdd = np.linalg.solve(A, np.concatenate([Q, rhs_c]))[:14]
@@ -283,8 +283,9 @@ def compare(rounds: int) -> None:
         errors = {next(iter(commands)): textbook_error}
         for name, csv in (("mbd run (defaults)", "default.csv"), ("mbd run --engine numpy", "numpy.csv")):
             table = np.genfromtxt(Path(tmp) / csv, delimiter=",", names=True)
-            centres = np.stack([np.stack([table[f"{b}x"], table[f"{b}y"]], axis=-1) for b in ("crank", "rod",
-                                                                                               "piston")], axis=1)
+            centres = np.stack(
+                [np.stack([table[f"{b}x"], table[f"{b}y"]], axis=-1) for b in ("crank", "rod", "piston")], axis=1
+            )
             errors[name] = error(centres)
         seconds: dict[str, list[float]] = {name: [] for name in commands}
         for _ in range(rounds):
@@ -292,16 +293,20 @@ def compare(rounds: int) -> None:
                 seconds[name].append(timed(command)[0])
     base = seconds[next(iter(commands))]
     print(f"\n## Free slider-crank to 1e-6 m: the textbook code against `mbd run` ({time.strftime('%Y-%m-%d')})\n")
-    print(f"`python benchmarks/textbook.py --rounds {rounds}`; whole processes, {rounds} interleaved rounds; ratio: "
-          "the textbook program's time over the run's, paired by round (above 1: faster than the textbook).\n")
+    print(
+        f"`python benchmarks/textbook.py --rounds {rounds}`; whole processes, {rounds} interleaved rounds; ratio: "
+        "the textbook program's time over the run's, paired by round (above 1: faster than the textbook).\n"
+    )
     print("| program | error (m) | median s | textbook / it, median | min-max | engine |")
     print("|---|---:|---:|---:|---:|---|")
     for name in commands:
         ratios = [b / s for b, s in zip(base, seconds[name], strict=True)]
         engine = next((line[len("engine: "):] for line in summaries[name].splitlines() if line.startswith("engine:")),
                       "-")  # fmt: skip
-        print(f"| {name} | {errors[name]:.2g} | {statistics.median(seconds[name]):.3f} | "
-              f"{statistics.median(ratios):.2f} | {min(ratios):.2f}-{max(ratios):.2f} | {engine} |")
+        print(
+            f"| {name} | {errors[name]:.2g} | {statistics.median(seconds[name]):.3f} | "
+            f"{statistics.median(ratios):.2f} | {min(ratios):.2f}-{max(ratios):.2f} | {engine} |"
+        )
 
 
 # -- in one process, per scene: at equal rtol and at equal error --------------------------------------------------
@@ -393,9 +398,12 @@ def in_process(rounds: int, keys: list[str]) -> None:
             a, b = paired(book, engine, (r_book, r_engine), rounds)
             ratios = [x / y for x, y in zip(a, b, strict=True)]
             rtols = f"{r_book:g}" if label[0] != "e" else f"{label}: {r_book:g} / {r_engine:g}"
-            print(f"| {scene.key} | {rtols} | {error(q_book):.2g} / {error(q_engine):.2g} | {n_book} / {n_engine} | "
-                  f"{statistics.median(a) * 1e3:.0f} | {statistics.median(b) * 1e3:.0f} | "
-                  f"{statistics.median(ratios):.2f} | {min(ratios):.2f}-{max(ratios):.2f} |", flush=True)
+            print(
+                f"| {scene.key} | {rtols} | {error(q_book):.2g} / {error(q_engine):.2g} | {n_book} / {n_engine} | "
+                f"{statistics.median(a) * 1e3:.0f} | {statistics.median(b) * 1e3:.0f} | "
+                f"{statistics.median(ratios):.2f} | {min(ratios):.2f}-{max(ratios):.2f} |",
+                flush=True,
+            )
 
 
 def main() -> int:
