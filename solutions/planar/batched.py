@@ -99,6 +99,8 @@ class Group:
 
     kind: type = object
     rows_per_element = 1
+    constant_jacobian = False
+    """Psi_q of the group does not depend on q or t (a driver's angle or coordinate rows): the System writes it once."""
 
     def __init__(self, elements: list):
         self.elements = elements
@@ -182,8 +184,12 @@ class _TimedGroup(Group):
         self.functions = functions
         self.timed = [k for k, f in enumerate(functions) if not isinstance(f, Constant)]
         self._values = np.array([f.value(0.0) for f in functions], dtype=float)
+        self._values.flags.writeable = False
 
     def values(self, t: float) -> np.ndarray:
+        """f(t) of every element (read only: constant functions share one array)."""
+        if not self.timed:
+            return self._values
         out = self._values.copy()
         for k in self.timed:
             out[k] = self.functions[k].value(t)
@@ -204,6 +210,7 @@ class RelativeAngleGroup(_TimedGroup):
     """phi_j - phi_i - phi0 - f(t) = 0 (eq. 3.21, 3.34): constant Jacobian rows, Psi_t = -f', gamma = f''."""
 
     kind = RelativeAngle
+    constant_jacobian = True
 
     def __init__(self, elements):
         super().__init__(elements, [e.function for e in elements])
@@ -224,6 +231,7 @@ class BodyCoordinateGroup(_TimedGroup):
     """q_j[k] - f(t) = 0 (eq. 3.34): a unit Jacobian row, Psi_t = -f', gamma = f''."""
 
     kind = BodyCoordinate
+    constant_jacobian = True
 
     def __init__(self, elements):
         super().__init__(elements, [e.function for e in elements])
@@ -295,7 +303,7 @@ class AlongDirectionGroup(_TimedGroup):
         # u^T d phi_i'^2 - u^T (A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2) in one product
         quadratic = dot_rows(u, (d - Asi) * (wi * wi) + Asj * (wj * wj))
         gamma = quadratic - 2.0 * wi[:, 0] * dot_rows(w, d_dot)
-        return gamma + self.derivatives(t, 2)
+        return gamma + self.derivatives(t, 2) if self.timed else gamma
 
 
 class DistanceGroup(_TimedGroup):
