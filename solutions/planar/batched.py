@@ -185,6 +185,7 @@ class _TimedGroup(Group):
         self.timed = [k for k, f in enumerate(functions) if not isinstance(f, Constant)]
         self._values = np.array([f.value(0.0) for f in functions], dtype=float)
         self._values.flags.writeable = False
+        self.moves = bool(self.timed) or bool(np.any(self._values))  # f(t) = 0 for all: nothing to subtract
 
     def values(self, t: float) -> np.ndarray:
         """f(t) of every element (read only: constant functions share one array)."""
@@ -273,6 +274,7 @@ class AlongDirectionGroup(_TimedGroup):
         self.rolling = _column([0.0 if s else e.side * e.pinion_radius for e, s in zip(elements, slot, strict=True)])
         self.d0 = _column([0.0 if s else e.d0 for e, s in zip(elements, slot, strict=True)])
         self.rolls = bool(np.any(self.rolling))  # a rack and pinion among them: the rolling terms are needed
+        self.shifted = self.moves or bool(np.any(self.d0))  # d0 + f(t) nonzero somewhere
 
     def terms_from(self, X, A, B):
         """u = A_i u_i', w = B_i u_i', A_i s_i', B_i s_i', A_j s_j', B_j s_j' and d_ij of every element."""
@@ -283,7 +285,9 @@ class AlongDirectionGroup(_TimedGroup):
 
     def constraints(self, X, terms, t):
         u, _, _, _, _, _, d = terms
-        psi = dot_rows(u, d) - self.d0 - self.values(t)
+        psi = dot_rows(u, d)
+        if self.shifted:  # a driver's d0 + f(t), or a pin in a slot off its line
+            psi = psi - self.d0 - self.values(t)
         if self.rolls:
             psi += self.rolling * (angles(X, self.j) - angles(X, self.i))
         return psi
@@ -291,8 +295,9 @@ class AlongDirectionGroup(_TimedGroup):
     def jacobian(self, X, terms, t):
         u, w, Asi, _, _, Bsj, d = terms
         # w^T d - u^T B_i s_i' = w^T (d + A_i s_i'), since u^T B_i s_i' = u_i'^T R90 s_i' = -w^T A_i s_i'
-        angle_i = dot_rows(w, d + Asi) - self.rolling
-        angle_j = dot_rows(u, Bsj) + self.rolling
+        angle_i, angle_j = dot_rows(w, d + Asi), dot_rows(u, Bsj)
+        if self.rolls:
+            angle_i, angle_j = angle_i - self.rolling, angle_j + self.rolling
         return self._blocks(angle_i, angle_j, -u, u)
 
     def gamma(self, X, V, terms, t):
