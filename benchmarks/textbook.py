@@ -29,7 +29,8 @@ Euler-parameter equations of motion, Haug 1989, sec. 11.3), against ``forward_dy
 
 - at equal rtol (rtol = atol = 1e-6, 1e-7, 1e-8): paired rounds, this thread's CPU time (``time.thread_time``,
   steadier than the wall on a shared machine), the ratio textbook / engine of each round (above 1: the engine is
-  faster), its median and spread, the errors and right-hand-side evaluations of both;
+  faster), its median and spread, the errors and right-hand-side evaluations of both; and the same for the engine
+  with the checks the textbook code does not make switched off (``UNCHECKED``): what those checks cost;
 - at equal error (largest body-centre error 1e-6 m, the references of ``bench.prepare_reference``: minimal
   coordinates for the planar scenes, the joint-coordinate formulation at 1e-13 for the spatial one): each code at
   the loosest rtol = atol of the grid 1e-5, 5e-6, 2e-6, 1e-6, ... 1e-11 that reaches it, then paired rounds.
@@ -317,9 +318,14 @@ RTOL_GRID = tuple(sorted((float(f"{m}e-{e}") for e in range(5, 12) for m in (1, 
 """rtol = atol 1e-5, 5e-6, 2e-6, 1e-6, 5e-7, ... 1e-11: the settings searched for the equal-error comparison."""
 
 
-def engine_runner(scene):
+UNCHECKED = {"drift_limit": None, "singular_ratio": None, "stiffness": "off"}
+"""The engine's checks that the textbook code does not make (the Guard's drift and singularity checks after every
+step, the stiffness monitor), switched off for the row that compares the integration alone."""
+
+
+def engine_runner(scene, **checks):
     """f(rtol) -> (q history, right-hand sides) of the numpy engine on a bench scene: baumgarte (alpha = beta = 5),
-    the package's dop853, the same settings as the textbook code."""
+    the package's dop853, the same settings as the textbook code; ``checks``: settings of the run's checks."""
     from solutions.assembly import build_system
     from solutions.dynamics import forward_dynamics
 
@@ -327,7 +333,7 @@ def engine_runner(scene):
 
     def run(rtol: float):
         result = forward_dynamics(system, q0, qd0, scene.t_end, scene.outputs, "baumgarte", "dop853", rtol=rtol,
-                                  atol=rtol, engine="numpy")  # fmt: skip
+                                  atol=rtol, engine="numpy", **checks)  # fmt: skip
         return result.q, result.info["rhs_evaluations"]
 
     return run
@@ -347,21 +353,20 @@ def textbook_runner(key: str):
     return run
 
 
-def paired(first, second, rtols: tuple[float, float], rounds: int) -> tuple[list[float], list[float]]:
-    """CPU seconds of this thread (``time.thread_time``) of ``first(rtols[0])`` and ``second(rtols[1])``, called in
-    turn ``rounds`` times after one warm-up call each."""
+def paired(runs: list, rtols: list[float], rounds: int) -> list[list[float]]:
+    """CPU seconds of this thread (``time.thread_time``) of each ``runs[k](rtols[k])``, called in turn ``rounds``
+    times after one warm-up call each: one list of seconds per run, its k-th entries from the same round."""
     import time
 
-    first(rtols[0]), second(rtols[1])
-    a, b = [], []
+    for run, rtol in zip(runs, rtols, strict=True):
+        run(rtol)
+    seconds: list[list[float]] = [[] for _ in runs]
     for _ in range(rounds):
-        start = time.thread_time()
-        first(rtols[0])
-        middle = time.thread_time()
-        second(rtols[1])
-        a.append(middle - start)
-        b.append(time.thread_time() - middle)
-    return a, b
+        for run, rtol, out in zip(runs, rtols, seconds, strict=True):
+            start = time.thread_time()
+            run(rtol)
+            out.append(time.thread_time() - start)
+    return seconds
 
 
 def in_process(rounds: int, keys: list[str]) -> None:
@@ -377,13 +382,14 @@ def in_process(rounds: int, keys: list[str]) -> None:
     print(f"`python benchmarks/textbook.py --in-process --rounds {rounds}`; this thread's CPU time, {rounds} paired "
           "rounds; ratio: the textbook's time over the engine's in the same round (above 1: the engine is faster). "
           "Engine: `forward_dynamics(..., 'baumgarte', 'dop853', engine='numpy')`; textbook: `solve_ivp` DOP853; "
-          "both rtol = atol, alpha = beta = 5.\n")  # fmt: skip
+          "both rtol = atol, alpha = beta = 5. Unchecked: the engine with the checks the textbook code does not make "
+          f"switched off ({', '.join(f'{k}={v!r}' for k, v in UNCHECKED.items())}).\n")  # fmt: skip
     print("| scene | rtol textbook / engine | error textbook / engine (m) | rhs textbook / engine | textbook ms | "
-          "engine ms | ratio median | min-max |")  # fmt: skip
-    print("|---|---|---|---|---:|---:|---:|---:|")
+          "engine ms | ratio median | min-max | unchecked ms | ratio median | min-max |")  # fmt: skip
+    print("|---|---|---|---|---:|---:|---:|---:|---:|---:|---:|")
     for scene in (s for s in bench.scenes() if s.key in keys):
         bench.prepare_reference(scene, quick=False)
-        engine, book = engine_runner(scene), textbook_runner(scene.key)
+        engine, unchecked, book = engine_runner(scene), engine_runner(scene, **UNCHECKED), textbook_runner(scene.key)
 
         def error(q: np.ndarray, _scene=scene) -> float:
             return float(np.max(np.abs(bench.body_positions(q, _scene.dimension) - _scene.ref_positions)))
@@ -395,15 +401,15 @@ def in_process(rounds: int, keys: list[str]) -> None:
         cases.append((f"error {TARGET:g}", loosest(book), loosest(engine)))
         for label, r_book, r_engine in cases:
             (q_book, n_book), (q_engine, n_engine) = book(r_book), engine(r_engine)
-            a, b = paired(book, engine, (r_book, r_engine), rounds)
-            ratios = [x / y for x, y in zip(a, b, strict=True)]
+            a, b, c = paired([book, engine, unchecked], [r_book, r_engine, r_engine], rounds)
+            cells = []
+            for seconds in (b, c):
+                ratios = [x / y for x, y in zip(a, seconds, strict=True)]
+                cells.append(f"{statistics.median(seconds) * 1e3:.0f} | {statistics.median(ratios):.2f} | "
+                             f"{min(ratios):.2f}-{max(ratios):.2f}")  # fmt: skip
             rtols = f"{r_book:g}" if label[0] != "e" else f"{label}: {r_book:g} / {r_engine:g}"
-            print(
-                f"| {scene.key} | {rtols} | {error(q_book):.2g} / {error(q_engine):.2g} | {n_book} / {n_engine} | "
-                f"{statistics.median(a) * 1e3:.0f} | {statistics.median(b) * 1e3:.0f} | "
-                f"{statistics.median(ratios):.2f} | {min(ratios):.2f}-{max(ratios):.2f} |",
-                flush=True,
-            )
+            print(f"| {scene.key} | {rtols} | {error(q_book):.2g} / {error(q_engine):.2g} | {n_book} / {n_engine} | "
+                  f"{statistics.median(a) * 1e3:.0f} | {cells[0]} | {cells[1]} |", flush=True)  # fmt: skip
 
 
 def main() -> int:

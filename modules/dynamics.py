@@ -45,6 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import output_history
 from .assembly import System
 from .diagnostics import (
     NEAR_SINGULAR,
@@ -631,7 +632,8 @@ def integrate_motion(run: Run, plan: Plan, equations, guard: Guard, z0: np.ndarr
     def record(k: int, t: float, z: np.ndarray) -> None:
         y, energies = equations.split(z)
         q, qd = equations.formulation.coordinates(t, y)
-        guard.check_drift(q, t)
+        history.constraints(k, run.system, q, t)  # Psi, Psi_q, Psi_t: the drift check's and the result's
+        guard.check_drift(q, t, history.psi[k], history.jac[k])
         history.store(k, q, qd, *equations.formulation.accelerations(q, qd, t), energies)
         filled[0] = k + 1
         if run.progress is not None:
@@ -648,7 +650,7 @@ def integrate_motion(run: Run, plan: Plan, equations, guard: Guard, z0: np.ndarr
         guard.check_branches_before(err, times[:k], history.q[:k], history.qd[:k], history.qdd[:k])
         raise
     if guard.judges_branches(times):  # the branch at every singular position passed (as the compiled run's)
-        guard.check_branches(times, history.q, history.qd, history.qdd, guard.jacobians(times, history.q))
+        guard.check_branches(times, history.q, history.qd, history.qdd, history.jac)
     return history, stats, None, chosen
 
 
@@ -715,6 +717,7 @@ def compiled_motion(settings: Settings, equations, guard, z0, times, history) ->
     guard.__dict__.update(judged.__dict__)
     history.q, history.qd = Y[:, :n].copy(), Y[:, n : 2 * n].copy()
     history.qdd, history.lam, history.energies = compiled.qdd, compiled.lam, Y[:, 2 * n :]
+    history.psi, history.jac, history.psit = compiled.psi, compiled.jac, compiled.psit
     guard.check_branches(times, history.q, history.qd, history.qdd, compiled.jac)
     return compiled, stats, chosen
 
@@ -778,12 +781,7 @@ def build_result(run: Run, equations, guard, history, compiled, times) -> tuple[
         body_names=[b.name for b in system.model.bodies],
         lam=history.lam,
     )
-    if compiled is None:
-        residuals = constraint_residuals(system, times, history.q, history.qd)
-    else:
-        from .compiled import history as compiled_history
-
-        residuals = compiled_history.residuals(compiled.psi, compiled.jac, compiled.psit, history.qd)
+    residuals = output_history.residuals(history.psi, history.jac, history.psit, history.qd)
     accumulated = history.energies.T if equations.extra else ()
     energies = energy_history(equations.formulation.masses, equations.forces, history.q, history.qd, *accumulated)
     result.points.update(residuals)
@@ -793,12 +791,10 @@ def build_result(run: Run, equations, guard, history, compiled, times) -> tuple[
     redundant = guard.rank < system.n_constraints
     if redundant:  # multipliers are not unique: report the minimum-norm set (eq. 5.73)
         result.lam = history.lam = minimum_norm_multipliers(system, history.q, history.lam, times)
-    if compiled is None or redundant:
+    if redundant:
         result.reactions.update(joint_reactions(system, history.q, history.lam, times))
-    else:
-        from .compiled import history as compiled_history
-
-        result.reactions.update(compiled_history.joint_reactions(system, history.q, history.lam, compiled.jac))
+    else:  # every joint at every output time at once, from the Psi_q there (eq. 5.70, 10.20)
+        result.reactions.update(output_history.joint_reactions(system, history.q, history.lam, history.jac))
     result.reactions.update(effort_columns(system, history.q, history.lam, times))
     result.forces.update(element_columns(equations.forces, times, history.q, history.qd))
     return result, energies
@@ -1282,12 +1278,14 @@ class Guard:
         self._last_ratios = (ratio, previous)
         self._last_q = (q, float(t))
 
-    def check_drift(self, q: np.ndarray, t: float) -> None:
+    def check_drift(self, q: np.ndarray, t: float, psi: np.ndarray | None = None, jacobian=None) -> None:
+        """The drift check at one state; ``psi`` and ``jacobian``: Psi and Psi_q there when the caller has them."""
         self.judged = float(t)
         if self.drift_limit is None:
             return
-        psi = self.system.constraints(q, t)
-        norms = np.linalg.norm(self.system.jacobian(q, t) * self._columns, axis=1)
+        psi = self.system.constraints(q, t) if psi is None else psi
+        jacobian = self.system.jacobian(q, t) if jacobian is None else jacobian
+        norms = np.linalg.norm(jacobian * self._columns, axis=1)
         distance = np.abs(psi) / np.where(norms > 0, norms, 1.0)  # |Psi_i| / |grad Psi_i|: how far q is off, in m
         worst = int(np.nanargmax(distance)) if np.any(np.isfinite(distance)) else 0
         if not float(np.max(distance, initial=0.0)) <= self.drift_limit:
@@ -1620,6 +1618,11 @@ class _History:
         self.q, self.qd, self.qdd = (np.empty((size, n)) for _ in range(3))
         self.lam = np.empty((size, m))
         self.energies = np.zeros((size, extra))
+        self.psi, self.jac, self.psit = np.empty((size, m)), np.empty((size, m, n)), np.empty((size, m))
+
+    def constraints(self, k: int, system: System, q: np.ndarray, t: float) -> None:
+        """Psi, Psi_q and Psi_t at the output time t[k] (the residuals, reactions and checks of the result)."""
+        self.psi[k], self.jac[k], self.psit[k] = system.constraints(q, t), system.jacobian(q, t), system.psi_t(q, t)
 
     def store(self, k, q, qd, qdd, lam, energies) -> None:
         self.q[k], self.qd[k], self.qdd[k] = q, qd, qdd
