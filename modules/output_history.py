@@ -51,6 +51,8 @@ def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) ->
         sides.append((owner.i, owner.j))
         carriers.append((owner if first is None else first).j)
         points.append((0.0, 0.0) if first is None else first.sj)
+    if not names:  # no joint: no reaction
+        return {}
     lengths = [len(r) for r in rows]
     starts = np.cumsum([0, *lengths[:-1]])  # each joint's first row in rows_all
     rows_all, (i, j) = np.concatenate(rows), np.array(sides).T
@@ -93,6 +95,8 @@ def spatial_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -
     G = np.stack(g_entries(*np.moveaxis(p, 2, 0)), -1).reshape(N, -1, 3, 4)  # (eq. 8.14)
     every_row = np.arange(system.n_constraints)
     elements = [(k, e) for k, e in enumerate(system.elements) if not isinstance(e, EulerNormalization)]
+    if not elements:  # free bodies: no reaction
+        return {}
     rows = [every_row[system.rows[k]] for k, _ in elements]
     lengths = [len(r) for r in rows]
     starts, rows_all = np.cumsum([0, *lengths[:-1]]), np.concatenate(rows)
