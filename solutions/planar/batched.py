@@ -156,24 +156,30 @@ class RevoluteGroup(Group):
         self._block_j = -self._block_i
 
     def terms_from(self, X, As, Bs):
-        """A_i s_i', B_i s_i', A_j s_j', B_j s_j' of every joint: what Psi, Psi_q and gamma are made of."""
+        """A_i s_i', B_i s_i', A_j s_j', B_j s_j' of every joint: what Psi, Psi_q and gamma are made of; and
+        [A_i s_i'; A_j s_j'] as one block (``gamma``)."""
         K = self.size
-        return As[:K], Bs[:K], As[K:], Bs[K:]
+        return As[:K], Bs[:K], As[K:], Bs[K:], As
 
     def constraints(self, X, terms, t):
-        Asi, _, Asj, _ = terms
-        return (positions(X, self.i) + Asi - positions(X, self.j) - Asj).ravel()
+        Asi, _, Asj, _, _ = terms
+        r = positions(X, self.ends)  # r_i of every joint (first K rows), then r_j
+        K = self.size
+        return (r[:K] + Asi - r[K:] - Asj).ravel()
 
     def jacobian(self, X, terms, t):
-        _, Bsi, _, Bsj = terms
+        _, Bsi, _, Bsj, _ = terms
         block_i, block_j = self._block_i.copy(), self._block_j.copy()
         block_i[:, :, 2], block_j[:, :, 2] = Bsi, -Bsj
         return block_i.reshape(-1, 3), block_j.reshape(-1, 3)
 
     def gamma(self, X, V, terms, t):
-        Asi, _, Asj, _ = terms
-        wi, wj = rows(V, self.i)[:, 2:], rows(V, self.j)[:, 2:]  # phi_i', phi_j' as (K, 1) columns
-        return (Asi * (wi * wi) - Asj * (wj * wj)).ravel()
+        """A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2: the centripetal terms of both ends of every joint in one product."""
+        As = terms[4]
+        w = V[:, 2]  # every body's phi'
+        centripetal = As * (w * w).take(self.ends)[:, None]  # A s' phi'^2 of s_i' (first K rows), then of s_j'
+        K = self.size
+        return (centripetal[:K] - centripetal[K:]).ravel()
 
 
 class _TimedGroup(Group):
@@ -280,7 +286,8 @@ class AlongDirectionGroup(_TimedGroup):
         """u = A_i u_i', w = B_i u_i', A_i s_i', B_i s_i', A_j s_j', B_j s_j' and d_ij of every element."""
         K = self.size
         u, w, Asi, Bsi, Asj, Bsj = A[:K], B[:K], A[K : 2 * K], B[K : 2 * K], A[2 * K :], B[2 * K :]
-        d = positions(X, self.j) + Asj - positions(X, self.i) - Asi
+        r = positions(X, self.ends)  # r_i (twice), then r_j: the bodies of u_i', s_i', s_j'
+        d = r[2 * K :] + Asj - r[:K] - Asi
         return u, w, Asi, Bsi, Asj, Bsj, d
 
     def constraints(self, X, terms, t):
@@ -302,7 +309,9 @@ class AlongDirectionGroup(_TimedGroup):
 
     def gamma(self, X, V, terms, t):
         u, w, Asi, Bsi, Asj, Bsj, d = terms
-        Vi, Vj = rows(V, self.i), rows(V, self.j)
+        K = self.size
+        Vij = rows(V, self.ends)  # body i's velocities (twice), then body j's
+        Vi, Vj = Vij[:K], Vij[2 * K :]
         wi, wj = Vi[:, 2:], Vj[:, 2:]  # phi_i', phi_j' as (K, 1) columns
         d_dot = Vj[:, :2] + Bsj * wj - Vi[:, :2] - Bsi * wi
         # u^T d phi_i'^2 - u^T (A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2) in one product
