@@ -74,6 +74,8 @@ class System:
         self._loop = list(range(len(self.elements)))  # elements evaluated one by one
         if self.vectorized:
             self._make_groups()
+        # whether Psi_t can be nonzero (drivers, or elements evaluated one by one); if not, Psi' = Psi_q q'
+        self.rheonomic = bool(self._timed_groups) or bool(self._loop)
 
     # -- bookkeeping -------------------------------------------------------------------------
     @property

@@ -1304,7 +1304,12 @@ class Guard:
         ratio = float(s[self.rank - 1] / s[0]) if s[0] > 0 else 0.0
         tangent = vt[self.rank :].T
         square = jacobian.shape[0] == self.rank
-        sign = np.sign(np.linalg.det(np.vstack([jacobian, tangent.T]))) if square else self._sign
+        if square:  # [Psi_q; T^T]: V^T with its first rows replaced by Psi_q's
+            stacked = vt.copy()
+            stacked[: self.rank] = jacobian
+            sign = np.sign(np.linalg.det(stacked))
+        else:
+            sign = self._sign
         self._judge(q, t, ratio, tangent, sign)
 
     def check_outputs(
