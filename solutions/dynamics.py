@@ -629,6 +629,7 @@ def integrate_motion(run: Run, plan: Plan, equations, guard: Guard, z0: np.ndarr
     filled = [0]  # output times stored so far
 
     def record(k: int, t: float, z: np.ndarray) -> None:
+        guard.flush()  # the checks after the steps before this output time, in time order
         y, energies = equations.split(z)
         q, qd = equations.formulation.coordinates(t, y)
         history.constraints(k, run.system, q, t)  # Psi, Psi_q, Psi_t: the drift check's and the result's
@@ -641,27 +642,37 @@ def integrate_motion(run: Run, plan: Plan, equations, guard: Guard, z0: np.ndarr
     try:
         stats = integrate(
             equations.rhs, z0, times, record, method=settings.integrator, rtol=settings.rtol, atol=settings.atol,
-            step=settings.step, after_step=guarded_after_step(equations, guard),
+            step=settings.step, after_step=guarded_after_step(equations, guard, deferred=True),
             max_evaluations=settings.max_evaluations, stiffness=settings.stiffness,
         )  # fmt: skip
-    except AnalysisError as err:  # a branch switch before the stop is its cause: said first, as the compiled run
+    except Exception as err:  # a branch switch before the stop is its cause: said first, as the compiled run
         k = filled[0]
+        try:  # the steps not judged yet come before the stop: a singular one is what stopped a check after every step
+            guard.flush()
+        except AnalysisError as judged:
+            guard.check_branches_before(judged, times[:k], history.q[:k], history.qd[:k], history.qdd[:k])
+            raise judged from None
+        if not isinstance(err, AnalysisError):
+            raise
         guard.check_branches_before(err, times[:k], history.q[:k], history.qd[:k], history.qdd[:k])
         raise
+    guard.flush()
     if guard.judges_branches(times):  # the branch at every singular position passed (as the compiled run's)
         guard.check_branches(times, history.q, history.qd, history.qdd, history.jac)
     return history, stats, None, chosen
 
 
-def guarded_after_step(equations: EquationsOfMotion, guard: Guard):
+def guarded_after_step(equations: EquationsOfMotion, guard: Guard, deferred: bool = False):
     """What the numpy engine does after every step: the formulation's correction, then the Guard's look at the
-    configuration (when it watches for singular ones)."""
+    configuration (when it watches for singular ones); ``deferred``: kept for the Guard's next ``flush``, which the
+    caller makes at every output time and before it raises anything else."""
     if not guard.singular_ratio:
         return equations.after_step
+    check = guard.queue if deferred else guard.check_configuration
 
     def after_step(t: float, z: np.ndarray) -> np.ndarray | None:
         corrected = equations.after_step(t, z)
-        guard.check_configuration(equations.formulation, t, equations.split(z if corrected is None else corrected)[0])
+        check(equations.formulation, t, equations.split(z if corrected is None else corrected)[0])
         return corrected
 
     return after_step
@@ -1247,6 +1258,7 @@ class Guard:
         self.rank = rank_at(system, q).rank
         self.closest: dict | None = None
         self._tangent, self._t, self._sign = None, 0.0, 1.0
+        self._pending: list = []  # (t, q, Psi_q) after steps not judged yet (``queue``)
         per, dim = system.coordinates_per_body, system.model.dimension
         columns = np.ones(per)
         columns[dim:] = 1.0 / size  # derivatives by an angle (Euler parameter) times its arc length, in 1/m
@@ -1296,21 +1308,37 @@ class Guard:
             )
 
     def check_configuration(self, formulation, t: float, y: np.ndarray) -> None:
+        """The check after a step, at once (``queue`` and ``flush``)."""
+        self.queue(formulation, t, y)
+        self.flush()
+
+    def queue(self, formulation, t: float, y: np.ndarray) -> None:
+        """Keep Psi_q after a step for ``flush``, which judges every state kept in time order, their SVDs and
+        determinants in one stacked call each (numpy calls LAPACK on each matrix of a stack: the same numbers as
+        one call per step, for a third of the cost on a small mechanism); at DEFERRED_STEPS states kept, now."""
         if not self.singular_ratio or self.rank == 0:
             return
         q, _ = formulation.coordinates(t, y)
-        jacobian = self._scaled(self.system.jacobian(q, t))
-        _, s, vt = np.linalg.svd(jacobian)
-        ratio = float(s[self.rank - 1] / s[0]) if s[0] > 0 else 0.0
-        tangent = vt[self.rank :].T
-        square = jacobian.shape[0] == self.rank
+        self._pending.append((t, q, self.system.jacobian(q, t)))
+        if len(self._pending) >= DEFERRED_STEPS:
+            self.flush()
+
+    def flush(self) -> None:
+        """``_judge`` each state ``queue`` kept, in time order: sigma_r / sigma_1 of the scaled Psi_q, its null-space
+        basis T (the last rows of V^T) and the sign of det [Psi_q; T^T]; the first verdict against raises."""
+        if not self._pending:
+            return
+        pending, self._pending = self._pending, []
+        jacobians = self._scaled(np.array([jacobian for _, _, jacobian in pending]))
+        _, s, vt = np.linalg.svd(jacobians)
+        square = jacobians.shape[1] == self.rank
         if square:  # [Psi_q; T^T]: V^T with its first rows replaced by Psi_q's
             stacked = vt.copy()
-            stacked[: self.rank] = jacobian
-            sign = np.sign(np.linalg.det(stacked))
-        else:
-            sign = self._sign
-        self._judge(q, t, ratio, tangent, sign)
+            stacked[:, : self.rank] = jacobians
+            signs = np.sign(np.linalg.det(stacked))
+        for k, (t, q, _) in enumerate(pending):
+            ratio = float(s[k, self.rank - 1] / s[k, 0]) if s[k, 0] > 0 else 0.0
+            self._judge(q, t, ratio, vt[k, self.rank :].T, signs[k] if square else self._sign)
 
     def check_outputs(
         self, t: np.ndarray, q: np.ndarray, psi: np.ndarray, jacobians: np.ndarray, drift: bool = True
@@ -1531,6 +1559,9 @@ class Guard:
         self._tangent, self._t, self._sign = tangent, t, sign
 
 
+DEFERRED_STEPS = 16
+"""The numpy engine's Guard judges the states after its steps in batches of at most this many (``Guard.queue``), and
+at every output time and every stop before anything else: the verdicts of a check after every step."""
 BRANCH_JUMP = 0.1
 """Largest change of a body's velocity across a singular position beyond what its accelerations allow, as a
 fraction of the fastest body's speed there, that ``branch_verdict`` takes for the branch the motion came along
