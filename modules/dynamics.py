@@ -792,6 +792,8 @@ def build_result(run: Run, equations, guard, history, compiled, times) -> tuple[
         body_names=[b.name for b in system.model.bodies],
         lam=history.lam,
     )
+    if getattr(history, "jac", None) is None:  # a history kept without Psi at its output times (an FMU's steps)
+        history.psi, history.jac, history.psit = constraint_arrays(system, times, history.q)
     residuals = output_history.residuals(history.psi, history.jac, history.psit, history.qd)
     accumulated = history.energies.T if equations.extra else ()
     energies = energy_history(equations.formulation.masses, equations.forces, history.q, history.qd, *accumulated)
@@ -1664,6 +1666,15 @@ class _History:
         self.q[k], self.qd[k], self.qdd[k] = q, qd, qdd
         self.lam[k] = lam
         self.energies[k] = energies
+
+
+def constraint_arrays(system: System, t: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Psi (N, m), Psi_q (N, m, n) and Psi_t (N, m) at the times t[k] and coordinates q[k]."""
+    N, m, n = len(t), system.n_constraints, system.n_coordinates
+    psi, jac, psit = np.empty((N, m)), np.empty((N, m, n)), np.empty((N, m))
+    for k, (qk, tk) in enumerate(zip(q, t, strict=True)):
+        psi[k], jac[k], psit[k] = system.constraints(qk, tk), system.jacobian(qk, tk), system.psi_t(qk, tk)
+    return psi, jac, psit
 
 
 def constraint_residuals(system: System, t: np.ndarray, q: np.ndarray, qd: np.ndarray) -> dict[str, np.ndarray]:
