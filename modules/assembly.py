@@ -68,11 +68,14 @@ class System:
         )
         self.groups: list = []  # batched element groups, with their scatter indices
         self._timed_groups: list = []
+        self._constant_rows = np.zeros(self.n_constraints * self.n_coordinates + 1)  # Psi_q's constant rows, flat
         self._last = None  # (bytes of q, its configuration): the one-entry cache of _configuration
         self._rotation = None  # planar groups: their body-frame vectors, rotated together (_shared_rotation)
         self._loop = list(range(len(self.elements)))  # elements evaluated one by one
         if self.vectorized:
             self._make_groups()
+        # whether Psi_t can be nonzero (drivers, or elements evaluated one by one); if not, Psi' = Psi_q q'
+        self.rheonomic = bool(self._timed_groups) or bool(self._loop)
 
     # -- bookkeeping -------------------------------------------------------------------------
     @property
@@ -182,11 +185,14 @@ class System:
         return psi
 
     def _jacobian(self, q, t, state) -> np.ndarray:
-        """Psi_q scattered into place through the index arrays of the sparsity pattern (found once)."""
-        flat = np.zeros(self.n_constraints * self.n_coordinates + 1)  # the last entry takes ground's columns
+        """Psi_q scattered into place through the index arrays of the sparsity pattern (found once), on a copy of
+        the rows that never change (``_constant_rows``: drivers' angle and coordinate rows)."""
+        flat = self._constant_rows.copy()  # the last entry takes ground's columns
         if state is not None:
             X, terms = state
             for group, shared in zip(self.groups, terms, strict=True):
+                if group.constant_jacobian:
+                    continue
                 jac_i, jac_j = group.jacobian(X, shared, t)
                 flat[group.index_i] = jac_i.ravel()
                 flat[group.index_j] = jac_j.ravel()
@@ -220,11 +226,13 @@ class System:
         return out
 
     def _gamma(self, q, qd, t, state) -> np.ndarray:
-        out = np.empty(self.n_constraints)
+        out = np.zeros(self.n_constraints)
         if state is not None:
             X, terms = state
             V = self._bodies(qd, self._ground_velocity)
             for group, shared in zip(self.groups, terms, strict=True):
+                if group.constant_jacobian and not group.time_dependent:
+                    continue  # a constant Psi_q and no f(t): gamma = -(Psi_q q')_q q' - Psi_tt = 0 (eq. 4.4)
                 out[group.rows] = group.gamma(X, V, shared, t)
         for k in self._loop:
             qi, qj = self._pair(k, q)
@@ -284,6 +292,13 @@ class System:
                 batched.update(members)
         self.groups = kept
         self._timed_groups = [group for group in kept if group.time_dependent]
+        for group in kept:
+            group.constant_jacobian = getattr(group, "constant_jacobian", False)  # spatial groups: none is
+        for group in (group for group in kept if group.constant_jacobian):  # their rows of Psi_q, written once
+            jac_i, jac_j = group.jacobian(None, None, 0.0)
+            self._constant_rows[group.index_i] = np.ravel(jac_i)
+            self._constant_rows[group.index_j] = np.ravel(jac_j)
+        self._constant_rows[-1] = 0.0  # ground's spare entry
         self._rotation = self._shared_rotation(kept, forms)
         self._loop = [k for k in range(len(self.elements)) if k not in batched]
 

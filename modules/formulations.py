@@ -165,9 +165,11 @@ class Formulation:
         the stabilization.
         """
         stabilized = self.alpha != 0.0 or self.beta != 0.0
-        psi, jacobian, psi_t, gamma = self.system.evaluate(q, qd, t, constraints=stabilized, psi_t=stabilized)
+        rheonomic = stabilized and getattr(self.system, "rheonomic", True)  # Psi_t = 0 without drivers
+        psi, jacobian, psi_t, gamma = self.system.evaluate(q, qd, t, constraints=stabilized, psi_t=rheonomic)
         if stabilized:
-            gamma = baumgarte_gamma(gamma, psi, jacobian @ qd + psi_t, self.alpha, self.beta)
+            psi_dot = jacobian @ qd + psi_t if rheonomic else jacobian @ qd  # Psi' = Psi_q q' + Psi_t
+            gamma = baumgarte_gamma(gamma, psi, psi_dot, self.alpha, self.beta)
         return jacobian, gamma
 
     def stabilized_gamma(self, q: np.ndarray, qd: np.ndarray, t: float, jacobian: np.ndarray) -> np.ndarray:

@@ -44,6 +44,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import output_history
 from .assembly import System
 from .diagnostics import (
     NEAR_SINGULAR,
@@ -831,9 +832,11 @@ def integrate_motion(run: Run, plan: Plan, equations, guard: Guard, z0: np.ndarr
     filled = [0]  # output times stored so far
 
     def record(k: int, t: float, z: np.ndarray) -> None:
+        guard.flush()  # the checks after the steps before this output time, in time order
         y, energies = equations.split(z)
         q, qd = equations.formulation.coordinates(t, y)
-        guard.check_drift(q, t)
+        history.constraints(k, run.system, q, t)  # Psi, Psi_q, Psi_t: the drift check's and the result's
+        guard.check_drift(q, t, history.psi[k], history.jac[k])
         history.store(k, q, qd, *equations.formulation.accelerations(q, qd, t), energies)
         filled[0] = k + 1
         if run.progress is not None:
@@ -842,27 +845,37 @@ def integrate_motion(run: Run, plan: Plan, equations, guard: Guard, z0: np.ndarr
     try:
         stats = integrate(
             equations.rhs, z0, times, record, method=settings.integrator, rtol=settings.rtol, atol=settings.atol,
-            step=settings.step, after_step=guarded_after_step(equations, guard),
+            step=settings.step, after_step=guarded_after_step(equations, guard, deferred=True),
             max_evaluations=settings.max_evaluations, stiffness=settings.stiffness,
         )  # fmt: skip
-    except AnalysisError as err:  # a branch switch before the stop is its cause: said first, as the compiled run
+    except Exception as err:  # a branch switch before the stop is its cause: said first, as the compiled run
         k = filled[0]
+        try:  # the steps not judged yet come before the stop: a singular one is what stopped a check after every step
+            guard.flush()
+        except AnalysisError as judged:
+            guard.check_branches_before(judged, times[:k], history.q[:k], history.qd[:k], history.qdd[:k])
+            raise judged from None
+        if not isinstance(err, AnalysisError):
+            raise
         guard.check_branches_before(err, times[:k], history.q[:k], history.qd[:k], history.qdd[:k])
         raise
+    guard.flush()
     if guard.judges_branches(times):  # the branch at every singular position passed (as the compiled run's)
-        guard.check_branches(times, history.q, history.qd, history.qdd, guard.jacobians(times, history.q))
+        guard.check_branches(times, history.q, history.qd, history.qdd, history.jac)
     return history, stats, None, chosen
 
 
-def guarded_after_step(equations: EquationsOfMotion, guard: Guard):
+def guarded_after_step(equations: EquationsOfMotion, guard: Guard, deferred: bool = False):
     """What the numpy engine does after every step: the formulation's correction, then the Guard's look at the
-    configuration (when it watches for singular ones)."""
+    configuration (when it watches for singular ones); ``deferred``: kept for the Guard's next ``flush``, which the
+    caller makes at every output time and before it raises anything else."""
     if not guard.singular_ratio:
         return equations.after_step
+    check = guard.queue if deferred else guard.check_configuration
 
     def after_step(t: float, z: np.ndarray) -> np.ndarray | None:
         corrected = equations.after_step(t, z)
-        guard.check_configuration(equations.formulation, t, equations.split(z if corrected is None else corrected)[0])
+        check(equations.formulation, t, equations.split(z if corrected is None else corrected)[0])
         return corrected
 
     return after_step
@@ -917,6 +930,7 @@ def compiled_motion(settings: Settings, equations, guard, z0, times, history) ->
     guard.__dict__.update(judged.__dict__)
     history.q, history.qd = Y[:, :n].copy(), Y[:, n : 2 * n].copy()
     history.qdd, history.lam, history.energies = compiled.qdd, compiled.lam, Y[:, 2 * n :]
+    history.psi, history.jac, history.psit = compiled.psi, compiled.jac, compiled.psit
     guard.check_branches(times, history.q, history.qd, history.qdd, compiled.jac)
     return compiled, stats, chosen
 
@@ -980,9 +994,11 @@ def build_result(run: Run, equations, guard, history, compiled, times) -> tuple[
         body_names=[b.name for b in system.model.bodies],
         lam=history.lam,
     )
+    if getattr(history, "jac", None) is None:  # a history kept without Psi at its output times (an FMU's steps)
+        history.psi, history.jac, history.psit = constraint_arrays(system, times, history.q)
     if compiled is None:
-        residuals = constraint_residuals(system, times, history.q, history.qd)
-    else:
+        residuals = output_history.residuals(history.psi, history.jac, history.psit, history.qd)
+    else:  # over each row's nonzero columns, in compiled loops
         from .compiled import history as compiled_history
 
         residuals = compiled_history.residuals(compiled.psi, compiled.jac, compiled.psit, history.qd, system)
@@ -995,9 +1011,11 @@ def build_result(run: Run, equations, guard, history, compiled, times) -> tuple[
     redundant = guard.rank < system.n_constraints
     if redundant:  # multipliers are not unique: report the minimum-norm set (eq. 5.73)
         result.lam = history.lam = minimum_norm_multipliers(system, history.q, history.lam, times)
-    if compiled is None or redundant:
+    if redundant:
         result.reactions.update(joint_reactions(system, history.q, history.lam, times))
-    else:
+    elif compiled is None:  # every joint at every output time at once, from the Psi_q there (eq. 5.70, 10.20)
+        result.reactions.update(output_history.joint_reactions(system, history.q, history.lam, history.jac))
+    else:  # the same, in compiled loops over an index layout made once per system
         from .compiled import history as compiled_history
 
         result.reactions.update(compiled_history.joint_reactions(system, history.q, history.lam, compiled.jac))
@@ -1490,6 +1508,7 @@ class Guard:
         self.rank = rank_at(system, q).rank
         self.closest: dict | None = None
         self._tangent, self._t, self._sign = None, 0.0, 1.0
+        self._pending: list = []  # (t, q, Psi_q) after steps not judged yet (``queue``)
         per, dim = system.coordinates_per_body, system.model.dimension
         columns = np.ones(per)
         columns[dim:] = 1.0 / size  # derivatives by an angle (Euler parameter) times its arc length, in 1/m
@@ -1520,12 +1539,14 @@ class Guard:
         self._last_ratios = (ratio, previous)
         self._last_q = (q, float(t))
 
-    def check_drift(self, q: np.ndarray, t: float) -> None:
+    def check_drift(self, q: np.ndarray, t: float, psi: np.ndarray | None = None, jacobian=None) -> None:
+        """The drift check at one state; ``psi`` and ``jacobian``: Psi and Psi_q there when the caller has them."""
         self.judged = float(t)
         if self.drift_limit is None:
             return
-        psi = self.system.constraints(q, t)
-        norms = np.linalg.norm(self.system.jacobian(q, t) * self._columns, axis=1)
+        psi = self.system.constraints(q, t) if psi is None else psi
+        jacobian = self.system.jacobian(q, t) if jacobian is None else jacobian
+        norms = np.linalg.norm(jacobian * self._columns, axis=1)
         distance = np.abs(psi) / np.where(norms > 0, norms, 1.0)  # |Psi_i| / |grad Psi_i|: how far q is off, in m
         worst = int(np.nanargmax(distance)) if np.any(np.isfinite(distance)) else 0
         if not float(np.max(distance, initial=0.0)) <= self.drift_limit:
@@ -1537,16 +1558,37 @@ class Guard:
             )
 
     def check_configuration(self, formulation, t: float, y: np.ndarray) -> None:
+        """The check after a step, at once (``queue`` and ``flush``)."""
+        self.queue(formulation, t, y)
+        self.flush()
+
+    def queue(self, formulation, t: float, y: np.ndarray) -> None:
+        """Keep Psi_q after a step for ``flush``, which judges every state kept in time order, their SVDs and
+        determinants in one stacked call each (numpy calls LAPACK on each matrix of a stack: the same numbers as
+        one call per step, for a third of the cost on a small mechanism); at DEFERRED_STEPS states kept, now."""
         if not self.singular_ratio or self.rank == 0:
             return
         q, _ = formulation.coordinates(t, y)
-        jacobian = self._scaled(self.system.jacobian(q, t))
-        _, s, vt = np.linalg.svd(jacobian)
-        ratio = float(s[self.rank - 1] / s[0]) if s[0] > 0 else 0.0
-        tangent = vt[self.rank :].T
-        square = jacobian.shape[0] == self.rank
-        sign = np.sign(np.linalg.det(np.vstack([jacobian, tangent.T]))) if square else self._sign
-        self._judge(q, t, ratio, tangent, sign)
+        self._pending.append((t, q, self.system.jacobian(q, t)))
+        if len(self._pending) >= DEFERRED_STEPS:
+            self.flush()
+
+    def flush(self) -> None:
+        """``_judge`` each state ``queue`` kept, in time order: sigma_r / sigma_1 of the scaled Psi_q, its null-space
+        basis T (the last rows of V^T) and the sign of det [Psi_q; T^T]; the first verdict against raises."""
+        if not self._pending:
+            return
+        pending, self._pending = self._pending, []
+        jacobians = self._scaled(np.array([jacobian for _, _, jacobian in pending]))
+        _, s, vt = np.linalg.svd(jacobians)
+        square = jacobians.shape[1] == self.rank
+        if square:  # [Psi_q; T^T]: V^T with its first rows replaced by Psi_q's
+            stacked = vt.copy()
+            stacked[:, : self.rank] = jacobians
+            signs = np.sign(np.linalg.det(stacked))
+        for k, (t, q, _) in enumerate(pending):
+            ratio = float(s[k, self.rank - 1] / s[k, 0]) if s[k, 0] > 0 else 0.0
+            self._judge(q, t, ratio, vt[k, self.rank :].T, signs[k] if square else self._sign)
 
     def check_outputs(
         self, t: np.ndarray, q: np.ndarray, psi: np.ndarray, jacobians: np.ndarray, drift: bool = True
@@ -1767,6 +1809,9 @@ class Guard:
         self._tangent, self._t, self._sign = tangent, t, sign
 
 
+DEFERRED_STEPS = 16
+"""The numpy engine's Guard judges the states after its steps in batches of at most this many (``Guard.queue``), and
+at every output time and every stop before anything else: the verdicts of a check after every step."""
 BRANCH_JUMP = 0.1
 """Largest change of a body's velocity across a singular position beyond what its accelerations allow, as a
 fraction of the fastest body's speed there, that ``branch_verdict`` takes for the branch the motion came along
@@ -1858,11 +1903,25 @@ class _History:
         self.q, self.qd, self.qdd = (np.empty((size, n)) for _ in range(3))
         self.lam = np.empty((size, m))
         self.energies = np.zeros((size, extra))
+        self.psi, self.jac, self.psit = np.empty((size, m)), np.empty((size, m, n)), np.empty((size, m))
+
+    def constraints(self, k: int, system: System, q: np.ndarray, t: float) -> None:
+        """Psi, Psi_q and Psi_t at the output time t[k] (the residuals, reactions and checks of the result)."""
+        self.psi[k], self.jac[k], self.psit[k] = system.constraints(q, t), system.jacobian(q, t), system.psi_t(q, t)
 
     def store(self, k, q, qd, qdd, lam, energies) -> None:
         self.q[k], self.qd[k], self.qdd[k] = q, qd, qdd
         self.lam[k] = lam
         self.energies[k] = energies
+
+
+def constraint_arrays(system: System, t: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Psi (N, m), Psi_q (N, m, n) and Psi_t (N, m) at the times t[k] and coordinates q[k]."""
+    N, m, n = len(t), system.n_constraints, system.n_coordinates
+    psi, jac, psit = np.empty((N, m)), np.empty((N, m, n)), np.empty((N, m))
+    for k, (qk, tk) in enumerate(zip(q, t, strict=True)):
+        psi[k], jac[k], psit[k] = system.constraints(qk, tk), system.jacobian(qk, tk), system.psi_t(qk, tk)
+    return psi, jac, psit
 
 
 def constraint_residuals(system: System, t: np.ndarray, q: np.ndarray, qd: np.ndarray) -> dict[str, np.ndarray]:

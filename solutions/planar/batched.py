@@ -99,6 +99,8 @@ class Group:
 
     kind: type = object
     rows_per_element = 1
+    constant_jacobian = False
+    """Psi_q of the group does not depend on q or t (a driver's angle or coordinate rows): the System writes it once."""
 
     def __init__(self, elements: list):
         self.elements = elements
@@ -154,24 +156,30 @@ class RevoluteGroup(Group):
         self._block_j = -self._block_i
 
     def terms_from(self, X, As, Bs):
-        """A_i s_i', B_i s_i', A_j s_j', B_j s_j' of every joint: what Psi, Psi_q and gamma are made of."""
+        """A_i s_i', B_i s_i', A_j s_j', B_j s_j' of every joint: what Psi, Psi_q and gamma are made of; and
+        [A_i s_i'; A_j s_j'] as one block (``gamma``)."""
         K = self.size
-        return As[:K], Bs[:K], As[K:], Bs[K:]
+        return As[:K], Bs[:K], As[K:], Bs[K:], As
 
     def constraints(self, X, terms, t):
-        Asi, _, Asj, _ = terms
-        return (positions(X, self.i) + Asi - positions(X, self.j) - Asj).ravel()
+        Asi, _, Asj, _, _ = terms
+        r = positions(X, self.ends)  # r_i of every joint (first K rows), then r_j
+        K = self.size
+        return (r[:K] + Asi - r[K:] - Asj).ravel()
 
     def jacobian(self, X, terms, t):
-        _, Bsi, _, Bsj = terms
+        _, Bsi, _, Bsj, _ = terms
         block_i, block_j = self._block_i.copy(), self._block_j.copy()
         block_i[:, :, 2], block_j[:, :, 2] = Bsi, -Bsj
         return block_i.reshape(-1, 3), block_j.reshape(-1, 3)
 
     def gamma(self, X, V, terms, t):
-        Asi, _, Asj, _ = terms
-        wi, wj = rows(V, self.i)[:, 2:], rows(V, self.j)[:, 2:]  # phi_i', phi_j' as (K, 1) columns
-        return (Asi * (wi * wi) - Asj * (wj * wj)).ravel()
+        """A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2: the centripetal terms of both ends of every joint in one product."""
+        As = terms[4]
+        w = V[:, 2]  # every body's phi'
+        centripetal = As * (w * w).take(self.ends)[:, None]  # A s' phi'^2 of s_i' (first K rows), then of s_j'
+        K = self.size
+        return (centripetal[:K] - centripetal[K:]).ravel()
 
 
 class _TimedGroup(Group):
@@ -182,8 +190,13 @@ class _TimedGroup(Group):
         self.functions = functions
         self.timed = [k for k, f in enumerate(functions) if not isinstance(f, Constant)]
         self._values = np.array([f.value(0.0) for f in functions], dtype=float)
+        self._values.flags.writeable = False
+        self.moves = bool(self.timed) or bool(np.any(self._values))  # f(t) = 0 for all: nothing to subtract
 
     def values(self, t: float) -> np.ndarray:
+        """f(t) of every element (read only: constant functions share one array)."""
+        if not self.timed:
+            return self._values
         out = self._values.copy()
         for k in self.timed:
             out[k] = self.functions[k].value(t)
@@ -204,6 +217,7 @@ class RelativeAngleGroup(_TimedGroup):
     """phi_j - phi_i - phi0 - f(t) = 0 (eq. 3.21, 3.34): constant Jacobian rows, Psi_t = -f', gamma = f''."""
 
     kind = RelativeAngle
+    constant_jacobian = True
 
     def __init__(self, elements):
         super().__init__(elements, [e.function for e in elements])
@@ -224,6 +238,7 @@ class BodyCoordinateGroup(_TimedGroup):
     """q_j[k] - f(t) = 0 (eq. 3.34): a unit Jacobian row, Psi_t = -f', gamma = f''."""
 
     kind = BodyCoordinate
+    constant_jacobian = True
 
     def __init__(self, elements):
         super().__init__(elements, [e.function for e in elements])
@@ -265,17 +280,21 @@ class AlongDirectionGroup(_TimedGroup):
         self.rolling = _column([0.0 if s else e.side * e.pinion_radius for e, s in zip(elements, slot, strict=True)])
         self.d0 = _column([0.0 if s else e.d0 for e, s in zip(elements, slot, strict=True)])
         self.rolls = bool(np.any(self.rolling))  # a rack and pinion among them: the rolling terms are needed
+        self.shifted = self.moves or bool(np.any(self.d0))  # d0 + f(t) nonzero somewhere
 
     def terms_from(self, X, A, B):
         """u = A_i u_i', w = B_i u_i', A_i s_i', B_i s_i', A_j s_j', B_j s_j' and d_ij of every element."""
         K = self.size
         u, w, Asi, Bsi, Asj, Bsj = A[:K], B[:K], A[K : 2 * K], B[K : 2 * K], A[2 * K :], B[2 * K :]
-        d = positions(X, self.j) + Asj - positions(X, self.i) - Asi
+        r = positions(X, self.ends)  # r_i (twice), then r_j: the bodies of u_i', s_i', s_j'
+        d = r[2 * K :] + Asj - r[:K] - Asi
         return u, w, Asi, Bsi, Asj, Bsj, d
 
     def constraints(self, X, terms, t):
         u, _, _, _, _, _, d = terms
-        psi = dot_rows(u, d) - self.d0 - self.values(t)
+        psi = dot_rows(u, d)
+        if self.shifted:  # a driver's d0 + f(t), or a pin in a slot off its line
+            psi = psi - self.d0 - self.values(t)
         if self.rolls:
             psi += self.rolling * (angles(X, self.j) - angles(X, self.i))
         return psi
@@ -283,19 +302,22 @@ class AlongDirectionGroup(_TimedGroup):
     def jacobian(self, X, terms, t):
         u, w, Asi, _, _, Bsj, d = terms
         # w^T d - u^T B_i s_i' = w^T (d + A_i s_i'), since u^T B_i s_i' = u_i'^T R90 s_i' = -w^T A_i s_i'
-        angle_i = dot_rows(w, d + Asi) - self.rolling
-        angle_j = dot_rows(u, Bsj) + self.rolling
+        angle_i, angle_j = dot_rows(w, d + Asi), dot_rows(u, Bsj)
+        if self.rolls:
+            angle_i, angle_j = angle_i - self.rolling, angle_j + self.rolling
         return self._blocks(angle_i, angle_j, -u, u)
 
     def gamma(self, X, V, terms, t):
         u, w, Asi, Bsi, Asj, Bsj, d = terms
-        Vi, Vj = rows(V, self.i), rows(V, self.j)
+        K = self.size
+        Vij = rows(V, self.ends)  # body i's velocities (twice), then body j's
+        Vi, Vj = Vij[:K], Vij[2 * K :]
         wi, wj = Vi[:, 2:], Vj[:, 2:]  # phi_i', phi_j' as (K, 1) columns
         d_dot = Vj[:, :2] + Bsj * wj - Vi[:, :2] - Bsi * wi
         # u^T d phi_i'^2 - u^T (A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2) in one product
         quadratic = dot_rows(u, (d - Asi) * (wi * wi) + Asj * (wj * wj))
         gamma = quadratic - 2.0 * wi[:, 0] * dot_rows(w, d_dot)
-        return gamma + self.derivatives(t, 2)
+        return gamma + self.derivatives(t, 2) if self.timed else gamma
 
 
 class DistanceGroup(_TimedGroup):
