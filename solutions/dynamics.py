@@ -1190,7 +1190,7 @@ def square_spectra(
     (which picks the band's independent coordinates), None if none is known. ``banded=False``: dense whatever the
     size (a numpy engine's run, which loads no compiled code)."""
     N, m, n = jacobians.shape
-    found = _band_spectra(jacobians, columns, norms, before) if banded and m < n and n >= BAND_SMALLEST else None
+    found = _compiled_spectra(jacobians, columns, norms, before) if banded and m <= n else None
     if found is None:
         scaled = scale_rows(jacobians, columns, norms)
         tangents, signs = null_space_bases(scaled, signs=True)
@@ -1204,12 +1204,16 @@ def square_spectra(
     return ratios, tangents, signs
 
 
-def _band_spectra(jacobians: np.ndarray, columns: np.ndarray, norms: np.ndarray, before: np.ndarray | None):
-    """``compiled.singular.spectra`` of the scaled Psi_q, or None (no compiled engine here, or not a band)."""
+def _compiled_spectra(jacobians: np.ndarray, columns: np.ndarray, norms: np.ndarray, before: np.ndarray | None):
+    """The compiled engine's spectra of the scaled Psi_q: from the band (``compiled.singular.spectra``) from
+    BAND_SMALLEST coordinates, else in one compiled pass over the small dense ones (``dense_spectra``); None where
+    there is no compiled engine (a student package) or the large Psi_q is not a band."""
     try:
         from .compiled import singular
     except ImportError:  # a student package: dense
         return None
+    if jacobians.shape[2] < BAND_SMALLEST or jacobians.shape[1] == jacobians.shape[2]:
+        return singular.dense_spectra(jacobians, columns, norms) if jacobians.shape[2] < BAND_SMALLEST else None
     if before is None:
         before = null_space_bases(scale_rows(jacobians[:1], columns, norms[:1]))[0]
     return singular.spectra(jacobians, before, columns, norms)
