@@ -325,6 +325,8 @@ CERTIFIED = 1e-5
 1e-5) the exact band route (``_ratio``) or the dense SVD gives it."""
 _ROUNDS = 60
 STEP = 1e-5
+GUESS = 1e-3
+"""``_largest`` first tries an upper bound this fraction above the Rayleigh quotient of the time before's vector."""
 """Each trial of a bracket's Cholesky test lies this fraction of the bracket beyond its Rayleigh quotient."""
 
 
@@ -447,6 +449,10 @@ def _largest(G, L, x):
     _warm(x)
     lo = max(lo, _rayleigh(G, x))
     factored = False
+    guess = lo * (1.0 + GUESS)  # the Rayleigh quotient of the time before's eigenvector: sigma_1^2 is rarely far above
+    if guess < hi and _cholesky(G, -1.0, guess, L):
+        hi, factored = guess, True
+    step = STEP
     for _ in range(_ROUNDS):
         if hi - lo <= EXTREME_TOLERANCE * hi:
             return lo
@@ -457,12 +463,12 @@ def _largest(G, L, x):
         lo = max(lo, _rayleigh(G, x))
         if hi - lo <= EXTREME_TOLERANCE * hi:
             return lo
-        trial = lo + max(STEP * (hi - lo), 0.5 * EXTREME_TOLERANCE * lo)
+        trial = lo + max(step * (hi - lo), 0.5 * EXTREME_TOLERANCE * lo)
         factored = _cholesky(G, -1.0, trial, L)
         if factored:
-            hi = trial
-        else:
-            lo = trial
+            hi, step = trial, STEP
+        else:  # sigma_1^2 lies further up (the vector is still in a cluster below it): longer steps, up to bisection
+            lo, step = trial, min(0.5, 100.0 * step)
     return np.nan
 
 
@@ -477,7 +483,7 @@ def _smallest(J, rows, starts, indices, G, L, x, largest, y):
     if not _cholesky(G, 1.0, 0.0, L):
         return np.nan
     _warm(x)
-    lo, hi = 0.0, np.inf
+    lo, hi, step = 0.0, np.inf, STEP
     for _ in range(_ROUNDS):
         for _ in range(2):
             _solve_normalized(L, x)
@@ -492,11 +498,13 @@ def _smallest(J, rows, starts, indices, G, L, x, largest, y):
             return np.nan
         if hi - lo <= width * hi:
             return hi
-        trial = hi - max(STEP * (hi - lo), 0.5 * width * hi)
+        trial = hi - max(step * (hi - lo), 0.5 * width * hi)
         if _cholesky(G, 1.0, -trial, L):
-            lo = trial
+            lo, step = trial, STEP
         elif not _cholesky(G, 1.0, -lo, L):
             return np.nan
+        else:  # sigma_m^2 lies further down: longer steps, up to bisection
+            step = min(0.5, 100.0 * step)
     return np.nan
 
 
