@@ -66,9 +66,12 @@ WIDEST = 8
 """The band pays where its width kl + ku + 1 is at most an eighth of the coordinates (``spectra``: None otherwise)."""
 
 _vector, _ivector, _matrix = types.float64[::1], types.int64[::1], types.float64[:, ::1]
-_SPECTRA = types.Tuple((_vector, types.float64[:, :, ::1], _vector))(
-    types.float64[:, :, ::1], _vector, _matrix, _ivector, _vector, _ivector, _ivector, _matrix
+_stack = types.float64[:, :, ::1]
+_SPECTRA = types.Tuple((_vector, _stack, _vector))(
+    _stack, _vector, _matrix, _ivector, _vector, _ivector, _ivector, _matrix
 )
+_DENSE = types.Tuple((_vector, _stack, _vector))(_stack, _vector, _matrix, types.boolean)
+"""Signatures compiled at import (and cached on disk, ``precompile``): a run never waits for them."""
 
 
 def band_order(pattern: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -99,7 +102,7 @@ def spectra(scaled: np.ndarray, first: np.ndarray, columns=None, norms=None):
         columns, norms = np.ones(scaled.shape[2]), np.ones(scaled.shape[:2])
         pattern = np.any(scaled != 0.0, axis=0)
     else:
-        pattern = _pattern(scaled)
+        pattern = _pattern(np.ascontiguousarray(scaled, dtype=float))
     columns_order, keys = band_order(pattern)
     position = np.empty(columns_order.size, dtype=np.int64)
     position[columns_order] = np.arange(columns_order.size)
@@ -114,7 +117,7 @@ def spectra(scaled: np.ndarray, first: np.ndarray, columns=None, norms=None):
     return _spectra(np.ascontiguousarray(scaled), *scale, position, keys, starts, indices, first)
 
 
-@njit(cache=True, nogil=True)
+@njit(_matrix(_stack, _vector), cache=True, nogil=True)
 def row_norms(jacobians, columns):
     """|grad Psi_i| of every row of every Psi_q (N, m, n) with its columns weighted by ``columns`` (angles as arc
     lengths): the Guard's drift and scaling, in one pass over the history (numpy's product, norm and quotient
@@ -131,7 +134,7 @@ def row_norms(jacobians, columns):
     return norms
 
 
-@njit(cache=True, nogil=True)
+@njit(types.boolean[:, ::1](_stack), cache=True, nogil=True)
 def _pattern(jacobians):
     """Where any Psi_q of the history (N, m, n) has a nonzero entry (m, n)."""
     N, m, n = jacobians.shape
@@ -556,7 +559,7 @@ def dense_spectra(jacobians: np.ndarray, columns: np.ndarray, norms: np.ndarray,
     (``_jacobi_ratio``). ``bases=False``: T left out (n x 0). NaN where Jacobi did not settle (the dense SVD's)."""
     N, m, n = jacobians.shape
     scale = (np.ascontiguousarray(columns, dtype=float), np.ascontiguousarray(norms, dtype=float))
-    return _dense_spectra(np.ascontiguousarray(jacobians, dtype=float), *scale, bases)
+    return _dense_spectra(np.ascontiguousarray(jacobians, dtype=float), *scale, bool(bases))
 
 
 @njit(cache=True, nogil=True)
@@ -649,7 +652,7 @@ def _jacobi_ratio(B):
     return np.nan
 
 
-@njit(cache=True, nogil=True)
+@njit(_DENSE, cache=True, nogil=True)
 def _dense_spectra(jacobians, columns, norms, bases):
     N, m, n = jacobians.shape
     d = n - m
