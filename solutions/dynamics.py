@@ -1394,6 +1394,10 @@ ALIGNED = 0.9
 BAND_SMALLEST = 64
 """Coordinates from which ``square_spectra`` takes the band of Psi_q (below, numpy's batched dense SVDs and QRs
 cost less than the band's setup: ``benchmarks/call_cost.py --chain loops``)."""
+DENSE_LARGEST = 10
+"""Coordinates up to which a compiled run's ``square_spectra`` takes ``compiled.singular.dense_spectra`` (its
+one-sided Jacobi costs O(m^3) a sweep: at 101 random Psi_q, 0.55 of numpy's batched SVDs and QRs at 6 x 6, 0.87 at
+9 x 9, 1.04 at 11 x 12, 1.7 at 17 x 18; between the two, numpy's)."""
 
 
 def null_space_bases(jacobians: np.ndarray, signs: bool = False):
@@ -1429,36 +1433,53 @@ def singular_ratios(s: np.ndarray, rank: int) -> np.ndarray:
     return np.where(s[:, 0] > 0, s[:, rank - 1] / np.where(s[:, 0] > 0, s[:, 0], 1.0), 0.0)
 
 
+def scale_rows(jacobians: np.ndarray, columns: np.ndarray, norms: np.ndarray) -> np.ndarray:
+    """``Guard._scaled`` of Psi_q (N, m, n) whose weighted rows' norms (N, m) are known."""
+    return jacobians * columns / np.where(norms > 0, norms, 1.0)[..., None]
+
+
 def square_spectra(
-    scaled: np.ndarray, before: np.ndarray | None, banded: bool = True
+    jacobians: np.ndarray, columns: np.ndarray, norms: np.ndarray, before: np.ndarray | None, banded: bool = True
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(sigma_m / sigma_1, null-space bases T, signs of det [Psi_q; T^T]) of each scaled Psi_q (N, m, n) of full row
-    rank m, for ``Guard.check_outputs``. Dense: SVDs and ``null_space_bases``, O(m^2 n) each. A large mechanism's
-    Psi_q is a band once its rows and columns are ordered (``compiled.singular``, the compiled runs' code that
-    calls this): bidiagonal reduction and bisection for the ratio, banded LU for T and the sign, O(n^2 b) and
-    O(n b^2); 3.3x faster on a chain of 32 loops (195 coordinates), 8.6x on 64. ``before``: a null-space basis
-    just before the first time (which picks the band's independent coordinates), None if none is known.
-    ``banded=False``: dense whatever the size (a numpy engine's run, which loads no compiled code)."""
-    N, m, n = scaled.shape
-    found = _band_spectra(scaled, before) if banded and m < n and n >= BAND_SMALLEST else None
+    """(sigma_m / sigma_1, null-space bases T, signs of det [Psi_q; T^T]) of each Psi_q (N, m, n) of full row rank
+    m, scaled (``scale_rows`` with its column weights and row norms), for ``Guard.check_outputs``. Dense: SVDs and
+    ``null_space_bases``, O(m^2 n) each. A large mechanism's Psi_q is a band once its rows and columns are
+    ordered (``compiled.singular``, the compiled runs' code that calls this): extreme eigenvalues of Psi_q Psi_q^T
+    by shifted inverse iteration and Cholesky tests for the ratio, banded LU for T and the sign, O(n b^2) each;
+    scaled entry by entry, no scaled copy of the history. ``before``: a null-space basis just before the first time
+    (which picks the band's independent coordinates), None if none is known. ``banded=False``: dense whatever the
+    size (a numpy engine's run, which loads no compiled code)."""
+    N, m, n = jacobians.shape
+    found = _compiled_spectra(jacobians, columns, norms, before) if banded and m <= n else None
     if found is None:
+        scaled = scale_rows(jacobians, columns, norms)
         tangents, signs = null_space_bases(scaled, signs=True)
         return singular_ratios(np.linalg.svd(scaled, compute_uv=False), m), tangents, signs
     ratios, tangents, signs = found
     failed = ~(np.isfinite(ratios) & np.isfinite(signs) & np.all(np.isfinite(tangents), axis=(1, 2)))
     if np.any(failed):  # LAPACK met an exact zero pivot there: those times densely
-        tangents[failed], signs[failed] = null_space_bases(scaled[failed], signs=True)
-        ratios[failed] = singular_ratios(np.linalg.svd(scaled[failed], compute_uv=False), m)
+        scaled = scale_rows(jacobians[failed], columns, norms[failed])
+        tangents[failed], signs[failed] = null_space_bases(scaled, signs=True)
+        ratios[failed] = singular_ratios(np.linalg.svd(scaled, compute_uv=False), m)
     return ratios, tangents, signs
 
 
-def _band_spectra(scaled: np.ndarray, before: np.ndarray | None):
-    """``compiled.singular.spectra`` of the scaled Psi_q, or None (no compiled engine here, or not a band)."""
+def _compiled_spectra(jacobians: np.ndarray, columns: np.ndarray, norms: np.ndarray, before: np.ndarray | None):
+    """The compiled engine's spectra of the scaled Psi_q: in one compiled pass over a small one (up to DENSE_LARGEST
+    coordinates, ``compiled.singular.dense_spectra``), from the band of a large one (from BAND_SMALLEST,
+    ``compiled.singular.spectra``); None between, where there is no compiled engine (a student package) or where the
+    large Psi_q is not a band (numpy's dense SVDs and QRs then)."""
     try:
         from .compiled import singular
     except ImportError:  # a student package: dense
         return None
-    return singular.spectra(scaled, null_space_bases(scaled[:1])[0] if before is None else before)
+    if jacobians.shape[2] <= DENSE_LARGEST:
+        return singular.dense_spectra(jacobians, columns, norms)
+    if jacobians.shape[2] < BAND_SMALLEST or jacobians.shape[1] == jacobians.shape[2]:
+        return None
+    if before is None:
+        before = null_space_bases(scale_rows(jacobians[:1], columns, norms[:1]))[0]
+    return singular.spectra(jacobians, before, columns, norms)
 
 
 class Guard:
@@ -1599,17 +1620,16 @@ class Guard:
         the configuration alone (a state between output times, where the numpy engine checks no drift)."""
         if self.drift_limit is None and not self.singular_ratio:  # nothing to check (an open tree's joint coordinates)
             return
-        weighted = jacobians * self._columns  # angles as arc lengths L phi: every column in metres
-        norms = np.linalg.norm(weighted, axis=2, keepdims=True)  # |grad Psi_i| of every row at every time
+        norms = self._row_norms(jacobians)  # |grad Psi_i| of every row at every time, angles as arc lengths L phi
         if drift and self.drift_limit is not None:
-            distance = np.abs(psi) / np.where(norms[:, :, 0] > 0, norms[:, :, 0], 1.0)
+            distance = np.abs(psi) / np.where(norms > 0, norms, 1.0)
             bad = ~(np.max(distance, axis=1, initial=0.0) <= self.drift_limit)
             if np.any(bad):
                 k = int(np.argmax(bad))
                 self.check_drift(q[k], float(t[k]))  # raises, with the message of the step-by-step check
         if not self.singular_ratio or self.rank == 0:
             return
-        ratios, tangents, signs = self._spectra(t, weighted / np.where(norms > 0, norms, 1.0))
+        ratios, tangents, signs = self._spectra(t, jacobians, norms)
         turns = np.linalg.det(np.swapaxes(tangents[:-1], 1, 2) @ tangents[1:])  # det(T_k-1^T T_k), k >= 1
         if self._quiet(t, ratios, tangents, signs, turns):
             return
@@ -1618,15 +1638,28 @@ class Guard:
             turn = None if k == 0 else turns[k - 1]
             self._judge(q[k], float(t[k]), float(ratios[k]), tangents[k], sign, turn)
 
-    def _spectra(self, t: np.ndarray, scaled: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-        """(sigma_r / sigma_1, null-space bases T, signs of det [Psi_q; T^T] or None) of the scaled Psi_q (N, m, n) at
-        the times t, kept for ``spectra``: the run's later looks at the same output times (``singular_dip``,
-        ``check_branches``) take them instead of a second and third batch of SVDs (on a chain of 32 loops each
-        batch cost more than the integration)."""
-        if scaled.shape[1] == self.rank:  # independent rows: T and det [Psi_q; T^T], from the band where it pays
-            made = square_spectra(scaled, self._tangent, self.banded)
+    def _row_norms(self, jacobians: np.ndarray) -> np.ndarray:
+        """|grad Psi_i| (N, m) of every row of Psi_q (N, m, n), angles as arc lengths: one compiled pass over a
+        compiled run's history (``compiled.singular.row_norms``), numpy's otherwise."""
+        if self.banded and jacobians.ndim == 3:
+            from .compiled import singular
+
+            return singular.row_norms(np.ascontiguousarray(jacobians, dtype=float), self._columns)
+        return np.linalg.norm(jacobians * self._columns, axis=-1)
+
+    def _spectra(
+        self, t: np.ndarray, jacobians: np.ndarray, norms: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """(sigma_r / sigma_1, null-space bases T, signs of det [Psi_q; T^T] or None) of the scaled Psi_q (``_scaled``)
+        of Psi_q (N, m, n) at the times t (``norms``: its rows' norms, ``_row_norms``, if known), kept for
+        ``spectra``: the run's later looks at the same output times (``singular_dip``, ``check_branches``) take them
+        instead of a second and third batch of SVDs (on a chain of 32 loops each batch cost more than the
+        integration)."""
+        norms = self._row_norms(jacobians) if norms is None else norms
+        if jacobians.shape[1] == self.rank:  # independent rows: T and det [Psi_q; T^T], from the band where it pays
+            made = square_spectra(jacobians, self._columns, norms, self._tangent, self.banded)
         else:  # redundant rows: the null space of rank r needs the SVD's V; det [Psi_q; T^T] is not defined
-            _, s, vt = np.linalg.svd(scaled)
+            _, s, vt = np.linalg.svd(scale_rows(jacobians, self._columns, norms))
             made = singular_ratios(s, self.rank), np.swapaxes(vt[:, self.rank :], 1, 2), None
         self._made = (np.array(t, dtype=float), made)
         return made
@@ -1637,7 +1670,7 @@ class Guard:
         made = self.__dict__.get("_made")
         if made is not None and made[0].shape == np.shape(t) and np.array_equal(made[0], t):
             return made[1]
-        return self._spectra(t, self._scaled(jacobians))
+        return self._spectra(t, jacobians)
 
     def check_branches(
         self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, jacobians: np.ndarray

@@ -15,13 +15,20 @@ Solution of Large Sparse Positive Definite Systems, 1981, ch. 4), the columns of
 close together, and so do the rows; with d empty rows slotted in where the rows do not reach, the square
 matrix [Psi_q; 0] is a band whose half-widths kl, ku do not grow with the number of bodies on a chain. Then:
 
-- sigma_1 and sigma_m: LAPACK's dgbbrd reduces the band to bidiagonal form B by Givens rotations, O(n^2 (kl +
-  ku)) (Kaufman, "Band reduction algorithms revisited", ACM TOMS 26, 2000); the singular values of B are the
-  positive eigenvalues of its Golub-Kahan form, the 2n x 2n tridiagonal with zero diagonal and off-diagonal
-  (b_11, b_12, b_22, b_23, ...), of which bisection on Sturm counts (dstebz) finds the two wanted ones, each in
-  O(n) per halving and to high relative accuracy (Demmel and Kahan, SIAM J. Sci. Stat. Comput. 11, 1990).
-  [Psi_q; 0] has Psi_q's singular values and d zeros. (All n singular values by dqds, dlasq1, cost four times
-  the reduction on a chain of 32 loops.)
+- sigma_1 and sigma_m, as the extreme eigenvalues of G = Psi_q Psi_q^T, itself a band (half-width w) with the
+  rows in the same order: each is bracketed, from above or below by a Cholesky test (a Sturm count: G - s I or
+  s I - G positive definite, O(m w^2)), from the other side by the Rayleigh quotient of inverse iteration shifted
+  to the bracket's end (O(m w) a step; from the eigenvector of the output time before, the figures closed to
+  1e-13 in a few tests: ``_largest``, ``_smallest``). sigma_m's figure is |Psi_q^T x| of the converged x, not
+  x^T G x: no squaring of the condition number, the dense SVD's accuracy (Parlett, The Symmetric Eigenvalue
+  Problem, 1998, ch. 4 and 11). G's rounding, eps sigma_1^2, bounds what a Cholesky test can certify of sigma_m^2:
+  within about 1e-5 of a rank loss the exact route takes over. There LAPACK's dgbbrd reduces the band to
+  bidiagonal form B by Givens rotations, O(n^2 (kl + ku)) (Kaufman, "Band reduction algorithms revisited", ACM
+  TOMS 26, 2000); the singular values of B are the positive eigenvalues of its Golub-Kahan form, the 2n x 2n
+  tridiagonal with zero diagonal and off-diagonal (b_11, b_12, b_22, b_23, ...), of which bisection on Sturm
+  counts (dstebz) finds the two wanted ones to high relative accuracy (Demmel and Kahan, SIAM J. Sci. Stat.
+  Comput. 11, 1990). [Psi_q; 0] has Psi_q's singular values and d zeros. On a chain of 16 loops (98 x 99) the
+  iterated figures cost 0.1 ms an output time, the reduction 0.36 ms; on 64 loops 0.3-0.4 ms against 2.9 ms.
 - null space and sign: with d unit rows E^T in the empty slots (``e_c`` for the d coordinates in which the null
   space of the time before is largest, the independent coordinates of coordinate partitioning, eq. 5.40), the
   square band A = [Psi_q; E^T] is factored by LAPACK's banded LU (dgbtrf, O(n kl (kl + ku))); then
@@ -34,9 +41,11 @@ Any orthonormal basis serves the Guard (``dynamics.null_space_bases``): a differ
 orthogonal, which multiplies det [Psi_q; T^T] and the turn det(T_prev^T T) by the same det R = +-1.
 
 ``spectra`` returns, for a stack of scaled Jacobians (N, m, n), the ratios (N,), the bases (N, n, d) and the
-signs (N,); a time where LAPACK reports a failure (a zero pivot: Psi_q singular to the last bit at an output
-time) gets NaN there, and the Guard computes that time densely. No numba in the numpy engine: this module is
-imported by compiled runs only (``dynamics.square_spectra``, from ``Guard.check_outputs``).
+signs (N,) (given Psi_q and the column weights and row norms instead, it scales each output time's Psi_q on its
+pattern as it goes, no scaled copy of the history); ``dense_spectra`` the same for a small Psi_q that is no band,
+from a QR and one-sided Jacobi. A time where LAPACK reports a failure (a zero pivot: Psi_q singular to the last
+bit at an output time) gets NaN there, and the Guard computes that time densely. No numba in the numpy engine:
+this module is imported by compiled runs only (``dynamics.square_spectra``, from ``Guard.check_outputs``).
 """
 
 from __future__ import annotations
@@ -56,10 +65,13 @@ by address (``kinematic_loop.lapack``)."""
 WIDEST = 8
 """The band pays where its width kl + ku + 1 is at most an eighth of the coordinates (``spectra``: None otherwise)."""
 
-_vector, _ivector = types.float64[::1], types.int64[::1]
-_SPECTRA = types.Tuple((_vector, types.float64[:, :, ::1], _vector))(
-    types.float64[:, :, ::1], _ivector, _vector, _ivector, _ivector, types.float64[:, ::1]
+_vector, _ivector, _matrix = types.float64[::1], types.int64[::1], types.float64[:, ::1]
+_stack = types.float64[:, :, ::1]
+_SPECTRA = types.Tuple((_vector, _stack, _vector))(
+    _stack, _vector, _matrix, _ivector, _vector, _ivector, _ivector, _matrix
 )
+_DENSE = types.Tuple((_vector, _stack, _vector))(_stack, _vector, _matrix, types.boolean)
+"""Signatures compiled at import (and cached on disk, ``precompile``): a run never waits for them."""
 
 
 def band_order(pattern: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -79,23 +91,60 @@ def band_order(pattern: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return columns, keys
 
 
-def spectra(scaled: np.ndarray, first: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def spectra(scaled: np.ndarray, first: np.ndarray, columns=None, norms=None):
     """(sigma_m / sigma_1 (N,), null-space bases (N, n, d), signs of det [Psi_q; T^T] (N,)) of each scaled Psi_q
     (N, m, n) of full row rank, from the band (module docstring); None where the ordered Psi_q is not a band
     narrower than an eighth of n. ``first`` (n, d): a null-space basis at (or just before) the first time, which
-    picks its independent coordinates. NaN at a time where LAPACK failed."""
-    pattern = np.any(scaled != 0.0, axis=0)
-    columns, keys = band_order(pattern)
-    position = np.empty(columns.size, dtype=np.int64)
-    position[columns] = np.arange(columns.size)
+    picks its independent coordinates. NaN at a time where LAPACK failed. With ``columns`` (n,) and ``norms``
+    (N, m) (``row_norms``), ``scaled`` is Psi_q itself, scaled here entry by entry of its pattern (no scaled copy
+    of the whole history: on a chain of 64 loops it is 121 MB)."""
+    if columns is None:
+        columns, norms = np.ones(scaled.shape[2]), np.ones(scaled.shape[:2])
+        pattern = np.any(scaled != 0.0, axis=0)
+    else:
+        pattern = _pattern(np.ascontiguousarray(scaled, dtype=float))
+    columns_order, keys = band_order(pattern)
+    position = np.empty(columns_order.size, dtype=np.int64)
+    position[columns_order] = np.arange(columns_order.size)
     starts = np.concatenate([[0], np.cumsum(pattern.sum(axis=1))]).astype(np.int64)
     indices = np.concatenate([np.flatnonzero(row) for row in pattern]).astype(np.int64)
     first = np.ascontiguousarray(first, dtype=float)
     chosen = _independent(first, first.shape[1])
     kl, ku = _widths(_layout(keys, position, chosen), keys.size, starts, indices, position, chosen, True)
-    if WIDEST * (kl + ku + 1) > columns.size:  # not a band: dense costs less
+    if WIDEST * (kl + ku + 1) > columns_order.size:  # not a band: dense costs less
         return None
-    return _spectra(np.ascontiguousarray(scaled), position, keys, starts, indices, first)
+    scale = (np.ascontiguousarray(columns, dtype=float), np.ascontiguousarray(norms, dtype=float))
+    return _spectra(np.ascontiguousarray(scaled), *scale, position, keys, starts, indices, first)
+
+
+@njit(_matrix(_stack, _vector), cache=True, nogil=True)
+def row_norms(jacobians, columns):
+    """|grad Psi_i| of every row of every Psi_q (N, m, n) with its columns weighted by ``columns`` (angles as arc
+    lengths): the Guard's drift and scaling, in one pass over the history (numpy's product, norm and quotient
+    make three, and a copy)."""
+    N, m, n = jacobians.shape
+    norms = np.empty((N, m))
+    for k in range(N):
+        for r in range(m):
+            total = 0.0
+            for c in range(n):
+                value = jacobians[k, r, c] * columns[c]
+                total += value * value
+            norms[k, r] = np.sqrt(total)
+    return norms
+
+
+@njit(types.boolean[:, ::1](_stack), cache=True, nogil=True)
+def _pattern(jacobians):
+    """Where any Psi_q of the history (N, m, n) has a nonzero entry (m, n)."""
+    N, m, n = jacobians.shape
+    pattern = np.zeros((m, n), dtype=np.bool_)
+    for k in range(N):
+        for r in range(m):
+            for c in range(n):
+                if jacobians[k, r, c] != 0.0:
+                    pattern[r, c] = True
+    return pattern
 
 
 @njit(cache=True, nogil=True)
@@ -271,20 +320,354 @@ def _null_space(J, slot, m, starts, indices, position, chosen):
     return basis, sign
 
 
+EXTREME_TOLERANCE = 1e-13
+"""Relative width to which ``_largest`` and ``_smallest`` close their brackets of an eigenvalue of Psi_q Psi_q^T."""
+CERTIFIED = 1e-5
+"""Largest relative width of the bracket of sigma_m^2 that the Cholesky test can certify (its rounding, about
+16 eps sigma_1^2, against sigma_m^2) for ``_smallest`` to give the figure; past it (sigma_m / sigma_1 below about
+1e-5) the exact band route (``_ratio``) or the dense SVD gives it."""
+_ROUNDS = 60
+STEP = 1e-5
+GUESS = 1e-3
+"""``_largest`` first tries an upper bound this fraction above the Rayleigh quotient of the time before's vector."""
+"""Each trial of a bracket's Cholesky test lies this fraction of the bracket beyond its Rayleigh quotient."""
+
+
+@njit(cache=True, nogil=True)
+def _gram_width(rows, starts, indices, n):
+    """Half-bandwidth of G = Psi_q Psi_q^T with its rows and columns in the order ``rows``: the farthest earlier
+    row that shares a coordinate with a row."""
+    first = np.full(n, -1, dtype=np.int64)
+    width = 0
+    for i in range(rows.size):
+        r = rows[i]
+        for p in range(starts[r], starts[r + 1]):
+            c = indices[p]
+            if first[c] < 0:
+                first[c] = i
+            width = max(width, i - first[c])
+    return width
+
+
+@njit(cache=True, nogil=True)
+def _gram(J, rows, starts, indices, G):
+    """G = Psi_q Psi_q^T in lower band storage, G[i, t] = (Psi_q Psi_q^T)[i, i - t], rows in the order ``rows``."""
+    m, w = rows.size, G.shape[1] - 1
+    for i in range(m):
+        a = rows[i]
+        for t in range(w + 1):
+            if t > i:
+                G[i, t] = 0.0
+                continue
+            b = rows[i - t]
+            p, q, total = starts[a], starts[b], 0.0
+            while p < starts[a + 1] and q < starts[b + 1]:
+                if indices[p] == indices[q]:
+                    total += J[a, indices[p]] * J[b, indices[q]]
+                    p += 1
+                    q += 1
+                elif indices[p] < indices[q]:
+                    p += 1
+                else:
+                    q += 1
+            G[i, t] = total
+
+
+@njit(cache=True, nogil=True)
+def _cholesky(G, a, b, L):
+    """L L^T = a G + b I (band storage as G's), True if it is positive definite (every pivot > 0): the Sturm test
+    of continuation, here of an eigenvalue bound (a = 1, b = -s: all eigenvalues of G above s; a = -1, b = s: all
+    below s), O(m w^2) (Golub and Van Loan, Matrix Computations, sec. 4.3.5, band Cholesky; sec. 8.4.1, inertia)."""
+    m, w = G.shape[0], G.shape[1] - 1
+    for i in range(m):
+        for t in range(min(w, i), -1, -1):
+            j = i - t
+            total = a * G[i, t] + (b if t == 0 else 0.0)
+            for k in range(max(i - w, 0), j):
+                total -= L[i, i - k] * L[j, j - k]
+            if t == 0:
+                if not total > 0.0:
+                    return False
+                L[i, 0] = np.sqrt(total)
+            else:
+                L[i, t] = total / L[j, 0]
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _solve_normalized(L, x):
+    """x <- (L L^T)^-1 x / |(L L^T)^-1 x|: one step of inverse iteration with the factor of ``_cholesky``."""
+    m, w = L.shape[0], L.shape[1] - 1
+    for i in range(m):
+        total = x[i]
+        for k in range(max(i - w, 0), i):
+            total -= L[i, i - k] * x[k]
+        x[i] = total / L[i, 0]
+    for i in range(m - 1, -1, -1):
+        total = x[i]
+        for k in range(i + 1, min(i + w, m - 1) + 1):
+            total -= L[k, k - i] * x[k]
+        x[i] = total / L[i, 0]
+    x /= np.sqrt(np.dot(x, x))
+
+
+@njit(cache=True, nogil=True)
+def _rayleigh(G, x):
+    """x^T G x of a unit x, G in lower band storage."""
+    m, w = G.shape[0], G.shape[1] - 1
+    total = 0.0
+    for i in range(m):
+        total += G[i, 0] * x[i] * x[i]
+        for t in range(1, min(w, i) + 1):
+            total += 2.0 * G[i, t] * x[i] * x[i - t]
+    return total
+
+
+@njit(cache=True, nogil=True)
+def _warm(x):
+    """The vector of the time before, nudged along every eigenvector (a fixed pseudo-random vector), unit: inverse
+    iteration from it reaches the extreme eigenvalue even where two eigenvalues crossed since."""
+    for i in range(x.size):
+        x[i] += 1e-3 * np.sin(0.7 * i + 0.3)
+    x /= np.sqrt(np.dot(x, x))
+
+
+@njit(cache=True, nogil=True)
+def _largest(G, L, x):
+    """sigma_1^2, the largest eigenvalue of G = Psi_q Psi_q^T, in a bracket [lo, hi] closed to EXTREME_TOLERANCE: lo
+    from Rayleigh quotients of inverse iteration shifted to hi (x, the vector of the time before, converges to
+    its eigenvector), hi from a Cholesky test of hi' I - G at a trial just above lo; NaN if it does not close.
+    G's rounding is eps sigma_1^2, so the figure has full relative accuracy. x: updated to the eigenvector."""
+    m = G.shape[0]
+    hi, lo = 0.0, 0.0
+    for i in range(m):  # Gershgorin's bound, and the largest diagonal entry
+        total = 0.0
+        for t in range(G.shape[1]):
+            if t <= i:
+                total += abs(G[i, t])
+            if t > 0 and i + t < m:
+                total += abs(G[i + t, t])
+        hi, lo = max(hi, total), max(lo, G[i, 0])
+    hi *= 1.0 + 1e-12
+    _warm(x)
+    lo = max(lo, _rayleigh(G, x))
+    factored = False
+    guess = lo * (1.0 + GUESS)  # the Rayleigh quotient of the time before's eigenvector: sigma_1^2 is rarely far above
+    if guess < hi and _cholesky(G, -1.0, guess, L):
+        hi, factored = guess, True
+    step = STEP
+    for _ in range(_ROUNDS):
+        if hi - lo <= EXTREME_TOLERANCE * hi:
+            return lo
+        if not factored and not _cholesky(G, -1.0, hi, L):
+            return np.nan
+        for _ in range(2):
+            _solve_normalized(L, x)
+        lo = max(lo, _rayleigh(G, x))
+        if hi - lo <= EXTREME_TOLERANCE * hi:
+            return lo
+        trial = lo + max(step * (hi - lo), 0.5 * EXTREME_TOLERANCE * lo)
+        factored = _cholesky(G, -1.0, trial, L)
+        if factored:
+            hi, step = trial, STEP
+        else:  # sigma_1^2 lies further up (the vector is still in a cluster below it): longer steps, up to bisection
+            lo, step = trial, min(0.5, 100.0 * step)
+    return np.nan
+
+
+@njit(cache=True, nogil=True)
+def _smallest(J, rows, starts, indices, G, L, x, largest, y):
+    """sigma_m^2, the smallest eigenvalue of G = Psi_q Psi_q^T: the Rayleigh quotient |Psi_q^T x|^2 of inverse
+    iteration (from Psi_q itself, not G: no squaring of the condition, the figure to the dense SVD's accuracy),
+    certified the smallest by a Cholesky test of G - s I at s just below it, the shift then taken for two more
+    iterations (their rate (sigma_m^2 - s) / (sigma_(m-1)^2 - s) ~ 0); NaN where G's rounding (16 eps sigma_1^2)
+    is more than CERTIFIED of sigma_m^2, or the bracket does not close. x: updated to the eigenvector."""
+    floor = 16.0 * np.finfo(np.float64).eps * largest
+    if not _cholesky(G, 1.0, 0.0, L):
+        return np.nan
+    _warm(x)
+    lo, hi, step = 0.0, np.inf, STEP
+    for _ in range(_ROUNDS):
+        for _ in range(2):
+            _solve_normalized(L, x)
+        y[:] = 0.0
+        for i in range(rows.size):
+            r = rows[i]
+            for p in range(starts[r], starts[r + 1]):
+                y[indices[p]] += J[r, indices[p]] * x[i]
+        hi = min(hi, np.dot(y, y))
+        width = max(EXTREME_TOLERANCE, floor / hi)
+        if width > CERTIFIED:
+            return np.nan
+        if hi - lo <= width * hi:
+            return hi
+        trial = hi - max(step * (hi - lo), 0.5 * width * hi)
+        if _cholesky(G, 1.0, -trial, L):
+            lo, step = trial, STEP
+        elif not _cholesky(G, 1.0, -lo, L):
+            return np.nan
+        else:  # sigma_m^2 lies further down: longer steps, up to bisection
+            step = min(0.5, 100.0 * step)
+    return np.nan
+
+
+@njit(cache=True, nogil=True)
+def _iterated_ratio(J, rows, starts, indices, G, L, low, high, y):
+    """sigma_m / sigma_1 of Psi_q from its Gram matrix's extreme eigenvalues (``_largest``, ``_smallest``): O(m w^2)
+    per Cholesky test and a few of them, against the band's bidiagonal reduction's O(n^2 (kl + ku)); NaN where
+    they cannot give it (the caller takes the exact route). low, high: the eigenvectors of the time before."""
+    _gram(J, rows, starts, indices, G)
+    largest = _largest(G, L, high)
+    if not np.isfinite(largest) or largest <= 0.0:
+        return np.nan
+    smallest = _smallest(J, rows, starts, indices, G, L, low, largest, y)
+    return np.sqrt(smallest / largest)
+
+
 @njit(_SPECTRA, cache=True, nogil=True)
-def _spectra(scaled, position, keys, starts, indices, first):
-    N, m, n = scaled.shape
+def _spectra(jacobians, columns, norms, position, keys, starts, indices, first):
+    N, m, n = jacobians.shape
     d = n - m
     ratios, bases, signs = np.empty(N), np.empty((N, n, d)), np.empty(N)
+    rows = np.argsort(keys, kind="mergesort")  # Psi_q's rows along the band: G = Psi_q Psi_q^T a band too
+    w = _gram_width(rows, starts, indices, n)
+    G, L, low, high, y = np.empty((m, w + 1)), np.empty((m, w + 1)), np.ones(m), np.ones(m), np.empty(n)
     before = first
+    J = np.zeros((m, n))  # this time's scaled Psi_q, written on its pattern alone
     for k in range(N):
+        for r in range(m):
+            norm = norms[k, r] if norms[k, r] > 0.0 else 1.0
+            for p in range(starts[r], starts[r + 1]):  # as ``dynamics.scale_rows``, to the last bit
+                J[r, indices[p]] = jacobians[k, r, indices[p]] * columns[indices[p]] / norm
         chosen = _independent(before, d)
         slot = _layout(keys, position, chosen)
-        ratios[k] = _ratio(scaled[k], slot, m, starts, indices, position, chosen)
-        bases[k], signs[k] = _null_space(scaled[k], slot, m, starts, indices, position, chosen)
+        ratios[k] = _iterated_ratio(J, rows, starts, indices, G, L, low, high, y)
+        if not np.isfinite(ratios[k]):  # near a rank loss: the bidiagonal reduction's figure
+            low[:], high[:] = 1.0, 1.0
+            ratios[k] = _ratio(J, slot, m, starts, indices, position, chosen)
+        bases[k], signs[k] = _null_space(J, slot, m, starts, indices, position, chosen)
         if np.all(np.isfinite(bases[k])):
             before = bases[k]
     return ratios, bases, signs
 
 
-__all__ = ["WIDEST", "band_order", "spectra"]
+def dense_spectra(jacobians: np.ndarray, columns: np.ndarray, norms: np.ndarray, bases: bool = True):
+    """``spectra`` of a small Psi_q (N, m, n), m <= n, full row rank, not a band: in one compiled pass over the output
+    times, without numpy's per-matrix overhead (on the slider-crank's 101 Psi_q of 9 x 9, batched SVDs and QRs
+    cost 1 ms): Householder's QR of Psi_q^T (``_householder``, as ``dynamics.null_space_bases``) gives T and the
+    sign of det [Psi_q; T^T], and R, whose singular values are Psi_q's: sigma_m / sigma_1 by one-sided Jacobi
+    (``_jacobi_ratio``). ``bases=False``: T left out (n x 0). NaN where Jacobi did not settle (the dense SVD's)."""
+    N, m, n = jacobians.shape
+    scale = (np.ascontiguousarray(columns, dtype=float), np.ascontiguousarray(norms, dtype=float))
+    return _dense_spectra(np.ascontiguousarray(jacobians, dtype=float), *scale, bool(bases))
+
+
+@njit(cache=True, nogil=True)
+def _householder(J, V, beta, T):
+    """Householder's QR of Psi_q^T (n x m) = Q R: the sign of det [Psi_q; T^T] = det R_1 det Q (each reflector
+    det -1), and, if T has columns, the null-space basis T (n x d) = Q's last d columns, the reflectors applied to
+    the identity's last columns last first (Golub and Van Loan, sec. 5.1.6). J (m x n, Psi_q's rows: Psi_q^T's
+    columns) is overwritten, R^T in its first m columns; 0 where a column of R vanishes."""
+    m, n = J.shape
+    sign = 1.0
+    for j in range(m):
+        norm = 0.0
+        for i in range(j, n):
+            norm += J[j, i] * J[j, i]
+        norm = np.sqrt(norm)
+        if norm == 0.0:
+            beta[j] = 0.0
+            sign = 0.0
+            continue
+        alpha = -norm if J[j, j] >= 0.0 else norm  # R's diagonal entry, away from J[j, j] (no cancellation)
+        size = 0.0
+        for i in range(j, n):
+            V[j, i] = J[j, i] - (alpha if i == j else 0.0)
+            size += V[j, i] * V[j, i]
+        beta[j] = 2.0 / size
+        for c in range(j + 1, m):
+            along = 0.0
+            for i in range(j, n):
+                along += V[j, i] * J[c, i]
+            along *= beta[j]
+            for i in range(j, n):
+                J[c, i] -= along * V[j, i]
+        J[j, j] = alpha
+        for i in range(j + 1, n):
+            J[j, i] = 0.0
+        sign = -sign if alpha > 0.0 else sign  # sign(alpha) times the reflector's -1
+    d = T.shape[1]
+    for a in range(d):
+        for i in range(n):
+            T[i, a] = 1.0 if i == m + a else 0.0
+    for j in range(m - 1, -1, -1):
+        if beta[j] == 0.0:
+            continue
+        for a in range(d):
+            along = 0.0
+            for i in range(j, n):
+                along += V[j, i] * T[i, a]
+            along *= beta[j]
+            for i in range(j, n):
+                T[i, a] -= along * V[j, i]
+    return sign
+
+
+@njit(cache=True, nogil=True)
+def _jacobi_ratio(B):
+    """sigma_m / sigma_1 of the square B (m x m; here R^T of ``_householder``: Psi_q's singular values) by
+    one-sided Jacobi (Hestenes): plane rotations of pairs of rows until every pair is orthogonal to rounding,
+    the row norms then the singular values, to high relative accuracy (Demmel and Veselic, SIAM J. Matrix Anal.
+    Appl. 13, 1992); after a QR, few sweeps. O(m^3) a sweep, no LAPACK call: on the matrices of a small
+    mechanism it costs less than the call. NaN if the sweeps do not settle."""
+    m = B.shape[0]
+    sizes = np.empty(m)  # the rows' squared norms, updated by each rotation (de Rijk's bookkeeping)
+    tolerance = np.sqrt(m) * np.finfo(np.float64).eps  # orthogonal to rounding (LAPACK's dgesvj)
+    for p in range(m):
+        sizes[p] = np.dot(B[p], B[p])
+    for _ in range(30):
+        rotated = False
+        for p in range(m - 1):
+            for q in range(p + 1, m):
+                c = 0.0
+                for i in range(m):
+                    c += B[p, i] * B[q, i]
+                if abs(c) <= tolerance * np.sqrt(sizes[p] * sizes[q]):
+                    continue
+                rotated = True
+                zeta = (sizes[q] - sizes[p]) / (2.0 * c)
+                t = (1.0 if zeta >= 0.0 else -1.0) / (abs(zeta) + np.sqrt(1.0 + zeta * zeta))
+                cs = 1.0 / np.sqrt(1.0 + t * t)
+                sn = cs * t
+                for i in range(m):
+                    x, y = B[p, i], B[q, i]
+                    B[p, i], B[q, i] = cs * x - sn * y, sn * x + cs * y
+                sizes[p] -= t * c
+                sizes[q] += t * c
+        if not rotated:
+            for p in range(m):
+                sizes[p] = np.dot(B[p], B[p])
+            largest = np.max(sizes)
+            return np.sqrt(np.min(sizes) / largest) if largest > 0.0 else 0.0
+    return np.nan
+
+
+@njit(_DENSE, cache=True, nogil=True)
+def _dense_spectra(jacobians, columns, norms, bases):
+    N, m, n = jacobians.shape
+    d = n - m
+    ratios, signs = np.empty(N), np.empty(N)
+    tangents = np.zeros((N, n, d if bases else 0))
+    J, V, beta, B = np.empty((m, n)), np.zeros((m, n)), np.empty(m), np.empty((m, m))
+    for k in range(N):
+        for r in range(m):
+            norm = norms[k, r] if norms[k, r] > 0.0 else 1.0
+            for c in range(n):  # as ``dynamics.scale_rows``, to the last bit
+                J[r, c] = jacobians[k, r, c] * columns[c] / norm
+        signs[k] = _householder(J, V, beta, tangents[k])
+        B[:, :] = J[:, :m]  # R^T
+        ratios[k] = _jacobi_ratio(B)
+    return ratios, tangents, signs
+
+
+__all__ = ["WIDEST", "band_order", "dense_spectra", "row_norms", "spectra"]

@@ -118,3 +118,48 @@ def test_a_run_through_records_the_dense_crossings(monkeypatch):
     assert len(crossings) == 1 and abs(crossings[0]["t"] - 0.5) < 0.06  # flat at t = 0.5, between two output times
     assert closest["t"] == dense_closest["t"]
     assert closest["ratio"] == pytest.approx(dense_closest["ratio"], rel=1e-10)
+
+
+@pytest.mark.parametrize("shape", [(9, 9), (4, 6), (8, 9), (20, 23)])
+def test_small_dense_spectra_give_numpys_ratio_basis_and_sign(shape):
+    """dense_spectra (QR of Psi_q^T, one-sided Jacobi on R) against numpy's SVD and determinant, on random Psi_q with
+    columns weighted and rows of any length (scaled by the routine, as dynamics.scale_rows), near singular ones
+    among them (a row replaced by its neighbour plus 1e-6 of noise)."""
+    m, n = shape
+    rng = np.random.default_rng(m * n)
+    jacobians = rng.standard_normal((12, m, n)) * rng.uniform(0.1, 10.0, (12, m, 1))
+    jacobians[6:, 1] = jacobians[6:, 0] + 1e-6 * rng.standard_normal((6, n))
+    columns = rng.uniform(0.5, 2.0, n)
+    norms = np.linalg.norm(jacobians * columns, axis=-1)
+    ratios, bases, signs = singular.dense_spectra(jacobians, columns, norms)
+    scaled = dynamics.scale_rows(jacobians, columns, norms)
+    s = np.linalg.svd(scaled, compute_uv=False)
+    assert np.all(s[6:, -1] / s[6:, 0] < 1e-5) and np.all(s[:6, -1] / s[:6, 0] > 1e-3)
+    np.testing.assert_allclose(ratios[:6], s[:6, -1] / s[:6, 0], rtol=1e-10)
+    np.testing.assert_allclose(ratios[6:], s[6:, -1] / s[6:, 0], rtol=1e-6)  # numpy's own error: eps / ratio
+    assert bases.shape == (12, n, n - m) and np.max(np.abs(scaled @ bases), initial=0.0) < 1e-13
+    np.testing.assert_allclose(np.swapaxes(bases, 1, 2) @ bases, np.broadcast_to(np.eye(n - m), (12, n - m, n - m)),
+                               atol=1e-13)  # fmt: skip
+    determinants = [np.linalg.det(np.vstack([J, T.T])) for J, T in zip(scaled, bases, strict=True)]
+    np.testing.assert_array_equal(signs, np.sign(determinants))
+
+
+def test_the_bands_iterated_ratio_is_numpys_without_the_bidiagonal_route():
+    """The band's ratio from the Gram matrix's extreme eigenvalues (_iterated_ratio: Cholesky tests, shifted inverse
+    iteration) itself, not its fallback, along the chain's swing from 30 to 85 degrees (sigma_m / sigma_1 from 2e-2
+    to 1e-4): numpy's SVD to 1e-10, each time warm-started from the time before as in a run."""
+    system, qs = chain_at(np.linspace(30.0, 85.0, 8))
+    guard = Guard(system, qs[0], 1e-3, 1e-8)
+    scaled = np.array([guard._scaled(system.jacobian(q, 0.0)) for q in qs])
+    pattern = np.any(scaled != 0.0, axis=0)
+    _, keys = singular.band_order(pattern)
+    starts = np.concatenate([[0], np.cumsum(pattern.sum(axis=1))]).astype(np.int64)
+    indices = np.concatenate([np.flatnonzero(row) for row in pattern]).astype(np.int64)
+    rows = np.argsort(keys, kind="mergesort")
+    m, n = scaled.shape[1:]
+    w = singular._gram_width(rows, starts, indices, n)
+    G, L, low, high, y = np.empty((m, w + 1)), np.empty((m, w + 1)), np.ones(m), np.ones(m), np.empty(n)
+    ratios = [singular._iterated_ratio(J, rows, starts, indices, G, L, low, high, y) for J in scaled]
+    s = np.linalg.svd(scaled, compute_uv=False)
+    assert w < 16 and np.all(s[:, -1] / s[:, 0] < 0.1)  # a band, and near singular all along: the figure matters
+    np.testing.assert_allclose(ratios, s[:, -1] / s[:, 0], rtol=1e-10)
