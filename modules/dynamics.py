@@ -1708,6 +1708,12 @@ class Guard:
         steps = [(k, k if ratios[k] <= ratios[k + 1] else k + 1, k + 1) for k in near]
         for a, middle, b, crossing in sorted([(*i, True) for i in intervals] + [(*i, False) for i in steps]):
             self._judge_branch(t, q, qd, qdd, a, middle, b, float(ratios[middle]), crossing)
+        # a singular position recorded step by step (``through``) between two output times at which no dip showed
+        # (the output times too coarse for it): judged over the output interval that holds it
+        for record in [c for c in self.crossings if "branch" not in c and t[0] < c["t"] < t[-1]]:
+            k = int(np.searchsorted(t, record["t"]))  # t[k - 1] < t_c <= t[k]
+            middle = k - 1 if ratios[k - 1] <= ratios[k] else k
+            self._judge_branch(t, q, qd, qdd, k - 1, middle, k, float(ratios[middle]), True, record)
 
     @property
     def warnings(self) -> list[str]:
@@ -1746,10 +1752,14 @@ class Guard:
         except BranchSwitchError as switch:
             raise switch from err
 
-    def _judge_branch(self, t, q, qd, qdd, a: int, middle: int, b: int, ratio: float, crossing: bool) -> None:
+    def _judge_branch(
+        self, t, q, qd, qdd, a: int, middle: int, b: int, ratio: float, crossing: bool, record: dict | None = None
+    ) -> None:
         """``check_branches``' verdict on the crossing (or, not ``crossing``, the step next to a singular
         position) near t[middle], between the samples a and b on either side: step by step (a dip's two steps
-        each, the shorter the interval the surer the verdict), switched if one step is, kept if every one is."""
+        each, the shorter the interval the surer the verdict), switched if one step is, kept if every one is. The
+        verdict goes to ``record`` (a crossing recorded step by step) when given, else to the crossing recorded
+        near t[middle], or to a new one."""
         from .diagnostics import singular_joints
 
         verdicts = [
@@ -1763,9 +1773,10 @@ class Guard:
         _, joints = singular_joints(self.system.jacobian(q[middle], t[middle]), self.system.row_owners)
         near = t[max(a - 1, 0)], t[min(b + 1, t.size - 1)]  # a crossing recorded step by step (``through``)
         known = [c for c in self.crossings if near[0] <= c["t"] <= near[1]]
-        passed = known[0] if known else {"t": float(t[middle]), "ratio": ratio, "joints": joints}
+        passed = record if record is not None else known[0] if known else {"t": float(t[middle]), "ratio": ratio,
+                                                                           "joints": joints}  # fmt: skip
         passed["branch"] = verdict
-        if not known:
+        if record is None and not known:
             self.crossings.append(passed)
             self.crossings.sort(key=lambda c: c["t"])
         where = (

@@ -289,3 +289,18 @@ def test_an_index3_run_whose_newton_iterations_fail_at_a_singular_position_says_
         return
     assert centre_error(result, 2) < 1e-2
     assert [c["branch"] for c in result.info["singular_positions"]] == ["kept"] * 3
+
+
+def test_a_crossing_recorded_between_coarse_output_times_gets_a_verdict():
+    """The augmented Lagrangian records the singular positions it passes step by step (``through``); where the
+    output times are too coarse for a dip to show at them (9 intervals over 1.35 s: 0.15 s apart), each such
+    crossing is judged over the output interval that holds it: every one has a verdict, and the velocities cannot
+    tell over 0.15 s, so the run says so by name (it stayed on the branch: within 1e-6 m of the reference)."""
+    system, q0, qd0 = build_system(load_model(chains.loop_chain(2, ANGLE, RATE)))
+    result = forward_dynamics(system, q0, qd0, SPANS[2], 9, "augmented-lagrangian", "dop853", divergence="skip")
+    crossings = result.info["singular_positions"]
+    assert len(crossings) == 3 and all(c.get("branch") in ("kept", "cannot tell") for c in crossings), crossings
+    warned = [w for w in result.info["warnings"] if w.startswith("branch: cannot tell")]
+    assert len(warned) == 1 and all(f"{c['t']:.6g}" in warned[0] for c in crossings if c["branch"] == "cannot tell")
+    truth = chains.loop_reference(2, result.t, ANGLE, RATE)
+    assert np.max(np.abs(result.q.reshape(len(result.t), -1, 3)[:, :, :2] - truth)) < 1e-6
