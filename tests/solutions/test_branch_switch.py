@@ -304,3 +304,33 @@ def test_a_crossing_recorded_between_coarse_output_times_gets_a_verdict():
     assert len(warned) == 1 and all(f"{c['t']:.6g}" in warned[0] for c in crossings if c["branch"] == "cannot tell")
     truth = chains.loop_reference(2, result.t, ANGLE, RATE)
     assert np.max(np.abs(result.q.reshape(len(result.t), -1, 3)[:, :, :2] - truth)) < 1e-6
+
+
+def test_the_whole_array_prefilter_flags_every_step_the_verdict_calls_a_switch():
+    """``possible_switches`` (all steps at once) keeps every step ``branch_verdict`` (one step) calls 'switched'
+    and drops the smooth ones: two bodies moving as q' = sin(w t) (q'' its derivative), then one body's
+    velocity reversed from sample 6 on (a switch between samples 5 and 6), and a smaller kink at 12."""
+    from solutions.dynamics import possible_switches
+
+    t = np.linspace(0.0, 1.0, 21)
+    qd = np.stack([np.sin(3.0 * t + phase) for phase in np.linspace(0.0, 1.0, 6)], axis=1)
+    qdd = np.stack([3.0 * np.cos(3.0 * t + phase) for phase in np.linspace(0.0, 1.0, 6)], axis=1)
+    qd[6:, :3] *= -1.0
+    qdd[6:, :3] *= -1.0
+    qd[12:, 3] += 0.3
+    weights, bodies = np.ones((2, 3)), [type("Body", (), {"name": name}) for name in ("a", "b")]
+    steps = np.arange(t.size - 1)
+    flagged = possible_switches(weights, t, qd, qdd, steps)
+    verdicts = [branch_verdict(weights, t[k + 1] - t[k], (qd[k], qdd[k]), (qd[k + 1], qdd[k + 1]), bodies)[0]
+                for k in steps]  # fmt: skip
+    switched = {k for k in steps if verdicts[k] == "switched"}
+    assert 5 in switched and switched <= set(np.flatnonzero(flagged))
+    assert not flagged[:5].any() and not flagged[6:11].any() and verdicts[0] == "kept"
+    seen = set()  # kinks from nothing to a switch: every step the verdict calls a switch is flagged
+    for kink in np.linspace(0.0, 0.6, 121):
+        bent = qd.copy()
+        bent[12:, 3] += kink
+        verdict = branch_verdict(weights, t[12] - t[11], (bent[11], qdd[11]), (bent[12], qdd[12]), bodies)[0]
+        assert possible_switches(weights, t, bent, qdd, np.array([11]))[0] or verdict != "switched", kink
+        seen.add(verdict)
+    assert {"kept", "switched"} <= seen  # the grid crosses the verdict's threshold
