@@ -85,6 +85,8 @@ from .settings import (
 )
 
 MULTISTEP_INTEGRATORS = ("BDF", "LSODA")
+DIFFERENCING_INTEGRATORS = ("Radau", "BDF", "LSODA")
+"""scipy's implicit methods: their Newton iterations take the Jacobian of the right-hand side by finite differences."""
 DEFAULT_RTOL = 1e-8
 """The integrators' relative tolerance when none is given, for runs of up to DEFAULT_ACCURACY / DEFAULT_RTOL = 100
 periods of the fastest motion squared (``default_rtol`` tightens it for longer runs)."""
@@ -492,6 +494,8 @@ def ode_motion(run: Run, start: Start) -> tuple[Plan, EquationsOfMotion, Guard, 
     made = start.rates.take(plan.formulation) if start.rates is not None else None  # made for the start rates
     if made is None:
         made = make_formulation(plan.formulation, system, start.M, start.forces, **run.settings.formulation_options)
+    if plan.integrator in DIFFERENCING_INTEGRATORS and hasattr(made, "differenced"):
+        made.differenced = True  # the augmented Lagrangian's iterations stop by a fixed rule (``converged``)
     equations = EquationsOfMotion(made, start.forces, has_drivers=bool(system.model.motors))
     plan, raised = held_tolerances(plan, equations)
     return plan, equations, make_guard(run, plan, equations, start.q), raised

@@ -410,6 +410,7 @@ class AugmentedLagrangian(Formulation):
         self.projections = 0
         self.unconverged = 0  # evaluations whose iterations stopped at max_iterations (a singular position)
         self.iterations = 0  # iterations of eq. 5.52, over all evaluations
+        self.differenced = False  # True under an implicit integrator, whose Jacobian differences q'' (``converged``)
 
     @property
     def held_rtol(self) -> float:
@@ -457,6 +458,12 @@ class AugmentedLagrangian(Formulation):
         floor, ran all ``max_iterations`` on a fifth of the Sarrus linkage's evaluations). Near a singular
         position some sigma is small and theta close to 1: the changes shrink slowly, each a new smallest one,
         none reached by shrinking fast, and the iterations run on, up to ``max_iterations``, as before.
+
+        Not under an implicit integrator (``differenced``: Radau, BDF, LSODA), whose Newton iterations take the
+        Jacobian of q'' by finite differences: states a step apart stopping after different counts give q'' a
+        rounding-sized jump that the differences magnify (Sarrus' linkage through a singular position, Radau: twice
+        the evaluations). There the iterations stop on a change below 1e-14 (1 + max |q''|), under the rounding
+        floor: near singular positions all ``max_iterations``, a smooth function of the state.
         """
         change = changes[-1]
         if change == 0.0:
@@ -485,7 +492,10 @@ class AugmentedLagrangian(Formulation):
             changes.append(math.sqrt(max(float(step @ M @ step), 0.0)))
             qdd = new
             self.iterations += 1
-            if self.converged(changes, math.sqrt(max(float(qdd @ M @ qdd), 0.0))):
+            if self.differenced:  # a fixed rule, far below rounding: the same count for neighbouring states
+                if float(np.max(np.abs(step), initial=0.0)) <= 1e-14 * (1.0 + float(np.max(np.abs(qdd), initial=0.0))):
+                    break
+            elif self.converged(changes, math.sqrt(max(float(qdd @ M @ qdd), 0.0))):
                 break
         else:
             self.unconverged += 1

@@ -307,3 +307,18 @@ def test_augmented_lagrangian_run_keeps_its_accuracy_with_few_iterations():
     evaluations = result.info["rhs_evaluations"]
     assert result.info["augmented_iterations"] < 6 * evaluations
     assert result.info["unconverged_iterations"] < 0.05 * evaluations
+
+
+def test_augmented_lagrangian_under_radau_stops_by_the_fixed_rule():
+    """Under an implicit integrator (Radau differences q'' for its Jacobian) the iterations of eq. 5.52 stop on a
+    change below 1e-14 (1 + max |q''|), the same count for neighbouring states, not at the rounding floor: more
+    iterations per evaluation than the same run under DOP853 (the rounding rule), and the motion as accurate."""
+    system, q0, qd0 = build_system(load_model(REPO / "course/models/double_pendulum.yaml"))
+    reference = forward_dynamics(system, q0, qd0, 0.3, 6, "baumgarte", "DOP853", rtol=1e-12, atol=1e-14)
+    per_evaluation = {}
+    for integrator in ("Radau", "DOP853"):
+        result = forward_dynamics(system, q0, qd0, 0.3, 6, "augmented-lagrangian", integrator, rtol=1e-8, atol=1e-10,
+                                  engine="numpy", divergence="skip")  # fmt: skip
+        assert float(np.max(np.abs(result.q - reference.q))) < 1e-6, integrator
+        per_evaluation[integrator] = result.info["augmented_iterations"] / result.info["rhs_evaluations"]
+    assert per_evaluation["Radau"] > 1.5 * per_evaluation["DOP853"], per_evaluation
