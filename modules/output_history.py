@@ -76,7 +76,7 @@ def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) ->
     return columns
 
 
-def _axes(frame) -> np.ndarray:
+def axes(frame) -> np.ndarray:
     """[f g h] of a joint frame, its axes in the body as columns."""
     return np.column_stack([frame.f, frame.g, frame.h])
 
@@ -118,20 +118,28 @@ def spatial_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -
     ground = (j < 0)[:, None]
     F, M = np.where(ground, -force["i"], force["j"]), np.where(ground, -moment["i"], moment["j"])
     joints = np.flatnonzero(framed)  # F and M in the joint frame too: its f, g, h in body j, turned to global axes
-    frames = np.array([_axes(elements[e][1].frames[1]) for e in joints]).reshape(-1, 3, 3)
+    frames = np.array([axes(elements[e][1].frames[1]) for e in joints]).reshape(-1, 3, 3)
     axes_t = np.swapaxes(A[:, j[joints]] @ frames, 2, 3)  # rows f, g, h (global)
     F_joint, M_joint = (axes_t @ F[:, joints, :, None])[..., 0], (axes_t @ M[:, joints, :, None])[..., 0]
-    at_joint = {e: position for position, e in enumerate(joints)}
+    place = np.full(len(elements), -1)
+    place[joints] = np.arange(joints.size)
+    return spatial_columns([e.name for _, e in elements], F, M, F_joint, M_joint, place)
+
+
+def spatial_columns(names, F, M, F_joint, M_joint, place) -> dict[str, np.ndarray]:
+    """The spatial reaction columns of ``spatial.reactions.joint_reactions``, in its order: each element's force F
+    and moment M (N, elements, 3), and where it has joint frames (``place``: its row in F_joint, M_joint, else -1)
+    the same in the joint frame fixed in body j."""
     columns = {}
-    for row, (_, element) in enumerate(elements):
+    for row, name in enumerate(names):
         for axis, c in zip("xyz", range(3), strict=True):
-            columns[f"{element.name}.F{axis}"] = F[:, row, c]
+            columns[f"{name}.F{axis}"] = F[:, row, c]
         for axis, c in zip("xyz", range(3), strict=True):
-            columns[f"{element.name}.M{axis}"] = M[:, row, c]
-        if row in at_joint:
-            for axis, c in zip("xyz", range(3), strict=True):  # in the order of the numpy engine's columns
-                columns[f"{element.name}.F{axis}_joint"] = F_joint[:, at_joint[row], c]
-                columns[f"{element.name}.M{axis}_joint"] = M_joint[:, at_joint[row], c]
+            columns[f"{name}.M{axis}"] = M[:, row, c]
+        if place[row] >= 0:
+            for axis, c in zip("xyz", range(3), strict=True):
+                columns[f"{name}.F{axis}_joint"] = F_joint[:, place[row], c]
+                columns[f"{name}.M{axis}_joint"] = M_joint[:, place[row], c]
     return columns
 
 

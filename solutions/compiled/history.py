@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..output_history import axes, spatial_columns
+
 
 def constraint_arrays(module, scene, times: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(Psi, Psi_q, Psi_t) at every output time, shapes (N, m), (N, m, n), (N, m), from the compiled module."""
@@ -124,11 +126,6 @@ def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) ->
     return columns
 
 
-def _axes(frame) -> np.ndarray:
-    """[f g h] of a joint frame, its axes in the body as columns."""
-    return np.column_stack([frame.f, frame.g, frame.h])
-
-
 def _spatial_layout(system) -> tuple:
     """(element names, each element's place among those with joint frames or -1, and the arrays
     ``history_kernels.spatial_reactions`` takes: the rows of all elements (the Euler parameters' normalization
@@ -148,7 +145,7 @@ def _spatial_layout(system) -> tuple:
         given = e.frames[1].origin if has_frames else getattr(e, "sj", None)
         offsets[row] = 0.0 if given is None else given
     joints = np.flatnonzero(framed)  # F and M in the joint frame too: its f, g, h in body j
-    frames = np.array([_axes(elements[e][1].frames[1]) for e in joints], dtype=float).reshape(-1, 3, 3)
+    frames = np.array([axes(elements[e][1].frames[1]) for e in joints], dtype=float).reshape(-1, 3, 3)
     place = np.full(len(elements), -1, dtype=np.int64)
     place[joints] = np.arange(joints.size)
     names = [e.name for _, e in elements]
@@ -171,17 +168,7 @@ def spatial_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -
     F, M = np.empty((N, len(names), 3)), np.empty((N, len(names), 3))
     F_joint, M_joint = np.empty((N, framed, 3)), np.empty((N, framed, 3))
     history_kernels.spatial_reactions(*_histories(q, lam, jac), *arrays, F, M, F_joint, M_joint)
-    columns = {}
-    for row, name in enumerate(names):
-        for axis, c in zip("xyz", range(3), strict=True):
-            columns[f"{name}.F{axis}"] = F[:, row, c]
-        for axis, c in zip("xyz", range(3), strict=True):
-            columns[f"{name}.M{axis}"] = M[:, row, c]
-        if place[row] >= 0:
-            for axis, c in zip("xyz", range(3), strict=True):  # in the order of the numpy engine's columns
-                columns[f"{name}.F{axis}_joint"] = F_joint[:, place[row], c]
-                columns[f"{name}.M{axis}_joint"] = M_joint[:, place[row], c]
-    return columns
+    return spatial_columns(names, F, M, F_joint, M_joint, place)
 
 
 def joint_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
