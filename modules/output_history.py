@@ -33,15 +33,12 @@ def residuals(psi: np.ndarray, jac: np.ndarray, psit: np.ndarray, qd: np.ndarray
     }
 
 
-def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
-    """``reactions.joint_reactions(system, q, lam, t)`` over the histories q (N, n), lambda (N, m), every joint at
-    once: each row's part -(Psi_q)_r^T lambda_r of the generalized force on the three columns of either body (eq.
-    5.70), summed over the rows of its joint, the moment taken about the joint point; a ground side gets the
-    opposite of the other side's."""
+def planar_joints(system) -> tuple[list, list, list, list, list]:
+    """The planar joints as the reaction columns group them (``reactions.joint_groups``): their names, each one's
+    rows of Psi, its two bodies (i, j), the body carrying its point and that point in the body (its first element's
+    s_j, else the body's origin)."""
     from .reactions import joint_groups
 
-    N = q.shape[0]
-    X = np.concatenate([q.reshape(N, -1, 3), np.zeros((N, 1, 3))], axis=1)  # ground last: body -1
     names, rows, sides, carriers, points, every_row = [], [], [], [], [], np.arange(system.n_constraints)
     for name, indices in joint_groups(system).items():
         first = next((system.elements[k] for k in indices if getattr(system.elements[k], "sj", None) is not None), None)
@@ -51,6 +48,17 @@ def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) ->
         sides.append((owner.i, owner.j))
         carriers.append((owner if first is None else first).j)
         points.append((0.0, 0.0) if first is None else first.sj)
+    return names, rows, sides, carriers, points
+
+
+def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
+    """``reactions.joint_reactions(system, q, lam, t)`` over the histories q (N, n), lambda (N, m), every joint at
+    once: each row's part -(Psi_q)_r^T lambda_r of the generalized force on the three columns of either body (eq.
+    5.70), summed over the rows of its joint, the moment taken about the joint point; a ground side gets the
+    opposite of the other side's."""
+    N = q.shape[0]
+    X = np.concatenate([q.reshape(N, -1, 3), np.zeros((N, 1, 3))], axis=1)  # ground last: body -1
+    names, rows, sides, carriers, points = planar_joints(system)
     if not names:  # no joint: no reaction
         return {}
     lengths = [len(r) for r in rows]

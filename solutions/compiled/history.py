@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..output_history import axes, spatial_columns
+from ..output_history import axes, planar_joints, spatial_columns
 
 
 def constraint_arrays(module, scene, times: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -85,17 +85,7 @@ def _row_columns(system) -> np.ndarray | None:
 def _planar_layout(system) -> tuple:
     """(joint names, the rows of all joints in joint order, each joint's first row among them, its two bodies (i, j),
     the body carrying its point and the point in that body), as ``history_kernels.planar_reactions`` takes them."""
-    from ..reactions import joint_groups
-
-    names, rows, sides, carriers, points, every_row = [], [], [], [], [], np.arange(system.n_constraints)
-    for name, indices in joint_groups(system).items():
-        first = next((system.elements[k] for k in indices if getattr(system.elements[k], "sj", None) is not None), None)
-        owner = system.elements[indices[0]]
-        names.append(name)
-        rows.append(np.concatenate([every_row[system.rows[k]] for k in indices]))
-        sides.append((owner.i, owner.j))
-        carriers.append((owner if first is None else first).j)
-        points.append((0.0, 0.0) if first is None else first.sj)
+    names, rows, sides, carriers, points = planar_joints(system)
     starts = np.cumsum([0, *[len(r) for r in rows[:-1]]])  # each joint's first row in the rows of all
     i, j = (np.ascontiguousarray(side, dtype=np.int64) for side in np.array(sides, dtype=np.int64).reshape(-1, 2).T)
     layout = (np.concatenate(rows).astype(np.int64), starts.astype(np.int64), i, j, np.array(carriers, np.int64))
