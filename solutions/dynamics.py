@@ -750,7 +750,7 @@ def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str, r
     periods = rate = None
     if integrator not in INDEX3_INTEGRATORS and integrator not in FIXED_STEP_METHODS:
         rate = motion_rate(system, M, forces, q, qd, formulation, options, rates, size)
-        periods = 1.0 if rate is None else max(1.0, settings.t_end * rate / (2.0 * np.pi))  # motion_periods
+        periods = periods_at(rate, settings.t_end)
     rtol = settings.rtol if settings.rtol is not None else default_rtol(periods, settings.accuracy)
     if settings.rtol is None and formulation == "partitioning":  # its dependent velocities: outside the control
         rtol = max(MIN_RTOL, rtol / PARTITIONING_VELOCITIES)
@@ -1143,7 +1143,11 @@ def motion_periods(
     rho and q'' come from ``rates`` (``StartRates``, shared with ``choose_method``), made here when not given; L is
     ``size`` when given (``mechanism_size``).
     """
-    rate = motion_rate(system, M, forces, q, qd, formulation, options, rates, size)
+    return periods_at(motion_rate(system, M, forces, q, qd, formulation, options, rates, size), t_end)
+
+
+def periods_at(rate: float | None, t_end: float) -> float:
+    """P = t_end w / (2 pi), at least 1, of the rate w (``motion_rate``); 1 where w is unknown."""
     return 1.0 if rate is None else max(1.0, float(t_end) * rate / (2.0 * np.pi))
 
 
