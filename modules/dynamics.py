@@ -778,6 +778,15 @@ def index3_run(run: Run, plan: Plan, M, forces, q, qd, initial: dict) -> Result:
     return result
 
 
+DRIFT_REMEDY = "use baumgarte with alpha, beta > 0, or the projection formulation"
+"""What the drift message advises for an index-1 formulation, whose acceleration-level equations let Psi drift."""
+INDEX3_DRIFT_REMEDY = (
+    "take a smaller rtol or step: the index-3 equations hold Psi = 0 only as far as their Newton iterations "
+    "converge (newton_tol, in units of rtol)"
+)
+"""What it advises for an index-3 run (hht, generalized-alpha), which solves Psi(q) = 0 itself at every step."""
+
+
 def index3_guard(run: Run, plan: Plan, q: np.ndarray) -> Guard:
     """The ``Guard`` of an index-3 run (``implicit.GuardedSteps`` makes its checks): drift as ``make_guard``'s, and
     singular positions recorded as passed (``through``), as with the augmented Lagrangian: the index-3 equations
@@ -785,7 +794,9 @@ def index3_guard(run: Run, plan: Plan, q: np.ndarray) -> Guard:
     drift_limit = run.settings.drift_limit
     loose = 100.0 * plan.rtol if run.settings.step is None else 0.0  # a loose tolerance drifts further
     drift_limit = None if drift_limit is None else max(drift_limit, loose)
-    return Guard(run.system, q, drift_limit, run.settings.singular_ratio, through=True, size=plan.size)
+    guard = Guard(run.system, q, drift_limit, run.settings.singular_ratio, through=True, size=plan.size)
+    guard.remedy = INDEX3_DRIFT_REMEDY
+    return guard
 
 
 def held_tolerances(plan: Plan, equations: EquationsOfMotion) -> tuple[Plan, list[str]]:
@@ -1535,6 +1546,7 @@ class Guard:
         self._last_q: tuple[np.ndarray, float] = (q, 0.0)
         self.size = size = mechanism_size(system, q) if size is None else size  # L, as the run's Plan has it
         self.drift_limit = None if drift_limit is None else drift_limit * size
+        self.remedy = DRIFT_REMEDY  # what to do when the positions drift (index-3 runs: ``index3_guard``)
         self.rank = rank_at(system, q).rank
         self.closest: dict | None = None
         self._tangent, self._t, self._sign = None, 0.0, 1.0
@@ -1583,8 +1595,8 @@ class Guard:
             raise AnalysisError(
                 f"constraint drift at t = {t:.6g} s: the positions are {distance[worst]:.3g} m off constraint "
                 f"{self.system.labels[worst]} (|Psi| = {abs(psi[worst]):.3g}), more than {self.drift_limit:.3g} m, "
-                "a thousandth of the mechanism's size: the positions have left the constraints; use baumgarte "
-                "with alpha, beta > 0, or the projection formulation"
+                f"{self.drift_limit / self.size:.3g} of the mechanism's size: the positions have left the "
+                f"constraints; {self.remedy}"
             )
 
     def check_configuration(self, formulation, t: float, y: np.ndarray) -> None:

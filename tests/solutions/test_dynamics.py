@@ -401,3 +401,24 @@ def test_progress_is_told_every_output_time_in_order():
     through: list[float] = []
     run_analysis(crank, q0, qd0, Settings(analysis="kinematic", t_end=0.3, steps=6), progress=through.append)
     assert through == kinematic
+
+
+def test_the_drift_stop_names_its_own_limit_and_the_remedy_of_the_method():
+    """The Guard's drift stop says the limit it was given, as a fraction of the mechanism's size (not always the
+    default thousandth), and a remedy that fits the run: stabilization for an index-1 formulation, a tighter rtol
+    or step for an index-3 integrator, which solves Psi = 0 itself."""
+    from solutions.dynamics import Guard, Plan, Run, index3_guard
+    from solutions.settings import Settings
+
+    system, q0, qd0 = build_system(load_model(MODELS / "slider_crank_flywheel.yaml"))
+    off = q0.copy()
+    off[0] += 0.05  # the crank's centre 5 cm off its pin
+    with pytest.raises(AnalysisError, match=r"0\.01 of the mechanism's size.*use baumgarte") as index1:
+        Guard(system, q0, 1e-2, None).check_drift(off, 0.3)
+    assert "thousandth" not in str(index1.value)
+    settings = Settings(t_end=1.0, drift_limit=1e-2)
+    run = Run(system, q0, qd0, settings, None, None, None)
+    plan = Plan("index-3", "hht", 1e-6, 1e-6, True, None, 1.0, None)
+    with pytest.raises(AnalysisError, match=r"0\.01 of the mechanism's size.*smaller rtol or step") as index3:
+        index3_guard(run, plan, q0).check_drift(off, 0.3)
+    assert "baumgarte" not in str(index3.value)
