@@ -60,6 +60,47 @@ STAGES = (
     (dynamics, "run_info", "info"),
 )
 """(owner, attribute, label) of every stage timed, in the order of a call."""
+COMPANION = (
+    (dynamics, "companion_centres", "divergence check: the companion run"),
+    (loops, "embedded", "  its integration loop"),
+)
+"""The stages of the divergence check's companion run at k x rtol (``dynamics.judge_divergence``), timed apart: the
+loop's timer counts only inside the companion (``inside``)."""
+
+
+@contextlib.contextmanager
+def inside(outer, inner, seconds: dict):
+    """Time ``outer`` (owner, name, label), and ``inner`` only while ``outer`` runs, into ``seconds``."""
+    within = [False]
+    owner, name, _ = inner
+    saved = [(outer[0], outer[1], getattr(outer[0], outer[1])), (owner, name, getattr(owner, name))]
+
+    def counted(*args, **kwargs):
+        if not within[0]:
+            return saved[1][2](*args, **kwargs)
+        start = CLOCK[0]()
+        try:
+            return saved[1][2](*args, **kwargs)
+        finally:
+            seconds[inner[2]] = seconds.get(inner[2], 0.0) + CLOCK[0]() - start
+
+    def flagged(*args, **kwargs):
+        within[0] = True
+        try:
+            return saved[0][2](*args, **kwargs)
+        finally:
+            within[0] = False
+
+    setattr(outer[0], outer[1], flagged)
+    setattr(owner, name, counted)
+    try:
+        with timed([outer], seconds):
+            yield seconds
+    finally:
+        for owner_, name_, original in saved:
+            setattr(owner_, name_, original)
+
+
 CLOCK = [time.perf_counter]
 """The clock of the timers: wall time, or with ``--cpu`` this thread's CPU time (``time.thread_time``), steadier on
 a machine that other work shares (what it leaves out: waiting; a compiled call does not wait)."""
@@ -91,7 +132,8 @@ def timed(stages, seconds: dict):
 def measure(model, formulation: str, calls: int) -> tuple[float, dict, float]:
     """(seconds per call, {stage label: seconds per call}, seconds per call with the divergence check) of the
     compiled run of ``model``: the stages of one run (``divergence="skip"``), then the whole call as a user makes
-    it, whose divergence check (``dynamics.judge_divergence``) may add a second run at 100 x rtol."""
+    it, whose divergence check (``dynamics.judge_divergence``) may add a second run at 100 x rtol (its own stages
+    in ``COMPANION``: the companion, and its loop)."""
     system, q0, qd0 = build_system(load_model(model))
     options = dict(formulation=formulation, integrator="DOP853", rtol=1e-6, atol=1e-8, engine="compiled")
     first = dynamics.forward_dynamics(system, q0, qd0, 1.0, 100, **options)  # compiles or loads the module
@@ -103,10 +145,13 @@ def measure(model, formulation: str, calls: int) -> tuple[float, dict, float]:
         for _ in range(calls):
             dynamics.forward_dynamics(system, q0, qd0, 1.0, 100, divergence="skip", **options)
         total = (CLOCK[0]() - start) / calls
-    start = CLOCK[0]()
-    for _ in range(calls):
-        dynamics.forward_dynamics(system, q0, qd0, 1.0, 100, **options)
-    checked = (CLOCK[0]() - start) / calls
+    companion: dict[str, float] = {}
+    with inside(*COMPANION, companion):
+        start = CLOCK[0]()
+        for _ in range(calls):
+            dynamics.forward_dynamics(system, q0, qd0, 1.0, 100, **options)
+        checked = (CLOCK[0]() - start) / calls
+    seconds.update(companion)
     return total, {label: value / calls for label, value in seconds.items()}, checked
 
 
@@ -137,7 +182,7 @@ def main(argv: list[str] | None = None) -> None:
     outside = [total - stages.get(loop, 0.0) for _, total, stages, _ in results]
     print("| **outside the loop** | " + " | ".join(f"**{value * 1e3:.2f}**" for value in outside) + " |")
     print("| whole call with the divergence check | " + " | ".join(f"{c * 1e3:.2f}" for *_, c in results) + " |")
-    for _, _, label in STAGES:
+    for _, _, label in STAGES + COMPANION:
         cells = [f"{stages[label] * 1e3:.3f}" if label in stages else "-" for _, _, stages, _ in results]
         print(f"| {label.replace('  ', '&nbsp;&nbsp;')} | " + " | ".join(cells) + " |")
 

@@ -384,10 +384,10 @@ def forward_dynamics(
     settings = (settings or default_settings()).replace(t_end=t_end, steps=steps, **named, **options)
     run = Run(system, q0, qd0, settings, masses, forces, points, progress)
     try:
-        result, began = run_stages(run, settings.formulation, settings.integrator)
+        result, made = run_stages(run, settings.formulation, settings.integrator)
     except SingularStop as stop:  # ``auto`` met a singular position: the formulation that passes it, from the start
         fallback = THROUGH_SINGULAR[0]
-        result, began = run_stages(run, fallback, settings.integrator)
+        result, made = run_stages(run, fallback, settings.integrator)
         result.info["chosen"] = {
             "formulation": fallback,
             "integrator": result.info["integrator"],
@@ -400,7 +400,7 @@ def forward_dynamics(
             "formulation": fallback,
             "why": stop.reason,
         }
-    result = judge_divergence(run, result, began)  # stage 5's last guard: a second run where the motion can be chaotic
+    result = judge_divergence(run, result, made)  # stage 5's last guard: a second run where the motion can be chaotic
     result.info["wall_time"] = _time.perf_counter() - start
     return result
 
@@ -465,6 +465,17 @@ class Start:
     rates: StartRates | None = None
 
 
+@dataclass(frozen=True)
+class Made:
+    """What a run made on the way to its result (``run_stages``): its start (stages 1 and 2), the plan as it was
+    integrated (tolerances held: ``held_tolerances``) and its equations of motion; None for an index-3 run, which
+    makes its own. A second run from the same start at another tolerance needs no more (``companion_centres``)."""
+
+    start: Start
+    plan: Plan | None = None
+    equations: EquationsOfMotion | None = None
+
+
 def start_motion(run: Run, formulation: str, integrator: str) -> Start:
     """Stages 1 and 2: the model's M and forces, consistent initial conditions, the method and tolerances."""
     M, forces = dynamic_model(run.system, run.masses, run.forces)
@@ -506,8 +517,8 @@ def run_plan(run: Run, formulation: str, integrator: str) -> Result:
     return run_stages(run, formulation, integrator)[0]
 
 
-def run_stages(run: Run, formulation: str, integrator: str) -> tuple[Result, Start]:
-    """``run_plan``'s result, and its stages 1 and 2 (``Start``: a second run from the same start needs no more)."""
+def run_stages(run: Run, formulation: str, integrator: str) -> tuple[Result, Made]:
+    """``run_plan``'s result, and what it made on the way (``Made``: its start, plan and equations of motion)."""
     start = start_motion(run, formulation, integrator)
     run, q, qd, initial, notes = start.run, start.q, start.qd, start.initial, start.notes
     system, settings = run.system, run.settings
@@ -515,7 +526,7 @@ def run_stages(run: Run, formulation: str, integrator: str) -> tuple[Result, Sta
         result = index3_run(run, start.plan, start.M, start.forces, q, qd, initial)
         if notes:
             result.info["notes"] = notes + result.info.get("notes", [])
-        return result, start
+        return result, Made(start)
     plan, equations, guard, raised = ode_motion(run, start)
     times = np.linspace(0.0, settings.t_end, settings.steps + 1)
     try:  # stage 3: the engine
@@ -549,10 +560,10 @@ def run_stages(run: Run, formulation: str, integrator: str) -> tuple[Result, Sta
         result.info["rtol_rule"] = (
             f"rtol = max({MIN_RTOL:g}, min({DEFAULT_RTOL:g}, accuracy / periods^2)) with {plan.periods:.3g} periods"
         )
-    return result, start
+    return result, Made(start, plan, equations)
 
 
-def judge_divergence(run: Run, result: Result, start: Start) -> Result:
+def judge_divergence(run: Run, result: Result, made: Made) -> Result:
     """The run's position error from a companion run at k x rtol (eqs. 6.62-6.64, ``divergence``), where the motion
     can be chaotic (``cannot_be_chaotic``) and the integrator controls its error. Within the accuracy: the result,
     with the estimate in info['divergence']. Above it, a run at the default rtol runs again at the rtol of eq. 6.64
@@ -562,14 +573,14 @@ def judge_divergence(run: Run, result: Result, start: Start) -> Result:
     info, settings = result.info, run.settings
     if settings.divergence == "skip" or info.get("integrator") in (*FIXED_STEP_METHODS, *INDEX3_INTEGRATORS):
         return result
-    why = cannot_be_chaotic(run, result) or too_short_to_diverge(start.plan, result.info["rtol"], settings)
+    why = cannot_be_chaotic(run, result) or too_short_to_diverge(made.start.plan, result.info["rtol"], settings)
     if why is not None:
         info["divergence"] = {"positions": None, "why": why}
         return result
     rtol, size = info["rtol"], mechanism_size(run.system, result.q[0])
     k = companion_factor(rtol)
     try:
-        companion = companion_centres(start, result, k * rtol, k * info["atol"])
+        companion = companion_centres(made, result, k * rtol, k * info["atol"])
     except AnalysisError as err:
         info["divergence"] = {"positions": None, "why": f"the run at {k:g} x rtol stopped: {err}"}
         return result
@@ -608,8 +619,9 @@ def cannot_be_chaotic(run: Run, result: Result) -> str | None:
     freedom = system.n_coordinates - rank
     if freedom == 0:
         return "no degree of freedom left by the joints and drivers: the motion is prescribed"
-    forces = run.forces if run.forces is not None else build_forces(system.model)
-    if system.model.motors or freedom > 1 or not autonomous(forces):
+    if system.model.motors or freedom > 1:
+        return None
+    if not autonomous(run.forces if run.forces is not None else build_forces(system.model)):
         return None
     return "one degree of freedom and no driver or force that changes with time: no chaotic motion (Poincare-Bendixson)"
 
@@ -624,10 +636,65 @@ def autonomous(forces: ForceModel) -> bool:
     return not forces.user_forces and all(timeless(e) for e in forces.elements)
 
 
-def companion_centres(start: Start, result: Result, rtol: float, atol: float) -> np.ndarray:
-    """The body centres (N, bodies, dimension) at ``result``'s output times of the run again at rtol and atol, from
-    its start (stages 1 and 2 done: ``start``) by the same method and engine; the engine's stage only, with its
-    Guard (no result: reactions, energies and the like are not needed)."""
+def companion_centres(made: Made, result: Result, rtol: float, atol: float) -> np.ndarray:
+    """The body centres (N, bodies, dimension) at ``result``'s output times of the run again at rtol and atol (the
+    companion of eq. 6.62), from its start by the same method and engine: the integration alone.
+
+    The companion is a second opinion on the positions, and takes only them: no q'', lambda or energies at the
+    output times, and none of the Guard's checks where the run's own Guard saw no position near a singular one
+    (``info['closest_singularity']`` above NEAR_SINGULAR, no crossing). There the companion cannot silently leave
+    the assembly branch: to leave it, it would have to pass close to a singular position that the run, following
+    the same motion, stayed away from, and a companion on another branch is off by the size of the mechanism, a
+    departure D that eq. 6.62 reads as a large error (the run is tightened, whose own run the Guard checks, or
+    warns), never as a small one; its drift from the constraints (no drift check) adds to D the same way.
+    Where the run did come near a singular position, the companion is a whole run with its Guard
+    (``guarded_companion``): a stop there is said as 'the run at k x rtol stopped'.
+
+    The compiled engine's companion reuses the run's compiled plan and loaded module (``dispatch.positions``: no
+    tolerance is built into them); the numpy engine's makes its own formulation object (the run's may keep state
+    from its last evaluation: the partition of ``partitioning``, the penalty's counters) and keeps the formulation's
+    correction after each step (``projection``, ``augmented-lagrangian``)."""
+    start, info = made.start, result.info
+    closest = info.get("closest_singularity")
+    if made.equations is None or info.get("singular_positions") or (closest and closest["ratio"] < NEAR_SINGULAR):
+        return guarded_companion(made.start, result, rtol, atol)
+    plan, _ = held_tolerances(dataclasses.replace(made.plan, rtol=rtol, atol=atol, rtol_given=True), made.equations)
+    if "compiled" in info:
+        from .compiled import dispatch
+
+        job = dispatch.compiled_plan(made.equations, plan.formulation)
+        z0 = made.equations.initial_state(start.q, start.qd, 0.0)
+        q = dispatch.positions(job, z0, result.t, plan, start.run.settings)
+    else:
+        q = numpy_positions(start, plan, result.t)
+    return centres(start.run.system, q)
+
+
+def numpy_positions(start: Start, plan: Plan, times: np.ndarray) -> np.ndarray:
+    """q at the output times of the numpy engine's run from ``start`` by ``plan`` (its integration alone: the
+    formulation's correction after each step, none of the Guard's checks; ``companion_centres``)."""
+    system, settings = start.run.system, start.run.settings
+    options = settings.formulation_options
+    formulation = make_formulation(plan.formulation, system, start.M, start.forces, **options)
+    if plan.integrator in DIFFERENCING_INTEGRATORS and hasattr(formulation, "differenced"):
+        formulation.differenced = True  # as ``ode_motion``
+    equations = EquationsOfMotion(formulation, start.forces, has_drivers=bool(system.model.motors))
+    q = np.empty((times.size, system.n_coordinates))
+
+    def record(k: int, t: float, z: np.ndarray) -> None:
+        q[k] = formulation.coordinates(t, equations.split(z)[0])[0]
+
+    integrate(
+        equations.rhs, equations.initial_state(start.q, start.qd, 0.0), times, record, method=plan.integrator,
+        rtol=plan.rtol, atol=plan.atol, step=settings.step, after_step=equations.after_step,
+        max_evaluations=settings.max_evaluations, stiffness=settings.stiffness,
+    )  # fmt: skip
+    return q
+
+
+def guarded_companion(start: Start, result: Result, rtol: float, atol: float) -> np.ndarray:
+    """``companion_centres`` by a whole run's engine stage with its Guard (``ode_motion``, ``integrate_motion``),
+    for a run that came near a singular position."""
     run = same_method(start.run, result)
     plan = dataclasses.replace(start.plan, rtol=rtol, atol=atol, rtol_given=True)
     plan, equations, guard, _ = ode_motion(run, dataclasses.replace(start, run=run, plan=plan))

@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -214,6 +215,32 @@ def run(job, z0: np.ndarray, times: np.ndarray, settings: Settings, on_pause=Non
         if integrator != "rk4":
             stats.restarts = out.steps - (1 if integrator in ("DOP853", "RK45") else 0)
     return out, stats
+
+
+def positions(job, z0: np.ndarray, times: np.ndarray, plan, settings: Settings) -> np.ndarray:
+    """q at the output times of the compiled run of ``job`` from z0 by ``plan``'s integrator and tolerances (an
+    adaptive one): the integration loop alone, and a tree's body coordinates from its joint states (the divergence
+    check's companion run, ``dynamics.companion_centres``: the run's plan and loaded module, another tolerance).
+    Raises as the run would where it stops early (``stop``); ``settings``: the run's step, budget."""
+    from . import COMPILED_INTEGRATORS, load, loops, parameters, paused_embedded, tableau
+    from .tree import TreeScene
+
+    module, project, _ = load(job)
+    scene, rhs = job.scene, loops.first_class(module.scene_rhs, loops.RHS_SIGNATURE)
+    P, D = parameters(scene, *job.numbers), scene.data()
+    dop, scipy_like = COMPILED_INTEGRATORS[plan.integrator]
+    budget = np.iinfo(np.int64).max if settings.max_evaluations is None else int(settings.max_evaluations)
+    numbers = (plan.rtol, plan.atol, float(settings.step or np.inf), budget, dop, scipy_like, tableau(dop), P, D)
+    z0, times = np.ascontiguousarray(z0, dtype=float), np.ascontiguousarray(times, dtype=float)
+    project = loops.first_class(project, loops.PROJECT_SIGNATURE)
+    Y, evaluations, steps, rejected, status, t, h, _ = paused_embedded(loops, rhs, project, z0, times, numbers, None)
+    if status != 0:
+        stats = IntegrationStats(plan.integrator, rhs_evaluations=evaluations, steps=steps, rejected=rejected)
+        said = settings.replace(integrator=plan.integrator)  # the run's settings may say 'auto'
+        raise stop(SimpleNamespace(status=status, t=t, h=h), stats, said, float(times[-1] - times[0]))
+    if isinstance(scene, TreeScene):  # the body coordinates of the joint states, written after y'
+        return loops.outputs(rhs, times, Y, P, D, 3 * scene.n + scene.m)[:, Y.shape[1] : Y.shape[1] + scene.n]
+    return Y[:, : scene.n]
 
 
 def stop(out, stats: IntegrationStats, settings: Settings, span: float) -> AnalysisError | None:
