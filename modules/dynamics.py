@@ -434,6 +434,9 @@ class Plan:
     chosen: dict | None
     rate: float | None = None
     """w of ``motion_rate`` (1/s): the fastest rate of the motion at the start; None where it was not estimated."""
+    numpy_seconds: float | None = None
+    """The numpy run's estimated seconds where the engine's choice before the start rates made it and found the run
+    worth compiling (``StartRates``); the engine's choice takes it instead of estimating again."""
 
 
 class SingularStop(AnalysisError):
@@ -487,7 +490,8 @@ def start_motion(run: Run, formulation: str, integrator: str) -> Start:
     if turns is not None:
         qd = without_turns(turns, qd)
     settings = run.settings
-    rates = StartRates(run.system, M, forces, q, qd, settings.formulation_options, settings.engine == "compiled")
+    options, compiled = settings.formulation_options, settings.engine == "compiled"
+    rates = StartRates(run.system, M, forces, q, qd, options, compiled, settings)  # the engine's choice first
     plan = plan_method(run, M, forces, q, qd, formulation, integrator, rates)  # stage 2
     return Start(run, M, forces, q, qd, initial, plan, notes, rates)
 
@@ -796,7 +800,7 @@ def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str, r
     if formulation != "auto" and integrator not in INDEX3_INTEGRATORS:
         _check_redundancy(system, q, formulation)  # before ``auto`` evaluates the equations of motion
     if rates is None:
-        rates = StartRates(system, M, forces, q, qd, options, compiled=settings.engine == "compiled")
+        rates = StartRates(system, M, forces, q, qd, options, settings.engine == "compiled", settings)
     if "auto" in (formulation, integrator):
         own_masses = run.masses is not None and model.dimension == 3  # the spatial tree takes the model's masses
         chosen = choose_method(
@@ -822,7 +826,9 @@ def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str, r
     rtol = settings.rtol if settings.rtol is not None else default_rtol(periods, settings.accuracy)
     if settings.rtol is None and formulation == "partitioning":  # its dependent velocities: outside the control
         rtol = max(MIN_RTOL, rtol / PARTITIONING_VELOCITIES)
-    return Plan(formulation, integrator, rtol, settings.atol, settings.rtol is not None, periods, size, chosen, rate)
+    expected = rates.numpy_seconds.get(formulation)
+    given = settings.rtol is not None
+    return Plan(formulation, integrator, rtol, settings.atol, given, periods, size, chosen, rate, expected)
 
 
 def index3_run(run: Run, plan: Plan, M, forces, q, qd, initial: dict) -> Result:
@@ -896,7 +902,7 @@ def integrate_motion(run: Run, plan: Plan, equations, guard: Guard, z0: np.ndarr
     history = _History(times.size, run.system.n_coordinates, run.system.n_constraints, equations.extra)
     chosen = plan.chosen
     if settings.engine != "numpy":  # the compiled engine (numba), imported only when asked for
-        compiled, stats, engine_choice = compiled_motion(settings, equations, guard, z0, times, history)
+        compiled, stats, engine_choice = compiled_motion(settings, equations, guard, z0, times, history, plan)
         chosen = {**(chosen or {}), **engine_choice}
         if compiled is not None:
             return history, stats, compiled, chosen
@@ -953,7 +959,7 @@ def guarded_after_step(equations: EquationsOfMotion, guard: Guard, deferred: boo
     return after_step
 
 
-def compiled_motion(settings: Settings, equations, guard, z0, times, history) -> tuple:
+def compiled_motion(settings: Settings, equations, guard, z0, times, history, plan: Plan | None = None) -> tuple:
     """The compiled engine's run into ``history`` when it covers it (``compiled.dispatch``); (the compiled run or
     None, integrator statistics or None, what was chosen and why).
 
@@ -965,7 +971,7 @@ def compiled_motion(settings: Settings, equations, guard, z0, times, history) ->
         from .compiled import dispatch
     except ImportError:  # a student package: the compiled engine stays with the instructor
         return None, None, {"engine": "numpy", "engine_why": "this package has no compiled engine"}
-    scene, chosen = dispatch.choose(settings, equations, z0)
+    scene, chosen = dispatch.choose(settings, equations, z0, plan.numpy_seconds if plan is not None else None)
     if scene is None:
         return None, None, chosen
     guard.banded = True  # numba is loaded: the output times' checks may take the band of a large Psi_q
@@ -1132,22 +1138,32 @@ class StartRates:
     """rho, the spectral radius of the ODE's Jacobian at the start (``integrators.spectral_radius``: 21
     evaluations of the right-hand side), and q'' at the start, for a formulation: computed once per formulation
     and shared by the integrator's choice (``choose_method``) and the tolerance rule (``motion_periods``). A run
-    asked to be compiled (engine ``compiled``) evaluates them with the compiled engine's right-hand side
+    that its engine's choice will compile evaluates them with the compiled engine's right-hand side
     (``compiled.dispatch.start_rates``: the same equations, microseconds instead of a numpy evaluation's
-    tenths of a millisecond), other runs with numpy's. None where the equations cannot be evaluated at the start
-    (the run itself says why)."""
+    tenths of a millisecond), as its integration will: one asked to be compiled (``compiled``), and, where
+    ``settings`` are given, one on engine ``cached`` or ``auto`` that the compiled engine will take
+    (``compiled.dispatch.compiled_start``: its code on disk, and for ``auto`` a numpy run estimated longer than
+    loading it, at the loosest rtol the run can have: DEFAULT_RTOL or the one given). Other runs evaluate them
+    with numpy's, and import no numba. None where the equations cannot be evaluated at the start (the run itself
+    says why)."""
 
-    def __init__(self, system: System, M, forces: ForceModel, q, qd, options: dict, compiled: bool = False):
+    def __init__(
+        self, system: System, M, forces: ForceModel, q, qd, options: dict, compiled=False, settings=None
+    ) -> None:
         self.system, self.M, self.forces, self.q, self.qd, self.options = system, M, forces, q, qd, options
-        self.compiled = compiled
+        self.compiled, self.settings = compiled, settings
+        self.numpy_seconds: dict[str, float] = {}  # the engine's choice's estimates, where it will compile
         self.known: dict[str, tuple[float, np.ndarray] | Exception] = {}
         self.untouched: dict[str, Formulation] = {}  # made, and evaluated only by the compiled engine
 
     def take(self, formulation: str) -> Formulation | None:
         """The formulation object made for the compiled start rates, handed over once (to the run itself, which
         would make the same object from the same system, M, forces and options: ``ode_motion``), or None where
-        there is none or the numpy equations were evaluated on it (a formulation may keep state between
-        evaluations: the partition of ``partitioning``, the last motion of ``joint-coordinates``)."""
+        there is none or the numpy start rates were evaluated on it (a formulation may keep state between
+        evaluations: the partition of ``partitioning``). An ``auto`` engine's estimate of the numpy run
+        (``compiled.dispatch.compiled_start``) evaluates the right-hand side of a compiled formulation, which keeps
+        nothing that changes a later result (the last motion of ``joint-coordinates``, the last M(q) of a
+        spatial one: each made anew for another state)."""
         return self.untouched.pop(formulation, None)
 
     def __call__(self, formulation: str) -> tuple[float, np.ndarray] | None:
@@ -1171,7 +1187,7 @@ class StartRates:
         made = make_formulation(formulation, self.system, self.M, self.forces, **self.options)
         equations = EquationsOfMotion(made, self.forces, False)  # the drivers' power left out: it feeds nothing back
         z = equations.initial_state(self.q, self.qd, 0.0)
-        if self.compiled:
+        if self.compiled or self._will_compile(equations, formulation, z) is not None:
             found = _compiled_start_rates(equations, formulation, self.options, z)
             if found is not None:
                 self.untouched[formulation] = made
@@ -1179,6 +1195,23 @@ class StartRates:
         y, _ = equations.split(z)  # without the energy states (a dissipative scene has them)
         qdd, _ = made.accelerations(*made.coordinates(0.0, y), 0.0)
         return spectral_radius(equations.rhs, 0.0, z, equations.rhs(0.0, z)), qdd
+
+    def _will_compile(self, equations, formulation: str, z: np.ndarray) -> float | None:
+        """The numpy run's estimated seconds where the engine's choice will compile a run of ``formulation`` on
+        engine ``cached`` or ``auto`` (``compiled.dispatch.compiled_start``, decided before the start rates), else
+        None; kept in ``numpy_seconds`` for the plan."""
+        settings = self.settings
+        if settings is None or settings.engine not in ("cached", "auto"):
+            return None
+        try:
+            from .compiled import dispatch
+        except ImportError:  # a student package: no compiled engine
+            return None
+        loosest = settings.rtol if settings.rtol is not None else DEFAULT_RTOL  # the rule only tightens it
+        expected = dispatch.compiled_start(settings, equations, formulation, z, loosest)
+        if expected is not None and math.isfinite(expected):
+            self.numpy_seconds[formulation] = expected
+        return expected
 
 
 def _compiled_start_rates(equations, formulation: str, options: dict, z: np.ndarray):
