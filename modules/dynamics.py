@@ -618,8 +618,7 @@ def cannot_be_chaotic(run: Run, result: Result) -> str | None:
     potential or a damper): the state (q, q') then moves on a plane or cylinder, where by the Poincare-Bendixson
     theorem no motion is chaotic; a regular motion's error is eq. 6.61's."""
     system = run.system
-    jacobian = system.jacobian(result.q[0], 0.0)
-    rank = numerical_rank(np.linalg.svd(jacobian, compute_uv=False), jacobian.shape) if jacobian.size else 0
+    rank = rank_at(system, result.q[0]).rank if system.n_constraints else 0  # the run's start: known already
     freedom = system.n_coordinates - rank
     if freedom == 0:
         return "no degree of freedom left by the joints and drivers: the motion is prescribed"
@@ -975,8 +974,11 @@ def compiled_motion(settings: Settings, equations, guard, z0, times, history, pl
     if scene is None:
         return None, None, chosen
     guard.banded = True  # numba is loaded: the output times' checks may take the band of a large Psi_q
-    pauses = copy.copy(guard)  # the checks between steps, in time order, apart from those of the output times
-    compiled, stats = dispatch.run(scene, z0, times, settings, on_pause=lambda *state: judge_pause(pauses, *state))
+    on_pause = None  # the checks between steps (``judge_pause``): only where the Guard watches for singular positions
+    if guard.singular_ratio and guard.rank and not guard.through:
+        pauses = copy.copy(guard)  # sees the pauses in time order, apart from the output times' checks
+        on_pause = lambda *state: judge_pause(pauses, *state)  # noqa: E731
+    compiled, stats = dispatch.run(scene, z0, times, settings, on_pause=on_pause)
     n = equations.formulation.n
     Y, k = compiled.Y, compiled.reached
     stopped = dispatch.stop(compiled, stats, settings, times[-1] - times[0])
@@ -1033,8 +1035,7 @@ def judge_pause(guard: Guard, t: float, q: np.ndarray, psi: np.ndarray, jacobian
     ``compiled.PAUSE_STEPS``), by ``guard``, a copy of the run's Guard that sees the pauses in time order (the run's
     own judges the output times): SingularConfigurationError where Psi_q is about to lose rank or lost it since the
     pause before, so that a compiled run crawling at a singular position stops there as the numpy run does."""
-    if not guard.through:
-        guard.check_outputs(np.array([t]), q[None, :], psi, jacobian, drift=False)
+    guard.check_outputs(np.array([t]), q[None, :], psi, jacobian, drift=False)
 
 
 def judge_stop(guard: Guard, compiled, times: np.ndarray, n: int) -> None:
