@@ -12,9 +12,13 @@ not add up; "outside the loop" is the whole call minus the loop.
     .venv/bin/python benchmarks/call_cost.py                                  # the three bench scenes
     .venv/bin/python benchmarks/call_cost.py --scene slider_crank --formulation joint-coordinates
     .venv/bin/python benchmarks/call_cost.py --chain loops --sizes 4 8 16     # chains of benchmarks/chains.py
+    .venv/bin/python benchmarks/call_cost.py --engine cached --default-rtol   # the start rates of a cached run
+    .venv/bin/python benchmarks/call_cost.py --engine auto --t-end 100 --default-rtol   # long enough for auto
 
 Runs use the compiled engine from the machine's cache (the first call of a structure compiles it: warm-up), DOP853
-at rtol = 1e-6, atol = 1e-8, 1 s simulated, 100 output intervals. Nothing is asserted (timing depends on the
+at rtol = 1e-6 (``--default-rtol``: the rule's, eq. 6.60, from the start rates), atol = 1e-8, 1 s simulated
+(``--t-end``), 100 output intervals; ``--engine cached`` or ``auto`` asks for that engine (the run must end up
+compiled: an ``auto`` run needs a span whose numpy run is estimated above 0.5 s). Nothing is asserted (timing depends on the
 machine): prints a Markdown table.
 """
 
@@ -129,27 +133,27 @@ def timed(stages, seconds: dict):
             setattr(owner, name, original)
 
 
-def measure(model, formulation: str, calls: int) -> tuple[float, dict, float]:
+def measure(model, formulation: str, calls: int, engine: str = "compiled", t_end: float = 1.0, rtol=1e-6):
     """(seconds per call, {stage label: seconds per call}, seconds per call with the divergence check) of the
     compiled run of ``model``: the stages of one run (``divergence="skip"``), then the whole call as a user makes
     it, whose divergence check (``dynamics.judge_divergence``) may add a second run at 100 x rtol (its own stages
     in ``COMPANION``: the companion, and its loop)."""
     system, q0, qd0 = build_system(load_model(model))
-    options = dict(formulation=formulation, integrator="DOP853", rtol=1e-6, atol=1e-8, engine="compiled")
-    first = dynamics.forward_dynamics(system, q0, qd0, 1.0, 100, **options)  # compiles or loads the module
+    options = dict(formulation=formulation, integrator="DOP853", rtol=rtol, atol=1e-8, engine=engine)
+    first = dynamics.forward_dynamics(system, q0, qd0, t_end, 100, **options)  # compiles or loads the module
     if first.info["chosen"]["engine"] != "compiled":
         raise SystemExit(f"not compiled: {first.info['chosen']['engine_why']}")
     seconds: dict[str, float] = {}
     with timed(STAGES, seconds):
         start = CLOCK[0]()
         for _ in range(calls):
-            dynamics.forward_dynamics(system, q0, qd0, 1.0, 100, divergence="skip", **options)
+            dynamics.forward_dynamics(system, q0, qd0, t_end, 100, divergence="skip", **options)
         total = (CLOCK[0]() - start) / calls
     companion: dict[str, float] = {}
     with inside(*COMPANION, companion):
         start = CLOCK[0]()
         for _ in range(calls):
-            dynamics.forward_dynamics(system, q0, qd0, 1.0, 100, **options)
+            dynamics.forward_dynamics(system, q0, qd0, t_end, 100, **options)
         checked = (CLOCK[0]() - start) / calls
     seconds.update(companion)
     return total, {label: value / calls for label, value in seconds.items()}, checked
@@ -162,6 +166,16 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--chain", choices=("planar", "spatial", "loops"), help="chains of benchmarks/chains.py")
     parser.add_argument("--sizes", type=int, nargs="+", default=[4, 8, 16], help="chain sizes N (with --chain)")
     parser.add_argument("--calls", type=int, default=20, help="calls timed per case (default 20)")
+    parser.add_argument(
+        "--engine",
+        default="compiled",
+        choices=("compiled", "cached", "auto"),
+        help="the engine asked for (cached, auto: the start rates before the engine's choice)",
+    )
+    parser.add_argument(
+        "--t-end", type=float, default=1.0, help="simulated seconds (default 1; auto compiles long runs)"
+    )
+    parser.add_argument("--default-rtol", action="store_true", help="rtol by the rule (eq. 6.60), not 1e-6")
     parser.add_argument("--cpu", action="store_true", help="time this thread's CPU, not the wall (a shared machine)")
     args = parser.parse_args(argv)
     CLOCK[0] = time.thread_time if args.cpu else time.perf_counter
@@ -172,8 +186,14 @@ def main(argv: list[str] | None = None) -> None:
         cases = [(f"{args.chain} chain N = {n}", make[args.chain](n)) for n in args.sizes]
     else:
         cases = [(scene, ROOT / "course" / "models" / f"{scene}.yaml") for scene in args.scene or SCENES]
-    results = [(name, *measure(model, args.formulation, args.calls)) for name, model in cases]
-    setting = f"{args.formulation}, DOP853, 1e-6, 1 s, 100 outputs, {'thread CPU' if args.cpu else 'wall'}"
+    rtol = None if args.default_rtol else 1e-6
+    results = [
+        (name, *measure(model, args.formulation, args.calls, args.engine, args.t_end, rtol)) for name, model in cases
+    ]
+    setting = (
+        f"{args.formulation}, DOP853, {'rtol by the rule' if rtol is None else '1e-6'}, {args.t_end:g} s, 100 outputs, "
+        f"engine {args.engine}, {'thread CPU' if args.cpu else 'wall'}"
+    )
     print(f"## Cost of a compiled call by stage, ms per call ({setting})\n")
     print("| stage | " + " | ".join(name for name, *_ in results) + " |")
     print("|---|" + "---:|" * len(results))
