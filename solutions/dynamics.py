@@ -576,7 +576,8 @@ def judge_divergence(run: Run, result: Result, made: Made) -> Result:
     info, settings = result.info, run.settings
     if settings.divergence == "skip" or info.get("integrator") in (*FIXED_STEP_METHODS, *INDEX3_INTEGRATORS):
         return result
-    why = cannot_be_chaotic(run, result) or too_short_to_diverge(made.start.plan, result.info["rtol"], settings)
+    start = made.start
+    why = cannot_be_chaotic(run, start.q) or too_short_to_diverge(start.plan, result.info["rtol"], settings)
     if why is not None:
         info["divergence"] = {"positions": None, "why": why}
         return result
@@ -611,13 +612,13 @@ def judge_divergence(run: Run, result: Result, made: Made) -> Result:
     return result
 
 
-def cannot_be_chaotic(run: Run, result: Result) -> str | None:
-    """Why the run's motion cannot be chaotic, or None: no degree of freedom left by the joints and drivers (the
-    motion is prescribed), or one and nothing that changes with time (no driver, no actuator, every force from a
-    potential or a damper): the state (q, q') then moves on a plane or cylinder, where by the Poincare-Bendixson
-    theorem no motion is chaotic; a regular motion's error is eq. 6.61's."""
+def cannot_be_chaotic(run: Run, q: np.ndarray) -> str | None:
+    """Why the run's motion cannot be chaotic, or None: no degree of freedom left by the joints and drivers at its
+    start q (the motion is prescribed), or one and nothing that changes with time (no driver, no actuator, every
+    force from a potential or a damper): the state (q, q') then moves on a plane or cylinder, where by the
+    Poincare-Bendixson theorem no motion is chaotic; a regular motion's error is eq. 6.61's."""
     system = run.system
-    rank = rank_at(system, result.q[0]).rank if system.n_constraints else 0  # the run's start: known already
+    rank = rank_at(system, q).rank if system.n_constraints else 0  # the run's start: its Guard asked it already
     freedom = system.n_coordinates - rank
     if freedom == 0:
         return "no degree of freedom left by the joints and drivers: the motion is prescribed"
