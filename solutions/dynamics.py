@@ -434,8 +434,9 @@ class Plan:
     rate: float | None = None
     """w of ``motion_rate`` (1/s): the fastest rate of the motion at the start; None where it was not estimated."""
     numpy_seconds: float | None = None
-    """The numpy run's estimated seconds where the engine's choice before the start rates made it and found the run
-    worth compiling (``StartRates``); the engine's choice takes it instead of estimating again."""
+    """The numpy run's estimated seconds where the engine's choice before the start rates made them at this rtol, or
+    at a looser one and found the run worth compiling (``StartRates``): the engine's choice takes them instead of
+    estimating again."""
 
 
 class SingularStop(AnalysisError):
@@ -825,7 +826,8 @@ def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str, r
     rtol = settings.rtol if settings.rtol is not None else default_rtol(periods, settings.accuracy)
     if settings.rtol is None and formulation == "partitioning":  # its dependent velocities: outside the control
         rtol = max(MIN_RTOL, rtol / PARTITIONING_VELOCITIES)
-    expected = rates.numpy_seconds.get(formulation)
+    estimated = rates.numpy_seconds.get(formulation)  # (rtol, seconds, compiled): the engine's choice's estimate
+    expected = estimated[1] if estimated is not None and (estimated[0] == rtol or estimated[2]) else None
     given = settings.rtol is not None
     return Plan(formulation, integrator, rtol, settings.atol, given, periods, size, chosen, rate, expected)
 
@@ -1153,7 +1155,7 @@ class StartRates:
     ) -> None:
         self.system, self.M, self.forces, self.q, self.qd, self.options = system, M, forces, q, qd, options
         self.compiled, self.settings = compiled, settings
-        self.numpy_seconds: dict[str, float] = {}  # the engine's choice's estimates, where it will compile
+        self.numpy_seconds: dict[str, tuple] = {}  # the engine's choice's estimates: (rtol, seconds, compiled)
         self.known: dict[str, tuple[float, np.ndarray] | Exception] = {}
         self.untouched: dict[str, Formulation] = {}  # made, and evaluated only by the compiled engine
 
@@ -1188,7 +1190,7 @@ class StartRates:
         made = make_formulation(formulation, self.system, self.M, self.forces, **self.options)
         equations = EquationsOfMotion(made, self.forces, False)  # the drivers' power left out: it feeds nothing back
         z = equations.initial_state(self.q, self.qd, 0.0)
-        if self.compiled or self._will_compile(equations, formulation, z) is not None:
+        if self.compiled or self._will_compile(equations, formulation, z):
             found = _compiled_start_rates(equations, formulation, self.options, z)
             if found is not None:
                 self.untouched[formulation] = made
@@ -1197,22 +1199,22 @@ class StartRates:
         qdd, _ = made.accelerations(*made.coordinates(0.0, y), 0.0)
         return spectral_radius(equations.rhs, 0.0, z, equations.rhs(0.0, z)), qdd
 
-    def _will_compile(self, equations, formulation: str, z: np.ndarray) -> float | None:
-        """The numpy run's estimated seconds where the engine's choice will compile a run of ``formulation`` on
-        engine ``cached`` or ``auto`` (``compiled.dispatch.compiled_start``, decided before the start rates), else
-        None; kept in ``numpy_seconds`` for the plan."""
+    def _will_compile(self, equations, formulation: str, z: np.ndarray) -> bool:
+        """Whether the engine's choice will compile a run of ``formulation`` on engine ``cached`` or ``auto``
+        (``compiled.dispatch.compiled_start``, decided before the start rates); its estimate of the numpy run, where
+        it made one, kept in ``numpy_seconds`` for the plan."""
         settings = self.settings
         if settings is None or settings.engine not in ("cached", "auto"):
-            return None
+            return False
         try:
             from .compiled import dispatch
         except ImportError:  # a student package: no compiled engine
-            return None
+            return False
         loosest = settings.rtol if settings.rtol is not None else DEFAULT_RTOL  # the rule only tightens it
-        expected = dispatch.compiled_start(settings, equations, formulation, z, loosest)
-        if expected is not None and math.isfinite(expected):
-            self.numpy_seconds[formulation] = expected
-        return expected
+        compiled, expected = dispatch.compiled_start(settings, equations, formulation, z, loosest)
+        if expected is not None:
+            self.numpy_seconds[formulation] = (loosest, expected, compiled)
+        return compiled
 
 
 def _compiled_start_rates(equations, formulation: str, options: dict, z: np.ndarray):

@@ -91,8 +91,8 @@ def trial_seconds(f, z0: np.ndarray, t_end: float, integrator: str, rtol: float,
 def choose(settings: Settings, equations, z0: np.ndarray, expected: float | None = None):
     """(Plan or None, {'engine', 'engine_why'}): the compiled engine's plan (``solutions.compiled.plan``) when it
     runs this analysis; ``settings`` are the run's, with its formulation, integrator and tolerances chosen;
-    ``expected``: the numpy run's seconds as ``compiled_start`` estimated them, more than LOAD_SECONDS at a looser
-    rtol (a tighter one only lengthens the run: no second estimate)."""
+    ``expected``: the numpy run's seconds as ``compiled_start`` estimated them (at this rtol, or more than
+    LOAD_SECONDS at a looser one, which a tighter one only lengthens): no second estimate."""
     engine, formulation, integrator = settings.engine, settings.formulation, settings.integrator
     if engine == "numpy":
         return None, {"engine": "numpy", "engine_why": "numpy engine asked for"}
@@ -100,8 +100,9 @@ def choose(settings: Settings, equations, z0: np.ndarray, expected: float | None
         return None, {"engine": "numpy", "engine_why": "stiffness error: the stiffness monitor is not compiled"}
     if engine != "auto":
         expected = None
-    elif expected is None:  # a run shorter than loading the compiled code stays on numpy, whatever is on disk
-        expected = estimated_numpy_seconds(equations, z0, settings, LOAD_SECONDS)
+    else:  # a run shorter than loading the compiled code stays on numpy, whatever is on disk
+        if expected is None:
+            expected = estimated_numpy_seconds(equations, z0, settings, LOAD_SECONDS)
         if expected <= LOAD_SECONDS:
             why = f"numpy run estimated at {expected:.3g} s, less than loading the compiled code ({LOAD_SECONDS:g} s)"
             return None, {"engine": "numpy", "engine_why": why}
@@ -133,33 +134,35 @@ def choose(settings: Settings, equations, z0: np.ndarray, expected: float | None
     return None, {"engine": "numpy", "engine_why": why}
 
 
-def compiled_start(settings: Settings, equations, formulation: str, z: np.ndarray, rtol: float) -> float | None:
-    """Whether ``choose`` will compile a run on engine ``cached`` or ``auto`` by ``formulation``, decided before the
-    run's start rates (``dynamics.StartRates``), which then come from the compiled right-hand side as its
-    integration will (``start_rates``): the compiled engine covers the formulation, its options and the integrator
-    (DOP853 for ``auto``), its machine code is on disk (no compilation before ``choose`` says so), the stiffness
-    monitor is not asked to stop the run, and on ``auto`` the numpy run is estimated longer than LOAD_SECONDS at
-    ``rtol``, the loosest the run can have (the tolerance rule only tightens it, which lengthens the run; the
-    estimate comes first: a short run looks no further). No numba is imported to decide. Returns None where it
-    will not compile, else the numpy run's estimated seconds (``inf`` on ``cached``: not estimated), which
-    ``choose`` takes instead of estimating them again."""
+def compiled_start(
+    settings: Settings, equations, formulation: str, z: np.ndarray, rtol: float
+) -> tuple[bool, float | None]:
+    """(whether ``choose`` will compile a run on engine ``cached`` or ``auto`` by ``formulation``, the numpy run's
+    estimated seconds at ``rtol`` where they were estimated), decided before the run's start rates
+    (``dynamics.StartRates``), which then come from the compiled right-hand side as its integration will
+    (``start_rates``): the compiled engine covers the formulation, its options and the integrator (DOP853 for
+    ``auto``), its machine code is on disk (no compilation before ``choose`` says so), the stiffness monitor is not
+    asked to stop the run, and on ``auto`` the numpy run is estimated longer than LOAD_SECONDS at ``rtol``, the
+    loosest the run can have (the tolerance rule only tightens it, which lengthens the run; the estimate comes
+    first: a short run looks no further). No numba is imported to decide. ``choose`` takes the estimate instead of
+    making it again (``dynamics.plan_method``: where the run's rtol is this one, or where it said 'compile')."""
     from . import COMPILED_INTEGRATORS, FIXED, is_cached, unsupported
 
     integrator = "DOP853" if settings.integrator == "auto" else settings.integrator
     if settings.engine not in ("cached", "auto") or settings.stiffness == "error":
-        return None
+        return False, None
     if integrator not in COMPILED_INTEGRATORS and integrator not in FIXED:
-        return None
-    expected = math.inf
+        return False, None
+    expected = None
     if settings.engine == "auto":
         loosest = settings.replace(formulation=formulation, integrator=integrator, rtol=rtol)
         expected = estimated_numpy_seconds(equations, z, loosest, LOAD_SECONDS)
         if expected <= LOAD_SECONDS:
-            return None
+            return False, expected
     job = compiled_plan(equations, formulation)
     if unsupported(job.scene, formulation, integrator, settings.formulation_options) is not None:
-        return None
-    return expected if on_disk(is_cached, job, settings.engine)[0] else None
+        return False, expected
+    return on_disk(is_cached, job, settings.engine)[0], expected
 
 
 def compiled_plan(equations, formulation: str):

@@ -178,3 +178,18 @@ def test_a_short_run_on_the_default_engine_imports_no_numba():
     env = {k: v for k, v in os.environ.items() if k != "MBD_ENGINE"}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True).stdout
     assert out.split() == ["numpy", "False"], out
+
+
+def test_an_auto_run_estimates_its_numpy_run_once(monkeypatch):
+    """The engine's choice before the start rates estimates the numpy run (numpy evaluations, perhaps a trial of 8
+    steps); the engine's choice after the plan takes that estimate where it was made at the run's rtol (here the
+    rule's DEFAULT_RTOL: a short run): one estimate per run, as before the order changed."""
+    from solutions.compiled import dispatch
+
+    calls = []
+    original = dispatch.estimated_numpy_seconds
+    monkeypatch.setattr(dispatch, "estimated_numpy_seconds", lambda *a, **k: calls.append(1) or original(*a, **k))
+    system, q0, qd0 = build_system(load_model(MODELS / "double_pendulum.yaml"))
+    run = forward_dynamics(system, q0, qd0, 0.05, 2, "baumgarte", "DOP853", engine="auto", divergence="skip")
+    assert run.info["chosen"]["engine"] == "numpy" and run.info["rtol"] == dynamics.DEFAULT_RTOL
+    assert len(calls) == 1
