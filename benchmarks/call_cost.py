@@ -18,8 +18,8 @@ not add up; "outside the loop" is the whole call minus the loop.
 Runs use the compiled engine from the machine's cache (the first call of a structure compiles it: warm-up), DOP853
 at rtol = 1e-6 (``--default-rtol``: the rule's, eq. 6.60, from the start rates), atol = 1e-8, 1 s simulated
 (``--t-end``), 100 output intervals; ``--engine cached`` or ``auto`` asks for that engine (the run must end up
-compiled: an ``auto`` run needs a span whose numpy run is estimated above 0.5 s). Nothing is asserted (timing depends on the
-machine): prints a Markdown table.
+compiled: an ``auto`` run needs a span whose numpy run is estimated above 0.5 s). Nothing is asserted (timing
+depends on the machine): prints a Markdown table.
 """
 
 from __future__ import annotations
