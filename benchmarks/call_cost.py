@@ -12,10 +12,14 @@ not add up; "outside the loop" is the whole call minus the loop.
     .venv/bin/python benchmarks/call_cost.py                                  # the three bench scenes
     .venv/bin/python benchmarks/call_cost.py --scene slider_crank --formulation joint-coordinates
     .venv/bin/python benchmarks/call_cost.py --chain loops --sizes 4 8 16     # chains of benchmarks/chains.py
+    .venv/bin/python benchmarks/call_cost.py --engine cached --default-rtol   # the start rates of a cached run
+    .venv/bin/python benchmarks/call_cost.py --engine auto --t-end 100 --default-rtol   # long enough for auto
 
 Runs use the compiled engine from the machine's cache (the first call of a structure compiles it: warm-up), DOP853
-at rtol = 1e-6, atol = 1e-8, 1 s simulated, 100 output intervals. Nothing is asserted (timing depends on the
-machine): prints a Markdown table.
+at rtol = 1e-6 (``--default-rtol``: the rule's, eq. 6.60, from the start rates), atol = 1e-8, 1 s simulated
+(``--t-end``), 100 output intervals; ``--engine cached`` or ``auto`` asks for that engine (the run must end up
+compiled: an ``auto`` run needs a span whose numpy run is estimated above 0.5 s). Nothing is asserted (timing
+depends on the machine): prints a Markdown table.
 """
 
 from __future__ import annotations
@@ -60,6 +64,47 @@ STAGES = (
     (dynamics, "run_info", "info"),
 )
 """(owner, attribute, label) of every stage timed, in the order of a call."""
+COMPANION = (
+    (dynamics, "companion_centres", "divergence check: the companion run"),
+    (loops, "embedded", "  its integration loop"),
+)
+"""The stages of the divergence check's companion run at k x rtol (``dynamics.judge_divergence``), timed apart: the
+loop's timer counts only inside the companion (``inside``)."""
+
+
+@contextlib.contextmanager
+def inside(outer, inner, seconds: dict):
+    """Time ``outer`` (owner, name, label), and ``inner`` only while ``outer`` runs, into ``seconds``."""
+    within = [False]
+    owner, name, _ = inner
+    saved = [(outer[0], outer[1], getattr(outer[0], outer[1])), (owner, name, getattr(owner, name))]
+
+    def counted(*args, **kwargs):
+        if not within[0]:
+            return saved[1][2](*args, **kwargs)
+        start = CLOCK[0]()
+        try:
+            return saved[1][2](*args, **kwargs)
+        finally:
+            seconds[inner[2]] = seconds.get(inner[2], 0.0) + CLOCK[0]() - start
+
+    def flagged(*args, **kwargs):
+        within[0] = True
+        try:
+            return saved[0][2](*args, **kwargs)
+        finally:
+            within[0] = False
+
+    setattr(outer[0], outer[1], flagged)
+    setattr(owner, name, counted)
+    try:
+        with timed([outer], seconds):
+            yield seconds
+    finally:
+        for owner_, name_, original in saved:
+            setattr(owner_, name_, original)
+
+
 CLOCK = [time.perf_counter]
 """The clock of the timers: wall time, or with ``--cpu`` this thread's CPU time (``time.thread_time``), steadier on
 a machine that other work shares (what it leaves out: waiting; a compiled call does not wait)."""
@@ -88,25 +133,29 @@ def timed(stages, seconds: dict):
             setattr(owner, name, original)
 
 
-def measure(model, formulation: str, calls: int) -> tuple[float, dict, float]:
+def measure(model, formulation: str, calls: int, engine: str = "compiled", t_end: float = 1.0, rtol=1e-6):
     """(seconds per call, {stage label: seconds per call}, seconds per call with the divergence check) of the
     compiled run of ``model``: the stages of one run (``divergence="skip"``), then the whole call as a user makes
-    it, whose divergence check (``dynamics.judge_divergence``) may add a second run at 100 x rtol."""
+    it, whose divergence check (``dynamics.judge_divergence``) may add a second run at 100 x rtol (its own stages
+    in ``COMPANION``: the companion, and its loop)."""
     system, q0, qd0 = build_system(load_model(model))
-    options = dict(formulation=formulation, integrator="DOP853", rtol=1e-6, atol=1e-8, engine="compiled")
-    first = dynamics.forward_dynamics(system, q0, qd0, 1.0, 100, **options)  # compiles or loads the module
+    options = dict(formulation=formulation, integrator="DOP853", rtol=rtol, atol=1e-8, engine=engine)
+    first = dynamics.forward_dynamics(system, q0, qd0, t_end, 100, **options)  # compiles or loads the module
     if first.info["chosen"]["engine"] != "compiled":
         raise SystemExit(f"not compiled: {first.info['chosen']['engine_why']}")
     seconds: dict[str, float] = {}
     with timed(STAGES, seconds):
         start = CLOCK[0]()
         for _ in range(calls):
-            dynamics.forward_dynamics(system, q0, qd0, 1.0, 100, divergence="skip", **options)
+            dynamics.forward_dynamics(system, q0, qd0, t_end, 100, divergence="skip", **options)
         total = (CLOCK[0]() - start) / calls
-    start = CLOCK[0]()
-    for _ in range(calls):
-        dynamics.forward_dynamics(system, q0, qd0, 1.0, 100, **options)
-    checked = (CLOCK[0]() - start) / calls
+    companion: dict[str, float] = {}
+    with inside(*COMPANION, companion):
+        start = CLOCK[0]()
+        for _ in range(calls):
+            dynamics.forward_dynamics(system, q0, qd0, t_end, 100, **options)
+        checked = (CLOCK[0]() - start) / calls
+    seconds.update(companion)
     return total, {label: value / calls for label, value in seconds.items()}, checked
 
 
@@ -117,6 +166,16 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--chain", choices=("planar", "spatial", "loops"), help="chains of benchmarks/chains.py")
     parser.add_argument("--sizes", type=int, nargs="+", default=[4, 8, 16], help="chain sizes N (with --chain)")
     parser.add_argument("--calls", type=int, default=20, help="calls timed per case (default 20)")
+    parser.add_argument(
+        "--engine",
+        default="compiled",
+        choices=("compiled", "cached", "auto"),
+        help="the engine asked for (cached, auto: the start rates before the engine's choice)",
+    )
+    parser.add_argument(
+        "--t-end", type=float, default=1.0, help="simulated seconds (default 1; auto compiles long runs)"
+    )
+    parser.add_argument("--default-rtol", action="store_true", help="rtol by the rule (eq. 6.60), not 1e-6")
     parser.add_argument("--cpu", action="store_true", help="time this thread's CPU, not the wall (a shared machine)")
     args = parser.parse_args(argv)
     CLOCK[0] = time.thread_time if args.cpu else time.perf_counter
@@ -127,8 +186,14 @@ def main(argv: list[str] | None = None) -> None:
         cases = [(f"{args.chain} chain N = {n}", make[args.chain](n)) for n in args.sizes]
     else:
         cases = [(scene, ROOT / "course" / "models" / f"{scene}.yaml") for scene in args.scene or SCENES]
-    results = [(name, *measure(model, args.formulation, args.calls)) for name, model in cases]
-    setting = f"{args.formulation}, DOP853, 1e-6, 1 s, 100 outputs, {'thread CPU' if args.cpu else 'wall'}"
+    rtol = None if args.default_rtol else 1e-6
+    results = [
+        (name, *measure(model, args.formulation, args.calls, args.engine, args.t_end, rtol)) for name, model in cases
+    ]
+    setting = (
+        f"{args.formulation}, DOP853, {'rtol by the rule' if rtol is None else '1e-6'}, {args.t_end:g} s, 100 outputs, "
+        f"engine {args.engine}, {'thread CPU' if args.cpu else 'wall'}"
+    )
     print(f"## Cost of a compiled call by stage, ms per call ({setting})\n")
     print("| stage | " + " | ".join(name for name, *_ in results) + " |")
     print("|---|" + "---:|" * len(results))
@@ -137,7 +202,7 @@ def main(argv: list[str] | None = None) -> None:
     outside = [total - stages.get(loop, 0.0) for _, total, stages, _ in results]
     print("| **outside the loop** | " + " | ".join(f"**{value * 1e3:.2f}**" for value in outside) + " |")
     print("| whole call with the divergence check | " + " | ".join(f"{c * 1e3:.2f}" for *_, c in results) + " |")
-    for _, _, label in STAGES:
+    for _, _, label in STAGES + COMPANION:
         cells = [f"{stages[label] * 1e3:.3f}" if label in stages else "-" for _, _, stages, _ in results]
         print(f"| {label.replace('  ', '&nbsp;&nbsp;')} | " + " | ".join(cells) + " |")
 

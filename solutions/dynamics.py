@@ -383,10 +383,10 @@ def forward_dynamics(
     settings = (settings or default_settings()).replace(t_end=t_end, steps=steps, **named, **options)
     run = Run(system, q0, qd0, settings, masses, forces, points, progress)
     try:
-        result, began = run_stages(run, settings.formulation, settings.integrator)
+        result, made = run_stages(run, settings.formulation, settings.integrator)
     except SingularStop as stop:  # ``auto`` met a singular position: the formulation that passes it, from the start
         fallback = THROUGH_SINGULAR[0]
-        result, began = run_stages(run, fallback, settings.integrator)
+        result, made = run_stages(run, fallback, settings.integrator)
         result.info["chosen"] = {
             "formulation": fallback,
             "integrator": result.info["integrator"],
@@ -399,7 +399,7 @@ def forward_dynamics(
             "formulation": fallback,
             "why": stop.reason,
         }
-    result = judge_divergence(run, result, began)  # stage 5's last guard: a second run where the motion can be chaotic
+    result = judge_divergence(run, result, made)  # stage 5's last guard: a second run where the motion can be chaotic
     result.info["wall_time"] = _time.perf_counter() - start
     return result
 
@@ -433,6 +433,10 @@ class Plan:
     chosen: dict | None
     rate: float | None = None
     """w of ``motion_rate`` (1/s): the fastest rate of the motion at the start; None where it was not estimated."""
+    numpy_seconds: float | None = None
+    """The numpy run's estimated seconds where the engine's choice before the start rates made them at this rtol, or
+    at a looser one and found the run worth compiling (``StartRates``): the engine's choice takes them instead of
+    estimating again."""
 
 
 class SingularStop(AnalysisError):
@@ -464,6 +468,17 @@ class Start:
     rates: StartRates | None = None
 
 
+@dataclass(frozen=True)
+class Made:
+    """What a run made on the way to its result (``run_stages``): its start (stages 1 and 2), the plan as it was
+    integrated (tolerances held: ``held_tolerances``) and its equations of motion; None for an index-3 run, which
+    makes its own. A second run from the same start at another tolerance needs no more (``companion_centres``)."""
+
+    start: Start
+    plan: Plan | None = None
+    equations: EquationsOfMotion | None = None
+
+
 def start_motion(run: Run, formulation: str, integrator: str) -> Start:
     """Stages 1 and 2: the model's M and forces, consistent initial conditions, the method and tolerances."""
     M, forces = dynamic_model(run.system, run.masses, run.forces)
@@ -475,7 +490,8 @@ def start_motion(run: Run, formulation: str, integrator: str) -> Start:
     if turns is not None:
         qd = without_turns(turns, qd)
     settings = run.settings
-    rates = StartRates(run.system, M, forces, q, qd, settings.formulation_options, settings.engine == "compiled")
+    options, compiled = settings.formulation_options, settings.engine == "compiled"
+    rates = StartRates(run.system, M, forces, q, qd, options, compiled, settings)  # the engine's choice first
     plan = plan_method(run, M, forces, q, qd, formulation, integrator, rates)  # stage 2
     return Start(run, M, forces, q, qd, initial, plan, notes, rates)
 
@@ -505,8 +521,8 @@ def run_plan(run: Run, formulation: str, integrator: str) -> Result:
     return run_stages(run, formulation, integrator)[0]
 
 
-def run_stages(run: Run, formulation: str, integrator: str) -> tuple[Result, Start]:
-    """``run_plan``'s result, and its stages 1 and 2 (``Start``: a second run from the same start needs no more)."""
+def run_stages(run: Run, formulation: str, integrator: str) -> tuple[Result, Made]:
+    """``run_plan``'s result, and what it made on the way (``Made``: its start, plan and equations of motion)."""
     start = start_motion(run, formulation, integrator)
     run, q, qd, initial, notes = start.run, start.q, start.qd, start.initial, start.notes
     system, settings = run.system, run.settings
@@ -514,7 +530,7 @@ def run_stages(run: Run, formulation: str, integrator: str) -> tuple[Result, Sta
         result = index3_run(run, start.plan, start.M, start.forces, q, qd, initial)
         if notes:
             result.info["notes"] = notes + result.info.get("notes", [])
-        return result, start
+        return result, Made(start)
     plan, equations, guard, raised = ode_motion(run, start)
     times = np.linspace(0.0, settings.t_end, settings.steps + 1)
     try:  # stage 3: the engine
@@ -548,10 +564,10 @@ def run_stages(run: Run, formulation: str, integrator: str) -> tuple[Result, Sta
         result.info["rtol_rule"] = (
             f"rtol = max({MIN_RTOL:g}, min({DEFAULT_RTOL:g}, accuracy / periods^2)) with {plan.periods:.3g} periods"
         )
-    return result, start
+    return result, Made(start, plan, equations)
 
 
-def judge_divergence(run: Run, result: Result, start: Start) -> Result:
+def judge_divergence(run: Run, result: Result, made: Made) -> Result:
     """The run's position error from a companion run at k x rtol (eqs. 6.62-6.64, ``divergence``), where the motion
     can be chaotic (``cannot_be_chaotic``) and the integrator controls its error. Within the accuracy: the result,
     with the estimate in info['divergence']. Above it, a run at the default rtol runs again at the rtol of eq. 6.64
@@ -561,14 +577,15 @@ def judge_divergence(run: Run, result: Result, start: Start) -> Result:
     info, settings = result.info, run.settings
     if settings.divergence == "skip" or info.get("integrator") in (*FIXED_STEP_METHODS, *INDEX3_INTEGRATORS):
         return result
-    why = cannot_be_chaotic(run, result) or too_short_to_diverge(start.plan, result.info["rtol"], settings)
+    start = made.start
+    why = cannot_be_chaotic(run, start.q) or too_short_to_diverge(start.plan, result.info["rtol"], settings)
     if why is not None:
         info["divergence"] = {"positions": None, "why": why}
         return result
     rtol, size = info["rtol"], mechanism_size(run.system, result.q[0])
     k = companion_factor(rtol)
     try:
-        companion = companion_centres(start, result, k * rtol, k * info["atol"])
+        companion = companion_centres(made, result, k * rtol, k * info["atol"])
     except AnalysisError as err:
         info["divergence"] = {"positions": None, "why": f"the run at {k:g} x rtol stopped: {err}"}
         return result
@@ -596,19 +613,19 @@ def judge_divergence(run: Run, result: Result, start: Start) -> Result:
     return result
 
 
-def cannot_be_chaotic(run: Run, result: Result) -> str | None:
-    """Why the run's motion cannot be chaotic, or None: no degree of freedom left by the joints and drivers (the
-    motion is prescribed), or one and nothing that changes with time (no driver, no actuator, every force from a
-    potential or a damper): the state (q, q') then moves on a plane or cylinder, where by the Poincare-Bendixson
-    theorem no motion is chaotic; a regular motion's error is eq. 6.61's."""
+def cannot_be_chaotic(run: Run, q: np.ndarray) -> str | None:
+    """Why the run's motion cannot be chaotic, or None: no degree of freedom left by the joints and drivers at its
+    start q (the motion is prescribed), or one and nothing that changes with time (no driver, no actuator, every
+    force from a potential or a damper): the state (q, q') then moves on a plane or cylinder, where by the
+    Poincare-Bendixson theorem no motion is chaotic; a regular motion's error is eq. 6.61's."""
     system = run.system
-    jacobian = system.jacobian(result.q[0], 0.0)
-    rank = numerical_rank(np.linalg.svd(jacobian, compute_uv=False), jacobian.shape) if jacobian.size else 0
+    rank = rank_at(system, q).rank if system.n_constraints else 0  # the run's start: its Guard asked it already
     freedom = system.n_coordinates - rank
     if freedom == 0:
         return "no degree of freedom left by the joints and drivers: the motion is prescribed"
-    forces = run.forces if run.forces is not None else build_forces(system.model)
-    if system.model.motors or freedom > 1 or not autonomous(forces):
+    if system.model.motors or freedom > 1:
+        return None
+    if not autonomous(run.forces if run.forces is not None else build_forces(system.model)):
         return None
     return "one degree of freedom and no driver or force that changes with time: no chaotic motion (Poincare-Bendixson)"
 
@@ -623,10 +640,65 @@ def autonomous(forces: ForceModel) -> bool:
     return not forces.user_forces and all(timeless(e) for e in forces.elements)
 
 
-def companion_centres(start: Start, result: Result, rtol: float, atol: float) -> np.ndarray:
-    """The body centres (N, bodies, dimension) at ``result``'s output times of the run again at rtol and atol, from
-    its start (stages 1 and 2 done: ``start``) by the same method and engine; the engine's stage only, with its
-    Guard (no result: reactions, energies and the like are not needed)."""
+def companion_centres(made: Made, result: Result, rtol: float, atol: float) -> np.ndarray:
+    """The body centres (N, bodies, dimension) at ``result``'s output times of the run again at rtol and atol (the
+    companion of eq. 6.62), from its start by the same method and engine: the integration alone.
+
+    The companion is a second opinion on the positions, and takes only them: no q'', lambda or energies at the
+    output times, and none of the Guard's checks where the run's own Guard saw no position near a singular one
+    (``info['closest_singularity']`` above NEAR_SINGULAR, no crossing). There the companion cannot silently leave
+    the assembly branch: to leave it, it would have to pass close to a singular position that the run, following
+    the same motion, stayed away from, and a companion on another branch is off by the size of the mechanism, a
+    departure D that eq. 6.62 reads as a large error (the run is tightened, whose own run the Guard checks, or
+    warns), never as a small one; its drift from the constraints (no drift check) adds to D the same way.
+    Where the run did come near a singular position, the companion is a whole run with its Guard
+    (``guarded_companion``): a stop there is said as 'the run at k x rtol stopped'.
+
+    The compiled engine's companion reuses the run's compiled plan and loaded module (``dispatch.positions``: no
+    tolerance is built into them); the numpy engine's makes its own formulation object (the run's may keep state
+    from its last evaluation: the partition of ``partitioning``, the penalty's counters) and keeps the formulation's
+    correction after each step (``projection``, ``augmented-lagrangian``)."""
+    start, info = made.start, result.info
+    closest = info.get("closest_singularity")
+    if made.equations is None or info.get("singular_positions") or (closest and closest["ratio"] < NEAR_SINGULAR):
+        return guarded_companion(made.start, result, rtol, atol)
+    plan, _ = held_tolerances(dataclasses.replace(made.plan, rtol=rtol, atol=atol, rtol_given=True), made.equations)
+    if "compiled" in info:
+        from .compiled import dispatch
+
+        job = dispatch.compiled_plan(made.equations, plan.formulation)
+        z0 = made.equations.initial_state(start.q, start.qd, 0.0)
+        q = dispatch.positions(job, z0, result.t, plan, start.run.settings)
+    else:
+        q = numpy_positions(start, plan, result.t)
+    return centres(start.run.system, q)
+
+
+def numpy_positions(start: Start, plan: Plan, times: np.ndarray) -> np.ndarray:
+    """q at the output times of the numpy engine's run from ``start`` by ``plan`` (its integration alone: the
+    formulation's correction after each step, none of the Guard's checks; ``companion_centres``)."""
+    system, settings = start.run.system, start.run.settings
+    options = settings.formulation_options
+    formulation = make_formulation(plan.formulation, system, start.M, start.forces, **options)
+    if plan.integrator in DIFFERENCING_INTEGRATORS and hasattr(formulation, "differenced"):
+        formulation.differenced = True  # as ``ode_motion``
+    equations = EquationsOfMotion(formulation, start.forces, has_drivers=bool(system.model.motors))
+    q = np.empty((times.size, system.n_coordinates))
+
+    def record(k: int, t: float, z: np.ndarray) -> None:
+        q[k] = formulation.coordinates(t, equations.split(z)[0])[0]
+
+    integrate(
+        equations.rhs, equations.initial_state(start.q, start.qd, 0.0), times, record, method=plan.integrator,
+        rtol=plan.rtol, atol=plan.atol, step=settings.step, after_step=equations.after_step,
+        max_evaluations=settings.max_evaluations, stiffness=settings.stiffness,
+    )  # fmt: skip
+    return q
+
+
+def guarded_companion(start: Start, result: Result, rtol: float, atol: float) -> np.ndarray:
+    """``companion_centres`` by a whole run's engine stage with its Guard (``ode_motion``, ``integrate_motion``),
+    for a run that came near a singular position."""
     run = same_method(start.run, result)
     plan = dataclasses.replace(start.plan, rtol=rtol, atol=atol, rtol_given=True)
     plan, equations, guard, _ = ode_motion(run, dataclasses.replace(start, run=run, plan=plan))
@@ -728,7 +800,7 @@ def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str, r
     if formulation != "auto" and integrator not in INDEX3_INTEGRATORS:
         _check_redundancy(system, q, formulation)  # before ``auto`` evaluates the equations of motion
     if rates is None:
-        rates = StartRates(system, M, forces, q, qd, options, compiled=settings.engine == "compiled")
+        rates = StartRates(system, M, forces, q, qd, options, settings.engine == "compiled", settings)
     if "auto" in (formulation, integrator):
         own_masses = run.masses is not None and model.dimension == 3  # the spatial tree takes the model's masses
         chosen = choose_method(
@@ -754,7 +826,10 @@ def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str, r
     rtol = settings.rtol if settings.rtol is not None else default_rtol(periods, settings.accuracy)
     if settings.rtol is None and formulation == "partitioning":  # its dependent velocities: outside the control
         rtol = max(MIN_RTOL, rtol / PARTITIONING_VELOCITIES)
-    return Plan(formulation, integrator, rtol, settings.atol, settings.rtol is not None, periods, size, chosen, rate)
+    estimated = rates.numpy_seconds.get(formulation)  # (rtol, seconds, compiled): the engine's choice's estimate
+    expected = estimated[1] if estimated is not None and (estimated[0] == rtol or estimated[2]) else None
+    given = settings.rtol is not None
+    return Plan(formulation, integrator, rtol, settings.atol, given, periods, size, chosen, rate, expected)
 
 
 def index3_run(run: Run, plan: Plan, M, forces, q, qd, initial: dict) -> Result:
@@ -839,7 +914,7 @@ def integrate_motion(run: Run, plan: Plan, equations, guard: Guard, z0: np.ndarr
     history = _History(times.size, run.system.n_coordinates, run.system.n_constraints, equations.extra)
     chosen = plan.chosen
     if settings.engine != "numpy":  # the compiled engine (numba), imported only when asked for
-        compiled, stats, engine_choice = compiled_motion(settings, equations, guard, z0, times, history)
+        compiled, stats, engine_choice = compiled_motion(settings, equations, guard, z0, times, history, plan)
         chosen = {**(chosen or {}), **engine_choice}
         if compiled is not None:
             return history, stats, compiled, chosen
@@ -896,7 +971,7 @@ def guarded_after_step(equations: EquationsOfMotion, guard: Guard, deferred: boo
     return after_step
 
 
-def compiled_motion(settings: Settings, equations, guard, z0, times, history) -> tuple:
+def compiled_motion(settings: Settings, equations, guard, z0, times, history, plan: Plan | None = None) -> tuple:
     """The compiled engine's run into ``history`` when it covers it (``compiled.dispatch``); (the compiled run or
     None, integrator statistics or None, what was chosen and why).
 
@@ -908,12 +983,15 @@ def compiled_motion(settings: Settings, equations, guard, z0, times, history) ->
         from .compiled import dispatch
     except ImportError:  # a student package: the compiled engine stays with the instructor
         return None, None, {"engine": "numpy", "engine_why": "this package has no compiled engine"}
-    scene, chosen = dispatch.choose(settings, equations, z0)
+    scene, chosen = dispatch.choose(settings, equations, z0, plan.numpy_seconds if plan is not None else None)
     if scene is None:
         return None, None, chosen
     guard.banded = True  # numba is loaded: the output times' checks may take the band of a large Psi_q
-    pauses = copy.copy(guard)  # the checks between steps, in time order, apart from those of the output times
-    compiled, stats = dispatch.run(scene, z0, times, settings, on_pause=lambda *state: judge_pause(pauses, *state))
+    on_pause = None  # the checks between steps (``judge_pause``): only where the Guard watches for singular positions
+    if guard.singular_ratio and guard.rank and not guard.through:
+        pauses = copy.copy(guard)  # sees the pauses in time order, apart from the output times' checks
+        on_pause = lambda *state: judge_pause(pauses, *state)  # noqa: E731
+    compiled, stats = dispatch.run(scene, z0, times, settings, on_pause=on_pause)
     n = equations.formulation.n
     Y, k = compiled.Y, compiled.reached
     stopped = dispatch.stop(compiled, stats, settings, times[-1] - times[0])
@@ -970,8 +1048,7 @@ def judge_pause(guard: Guard, t: float, q: np.ndarray, psi: np.ndarray, jacobian
     ``compiled.PAUSE_STEPS``), by ``guard``, a copy of the run's Guard that sees the pauses in time order (the run's
     own judges the output times): SingularConfigurationError where Psi_q is about to lose rank or lost it since the
     pause before, so that a compiled run crawling at a singular position stops there as the numpy run does."""
-    if not guard.through:
-        guard.check_outputs(np.array([t]), q[None, :], psi, jacobian, drift=False)
+    guard.check_outputs(np.array([t]), q[None, :], psi, jacobian, drift=False)
 
 
 def judge_stop(guard: Guard, compiled, times: np.ndarray, n: int) -> None:
@@ -1075,22 +1152,32 @@ class StartRates:
     """rho, the spectral radius of the ODE's Jacobian at the start (``integrators.spectral_radius``: 21
     evaluations of the right-hand side), and q'' at the start, for a formulation: computed once per formulation
     and shared by the integrator's choice (``choose_method``) and the tolerance rule (``motion_periods``). A run
-    asked to be compiled (engine ``compiled``) evaluates them with the compiled engine's right-hand side
+    that its engine's choice will compile evaluates them with the compiled engine's right-hand side
     (``compiled.dispatch.start_rates``: the same equations, microseconds instead of a numpy evaluation's
-    tenths of a millisecond), other runs with numpy's. None where the equations cannot be evaluated at the start
-    (the run itself says why)."""
+    tenths of a millisecond), as its integration will: one asked to be compiled (``compiled``), and, where
+    ``settings`` are given, one on engine ``cached`` or ``auto`` that the compiled engine will take
+    (``compiled.dispatch.compiled_start``: its code on disk, and for ``auto`` a numpy run estimated longer than
+    loading it, at the loosest rtol the run can have: DEFAULT_RTOL or the one given). Other runs evaluate them
+    with numpy's, and import no numba. None where the equations cannot be evaluated at the start (the run itself
+    says why)."""
 
-    def __init__(self, system: System, M, forces: ForceModel, q, qd, options: dict, compiled: bool = False):
+    def __init__(
+        self, system: System, M, forces: ForceModel, q, qd, options: dict, compiled=False, settings=None
+    ) -> None:
         self.system, self.M, self.forces, self.q, self.qd, self.options = system, M, forces, q, qd, options
-        self.compiled = compiled
+        self.compiled, self.settings = compiled, settings
+        self.numpy_seconds: dict[str, tuple] = {}  # the engine's choice's estimates: (rtol, seconds, compiled)
         self.known: dict[str, tuple[float, np.ndarray] | Exception] = {}
         self.untouched: dict[str, Formulation] = {}  # made, and evaluated only by the compiled engine
 
     def take(self, formulation: str) -> Formulation | None:
         """The formulation object made for the compiled start rates, handed over once (to the run itself, which
         would make the same object from the same system, M, forces and options: ``ode_motion``), or None where
-        there is none or the numpy equations were evaluated on it (a formulation may keep state between
-        evaluations: the partition of ``partitioning``, the last motion of ``joint-coordinates``)."""
+        there is none or the numpy start rates were evaluated on it (a formulation may keep state between
+        evaluations: the partition of ``partitioning``). An ``auto`` engine's estimate of the numpy run
+        (``compiled.dispatch.compiled_start``) evaluates the right-hand side of a compiled formulation, which keeps
+        nothing that changes a later result (the last motion of ``joint-coordinates``, the last M(q) of a
+        spatial one: each made anew for another state)."""
         return self.untouched.pop(formulation, None)
 
     def __call__(self, formulation: str) -> tuple[float, np.ndarray] | None:
@@ -1114,7 +1201,7 @@ class StartRates:
         made = make_formulation(formulation, self.system, self.M, self.forces, **self.options)
         equations = EquationsOfMotion(made, self.forces, False)  # the drivers' power left out: it feeds nothing back
         z = equations.initial_state(self.q, self.qd, 0.0)
-        if self.compiled:
+        if self.compiled or self._will_compile(equations, formulation, z):
             found = _compiled_start_rates(equations, formulation, self.options, z)
             if found is not None:
                 self.untouched[formulation] = made
@@ -1122,6 +1209,23 @@ class StartRates:
         y, _ = equations.split(z)  # without the energy states (a dissipative scene has them)
         qdd, _ = made.accelerations(*made.coordinates(0.0, y), 0.0)
         return spectral_radius(equations.rhs, 0.0, z, equations.rhs(0.0, z)), qdd
+
+    def _will_compile(self, equations, formulation: str, z: np.ndarray) -> bool:
+        """Whether the engine's choice will compile a run of ``formulation`` on engine ``cached`` or ``auto``
+        (``compiled.dispatch.compiled_start``, decided before the start rates); its estimate of the numpy run, where
+        it made one, kept in ``numpy_seconds`` for the plan."""
+        settings = self.settings
+        if settings is None or settings.engine not in ("cached", "auto"):
+            return False
+        try:
+            from .compiled import dispatch
+        except ImportError:  # a student package: no compiled engine
+            return False
+        loosest = settings.rtol if settings.rtol is not None else DEFAULT_RTOL  # the rule only tightens it
+        compiled, expected = dispatch.compiled_start(settings, equations, formulation, z, loosest)
+        if expected is not None:
+            self.numpy_seconds[formulation] = (loosest, expected, compiled)
+        return compiled
 
 
 def _compiled_start_rates(equations, formulation: str, options: dict, z: np.ndarray):

@@ -227,7 +227,7 @@ PAUSE_STEPS = 1000
 crawls at a singular position stops there as the numpy engine's run, which checks after every step, stops."""
 
 
-def _embedded(loops, rhs, project, z0: np.ndarray, times: np.ndarray, numbers: tuple, on_pause) -> tuple:
+def paused_embedded(loops, rhs, project, z0: np.ndarray, times: np.ndarray, numbers: tuple, on_pause) -> tuple:
     """``loops.embedded`` over the output grid in pieces of PAUSE_STEPS steps, ``on_pause(t, z)`` between them (it
     raises to stop the run); the same results as one call (the loop resumes with its next step size, and f(t, z) is
     evaluated anew, one evaluation more per pause). (Y, evaluations, steps, rejected, status, t, h, reached)."""
@@ -300,7 +300,7 @@ def run(
         judge = None
         if on_pause is not None:
             judge = lambda t, z: on_pause(t, *configuration(t, z, module, scene, P, D, rhs))  # noqa: E731
-        Y, evaluations, steps, rejected, status, t, h, reached = _embedded(
+        Y, evaluations, steps, rejected, status, t, h, reached = paused_embedded(
             loops, rhs, project, z0, times, numbers, judge
         )
     if status != 0:  # the output times reached and, after them, the state where the loop stopped (no others)

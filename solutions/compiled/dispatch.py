@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -87,17 +88,21 @@ def trial_seconds(f, z0: np.ndarray, t_end: float, integrator: str, rtol: float,
     return per_call * STAGES[integrator] * t_end / max(h, 1e-300)
 
 
-def choose(settings: Settings, equations, z0: np.ndarray):
+def choose(settings: Settings, equations, z0: np.ndarray, expected: float | None = None):
     """(Plan or None, {'engine', 'engine_why'}): the compiled engine's plan (``solutions.compiled.plan``) when it
-    runs this analysis; ``settings`` are the run's, with its formulation, integrator and tolerances chosen."""
+    runs this analysis; ``settings`` are the run's, with its formulation, integrator and tolerances chosen;
+    ``expected``: the numpy run's seconds as ``compiled_start`` estimated them (at this rtol, or more than
+    LOAD_SECONDS at a looser one, which a tighter one only lengthens): no second estimate."""
     engine, formulation, integrator = settings.engine, settings.formulation, settings.integrator
     if engine == "numpy":
         return None, {"engine": "numpy", "engine_why": "numpy engine asked for"}
     if settings.stiffness == "error" and integrator not in FIXED_STEP_METHODS:  # the same verdict: the numpy loop's
         return None, {"engine": "numpy", "engine_why": "stiffness error: the stiffness monitor is not compiled"}
-    expected = None
-    if engine == "auto":  # a run shorter than loading the compiled code stays on numpy, whatever is on disk
-        expected = estimated_numpy_seconds(equations, z0, settings, LOAD_SECONDS)
+    if engine != "auto":
+        expected = None
+    else:  # a run shorter than loading the compiled code stays on numpy, whatever is on disk
+        if expected is None:
+            expected = estimated_numpy_seconds(equations, z0, settings, LOAD_SECONDS)
         if expected <= LOAD_SECONDS:
             why = f"numpy run estimated at {expected:.3g} s, less than loading the compiled code ({LOAD_SECONDS:g} s)"
             return None, {"engine": "numpy", "engine_why": why}
@@ -127,6 +132,37 @@ def choose(settings: Settings, equations, z0: np.ndarray):
         "mbd compile makes the compiled engine once per machine"
     )
     return None, {"engine": "numpy", "engine_why": why}
+
+
+def compiled_start(
+    settings: Settings, equations, formulation: str, z: np.ndarray, rtol: float
+) -> tuple[bool, float | None]:
+    """(whether ``choose`` will compile a run on engine ``cached`` or ``auto`` by ``formulation``, the numpy run's
+    estimated seconds at ``rtol`` where they were estimated), decided before the run's start rates
+    (``dynamics.StartRates``), which then come from the compiled right-hand side as its integration will
+    (``start_rates``): the compiled engine covers the formulation, its options and the integrator (DOP853 for
+    ``auto``), its machine code is on disk (no compilation before ``choose`` says so), the stiffness monitor is not
+    asked to stop the run, and on ``auto`` the numpy run is estimated longer than LOAD_SECONDS at ``rtol``, the
+    loosest the run can have (the tolerance rule only tightens it, which lengthens the run; the estimate comes
+    first: a short run looks no further). No numba is imported to decide. ``choose`` takes the estimate instead of
+    making it again (``dynamics.plan_method``: where the run's rtol is this one, or where it said 'compile')."""
+    from . import COMPILED_INTEGRATORS, FIXED, is_cached, unsupported
+
+    integrator = "DOP853" if settings.integrator == "auto" else settings.integrator
+    if settings.engine not in ("cached", "auto") or settings.stiffness == "error":
+        return False, None
+    if integrator not in COMPILED_INTEGRATORS and integrator not in FIXED:
+        return False, None
+    expected = None
+    if settings.engine == "auto":
+        loosest = settings.replace(formulation=formulation, integrator=integrator, rtol=rtol)
+        expected = estimated_numpy_seconds(equations, z, loosest, LOAD_SECONDS)
+        if expected <= LOAD_SECONDS:
+            return False, expected
+    job = compiled_plan(equations, formulation)
+    if unsupported(job.scene, formulation, integrator, settings.formulation_options) is not None:
+        return False, expected
+    return on_disk(is_cached, job, settings.engine)[0], expected
 
 
 def compiled_plan(equations, formulation: str):
@@ -216,6 +252,32 @@ def run(job, z0: np.ndarray, times: np.ndarray, settings: Settings, on_pause=Non
     return out, stats
 
 
+def positions(job, z0: np.ndarray, times: np.ndarray, plan, settings: Settings) -> np.ndarray:
+    """q at the output times of the compiled run of ``job`` from z0 by ``plan``'s integrator and tolerances (an
+    adaptive one): the integration loop alone, and a tree's body coordinates from its joint states (the divergence
+    check's companion run, ``dynamics.companion_centres``: the run's plan and loaded module, another tolerance).
+    Raises as the run would where it stops early (``stop``); ``settings``: the run's step, budget."""
+    from . import COMPILED_INTEGRATORS, load, loops, parameters, paused_embedded, tableau
+    from .tree import TreeScene
+
+    module, project, _ = load(job)
+    scene, rhs = job.scene, loops.first_class(module.scene_rhs, loops.RHS_SIGNATURE)
+    P, D = parameters(scene, *job.numbers), scene.data()
+    dop, scipy_like = COMPILED_INTEGRATORS[plan.integrator]
+    budget = np.iinfo(np.int64).max if settings.max_evaluations is None else int(settings.max_evaluations)
+    numbers = (plan.rtol, plan.atol, float(settings.step or np.inf), budget, dop, scipy_like, tableau(dop), P, D)
+    z0, times = np.ascontiguousarray(z0, dtype=float), np.ascontiguousarray(times, dtype=float)
+    project = loops.first_class(project, loops.PROJECT_SIGNATURE)
+    Y, evaluations, steps, rejected, status, t, h, _ = paused_embedded(loops, rhs, project, z0, times, numbers, None)
+    if status != 0:
+        stats = IntegrationStats(plan.integrator, rhs_evaluations=evaluations, steps=steps, rejected=rejected)
+        said = settings.replace(integrator=plan.integrator)  # the run's settings may say 'auto'
+        raise stop(SimpleNamespace(status=status, t=t, h=h), stats, said, float(times[-1] - times[0]))
+    if isinstance(scene, TreeScene):  # the body coordinates of the joint states, written after y'
+        return loops.outputs(rhs, times, Y, P, D, 3 * scene.n + scene.m)[:, Y.shape[1] : Y.shape[1] + scene.n]
+    return Y[:, : scene.n]
+
+
 def stop(out, stats: IntegrationStats, settings: Settings, span: float) -> AnalysisError | None:
     """Why the compiled run ``out`` stopped early, in the numpy engine's words (``integrators``), or None."""
     integrator = settings.integrator
@@ -233,4 +295,14 @@ def stop(out, stats: IntegrationStats, settings: Settings, span: float) -> Analy
     return None
 
 
-__all__ = ["COMPILE_SECONDS", "ENGINES", "LOAD_SECONDS", "choose", "estimated_numpy_seconds", "run", "start_rates"]
+__all__ = [
+    "COMPILE_SECONDS",
+    "ENGINES",
+    "LOAD_SECONDS",
+    "choose",
+    "compiled_start",
+    "estimated_numpy_seconds",
+    "positions",
+    "run",
+    "start_rates",
+]

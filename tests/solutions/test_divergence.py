@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 import yaml
 
+from solutions import dynamics
 from solutions.assembly import build_system
 from solutions.cli import main
 from solutions.dynamics import centres, forward_dynamics, mechanism_size
@@ -146,3 +147,30 @@ def test_mbd_run_says_it_tightened_in_one_line(tmp_path, capsys):
     assert main(["run", str(model)]) == 0
     said = [line for line in capsys.readouterr().err.splitlines() if "tightened" in line]
     assert len(said) == 1 and said[0].startswith("mbd run: tightened: estimated position error"), said
+
+
+@pytest.mark.parametrize(
+    "engine, formulation",
+    [("numpy", "baumgarte"), pytest.param("compiled", "baumgarte", marks=pytest.mark.compiled),
+     pytest.param("compiled", "joint-coordinates", marks=pytest.mark.compiled)],
+)  # fmt: skip
+def test_the_companion_is_the_integration_alone(monkeypatch, engine, formulation):
+    """The companion of a run that came near no singular position (``companion_centres``) integrates from what its
+    run made, without the Guard's checks or the outputs: its body centres are those of the whole guarded engine
+    stage at k x rtol (``guarded_companion``) to the last bit; a compiled one makes no formulation object or
+    compiled plan of its own (the run's compiled plan: no tolerance is built into it), a numpy one its own object."""
+    settings = dynamics.default_settings().replace(
+        t_end=1.0, steps=10, formulation=formulation, integrator="DOP853", rtol=1e-8, atol=1e-10, engine=engine
+    )
+    run_ = dynamics.Run(*system(), settings, None, None, None)
+    result, made = dynamics.run_stages(run_, formulation, "DOP853")
+    closest = result.info["closest_singularity"]
+    assert ("compiled" in result.info) == (engine == "compiled") and (closest is None or closest["ratio"] > 0.1)
+    made_objects = []
+    original = dynamics.make_formulation
+    monkeypatch.setattr(dynamics, "make_formulation", lambda *a, **k: made_objects.append(1) or original(*a, **k))
+    fast = dynamics.companion_centres(made, result, 1e-6, 1e-8)
+    assert len(made_objects) == (engine == "numpy")
+    whole = dynamics.guarded_companion(made.start, result, 1e-6, 1e-8)
+    assert fast.shape == (11, 2, 2) and np.array_equal(fast, whole)
+    assert np.max(np.abs(fast - centres(system()[0], result.q))) > 0  # another tolerance: another motion

@@ -12,6 +12,9 @@ share.
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -133,3 +136,60 @@ def test_a_compiled_run_makes_its_formulation_once(monkeypatch):
     numpy_rates = StartRates(system, M, forces, q, qd, {})
     numpy_rates("baumgarte")
     assert numpy_rates.take("baumgarte") is None  # evaluated by numpy: not handed over
+
+
+def test_a_run_the_engine_will_compile_takes_the_compiled_start_rates(monkeypatch):
+    """The engine is chosen before the start rates: a run on engine ``cached`` (its code on disk) or ``auto`` (a
+    numpy run estimated longer than loading it: LOAD_SECONDS = 0 here) takes rho from the compiled right-hand side,
+    as on engine ``compiled``: the same rate (so the same default rtol, eq. 6.60) to the last bit, and the formulation
+    object those rates made goes to the run; a short ``auto`` run stays on numpy with numpy's rate. Finite
+    differences of two codes differ in the last digits: the rate says which engine estimated it."""
+    pytest.importorskip("numba")
+    from solutions.compiled import dispatch
+
+    system, q0, qd0 = build_system(load_model(MODELS / "double_pendulum.yaml"))
+    forward_dynamics(system, q0, qd0, 0.05, 1, "baumgarte", "DOP853", engine="compiled")  # the code on disk
+
+    def start(engine: str):
+        settings = dynamics.default_settings().replace(
+            t_end=20.0, steps=10, formulation="baumgarte", integrator="DOP853", engine=engine
+        )
+        begun = dynamics.start_motion(dynamics.Run(system, q0, qd0, settings, None, None, None), "baumgarte", "DOP853")
+        return begun.plan.rate, begun.rates.take("baumgarte") is not None
+
+    compiled, numpy_rate = start("compiled"), start("numpy")
+    assert compiled[1] and not numpy_rate[1] and compiled[0] != numpy_rate[0]
+    assert compiled[0] == pytest.approx(numpy_rate[0], rel=1e-6)
+    assert start("cached") == compiled
+    assert start("auto") == numpy_rate  # 20 s of a double pendulum: about 0.1 s of numpy
+    monkeypatch.setattr(dispatch, "LOAD_SECONDS", 0.0)
+    assert start("auto") == compiled
+
+
+def test_a_short_run_on_the_default_engine_imports_no_numba():
+    """A one-step run on ``auto`` (the default engine) stays on numpy without importing numba, even with the compiled
+    code on disk: the engine's choice before the start rates estimates the numpy run first (results/startup.md)."""
+    code = (
+        "import sys; from solutions.assembly import build_system; from solutions.io.model import load_model; "
+        "from solutions.dynamics import forward_dynamics; "
+        f"r = forward_dynamics(*build_system(load_model({str(MODELS / 'double_pendulum.yaml')!r})), 0.01, 1); "
+        "print(r.info['chosen']['engine'], 'numba' in sys.modules)"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "MBD_ENGINE"}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True).stdout
+    assert out.split() == ["numpy", "False"], out
+
+
+def test_an_auto_run_estimates_its_numpy_run_once(monkeypatch):
+    """The engine's choice before the start rates estimates the numpy run (numpy evaluations, perhaps a trial of 8
+    steps); the engine's choice after the plan takes that estimate where it was made at the run's rtol (here the
+    rule's DEFAULT_RTOL: a short run): one estimate per run, as before the order changed."""
+    from solutions.compiled import dispatch
+
+    calls = []
+    original = dispatch.estimated_numpy_seconds
+    monkeypatch.setattr(dispatch, "estimated_numpy_seconds", lambda *a, **k: calls.append(1) or original(*a, **k))
+    system, q0, qd0 = build_system(load_model(MODELS / "double_pendulum.yaml"))
+    run = forward_dynamics(system, q0, qd0, 0.05, 2, "baumgarte", "DOP853", engine="auto", divergence="skip")
+    assert run.info["chosen"]["engine"] == "numpy" and run.info["rtol"] == dynamics.DEFAULT_RTOL
+    assert len(calls) == 1
