@@ -60,6 +60,9 @@ class TreeScene:
     owners: np.ndarray = None
     """The constraint rows' owners: the child body of the tree joint a row belongs to, or the body whose Euler
     parameters it normalizes (``tree_kernels.tree_multipliers``); -1 for a cut row."""
+    cut_bodies: np.ndarray = None
+    """The two bodies of each cut row's element, row after row (-1 ground): the bodies its row of Psi_q meets
+    (``tree_kernels.cut_accelerations``)."""
     unsupported: str | None = None
     packed_data: tuple | None = field(default=None, repr=False, compare=False)  # ``data()``, made once
 
@@ -107,13 +110,13 @@ def describe(scene: Scene, formulation) -> TreeScene:
     floats = np.array([_row(j) for j in joints], dtype=float).reshape(-1, 35)
     system = formulation.system
     cut = {id(element) for element in cut_elements(system, tree_order(system)[0])} if formulation.cut else set()
-    rows = [
-        row
-        for element, where in zip(system.elements, system.rows, strict=True)
-        if id(element) in cut
-        for row in range(where.start, where.stop)
-    ]
+    rows, bodies = [], []
+    for element, where in zip(system.elements, system.rows, strict=True):
+        if id(element) in cut:
+            rows += range(where.start, where.stop)
+            bodies += [element.i, element.j] * (where.stop - where.start)
     tree = TreeScene(scene, ints, floats, formulation.tree.n_positions, k, np.array(rows, dtype=np.int64))
+    tree.cut_bodies = np.array(bodies, dtype=np.int64)
     tree.owners = np.array(_owners(system, joints), dtype=np.int64)
     if not joints:
         tree.unsupported = "a tree without joints"
@@ -242,7 +245,8 @@ def _body(tree: TreeScene) -> list[str]:
         lines.append("        Dq, xiq = Dm, xi")
     return lines + [
         "        thdd[:] = cut_accelerations("
-        "matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, dims[7 : 7 + ncut], numbers[0], numbers[1], mu)",
+        "matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], "
+        f"numbers[0], numbers[1], mu, joints, {7 if spatial else 3})",
         "    else:  # an open tree: the articulated-body algorithm, O(N)",
         f"        {equations}_articulated({articulated}, joints, S, links, thdd, acc)",
         "    if full or (ncut > 0 and dims[5]):  # lambda: the outputs, or the drivers' power (drivers: cut rows)",
