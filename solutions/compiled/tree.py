@@ -201,6 +201,7 @@ def _body(tree: TreeScene) -> list[str]:
     spatial = scene.dimension == 3
     rows = slot_rows(SLOTS.index("tree"))
     equations = "spatial" if spatial else "planar"
+    width = 7 if spatial else 3
     arguments = "masses, inertias, q, Dm, xi, omega, Q" if spatial else "mass, Dm, xi, Q"
     articulated = "masses, inertias, q, xi, omega, Q" if spatial else "mass, xi, Q"
     lines = [
@@ -211,6 +212,7 @@ def _body(tree: TreeScene) -> list[str]:
         "    full = out.size > y.size  # the outputs asked for too (loops.outputs): q, q', q'', lambda after y'",
         "    ncut = dims[6]  # cut rows (P[8][7 : 7 + ncut]); the rows' owners after them",
         "    columns = ncut > 0  # D itself: for the cut rows only (an open tree's outputs: the body accelerations)",
+        "    whole = full or (ncut > 0 and dims[5] != 0)  # lambda of every row: Psi_q and D whole, zeros and all",
         *_arrays(spatial),
         "    Q[:] = Q0",
         "    power[:] = 0.0",
@@ -224,13 +226,17 @@ def _body(tree: TreeScene) -> list[str]:
     else:
         lines.append(
             "    planar_motion(y[:npos], y[npos : npos + k], joints, joint_floats, nb, k, q, qd, xi, Dm, S, links, "
-            "columns)"
+            "columns, whole)"
         )
     lines += force_calls(scene, "    ")
     lines += [
         "    if full or ncut > 0:  # the constraint rows: lambda of every row, or the cut rows",
         "        psi, psit, gam = np.zeros(m), np.zeros(m), np.zeros(m)",
-        "        jac = np.zeros((m, n))",
+        "        if whole:",
+        "            jac = np.zeros((m, n))",
+        "        else:  # the cut solve reads only the cut rows at their two bodies: those blocks zeroed alone",
+        "            jac = np.empty((m, n))",
+        f"            zero_cut_blocks(jac, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], {width})",
         *constraint_calls(scene, "        "),
         "    if ncut > 0:  # cut rows: the augmented system (eq. 5.29, 5.30 in joint coordinates)",
         f"        matrix, rhs = {equations}_equations({arguments}, joints)",
@@ -267,7 +273,7 @@ def generate(tree: TreeScene) -> str:
     kernels = sorted({*forces, *constraints})
     dimension = "spatial" if spatial else "planar"
     tree_imports = {f"{dimension}_motion", f"{dimension}_equations", f"{dimension}_articulated", "cut_accelerations"}
-    tree_imports.add("tree_multipliers")
+    tree_imports |= {"tree_multipliers", "zero_cut_blocks"}
     spatial_kernels = {"spatial_coordinate_accelerations", "spatial_joint_matrix", "spatial_body_accelerations"}
     tree_imports |= spatial_kernels | {"spatial_mass_residual"} if spatial else {"planar_body_accelerations"}
     lines = [

@@ -53,11 +53,12 @@ WIDTH = 35
 
 # -- planar ------------------------------------------------------------------------------------------------
 @jit
-def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, S, links, columns):
+def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, S, links, columns, whole):
     """q, q', xi (3 nb) of a planar tree (``PlanarTree.motion``), each joint's column S_e (S[e, :, 0]: v_x, v_y,
-    omega) and link l = r_C - r_P (``articulated``); with ``columns``, D (3 nb x k) too."""
+    omega) and link l = r_C - r_P (``articulated``); with ``columns``, D (3 nb x k) too: on each body the columns
+    that move it (all a right-hand side reads), and with ``whole`` the zeros of the other columns as well."""
     body = np.zeros((8, nb + 1))  # x, y, phi, vx, vy, w, ax, ay; ground last
-    if columns:
+    if columns and whole:
         Dm[:] = 0.0  # a column is nonzero only on the bodies its joint moves
     for e in range(ints.shape[0]):
         P, Cb, c = ints[e, 1], ints[e, 2], ints[e, 3]
@@ -568,6 +569,17 @@ def spatial_mass_residual(q, qd, qdd, masses, inertias, weights, Q, residual):
 
 
 @jit
+def zero_cut_blocks(jac, rows, bodies, width):
+    """Zeros in the entries of Psi_q that the cut solve reads (``cut_accelerations``): each cut row at the
+    coordinates of its element's two bodies (-1 ground), where the constraint kernels add their terms."""
+    for a in range(rows.size):
+        for side in range(2):
+            b = bodies[2 * a + side]
+            if b >= 0:
+                jac[rows[a], width * b : width * (b + 1)] = 0.0
+
+
+@jit
 def dof_parents(ints, k):
     """The tree's parent of every joint velocity, lambda(i) (-1 at ground): the previous column of the same joint
     (a spherical joint's three), else the last column of the joint's parent; lambda(i) < i, since the columns are
@@ -801,4 +813,5 @@ __all__ = [
     "spatial_joint_matrix",
     "spatial_motion",
     "tree_multipliers",
+    "zero_cut_blocks",
 ]
