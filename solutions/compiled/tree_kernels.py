@@ -16,8 +16,10 @@ columns S_e and link l. An open tree then gets theta'' from (D^T M D) theta'' = 
 Z = D) by the articulated-body algorithm in O(N) (``articulated.py``), without ever forming D. A tree with cut
 joints, and the outputs at the output times, also need D = dq/dtheta: the recursion carries every column of D
 through every body (zero where a joint does not move a body: the same numbers as the numpy code's inherited
-columns), and the cut rows join D^T M D (summed over the columns that move each body) in an augmented system.
-A matrix that is not positive definite gives NaN, which the adaptive integrators reject.
+columns), and the cut rows join D^T M D (summed over the columns that move each body) in the augmented system
+of eq. 7.6, solved by the cut rows' Schur complement on the tree's factorization H = L^T D L (``cut_accelerations``,
+notes eq. 7.11-7.12: O(N) on a shallow tree). A matrix that is not positive definite gives NaN, which the adaptive
+integrators reject.
 
 This module imports numba: it is imported only when the compiled engine runs (``solutions.compiled``).
 """
@@ -740,9 +742,9 @@ def cut_accelerations(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, bodie
         [ H          Psi_theta^T ] [ theta'' ]   [ r = D^T (Q - M xi)                               ]
         [ Psi_theta  0           ] [ mu      ] = [ c = gamma_c - Psi_c,q xi - 2 alpha Psi_c' - beta^2 Psi_c ]
 
-    by its Schur complement on the tree's factorization, as MuJoCo solves its constraints on mj_factorM (Featherstone
-    2008, sec. 6.5 and ch. 8): H = D^T M D = L^T diag(d) L along the tree (``tree_factor``), W = L^-T Psi_theta^T,
-    the cut rows' S = Psi_theta H^-1 Psi_theta^T = W^T diag(d)^-1 W (m_c x m_c), then
+    by its Schur complement on the tree's factorization (notes eq. 7.11, 7.12), as MuJoCo solves its constraints on
+    mj_factorM (Featherstone 2008, sec. 6.5 and ch. 8): H = D^T M D = L^T diag(d) L along the tree (``tree_factor``),
+    W = L^-T Psi_theta^T, the cut rows' S = Psi_theta H^-1 Psi_theta^T = W^T diag(d)^-1 W (m_c x m_c), then
 
         S mu = W^T d^-1 L^-T r - c,        theta'' = L^-1 d^-1 (L^-T r - W mu).
 
