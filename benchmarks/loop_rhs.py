@@ -36,6 +36,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 from chains import loop_chain  # noqa: E402
 
 from solutions.assembly import build_system  # noqa: E402
+from solutions.compiled.kernels import lu_solve  # noqa: E402  (imports numba)
 from solutions.dynamics import EquationsOfMotion, mass_matrix  # noqa: E402
 from solutions.formulations import make_formulation  # noqa: E402
 from solutions.generalized_forces import build_forces  # noqa: E402
@@ -45,8 +46,6 @@ from solutions.io import load_model  # noqa: E402
 def dense_augmented(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, alpha, beta, mu):
     """The solve of eq. 7.6 before this session (1f2d7c9): Psi_theta = Psi_c,q D by BLAS, the augmented matrix
     assembled whole and solved by LU (``kernels.lu_solve``: LAPACK's gesv above 32 unknowns)."""
-    from solutions.compiled.kernels import lu_solve
-
     k, mc = rhs.size, rows.size
     cut = np.empty((mc, jac.shape[1]))
     for a in range(mc):
