@@ -164,13 +164,14 @@ def parameters(
     formulation's (Baumgarte's alpha, beta; the projection's tolerance and iterations, ``Plan.numbers``) and the
     sizes and switches P[8] = (n, m, 3 with the energy states else 0, joint positions, joint velocities, 1 when a
     tree's drivers' power needs lambda at every evaluation, the number of cut rows, the cut rows..., the tree's
-    rows' owners...)."""
+    rows' owners..., the two bodies of each cut row...)."""
     tree = scene if isinstance(scene, TreeScene) else None
     scene = scene.scene if tree is not None else scene
     extra = 3 if scene.energies else 0
     positions, velocities = (tree.n_positions, tree.k) if tree is not None else (scene.n, scene.n)
     cut = list(tree.cut_rows) if tree is not None else []
     owners = list(tree.owners) if tree is not None else []
+    bodies = list(tree.cut_bodies) if tree is not None else []
     drivers_power = int(tree is not None and scene.drivers and scene.energies)  # a tree's lambda at every evaluation
     empty1, empty3 = np.zeros(1), np.zeros((1, 3, 3))
     mass = scene.mass_diagonal if scene.mass_diagonal is not None else empty1
@@ -183,7 +184,9 @@ def parameters(
         scene.function_kinds,
         scene.function_params,
         np.array([alpha, beta, tol, iterations], dtype=float),
-        np.array([scene.n, scene.m, extra, positions, velocities, drivers_power, len(cut), *cut, *owners], np.int64),
+        np.array(
+            [scene.n, scene.m, extra, positions, velocities, drivers_power, len(cut), *cut, *owners, *bodies], np.int64
+        ),
     )
 
 

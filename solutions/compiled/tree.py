@@ -60,6 +60,9 @@ class TreeScene:
     owners: np.ndarray = None
     """The constraint rows' owners: the child body of the tree joint a row belongs to, or the body whose Euler
     parameters it normalizes (``tree_kernels.tree_multipliers``); -1 for a cut row."""
+    cut_bodies: np.ndarray = None
+    """The two bodies of each cut row's element, row after row (-1 ground): the bodies its row of Psi_q meets
+    (``tree_kernels.cut_accelerations``)."""
     unsupported: str | None = None
     packed_data: tuple | None = field(default=None, repr=False, compare=False)  # ``data()``, made once
 
@@ -107,13 +110,13 @@ def describe(scene: Scene, formulation) -> TreeScene:
     floats = np.array([_row(j) for j in joints], dtype=float).reshape(-1, 35)
     system = formulation.system
     cut = {id(element) for element in cut_elements(system, tree_order(system)[0])} if formulation.cut else set()
-    rows = [
-        row
-        for element, where in zip(system.elements, system.rows, strict=True)
-        if id(element) in cut
-        for row in range(where.start, where.stop)
-    ]
+    rows, bodies = [], []
+    for element, where in zip(system.elements, system.rows, strict=True):
+        if id(element) in cut:
+            rows += range(where.start, where.stop)
+            bodies += [element.i, element.j] * (where.stop - where.start)
     tree = TreeScene(scene, ints, floats, formulation.tree.n_positions, k, np.array(rows, dtype=np.int64))
+    tree.cut_bodies = np.array(bodies, dtype=np.int64)
     tree.owners = np.array(_owners(system, joints), dtype=np.int64)
     if not joints:
         tree.unsupported = "a tree without joints"
@@ -198,6 +201,7 @@ def _body(tree: TreeScene) -> list[str]:
     spatial = scene.dimension == 3
     rows = slot_rows(SLOTS.index("tree"))
     equations = "spatial" if spatial else "planar"
+    width = 7 if spatial else 3
     arguments = "masses, inertias, q, Dm, xi, omega, Q" if spatial else "mass, Dm, xi, Q"
     articulated = "masses, inertias, q, xi, omega, Q" if spatial else "mass, xi, Q"
     lines = [
@@ -208,6 +212,7 @@ def _body(tree: TreeScene) -> list[str]:
         "    full = out.size > y.size  # the outputs asked for too (loops.outputs): q, q', q'', lambda after y'",
         "    ncut = dims[6]  # cut rows (P[8][7 : 7 + ncut]); the rows' owners after them",
         "    columns = ncut > 0  # D itself: for the cut rows only (an open tree's outputs: the body accelerations)",
+        "    whole = full or (ncut > 0 and dims[5] != 0)  # lambda of every row: Psi_q and D whole, zeros and all",
         *_arrays(spatial),
         "    Q[:] = Q0",
         "    power[:] = 0.0",
@@ -221,13 +226,17 @@ def _body(tree: TreeScene) -> list[str]:
     else:
         lines.append(
             "    planar_motion(y[:npos], y[npos : npos + k], joints, joint_floats, nb, k, q, qd, xi, Dm, S, links, "
-            "columns)"
+            "columns, whole)"
         )
     lines += force_calls(scene, "    ")
     lines += [
         "    if full or ncut > 0:  # the constraint rows: lambda of every row, or the cut rows",
         "        psi, psit, gam = np.zeros(m), np.zeros(m), np.zeros(m)",
-        "        jac = np.zeros((m, n))",
+        "        if whole:",
+        "            jac = np.zeros((m, n))",
+        "        else:  # the cut solve reads only the cut rows at their two bodies: those blocks zeroed alone",
+        "            jac = np.empty((m, n))",
+        f"            zero_cut_blocks(jac, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], {width})",
         *constraint_calls(scene, "        "),
         "    if ncut > 0:  # cut rows: the augmented system (eq. 5.29, 5.30 in joint coordinates)",
         f"        matrix, rhs = {equations}_equations({arguments}, joints)",
@@ -242,7 +251,8 @@ def _body(tree: TreeScene) -> list[str]:
         lines.append("        Dq, xiq = Dm, xi")
     return lines + [
         "        thdd[:] = cut_accelerations("
-        "matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, dims[7 : 7 + ncut], numbers[0], numbers[1], mu)",
+        "matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], "
+        f"numbers[0], numbers[1], mu, joints, {7 if spatial else 3})",
         "    else:  # an open tree: the articulated-body algorithm, O(N)",
         f"        {equations}_articulated({articulated}, joints, S, links, thdd, acc)",
         "    if full or (ncut > 0 and dims[5]):  # lambda: the outputs, or the drivers' power (drivers: cut rows)",
@@ -263,7 +273,7 @@ def generate(tree: TreeScene) -> str:
     kernels = sorted({*forces, *constraints})
     dimension = "spatial" if spatial else "planar"
     tree_imports = {f"{dimension}_motion", f"{dimension}_equations", f"{dimension}_articulated", "cut_accelerations"}
-    tree_imports.add("tree_multipliers")
+    tree_imports |= {"tree_multipliers", "zero_cut_blocks"}
     spatial_kernels = {"spatial_coordinate_accelerations", "spatial_joint_matrix", "spatial_body_accelerations"}
     tree_imports |= spatial_kernels | {"spatial_mass_residual"} if spatial else {"planar_body_accelerations"}
     lines = [

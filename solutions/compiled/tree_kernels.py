@@ -16,8 +16,10 @@ columns S_e and link l. An open tree then gets theta'' from (D^T M D) theta'' = 
 Z = D) by the articulated-body algorithm in O(N) (``articulated.py``), without ever forming D. A tree with cut
 joints, and the outputs at the output times, also need D = dq/dtheta: the recursion carries every column of D
 through every body (zero where a joint does not move a body: the same numbers as the numpy code's inherited
-columns), and the cut rows join D^T M D (summed over the columns that move each body) in an augmented system.
-A matrix that is not positive definite gives NaN, which the adaptive integrators reject.
+columns), and the cut rows join D^T M D (summed over the columns that move each body) in the augmented system
+of eq. 7.6, solved by the cut rows' Schur complement on the tree's factorization H = L^T D L (``cut_accelerations``,
+notes eq. 7.11-7.12: O(N) on a shallow tree). A matrix that is not positive definite gives NaN, which the adaptive
+integrators reject.
 
 This module imports numba: it is imported only when the compiled engine runs (``solutions.compiled``).
 """
@@ -53,11 +55,13 @@ WIDTH = 35
 
 # -- planar ------------------------------------------------------------------------------------------------
 @jit
-def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, S, links, columns):
+def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, S, links, columns, whole):
     """q, q', xi (3 nb) of a planar tree (``PlanarTree.motion``), each joint's column S_e (S[e, :, 0]: v_x, v_y,
-    omega) and link l = r_C - r_P (``articulated``); with ``columns``, D (3 nb x k) too."""
+    omega) and link l = r_C - r_P (``articulated``); with ``columns``, D (3 nb x k) too: on each body the columns
+    that move it (all a right-hand side reads), and with ``whole`` the zeros of the other columns as well."""
     body = np.zeros((8, nb + 1))  # x, y, phi, vx, vy, w, ax, ay; ground last
-    rows = np.zeros((3, nb + 1, k if columns else 0))  # the rows x, y, phi of D per body
+    if columns and whole:
+        Dm[:] = 0.0  # a column is nonzero only on the bodies its joint moves
     for e in range(ints.shape[0]):
         P, Cb, c = ints[e, 1], ints[e, 2], ints[e, 3]
         if P < 0:
@@ -91,18 +95,18 @@ def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, S, links, col
             S[e, 0, 0], S[e, 1, 0], S[e, 2, 0] = rcy, -rcx, 1.0
         else:
             S[e, 0, 0], S[e, 1, 0] = ux, uy
-        if columns:
-            for col in range(k):  # D_C = D_P + R90 l (angle row of D_P), then the joint's own column
-                rows[0, Cb, col] = rows[0, P, col] - ly * rows[2, P, col]
-                rows[1, Cb, col] = rows[1, P, col] + lx * rows[2, P, col]
-                rows[2, Cb, col] = rows[2, P, col]
-            rows[0, Cb, c], rows[1, Cb, c], rows[2, Cb, c] = S[e, 0, 0], S[e, 1, 0], S[e, 2, 0]
+        if columns:  # D_C = D_P + R90 l (angle row of D_P) over the parent's columns, then the joint's own
+            i, j = 3 * Cb, 3 * ints[e, 1]
+            for g in range(ints[e, 5] - 1):  # the columns that move the parent (none at ground)
+                col = ints[e, 6 + g]
+                Dm[i, col] = Dm[j, col] - ly * Dm[j + 2, col]
+                Dm[i + 1, col] = Dm[j + 1, col] + lx * Dm[j + 2, col]
+                Dm[i + 2, col] = Dm[j + 2, col]
+            Dm[i, c], Dm[i + 1, c], Dm[i + 2, c] = S[e, 0, 0], S[e, 1, 0], S[e, 2, 0]
     for b in range(nb):
         for r in range(3):
             q[3 * b + r] = body[r, b]
             qd[3 * b + r] = body[3 + r, b]
-            if columns:
-                Dm[3 * b + r] = rows[r, b]
         xi[3 * b], xi[3 * b + 1], xi[3 * b + 2] = body[6, b], body[7, b], 0.0
 
 
@@ -567,35 +571,236 @@ def spatial_mass_residual(q, qd, qdd, masses, inertias, weights, Q, residual):
 
 
 @jit
-def cut_accelerations(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, alpha, beta, mu):
+def zero_cut_blocks(jac, rows, bodies, width):
+    """Zeros in the entries of Psi_q that the cut solve reads (``cut_accelerations``): each cut row at the
+    coordinates of its element's two bodies (-1 ground), where the constraint kernels add their terms."""
+    for a in range(rows.size):
+        for side in range(2):
+            b = bodies[2 * a + side]
+            if b >= 0:
+                jac[rows[a], width * b : width * (b + 1)] = 0.0
+
+
+@jit
+def dof_parents(ints, k):
+    """The tree's parent of every joint velocity, lambda(i) (-1 at ground): the previous column of the same joint
+    (a spherical joint's three), else the last column of the joint's parent; lambda(i) < i, since the columns are
+    numbered in the tree's topological order (Featherstone 2008, sec. 6.5, the parent array of H's sparsity)."""
+    parent = np.full(k, -1, dtype=np.int64)
+    for e in range(ints.shape[0]):
+        count = ints[e, 5]
+        own = 3 if ints[e, 0] == SPHERICAL else 1
+        for a in range(count - own, count):
+            if a > 0:
+                parent[ints[e, 6 + a]] = ints[e, 6 + a - 1]
+    return parent
+
+
+@jit
+def tree_factor(H, parent):
+    """H = L^T diag(d) L in place (Featherstone 2008, table 6.3, "LTDL"; MuJoCo's mj_factorM): L unit lower
+    triangular with L_ij nonzero only where j is an ancestor of i, so it fills in nothing outside the tree's
+    sparsity (H's lower triangle) and costs the sum over the columns of their depth squared: O(N) on a shallow
+    tree. L_ij goes to H[i, j], d_i to H[i, i]. False when a pivot is not positive (H not positive definite)."""
+    for i in range(H.shape[0] - 1, -1, -1):
+        if not H[i, i] > 0.0:
+            return False
+        j = parent[i]
+        while j >= 0:
+            a = H[i, j] / H[i, i]
+            g = j
+            while g >= 0:  # the ancestors of j: H_jg -= a H_ig
+                H[j, g] -= a * H[i, g]
+                g = parent[g]
+            H[i, j] = a
+            j = parent[j]
+    return True
+
+
+@jit
+def tree_back(H, parent, y):
+    """y <- L^-T y, L from ``tree_factor``: from the leaves, each y_i final moves L_ij y_i to its ancestors j."""
+    for i in range(y.size - 1, -1, -1):
+        if y[i] != 0.0:
+            j = parent[i]
+            while j >= 0:
+                y[j] -= H[i, j] * y[i]
+                j = parent[j]
+
+
+@jit
+def tree_forward(H, parent, y):
+    """y <- L^-1 y, L from ``tree_factor``: from ground, y_i -= L_ij y_j over the ancestors j of i."""
+    for i in range(y.size):
+        j = parent[i]
+        while j >= 0:
+            y[i] -= H[i, j] * y[j]
+            j = parent[j]
+
+
+BAND = 8
+"""The widest band (half-width p) of the cut rows' Schur complement that ``band_solve`` factors as written here, in
+O(m p^2) (the loop chain: p = 3); a wider one goes to LAPACK (``lu_solve``: gesv above LAPACK_SIZE unknowns)."""
+
+
+@jit
+def band_solve(S, p, b):
+    """x from S x = b by S = L diag(d) L^T within the half-band p (S symmetric, entries |i - j| > p zero: no fill-in
+    outside the band; Golub and Van Loan, Matrix Computations, 4th ed., alg. 4.3.5 without the square roots), in
+    O(m p^2), S overwritten. A zero pivot (S singular) gives NaN, as ``lu_solve``."""
+    m = b.size
+    x = b.copy()
+    for j in range(m):
+        for i in range(j, min(m, j + p + 1)):  # column j of L: S_ij -= sum_k L_ik d_k L_jk
+            s = S[i, j]
+            for c in range(max(0, i - p), j):
+                s -= S[i, c] * S[c, c] * S[j, c]
+            S[i, j] = s
+        if S[j, j] == 0.0:
+            return np.full(m, np.nan)
+        for i in range(j + 1, min(m, j + p + 1)):
+            S[i, j] /= S[j, j]
+    for i in range(m):  # L z = b, then diag(d) L^T x = z
+        for c in range(max(0, i - p), i):
+            x[i] -= S[i, c] * x[c]
+    for i in range(m - 1, -1, -1):
+        x[i] /= S[i, i]
+        for r in range(i + 1, min(m, i + p + 1)):
+            x[i] -= S[r, i] * x[r]
+    return x
+
+
+@jit
+def _cut_rows(Dq, xiq, jac, psi, psit, gam, qd, rows, bodies, alpha, beta, ints, width, H, parent, support, sizes,
+              values, c):  # fmt: skip
+    """Each cut row's W_a = L^-T Psi_theta,a^T (Psi_theta = Psi_c,q D) on its support, the columns that move the two
+    bodies its element joins (``bodies[2a], bodies[2a + 1]``, -1 for ground), which hold all their ancestors:
+    ``support[a, :sizes[a]]`` (descending), ``values`` alike; and the rows' right side c of eq. 7.6."""
+    k = H.shape[0]
+    joint = np.empty(jac.shape[1] // width, dtype=np.int64)  # the tree joint whose child each body is
+    for e in range(ints.shape[0]):
+        joint[ints[e, 2]] = e
+    dense = np.zeros(k)
+    for a in range(rows.size):
+        row, r = jac[rows[a]], rows[a]
+        rate = convective = 0.0
+        for side in range(2):
+            b = bodies[2 * a + side]
+            if b < 0:
+                continue
+            o, e = width * b, joint[b]
+            for s in range(o, o + width):
+                rate += row[s] * qd[s]
+                convective += row[s] * xiq[s]
+            for g in range(ints[e, 5]):  # Psi_theta,a over the columns that move body b
+                col, total = ints[e, 6 + g], 0.0
+                for s in range(o, o + width):
+                    total += row[s] * Dq[s, col]
+                dense[col] += total
+        size = _merged_columns(ints, joint, bodies[2 * a], bodies[2 * a + 1], support[a])
+        for u in range(size):  # L^-T from the leaves: the support holds every ancestor it reaches
+            i = support[a, u]
+            if dense[i] != 0.0:
+                j = parent[i]
+                while j >= 0:
+                    dense[j] -= H[i, j] * dense[i]
+                    j = parent[j]
+        for u in range(size):
+            values[a, u] = dense[support[a, u]]
+            dense[support[a, u]] = 0.0
+        sizes[a] = size
+        c[a] = gam[r] - 2.0 * alpha * (psit[r] + rate) - beta * beta * psi[r] - convective
+
+
+@jit
+def _merged_columns(ints, joint, b1, b2, out):
+    """The union of the columns that move body b1 and body b2 (each list ascending, -1: ground moves nothing), in
+    descending order, into ``out``; returns its length."""
+    n1 = ints[joint[b1], 5] if b1 >= 0 else 0
+    n2 = ints[joint[b2], 5] if b2 >= 0 else 0
+    i, j, size = n1 - 1, n2 - 1, 0
+    while i >= 0 or j >= 0:
+        x = ints[joint[b1], 6 + i] if i >= 0 else -1
+        z = ints[joint[b2], 6 + j] if j >= 0 else -1
+        if x >= z:
+            out[size] = x
+            i -= 1
+            if x == z:
+                j -= 1
+        else:
+            out[size] = z
+            j -= 1
+        size += 1
+    return size
+
+
+@jit
+def cut_accelerations(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, bodies, alpha, beta, mu, ints, width):
     """theta'' of a tree with cut constraints (the rows ``rows`` of Psi, Psi_q, Psi_t, gamma), and their multipliers
-    mu in ``mu``: the augmented system ``JointCoordinates.joint_accelerations`` solves, LU with partial pivoting,
+    mu in ``mu``, from the augmented system of eq. 7.6 (``JointCoordinates.joint_accelerations``)
 
-        [ D^T M D    Psi_theta^T ] [ theta'' ]   [ D^T (Q - M xi)                                   ]
-        [ Psi_theta  0           ] [ mu      ] = [ gamma_c - Psi_c,q xi - 2 alpha Psi_c' - beta^2 Psi_c ]
+        [ H          Psi_theta^T ] [ theta'' ]   [ r = D^T (Q - M xi)                               ]
+        [ Psi_theta  0           ] [ mu      ] = [ c = gamma_c - Psi_c,q xi - 2 alpha Psi_c' - beta^2 Psi_c ]
 
-    with Psi_theta = Psi_c,q D (Dq: dq/dtheta, xiq: q'' at theta'' = 0), its products by BLAS; ``matrix`` holds
-    the lower triangle of D^T M D. mu is lambda of the cut rows (D^T Psi_tree,q^T = 0: the tree's rows drop out)."""
+    by its Schur complement on the tree's factorization (notes eq. 7.11, 7.12), as MuJoCo solves its constraints on
+    mj_factorM (Featherstone 2008, sec. 6.5 and ch. 8): H = D^T M D = L^T diag(d) L along the tree (``tree_factor``),
+    W = L^-T Psi_theta^T, the cut rows' S = Psi_theta H^-1 Psi_theta^T = W^T diag(d)^-1 W (m_c x m_c), then
+
+        S mu = W^T d^-1 L^-T r - c,        theta'' = L^-1 d^-1 (L^-T r - W mu).
+
+    Every product follows the sparsity: a cut row meets the columns of the two bodies it joins and their ancestors,
+    so on a shallow tree (the loop chain: cranks from ground, couplers on them) W has a few entries per row and S is
+    a band (half-width 3), factored in O(m_c) (``band_solve``); the solve is O(N) in arithmetic where the dense
+    augmented LU was O((k + m_c)^3) (a deep tree, a serial chain cut at its end, fills W and S: then S goes to LAPACK).
+    ``bodies``: the two bodies of each cut row's element (-1 ground); ``matrix`` holds the lower triangle of H
+    (overwritten by its factors), ``ints`` the tree's joints, ``width`` a body's coordinates (3 planar, 7 spatial).
+    A singular S, or an H that is not positive definite, gives NaN (the adaptive integrators reject the step)."""
     k, mc = rhs.size, rows.size
-    cut = np.empty((mc, jac.shape[1]))
+    parent = dof_parents(ints, k)
+    if not tree_factor(matrix, parent):
+        mu[:] = np.nan
+        return np.full(k, np.nan)
+    support, sizes = np.empty((mc, k), dtype=np.int64), np.empty(mc, dtype=np.int64)
+    values, c = np.empty((mc, k)), np.empty(mc)
+    _cut_rows(Dq, xiq, jac, psi, psit, gam, qd, rows, bodies, alpha, beta, ints, width, matrix, parent, support,
+              sizes, values, c)  # fmt: skip
+    y = rhs.copy()
+    tree_back(matrix, parent, y)  # L^-T r
+    counts = np.zeros(k + 1, dtype=np.int64)  # the rows of W meeting column i: at[counts[i] : counts[i + 1]]
     for a in range(mc):
-        cut[a] = jac[rows[a]]
-    K = np.zeros((k + mc, k + mc))
-    b = np.empty(k + mc)
+        for u in range(sizes[a]):
+            counts[support[a, u] + 1] += 1
     for i in range(k):
-        b[i] = rhs[i]
-        for j in range(i + 1):
-            K[i, j] = K[j, i] = matrix[i, j]
-    theta = cut @ Dq  # Psi_theta
-    K[k:, :k] = theta
-    K[:k, k:] = theta.T
-    psi_dot, convective = cut @ qd, cut @ xiq
-    for a in range(mc):
-        r = rows[a]
-        b[k + a] = gam[r] - 2.0 * alpha * (psit[r] + psi_dot[a]) - beta * beta * psi[r] - convective[a]
-    x = lu_solve(K, b)
-    mu[:] = x[k:]
-    return x[:k]
+        counts[i + 1] += counts[i]
+    at, w, filled = np.empty(counts[k], dtype=np.int64), np.empty(counts[k]), counts[:k].copy()
+    for a in range(mc):  # rows in increasing order within each column
+        for u in range(sizes[a]):
+            i = support[a, u]
+            at[filled[i]], w[filled[i]] = a, values[a, u]
+            filled[i] += 1
+    S, s, p = np.zeros((mc, mc)), -c, 0
+    for i in range(k):  # S = W^T d^-1 W (its lower triangle) and its right side, column by column of the tree
+        inverse = 1.0 / matrix[i, i]
+        for u in range(counts[i], counts[i + 1]):
+            a, wa = at[u], w[u] * inverse
+            s[a] += wa * y[i]
+            for v in range(counts[i], u + 1):
+                S[a, at[v]] += wa * w[v]
+                p = max(p, a - at[v])
+    if p <= BAND:
+        x = band_solve(S, p, s)
+    else:
+        for a in range(mc):
+            for b in range(a):
+                S[b, a] = S[a, b]
+        x = lu_solve(S, s)
+    mu[:] = x
+    for i in range(k):  # theta'' = L^-1 d^-1 (L^-T r - W mu)
+        for u in range(counts[i], counts[i + 1]):
+            y[i] -= w[u] * x[at[u]]
+        y[i] /= matrix[i, i]
+    tree_forward(matrix, parent, y)
+    return y
 
 
 __all__ = [
@@ -610,4 +815,5 @@ __all__ = [
     "spatial_joint_matrix",
     "spatial_motion",
     "tree_multipliers",
+    "zero_cut_blocks",
 ]

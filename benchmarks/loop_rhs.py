@@ -1,0 +1,153 @@
+"""The loop chain's compiled right-hand side in joint coordinates, part by part (issue 25, item 1).
+
+The chain of N parallelogram four-bars (``chains.loop_chain``: 2N + 1 bodies, N loops, one degree of freedom) in
+joint coordinates is a shallow tree (the cranks from ground, each coupler on its crank) with 2N cut rows (the joints
+from each coupler to the next crank). One right-hand side makes, in this order (``compiled/tree.py``'s scene_rhs):
+the tree's recursion with the columns of D (``planar_motion``), the constraint rows (every kernel, into an m x n
+Psi_q), the embedded equations D^T M D and D^T (Q - M xi) (``planar_equations``), and the cut rows' solve
+(``cut_accelerations``: the Schur complement on the tree's factorization, notes eq. 7.11-7.12). Each part is timed
+alone on the chain's starting state (thread CPU, the least of ``--rounds`` rounds, microseconds per call), beside
+the whole right-hand side, with and without the outputs (q, q', q'', lambda of every row), and beside the dense
+augmented LU of eq. 7.6 that the engine solved before (1f2d7c9: assembled (k + m_c)^2, LAPACK's gesv).
+
+    .venv/bin/python benchmarks/loop_rhs.py --sizes 4 16 64
+
+Nothing is asserted (timing depends on the machine): prints a Markdown table.
+"""
+
+from __future__ import annotations
+
+import os
+
+for _variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
+import argparse  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from chains import loop_chain  # noqa: E402
+
+from solutions.assembly import build_system  # noqa: E402
+from solutions.compiled.kernels import lu_solve  # noqa: E402  (imports numba)
+from solutions.dynamics import EquationsOfMotion, mass_matrix  # noqa: E402
+from solutions.formulations import make_formulation  # noqa: E402
+from solutions.generalized_forces import build_forces  # noqa: E402
+from solutions.io import load_model  # noqa: E402
+
+
+def dense_augmented(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, alpha, beta, mu):
+    """The solve of eq. 7.6 before this session (1f2d7c9): Psi_theta = Psi_c,q D by BLAS, the augmented matrix
+    assembled whole and solved by LU (``kernels.lu_solve``: LAPACK's gesv above 32 unknowns)."""
+    k, mc = rhs.size, rows.size
+    cut = np.empty((mc, jac.shape[1]))
+    for a in range(mc):
+        cut[a] = jac[rows[a]]
+    K = np.zeros((k + mc, k + mc))
+    b = np.empty(k + mc)
+    for i in range(k):
+        b[i] = rhs[i]
+        for j in range(i + 1):
+            K[i, j] = K[j, i] = matrix[i, j]
+    theta = cut @ Dq
+    K[k:, :k] = theta
+    K[:k, k:] = theta.T
+    psi_dot, convective = cut @ qd, cut @ xiq
+    for a in range(mc):
+        r = rows[a]
+        b[k + a] = gam[r] - 2.0 * alpha * (psit[r] + psi_dot[a]) - beta * beta * psi[r] - convective[a]
+    x = lu_solve(K, b)
+    mu[:] = x[k:]
+    return x[:k]
+
+
+def least_us(f, calls: int, rounds: int) -> float:
+    """Least over rounds of the mean thread-CPU microseconds of ``calls`` calls (after one warm-up call)."""
+    f()
+    best = np.inf
+    for _ in range(rounds):
+        start = time.thread_time()
+        for _ in range(calls):
+            f()
+        best = min(best, (time.thread_time() - start) / calls * 1e6)
+    return best
+
+
+def parts(n: int, rounds: int) -> dict[str, float]:
+    """Microseconds per call of each part of the loop chain's right-hand side at N = n."""
+    from numba import njit
+
+    from solutions.compiled import describe, load, parameters, plan
+    from solutions.compiled.tree_kernels import cut_accelerations, planar_equations, planar_motion
+
+    system, q0, qd0 = build_system(load_model(loop_chain(n)))
+    forces = build_forces(system.model)
+    made = make_formulation("joint-coordinates", system, mass_matrix(system.model), forces)
+    job = plan(describe(system, made.masses, forces), "joint-coordinates", made)
+    module, _, _ = load(job)
+    tree, P, D = job.scene, parameters(job.scene, *job.numbers), job.scene.data()
+    y = EquationsOfMotion(made, forces, False).initial_state(q0, qd0, 0.0)
+    n_q, m, k, joints = tree.n, tree.m, tree.k, tree.ints
+    calls = max(20, 20000 // (n * n))
+    out, full = np.empty(y.size), np.empty(y.size + 3 * n_q + m)
+    q, qd, xi, Dm = np.empty(n_q), np.empty(n_q), np.empty(n_q), np.empty((n_q, k))
+    S, links = np.empty((joints.shape[0], 3, 3)), np.empty((joints.shape[0], 3))
+
+    def motion(whole=False):  # as the integration's right-hand side: the columns that move each body
+        planar_motion(y[:k], y[k : 2 * k], joints, tree.floats, n_q // 3, k, q, qd, xi, Dm, S, links, True, whole)
+
+    motion(True)  # D whole once, its zeros too (the dense solve below reads them)
+    times, states = np.zeros(1), np.ascontiguousarray(np.hstack([q, qd])[None, :])
+
+    def constraints():
+        arrays = np.zeros((1, m)), np.zeros((1, m, n_q)), np.zeros((1, m))
+        module.constraint_arrays(times, states, P, D, *arrays)
+        return arrays
+
+    psi, jac, psit = (a[0] for a in constraints())
+    matrix, rhs = planar_equations(P[1], Dm, xi, P[0].copy(), joints)
+    rows, mu, dense = tree.cut_rows, np.empty(tree.cut_rows.size), njit(dense_augmented)
+    gam = np.zeros(m)
+    return {
+        "k, cut rows": f"{k}, {rows.size}",
+        "right-hand side (the integration's)": least_us(lambda: module.scene_rhs(0.0, y, P, D, out), calls, rounds),
+        "right-hand side with the outputs": least_us(lambda: module.scene_rhs(0.0, y, P, D, full), calls, rounds),
+        "tree recursion with D's columns": least_us(motion, calls, rounds),
+        "constraint rows, all kernels, m x n Psi_q zeroed": least_us(constraints, calls, rounds),
+        "D^T M D and D^T (Q - M xi)": least_us(lambda: planar_equations(P[1], Dm, xi, P[0], joints), calls, rounds),
+        "cut solve: Schur complement on the tree's factorization": least_us(
+            lambda: cut_accelerations(
+                matrix.copy(), rhs, Dm, xi, jac, psi, psit, gam, qd, rows, tree.cut_bodies, 5.0, 5.0, mu, joints, 3
+            ),
+            calls,
+            rounds,
+        ),  # fmt: skip
+        "cut solve: dense augmented LU (1f2d7c9)": least_us(
+            lambda: dense(matrix.copy(), rhs, Dm, xi, jac, psi, psit, gam, qd, rows, 5.0, 5.0, mu), calls, rounds
+        ),
+    }
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", type=int, nargs="+", default=[4, 16, 64], help="chain sizes N")
+    parser.add_argument("--rounds", type=int, default=3, help="rounds; the least is kept (default 3)")
+    args = parser.parse_args(argv)
+    columns = {n: parts(n, args.rounds) for n in args.sizes}
+    print("## The loop chain's right-hand side by part, us per call (thread CPU, least of rounds)\n")
+    print("| part | " + " | ".join(f"N = {n}" for n in args.sizes) + " |")
+    print("|---|" + "---:|" * len(args.sizes))
+    for name in columns[args.sizes[0]]:
+        cells = [columns[n][name] for n in args.sizes]
+        print(f"| {name} | " + " | ".join(c if isinstance(c, str) else f"{c:.1f}" for c in cells) + " |")
+
+
+if __name__ == "__main__":
+    main()

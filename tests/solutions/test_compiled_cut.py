@@ -1,0 +1,92 @@
+"""The cut constraints' solve of the compiled joint coordinates (``tree_kernels.cut_accelerations``).
+
+A tree with cut joints or drivers gets theta'' and the cut rows' multipliers from the augmented system of eq. 7.6.
+The compiled engine solves it by the Schur complement of the cut rows on the tree's factorization H = L^T D L
+(Featherstone's LTDL), a band solve where the complement is a band; the numpy reference engine
+(``JointCoordinates.joint_accelerations``) assembles the whole augmented matrix and solves it densely by LAPACK.
+Both are compared at random joint states (off the constraint manifold, so every term of the right side counts) on:
+the chain of parallelogram loops (a shallow tree: cranks from ground, couplers on them; the complement a band of
+half-width 3), a hanging serial chain held by distance drivers from ground to every bar (a deep tree: the
+complement is full and goes to the dense branch), and a spatial loop (a cut spherical joint: Euler parameters'
+rows of dq/dtheta; its compiled module is test_compiled_formulations').
+"""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from solutions.assembly import build_system
+from solutions.dynamics import EquationsOfMotion, mass_matrix
+from solutions.formulations import make_formulation
+from solutions.generalized_forces import build_forces
+from solutions.io import load_model
+
+pytest.importorskip("numba")
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from mechanisms import parallelogram_chain  # noqa: E402
+from test_compiled_formulations import _spatial_loop  # noqa: E402
+
+
+def _held_chain(n: int) -> dict:
+    """n bars hanging in a row from a pin at the origin, bars 1 .. n-1 each held by a distance driver from a ground
+    point beside the chain: one degree of freedom, n - 1 cut rows meeting every column above their bar."""
+    bodies, joints, drivers = [], [], []
+    for i in range(n):
+        angle = -1.2 + 0.15 * i
+        start = np.sum([[np.cos(-1.2 + 0.15 * j), np.sin(-1.2 + 0.15 * j)] for j in range(i)], axis=0) if i else [0, 0]
+        start = np.asarray(start, dtype=float)
+        direction = np.array([np.cos(angle), np.sin(angle)])
+        bodies.append({"name": f"b{i}", "mass": 1.0 + 0.1 * i, "inertia": 0.08, "orientation": angle,
+                       "location": (start + 0.5 * direction).tolist()})  # fmt: skip
+        joints.append({"name": f"j{i}", "type": "revolute", "body1": "ground" if i == 0 else f"b{i - 1}",
+                       "body2": f"b{i}", "location": start.tolist()})  # fmt: skip
+        if i:
+            anchor, tip = np.array([2.0 + 0.3 * i, 1.0 - 0.2 * i]), start + direction
+            drivers.append({"name": f"d{i}", "type": "distance", "body1": "ground", "body2": f"b{i}",
+                            "point1": anchor.tolist(), "point2": tip.tolist(),
+                            "function": float(np.linalg.norm(tip - anchor))})  # fmt: skip
+    return {"model": {"name": f"held-chain-{n}", "dimension": 2, "gravity": [0.0, -9.81], "bodies": bodies,
+                      "joints": joints, "motors": drivers}}  # fmt: skip
+
+
+def _both_sides(model):
+    """(numpy equations of motion, the compiled scene_rhs with its P and D, the cut rows, the start's joint state)."""
+    from solutions.compiled import describe, load, parameters, plan
+
+    system, q0, qd0 = build_system(load_model(model))
+    forces = build_forces(system.model)
+    made = make_formulation("joint-coordinates", system, mass_matrix(system.model), forces)
+    equations = EquationsOfMotion(made, forces, False)
+    job = plan(describe(system, made.masses, forces), "joint-coordinates", made)
+    assert job.scene.unsupported is None
+    module, _, _ = load(job)
+    P, D = parameters(job.scene, *job.numbers), job.scene.data()
+    dims = P[8].copy()  # the energy states as ``equations`` has them, no drivers' power (``dispatch.start_rates``)
+    dims[2], dims[5] = equations.extra, 0
+    P = (*P[:8], dims)
+    return equations, (module.scene_rhs, P, D), job.scene.cut_rows.size, equations.initial_state(q0, qd0, 0.0)
+
+
+@pytest.mark.parametrize(
+    ("model", "cut"),
+    [(parallelogram_chain(6), 12), (_held_chain(12), 11), (_spatial_loop(), 3)],
+    ids=["loop-chain-band", "held-chain-dense", "spatial-loop"],
+)
+def test_cut_solve_equals_the_dense_augmented_solve(model, cut):
+    equations, (rhs, P, D), rows, y0 = _both_sides(model)
+    assert rows == cut
+    rng = np.random.default_rng(7)
+    out = np.empty(y0.size)
+    for _ in range(3):
+        y = y0 + rng.uniform(-0.2, 0.2, y0.size)
+        if equations.formulation.tree.n_positions != equations.formulation.tree.k:  # Euler parameters: unit
+            for joint in equations.formulation.joints:
+                if joint.kind == "spherical":
+                    e = y[joint.position : joint.position + 4]
+                    e /= np.linalg.norm(e)
+        expected = equations.rhs(0.0, y)
+        rhs(0.0, y, P, D, out)
+        np.testing.assert_allclose(out, expected, rtol=0, atol=1e-11 * np.abs(expected).max())
