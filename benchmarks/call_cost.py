@@ -49,7 +49,7 @@ STAGES = (
     (dispatch, "choose", "  engine's choice"),
     (dispatch, "run", "  compiled run"),
     (loops, "embedded", "    integration loop"),
-    (loops, "outputs", "    outputs at the output times"),
+    (loops, "output_history", "    outputs at the output times"),
     (history, "constraint_arrays", "    constraints at the output times"),
     (dynamics.Guard, "check_outputs", "  checks at the output times (Guard)"),
     (dynamics, "build_result", "result"),

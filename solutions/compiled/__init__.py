@@ -26,8 +26,9 @@ and caches its module, ``kernels.py`` holds the compiled element formulas.
 
 ``projection.py`` and ``tree.py`` write the modules of the projection and joint-coordinates formulations
 (their kernels: ``projection_kernels.py``, ``tree_kernels.py``); ``plan`` says which a run takes. Every
-generated module also gives Psi, Psi_q and Psi_t at all output times at once, from which ``history.py``
-builds the residuals and the reactions and ``dynamics.Guard.check_outputs`` makes its checks.
+run's output stage is one compiled pass (``loops.output_history``): at every output time the right-hand side
+with its outputs (q'', lambda) and Psi, Psi_q, Psi_t, from which ``history.py`` builds the residuals and the
+reactions and ``dynamics.Guard.check_outputs`` makes its checks.
 
 The kinematic analysis has a compiled engine of its own on the same kernels (``kinematic.py``, its step
 loop ``kinematic_loop.py``): ``kinematics.kinematic_analysis(..., engine="compiled")``.
@@ -104,7 +105,7 @@ class CompiledRun:
     """Importing numba and the loops and loading the scene's module: compiling it too when it was not cached."""
     cached: bool
     psi: np.ndarray = None
-    """Psi, Psi_q, Psi_t at the output times (``history.constraint_arrays``), for the checks and the reactions."""
+    """Psi, Psi_q, Psi_t at the output times (``loops.output_history``), for the checks and the reactions."""
     jac: np.ndarray = None
     psit: np.ndarray = None
     joint_states: np.ndarray | None = None
@@ -254,14 +255,13 @@ def _embedded(loops, rhs, project, z0: np.ndarray, times: np.ndarray, numbers: t
 
 def configuration(t: float, z: np.ndarray, module, scene, P, D, rhs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(q, Psi, Psi_q) of the state z at t (rows of one output time), a tree's body coordinates made first."""
-    from . import history, loops
+    from . import loops
 
     Y, times = np.ascontiguousarray(z[None, :]), np.array([float(t)])
-    if isinstance(scene, TreeScene):
-        out = loops.outputs(rhs, times, Y, P, D, 3 * scene.n + scene.m)
-        Y = np.hstack([out[:, z.size : z.size + 2 * scene.n], Y[:, scene.n_positions + scene.k :]])
-    psi, jac, _ = history.constraint_arrays(module, scene, times, Y)
-    return Y[0, : scene.n], psi, jac
+    tree = isinstance(scene, TreeScene)
+    out, psi, jac, _ = loops.output_history(rhs, times, Y, P, D, 3 * scene.n + scene.m if tree else scene.m)
+    q = out[0, z.size : z.size + scene.n] if tree else Y[0, : scene.n]
+    return q, psi, jac
 
 
 def run(
@@ -278,7 +278,7 @@ def run(
     """Integrate the plan's scene from z0 over the output grid ``times`` with the compiled loop; an adaptive loop
     calls ``on_pause(t, q, Psi, Psi_q)`` every PAUSE_STEPS steps, which raises to stop the run."""
     start = time.perf_counter()
-    from . import history, loops  # imports numba
+    from . import loops  # imports numba
 
     module, project, cached = load(plan)
     load_seconds = time.perf_counter() - start  # importing numba and the loops, loading (or compiling) the modules
@@ -306,14 +306,13 @@ def run(
     if status != 0:  # the output times reached and, after them, the state where the loop stopped (no others)
         times, Y = np.append(times[:reached], t), Y[: reached + 1]
     joint_states, n, m, ny = None, scene.n, scene.m, Y.shape[1]
-    if isinstance(scene, TreeScene):  # after y': the body coordinates of the joint states, and q'', lambda there
-        out = loops.outputs(rhs, times, Y, P, D, 3 * n + m)
-        q, qd, qdd, lam = (np.ascontiguousarray(a) for a in np.hsplit(out[:, ny:], [n, 2 * n, 3 * n]))
-        joint_states, Y = Y, np.hstack([q, qd, Y[:, scene.n_positions + scene.k :]])
+    tree = isinstance(scene, TreeScene)  # after y': the body coordinates of the joint states, and q'', lambda there
+    out, psi, jac, psit = loops.output_history(rhs, times, Y, P, D, 3 * n + m if tree else m)  # and Psi's
+    if tree:
+        qdd, lam = np.ascontiguousarray(out[:, ny + 2 * n : ny + 3 * n]), np.ascontiguousarray(out[:, ny + 3 * n :])
+        joint_states, Y = Y, np.hstack([out[:, ny : ny + 2 * n], Y[:, scene.n_positions + scene.k :]])
     else:  # q'' in y', lambda after it
-        out = loops.outputs(rhs, times, Y, P, D, m)
         qdd, lam = np.ascontiguousarray(out[:, n : 2 * n]), np.ascontiguousarray(out[:, ny:])
-    psi, jac, psit = history.constraint_arrays(module, scene, times, Y)
     return CompiledRun(
         Y, qdd, lam, int(evaluations), int(steps), int(rejected), int(status), float(t), float(h), load_seconds, cached,
         psi, jac, psit, joint_states, int(reached),

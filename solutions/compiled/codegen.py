@@ -14,10 +14,10 @@ For a ``Scene`` (``scene.py``) the generator writes a Python module with
   spatial mass matrix and quadratic-velocity term only in the spatial module; solved by LU with partial
   pivoting (LAPACK's gesv, as ``formulations.Baumgarte``); a large planar one (M diagonal, n + m from
   ``RANGE_SPACE_SIZE``) by the range-space form of eq. 5.31, Psi_q M^-1 Psi_q^T factored by Cholesky within its
-  envelope (``range_space_solve``). Given an ``out`` longer than z, it also writes lambda after y': the
-  outputs at the output times (``loops.outputs``) come from the same function as the integration;
-- ``constraint_arrays(T, Y, P, D, Psi, Psi_q, Psi_t)``: the constraints at the output times, for the checks
-  (``history.py``);
+  envelope (``range_space_solve``). Given an ``out`` longer than z, it also writes lambda after y', and given
+  one longer still Psi, Psi_t and Psi_q (row by row) after lambda: the outputs at the output times
+  (``loops.output_history``) come from the same function as the integration;
+- ``constraint_arrays(T, Y, P, D, Psi, Psi_q, Psi_t)``: the constraints at given states (``history.py``);
 both with the fixed signatures of ``loops.py``, whose integrator loops (compiled once per machine) take
 them as first-class functions. (One function for the integration and the outputs: numba optimizes every
 kernel a function calls again in each function that calls it, so each one more costs seconds of compilation.)
@@ -134,7 +134,15 @@ def generate(scene: Scene) -> str:
         "    qdd, lam = np.empty(n), np.empty(m)",
         "    Q, power = Q0.copy(), np.zeros(3)",
     ]
-    lines += constraint_calls(scene, "    ") + force_calls(scene, "    ")
+    lines += constraint_calls(scene, "    ")
+    lines += [
+        "    if out.size == z.size + 3 * m + m * n:  # Psi, Psi_t, Psi_q of the outputs too (loops.output_history)",
+        "        o = z.size + m",
+        "        out[o : o + m] = psi",
+        "        out[o + m : o + 2 * m] = psit",
+        "        out[o + 2 * m : o + 2 * m + m * n] = jac.reshape(m * n)",
+    ]
+    lines += force_calls(scene, "    ")
     if scene.dimension == 3:
         lines += [
             "    M = np.zeros((n, n))",

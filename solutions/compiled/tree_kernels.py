@@ -498,10 +498,17 @@ def tree_multipliers(jac, residual, owners, width, ints, lam):
     for e in range(ints.shape[0] - 1, -1, -1):
         P, C = ints[e, 1], ints[e, 2]
         first, count = start[C], start[C + 1] - start[C]
-        A = np.empty((count, width))
-        for a in range(count):
-            A[a] = jac[mine[first + a], width * C : width * (C + 1)]
-        x = lu_solve(A @ A.T, A @ r[width * C : width * (C + 1)])
+        G, b = np.empty((count, count)), np.empty(count)  # A A^T and A r, A = the body's own rows on its columns
+        for a in range(count):  # by loops: at most 7 x 7, where a BLAS call costs more than the products
+            row = mine[first + a]
+            b[a] = 0.0
+            for c in range(width * C, width * (C + 1)):
+                b[a] += jac[row, c] * r[c]
+            for other in range(count):
+                G[a, other] = 0.0
+                for c in range(width * C, width * (C + 1)):
+                    G[a, other] += jac[row, c] * jac[mine[first + other], c]
+        x = lu_solve(G, b)
         for a in range(count):
             row = mine[first + a]
             lam[row] = x[a]
