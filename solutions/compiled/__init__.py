@@ -145,6 +145,8 @@ def tableau(dop: bool) -> tuple:
     """(A, B, C, E, E3, E5, D, P) of DOP853 or RK45 (``tableaux.py``: scipy's coefficients; the unused ones empty).
     DOP853's A and C are those of all 16 stages: the 12 of a step, the 13th (B at t + h, first of the next step)
     and the 3 extra ones of the dense output."""
+    if dop in _TABLEAUS:  # made once per process (the loops never write them): 10 us a run
+        return _TABLEAUS[dop]
     from ..tableaux import DOP853, RK45
 
     empty1, empty2 = np.zeros(1), np.zeros((1, 1))
@@ -154,8 +156,13 @@ def tableau(dop: bool) -> tuple:
         A = np.zeros((n + 1 + extra, n + 1 + extra))
         A[:n, :n], A[n, :n], A[n + 1 :] = d.A, d.B, d.A_EXTRA
         C = np.concatenate([d.C, [1.0], d.C_EXTRA])
-        return (A, d.B, C, empty1, d.E3, d.E5, d.D, empty2)
-    return (RK45.A, RK45.B, RK45.C, RK45.E, empty1, empty1, empty2, RK45.P)
+        _TABLEAUS[dop] = (A, d.B, C, empty1, d.E3, d.E5, d.D, empty2)
+    else:
+        _TABLEAUS[dop] = (RK45.A, RK45.B, RK45.C, RK45.E, empty1, empty1, empty2, RK45.P)
+    return _TABLEAUS[dop]
+
+
+_TABLEAUS: dict = {}
 
 
 def parameters(
@@ -165,7 +172,15 @@ def parameters(
     formulation's (Baumgarte's alpha, beta; the projection's tolerance and iterations, ``Plan.numbers``) and the
     sizes and switches P[8] = (n, m, 3 with the energy states else 0, joint positions, joint velocities, 1 when a
     tree's drivers' power needs lambda at every evaluation, the number of cut rows, the cut rows..., the tree's
-    rows' owners...)."""
+    rows' owners...). Made once per scene and numbers (a run's start rates and its loop ask for the same)."""
+    kept = scene.__dict__.setdefault("_parameters", {})
+    key = (alpha, beta, tol, iterations)
+    if key not in kept:
+        kept[key] = _parameters(scene, alpha, beta, tol, iterations)
+    return kept[key]
+
+
+def _parameters(scene: Scene | TreeScene, alpha: float, beta: float, tol: float, iterations: float) -> tuple:
     tree = scene if isinstance(scene, TreeScene) else None
     scene = scene.scene if tree is not None else scene
     extra = 3 if scene.energies else 0
@@ -189,7 +204,16 @@ def parameters(
 
 
 def load(plan: Plan) -> tuple[object, object, bool]:
-    """(module with ``scene_rhs``, ``project`` of the formulation, all machine code was on disk)."""
+    """(module with ``scene_rhs``, ``project`` of the formulation, all machine code was on disk), found once per plan
+    (its start rates and its run load the same; the second finds it loaded, on disk or not before)."""
+    if "_loaded" in plan.__dict__:
+        return (*plan.__dict__["_loaded"], True)
+    module, project, cached = _load(plan)
+    plan.__dict__["_loaded"] = (module, project)
+    return module, project, cached
+
+
+def _load(plan: Plan) -> tuple[object, object, bool]:
     from . import loops  # imports numba
 
     if isinstance(plan.scene, TreeScene):
