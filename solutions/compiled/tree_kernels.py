@@ -558,19 +558,43 @@ def _l_fill(p, out):
 @jit
 def spatial_mass_residual(q, qd, qdd, masses, inertias, weights, Q, residual):
     """Q += Q_v = 8 L(p')^T J' L(p') p (eq. 10.5) and residual = Q - M q'' body by body, M_b = diag(m I, 4 L^T J' L
-    + 4 w p p^T) (eq. 10.4, regularized as ``dynamic_mass_matrix``): ``kernels.spatial_mass`` without the n x n M."""
+    + 4 w p p^T) (eq. 10.4, regularized as ``dynamic_mass_matrix``): ``kernels.spatial_mass`` without the n x n M.
+    M_b p'' as 4 L^T (J' (L p'')) + 4 w p (p . p''), every product by loops (3 x 4 at most: numba's matrix products
+    are BLAS calls, each dearer than the arithmetic)."""
     L, Ld = np.empty((3, 4)), np.empty((3, 4))
+    v, u = np.empty(3), np.empty(3)
     for b in range(masses.size):
         o = 7 * b
         p, pd, pdd = q[o + 3 : o + 7], qd[o + 3 : o + 7], qdd[o + 3 : o + 7]
         _l_fill(p, L)
         _l_fill(pd, Ld)
         J = inertias[b]
-        Q[o + 3 : o + 7] += 8.0 * (Ld.T @ (J @ (Ld @ p)))
+        _l_times(Ld, p, v)  # L(p') p
+        _inertia_times(J, v, u)
+        for r in range(4):  # Q_v = 8 L(p')^T J' L(p') p
+            Q[o + 3 + r] += 8.0 * (Ld[0, r] * u[0] + Ld[1, r] * u[1] + Ld[2, r] * u[2])
         for r in range(3):
             residual[o + r] = Q[o + r] - masses[b] * qdd[o + r]
-        Mp = 4.0 * (L.T @ (J @ L)) + 4.0 * weights[b] * np.outer(p, p)
-        residual[o + 3 : o + 7] = Q[o + 3 : o + 7] - Mp @ pdd
+        _l_times(L, pdd, v)  # L(p) p''
+        _inertia_times(J, v, u)
+        along = 4.0 * weights[b] * (p[0] * pdd[0] + p[1] * pdd[1] + p[2] * pdd[2] + p[3] * pdd[3])
+        for r in range(4):
+            Mp = 4.0 * (L[0, r] * u[0] + L[1, r] * u[1] + L[2, r] * u[2]) + along * p[r]
+            residual[o + 3 + r] = Q[o + 3 + r] - Mp
+
+
+@jit
+def _l_times(L, x, out):
+    """out = L x (3 x 4 by 4)."""
+    for r in range(3):
+        out[r] = L[r, 0] * x[0] + L[r, 1] * x[1] + L[r, 2] * x[2] + L[r, 3] * x[3]
+
+
+@jit
+def _inertia_times(J, x, out):
+    """out = J x (3 x 3 by 3)."""
+    for r in range(3):
+        out[r] = J[r, 0] * x[0] + J[r, 1] * x[1] + J[r, 2] * x[2]
 
 
 @jit
