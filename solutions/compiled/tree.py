@@ -177,7 +177,9 @@ def _multipliers(scene: Scene) -> list[str]:
             "    qdd[:] = Dm @ thdd + xi",
             "else:  # the articulated pass's body accelerations: no D",
             "    planar_body_accelerations(acc, xi, qdd)",
-            "residual = Q - mass * qdd",
+            "residual = np.empty(n)",
+            "for coordinate in range(n):  # Q - M q'' (one allocation: the tree's multipliers work in it)",
+            "    residual[coordinate] = Q[coordinate] - mass[coordinate] * qdd[coordinate]",
         ]
     solve = [
         "for a in range(ncut):  # the cut rows' lambda: mu of the augmented system; the tree's from what is left",
@@ -186,7 +188,8 @@ def _multipliers(scene: Scene) -> list[str]:
         "# the tree's rows body by body from the leaves, O(N)",
         f"tree_multipliers(jac, residual, dims[7 + ncut :], {7 if scene.dimension == 3 else 3}, joints, lam)",
     ]
-    return ["        " + line for line in ["qdd, lam = np.empty(n), np.empty(m)", *lines, *solve]]
+    both = "outputs = np.empty(n + m)  # q'' and lambda in one allocation"
+    return ["        " + line for line in [both, "qdd, lam = outputs[:n], outputs[n:]", *lines, *solve]]
 
 
 def _body(tree: TreeScene) -> list[str]:
@@ -227,8 +230,9 @@ def _body(tree: TreeScene) -> list[str]:
     lines += force_calls(scene, "    ")
     lines += [
         "    if full or ncut > 0:  # the constraint rows: lambda of every row, or the cut rows",
-        "        psi, psit, gam = np.zeros(m), np.zeros(m), np.zeros(m)",
-        "        jac = np.zeros((m, n))",
+        "        rows = np.zeros(3 * m + m * n)  # Psi, Psi_t, gamma, Psi_q in one allocation",
+        "        psi, psit, gam = rows[:m], rows[m : 2 * m], rows[2 * m : 3 * m]",
+        "        jac = rows[3 * m :].reshape((m, n))",
         *constraint_calls(scene, "        "),
         "        if out.size == y.size + 3 * n + 3 * m + m * n:  # Psi, Psi_t, Psi_q too (loops.output_history)",
         "            o = y.size + 3 * n + m",

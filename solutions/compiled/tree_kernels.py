@@ -481,24 +481,31 @@ def tree_multipliers(jac, residual, owners, width, ints, lam):
     right side. So each body solves A lambda_own = r_C (A: its columns of its own rows, at most 7 x 6, full column
     rank) by least squares, whose residual is zero, and moves what its rows exert on its parent, the only other
     body they hold, to the parent's columns: O(N), where the normal equations of all rows cost O(m^3).
-    ``width``: a body's columns (3 planar, 7 spatial)."""
+    ``width``: a body's columns (3 planar, 7 spatial). ``residual`` is worked in (the rows' parts moved to parents).
+    (Allocations few: at two bodies each costs as much as a body's arithmetic.)"""
     m, nb = jac.shape[0], residual.size // width
-    r = residual.copy()
-    start = np.zeros(nb + 1, dtype=np.int64)  # the rows of body b: mine[start[b] : start[b + 1]] (counting sort)
-    for row in range(m):
+    r = residual
+    index = np.zeros(2 * nb + 1 + m, dtype=np.int64)
+    start, filled, mine = index[: nb + 1], index[nb + 1 : 2 * nb + 1], index[2 * nb + 1 :]
+    for row in range(m):  # the rows of body b: mine[start[b] : start[b + 1]] (counting sort)
         if owners[row] >= 0:
             start[owners[row] + 1] += 1
     for b in range(nb):
         start[b + 1] += start[b]
-    mine, filled = np.empty(start[nb], dtype=np.int64), start[:nb].copy()
+    filled[:] = start[:nb]
     for row in range(m):
         if owners[row] >= 0:
             mine[filled[owners[row]]] = row
             filled[owners[row]] += 1
+    most = 0
+    for b in range(nb):
+        most = max(most, start[b + 1] - start[b])
+    work = np.empty(most * most + most)  # A A^T and A r of a body
     for e in range(ints.shape[0] - 1, -1, -1):
         P, C = ints[e, 1], ints[e, 2]
         first, count = start[C], start[C + 1] - start[C]
-        G, b = np.empty((count, count)), np.empty(count)  # A A^T and A r, A = the body's own rows on its columns
+        G = work[: count * count].reshape((count, count))  # A A^T and A r, A = the body's own rows on its columns
+        b = work[count * count : count * count + count]
         for a in range(count):  # by loops: at most 7 x 7, where a BLAS call costs more than the products
             row = mine[first + a]
             b[a] = 0.0
