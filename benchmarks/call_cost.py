@@ -50,6 +50,7 @@ STAGES = (
     (dispatch, "run", "  compiled run"),
     (loops, "embedded", "    integration loop"),
     (loops, "output_history", "    outputs at the output times"),
+    (loops, "outputs", "    outputs at the output times"),  # a large Psi_q's two passes (compiled.ONE_PASS_LARGEST)
     (history, "constraint_arrays", "    constraints at the output times"),
     (dynamics.Guard, "check_outputs", "  checks at the output times (Guard)"),
     (dynamics, "build_result", "result"),

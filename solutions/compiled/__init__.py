@@ -247,6 +247,12 @@ def is_cached(plan: Plan) -> bool:
     return scene_cached(plan.scene)
 
 
+ONE_PASS_LARGEST = 8192
+"""Entries of Psi_q (m n) up to which a run's outputs and its Psi, Psi_q, Psi_t come from one compiled pass
+(``loops.output_history``: 101 output times of the double pendulum 0.36 -> 0.25 ms, a spatial chain of 16 bodies
+(64 x 112) 7.6 -> 5.3 ms); above, the outputs and the module's ``constraint_arrays`` in two, which write only the
+nonzeros of a large sparse Psi_q (a spatial chain of 64 bodies, 256 x 448: 23 ms against 51 for one pass writing
+every entry: memory, not arithmetic)."""
 PAUSE_STEPS = 1000
 """The compiled loop pauses after this many steps for the configuration check of ``on_pause`` (``run``): a run that
 crawls at a singular position stops there as the numpy engine's run, which checks after every step, stops."""
@@ -331,12 +337,20 @@ def run(
         times, Y = np.append(times[:reached], t), Y[: reached + 1]
     joint_states, n, m, ny = None, scene.n, scene.m, Y.shape[1]
     tree = isinstance(scene, TreeScene)  # after y': the body coordinates of the joint states, and q'', lambda there
-    out, psi, jac, psit = loops.output_history(rhs, times, Y, P, D, 3 * n + m if tree else m)  # and Psi's
+    one_pass = m * n <= ONE_PASS_LARGEST
+    if one_pass:  # and Psi, Psi_q, Psi_t from the same evaluations
+        out, psi, jac, psit = loops.output_history(rhs, times, Y, P, D, 3 * n + m if tree else m)
+    else:
+        out = loops.outputs(rhs, times, Y, P, D, 3 * n + m if tree else m)
     if tree:
         qdd, lam = np.ascontiguousarray(out[:, ny + 2 * n : ny + 3 * n]), np.ascontiguousarray(out[:, ny + 3 * n :])
         joint_states, Y = Y, np.hstack([out[:, ny : ny + 2 * n], Y[:, scene.n_positions + scene.k :]])
     else:  # q'' in y', lambda after it
         qdd, lam = np.ascontiguousarray(out[:, n : 2 * n]), np.ascontiguousarray(out[:, ny:])
+    if not one_pass:
+        from . import history
+
+        psi, jac, psit = history.constraint_arrays(module, scene, times, Y)
     return CompiledRun(
         Y, qdd, lam, int(evaluations), int(steps), int(rejected), int(status), float(t), float(h), load_seconds, cached,
         psi, jac, psit, joint_states, int(reached),

@@ -129,20 +129,17 @@ def generate(scene: Scene) -> str:
         "    Q0, mass, masses, inertias, weights, fk, fp, ab, dims = P",
         "    n, m = dims[0], dims[1]",
         "    q, qd = z[:n].copy(), z[n : 2 * n].copy()",
-        "    psi, psit, gam = np.zeros(m), np.zeros(m), np.zeros(m)",
-        "    jac = np.zeros((m, n))",
+        "    if out.size == z.size + 3 * m + m * n:  # Psi, Psi_t, Psi_q into the outputs (``loops.output_history``)",
+        "        rows = out[z.size + m :]",
+        "        rows[:] = 0.0",
+        "    else:",
+        "        rows = np.zeros(2 * m + m * n)",
+        "    psi, psit, gam = rows[:m], rows[m : 2 * m], np.zeros(m)",
+        "    jac = rows[2 * m :].reshape((m, n))",
         "    qdd, lam = np.empty(n), np.empty(m)",
         "    Q, power = Q0.copy(), np.zeros(3)",
     ]
-    lines += constraint_calls(scene, "    ")
-    lines += [
-        "    if out.size == z.size + 3 * m + m * n:  # Psi, Psi_t, Psi_q of the outputs too (loops.output_history)",
-        "        o = z.size + m",
-        "        out[o : o + m] = psi",
-        "        out[o + m : o + 2 * m] = psit",
-        "        out[o + 2 * m : o + 2 * m + m * n] = jac.reshape(m * n)",
-    ]
-    lines += force_calls(scene, "    ")
+    lines += constraint_calls(scene, "    ") + force_calls(scene, "    ")
     if scene.dimension == 3:
         lines += [
             "    M = np.zeros((n, n))",

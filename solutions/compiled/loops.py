@@ -381,7 +381,8 @@ def output_history(scene_rhs, T, Y, P, D, width):
     (eq. 4.1-4.3): the right-hand side assembles them on its way to lambda and, given an ``out`` longer than y' and
     its ``width`` outputs, writes them after those (``codegen.py``, ``tree.py``). One compiled call for the output
     stage of a run, where ``outputs`` and the module's ``constraint_arrays`` made two passes over the output times,
-    the second evaluating every constraint kernel again; the same numbers (the same kernels on the same q, q', t)."""
+    the second evaluating every constraint kernel again; the same numbers (the same kernels on the same q, q', t).
+    It writes every entry of Psi_q: a large sparse one is cheaper by the two passes (``compiled.ONE_PASS_LARGEST``)."""
     N, ny = T.size, Y.shape[1]
     n, m = P[8][0], P[8][1]
     out = np.empty((N, ny + width))
