@@ -138,7 +138,7 @@ def main(argv: list[str] | None = None) -> None:
     outside = [total - stages.get(loop, 0.0) for _, total, stages, _ in results]
     print("| **outside the loop** | " + " | ".join(f"**{value * 1e3:.2f}**" for value in outside) + " |")
     print("| whole call with the divergence check | " + " | ".join(f"{c * 1e3:.2f}" for *_, c in results) + " |")
-    for _, _, label in STAGES:
+    for label in dict.fromkeys(label for _, _, label in STAGES):  # each once (two stages may share one)
         cells = [f"{stages[label] * 1e3:.3f}" if label in stages else "-" for _, _, stages, _ in results]
         print(f"| {label.replace('  ', '&nbsp;&nbsp;')} | " + " | ".join(cells) + " |")
 
