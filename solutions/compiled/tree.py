@@ -230,15 +230,14 @@ def _body(tree: TreeScene) -> list[str]:
     lines += force_calls(scene, "    ")
     lines += [
         "    if full or ncut > 0:  # the constraint rows: lambda of every row, or the cut rows",
-        "        if out.size == y.size + 3 * n + 3 * m + m * n:  # Psi, Psi_t, Psi_q into the outputs (output_history)",
-        "            rows = out[y.size + 3 * n + m :]",
-        "            rows[:] = 0.0",
-        "            psi, psit, gam = rows[:m], rows[m : 2 * m], np.zeros(m)",
-        "        else:  # Psi, Psi_t, gamma, Psi_q in one allocation",
-        "            rows = np.zeros(3 * m + m * n)",
-        "            psi, psit, gam = rows[:m], rows[m : 2 * m], rows[2 * m : 3 * m]",
-        "        jac = rows[rows.size - m * n :].reshape((m, n))",
+        "        psi, psit, gam = np.zeros(m), np.zeros(m), np.zeros(m)",
+        "        jac = np.zeros((m, n))",
         *constraint_calls(scene, "        "),
+        "        if out.size == y.size + 3 * n + 3 * m + m * n:  # Psi, Psi_t, Psi_q too (loops.output_history)",
+        "            o = y.size + 3 * n + m",
+        "            out[o : o + m] = psi",
+        "            out[o + m : o + 2 * m] = psit",
+        "            out[o + 2 * m : o + 2 * m + m * n] = jac.reshape(m * n)",
         "    if ncut > 0:  # cut rows: the augmented system (eq. 5.29, 5.30 in joint coordinates)",
         f"        matrix, rhs = {equations}_equations({arguments}, joints)",
     ]

@@ -563,6 +563,20 @@ def _l_fill(p, out):
 
 
 @jit
+def _l_times(L, x, out):
+    """out = L x (3 x 4 by 4)."""
+    for r in range(3):
+        out[r] = L[r, 0] * x[0] + L[r, 1] * x[1] + L[r, 2] * x[2] + L[r, 3] * x[3]
+
+
+@jit
+def _inertia_times(J, x, out):
+    """out = J x (3 x 3 by 3)."""
+    for r in range(3):
+        out[r] = J[r, 0] * x[0] + J[r, 1] * x[1] + J[r, 2] * x[2]
+
+
+@jit
 def spatial_mass_residual(q, qd, qdd, masses, inertias, weights, Q, residual):
     """Q += Q_v = 8 L(p')^T J' L(p') p (eq. 10.5) and residual = Q - M q'' body by body, M_b = diag(m I, 4 L^T J' L
     + 4 w p p^T) (eq. 10.4, regularized as ``dynamic_mass_matrix``): ``kernels.spatial_mass`` without the n x n M.
@@ -588,20 +602,6 @@ def spatial_mass_residual(q, qd, qdd, masses, inertias, weights, Q, residual):
         for r in range(4):
             Mp = 4.0 * (L[0, r] * u[0] + L[1, r] * u[1] + L[2, r] * u[2]) + along * p[r]
             residual[o + 3 + r] = Q[o + 3 + r] - Mp
-
-
-@jit
-def _l_times(L, x, out):
-    """out = L x (3 x 4 by 4)."""
-    for r in range(3):
-        out[r] = L[r, 0] * x[0] + L[r, 1] * x[1] + L[r, 2] * x[2] + L[r, 3] * x[3]
-
-
-@jit
-def _inertia_times(J, x, out):
-    """out = J x (3 x 3 by 3)."""
-    for r in range(3):
-        out[r] = J[r, 0] * x[0] + J[r, 1] * x[1] + J[r, 2] * x[2]
 
 
 @jit
