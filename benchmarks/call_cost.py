@@ -53,7 +53,8 @@ STAGES = (
     (dispatch, "choose", "  engine's choice"),
     (dispatch, "run", "  compiled run"),
     (loops, "embedded", "    integration loop"),
-    (loops, "outputs", "    outputs at the output times"),
+    (loops, "output_history", "    outputs at the output times"),
+    (loops, "outputs", "    outputs at the output times"),  # a large Psi_q's two passes (compiled.ONE_PASS_LARGEST)
     (history, "constraint_arrays", "    constraints at the output times"),
     (dynamics.Guard, "check_outputs", "  checks at the output times (Guard)"),
     (dynamics, "build_result", "result"),
@@ -202,7 +203,7 @@ def main(argv: list[str] | None = None) -> None:
     outside = [total - stages.get(loop, 0.0) for _, total, stages, _ in results]
     print("| **outside the loop** | " + " | ".join(f"**{value * 1e3:.2f}**" for value in outside) + " |")
     print("| whole call with the divergence check | " + " | ".join(f"{c * 1e3:.2f}" for *_, c in results) + " |")
-    for _, _, label in STAGES + COMPANION:
+    for label in dict.fromkeys(label for _, _, label in STAGES + COMPANION):  # each once (two stages may share one)
         cells = [f"{stages[label] * 1e3:.3f}" if label in stages else "-" for _, _, stages, _ in results]
         print(f"| {label.replace('  ', '&nbsp;&nbsp;')} | " + " | ".join(cells) + " |")
 

@@ -1519,9 +1519,10 @@ BAND_SMALLEST = 64
 """Coordinates from which ``square_spectra`` takes the band of Psi_q (below, numpy's batched dense SVDs and QRs
 cost less than the band's setup: ``benchmarks/call_cost.py --chain loops``)."""
 DENSE_LARGEST = 10
-"""Coordinates up to which a compiled run's ``square_spectra`` takes ``compiled.singular.dense_spectra`` (its
-one-sided Jacobi costs O(m^3) a sweep: at 101 random Psi_q, 0.55 of numpy's batched SVDs and QRs at 6 x 6, 0.87 at
-9 x 9, 1.04 at 11 x 12, 1.7 at 17 x 18; between the two, numpy's)."""
+"""Rows (constraints) up to which a compiled run's ``square_spectra`` takes ``compiled.singular.dense_spectra`` for a
+Psi_q of fewer than BAND_SMALLEST coordinates: its one-sided Jacobi on R (m x m) costs O(m^3) a sweep, its QR O(m^2 n)
+(at 101 random Psi_q, 0.55 of numpy's batched SVDs and QRs at 6 x 6, 0.87 at 9 x 9, 1.04 at 11 x 12, 1.7 at 17 x 18;
+the spatial double pendulum's 8 x 14 history: 0.66 against numpy's 1.2 ms); else numpy's."""
 
 
 def null_space_bases(jacobians: np.ndarray, signs: bool = False):
@@ -1590,14 +1591,14 @@ def square_spectra(
 
 def _compiled_spectra(jacobians: np.ndarray, columns: np.ndarray, norms: np.ndarray, before: np.ndarray | None):
     """The compiled engine's spectra of the scaled Psi_q: in one compiled pass over a small one (up to DENSE_LARGEST
-    coordinates, ``compiled.singular.dense_spectra``), from the band of a large one (from BAND_SMALLEST,
+    rows, ``compiled.singular.dense_spectra``), from the band of a large one (from BAND_SMALLEST coordinates,
     ``compiled.singular.spectra``); None between, where there is no compiled engine (a student package) or where the
     large Psi_q is not a band (numpy's dense SVDs and QRs then)."""
     try:
         from .compiled import singular
     except ImportError:  # a student package: dense
         return None
-    if jacobians.shape[2] <= DENSE_LARGEST:
+    if jacobians.shape[1] <= DENSE_LARGEST and jacobians.shape[2] < BAND_SMALLEST:
         return singular.dense_spectra(jacobians, columns, norms)
     if jacobians.shape[2] < BAND_SMALLEST or jacobians.shape[1] == jacobians.shape[2]:
         return None

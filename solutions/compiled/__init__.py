@@ -26,8 +26,9 @@ and caches its module, ``kernels.py`` holds the compiled element formulas.
 
 ``projection.py`` and ``tree.py`` write the modules of the projection and joint-coordinates formulations
 (their kernels: ``projection_kernels.py``, ``tree_kernels.py``); ``plan`` says which a run takes. Every
-generated module also gives Psi, Psi_q and Psi_t at all output times at once, from which ``history.py``
-builds the residuals and the reactions and ``dynamics.Guard.check_outputs`` makes its checks.
+run's output stage is one compiled pass (``loops.output_history``): at every output time the right-hand side
+with its outputs (q'', lambda) and Psi, Psi_q, Psi_t, from which ``history.py`` builds the residuals and the
+reactions and ``dynamics.Guard.check_outputs`` makes its checks.
 
 The kinematic analysis has a compiled engine of its own on the same kernels (``kinematic.py``, its step
 loop ``kinematic_loop.py``): ``kinematics.kinematic_analysis(..., engine="compiled")``.
@@ -104,7 +105,7 @@ class CompiledRun:
     """Importing numba and the loops and loading the scene's module: compiling it too when it was not cached."""
     cached: bool
     psi: np.ndarray = None
-    """Psi, Psi_q, Psi_t at the output times (``history.constraint_arrays``), for the checks and the reactions."""
+    """Psi, Psi_q, Psi_t at the output times (``loops.output_history``), for the checks and the reactions."""
     jac: np.ndarray = None
     psit: np.ndarray = None
     joint_states: np.ndarray | None = None
@@ -144,6 +145,8 @@ def tableau(dop: bool) -> tuple:
     """(A, B, C, E, E3, E5, D, P) of DOP853 or RK45 (``tableaux.py``: scipy's coefficients; the unused ones empty).
     DOP853's A and C are those of all 16 stages: the 12 of a step, the 13th (B at t + h, first of the next step)
     and the 3 extra ones of the dense output."""
+    if dop in _TABLEAUS:  # made once per process (the loops never write them): 10 us a run
+        return _TABLEAUS[dop]
     from ..tableaux import DOP853, RK45
 
     empty1, empty2 = np.zeros(1), np.zeros((1, 1))
@@ -153,8 +156,13 @@ def tableau(dop: bool) -> tuple:
         A = np.zeros((n + 1 + extra, n + 1 + extra))
         A[:n, :n], A[n, :n], A[n + 1 :] = d.A, d.B, d.A_EXTRA
         C = np.concatenate([d.C, [1.0], d.C_EXTRA])
-        return (A, d.B, C, empty1, d.E3, d.E5, d.D, empty2)
-    return (RK45.A, RK45.B, RK45.C, RK45.E, empty1, empty1, empty2, RK45.P)
+        _TABLEAUS[dop] = (A, d.B, C, empty1, d.E3, d.E5, d.D, empty2)
+    else:
+        _TABLEAUS[dop] = (RK45.A, RK45.B, RK45.C, RK45.E, empty1, empty1, empty2, RK45.P)
+    return _TABLEAUS[dop]
+
+
+_TABLEAUS: dict = {}
 
 
 def parameters(
@@ -164,7 +172,16 @@ def parameters(
     formulation's (Baumgarte's alpha, beta; the projection's tolerance and iterations, ``Plan.numbers``) and the
     sizes and switches P[8] = (n, m, 3 with the energy states else 0, joint positions, joint velocities, 1 when a
     tree's drivers' power needs lambda at every evaluation, the number of cut rows, the cut rows..., the tree's
-    rows' owners..., the two bodies of each cut row...)."""
+    rows' owners..., the two bodies of each cut row...). Made once per scene and numbers (a run's start rates and
+    its loop ask for the same)."""
+    kept = scene.__dict__.setdefault("_parameters", {})
+    key = (alpha, beta, tol, iterations)
+    if key not in kept:
+        kept[key] = _parameters(scene, alpha, beta, tol, iterations)
+    return kept[key]
+
+
+def _parameters(scene: Scene | TreeScene, alpha: float, beta: float, tol: float, iterations: float) -> tuple:
     tree = scene if isinstance(scene, TreeScene) else None
     scene = scene.scene if tree is not None else scene
     extra = 3 if scene.energies else 0
@@ -191,7 +208,16 @@ def parameters(
 
 
 def load(plan: Plan) -> tuple[object, object, bool]:
-    """(module with ``scene_rhs``, ``project`` of the formulation, all machine code was on disk)."""
+    """(module with ``scene_rhs``, ``project`` of the formulation, all machine code was on disk), found once per plan
+    (its start rates and its run load the same; the second finds it loaded, on disk or not before)."""
+    if "_loaded" in plan.__dict__:
+        return (*plan.__dict__["_loaded"], True)
+    module, project, cached = _load(plan)
+    plan.__dict__["_loaded"] = (module, project)
+    return module, project, cached
+
+
+def _load(plan: Plan) -> tuple[object, object, bool]:
     from . import loops  # imports numba
 
     if isinstance(plan.scene, TreeScene):
@@ -225,6 +251,12 @@ def is_cached(plan: Plan) -> bool:
     return scene_cached(plan.scene)
 
 
+ONE_PASS_LARGEST = 8192
+"""Entries of Psi_q (m n) up to which a run's outputs and its Psi, Psi_q, Psi_t come from one compiled pass
+(``loops.output_history``: 101 output times of the double pendulum 0.36 -> 0.25 ms, a spatial chain of 16 bodies
+(64 x 112) 7.6 -> 5.3 ms); above, the outputs and the module's ``constraint_arrays`` in two, which write only the
+nonzeros of a large sparse Psi_q (a spatial chain of 64 bodies, 256 x 448: 23 ms against 51 for one pass writing
+every entry: memory, not arithmetic)."""
 PAUSE_STEPS = 1000
 """The compiled loop pauses after this many steps for the configuration check of ``on_pause`` (``run``): a run that
 crawls at a singular position stops there as the numpy engine's run, which checks after every step, stops."""
@@ -257,14 +289,13 @@ def paused_embedded(loops, rhs, project, z0: np.ndarray, times: np.ndarray, numb
 
 def configuration(t: float, z: np.ndarray, module, scene, P, D, rhs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(q, Psi, Psi_q) of the state z at t (rows of one output time), a tree's body coordinates made first."""
-    from . import history, loops
+    from . import loops
 
     Y, times = np.ascontiguousarray(z[None, :]), np.array([float(t)])
-    if isinstance(scene, TreeScene):
-        out = loops.outputs(rhs, times, Y, P, D, 3 * scene.n + scene.m)
-        Y = np.hstack([out[:, z.size : z.size + 2 * scene.n], Y[:, scene.n_positions + scene.k :]])
-    psi, jac, _ = history.constraint_arrays(module, scene, times, Y)
-    return Y[0, : scene.n], psi, jac
+    tree = isinstance(scene, TreeScene)
+    out, psi, jac, _ = loops.output_history(rhs, times, Y, P, D, 3 * scene.n + scene.m if tree else scene.m)
+    q = out[0, z.size : z.size + scene.n] if tree else Y[0, : scene.n]
+    return q, psi, jac
 
 
 def run(
@@ -281,7 +312,7 @@ def run(
     """Integrate the plan's scene from z0 over the output grid ``times`` with the compiled loop; an adaptive loop
     calls ``on_pause(t, q, Psi, Psi_q)`` every PAUSE_STEPS steps, which raises to stop the run."""
     start = time.perf_counter()
-    from . import history, loops  # imports numba
+    from . import loops  # imports numba
 
     module, project, cached = load(plan)
     load_seconds = time.perf_counter() - start  # importing numba and the loops, loading (or compiling) the modules
@@ -309,14 +340,21 @@ def run(
     if status != 0:  # the output times reached and, after them, the state where the loop stopped (no others)
         times, Y = np.append(times[:reached], t), Y[: reached + 1]
     joint_states, n, m, ny = None, scene.n, scene.m, Y.shape[1]
-    if isinstance(scene, TreeScene):  # after y': the body coordinates of the joint states, and q'', lambda there
-        out = loops.outputs(rhs, times, Y, P, D, 3 * n + m)
-        q, qd, qdd, lam = (np.ascontiguousarray(a) for a in np.hsplit(out[:, ny:], [n, 2 * n, 3 * n]))
-        joint_states, Y = Y, np.hstack([q, qd, Y[:, scene.n_positions + scene.k :]])
+    tree = isinstance(scene, TreeScene)  # after y': the body coordinates of the joint states, and q'', lambda there
+    one_pass = m * n <= ONE_PASS_LARGEST
+    if one_pass:  # and Psi, Psi_q, Psi_t from the same evaluations
+        out, psi, jac, psit = loops.output_history(rhs, times, Y, P, D, 3 * n + m if tree else m)
+    else:
+        out = loops.outputs(rhs, times, Y, P, D, 3 * n + m if tree else m)
+    if tree:
+        qdd, lam = np.ascontiguousarray(out[:, ny + 2 * n : ny + 3 * n]), np.ascontiguousarray(out[:, ny + 3 * n :])
+        joint_states, Y = Y, np.hstack([out[:, ny : ny + 2 * n], Y[:, scene.n_positions + scene.k :]])
     else:  # q'' in y', lambda after it
-        out = loops.outputs(rhs, times, Y, P, D, m)
         qdd, lam = np.ascontiguousarray(out[:, n : 2 * n]), np.ascontiguousarray(out[:, ny:])
-    psi, jac, psit = history.constraint_arrays(module, scene, times, Y)
+    if not one_pass:
+        from . import history
+
+        psi, jac, psit = history.constraint_arrays(module, scene, times, Y)
     return CompiledRun(
         Y, qdd, lam, int(evaluations), int(steps), int(rejected), int(status), float(t), float(h), load_seconds, cached,
         psi, jac, psit, joint_states, int(reached),

@@ -14,10 +14,10 @@ For a ``Scene`` (``scene.py``) the generator writes a Python module with
   spatial mass matrix and quadratic-velocity term only in the spatial module; solved by LU with partial
   pivoting (LAPACK's gesv, as ``formulations.Baumgarte``); a large planar one (M diagonal, n + m from
   ``RANGE_SPACE_SIZE``) by the range-space form of eq. 5.31, Psi_q M^-1 Psi_q^T factored by Cholesky within its
-  envelope (``range_space_solve``). Given an ``out`` longer than z, it also writes lambda after y': the
-  outputs at the output times (``loops.outputs``) come from the same function as the integration;
-- ``constraint_arrays(T, Y, P, D, Psi, Psi_q, Psi_t)``: the constraints at the output times, for the checks
-  (``history.py``);
+  envelope (``range_space_solve``). Given an ``out`` longer than z, it also writes lambda after y', and given
+  one longer still Psi, Psi_t and Psi_q (row by row) after lambda: the outputs at the output times
+  (``loops.output_history``) come from the same function as the integration;
+- ``constraint_arrays(T, Y, P, D, Psi, Psi_q, Psi_t)``: the constraints at given states (``history.py``);
 both with the fixed signatures of ``loops.py``, whose integrator loops (compiled once per machine) take
 them as first-class functions. (One function for the integration and the outputs: numba optimizes every
 kernel a function calls again in each function that calls it, so each one more costs seconds of compilation.)
@@ -129,8 +129,13 @@ def generate(scene: Scene) -> str:
         "    Q0, mass, masses, inertias, weights, fk, fp, ab, dims = P",
         "    n, m = dims[0], dims[1]",
         "    q, qd = z[:n].copy(), z[n : 2 * n].copy()",
-        "    psi, psit, gam = np.zeros(m), np.zeros(m), np.zeros(m)",
-        "    jac = np.zeros((m, n))",
+        "    if out.size == z.size + 3 * m + m * n:  # Psi, Psi_t, Psi_q into the outputs (``loops.output_history``)",
+        "        rows = out[z.size + m :]",
+        "        rows[:] = 0.0",
+        "    else:",
+        "        rows = np.zeros(2 * m + m * n)",
+        "    psi, psit, gam = rows[:m], rows[m : 2 * m], np.zeros(m)",
+        "    jac = rows[2 * m :].reshape((m, n))",
         "    qdd, lam = np.empty(n), np.empty(m)",
         "    Q, power = Q0.copy(), np.zeros(3)",
     ]

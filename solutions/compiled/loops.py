@@ -33,7 +33,8 @@ the state where it stopped, at t, in the row after them, for the checks the nump
 (``dynamics.compiled_motion``), and the rows after it unfilled.
 
 ``outputs`` gives what the right-hand side writes at every output time, y' and after it the outputs of the state:
-lambda (``codegen.py``), or the body coordinates, q'' and lambda of a joint-coordinates state (``tree.py``).
+lambda (``codegen.py``), or the body coordinates, q'' and lambda of a joint-coordinates state (``tree.py``);
+``output_history`` the same and Psi, Psi_q, Psi_t there, from the same evaluations (a run's output stage).
 """
 
 import numpy as np
@@ -367,6 +368,35 @@ def outputs(scene_rhs, T, Y, P, D, width):
     for k in range(T.size):
         scene_rhs(T[k], Y[k].copy(), P, D, out[k])
     return out
+
+
+OUTPUT_HISTORY_TYPE = types.Tuple((_matrix, _matrix, types.float64[:, :, ::1], _matrix))(
+    _RHS, _vector, _matrix, P_TYPE, D_TYPE, types.int64
+)
+
+
+@jit(OUTPUT_HISTORY_TYPE)
+def output_history(scene_rhs, T, Y, P, D, width):
+    """``outputs`` and, from the same evaluations, Psi (N, m), Psi_q (N, m, n) and Psi_t (N, m) at every output time
+    (eq. 4.1-4.3): the right-hand side assembles them on its way to lambda and, given an ``out`` longer than y' and
+    its ``width`` outputs, writes them after those (``codegen.py``, ``tree.py``). One compiled call for the output
+    stage of a run, where ``outputs`` and the module's ``constraint_arrays`` made two passes over the output times,
+    the second evaluating every constraint kernel again; the same numbers (the same kernels on the same q, q', t).
+    It writes every entry of Psi_q: a large sparse one is cheaper by the two passes (``compiled.ONE_PASS_LARGEST``)."""
+    N, ny = T.size, Y.shape[1]
+    n, m = P[8][0], P[8][1]
+    out = np.empty((N, ny + width))
+    psi, jac, psit = np.empty((N, m)), np.empty((N, m, n)), np.empty((N, m))
+    row, z = np.empty(ny + width + 2 * m + m * n), np.empty(ny)
+    o = ny + width
+    for k in range(N):
+        z[:] = Y[k]
+        scene_rhs(T[k], z, P, D, row)
+        out[k] = row[:o]
+        psi[k] = row[o : o + m]
+        psit[k] = row[o + m : o + 2 * m]
+        jac[k] = row[o + 2 * m :].reshape((m, n))
+    return out, psi, jac, psit
 
 
 @jit(types.float64(_RHS, types.float64, _vector, _vector, _vector, P_TYPE, D_TYPE, types.int64))

@@ -91,7 +91,7 @@ def packed(kernels: list, slots: tuple[str, ...]) -> tuple[np.ndarray, np.ndarra
     width_f = max([block[1].shape[1] for block in blocks if block is not None] + [1])
     ints, floats = np.zeros((offsets[-1], width_i), dtype=np.int64), np.zeros((offsets[-1], width_f))
     for s, block in enumerate(blocks):
-        if block is not None:
+        if counts[s]:  # a kernel without rows has nothing to copy (most of a dimension's kernels, in a scene)
             ints[offsets[s] : offsets[s + 1], : block[0].shape[1]] = block[0]
             floats[offsets[s] : offsets[s + 1], : block[1].shape[1]] = block[1]
     return ints, floats, offsets
@@ -152,8 +152,14 @@ def scene_arrays(rows: dict, order: tuple[str, ...]) -> list[tuple[str, np.ndarr
             floats_array = np.array(floats, dtype=float) if floats[0] else np.zeros((len(ints), 1))
             out.append((name, np.array(ints, dtype=np.int64), floats_array))
         else:
-            out.append((name, np.zeros((0, 1), dtype=np.int64), np.zeros((0, 1))))
+            out.append((name, _NO_INTS, _NO_FLOATS))
     return out
+
+
+_NO_INTS, _NO_FLOATS = np.zeros((0, 1), dtype=np.int64), np.zeros((0, 1))
+"""The data of a kernel a scene lacks (no rows), one pair for all: read only (``packed`` copies rows, and has none
+to copy from these)."""
+_NO_INTS.flags.writeable = _NO_FLOATS.flags.writeable = False
 
 
 def _actuator(element, functions: Functions) -> int:

@@ -614,17 +614,26 @@ def _householder(J, V, beta, T):
 
 
 @njit(cache=True, nogil=True)
+def _squared_norms(B, sizes):
+    """sizes[p] = |B_p|^2 of every row p of B."""
+    for p in range(B.shape[0]):
+        sizes[p] = 0.0
+        for i in range(B.shape[1]):
+            sizes[p] += B[p, i] * B[p, i]
+
+
+@njit(cache=True, nogil=True)
 def _jacobi_ratio(B):
     """sigma_m / sigma_1 of the square B (m x m; here R^T of ``_householder``: Psi_q's singular values) by
     one-sided Jacobi (Hestenes): plane rotations of pairs of rows until every pair is orthogonal to rounding,
     the row norms then the singular values, to high relative accuracy (Demmel and Veselic, SIAM J. Matrix Anal.
     Appl. 13, 1992); after a QR, few sweeps. O(m^3) a sweep, no LAPACK call: on the matrices of a small
-    mechanism it costs less than the call. NaN if the sweeps do not settle."""
+    mechanism it costs less than the call. NaN if the sweeps do not settle. (Every product by loops: numba's np.dot
+    of two rows calls BLAS, whose call costs more than a row of 9; the test |c| <= tol sqrt(s_p s_q) squared.)"""
     m = B.shape[0]
     sizes = np.empty(m)  # the rows' squared norms, updated by each rotation (de Rijk's bookkeeping)
     tolerance = np.sqrt(m) * np.finfo(np.float64).eps  # orthogonal to rounding (LAPACK's dgesvj)
-    for p in range(m):
-        sizes[p] = np.dot(B[p], B[p])
+    _squared_norms(B, sizes)
     for _ in range(30):
         rotated = False
         for p in range(m - 1):
@@ -632,7 +641,7 @@ def _jacobi_ratio(B):
                 c = 0.0
                 for i in range(m):
                     c += B[p, i] * B[q, i]
-                if abs(c) <= tolerance * np.sqrt(sizes[p] * sizes[q]):
+                if c * c <= tolerance * tolerance * (sizes[p] * sizes[q]):
                     continue
                 rotated = True
                 zeta = (sizes[q] - sizes[p]) / (2.0 * c)
@@ -645,8 +654,7 @@ def _jacobi_ratio(B):
                 sizes[p] -= t * c
                 sizes[q] += t * c
         if not rotated:
-            for p in range(m):
-                sizes[p] = np.dot(B[p], B[p])
+            _squared_norms(B, sizes)
             largest = np.max(sizes)
             return np.sqrt(np.min(sizes) / largest) if largest > 0.0 else 0.0
     return np.nan

@@ -17,8 +17,9 @@ joint's Euler parameters) into the arrays of ``tree_kernels.py``, and the cut ro
   balance, lambda too (the drivers' power, eq. 5.61, as ``dynamics.EquationsOfMotion``). Given an ``out``
   longer than y, it writes after y' the body coordinates q, q' at the joint state, q'' and lambda of the model's
   constraint rows from Psi_q^T lambda = Q - M q'' (normal equations; ``JointCoordinates.accelerations``), for the
-  results and reactions (``loops.outputs``): one function for both, since numba optimizes the kernels again
-  in every function that calls them;
+  results and reactions, and after those Psi, Psi_t and Psi_q (row by row) when ``out`` is longer still
+  (``loops.output_history``): one function for both, since numba optimizes the kernels again in every function
+  that calls them;
 - ``constraint_arrays(T, Y, P, D, Psi, Psi_q, Psi_t)`` at the output times from the body coordinates, as the
   scene's own module (``codegen.py``; ``history.py`` makes the residuals and reactions of them).
 
@@ -179,7 +180,9 @@ def _multipliers(scene: Scene) -> list[str]:
             "    qdd[:] = Dm @ thdd + xi",
             "else:  # the articulated pass's body accelerations: no D",
             "    planar_body_accelerations(acc, xi, qdd)",
-            "residual = Q - mass * qdd",
+            "residual = np.empty(n)",
+            "for coordinate in range(n):  # Q - M q'' (one allocation: the tree's multipliers work in it)",
+            "    residual[coordinate] = Q[coordinate] - mass[coordinate] * qdd[coordinate]",
         ]
     solve = [
         "for a in range(ncut):  # the cut rows' lambda: mu of the augmented system; the tree's from what is left",
@@ -188,7 +191,8 @@ def _multipliers(scene: Scene) -> list[str]:
         "# the tree's rows body by body from the leaves, O(N)",
         f"tree_multipliers(jac, residual, dims[7 + ncut :], {7 if scene.dimension == 3 else 3}, joints, lam)",
     ]
-    return ["        " + line for line in ["qdd, lam = np.empty(n), np.empty(m)", *lines, *solve]]
+    both = "outputs = np.empty(n + m)  # q'' and lambda in one allocation"
+    return ["        " + line for line in [both, "qdd, lam = outputs[:n], outputs[n:]", *lines, *solve]]
 
 
 def _body(tree: TreeScene) -> list[str]:
@@ -238,6 +242,11 @@ def _body(tree: TreeScene) -> list[str]:
         "            jac = np.empty((m, n))",
         f"            zero_cut_blocks(jac, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], {width})",
         *constraint_calls(scene, "        "),
+        "        if out.size == y.size + 3 * n + 3 * m + m * n:  # Psi, Psi_t, Psi_q too (loops.output_history)",
+        "            o = y.size + 3 * n + m",
+        "            out[o : o + m] = psi",
+        "            out[o + m : o + 2 * m] = psit",
+        "            out[o + 2 * m : o + 2 * m + m * n] = jac.reshape(m * n)",
         "    if ncut > 0:  # cut rows: the augmented system (eq. 5.29, 5.30 in joint coordinates)",
         f"        matrix, rhs = {equations}_equations({arguments}, joints)",
     ]

@@ -485,27 +485,41 @@ def tree_multipliers(jac, residual, owners, width, ints, lam):
     right side. So each body solves A lambda_own = r_C (A: its columns of its own rows, at most 7 x 6, full column
     rank) by least squares, whose residual is zero, and moves what its rows exert on its parent, the only other
     body they hold, to the parent's columns: O(N), where the normal equations of all rows cost O(m^3).
-    ``width``: a body's columns (3 planar, 7 spatial)."""
+    ``width``: a body's columns (3 planar, 7 spatial). ``residual`` is worked in (the rows' parts moved to parents).
+    (Allocations few: at two bodies each costs as much as a body's arithmetic.)"""
     m, nb = jac.shape[0], residual.size // width
-    r = residual.copy()
-    start = np.zeros(nb + 1, dtype=np.int64)  # the rows of body b: mine[start[b] : start[b + 1]] (counting sort)
-    for row in range(m):
+    r = residual
+    index = np.zeros(2 * nb + 1 + m, dtype=np.int64)
+    start, filled, mine = index[: nb + 1], index[nb + 1 : 2 * nb + 1], index[2 * nb + 1 :]
+    for row in range(m):  # the rows of body b: mine[start[b] : start[b + 1]] (counting sort)
         if owners[row] >= 0:
             start[owners[row] + 1] += 1
     for b in range(nb):
         start[b + 1] += start[b]
-    mine, filled = np.empty(start[nb], dtype=np.int64), start[:nb].copy()
+    filled[:] = start[:nb]
     for row in range(m):
         if owners[row] >= 0:
             mine[filled[owners[row]]] = row
             filled[owners[row]] += 1
+    most = 0
+    for b in range(nb):
+        most = max(most, start[b + 1] - start[b])
+    work = np.empty(most * most + most)  # A A^T and A r of a body
     for e in range(ints.shape[0] - 1, -1, -1):
         P, C = ints[e, 1], ints[e, 2]
         first, count = start[C], start[C + 1] - start[C]
-        A = np.empty((count, width))
-        for a in range(count):
-            A[a] = jac[mine[first + a], width * C : width * (C + 1)]
-        x = lu_solve(A @ A.T, A @ r[width * C : width * (C + 1)])
+        G = work[: count * count].reshape((count, count))  # A A^T and A r, A = the body's own rows on its columns
+        b = work[count * count : count * count + count]
+        for a in range(count):  # by loops: at most 7 x 7, where a BLAS call costs more than the products
+            row = mine[first + a]
+            b[a] = 0.0
+            for c in range(width * C, width * (C + 1)):
+                b[a] += jac[row, c] * r[c]
+            for other in range(count):
+                G[a, other] = 0.0
+                for c in range(width * C, width * (C + 1)):
+                    G[a, other] += jac[row, c] * jac[mine[first + other], c]
+        x = lu_solve(G, b)
         for a in range(count):
             row = mine[first + a]
             lam[row] = x[a]
@@ -553,21 +567,45 @@ def _l_fill(p, out):
 
 
 @jit
+def _l_times(L, x, out):
+    """out = L x (3 x 4 by 4)."""
+    for r in range(3):
+        out[r] = L[r, 0] * x[0] + L[r, 1] * x[1] + L[r, 2] * x[2] + L[r, 3] * x[3]
+
+
+@jit
+def _inertia_times(J, x, out):
+    """out = J x (3 x 3 by 3)."""
+    for r in range(3):
+        out[r] = J[r, 0] * x[0] + J[r, 1] * x[1] + J[r, 2] * x[2]
+
+
+@jit
 def spatial_mass_residual(q, qd, qdd, masses, inertias, weights, Q, residual):
     """Q += Q_v = 8 L(p')^T J' L(p') p (eq. 10.5) and residual = Q - M q'' body by body, M_b = diag(m I, 4 L^T J' L
-    + 4 w p p^T) (eq. 10.4, regularized as ``dynamic_mass_matrix``): ``kernels.spatial_mass`` without the n x n M."""
+    + 4 w p p^T) (eq. 10.4, regularized as ``dynamic_mass_matrix``): ``kernels.spatial_mass`` without the n x n M.
+    M_b p'' as 4 L^T (J' (L p'')) + 4 w p (p . p''), every product by loops (3 x 4 at most: numba's matrix products
+    are BLAS calls, each dearer than the arithmetic)."""
     L, Ld = np.empty((3, 4)), np.empty((3, 4))
+    v, u = np.empty(3), np.empty(3)
     for b in range(masses.size):
         o = 7 * b
         p, pd, pdd = q[o + 3 : o + 7], qd[o + 3 : o + 7], qdd[o + 3 : o + 7]
         _l_fill(p, L)
         _l_fill(pd, Ld)
         J = inertias[b]
-        Q[o + 3 : o + 7] += 8.0 * (Ld.T @ (J @ (Ld @ p)))
+        _l_times(Ld, p, v)  # L(p') p
+        _inertia_times(J, v, u)
+        for r in range(4):  # Q_v = 8 L(p')^T J' L(p') p
+            Q[o + 3 + r] += 8.0 * (Ld[0, r] * u[0] + Ld[1, r] * u[1] + Ld[2, r] * u[2])
         for r in range(3):
             residual[o + r] = Q[o + r] - masses[b] * qdd[o + r]
-        Mp = 4.0 * (L.T @ (J @ L)) + 4.0 * weights[b] * np.outer(p, p)
-        residual[o + 3 : o + 7] = Q[o + 3 : o + 7] - Mp @ pdd
+        _l_times(L, pdd, v)  # L(p) p''
+        _inertia_times(J, v, u)
+        along = 4.0 * weights[b] * (p[0] * pdd[0] + p[1] * pdd[1] + p[2] * pdd[2] + p[3] * pdd[3])
+        for r in range(4):
+            Mp = 4.0 * (L[0, r] * u[0] + L[1, r] * u[1] + L[2, r] * u[2]) + along * p[r]
+            residual[o + 3 + r] = Q[o + 3 + r] - Mp
 
 
 @jit

@@ -221,3 +221,38 @@ def test_a_free_body_runs_compiled_with_no_reaction_columns(dimension):
         np.testing.assert_allclose(run.q[:, :2], np.outer(run.t, [1.0, 2.0]), atol=1e-9)
         assert not run.reactions
     assert run.info["chosen"]["engine"] == "compiled"
+
+
+@pytest.mark.parametrize(
+    ("path", "formulation"),
+    [("course/models/slider_crank_flywheel.yaml", "baumgarte"), ("course/models/spatial_double_pendulum.yaml",
+                                                                 "joint-coordinates")],
+)  # fmt: skip
+def test_one_output_pass_gives_the_systems_constraints_and_the_two_passes_numbers(path, formulation, monkeypatch):
+    """A compiled run's Psi, Psi_q, Psi_t at the output times from its one output pass (``loops.output_history``: the
+    right-hand side writes them beside q'' and lambda) are the System's at the run's q, and to the last bit those of
+    the outputs and the module's ``constraint_arrays`` in two passes (what a large Psi_q takes, ONE_PASS_LARGEST)."""
+    import solutions.compiled as compiled
+
+    system, q0, qd0 = build_system(load_model(path))
+    made = {}
+    run = compiled.run
+
+    def keep(*args, **kwargs):
+        made["run"] = run(*args, **kwargs)
+        return made["run"]
+
+    monkeypatch.setattr(compiled, "run", keep)
+    options = dict(formulation=formulation, integrator="DOP853", rtol=1e-8, engine="compiled", divergence="skip")
+    result = forward_dynamics(system, q0, qd0, 0.3, 12, **options)
+    one = made.pop("run")
+    assert one.jac.shape == (13, system.n_constraints, system.n_coordinates)
+    for k, t in enumerate(result.t):
+        assert np.allclose(one.psi[k], system.constraints(result.q[k], t), rtol=0, atol=1e-13)
+        assert np.allclose(one.jac[k], system.jacobian(result.q[k], t), rtol=1e-13, atol=1e-13)
+        assert np.allclose(one.psit[k], system.psi_t(result.q[k], t), rtol=1e-13, atol=1e-13)
+    monkeypatch.setattr(compiled, "ONE_PASS_LARGEST", 0)
+    forward_dynamics(system, q0, qd0, 0.3, 12, **options)
+    two = made.pop("run")
+    for name in ("Y", "qdd", "lam", "psi", "jac", "psit"):
+        np.testing.assert_array_equal(getattr(one, name), getattr(two, name), err_msg=name)
