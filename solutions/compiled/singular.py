@@ -91,30 +91,85 @@ def band_order(pattern: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return columns, keys
 
 
-def spectra(scaled: np.ndarray, first: np.ndarray, columns=None, norms=None):
+def spectra(scaled: np.ndarray, first: np.ndarray, columns=None, norms=None, pattern=None):
     """(sigma_m / sigma_1 (N,), null-space bases (N, n, d), signs of det [Psi_q; T^T] (N,)) of each scaled Psi_q
     (N, m, n) of full row rank, from the band (module docstring); None where the ordered Psi_q is not a band
     narrower than an eighth of n. ``first`` (n, d): a null-space basis at (or just before) the first time, which
     picks its independent coordinates. NaN at a time where LAPACK failed. With ``columns`` (n,) and ``norms``
     (N, m) (``row_norms``), ``scaled`` is Psi_q itself, scaled here entry by entry of its pattern (no scaled copy
-    of the whole history: on a chain of 64 loops it is 121 MB)."""
+    of the whole history: on a chain of 64 loops it is 121 MB); ``pattern`` (m, n): where any of them is nonzero,
+    if known (``history_norms``), else found here by a pass over the history."""
     if columns is None:
         columns, norms = np.ones(scaled.shape[2]), np.ones(scaled.shape[:2])
         pattern = np.any(scaled != 0.0, axis=0)
-    else:
+    elif pattern is None:
         pattern = _pattern(np.ascontiguousarray(scaled, dtype=float))
-    columns_order, keys = band_order(pattern)
-    position = np.empty(columns_order.size, dtype=np.int64)
-    position[columns_order] = np.arange(columns_order.size)
-    starts = np.concatenate([[0], np.cumsum(pattern.sum(axis=1))]).astype(np.int64)
-    indices = np.concatenate([np.flatnonzero(row) for row in pattern]).astype(np.int64)
+    position, keys, starts, indices = _band_structure(pattern)
     first = np.ascontiguousarray(first, dtype=float)
     chosen = _independent(first, first.shape[1])
     kl, ku = _widths(_layout(keys, position, chosen), keys.size, starts, indices, position, chosen, True)
-    if WIDEST * (kl + ku + 1) > columns_order.size:  # not a band: dense costs less
+    if WIDEST * (kl + ku + 1) > position.size:  # not a band: dense costs less
         return None
     scale = (np.ascontiguousarray(columns, dtype=float), np.ascontiguousarray(norms, dtype=float))
     return _spectra(np.ascontiguousarray(scaled), *scale, position, keys, starts, indices, first)
+
+
+_STRUCTURES: dict = {}
+"""``_band_structure`` of the patterns met (a mechanism's Psi_q has the same pattern at every output time and in
+every run: its band ordering is found once)."""
+
+
+def _band_structure(pattern: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(position (n,): each column's place in the band order, keys (m,): each row's place along the diagonal
+    (``band_order``), starts (m + 1,) and indices: each row's nonzero columns, CSR) of a pattern (m, n), kept in
+    ``_STRUCTURES`` (the reverse Cuthill-McKee ordering and the rows' keys cost 5 ms on a chain of 64 loops)."""
+    key = (pattern.shape, np.packbits(pattern).tobytes())
+    if key not in _STRUCTURES:
+        columns_order, keys = band_order(pattern)
+        position = np.empty(columns_order.size, dtype=np.int64)
+        position[columns_order] = np.arange(columns_order.size)
+        starts = np.concatenate([[0], np.cumsum(pattern.sum(axis=1))]).astype(np.int64)
+        indices = np.nonzero(pattern)[1].astype(np.int64)  # row by row, columns ascending
+        if len(_STRUCTURES) >= 16:
+            _STRUCTURES.clear()
+        _STRUCTURES[key] = (position, keys, starts, indices)
+    return _STRUCTURES[key]
+
+
+def history_norms(jacobians: np.ndarray, columns: np.ndarray, reach: np.ndarray | None = None):
+    """(``row_norms`` (N, m), pattern (m, n) or None) of a history of Psi_q (N, m, n). With ``reach`` (m, w): the
+    columns where each row can be nonzero, those of the bodies its element joins (-1 after the last,
+    ``history._row_columns``), both in one pass over those entries alone (``_reached_norms``: on a chain of 64
+    loops 6 of 387 columns a row, where the dense pass reads all 121 MB of the history); the same norms to the
+    last bit (the dense sum adds zeros between them). Without, the dense pass and no pattern."""
+    jacobians = np.ascontiguousarray(jacobians, dtype=float)
+    columns = np.ascontiguousarray(columns, dtype=float)
+    if reach is None:
+        return row_norms(jacobians, columns), None
+    return _reached_norms(jacobians, columns, np.ascontiguousarray(reach, dtype=np.int64))
+
+
+@njit(cache=True, nogil=True)
+def _reached_norms(jacobians, columns, reach):
+    """``row_norms`` and ``_pattern`` of the history (N, m, n) from the entries ``reach`` (m, w, ascending, -1
+    after the last) of each row alone."""
+    N, m, n = jacobians.shape
+    norms = np.empty((N, m))
+    pattern = np.zeros((m, n), dtype=np.bool_)
+    for k in range(N):
+        for r in range(m):
+            total = 0.0
+            for s in range(reach.shape[1]):
+                c = reach[r, s]
+                if c < 0:
+                    break
+                entry = jacobians[k, r, c]
+                if entry != 0.0:
+                    pattern[r, c] = True
+                value = entry * columns[c]
+                total += value * value
+            norms[k, r] = np.sqrt(total)
+    return norms, pattern
 
 
 @njit(_matrix(_stack, _vector), cache=True, nogil=True)
@@ -670,4 +725,4 @@ def _dense_spectra(jacobians, columns, norms, bases):
     return ratios, tangents, signs
 
 
-__all__ = ["WIDEST", "band_order", "dense_spectra", "row_norms", "spectra"]
+__all__ = ["WIDEST", "band_order", "dense_spectra", "history_norms", "row_norms", "spectra"]
