@@ -159,7 +159,8 @@ def test_the_bands_iterated_ratio_is_numpys_without_the_bidiagonal_route():
     m, n = scaled.shape[1:]
     w = singular._gram_width(rows, starts, indices, n)
     G, L, low, high, y = np.empty((m, w + 1)), np.empty((m, w + 1)), np.ones(m), np.ones(m), np.empty(n)
-    ratios = [singular._iterated_ratio(J, rows, starts, indices, G, L, low, high, y) for J in scaled]
+    products = singular._gram_products(rows, starts, indices, w)
+    ratios = [singular._iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y) for J in scaled]
     s = np.linalg.svd(scaled, compute_uv=False)
     assert w < 16 and np.all(s[:, -1] / s[:, 0] < 0.1)  # a band, and near singular all along: the figure matters
     np.testing.assert_allclose(ratios, s[:, -1] / s[:, 0], rtol=1e-10)
