@@ -144,7 +144,8 @@ def history_norms(jacobians: np.ndarray, columns: np.ndarray, reach: np.ndarray 
     last bit (the dense sum adds zeros between them). Without, the dense pass and no pattern."""
     jacobians = np.ascontiguousarray(jacobians, dtype=float)
     columns = np.ascontiguousarray(columns, dtype=float)
-    if reach is None:
+    if reach is not None and (reach.shape[0] != jacobians.shape[1] or np.max(reach, initial=-1) >= jacobians.shape[2]):
+        reach = None  # not this history's rows and columns: the dense pass
         return row_norms(jacobians, columns), None
     return _reached_norms(jacobians, columns, np.ascontiguousarray(reach, dtype=np.int64))
 
@@ -321,8 +322,9 @@ def _ratio(J, slot, m, starts, indices, position, chosen):
 
 
 @njit(cache=True, nogil=True)
-def _null_space(J, slot, m, starts, indices, position, chosen):
-    """(T, sign of det [Psi_q; T^T]) from the banded LU of A = [Psi_q; E^T] (module docstring); NaN on failure."""
+def _null_space(J, slot, m, starts, indices, position, chosen, ordered):
+    """(T, sign of det [Psi_q; T^T]) from the banded LU of A = [Psi_q; E^T] (module docstring); NaN on failure.
+    ordered: the parity of the columns' band order ``position`` (the same at every output time)."""
     n, d = slot.size, chosen.size
     kl, ku = _widths(slot, m, starts, indices, position, chosen, True)
     ldab = 2 * kl + ku + 1
@@ -354,7 +356,7 @@ def _null_space(J, slot, m, starts, indices, position, chosen):
     _GBTRS(trans.ctypes, sizes[0:].ctypes, sizes[2:].ctypes, sizes[3:].ctypes, sizes[6:].ctypes, ab.ctypes,
            sizes[4:].ctypes, pivots.ctypes, rhs.ctypes, sizes[0:].ctypes, sizes[5:].ctypes)  # fmt: skip
     # B[i, j] = A[slot[i], columns[j]] (A's rows: Psi_q's, then E's): det B = sign(slot) det A sign(columns)
-    sign *= _parity(slot) * _parity(position)
+    sign *= _parity(slot) * ordered
     basis = np.empty((n, d))
     for c in range(n):
         for a in range(d):
@@ -608,7 +610,7 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, first):
     w = _gram_width(rows, starts, indices, n)
     products = _gram_products(rows, starts, indices, w)
     G, L, low, high, y = np.empty((m, w + 1)), np.empty((m, w + 1)), np.ones(m), np.ones(m), np.empty(n)
-    before = first
+    before, ordered = first, _parity(position)
     J = np.zeros((m, n))  # this time's scaled Psi_q, written on its pattern alone
     for k in range(N):
         for r in range(m):
@@ -621,7 +623,7 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, first):
         if not np.isfinite(ratios[k]):  # near a rank loss: the bidiagonal reduction's figure
             low[:], high[:] = 1.0, 1.0
             ratios[k] = _ratio(J, slot, m, starts, indices, position, chosen)
-        bases[k], signs[k] = _null_space(J, slot, m, starts, indices, position, chosen)
+        bases[k], signs[k] = _null_space(J, slot, m, starts, indices, position, chosen, ordered)
         if np.all(np.isfinite(bases[k])):
             before = bases[k]
     return ratios, bases, signs
