@@ -1609,8 +1609,6 @@ def _compiled_spectra(
         return singular.dense_spectra(jacobians, columns, norms)
     if jacobians.shape[2] < BAND_SMALLEST or jacobians.shape[1] == jacobians.shape[2]:
         return None
-    if before is None:
-        before = null_space_bases(scale_rows(jacobians[:1], columns, norms[:1]))[0]
     return singular.spectra(jacobians, before, columns, norms, pattern)
 
 

@@ -42,10 +42,12 @@ orthogonal, which multiplies det [Psi_q; T^T] and the turn det(T_prev^T T) by th
 
 ``spectra`` returns, for a stack of scaled Jacobians (N, m, n), the ratios (N,), the bases (N, n, d) and the
 signs (N,) (given Psi_q and the column weights and row norms instead, it scales each output time's Psi_q on its
-pattern as it goes, no scaled copy of the history); ``dense_spectra`` the same for a small Psi_q that is no band,
-from a QR and one-sided Jacobi. A time where LAPACK reports a failure (a zero pivot: Psi_q singular to the last
-bit at an output time) gets NaN there, and the Guard computes that time densely. No numba in the numpy engine:
-this module is imported by compiled runs only (``dynamics.square_spectra``, from ``Guard.check_outputs``).
+pattern as it goes, no scaled copy of the history, and given the pattern too, ``history_norms``, it reads the
+history only there: the band's ordering is kept per pattern, ``_band_structure``); ``dense_spectra`` the same for
+a small Psi_q that is no band, from a QR and one-sided Jacobi. A time where LAPACK reports a failure (a zero
+pivot: Psi_q singular to the last bit at an output time) gets NaN there, and the Guard computes that time densely.
+No numba in the numpy engine: this module is imported by compiled runs only (``dynamics.square_spectra``, from
+``Guard.check_outputs``).
 """
 
 from __future__ import annotations
@@ -91,27 +93,82 @@ def band_order(pattern: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return columns, keys
 
 
-def spectra(scaled: np.ndarray, first: np.ndarray, columns=None, norms=None, pattern=None):
+def spectra(scaled: np.ndarray, first: np.ndarray | None, columns=None, norms=None, pattern=None):
     """(sigma_m / sigma_1 (N,), null-space bases (N, n, d), signs of det [Psi_q; T^T] (N,)) of each scaled Psi_q
     (N, m, n) of full row rank, from the band (module docstring); None where the ordered Psi_q is not a band
     narrower than an eighth of n. ``first`` (n, d): a null-space basis at (or just before) the first time, which
-    picks its independent coordinates. NaN at a time where LAPACK failed. With ``columns`` (n,) and ``norms``
-    (N, m) (``row_norms``), ``scaled`` is Psi_q itself, scaled here entry by entry of its pattern (no scaled copy
-    of the whole history: on a chain of 64 loops it is 121 MB); ``pattern`` (m, n): where any of them is nonzero,
-    if known (``history_norms``), else found here by a pass over the history."""
+    picks its independent coordinates (None: from the band, ``_first_basis``). NaN at a time where LAPACK failed.
+    With ``columns`` (n,) and ``norms`` (N, m) (``row_norms``), ``scaled`` is Psi_q itself, scaled here entry by
+    entry of its pattern (no scaled copy of the whole history: on a chain of 64 loops it is 121 MB); ``pattern``
+    (m, n): where any of them is nonzero, if known (``history_norms``), else found here by a pass over the history."""
     if columns is None:
         columns, norms = np.ones(scaled.shape[2]), np.ones(scaled.shape[:2])
         pattern = np.any(scaled != 0.0, axis=0)
     elif pattern is None:
         pattern = _pattern(np.ascontiguousarray(scaled, dtype=float))
     position, keys, starts, indices = _band_structure(pattern)
+    scale = (np.ascontiguousarray(columns, dtype=float), np.ascontiguousarray(norms, dtype=float))
+    if first is None:  # a basis at the first time from the band too (``_first_basis``), if it is one
+        last = np.sort(np.argsort(position)[keys.size :])  # E's rows at the band's end: the widths of Psi_q's rows
+        kl, ku = _widths(_layout(keys, position, last), keys.size, starts, indices, position, last, False)
+        if WIDEST * (kl + ku + 1) > position.size:
+            return None
+        first = _first_basis(np.ascontiguousarray(scaled[0]), scale[0], scale[1][0], position, keys, starts, indices)
+        if not np.all(np.isfinite(first)):  # U singular to the last bit: Householder's QR of the scaled Psi_q
+            J = scaled[0] * scale[0] / np.where(scale[1][0] > 0.0, scale[1][0], 1.0)[:, None]
+            first = np.linalg.qr(J.T, mode="complete")[0][:, keys.size :]
     first = np.ascontiguousarray(first, dtype=float)
     chosen = _independent(first, first.shape[1])
     kl, ku = _widths(_layout(keys, position, chosen), keys.size, starts, indices, position, chosen, True)
     if WIDEST * (kl + ku + 1) > position.size:  # not a band: dense costs less
         return None
-    scale = (np.ascontiguousarray(columns, dtype=float), np.ascontiguousarray(norms, dtype=float))
     return _spectra(np.ascontiguousarray(scaled), *scale, position, keys, starts, indices, first)
+
+
+@njit(cache=True, nogil=True)
+def _first_basis(jacobian, columns, norms, position, keys, starts, indices):
+    """A null-space basis (n, d) of one scaled Psi_q (m, n) with no basis of a time before to pick E's coordinates
+    (the first output time of a run): those coordinate partitioning (eq. 5.40) leaves independent, by the banded LU
+    with partial pivoting of Psi_q^T (n x m, its rows the coordinates in band order; LAPACK's dgbtrf,
+    O(n kl (kl + ku))): the coordinates not taken as pivots, whose m columns of Psi_q are then nonsingular, so that
+    A = [Psi_q; E^T] is. T then as at every time (``_null_space``): on a chain of 64 loops 0.1 ms, where the dense
+    QR of Psi_q cost 5.5. NaN where U has an exact zero pivot (Psi_q singular to the last bit)."""
+    m, n = keys.size, position.size
+    d = n - m
+    J = np.zeros((m, n))
+    for r in range(m):
+        norm = norms[r] if norms[r] > 0.0 else 1.0
+        for p in range(starts[r], starts[r + 1]):
+            J[r, indices[p]] = jacobian[r, indices[p]] * columns[indices[p]] / norm
+    rows = np.argsort(keys, kind="mergesort")  # Psi_q's rows in band order: B = Psi_q^T's columns
+    kl, ku = 0, 0
+    for j in range(m):
+        r = rows[j]
+        for p in range(starts[r], starts[r + 1]):
+            i = position[indices[p]]
+            kl, ku = max(kl, i - j), max(ku, j - i)
+    ldab = 2 * kl + ku + 1
+    ab = np.zeros((m, ldab))  # dgbtrf's AB of B (n x m): ab[j, kl + ku + i - j] = B[i, j], kl rows for the fill
+    for j in range(m):
+        r = rows[j]
+        for p in range(starts[r], starts[r + 1]):
+            i = position[indices[p]]
+            ab[j, kl + ku + i - j] = J[r, indices[p]]
+    pivots = np.empty(m, dtype=PIVOT_TYPE)
+    sizes = np.array([n, m, kl, ku, ldab, 0], dtype=PIVOT_TYPE)  # m, n, kl, ku, ldab, info
+    _GBTRF(sizes[0:].ctypes, sizes[1:].ctypes, sizes[2:].ctypes, sizes[3:].ctypes, ab.ctypes, sizes[4:].ctypes,
+           pivots.ctypes, sizes[5:].ctypes)  # fmt: skip
+    if sizes[5] != 0:
+        return np.full((n, d), np.nan)
+    taken = np.arange(n)  # the row interchanges, in order: rows 0..m-1 of the result are the pivots' coordinates
+    for j in range(m):
+        p = pivots[j] - 1
+        taken[j], taken[p] = taken[p], taken[j]
+    order = np.empty(n, dtype=np.int64)  # the coordinate at each place of the band order
+    order[position] = np.arange(n)
+    chosen = np.sort(order[taken[m:]])
+    basis, _ = _null_space(J, _layout(keys, position, chosen), m, starts, indices, position, chosen, 1.0)
+    return basis
 
 
 _STRUCTURES: dict = {}
