@@ -1563,7 +1563,12 @@ def scale_rows(jacobians: np.ndarray, columns: np.ndarray, norms: np.ndarray) ->
 
 
 def square_spectra(
-    jacobians: np.ndarray, columns: np.ndarray, norms: np.ndarray, before: np.ndarray | None, banded: bool = True
+    jacobians: np.ndarray,
+    columns: np.ndarray,
+    norms: np.ndarray,
+    before: np.ndarray | None,
+    banded: bool = True,
+    pattern: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(sigma_m / sigma_1, null-space bases T, signs of det [Psi_q; T^T]) of each Psi_q (N, m, n) of full row rank
     m, scaled (``scale_rows`` with its column weights and row norms), for ``Guard.check_outputs``. Dense: SVDs and
@@ -1572,9 +1577,10 @@ def square_spectra(
     by shifted inverse iteration and Cholesky tests for the ratio, banded LU for T and the sign, O(n b^2) each;
     scaled entry by entry, no scaled copy of the history. ``before``: a null-space basis just before the first time
     (which picks the band's independent coordinates), None if none is known. ``banded=False``: dense whatever the
-    size (a numpy engine's run, which loads no compiled code)."""
+    size (a numpy engine's run, which loads no compiled code). ``pattern`` (m, n): where any Psi_q is nonzero, if
+    known (the band's structure; else found from the history)."""
     N, m, n = jacobians.shape
-    found = _compiled_spectra(jacobians, columns, norms, before) if banded and m <= n else None
+    found = _compiled_spectra(jacobians, columns, norms, before, pattern) if banded and m <= n else None
     if found is None:
         scaled = scale_rows(jacobians, columns, norms)
         tangents, signs = null_space_bases(scaled, signs=True)
@@ -1588,7 +1594,9 @@ def square_spectra(
     return ratios, tangents, signs
 
 
-def _compiled_spectra(jacobians: np.ndarray, columns: np.ndarray, norms: np.ndarray, before: np.ndarray | None):
+def _compiled_spectra(
+    jacobians: np.ndarray, columns: np.ndarray, norms: np.ndarray, before: np.ndarray | None, pattern=None
+):
     """The compiled engine's spectra of the scaled Psi_q: in one compiled pass over a small one (up to DENSE_LARGEST
     rows, ``compiled.singular.dense_spectra``), from the band of a large one (from BAND_SMALLEST coordinates,
     ``compiled.singular.spectra``); None between, where there is no compiled engine (a student package) or where the
@@ -1601,9 +1609,7 @@ def _compiled_spectra(jacobians: np.ndarray, columns: np.ndarray, norms: np.ndar
         return singular.dense_spectra(jacobians, columns, norms)
     if jacobians.shape[2] < BAND_SMALLEST or jacobians.shape[1] == jacobians.shape[2]:
         return None
-    if before is None:
-        before = null_space_bases(scale_rows(jacobians[:1], columns, norms[:1]))[0]
-    return singular.spectra(jacobians, before, columns, norms)
+    return singular.spectra(jacobians, before, columns, norms, pattern)
 
 
 class Guard:
@@ -1745,7 +1751,7 @@ class Guard:
         the configuration alone (a state between output times, where the numpy engine checks no drift)."""
         if self.drift_limit is None and not self.singular_ratio:  # nothing to check (an open tree's joint coordinates)
             return
-        norms = self._row_norms(jacobians)  # |grad Psi_i| of every row at every time, angles as arc lengths L phi
+        norms, pattern = self._row_norms(jacobians)  # |grad Psi_i| of every row at every time, angles as arc lengths
         if drift and self.drift_limit is not None:
             distance = np.abs(psi) / np.where(norms > 0, norms, 1.0)
             bad = ~(np.max(distance, axis=1, initial=0.0) <= self.drift_limit)
@@ -1754,7 +1760,7 @@ class Guard:
                 self.check_drift(q[k], float(t[k]))  # raises, with the message of the step-by-step check
         if not self.singular_ratio or self.rank == 0:
             return
-        ratios, tangents, signs = self._spectra(t, jacobians, norms)
+        ratios, tangents, signs = self._spectra(t, jacobians, norms, pattern)
         turns = np.linalg.det(np.swapaxes(tangents[:-1], 1, 2) @ tangents[1:])  # det(T_k-1^T T_k), k >= 1
         if self._quiet(t, ratios, tangents, signs, turns):
             return
@@ -1763,26 +1769,33 @@ class Guard:
             turn = None if k == 0 else turns[k - 1]
             self._judge(q[k], float(t[k]), float(ratios[k]), tangents[k], sign, turn)
 
-    def _row_norms(self, jacobians: np.ndarray) -> np.ndarray:
-        """|grad Psi_i| (N, m) of every row of Psi_q (N, m, n), angles as arc lengths: one compiled pass over a
-        compiled run's history (``compiled.singular.row_norms``), numpy's otherwise."""
+    def _row_norms(self, jacobians: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """(|grad Psi_i| (N, m) of every row of Psi_q (N, m, n), angles as arc lengths; where any Psi_q is nonzero
+        (m, n), or None): of a compiled run's history, one compiled pass over the columns of the bodies each row's
+        element joins (``compiled.singular.history_norms``: the pattern, the band's structure, from the same
+        entries), or over all where an element reaches further; numpy's norms otherwise."""
         if self.banded and jacobians.ndim == 3:
-            from .compiled import singular
+            from .compiled import history, singular
 
-            return singular.row_norms(np.ascontiguousarray(jacobians, dtype=float), self._columns)
-        return np.linalg.norm(jacobians * self._columns, axis=-1)
+            try:
+                reach = history.layout(self.system, history._row_columns)
+            except AttributeError:  # a system without elements' rows (no structure to read): every column
+                reach = None
+            return singular.history_norms(jacobians, self._columns, reach)
+        return np.linalg.norm(jacobians * self._columns, axis=-1), None
 
     def _spectra(
-        self, t: np.ndarray, jacobians: np.ndarray, norms: np.ndarray | None = None
+        self, t: np.ndarray, jacobians: np.ndarray, norms: np.ndarray | None = None, pattern: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """(sigma_r / sigma_1, null-space bases T, signs of det [Psi_q; T^T] or None) of the scaled Psi_q (``_scaled``)
-        of Psi_q (N, m, n) at the times t (``norms``: its rows' norms, ``_row_norms``, if known), kept for
+        of Psi_q (N, m, n) at the times t (``norms``, ``pattern``: ``_row_norms``, if known), kept for
         ``spectra``: the run's later looks at the same output times (``singular_dip``, ``check_branches``) take them
         instead of a second and third batch of SVDs (on a chain of 32 loops each batch cost more than the
         integration)."""
-        norms = self._row_norms(jacobians) if norms is None else norms
+        if norms is None:
+            norms, pattern = self._row_norms(jacobians)
         if jacobians.shape[1] == self.rank:  # independent rows: T and det [Psi_q; T^T], from the band where it pays
-            made = square_spectra(jacobians, self._columns, norms, self._tangent, self.banded)
+            made = square_spectra(jacobians, self._columns, norms, self._tangent, self.banded, pattern)
         else:  # redundant rows: the null space of rank r needs the SVD's V; det [Psi_q; T^T] is not defined
             _, s, vt = np.linalg.svd(scale_rows(jacobians, self._columns, norms))
             made = singular_ratios(s, self.rank), np.swapaxes(vt[:, self.rank :], 1, 2), None

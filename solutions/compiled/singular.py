@@ -42,10 +42,12 @@ orthogonal, which multiplies det [Psi_q; T^T] and the turn det(T_prev^T T) by th
 
 ``spectra`` returns, for a stack of scaled Jacobians (N, m, n), the ratios (N,), the bases (N, n, d) and the
 signs (N,) (given Psi_q and the column weights and row norms instead, it scales each output time's Psi_q on its
-pattern as it goes, no scaled copy of the history); ``dense_spectra`` the same for a small Psi_q that is no band,
-from a QR and one-sided Jacobi. A time where LAPACK reports a failure (a zero pivot: Psi_q singular to the last
-bit at an output time) gets NaN there, and the Guard computes that time densely. No numba in the numpy engine:
-this module is imported by compiled runs only (``dynamics.square_spectra``, from ``Guard.check_outputs``).
+pattern as it goes, no scaled copy of the history, and given the pattern too, ``history_norms``, it reads the
+history only there: the band's ordering is kept per pattern, ``_band_structure``); ``dense_spectra`` the same for
+a small Psi_q that is no band, from a QR and one-sided Jacobi. A time where LAPACK reports a failure (a zero
+pivot: Psi_q singular to the last bit at an output time) gets NaN there, and the Guard computes that time densely.
+No numba in the numpy engine: this module is imported by compiled runs only (``dynamics.square_spectra``, from
+``Guard.check_outputs``).
 """
 
 from __future__ import annotations
@@ -91,30 +93,141 @@ def band_order(pattern: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return columns, keys
 
 
-def spectra(scaled: np.ndarray, first: np.ndarray, columns=None, norms=None):
+def spectra(scaled: np.ndarray, first: np.ndarray | None, columns=None, norms=None, pattern=None):
     """(sigma_m / sigma_1 (N,), null-space bases (N, n, d), signs of det [Psi_q; T^T] (N,)) of each scaled Psi_q
     (N, m, n) of full row rank, from the band (module docstring); None where the ordered Psi_q is not a band
     narrower than an eighth of n. ``first`` (n, d): a null-space basis at (or just before) the first time, which
-    picks its independent coordinates. NaN at a time where LAPACK failed. With ``columns`` (n,) and ``norms``
-    (N, m) (``row_norms``), ``scaled`` is Psi_q itself, scaled here entry by entry of its pattern (no scaled copy
-    of the whole history: on a chain of 64 loops it is 121 MB)."""
+    picks its independent coordinates (None: from the band, ``_first_basis``). NaN at a time where LAPACK failed.
+    With ``columns`` (n,) and ``norms`` (N, m) (``row_norms``), ``scaled`` is Psi_q itself, scaled here entry by
+    entry of its pattern (no scaled copy of the whole history: on a chain of 64 loops it is 121 MB); ``pattern``
+    (m, n): where any of them is nonzero, if known (``history_norms``), else found here by a pass over the history."""
     if columns is None:
         columns, norms = np.ones(scaled.shape[2]), np.ones(scaled.shape[:2])
         pattern = np.any(scaled != 0.0, axis=0)
-    else:
+    elif pattern is None:
         pattern = _pattern(np.ascontiguousarray(scaled, dtype=float))
-    columns_order, keys = band_order(pattern)
-    position = np.empty(columns_order.size, dtype=np.int64)
-    position[columns_order] = np.arange(columns_order.size)
-    starts = np.concatenate([[0], np.cumsum(pattern.sum(axis=1))]).astype(np.int64)
-    indices = np.concatenate([np.flatnonzero(row) for row in pattern]).astype(np.int64)
+    position, keys, starts, indices = _band_structure(pattern)
+    scale = (np.ascontiguousarray(columns, dtype=float), np.ascontiguousarray(norms, dtype=float))
+    if first is None:  # a basis at the first time from the band too (``_first_basis``), if it is one
+        last = np.sort(np.argsort(position)[keys.size :])  # E's rows at the band's end: the widths of Psi_q's rows
+        kl, ku = _widths(_layout(keys, position, last), keys.size, starts, indices, position, last, False)
+        if WIDEST * (kl + ku + 1) > position.size:
+            return None
+        first = _first_basis(np.ascontiguousarray(scaled[0]), scale[0], scale[1][0], position, keys, starts, indices)
+        if not np.all(np.isfinite(first)):  # U singular to the last bit: Householder's QR of the scaled Psi_q
+            J = scaled[0] * scale[0] / np.where(scale[1][0] > 0.0, scale[1][0], 1.0)[:, None]
+            first = np.linalg.qr(J.T, mode="complete")[0][:, keys.size :]
     first = np.ascontiguousarray(first, dtype=float)
     chosen = _independent(first, first.shape[1])
     kl, ku = _widths(_layout(keys, position, chosen), keys.size, starts, indices, position, chosen, True)
-    if WIDEST * (kl + ku + 1) > columns_order.size:  # not a band: dense costs less
+    if WIDEST * (kl + ku + 1) > position.size:  # not a band: dense costs less
         return None
-    scale = (np.ascontiguousarray(columns, dtype=float), np.ascontiguousarray(norms, dtype=float))
     return _spectra(np.ascontiguousarray(scaled), *scale, position, keys, starts, indices, first)
+
+
+@njit(cache=True, nogil=True)
+def _first_basis(jacobian, columns, norms, position, keys, starts, indices):
+    """A null-space basis (n, d) of one scaled Psi_q (m, n) with no basis of a time before to pick E's coordinates
+    (the first output time of a run): those coordinate partitioning (eq. 5.40) leaves independent, by the banded LU
+    with partial pivoting of Psi_q^T (n x m, its rows the coordinates in band order; LAPACK's dgbtrf,
+    O(n kl (kl + ku))): the coordinates not taken as pivots, whose m columns of Psi_q are then nonsingular, so that
+    A = [Psi_q; E^T] is. T then as at every time (``_null_space``): on a chain of 64 loops 0.1 ms, where the dense
+    QR of Psi_q cost 5.5. NaN where U has an exact zero pivot (Psi_q singular to the last bit)."""
+    m, n = keys.size, position.size
+    d = n - m
+    J = np.zeros((m, n))
+    for r in range(m):
+        norm = norms[r] if norms[r] > 0.0 else 1.0
+        for p in range(starts[r], starts[r + 1]):
+            J[r, indices[p]] = jacobian[r, indices[p]] * columns[indices[p]] / norm
+    rows = np.argsort(keys, kind="mergesort")  # Psi_q's rows in band order: B = Psi_q^T's columns
+    kl, ku = 0, 0
+    for j in range(m):
+        r = rows[j]
+        for p in range(starts[r], starts[r + 1]):
+            i = position[indices[p]]
+            kl, ku = max(kl, i - j), max(ku, j - i)
+    ldab = 2 * kl + ku + 1
+    ab = np.zeros((m, ldab))  # dgbtrf's AB of B (n x m): ab[j, kl + ku + i - j] = B[i, j], kl rows for the fill
+    for j in range(m):
+        r = rows[j]
+        for p in range(starts[r], starts[r + 1]):
+            i = position[indices[p]]
+            ab[j, kl + ku + i - j] = J[r, indices[p]]
+    pivots = np.empty(m, dtype=PIVOT_TYPE)
+    sizes = np.array([n, m, kl, ku, ldab, 0], dtype=PIVOT_TYPE)  # m, n, kl, ku, ldab, info
+    _GBTRF(sizes[0:].ctypes, sizes[1:].ctypes, sizes[2:].ctypes, sizes[3:].ctypes, ab.ctypes, sizes[4:].ctypes,
+           pivots.ctypes, sizes[5:].ctypes)  # fmt: skip
+    if sizes[5] != 0:
+        return np.full((n, d), np.nan)
+    taken = np.arange(n)  # the row interchanges, in order: rows 0..m-1 of the result are the pivots' coordinates
+    for j in range(m):
+        p = pivots[j] - 1
+        taken[j], taken[p] = taken[p], taken[j]
+    order = np.empty(n, dtype=np.int64)  # the coordinate at each place of the band order
+    order[position] = np.arange(n)
+    chosen = np.sort(order[taken[m:]])
+    basis, _ = _null_space(J, _layout(keys, position, chosen), m, starts, indices, position, chosen, 1.0)
+    return basis
+
+
+_STRUCTURES: dict = {}
+"""``_band_structure`` of the patterns met (a mechanism's Psi_q has the same pattern at every output time and in
+every run: its band ordering is found once)."""
+
+
+def _band_structure(pattern: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(position (n,): each column's place in the band order, keys (m,): each row's place along the diagonal
+    (``band_order``), starts (m + 1,) and indices: each row's nonzero columns, CSR) of a pattern (m, n), kept in
+    ``_STRUCTURES`` (the reverse Cuthill-McKee ordering and the rows' keys cost 5 ms on a chain of 64 loops)."""
+    key = (pattern.shape, np.packbits(pattern).tobytes())
+    if key not in _STRUCTURES:
+        columns_order, keys = band_order(pattern)
+        position = np.empty(columns_order.size, dtype=np.int64)
+        position[columns_order] = np.arange(columns_order.size)
+        starts = np.concatenate([[0], np.cumsum(pattern.sum(axis=1))]).astype(np.int64)
+        indices = np.nonzero(pattern)[1].astype(np.int64)  # row by row, columns ascending
+        if len(_STRUCTURES) >= 16:
+            _STRUCTURES.clear()
+        _STRUCTURES[key] = (position, keys, starts, indices)
+    return _STRUCTURES[key]
+
+
+def history_norms(jacobians: np.ndarray, columns: np.ndarray, reach: np.ndarray | None = None):
+    """(``row_norms`` (N, m), pattern (m, n) or None) of a history of Psi_q (N, m, n). With ``reach`` (m, w): the
+    columns where each row can be nonzero, those of the bodies its element joins (-1 after the last,
+    ``history._row_columns``), both in one pass over those entries alone (``_reached_norms``: on a chain of 64
+    loops 6 of 387 columns a row, where the dense pass reads all 121 MB of the history); the same norms to the
+    last bit (the dense sum adds zeros between them). Without, the dense pass and no pattern."""
+    jacobians = np.ascontiguousarray(jacobians, dtype=float)
+    columns = np.ascontiguousarray(columns, dtype=float)
+    if reach is not None and (reach.shape[0] != jacobians.shape[1] or np.max(reach, initial=-1) >= jacobians.shape[2]):
+        reach = None  # not this history's rows and columns: the dense pass
+        return row_norms(jacobians, columns), None
+    return _reached_norms(jacobians, columns, np.ascontiguousarray(reach, dtype=np.int64))
+
+
+@njit(cache=True, nogil=True)
+def _reached_norms(jacobians, columns, reach):
+    """``row_norms`` and ``_pattern`` of the history (N, m, n) from the entries ``reach`` (m, w, ascending, -1
+    after the last) of each row alone."""
+    N, m, n = jacobians.shape
+    norms = np.empty((N, m))
+    pattern = np.zeros((m, n), dtype=np.bool_)
+    for k in range(N):
+        for r in range(m):
+            total = 0.0
+            for s in range(reach.shape[1]):
+                c = reach[r, s]
+                if c < 0:
+                    break
+                entry = jacobians[k, r, c]
+                if entry != 0.0:
+                    pattern[r, c] = True
+                value = entry * columns[c]
+                total += value * value
+            norms[k, r] = np.sqrt(total)
+    return norms, pattern
 
 
 @njit(_matrix(_stack, _vector), cache=True, nogil=True)
@@ -266,8 +379,9 @@ def _ratio(J, slot, m, starts, indices, position, chosen):
 
 
 @njit(cache=True, nogil=True)
-def _null_space(J, slot, m, starts, indices, position, chosen):
-    """(T, sign of det [Psi_q; T^T]) from the banded LU of A = [Psi_q; E^T] (module docstring); NaN on failure."""
+def _null_space(J, slot, m, starts, indices, position, chosen, ordered):
+    """(T, sign of det [Psi_q; T^T]) from the banded LU of A = [Psi_q; E^T] (module docstring); NaN on failure.
+    ordered: the parity of the columns' band order ``position`` (the same at every output time)."""
     n, d = slot.size, chosen.size
     kl, ku = _widths(slot, m, starts, indices, position, chosen, True)
     ldab = 2 * kl + ku + 1
@@ -299,7 +413,7 @@ def _null_space(J, slot, m, starts, indices, position, chosen):
     _GBTRS(trans.ctypes, sizes[0:].ctypes, sizes[2:].ctypes, sizes[3:].ctypes, sizes[6:].ctypes, ab.ctypes,
            sizes[4:].ctypes, pivots.ctypes, rhs.ctypes, sizes[0:].ctypes, sizes[5:].ctypes)  # fmt: skip
     # B[i, j] = A[slot[i], columns[j]] (A's rows: Psi_q's, then E's): det B = sign(slot) det A sign(columns)
-    sign *= _parity(slot) * _parity(position)
+    sign *= _parity(slot) * ordered
     basis = np.empty((n, d))
     for c in range(n):
         for a in range(d):
@@ -350,27 +464,46 @@ def _gram_width(rows, starts, indices, n):
 
 
 @njit(cache=True, nogil=True)
-def _gram(J, rows, starts, indices, G):
-    """G = Psi_q Psi_q^T in lower band storage, G[i, t] = (Psi_q Psi_q^T)[i, i - t], rows in the order ``rows``."""
-    m, w = rows.size, G.shape[1] - 1
-    for i in range(m):
-        a = rows[i]
-        for t in range(w + 1):
-            if t > i:
-                G[i, t] = 0.0
-                continue
-            b = rows[i - t]
-            p, q, total = starts[a], starts[b], 0.0
-            while p < starts[a + 1] and q < starts[b + 1]:
-                if indices[p] == indices[q]:
-                    total += J[a, indices[p]] * J[b, indices[q]]
-                    p += 1
-                    q += 1
-                elif indices[p] < indices[q]:
-                    p += 1
-                else:
-                    q += 1
-            G[i, t] = total
+def _gram_products(rows, starts, indices, w):
+    """The products that make G = Psi_q Psi_q^T in lower band storage (``_gram``), found once from the pattern:
+    (P, 5) rows (i, t, a, b, c), G[i, t] += Psi_q[a, c] Psi_q[b, c] with a = rows[i], b = rows[i - t], for each
+    column c the two rows share, in the order of G's entries and of their common columns (on a chain of 64 loops
+    2,000 products, where merging every pair of rows within the band's width costs 8 times their time)."""
+    m = rows.size
+    products = np.empty((0, 5), dtype=np.int64)
+    for counting in (True, False):
+        count = 0
+        for i in range(m):
+            a = rows[i]
+            for t in range(min(w, i) + 1):
+                b = rows[i - t]
+                p, q = starts[a], starts[b]
+                while p < starts[a + 1] and q < starts[b + 1]:
+                    if indices[p] == indices[q]:
+                        if not counting:
+                            products[count, 0], products[count, 1], products[count, 2] = i, t, a
+                            products[count, 3], products[count, 4] = b, indices[p]
+                        count += 1
+                        p += 1
+                        q += 1
+                    elif indices[p] < indices[q]:
+                        p += 1
+                    else:
+                        q += 1
+        if counting:
+            products = np.empty((count, 5), dtype=np.int64)
+    return products
+
+
+@njit(cache=True, nogil=True)
+def _gram(J, products, G):
+    """G = Psi_q Psi_q^T in lower band storage, G[i, t] = (Psi_q Psi_q^T)[i, i - t], rows in the order of
+    ``_gram_products``: each entry the sum of its products in their order (the merge of two rows' columns gave
+    the same sums, to the last bit)."""
+    G[:, :] = 0.0
+    for p in range(products.shape[0]):
+        i, t, a, b, c = products[p, 0], products[p, 1], products[p, 2], products[p, 3], products[p, 4]
+        G[i, t] += J[a, c] * J[b, c]
 
 
 @njit(cache=True, nogil=True)
@@ -512,11 +645,12 @@ def _smallest(J, rows, starts, indices, G, L, x, largest, y):
 
 
 @njit(cache=True, nogil=True)
-def _iterated_ratio(J, rows, starts, indices, G, L, low, high, y):
+def _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y):
     """sigma_m / sigma_1 of Psi_q from its Gram matrix's extreme eigenvalues (``_largest``, ``_smallest``): O(m w^2)
     per Cholesky test and a few of them, against the band's bidiagonal reduction's O(n^2 (kl + ku)); NaN where
-    they cannot give it (the caller takes the exact route). low, high: the eigenvectors of the time before."""
-    _gram(J, rows, starts, indices, G)
+    they cannot give it (the caller takes the exact route). low, high: the eigenvectors of the time before;
+    products: ``_gram_products`` of the pattern."""
+    _gram(J, products, G)
     largest = _largest(G, L, high)
     if not np.isfinite(largest) or largest <= 0.0:
         return np.nan
@@ -531,8 +665,9 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, first):
     ratios, bases, signs = np.empty(N), np.empty((N, n, d)), np.empty(N)
     rows = np.argsort(keys, kind="mergesort")  # Psi_q's rows along the band: G = Psi_q Psi_q^T a band too
     w = _gram_width(rows, starts, indices, n)
+    products = _gram_products(rows, starts, indices, w)
     G, L, low, high, y = np.empty((m, w + 1)), np.empty((m, w + 1)), np.ones(m), np.ones(m), np.empty(n)
-    before = first
+    before, ordered = first, _parity(position)
     J = np.zeros((m, n))  # this time's scaled Psi_q, written on its pattern alone
     for k in range(N):
         for r in range(m):
@@ -541,11 +676,11 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, first):
                 J[r, indices[p]] = jacobians[k, r, indices[p]] * columns[indices[p]] / norm
         chosen = _independent(before, d)
         slot = _layout(keys, position, chosen)
-        ratios[k] = _iterated_ratio(J, rows, starts, indices, G, L, low, high, y)
+        ratios[k] = _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y)
         if not np.isfinite(ratios[k]):  # near a rank loss: the bidiagonal reduction's figure
             low[:], high[:] = 1.0, 1.0
             ratios[k] = _ratio(J, slot, m, starts, indices, position, chosen)
-        bases[k], signs[k] = _null_space(J, slot, m, starts, indices, position, chosen)
+        bases[k], signs[k] = _null_space(J, slot, m, starts, indices, position, chosen, ordered)
         if np.all(np.isfinite(bases[k])):
             before = bases[k]
     return ratios, bases, signs
@@ -678,4 +813,4 @@ def _dense_spectra(jacobians, columns, norms, bases):
     return ratios, tangents, signs
 
 
-__all__ = ["WIDEST", "band_order", "dense_spectra", "row_norms", "spectra"]
+__all__ = ["WIDEST", "band_order", "dense_spectra", "history_norms", "row_norms", "spectra"]

@@ -52,8 +52,11 @@ def perturbed():
     return np.array([guard._scaled(system.jacobian(q, 0.0)) for q in states])
 
 
-def test_band_gives_the_dense_ratio_basis_and_sign(perturbed):
-    ratios, bases, signs = singular.spectra(perturbed, null_space_bases(perturbed[:1])[0])
+@pytest.mark.parametrize("first", ["dense", "band"])
+def test_band_gives_the_dense_ratio_basis_and_sign(perturbed, first):
+    """With the first time's basis given (a QR's) or found from the band (the banded LU of Psi_q^T picks E)."""
+    before = null_space_bases(perturbed[:1])[0] if first == "dense" else None
+    ratios, bases, signs = singular.spectra(perturbed, before)
     s = np.linalg.svd(perturbed, compute_uv=False)
     m = perturbed.shape[1]
     np.testing.assert_allclose(ratios, s[:, m - 1] / s[:, 0], rtol=1e-11)
@@ -159,7 +162,29 @@ def test_the_bands_iterated_ratio_is_numpys_without_the_bidiagonal_route():
     m, n = scaled.shape[1:]
     w = singular._gram_width(rows, starts, indices, n)
     G, L, low, high, y = np.empty((m, w + 1)), np.empty((m, w + 1)), np.ones(m), np.ones(m), np.empty(n)
-    ratios = [singular._iterated_ratio(J, rows, starts, indices, G, L, low, high, y) for J in scaled]
+    products = singular._gram_products(rows, starts, indices, w)
+    ratios = [singular._iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y) for J in scaled]
     s = np.linalg.svd(scaled, compute_uv=False)
     assert w < 16 and np.all(s[:, -1] / s[:, 0] < 0.1)  # a band, and near singular all along: the figure matters
     np.testing.assert_allclose(ratios, s[:, -1] / s[:, 0], rtol=1e-10)
+
+
+def test_row_norms_from_the_bodies_columns_are_numpys_with_the_pattern():
+    """The Guard's row norms of a history of Psi_q read on the columns of the bodies each row's element joins
+    (history_norms with the system's reach) are the dense pass's over every column to the last bit (and numpy's to
+    rounding), and its pattern is where numpy finds a nonzero entry; a reach that is not this history's (other
+    rows) falls back to the dense pass, without pattern."""
+    from solutions.compiled import history
+
+    system, qs = chain_at([40.0, 60.0, 75.0])
+    jacobians = np.array([system.jacobian(q, 0.0) for q in qs])
+    guard = Guard(system, qs[0], 1e-3, 1e-8)
+    reach = history.layout(system, history._row_columns)
+    assert reach is not None and reach.shape[1] < jacobians.shape[2] // 8  # a few columns a row: the pass pays
+    norms, pattern = singular.history_norms(jacobians, guard._columns, reach)
+    np.testing.assert_array_equal(norms, singular.row_norms(jacobians, guard._columns))  # the dense pass's sums
+    np.testing.assert_allclose(norms, np.linalg.norm(jacobians * guard._columns, axis=-1), rtol=1e-14)
+    np.testing.assert_array_equal(pattern, np.any(jacobians != 0.0, axis=0))
+    dense, none = singular.history_norms(jacobians[:, 1:], guard._columns, reach)
+    assert none is None
+    np.testing.assert_allclose(dense, np.linalg.norm(jacobians[:, 1:] * guard._columns, axis=-1), rtol=1e-15)
