@@ -167,7 +167,7 @@ class System:
         else:
             A, B, P = self._vectors.configuration(X.ravel())
             terms = [
-                group.terms_from(X, A[part], B[part], P[part])
+                group.terms_from(X, A[part], B[part], P[part]) if part else group.terms_from(X, None, None, None)
                 for group, part in zip(self.groups, self._vectors.parts, strict=True)
             ]
             state = (X, terms, (A, B))
@@ -196,8 +196,8 @@ class System:
                 if group.constant_jacobian:
                     continue
                 jac_i, jac_j = group.jacobian(X, shared, t)
-                flat[group.index_i] = jac_i.ravel()
-                flat[group.index_j] = jac_j.ravel()
+                flat[group.index_i] = jac_i  # the index arrays have the blocks' shapes
+                flat[group.index_j] = jac_j
         for k in self._loop:
             qi, qj = self._pair(k, q)
             jac_i, jac_j = self.elements[k].jacobian(qi, qj, t)
@@ -232,14 +232,16 @@ class System:
         if state is not None:
             X, terms, rotated = state
             V = self._bodies(qd, self._ground_velocity)
-            if rotated is None:  # spatial groups: each from the velocities
-                moving = [V] * len(self.groups)
-            else:  # planar groups: P', A v' phi'^2 and phi' of every vector at once, each group its part
+            if rotated is not None:  # planar groups: P', A v' phi'^2 and phi' of every vector at once
                 velocity, centripetal, rate = self._vectors.motion(V.ravel(), *rotated)
-                moving = [(velocity[p], centripetal[p], rate[p]) for p in self._vectors.parts]
-            for group, shared, motion in zip(self.groups, terms, moving, strict=True):
+            for k, (group, shared) in enumerate(zip(self.groups, terms, strict=True)):
                 if group.constant_jacobian and not group.time_dependent:
                     continue  # a constant Psi_q and no f(t): gamma = -(Psi_q q')_q q' - Psi_tt = 0 (eq. 4.4)
+                if rotated is None:  # spatial groups: each from the velocities
+                    motion = V
+                else:  # a planar group: its part of the velocity terms
+                    part = self._vectors.parts[k]
+                    motion = (velocity[part], centripetal[part], rate[part]) if part else None
                 out[group.rows] = group.gamma(X, motion, shared, t)
         for k in self._loop:
             qi, qj = self._pair(k, q)
@@ -312,6 +314,13 @@ class System:
         self._constant_rows[-1] = 0.0  # ground's spare entry
         if kept and self.model.dimension == 2:
             self._vectors = forms.RotatedVectors(kept, self.n_bodies)
+        X = self._bodies(q, self._ground)
+        for group in kept:  # the scatter indices in the shapes of the blocks ``jacobian`` returns
+            block_i, block_j = group.jacobian(X, group.terms(X), t)
+            group.index_i, group.index_j = (
+                group.index_i.reshape(np.shape(block_i)),
+                group.index_j.reshape(np.shape(block_j)),
+            )
         self._loop = [k for k in range(len(self.elements)) if k not in batched]
 
     def _random_coordinates(self, rng: np.random.Generator) -> np.ndarray:

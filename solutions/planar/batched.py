@@ -112,9 +112,9 @@ class RotatedVectors:
     """
 
     def __init__(self, groups: list, n_bodies: int):
-        self.parts, start = [], 0
+        self.parts, start = [], 0  # None for a group without vectors (a driver's angle)
         for group in groups:
-            self.parts.append(slice(start, start + group.ends.size))
+            self.parts.append(slice(start, start + group.ends.size) if group.ends.size else None)
             start += group.ends.size
         ends = np.concatenate([group.ends for group in groups])
         self.vectors = np.concatenate([group.vectors for group in groups]).reshape(-1, 2)
@@ -227,9 +227,9 @@ class RevoluteGroup(Group):
         return (P[:K] - P[K:]).ravel()
 
     def jacobian(self, X, terms, t):
-        """The phi columns: B_i s_i' and -B_j s_j' (one entry per row)."""
+        """The phi columns: B_i s_i' and -B_j s_j', (K, 2) each: the (x, y) rows of joint k in row k."""
         B, K = terms[0], self.size
-        return B[:K].reshape(-1, 1), -B[K:].reshape(-1, 1)
+        return B[:K], -B[K:]
 
     def gamma(self, X, motion, terms, t):
         """A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2 of every joint."""
@@ -274,6 +274,10 @@ class _ConstantRows(_TimedGroup):
     columns = ()
     constant_jacobian = True
 
+    def offsets(self, t: float) -> np.ndarray:
+        """The constant part of Psi and f(t): phi0 + f(t) of a relative angle, f(t) of a coordinate driver."""
+        return self._offsets + self.values(t) if self.timed else self._offsets
+
     def constant_blocks(self):
         return self._rows
 
@@ -292,12 +296,13 @@ class RelativeAngleGroup(_ConstantRows):
     def __init__(self, elements):
         super().__init__(elements, [e.function for e in elements])
         self.phi0 = _column([e.phi0 for e in elements])
+        self._offsets = self.phi0 + self._values if not self.timed else self.phi0  # phi0 + f(t) of constant f
         block_j = np.zeros((self.size, 3))
         block_j[:, 2] = 1.0
         self._rows = -block_j, block_j
 
     def constraints(self, X, terms, t):
-        return angles(X, self.j) - angles(X, self.i) - self.phi0 - self.values(t)
+        return angles(X, self.j) - angles(X, self.i) - self.offsets(t)
 
 
 class BodyCoordinateGroup(_ConstantRows):
@@ -308,12 +313,13 @@ class BodyCoordinateGroup(_ConstantRows):
     def __init__(self, elements):
         super().__init__(elements, [e.function for e in elements])
         self.index = np.array([e.index for e in elements], dtype=int)
+        self._offsets = self._values if not self.timed else np.zeros(self.size)
         block_j = np.zeros((self.size, 3))
         block_j[np.arange(self.size), self.index] = 1.0
         self._rows = np.zeros((self.size, 3)), block_j
 
     def constraints(self, X, terms, t):
-        return X[self.j, self.index] - self.values(t)
+        return X[self.j, self.index] - self.offsets(t)
 
 
 class AlongDirectionGroup(_TimedGroup):
