@@ -165,9 +165,9 @@ class System:
         if self._vectors is None:
             state = (X, [group.terms(X) for group in self.groups], None)
         else:
-            A, B, P = self._vectors.configuration(X.ravel())
+            A, B, R, P = self._vectors.configuration(X.ravel())
             terms = [
-                group.terms_from(X, A[part], B[part], P[part]) if part else group.terms_from(X, None, None, None)
+                group.terms_from(X, A[part], B[part], R[part], P[part]) if part else group.terms_from(X, None, None)
                 for group, part in zip(self.groups, self._vectors.parts, strict=True)
             ]
             state = (X, terms, (A, B))
@@ -232,8 +232,8 @@ class System:
         if state is not None:
             X, terms, rotated = state
             V = self._bodies(qd, self._ground_velocity)
-            if rotated is not None:  # planar groups: P', A v' phi'^2 and phi' of every vector at once
-                velocity, centripetal, rate = self._vectors.motion(V.ravel(), *rotated)
+            if rotated is not None:  # planar groups: r', P', A v' phi'^2 and phi' of every vector at once
+                moving = self._vectors.motion(V.ravel(), *rotated)
             for k, (group, shared) in enumerate(zip(self.groups, terms, strict=True)):
                 if group.constant_jacobian and not group.time_dependent:
                     continue  # a constant Psi_q and no f(t): gamma = -(Psi_q q')_q q' - Psi_tt = 0 (eq. 4.4)
@@ -241,7 +241,7 @@ class System:
                     motion = V
                 else:  # a planar group: its part of the velocity terms
                     part = self._vectors.parts[k]
-                    motion = (velocity[part], centripetal[part], rate[part]) if part else None
+                    motion = [array[part] for array in moving] if part else None
                 out[group.rows] = group.gamma(X, motion, shared, t)
         for k in self._loop:
             qi, qj = self._pair(k, q)
@@ -336,8 +336,8 @@ class System:
         try:
             X, V = self._bodies(q, self._ground), self._bodies(qd, self._ground_velocity)
             if hasattr(group, "rotate"):  # planar: the group's own rotation, and P', A v' phi'^2, phi' from it
-                A, B, P = group.rotate(X)
-                terms = group.terms_from(X, A, B, P)
+                A, B, R, P = group.rotate(X)
+                terms = group.terms_from(X, A, B, R, P)
                 moving = None if A is None else group_motion(V, group.ends, A, B)
             else:
                 terms, moving = group.terms(X), V
@@ -369,7 +369,7 @@ class System:
 
 
 def group_motion(V: np.ndarray, ends: np.ndarray, A: np.ndarray, B: np.ndarray):
-    """P', A v' phi'^2 and phi' of one planar group's rotated vectors (``planar.batched.motion``)."""
+    """r', P', A v' phi'^2 and phi' of one planar group's rotated vectors (``planar.batched.motion``)."""
     from .planar.batched import motion  # only planar groups rotate vectors
 
     return motion(V, ends, A, B)

@@ -93,11 +93,11 @@ def rotated(X: np.ndarray, bodies: np.ndarray, s: np.ndarray, s_perp: np.ndarray
 
 
 def motion(V: np.ndarray, bodies: np.ndarray, A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, ...]:
-    """(P', A v' phi'^2, phi') of rotated vectors A = A_b v', B = B_b v' (K, 2) of bodies b (K,):
+    """(r_b', P', A v' phi'^2, phi') of rotated vectors A = A_b v', B = B_b v' (K, 2) of bodies b (K,):
     P' = r_b' + B_b v' phi_b' (eq. 2.6), the centripetal A_b v' phi_b'^2 (eq. 4.4), phi_b' as a (K, 1) column."""
     Vb = V.take(bodies, axis=0)
-    w = Vb[:, 2:]
-    return Vb[:, :2] + B * w, A * (w * w), w
+    r_dot, w = Vb[:, :2], Vb[:, 2:]
+    return r_dot, r_dot + B * w, A * (w * w), w
 
 
 class RotatedVectors:
@@ -123,18 +123,19 @@ class RotatedVectors:
         self.angle_index = np.column_stack([first + 2, first + 2])
         self.position_index = np.column_stack([first, first + 1])
 
-    def configuration(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(A v', B v', P = r_b + A v') of every vector from the flat body coordinates x (eq. 2.1, 2.5)."""
+    def configuration(self, x: np.ndarray) -> tuple[np.ndarray, ...]:
+        """(A v', B v', r_b, P = r_b + A v') of every vector from the flat body coordinates x (eq. 2.1, 2.5)."""
         phi = x.take(self.angle_index)
         c, s = np.cos(phi), np.sin(phi)
         v, v_perp = self.vectors, self.vectors_perp
-        A = c * v + s * v_perp
-        return A, c * v_perp - s * v, x.take(self.position_index) + A
+        A, r = c * v + s * v_perp, x.take(self.position_index)
+        return A, c * v_perp - s * v, r, r + A
 
     def motion(self, v: np.ndarray, A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, ...]:
-        """(P' = r_b' + B v' phi_b', A v' phi_b'^2, phi_b') of every vector from the flat velocities v (eq. 2.6)."""
-        w = v.take(self.angle_index)
-        return v.take(self.position_index) + B * w, A * (w * w), w
+        """(r_b', P' = r_b' + B v' phi_b', A v' phi_b'^2, phi_b') of every vector from the flat velocities v
+        (eq. 2.6)."""
+        w, r_dot = v.take(self.angle_index), v.take(self.position_index)
+        return r_dot, r_dot + B * w, A * (w * w), w
 
 
 class Group:
@@ -164,18 +165,20 @@ class Group:
         self.ends, self.vectors, self.vectors_perp = ends, vectors, _perpendicular(vectors)
 
     def rotate(self, X: np.ndarray):
-        """(A v', B v', P) of the group's own vectors (``RotatedVectors.configuration`` for one group), or Nones."""
+        """(A v', B v', r_b, P) of the group's own vectors (``RotatedVectors.configuration`` for one group), or
+        Nones."""
         if not self.ends.size:
-            return None, None, None
+            return None, None, None, None
         A, B = rotated(X, self.ends, self.vectors, self.vectors_perp)
-        return A, B, positions(X, self.ends) + A
+        r = positions(X, self.ends)
+        return A, B, r, r + A
 
     def terms(self, X: np.ndarray):
         """What the element formulas share at one configuration, from the group's own rotation."""
         return self.terms_from(X, *self.rotate(X))
 
-    def terms_from(self, X: np.ndarray, A: np.ndarray | None, B: np.ndarray | None, P: np.ndarray | None):
-        """The shared terms from A = A_b v', B = B_b v' and P = r_b + A_b v' of the group's ``vectors``."""
+    def terms_from(self, X: np.ndarray, A: np.ndarray | None, B: np.ndarray | None, R=None, P=None):
+        """The shared terms from A = A_b v', B = B_b v', R = r_b and P = r_b + A_b v' of the group's ``vectors``."""
         return None
 
     def constant_blocks(self) -> tuple[np.ndarray, np.ndarray]:
@@ -212,7 +215,7 @@ class RevoluteGroup(Group):
             np.concatenate([_column([e.si for e in elements]), _column([e.sj for e in elements])]),
         )
 
-    def terms_from(self, X, A, B, P):
+    def terms_from(self, X, A, B, R, P):
         """B s' and P = r + A s' of s_i' (first K rows), then of s_j'."""
         return B, P
 
@@ -233,7 +236,7 @@ class RevoluteGroup(Group):
 
     def gamma(self, X, motion, terms, t):
         """A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2 of every joint."""
-        centripetal, K = motion[1], self.size
+        centripetal, K = motion[2], self.size
         return (centripetal[:K] - centripetal[K:]).ravel()
 
 
@@ -326,8 +329,13 @@ class AlongDirectionGroup(_TimedGroup):
     """u_i^T d_ij + rolling (phi_j - phi_i) - d0 - f(t) = 0 with u_i = A_i u_i', d_ij = P_j - P_i (eq. 3.13): the
     pin in a slot (u' the slot normal, eq. 3.24), the prismatic driver (eq. 3.35) and the rack and pinion (eq. 3.31).
 
-    Psi_qi = [-u^T, (B_i u_i')^T d - u^T B_i s_i' - rolling],  Psi_qj = [u^T, u^T B_j s_j' + rolling]
-    gamma = u^T d phi_i'^2 - 2 phi_i' (B_i u_i')^T d' - u^T (A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2) + f''
+    Since u_i^T A_i s_i' = u_i'^T A_i^T A_i s_i' = u_i'^T s_i' is constant, u_i^T d_ij = u_i^T e - u_i'^T s_i' with
+    e = P_j - r_i (body i's origin to the point of j): the rows need u_i and s_j' rotated, not s_i'. With
+    w = B_i u_i' (= R90 u_i, so u^T B_j s_j' = -w^T A_j s_j'):
+
+    Psi_qi = [-u^T, w^T e - rolling],  Psi_qj = [u^T, u^T B_j s_j' + rolling]
+    gamma = u^T e phi_i'^2 + u^T A_j s_j' phi_j'^2 - 2 phi_i' w^T e' + f'',  e' = P_j' - r_i'
+    (the element methods' form, eq. 3.13, with d = e - A_i s_i' and w^T B_i s_i' = u^T A_i s_i').
     """
 
     kind = (PinInSlot, Translation)
@@ -337,47 +345,42 @@ class AlongDirectionGroup(_TimedGroup):
         zero = Constant(0.0)
         super().__init__(elements, [zero if s else e.function for e, s in zip(elements, slot, strict=True)])
         u = _column([e._normal if s else e.axis for e, s in zip(elements, slot, strict=True)])
-        # u_i', s_i', s_j'
-        self._rotate(
-            np.concatenate([self.i, self.i, self.j]),
-            np.concatenate([u, _column([e.si for e in elements]), _column([e.sj for e in elements])]),
-        )
+        # u_i' of body i, s_j' of body j
+        self._rotate(np.concatenate([self.i, self.j]), np.concatenate([u, _column([e.sj for e in elements])]))
         self.rolling = _column([0.0 if s else e.side * e.pinion_radius for e, s in zip(elements, slot, strict=True)])
-        self.d0 = _column([0.0 if s else e.d0 for e, s in zip(elements, slot, strict=True)])
+        d0 = _column([0.0 if s else e.d0 for e, s in zip(elements, slot, strict=True)])
+        self.shift = d0 + dot_rows(u, _column([e.si for e in elements]))  # d0 + u_i'^T s_i'
         self.rolls = bool(np.any(self.rolling))  # a rack and pinion among them: the rolling terms are needed
-        self.shifted = self.moves or bool(np.any(self.d0))  # d0 + f(t) nonzero somewhere
+        self.shifted = self.moves or bool(np.any(self.shift))  # d0 + u_i'^T s_i' + f(t) nonzero somewhere
 
-    def terms_from(self, X, A, B, P):
-        """u = A_i u_i', w = B_i u_i', A_i s_i', B_j s_j' and d_ij = P_j - P_i of every element."""
+    def terms_from(self, X, A, B, R, P):
+        """u = A_i u_i', w = B_i u_i', B_j s_j' and e = P_j - r_i of every element."""
         K = self.size
-        return A[:K], B[:K], A[K : 2 * K], B[2 * K :], P[2 * K :] - P[K : 2 * K]
+        return A[:K], B[:K], B[K:], P[K:] - R[:K]
 
     def constraints(self, X, terms, t):
-        u, d = terms[0], terms[4]
-        psi = dot_rows(u, d)
-        if self.shifted:  # a driver's d0 + f(t), or a pin in a slot off its line
-            psi = psi - self.d0 - self.values(t)
+        u, _, _, e = terms
+        psi = dot_rows(u, e)
+        if self.shifted:  # d0 + u_i'^T s_i' + f(t)
+            psi = psi - self.shift - self.values(t)
         if self.rolls:
             psi += self.rolling * (angles(X, self.j) - angles(X, self.i))
         return psi
 
     def jacobian(self, X, terms, t):
-        u, w, Asi, Bsj, d = terms
-        # w^T d - u^T B_i s_i' = w^T (d + A_i s_i'), since u^T B_i s_i' = u_i'^T R90 s_i' = -w^T A_i s_i'
-        angle_i, angle_j = dot_rows(w, d + Asi), dot_rows(u, Bsj)
+        u, w, Bsj, e = terms
+        angle_i, angle_j = dot_rows(w, e), dot_rows(u, Bsj)
         if self.rolls:
             angle_i, angle_j = angle_i - self.rolling, angle_j + self.rolling
         return self._blocks(angle_i, angle_j, -u, u)
 
     def gamma(self, X, motion, terms, t):
-        u, w, _, _, d = terms
-        velocity, centripetal, rate = motion
+        u, w, _, e = terms
+        origin_velocity, velocity, centripetal, rate = motion
         K = self.size
-        wi = rate[:K]  # phi_i' as a (K, 1) column
-        d_dot = velocity[2 * K :] - velocity[K : 2 * K]  # P_j' - P_i'
-        # u^T d phi_i'^2 - u^T (A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2) in one product
-        quadratic = dot_rows(u, d * (wi * wi) - centripetal[K : 2 * K] + centripetal[2 * K :])
-        gamma = quadratic - 2.0 * wi[:, 0] * dot_rows(w, d_dot)
+        wi = rate[:K]  # phi_i' of every element, twice per row
+        e_dot = velocity[K:] - origin_velocity[:K]  # P_j' - r_i'
+        gamma = dot_rows(u, e * (wi * wi) + centripetal[K:]) - 2.0 * wi[:, 0] * dot_rows(w, e_dot)
         return gamma + self.derivatives(t, 2) if self.timed else gamma
 
 
@@ -394,7 +397,7 @@ class DistanceGroup(_TimedGroup):
             np.concatenate([_column([e.si for e in elements]), _column([e.sj for e in elements])]),
         )
 
-    def terms_from(self, X, A, B, P):
+    def terms_from(self, X, A, B, R, P):
         """B s' of s_i' (first K rows), then of s_j', and d_ij = P_j - P_i of every element."""
         K = self.size
         return B, P[K:] - P[:K]
@@ -413,7 +416,7 @@ class DistanceGroup(_TimedGroup):
 
     def gamma(self, X, motion, terms, t):
         d = terms[1]
-        velocity, centripetal, _ = motion
+        _, velocity, centripetal, _ = motion
         K = self.size
         d_dot = velocity[K:] - velocity[:K]
         L, Ld, Ldd = self.values(t), self.derivatives(t, 1), self.derivatives(t, 2)
