@@ -166,10 +166,7 @@ class System:
             state = (X, [group.terms(X) for group in self.groups], None)
         else:
             A, B, R, P = self._vectors.configuration(X.ravel())
-            terms = [
-                group.terms_from(X, A[part], B[part], R[part], P[part]) if part else group.terms_from(X, None, None)
-                for group, part in zip(self.groups, self._vectors.parts, strict=True)
-            ]
+            terms = [group.terms_from(X, A, B, R, P) for group in self.groups]  # each from its rows (``place``)
             state = (X, terms, (A, B))
         self._last = (key, state)
         return state
@@ -234,15 +231,12 @@ class System:
             V = self._bodies(qd, self._ground_velocity)
             if rotated is not None:  # planar groups: r', P', A v' phi'^2 and phi' of every vector at once
                 moving = self._vectors.motion(V.ravel(), *rotated)
-            for k, (group, shared) in enumerate(zip(self.groups, terms, strict=True)):
+            else:  # spatial groups: each from the velocities
+                moving = V
+            for group, shared in zip(self.groups, terms, strict=True):
                 if group.constant_jacobian and not group.time_dependent:
                     continue  # a constant Psi_q and no f(t): gamma = -(Psi_q q')_q q' - Psi_tt = 0 (eq. 4.4)
-                if rotated is None:  # spatial groups: each from the velocities
-                    motion = V
-                else:  # a planar group: its part of the velocity terms
-                    part = self._vectors.parts[k]
-                    motion = [array[part] for array in moving] if part else None
-                out[group.rows] = group.gamma(X, motion, shared, t)
+                out[group.rows] = group.gamma(X, moving, shared, t)
         for k in self._loop:
             qi, qj = self._pair(k, q)
             qdi, qdj = self._pair(k, qd, self._ground_velocity)
@@ -312,8 +306,6 @@ class System:
                 for index, block in zip(group.constant_index, group.constant_blocks(), strict=True):
                     self._constant_rows[index] = np.ravel(block)
         self._constant_rows[-1] = 0.0  # ground's spare entry
-        if kept and self.model.dimension == 2:
-            self._vectors = forms.RotatedVectors(kept, self.n_bodies)
         X = self._bodies(q, self._ground)
         for group in kept:  # the scatter indices in the shapes of the blocks ``jacobian`` returns
             block_i, block_j = group.jacobian(X, group.terms(X), t)
@@ -321,6 +313,8 @@ class System:
                 group.index_i.reshape(np.shape(block_i)),
                 group.index_j.reshape(np.shape(block_j)),
             )
+        if kept and self.model.dimension == 2:  # the groups' vectors placed in arrays of all (``Group.place``)
+            self._vectors = forms.RotatedVectors(kept, self.n_bodies)
         self._loop = [k for k in range(len(self.elements)) if k not in batched]
 
     def _random_coordinates(self, rng: np.random.Generator) -> np.ndarray:

@@ -18,7 +18,8 @@ they become at a configuration and a velocity (eq. 2.1, 2.5, 2.6):
 ``RotatedVectors`` computes these four arrays once per evaluation for the vectors of every group of a
 system together (one cos and one sin per vector for the whole system), and each group takes its rows
 from its part of them by slices: the vectors of a group are stacked [those of body i; those of body j]
-so that, e.g., a revolute joint's Psi is ``P[:K] - P[K:]``.
+so that, e.g., a revolute joint's Psi is ``P[on_i] - P[on_j]``, ``on_i`` and ``on_j`` the rows of its vectors
+on body i and on body j.
 
 A group is built once from the elements of its type (``make_groups``) and evaluated from
 
@@ -112,9 +113,9 @@ class RotatedVectors:
     """
 
     def __init__(self, groups: list, n_bodies: int):
-        self.parts, start = [], 0  # None for a group without vectors (a driver's angle)
-        for group in groups:
-            self.parts.append(slice(start, start + group.ends.size) if group.ends.size else None)
+        start = 0
+        for group in groups:  # each group's rows in the arrays of all (``Group.place``)
+            group.place(start)
             start += group.ends.size
         ends = np.concatenate([group.ends for group in groups])
         self.vectors = np.concatenate([group.vectors for group in groups]).reshape(-1, 2)
@@ -142,7 +143,8 @@ class Group:
     """The elements of one type, with the data of every element stacked in arrays.
 
     ``vectors`` are the body-frame vectors v' (s_i', s_j', slot normals, ...) the formulas need rotated, and
-    ``ends`` the body each belongs to; ``terms_from`` makes what the formulas share from their rotated forms.
+    ``ends`` the body each belongs to: K vectors on body i (rows ``on_i`` of the rotated arrays), then K on
+    body j (rows ``on_j``); ``terms_from`` makes what the formulas share from their rotated forms.
     """
 
     kind: type = object
@@ -159,10 +161,17 @@ class Group:
         self.size = len(elements)
         self.ends = np.zeros(0, dtype=int)
         self.vectors = self.vectors_perp = np.zeros((0, 2))
+        self.place(0)
 
     def _rotate(self, ends: np.ndarray, vectors: np.ndarray) -> None:
-        """Set the body-frame vectors (K, 2) to rotate, and the bodies (K,) they belong to."""
+        """Set the body-frame vectors (2K, 2) to rotate, K on body i then K on body j, and the bodies (2K,)."""
         self.ends, self.vectors, self.vectors_perp = ends, vectors, _perpendicular(vectors)
+
+    def place(self, start: int) -> None:
+        """The rows of the group's vectors in the rotated arrays it is given, from ``start``: 0 in its own
+        (``rotate``), its place among all the system's (``RotatedVectors``)."""
+        K = self.size
+        self.on_i, self.on_j = slice(start, start + K), slice(start + K, start + 2 * K)
 
     def rotate(self, X: np.ndarray):
         """(A v', B v', r_b, P) of the group's own vectors (``RotatedVectors.configuration`` for one group), or
@@ -178,7 +187,8 @@ class Group:
         return self.terms_from(X, *self.rotate(X))
 
     def terms_from(self, X: np.ndarray, A: np.ndarray | None, B: np.ndarray | None, R=None, P=None):
-        """The shared terms from A = A_b v', B = B_b v', R = r_b and P = r_b + A_b v' of the group's ``vectors``."""
+        """The shared terms from A = A_b v', B = B_b v', R = r_b and P = r_b + A_b v' (the group's ``vectors`` in
+        rows ``on_i`` and ``on_j``)."""
         return None
 
     def constant_blocks(self) -> tuple[np.ndarray, np.ndarray]:
@@ -216,8 +226,8 @@ class RevoluteGroup(Group):
         )
 
     def terms_from(self, X, A, B, R, P):
-        """B s' and P = r + A s' of s_i' (first K rows), then of s_j'."""
-        return B, P
+        """B_i s_i', B_j s_j', P_i and P_j of every joint."""
+        return B[self.on_i], B[self.on_j], P[self.on_i], P[self.on_j]
 
     def constant_blocks(self):
         """I and -I in the x, y columns of every joint's two rows."""
@@ -226,18 +236,16 @@ class RevoluteGroup(Group):
         return block_i.reshape(-1, 3), -block_i.reshape(-1, 3)
 
     def constraints(self, X, terms, t):
-        P, K = terms[1], self.size
-        return (P[:K] - P[K:]).ravel()
+        return (terms[2] - terms[3]).ravel()
 
     def jacobian(self, X, terms, t):
         """The phi columns: B_i s_i' and -B_j s_j', (K, 2) each: the (x, y) rows of joint k in row k."""
-        B, K = terms[0], self.size
-        return B[:K], -B[K:]
+        return terms[0], -terms[1]
 
     def gamma(self, X, motion, terms, t):
         """A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2 of every joint."""
-        centripetal, K = motion[2], self.size
-        return (centripetal[:K] - centripetal[K:]).ravel()
+        centripetal = motion[2]
+        return (centripetal[self.on_i] - centripetal[self.on_j]).ravel()
 
 
 class _TimedGroup(Group):
@@ -355,8 +363,7 @@ class AlongDirectionGroup(_TimedGroup):
 
     def terms_from(self, X, A, B, R, P):
         """u = A_i u_i', w = B_i u_i', B_j s_j' and e = P_j - r_i of every element."""
-        K = self.size
-        return A[:K], B[:K], B[K:], P[K:] - R[:K]
+        return A[self.on_i], B[self.on_i], B[self.on_j], P[self.on_j] - R[self.on_i]
 
     def constraints(self, X, terms, t):
         u, _, _, e = terms
@@ -377,10 +384,9 @@ class AlongDirectionGroup(_TimedGroup):
     def gamma(self, X, motion, terms, t):
         u, w, _, e = terms
         origin_velocity, velocity, centripetal, rate = motion
-        K = self.size
-        wi = rate[:K]  # phi_i' of every element, twice per row
-        e_dot = velocity[K:] - origin_velocity[:K]  # P_j' - r_i'
-        gamma = dot_rows(u, e * (wi * wi) + centripetal[K:]) - 2.0 * wi[:, 0] * dot_rows(w, e_dot)
+        wi = rate[self.on_i]  # phi_i' of every element, twice per row
+        e_dot = velocity[self.on_j] - origin_velocity[self.on_i]  # P_j' - r_i'
+        gamma = dot_rows(u, e * (wi * wi) + centripetal[self.on_j]) - 2.0 * wi[:, 0] * dot_rows(w, e_dot)
         return gamma + self.derivatives(t, 2) if self.timed else gamma
 
 
@@ -398,29 +404,27 @@ class DistanceGroup(_TimedGroup):
         )
 
     def terms_from(self, X, A, B, R, P):
-        """B s' of s_i' (first K rows), then of s_j', and d_ij = P_j - P_i of every element."""
-        K = self.size
-        return B, P[K:] - P[:K]
+        """B_i s_i', B_j s_j' and d_ij = P_j - P_i of every element."""
+        return B[self.on_i], B[self.on_j], P[self.on_j] - P[self.on_i]
 
     def psi_t(self, X, terms, t):
         return -self.values(t) * self.derivatives(t, 1)
 
     def constraints(self, X, terms, t):
-        d = terms[1]
+        d = terms[2]
         return 0.5 * (dot_rows(d, d) - self.values(t) ** 2)
 
     def jacobian(self, X, terms, t):
-        B, d = terms
-        K = self.size
-        return self._blocks(-dot_rows(d, B[:K]), dot_rows(d, B[K:]), -d, d)
+        Bsi, Bsj, d = terms
+        return self._blocks(-dot_rows(d, Bsi), dot_rows(d, Bsj), -d, d)
 
     def gamma(self, X, motion, terms, t):
-        d = terms[1]
+        d = terms[2]
         _, velocity, centripetal, _ = motion
-        K = self.size
-        d_dot = velocity[K:] - velocity[:K]
+        i, j = self.on_i, self.on_j
+        d_dot = velocity[j] - velocity[i]
         L, Ld, Ldd = self.values(t), self.derivatives(t, 1), self.derivatives(t, 2)
-        return -dot_rows(d_dot, d_dot) - dot_rows(d, centripetal[:K] - centripetal[K:]) + Ld * Ld + L * Ldd
+        return -dot_rows(d_dot, d_dot) - dot_rows(d, centripetal[i] - centripetal[j]) + Ld * Ld + L * Ldd
 
 
 GROUPS = (RevoluteGroup, RelativeAngleGroup, BodyCoordinateGroup, AlongDirectionGroup, DistanceGroup)
