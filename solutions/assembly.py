@@ -155,7 +155,8 @@ class System:
 
         The cache key is q's bytes: equal bytes are equal values, and comparing them costs far less than
         np.array_equal. Planar groups have their body-frame vectors rotated together, once for all groups
-        (``_vectors``: A v', B v' and the points P; A v' and B v' kept for gamma's velocity terms)."""
+        (``_vectors``: A v', B v', r_b and the points P of all of them; A v' and B v' kept for gamma's velocity
+        terms)."""
         if not self.groups:
             return None
         key = np.asarray(q, dtype=float).tobytes()
