@@ -1,4 +1,4 @@
-"""Per-evaluation cost of each part of the right-hand side: the numpy engine against the textbook code (issue 25, item 4).
+"""Per-evaluation cost of each part of the right-hand side: the numpy engine against the textbook code (issue 25).
 
 For one bench scene (``--scene``, default the free slider-crank), at one state of its run, this thread's CPU time per
 call (the least of ``--repeats`` rounds of ``--calls`` calls, ``time.thread_time``) of
@@ -69,11 +69,18 @@ def engine_parts(scene, calls: int, repeats: int) -> list[tuple[str, float]]:
         ("Psi", per_call(lambda: system._constraints(q, t, state), calls, repeats)),
         ("Psi_q", per_call(lambda: system._jacobian(q, t, state), calls, repeats)),
         ("gamma", per_call(lambda: system._gamma(q, qd, t, state), calls, repeats)),
-        ("System.evaluate (all four)", per_call(fresh(lambda: system.evaluate(q, qd, t, True, system.rheonomic)),
-                                                 calls, repeats)),  # fmt: skip
-        ("stabilized gamma (evaluate + eq. 5.29)", per_call(fresh(lambda: formulation.constraint_terms(q, qd, t)),
-                                                             calls, repeats)),  # fmt: skip
-        ("augmented solve (eq. 5.30)", per_call(lambda: augmented_accelerations(M, jacobian, Q, gamma), calls, repeats)),
+        (
+            "System.evaluate (all four)",
+            per_call(fresh(lambda: system.evaluate(q, qd, t, True, system.rheonomic)), calls, repeats),
+        ),
+        (
+            "stabilized gamma (evaluate + eq. 5.29)",
+            per_call(fresh(lambda: formulation.constraint_terms(q, qd, t)), calls, repeats),
+        ),
+        (
+            "augmented solve (eq. 5.30)",
+            per_call(lambda: augmented_accelerations(M, jacobian, Q, gamma), calls, repeats),
+        ),
         ("right-hand side", per_call(fresh(lambda: formulation.rhs(t, y)), calls, repeats)),
     ]
 
@@ -91,10 +98,14 @@ def textbook_parts(key: str, calls: int, repeats: int) -> list[tuple[str, float]
             ("Psi", per_call(lambda: book.constraints(q), calls, repeats)),
             ("Psi_q", per_call(lambda: book.jacobian(q), calls, repeats)),
             ("gamma", per_call(lambda: book.gamma(q, qd), calls, repeats)),
-            ("block matrix + numpy.linalg.solve", per_call(
-                lambda: np.linalg.solve(np.block([[M, J.T], [J, np.zeros((8, 8))]]), np.zeros(17)), calls, repeats)),
+            (
+                "block matrix + numpy.linalg.solve",
+                per_call(
+                    lambda: np.linalg.solve(np.block([[M, J.T], [J, np.zeros((8, 8))]]), np.zeros(17)), calls, repeats
+                ),
+            ),
             *out,
-        ]  # fmt: skip
+        ]
     return out
 
 
@@ -102,15 +113,18 @@ def main() -> int:
     import bench
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scene", default="slider_crank", choices=("double_pendulum", "slider_crank",
-                                                                    "spatial_double_pendulum"))  # fmt: skip
+    parser.add_argument(
+        "--scene", default="slider_crank", choices=("double_pendulum", "slider_crank", "spatial_double_pendulum")
+    )
     parser.add_argument("--calls", type=int, default=2000)
     parser.add_argument("--repeats", type=int, default=7)
     args = parser.parse_args()
     scene = next(s for s in bench.scenes() if s.key == args.scene)
     print(f"{args.scene}: microseconds of thread CPU per call (least of {args.repeats} rounds of {args.calls})")
-    for who, parts in (("engine", engine_parts(scene, args.calls, args.repeats)),
-                       ("textbook", textbook_parts(args.scene, args.calls, args.repeats))):  # fmt: skip
+    for who, parts in (
+        ("engine", engine_parts(scene, args.calls, args.repeats)),
+        ("textbook", textbook_parts(args.scene, args.calls, args.repeats)),
+    ):
         for name, us in parts:
             print(f"| {who} | {name} | {us:.1f} |")
     return 0
