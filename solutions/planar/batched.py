@@ -11,27 +11,26 @@ Every planar joint is made of body-fixed vectors v' (a point's s', a slot's norm
 they become at a configuration and a velocity (eq. 2.1, 2.5, 2.6):
 
     A_b v'                     the vector in the ground frame, and B_b v' = A_b R90 v' = dA_b/dphi_b v'
-    P = r_b + A_b v'           the point, when v' locates one (s')
-    P' = r_b' + B_b v' phi_b'  its velocity
+    r_b, P = r_b + A_b v'      the body's origin and the point, when v' locates one (s')
+    r_b', P' = r_b' + B_b v' phi_b'   their velocities
     A_b v' phi_b'^2            the centripetal term every gamma is made of (eq. 4.4)
 
-``RotatedVectors`` computes these four arrays once per evaluation for the vectors of every group of a
-system together (one cos and one sin per vector for the whole system), and each group takes its rows
-from its part of them by slices: the vectors of a group are stacked [those of body i; those of body j]
-so that, e.g., a revolute joint's Psi is ``P[on_i] - P[on_j]``, ``on_i`` and ``on_j`` the rows of its vectors
-on body i and on body j.
+``RotatedVectors`` computes these arrays once per evaluation for the vectors of every group of a
+system together (one cos and one sin per vector for the whole system, by index maps found once), and
+each group takes its rows from them by slices: a group's 2K vectors are K on body i (rows ``on_i``),
+then K on body j (rows ``on_j``), so that, e.g., a revolute joint's Psi is ``P[on_i] - P[on_j]``.
 
 A group is built once from the elements of its type (``make_groups``) and evaluated from
 
     X   the (nb + 1, 3) array of body coordinates, row b = (x_b, y_b, phi_b), last row ground (zeros),
         so the body index -1 of ground picks it (numpy's negative indexing)
-    V   the same for the velocities
 
-as ``terms_from(X, A, B, P)`` (what its formulas share at one configuration, from its part of the rotated
-vectors), then ``constraints(X, terms, t)``, ``jacobian(X, terms, t) -> (Psi_qi, Psi_qj)``, ``psi_t(X,
-terms, t)`` and ``gamma(X, motion, terms, t)``, ``motion`` its part of (P', A v' phi'^2, phi'). The Jacobian
-blocks hold only the columns of (x_b, y_b, phi_b) that depend on q (``columns``: a revolute joint's phi
-column); the others are constant (``constant_blocks``, the +-I of a revolute joint), written once.
+as ``terms_from(X, A, B, R, P)`` (what its formulas share at one configuration, from its rows of the
+rotated vectors A v', B v', origins r_b and points P), then ``constraints(X, terms, t)``, ``jacobian(X,
+terms, t) -> (Psi_qi, Psi_qj)``, ``psi_t(X, terms, t)`` and ``gamma(X, motion, terms, t)``, ``motion`` the
+velocity arrays (r_b', P', A v' phi'^2, phi'). The Jacobian blocks hold only the columns of
+(x_b, y_b, phi_b) that depend on q (``columns``: a revolute joint's phi column); the others are constant
+(``constant_blocks``, the +-I of a revolute joint), written once.
 ``assembly.System`` scatters the rows into the system arrays and checks every group once against the
 element methods; it falls back to the element loop for any group that disagrees. This module stays with
 the instructor (a student package has none): there the System evaluates the element methods one by one.
