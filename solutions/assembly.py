@@ -333,7 +333,7 @@ class System:
             if hasattr(group, "rotate"):  # planar: the group's own rotation, and P', A v' phi'^2, phi' from it
                 A, B, R, P = group.rotate(X)
                 terms = group.terms_from(X, A, B, R, P)
-                moving = None if A is None else group_motion(V, group.ends, A, B)
+                moving = None if A is None else _planar_motion(V, group.ends, A, B)
             else:
                 terms, moving = group.terms(X), V
             blocks = [np.ravel(block) for block in group.jacobian(X, terms, t)]
@@ -363,7 +363,7 @@ class System:
             return False
 
 
-def group_motion(V: np.ndarray, ends: np.ndarray, A: np.ndarray, B: np.ndarray):
+def _planar_motion(V: np.ndarray, ends: np.ndarray, A: np.ndarray, B: np.ndarray):
     """r', P', A v' phi'^2 and phi' of one planar group's rotated vectors (``planar.batched.motion``)."""
     from .planar.batched import motion  # only planar groups rotate vectors
 
