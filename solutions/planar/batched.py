@@ -208,7 +208,7 @@ class Group:
 
 
 class RevoluteGroup(Group):
-    """Revolute joints (eq. 3.17): Psi = r_i + A_i s_i' - r_j - A_j s_j' = P_i - P_j,
+    """Revolute joints (eq. 3.17): Psi = r_i + A_i s_i' - r_j - A_j s_j' (= P_i - P_j),
     Psi_q = [I, B_i s_i', -I, -B_j s_j'], gamma = A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2; two rows (x, y) per joint.
     The +-I columns are constant: ``jacobian`` gives the phi columns."""
 
@@ -225,8 +225,8 @@ class RevoluteGroup(Group):
         )
 
     def terms_from(self, X, A, B, R, P):
-        """B_i s_i', B_j s_j', P_i and P_j of every joint."""
-        return B[self.on_i], B[self.on_j], P[self.on_i], P[self.on_j]
+        """B_i s_i', B_j s_j', P_i = r_i + A_i s_i', r_j and A_j s_j' of every joint."""
+        return B[self.on_i], B[self.on_j], P[self.on_i], R[self.on_j], A[self.on_j]
 
     def constant_blocks(self):
         """I and -I in the x, y columns of every joint's two rows."""
@@ -235,7 +235,11 @@ class RevoluteGroup(Group):
         return block_i.reshape(-1, 3), -block_i.reshape(-1, 3)
 
     def constraints(self, X, terms, t):
-        return (terms[2] - terms[3]).ravel()
+        """r_i + A_i s_i' - r_j - A_j s_j', summed left to right in the order of eq. 3.17 (not P_i - P_j: the same
+        bits as before the shared pass; at a singular position the last bits of Psi decide where Newton-Raphson's
+        iterate lands)."""
+        _, _, Pi, rj, Asj = terms
+        return (Pi - rj - Asj).ravel()
 
     def jacobian(self, X, terms, t):
         """The phi columns: B_i s_i' and -B_j s_j', (K, 2) each: the (x, y) rows of joint k in row k."""
