@@ -70,7 +70,7 @@ class System:
         self._timed_groups: list = []
         self._constant_rows = np.zeros(self.n_constraints * self.n_coordinates + 1)  # Psi_q's constant rows, flat
         self._last = None  # (bytes of q, its configuration): the one-entry cache of _configuration
-        self._rotation = None  # planar groups: their body-frame vectors, rotated together (_shared_rotation)
+        self._vectors = None  # planar groups: their body-frame vectors, rotated together (batched.RotatedVectors)
         self._loop = list(range(len(self.elements)))  # elements evaluated one by one
         if self.vectorized:
             self._make_groups()
@@ -150,33 +150,33 @@ class System:
 
     # -- one pass over the groups, then the elements left ------------------------------------------
     def _configuration(self, q: np.ndarray):
-        """(X, terms of every group) at q, or None without groups. The last one is kept: Newton-Raphson, the
-        velocity and the acceleration analysis ask for Psi, Psi_q, Psi_t and gamma at the same q in turn.
+        """(X, terms of every group, rotated vectors) at q, or None without groups. The last one is kept:
+        Newton-Raphson, the velocity and the acceleration analysis ask for Psi, Psi_q, Psi_t and gamma at the same q
+        in turn.
 
         The cache key is q's bytes: equal bytes are equal values, and comparing them costs far less than
         np.array_equal. Planar groups have their body-frame vectors rotated together, once for all groups
-        (``_rotation``)."""
+        (``_vectors``: A v', B v', r_b and the points P of all of them; A v' and B v' kept for gamma's velocity
+        terms)."""
         if not self.groups:
             return None
         key = np.asarray(q, dtype=float).tobytes()
         if self._last is not None and self._last[0] == key:
             return self._last[1]
         X = self._bodies(q, self._ground)
-        if self._rotation is None:
-            terms = [group.terms(X) for group in self.groups]
+        if self._vectors is None:
+            state = (X, [group.terms(X) for group in self.groups], None)
         else:
-            rotate, ends, pairs, pairs_perp, parts = self._rotation
-            AB = rotate(X, ends, pairs, pairs_perp)  # [A s', A R90 s'] = [A s', B s'] per row
-            A, B = AB[:, :2], AB[:, 2:]
-            terms = [group.terms_from(X, A[part], B[part]) for group, part in zip(self.groups, parts, strict=True)]
-        state = (X, terms)
+            A, B, R, P = self._vectors.configuration(X.ravel())
+            terms = [group.terms_from(X, A, B, R, P) for group in self.groups]  # each from its rows (``place``)
+            state = (X, terms, (A, B))
         self._last = (key, state)
         return state
 
     def _constraints(self, q, t, state) -> np.ndarray:
         psi = np.empty(self.n_constraints)
         if state is not None:
-            X, terms = state
+            X, terms, _ = state
             for group, shared in zip(self.groups, terms, strict=True):
                 psi[group.rows] = group.constraints(X, shared, t)
         for k in self._loop:
@@ -186,16 +186,17 @@ class System:
 
     def _jacobian(self, q, t, state) -> np.ndarray:
         """Psi_q scattered into place through the index arrays of the sparsity pattern (found once), on a copy of
-        the rows that never change (``_constant_rows``: drivers' angle and coordinate rows)."""
+        the entries that never change (``_constant_rows``: a revolute joint's +-I, drivers' angle and coordinate
+        rows): each planar group gives the columns that depend on q (``group.columns``)."""
         flat = self._constant_rows.copy()  # the last entry takes ground's columns
         if state is not None:
-            X, terms = state
+            X, terms, _ = state
             for group, shared in zip(self.groups, terms, strict=True):
                 if group.constant_jacobian:
                     continue
                 jac_i, jac_j = group.jacobian(X, shared, t)
-                flat[group.index_i] = jac_i.ravel()
-                flat[group.index_j] = jac_j.ravel()
+                flat[group.index_i] = jac_i  # the index arrays have the blocks' shapes
+                flat[group.index_j] = jac_j
         for k in self._loop:
             qi, qj = self._pair(k, q)
             jac_i, jac_j = self.elements[k].jacobian(qi, qj, t)
@@ -228,12 +229,16 @@ class System:
     def _gamma(self, q, qd, t, state) -> np.ndarray:
         out = np.zeros(self.n_constraints)
         if state is not None:
-            X, terms = state
+            X, terms, rotated = state
             V = self._bodies(qd, self._ground_velocity)
+            if rotated is not None:  # planar groups: r', P', A v' phi'^2 and phi' of every vector at once
+                moving = self._vectors.motion(V.ravel(), *rotated)
+            else:  # spatial groups: each from the velocities
+                moving = V
             for group, shared in zip(self.groups, terms, strict=True):
                 if group.constant_jacobian and not group.time_dependent:
                     continue  # a constant Psi_q and no f(t): gamma = -(Psi_q q')_q q' - Psi_tt = 0 (eq. 4.4)
-                out[group.rows] = group.gamma(X, V, shared, t)
+                out[group.rows] = group.gamma(X, moving, shared, t)
         for k in self._loop:
             qi, qj = self._pair(k, q)
             qdi, qdj = self._pair(k, qd, self._ground_velocity)
@@ -248,14 +253,15 @@ class System:
         X[-1] = ground
         return X
 
-    def _scatter_index(self, rows: np.ndarray, bodies: np.ndarray) -> np.ndarray:
-        """Flat indices into the (m x n) Jacobian of a (len(rows), c) block of rows for the given bodies.
+    def _scatter_index(self, rows: np.ndarray, bodies: np.ndarray, columns=None) -> np.ndarray:
+        """Flat indices into the (m x n) Jacobian of a (len(rows), len(columns)) block of rows for the given bodies.
 
-        Entry (r, k) goes to row rows[r], column c * bodies[r] + k; ground's entries (body -1) go to the
-        spare last entry of the flat array, which is dropped.
+        Entry (r, k) goes to row rows[r], column c * bodies[r] + columns[k] (columns: all c of a body by default);
+        ground's entries (body -1) go to the spare last entry of the flat array, which is dropped.
         """
         c, n = self.coordinates_per_body, self.n_coordinates
-        index = rows[:, None] * n + c * bodies[:, None] + np.arange(c)[None, :]
+        columns = np.arange(c) if columns is None else np.asarray(columns, dtype=int)
+        index = rows[:, None] * n + c * bodies[:, None] + columns[None, :]
         index[bodies < 0] = self.n_constraints * n
         return index.ravel()
 
@@ -284,8 +290,12 @@ class System:
         for group, members in groups:
             group.rows = np.concatenate([np.arange(self.rows[k].start, self.rows[k].stop) for k in members])
             per_row = [k for k in members for _ in range(self.elements[k].n_equations)]
-            group.index_i = self._scatter_index(group.rows, np.array([self.elements[k].i for k in per_row]))
-            group.index_j = self._scatter_index(group.rows, np.array([self.elements[k].j for k in per_row]))
+            bodies_i = np.array([self.elements[k].i for k in per_row])
+            bodies_j = np.array([self.elements[k].j for k in per_row])
+            columns = getattr(group, "columns", None)  # planar groups: the columns that depend on q; spatial: all
+            group.index_i = self._scatter_index(group.rows, bodies_i, columns)
+            group.index_j = self._scatter_index(group.rows, bodies_j, columns)
+            group.constant_index = self._scatter_index(group.rows, bodies_i), self._scatter_index(group.rows, bodies_j)
             group.time_dependent = bool(getattr(group, "timed", ()))  # Psi_t nonzero somewhere
             if self._agrees(group, members, q, qd, t):
                 kept.append(group)
@@ -294,30 +304,20 @@ class System:
         self._timed_groups = [group for group in kept if group.time_dependent]
         for group in kept:
             group.constant_jacobian = getattr(group, "constant_jacobian", False)  # spatial groups: none is
-        for group in (group for group in kept if group.constant_jacobian):  # their rows of Psi_q, written once
-            jac_i, jac_j = group.jacobian(None, None, 0.0)
-            self._constant_rows[group.index_i] = np.ravel(jac_i)
-            self._constant_rows[group.index_j] = np.ravel(jac_j)
+            if hasattr(group, "constant_blocks"):  # the entries of Psi_q that never change, written once
+                for index, block in zip(group.constant_index, group.constant_blocks(), strict=True):
+                    self._constant_rows[index] = np.ravel(block)
         self._constant_rows[-1] = 0.0  # ground's spare entry
-        self._rotation = self._shared_rotation(kept, forms)
+        X = self._bodies(q, self._ground)
+        for group in kept:  # the scatter indices in the shapes of the blocks ``jacobian`` returns
+            block_i, block_j = group.jacobian(X, group.terms(X), t)
+            group.index_i, group.index_j = (
+                group.index_i.reshape(np.shape(block_i)),
+                group.index_j.reshape(np.shape(block_j)),
+            )
+        if kept and self.model.dimension == 2:  # the groups' vectors placed in arrays of all (``Group.place``)
+            self._vectors = forms.RotatedVectors(kept, self.n_bodies)
         self._loop = [k for k in range(len(self.elements)) if k not in batched]
-
-    @staticmethod
-    def _shared_rotation(groups: list, forms):
-        """The planar forms' ``rotate``, the body-frame vectors s' of all planar groups stacked as rows
-        [s', R90 s'] (with R90 of each, [R90 s', -s']), and each group's slice of them, so that one ``rotate``
-        call per configuration gives A s' and B s' = A R90 s' for every group (eq. 2.1, 2.5); None for
-        spatial groups."""
-        if not groups or not all(hasattr(group, "terms_from") for group in groups):
-            return None
-        parts, start = [], 0
-        for group in groups:
-            parts.append(slice(start, start + group.ends.size))
-            start += group.ends.size
-        ends = np.concatenate([group.ends for group in groups])
-        vectors = np.concatenate([group.vectors for group in groups]).reshape(-1, 2)
-        perp = np.concatenate([group.vectors_perp for group in groups]).reshape(-1, 2)
-        return forms.rotate, ends, np.hstack([vectors, perp]), np.hstack([perp, -vectors]), parts
 
     def _random_coordinates(self, rng: np.random.Generator) -> np.ndarray:
         q = rng.standard_normal(self.n_coordinates)
@@ -327,21 +327,32 @@ class System:
         return q
 
     def _agrees(self, group, members: list[int], q: np.ndarray, qd: np.ndarray, t: float) -> bool:
-        """True when the group's Psi, Psi_q, Psi_t and gamma equal the element methods' at (q, q', t)."""
+        """True when the group's Psi, Psi_q (its constant entries and those that depend on q), Psi_t and gamma
+        equal the element methods' at (q, q', t)."""
         try:
             X, V = self._bodies(q, self._ground), self._bodies(qd, self._ground_velocity)
-            terms = group.terms(X)
-            jac_i, jac_j = group.jacobian(X, terms, t)
-            got = [group.constraints(X, terms, t), jac_i, jac_j, group.psi_t(X, terms, t), group.gamma(X, V, terms, t)]
+            if hasattr(group, "rotate"):  # planar: the group's own rotation, and P', A v' phi'^2, phi' from it
+                A, B, R, P = group.rotate(X)
+                terms = group.terms_from(X, A, B, R, P)
+                moving = None if A is None else _planar_motion(V, group.ends, A, B)
+            else:
+                terms, moving = group.terms(X), V
+            blocks = [np.ravel(block) for block in group.jacobian(X, terms, t)]
+            if hasattr(group, "constant_blocks"):  # the whole rows: constant entries, then those that depend on q
+                whole = [np.array(block, dtype=float) for block in group.constant_blocks()]
+                for block, moving_columns in zip(whole, blocks, strict=True):
+                    block[:, list(group.columns)] = moving_columns.reshape(block.shape[0], len(group.columns))
+                blocks = [np.ravel(block) for block in whole]
+            got = [group.constraints(X, terms, t), *blocks, group.psi_t(X, terms, t), group.gamma(X, moving, terms, t)]
             expected = [[], [], [], [], []]
             for k in members:
                 element = self.elements[k]
                 qi, qj = self._pair(k, q)
                 qdi, qdj = self._pair(k, qd, self._ground_velocity)
-                blocks = element.jacobian(qi, qj, t)
+                jac_i, jac_j = element.jacobian(qi, qj, t)
                 expected[0].append(element.constraints(qi, qj, t))
-                expected[1].append(np.atleast_2d(blocks[0]))
-                expected[2].append(np.atleast_2d(blocks[1]))
+                expected[1].append(np.ravel(jac_i))
+                expected[2].append(np.ravel(jac_j))
                 expected[3].append(element.psi_t(qi, qj, t))
                 expected[4].append(element.gamma(qi, qj, qdi, qdj, t))
             expected = [np.concatenate(e) for e in expected]
@@ -351,6 +362,13 @@ class System:
             )
         except Exception:  # noqa: BLE001 -- a stub (NotImplementedError) or a broken group: use the element loop
             return False
+
+
+def _planar_motion(V: np.ndarray, ends: np.ndarray, A: np.ndarray, B: np.ndarray):
+    """r', P', A v' phi'^2 and phi' of one planar group's rotated vectors (``planar.batched.motion``)."""
+    from .planar.batched import motion  # only planar groups rotate vectors
+
+    return motion(V, ends, A, B)
 
 
 def batched_forms(dimension: int):

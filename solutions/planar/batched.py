@@ -2,24 +2,38 @@
 
 The element methods of ``joints.py`` define the constraint equations, one joint at a time. Here the
 same rows are computed for all the elements of one type together, with array operations over the
-elements (one cos and sin per joint end, no Python call per joint): a mechanism with many joints of
-few types costs a few dozen array operations per evaluation instead of a few Python calls per joint.
-The formulas are those of ``joints.py`` (course notes, ch. 3), written for arrays: revolute eq. 3.17,
-relative angle eq. 3.21, pin in a slot eq. 3.24, distance eq. 3.27, drivers eq. 3.34-3.35.
+elements (no Python call per joint): a mechanism with many joints of few types costs a few dozen
+array operations per evaluation instead of a few Python calls per joint. The formulas are those of
+``joints.py`` (course notes, ch. 3), written for arrays: revolute eq. 3.17, relative angle eq. 3.21,
+pin in a slot eq. 3.24, distance eq. 3.27, drivers eq. 3.34-3.35.
 
-Each group is built once from the elements of its type (``make_groups``) and evaluated from
+Every planar joint is made of body-fixed vectors v' (a point's s', a slot's normal, an axis) and what
+they become at a configuration and a velocity (eq. 2.1, 2.5, 2.6):
+
+    A_b v'                     the vector in the ground frame, and B_b v' = A_b R90 v' = dA_b/dphi_b v'
+    r_b, P = r_b + A_b v'      the body's origin and the point, when v' locates one (s')
+    r_b', P' = r_b' + B_b v' phi_b'   their velocities
+    A_b v' phi_b'^2            the centripetal term every gamma is made of (eq. 4.4)
+
+``RotatedVectors`` computes these arrays once per evaluation for the vectors of every group of a
+system together (one cos and one sin per vector for the whole system, by index maps found once), and
+each group takes its rows from them by slices: a group's 2K vectors are K on body i (rows ``on_i``),
+then K on body j (rows ``on_j``), so that, e.g., a revolute joint's Psi is ``P[on_i] - P[on_j]``.
+
+A group is built once from the elements of its type (``make_groups``) and evaluated from
 
     X   the (nb + 1, 3) array of body coordinates, row b = (x_b, y_b, phi_b), last row ground (zeros),
         so the body index -1 of ground picks it (numpy's negative indexing)
-    V   the same for the velocities
 
-and gives its rows in element order: ``terms(X)``, what the formulas share at one configuration
-(the rotated body vectors A s' and B s'), computed once, then ``constraints(X, terms, t)``,
-``jacobian(X, terms, t) -> (Psi_qi, Psi_qj)`` (each (rows, 3)), ``psi_t(X, terms, t)`` and
-``gamma(X, V, terms, t)``. ``assembly.System`` scatters them into the
-system arrays and checks them once against the element methods; it falls back to the element loop for
-any group that disagrees. This module stays with the instructor (a student package has none): there the
-System evaluates the element methods one by one.
+as ``terms_from(X, A, B, R, P)`` (what its formulas share at one configuration, from its rows of the
+rotated vectors A v', B v', origins r_b and points P), then ``constraints(X, terms, t)``, ``jacobian(X,
+terms, t) -> (Psi_qi, Psi_qj)``, ``psi_t(X, terms, t)`` and ``gamma(X, motion, terms, t)``, ``motion`` the
+velocity arrays (r_b', P', A v' phi'^2, phi'). The Jacobian blocks hold only the columns of
+(x_b, y_b, phi_b) that depend on q (``columns``: a revolute joint's phi column); the others are constant
+(``constant_blocks``, the +-I of a revolute joint), written once.
+``assembly.System`` scatters the rows into the system arrays and checks every group once against the
+element methods; it falls back to the element loop for any group that disagrees. This module stays with
+the instructor (a student package has none): there the System evaluates the element methods one by one.
 """
 
 from __future__ import annotations
@@ -78,27 +92,64 @@ def rotated(X: np.ndarray, bodies: np.ndarray, s: np.ndarray, s_perp: np.ndarray
     return c * s + sn * s_perp, c * s_perp - sn * s
 
 
-def rotate(X: np.ndarray, bodies: np.ndarray, v: np.ndarray, v_perp: np.ndarray) -> np.ndarray:
-    """A_b v' = cos(phi_b) v' + sin(phi_b) R90 v' (eq. 2.1) for rows v' of body-frame vectors of bodies b (K,).
+def motion(V: np.ndarray, bodies: np.ndarray, A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, ...]:
+    """(r_b', P', A v' phi'^2, phi') of rotated vectors A = A_b v', B = B_b v' (K, 2) of bodies b (K,):
+    P' = r_b' + B_b v' phi_b' (eq. 2.6), the centripetal A_b v' phi_b'^2 (eq. 4.4), phi_b' as a (K, 1) column."""
+    Vb = V.take(bodies, axis=0)
+    r_dot, w = Vb[:, :2], Vb[:, 2:]
+    return r_dot, r_dot + B * w, A * (w * w), w
 
-    A row may hold several vectors side by side, (K, 2k) with R90 of each in ``v_perp``: the System rotates
-    [s', R90 s'] of every vector of every group in one call, which gives A s' and B s' = A R90 s' together.
+
+class RotatedVectors:
+    """The body-frame vectors v' of every group of a system, rotated together: A v', B v', P = r_b + A v' of all of
+    them in a few whole-array operations per configuration (eq. 2.1, 2.5), P' and A v' phi'^2 per velocity (eq. 2.6,
+    4.4); each group's part is a slice (``parts``).
+
+    Index maps found once pick, from the flat coordinates (q, then ground's zeros), phi_b of each vector twice
+    (``angle_index``, (K, 2): the same shape as the vectors) and (x_b, y_b) (``position_index``), so that every
+    product below is between arrays of one shape: A v' = cos(phi_b) v' + sin(phi_b) R90 v',
+    B v' = cos(phi_b) R90 v' - sin(phi_b) v'.
     """
-    phi = angles(X, bodies)
-    return np.cos(phi)[:, None] * v + np.sin(phi)[:, None] * v_perp
+
+    def __init__(self, groups: list, n_bodies: int):
+        start = 0
+        for group in groups:  # each group's rows in the arrays of all (``Group.place``)
+            group.place(start)
+            start += group.ends.size
+        ends = np.concatenate([group.ends for group in groups])
+        self.vectors = np.concatenate([group.vectors for group in groups]).reshape(-1, 2)
+        self.vectors_perp = _perpendicular(self.vectors)
+        first = 3 * np.where(ends < 0, n_bodies, ends)  # ground (-1): the three entries after the bodies'
+        self.angle_index = np.column_stack([first + 2, first + 2])
+        self.position_index = np.column_stack([first, first + 1])
+
+    def configuration(self, x: np.ndarray) -> tuple[np.ndarray, ...]:
+        """(A v', B v', r_b, P = r_b + A v') of every vector from the flat body coordinates x (eq. 2.1, 2.5)."""
+        phi = x.take(self.angle_index)
+        c, s = np.cos(phi), np.sin(phi)
+        v, v_perp = self.vectors, self.vectors_perp
+        A, r = c * v + s * v_perp, x.take(self.position_index)
+        return A, c * v_perp - s * v, r, r + A
+
+    def motion(self, v: np.ndarray, A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, ...]:
+        """(r_b', P' = r_b' + B v' phi_b', A v' phi_b'^2, phi_b') of every vector from the flat velocities v
+        (eq. 2.6)."""
+        w, r_dot = v.take(self.angle_index), v.take(self.position_index)
+        return r_dot, r_dot + B * w, A * (w * w), w
 
 
 class Group:
     """The elements of one type, with the data of every element stacked in arrays.
 
     ``vectors`` are the body-frame vectors v' (s_i', s_j', slot normals, ...) the formulas need rotated, and
-    ``ends`` the body each belongs to: ``terms`` rotates them (A_b v' and B_b v'), and ``terms_from`` makes what
-    the formulas share from them. The System rotates the vectors of all its groups at once (one cos and sin per
-    vector for the whole system) and calls ``terms_from`` with each group's part.
+    ``ends`` the body each belongs to: K vectors on body i (rows ``on_i`` of the rotated arrays), then K on
+    body j (rows ``on_j``); ``terms_from`` makes what the formulas share from their rotated forms.
     """
 
     kind: type = object
     rows_per_element = 1
+    columns: tuple[int, ...] = (0, 1, 2)
+    """The columns of a body's (x_b, y_b, phi_b) whose Psi_q entries depend on q: ``jacobian`` gives these."""
     constant_jacobian = False
     """Psi_q of the group does not depend on q or t (a driver's angle or coordinate rows): the System writes it once."""
 
@@ -109,77 +160,95 @@ class Group:
         self.size = len(elements)
         self.ends = np.zeros(0, dtype=int)
         self.vectors = self.vectors_perp = np.zeros((0, 2))
+        self.place(0)
 
     def _rotate(self, ends: np.ndarray, vectors: np.ndarray) -> None:
-        """Set the body-frame vectors (K, 2) to rotate, and the bodies (K,) they belong to."""
+        """Set the body-frame vectors (2K, 2) to rotate, K on body i then K on body j, and the bodies (2K,)."""
         self.ends, self.vectors, self.vectors_perp = ends, vectors, _perpendicular(vectors)
 
-    def terms(self, X: np.ndarray):
-        """What the element formulas share at one configuration (rotated body vectors), computed once."""
-        if not self.ends.size:
-            return self.terms_from(X, None, None)
-        return self.terms_from(X, *rotated(X, self.ends, self.vectors, self.vectors_perp))
+    def place(self, start: int) -> None:
+        """The rows of the group's vectors in the rotated arrays it is given, from ``start``: 0 in its own
+        (``rotate``), its place among all the system's (``RotatedVectors``)."""
+        K = self.size
+        self.on_i, self.on_j = slice(start, start + K), slice(start + K, start + 2 * K)
 
-    def terms_from(self, X: np.ndarray, A: np.ndarray | None, B: np.ndarray | None):
-        """The shared terms from A = A_b v' and B = B_b v' of the group's ``vectors`` (None without vectors)."""
+    def rotate(self, X: np.ndarray):
+        """(A v', B v', r_b, P) of the group's own vectors (``RotatedVectors.configuration`` for one group), or
+        Nones."""
+        if not self.ends.size:
+            return None, None, None, None
+        A, B = rotated(X, self.ends, self.vectors, self.vectors_perp)
+        r = positions(X, self.ends)
+        return A, B, r, r + A
+
+    def terms(self, X: np.ndarray):
+        """What the element formulas share at one configuration, from the group's own rotation."""
+        return self.terms_from(X, *self.rotate(X))
+
+    def terms_from(self, X: np.ndarray, A: np.ndarray | None, B: np.ndarray | None, R=None, P=None):
+        """The shared terms from A = A_b v', B = B_b v', R = r_b and P = r_b + A_b v' (the group's ``vectors`` in
+        rows ``on_i`` and ``on_j``)."""
         return None
+
+    def constant_blocks(self) -> tuple[np.ndarray, np.ndarray]:
+        """The (rows, 3) blocks of Psi_qi and Psi_qj in the columns that do not depend on q (zeros in the others)."""
+        zeros = np.zeros((self.size * self.rows_per_element, 3))
+        return zeros, zeros.copy()
 
     def psi_t(self, X: np.ndarray, terms, t: float) -> np.ndarray:
         """Psi_t = 0: joints do not depend on time."""
         return np.zeros(self.size * self.rows_per_element)
 
-    def _blocks(self, last_i: np.ndarray, last_j: np.ndarray, first_i=None, first_j=None):
-        """(K, 3) Jacobian rows for bodies i and j from their phi column and (optionally) x, y columns."""
-        block_i, block_j = np.zeros((self.size, 3)), np.zeros((self.size, 3))
-        if first_i is not None:
-            block_i[:, :2], block_j[:, :2] = first_i, first_j
-        block_i[:, 2], block_j[:, 2] = last_i, last_j
-        return block_i, block_j
+    def _blocks(self, last_i: np.ndarray, last_j: np.ndarray, first_i: np.ndarray, first_j: np.ndarray):
+        """(K, 3) Jacobian rows [x, y columns, phi column] of bodies i and j."""
+        return (
+            np.concatenate([first_i, last_i[:, None]], axis=1),
+            np.concatenate([first_j, last_j[:, None]], axis=1),
+        )
 
 
 class RevoluteGroup(Group):
-    """Revolute joints (eq. 3.17): Psi = r_i + A_i s_i' - r_j - A_j s_j',  Psi_q = [I, B_i s_i', -I, -B_j s_j'],
-    gamma = A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2; two rows (x, y) per joint."""
+    """Revolute joints (eq. 3.17): Psi = r_i + A_i s_i' - r_j - A_j s_j' (= P_i - P_j),
+    Psi_q = [I, B_i s_i', -I, -B_j s_j'], gamma = A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2; two rows (x, y) per joint.
+    The +-I columns are constant: ``jacobian`` gives the phi columns."""
 
     kind = Revolute
     rows_per_element = 2
+    columns = (2,)
 
     def __init__(self, elements):
         super().__init__(elements)
-        # s_i' of every joint, then s_j': one rotation for all
+        # s_i' of every joint, then s_j'
         self._rotate(
             np.concatenate([self.i, self.j]),
             np.concatenate([_column([e.si for e in elements]), _column([e.sj for e in elements])]),
         )
-        self._block_i = np.zeros((self.size, 2, 3))
-        self._block_i[:, 0, 0] = self._block_i[:, 1, 1] = 1.0
-        self._block_j = -self._block_i
 
-    def terms_from(self, X, As, Bs):
-        """A_i s_i', B_i s_i', A_j s_j', B_j s_j' of every joint: what Psi, Psi_q and gamma are made of; and
-        [A_i s_i'; A_j s_j'] as one block (``gamma``)."""
-        K = self.size
-        return As[:K], Bs[:K], As[K:], Bs[K:], As
+    def terms_from(self, X, A, B, R, P):
+        """B_i s_i', B_j s_j', P_i = r_i + A_i s_i', r_j and A_j s_j' of every joint."""
+        return B[self.on_i], B[self.on_j], P[self.on_i], R[self.on_j], A[self.on_j]
+
+    def constant_blocks(self):
+        """I and -I in the x, y columns of every joint's two rows."""
+        block_i = np.zeros((self.size, 2, 3))
+        block_i[:, 0, 0] = block_i[:, 1, 1] = 1.0
+        return block_i.reshape(-1, 3), -block_i.reshape(-1, 3)
 
     def constraints(self, X, terms, t):
-        Asi, _, Asj, _, _ = terms
-        r = positions(X, self.ends)  # r_i of every joint (first K rows), then r_j
-        K = self.size
-        return (r[:K] + Asi - r[K:] - Asj).ravel()
+        """r_i + A_i s_i' - r_j - A_j s_j', summed left to right in the order of eq. 3.17 (not P_i - P_j: the same
+        bits as before the shared pass; at a singular position the last bits of Psi decide where Newton-Raphson's
+        iterate lands)."""
+        _, _, Pi, rj, Asj = terms
+        return (Pi - rj - Asj).ravel()
 
     def jacobian(self, X, terms, t):
-        _, Bsi, _, Bsj, _ = terms
-        block_i, block_j = self._block_i.copy(), self._block_j.copy()
-        block_i[:, :, 2], block_j[:, :, 2] = Bsi, -Bsj
-        return block_i.reshape(-1, 3), block_j.reshape(-1, 3)
+        """The phi columns: B_i s_i' and -B_j s_j', (K, 2) each: the (x, y) rows of joint k in row k."""
+        return terms[0], -terms[1]
 
-    def gamma(self, X, V, terms, t):
-        """A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2: the centripetal terms of both ends of every joint in one product."""
-        As = terms[4]
-        w = V[:, 2]  # every body's phi'
-        centripetal = As * (w * w).take(self.ends)[:, None]  # A s' phi'^2 of s_i' (first K rows), then of s_j'
-        K = self.size
-        return (centripetal[:K] - centripetal[K:]).ravel()
+    def gamma(self, X, motion, terms, t):
+        """A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2 of every joint."""
+        centripetal = motion[2]
+        return (centripetal[self.on_i] - centripetal[self.on_j]).ravel()
 
 
 class _TimedGroup(Group):
@@ -213,56 +282,71 @@ class _TimedGroup(Group):
         return -self.derivatives(t, 1)
 
 
-class RelativeAngleGroup(_TimedGroup):
-    """phi_j - phi_i - phi0 - f(t) = 0 (eq. 3.21, 3.34): constant Jacobian rows, Psi_t = -f', gamma = f''."""
+class _ConstantRows(_TimedGroup):
+    """Elements whose Psi_q rows are constant (``rows``: (Psi_qi, Psi_qj)): Psi_t = -f', gamma = f''."""
+
+    columns = ()
+    constant_jacobian = True
+
+    def offsets(self, t: float) -> np.ndarray:
+        """The constant part of Psi and f(t): phi0 + f(t) of a relative angle, f(t) of a coordinate driver."""
+        return self._offsets + self.values(t) if self.timed else self._offsets
+
+    def constant_blocks(self):
+        return self._rows
+
+    def jacobian(self, X, terms, t):
+        return np.zeros((self.size, 0)), np.zeros((self.size, 0))
+
+    def gamma(self, X, motion, terms, t):
+        return self.derivatives(t, 2)
+
+
+class RelativeAngleGroup(_ConstantRows):
+    """phi_j - phi_i - phi0 - f(t) = 0 (eq. 3.21, 3.34): constant Jacobian rows [0, 0, -1], [0, 0, 1]."""
 
     kind = RelativeAngle
-    constant_jacobian = True
 
     def __init__(self, elements):
         super().__init__(elements, [e.function for e in elements])
         self.phi0 = _column([e.phi0 for e in elements])
-        self._rows = self._blocks(-np.ones(self.size), np.ones(self.size))
+        self._offsets = self.phi0 + self._values if not self.timed else self.phi0  # phi0 + f(t) of constant f
+        block_j = np.zeros((self.size, 3))
+        block_j[:, 2] = 1.0
+        self._rows = -block_j, block_j
 
     def constraints(self, X, terms, t):
-        return angles(X, self.j) - angles(X, self.i) - self.phi0 - self.values(t)
-
-    def jacobian(self, X, terms, t):
-        return self._rows
-
-    def gamma(self, X, V, terms, t):
-        return self.derivatives(t, 2)
+        return angles(X, self.j) - angles(X, self.i) - self.offsets(t)
 
 
-class BodyCoordinateGroup(_TimedGroup):
-    """q_j[k] - f(t) = 0 (eq. 3.34): a unit Jacobian row, Psi_t = -f', gamma = f''."""
+class BodyCoordinateGroup(_ConstantRows):
+    """q_j[k] - f(t) = 0 (eq. 3.34): a unit Jacobian row."""
 
     kind = BodyCoordinate
-    constant_jacobian = True
 
     def __init__(self, elements):
         super().__init__(elements, [e.function for e in elements])
         self.index = np.array([e.index for e in elements], dtype=int)
+        self._offsets = self._values if not self.timed else np.zeros(self.size)
         block_j = np.zeros((self.size, 3))
         block_j[np.arange(self.size), self.index] = 1.0
         self._rows = np.zeros((self.size, 3)), block_j
 
     def constraints(self, X, terms, t):
-        return X[self.j, self.index] - self.values(t)
-
-    def jacobian(self, X, terms, t):
-        return self._rows
-
-    def gamma(self, X, V, terms, t):
-        return self.derivatives(t, 2)
+        return X[self.j, self.index] - self.offsets(t)
 
 
 class AlongDirectionGroup(_TimedGroup):
-    """u_i^T d_ij + rolling (phi_j - phi_i) - d0 - f(t) = 0 with u_i = A_i u_i' (eq. 3.13): the pin in a slot
-    (u' the slot normal, eq. 3.24), the prismatic driver (eq. 3.35) and the rack and pinion (eq. 3.31).
+    """u_i^T d_ij + rolling (phi_j - phi_i) - d0 - f(t) = 0 with u_i = A_i u_i', d_ij = P_j - P_i (eq. 3.13): the
+    pin in a slot (u' the slot normal, eq. 3.24), the prismatic driver (eq. 3.35) and the rack and pinion (eq. 3.31).
 
-    Psi_qi = [-u^T, (B_i u_i')^T d - u^T B_i s_i' - rolling],  Psi_qj = [u^T, u^T B_j s_j' + rolling]
-    gamma = u^T d phi_i'^2 - 2 phi_i' (B_i u_i')^T d' - u^T (A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2) + f''
+    Since u_i^T A_i s_i' = u_i'^T A_i^T A_i s_i' = u_i'^T s_i' is constant, u_i^T d_ij = u_i^T e - u_i'^T s_i' with
+    e = P_j - r_i (body i's origin to the point of j): the rows need u_i and s_j' rotated, not s_i'. With
+    w = B_i u_i' (= R90 u_i, so u^T B_j s_j' = -w^T A_j s_j'):
+
+    Psi_qi = [-u^T, w^T e - rolling],  Psi_qj = [u^T, u^T B_j s_j' + rolling]
+    gamma = u^T e phi_i'^2 + u^T A_j s_j' phi_j'^2 - 2 phi_i' w^T e' + f'',  e' = P_j' - r_i'
+    (the element methods' form, eq. 3.13, with d = e - A_i s_i' and w^T B_i s_i' = u^T A_i s_i').
     """
 
     kind = (PinInSlot, Translation)
@@ -272,57 +356,46 @@ class AlongDirectionGroup(_TimedGroup):
         zero = Constant(0.0)
         super().__init__(elements, [zero if s else e.function for e, s in zip(elements, slot, strict=True)])
         u = _column([e._normal if s else e.axis for e, s in zip(elements, slot, strict=True)])
-        # u_i', s_i', s_j': one rotation for all
-        self._rotate(
-            np.concatenate([self.i, self.i, self.j]),
-            np.concatenate([u, _column([e.si for e in elements]), _column([e.sj for e in elements])]),
-        )
+        # u_i' of body i, s_j' of body j
+        self._rotate(np.concatenate([self.i, self.j]), np.concatenate([u, _column([e.sj for e in elements])]))
         self.rolling = _column([0.0 if s else e.side * e.pinion_radius for e, s in zip(elements, slot, strict=True)])
-        self.d0 = _column([0.0 if s else e.d0 for e, s in zip(elements, slot, strict=True)])
+        d0 = _column([0.0 if s else e.d0 for e, s in zip(elements, slot, strict=True)])
+        self.shift = d0 + dot_rows(u, _column([e.si for e in elements]))  # d0 + u_i'^T s_i'
         self.rolls = bool(np.any(self.rolling))  # a rack and pinion among them: the rolling terms are needed
-        self.shifted = self.moves or bool(np.any(self.d0))  # d0 + f(t) nonzero somewhere
+        self.shifted = self.moves or bool(np.any(self.shift))  # d0 + u_i'^T s_i' + f(t) nonzero somewhere
 
-    def terms_from(self, X, A, B):
-        """u = A_i u_i', w = B_i u_i', A_i s_i', B_i s_i', A_j s_j', B_j s_j' and d_ij of every element."""
-        K = self.size
-        u, w, Asi, Bsi, Asj, Bsj = A[:K], B[:K], A[K : 2 * K], B[K : 2 * K], A[2 * K :], B[2 * K :]
-        r = positions(X, self.ends)  # r_i (twice), then r_j: the bodies of u_i', s_i', s_j'
-        d = r[2 * K :] + Asj - r[:K] - Asi
-        return u, w, Asi, Bsi, Asj, Bsj, d
+    def terms_from(self, X, A, B, R, P):
+        """u = A_i u_i', w = B_i u_i', B_j s_j' and e = P_j - r_i of every element."""
+        return A[self.on_i], B[self.on_i], B[self.on_j], P[self.on_j] - R[self.on_i]
 
     def constraints(self, X, terms, t):
-        u, _, _, _, _, _, d = terms
-        psi = dot_rows(u, d)
-        if self.shifted:  # a driver's d0 + f(t), or a pin in a slot off its line
-            psi = psi - self.d0 - self.values(t)
+        u, _, _, e = terms
+        psi = dot_rows(u, e)
+        if self.shifted:  # d0 + u_i'^T s_i' + f(t)
+            psi = psi - self.shift - self.values(t)
         if self.rolls:
             psi += self.rolling * (angles(X, self.j) - angles(X, self.i))
         return psi
 
     def jacobian(self, X, terms, t):
-        u, w, Asi, _, _, Bsj, d = terms
-        # w^T d - u^T B_i s_i' = w^T (d + A_i s_i'), since u^T B_i s_i' = u_i'^T R90 s_i' = -w^T A_i s_i'
-        angle_i, angle_j = dot_rows(w, d + Asi), dot_rows(u, Bsj)
+        u, w, Bsj, e = terms
+        angle_i, angle_j = dot_rows(w, e), dot_rows(u, Bsj)
         if self.rolls:
             angle_i, angle_j = angle_i - self.rolling, angle_j + self.rolling
         return self._blocks(angle_i, angle_j, -u, u)
 
-    def gamma(self, X, V, terms, t):
-        u, w, Asi, Bsi, Asj, Bsj, d = terms
-        K = self.size
-        Vij = rows(V, self.ends)  # body i's velocities (twice), then body j's
-        Vi, Vj = Vij[:K], Vij[2 * K :]
-        wi, wj = Vi[:, 2:], Vj[:, 2:]  # phi_i', phi_j' as (K, 1) columns
-        d_dot = Vj[:, :2] + Bsj * wj - Vi[:, :2] - Bsi * wi
-        # u^T d phi_i'^2 - u^T (A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2) in one product
-        quadratic = dot_rows(u, (d - Asi) * (wi * wi) + Asj * (wj * wj))
-        gamma = quadratic - 2.0 * wi[:, 0] * dot_rows(w, d_dot)
+    def gamma(self, X, motion, terms, t):
+        u, w, _, e = terms
+        origin_velocity, velocity, centripetal, rate = motion
+        wi = rate[self.on_i]  # phi_i' of every element, twice per row
+        e_dot = velocity[self.on_j] - origin_velocity[self.on_i]  # P_j' - r_i'
+        gamma = dot_rows(u, e * (wi * wi) + centripetal[self.on_j]) - 2.0 * wi[:, 0] * dot_rows(w, e_dot)
         return gamma + self.derivatives(t, 2) if self.timed else gamma
 
 
 class DistanceGroup(_TimedGroup):
-    """(d^T d - L(t)^2) / 2 = 0 (eq. 3.27): Psi_q = d^T [-I, -B_i s_i', I, B_j s_j'], Psi_t = -L L',
-    gamma = -d'^T d' - d^T (A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2) + L'^2 + L L''."""
+    """(d^T d - L(t)^2) / 2 = 0 with d = P_j - P_i (eq. 3.27): Psi_q = d^T [-I, -B_i s_i', I, B_j s_j'],
+    Psi_t = -L L', gamma = -d'^T d' - d^T (A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2) + L'^2 + L L''."""
 
     kind = Distance
 
@@ -333,31 +406,28 @@ class DistanceGroup(_TimedGroup):
             np.concatenate([_column([e.si for e in elements]), _column([e.sj for e in elements])]),
         )
 
-    def terms_from(self, X, As, Bs):
-        """A_i s_i', B_i s_i', A_j s_j', B_j s_j' and d_ij of every element."""
-        K = self.size
-        Asi, Bsi, Asj, Bsj = As[:K], Bs[:K], As[K:], Bs[K:]
-        return Asi, Bsi, Asj, Bsj, positions(X, self.j) + Asj - positions(X, self.i) - Asi
+    def terms_from(self, X, A, B, R, P):
+        """B_i s_i', B_j s_j' and d_ij = P_j - P_i of every element."""
+        return B[self.on_i], B[self.on_j], P[self.on_j] - P[self.on_i]
 
     def psi_t(self, X, terms, t):
         return -self.values(t) * self.derivatives(t, 1)
 
     def constraints(self, X, terms, t):
-        d = terms[4]
+        d = terms[2]
         return 0.5 * (dot_rows(d, d) - self.values(t) ** 2)
 
     def jacobian(self, X, terms, t):
-        _, Bsi, _, Bsj, d = terms
+        Bsi, Bsj, d = terms
         return self._blocks(-dot_rows(d, Bsi), dot_rows(d, Bsj), -d, d)
 
-    def gamma(self, X, V, terms, t):
-        Asi, Bsi, Asj, Bsj, d = terms
-        Vi, Vj = rows(V, self.i), rows(V, self.j)
-        wi, wj = Vi[:, 2:], Vj[:, 2:]
-        d_dot = Vj[:, :2] + Bsj * wj - Vi[:, :2] - Bsi * wi
-        quadratic = Asi * (wi * wi) - Asj * (wj * wj)
+    def gamma(self, X, motion, terms, t):
+        d = terms[2]
+        _, velocity, centripetal, _ = motion
+        i, j = self.on_i, self.on_j
+        d_dot = velocity[j] - velocity[i]
         L, Ld, Ldd = self.values(t), self.derivatives(t, 1), self.derivatives(t, 2)
-        return -dot_rows(d_dot, d_dot) - dot_rows(d, quadratic) + Ld * Ld + L * Ldd
+        return -dot_rows(d_dot, d_dot) - dot_rows(d, centripetal[i] - centripetal[j]) + Ld * Ld + L * Ldd
 
 
 GROUPS = (RevoluteGroup, RelativeAngleGroup, BodyCoordinateGroup, AlongDirectionGroup, DistanceGroup)
@@ -378,4 +448,15 @@ def make_groups(elements: list) -> tuple[list[tuple[Group, list[int]]], list[int
     return groups, rest
 
 
-__all__ = ["GROUPS", "Group", "angles", "dot_rows", "make_groups", "positions", "rotate", "rotated", "rows"]
+__all__ = [
+    "GROUPS",
+    "RotatedVectors",
+    "Group",
+    "angles",
+    "dot_rows",
+    "make_groups",
+    "motion",
+    "positions",
+    "rotated",
+    "rows",
+]

@@ -87,6 +87,65 @@ def test_a_stubbed_group_falls_back_to_the_element_loop(monkeypatch):
     assert "RelativeAngleGroup" in kinds  # needs no rotation
 
 
+def _mixed_system():
+    """Three bodies and every batched planar element type, several of each, interleaved, ground on either side:
+    the groups' vectors share one rotation (``planar.batched.RotatedVectors``), each group in its own rows."""
+    from solutions.functions import Constant, Harmonic, Polynomial
+    from solutions.planar.joints import BodyCoordinate, Distance, PinInSlot, RelativeAngle, Revolute, Translation
+
+    bodies = [{"name": n, "mass": 1.0, "inertia": 0.1, "location": [float(k), 0.0]} for k, n in enumerate("abc")]
+    model = load_model({"model": {"name": "mixed", "bodies": bodies}})
+    rng = np.random.default_rng(11)
+
+    def vec():
+        return rng.uniform(-0.5, 0.5, 2)
+
+    def unit():
+        angle = rng.uniform(-math.pi, math.pi)
+        return np.array([math.cos(angle), math.sin(angle)])
+
+    elements = [
+        Revolute("R1", 0, -1, si=vec(), sj=vec()),
+        PinInSlot("P1", 1, 0, si=vec(), sj=vec(), axis=unit()),
+        Distance("D1", -1, 2, si=vec(), sj=vec(), length=Harmonic(0.2, 2.5, 0.3, offset=0.9)),
+        Revolute("R2", 1, 2, si=vec(), sj=vec()),
+        RelativeAngle("A1", 0, 2, phi0=0.3, function=Polynomial((0.1, 2.0, -0.7, 0.3))),
+        Translation("T1", -1, 1, si=vec(), sj=vec(), axis=unit(), d0=0.2, pinion_radius=0.3, side=-1.0),
+        Distance("D2", 2, 0, si=vec(), sj=vec(), length=Constant(0.8)),
+        PinInSlot("P2", -1, 2, si=vec(), sj=vec(), axis=unit()),
+        BodyCoordinate("B1", -1, 1, index=0, function=Polynomial((0.2, 0.5))),
+        Translation("T2", 2, 1, si=vec(), sj=vec(), axis=unit(), d0=-0.1, function=Harmonic(0.1, 2.0, 0.0)),
+        Revolute("R3", -1, 1, si=vec(), sj=vec()),
+    ]
+    return System(model, elements), System(model, elements, vectorized=False)
+
+
+def test_every_planar_group_in_one_shared_rotation_against_the_element_loop_and_finite_differences():
+    """The arrays of a system whose groups share one rotation (each group placed in rows of all the vectors)
+    equal the element methods' (the definition), and Psi_q and gamma equal finite differences of Psi alone:
+    gamma = -d^2/ds^2 Psi(q + s q', t + s) at s = 0 (eq. 4.4 along a path of zero acceleration)."""
+    system, loop = _mixed_system()
+    kinds = {type(group).__name__ for group in system.groups}
+    assert kinds == {"RevoluteGroup", "AlongDirectionGroup", "DistanceGroup", "RelativeAngleGroup",
+                     "BodyCoordinateGroup"} and not system._loop  # fmt: skip
+    rng = np.random.default_rng(4)
+    h = 1e-3
+    for _ in range(3):
+        q, qd, t = rng.standard_normal(9), rng.standard_normal(9), float(rng.uniform(0.1, 2.0))
+        for a, b in zip(system.evaluate(q, qd, t), loop.evaluate(q, qd, t), strict=True):
+            np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-13)
+
+        def psi(s, q=q, qd=qd, t=t):
+            return system.constraints(q + s * qd, t + s)
+
+        second = (-psi(2 * h) + 16 * psi(h) - 30 * psi(0.0) + 16 * psi(-h) - psi(-2 * h)) / (12 * h * h)
+        np.testing.assert_allclose(system.gamma(q, qd, t), -second, rtol=1e-6, atol=1e-6)
+        numeric = np.column_stack(
+            [(system.constraints(q + 1e-6 * e, t) - system.constraints(q - 1e-6 * e, t)) / 2e-6 for e in np.eye(9)]
+        )
+        np.testing.assert_allclose(system.jacobian(q, t), numeric, atol=1e-7)
+
+
 # -- the lean embedded Runge-Kutta loops ------------------------------------------------------------------------
 def _oscillator(omega: float):
     return lambda t, y: np.array([y[1], -omega * omega * y[0]])
