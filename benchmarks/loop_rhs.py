@@ -24,7 +24,6 @@ for _variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import argparse  # noqa: E402
 import sys  # noqa: E402
-import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
@@ -34,6 +33,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from chains import loop_chain  # noqa: E402
+from rhs_parts import per_call  # noqa: E402  (least thread CPU per call, in us)
 
 from solutions.assembly import build_system  # noqa: E402
 from solutions.compiled.kernels import lu_solve  # noqa: E402  (imports numba)
@@ -66,18 +66,6 @@ def dense_augmented(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, alpha, 
     x = lu_solve(K, b)
     mu[:] = x[k:]
     return x[:k]
-
-
-def least_us(f, calls: int, rounds: int) -> float:
-    """Least over rounds of the mean thread-CPU microseconds of ``calls`` calls (after one warm-up call)."""
-    f()
-    best = np.inf
-    for _ in range(rounds):
-        start = time.thread_time()
-        for _ in range(calls):
-            f()
-        best = min(best, (time.thread_time() - start) / calls * 1e6)
-    return best
 
 
 def parts(n: int, rounds: int) -> dict[str, float]:
@@ -117,19 +105,19 @@ def parts(n: int, rounds: int) -> dict[str, float]:
     gam = np.zeros(m)
     return {
         "k, cut rows": f"{k}, {rows.size}",
-        "right-hand side (the integration's)": least_us(lambda: module.scene_rhs(0.0, y, P, D, out), calls, rounds),
-        "right-hand side with the outputs": least_us(lambda: module.scene_rhs(0.0, y, P, D, full), calls, rounds),
-        "tree recursion with D's columns": least_us(motion, calls, rounds),
-        "constraint rows, all kernels, m x n Psi_q zeroed": least_us(constraints, calls, rounds),
-        "D^T M D and D^T (Q - M xi)": least_us(lambda: planar_equations(P[1], Dm, xi, P[0], joints), calls, rounds),
-        "cut solve: Schur complement on the tree's factorization": least_us(
+        "right-hand side (the integration's)": per_call(lambda: module.scene_rhs(0.0, y, P, D, out), calls, rounds),
+        "right-hand side with the outputs": per_call(lambda: module.scene_rhs(0.0, y, P, D, full), calls, rounds),
+        "tree recursion with D's columns": per_call(motion, calls, rounds),
+        "constraint rows, all kernels, m x n Psi_q zeroed": per_call(constraints, calls, rounds),
+        "D^T M D and D^T (Q - M xi)": per_call(lambda: planar_equations(P[1], Dm, xi, P[0], joints), calls, rounds),
+        "cut solve: Schur complement on the tree's factorization": per_call(
             lambda: cut_accelerations(
                 matrix.copy(), rhs, Dm, xi, jac, psi, psit, gam, qd, rows, tree.cut_bodies, 5.0, 5.0, mu, joints, 3
             ),
             calls,
             rounds,
         ),  # fmt: skip
-        "cut solve: dense augmented LU (1f2d7c9)": least_us(
+        "cut solve: dense augmented LU (1f2d7c9)": per_call(
             lambda: dense(matrix.copy(), rhs, Dm, xi, jac, psi, psit, gam, qd, rows, 5.0, 5.0, mu), calls, rounds
         ),
     }

@@ -53,8 +53,9 @@ def _random_tree(dimension: int, n: int, seed: int) -> dict:
                       "bodies": bodies, "joints": joints, "spring_dampers": [spring]}}  # fmt: skip
 
 
-def _both_sides(model: dict):
-    """(numpy equations of motion, compiled scene_rhs with its data, the joint state at the start)."""
+def compiled_sides(model: dict):
+    """(numpy equations of motion, its formulation, the compiled plan, the compiled scene_rhs with its P and D, the
+    joint state at the start) of a model in joint coordinates (also ``test_compiled_cut``)."""
     from solutions.compiled import describe, load, parameters, plan
 
     system, q0, qd0 = build_system(load_model(model))
@@ -63,10 +64,16 @@ def _both_sides(model: dict):
     equations = EquationsOfMotion(made, forces, False)
     job = plan(describe(system, made.masses, forces), "joint-coordinates", made)
     assert job.scene.unsupported is None
-    assert job.scene.cut_rows.size == 0  # an open tree: the articulated-body algorithm runs
     module, _, _ = load(job)
     P, D = parameters(job.scene, *job.numbers), job.scene.data()
-    return equations, made, (module.scene_rhs, P, D), equations.initial_state(q0, qd0, 0.0)
+    return equations, made, job, (module.scene_rhs, P, D), equations.initial_state(q0, qd0, 0.0)
+
+
+def _both_sides(model: dict):
+    """(numpy equations of motion, compiled scene_rhs with its data, the joint state at the start) of an open tree."""
+    equations, made, job, compiled, y0 = compiled_sides(model)
+    assert job.scene.cut_rows.size == 0  # an open tree: the articulated-body algorithm runs
+    return equations, made, compiled, y0
 
 
 def _random_state(made, y0: np.ndarray, rng) -> np.ndarray:

@@ -17,16 +17,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from solutions.assembly import build_system
-from solutions.dynamics import EquationsOfMotion, mass_matrix
-from solutions.formulations import make_formulation
-from solutions.generalized_forces import build_forces
-from solutions.io import load_model
-
 pytest.importorskip("numba")
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from mechanisms import parallelogram_chain  # noqa: E402
+from test_compiled_articulated import compiled_sides  # noqa: E402
 from test_compiled_formulations import _spatial_loop  # noqa: E402
 
 
@@ -54,20 +49,10 @@ def _held_chain(n: int) -> dict:
 
 def _both_sides(model):
     """(numpy equations of motion, the compiled scene_rhs with its P and D, the cut rows, the start's joint state)."""
-    from solutions.compiled import describe, load, parameters, plan
-
-    system, q0, qd0 = build_system(load_model(model))
-    forces = build_forces(system.model)
-    made = make_formulation("joint-coordinates", system, mass_matrix(system.model), forces)
-    equations = EquationsOfMotion(made, forces, False)
-    job = plan(describe(system, made.masses, forces), "joint-coordinates", made)
-    assert job.scene.unsupported is None
-    module, _, _ = load(job)
-    P, D = parameters(job.scene, *job.numbers), job.scene.data()
+    equations, _, job, (rhs, P, D), y0 = compiled_sides(model)
     dims = P[8].copy()  # the energy states as ``equations`` has them, no drivers' power (``dispatch.start_rates``)
     dims[2], dims[5] = equations.extra, 0
-    P = (*P[:8], dims)
-    return equations, (module.scene_rhs, P, D), job.scene.cut_rows.size, equations.initial_state(q0, qd0, 0.0)
+    return equations, (rhs, (*P[:8], dims), D), job.scene.cut_rows.size, y0
 
 
 @pytest.mark.parametrize(
