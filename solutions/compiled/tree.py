@@ -217,7 +217,7 @@ def _body(tree: TreeScene) -> list[str]:
         "    full = out.size > y.size  # the outputs asked for too (loops.outputs): q, q', q'', lambda after y'",
         "    ncut = dims[6]  # cut rows (P[8][7 : 7 + ncut]); the rows' owners after them",
         "    columns = ncut > 0  # D itself: for the cut rows only (an open tree's outputs: the body accelerations)",
-        "    whole = full or (ncut > 0 and dims[5] != 0)  # lambda of every row: Psi_q and D whole, zeros and all",
+        "    whole = full or (ncut > 0 and dims[5] != 0)  # lambda of every row: D whole, Psi_q at every row's blocks",
         *_arrays(spatial),
         "    Q[:] = Q0",
         "    power[:] = 0.0",
