@@ -187,7 +187,8 @@ def _multipliers(scene: Scene) -> list[str]:
     solve = [
         "for a in range(ncut):  # the cut rows' lambda: mu of the augmented system; the tree's from what is left",
         "    lam[dims[7 + a]] = mu[a]",
-        "    residual -= mu[a] * jac[dims[7 + a]]",
+        "cut_row_forces(jac, mu, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], "
+        f"{7 if scene.dimension == 3 else 3}, residual)",
         "# the tree's rows body by body from the leaves, O(N)",
         f"tree_multipliers(jac, residual, dims[7 + ncut :], {7 if scene.dimension == 3 else 3}, joints, lam)",
     ]
@@ -216,7 +217,7 @@ def _body(tree: TreeScene) -> list[str]:
         "    full = out.size > y.size  # the outputs asked for too (loops.outputs): q, q', q'', lambda after y'",
         "    ncut = dims[6]  # cut rows (P[8][7 : 7 + ncut]); the rows' owners after them",
         "    columns = ncut > 0  # D itself: for the cut rows only (an open tree's outputs: the body accelerations)",
-        "    whole = full or (ncut > 0 and dims[5] != 0)  # lambda of every row: Psi_q and D whole, zeros and all",
+        "    whole = full or (ncut > 0 and dims[5] != 0)  # lambda of every row: D whole, Psi_q at every row's blocks",
         *_arrays(spatial),
         "    Q[:] = Q0",
         "    power[:] = 0.0",
@@ -236,11 +237,13 @@ def _body(tree: TreeScene) -> list[str]:
     lines += [
         "    if full or ncut > 0:  # the constraint rows: lambda of every row, or the cut rows",
         "        psi, psit, gam = np.zeros(m), np.zeros(m), np.zeros(m)",
-        "        if whole:",
+        "        if out.size == y.size + 3 * n + 3 * m + m * n:  # Psi_q whole, zeros and all (loops.output_history)",
         "            jac = np.zeros((m, n))",
-        "        else:  # the cut solve reads only the cut rows at their two bodies: those blocks zeroed alone",
+        "        else:  # the solves read only the rows' blocks at their bodies: those zeroed alone",
         "            jac = np.empty((m, n))",
         f"            zero_cut_blocks(jac, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], {width})",
+        "            if whole:  # lambda of every row: the tree rows at their body and its parent (tree_multipliers)",
+        f"                zero_tree_blocks(jac, dims[7 + ncut : 7 + ncut + m], joints, {width})",
         *constraint_calls(scene, "        "),
         "        if out.size == y.size + 3 * n + 3 * m + m * n:  # Psi, Psi_t, Psi_q too (loops.output_history)",
         "            o = y.size + 3 * n + m",
@@ -282,7 +285,7 @@ def generate(tree: TreeScene) -> str:
     kernels = sorted({*forces, *constraints})
     dimension = "spatial" if spatial else "planar"
     tree_imports = {f"{dimension}_motion", f"{dimension}_equations", f"{dimension}_articulated", "cut_accelerations"}
-    tree_imports |= {"tree_multipliers", "zero_cut_blocks"}
+    tree_imports |= {"tree_multipliers", "zero_cut_blocks", "zero_tree_blocks", "cut_row_forces"}
     spatial_kernels = {"spatial_coordinate_accelerations", "spatial_joint_matrix", "spatial_body_accelerations"}
     tree_imports |= spatial_kernels | {"spatial_mass_residual"} if spatial else {"planar_body_accelerations"}
     lines = [

@@ -504,28 +504,92 @@ def tree_multipliers(jac, residual, owners, width, ints, lam):
     most = 0
     for b in range(nb):
         most = max(most, start[b + 1] - start[b])
-    work = np.empty(most * most + most)  # A A^T and A r of a body
+    work = np.empty(most * most + most)  # A A^T and A r of a body, then its lambda in place of A r
     for e in range(ints.shape[0] - 1, -1, -1):
         P, C = ints[e, 1], ints[e, 2]
         first, count = start[C], start[C + 1] - start[C]
         G = work[: count * count].reshape((count, count))  # A A^T and A r, A = the body's own rows on its columns
-        b = work[count * count : count * count + count]
+        x = work[count * count : count * count + count]
         for a in range(count):  # by loops: at most 7 x 7, where a BLAS call costs more than the products
             row = mine[first + a]
-            b[a] = 0.0
+            x[a] = 0.0
             for c in range(width * C, width * (C + 1)):
-                b[a] += jac[row, c] * r[c]
+                x[a] += jac[row, c] * r[c]
             for other in range(count):
                 G[a, other] = 0.0
                 for c in range(width * C, width * (C + 1)):
                     G[a, other] += jac[row, c] * jac[mine[first + other], c]
-        x = lu_solve(G, b)
+        _small_solve(G, x)
         for a in range(count):
             row = mine[first + a]
             lam[row] = x[a]
             if P >= 0:  # what the body's rows exert on its parent
                 for c in range(width * P, width * (P + 1)):
                     r[c] -= x[a] * jac[row, c]
+
+
+@jit
+def _small_solve(K, x):
+    """x <- K^-1 x in place, K (at most 7 x 7) overwritten: ``kernels.lu_solve``'s elimination with partial pivoting,
+    operation for operation (the same numbers), without its copy of b: ``tree_multipliers`` solves one such system
+    per body at every output time. A zero pivot (K singular) gives NaN, as there."""
+    n = x.size
+    for c in range(n):
+        pivot = c
+        biggest = abs(K[c, c])
+        for r in range(c + 1, n):
+            if abs(K[r, c]) > biggest:
+                biggest, pivot = abs(K[r, c]), r
+        if pivot != c:
+            for k in range(n):
+                K[c, k], K[pivot, k] = K[pivot, k], K[c, k]
+            x[c], x[pivot] = x[pivot], x[c]
+        if K[c, c] == 0.0:  # every remaining entry of the column is zero: K is singular
+            x[:] = np.nan
+            return
+        inverse = 1.0 / K[c, c]
+        for r in range(c + 1, n):
+            factor = K[r, c] * inverse
+            if factor != 0.0:
+                K[r, c] = factor
+                for k in range(c + 1, n):
+                    K[r, k] -= factor * K[c, k]
+                x[r] -= factor * x[c]
+    for r in range(n - 1, -1, -1):
+        s = x[r]
+        for k in range(r + 1, n):
+            s -= K[r, k] * x[k]
+        x[r] = s / K[r, r]
+
+
+@jit
+def zero_tree_blocks(jac, owners, ints, width):
+    """Zeros in the entries of Psi_q that ``tree_multipliers`` reads: each tree row (``owners``: its body, -1 a cut
+    row) at the coordinates of its body and of that body's parent (-1 ground), where the constraint kernels add their
+    terms. With ``zero_cut_blocks`` all that lambda of every row needs, where zeroing the whole m x n Psi_q at every
+    output time of a loop chain of 64 bodies wrote 1.2 MB per evaluation."""
+    parent = np.full(jac.shape[1] // width, -1, dtype=np.int64)
+    for e in range(ints.shape[0]):
+        parent[ints[e, 2]] = ints[e, 1]
+    for row in range(jac.shape[0]):
+        b = owners[row]
+        if b >= 0:
+            jac[row, width * b : width * (b + 1)] = 0.0
+            if parent[b] >= 0:
+                jac[row, width * parent[b] : width * (parent[b] + 1)] = 0.0
+
+
+@jit
+def cut_row_forces(jac, mu, rows, bodies, width, residual):
+    """residual -= mu_a (Psi_q)_a over the cut rows a, each over the coordinates of its element's two bodies alone
+    (-1 ground): the rest of the row is zero (``zero_cut_blocks``), so the same numbers as the product over whole
+    rows, which read 2 n entries per cut row."""
+    for a in range(rows.size):
+        for side in range(2):
+            b = bodies[2 * a + side]
+            if b >= 0:
+                for c in range(width * b, width * (b + 1)):
+                    residual[c] -= mu[a] * jac[rows[a], c]
 
 
 @jit
@@ -853,5 +917,7 @@ __all__ = [
     "spatial_joint_matrix",
     "spatial_motion",
     "tree_multipliers",
+    "zero_tree_blocks",
+    "cut_row_forces",
     "zero_cut_blocks",
 ]
