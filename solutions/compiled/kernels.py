@@ -506,8 +506,8 @@ def _body_vector(q, qd, b, a, A, B, Bd, dot, quad):
 def spatial_spherical(q, qd, t, ints, floats, psi, jac, gam):
     """spherical (eq. 9.12): -d_ij = 0, Psi_qi = [I, B(p_i, s_i')], Psi_qj = [-I, -B(p_j, s_j')],
     gamma = B(p_j', s_j') p_j' - B(p_i', s_i') p_i'. ints (i, j, row), floats (s_i', s_j')."""
-    Ai, Aj, doti, dotj, qi, qj = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    Bi, Bj, Bdi, Bdj = np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4))
+    Ai, Aj, doti, dotj, qi, qj = np.empty((6, 3))  # two allocations, not ten: each costs more than an element
+    Bi, Bj, Bdi, Bdj = np.empty((4, 3, 4))
     for e in range(ints.shape[0]):
         i, j, row = ints[e, 0], ints[e, 1], ints[e, 2]
         _body_vector(q, qd, i, floats[e, 0:3], Ai, Bi, Bdi, doti, qi)
@@ -531,8 +531,8 @@ def spatial_dot1(q, qd, t, ints, floats, psi, jac, gam):
     """dot-1 (eq. 9.10): a_i^T a_j = 0, Psi_qi = [0, a_j^T B(p_i, a_i')], Psi_qj = [0, a_i^T B(p_j, a_j')],
     gamma = -a_j^T B(p_i', a_i') p_i' - a_i^T B(p_j', a_j') p_j' - 2 a_i'^T a_j'. ints (i, j, row),
     floats (a_i', a_j')."""
-    Ai, Aj, doti, dotj, qi, qj = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    Bi, Bj, Bdi, Bdj = np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4))
+    Ai, Aj, doti, dotj, qi, qj = np.empty((6, 3))  # two allocations, not ten: each costs more than an element
+    Bi, Bj, Bdi, Bdj = np.empty((4, 3, 4))
     for e in range(ints.shape[0]):
         i, j, row = ints[e, 0], ints[e, 1], ints[e, 2]
         _body_vector(q, qd, i, floats[e, 0:3], Ai, Bi, Bdi, doti, qi)
@@ -552,16 +552,8 @@ def spatial_dot2(q, qd, t, ints, floats, psi, jac, gam):
     """dot-2 (eq. 9.11): a_i^T d_ij = 0, Psi_qi = [-a_i^T, d^T B(p_i, a_i') - a_i^T B(p_i, s_i')],
     Psi_qj = [a_i^T, a_i^T B(p_j, s_j')], gamma = -d^T B(p_i', a_i') p_i' - 2 a_i'^T d' - a_i^T (d'')_v.
     ints (i, j, row), floats (a_i', s_i', s_j')."""
-    Ai, doti, quadi = np.empty(3), np.empty(3), np.empty(3)
-    Si, sdoti, squadi, Sj, sdotj, squadj = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    Bi, Bdi, BSi, BdSi, BSj, BdSj = (
-        np.empty((3, 4)),
-        np.empty((3, 4)),
-        np.empty((3, 4)),
-        np.empty((3, 4)),
-        np.empty((3, 4)),
-        np.empty((3, 4)),
-    )
+    Ai, doti, quadi, Si, sdoti, squadi, Sj, sdotj, squadj = np.empty((9, 3))  # two allocations, not fifteen
+    Bi, Bdi, BSi, BdSi, BSj, BdSj = np.empty((6, 3, 4))
     for e in range(ints.shape[0]):
         i, j, row = ints[e, 0], ints[e, 1], ints[e, 2]
         _body_vector(q, qd, i, floats[e, 0:3], Ai, Bi, Bdi, doti, quadi)
@@ -624,10 +616,8 @@ def spatial_rotation(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
     gamma = -f_j^T [B(p_i', n') p_i' - 2 theta' B(p_i, c') p_i' - theta'' c - theta'^2 n] - 2 n_t'^T f_j'
     - n^T B(p_j', f_j') p_j', n_t' = B(p_i, n') p_i' - theta' c. ints (i, j, row, function),
     floats (f_i', g_i', f_j', theta0)."""
-    nb, cb, N, C, Fj = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    ndot, cdot, fjdot, nq, cq, fjq = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    Bn, Bc, Bf = np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4))
-    Bdn, Bdc, Bdf = np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4))
+    nb, cb, N, C, Fj, ndot, cdot, fjdot, nq, cq, fjq = np.empty((11, 3))  # two allocations, not seventeen
+    Bn, Bc, Bf, Bdn, Bdc, Bdf = np.empty((6, 3, 4))
     for e in range(ints.shape[0]):
         i, j, row, f = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3]
         fl = floats[e]
@@ -660,8 +650,8 @@ def spatial_distance(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
     """Distance drivers (eq. 9.13): (d^T d - L(t)^2) / 2 = 0, Psi_qi = [-d^T, -d^T B(p_i, s_i')],
     Psi_qj = [d^T, d^T B(p_j, s_j')], Psi_t = -L L', gamma = -d'^T d' - d^T (d'')_v + L'^2 + L L''.
     ints (i, j, row, function L), floats (s_i', s_j')."""
-    Si, Sj, doti, dotj, qi, qj = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    Bi, Bj, Bdi, Bdj = np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4))
+    Si, Sj, doti, dotj, qi, qj = np.empty((6, 3))  # two allocations, not ten
+    Bi, Bj, Bdi, Bdj = np.empty((4, 3, 4))
     for e in range(ints.shape[0]):
         i, j, row, f = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3]
         _body_vector(q, qd, i, floats[e, 0:3], Si, Bi, Bdi, doti, qi)
@@ -733,8 +723,8 @@ def spatial_mass(q, qd, masses, inertias, weights, M, Q):
     """M(q) = diag(m I, 4 L^T J' L + 4 w p p^T) per body (eq. 10.4, regularized as ``dynamic_mass_matrix``) and
     Q += Q_v = 8 L(p')^T J' L(p') p (eq. 10.5). Every product is written out (3 x 4 at most): numba's ``@`` and
     ``np.outer`` are BLAS calls and allocations, each dearer than the arithmetic of these small matrices."""
-    L, Ld, JL = np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4))
-    v, u = np.empty(3), np.empty(3)
+    L, Ld, JL = np.empty((3, 3, 4))
+    v, u = np.empty((2, 3))
     for b in range(masses.size):
         o = 7 * b
         p = q[o + 3 : o + 7]
@@ -815,9 +805,9 @@ def _omega(q, qd, b):
 def spatial_tsda(q, qd, t, ints, floats, fk, fp, Q, power):
     """Spring-damper-actuators (eq. 10.12): f = k (l - l0) + c l' + f_a(t) along u = d / l, f u at P_i and
     -f u at P_j. ints (i, j, actuator), floats (s_i', s_j', k, c, l0)."""
-    Si, Sj, doti, dotj, qi, qj = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    Bi, Bj, Bdi, Bdj = np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4))
-    d, d_dot, u = np.empty(3), np.empty(3), np.empty(3)
+    Si, Sj, doti, dotj, qi, qj = np.empty((6, 3))  # two allocations, not ten
+    Bi, Bj, Bdi, Bdj = np.empty((4, 3, 4))
+    d, d_dot, u = np.empty((3, 3))
     for e in range(ints.shape[0]):
         i, j, f = ints[e, 0], ints[e, 1], ints[e, 2]
         _body_vector(q, qd, i, floats[e, 0:3], Si, Bi, Bdi, doti, qi)
@@ -843,7 +833,7 @@ def spatial_rsda(q, qd, t, ints, floats, fk, fp, Q, power):
     """Rotational spring-damper-actuators about h_i (eq. 10.13): theta = atan2(g_i^T f_j, f_i^T f_j) taken in
     (theta0 - pi, theta0 + pi], theta' = h_i^T (omega_j - omega_i), torque f h_i on i and -f h_i on j.
     ints (i, j, actuator), floats (f_i', g_i', h_i', f_j', k, c, theta0)."""
-    fi, gi, hi, fj = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    fi, gi, hi, fj = np.empty((4, 3))
     for e in range(ints.shape[0]):
         i, j, f = ints[e, 0], ints[e, 1], ints[e, 2]
         pi0, pi1, pi2, pi3 = _pq(q, i)
