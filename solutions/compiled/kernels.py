@@ -506,8 +506,8 @@ def _body_vector(q, qd, b, a, A, B, Bd, dot, quad):
 def spatial_spherical(q, qd, t, ints, floats, psi, jac, gam):
     """spherical (eq. 9.12): -d_ij = 0, Psi_qi = [I, B(p_i, s_i')], Psi_qj = [-I, -B(p_j, s_j')],
     gamma = B(p_j', s_j') p_j' - B(p_i', s_i') p_i'. ints (i, j, row), floats (s_i', s_j')."""
-    Ai, Aj, doti, dotj, qi, qj = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    Bi, Bj, Bdi, Bdj = np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4))
+    Ai, Aj, doti, dotj, qi, qj = np.empty((6, 3))  # two allocations, not ten: each costs more than an element
+    Bi, Bj, Bdi, Bdj = np.empty((4, 3, 4))
     for e in range(ints.shape[0]):
         i, j, row = ints[e, 0], ints[e, 1], ints[e, 2]
         _body_vector(q, qd, i, floats[e, 0:3], Ai, Bi, Bdi, doti, qi)
@@ -531,8 +531,8 @@ def spatial_dot1(q, qd, t, ints, floats, psi, jac, gam):
     """dot-1 (eq. 9.10): a_i^T a_j = 0, Psi_qi = [0, a_j^T B(p_i, a_i')], Psi_qj = [0, a_i^T B(p_j, a_j')],
     gamma = -a_j^T B(p_i', a_i') p_i' - a_i^T B(p_j', a_j') p_j' - 2 a_i'^T a_j'. ints (i, j, row),
     floats (a_i', a_j')."""
-    Ai, Aj, doti, dotj, qi, qj = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    Bi, Bj, Bdi, Bdj = np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4))
+    Ai, Aj, doti, dotj, qi, qj = np.empty((6, 3))  # two allocations, not ten: each costs more than an element
+    Bi, Bj, Bdi, Bdj = np.empty((4, 3, 4))
     for e in range(ints.shape[0]):
         i, j, row = ints[e, 0], ints[e, 1], ints[e, 2]
         _body_vector(q, qd, i, floats[e, 0:3], Ai, Bi, Bdi, doti, qi)
@@ -552,16 +552,8 @@ def spatial_dot2(q, qd, t, ints, floats, psi, jac, gam):
     """dot-2 (eq. 9.11): a_i^T d_ij = 0, Psi_qi = [-a_i^T, d^T B(p_i, a_i') - a_i^T B(p_i, s_i')],
     Psi_qj = [a_i^T, a_i^T B(p_j, s_j')], gamma = -d^T B(p_i', a_i') p_i' - 2 a_i'^T d' - a_i^T (d'')_v.
     ints (i, j, row), floats (a_i', s_i', s_j')."""
-    Ai, doti, quadi = np.empty(3), np.empty(3), np.empty(3)
-    Si, sdoti, squadi, Sj, sdotj, squadj = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    Bi, Bdi, BSi, BdSi, BSj, BdSj = (
-        np.empty((3, 4)),
-        np.empty((3, 4)),
-        np.empty((3, 4)),
-        np.empty((3, 4)),
-        np.empty((3, 4)),
-        np.empty((3, 4)),
-    )
+    Ai, doti, quadi, Si, sdoti, squadi, Sj, sdotj, squadj = np.empty((9, 3))  # two allocations, not fifteen
+    Bi, Bdi, BSi, BdSi, BSj, BdSj = np.empty((6, 3, 4))
     for e in range(ints.shape[0]):
         i, j, row = ints[e, 0], ints[e, 1], ints[e, 2]
         _body_vector(q, qd, i, floats[e, 0:3], Ai, Bi, Bdi, doti, quadi)
@@ -624,10 +616,8 @@ def spatial_rotation(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
     gamma = -f_j^T [B(p_i', n') p_i' - 2 theta' B(p_i, c') p_i' - theta'' c - theta'^2 n] - 2 n_t'^T f_j'
     - n^T B(p_j', f_j') p_j', n_t' = B(p_i, n') p_i' - theta' c. ints (i, j, row, function),
     floats (f_i', g_i', f_j', theta0)."""
-    nb, cb, N, C, Fj = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    ndot, cdot, fjdot, nq, cq, fjq = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    Bn, Bc, Bf = np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4))
-    Bdn, Bdc, Bdf = np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4))
+    nb, cb, N, C, Fj, ndot, cdot, fjdot, nq, cq, fjq = np.empty((11, 3))  # two allocations, not seventeen
+    Bn, Bc, Bf, Bdn, Bdc, Bdf = np.empty((6, 3, 4))
     for e in range(ints.shape[0]):
         i, j, row, f = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3]
         fl = floats[e]
@@ -660,8 +650,8 @@ def spatial_distance(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
     """Distance drivers (eq. 9.13): (d^T d - L(t)^2) / 2 = 0, Psi_qi = [-d^T, -d^T B(p_i, s_i')],
     Psi_qj = [d^T, d^T B(p_j, s_j')], Psi_t = -L L', gamma = -d'^T d' - d^T (d'')_v + L'^2 + L L''.
     ints (i, j, row, function L), floats (s_i', s_j')."""
-    Si, Sj, doti, dotj, qi, qj = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    Bi, Bj, Bdi, Bdj = np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4))
+    Si, Sj, doti, dotj, qi, qj = np.empty((6, 3))  # two allocations, not ten
+    Bi, Bj, Bdi, Bdj = np.empty((4, 3, 4))
     for e in range(ints.shape[0]):
         i, j, row, f = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3]
         _body_vector(q, qd, i, floats[e, 0:3], Si, Bi, Bdi, doti, qi)
@@ -715,54 +705,70 @@ def _l_matrix(e0, e1, e2, e3, out):
 
 
 @jit
-def _g_matrix(e0, e1, e2, e3, out):
-    """G(p) (eq. 8.14) into out."""
-    _fill(g_entries_jit(e0, e1, e2, e3), out)
+def _l_times(L, x, out):
+    """out = L x (3 x 4 by 4): the body-frame angular velocity omega' = 2 L(p) p' (eq. 8.17), by loops."""
+    for r in range(3):
+        out[r] = L[r, 0] * x[0] + L[r, 1] * x[1] + L[r, 2] * x[2] + L[r, 3] * x[3]
+
+
+@jit
+def _inertia_times(J, x, out):
+    """out = J' x (3 x 3 by 3), by loops."""
+    for r in range(3):
+        out[r] = J[r, 0] * x[0] + J[r, 1] * x[1] + J[r, 2] * x[2]
 
 
 @jit
 def spatial_mass(q, qd, masses, inertias, weights, M, Q):
     """M(q) = diag(m I, 4 L^T J' L + 4 w p p^T) per body (eq. 10.4, regularized as ``dynamic_mass_matrix``) and
-    Q += Q_v = 8 L(p')^T J' L(p') p (eq. 10.5)."""
-    L, Ld = np.empty((3, 4)), np.empty((3, 4))
+    Q += Q_v = 8 L(p')^T J' L(p') p (eq. 10.5). Every product is written out (3 x 4 at most): numba's ``@`` and
+    ``np.outer`` are BLAS calls and allocations, each dearer than the arithmetic of these small matrices."""
+    L, Ld, JL = np.empty((3, 3, 4))
+    v, u = np.empty((2, 3))
     for b in range(masses.size):
         o = 7 * b
-        e0, e1, e2, e3 = q[o + 3], q[o + 4], q[o + 5], q[o + 6]
-        _l_matrix(e0, e1, e2, e3, L)
+        p = q[o + 3 : o + 7]
+        _l_matrix(p[0], p[1], p[2], p[3], L)
         _l_matrix(qd[o + 3], qd[o + 4], qd[o + 5], qd[o + 6], Ld)
-        J = inertias[b]
+        J, w = inertias[b], 4.0 * weights[b]
         for k in range(3):
             M[o + k, o + k] = masses[b]
-        JL = J @ L
-        Mp = 4.0 * (L.T @ JL)
-        p = np.array([e0, e1, e2, e3])
-        Mp += 4.0 * weights[b] * np.outer(p, p)
-        M[o + 3 : o + 7, o + 3 : o + 7] = Mp
-        Q[o + 3 : o + 7] += 8.0 * (Ld.T @ (J @ (Ld @ p)))
+        for r in range(3):  # J' L
+            for c in range(4):
+                JL[r, c] = J[r, 0] * L[0, c] + J[r, 1] * L[1, c] + J[r, 2] * L[2, c]
+        for r in range(4):  # M_pp = 4 L^T (J' L) + 4 w p p^T
+            for c in range(4):
+                LtJL = L[0, r] * JL[0, c] + L[1, r] * JL[1, c] + L[2, r] * JL[2, c]
+                M[o + 3 + r, o + 3 + c] = 4.0 * LtJL + w * p[r] * p[c]
+        _l_times(Ld, p, v)  # L(p') p
+        _inertia_times(J, v, u)
+        for r in range(4):  # Q_v = 8 L(p')^T J' L(p') p
+            Q[o + 3 + r] += 8.0 * (Ld[0, r] * u[0] + Ld[1, r] * u[1] + Ld[2, r] * u[2])
+
+
+@jit
+def _add_l_transpose(e0, e1, e2, e3, x0, x1, x2, Q, o):
+    """Q[o : o + 4] += 2 L(p)^T x (the Euler-parameter force of a body-frame torque x, eq. 10.10)."""
+    Lm = l_entries_jit(e0, e1, e2, e3)
+    for c in range(4):
+        Q[o + c] += 2.0 * (Lm[c] * x0 + Lm[4 + c] * x1 + Lm[8 + c] * x2)
 
 
 @jit
 def _spatial_point_force(q, b, s, fx, fy, fz, Q):
-    """Q_b += [F ; 2 L^T s'~ A^T F] (eq. 10.10)."""
+    """Q_b += [F ; 2 L^T s'~ A^T F] (eq. 10.10): F' = A^T F, and the body-frame moment s' x F'."""
     if b < 0:
         return
     o = 7 * b
     e0, e1, e2, e3 = q[o + 3], q[o + 4], q[o + 5], q[o + 6]
-    A = np.empty((3, 3))
-    col = np.zeros(3)
-    for c in range(3):
-        col[:] = 0.0
-        col[c] = 1.0
-        rotate(e0, e1, e2, e3, col, A[:, c])
-    F = np.array([fx, fy, fz])
-    Fb = A.T @ F
-    moment = np.array([s[1] * Fb[2] - s[2] * Fb[1], s[2] * Fb[0] - s[0] * Fb[2], s[0] * Fb[1] - s[1] * Fb[0]])
-    L = np.empty((3, 4))
-    _l_matrix(e0, e1, e2, e3, L)
+    R = rotation_entries_jit(e0, e1, e2, e3)
+    f0 = R[0] * fx + R[3] * fy + R[6] * fz  # F' = A^T F
+    f1 = R[1] * fx + R[4] * fy + R[7] * fz
+    f2 = R[2] * fx + R[5] * fy + R[8] * fz
     Q[o] += fx
     Q[o + 1] += fy
     Q[o + 2] += fz
-    Q[o + 3 : o + 7] += 2.0 * (L.T @ moment)
+    _add_l_transpose(e0, e1, e2, e3, s[1] * f2 - s[2] * f1, s[2] * f0 - s[0] * f2, s[0] * f1 - s[1] * f0, Q, o + 3)
 
 
 @jit
@@ -771,44 +777,48 @@ def _spatial_torque(q, b, nx, ny, nz, body_frame, Q):
     if b < 0:
         return
     o = 7 * b
-    G = np.empty((3, 4))
+    e0, e1, e2, e3 = q[o + 3], q[o + 4], q[o + 5], q[o + 6]
     if body_frame:
-        _l_matrix(q[o + 3], q[o + 4], q[o + 5], q[o + 6], G)
-    else:
-        _g_matrix(q[o + 3], q[o + 4], q[o + 5], q[o + 6], G)
-    n = np.array([nx, ny, nz])
-    Q[o + 3 : o + 7] += 2.0 * (G.T @ n)
+        _add_l_transpose(e0, e1, e2, e3, nx, ny, nz, Q, o + 3)
+        return
+    G = g_entries_jit(e0, e1, e2, e3)
+    for c in range(4):
+        Q[o + 3 + c] += 2.0 * (G[c] * nx + G[4 + c] * ny + G[8 + c] * nz)
 
 
 @jit
 def _omega(q, qd, b):
-    """omega = 2 G(p) p' (global)."""
+    """omega = 2 G(p) p' (global, eq. 8.17), as three numbers (zero for ground)."""
     if b < 0:
-        return np.zeros(3)
-    G = np.empty((3, 4))
+        return 0.0, 0.0, 0.0
     o = 7 * b
-    _g_matrix(q[o + 3], q[o + 4], q[o + 5], q[o + 6], G)
-    return 2.0 * (G @ qd[o + 3 : o + 7])
+    G = g_entries_jit(q[o + 3], q[o + 4], q[o + 5], q[o + 6])
+    d0, d1, d2, d3 = qd[o + 3], qd[o + 4], qd[o + 5], qd[o + 6]
+    return (
+        2.0 * (G[0] * d0 + G[1] * d1 + G[2] * d2 + G[3] * d3),
+        2.0 * (G[4] * d0 + G[5] * d1 + G[6] * d2 + G[7] * d3),
+        2.0 * (G[8] * d0 + G[9] * d1 + G[10] * d2 + G[11] * d3),
+    )
 
 
 @jit
 def spatial_tsda(q, qd, t, ints, floats, fk, fp, Q, power):
     """Spring-damper-actuators (eq. 10.12): f = k (l - l0) + c l' + f_a(t) along u = d / l, f u at P_i and
     -f u at P_j. ints (i, j, actuator), floats (s_i', s_j', k, c, l0)."""
-    Si, Sj, doti, dotj, qi, qj = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    Bi, Bj, Bdi, Bdj = np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4)), np.empty((3, 4))
+    Si, Sj, doti, dotj, qi, qj = np.empty((6, 3))  # two allocations, not ten
+    Bi, Bj, Bdi, Bdj = np.empty((4, 3, 4))
+    d, d_dot, u = np.empty((3, 3))
     for e in range(ints.shape[0]):
         i, j, f = ints[e, 0], ints[e, 1], ints[e, 2]
         _body_vector(q, qd, i, floats[e, 0:3], Si, Bi, Bdi, doti, qi)
         _body_vector(q, qd, j, floats[e, 3:6], Sj, Bj, Bdj, dotj, qj)
         ri, rj, vi, vj = _r(q, i), _r(q, j), _r(qd, i), _r(qd, j)
-        d = np.empty(3)
-        d_dot = np.empty(3)
-        for k in range(3):
+        for k in range(3):  # d_ij and its rate, in the buffers of the TSDA's vectors
             d[k] = rj[k] + Sj[k] - ri[k] - Si[k]
             d_dot[k] = vj[k] + dotj[k] - vi[k] - doti[k]
         length = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
-        u = d / length
+        for k in range(3):
+            u[k] = d[k] / length
         velocity = u[0] * d_dot[0] + u[1] * d_dot[1] + u[2] * d_dot[2]
         actuator = function(fk, fp, f, t, 0)
         tension = floats[e, 6] * (length - floats[e, 8]) + floats[e, 7] * velocity + actuator
@@ -823,7 +833,7 @@ def spatial_rsda(q, qd, t, ints, floats, fk, fp, Q, power):
     """Rotational spring-damper-actuators about h_i (eq. 10.13): theta = atan2(g_i^T f_j, f_i^T f_j) taken in
     (theta0 - pi, theta0 + pi], theta' = h_i^T (omega_j - omega_i), torque f h_i on i and -f h_i on j.
     ints (i, j, actuator), floats (f_i', g_i', h_i', f_j', k, c, theta0)."""
-    fi, gi, hi, fj = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    fi, gi, hi, fj = np.empty((4, 3))
     for e in range(ints.shape[0]):
         i, j, f = ints[e, 0], ints[e, 1], ints[e, 2]
         pi0, pi1, pi2, pi3 = _pq(q, i)
@@ -836,8 +846,9 @@ def spatial_rsda(q, qd, t, ints, floats, fk, fp, Q, power):
         theta = math.atan2(gi[0] * fj[0] + gi[1] * fj[1] + gi[2] * fj[2], fi[0] * fj[0] + fi[1] * fj[1] + fi[2] * fj[2])
         x = theta - theta0
         angle = theta0 + (x - 2.0 * math.pi * np.round(x / (2.0 * math.pi)))  # math.remainder
-        w = _omega(q, qd, j) - _omega(q, qd, i)
-        velocity = hi[0] * w[0] + hi[1] * w[1] + hi[2] * w[2]
+        wj0, wj1, wj2 = _omega(q, qd, j)
+        wi0, wi1, wi2 = _omega(q, qd, i)
+        velocity = hi[0] * (wj0 - wi0) + hi[1] * (wj1 - wi1) + hi[2] * (wj2 - wi2)
         actuator = function(fk, fp, f, t, 0)
         torque = k * (angle - theta0) + c * velocity + actuator
         _spatial_torque(q, i, torque * hi[0], torque * hi[1], torque * hi[2], False, Q)
