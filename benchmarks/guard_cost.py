@@ -16,8 +16,8 @@ holds ``_spectra``): the rows do not add up.
 
 ``--routes``: each route of ``dynamics.square_spectra`` on the first history of Psi_q a run's Guard judges (numpy's
 batched SVDs and QRs, the compiled one-pass ``singular.dense_spectra``, the compiled band ``singular.spectra`` at any
-width up to n, ``WIDEST_MID``), ms per history, thread CPU, the best of 3 rounds of 10 after one warm-up; "-" where
-the band is wider than n. How ``dynamics._compiled_spectra`` picks its route (issue 25, item 2).
+width up to n, not only ``WIDEST_MID``'s n / 2), ms per history, thread CPU, the best of 3 rounds of 10 after one
+warm-up; "-" where the band is wider than n. How ``dynamics._compiled_spectra`` picks its route (issue 25, item 2).
 
 Nothing is asserted (timing depends on the machine): prints a Markdown table.
 """

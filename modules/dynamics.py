@@ -1517,7 +1517,7 @@ ALIGNED = 0.9
 """|det(T_prev^T T)| above which two steps' null spaces are close enough for the sign test of ``Guard``."""
 BAND_SMALLEST = 64
 """Coordinates from which ``square_spectra`` takes the band of Psi_q when it is narrower than an eighth of them
-(``compiled.singular.WIDEST``); below, with more than DENSE_LARGEST rows, a band of any width up to the coordinates
+(``compiled.singular.WIDEST``); below, with more than DENSE_LARGEST rows, a band up to half of them wide
 (``compiled.singular.WIDEST_MID``: ``benchmarks/guard_cost.py --routes``)."""
 DENSE_LARGEST = 10
 """Rows (constraints) up to which a compiled run's ``square_spectra`` takes ``compiled.singular.dense_spectra`` for a
@@ -1601,10 +1601,10 @@ def _compiled_spectra(
 ):
     """The compiled engine's spectra of the scaled Psi_q: in one compiled pass over a small one (up to DENSE_LARGEST
     rows, ``compiled.singular.dense_spectra``), else from its band (``compiled.singular.spectra``): from
-    BAND_SMALLEST coordinates where the band is narrower than an eighth of them (``WIDEST``), below where it is
-    narrower than all of them (``WIDEST_MID``: a mid-size Psi_q, the loop chain's of 2-8 loops, costs a quarter to
-    two thirds of numpy's batched SVDs and QRs so). None where there is no compiled engine (a student package), where
-    Psi_q is square (no null space) or not such a band: numpy's dense SVDs and QRs then."""
+    BAND_SMALLEST coordinates where the band is at most an eighth of them wide (``WIDEST``), below where it is at most
+    half of them wide (``WIDEST_MID``: a mid-size Psi_q, the loop chain's of 2-8 loops, costs a quarter to two thirds
+    of numpy's batched SVDs and QRs so; a wider band costs more than they). None where there is no compiled engine
+    (a student package), where Psi_q is square (no null space) or not such a band: numpy's dense SVDs and QRs then."""
     try:
         from .compiled import singular
     except ImportError:  # a student package: dense

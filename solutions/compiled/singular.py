@@ -66,11 +66,12 @@ by address (``kinematic_loop.lapack``)."""
 
 WIDEST = 8
 """The band pays where its width kl + ku + 1 is at most an eighth of the coordinates (``spectra``: None otherwise)."""
-WIDEST_MID = 1
-"""``widest`` for a Psi_q of fewer than ``dynamics.BAND_SMALLEST`` coordinates: any band up to the full width n pays
-there, for the compiled pass has none of numpy's per-matrix overhead (101 Psi_q of the loop chain, band width 6-7,
-thread CPU against numpy's batched SVDs and QRs: 1.1 ms / 1.7 at 14 x 15, 2.0 / 4.4 at 26 x 27, 4.2 / 15.9 at
-50 x 51; the revolute-revolute skew link's 12 x 14 at the full width 14: 1.1 / 1.5; ``benchmarks/guard_cost.py
+WIDEST_MID = 2
+"""``widest`` for a Psi_q of fewer than ``dynamics.BAND_SMALLEST`` coordinates: there a band up to half the
+coordinates wide pays, for the compiled pass has none of numpy's per-matrix overhead (101 Psi_q, thread CPU, band /
+numpy's batched SVDs and QRs: the loop chain's, 6-7 wide, 1.2 / 1.7 ms at 14 x 15, 2.1 / 4.2 at 26 x 27, 4.1 / 14.1
+at 50 x 51; the carriage pendulum's 12 x 14, 5 wide, 0.67 / 1.30), where a wider one does not (random sparse Psi_q
+of bands 0.7-1.0 n wide: 4.3 / 3.5 at 20 x 24, 19 / 13 at 40 x 45, 48 / 25 at 55 x 60; ``benchmarks/guard_cost.py
 --routes``)."""
 
 _vector, _ivector, _matrix = types.float64[::1], types.int64[::1], types.float64[:, ::1]
@@ -102,7 +103,7 @@ def band_order(pattern: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def spectra(scaled: np.ndarray, first: np.ndarray | None, columns=None, norms=None, pattern=None, widest=WIDEST):
     """(sigma_m / sigma_1 (N,), null-space bases (N, n, d), signs of det [Psi_q; T^T] (N,)) of each scaled Psi_q
     (N, m, n) of full row rank, from the band (module docstring); None where the ordered Psi_q is not a band
-    at most n / ``widest`` wide (an eighth of n, ``WIDEST``; n itself at mid sizes, ``WIDEST_MID``). ``first``
+    at most n / ``widest`` wide (an eighth of n, ``WIDEST``; half of n at mid sizes, ``WIDEST_MID``). ``first``
     (n, d): a null-space basis at (or just before) the first time, which picks its independent coordinates (None:
     from the band, ``_first_basis``). NaN at a time where LAPACK failed.
     With ``columns`` (n,) and ``norms`` (N, m) (``row_norms``), ``scaled`` is Psi_q itself, scaled here entry by

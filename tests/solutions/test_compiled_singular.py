@@ -195,9 +195,9 @@ def test_row_norms_from_the_bodies_columns_are_numpys_with_the_pattern():
 @pytest.mark.parametrize("loops", [2, 5])
 def test_mid_size_psi_q_takes_the_band_with_numpys_ratio_basis_and_sign(loops, monkeypatch):
     """A Psi_q of more than dynamics.DENSE_LARGEST rows and fewer than BAND_SMALLEST coordinates (the loop chain of 2
-    and 5 loops: 14 x 15, 32 x 33) goes to the band (``singular.WIDEST_MID``) in a compiled run's square_spectra, and
-    gives numpy's SVD ratio, an orthonormal null-space basis and numpy's sign of det [Psi_q; T^T], near-singular
-    states (a hundredth of a degree off flat) among them."""
+    and 5 loops: 14 x 15, 32 x 33) goes to the band (up to half of n wide, ``singular.WIDEST_MID``) in a compiled
+    run's square_spectra, and gives numpy's SVD ratio, an orthonormal null-space basis and numpy's sign of
+    det [Psi_q; T^T], near-singular states (a hundredth of a degree off flat) among them."""
     taken, spectra = [], singular.spectra
     monkeypatch.setattr(singular, "spectra", lambda *args: taken.append(1) or spectra(*args))
     system = build_system(load_model(loop_chain(loops)))[0]
