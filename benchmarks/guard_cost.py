@@ -12,6 +12,12 @@ Milliseconds per call, thread CPU, the mean of ``--calls`` calls after one warm-
 holds ``_spectra``): the rows do not add up.
 
     .venv/bin/python benchmarks/guard_cost.py --sizes 16 64
+    .venv/bin/python benchmarks/guard_cost.py --routes --sizes 2 4 8 16
+
+``--routes``: each route of ``dynamics.square_spectra`` on the first history of Psi_q a run's Guard judges (numpy's
+batched SVDs and QRs, the compiled one-pass ``singular.dense_spectra``, the compiled band ``singular.spectra`` at any
+width up to n, not only ``WIDEST_MID``'s n / 2), ms per history, thread CPU, the best of 3 rounds of 10 after one
+warm-up; "-" where the band is wider than n. How ``dynamics._compiled_spectra`` picks its route (issue 25, item 2).
 
 Nothing is asserted (timing depends on the machine): prints a Markdown table.
 """
@@ -33,6 +39,7 @@ sys.path.insert(0, str(ROOT.parent))
 sys.path.insert(0, str(ROOT))
 
 import chains  # noqa: E402
+import numpy as np  # noqa: E402
 
 from solutions import dynamics  # noqa: E402
 from solutions.assembly import build_system  # noqa: E402
@@ -85,11 +92,70 @@ def measure(n_loops: int, calls: int) -> dict[str, float]:
     return {label: value / calls * 1e3 for label, value in seconds.items()}
 
 
+def _per_history(run, repeats: int = 10) -> float:
+    """Milliseconds of thread CPU per call of ``run``: the best of 3 rounds of ``repeats`` after one warm-up."""
+    run()
+    rounds = []
+    for _ in range(3):
+        start = time.thread_time()
+        for _ in range(repeats):
+            run()
+        rounds.append((time.thread_time() - start) / repeats * 1e3)
+    return min(rounds)
+
+
+def routes(n_loops: int) -> tuple[tuple[int, int], dict[str, float | None]]:
+    """((m, n), {route: ms per history}) of ``square_spectra``'s routes on the first history of Psi_q (101 output
+    times) that a compiled run's Guard judges on the chain of n_loops."""
+    system, q0, qd0 = build_system(load_model(chains.loop_chain(n_loops)))
+    histories, square_spectra = [], dynamics.square_spectra
+
+    def kept(jacobians, columns, norms, before, *args):
+        histories.append((jacobians.copy(), columns.copy(), norms.copy(), before))
+        return square_spectra(jacobians, columns, norms, before, *args)
+
+    dynamics.square_spectra = kept
+    try:
+        options = dict(formulation="joint-coordinates", integrator="DOP853", rtol=1e-6, atol=1e-8, engine="compiled")
+        dynamics.forward_dynamics(system, q0, qd0, 1.0, 100, divergence="skip", **options)
+    finally:
+        dynamics.square_spectra = square_spectra
+    jacobians, columns, norms, before = histories[0]
+
+    def numpy_route():
+        scaled = dynamics.scale_rows(jacobians, columns, norms)
+        dynamics.null_space_bases(scaled, signs=True)
+        np.linalg.svd(scaled, compute_uv=False)
+
+    band = lambda: singular.spectra(jacobians, before, columns, norms, None, singular.WIDEST_MID)  # noqa: E731
+    return jacobians.shape[1:], {
+        "numpy batched": _per_history(numpy_route),
+        "compiled dense": _per_history(lambda: singular.dense_spectra(jacobians, columns, norms)),
+        "compiled band": None if band() is None else _per_history(band),
+    }
+
+
+def print_routes(sizes: list[int]) -> None:
+    """A Markdown table of ``routes`` at each size."""
+    results = [routes(n) for n in sizes]
+    print("## square_spectra's routes on a run's history of Psi_q, ms per 101 Psi_q (loop chain, thread CPU)\n")
+    print(
+        "| route | " + " | ".join(f"N = {n} ({m} x {c})" for n, ((m, c), _) in zip(sizes, results, strict=True)) + " |"
+    )
+    print("|---|" + "---:|" * len(sizes))
+    for route in results[0][1]:
+        cells = ["-" if r[route] is None else f"{r[route]:.2f}" for _, r in results]
+        print(f"| {route} | " + " | ".join(cells) + " |")
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[16, 64], help="loops N of the chain")
     parser.add_argument("--calls", type=int, default=5, help="calls timed per size (default 5)")
+    parser.add_argument("--routes", action="store_true", help="time square_spectra's routes instead")
     args = parser.parse_args(argv)
+    if args.routes:
+        return print_routes(args.sizes)
     results = [measure(n, args.calls) for n in args.sizes]
     print("## The Guard's checks at the output times by part, ms per call (loop chain, joint coordinates, CPU)\n")
     print("| part | " + " | ".join(f"N = {n}" for n in args.sizes) + " |")

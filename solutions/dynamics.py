@@ -1515,8 +1515,9 @@ def choose_method(
 ALIGNED = 0.9
 """|det(T_prev^T T)| above which two steps' null spaces are close enough for the sign test of ``Guard``."""
 BAND_SMALLEST = 64
-"""Coordinates from which ``square_spectra`` takes the band of Psi_q (below, numpy's batched dense SVDs and QRs
-cost less than the band's setup: ``benchmarks/call_cost.py --chain loops``)."""
+"""Coordinates from which ``square_spectra`` takes the band of Psi_q when it is narrower than an eighth of them
+(``compiled.singular.WIDEST``); below, with more than DENSE_LARGEST rows, a band up to half of them wide
+(``compiled.singular.WIDEST_MID``: ``benchmarks/guard_cost.py --routes``)."""
 DENSE_LARGEST = 10
 """Rows (constraints) up to which a compiled run's ``square_spectra`` takes ``compiled.singular.dense_spectra`` for a
 Psi_q of fewer than BAND_SMALLEST coordinates: its one-sided Jacobi on R (m x m) costs O(m^3) a sweep, its QR O(m^2 n)
@@ -1598,18 +1599,22 @@ def _compiled_spectra(
     jacobians: np.ndarray, columns: np.ndarray, norms: np.ndarray, before: np.ndarray | None, pattern=None
 ):
     """The compiled engine's spectra of the scaled Psi_q: in one compiled pass over a small one (up to DENSE_LARGEST
-    rows, ``compiled.singular.dense_spectra``), from the band of a large one (from BAND_SMALLEST coordinates,
-    ``compiled.singular.spectra``); None between, where there is no compiled engine (a student package) or where the
-    large Psi_q is not a band (numpy's dense SVDs and QRs then)."""
+    rows, ``compiled.singular.dense_spectra``), else from its band (``compiled.singular.spectra``): from
+    BAND_SMALLEST coordinates where the band is at most an eighth of them wide (``WIDEST``), below where it is at most
+    half of them wide (``WIDEST_MID``: a mid-size Psi_q, the loop chain's of 2-8 loops, costs a quarter to two thirds
+    of numpy's batched SVDs and QRs so; a wider band costs more than they). None where there is no compiled engine
+    (a student package), where Psi_q is square (no null space) or not such a band: numpy's dense SVDs and QRs then."""
     try:
         from .compiled import singular
     except ImportError:  # a student package: dense
         return None
-    if jacobians.shape[1] <= DENSE_LARGEST and jacobians.shape[2] < BAND_SMALLEST:
+    _, m, n = jacobians.shape
+    if m <= DENSE_LARGEST and n < BAND_SMALLEST:
         return singular.dense_spectra(jacobians, columns, norms)
-    if jacobians.shape[2] < BAND_SMALLEST or jacobians.shape[1] == jacobians.shape[2]:
+    if m == n:
         return None
-    return singular.spectra(jacobians, before, columns, norms, pattern)
+    widest = singular.WIDEST if n >= BAND_SMALLEST else singular.WIDEST_MID
+    return singular.spectra(jacobians, before, columns, norms, pattern, widest)
 
 
 class Guard:

@@ -66,6 +66,13 @@ by address (``kinematic_loop.lapack``)."""
 
 WIDEST = 8
 """The band pays where its width kl + ku + 1 is at most an eighth of the coordinates (``spectra``: None otherwise)."""
+WIDEST_MID = 2
+"""``widest`` for a Psi_q of fewer than ``dynamics.BAND_SMALLEST`` coordinates: there a band up to half the
+coordinates wide pays, for the compiled pass has none of numpy's per-matrix overhead (101 Psi_q, thread CPU, band /
+numpy's batched SVDs and QRs: the loop chain's, 6-7 wide, 1.2 / 1.7 ms at 14 x 15, 2.1 / 4.2 at 26 x 27, 4.1 / 14.1
+at 50 x 51; the carriage pendulum's 12 x 14, 5 wide, 0.67 / 1.30), where a wider one does not (random sparse Psi_q
+of bands 0.7-1.0 n wide: 4.3 / 3.5 at 20 x 24, 19 / 13 at 40 x 45, 48 / 25 at 55 x 60; ``benchmarks/guard_cost.py
+--routes``)."""
 
 _vector, _ivector, _matrix = types.float64[::1], types.int64[::1], types.float64[:, ::1]
 _stack = types.float64[:, :, ::1]
@@ -93,11 +100,12 @@ def band_order(pattern: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return columns, keys
 
 
-def spectra(scaled: np.ndarray, first: np.ndarray | None, columns=None, norms=None, pattern=None):
+def spectra(scaled: np.ndarray, first: np.ndarray | None, columns=None, norms=None, pattern=None, widest=WIDEST):
     """(sigma_m / sigma_1 (N,), null-space bases (N, n, d), signs of det [Psi_q; T^T] (N,)) of each scaled Psi_q
     (N, m, n) of full row rank, from the band (module docstring); None where the ordered Psi_q is not a band
-    narrower than an eighth of n. ``first`` (n, d): a null-space basis at (or just before) the first time, which
-    picks its independent coordinates (None: from the band, ``_first_basis``). NaN at a time where LAPACK failed.
+    at most n / ``widest`` wide (an eighth of n, ``WIDEST``; half of n at mid sizes, ``WIDEST_MID``). ``first``
+    (n, d): a null-space basis at (or just before) the first time, which picks its independent coordinates (None:
+    from the band, ``_first_basis``). NaN at a time where LAPACK failed.
     With ``columns`` (n,) and ``norms`` (N, m) (``row_norms``), ``scaled`` is Psi_q itself, scaled here entry by
     entry of its pattern (no scaled copy of the whole history: on a chain of 64 loops it is 121 MB); ``pattern``
     (m, n): where any of them is nonzero, if known (``history_norms``), else found here by a pass over the history."""
@@ -111,7 +119,7 @@ def spectra(scaled: np.ndarray, first: np.ndarray | None, columns=None, norms=No
     if first is None:  # a basis at the first time from the band too (``_first_basis``), if it is one
         last = np.sort(np.argsort(position)[keys.size :])  # E's rows at the band's end: the widths of Psi_q's rows
         kl, ku = _widths(_layout(keys, position, last), keys.size, starts, indices, position, last, False)
-        if WIDEST * (kl + ku + 1) > position.size:
+        if widest * (kl + ku + 1) > position.size:
             return None
         first = _first_basis(np.ascontiguousarray(scaled[0]), scale[0], scale[1][0], position, keys, starts, indices)
         if not np.all(np.isfinite(first)):  # U singular to the last bit: Householder's QR of the scaled Psi_q
@@ -120,7 +128,7 @@ def spectra(scaled: np.ndarray, first: np.ndarray | None, columns=None, norms=No
     first = np.ascontiguousarray(first, dtype=float)
     chosen = _independent(first, first.shape[1])
     kl, ku = _widths(_layout(keys, position, chosen), keys.size, starts, indices, position, chosen, True)
-    if WIDEST * (kl + ku + 1) > position.size:  # not a band: dense costs less
+    if widest * (kl + ku + 1) > position.size:  # not a band: dense costs less
         return None
     return _spectra(np.ascontiguousarray(scaled), *scale, position, keys, starts, indices, first)
 
@@ -813,4 +821,4 @@ def _dense_spectra(jacobians, columns, norms, bases):
     return ratios, tangents, signs
 
 
-__all__ = ["WIDEST", "band_order", "dense_spectra", "history_norms", "row_norms", "spectra"]
+__all__ = ["WIDEST", "WIDEST_MID", "band_order", "dense_spectra", "history_norms", "row_norms", "spectra"]

@@ -86,10 +86,12 @@ def test_not_a_band_is_left_to_the_dense_code():
     assert singular.spectra(dense, null_space_bases(dense[:1])[0]) is None
 
 
-def _through(smallest: int, monkeypatch, through: bool = False):
+def _through(band: bool, monkeypatch, through: bool = False):
     """The Guard's message on the chain driven from 80 to 100 degrees through flat (not at an output time: there the
-    ratio is rounding, ~1e-18 both ways), at 20 output times; with ``through``, the crossings it records."""
-    monkeypatch.setattr(dynamics, "BAND_SMALLEST", smallest)
+    ratio is rounding, ~1e-18 both ways), at 20 output times, from the band or (``band=False``) from numpy's dense
+    SVDs and QRs; with ``through``, the crossings it records."""
+    if not band:
+        monkeypatch.setattr(dynamics, "_compiled_spectra", lambda *args: None)
     banded, spectra = [], singular.spectra
     monkeypatch.setattr(singular, "spectra", lambda *args: banded.append(1) or spectra(*args))
     angles = np.linspace(80.0, 100.0, 20)
@@ -104,19 +106,19 @@ def _through(smallest: int, monkeypatch, through: bool = False):
     else:
         with pytest.raises(SingularConfigurationError) as stop:
             guard.check_outputs(times, qs, psi, jacobians)
-    assert bool(banded) == (smallest <= jacobians.shape[2])  # the band taken, or the dense code
+    assert bool(banded) == band  # the band taken, or the dense code
     return (guard.crossings, guard.closest) if through else str(stop.value)
 
 
 def test_guard_stops_at_the_crossing_with_the_dense_message(monkeypatch):
-    banded = _through(64, monkeypatch)
+    banded = _through(True, monkeypatch)
     assert "singular configuration between t = 0.473684 s and t = 0.526316 s" in banded
-    assert banded == _through(10**9, monkeypatch)
+    assert banded == _through(False, monkeypatch)
 
 
 def test_a_run_through_records_the_dense_crossings(monkeypatch):
-    crossings, closest = _through(64, monkeypatch, through=True)
-    dense_crossings, dense_closest = _through(10**9, monkeypatch, through=True)
+    crossings, closest = _through(True, monkeypatch, through=True)
+    dense_crossings, dense_closest = _through(False, monkeypatch, through=True)
     assert [c["t"] for c in crossings] == [c["t"] for c in dense_crossings]
     assert len(crossings) == 1 and abs(crossings[0]["t"] - 0.5) < 0.06  # flat at t = 0.5, between two output times
     assert closest["t"] == dense_closest["t"]
@@ -188,3 +190,35 @@ def test_row_norms_from_the_bodies_columns_are_numpys_with_the_pattern():
     dense, none = singular.history_norms(jacobians[:, 1:], guard._columns, reach)
     assert none is None
     np.testing.assert_allclose(dense, np.linalg.norm(jacobians[:, 1:] * guard._columns, axis=-1), rtol=1e-15)
+
+
+@pytest.mark.parametrize("loops", [2, 5])
+def test_mid_size_psi_q_takes_the_band_with_numpys_ratio_basis_and_sign(loops, monkeypatch):
+    """A Psi_q of more than dynamics.DENSE_LARGEST rows and fewer than BAND_SMALLEST coordinates (the loop chain of 2
+    and 5 loops: 14 x 15, 32 x 33) goes to the band (up to half of n wide, ``singular.WIDEST_MID``) in a compiled
+    run's square_spectra, and gives numpy's SVD ratio, an orthonormal null-space basis and numpy's sign of
+    det [Psi_q; T^T], near-singular states (a hundredth of a degree off flat) among them."""
+    taken, spectra = [], singular.spectra
+    monkeypatch.setattr(singular, "spectra", lambda *args: taken.append(1) or spectra(*args))
+    system = build_system(load_model(loop_chain(loops)))[0]
+    qs = [build_system(load_model(loop_chain(loops, math.radians(a))))[1] for a in (40.0, 60.0, 75.0, 89.99, 90.01)]
+    rng = np.random.default_rng(loops)
+    qs += [qs[1] + 0.02 * rng.standard_normal(qs[1].size) for _ in range(3)]
+    jacobians = np.array([system.jacobian(q, 0.0) for q in qs])
+    guard = Guard(system, qs[0], 1e-3, 1e-8)
+    N, m, n = jacobians.shape
+    assert dynamics.DENSE_LARGEST < m < n < dynamics.BAND_SMALLEST
+    norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
+    ratios, bases, signs = dynamics.square_spectra(jacobians, guard._columns, norms, None)
+    assert taken  # the band, not numpy's dense route
+    scaled = np.array([guard._scaled(J) for J in jacobians])
+    s = np.linalg.svd(scaled, compute_uv=False)
+    dense = s[:, -1] / s[:, 0]
+    assert np.all(dense[3:5] < 1e-3)  # near flat: near singular
+    np.testing.assert_allclose(ratios, dense, rtol=1e-8)
+    np.testing.assert_allclose(np.delete(ratios, [3, 4]), np.delete(dense, [3, 4]), rtol=1e-12)
+    assert np.max(np.abs(scaled @ bases)) < 1e-13
+    np.testing.assert_allclose(np.swapaxes(bases, 1, 2) @ bases, np.broadcast_to(np.eye(n - m), (N, n - m, n - m)),
+                               atol=1e-13)  # fmt: skip
+    determinants = [np.linalg.det(np.vstack([J, T.T])) for J, T in zip(scaled, bases, strict=True)]
+    np.testing.assert_array_equal(signs, np.sign(determinants))
