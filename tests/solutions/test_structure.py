@@ -319,3 +319,24 @@ def test_a_spatial_run_with_its_own_masses_is_not_given_to_the_tree_formulation(
     assert result.info["formulation"] == "baumgarte" and "masses given" in result.info["chosen"]["why"]
     with pytest.raises(AnalysisError, match="joint-coordinates.*masses"):
         forward_dynamics(system, q0, qd0, 0.1, 2, "joint-coordinates", masses=masses)
+
+
+@pytest.mark.parametrize(
+    "a, b",
+    [
+        ([1.0, 2.0], [1.0, 2.0 + 2.5e-9]),  # inside atol + rtol |b|
+        ([1.0, 2.0], [1.0, 2.0 + 3.5e-9]),  # outside
+        ([np.inf, 0.0], [np.inf, 0.0]),  # equal infinities are close
+        ([np.inf, 0.0], [-np.inf, 0.0]),
+        ([1.0, 0.0], [np.inf, 0.0]),
+        ([np.nan, 0.0], [np.nan, 0.0]),  # NaN never
+        ([1e6, 0.0], [1e6 * (1 + 0.9e-9), 0.0]),  # the relative part
+    ],
+)
+def test_a_groups_check_gives_np_allclose_verdict(a, b):
+    """The batched groups' check at construction (``assembly._close``, one comparison in place of five
+    ``np.allclose``) keeps or drops a group exactly where ``np.allclose(rtol=atol=1e-9)`` would."""
+    from solutions.assembly import _close
+
+    a, b = np.array(a), np.array(b)
+    assert _close(a, b) == np.allclose(a, b, rtol=1e-9, atol=1e-9)
