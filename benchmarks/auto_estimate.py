@@ -80,7 +80,7 @@ def main() -> None:
             for quick, trial in FOUND:
                 print(
                     f"| {Path(path).stem} | {rtol or 'rule'} | {quick:.3g} | {trial:.3g} | {quick / trial:.3g} "
-                    f"| {run.info['chosen']['engine']} |"
+                    f"| {'compiled' if 'compiled' in run.info else 'numpy'} |"
                 )
 
 
