@@ -10,10 +10,11 @@
     COMPILE_SECONDS (a first compilation, measured on the course's scenes: ``benchmarks/engines.py``), saying
     so on stderr while it compiles. ``"cached"`` takes it whenever its code is on disk (a process that runs
     many scenes, the grader, pays the loading once). The numpy run time is estimated as (evaluations) x (one
-    numpy evaluation), with evaluations = stages x t_end / h, h the step that a trial of TRIAL_STEPS steps of the
-    same pair (this package's loop) reached at the run's tolerance, and the evaluation its trial's mean (a
-    fixed-step run: its steps; the trial was 0.6 to 0.8 of the measured run: ``benchmarks/engines.py
-    --calibrate``; Hairer's starting step alone was 0.004 to 34,000 times off: ``benchmarks/auto_estimate.py``).
+    numpy evaluation, timed at the initial state), with evaluations = stages x t_end / h, h the starting step
+    of Hairer's rule (sec. II.4) at the run's tolerance (a fixed-step run: its steps); where that comes within a
+    tenth of the bound, h is the step that a trial of TRIAL_STEPS steps of the same pair (this package's loop)
+    reached, and the evaluation its trial's mean (the starting step alone was 0.3 to 18 times off on the
+    course's scenes, the trial 0.6 to 0.8 of the measured run: ``benchmarks/engines.py --calibrate``).
 
 The choice and its reason go into ``info['chosen']`` (``engine``, ``engine_why``).
 """
@@ -34,6 +35,7 @@ from ..integrators import (
     IntegrationStats,
     budget_message,
     collapse_message,
+    initial_step,
     integrate,
     power_start,
 )
@@ -50,20 +52,23 @@ TRIAL_STEPS = 8
 """Steps of the trial run behind the estimate of a long numpy run (``trial_seconds``)."""
 
 
-def estimated_numpy_seconds(equations, z0: np.ndarray, settings: Settings) -> float:
-    """The numpy engine's expected run time (module docstring): a fixed-step run's from its steps, an embedded
-    pair's from a trial of TRIAL_STEPS steps of the method (``trial_seconds``). The starting step h0 of Hairer's
-    rule cannot stand in for the trial, either way: on the 28 course models at three tolerances it is 0.004 to
-    34,000 times off the step the controller reaches (``benchmarks/auto_estimate.py``; quarter_car at rtol 1e-6:
-    h0 says 0.047 s, the trial 10.9 s)."""
+def estimated_numpy_seconds(equations, z0: np.ndarray, settings: Settings, threshold: float = math.inf) -> float:
+    """The numpy engine's expected run time (module docstring): first from the starting step h0, then, when that
+    comes within a tenth of ``threshold`` (the time the compiled engine must beat), from a trial of the method."""
     f, integrator, t_end, step = equations.rhs, settings.integrator, settings.t_end, settings.step
+    start = time.perf_counter()
+    fy = f(0.0, z0)
+    for _ in range(4):
+        f(0.0, z0)
+    per_call = (time.perf_counter() - start) / 5
     if integrator == "rk4":
-        start = time.perf_counter()
-        for _ in range(5):
-            f(0.0, z0)
-        per_call = (time.perf_counter() - start) / 5
         substeps = max(1, math.ceil(t_end / settings.steps / step - 1e-9)) if step else 1
         return per_call * 4 * settings.steps * substeps
+    order = 7 if integrator in ("DOP853", "dop853") else 4
+    h = initial_step(f, 0.0, z0, fy, order, settings.rtol, settings.atol, t_end)
+    quick = per_call * STAGES[integrator] * t_end / max(h, 1e-300)
+    if quick < threshold / 10:
+        return quick
     return trial_seconds(f, z0, t_end, integrator, settings.rtol, settings.atol, step)
 
 
@@ -97,7 +102,7 @@ def choose(settings: Settings, equations, z0: np.ndarray, expected: float | None
         expected = None
     else:  # a run shorter than loading the compiled code stays on numpy, whatever is on disk
         if expected is None:
-            expected = estimated_numpy_seconds(equations, z0, settings)
+            expected = estimated_numpy_seconds(equations, z0, settings, LOAD_SECONDS)
         if expected <= LOAD_SECONDS:
             why = f"numpy run estimated at {expected:.3g} s, less than loading the compiled code ({LOAD_SECONDS:g} s)"
             return None, {"engine": "numpy", "engine_why": why}
@@ -151,7 +156,7 @@ def compiled_start(
     expected = None
     if settings.engine == "auto":
         loosest = settings.replace(formulation=formulation, integrator=integrator, rtol=rtol)
-        expected = estimated_numpy_seconds(equations, z, loosest)
+        expected = estimated_numpy_seconds(equations, z, loosest, LOAD_SECONDS)
         if expected <= LOAD_SECONDS:
             return False, expected
     job = compiled_plan(equations, formulation)
