@@ -705,14 +705,14 @@ def _l_matrix(e0, e1, e2, e3, out):
 
 
 @jit
-def _l_times(L, x, out):
+def l_times(L, x, out):
     """out = L x (3 x 4 by 4): the body-frame angular velocity omega' = 2 L(p) p' (eq. 8.17), by loops."""
     for r in range(3):
         out[r] = L[r, 0] * x[0] + L[r, 1] * x[1] + L[r, 2] * x[2] + L[r, 3] * x[3]
 
 
 @jit
-def _inertia_times(J, x, out):
+def inertia_times(J, x, out):
     """out = J' x (3 x 3 by 3), by loops."""
     for r in range(3):
         out[r] = J[r, 0] * x[0] + J[r, 1] * x[1] + J[r, 2] * x[2]
@@ -740,8 +740,8 @@ def spatial_mass(q, qd, masses, inertias, weights, M, Q):
             for c in range(4):
                 LtJL = L[0, r] * JL[0, c] + L[1, r] * JL[1, c] + L[2, r] * JL[2, c]
                 M[o + 3 + r, o + 3 + c] = 4.0 * LtJL + w * p[r] * p[c]
-        _l_times(Ld, p, v)  # L(p') p
-        _inertia_times(J, v, u)
+        l_times(Ld, p, v)  # L(p') p
+        inertia_times(J, v, u)
         for r in range(4):  # Q_v = 8 L(p')^T J' L(p') p
             Q[o + 3 + r] += 8.0 * (Ld[0, r] * u[0] + Ld[1, r] * u[1] + Ld[2, r] * u[2])
 
@@ -1102,6 +1102,16 @@ def lu_solve(K, b):
         except Exception:  # singular: the NaN that the elimination below gives, for the loop's checks to see
             return np.full(n, np.nan)
     x = b.copy()
+    solve_in_place(K, x)
+    return x
+
+
+@jit
+def solve_in_place(K, x):
+    """x <- K^-1 x in place by Gaussian elimination with partial pivoting (P K = L U, then two triangular solves), K
+    overwritten: ``lu_solve``'s small branch, and ``tree_kernels.tree_multipliers``' one small system per body at
+    every output time (no copy of x). A zero pivot (K singular) gives NaN."""
+    n = x.size
     for c in range(n):
         pivot = c
         biggest = abs(K[c, c])
@@ -1113,7 +1123,8 @@ def lu_solve(K, b):
                 K[c, k], K[pivot, k] = K[pivot, k], K[c, k]
             x[c], x[pivot] = x[pivot], x[c]
         if K[c, c] == 0.0:  # every remaining entry of the column is zero: K is singular
-            return np.full(n, np.nan)
+            x[:] = np.nan
+            return
         inverse = 1.0 / K[c, c]
         for r in range(c + 1, n):
             factor = K[r, c] * inverse
@@ -1127,7 +1138,6 @@ def lu_solve(K, b):
         for k in range(r + 1, n):
             s -= K[r, k] * x[k]
         x[r] = s / K[r, r]
-    return x
 
 
 @jit

@@ -34,7 +34,15 @@ from numba import njit
 from ..joint_coordinates import half_transpose_product, scaled_product
 from ..rotation_matrices import quaternion_product_entries
 from .articulated import articulated_accelerations
-from .kernels import l_entries_jit, lu_solve, planar_rotation_entries_jit, unit_rotation_entries_jit
+from .kernels import (
+    inertia_times,
+    l_entries_jit,
+    l_times,
+    lu_solve,
+    planar_rotation_entries_jit,
+    solve_in_place,
+    unit_rotation_entries_jit,
+)
 
 jit = njit(cache=False, fastmath=False, nogil=True)
 """Not cached here: these functions are compiled into the generated modules that call them, which are cached
@@ -519,47 +527,13 @@ def tree_multipliers(jac, residual, owners, width, ints, lam):
                 G[a, other] = 0.0
                 for c in range(width * C, width * (C + 1)):
                     G[a, other] += jac[row, c] * jac[mine[first + other], c]
-        _small_solve(G, x)
+        solve_in_place(G, x)
         for a in range(count):
             row = mine[first + a]
             lam[row] = x[a]
             if P >= 0:  # what the body's rows exert on its parent
                 for c in range(width * P, width * (P + 1)):
                     r[c] -= x[a] * jac[row, c]
-
-
-@jit
-def _small_solve(K, x):
-    """x <- K^-1 x in place, K (at most 7 x 7) overwritten: ``kernels.lu_solve``'s elimination with partial pivoting,
-    operation for operation (the same numbers), without its copy of b: ``tree_multipliers`` solves one such system
-    per body at every output time. A zero pivot (K singular) gives NaN, as there."""
-    n = x.size
-    for c in range(n):
-        pivot = c
-        biggest = abs(K[c, c])
-        for r in range(c + 1, n):
-            if abs(K[r, c]) > biggest:
-                biggest, pivot = abs(K[r, c]), r
-        if pivot != c:
-            for k in range(n):
-                K[c, k], K[pivot, k] = K[pivot, k], K[c, k]
-            x[c], x[pivot] = x[pivot], x[c]
-        if K[c, c] == 0.0:  # every remaining entry of the column is zero: K is singular
-            x[:] = np.nan
-            return
-        inverse = 1.0 / K[c, c]
-        for r in range(c + 1, n):
-            factor = K[r, c] * inverse
-            if factor != 0.0:
-                K[r, c] = factor
-                for k in range(c + 1, n):
-                    K[r, k] -= factor * K[c, k]
-                x[r] -= factor * x[c]
-    for r in range(n - 1, -1, -1):
-        s = x[r]
-        for k in range(r + 1, n):
-            s -= K[r, k] * x[k]
-        x[r] = s / K[r, r]
 
 
 @jit
@@ -631,20 +605,6 @@ def _l_fill(p, out):
 
 
 @jit
-def _l_times(L, x, out):
-    """out = L x (3 x 4 by 4)."""
-    for r in range(3):
-        out[r] = L[r, 0] * x[0] + L[r, 1] * x[1] + L[r, 2] * x[2] + L[r, 3] * x[3]
-
-
-@jit
-def _inertia_times(J, x, out):
-    """out = J x (3 x 3 by 3)."""
-    for r in range(3):
-        out[r] = J[r, 0] * x[0] + J[r, 1] * x[1] + J[r, 2] * x[2]
-
-
-@jit
 def spatial_mass_residual(q, qd, qdd, masses, inertias, weights, Q, residual):
     """Q += Q_v = 8 L(p')^T J' L(p') p (eq. 10.5) and residual = Q - M q'' body by body, M_b = diag(m I, 4 L^T J' L
     + 4 w p p^T) (eq. 10.4, regularized as ``dynamic_mass_matrix``): ``kernels.spatial_mass`` without the n x n M.
@@ -658,14 +618,14 @@ def spatial_mass_residual(q, qd, qdd, masses, inertias, weights, Q, residual):
         _l_fill(p, L)
         _l_fill(pd, Ld)
         J = inertias[b]
-        _l_times(Ld, p, v)  # L(p') p
-        _inertia_times(J, v, u)
+        l_times(Ld, p, v)  # L(p') p
+        inertia_times(J, v, u)
         for r in range(4):  # Q_v = 8 L(p')^T J' L(p') p
             Q[o + 3 + r] += 8.0 * (Ld[0, r] * u[0] + Ld[1, r] * u[1] + Ld[2, r] * u[2])
         for r in range(3):
             residual[o + r] = Q[o + r] - masses[b] * qdd[o + r]
-        _l_times(L, pdd, v)  # L(p) p''
-        _inertia_times(J, v, u)
+        l_times(L, pdd, v)  # L(p) p''
+        inertia_times(J, v, u)
         along = 4.0 * weights[b] * (p[0] * pdd[0] + p[1] * pdd[1] + p[2] * pdd[2] + p[3] * pdd[3])
         for r in range(4):
             Mp = 4.0 * (L[0, r] * u[0] + L[1, r] * u[1] + L[2, r] * u[2]) + along * p[r]
