@@ -12,9 +12,14 @@
     many scenes, the grader, pays the loading once). The numpy run time is estimated as (evaluations) x (one
     numpy evaluation, timed at the initial state), with evaluations = stages x t_end / h, h the starting step
     of Hairer's rule (sec. II.4) at the run's tolerance (a fixed-step run: its steps); where that comes within a
-    tenth of the bound, h is the step that a trial of TRIAL_STEPS steps of the same pair (this package's loop)
-    reached, and the evaluation its trial's mean (the starting step alone was 0.3 to 18 times off on the
-    course's scenes, the trial 0.6 to 0.8 of the measured run: ``benchmarks/engines.py --calibrate``).
+    tenth of the bound, from a trial of TRIAL_STEPS steps of the same pair (this package's loop): its own seconds
+    times t_end over the time it reached. On the 28 course models at three tolerances the starting step alone was
+    0.14 to 29,000 times the run's evaluations (far above it where the motion starts at rest, so such a run takes
+    the trial), the trial's mean rate 0.05 to 1.65 times (1.0 median; below 0.1 only where the motion itself
+    speeds up tenfold later, Andrews' squeezer driven by a constant torque); the trial's last step, its figure
+    before, was 0.03 to 51 times (quarter_car: its first steps are rejected in turn, the eighth was 40 times
+    shorter than the sixteenth). The run's whole time is then that of its integration times RUN_FACTOR (its
+    outputs and checks). ``benchmarks/auto_estimate.py`` prints these ratios.
 
 The choice and its reason go into ``info['chosen']`` (``engine``, ``engine_why``).
 """
@@ -48,13 +53,21 @@ LOAD_SECONDS = 0.5
 """What loading the cached machine code costs (importing numba, reading the cache): 0.42-0.55 s measured in a new
 process on the idle course machine (``benchmarks/engines.py --calibrate``, ``benchmarks/results/engines.md``)."""
 STAGES = {"DOP853": 12, "dop853": 12, "RK45": 6, "rk45": 6, "rk4": 4}
-TRIAL_STEPS = 8
-"""Steps of the trial run behind the estimate of a long numpy run (``trial_seconds``)."""
+TRIAL_STEPS = 16
+"""Accepted steps of the trial run behind the estimate of a long numpy run (``trial_seconds``): 8 steps' mean rate was
+0.05 to 25 times the run's on the course models (a step grown from a tiny starting one), 16 steps' 0.05 to 1.65."""
+
+
+RUN_FACTOR = 2.0
+"""A numpy run's whole time over its integration's (the outputs, the checks, the divergence companion): 0.5 to 5.5,
+median 1.8, with the divergence check skipped and 0.7 to 9.9, median 2.2, with it, on the course models' runs of
+2 s with 100 outputs against their trial's estimate (``benchmarks/auto_estimate.py --calibrate``)."""
 
 
 def estimated_numpy_seconds(equations, z0: np.ndarray, settings: Settings, threshold: float = math.inf) -> float:
-    """The numpy engine's expected run time (module docstring): first from the starting step h0, then, when that
-    comes within a tenth of ``threshold`` (the time the compiled engine must beat), from a trial of the method."""
+    """The numpy engine's expected run time (module docstring): its integration's, first from the starting step h0,
+    then, when that comes within a tenth of ``threshold`` (the time the compiled engine must beat), from a trial of
+    the method, times RUN_FACTOR (what the run does besides integrating)."""
     f, integrator, t_end, step = equations.rhs, settings.integrator, settings.t_end, settings.step
     start = time.perf_counter()
     fy = f(0.0, z0)
@@ -63,29 +76,43 @@ def estimated_numpy_seconds(equations, z0: np.ndarray, settings: Settings, thres
     per_call = (time.perf_counter() - start) / 5
     if integrator == "rk4":
         substeps = max(1, math.ceil(t_end / settings.steps / step - 1e-9)) if step else 1
-        return per_call * 4 * settings.steps * substeps
+        return RUN_FACTOR * per_call * 4 * settings.steps * substeps
     order = 7 if integrator in ("DOP853", "dop853") else 4
     h = initial_step(f, 0.0, z0, fy, order, settings.rtol, settings.atol, t_end)
-    quick = per_call * STAGES[integrator] * t_end / max(h, 1e-300)
+    quick = RUN_FACTOR * per_call * STAGES[integrator] * t_end / max(h, 1e-300)
     if quick < threshold / 10:
         return quick
-    return trial_seconds(f, z0, t_end, integrator, settings.rtol, settings.atol, step)
+    return RUN_FACTOR * trial_seconds(f, z0, t_end, integrator, settings.rtol, settings.atol, step)
 
 
 def trial_seconds(f, z0: np.ndarray, t_end: float, integrator: str, rtol: float, atol: float, step) -> float:
-    """The run time extrapolated from TRIAL_STEPS steps of this package's loop of the same pair (dop853 or rk45,
-    ``integrators.integrate``) with the numpy right-hand side: (time per evaluation) x stages x t_end / (the last
-    step), the step grown from h0 to what the motion allows (the controller grows it at most tenfold a step)."""
+    """The run time extrapolated from a trial of TRIAL_STEPS accepted steps of this package's loop of the same pair
+    (dop853 or rk45, ``integrators.integrate``) with the numpy right-hand side: (its evaluations x t_end / the time
+    it reached) x (its seconds per evaluation) (``trial_rate``)."""
+    evaluations, per_evaluation = trial_rate(f, z0, t_end, integrator, rtol, atol, step)
+    return evaluations * per_evaluation
+
+
+def trial_rate(f, z0: np.ndarray, t_end: float, integrator: str, rtol: float, atol: float, step) -> tuple[float, float]:
+    """(the run's expected right-hand-side evaluations, seconds per evaluation) from a trial of TRIAL_STEPS accepted
+    steps: the evaluations it took, scaled by t_end over the time it reached (its mean rate, rejected steps
+    included; a single step's length, even the last, swings tenfold where the controller is rejecting steps in
+    turn), and its wall time per evaluation (the loop's own work included). A run the trial finishes is its own
+    figure."""
     method = "dop853" if integrator in ("DOP853", "dop853") else "rk45"
-    times = np.array([0.0, t_end])
+    reached = [0.0]
+
+    def after_step(t, y):
+        reached[0] = t
+
     start = time.perf_counter()
     stats = integrate(
-        f, z0, times, lambda k, t, y: None, method, rtol, atol, step, max_evaluations=None, stiffness="off",
-        max_steps=TRIAL_STEPS,
+        f, z0, np.array([0.0, t_end]), lambda k, t, y: None, method, rtol, atol, step, after_step=after_step,
+        max_evaluations=None, stiffness="off", max_steps=TRIAL_STEPS,
     )  # fmt: skip
-    per_call = (time.perf_counter() - start) / max(stats.rhs_evaluations, 1)
-    h = stats.step_size if np.isfinite(stats.step_size) else t_end
-    return per_call * STAGES[integrator] * t_end / max(h, 1e-300)
+    evaluations = max(stats.rhs_evaluations, 1)
+    per_evaluation = (time.perf_counter() - start) / evaluations
+    return evaluations * t_end / max(min(reached[0], t_end), 1e-300), per_evaluation
 
 
 def choose(settings: Settings, equations, z0: np.ndarray, expected: float | None = None):
@@ -305,4 +332,6 @@ __all__ = [
     "positions",
     "run",
     "start_rates",
+    "trial_rate",
+    "trial_seconds",
 ]

@@ -142,3 +142,38 @@ def test_auto_stays_on_numpy_where_the_compiled_engine_cannot_load(default, monk
     assert run.info["chosen"]["engine_why"].startswith("the compiled engine cannot load here (No package metadata")
     with pytest.raises(PackageNotFoundError):
         forward_dynamics(system, q0, qd0, 0.05, 2, formulation="baumgarte", integrator="dop853", engine="compiled")
+
+
+@pytest.mark.parametrize("name", ["quarter_car", "parallel_swing"])
+def test_the_trial_estimates_the_numpy_runs_evaluations(default, monkeypatch, name):
+    """``auto``'s trial (``dispatch.trial_rate``) against the evaluations the whole numpy integration takes, the same
+    right-hand side, method, tolerances and span (counted here by the loop itself): within a factor of two on the
+    quarter-car, whose first steps the controller rejects in turn (its eighth accepted step was 40 times shorter
+    than its sixteenth: the last step's figure said 51 times the run), and on the parallel swing, whose step grows
+    from a tiny starting one (8 steps' mean rate said 25 times)."""
+    import numpy as np
+
+    from solutions.compiled import dispatch
+    from solutions.integrators import integrate
+
+    class Taken(Exception):
+        pass
+
+    taken = []
+
+    def take(equations, z0, settings, threshold=None):
+        taken.append((equations.rhs, z0, settings))
+        raise Taken
+
+    monkeypatch.setattr(dispatch, "estimated_numpy_seconds", take)
+    system, q0, qd0 = build_system(load_model(MODELS / f"{name}.yaml"))
+    with pytest.raises(Taken):
+        forward_dynamics(system, q0, qd0, 1.0, 5, rtol=1e-6, divergence="skip")
+    f, z0, settings = taken[0]
+    assert settings.integrator.lower() == "dop853"
+    expected, per_evaluation = dispatch.trial_rate(f, z0, 1.0, settings.integrator, 1e-6, settings.atol, settings.step)
+    whole = integrate(f, z0, np.array([0.0, 1.0]), lambda k, t, y: None, "dop853", 1e-6, settings.atol, settings.step,
+                      max_evaluations=None, stiffness="off")  # fmt: skip
+    assert whole.steps > dispatch.TRIAL_STEPS  # a real extrapolation, not the trial finishing the run
+    assert 0.5 < expected / whole.rhs_evaluations < 2.0, (expected, whole.rhs_evaluations)
+    assert per_evaluation > 0.0

@@ -152,7 +152,7 @@ def test_a_run_the_engine_will_compile_takes_the_compiled_start_rates(monkeypatc
 
     def start(engine: str):
         settings = dynamics.default_settings().replace(
-            t_end=20.0, steps=10, formulation="baumgarte", integrator="DOP853", engine=engine
+            t_end=1.0, steps=10, formulation="baumgarte", integrator="DOP853", engine=engine
         )
         begun = dynamics.start_motion(dynamics.Run(system, q0, qd0, settings, None, None, None), "baumgarte", "DOP853")
         return begun.plan.rate, begun.rates.take("baumgarte") is not None
@@ -161,7 +161,7 @@ def test_a_run_the_engine_will_compile_takes_the_compiled_start_rates(monkeypatc
     assert compiled[1] and not numpy_rate[1] and compiled[0] != numpy_rate[0]
     assert compiled[0] == pytest.approx(numpy_rate[0], rel=1e-6)
     assert start("cached") == compiled
-    assert start("auto") == numpy_rate  # 20 s of a double pendulum: about 0.1 s of numpy
+    assert start("auto") == numpy_rate  # 1 s of a double pendulum: about 0.1 s of numpy (estimated 0.06 s)
     monkeypatch.setattr(dispatch, "LOAD_SECONDS", 0.0)
     assert start("auto") == compiled
 
@@ -181,9 +181,9 @@ def test_a_short_run_on_the_default_engine_imports_no_numba():
 
 
 def test_an_auto_run_estimates_its_numpy_run_once(monkeypatch):
-    """The engine's choice before the start rates estimates the numpy run (numpy evaluations, perhaps a trial of 8
-    steps); the engine's choice after the plan takes that estimate where it was made at the run's rtol (here the
-    rule's DEFAULT_RTOL: a short run): one estimate per run, as before the order changed."""
+    """The engine's choice before the start rates estimates the numpy run (numpy evaluations, perhaps a trial of
+    TRIAL_STEPS steps); the engine's choice after the plan takes that estimate where it was made at the run's rtol
+    (here the rule's DEFAULT_RTOL: a short run): one estimate per run, as before the order changed."""
     from solutions.compiled import dispatch
 
     calls = []
