@@ -33,6 +33,9 @@ reactions and ``dynamics.Guard.check_outputs`` makes its checks.
 The kinematic analysis has a compiled engine of its own on the same kernels (``kinematic.py``, its step
 loop ``kinematic_loop.py``): ``kinematics.kinematic_analysis(..., engine="compiled")``.
 
+Cached machine code that a change of another file made stale is removed at this package's import
+(``cache_stamp``: numba renews a function's cache when its own file changes, not its callees').
+
 numba is imported only here, when a run is compiled: importing ``solutions`` (and the student package
 generated from it) never imports it.
 """
@@ -44,8 +47,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .scene import Scene, describe
-from .tree import TreeScene
+from .cache_stamp import forget_stale_machine_code
+
+forget_stale_machine_code()  # before any compiled module of the package loads its cached machine code
+
+from .scene import Scene, describe  # noqa: E402
+from .tree import TreeScene  # noqa: E402
 
 COMPILED_FORMULATIONS = ("baumgarte", "projection", "joint-coordinates")
 OPTIONS = {
