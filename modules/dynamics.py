@@ -2112,8 +2112,16 @@ def body_positions(system: System, q: np.ndarray) -> np.ndarray:
 
 
 def _joint_extent(model) -> float:
-    points = [np.asarray(j["location"], dtype=float) for j in model.joints if "location" in j]
-    return max((float(np.max(np.abs(p))) for p in points), default=0.0)
+    """The largest |coordinate| of a joint point: one array of all of them where they have one length (a model's
+    dimension; 3 us where one max a joint took 3 us each: 49 us a run of the loop chain N = 4), else joint by
+    joint. The same maximum either way."""
+    points = [j["location"] for j in model.joints if "location" in j]
+    if not points:
+        return 0.0
+    try:
+        return float(np.max(np.abs(np.array(points, dtype=float))))
+    except ValueError:  # points of different lengths
+        return max(float(np.max(np.abs(np.asarray(p, dtype=float)))) for p in points)
 
 
 class _History:

@@ -275,6 +275,10 @@ def build_tree(system: System) -> list[TreeJoint]:
 
 
 def _floats(x) -> tuple:
+    """The entries of a vector as a tuple of Python floats (the scalar arithmetic of the tree's recursions); an
+    array's by ``tolist`` (the same values, 5x faster than float() one by one: 26 calls a spatial run's start)."""
+    if isinstance(x, np.ndarray) and x.dtype == np.float64 and x.ndim == 1:
+        return tuple(x.tolist())
     return tuple(float(v) for v in x)
 
 
