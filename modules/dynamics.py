@@ -535,7 +535,7 @@ def run_stages(run: Run, formulation: str, integrator: str) -> tuple[Result, Mad
     plan, equations, guard, raised = ode_motion(run, start)
     times = np.linspace(0.0, settings.t_end, settings.steps + 1)
     try:  # stage 3: the engine
-        z0 = equations.initial_state(q, qd, 0.0)
+        z0 = start.rates.initial_state(equations) if start.rates is not None else equations.initial_state(q, qd, 0.0)
         history, stats, compiled, chosen = integrate_motion(run, plan, equations, guard, z0, times)
     except AnalysisError as err:
         if formulation == "auto" and restartable(err, guard, plan):
@@ -1170,6 +1170,7 @@ class StartRates:
         self.numpy_seconds: dict[str, tuple] = {}  # the engine's choice's estimates: (rtol, seconds, compiled)
         self.known: dict[str, tuple[float, np.ndarray] | Exception] = {}
         self.untouched: dict[str, Formulation] = {}  # made, and evaluated only by the compiled engine
+        self.states: dict[str, tuple[Formulation, np.ndarray]] = {}  # the object made, its start state y
 
     def take(self, formulation: str) -> Formulation | None:
         """The formulation object made for the compiled start rates, handed over once (to the run itself, which
@@ -1202,6 +1203,7 @@ class StartRates:
         made = make_formulation(formulation, self.system, self.M, self.forces, **self.options)
         equations = EquationsOfMotion(made, self.forces, False)  # the drivers' power left out: it feeds nothing back
         z = equations.initial_state(self.q, self.qd, 0.0)
+        self.states[formulation] = (made, equations.split(z)[0])
         if self.compiled or self._will_compile(equations, formulation, z):
             found = _compiled_start_rates(equations, formulation, self.options, z)
             if found is not None:
@@ -1210,6 +1212,16 @@ class StartRates:
         y, _ = equations.split(z)  # without the energy states (a dissipative scene has them)
         qdd, _ = made.accelerations(*made.coordinates(0.0, y), 0.0)
         return spectral_radius(equations.rhs, 0.0, z, equations.rhs(0.0, z)), qdd
+
+    def initial_state(self, equations: EquationsOfMotion) -> np.ndarray:
+        """z0 of ``equations`` at the start (q, q'): the state the start rates were evaluated at, where its
+        formulation object is the one they made (``take``; a joint-coordinates state costs 15-150 us of Python,
+        and making it sets a prismatic joint's ``u0`` on the object that made it), with the energy states the
+        run's equations have (zero); else made anew."""
+        for made, y in self.states.values():
+            if made is equations.formulation:
+                return np.concatenate([y, np.zeros(equations.extra)])
+        return equations.initial_state(self.q, self.qd, 0.0)
 
     def _will_compile(self, equations, formulation: str, z: np.ndarray) -> bool:
         """Whether the engine's choice will compile a run of ``formulation`` on engine ``cached`` or ``auto``
@@ -2100,8 +2112,16 @@ def body_positions(system: System, q: np.ndarray) -> np.ndarray:
 
 
 def _joint_extent(model) -> float:
-    points = [np.asarray(j["location"], dtype=float) for j in model.joints if "location" in j]
-    return max((float(np.max(np.abs(p))) for p in points), default=0.0)
+    """The largest |coordinate| of a joint point: one array of all of them where they have one length (a model's
+    dimension; 3 us where one max a joint took 3 us each: 49 us a run of the loop chain N = 4), else joint by
+    joint. The same maximum either way."""
+    points = [j["location"] for j in model.joints if "location" in j]
+    if not points:
+        return 0.0
+    try:
+        return float(np.max(np.abs(np.array(points, dtype=float))))
+    except ValueError:  # points of different lengths
+        return max(float(np.max(np.abs(np.asarray(p, dtype=float)))) for p in points)
 
 
 class _History:

@@ -44,10 +44,14 @@ def singular_inertia(model: Model) -> list[int]:
     singular; the equations of motion stay solvable where it is regular on the motions the joints allow (eq. 5.44)."""
     inertias = [np.atleast_2d(np.asarray(body.inertia, dtype=float)) for body in model.bodies]
     if all(inertia.shape == (1, 1) for inertia in inertias):  # planar: the moment is its own eigenvalue
-        smallest = [inertia[0, 0] for inertia in inertias]
-    else:  # every body's 3 x 3 at once (the same LAPACK call per matrix as one by one)
-        stacked = np.array(inertias)
-        smallest = np.linalg.eigvalsh(0.5 * (stacked + np.swapaxes(stacked, 1, 2)))[:, 0]
+        moments = [float(inertia[0, 0]) for inertia in inertias]  # and its own largest |entry|: no np.max a body
+        return [
+            k
+            for k, (body, least) in enumerate(zip(model.bodies, moments, strict=True))
+            if body.has_mass and not least > 1e-12 * abs(least)
+        ]
+    stacked = np.array(inertias)  # every body's 3 x 3 at once (the same LAPACK call per matrix as one by one)
+    smallest = np.linalg.eigvalsh(0.5 * (stacked + np.swapaxes(stacked, 1, 2)))[:, 0]
     return [
         k
         for k, (body, inertia, least) in enumerate(zip(model.bodies, inertias, smallest, strict=True))

@@ -138,6 +138,38 @@ def test_a_compiled_run_makes_its_formulation_once(monkeypatch):
     assert numpy_rates.take("baumgarte") is None  # evaluated by numpy: not handed over
 
 
+def test_a_run_starts_from_the_state_its_start_rates_made(monkeypatch):
+    """The run's z0 is the state the start rates were evaluated at where it runs their formulation object
+    (``StartRates.initial_state``): the formulation's initial state is made once per compiled run (it was twice),
+    with the energy states the run's equations carry (a driven scene: three, zero at the start); an object the start
+    rates did not make (numpy's start rates keep theirs) makes its own. Either way the state the formulation gives."""
+    pytest.importorskip("numba")
+    from solutions.joint_coordinates import JointCoordinates
+
+    made = []
+    original = JointCoordinates.initial_state
+
+    def counted(self, q, qd, t):
+        made.append(id(self))
+        return original(self, q, qd, t)
+
+    monkeypatch.setattr(JointCoordinates, "initial_state", counted)
+    system, q0, qd0 = build_system(load_model(MODELS / "carriage_pendulum_driven.yaml"))
+    options = dict(integrator="DOP853", rtol=1e-6, divergence="skip")
+    run = forward_dynamics(system, q0, qd0, 0.1, 2, "joint-coordinates", engine="compiled", **options)
+    assert run.info["chosen"]["engine"] == "compiled" and len(made) == 1
+    system, M, forces, q, qd = _start("carriage_pendulum_driven")
+    for compiled in (True, False):
+        rates = StartRates(system, M, forces, q, qd, {}, compiled=compiled)
+        rates("joint-coordinates")
+        formulation = rates.take("joint-coordinates") or make_formulation("joint-coordinates", system, M, forces)
+        equations = EquationsOfMotion(formulation, forces, has_drivers=True)
+        expected = np.concatenate([original(formulation, q, qd, 0.0), np.zeros(3)])
+        made.clear()
+        assert np.array_equal(rates.initial_state(equations), expected)
+        assert len(made) == (0 if compiled else 1)
+
+
 def test_a_run_the_engine_will_compile_takes_the_compiled_start_rates(monkeypatch):
     """The engine is chosen before the start rates: a run on engine ``cached`` (its code on disk) or ``auto`` (a
     numpy run estimated longer than loading it: LOAD_SECONDS = 0 here) takes rho from the compiled right-hand side,
