@@ -256,7 +256,8 @@ ONE_PASS_LARGEST = 8192
 (``loops.output_history``: 101 output times of the double pendulum 0.36 -> 0.25 ms, a spatial chain of 16 bodies
 (64 x 112) 7.6 -> 5.3 ms); above, the outputs and the module's ``constraint_arrays`` in two, which write only the
 nonzeros of a large sparse Psi_q (a spatial chain of 64 bodies, 256 x 448: 23 ms against 51 for one pass writing
-every entry: memory, not arithmetic)."""
+every entry: memory, not arithmetic), by its rows' blocks where the scene knows them (``Scene.row_columns``,
+``history.BlockedJacobians``)."""
 PAUSE_STEPS = 1000
 """The compiled loop pauses after this many steps for the configuration check of ``on_pause`` (``run``): a run that
 crawls at a singular position stops there as the numpy engine's run, which checks after every step, stops."""
@@ -354,7 +355,8 @@ def run(
     if not one_pass:
         from . import history
 
-        psi, jac, psit = history.constraint_arrays(module, scene, times, Y)
+        columns = getattr(scene, "scene", scene).row_columns  # a tree's scene is in it: Psi_q of the body coordinates
+        psi, jac, psit = history.constraint_arrays(module, scene, times, Y, columns)
     return CompiledRun(
         Y, qdd, lam, int(evaluations), int(steps), int(rejected), int(status), float(t), float(h), load_seconds, cached,
         psi, jac, psit, joint_states, int(reached),
