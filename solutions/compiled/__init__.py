@@ -105,7 +105,8 @@ class CompiledRun:
     """Importing numba and the loops and loading the scene's module: compiling it too when it was not cached."""
     cached: bool
     psi: np.ndarray = None
-    """Psi, Psi_q, Psi_t at the output times (``loops.output_history``), for the checks and the reactions."""
+    """Psi, Psi_q, Psi_t at the output times (``loops.output_history``), for the checks and the reactions; a large
+    Psi_q's history by its rows' blocks (``history.BlockedJacobians``, ``ONE_PASS_LARGEST``)."""
     jac: np.ndarray = None
     psit: np.ndarray = None
     joint_states: np.ndarray | None = None
