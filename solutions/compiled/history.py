@@ -113,7 +113,8 @@ def residuals(psi: np.ndarray, jac, psit: np.ndarray, qd: np.ndarray, system=Non
     qd, psit = (np.ascontiguousarray(a, dtype=float) for a in (qd, psit))
     velocity = np.empty(psit.shape)
     if isinstance(jac, BlockedJacobians):
-        history_kernels.blocked_velocity_residuals(jac.values, qd, psit, jac.columns, velocity)
+        values = np.ascontiguousarray(jac.values, dtype=float)  # a slice of times may not be
+        history_kernels.blocked_velocity_residuals(values, qd, psit, jac.columns, velocity)
     elif system is None or layout(system, _row_columns) is None:
         velocity = (jac @ qd[:, :, None])[:, :, 0] + psit  # Psi_q q' at every time, by BLAS
     else:
