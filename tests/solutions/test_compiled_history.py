@@ -274,7 +274,15 @@ def test_one_output_pass_gives_the_systems_constraints_and_the_two_passes_number
         assert np.allclose(one.jac[k], system.jacobian(result.q[k], t), rtol=1e-13, atol=1e-13)
         assert np.allclose(one.psit[k], system.psi_t(result.q[k], t), rtol=1e-13, atol=1e-13)
     monkeypatch.setattr(compiled, "ONE_PASS_LARGEST", 0)
-    forward_dynamics(system, q0, qd0, 0.3, 12, **options)
+    blocked = forward_dynamics(system, q0, qd0, 0.3, 12, **options)
     two = made.pop("run")
+    assert isinstance(two.jac, history.BlockedJacobians)  # above ONE_PASS_LARGEST: Psi_q by its rows' blocks
     for name in ("Y", "qdd", "lam", "psi", "jac", "psit"):
         np.testing.assert_array_equal(getattr(one, name), getattr(two, name), err_msg=name)
+    for kind in ("points", "reactions", "forces"):  # the result's columns (its CSV) from the blocks: the same
+        got, want = getattr(blocked, kind), getattr(result, kind)
+        assert list(got) == list(want)
+        for key, value in want.items():
+            np.testing.assert_array_equal(got[key], value, err_msg=key)
+    for key in ("closest_singularity", "max_constraint_residual", "max_velocity_residual"):  # Guard, residuals
+        assert blocked.info[key] == result.info[key], key
