@@ -2131,10 +2131,14 @@ class _History:
         self.q, self.qd, self.qdd = (np.empty((size, n)) for _ in range(3))
         self.lam = np.empty((size, m))
         self.energies = np.zeros((size, extra))
-        self.psi, self.jac, self.psit = np.empty((size, m)), np.empty((size, m, n)), np.empty((size, m))
+        self.psi = self.jac = self.psit = None  # made at the first ``constraints``: a compiled run hands its own over
+        self._sizes = (size, n, m)  # (a chain of 64 loops' dense Psi_q history: 121 MB)
 
     def constraints(self, k: int, system: System, q: np.ndarray, t: float) -> None:
         """Psi, Psi_q and Psi_t at the output time t[k] (the residuals, reactions and checks of the result)."""
+        if self.jac is None:
+            size, n, m = self._sizes
+            self.psi, self.jac, self.psit = np.empty((size, m)), np.empty((size, m, n)), np.empty((size, m))
         self.psi[k], self.jac[k], self.psit[k] = system.constraints(q, t), system.jacobian(q, t), system.psi_t(q, t)
 
     def store(self, k, q, qd, qdd, lam, energies) -> None:

@@ -112,7 +112,8 @@ class CompiledRun:
     """Importing numba and the loops and loading the scene's module: compiling it too when it was not cached."""
     cached: bool
     psi: np.ndarray = None
-    """Psi, Psi_q, Psi_t at the output times (``loops.output_history``), for the checks and the reactions."""
+    """Psi, Psi_q, Psi_t at the output times (``loops.output_history``), for the checks and the reactions; a large
+    Psi_q's history by its rows' blocks (``history.BlockedJacobians``, ``ONE_PASS_LARGEST``)."""
     jac: np.ndarray = None
     psit: np.ndarray = None
     joint_states: np.ndarray | None = None
@@ -258,12 +259,16 @@ def is_cached(plan: Plan) -> bool:
     return scene_cached(plan.scene)
 
 
-ONE_PASS_LARGEST = 8192
+ONE_PASS_LARGEST = 2048
 """Entries of Psi_q (m n) up to which a run's outputs and its Psi, Psi_q, Psi_t come from one compiled pass
-(``loops.output_history``: 101 output times of the double pendulum 0.36 -> 0.25 ms, a spatial chain of 16 bodies
-(64 x 112) 7.6 -> 5.3 ms); above, the outputs and the module's ``constraint_arrays`` in two, which write only the
-nonzeros of a large sparse Psi_q (a spatial chain of 64 bodies, 256 x 448: 23 ms against 51 for one pass writing
-every entry: memory, not arithmetic)."""
+(``loops.output_history``: 101 output times of the double pendulum 0.36 -> 0.25 ms); above, the outputs and the
+module's ``constraint_arrays`` in two, which write only the nonzeros of a large sparse Psi_q (a spatial chain of 64
+bodies, 256 x 448: 23 ms against 51 for one pass writing every entry: memory, not arithmetic), and keep its
+history by its rows' blocks (``Scene.row_columns``, ``history.BlockedJacobians``: no (N, m, n) array, whose first
+touch costs more than the arithmetic). Whole call, one pass against two with the blocks (thread CPU, the loop
+chain, joint coordinates): N = 2-6 (m n 210-1482) the same within 0.3 ms, N = 8 (2550) 10.9 -> 10.6 ms, N = 12
+(5550) 16.1 -> 13.9 ms; the spatial chain of 16 (7168) 29.0 -> 26.8 ms (benchmarks/results/call_cost.md,
+twenty-first session)."""
 PAUSE_STEPS = 1000
 """The compiled loop pauses after this many steps for the configuration check of ``on_pause`` (``run``): a run that
 crawls at a singular position stops there as the numpy engine's run, which checks after every step, stops."""
@@ -361,7 +366,8 @@ def run(
     if not one_pass:
         from . import history
 
-        psi, jac, psit = history.constraint_arrays(module, scene, times, Y)
+        columns = getattr(scene, "scene", scene).row_columns  # a tree's scene is in it: Psi_q of the body coordinates
+        psi, jac, psit = history.constraint_arrays(module, scene, times, Y, columns)
     return CompiledRun(
         Y, qdd, lam, int(evaluations), int(steps), int(rejected), int(status), float(t), float(h), load_seconds, cached,
         psi, jac, psit, joint_states, int(reached),

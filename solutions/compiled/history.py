@@ -6,6 +6,9 @@ has the same arrays from its generated module at every output time in one call (
 here they are turned into the same result columns over all output times at once: the residuals by array
 operations, the reactions by compiled loops (``history_kernels.py``) over an index layout made once per system:
 
+- Psi_q's history: dense (N, m, n) for a small Psi_q, by its rows' blocks for a large one (``BlockedJacobians``:
+  each row's entries in the columns of the bodies its element joins, (N, m, w) with w = 2 x 3 planar, 2 x 7
+  spatial; on a chain of 64 loops 1.9 MB where the dense array is 121 MB, whose first touch alone costs 20 ms);
 - residuals: max |Psi| and max |Psi_q q' + Psi_t| per output time (``dynamics.constraint_residuals``);
 - reactions: for joint k and each of its moving bodies i, Q_i^k = -(Psi_qi^k)^T lambda_k (eq. 5.70, 10.20),
   split into the force F and the moment about the joint point P: planar M = n - (r_P - r_i) x F (eq. 5.71),
@@ -23,28 +26,100 @@ import numpy as np
 from ..output_history import axes, planar_joints, spatial_columns
 
 
-def constraint_arrays(module, scene, times: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(Psi, Psi_q, Psi_t) at every output time, shapes (N, m), (N, m, n), (N, m), from the compiled module."""
+def constraint_arrays(module, scene, times: np.ndarray, Y: np.ndarray, columns: np.ndarray | None = None) -> tuple:
+    """(Psi, Psi_q, Psi_t) at every output time, shapes (N, m), (N, m, n), (N, m), from the compiled module; with the
+    rows' ``columns`` (m, w) (``_row_columns``), Psi_q by its rows' blocks (``BlockedJacobians``): the module writes
+    each time into one reused (m, n) and its blocks are gathered (``history_kernels.blocked_constraint_arrays``)."""
     from . import parameters
 
     N, n, m = times.size, scene.n, scene.m
-    psi, jac, psit = np.zeros((N, m)), np.zeros((N, m, n)), np.zeros((N, m))
-    module.constraint_arrays(times, np.ascontiguousarray(Y), parameters(scene, 0.0, 0.0), scene.data(), psi, jac, psit)
-    return psi, jac, psit
-
-
-def residuals(psi: np.ndarray, jac: np.ndarray, psit: np.ndarray, qd: np.ndarray, system=None) -> dict[str, np.ndarray]:
-    """'residual.position' max |Psi| and 'residual.velocity' max |Psi_q q' + Psi_t| at every output time. With the
-    ``system``, Psi_q q' over each row's nonzero columns (``history_kernels.velocity_residuals``), else by BLAS."""
-    columns = None if system is None else layout(system, _row_columns)
+    psi, psit = np.zeros((N, m)), np.zeros((N, m))
+    arguments = (times, np.ascontiguousarray(Y), parameters(scene, 0.0, 0.0), scene.data())
     if columns is None:
+        jac = np.zeros((N, m, n))
+        module.constraint_arrays(*arguments, psi, jac, psit)
+        return psi, jac, psit
+    from . import history_kernels, loops
+
+    function = loops.first_class(module.constraint_arrays, loops.CONSTRAINT_ARRAYS_SIGNATURE)
+    values = np.zeros((N, m, columns.shape[1]))  # slots after a row's last stay 0
+    history_kernels.blocked_constraint_arrays(function, *arguments, psi, values, psit, columns, n)
+    return psi, BlockedJacobians(values, columns, n), psit
+
+
+class BlockedJacobians:
+    """Psi_q at N output times by its rows' blocks: ``values`` (N, m, w), entry s of row r in column
+    ``columns[r, s]`` (-1 after the row's last: ``_row_columns``, the columns of the bodies the row's element
+    joins), every other entry zero. Read as the dense (N, m, n) it stands for where a reader needs that (``dense``,
+    ``np.asarray``, a time ``[k]``: one (m, n)); the compiled readers (residuals, reactions, the Guard's norms and
+    spectra) read the blocks. Indexing by a slice or a mask of times keeps the blocks."""
+
+    ndim = 3
+
+    def __init__(self, values: np.ndarray, columns: np.ndarray, n: int):
+        self.values, self.columns, self.n = values, columns, int(n)
+
+    @classmethod
+    def gather(cls, jac: np.ndarray, columns: np.ndarray) -> BlockedJacobians:
+        """The blocks of a dense history (N, m, n) in the rows' ``columns`` (m, w) (its entries elsewhere dropped)."""
+        rows, slots = np.nonzero(columns >= 0)
+        values = np.zeros((jac.shape[0], *columns.shape))
+        values[:, rows, slots] = jac[:, rows, columns[rows, slots]]
+        return cls(values, columns, jac.shape[2])
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        return (*self.values.shape[:2], self.n)
+
+    def __len__(self) -> int:
+        return self.values.shape[0]
+
+    def __getitem__(self, index):
+        if isinstance(index, (int, np.integer)):
+            return self.dense(self.values[index][None])[0]
+        return BlockedJacobians(self.values[index], self.columns, self.n)
+
+    def dense(self, values: np.ndarray | None = None) -> np.ndarray:
+        """The dense (N, m, n) history (of ``values``, blocks of some times, if given)."""
+        values = self.values if values is None else values
+        jac = np.zeros((values.shape[0], values.shape[1], self.n))
+        rows, slots = np.nonzero(self.columns >= 0)
+        jac[:, rows, self.columns[rows, slots]] = values[:, rows, slots]
+        return jac
+
+    def __array__(self, dtype=None, copy=None) -> np.ndarray:
+        return self.dense() if dtype is None else self.dense().astype(dtype)
+
+    def pattern(self) -> np.ndarray:
+        """Where any Psi_q of the history is nonzero (m, n)."""
+        pattern = np.zeros((self.values.shape[1], self.n), dtype=bool)
+        rows, slots = np.nonzero((self.columns >= 0) & np.any(self.values != 0.0, axis=0))
+        pattern[rows, self.columns[rows, slots]] = True
+        return pattern
+
+    def slots(self, rows: np.ndarray, targets: np.ndarray) -> np.ndarray:
+        """Where column ``targets[a]`` of row ``rows[a]`` sits among the row's blocks (its slot s); -1 where the row
+        does not reach it."""
+        found = self.columns[rows] == np.asarray(targets)[:, None]
+        return np.where(found.any(axis=1), np.argmax(found, axis=1), -1).astype(np.int64)
+
+
+def residuals(psi: np.ndarray, jac, psit: np.ndarray, qd: np.ndarray, system=None) -> dict[str, np.ndarray]:
+    """'residual.position' max |Psi| and 'residual.velocity' max |Psi_q q' + Psi_t| at every output time. With the
+    ``system``, Psi_q q' over each row's nonzero columns (``history_kernels.velocity_residuals``; of a blocked
+    history, its blocks: ``blocked_velocity_residuals``, the same products in the same order), else by BLAS."""
+    from . import history_kernels
+
+    qd, psit = (np.ascontiguousarray(a, dtype=float) for a in (qd, psit))
+    velocity = np.empty(psit.shape)
+    if isinstance(jac, BlockedJacobians):
+        values = np.ascontiguousarray(jac.values, dtype=float)  # a slice of times may not be
+        history_kernels.blocked_velocity_residuals(values, qd, psit, jac.columns, velocity)
+    elif system is None or layout(system, _row_columns) is None:
         velocity = (jac @ qd[:, :, None])[:, :, 0] + psit  # Psi_q q' at every time, by BLAS
     else:
-        from . import history_kernels
-
-        velocity = np.empty(psit.shape)
-        jac, qd, psit = (np.ascontiguousarray(a, dtype=float) for a in (jac, qd, psit))
-        history_kernels.velocity_residuals(jac, qd, psit, columns, velocity)
+        jac = np.ascontiguousarray(jac, dtype=float)
+        history_kernels.velocity_residuals(jac, qd, psit, layout(system, _row_columns), velocity)
     return {
         "residual.position": np.max(np.abs(psi), axis=1, initial=0.0),
         "residual.velocity": np.max(np.abs(velocity), axis=1, initial=0.0),
@@ -92,12 +167,28 @@ def _planar_layout(system) -> tuple:
     return names, (*layout, np.asarray(points, dtype=float).reshape(-1, 2))
 
 
-def _histories(q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """q, lambda, Psi_q as the compiled loops take them: C-contiguous float arrays (one machine code for all)."""
-    return tuple(np.ascontiguousarray(a, dtype=float) for a in (q, lam, jac))
+def _histories(q: np.ndarray, lam: np.ndarray, jac, rows: np.ndarray, columns: np.ndarray) -> tuple:
+    """q, lambda, Psi_q as the compiled loops take them (C-contiguous float arrays: one machine code for all), and
+    for each of the ``rows`` (of all joints in joint order) where the columns of the body whose reaction it reports
+    begin (``columns``) in Psi_q's row: that column, or in a blocked history its slot among the row's blocks."""
+    if isinstance(jac, BlockedJacobians):
+        slots, jac = jac.slots(rows, columns), jac.values
+        if np.any(slots < 0):  # _row_columns gives every row its element's bodies: a joint's own body is there
+            raise ValueError("a joint's row of Psi_q does not reach its own body's columns")
+    else:
+        slots = columns
+    return (*(np.ascontiguousarray(a, dtype=float) for a in (q, lam, jac)), np.ascontiguousarray(slots, np.int64))
 
 
-def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
+def _reported_columns(arrays: tuple, per: int) -> np.ndarray:
+    """For each row of all joints (``arrays``: a reaction layout), the first column of the body whose reaction the
+    joint reports (its second, or its first where the second is ground)."""
+    rows, starts, i, j = arrays[:4]
+    body = np.where(j >= 0, j, i)
+    return per * np.repeat(body, np.diff(np.append(starts, rows.size)))
+
+
+def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac) -> dict[str, np.ndarray]:
     """``reactions.joint_reactions(system, q, lam, t)`` over the histories q (N, n), lambda (N, m), every joint at
     once (``history_kernels.planar_reactions``): each row's part -(Psi_q)_r^T lambda_r of the generalized force on
     the three columns of either body (eq. 5.70), summed over the rows of its joint, the moment taken about the joint
@@ -109,7 +200,7 @@ def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) ->
     names, arrays = layout(system, _planar_layout)
     N = q.shape[0]
     F, M = np.empty((N, len(names), 2)), np.empty((N, len(names)))
-    history_kernels.planar_reactions(*_histories(q, lam, jac), *arrays, F, M)
+    history_kernels.planar_reactions(*_histories(q, lam, jac, arrays[0], _reported_columns(arrays, 3)), *arrays, F, M)
     columns = {}
     for k, name in enumerate(names):
         columns[f"{name}.Fx"], columns[f"{name}.Fy"], columns[f"{name}.Mz"] = F[:, k, 0], F[:, k, 1], M[:, k]
@@ -142,7 +233,7 @@ def _spatial_layout(system) -> tuple:
     return names, place, (np.concatenate(rows).astype(np.int64), starts, i, j, offsets, frames, place)
 
 
-def spatial_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
+def spatial_reactions(system, q: np.ndarray, lam: np.ndarray, jac) -> dict[str, np.ndarray]:
     """``spatial.reactions.joint_reactions(system, q, lam, t)`` over the histories q (N, n), lambda (N, m), every
     element at once (``history_kernels.spatial_reactions``): each row's part -(Psi_q)_r^T lambda_r of the
     generalized force on the seven columns of either body (eq. 10.20), summed over the element's rows; the force F
@@ -157,15 +248,16 @@ def spatial_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -
     N, framed = q.shape[0], int(np.count_nonzero(place >= 0))
     F, M = np.empty((N, len(names), 3)), np.empty((N, len(names), 3))
     F_joint, M_joint = np.empty((N, framed, 3)), np.empty((N, framed, 3))
-    history_kernels.spatial_reactions(*_histories(q, lam, jac), *arrays, F, M, F_joint, M_joint)
+    histories = _histories(q, lam, jac, arrays[0], _reported_columns(arrays, 7))
+    history_kernels.spatial_reactions(*histories, *arrays, F, M, F_joint, M_joint)
     return spatial_columns(names, F, M, F_joint, M_joint, place)
 
 
-def joint_reactions(system, q: np.ndarray, lam: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
+def joint_reactions(system, q: np.ndarray, lam: np.ndarray, jac) -> dict[str, np.ndarray]:
     """The reaction columns of every joint and driver over a run (module docstring), planar or spatial."""
     if system.model.dimension == 3:
         return spatial_reactions(system, q, lam, jac)
     return planar_reactions(system, q, lam, jac)
 
 
-__all__ = ["constraint_arrays", "joint_reactions", "residuals"]
+__all__ = ["BlockedJacobians", "constraint_arrays", "joint_reactions", "residuals"]

@@ -8,6 +8,10 @@ integration).
 
 ``planar_reactions``, ``spatial_reactions``: the force and moment of every joint at every output time in one pass.
 
+``blocked_constraint_arrays``, ``blocked_velocity_residuals``: a large Psi_q's history by its rows' blocks
+(``history.BlockedJacobians``), made and read without the dense (N, m, n) array (the reactions take its blocks
+through ``slots``: where the reported body's columns begin in each row).
+
 The arithmetic is that of the numpy engine's ``reactions.py`` and ``spatial/reactions.py`` (what students write),
 term by term: the generalized force of joint k on its body b, Q_b^k = -(Psi_qb^k)^T lambda_k summed over the
 joint's rows (eq. 5.70, 10.20); planar, the force F = (Q_x, Q_y) and the moment about the joint point P,
@@ -17,8 +21,8 @@ minus what it exerts on its moving body (the second body's reaction, DESIGN sect
 same columns come out of numpy's array operations within rounding (``tests/solutions/test_compiled_history.py``);
 the loops spare a 2-body run the hundred small array operations that cost more than its integration.
 
-This module imports numba: it is imported only when the compiled engine runs (``solutions.compiled``). Its three
-loops are compiled at import (``eager``), with the integrator loops by ``mbd compile``; loading them from disk takes
+This module imports numba: it is imported only when the compiled engine runs (``solutions.compiled``). Its loops
+are compiled at import (``eager``), with the integrator loops by ``mbd compile``; loading them from disk takes
 some 30 ms, once per process.
 """
 
@@ -30,10 +34,12 @@ import numpy as np
 from numba import njit, types
 
 from .kernels import g_entries_jit, rotation_entries_jit
+from .loops import CONSTRAINT_ARRAYS_SIGNATURE, D_TYPE, P_TYPE
 
 jit = njit(cache=True, fastmath=False, nogil=True)
 _vector, _ivector = types.float64[::1], types.int64[::1]
 _matrix, _imatrix, _cube = types.float64[:, ::1], types.int64[:, ::1], types.float64[:, :, ::1]
+_CONSTRAINTS = types.FunctionType(CONSTRAINT_ARRAYS_SIGNATURE)
 
 
 def eager(*arguments):
@@ -57,22 +63,65 @@ def velocity_residuals(jac, qd, psit, columns, velocity):
             velocity[t, r] = total + psit[t, r]
 
 
+@eager(_cube, _matrix, _matrix, _imatrix, _matrix)
+def blocked_velocity_residuals(values, qd, psit, columns, velocity):
+    """``velocity_residuals`` of a history by its rows' blocks (``history.BlockedJacobians``): entry s of row r,
+    values[t, r, s], in column columns[r, s]; the same products in the same order."""
+    for t in range(values.shape[0]):
+        for r in range(values.shape[1]):
+            total = 0.0
+            for c in range(columns.shape[1]):
+                column = columns[r, c]
+                if column < 0:
+                    break
+                total += values[t, r, c] * qd[t, column]
+            velocity[t, r] = total + psit[t, r]
+
+
+@eager(_CONSTRAINTS, _vector, _matrix, P_TYPE, D_TYPE, _matrix, _cube, _matrix, _imatrix, types.int64)
+def blocked_constraint_arrays(constraint_arrays, T, Y, P, D, psi, values, psit, columns, n):
+    """Psi (N, m), Psi_q by its rows' blocks (N, m, w) and Psi_t (N, m) at every output time: the module's
+    ``constraint_arrays`` at one time after another into one (m, n) (zeros on entry, as it wants them), its
+    entries in each row's ``columns`` gathered into ``values`` and zeroed again (the only ones it writes:
+    ``history._row_columns``); no (N, m, n) history, whose first touch costs more than its arithmetic."""
+    m, w = columns.shape
+    one_t, one_y = np.empty(1), np.empty((1, Y.shape[1]))
+    one_psi, jac, one_psit = np.zeros((1, m)), np.zeros((1, m, n)), np.zeros((1, m))
+    for k in range(T.size):
+        one_t[0] = T[k]
+        one_y[0] = Y[k]
+        one_psi[:] = 0.0
+        one_psit[:] = 0.0
+        constraint_arrays(one_t, one_y, P, D, one_psi, jac, one_psit)
+        psi[k] = one_psi[0]
+        psit[k] = one_psit[0]
+        for r in range(m):
+            for s in range(w):
+                column = columns[r, s]
+                if column < 0:
+                    break
+                values[k, r, s] = jac[0, r, column]
+                jac[0, r, column] = 0.0
+
+
 @jit
-def _joint_force(jac, lam, t, rows, first, last, column, size, g):
-    """g = -(Psi_q)^T lambda on the ``size`` columns of a body from ``column`` on, summed over the joint's rows
-    rows[first:last] (eq. 5.70, 10.20), at output time t."""
+def _joint_force(jac, lam, t, rows, first, last, slots, size, g):
+    """g = -(Psi_q)^T lambda on the ``size`` columns of a body, summed over the joint's rows rows[first:last] (eq.
+    5.70, 10.20), at output time t; the body's columns begin at slots[r] in row rows[r] of ``jac`` (its column, or
+    its slot among a blocked history's blocks)."""
     for c in range(size):
         total = 0.0
         for r in range(first, last):
             row = rows[r]
-            total += -jac[t, row, column + c] * lam[t, row]
+            total += -jac[t, row, slots[r] + c] * lam[t, row]
         g[c] = total
 
 
-@eager(_matrix, _matrix, _cube, _ivector, _ivector, _ivector, _ivector, _ivector, _matrix, _cube, _matrix)
-def planar_reactions(q, lam, jac, rows, starts, i, j, carrier, s, F, M):
+@eager(_matrix, _matrix, _cube, _ivector, _ivector, _ivector, _ivector, _ivector, _ivector, _matrix, _cube, _matrix)
+def planar_reactions(q, lam, jac, slots, rows, starts, i, j, carrier, s, F, M):
     """F (N, joints, 2) and M (N, joints): every planar joint's force and moment about its point on its second
-    body (module docstring), at every output time."""
+    body (module docstring), at every output time; ``slots``: where that body's columns begin in each row of ``jac``
+    (``_joint_force``)."""
     N, joints = q.shape[0], i.size
     g = np.empty(3)
     for t in range(N):
@@ -84,7 +133,7 @@ def planar_reactions(q, lam, jac, rows, starts, i, j, carrier, s, F, M):
             c, sn = math.cos(phi), math.sin(phi)
             px, py = x + (c * s[k, 0] - sn * s[k, 1]), y + (sn * s[k, 0] + c * s[k, 1])
             body, sign = (j[k], 1.0) if j[k] >= 0 else (i[k], -1.0)
-            _joint_force(jac, lam, t, rows, first, last, 3 * body, 3, g)
+            _joint_force(jac, lam, t, rows, first, last, slots, 3, g)
             ax, ay = px - q[t, 3 * body], py - q[t, 3 * body + 1]
             F[t, k, 0], F[t, k, 1] = sign * g[0], sign * g[1]
             M[t, k] = sign * (g[2] - (ax * g[1] - ay * g[0]))
@@ -116,8 +165,8 @@ def _g_matrix(q, t, body, G):
         G[a // 4, a % 4] = entries[a]
 
 
-@eager(_matrix, _matrix, _cube, *(_ivector,) * 4, _matrix, _cube, _ivector, _cube, _cube, _cube, _cube)
-def spatial_reactions(q, lam, jac, rows, starts, i, j, offsets, frames, framed, F, M, F_joint, M_joint):
+@eager(_matrix, _matrix, _cube, *(_ivector,) * 5, _matrix, _cube, _ivector, _cube, _cube, _cube, _cube)
+def spatial_reactions(q, lam, jac, slots, rows, starts, i, j, offsets, frames, framed, F, M, F_joint, M_joint):
     """F, M (N, elements, 3): every spatial element's force and moment about its point on its second body, and of
     the elements with joint frames (``framed``: their place in ``frames``, else -1) F and M in that frame, the
     frame's axes f, g, h (columns of ``frames``) turned to global axes by A(p_j) (module docstring)."""
@@ -134,7 +183,7 @@ def spatial_reactions(q, lam, jac, rows, starts, i, j, offsets, frames, framed, 
                 origin = q[t, 7 * j[k] + a] if j[k] >= 0 else 0.0
                 point[a] = origin + (A[a, 0] * offsets[k, 0] + A[a, 1] * offsets[k, 1] + A[a, 2] * offsets[k, 2])
             body, sign = (j[k], 1.0) if j[k] >= 0 else (i[k], -1.0)
-            _joint_force(jac, lam, t, rows, first, last, 7 * body, 7, g)
+            _joint_force(jac, lam, t, rows, first, last, slots, 7, g)
             _g_matrix(q, t, body, G)
             for a in range(3):  # n = 1/2 G(p) Q_p (eq. 8.14)
                 n[a] = 0.5 * (G[a, 0] * g[3] + G[a, 1] * g[4] + G[a, 2] * g[5] + G[a, 3] * g[6])

@@ -61,6 +61,9 @@ class Scene:
     drivers: bool = False
     unsupported: str | None = None
     packed_data: tuple | None = field(default=None, repr=False, compare=False)  # ``data()``, made once
+    row_columns: np.ndarray | None = field(default=None, repr=False, compare=False)
+    """A large Psi_q's rows' columns (m, w) (``history._row_columns``): its history is kept by those blocks
+    (``history.BlockedJacobians``); None: dense (a small Psi_q, or rows that reach further)."""
 
     @property
     def key(self) -> str:
@@ -344,7 +347,18 @@ def describe(system, M, forces) -> Scene:
         return scene
     scene.constraint_kernels, scene.force_kernels = constraints, loads
     scene.function_kinds, scene.function_params = functions.arrays()
+    scene.row_columns = _row_columns(system)
     return scene
+
+
+def _row_columns(system) -> np.ndarray | None:
+    """``Scene.row_columns``: those of a Psi_q of more than ``ONE_PASS_LARGEST`` entries (whose history the output
+    stage writes in two passes, ``compiled.run``), else None."""
+    from . import ONE_PASS_LARGEST, history
+
+    if system.n_constraints * system.n_coordinates <= ONE_PASS_LARGEST:
+        return None
+    return history.layout(system, history._row_columns)
 
 
 __all__ = ["Scene", "Unsupported", "describe"]

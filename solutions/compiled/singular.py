@@ -55,6 +55,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, types
 
+from .history import BlockedJacobians
 from .kinematic_loop import PIVOT_TYPE, lapack
 
 _GBBRD, _STEBZ = lapack("dgbbrd", 18), lapack("dstebz", 18)
@@ -77,7 +78,7 @@ of bands 0.7-1.0 n wide: 4.3 / 3.5 at 20 x 24, 19 / 13 at 40 x 45, 48 / 25 at 55
 _vector, _ivector, _matrix = types.float64[::1], types.int64[::1], types.float64[:, ::1]
 _stack = types.float64[:, :, ::1]
 _SPECTRA = types.Tuple((_vector, _stack, _vector))(
-    _stack, _vector, _matrix, _ivector, _vector, _ivector, _ivector, _matrix
+    _stack, _vector, _matrix, _ivector, _vector, _ivector, _ivector, _ivector, _matrix
 )
 _DENSE = types.Tuple((_vector, _stack, _vector))(_stack, _vector, _matrix, types.boolean)
 """Signatures compiled at import (and cached on disk, ``precompile``): a run never waits for them."""
@@ -112,6 +113,8 @@ def spectra(scaled: np.ndarray, first: np.ndarray | None, columns=None, norms=No
     if columns is None:
         columns, norms = np.ones(scaled.shape[2]), np.ones(scaled.shape[:2])
         pattern = np.any(scaled != 0.0, axis=0)
+    elif pattern is None and isinstance(scaled, BlockedJacobians):
+        pattern = scaled.pattern()
     elif pattern is None:
         pattern = _pattern(np.ascontiguousarray(scaled, dtype=float))
     position, keys, starts, indices = _band_structure(pattern)
@@ -130,7 +133,11 @@ def spectra(scaled: np.ndarray, first: np.ndarray | None, columns=None, norms=No
     kl, ku = _widths(_layout(keys, position, chosen), keys.size, starts, indices, position, chosen, True)
     if widest * (kl + ku + 1) > position.size:  # not a band: dense costs less
         return None
-    return _spectra(np.ascontiguousarray(scaled), *scale, position, keys, starts, indices, first)
+    stored, slots = scaled, indices
+    if isinstance(scaled, BlockedJacobians):  # its blocks: each pattern entry's slot in its row
+        rows = np.repeat(np.arange(keys.size), np.diff(starts))
+        stored, slots = scaled.values, scaled.slots(rows, indices)
+    return _spectra(np.ascontiguousarray(stored), *scale, position, keys, starts, indices, slots, first)
 
 
 @njit(cache=True, nogil=True)
@@ -207,8 +214,10 @@ def history_norms(jacobians: np.ndarray, columns: np.ndarray, reach: np.ndarray 
     ``history._row_columns``), both in one pass over those entries alone (``_reached_norms``: on a chain of 64
     loops 6 of 387 columns a row, where the dense pass reads all 121 MB of the history); the same norms to the
     last bit (the dense sum adds zeros between them). Without, the dense pass and no pattern."""
-    jacobians = np.ascontiguousarray(jacobians, dtype=float)
     columns = np.ascontiguousarray(columns, dtype=float)
+    if isinstance(jacobians, BlockedJacobians):  # its blocks are the reach: the same entries in the same order
+        return _blocked_norms(np.ascontiguousarray(jacobians.values), columns, jacobians.columns)
+    jacobians = np.ascontiguousarray(jacobians, dtype=float)
     if reach is not None and (reach.shape[0] != jacobians.shape[1] or np.max(reach, initial=-1) >= jacobians.shape[2]):
         reach = None  # not this history's rows and columns: the dense pass
         return row_norms(jacobians, columns), None
@@ -230,6 +239,30 @@ def _reached_norms(jacobians, columns, reach):
                 if c < 0:
                     break
                 entry = jacobians[k, r, c]
+                if entry != 0.0:
+                    pattern[r, c] = True
+                value = entry * columns[c]
+                total += value * value
+            norms[k, r] = np.sqrt(total)
+    return norms, pattern
+
+
+@njit(cache=True, nogil=True)
+def _blocked_norms(values, columns, reach):
+    """``_reached_norms`` of a history by its rows' blocks (``history.BlockedJacobians``): entry s of row r,
+    values[k, r, s], in column reach[r, s]."""
+    N, m = values.shape[:2]
+    n = columns.size
+    norms = np.empty((N, m))
+    pattern = np.zeros((m, n), dtype=np.bool_)
+    for k in range(N):
+        for r in range(m):
+            total = 0.0
+            for s in range(reach.shape[1]):
+                c = reach[r, s]
+                if c < 0:
+                    break
+                entry = values[k, r, s]
                 if entry != 0.0:
                     pattern[r, c] = True
                 value = entry * columns[c]
@@ -667,8 +700,11 @@ def _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y):
 
 
 @njit(_SPECTRA, cache=True, nogil=True)
-def _spectra(jacobians, columns, norms, position, keys, starts, indices, first):
-    N, m, n = jacobians.shape
+def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, first):
+    """``spectra``; entry p of the CSR pattern (row r, column indices[p]) is jacobians[k, r, slots[p]]: its column
+    (slots = indices), or its slot among a blocked history's blocks (``history.BlockedJacobians``)."""
+    N, m = jacobians.shape[:2]
+    n = position.size
     d = n - m
     ratios, bases, signs = np.empty(N), np.empty((N, n, d)), np.empty(N)
     rows = np.argsort(keys, kind="mergesort")  # Psi_q's rows along the band: G = Psi_q Psi_q^T a band too
@@ -681,7 +717,7 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, first):
         for r in range(m):
             norm = norms[k, r] if norms[k, r] > 0.0 else 1.0
             for p in range(starts[r], starts[r + 1]):  # as ``dynamics.scale_rows``, to the last bit
-                J[r, indices[p]] = jacobians[k, r, indices[p]] * columns[indices[p]] / norm
+                J[r, indices[p]] = jacobians[k, r, slots[p]] * columns[indices[p]] / norm
         chosen = _independent(before, d)
         slot = _layout(keys, position, chosen)
         ratios[k] = _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y)

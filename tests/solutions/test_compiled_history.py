@@ -66,6 +66,28 @@ def test_history_matches_numpy_functions(path):
     size = max(float(np.max(np.abs(v))) for v in expected.values())
     for key, value in expected.items():
         assert np.max(np.abs(got[key] - value)) <= 1e-12 * size, key
+    _blocked_history_is_the_dense_one(system, run, scene, module, Y, (psi, jac, psit), sparse, got)
+
+
+def _blocked_history_is_the_dense_one(system, run, scene, module, Y, dense, residuals, reactions):
+    """Psi_q kept by its rows' blocks (``history.BlockedJacobians``, a large Psi_q's history) stands for the dense
+    one entry for entry, and the residuals and reactions read from its blocks are the dense history's to the last
+    bit (the same products in the same order)."""
+    psi, jac, psit = dense
+    columns = history.layout(system, history._row_columns)
+    bpsi, blocked, bpsit = history.constraint_arrays(module, scene, run.t, Y, columns)
+    assert isinstance(blocked, history.BlockedJacobians) and blocked.shape == jac.shape
+    assert blocked.values.shape == (*jac.shape[:2], columns.shape[1])
+    for got, want in ((bpsi, psi), (blocked.dense(), jac), (np.asarray(blocked), jac), (bpsit, psit)):
+        np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(blocked[3], jac[3])  # one time: its dense Psi_q
+    np.testing.assert_array_equal(blocked[2:5].dense(), jac[2:5])  # a span of times: still blocks
+    for key, value in history.residuals(bpsi, blocked, bpsit, run.qd, system).items():
+        np.testing.assert_array_equal(value, residuals[key], err_msg=key)
+    got = history.joint_reactions(system, run.q, run.lam, blocked)
+    assert list(got) == list(reactions)
+    for key, value in reactions.items():
+        np.testing.assert_array_equal(got[key], value, err_msg=key)
 
 
 def test_residuals_take_the_dense_product_where_a_row_reaches_other_bodies():
@@ -252,7 +274,15 @@ def test_one_output_pass_gives_the_systems_constraints_and_the_two_passes_number
         assert np.allclose(one.jac[k], system.jacobian(result.q[k], t), rtol=1e-13, atol=1e-13)
         assert np.allclose(one.psit[k], system.psi_t(result.q[k], t), rtol=1e-13, atol=1e-13)
     monkeypatch.setattr(compiled, "ONE_PASS_LARGEST", 0)
-    forward_dynamics(system, q0, qd0, 0.3, 12, **options)
+    blocked = forward_dynamics(system, q0, qd0, 0.3, 12, **options)
     two = made.pop("run")
+    assert isinstance(two.jac, history.BlockedJacobians)  # above ONE_PASS_LARGEST: Psi_q by its rows' blocks
     for name in ("Y", "qdd", "lam", "psi", "jac", "psit"):
         np.testing.assert_array_equal(getattr(one, name), getattr(two, name), err_msg=name)
+    for kind in ("points", "reactions", "forces"):  # the result's columns (its CSV) from the blocks: the same
+        got, want = getattr(blocked, kind), getattr(result, kind)
+        assert list(got) == list(want)
+        for key, value in want.items():
+            np.testing.assert_array_equal(got[key], value, err_msg=key)
+    for key in ("closest_singularity", "max_constraint_residual", "max_velocity_residual"):  # Guard, residuals
+        assert blocked.info[key] == result.info[key], key

@@ -192,6 +192,37 @@ def test_row_norms_from_the_bodies_columns_are_numpys_with_the_pattern():
     np.testing.assert_allclose(dense, np.linalg.norm(jacobians[:, 1:] * guard._columns, axis=-1), rtol=1e-15)
 
 
+def test_a_blocked_history_gives_the_dense_ones_norms_pattern_and_spectra():
+    """Psi_q's history by its rows' blocks (``history.BlockedJacobians``: a large Psi_q's, from the compiled run):
+    the Guard's row norms, pattern and band spectra from its blocks are those of the dense history to the last bit
+    (the same entries, read in the same order), and its verdicts on it too (the closest approach to a singular
+    position); near flat (89.99 degrees) as well as far from it."""
+    from solutions.compiled import history
+
+    system, qs = chain_at([40.0, 60.0, 75.0, 89.99])
+    jacobians = np.array([system.jacobian(q, 0.0) for q in qs])
+    blocked = history.BlockedJacobians.gather(jacobians, history.layout(system, history._row_columns))
+    np.testing.assert_array_equal(blocked.dense(), jacobians)  # the rows' blocks hold every nonzero
+    guard = Guard(system, qs[0], 1e-3, 1e-8)
+    norms, pattern = singular.history_norms(jacobians, guard._columns, history.layout(system, history._row_columns))
+    got_norms, got_pattern = singular.history_norms(blocked, guard._columns)
+    np.testing.assert_array_equal(got_norms, norms)
+    np.testing.assert_array_equal(got_pattern, pattern)
+    np.testing.assert_array_equal(blocked.pattern(), pattern)
+    for given in (pattern, None):  # the pattern as history_norms gives it, or found from the blocks
+        want = singular.spectra(jacobians, None, guard._columns, norms, pattern)
+        got = singular.spectra(blocked, None, guard._columns, norms, given)
+        for a, b in zip(got, want, strict=True):
+            np.testing.assert_array_equal(a, b)
+    verdicts = []
+    for history_of_psi_q in (jacobians, blocked):
+        judged = Guard(system, qs[0], 1e-3, 1e-8)
+        judged.banded = True
+        judged.check_outputs(np.arange(4.0), qs, np.zeros((4, jacobians.shape[1])), history_of_psi_q)
+        verdicts.append(judged.closest)
+    assert verdicts[0] == verdicts[1] and verdicts[0]["ratio"] < 1e-3  # near flat: the figure matters
+
+
 @pytest.mark.parametrize("loops", [2, 5])
 def test_mid_size_psi_q_takes_the_band_with_numpys_ratio_basis_and_sign(loops, monkeypatch):
     """A Psi_q of more than dynamics.DENSE_LARGEST rows and fewer than BAND_SMALLEST coordinates (the loop chain of 2
