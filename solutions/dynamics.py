@@ -1570,6 +1570,7 @@ def square_spectra(
     before: np.ndarray | None,
     banded: bool = True,
     pattern: np.ndarray | None = None,
+    settle: tuple | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(sigma_m / sigma_1, null-space bases T, signs of det [Psi_q; T^T]) of each Psi_q (N, m, n) of full row rank
     m, scaled (``scale_rows`` with its column weights and row norms), for ``Guard.check_outputs``. Dense: SVDs and
@@ -1579,9 +1580,11 @@ def square_spectra(
     scaled entry by entry, no scaled copy of the history. ``before``: a null-space basis just before the first time
     (which picks the band's independent coordinates), None if none is known. ``banded=False``: dense whatever the
     size (a numpy engine's run, which loads no compiled code). ``pattern`` (m, n): where any Psi_q is nonzero, if
-    known (the band's structure; else found from the history)."""
+    known (the band's structure; else found from the history). ``settle`` ((thresholds, fall): the Guard's tests of the
+    ratios): the band's ratios closed only where those tests or the Guard's reported figures need it
+    (``compiled.singular.settled``); None: everywhere."""
     N, m, n = jacobians.shape
-    found = _compiled_spectra(jacobians, columns, norms, before, pattern) if banded and m <= n else None
+    found = _compiled_spectra(jacobians, columns, norms, before, pattern, settle) if banded and m <= n else None
     if found is None:
         scaled = scale_rows(jacobians, columns, norms)
         tangents, signs = null_space_bases(scaled, signs=True)
@@ -1596,7 +1599,7 @@ def square_spectra(
 
 
 def _compiled_spectra(
-    jacobians: np.ndarray, columns: np.ndarray, norms: np.ndarray, before: np.ndarray | None, pattern=None
+    jacobians: np.ndarray, columns: np.ndarray, norms: np.ndarray, before: np.ndarray | None, pattern=None, settle=None
 ):
     """The compiled engine's spectra of the scaled Psi_q: in one compiled pass over a small one (up to DENSE_LARGEST
     rows, ``compiled.singular.dense_spectra``), else from its band (``compiled.singular.spectra``): from
@@ -1614,7 +1617,7 @@ def _compiled_spectra(
     if m == n:
         return None
     widest = singular.WIDEST if n >= BAND_SMALLEST else singular.WIDEST_MID
-    return singular.spectra(jacobians, before, columns, norms, pattern, widest)
+    return singular.spectra(jacobians, before, columns, norms, pattern, widest, settle)
 
 
 class Guard:
@@ -1800,7 +1803,8 @@ class Guard:
         if norms is None:
             norms, pattern = self._row_norms(jacobians)
         if jacobians.shape[1] == self.rank:  # independent rows: T and det [Psi_q; T^T], from the band where it pays
-            made = square_spectra(jacobians, self._columns, norms, self._tangent, self.banded, pattern)
+            settle = ((self.singular_ratio, NEAR_SINGULAR), FALL)  # what the ratios are judged by
+            made = square_spectra(jacobians, self._columns, norms, self._tangent, self.banded, pattern, settle)
         else:  # redundant rows: the null space of rank r needs the SVD's V; det [Psi_q; T^T] is not defined
             _, s, vt = np.linalg.svd(scale_rows(jacobians, self._columns, norms))
             made = singular_ratios(s, self.rank), np.swapaxes(vt[:, self.rank :], 1, 2), None

@@ -76,9 +76,10 @@ of bands 0.7-1.0 n wide: 4.3 / 3.5 at 20 x 24, 19 / 13 at 40 x 45, 48 / 25 at 55
 
 _vector, _ivector, _matrix = types.float64[::1], types.int64[::1], types.float64[:, ::1]
 _stack = types.float64[:, :, ::1]
-_SPECTRA = types.Tuple((_vector, _stack, _vector))(
-    _stack, _vector, _matrix, _ivector, _vector, _ivector, _ivector, _matrix
+_SPECTRA = types.Tuple((_vector, _stack, _vector, _vector))(
+    _stack, _vector, _matrix, _ivector, _vector, _ivector, _ivector, _matrix, types.float64
 )
+_AT = _vector(_stack, _vector, _matrix, _ivector, _vector, _ivector, _ivector, _stack, _ivector)
 _DENSE = types.Tuple((_vector, _stack, _vector))(_stack, _vector, _matrix, types.boolean)
 """Signatures compiled at import (and cached on disk, ``precompile``): a run never waits for them."""
 
@@ -100,7 +101,9 @@ def band_order(pattern: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return columns, keys
 
 
-def spectra(scaled: np.ndarray, first: np.ndarray | None, columns=None, norms=None, pattern=None, widest=WIDEST):
+def spectra(
+    scaled: np.ndarray, first: np.ndarray | None, columns=None, norms=None, pattern=None, widest=WIDEST, settle=None
+):
     """(sigma_m / sigma_1 (N,), null-space bases (N, n, d), signs of det [Psi_q; T^T] (N,)) of each scaled Psi_q
     (N, m, n) of full row rank, from the band (module docstring); None where the ordered Psi_q is not a band
     at most n / ``widest`` wide (an eighth of n, ``WIDEST``; half of n at mid sizes, ``WIDEST_MID``). ``first``
@@ -108,7 +111,11 @@ def spectra(scaled: np.ndarray, first: np.ndarray | None, columns=None, norms=No
     from the band, ``_first_basis``). NaN at a time where LAPACK failed.
     With ``columns`` (n,) and ``norms`` (N, m) (``row_norms``), ``scaled`` is Psi_q itself, scaled here entry by
     entry of its pattern (no scaled copy of the whole history: on a chain of 64 loops it is 121 MB); ``pattern``
-    (m, n): where any of them is nonzero, if known (``history_norms``), else found here by a pass over the history."""
+    (m, n): where any of them is nonzero, if known (``history_norms``), else found here by a pass over the history.
+    ``settle`` (thresholds, fall), the Guard's tests of the ratios (``settled``): each ratio first in a bracket of
+    relative width about LOOSE (one Cholesky test a bound, ``_bracketed_ratio``), then closed to EXTREME_TOLERANCE
+    only at the times where a test of the Guard could go the other way within it or whose figure it reports (the
+    smallest, a dip); None: every ratio closed."""
     if columns is None:
         columns, norms = np.ones(scaled.shape[2]), np.ones(scaled.shape[:2])
         pattern = np.any(scaled != 0.0, axis=0)
@@ -130,7 +137,50 @@ def spectra(scaled: np.ndarray, first: np.ndarray | None, columns=None, norms=No
     kl, ku = _widths(_layout(keys, position, chosen), keys.size, starts, indices, position, chosen, True)
     if widest * (kl + ku + 1) > position.size:  # not a band: dense costs less
         return None
-    return _spectra(np.ascontiguousarray(scaled), *scale, position, keys, starts, indices, first)
+    arguments = (np.ascontiguousarray(scaled), *scale, position, keys, starts, indices)
+    ratios, bases, signs, lower = _spectra(*arguments, first, 0.0 if settle is None else LOOSE)
+    if settle is not None:
+        times = np.flatnonzero(~settled(lower, ratios, signs, *settle))
+        if times.size:  # closed there, from a cold start (each time alone)
+            ratios[times] = _ratios_at(*arguments, bases, times.astype(np.int64))
+    return ratios, bases, signs
+
+
+def settled(lower: np.ndarray, upper: np.ndarray, signs: np.ndarray, thresholds, fall: float) -> np.ndarray:
+    """Where a ratio known only in its bracket [lower, upper] (N,) (``upper`` the figure) gives every test of the
+    Guard the verdict its exact value gives, and is no figure the Guard reports (``dynamics.Guard``: ``_quiet``,
+    ``_judge``, ``check_branches``, ``diagnostics.passes_zero``): True where the bracket
+    - lies on one side of each threshold (``thresholds``: NEAR_SINGULAR, the run's singular_ratio) and above the
+      smallest (the Guard stops below singular_ratio and reports that figure);
+    - holds no candidate for the smallest ratio of the run (``closest``, reported): its lower end above every upper;
+    - does not overlap its neighbours' (each comparison of two ratios of adjacent times decided, ``fall`` times
+      the other's too: the falls of ``check_branches``);
+    - is no possible dip (``passes_zero`` of it and its neighbours decided false; a dip's three are closed: its
+      figure is reported) nor next to a flip of the sign of det [Psi_q; T^T] (the crossing's figure)."""
+    thresholds = [float(value) for value in thresholds if value]
+    exact = lower >= upper
+    loose = ~exact
+    unsettled = loose & (lower <= np.min(upper))
+    for value in thresholds:
+        unsettled |= loose & (lower < value) & ~(upper < value)
+    unsettled |= loose & (lower < min(thresholds, default=0.0))
+    for a, b in ((slice(None, -1), slice(1, None)), (slice(1, None), slice(None, -1))):
+        for factor in (1.0, fall):  # ratios[k] <= ratios[k + 1], ratios[k] < FALL ratios[k + 1], both ways
+            overlap = (lower[a] <= factor * upper[b]) & (factor * lower[b] <= upper[a]) & (loose[a] | loose[b])
+            unsettled[a] |= overlap
+            unsettled[b] |= overlap
+    # passes_zero(before, middle, after) unless decided false: middle >= NEAR (a threshold), middle above a
+    # neighbour, or 2 middle >= both neighbours
+    before, middle, after = slice(None, -2), slice(1, -1), slice(2, None)
+    near = max(thresholds, default=np.inf)
+    maybe = (lower[middle] < near) & (lower[middle] <= np.minimum(upper[before], upper[after]))
+    maybe &= 2.0 * lower[middle] < np.maximum(upper[before], upper[after])
+    for part in (before, middle, after):
+        unsettled[part] |= maybe & loose[part]
+    flips = signs[:-1] * signs[1:] < 0.0
+    unsettled[:-1] |= flips & loose[:-1]
+    unsettled[1:] |= flips & loose[1:]
+    return ~unsettled
 
 
 @njit(cache=True, nogil=True)
@@ -448,6 +498,10 @@ CERTIFIED = 1e-5
 """Largest relative width of the bracket of sigma_m^2 that the Cholesky test can certify (its rounding, about
 16 eps sigma_1^2, against sigma_m^2) for ``_smallest`` to give the figure; past it (sigma_m / sigma_1 below about
 1e-5) the exact band route (``_ratio``) or the dense SVD gives it."""
+LOOSE = 1e-4
+"""Relative width of the bracket of each extreme eigenvalue of Psi_q Psi_q^T that ``_bracketed_ratio`` first tries
+(one Cholesky test each): the ratios of adjacent output times differ by more (loop chain: the two times' brackets
+overlap at fewer than one time in 20, ``benchmarks/guard_cost.py``), so most verdicts are decided there."""
 _ROUNDS = 60
 STEP = 1e-5
 GUESS = 1e-3
@@ -666,16 +720,76 @@ def _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y):
     return np.sqrt(smallest / largest)
 
 
+@njit(cache=True, nogil=True)
+def _bracketed_ratio(J, rows, starts, indices, products, G, L, low, high, y, loose, spread):
+    """(figure, lower bound) of sigma_m / sigma_1 with each extreme eigenvalue of G = Psi_q Psi_q^T in a bracket
+    about ``loose`` wide, by one or two Cholesky tests each, from the eigenvectors of the time before (``high``,
+    ``low``) where ``_iterated_ratio`` takes 8-9 tests and 14 solves to close it: lambda_1 >= the Rayleigh quotient
+    lo of ``high``, lambda_1 <= c = lo (1 + s) if c I - G is positive definite; lambda_m <= |Psi_q^T x|^2 = hi of
+    x = ``low``, lambda_m >= f = hi (1 - s) if G - f I is. Each factor then takes one step of inverse iteration
+    shifted to its bound (Parlett, ch. 4: the rate (lambda - f) / (lambda' - f) is small), whose quotient is the
+    sharper figure and the vector the next time's; where the bracket is still wider than ``loose``, one more test
+    just beyond the new quotient. s, per bound: four times how far the time before's quotient was off
+    (``spread``, updated), at least ``loose``. The figure sqrt(lambda_m's upper / lambda_1's lower) is the
+    ratio's upper end. (NaN, NaN) where a first test fails (the vector of the time before too far off; the first
+    time) or G's rounding (``_smallest``'s floor) is not well below the bracket: ``_iterated_ratio`` then."""
+    _gram(J, products, G)
+    m = G.shape[0]
+    top = 0.0
+    for i in range(m):
+        top = max(top, G[i, 0])
+    top = max(top, _rayleigh(G, high))
+    ceiling = top * (1.0 + max(loose, spread[0]))
+    if not _cholesky(G, -1.0, ceiling, L):
+        spread[0] = min(0.5, 4.0 * max(loose, spread[0]))
+        return np.nan, np.nan
+    _solve_normalized(L, high)
+    sharper = max(top, _rayleigh(G, high))
+    spread[0] = 4.0 * (sharper - top) / sharper
+    top = sharper
+    if ceiling - top > loose * top and _cholesky(G, -1.0, top * (1.0 + loose), L):
+        ceiling = top * (1.0 + loose)
+    bottom = _residual(J, rows, starts, indices, low, y)
+    floor = bottom * (1.0 - min(0.5, max(loose, spread[1])))
+    if 16.0 * np.finfo(np.float64).eps * ceiling > 0.1 * loose * floor or not _cholesky(G, 1.0, -floor, L):
+        spread[1] = min(0.5, 4.0 * max(loose, spread[1]))
+        return np.nan, np.nan
+    _solve_normalized(L, low)
+    sharper = min(bottom, _residual(J, rows, starts, indices, low, y))
+    spread[1] = 4.0 * (bottom - sharper) / sharper
+    bottom = sharper
+    if bottom - floor > loose * bottom and _cholesky(G, 1.0, -bottom * (1.0 - loose), L):
+        floor = bottom * (1.0 - loose)
+    return np.sqrt(bottom / top), np.sqrt(floor / ceiling)
+
+
+@njit(cache=True, nogil=True)
+def _residual(J, rows, starts, indices, x, y):
+    """|Psi_q^T x|^2 (x along G's rows, ``rows``): the Rayleigh quotient of G at a unit x without forming G."""
+    y[:] = 0.0
+    for i in range(rows.size):
+        r = rows[i]
+        for p in range(starts[r], starts[r + 1]):
+            y[indices[p]] += J[r, indices[p]] * x[i]
+    total = 0.0
+    for c in range(y.size):
+        total += y[c] * y[c]
+    return total
+
+
 @njit(_SPECTRA, cache=True, nogil=True)
-def _spectra(jacobians, columns, norms, position, keys, starts, indices, first):
+def _spectra(jacobians, columns, norms, position, keys, starts, indices, first, loose):
+    """(ratios, bases, signs, the ratios' lower bounds) at every time; ``loose`` > 0: the ratios in brackets of that
+    relative width where one test a bound gives them (``_bracketed_ratio``), else closed."""
     N, m, n = jacobians.shape
     d = n - m
-    ratios, bases, signs = np.empty(N), np.empty((N, n, d)), np.empty(N)
+    ratios, bases, signs, lower = np.empty(N), np.empty((N, n, d)), np.empty(N), np.empty(N)
     rows = np.argsort(keys, kind="mergesort")  # Psi_q's rows along the band: G = Psi_q Psi_q^T a band too
     w = _gram_width(rows, starts, indices, n)
     products = _gram_products(rows, starts, indices, w)
     G, L, low, high, y = np.empty((m, w + 1)), np.empty((m, w + 1)), np.ones(m), np.ones(m), np.empty(n)
     before, ordered = first, _parity(position)
+    spread = np.full(2, 0.5)  # how far the time before's Rayleigh quotients were off (``_bracketed_ratio``)
     J = np.zeros((m, n))  # this time's scaled Psi_q, written on its pattern alone
     for k in range(N):
         for r in range(m):
@@ -684,14 +798,45 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, first):
                 J[r, indices[p]] = jacobians[k, r, indices[p]] * columns[indices[p]] / norm
         chosen = _independent(before, d)
         slot = _layout(keys, position, chosen)
-        ratios[k] = _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y)
+        ratios[k], lower[k] = np.nan, np.nan
+        if loose > 0.0:
+            bracket = _bracketed_ratio(J, rows, starts, indices, products, G, L, low, high, y, loose, spread)
+            ratios[k], lower[k] = bracket
+        if not np.isfinite(lower[k]):
+            ratios[k] = _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y)
+            lower[k] = ratios[k]
         if not np.isfinite(ratios[k]):  # near a rank loss: the bidiagonal reduction's figure
             low[:], high[:] = 1.0, 1.0
             ratios[k] = _ratio(J, slot, m, starts, indices, position, chosen)
+            lower[k] = ratios[k]
         bases[k], signs[k] = _null_space(J, slot, m, starts, indices, position, chosen, ordered)
         if np.all(np.isfinite(bases[k])):
             before = bases[k]
-    return ratios, bases, signs
+    return ratios, bases, signs, lower
+
+
+@njit(_AT, cache=True, nogil=True)
+def _ratios_at(jacobians, columns, norms, position, keys, starts, indices, bases, times):
+    """The ratios closed to EXTREME_TOLERANCE (``_spectra``'s) at the output times ``times`` alone, each from a cold
+    start (the eigenvectors of the time before not known there); ``bases``: the null-space bases (E's rows)."""
+    N, m, n = jacobians.shape
+    rows = np.argsort(keys, kind="mergesort")
+    w = _gram_width(rows, starts, indices, n)
+    products = _gram_products(rows, starts, indices, w)
+    G, L, y, J = np.empty((m, w + 1)), np.empty((m, w + 1)), np.empty(n), np.zeros((m, n))
+    ratios = np.empty(times.size)
+    for a in range(times.size):
+        k = times[a]
+        for r in range(m):
+            norm = norms[k, r] if norms[k, r] > 0.0 else 1.0
+            for p in range(starts[r], starts[r + 1]):
+                J[r, indices[p]] = jacobians[k, r, indices[p]] * columns[indices[p]] / norm
+        low, high = np.ones(m), np.ones(m)
+        ratios[a] = _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y)
+        if not np.isfinite(ratios[a]):
+            chosen = _independent(bases[k], n - m)
+            ratios[a] = _ratio(J, _layout(keys, position, chosen), m, starts, indices, position, chosen)
+    return ratios
 
 
 def dense_spectra(jacobians: np.ndarray, columns: np.ndarray, norms: np.ndarray, bases: bool = True):
@@ -821,4 +966,4 @@ def _dense_spectra(jacobians, columns, norms, bases):
     return ratios, tangents, signs
 
 
-__all__ = ["WIDEST", "WIDEST_MID", "band_order", "dense_spectra", "history_norms", "row_norms", "spectra"]
+__all__ = ["WIDEST", "WIDEST_MID", "band_order", "dense_spectra", "history_norms", "row_norms", "settled", "spectra"]
