@@ -19,6 +19,12 @@ batched SVDs and QRs, the compiled one-pass ``singular.dense_spectra``, the comp
 width up to n, not only ``WIDEST_MID``'s n / 2), ms per history, thread CPU, the best of 3 rounds of 10 after one
 warm-up; "-" where the band is wider than n. How ``dynamics._compiled_spectra`` picks its route (issue 25, item 2).
 
+``--verdicts FILE``: what the Guard decided and reported on every course model (``course/models``) and loop chain
+(N = 2, 4, 8, 16), compiled, 1 s and 100 output intervals, in Baumgarte's formulation and in joint coordinates where
+the model has them: the closest ratio and its time, the singular positions passed with their figures and verdicts,
+the error a run stopped with, and whether the band route (``singular.spectra``) judged it; one JSON line per run
+into FILE, to compare two checkouts line by line (``diff``; the figures printed with every digit).
+
 Nothing is asserted (timing depends on the machine): prints a Markdown table.
 """
 
@@ -148,12 +154,49 @@ def print_routes(sizes: list[int]) -> None:
         print(f"| {route} | " + " | ".join(cells) + " |")
 
 
+def verdicts(path: str, sizes: list[int]) -> None:
+    """``--verdicts``: one JSON line per run (module docstring) into ``path``."""
+    import glob
+    import json
+
+    band, spectra = [], singular.spectra
+
+    def counted(*args, **kwargs):
+        made = spectra(*args, **kwargs)
+        band.append(made is not None)
+        return made
+
+    singular.spectra = counted
+    models = [(Path(p).stem, p) for p in sorted(glob.glob(str(ROOT.parent / "course/models/*.yaml")))]
+    models += [(f"loops{n}", chains.loop_chain(n)) for n in sizes]
+    with open(path, "w") as out:
+        for name, source in models:
+            system, q0, qd0 = build_system(load_model(source))
+            for formulation in ("baumgarte", "joint-coordinates"):
+                band.clear()
+                options = dict(formulation=formulation, rtol=1e-6, atol=1e-8, engine="compiled", divergence="skip")
+                line = {"model": name, "formulation": formulation}
+                try:
+                    info = dynamics.forward_dynamics(system, q0, qd0, 1.0, 100, **options).info
+                    line["closest"] = info.get("closest_singularity")
+                    line["crossings"] = info.get("singular_positions")
+                except Exception as err:  # noqa: BLE001 -- the stop is the verdict compared
+                    line["error"] = f"{type(err).__name__}: {err}"
+                line["band"] = any(band)
+                out.write(json.dumps(line, default=repr) + "\n")
+                print(name, formulation, line.get("error", "")[:80], "band" if line["band"] else "", flush=True)
+    singular.spectra = spectra
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[16, 64], help="loops N of the chain")
     parser.add_argument("--calls", type=int, default=5, help="calls timed per size (default 5)")
     parser.add_argument("--routes", action="store_true", help="time square_spectra's routes instead")
+    parser.add_argument("--verdicts", metavar="FILE", help="the Guard's verdicts and figures on every run into FILE")
     args = parser.parse_args(argv)
+    if args.verdicts:
+        return verdicts(args.verdicts, args.sizes)
     if args.routes:
         return print_routes(args.sizes)
     results = [measure(n, args.calls) for n in args.sizes]

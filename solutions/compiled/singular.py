@@ -225,7 +225,9 @@ def _first_basis(jacobian, columns, norms, position, keys, starts, indices):
     order = np.empty(n, dtype=np.int64)  # the coordinate at each place of the band order
     order[position] = np.arange(n)
     chosen = np.sort(order[taken[m:]])
-    basis, _ = _null_space(J, _layout(keys, position, chosen), m, starts, indices, position, chosen, 1.0)
+    slot = _layout(keys, position, chosen)
+    kl, ku = _widths(slot, m, starts, indices, position, chosen, True)
+    basis, _ = _null_space(J, slot, m, starts, indices, position, chosen, 1.0, kl, ku)
     return basis
 
 
@@ -437,11 +439,11 @@ def _ratio(J, slot, m, starts, indices, position, chosen):
 
 
 @njit(cache=True, nogil=True)
-def _null_space(J, slot, m, starts, indices, position, chosen, ordered):
+def _null_space(J, slot, m, starts, indices, position, chosen, ordered, kl, ku):
     """(T, sign of det [Psi_q; T^T]) from the banded LU of A = [Psi_q; E^T] (module docstring); NaN on failure.
-    ordered: the parity of the columns' band order ``position`` (the same at every output time)."""
+    ordered: the parities of the rows' order ``slot`` and the columns' ``position`` (``_parity``), multiplied; kl, ku:
+    the band's widths (``_widths``): all three found once for each choice of E's coordinates, ``chosen``."""
     n, d = slot.size, chosen.size
-    kl, ku = _widths(slot, m, starts, indices, position, chosen, True)
     ldab = 2 * kl + ku + 1
     ab = np.zeros((n, ldab))  # dgbtrf's AB: ab[j, kl + ku + i - j] = A[i, j], kl rows above for the fill
     rhs = np.zeros((d, n))  # Fortran's B(n, d): the unit vectors of E's rows in the band layout
@@ -471,7 +473,7 @@ def _null_space(J, slot, m, starts, indices, position, chosen, ordered):
     _GBTRS(trans.ctypes, sizes[0:].ctypes, sizes[2:].ctypes, sizes[3:].ctypes, sizes[6:].ctypes, ab.ctypes,
            sizes[4:].ctypes, pivots.ctypes, rhs.ctypes, sizes[0:].ctypes, sizes[5:].ctypes)  # fmt: skip
     # B[i, j] = A[slot[i], columns[j]] (A's rows: Psi_q's, then E's): det B = sign(slot) det A sign(columns)
-    sign *= _parity(slot) * ordered
+    sign *= ordered
     basis = np.empty((n, d))
     for c in range(n):
         for a in range(d):
@@ -570,22 +572,24 @@ def _gram(J, products, G):
 
 @njit(cache=True, nogil=True)
 def _cholesky(G, a, b, L):
-    """L L^T = a G + b I (band storage as G's), True if it is positive definite (every pivot > 0): the Sturm test
-    of continuation, here of an eigenvalue bound (a = 1, b = -s: all eigenvalues of G above s; a = -1, b = s: all
-    below s), O(m w^2) (Golub and Van Loan, Matrix Computations, sec. 4.3.5, band Cholesky; sec. 8.4.1, inertia)."""
+    """L L^T = a G + b I (band storage as G's, L[i, 0] holding 1 / L_ii: a product where the pivot's division
+    cost most of the factorization on a narrow band), True if it is positive definite (every pivot > 0): the Sturm
+    test of continuation, here of an eigenvalue bound (a = 1, b = -s: all eigenvalues of G above s; a = -1, b = s:
+    all below s), O(m w^2) (Golub and Van Loan, Matrix Computations, sec. 4.3.5, band Cholesky; sec. 8.4.1)."""
     m, w = G.shape[0], G.shape[1] - 1
     for i in range(m):
-        for t in range(min(w, i), -1, -1):
+        for t in range(min(w, i), 0, -1):
             j = i - t
-            total = a * G[i, t] + (b if t == 0 else 0.0)
+            total = a * G[i, t]
             for k in range(max(i - w, 0), j):
                 total -= L[i, i - k] * L[j, j - k]
-            if t == 0:
-                if not total > 0.0:
-                    return False
-                L[i, 0] = np.sqrt(total)
-            else:
-                L[i, t] = total / L[j, 0]
+            L[i, t] = total * L[j, 0]
+        total = a * G[i, 0] + b
+        for k in range(max(i - w, 0), i):
+            total -= L[i, i - k] * L[i, i - k]
+        if not total > 0.0:
+            return False
+        L[i, 0] = 1.0 / np.sqrt(total)
     return True
 
 
@@ -597,13 +601,15 @@ def _solve_normalized(L, x):
         total = x[i]
         for k in range(max(i - w, 0), i):
             total -= L[i, i - k] * x[k]
-        x[i] = total / L[i, 0]
+        x[i] = total * L[i, 0]
+    size = 0.0
     for i in range(m - 1, -1, -1):
         total = x[i]
         for k in range(i + 1, min(i + w, m - 1) + 1):
             total -= L[k, k - i] * x[k]
-        x[i] = total / L[i, 0]
-    x /= np.sqrt(np.dot(x, x))
+        x[i] = total * L[i, 0]
+        size += x[i] * x[i]
+    x *= 1.0 / np.sqrt(size)
 
 
 @njit(cache=True, nogil=True)
@@ -789,6 +795,7 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, first, 
     products = _gram_products(rows, starts, indices, w)
     G, L, low, high, y = np.empty((m, w + 1)), np.empty((m, w + 1)), np.ones(m), np.ones(m), np.empty(n)
     before, ordered = first, _parity(position)
+    kept, slot, kl, ku, parity = np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), 0, 0, 1.0
     spread = np.full(2, 0.5)  # how far the time before's Rayleigh quotients were off (``_bracketed_ratio``)
     J = np.zeros((m, n))  # this time's scaled Psi_q, written on its pattern alone
     for k in range(N):
@@ -797,7 +804,10 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, first, 
             for p in range(starts[r], starts[r + 1]):  # as ``dynamics.scale_rows``, to the last bit
                 J[r, indices[p]] = jacobians[k, r, indices[p]] * columns[indices[p]] / norm
         chosen = _independent(before, d)
-        slot = _layout(keys, position, chosen)
+        if k == 0 or np.any(chosen != kept):  # E's coordinates changed: the band's rows, widths and parity
+            kept, slot = chosen, _layout(keys, position, chosen)
+            kl, ku = _widths(slot, m, starts, indices, position, chosen, True)
+            parity = _parity(slot) * ordered
         ratios[k], lower[k] = np.nan, np.nan
         if loose > 0.0:
             bracket = _bracketed_ratio(J, rows, starts, indices, products, G, L, low, high, y, loose, spread)
@@ -809,7 +819,7 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, first, 
             low[:], high[:] = 1.0, 1.0
             ratios[k] = _ratio(J, slot, m, starts, indices, position, chosen)
             lower[k] = ratios[k]
-        bases[k], signs[k] = _null_space(J, slot, m, starts, indices, position, chosen, ordered)
+        bases[k], signs[k] = _null_space(J, slot, m, starts, indices, position, chosen, parity, kl, ku)
         if np.all(np.isfinite(bases[k])):
             before = bases[k]
     return ratios, bases, signs, lower
