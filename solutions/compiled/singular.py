@@ -729,44 +729,90 @@ def _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y):
 @njit(cache=True, nogil=True)
 def _bracketed_ratio(J, rows, starts, indices, products, G, L, low, high, y, loose, spread):
     """(figure, lower bound) of sigma_m / sigma_1 with each extreme eigenvalue of G = Psi_q Psi_q^T in a bracket
-    about ``loose`` wide, by one or two Cholesky tests each, from the eigenvectors of the time before (``high``,
-    ``low``) where ``_iterated_ratio`` takes 8-9 tests and 14 solves to close it: lambda_1 >= the Rayleigh quotient
-    lo of ``high``, lambda_1 <= c = lo (1 + s) if c I - G is positive definite; lambda_m <= |Psi_q^T x|^2 = hi of
-    x = ``low``, lambda_m >= f = hi (1 - s) if G - f I is. Each factor then takes one step of inverse iteration
-    shifted to its bound (Parlett, ch. 4: the rate (lambda - f) / (lambda' - f) is small), whose quotient is the
-    sharper figure and the vector the next time's; where the bracket is still wider than ``loose``, one more test
-    just beyond the new quotient. s, per bound: four times how far the time before's quotient was off
-    (``spread``, updated), at least ``loose``. The figure sqrt(lambda_m's upper / lambda_1's lower) is the
-    ratio's upper end. (NaN, NaN) where a first test fails (the vector of the time before too far off; the first
-    time) or G's rounding (``_smallest``'s floor) is not well below the bracket: ``_iterated_ratio`` then."""
+    about ``loose`` wide, by one or two Cholesky tests each (``_top``, ``_bottom``), from the eigenvectors ``high``,
+    ``low`` of the times before (``_extrapolate``), where ``_iterated_ratio`` takes 8-9 tests and 14 solves to
+    close it. The figure sqrt(lambda_m's upper / lambda_1's lower) is the ratio's upper end. (NaN, NaN) where a
+    bound's tests fail (its vector too far off: the first time) or G's rounding (``_smallest``'s floor) is not well
+    below lambda_m's bracket: ``_iterated_ratio`` then."""
     _gram(J, products, G)
-    m = G.shape[0]
-    top = 0.0
-    for i in range(m):
-        top = max(top, G[i, 0])
-    top = max(top, _rayleigh(G, high))
-    ceiling = top * (1.0 + max(loose, spread[0]))
-    if not _cholesky(G, -1.0, ceiling, L):
-        spread[0] = min(0.5, 4.0 * max(loose, spread[0]))
+    top, ceiling = _top(G, L, high, loose, spread)
+    if not np.isfinite(ceiling):
         return np.nan, np.nan
-    _solve_normalized(L, high)
-    sharper = max(top, _rayleigh(G, high))
-    spread[0] = 4.0 * (sharper - top) / sharper
-    top = sharper
-    if ceiling - top > loose * top and _cholesky(G, -1.0, top * (1.0 + loose), L):
-        ceiling = top * (1.0 + loose)
-    bottom = _residual(J, rows, starts, indices, low, y)
-    floor = bottom * (1.0 - min(0.5, max(loose, spread[1])))
-    if 16.0 * np.finfo(np.float64).eps * ceiling > 0.1 * loose * floor or not _cholesky(G, 1.0, -floor, L):
-        spread[1] = min(0.5, 4.0 * max(loose, spread[1]))
+    bottom, floor = _bottom(J, rows, starts, indices, G, L, low, y, loose, spread, ceiling)
+    if not np.isfinite(floor):
         return np.nan, np.nan
-    _solve_normalized(L, low)
-    sharper = min(bottom, _residual(J, rows, starts, indices, low, y))
-    spread[1] = 4.0 * (bottom - sharper) / sharper
-    bottom = sharper
-    if bottom - floor > loose * bottom and _cholesky(G, 1.0, -bottom * (1.0 - loose), L):
-        floor = bottom * (1.0 - loose)
     return np.sqrt(bottom / top), np.sqrt(floor / ceiling)
+
+
+@njit(cache=True, nogil=True)
+def _top(G, L, x, loose, spread):
+    """(lo, hi) about lambda_1 of G: lo the Rayleigh quotient of x (or G's largest diagonal entry), hi = lo (1 + s)
+    if hi I - G is positive definite (Cholesky), s = four times how far the time before's quotient was off
+    (``spread[0]``, updated), at least ``loose``; a hundred times wider if that fails. The factor then takes one step
+    of inverse iteration shifted to hi (Parlett, ch. 4; its rate (hi - lambda_1) / (hi - lambda_2) is small), whose
+    quotient is the sharper lo and x the next time's; where hi - lo is still above ``loose`` lo, one more test at
+    lo (1 + loose). (lo, NaN) where both first tests fail."""
+    lo = 0.0
+    for i in range(G.shape[0]):
+        lo = max(lo, G[i, 0])
+    lo = max(lo, _rayleigh(G, x))
+    width = max(loose, spread[0])
+    hi = lo * (1.0 + width)
+    if not _cholesky(G, -1.0, hi, L):
+        width = min(0.5, 100.0 * width)
+        hi = lo * (1.0 + width)
+        if not _cholesky(G, -1.0, hi, L):
+            spread[0] = width
+            return lo, np.nan
+    _solve_normalized(L, x)
+    sharper = max(lo, _rayleigh(G, x))
+    spread[0] = 4.0 * (sharper - lo) / sharper
+    lo = sharper
+    if hi - lo > loose * lo and _cholesky(G, -1.0, lo * (1.0 + loose), L):
+        hi = lo * (1.0 + loose)
+    return lo, hi
+
+
+@njit(cache=True, nogil=True)
+def _bottom(J, rows, starts, indices, G, L, x, y, loose, spread, ceiling):
+    """(hi, lo) about lambda_m of G, as ``_top`` from below: hi = |Psi_q^T x|^2 (``_residual``: from Psi_q, the dense
+    SVD's accuracy), lo = hi (1 - s) if G - lo I is positive definite (``spread[1]``); (hi, NaN) where both first
+    tests fail or G's rounding, 16 eps ``ceiling`` (lambda_1's upper bound), is above a tenth of ``loose`` lo."""
+    hi = _residual(J, rows, starts, indices, x, y)
+    width = min(0.5, max(loose, spread[1]))
+    lo = hi * (1.0 - width)
+    if 16.0 * np.finfo(np.float64).eps * ceiling > 0.1 * loose * lo:
+        return hi, np.nan
+    if not _cholesky(G, 1.0, -lo, L):
+        width = min(0.5, 100.0 * width)
+        lo = hi * (1.0 - width)
+        if not _cholesky(G, 1.0, -lo, L):
+            spread[1] = width
+            return hi, np.nan
+    _solve_normalized(L, x)
+    sharper = min(hi, _residual(J, rows, starts, indices, x, y))
+    spread[1] = 4.0 * (hi - sharper) / sharper
+    hi = sharper
+    if hi - lo > loose * hi and _cholesky(G, 1.0, -hi * (1.0 - loose), L):
+        lo = hi * (1.0 - loose)
+    return hi, lo
+
+
+@njit(cache=True, nogil=True)
+def _extrapolate(x, before, scratch):
+    """x <- 2 x - x_before, unit, and x_before <- x (the eigenvector of the last time; ``before`` of the time before
+    it): a linear extrapolation in time of the vectors ``_bracketed_ratio`` starts from, whose error is then
+    second order in the output interval where the vector of the time before has a first-order one (their signs
+    follow each other: inverse iteration with a definite factor keeps them). ``scratch``: at least x's size."""
+    size = 0.0
+    for i in range(x.size):
+        scratch[i] = x[i]
+        x[i] = 2.0 * x[i] - before[i]
+        size += x[i] * x[i]
+    size = 1.0 / np.sqrt(size)
+    for i in range(x.size):
+        x[i] *= size
+        before[i] = scratch[i]
 
 
 @njit(cache=True, nogil=True)
@@ -797,6 +843,7 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, first, 
     before, ordered = first, _parity(position)
     kept, slot, kl, ku, parity = np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), 0, 0, 1.0
     spread = np.full(2, 0.5)  # how far the time before's Rayleigh quotients were off (``_bracketed_ratio``)
+    earlier = np.empty((2, m))  # the eigenvectors of the time before the last (``_extrapolate``)
     J = np.zeros((m, n))  # this time's scaled Psi_q, written on its pattern alone
     for k in range(N):
         for r in range(m):
@@ -810,6 +857,11 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, first, 
             parity = _parity(slot) * ordered
         ratios[k], lower[k] = np.nan, np.nan
         if loose > 0.0:
+            if k >= 2 and lower[k - 1] < ratios[k - 1] and lower[k - 2] < ratios[k - 2]:  # both bracketed
+                _extrapolate(low, earlier[0], y)
+                _extrapolate(high, earlier[1], y)
+            else:
+                earlier[0, :], earlier[1, :] = low, high
             bracket = _bracketed_ratio(J, rows, starts, indices, products, G, L, low, high, y, loose, spread)
             ratios[k], lower[k] = bracket
         if not np.isfinite(lower[k]):
