@@ -1518,7 +1518,8 @@ ALIGNED = 0.9
 BAND_SMALLEST = 64
 """Coordinates from which ``square_spectra`` takes the band of Psi_q when it is narrower than an eighth of them
 (``compiled.singular.WIDEST``); below, with more than DENSE_LARGEST rows, a band up to half of them wide
-(``compiled.singular.WIDEST_MID``: ``benchmarks/guard_cost.py --routes``)."""
+(``compiled.singular.WIDEST_MID``: ``benchmarks/guard_cost.py --routes``), a square Psi_q at any width
+(``WIDEST_SQUARE``)."""
 DENSE_LARGEST = 10
 """Rows (constraints) up to which a compiled run's ``square_spectra`` takes ``compiled.singular.dense_spectra`` for a
 Psi_q of fewer than BAND_SMALLEST coordinates: its one-sided Jacobi on R (m x m) costs O(m^3) a sweep, its QR O(m^2 n)
@@ -1606,8 +1607,9 @@ def _compiled_spectra(
     rows, ``compiled.singular.dense_spectra``), else from its band (``compiled.singular.spectra``): from
     BAND_SMALLEST coordinates where the band is at most an eighth of them wide (``WIDEST``), below where it is at most
     half of them wide (``WIDEST_MID``: a mid-size Psi_q, the loop chain's of 2-8 loops, costs a quarter to two thirds
-    of numpy's batched SVDs and QRs so; a wider band costs more than they). None where there is no compiled engine
-    (a student package), where Psi_q is square (no null space) or not such a band: numpy's dense SVDs and QRs then."""
+    of numpy's batched SVDs and QRs so; a wider band costs more than they), or at any width where it is square and its
+    ratios are settled by the Guard's tests (``WIDEST_SQUARE``: no null space to solve for). None where there is no
+    compiled engine (a student package) or not such a band: numpy's dense SVDs and QRs then."""
     try:
         from .compiled import singular
     except ImportError:  # a student package: dense
@@ -1615,9 +1617,10 @@ def _compiled_spectra(
     _, m, n = jacobians.shape
     if m <= DENSE_LARGEST and n < BAND_SMALLEST:
         return singular.dense_spectra(jacobians, columns, norms)
-    if m == n:
-        return None
-    widest = singular.WIDEST if n >= BAND_SMALLEST else singular.WIDEST_MID
+    if n >= BAND_SMALLEST:
+        widest = singular.WIDEST
+    else:
+        widest = singular.WIDEST_SQUARE if m == n and settle is not None else singular.WIDEST_MID
     return singular.spectra(jacobians, before, columns, norms, pattern, widest, settle)
 
 

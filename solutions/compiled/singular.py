@@ -74,6 +74,13 @@ at 50 x 51; the carriage pendulum's 12 x 14, 5 wide, 0.67 / 1.30), where a wider
 of bands 0.7-1.0 n wide: 4.3 / 3.5 at 20 x 24, 19 / 13 at 40 x 45, 48 / 25 at 55 x 60; ``benchmarks/guard_cost.py
 --routes``)."""
 
+WIDEST_SQUARE = 0.5
+"""``widest`` for a square Psi_q (m = n, d = 0: the sign of det Psi_q and the ratio alone) of more than
+``dynamics.DENSE_LARGEST`` rows and fewer than ``dynamics.BAND_SMALLEST`` coordinates whose ratios are settled by
+the Guard's tests (``settled``): any width, even a full matrix (101 Psi_q of the course's driven mechanisms, thread
+CPU, bracketed Gram route / numpy's batched SVDs and QRs: the quick-return 12 x 12 0.43 / 1.26 ms, the six-bar
+15 x 15 0.61 / 1.85, the spatial slider-crank 21 x 21, no band, 1.21 / 3.27)."""
+
 _vector, _ivector, _matrix = types.float64[::1], types.int64[::1], types.float64[:, ::1]
 _stack = types.float64[:, :, ::1]
 _SPECTRA = types.Tuple((_vector, _stack, _vector, _vector))(
@@ -1028,4 +1035,14 @@ def _dense_spectra(jacobians, columns, norms, bases):
     return ratios, tangents, signs
 
 
-__all__ = ["WIDEST", "WIDEST_MID", "band_order", "dense_spectra", "history_norms", "row_norms", "settled", "spectra"]
+__all__ = [
+    "WIDEST",
+    "WIDEST_MID",
+    "WIDEST_SQUARE",
+    "band_order",
+    "dense_spectra",
+    "history_norms",
+    "row_norms",
+    "settled",
+    "spectra",
+]

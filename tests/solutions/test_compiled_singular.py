@@ -237,16 +237,26 @@ def swing():
     return system, np.linspace(0.0, 1.0, angles.size), qs, np.array([system.jacobian(q, 0.0) for q in qs])
 
 
-def test_settled_ratios_decide_as_numpys_svd_through_a_singular_position(swing):
+@pytest.mark.parametrize("square", [False, True])
+def test_settled_ratios_decide_as_numpys_svd_through_a_singular_position(swing, square, monkeypatch):
     """The Guard's ratios in brackets, closed only where its tests need them (``settle``, singular.settled), give
     every decision that numpy's SVD ratios give: the order of each two adjacent times, the falls, the dips
     (diagnostics.passes_zero), the thresholds; the smallest ratio and the dip's to 1e-10; the others within the
-    brackets' width (the loose figures are taken: not all to 1e-12); the basis and sign as before."""
+    brackets' width (the loose figures are taken: not all to 1e-12); the basis and sign as numpy's. ``square``:
+    Psi_q with a driver's row (a unit row on the coordinate the chain moves most in: 27 x 27, as a driven
+    mechanism's; no null space, the sign of det Psi_q), which takes the band too (singular.WIDEST_SQUARE)."""
     system, t, qs, jacobians = swing
     guard = Guard(system, qs[0], 1e-3, 1e-8)
+    if square:
+        driven = np.argmax(np.abs(null_space_bases(guard._scaled(jacobians[:1]))[0, :, 0]))
+        jacobians = np.concatenate([jacobians, np.zeros((len(t), 1, jacobians.shape[2]))], axis=1)
+        jacobians[:, -1, driven] = 1.0
+    taken, spectra = [], singular.spectra
+    monkeypatch.setattr(singular, "spectra", lambda *args: taken.append(1) or spectra(*args))
     norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
     settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)
     ratios, bases, signs = dynamics.square_spectra(jacobians, guard._columns, norms, None, True, None, settle)
+    assert taken  # the band
     scaled = np.array([guard._scaled(J) for J in jacobians])
     s = np.linalg.svd(scaled, compute_uv=False)
     exact = s[:, -1] / s[:, 0]
@@ -260,7 +270,7 @@ def test_settled_ratios_decide_as_numpys_svd_through_a_singular_position(swing):
     np.testing.assert_array_equal(ratios[:-1] <= ratios[1:], exact[:-1] <= exact[1:])
     falls = [np.minimum(r[:-1], r[1:]) < dynamics.FALL * np.maximum(r[:-1], r[1:]) for r in (ratios, exact)]
     np.testing.assert_array_equal(*falls)
-    assert np.max(np.abs(scaled @ bases)) < 1e-13
+    assert np.max(np.abs(scaled @ bases), initial=0.0) < 1e-13
     determinants = [np.linalg.det(np.vstack([J, T.T])) for J, T in zip(scaled, bases, strict=True)]
     np.testing.assert_array_equal(signs, np.sign(determinants))
 
