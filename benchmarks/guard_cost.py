@@ -15,9 +15,9 @@ holds ``_spectra``): the rows do not add up.
     .venv/bin/python benchmarks/guard_cost.py --routes --sizes 2 4 8 16
 
 ``--routes``: each route of ``dynamics.square_spectra`` on the first history of Psi_q a run's Guard judges (numpy's
-batched SVDs and QRs, the compiled one-pass ``singular.dense_spectra``, the compiled band ``singular.spectra`` at any
-width up to n, not only ``WIDEST_MID``'s n / 2), ms per history, thread CPU, the best of 3 rounds of 10 after one
-warm-up; "-" where the band is wider than n. How ``dynamics._compiled_spectra`` picks its route (issue 25, item 2).
+batched SVDs and QRs, the compiled one-pass ``singular.dense_spectra``, the compiled band ``singular.spectra``, its
+ratios closed or settled by the Guard's tests), ms per history, thread CPU, the best of 3 rounds of 10 after one
+warm-up; "-" where the band is wider than n / 2. How ``dynamics._compiled_spectra`` picks its route (issue 25, item 2).
 
 ``--verdicts FILE``: what the Guard decided and reported on every course model (``course/models``) and loop chain
 (N = 2, 4, 8, 16), compiled, 1 s and 100 output intervals, in Baumgarte's formulation and in joint coordinates where
@@ -134,10 +134,13 @@ def routes(n_loops: int) -> tuple[tuple[int, int], dict[str, float | None]]:
         np.linalg.svd(scaled, compute_uv=False)
 
     band = lambda: singular.spectra(jacobians, before, columns, norms, None, singular.WIDEST_MID)  # noqa: E731
+    settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)  # the Guard's tests (Guard._spectra)
+    settled = lambda: singular.spectra(jacobians, before, columns, norms, None, singular.WIDEST_MID, settle)  # noqa: E731
     return jacobians.shape[1:], {
         "numpy batched": _per_history(numpy_route),
         "compiled dense": _per_history(lambda: singular.dense_spectra(jacobians, columns, norms)),
         "compiled band": None if band() is None else _per_history(band),
+        "compiled band, settled": None if band() is None or not hasattr(singular, "settled") else _per_history(settled),
     }
 
 
