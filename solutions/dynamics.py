@@ -1581,9 +1581,9 @@ def square_spectra(
     scaled entry by entry, no scaled copy of the history. ``before``: a null-space basis just before the first time
     (which picks the band's independent coordinates), None if none is known. ``banded=False``: dense whatever the
     size (a numpy engine's run, which loads no compiled code). ``pattern`` (m, n): where any Psi_q is nonzero, if
-    known (the band's structure; else found from the history). ``settle`` ((thresholds, fall): the Guard's tests of the
-    ratios): the band's ratios closed only where those tests or the Guard's reported figures need it
-    (``compiled.singular.settled``); None: everywhere."""
+    known (the band's structure; else found from the history). ``settle`` ((thresholds, fall, through): the Guard's
+    tests of the ratios): the band's ratios closed only where those tests or the Guard's reported figures need it
+    (``compiled.singular.spectra``, ``settled``); None: everywhere."""
     N, m, n = jacobians.shape
     found = _compiled_spectra(jacobians, columns, norms, before, pattern, settle) if banded and m <= n else None
     if found is None:
@@ -1806,7 +1806,7 @@ class Guard:
         if norms is None:
             norms, pattern = self._row_norms(jacobians)
         if jacobians.shape[1] == self.rank:  # independent rows: T and det [Psi_q; T^T], from the band where it pays
-            settle = ((self.singular_ratio, NEAR_SINGULAR), FALL)  # what the ratios are judged by
+            settle = ((self.singular_ratio, NEAR_SINGULAR), FALL, self.through)  # what the ratios are judged by
             made = square_spectra(jacobians, self._columns, norms, self._tangent, self.banded, pattern, settle)
         else:  # redundant rows: the null space of rank r needs the SVD's V; det [Psi_q; T^T] is not defined
             _, s, vt = np.linalg.svd(scale_rows(jacobians, self._columns, norms))

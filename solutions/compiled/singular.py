@@ -127,7 +127,9 @@ def spectra(
     With ``columns`` (n,) and ``norms`` (N, m) (``row_norms``), ``scaled`` is Psi_q itself, scaled here entry by
     entry of its pattern (no scaled copy of the whole history: on a chain of 64 loops it is 121 MB); ``pattern``
     (m, n): where any of them is nonzero, if known (``history_norms``), else found here by a pass over the history.
-    ``settle`` (thresholds, fall), the Guard's tests of the ratios (``settled``): each ratio first in a bracket of
+    ``settle`` (thresholds, fall[, ends]), the Guard's tests of the ratios (``settled``; ``ends``: the first two and
+    last two times closed too, which a run ``through`` singular positions compares with the batches of output times
+    before and after, ``Guard._record``): each ratio first in a bracket of
     relative width about LOOSE (one Cholesky test a bound, ``_bracketed_ratio``), then closed to EXTREME_TOLERANCE
     only at the times where a test of the Guard could go the other way within it or whose figure it reports (the
     smallest, a dip); None: every ratio closed."""
@@ -156,7 +158,11 @@ def spectra(
     ratios, bases, signs, lower, vectors = _spectra(*arguments, first, 0.0 if settle is None else LOOSE)
     if settle is not None:
         thresholds = np.array([value for value in settle[0] if value], dtype=float)
-        times = np.flatnonzero(~settled(lower, ratios, signs, thresholds, float(settle[1])))
+        unsettled = ~settled(lower, ratios, signs, thresholds, float(settle[1]))
+        if len(settle) > 2 and settle[2]:  # compared with the batches before and after too (``Guard._record``)
+            unsettled[:2] |= lower[:2] < ratios[:2]
+            unsettled[-2:] |= lower[-2:] < ratios[-2:]
+        times = np.flatnonzero(unsettled)
         if times.size:  # closed there, each from its own vectors
             ratios[times] = _ratios_at(*arguments, bases, vectors, times.astype(np.int64))
     return ratios, bases, signs
