@@ -15,9 +15,15 @@ holds ``_spectra``): the rows do not add up.
     .venv/bin/python benchmarks/guard_cost.py --routes --sizes 2 4 8 16
 
 ``--routes``: each route of ``dynamics.square_spectra`` on the first history of Psi_q a run's Guard judges (numpy's
-batched SVDs and QRs, the compiled one-pass ``singular.dense_spectra``, the compiled band ``singular.spectra`` at any
-width up to n, not only ``WIDEST_MID``'s n / 2), ms per history, thread CPU, the best of 3 rounds of 10 after one
-warm-up; "-" where the band is wider than n. How ``dynamics._compiled_spectra`` picks its route (issue 25, item 2).
+batched SVDs and QRs, the compiled one-pass ``singular.dense_spectra``, the compiled band ``singular.spectra``, its
+ratios closed or settled by the Guard's tests), ms per history, thread CPU, the best of 3 rounds of 10 after one
+warm-up; "-" where the band is wider than n / 2. How ``dynamics._compiled_spectra`` picks its route (issue 25, item 2).
+
+``--verdicts FILE``: what the Guard decided and reported on every course model (``course/models``) and loop chain
+(N = 2, 4, 8, 16), compiled, 1 s and 100 output intervals, in Baumgarte's formulation and in joint coordinates where
+the model has them: the closest ratio and its time, the singular positions passed with their figures and verdicts,
+the error a run stopped with, and whether the band route (``singular.spectra``) judged it; one JSON line per run
+into FILE, to compare two checkouts line by line (``diff``; the figures printed with every digit).
 
 Nothing is asserted (timing depends on the machine): prints a Markdown table.
 """
@@ -128,10 +134,13 @@ def routes(n_loops: int) -> tuple[tuple[int, int], dict[str, float | None]]:
         np.linalg.svd(scaled, compute_uv=False)
 
     band = lambda: singular.spectra(jacobians, before, columns, norms, None, singular.WIDEST_MID)  # noqa: E731
+    settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)  # the Guard's tests (Guard._spectra)
+    settled = lambda: singular.spectra(jacobians, before, columns, norms, None, singular.WIDEST_MID, settle)  # noqa: E731
     return jacobians.shape[1:], {
         "numpy batched": _per_history(numpy_route),
         "compiled dense": _per_history(lambda: singular.dense_spectra(jacobians, columns, norms)),
         "compiled band": None if band() is None else _per_history(band),
+        "compiled band, settled": None if band() is None or not hasattr(singular, "settled") else _per_history(settled),
     }
 
 
@@ -148,12 +157,49 @@ def print_routes(sizes: list[int]) -> None:
         print(f"| {route} | " + " | ".join(cells) + " |")
 
 
+def verdicts(path: str, sizes: list[int]) -> None:
+    """``--verdicts``: one JSON line per run (module docstring) into ``path``."""
+    import glob
+    import json
+
+    band, spectra = [], singular.spectra
+
+    def counted(*args, **kwargs):
+        made = spectra(*args, **kwargs)
+        band.append(made is not None)
+        return made
+
+    singular.spectra = counted
+    models = [(Path(p).stem, p) for p in sorted(glob.glob(str(ROOT.parent / "course/models/*.yaml")))]
+    models += [(f"loops{n}", chains.loop_chain(n)) for n in sizes]
+    with open(path, "w") as out:
+        for name, source in models:
+            system, q0, qd0 = build_system(load_model(source))
+            for formulation in ("baumgarte", "joint-coordinates"):
+                band.clear()
+                options = dict(formulation=formulation, rtol=1e-6, atol=1e-8, engine="compiled", divergence="skip")
+                line = {"model": name, "formulation": formulation}
+                try:
+                    info = dynamics.forward_dynamics(system, q0, qd0, 1.0, 100, **options).info
+                    line["closest"] = info.get("closest_singularity")
+                    line["crossings"] = info.get("singular_positions")
+                except Exception as err:  # noqa: BLE001 -- the stop is the verdict compared
+                    line["error"] = f"{type(err).__name__}: {err}"
+                line["band"] = any(band)
+                out.write(json.dumps(line, default=repr) + "\n")
+                print(name, formulation, line.get("error", "")[:80], "band" if line["band"] else "", flush=True)
+    singular.spectra = spectra
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[16, 64], help="loops N of the chain")
     parser.add_argument("--calls", type=int, default=5, help="calls timed per size (default 5)")
     parser.add_argument("--routes", action="store_true", help="time square_spectra's routes instead")
+    parser.add_argument("--verdicts", metavar="FILE", help="the Guard's verdicts and figures on every run into FILE")
     args = parser.parse_args(argv)
+    if args.verdicts:
+        return verdicts(args.verdicts, args.sizes)
     if args.routes:
         return print_routes(args.sizes)
     results = [measure(n, args.calls) for n in args.sizes]

@@ -1530,7 +1530,8 @@ ALIGNED = 0.9
 BAND_SMALLEST = 64
 """Coordinates from which ``square_spectra`` takes the band of Psi_q when it is narrower than an eighth of them
 (``compiled.singular.WIDEST``); below, with more than DENSE_LARGEST rows, a band up to half of them wide
-(``compiled.singular.WIDEST_MID``: ``benchmarks/guard_cost.py --routes``)."""
+(``compiled.singular.WIDEST_MID``: ``benchmarks/guard_cost.py --routes``), a square Psi_q at any width
+(``WIDEST_SQUARE``)."""
 DENSE_LARGEST = 10
 """Rows (constraints) up to which a compiled run's ``square_spectra`` takes ``compiled.singular.dense_spectra`` for a
 Psi_q of fewer than BAND_SMALLEST coordinates: its one-sided Jacobi on R (m x m) costs O(m^3) a sweep, its QR O(m^2 n)
@@ -1583,6 +1584,7 @@ def square_spectra(
     before: np.ndarray | None,
     banded: bool = True,
     pattern: np.ndarray | None = None,
+    settle: tuple | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(sigma_m / sigma_1, null-space bases T, signs of det [Psi_q; T^T]) of each Psi_q (N, m, n) of full row rank
     m, scaled (``scale_rows`` with its column weights and row norms), for ``Guard.check_outputs``. Dense: SVDs and
@@ -1592,9 +1594,11 @@ def square_spectra(
     scaled entry by entry, no scaled copy of the history. ``before``: a null-space basis just before the first time
     (which picks the band's independent coordinates), None if none is known. ``banded=False``: dense whatever the
     size (a numpy engine's run, which loads no compiled code). ``pattern`` (m, n): where any Psi_q is nonzero, if
-    known (the band's structure; else found from the history)."""
+    known (the band's structure; else found from the history). ``settle`` ((thresholds, fall, through): the Guard's
+    tests of the ratios): the band's ratios closed only where those tests or the Guard's reported figures need it
+    (``compiled.singular.spectra``, ``settled``); None: everywhere."""
     N, m, n = jacobians.shape
-    found = _compiled_spectra(jacobians, columns, norms, before, pattern) if banded and m <= n else None
+    found = _compiled_spectra(jacobians, columns, norms, before, pattern, settle) if banded and m <= n else None
     if found is None:
         scaled = scale_rows(jacobians, columns, norms)
         tangents, signs = null_space_bases(scaled, signs=True)
@@ -1609,14 +1613,15 @@ def square_spectra(
 
 
 def _compiled_spectra(
-    jacobians: np.ndarray, columns: np.ndarray, norms: np.ndarray, before: np.ndarray | None, pattern=None
+    jacobians: np.ndarray, columns: np.ndarray, norms: np.ndarray, before: np.ndarray | None, pattern=None, settle=None
 ):
     """The compiled engine's spectra of the scaled Psi_q: in one compiled pass over a small one (up to DENSE_LARGEST
     rows, ``compiled.singular.dense_spectra``), else from its band (``compiled.singular.spectra``): from
     BAND_SMALLEST coordinates where the band is at most an eighth of them wide (``WIDEST``), below where it is at most
     half of them wide (``WIDEST_MID``: a mid-size Psi_q, the loop chain's of 2-8 loops, costs a quarter to two thirds
-    of numpy's batched SVDs and QRs so; a wider band costs more than they). None where there is no compiled engine
-    (a student package), where Psi_q is square (no null space) or not such a band: numpy's dense SVDs and QRs then."""
+    of numpy's batched SVDs and QRs so; a wider band costs more than they), or at any width where it is square and its
+    ratios are settled by the Guard's tests (``WIDEST_SQUARE``: no null space to solve for). None where there is no
+    compiled engine (a student package) or not such a band: numpy's dense SVDs and QRs then."""
     try:
         from .compiled import singular
     except ImportError:  # a student package: dense
@@ -1624,10 +1629,11 @@ def _compiled_spectra(
     _, m, n = jacobians.shape
     if m <= DENSE_LARGEST and n < BAND_SMALLEST:
         return singular.dense_spectra(jacobians, columns, norms)
-    if m == n:
-        return None
-    widest = singular.WIDEST if n >= BAND_SMALLEST else singular.WIDEST_MID
-    return singular.spectra(jacobians, before, columns, norms, pattern, widest)
+    if n >= BAND_SMALLEST:
+        widest = singular.WIDEST
+    else:
+        widest = singular.WIDEST_SQUARE if m == n and settle is not None else singular.WIDEST_MID
+    return singular.spectra(jacobians, before, columns, norms, pattern, widest, settle)
 
 
 class Guard:
@@ -1809,11 +1815,14 @@ class Guard:
         of Psi_q (N, m, n) at the times t (``norms``, ``pattern``: ``_row_norms``, if known), kept for
         ``spectra``: the run's later looks at the same output times (``singular_dip``, ``check_branches``) take them
         instead of a second and third batch of SVDs (on a chain of 32 loops each batch cost more than the
-        integration)."""
+        integration). The ratios from the band are closed only where the Guard's tests of them (singular_ratio,
+        NEAR_SINGULAR, FALL, the dips; the smallest and a crossing's figure reported) need it, elsewhere known in a
+        bracket about 1e-4 wide that decides them the same way (``compiled.singular.settled``)."""
         if norms is None:
             norms, pattern = self._row_norms(jacobians)
         if jacobians.shape[1] == self.rank:  # independent rows: T and det [Psi_q; T^T], from the band where it pays
-            made = square_spectra(jacobians, self._columns, norms, self._tangent, self.banded, pattern)
+            settle = ((self.singular_ratio, NEAR_SINGULAR), FALL, self.through)  # what the ratios are judged by
+            made = square_spectra(jacobians, self._columns, norms, self._tangent, self.banded, pattern, settle)
         else:  # redundant rows: the null space of rank r needs the SVD's V; det [Psi_q; T^T] is not defined
             _, s, vt = np.linalg.svd(scale_rows(jacobians, self._columns, norms))
             made = singular_ratios(s, self.rank), np.swapaxes(vt[:, self.rank :], 1, 2), None

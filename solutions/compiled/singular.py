@@ -29,6 +29,13 @@ matrix [Psi_q; 0] is a band whose half-widths kl, ku do not grow with the number
   counts (dstebz) finds the two wanted ones to high relative accuracy (Demmel and Kahan, SIAM J. Sci. Stat.
   Comput. 11, 1990). [Psi_q; 0] has Psi_q's singular values and d zeros. On a chain of 16 loops (98 x 99) the
   iterated figures cost 0.1 ms an output time, the reduction 0.36 ms; on 64 loops 0.3-0.4 ms against 2.9 ms.
+- most of those figures need not be closed (``settled``, issue 25): the Guard compares each ratio with thresholds
+  (NEAR_SINGULAR, singular_ratio) and with its neighbours' (dips, falls, which of two is smaller) and reports the
+  smallest and a crossing's. Given its tests (``settle``), ``spectra`` first puts every ratio in a bracket about
+  LOOSE = 1e-4 wide with one or two Cholesky tests per eigenvalue, from eigenvectors extrapolated from the two times
+  before (``_bracketed_ratio``), and closes it only at the times where a test could go the other way within the
+  bracket or whose figure is reported: on the loop chain 0-3 of 101 times; 2-3 tests a time where closing took 8-9
+  tests and 14 solves. The verdicts are those of the closed figures, the figures reported the same to ~1e-14.
 - null space and sign: with d unit rows E^T in the empty slots (``e_c`` for the d coordinates in which the null
   space of the time before is largest, the independent coordinates of coordinate partitioning, eq. 5.40), the
   square band A = [Psi_q; E^T] is factored by LAPACK's banded LU (dgbtrf, O(n kl (kl + ku))); then
@@ -75,11 +82,20 @@ at 50 x 51; the carriage pendulum's 12 x 14, 5 wide, 0.67 / 1.30), where a wider
 of bands 0.7-1.0 n wide: 4.3 / 3.5 at 20 x 24, 19 / 13 at 40 x 45, 48 / 25 at 55 x 60; ``benchmarks/guard_cost.py
 --routes``)."""
 
+WIDEST_SQUARE = 0.5
+"""``widest`` for a square Psi_q (m = n, d = 0: the sign of det Psi_q and the ratio alone) of more than
+``dynamics.DENSE_LARGEST`` rows and fewer than ``dynamics.BAND_SMALLEST`` coordinates whose ratios are settled by
+the Guard's tests (``settled``): any width, even a full matrix (101 Psi_q of the course's driven mechanisms, thread
+CPU, bracketed Gram route / numpy's batched SVDs and QRs: the quick-return 12 x 12 0.43 / 1.26 ms, the six-bar
+15 x 15 0.61 / 1.85, the spatial slider-crank 21 x 21, no band, 1.21 / 3.27)."""
+
 _vector, _ivector, _matrix = types.float64[::1], types.int64[::1], types.float64[:, ::1]
 _stack = types.float64[:, :, ::1]
-_SPECTRA = types.Tuple((_vector, _stack, _vector))(
-    _stack, _vector, _matrix, _ivector, _vector, _ivector, _ivector, _ivector, _matrix
+_SPECTRA = types.Tuple((_vector, _stack, _vector, _vector, _stack))(
+    _stack, _vector, _matrix, _ivector, _vector, _ivector, _ivector, _ivector, _matrix, types.float64
 )
+_AT = _vector(_stack, _vector, _matrix, _ivector, _vector, _ivector, _ivector, _ivector, _stack, _stack, _ivector)
+_SETTLED = types.boolean[::1](_vector, _vector, _vector, _vector, types.float64)
 _DENSE = types.Tuple((_vector, _stack, _vector))(_stack, _vector, _matrix, types.boolean)
 """Signatures compiled at import (and cached on disk, ``precompile``): a run never waits for them."""
 
@@ -101,7 +117,9 @@ def band_order(pattern: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return columns, keys
 
 
-def spectra(scaled: np.ndarray, first: np.ndarray | None, columns=None, norms=None, pattern=None, widest=WIDEST):
+def spectra(
+    scaled: np.ndarray, first: np.ndarray | None, columns=None, norms=None, pattern=None, widest=WIDEST, settle=None
+):
     """(sigma_m / sigma_1 (N,), null-space bases (N, n, d), signs of det [Psi_q; T^T] (N,)) of each scaled Psi_q
     (N, m, n) of full row rank, from the band (module docstring); None where the ordered Psi_q is not a band
     at most n / ``widest`` wide (an eighth of n, ``WIDEST``; half of n at mid sizes, ``WIDEST_MID``). ``first``
@@ -109,7 +127,13 @@ def spectra(scaled: np.ndarray, first: np.ndarray | None, columns=None, norms=No
     from the band, ``_first_basis``). NaN at a time where LAPACK failed.
     With ``columns`` (n,) and ``norms`` (N, m) (``row_norms``), ``scaled`` is Psi_q itself, scaled here entry by
     entry of its pattern (no scaled copy of the whole history: on a chain of 64 loops it is 121 MB); ``pattern``
-    (m, n): where any of them is nonzero, if known (``history_norms``), else found here by a pass over the history."""
+    (m, n): where any of them is nonzero, if known (``history_norms``), else found here by a pass over the history.
+    ``settle`` (thresholds, fall[, ends]), the Guard's tests of the ratios (``settled``; ``ends``: the first two and
+    last two times closed too, which a run ``through`` singular positions compares with the batches of output times
+    before and after, ``Guard._record``): each ratio first in a bracket of
+    relative width about LOOSE (one Cholesky test a bound, ``_bracketed_ratio``), then closed to EXTREME_TOLERANCE
+    only at the times where a test of the Guard could go the other way within it or whose figure it reports (the
+    smallest, a dip); None: every ratio closed."""
     if columns is None:
         columns, norms = np.ones(scaled.shape[2]), np.ones(scaled.shape[:2])
         pattern = np.any(scaled != 0.0, axis=0)
@@ -137,7 +161,62 @@ def spectra(scaled: np.ndarray, first: np.ndarray | None, columns=None, norms=No
     if isinstance(scaled, BlockedJacobians):  # its blocks: each pattern entry's slot in its row
         rows = np.repeat(np.arange(keys.size), np.diff(starts))
         stored, slots = scaled.values, scaled.slots(rows, indices)
-    return _spectra(np.ascontiguousarray(stored), *scale, position, keys, starts, indices, slots, first)
+    arguments = (np.ascontiguousarray(stored), *scale, position, keys, starts, indices, slots)
+    ratios, bases, signs, lower, vectors = _spectra(*arguments, first, 0.0 if settle is None else LOOSE)
+    if settle is not None:
+        thresholds = np.array([value for value in settle[0] if value], dtype=float)
+        unsettled = ~settled(lower, ratios, signs, thresholds, float(settle[1]))
+        if len(settle) > 2 and settle[2]:  # compared with the batches before and after too (``Guard._record``)
+            unsettled[:2] |= lower[:2] < ratios[:2]
+            unsettled[-2:] |= lower[-2:] < ratios[-2:]
+        times = np.flatnonzero(unsettled)
+        if times.size:  # closed there, each from its own vectors
+            ratios[times] = _ratios_at(*arguments, bases, vectors, times.astype(np.int64))
+    return ratios, bases, signs
+
+
+@njit(_SETTLED, cache=True, nogil=True)
+def settled(lower, upper, signs, thresholds, fall):
+    """Where a ratio known only in its bracket [lower, upper] (N,) (``upper`` the figure) gives every test of the
+    Guard the verdict its exact value gives, and is no figure the Guard reports (``dynamics.Guard``: ``_quiet``,
+    ``_judge``, ``check_branches``, ``diagnostics.passes_zero``): True where the bracket
+    - lies on one side of each of the ``thresholds`` (NEAR_SINGULAR, the run's singular_ratio), and above the
+      smallest (the Guard stops below singular_ratio and reports that figure);
+    - holds no candidate for the smallest ratio of the run (``closest``, reported): its lower end above every upper;
+    - does not overlap its neighbours' (each comparison of two ratios of adjacent times decided, ``fall`` times
+      the other's too: the falls of ``check_branches``);
+    - is no possible dip (``passes_zero`` of it and its neighbours decided false; a dip's three are closed: its
+      figure is reported) nor next to a flip of the sign of det [Psi_q; T^T] (the crossing's figure).
+    A closed ratio (lower = upper) is settled. One compiled pass: numpy's forty array operations on 101 times
+    cost 90 us, a tenth of the ratios' own time on a small chain."""
+    N = lower.size
+    loose = lower < upper
+    unsettled = np.zeros(N, dtype=np.bool_)
+    smallest = np.min(upper) if N else 0.0
+    near = np.max(thresholds) if thresholds.size else np.inf
+    floor = np.min(thresholds) if thresholds.size else 0.0
+    for k in range(N):
+        if not loose[k]:
+            continue
+        if lower[k] <= smallest or lower[k] < floor:
+            unsettled[k] = True
+        for value in thresholds:
+            if lower[k] < value <= upper[k]:
+                unsettled[k] = True
+    for k in range(N - 1):
+        if not (loose[k] or loose[k + 1]):
+            continue
+        for a, b in ((k, k + 1), (k + 1, k)):
+            for factor in (1.0, fall):  # ratios[a] <= factor ratios[b]: decided unless the brackets overlap
+                if lower[a] <= factor * upper[b] and factor * lower[b] <= upper[a]:
+                    unsettled[k] = unsettled[k + 1] = True
+        if signs[k] * signs[k + 1] < 0.0:
+            unsettled[k] = unsettled[k + 1] = True
+    for k in range(1, N - 1):  # passes_zero(before, middle, after) unless decided false
+        below = lower[k] <= min(upper[k - 1], upper[k + 1]) and 2.0 * lower[k] < max(upper[k - 1], upper[k + 1])
+        if lower[k] < near and below:
+            unsettled[k - 1] = unsettled[k] = unsettled[k + 1] = True
+    return ~(unsettled & loose)
 
 
 @njit(cache=True, nogil=True)
@@ -182,7 +261,9 @@ def _first_basis(jacobian, columns, norms, position, keys, starts, indices):
     order = np.empty(n, dtype=np.int64)  # the coordinate at each place of the band order
     order[position] = np.arange(n)
     chosen = np.sort(order[taken[m:]])
-    basis, _ = _null_space(J, _layout(keys, position, chosen), m, starts, indices, position, chosen, 1.0)
+    slot = _layout(keys, position, chosen)
+    kl, ku = _widths(slot, m, starts, indices, position, chosen, True)
+    basis, _ = _null_space(J, slot, m, starts, indices, position, chosen, 1.0, kl, ku)
     return basis
 
 
@@ -420,11 +501,11 @@ def _ratio(J, slot, m, starts, indices, position, chosen):
 
 
 @njit(cache=True, nogil=True)
-def _null_space(J, slot, m, starts, indices, position, chosen, ordered):
+def _null_space(J, slot, m, starts, indices, position, chosen, ordered, kl, ku):
     """(T, sign of det [Psi_q; T^T]) from the banded LU of A = [Psi_q; E^T] (module docstring); NaN on failure.
-    ordered: the parity of the columns' band order ``position`` (the same at every output time)."""
+    ordered: the parities of the rows' order ``slot`` and the columns' ``position`` (``_parity``), multiplied; kl, ku:
+    the band's widths (``_widths``): all three found once for each choice of E's coordinates, ``chosen``."""
     n, d = slot.size, chosen.size
-    kl, ku = _widths(slot, m, starts, indices, position, chosen, True)
     ldab = 2 * kl + ku + 1
     ab = np.zeros((n, ldab))  # dgbtrf's AB: ab[j, kl + ku + i - j] = A[i, j], kl rows above for the fill
     rhs = np.zeros((d, n))  # Fortran's B(n, d): the unit vectors of E's rows in the band layout
@@ -454,7 +535,7 @@ def _null_space(J, slot, m, starts, indices, position, chosen, ordered):
     _GBTRS(trans.ctypes, sizes[0:].ctypes, sizes[2:].ctypes, sizes[3:].ctypes, sizes[6:].ctypes, ab.ctypes,
            sizes[4:].ctypes, pivots.ctypes, rhs.ctypes, sizes[0:].ctypes, sizes[5:].ctypes)  # fmt: skip
     # B[i, j] = A[slot[i], columns[j]] (A's rows: Psi_q's, then E's): det B = sign(slot) det A sign(columns)
-    sign *= _parity(slot) * ordered
+    sign *= ordered
     basis = np.empty((n, d))
     for c in range(n):
         for a in range(d):
@@ -481,6 +562,10 @@ CERTIFIED = 1e-5
 """Largest relative width of the bracket of sigma_m^2 that the Cholesky test can certify (its rounding, about
 16 eps sigma_1^2, against sigma_m^2) for ``_smallest`` to give the figure; past it (sigma_m / sigma_1 below about
 1e-5) the exact band route (``_ratio``) or the dense SVD gives it."""
+LOOSE = 1e-4
+"""Relative width of the bracket of each extreme eigenvalue of Psi_q Psi_q^T that ``_bracketed_ratio`` first tries
+(one Cholesky test each): the ratios of adjacent output times differ by more (loop chain: the two times' brackets
+overlap at fewer than one time in 20, ``benchmarks/guard_cost.py``), so most verdicts are decided there."""
 _ROUNDS = 60
 STEP = 1e-5
 GUESS = 1e-3
@@ -549,22 +634,24 @@ def _gram(J, products, G):
 
 @njit(cache=True, nogil=True)
 def _cholesky(G, a, b, L):
-    """L L^T = a G + b I (band storage as G's), True if it is positive definite (every pivot > 0): the Sturm test
-    of continuation, here of an eigenvalue bound (a = 1, b = -s: all eigenvalues of G above s; a = -1, b = s: all
-    below s), O(m w^2) (Golub and Van Loan, Matrix Computations, sec. 4.3.5, band Cholesky; sec. 8.4.1, inertia)."""
+    """L L^T = a G + b I (band storage as G's, L[i, 0] holding 1 / L_ii: a product where the pivot's division
+    cost most of the factorization on a narrow band), True if it is positive definite (every pivot > 0): the Sturm
+    test of continuation, here of an eigenvalue bound (a = 1, b = -s: all eigenvalues of G above s; a = -1, b = s:
+    all below s), O(m w^2) (Golub and Van Loan, Matrix Computations, sec. 4.3.5, band Cholesky; sec. 8.4.1)."""
     m, w = G.shape[0], G.shape[1] - 1
     for i in range(m):
-        for t in range(min(w, i), -1, -1):
+        for t in range(min(w, i), 0, -1):
             j = i - t
-            total = a * G[i, t] + (b if t == 0 else 0.0)
+            total = a * G[i, t]
             for k in range(max(i - w, 0), j):
                 total -= L[i, i - k] * L[j, j - k]
-            if t == 0:
-                if not total > 0.0:
-                    return False
-                L[i, 0] = np.sqrt(total)
-            else:
-                L[i, t] = total / L[j, 0]
+            L[i, t] = total * L[j, 0]
+        total = a * G[i, 0] + b
+        for k in range(max(i - w, 0), i):
+            total -= L[i, i - k] * L[i, i - k]
+        if not total > 0.0:
+            return False
+        L[i, 0] = 1.0 / np.sqrt(total)
     return True
 
 
@@ -576,13 +663,15 @@ def _solve_normalized(L, x):
         total = x[i]
         for k in range(max(i - w, 0), i):
             total -= L[i, i - k] * x[k]
-        x[i] = total / L[i, 0]
+        x[i] = total * L[i, 0]
+    size = 0.0
     for i in range(m - 1, -1, -1):
         total = x[i]
         for k in range(i + 1, min(i + w, m - 1) + 1):
             total -= L[k, k - i] * x[k]
-        x[i] = total / L[i, 0]
-    x /= np.sqrt(np.dot(x, x))
+        x[i] = total * L[i, 0]
+        size += x[i] * x[i]
+    x *= 1.0 / np.sqrt(size)
 
 
 @njit(cache=True, nogil=True)
@@ -699,19 +788,128 @@ def _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y):
     return np.sqrt(smallest / largest)
 
 
+@njit(cache=True, nogil=True)
+def _bracketed_ratio(J, rows, starts, indices, products, G, L, low, high, y, loose, spread):
+    """(figure, lower bound) of sigma_m / sigma_1 with each extreme eigenvalue of G = Psi_q Psi_q^T in a bracket
+    about ``loose`` wide, by one or two Cholesky tests each (``_top``, ``_bottom``), from the eigenvectors ``high``,
+    ``low`` of the times before (``_extrapolate``), where ``_iterated_ratio`` takes 8-9 tests and 14 solves to
+    close it. The figure sqrt(lambda_m's upper / lambda_1's lower) is the ratio's upper end. (NaN, NaN) where a
+    bound's tests fail (its vector too far off: the first time) or G's rounding (``_smallest``'s floor) is not well
+    below lambda_m's bracket: ``_iterated_ratio`` then."""
+    _gram(J, products, G)
+    top, ceiling = _top(G, L, high, loose, spread)
+    if not np.isfinite(ceiling):
+        return np.nan, np.nan
+    bottom, floor = _bottom(J, rows, starts, indices, G, L, low, y, loose, spread, ceiling)
+    if not np.isfinite(floor):
+        return np.nan, np.nan
+    return np.sqrt(bottom / top), np.sqrt(floor / ceiling)
+
+
+@njit(cache=True, nogil=True)
+def _top(G, L, x, loose, spread):
+    """(lo, hi) about lambda_1 of G: lo the Rayleigh quotient of x (or G's largest diagonal entry), hi = lo (1 + s)
+    if hi I - G is positive definite (Cholesky), s = four times how far the time before's quotient was off
+    (``spread[0]``, updated), at least ``loose``; a hundred times wider if that fails. The factor then takes one step
+    of inverse iteration shifted to hi (Parlett, ch. 4; its rate (hi - lambda_1) / (hi - lambda_2) is small), whose
+    quotient is the sharper lo and x the next time's; where hi - lo is still above ``loose`` lo, one more test at
+    lo (1 + loose). (lo, NaN) where both first tests fail."""
+    lo = 0.0
+    for i in range(G.shape[0]):
+        lo = max(lo, G[i, 0])
+    lo = max(lo, _rayleigh(G, x))
+    width = max(loose, spread[0])
+    hi = lo * (1.0 + width)
+    if not _cholesky(G, -1.0, hi, L):
+        width = min(0.5, 100.0 * width)
+        hi = lo * (1.0 + width)
+        if not _cholesky(G, -1.0, hi, L):
+            spread[0] = width
+            return lo, np.nan
+    _solve_normalized(L, x)
+    sharper = max(lo, _rayleigh(G, x))
+    spread[0] = 4.0 * (sharper - lo) / sharper
+    lo = sharper
+    if hi - lo > loose * lo and _cholesky(G, -1.0, lo * (1.0 + loose), L):
+        hi = lo * (1.0 + loose)
+    return lo, hi
+
+
+@njit(cache=True, nogil=True)
+def _bottom(J, rows, starts, indices, G, L, x, y, loose, spread, ceiling):
+    """(hi, lo) about lambda_m of G, as ``_top`` from below: hi = |Psi_q^T x|^2 (``_residual``: from Psi_q, the dense
+    SVD's accuracy), lo = hi (1 - s) if G - lo I is positive definite (``spread[1]``); (hi, NaN) where both first
+    tests fail or G's rounding, 16 eps ``ceiling`` (lambda_1's upper bound), is above a tenth of ``loose`` lo."""
+    hi = _residual(J, rows, starts, indices, x, y)
+    width = min(0.5, max(loose, spread[1]))
+    lo = hi * (1.0 - width)
+    if 16.0 * np.finfo(np.float64).eps * ceiling > 0.1 * loose * lo:
+        return hi, np.nan
+    if not _cholesky(G, 1.0, -lo, L):
+        width = min(0.5, 100.0 * width)
+        lo = hi * (1.0 - width)
+        if not _cholesky(G, 1.0, -lo, L):
+            spread[1] = width
+            return hi, np.nan
+    _solve_normalized(L, x)
+    sharper = min(hi, _residual(J, rows, starts, indices, x, y))
+    spread[1] = 4.0 * (hi - sharper) / sharper
+    hi = sharper
+    if hi - lo > loose * hi and _cholesky(G, 1.0, -hi * (1.0 - loose), L):
+        lo = hi * (1.0 - loose)
+    return hi, lo
+
+
+@njit(cache=True, nogil=True)
+def _extrapolate(x, before, scratch):
+    """x <- 2 x - x_before, unit, and x_before <- x (the eigenvector of the last time; ``before`` of the time before
+    it): a linear extrapolation in time of the vectors ``_bracketed_ratio`` starts from, whose error is then
+    second order in the output interval where the vector of the time before has a first-order one (their signs
+    follow each other: inverse iteration with a definite factor keeps them). ``scratch``: at least x's size."""
+    size = 0.0
+    for i in range(x.size):
+        scratch[i] = x[i]
+        x[i] = 2.0 * x[i] - before[i]
+        size += x[i] * x[i]
+    size = 1.0 / np.sqrt(size)
+    for i in range(x.size):
+        x[i] *= size
+        before[i] = scratch[i]
+
+
+@njit(cache=True, nogil=True)
+def _residual(J, rows, starts, indices, x, y):
+    """|Psi_q^T x|^2 (x along G's rows, ``rows``): the Rayleigh quotient of G at a unit x without forming G."""
+    y[:] = 0.0
+    for i in range(rows.size):
+        r = rows[i]
+        for p in range(starts[r], starts[r + 1]):
+            y[indices[p]] += J[r, indices[p]] * x[i]
+    total = 0.0
+    for c in range(y.size):
+        total += y[c] * y[c]
+    return total
+
+
 @njit(_SPECTRA, cache=True, nogil=True)
-def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, first):
-    """``spectra``; entry p of the CSR pattern (row r, column indices[p]) is jacobians[k, r, slots[p]]: its column
-    (slots = indices), or its slot among a blocked history's blocks (``history.BlockedJacobians``)."""
+def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, first, loose):
+    """(ratios, bases, signs, the ratios' lower bounds) at every time; ``loose`` > 0: the ratios in brackets of that
+    relative width where one test a bound gives them (``_bracketed_ratio``), else closed. Entry p of the CSR pattern
+    (row r, column indices[p]) is jacobians[k, r, slots[p]]: its column (slots = indices), or its slot among a
+    blocked history's blocks (``history.BlockedJacobians``)."""
     N, m = jacobians.shape[:2]
     n = position.size
     d = n - m
-    ratios, bases, signs = np.empty(N), np.empty((N, n, d)), np.empty(N)
+    ratios, bases, signs, lower = np.empty(N), np.empty((N, n, d)), np.empty(N), np.empty(N)
+    vectors = np.empty((N, 2, m))  # each time's eigenvectors (``_ratios_at`` starts from them)
     rows = np.argsort(keys, kind="mergesort")  # Psi_q's rows along the band: G = Psi_q Psi_q^T a band too
     w = _gram_width(rows, starts, indices, n)
     products = _gram_products(rows, starts, indices, w)
     G, L, low, high, y = np.empty((m, w + 1)), np.empty((m, w + 1)), np.ones(m), np.ones(m), np.empty(n)
     before, ordered = first, _parity(position)
+    kept, slot, kl, ku, parity = np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), 0, 0, 1.0
+    spread = np.full(2, 0.5)  # how far the time before's Rayleigh quotients were off (``_bracketed_ratio``)
+    earlier = np.empty((2, m))  # the eigenvectors of the time before the last (``_extrapolate``)
     J = np.zeros((m, n))  # this time's scaled Psi_q, written on its pattern alone
     for k in range(N):
         for r in range(m):
@@ -719,15 +917,57 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
             for p in range(starts[r], starts[r + 1]):  # as ``dynamics.scale_rows``, to the last bit
                 J[r, indices[p]] = jacobians[k, r, slots[p]] * columns[indices[p]] / norm
         chosen = _independent(before, d)
-        slot = _layout(keys, position, chosen)
-        ratios[k] = _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y)
+        if k == 0 or np.any(chosen != kept):  # E's coordinates changed: the band's rows, widths and parity
+            kept, slot = chosen, _layout(keys, position, chosen)
+            kl, ku = _widths(slot, m, starts, indices, position, chosen, True)
+            parity = _parity(slot) * ordered
+        ratios[k], lower[k] = np.nan, np.nan
+        if loose > 0.0:
+            if k >= 2 and lower[k - 1] < ratios[k - 1] and lower[k - 2] < ratios[k - 2]:  # both bracketed
+                _extrapolate(low, earlier[0], y)
+                _extrapolate(high, earlier[1], y)
+            else:
+                earlier[0, :], earlier[1, :] = low, high
+            bracket = _bracketed_ratio(J, rows, starts, indices, products, G, L, low, high, y, loose, spread)
+            ratios[k], lower[k] = bracket
+        if not np.isfinite(lower[k]):
+            ratios[k] = _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y)
+            lower[k] = ratios[k]
         if not np.isfinite(ratios[k]):  # near a rank loss: the bidiagonal reduction's figure
             low[:], high[:] = 1.0, 1.0
             ratios[k] = _ratio(J, slot, m, starts, indices, position, chosen)
-        bases[k], signs[k] = _null_space(J, slot, m, starts, indices, position, chosen, ordered)
+            lower[k] = ratios[k]
+        vectors[k, 0], vectors[k, 1] = low, high
+        bases[k], signs[k] = _null_space(J, slot, m, starts, indices, position, chosen, parity, kl, ku)
         if np.all(np.isfinite(bases[k])):
             before = bases[k]
-    return ratios, bases, signs
+    return ratios, bases, signs, lower, vectors
+
+
+@njit(_AT, cache=True, nogil=True)
+def _ratios_at(jacobians, columns, norms, position, keys, starts, indices, slots, bases, vectors, times):
+    """The ratios closed to EXTREME_TOLERANCE (``_spectra``'s) at the output times ``times`` alone, each from the
+    eigenvectors its bracket left (``vectors`` (N, 2, m): lambda_m's, lambda_1's); ``bases``: the null-space bases
+    (E's rows, for the bidiagonal route); ``slots``: as ``_spectra``'s."""
+    N, m = jacobians.shape[:2]
+    n = position.size
+    rows = np.argsort(keys, kind="mergesort")
+    w = _gram_width(rows, starts, indices, n)
+    products = _gram_products(rows, starts, indices, w)
+    G, L, y, J = np.empty((m, w + 1)), np.empty((m, w + 1)), np.empty(n), np.zeros((m, n))
+    ratios = np.empty(times.size)
+    for a in range(times.size):
+        k = times[a]
+        for r in range(m):
+            norm = norms[k, r] if norms[k, r] > 0.0 else 1.0
+            for p in range(starts[r], starts[r + 1]):
+                J[r, indices[p]] = jacobians[k, r, slots[p]] * columns[indices[p]] / norm
+        low, high = vectors[k, 0].copy(), vectors[k, 1].copy()
+        ratios[a] = _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y)
+        if not np.isfinite(ratios[a]):
+            chosen = _independent(bases[k], n - m)
+            ratios[a] = _ratio(J, _layout(keys, position, chosen), m, starts, indices, position, chosen)
+    return ratios
 
 
 def dense_spectra(jacobians: np.ndarray, columns: np.ndarray, norms: np.ndarray, bases: bool = True):
@@ -857,4 +1097,14 @@ def _dense_spectra(jacobians, columns, norms, bases):
     return ratios, tangents, signs
 
 
-__all__ = ["WIDEST", "WIDEST_MID", "band_order", "dense_spectra", "history_norms", "row_norms", "spectra"]
+__all__ = [
+    "WIDEST",
+    "WIDEST_MID",
+    "WIDEST_SQUARE",
+    "band_order",
+    "dense_spectra",
+    "history_norms",
+    "row_norms",
+    "settled",
+    "spectra",
+]

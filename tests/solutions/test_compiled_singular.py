@@ -253,3 +253,73 @@ def test_mid_size_psi_q_takes_the_band_with_numpys_ratio_basis_and_sign(loops, m
                                atol=1e-13)  # fmt: skip
     determinants = [np.linalg.det(np.vstack([J, T.T])) for J, T in zip(scaled, bases, strict=True)]
     np.testing.assert_array_equal(signs, np.sign(determinants))
+
+
+MID = 4  # 26 x 27: a mid-size Psi_q (DENSE_LARGEST < m < BAND_SMALLEST), the band's WIDEST_MID route
+
+
+@pytest.fixture(scope="module")
+def swing():
+    """The chain of MID loops swung from 60 to 119 degrees through flat (90, between two of the 31 output times):
+    its system, the times, q and Psi_q there."""
+    angles = np.linspace(60.0, 119.0, 31)
+    system = build_system(load_model(loop_chain(MID)))[0]
+    qs = np.array([build_system(load_model(loop_chain(MID, math.radians(a))))[1] for a in angles])
+    return system, np.linspace(0.0, 1.0, angles.size), qs, np.array([system.jacobian(q, 0.0) for q in qs])
+
+
+@pytest.mark.parametrize("square", [False, True])
+def test_settled_ratios_decide_as_numpys_svd_through_a_singular_position(swing, square, monkeypatch):
+    """The Guard's ratios in brackets, closed only where its tests need them (``settle``, singular.settled), give
+    every decision that numpy's SVD ratios give: the order of each two adjacent times, the falls, the dips
+    (diagnostics.passes_zero), the thresholds; the smallest ratio and the dip's to 1e-10; the others within the
+    brackets' width (the loose figures are taken: not all to 1e-12); the basis and sign as numpy's. ``square``:
+    Psi_q with a driver's row (a unit row on the coordinate the chain moves most in: 27 x 27, as a driven
+    mechanism's; no null space, the sign of det Psi_q), which takes the band too (singular.WIDEST_SQUARE)."""
+    system, t, qs, jacobians = swing
+    guard = Guard(system, qs[0], 1e-3, 1e-8)
+    if square:
+        driven = np.argmax(np.abs(null_space_bases(guard._scaled(jacobians[:1]))[0, :, 0]))
+        jacobians = np.concatenate([jacobians, np.zeros((len(t), 1, jacobians.shape[2]))], axis=1)
+        jacobians[:, -1, driven] = 1.0
+    taken, spectra = [], singular.spectra
+    monkeypatch.setattr(singular, "spectra", lambda *args: taken.append(1) or spectra(*args))
+    norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
+    settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)
+    ratios, bases, signs = dynamics.square_spectra(jacobians, guard._columns, norms, None, True, None, settle)
+    assert taken  # the band
+    scaled = np.array([guard._scaled(J) for J in jacobians])
+    s = np.linalg.svd(scaled, compute_uv=False)
+    exact = s[:, -1] / s[:, 0]
+    dip = int(np.argmin(exact))
+    assert exact[dip] < 1e-2 and np.all(exact < dynamics.NEAR_SINGULAR)  # every time judged by check_branches
+    np.testing.assert_allclose(ratios, exact, rtol=1e-3)
+    assert not np.allclose(ratios, exact, rtol=1e-12, atol=0.0)  # brackets, not closed figures, at most times
+    np.testing.assert_allclose(ratios[dip - 1 : dip + 2], exact[dip - 1 : dip + 2], rtol=1e-10)
+    np.testing.assert_array_equal(dynamics.dips(ratios), dynamics.dips(exact))
+    assert dynamics.dips(exact)[dip - 1]  # the crossing is seen
+    np.testing.assert_array_equal(ratios[:-1] <= ratios[1:], exact[:-1] <= exact[1:])
+    falls = [np.minimum(r[:-1], r[1:]) < dynamics.FALL * np.maximum(r[:-1], r[1:]) for r in (ratios, exact)]
+    np.testing.assert_array_equal(*falls)
+    assert np.max(np.abs(scaled @ bases), initial=0.0) < 1e-13
+    determinants = [np.linalg.det(np.vstack([J, T.T])) for J, T in zip(scaled, bases, strict=True)]
+    np.testing.assert_array_equal(signs, np.sign(determinants))
+
+
+def test_a_mid_size_run_through_records_the_dense_crossings_and_figures(swing, monkeypatch):
+    """The Guard of a run that passes the singular position (``through``) records, from the settled band, the
+    crossing and the closest ratio (time and figure) that numpy's dense SVDs and QRs give it."""
+    system, t, qs, jacobians = swing
+    psi = np.array([system.constraints(q, 0.0) for q in qs])
+    found = []
+    for band in (True, False):
+        if not band:
+            monkeypatch.setattr(dynamics, "_compiled_spectra", lambda *args: None)
+        guard = Guard(system, qs[0], 1e-3, 1e-8, through=True)
+        guard.banded = True
+        guard.check_outputs(t, qs, psi, jacobians)
+        found.append((guard.crossings, guard.closest))
+    (crossings, closest), (dense_crossings, dense_closest) = found
+    assert len(crossings) == 1 and [c["t"] for c in crossings] == [c["t"] for c in dense_crossings]
+    assert crossings[0]["ratio"] == pytest.approx(dense_crossings[0]["ratio"], rel=1e-10)
+    assert closest["t"] == dense_closest["t"] and closest["ratio"] == pytest.approx(dense_closest["ratio"], rel=1e-10)
