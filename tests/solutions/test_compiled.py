@@ -231,3 +231,23 @@ def test_lu_solve_small_by_elimination_large_by_lapack(n):
     K, b = rng.normal(size=(n, n)) + n * np.eye(n), rng.normal(size=n)
     assert np.allclose(lu_solve(K.copy(), b), np.linalg.solve(K, b), rtol=1e-12, atol=1e-12)
     assert np.all(np.isnan(lu_solve(np.ones((n, n)), b)))  # rank 1: the second pivot is exactly zero
+
+
+def test_a_second_load_of_a_plan_says_what_the_first_found(monkeypatch):
+    """A run's start rates load the plan's modules first (``dispatch.start_rates``); the run's own load finds them
+    loaded and reports the first load's verdict and time (info['compiled']: cached, load_seconds), not 'cached'
+    and 0 s whatever the first had to do."""
+    import time as clock
+
+    import solutions.compiled as compiled
+
+    def slow_compile(plan):
+        clock.sleep(0.02)
+        return "module", "project", False
+
+    monkeypatch.setattr(compiled, "_load", slow_compile)
+    plan = compiled.Plan(scene=None, formulation="baumgarte", numbers=(5.0, 5.0, 0.0, 0.0))
+    assert compiled.load_seconds(plan) == 0.0  # not loaded yet
+    assert compiled.load(plan) == ("module", "project", False)
+    assert compiled.load(plan) == ("module", "project", False)  # not 'cached' the second time
+    assert compiled.load_seconds(plan) >= 0.02
