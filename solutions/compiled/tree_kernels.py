@@ -123,8 +123,8 @@ def planar_articulated(mass, xi, Q, ints, S, links, thdd, acc):
     """theta'' of an open planar tree in O(N) (``articulated``): the bodies' I_b = diag(m, m, J) and bias forces
     p_b = M_b xi_b - Q_b (no gyroscopic term in the plane); the bodies' accelerations D theta'' in ``acc``."""
     nb = mass.size // 3
-    work = np.zeros(12 * (nb + 1))  # one allocation: IA, pA
-    IA, pA = work[: 9 * (nb + 1)].reshape((nb + 1, 3, 3)), work[9 * (nb + 1) :].reshape((nb + 1, 3))
+    bodies = np.zeros((nb + 1, 4, 3))  # one allocation (and no reshape: ~20 ns each): IA, pA
+    IA, pA = bodies[:, :3], bodies[:, 3]
     for b in range(nb):
         for r in range(3):
             IA[b, r, r] = mass[3 * b + r]
@@ -387,9 +387,8 @@ def spatial_articulated(masses, inertias, q, xi, omega, Q, ints, S, links, thdd,
     = -(the body force f of ``body_force``, its torque turned to global axes by A); the bodies' accelerations
     D theta'' (a, and omega'' in global axes) in ``acc``."""
     nb = masses.size
-    work = np.zeros(42 * (nb + 1) + 15)  # one allocation: IA, pA, a body's force and rotation
-    IA, pA = work[: 36 * (nb + 1)].reshape((nb + 1, 6, 6)), work[36 * (nb + 1) : 42 * (nb + 1)].reshape((nb + 1, 6))
-    force, R = work[42 * (nb + 1) : 42 * (nb + 1) + 6], work[42 * (nb + 1) + 6 :]
+    bodies, scratch = np.zeros((nb + 1, 7, 6)), np.empty(15)  # IA, pA; a body's force and rotation
+    IA, pA, force, R = bodies[:, :6], bodies[:, 6], scratch[:6], scratch[6:]
     for b in range(nb):
         J, o = inertias[b], 7 * b
         body_force(masses[b], J, q, xi, omega, Q, b, force)
