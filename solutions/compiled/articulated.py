@@ -208,27 +208,6 @@ def child_acceleration(X, acc, U, u, L, S, P, C, e, d, shifted, x, nv):
         acc[C, i] = s
 
 
-@jit
-def inward(IA, pA, S, links, P, C, e, d, U, u, L, X, rows, counts, DU, Ia, pa, nv):
-    """Pass 1 at joint e (eq. 7.8, 7.9): U, u, D_e's factor; I^A and p^A of child C carried to parent P and added
-    there. False where D_e is not positive definite."""
-    joint_terms(IA, pA, S, C, e, d, U, u, L, nv)
-    if not factor_joint(L, e, d):
-        return False
-    passed_on(IA, pA, U, u, L, C, e, d, DU, Ia, pa, nv)
-    shift_matrix(links, e, X, nv)  # to the parent's centre
-    shift_nonzeros(X, rows, counts, nv)
-    shift_to_parent(X, rows, counts, Ia, pa, IA, pA, P, nv)
-    return True
-
-
-@jit
-def outward(acc, U, u, L, S, links, P, C, e, d, X, shifted, x, nv):
-    """Pass 2 at joint e (eq. 7.10): A_C from A_P and theta''_e (into x[:d, 0])."""
-    shift_matrix(links, e, X, nv)
-    child_acceleration(X, acc, U, u, L, S, P, C, e, d, shifted, x, nv)
-
-
 def two_passes(nv: int):
     """The two passes for bodies of nv velocity components (3 planar, 6 spatial): nv a constant of the compiled
     code, and a joint's columns d (1, or 3 for a spherical joint) constant in each branch, so that every loop has a
@@ -282,7 +261,6 @@ def two_passes(nv: int):
 planar_passes, spatial_passes = two_passes(3), two_passes(6)
 
 
-@jit
 def articulated_accelerations(IA, pA, ints, S, links, widths, first, thdd, acc):
     """theta'' of an open tree by the two passes of the module docstring (written into ``thdd``), and every body's
     acceleration A_b = (D theta'')_b on the way (``acc``, (nb + 1) x nv, ground last: zero): the outputs' q'' is
@@ -292,11 +270,11 @@ def articulated_accelerations(IA, pA, ints, S, links, widths, first, thdd, acc):
     nb + 1 of them with ground last (overwritten by the articulated ones); ints: the tree's joints in topological
     order, a row each (kind, parent, child, ...; parent -1 is ground), the joint's first velocity column in column
     ``first``; widths: the columns of each kind; S (joints x nv x 3): the columns S_e; links (joints x 3): l.
-    (Written as loops over the entries: at 3 x 3 and 6 x 6 a call into BLAS costs more than the arithmetic.)"""
-    if IA.shape[1] == 3:
-        planar_passes(IA, pA, ints, S, links, widths, first, thdd, acc)
-    else:
-        spatial_passes(IA, pA, ints, S, links, widths, first, thdd, acc)
+    (Written as loops over the entries: at 3 x 3 and 6 x 6 a call into BLAS costs more than the arithmetic.) The
+    tree kernels call ``planar_passes`` or ``spatial_passes`` directly (a module compiles only its own); this
+    chooser is for callers in Python."""
+    passes = planar_passes if IA.shape[1] == 3 else spatial_passes
+    passes(IA, pA, ints, S, links, widths, first, thdd, acc)
 
 
-__all__ = ["articulated_accelerations", "shift_matrix"]
+__all__ = ["articulated_accelerations", "planar_passes", "shift_matrix", "spatial_passes"]

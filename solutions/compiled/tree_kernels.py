@@ -33,7 +33,7 @@ from numba import njit
 
 from ..joint_coordinates import half_transpose_product, scaled_product
 from ..rotation_matrices import quaternion_product_entries
-from .articulated import articulated_accelerations
+from .articulated import planar_passes, spatial_passes
 from .kernels import (
     inertia_times,
     l_entries_jit,
@@ -129,7 +129,7 @@ def planar_articulated(mass, xi, Q, ints, S, links, thdd, acc):
         for r in range(3):
             IA[b, r, r] = mass[3 * b + r]
             pA[b, r] = mass[3 * b + r] * xi[3 * b + r] - Q[3 * b + r]
-    articulated_accelerations(IA, pA, ints, S, links, WIDTHS, 3, thdd, acc)
+    planar_passes(IA, pA, ints, S, links, WIDTHS, 3, thdd, acc)
 
 
 @jit
@@ -404,7 +404,7 @@ def spatial_articulated(masses, inertias, q, xi, omega, Q, ints, S, links, thdd,
         for r in range(3):  # (A J') A^T, row by row: A times the row
             row = IA[b, 3 + r, 3:]
             row[0], row[1], row[2] = _rotate(R, row[0], row[1], row[2])
-    articulated_accelerations(IA, pA, ints, S, links, WIDTHS, 4, thdd, acc)
+    spatial_passes(IA, pA, ints, S, links, WIDTHS, 4, thdd, acc)
 
 
 @jit
