@@ -43,31 +43,224 @@ This module imports numba: it is imported only when the compiled engine runs (``
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
-from .projection_kernels import cholesky, cholesky_solve
-
 jit = njit(cache=False, fastmath=False, nogil=True)
-"""Not cached here: compiled into the generated tree modules that call them (see ``tree_kernels.jit``)."""
+"""Not cached here: compiled into the generated tree modules that call them (see ``tree_kernels.jit``).
+
+The steps of one joint below index the tree's arrays by joint and body (IA[C, i, j]) rather than take slices of them:
+a slice costs ~20 ns of reference counting, more than a 3 x 3 step's arithmetic (the joint's slices were half the
+algorithm's time on a planar chain; ``benchmarks/tree_rhs.py``). LLVM inlines them into ``two_passes`` (numba's own
+inline="always" made them slower)."""
 
 
 @jit
-def shift_matrix(l, X):
-    """X of the link l (module docstring), written into X: 6 x 6 [[1, -[l]x], [0, 1]] on (v, omega); planar 3 x 3
-    [[1, 0, -l_y], [0, 1, l_x], [0, 0, 1]] on (v_x, v_y, omega)."""
-    X[:] = 0.0
-    for i in range(X.shape[0]):
-        X[i, i] = 1.0
-    if X.shape[0] == 3:
-        X[0, 2], X[1, 2] = -l[1], l[0]
+def shift_matrix(links, e, X, nv):
+    """X of joint e's link l (module docstring), written into X: 6 x 6 [[1, -[l]x], [0, 1]] on (v, omega); planar
+    3 x 3 [[1, 0, -l_y], [0, 1, l_x], [0, 0, 1]] on (v_x, v_y, omega)."""
+    for i in range(nv):
+        for j in range(nv):
+            X[i, j] = 1.0 if i == j else 0.0
+    l0, l1, l2 = links[e, 0], links[e, 1], links[e, 2]
+    if nv == 3:
+        X[0, 2], X[1, 2] = -l1, l0
     else:
-        X[0, 4], X[0, 5] = l[2], -l[1]
-        X[1, 3], X[1, 5] = -l[2], l[0]
-        X[2, 3], X[2, 4] = l[1], -l[0]
+        X[0, 4], X[0, 5] = l2, -l1
+        X[1, 3], X[1, 5] = -l2, l0
+        X[2, 3], X[2, 4] = l1, -l0
 
 
 @jit
+def shift_nonzeros(X, rows, counts, nv):
+    """X's nonzero entries column by column: rows[j, :counts[j]] the rows (ascending) of column j's nonzeros. X is
+    the identity but for the block -[l]x: at most three nonzeros a column, so X^T I X costs ~9 products an entry
+    instead of nv^2, and the same numbers as the dense product (the same nonzero terms summed in the same order)."""
+    for j in range(nv):
+        count = 0
+        for a in range(nv):
+            if X[a, j] != 0.0:
+                rows[j, count] = a
+                count += 1
+        counts[j] = count
+
+
+@jit
+def joint_terms(IA, pA, S, C, e, d, U, u, L, nv):
+    """U = I^A_C S_e, u = -S_e^T p^A_C and D_e = S_e^T U (its lower triangle, into L[e]) of joint e with d columns
+    and child C (eq. 7.8)."""
+    for c in range(d):
+        for i in range(nv):
+            s = 0.0
+            for j in range(nv):
+                s += IA[C, i, j] * S[e, j, c]
+            U[e, i, c] = s
+        s = 0.0
+        for i in range(nv):
+            s -= S[e, i, c] * pA[C, i]
+        u[e, c] = s
+        for c2 in range(c + 1):
+            s = 0.0
+            for i in range(nv):
+                s += S[e, i, c] * U[e, i, c2]
+            L[e, c, c2] = s
+
+
+@jit
+def factor_joint(L, e, d):
+    """D_e = L L^T (Cholesky, ``projection_kernels.cholesky``: 1 / L_jj on the diagonal) over L[e]'s lower
+    triangle; False where D_e is not positive definite."""
+    for j in range(d):
+        s = L[e, j, j]
+        for k in range(j):
+            s -= L[e, j, k] * L[e, j, k]
+        if not s > 0.0:
+            return False
+        inverse = 1.0 / math.sqrt(s)
+        L[e, j, j] = inverse
+        for i in range(j + 1, d):
+            s = L[e, i, j]
+            for k in range(j):
+                s -= L[e, i, k] * L[e, j, k]
+            L[e, i, j] = s * inverse
+    return True
+
+
+@jit
+def solve_joint(L, e, d, B, columns):
+    """D_e^-1 B: every column of B[:d, :columns] solved in place by forward and back substitution with
+    ``factor_joint``'s L (``projection_kernels.cholesky_solve``, column by column)."""
+    for col in range(columns):
+        for i in range(d):
+            s = B[i, col]
+            for k in range(i):
+                s -= L[e, i, k] * B[k, col]
+            B[i, col] = s * L[e, i, i]
+        for i in range(d - 1, -1, -1):
+            s = B[i, col]
+            for k in range(i + 1, d):
+                s -= L[e, k, i] * B[k, col]
+            B[i, col] = s * L[e, i, i]
+
+
+@jit
+def passed_on(IA, pA, U, u, L, C, e, d, DU, Ia, pa, nv):
+    """What child C passes on through joint e (eq. 7.9 before the shift): Ia = I^A_C - U D_e^-1 U^T, pa = p^A_C +
+    U D_e^-1 u. DU holds D_e^-1 U^T in its first nv columns and D_e^-1 u in its last."""
+    for c in range(d):
+        for i in range(nv):
+            DU[c, i] = U[e, i, c]
+        DU[c, nv] = u[e, c]
+    solve_joint(L, e, d, DU, nv + 1)
+    for i in range(nv):
+        s = pA[C, i]
+        for c in range(d):
+            s += U[e, i, c] * DU[c, nv]
+        pa[i] = s
+        for j in range(nv):
+            s = IA[C, i, j]
+            for c in range(d):
+                s -= U[e, i, c] * DU[c, j]
+            Ia[i, j] = s
+
+
+@jit
+def shift_to_parent(X, rows, counts, Ia, pa, IA, pA, P, nv):
+    """The child's articulated inertia and bias force carried to its parent's centre and added there (eq. 7.9):
+    I^A_P += X^T Ia X, p^A_P += X^T pa, over X's nonzeros (``shift_nonzeros``)."""
+    for i in range(nv):
+        s = 0.0
+        for r in range(counts[i]):
+            a = rows[i, r]
+            s += X[a, i] * pa[a]
+        pA[P, i] += s
+        for j in range(nv):
+            s = 0.0
+            for r in range(counts[i]):
+                a = rows[i, r]
+                for c in range(counts[j]):
+                    b = rows[j, c]
+                    s += X[a, i] * Ia[a, b] * X[b, j]
+            IA[P, i, j] += s
+
+
+@jit
+def child_acceleration(X, acc, U, u, L, S, P, C, e, d, shifted, x, nv):
+    """Pass 2 at joint e (eq. 7.10): A' = X A_P, theta''_e = D_e^-1 (u - U^T A') (into x[:d, 0]), A_C = A' +
+    S_e theta''_e."""
+    for i in range(nv):
+        s = 0.0
+        for j in range(nv):
+            s += X[i, j] * acc[P, j]
+        shifted[i] = s
+    for c in range(d):
+        s = u[e, c]
+        for i in range(nv):
+            s -= U[e, i, c] * shifted[i]
+        x[c, 0] = s
+    solve_joint(L, e, d, x, 1)
+    for i in range(nv):
+        s = shifted[i]
+        for c in range(d):
+            s += S[e, i, c] * x[c, 0]
+        acc[C, i] = s
+
+
+def two_passes(nv: int):
+    """The two passes for bodies of nv velocity components (3 planar, 6 spatial): nv a constant of the compiled
+    code, and a joint's columns d (1, or 3 for a spherical joint) constant in each branch, so that every loop has a
+    known length and the compiler writes it out (twice as fast as loops whose length is read at run time)."""
+
+    @jit
+    def passes(IA, pA, ints, S, links, widths, first, thdd, acc):
+        ne, nb = ints.shape[0], IA.shape[0] - 1
+        joint = np.empty((ne, nv + 4, 3))  # per joint (eq. 7.8): U, D_e's factor L, u (an allocation costs ~20 ns)
+        U, L, u = joint[:, :nv], joint[:, nv : nv + 3], joint[:, nv + 3]
+        scratch = np.empty((2 * nv + 4, nv + 1))  # X, Ia, pa, D_e^-1 (U^T, u)
+        X, Ia, pa, DU = scratch[:nv, :nv], scratch[nv : 2 * nv, :nv], scratch[2 * nv, :nv], scratch[2 * nv + 1 :]
+        pattern = np.empty((nv, 4), dtype=np.int64)  # X's nonzeros: the rows of column j, their count
+        rows, counts = pattern[:, :3], pattern[:, 3]
+        for e in range(ne - 1, -1, -1):  # 1. from the leaves to ground
+            P, C, d = ints[e, 1], ints[e, 2], widths[ints[e, 0]]
+            if P < 0:
+                P = nb
+            if d == 1:
+                joint_terms(IA, pA, S, C, e, 1, U, u, L, nv)
+                positive = factor_joint(L, e, 1)
+                if positive:
+                    passed_on(IA, pA, U, u, L, C, e, 1, DU, Ia, pa, nv)
+            else:
+                joint_terms(IA, pA, S, C, e, 3, U, u, L, nv)
+                positive = factor_joint(L, e, 3)
+                if positive:
+                    passed_on(IA, pA, U, u, L, C, e, 3, DU, Ia, pa, nv)
+            if not positive:
+                thdd[:] = np.nan
+                return
+            shift_matrix(links, e, X, nv)  # to the parent's centre
+            shift_nonzeros(X, rows, counts, nv)
+            shift_to_parent(X, rows, counts, Ia, pa, IA, pA, P, nv)
+        acc[nb] = 0.0  # 2. from ground to the leaves: A of ground is zero
+        for e in range(ne):
+            P, C, d, at = ints[e, 1], ints[e, 2], widths[ints[e, 0]], ints[e, first]
+            if P < 0:
+                P = nb
+            shift_matrix(links, e, X, nv)
+            if d == 1:
+                child_acceleration(X, acc, U, u, L, S, P, C, e, 1, pa, DU, nv)
+            else:
+                child_acceleration(X, acc, U, u, L, S, P, C, e, 3, pa, DU, nv)
+            for c in range(d):
+                thdd[at + c] = DU[c, 0]
+
+    return passes
+
+
+planar_passes, spatial_passes = two_passes(3), two_passes(6)
+
+
 def articulated_accelerations(IA, pA, ints, S, links, widths, first, thdd, acc):
     """theta'' of an open tree by the two passes of the module docstring (written into ``thdd``), and every body's
     acceleration A_b = (D theta'')_b on the way (``acc``, (nb + 1) x nv, ground last: zero): the outputs' q'' is
@@ -77,87 +270,11 @@ def articulated_accelerations(IA, pA, ints, S, links, widths, first, thdd, acc):
     nb + 1 of them with ground last (overwritten by the articulated ones); ints: the tree's joints in topological
     order, a row each (kind, parent, child, ...; parent -1 is ground), the joint's first velocity column in column
     ``first``; widths: the columns of each kind; S (joints x nv x 3): the columns S_e; links (joints x 3): l.
-    (Written as loops over the entries: at 3 x 3 and 6 x 6 a call into BLAS costs more than the arithmetic.)"""
-    ne, nb, nv = ints.shape[0], IA.shape[0] - 1, IA.shape[1]
-    U, L, u = np.zeros((ne, nv, 3)), np.zeros((ne, 3, 3)), np.zeros((ne, 3))
-    X, Ia, pa, DU, x = np.empty((nv, nv)), np.empty((nv, nv)), np.empty(nv), np.empty((3, nv)), np.empty(3)
-    for e in range(ne - 1, -1, -1):  # 1. from the leaves to ground
-        P, C, d = ints[e, 1], ints[e, 2], widths[ints[e, 0]]
-        if P < 0:
-            P = nb
-        for c in range(d):  # U = I^A S, u = -S^T p^A, D_e = S^T U (its lower triangle)
-            for i in range(nv):
-                s = 0.0
-                for j in range(nv):
-                    s += IA[C, i, j] * S[e, j, c]
-                U[e, i, c] = s
-            s = 0.0
-            for i in range(nv):
-                s -= S[e, i, c] * pA[C, i]
-            u[e, c] = s
-            for c2 in range(c + 1):
-                s = 0.0
-                for i in range(nv):
-                    s += S[e, i, c] * U[e, i, c2]
-                L[e, c, c2] = s
-        if not cholesky(L[e, :d, :d]):
-            thdd[:] = np.nan
-            return
-        for c in range(d):  # D_e^-1 u, and D_e^-1 U^T column by column
-            x[c] = u[e, c]
-            for i in range(nv):
-                DU[c, i] = U[e, i, c]
-        cholesky_solve(L[e, :d, :d], x[:d])
-        for i in range(nv):
-            cholesky_solve(L[e, :d, :d], DU[:d, i])
-        for i in range(nv):  # what the child passes on: Ia = I^A - U D_e^-1 U^T, pa = p^A + U D_e^-1 u
-            s = pA[C, i]
-            for c in range(d):
-                s += U[e, i, c] * x[c]
-            pa[i] = s
-            for j in range(nv):
-                s = IA[C, i, j]
-                for c in range(d):
-                    s -= U[e, i, c] * DU[c, j]
-                Ia[i, j] = s
-        shift_matrix(links[e], X)  # to the parent's centre: I^A_P += X^T Ia X, p^A_P += X^T pa
-        for i in range(nv):
-            s = 0.0
-            for a in range(nv):
-                s += X[a, i] * pa[a]
-            pA[P, i] += s
-            for j in range(nv):
-                s = 0.0
-                for a in range(nv):
-                    if X[a, i] != 0.0:
-                        for b in range(nv):
-                            s += X[a, i] * Ia[a, b] * X[b, j]
-                IA[P, i, j] += s
-    acc[nb] = 0.0  # 2. from ground to the leaves: A of ground is zero
-    shifted = np.empty(nv)
-    for e in range(ne):
-        P, C, d, at = ints[e, 1], ints[e, 2], widths[ints[e, 0]], ints[e, first]
-        if P < 0:
-            P = nb
-        shift_matrix(links[e], X)
-        for i in range(nv):  # A' = X A_P
-            s = 0.0
-            for j in range(nv):
-                s += X[i, j] * acc[P, j]
-            shifted[i] = s
-        for c in range(d):  # theta'' = D_e^-1 (u - U^T A')
-            s = u[e, c]
-            for i in range(nv):
-                s -= U[e, i, c] * shifted[i]
-            x[c] = s
-        cholesky_solve(L[e, :d, :d], x[:d])
-        for i in range(nv):  # A_C = A' + S theta''
-            s = shifted[i]
-            for c in range(d):
-                s += S[e, i, c] * x[c]
-            acc[C, i] = s
-        for c in range(d):
-            thdd[at + c] = x[c]
+    (Written as loops over the entries: at 3 x 3 and 6 x 6 a call into BLAS costs more than the arithmetic.) The
+    tree kernels call ``planar_passes`` or ``spatial_passes`` directly (a module compiles only its own); this
+    chooser is for callers in Python."""
+    passes = planar_passes if IA.shape[1] == 3 else spatial_passes
+    passes(IA, pA, ints, S, links, widths, first, thdd, acc)
 
 
-__all__ = ["articulated_accelerations", "shift_matrix"]
+__all__ = ["articulated_accelerations", "planar_passes", "shift_matrix", "spatial_passes"]

@@ -33,7 +33,7 @@ from numba import njit
 
 from ..joint_coordinates import half_transpose_product, scaled_product
 from ..rotation_matrices import quaternion_product_entries
-from .articulated import articulated_accelerations
+from .articulated import planar_passes, spatial_passes
 from .kernels import (
     inertia_times,
     l_entries_jit,
@@ -123,12 +123,13 @@ def planar_articulated(mass, xi, Q, ints, S, links, thdd, acc):
     """theta'' of an open planar tree in O(N) (``articulated``): the bodies' I_b = diag(m, m, J) and bias forces
     p_b = M_b xi_b - Q_b (no gyroscopic term in the plane); the bodies' accelerations D theta'' in ``acc``."""
     nb = mass.size // 3
-    IA, pA = np.zeros((nb + 1, 3, 3)), np.zeros((nb + 1, 3))
+    bodies = np.zeros((nb + 1, 4, 3))  # one allocation (and no reshape: ~20 ns each): IA, pA
+    IA, pA = bodies[:, :3], bodies[:, 3]
     for b in range(nb):
         for r in range(3):
             IA[b, r, r] = mass[3 * b + r]
             pA[b, r] = mass[3 * b + r] * xi[3 * b + r] - Q[3 * b + r]
-    articulated_accelerations(IA, pA, ints, S, links, WIDTHS, 3, thdd, acc)
+    planar_passes(IA, pA, ints, S, links, WIDTHS, 3, thdd, acc)
 
 
 @jit
@@ -386,7 +387,8 @@ def spatial_articulated(masses, inertias, q, xi, omega, Q, ints, S, links, thdd,
     = -(the body force f of ``body_force``, its torque turned to global axes by A); the bodies' accelerations
     D theta'' (a, and omega'' in global axes) in ``acc``."""
     nb = masses.size
-    IA, pA, force, R = np.zeros((nb + 1, 6, 6)), np.zeros((nb + 1, 6)), np.empty(6), np.empty(9)
+    bodies, scratch = np.zeros((nb + 1, 7, 6)), np.empty(15)  # IA, pA; a body's force and rotation
+    IA, pA, force, R = bodies[:, :6], bodies[:, 6], scratch[:6], scratch[6:]
     for b in range(nb):
         J, o = inertias[b], 7 * b
         body_force(masses[b], J, q, xi, omega, Q, b, force)
@@ -402,7 +404,7 @@ def spatial_articulated(masses, inertias, q, xi, omega, Q, ints, S, links, thdd,
         for r in range(3):  # (A J') A^T, row by row: A times the row
             row = IA[b, 3 + r, 3:]
             row[0], row[1], row[2] = _rotate(R, row[0], row[1], row[2])
-    articulated_accelerations(IA, pA, ints, S, links, WIDTHS, 4, thdd, acc)
+    spatial_passes(IA, pA, ints, S, links, WIDTHS, 4, thdd, acc)
 
 
 @jit
