@@ -225,6 +225,7 @@ def integrate(
     max_evaluations: int | None = DEFAULT_MAX_EVALUATIONS,
     stiffness: str = "report",
     max_steps: int | None = None,
+    positions: int | None = None,
 ) -> IntegrationStats:
     """Advance y' = f(t, y) from y(t_out[0]) = y0, calling ``record(k, t_out[k], y)`` at every output time.
 
@@ -233,12 +234,15 @@ def integrate(
     evaluations (None: no bound); ``stiffness`` is "report" (in the stats), "error" (raise
     StiffnessError when found) or "off" (no monitor). ``max_steps`` (rk45 and dop853 only) ends the loop after
     that many accepted steps, the output times not reached left unrecorded: a trial of the method
-    (``compiled.dispatch.trial_seconds``).
+    (``compiled.dispatch.trial_seconds``). ``positions`` = n (dop853 only) says that y = (q, q', ...) with
+    f(t, y)[:n] = q' = y[n:2n] and that ``record`` reads only q = y[:n]: the dense output then takes its last extra
+    stage's q' from the stage's state instead of evaluating f there (``DenseOutput``); the rest of y it hands to
+    ``record`` is NaN.
     """
     stats = IntegrationStats(method)
     budget = Budget(f, max_evaluations, method, stats)
     monitor = StiffnessMonitor(budget, method, stats, stiffness == "error") if stiffness != "off" else None
-    loop = Loop(budget, t_out, record, method, rtol, atol, step, after_step, stats, monitor, max_steps)
+    loop = Loop(budget, t_out, record, method, rtol, atol, step, after_step, stats, monitor, max_steps, positions)
     try:
         if method in FIXED_STEP_METHODS:
             _integrate_rk4(loop, np.asarray(y0, dtype=float))
@@ -270,6 +274,7 @@ class Loop:
     stats: IntegrationStats
     monitor: StiffnessMonitor | None
     max_steps: int | None = None
+    positions: int | None = None
 
 
 def _integrate_rk4(loop: Loop, y: np.ndarray) -> None:
@@ -387,16 +392,26 @@ def initial_step(f, t, y, fy, order: int, rtol: float, atol: float, t_end: float
 
 class DenseOutput:
     """The continuous extension of one accepted step from t to t + h (rk45: quartic in x = (s - t) / h,
-    Q = K^T P; dop853: the 7th-order interpolant of three extra stages), evaluated at output times."""
+    Q = K^T P; dop853: the 7th-order interpolant of three extra stages), evaluated at output times.
 
-    def __init__(self, scheme, f, t, h, y, y_new, fy_new, K):
+    ``positions`` = n (``integrate``): only q = y[:n] is asked for, and f's q rows are the state's q' = y[n:2n]; the
+    q rows of the interpolant take from each stage only its q rows of f, and those of the last extra stage, which
+    no other stage uses, are its state's q' (the numbers f would return there): one evaluation of f less."""
+
+    def __init__(self, scheme, f, t, h, y, y_new, fy_new, K, positions: int | None = None):
         self.t, self.h, self.y = t, h, y
         if scheme.name == "DOP853":
             S = scheme.n_stages + 1
             extended = np.empty((S + len(scheme.C_EXTRA), y.size))
             extended[:S] = K
+            last = len(extended) - 1
             for s, (a, c) in enumerate(zip(scheme.A_EXTRA, scheme.C_EXTRA, strict=True), start=S):
-                extended[s] = f(t + c * h, y + h * (a[:s] @ extended[:s]))
+                stage = y + h * (a[:s] @ extended[:s])
+                if s == last and positions is not None:
+                    extended[s] = np.nan  # not computed: the interpolant's rows other than q
+                    extended[s, :positions] = stage[positions : 2 * positions]
+                else:
+                    extended[s] = f(t + c * h, stage)
             delta = y_new - y
             F = np.empty((3 + len(scheme.D), y.size))  # the interpolant's degree: 7
             F[0], F[1], F[2] = delta, h * K[0] - delta, 2.0 * delta - h * (fy_new + K[0])
@@ -451,7 +466,7 @@ def _integrate_embedded(loop: Loop, y: np.ndarray) -> None:
         stats.steps, stats.step_size = stats.steps + 1, h
         t_new = t_end if t_end - (t + h) < 1e-12 * max(1.0, abs(t_end)) else t + h
         if t_out[k] < t_new:
-            dense = DenseOutput(scheme, f, t, h, y, y_new, fy_new, K)
+            dense = DenseOutput(scheme, f, t, h, y, y_new, fy_new, K, loop.positions)
             while k < t_out.size and t_out[k] < t_new:
                 record(k, t_out[k], dense(t_out[k]))
                 k += 1
