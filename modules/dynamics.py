@@ -677,7 +677,12 @@ def companion_centres(made: Made, result: Result, rtol: float, atol: float) -> n
 
 def numpy_positions(start: Start, plan: Plan, times: np.ndarray) -> np.ndarray:
     """q at the output times of the numpy engine's run from ``start`` by ``plan`` (its integration alone: the
-    formulation's correction after each step, none of the Guard's checks; ``companion_centres``)."""
+    formulation's correction after each step, none of the Guard's checks; ``companion_centres``).
+
+    Leaner than the run, the same positions: no stiffness monitor unless a finding stops the run
+    (``stiffness="error"``; reported, it would be dropped here), and where the state is y = (q, q') with y' = (q',
+    q'') (``second_order_state``), a dense output of q alone (``integrate``'s ``positions``: one evaluation less per
+    step that passes an output time)."""
     system, settings = start.run.system, start.run.settings
     options = settings.formulation_options
     formulation = make_formulation(plan.formulation, system, start.M, start.forces, **options)
@@ -692,9 +697,23 @@ def numpy_positions(start: Start, plan: Plan, times: np.ndarray) -> np.ndarray:
     integrate(
         equations.rhs, equations.initial_state(start.q, start.qd, 0.0), times, record, method=plan.integrator,
         rtol=plan.rtol, atol=plan.atol, step=settings.step, after_step=equations.after_step,
-        max_evaluations=settings.max_evaluations, stiffness=settings.stiffness,
+        max_evaluations=settings.max_evaluations, stiffness="error" if settings.stiffness == "error" else "off",
+        positions=system.n_coordinates if second_order_state(formulation) else None,
     )  # fmt: skip
     return q
+
+
+def second_order_state(formulation) -> bool:
+    """True when the formulation's state is y = (q, q') and f(t, y) = (q', q''): ``Formulation``'s own coordinates
+    and state derivative (not the partitioning's independent coordinates, nor joint coordinates), and no correction
+    after a step. A correction reads what the last evaluation of f left (``Projection``'s mass-orthogonal step uses
+    the spatial M(q) of the last evaluation, ``mass_solve``): an evaluation left out would move it."""
+    kind = type(formulation)
+    return (
+        kind.coordinates is Formulation.coordinates
+        and kind.state_derivative is Formulation.state_derivative
+        and kind.after_step is Formulation.after_step
+    )
 
 
 def guarded_companion(start: Start, result: Result, rtol: float, atol: float) -> np.ndarray:

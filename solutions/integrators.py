@@ -19,7 +19,7 @@ to a callback. Two families:
   right-hand side costs a few tens of microseconds does not pay solve_ivp's per-step bookkeeping (the
   method object, its step() and its dense-output object), which is of the same order.
 
-Right-hand-side evaluations are counted here, by wrapping f, whatever the method does with them
+Right-hand-side evaluations are counted here, by wrapping f (``Budget``), whatever the method does with them
 (stages, finite-difference Jacobians of the implicit methods, restarts). Two guards keep a run from
 going on for ever or quietly wrong:
 
@@ -70,18 +70,6 @@ def scipy_method(name: str) -> type:
     import scipy.integrate
 
     return getattr(scipy.integrate, name)
-
-
-@dataclass
-class Counter:
-    """f(t, y), counting its evaluations."""
-
-    f: RHS
-    evaluations: int = 0
-
-    def __call__(self, t: float, y: np.ndarray) -> np.ndarray:
-        self.evaluations += 1
-        return self.f(t, y)
 
 
 @dataclass
@@ -178,16 +166,20 @@ def stiffness_message(method: str, found: dict) -> str:
 
 
 class Budget:
-    """f(t, y) counted, stopping the run once ``limit`` evaluations are spent."""
+    """f(t, y), its evaluations counted, stopping the run once ``limit`` of them are spent (one object between the
+    integrator and f: a call through it costs a few hundred nanoseconds, a small scene's f a few tens of us)."""
 
-    def __init__(self, counted: Counter, limit: int | None, method: str, stats: IntegrationStats):
-        self.counted, self.limit, self.method, self.stats = counted, limit, method, stats
+    def __init__(self, f: RHS, limit: int | None, method: str, stats: IntegrationStats):
+        self.f, self.limit, self.method, self.stats = f, limit, method, stats
+        self.evaluations = 0
+        self._stop = math.inf if limit is None else limit
         self.t, self.h = 0.0, float("nan")
 
     def __call__(self, t: float, y: np.ndarray) -> np.ndarray:
-        if self.limit is not None and self.counted.evaluations >= self.limit:
+        if self.evaluations >= self._stop:
             raise BudgetError(budget_message(self.method, self.limit, self.t, self.h, self.stats))
-        return self.counted(t, y)
+        self.evaluations += 1
+        return self.f(t, y)
 
 
 def budget_message(method: str, limit: int, t: float, h: float, stats: IntegrationStats) -> str:
@@ -233,6 +225,7 @@ def integrate(
     max_evaluations: int | None = DEFAULT_MAX_EVALUATIONS,
     stiffness: str = "report",
     max_steps: int | None = None,
+    positions: int | None = None,
 ) -> IntegrationStats:
     """Advance y' = f(t, y) from y(t_out[0]) = y0, calling ``record(k, t_out[k], y)`` at every output time.
 
@@ -241,13 +234,15 @@ def integrate(
     evaluations (None: no bound); ``stiffness`` is "report" (in the stats), "error" (raise
     StiffnessError when found) or "off" (no monitor). ``max_steps`` (rk45 and dop853 only) ends the loop after
     that many accepted steps, the output times not reached left unrecorded: a trial of the method
-    (``compiled.dispatch.trial_seconds``).
+    (``compiled.dispatch.trial_seconds``). ``positions`` = n (dop853 only) says that y = (q, q', ...) with
+    f(t, y)[:n] = q' = y[n:2n] and that ``record`` reads only q = y[:n]: the dense output then takes its last extra
+    stage's q' from the stage's state instead of evaluating f there (``DenseOutput``); the rest of y it hands to
+    ``record`` is NaN.
     """
-    counted = Counter(f)
     stats = IntegrationStats(method)
-    budget = Budget(counted, max_evaluations, method, stats)
+    budget = Budget(f, max_evaluations, method, stats)
     monitor = StiffnessMonitor(budget, method, stats, stiffness == "error") if stiffness != "off" else None
-    loop = Loop(budget, t_out, record, method, rtol, atol, step, after_step, stats, monitor, max_steps)
+    loop = Loop(budget, t_out, record, method, rtol, atol, step, after_step, stats, monitor, max_steps, positions)
     try:
         if method in FIXED_STEP_METHODS:
             _integrate_rk4(loop, np.asarray(y0, dtype=float))
@@ -258,7 +253,7 @@ def integrate(
         else:
             raise AnalysisError(f"unknown integrator {method!r} (one of: {', '.join(INTEGRATORS)})")
     finally:
-        stats.rhs_evaluations = counted.evaluations
+        stats.rhs_evaluations = budget.evaluations
     return stats
 
 
@@ -279,6 +274,7 @@ class Loop:
     stats: IntegrationStats
     monitor: StiffnessMonitor | None
     max_steps: int | None = None
+    positions: int | None = None
 
 
 def _integrate_rk4(loop: Loop, y: np.ndarray) -> None:
@@ -396,16 +392,26 @@ def initial_step(f, t, y, fy, order: int, rtol: float, atol: float, t_end: float
 
 class DenseOutput:
     """The continuous extension of one accepted step from t to t + h (rk45: quartic in x = (s - t) / h,
-    Q = K^T P; dop853: the 7th-order interpolant of three extra stages), evaluated at output times."""
+    Q = K^T P; dop853: the 7th-order interpolant of three extra stages), evaluated at output times.
 
-    def __init__(self, scheme, f, t, h, y, y_new, fy_new, K):
+    ``positions`` = n (``integrate``): only q = y[:n] is asked for, and f's q rows are the state's q' = y[n:2n]; the
+    q rows of the interpolant take from each stage only its q rows of f, and those of the last extra stage, which
+    no other stage uses, are its state's q' (the numbers f would return there): one evaluation of f less."""
+
+    def __init__(self, scheme, f, t, h, y, y_new, fy_new, K, positions: int | None = None):
         self.t, self.h, self.y = t, h, y
         if scheme.name == "DOP853":
             S = scheme.n_stages + 1
             extended = np.empty((S + len(scheme.C_EXTRA), y.size))
             extended[:S] = K
+            last = len(extended) - 1
             for s, (a, c) in enumerate(zip(scheme.A_EXTRA, scheme.C_EXTRA, strict=True), start=S):
-                extended[s] = f(t + c * h, y + h * (a[:s] @ extended[:s]))
+                stage = y + h * (a[:s] @ extended[:s])
+                if s == last and positions is not None:
+                    extended[s] = np.nan  # not computed: the interpolant's rows other than q
+                    extended[s, :positions] = stage[positions : 2 * positions]
+                else:
+                    extended[s] = f(t + c * h, stage)
             delta = y_new - y
             F = np.empty((3 + len(scheme.D), y.size))  # the interpolant's degree: 7
             F[0], F[1], F[2] = delta, h * K[0] - delta, 2.0 * delta - h * (fy_new + K[0])
@@ -430,7 +436,8 @@ def _integrate_embedded(loop: Loop, y: np.ndarray) -> None:
     f, t_out, record, method, rtol, atol = loop.f, loop.t_out, loop.record, loop.method, loop.rtol, loop.atol
     step, after_step, stats, monitor = loop.step, loop.after_step, loop.stats, loop.monitor
     scheme = TABLEAUX[EMBEDDED_METHODS[method]]
-    A, B, C, S = scheme.A, scheme.B, scheme.C, scheme.n_stages
+    A, B, S = scheme.A, scheme.B, scheme.n_stages
+    C = [float(c) for c in scheme.C]  # Python floats: t + c h is the same number, for less than with numpy ones
     exponent = -1.0 / (scheme.error_estimator_order + 1)
     rows = [A[s, :s] for s in range(S)]
     max_step = step if step else np.inf
@@ -459,7 +466,7 @@ def _integrate_embedded(loop: Loop, y: np.ndarray) -> None:
         stats.steps, stats.step_size = stats.steps + 1, h
         t_new = t_end if t_end - (t + h) < 1e-12 * max(1.0, abs(t_end)) else t + h
         if t_out[k] < t_new:
-            dense = DenseOutput(scheme, f, t, h, y, y_new, fy_new, K)
+            dense = DenseOutput(scheme, f, t, h, y, y_new, fy_new, K, loop.positions)
             while k < t_out.size and t_out[k] < t_new:
                 record(k, t_out[k], dense(t_out[k]))
                 k += 1

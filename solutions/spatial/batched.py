@@ -111,6 +111,10 @@ class JointGroup:
             where = {key: vectors.add(b, [getattr(m[0], name) for m in members]) for key, (b, name) in fields.items()}
             self.kinds[kind] = (rows, i, j, where)
         self.vectors = BodyVectors(np.array(vectors.bodies, dtype=int), np.array(vectors.vectors, dtype=float))
+        self._constant = np.zeros((self.n_rows, 7)), np.zeros((self.n_rows, 7))  # the spherical parts' I and -I
+        if "spherical" in self.kinds:
+            rows = self.kinds["spherical"][0]
+            self._constant[0][rows, :3], self._constant[1][rows, :3] = np.eye(3), -np.eye(3)
 
     def terms(self, X):
         """B(p, a') and A(p) a' of every body vector of the group."""
@@ -136,11 +140,10 @@ class JointGroup:
     def jacobian(self, X, terms, t):
         """(Psi_qi, Psi_qj), (rows, 7) each: [I, B_i s_i'], [-I, -B_j s_j'] (spherical); [0, a_j^T B_i],
         [0, a_i^T B_j] (dot-1); [-a_i^T, d^T B(p_i, a_i') - a_i^T B(p_i, s_i')], [a_i^T, a_i^T B(p_j, s_j')] (dot-2)."""
-        jac_i, jac_j = np.zeros((self.n_rows, 7)), np.zeros((self.n_rows, 7))
+        jac_i, jac_j = self._constant[0].copy(), self._constant[1].copy()  # zeros, and the spherical rows' +-I
         B, A = terms
         for kind, (rows, i, j, where) in self.kinds.items():
             if kind == "spherical":
-                jac_i[rows, :3], jac_j[rows, :3] = np.eye(3), -np.eye(3)
                 jac_i[rows, 3:], jac_j[rows, 3:] = B[where["si"]], -B[where["sj"]]
             elif kind == "dot1":
                 jac_i[rows, 3:] = _vector_row(A[where["aj"]], B[where["ai"]])

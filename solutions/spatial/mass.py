@@ -116,9 +116,23 @@ class SpatialMassMatrix:
     def __init__(self, model: Model):
         self.model = model
         self.weights = [float(np.trace(body.inertia)) / 3.0 for body in model.bodies]
+        n = 7 * len(model.bodies)
+        self.translational = np.zeros((n, n))  # the constant m I blocks of every body, zero elsewhere
+        for k, body in enumerate(model.bodies):
+            self.translational[7 * k : 7 * k + 3, 7 * k : 7 * k + 3] = body.mass * np.eye(3)
+        self.inertias = [np.asarray(body.inertia, dtype=float) for body in model.bodies]
 
     def __call__(self, q: np.ndarray) -> np.ndarray:
-        return dynamic_mass_matrix(self.model, q, self.weights)
+        """``dynamic_mass_matrix(model, q)``, the same numbers, from the m I blocks kept since the start: at every
+        state only each body's p block 4 L^T J' L + 4 w p p^T is computed (eq. 10.4), the dynamics' every
+        right-hand side (a spatial model's M depends on q)."""
+        M = self.translational.copy()
+        for k, (inertia, w) in enumerate(zip(self.inertias, self.weights, strict=True)):
+            p = q[7 * k + 3 : 7 * k + 7]
+            block = rotational_mass_matrix(inertia, p)
+            block += 4.0 * w * (p[:, None] * p)  # np.outer(p, p)
+            M[7 * k + 3 : 7 * k + 7, 7 * k + 3 : 7 * k + 7] = block
+        return M
 
     def quadratic_velocity(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         return quadratic_velocity_vector(self.model, q, qd)

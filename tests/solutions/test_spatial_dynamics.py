@@ -443,3 +443,25 @@ def test_the_kinetic_energy_of_a_history_is_that_of_the_mass_matrix():
     q, qd = rng.standard_normal((6, 14)), rng.standard_normal((6, 14))
     expected = [0.5 * qdk @ mass_matrix(model, qk) @ qdk for qk, qdk in zip(q, qd, strict=True)]
     assert np.allclose(kinetic_energy_history(model, q, qd), expected, rtol=1e-13, atol=0.0)
+
+
+def test_the_dynamics_mass_matrix_is_the_regular_one_of_eq_10_4():
+    """``SpatialMassMatrix(model)(q)``, the M(q) of every right-hand side (only the p blocks computed anew), against
+    ``dynamic_mass_matrix`` to the last bit, and against the kinetic energy with omega' = 2 L p' (eq. 10.3): for unit
+    p and p' tangent to |p| = 1 the regularizing 4 w p p^T adds nothing to 1/2 q'^T M q'."""
+    from solutions.rotations import l_matrix
+    from solutions.spatial.mass import SpatialMassMatrix, dynamic_mass_matrix
+
+    model = load_model(MODELS / "spatial_double_pendulum.yaml")
+    masses = SpatialMassMatrix(model)
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        q, qd = rng.standard_normal(14), rng.standard_normal(14)
+        assert np.array_equal(masses(q), dynamic_mass_matrix(model, q))
+        energy = 0.0
+        for k, body in enumerate(model.bodies):
+            p = q[7 * k + 3 : 7 * k + 7] = q[7 * k + 3 : 7 * k + 7] / np.linalg.norm(q[7 * k + 3 : 7 * k + 7])
+            qd[7 * k + 3 : 7 * k + 7] -= (p @ qd[7 * k + 3 : 7 * k + 7]) * p
+            rd, omega = qd[7 * k : 7 * k + 3], 2.0 * l_matrix(p) @ qd[7 * k + 3 : 7 * k + 7]
+            energy += 0.5 * body.mass * rd @ rd + 0.5 * omega @ body.inertia @ omega
+        assert 0.5 * qd @ masses(q) @ qd == pytest.approx(energy, rel=1e-13)
