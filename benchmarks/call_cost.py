@@ -204,8 +204,15 @@ def main(argv: list[str] | None = None) -> None:
     print("| **outside the loop** | " + " | ".join(f"**{value * 1e3:.2f}**" for value in outside) + " |")
     print("| whole call with the divergence check | " + " | ".join(f"{c * 1e3:.2f}" for *_, c in results) + " |")
     for label in dict.fromkeys(label for _, _, label in STAGES + COMPANION):  # each once (two stages may share one)
-        cells = [f"{stages[label] * 1e3:.3f}" if label in stages else "-" for _, _, stages, _ in results]
+        cells = [_milliseconds(stages[label]) if label in stages else "-" for _, _, stages, _ in results]
         print(f"| {label.replace('  ', '&nbsp;&nbsp;')} | " + " | ".join(cells) + " |")
+
+
+def _milliseconds(seconds: float) -> str:
+    """A stage's time in ms to the microsecond, and a stage under half a microsecond (the efforts of a scene without
+    drivers) to two significant figures: a stage that ran never reads 0.000."""
+    value = seconds * 1e3
+    return f"{value:.3f}" if value >= 0.01 or value == 0.0 else f"{value:.2g}"
 
 
 if __name__ == "__main__":
