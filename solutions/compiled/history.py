@@ -47,6 +47,13 @@ def constraint_arrays(module, scene, times: np.ndarray, Y: np.ndarray, columns: 
     return psi, BlockedJacobians(values, columns, n), psit
 
 
+def block_slots(columns: np.ndarray) -> np.ndarray:
+    """(m, w) slots of a history by its rows' blocks (``BlockedJacobians``, ``columns`` (m, w)): entry s of row r
+    is in slot s. Kernels that read a dense history at columns[r, s] read the blocks at slots[r, s] instead."""
+    m, w = columns.shape
+    return np.ascontiguousarray(np.broadcast_to(np.arange(w, dtype=np.int64), (m, w)))
+
+
 class BlockedJacobians:
     """Psi_q at N output times by its rows' blocks: ``values`` (N, m, w), entry s of row r in column
     ``columns[r, s]`` (-1 after the row's last: ``_row_columns``, the columns of the bodies the row's element
@@ -107,19 +114,20 @@ class BlockedJacobians:
 def residuals(psi: np.ndarray, jac, psit: np.ndarray, qd: np.ndarray, system=None) -> dict[str, np.ndarray]:
     """'residual.position' max |Psi| and 'residual.velocity' max |Psi_q q' + Psi_t| at every output time. With the
     ``system``, Psi_q q' over each row's nonzero columns (``history_kernels.velocity_residuals``; of a blocked
-    history, its blocks: ``blocked_velocity_residuals``, the same products in the same order), else by BLAS."""
+    history, over its blocks: the same products in the same order), else by BLAS."""
     from . import history_kernels
 
     qd, psit = (np.ascontiguousarray(a, dtype=float) for a in (qd, psit))
     velocity = np.empty(psit.shape)
     if isinstance(jac, BlockedJacobians):
         values = np.ascontiguousarray(jac.values, dtype=float)  # a slice of times may not be
-        history_kernels.blocked_velocity_residuals(values, qd, psit, jac.columns, velocity)
+        history_kernels.velocity_residuals(values, qd, psit, jac.columns, block_slots(jac.columns), velocity)
     elif system is None or layout(system, _row_columns) is None:
         velocity = (jac @ qd[:, :, None])[:, :, 0] + psit  # Psi_q q' at every time, by BLAS
     else:
         jac = np.ascontiguousarray(jac, dtype=float)
-        history_kernels.velocity_residuals(jac, qd, psit, layout(system, _row_columns), velocity)
+        columns = layout(system, _row_columns)
+        history_kernels.velocity_residuals(jac, qd, psit, columns, columns, velocity)
     return {
         "residual.position": np.max(np.abs(psi), axis=1, initial=0.0),
         "residual.velocity": np.max(np.abs(velocity), axis=1, initial=0.0),
@@ -260,4 +268,4 @@ def joint_reactions(system, q: np.ndarray, lam: np.ndarray, jac) -> dict[str, np
     return planar_reactions(system, q, lam, jac)
 
 
-__all__ = ["BlockedJacobians", "constraint_arrays", "joint_reactions", "residuals"]
+__all__ = ["BlockedJacobians", "block_slots", "constraint_arrays", "joint_reactions", "residuals"]

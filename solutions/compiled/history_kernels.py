@@ -8,7 +8,7 @@ integration).
 
 ``planar_reactions``, ``spatial_reactions``: the force and moment of every joint at every output time in one pass.
 
-``blocked_constraint_arrays``, ``blocked_velocity_residuals``: a large Psi_q's history by its rows' blocks
+``blocked_constraint_arrays``: a large Psi_q's history by its rows' blocks
 (``history.BlockedJacobians``), made and read without the dense (N, m, n) array (the reactions take its blocks
 through ``slots``: where the reported body's columns begin in each row).
 
@@ -48,33 +48,20 @@ def eager(*arguments):
     return njit(types.void(*arguments), cache=True, fastmath=False, nogil=True)
 
 
-@eager(_cube, _matrix, _matrix, _imatrix, _matrix)
-def velocity_residuals(jac, qd, psit, columns, velocity):
+@eager(_cube, _matrix, _matrix, _imatrix, _imatrix, _matrix)
+def velocity_residuals(stored, qd, psit, columns, slots, velocity):
     """velocity[t, r] = (Psi_q q')_r + (Psi_t)_r at every output time t, the product over ``columns[r]`` (the
-    row's nonzero columns, -1 after the last): the residual of the velocity equation (eq. 4.5)."""
-    for t in range(jac.shape[0]):
-        for r in range(jac.shape[1]):
+    row's nonzero columns, -1 after the last): the residual of the velocity equation (eq. 4.5). The entry of
+    column columns[r, c] is stored[t, r, slots[r, c]]: in that column of a dense history (N, m, n), slots =
+    columns, or in slot c of a history by its rows' blocks (N, m, w), ``history.BlockedJacobians``."""
+    for t in range(stored.shape[0]):
+        for r in range(stored.shape[1]):
             total = 0.0
             for c in range(columns.shape[1]):
                 column = columns[r, c]
                 if column < 0:
                     break
-                total += jac[t, r, column] * qd[t, column]
-            velocity[t, r] = total + psit[t, r]
-
-
-@eager(_cube, _matrix, _matrix, _imatrix, _matrix)
-def blocked_velocity_residuals(values, qd, psit, columns, velocity):
-    """``velocity_residuals`` of a history by its rows' blocks (``history.BlockedJacobians``): entry s of row r,
-    values[t, r, s], in column columns[r, s]; the same products in the same order."""
-    for t in range(values.shape[0]):
-        for r in range(values.shape[1]):
-            total = 0.0
-            for c in range(columns.shape[1]):
-                column = columns[r, c]
-                if column < 0:
-                    break
-                total += values[t, r, c] * qd[t, column]
+                total += stored[t, r, slots[r, c]] * qd[t, column]
             velocity[t, r] = total + psit[t, r]
 
 

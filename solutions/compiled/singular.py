@@ -62,7 +62,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, types
 
-from .history import BlockedJacobians
+from .history import BlockedJacobians, block_slots
 from .kinematic_loop import PIVOT_TYPE, lapack
 
 _GBBRD, _STEBZ = lapack("dgbbrd", 18), lapack("dstebz", 18)
@@ -297,42 +297,23 @@ def history_norms(jacobians: np.ndarray, columns: np.ndarray, reach: np.ndarray 
     last bit (the dense sum adds zeros between them). Without, the dense pass and no pattern."""
     columns = np.ascontiguousarray(columns, dtype=float)
     if isinstance(jacobians, BlockedJacobians):  # its blocks are the reach: the same entries in the same order
-        return _blocked_norms(np.ascontiguousarray(jacobians.values), columns, jacobians.columns)
+        reach = jacobians.columns
+        return _reached_norms(np.ascontiguousarray(jacobians.values), columns, reach, block_slots(reach))
     jacobians = np.ascontiguousarray(jacobians, dtype=float)
     if reach is not None and (reach.shape[0] != jacobians.shape[1] or np.max(reach, initial=-1) >= jacobians.shape[2]):
         reach = None  # not this history's rows and columns: the dense pass
         return row_norms(jacobians, columns), None
-    return _reached_norms(jacobians, columns, np.ascontiguousarray(reach, dtype=np.int64))
+    reach = np.ascontiguousarray(reach, dtype=np.int64)
+    return _reached_norms(jacobians, columns, reach, reach)
 
 
 @njit(cache=True, nogil=True)
-def _reached_norms(jacobians, columns, reach):
-    """``row_norms`` and ``_pattern`` of the history (N, m, n) from the entries ``reach`` (m, w, ascending, -1
-    after the last) of each row alone."""
-    N, m, n = jacobians.shape
-    norms = np.empty((N, m))
-    pattern = np.zeros((m, n), dtype=np.bool_)
-    for k in range(N):
-        for r in range(m):
-            total = 0.0
-            for s in range(reach.shape[1]):
-                c = reach[r, s]
-                if c < 0:
-                    break
-                entry = jacobians[k, r, c]
-                if entry != 0.0:
-                    pattern[r, c] = True
-                value = entry * columns[c]
-                total += value * value
-            norms[k, r] = np.sqrt(total)
-    return norms, pattern
-
-
-@njit(cache=True, nogil=True)
-def _blocked_norms(values, columns, reach):
-    """``_reached_norms`` of a history by its rows' blocks (``history.BlockedJacobians``): entry s of row r,
-    values[k, r, s], in column reach[r, s]."""
-    N, m = values.shape[:2]
+def _reached_norms(stored, columns, reach, slots):
+    """``row_norms`` and ``_pattern`` of a history of Psi_q from the entries of each row alone: the s-th of row r
+    lies in column reach[r, s] (ascending, -1 after the last) and is stored[k, r, slots[r, s]]: in that column of
+    a dense history (N, m, n), slots = reach, or in slot s of a history by its rows' blocks (N, m, w),
+    ``history.BlockedJacobians``."""
+    N, m = stored.shape[:2]
     n = columns.size
     norms = np.empty((N, m))
     pattern = np.zeros((m, n), dtype=np.bool_)
@@ -343,7 +324,7 @@ def _blocked_norms(values, columns, reach):
                 c = reach[r, s]
                 if c < 0:
                     break
-                entry = values[k, r, s]
+                entry = stored[k, r, slots[r, s]]
                 if entry != 0.0:
                     pattern[r, c] = True
                 value = entry * columns[c]
