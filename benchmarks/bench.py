@@ -85,6 +85,13 @@ MODELS = ROOT / "course" / "models"
 RESULTS = Path(__file__).resolve().parent / "results"
 TARGETS = (1e-6, 1e-9)
 PEER_TARGETS = (1e-3, 1e-6, 1e-9)
+DIVERGENCE = {"divergence": "check"}
+"""Our runs' divergence check (``dynamics.judge_divergence``: a second run at 100 x rtol where the motion can be
+chaotic, on by default): ``--divergence skip`` leaves it out, the work the peers do (``chains.DIVERGENCE``)."""
+DIVERGENCE_SAID = {
+    "check": "with the divergence check (a second run at 100 x rtol where the motion can be chaotic, on by default).",
+    "skip": "without the divergence check (`--divergence skip`: the second run at 100 x rtol the peers do not make).",
+}
 """The errors of the table against the peers (the issue's three: at 1e-3 the peers' fixed steps are coarse)."""
 
 
@@ -469,7 +476,7 @@ class Config:
     engine: str = "numpy"
 
     def settings(self, tol: float) -> dict:
-        common = {"formulation": self.formulation, "integrator": self.integrator, "engine": self.engine}
+        common = {"formulation": self.formulation, "integrator": self.integrator, "engine": self.engine, **DIVERGENCE}
         if self.fixed_step:
             return {**common, "step": tol}
         return {**common, "rtol": tol, "atol": tol}
@@ -889,6 +896,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--scene", action="append", help="only these scenes (keys: double_pendulum, slider_crank, ...)")
     parser.add_argument("--no-peers", action="store_true", help="skip MuJoCo and Exudyn even when installed")
     parser.add_argument("--out", type=Path, default=RESULTS, help="folder for bench.md, bench.json and the PNGs")
+    parser.add_argument(
+        "--divergence",
+        choices=("check", "skip"),
+        default="check",
+        help="our runs' divergence check (a second run at 100 x rtol; default: on, as a user's); skip: the peers' work",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar on standard error")
     parser.add_argument(
         "--keep-cache",
@@ -902,6 +915,7 @@ def main(argv: list[str] | None = None) -> int:
         help="also run the stress study (stress.py -> stress.md) in a second process, on the other core",
     )
     args = parser.parse_args(argv)
+    DIVERGENCE["divergence"] = args.divergence
     stress = start_stress_study(args.out, args.quick) if args.stress else None
     cache = None
     if args.fresh_cache:  # the compiled engine compiles every scene's module anew: its compile time is measured
@@ -1038,7 +1052,8 @@ def report(chosen, runs_by_scene, peers_by_scene, costs, kinematic, peers, args,
         "1024, until it reaches 1e-9 or stalls (`peers.search`); the first step reaching each error is timed again.",
         "Their time is the simulation alone (model built outside the timing; MuJoCo by `mujoco.rollout`), ours the",
         "whole `forward_dynamics` call (initial conditions, the run, q'' and lambda, residuals, energies, reactions",
-        "at every output time). Each configuration is timed on its own, not in interleaved rounds.",
+        "at every output time), " + DIVERGENCE_SAID[DIVERGENCE["divergence"]],
+        "Each configuration is timed on its own, not in interleaved rounds.",
         "",
         "## The compiled engine",
         "",
