@@ -197,15 +197,16 @@ def test_cli_jobs_2_runs_on_a_local_cluster_with_the_same_table(tmp_path, capsys
 
 
 def test_ctrl_c_stops_mbd_sweep_with_one_line_and_the_next_run_resumes(tmp_path):
-    """SIGINT to ``mbd sweep`` once its table is first written (after WRITE_EVERY seconds of runs: the 100 runs
-    take several seconds, so that the signal comes while they run): one line, exit 130, and the same command
-    resumes from the runs it had."""
+    """SIGINT to ``mbd sweep`` once its table is first written (after WRITE_EVERY seconds of runs: the 400 runs
+    take several seconds, so that the signal comes while they run; 100 of them took one second in session 21 and
+    were all done when the first table came): one line, exit 130, and the same command resumes from the runs it
+    had."""
     import subprocess
     import sys
 
     out = tmp_path / "sweep"
     command = [
-        sys.executable, "-m", "solutions.cli", "sweep", str(SLIDER_CRANK), "--set", "bodies[crank].mass=0.5:2:100",
+        sys.executable, "-m", "solutions.cli", "sweep", str(SLIDER_CRANK), "--set", "bodies[crank].mass=0.5:2:400",
         "--t-end", "0.5", "--steps", "50", "--out", str(out),
     ]  # fmt: skip
     process = subprocess.Popen(
@@ -222,7 +223,7 @@ def test_ctrl_c_stops_mbd_sweep_with_one_line_and_the_next_run_resumes(tmp_path)
     lines = [line for line in err.splitlines() if line.startswith("mbd:")]
     assert len(lines) == 1 and "runs done, run the same command again to resume" in lines[0]
     before = len(_rows(out / "sweep.csv")) - 1
-    assert 0 < before < 100
+    assert 0 < before < 400
     again = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True)
     assert again.returncode == 0, again.stderr[-2000:]
-    assert f"100 runs, 0 failed, {before} resumed" in again.stdout
+    assert f"400 runs, 0 failed, {before} resumed" in again.stdout
