@@ -315,6 +315,7 @@ class Projection(Formulation):
         return augmented_accelerations(self.mass(q), jacobian, self.applied_forces(q, qd, t), gamma)
 
     def after_step(self, t, y):
+        self.mass(y[: self.n])  # M (a spatial M(q)) at the state before the projection, for both corrections
         q, qd = project_positions(self, y[: self.n], t, self.tol, self.max_iterations)
         qd = project_velocities(self, q, y[self.n :], t)
         self.projections += 1

@@ -13,8 +13,7 @@ This module writes, for a scene, ``project(t, z, P, D, info)`` (``loops.PROJECT_
 Psi_t from only the constraint kernels the scene has (the calls of ``codegen.CONSTRAINT_CALLS``), the
 correction of ``projection_kernels.py``. The integrator loops call it where the numpy loops call
 ``after_step`` (``loops.py``). A spatial scene's M is M(q) at the state before the projection, factored once
-for both corrections (the numpy formulation keeps the M of its last evaluation: the same to the size of the
-step's constraint error times the change of M over the step, far below the integrator's tolerance).
+for both corrections, as the numpy formulation's ``after_step``.
 
 No numba here; the generated module is cached as ``codegen.py`` caches the scene's own.
 """

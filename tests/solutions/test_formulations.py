@@ -147,6 +147,30 @@ def test_projection_lands_on_the_constraints_mass_orthogonally(pendulum_setup):
     assert np.abs(Z.T @ M @ (q_new - q_bad)).max() < 1e-7  # (to first order for the nonlinear positions)
 
 
+def test_spatial_projection_weights_by_the_mass_matrix_at_the_projected_state():
+    """A spatial M(q): the step's projection is weighted by M at the state it projects, whatever state the
+    formulation evaluated last (an integrator's last stage), as the compiled engine's; the velocity change is then
+    M(q)-orthogonal to the motions the joints allow."""
+    model = load_model(REPO / "course/models/spatial_double_pendulum.yaml")
+    system, q0, qd0 = build_system(model)
+    forces = build_forces(model)
+    rng = np.random.default_rng(5)
+    q_bad, qd_bad = q0 + 1e-5 * rng.normal(size=q0.size), qd0 + 1e-3 * rng.normal(size=q0.size)
+    fresh = make_formulation("projection", system, mass_matrix(model), forces)
+    after_other = make_formulation("projection", system, mass_matrix(model), forces)
+    elsewhere = q0.copy()
+    elsewhere[3:7] = [math.cos(0.6), math.sin(0.6), 0.0, 0.0]  # the first body turned: another M(q)
+    fresh.accelerations(q_bad, qd_bad, 0.0)  # its last evaluation at the state it projects
+    after_other.accelerations(elsewhere, qd0, 0.0)  # its last at another state (an integrator's stage)
+    y = np.concatenate([q_bad, qd_bad])
+    projected, other = fresh.after_step(0.0, y), after_other.after_step(0.0, y)
+    np.testing.assert_array_equal(projected, other)
+    n = q0.size
+    q_new, qd_new = projected[:n], projected[n:]
+    Z = scipy.linalg.null_space(system.jacobian(q_new, 0.0))
+    assert np.abs(Z.T @ fresh.mass(q_bad) @ (qd_new - qd_bad)).max() < 1e-12
+
+
 # -- redundant constraints: a block held by two parallel prismatic joints on an incline --------------------
 def incline_block(theta=math.pi / 6):
     """A 2 kg block on a frictionless incline going down at angle theta, held on the line by two prismatic
