@@ -800,9 +800,53 @@ def summary_table(all_scenes, runs_by_scene, peers_by_scene) -> list[str]:
     return lines
 
 
-def peer_table(all_scenes, runs_by_scene, peers_by_scene) -> list[str]:
+@dataclass
+class Pair:
+    """Our fastest run to a target against a peer's fastest, timed again in interleaved rounds (``paired_rounds``)."""
+
+    scene: str
+    peer: str
+    target: float
+    ours: str
+    theirs: str
+    ratios: list[float]
+
+
+def paired_rounds(scene: Scene, own: list[Run], tried: list, configs: dict, families: dict, rounds: int) -> list[Pair]:
+    """For each peer and target of ``PEER_TARGETS``: our fastest run to the target (``configs``: our configurations
+    by label) and the peer's fastest (``families``: its configurations by label), timed again in ``rounds``
+    interleaved rounds (``peers.interleaved``: one call of each a round, the order alternating). Ours: the whole
+    ``forward_dynamics`` call, wall time; the peer's: its simulation, as its search timed it."""
+    from benchmarks.peers import interleaved
+
+    system, q0, qd0 = build_system(scene.load())
+    pairs = []
+    for peer in sorted({r.config.split(" ")[0] for r in tried}):
+        for target in PEER_TARGETS:
+            ours = fastest([r for r in own if r.family != "baseline"], target)
+            theirs = fastest([r for r in tried if r.config.startswith(peer)], target)
+            if ours is None or theirs is None:
+                continue
+            settings = configs[ours.config].settings(ours.setting)
+
+            def our_call(settings=settings) -> float:
+                start = time.perf_counter()
+                with np.errstate(all="ignore"):
+                    forward_dynamics(system, q0, qd0, scene.t_end, scene.outputs, **settings)
+                return time.perf_counter() - start
+
+            family = families[theirs.config]
+            ratios = interleaved(our_call, lambda f=family, h=theirs.setting: f.attempt(h)[0], rounds)
+            label = f"{ours.config} {ours.setting:.0e}"
+            pairs.append(Pair(scene.key, peer, target, label, theirs.described, ratios))
+    return pairs
+
+
+def peer_table(all_scenes, runs_by_scene, peers_by_scene, pairs: list[Pair] = ()) -> list[str]:
     """ours / peer at 1e-3, 1e-6 and 1e-9 (``peers.TARGETS``): our fastest run (either engine) over the peer's
-    fastest configuration of its wide search (``peers.search``), same scene, same run."""
+    fastest configuration of its wide search (``peers.search``), same scene, same run; with ``pairs``
+    (``paired_rounds``) the ratio is the median of the interleaved rounds, its range beside it."""
+    paired = {(p.scene, p.peer, p.target): p.ratios for p in pairs}
     peer_names = sorted({r.config.split(" ")[0] for runs in peers_by_scene.values() for r in runs})
     if not peer_names:
         return ["No peer installed (`pip install -e .[bench]`: MuJoCo, Exudyn)."]
@@ -825,10 +869,19 @@ def peer_table(all_scenes, runs_by_scene, peers_by_scene) -> list[str]:
                 cells += [
                     f"{ms(peer)} ({peer.described})" if peer else "not reached",
                     ms(ours) or "not reached",
-                    f"{ours.ms / peer.ms:.2f}" if peer and ours else ("ours only" if ours else ""),
+                    ratio_cell(ours, peer, paired.get((scene.key, p, target))),
                 ]
             lines.append("| " + " | ".join(cells) + " |")
     return lines
+
+
+def ratio_cell(ours, peer, ratios: list[float] | None) -> str:
+    """ours / peer: the paired rounds' median (lowest-highest), else the ratio of the two medians."""
+    if not (peer and ours):
+        return "ours only" if ours else ""
+    if not ratios:
+        return f"{ours.ms / peer.ms:.2f}"
+    return f"{statistics.median(ratios):.2f} ({min(ratios):.2f}-{max(ratios):.2f})"
 
 
 def compiled_table(all_scenes, runs_by_scene) -> list[str]:
@@ -902,6 +955,13 @@ def main(argv: list[str] | None = None) -> int:
         default="check",
         help="our runs' divergence check (a second run at 100 x rtol; default: on, as a user's); skip: the peers' work",
     )
+    parser.add_argument(
+        "--rounds",
+        type=int,
+        default=7,
+        help="interleaved rounds of our fastest run against each peer's fastest, per target (0: the ratio of the "
+        "two medians instead)",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar on standard error")
     parser.add_argument(
         "--keep-cache",
@@ -949,6 +1009,7 @@ def main(argv: list[str] | None = None) -> int:
         runs_by_scene: dict[str, list[Run]] = {}
         peers_by_scene: dict[str, list] = {}
         costs: dict[str, dict] = {}
+        pairs: list[Pair] = []
         for scene in chosen:
             prepare_reference(scene, args.quick)
             _step(progress, f"{scene.key}: reference")
@@ -970,11 +1031,15 @@ def main(argv: list[str] | None = None) -> int:
                         _step(progress, f"{scene.key}: {run.config}")
 
                 peers_by_scene[scene.key] = peers.search(scene, args.quick, args.repeats, scanned)
+                if args.rounds:
+                    configs = {config.label: config for config, _ in plans[scene.key]}
+                    families = {family.label: family for family in peers.families(scene, args.quick)}
+                    pairs += paired_rounds(scene, runs, peers_by_scene[scene.key], configs, families, args.rounds)
         kinematic = kinematic_step(args.quick)
         _step(progress, "kinematic step")
     elapsed = time.perf_counter() - start
 
-    lines = report(chosen, runs_by_scene, peers_by_scene, costs, kinematic, peers, args, elapsed)
+    lines = report(chosen, runs_by_scene, peers_by_scene, costs, kinematic, peers, args, elapsed, pairs)
     text = "\n".join(lines) + "\n"
     (args.out / "bench.md").write_text(text)
     for scene in chosen:
@@ -984,6 +1049,7 @@ def main(argv: list[str] | None = None) -> int:
     raw = {
         "runs": [vars(r) for runs in runs_by_scene.values() for r in runs],
         "peers": [vars(r) for runs in peers_by_scene.values() for r in runs],
+        "pairs": [vars(p) for p in pairs],
         "rhs_costs": {
             k: {"formulations": {f"{a} {b}": v for (a, b), v in c["formulations"].items()}, "parts": c["parts"]}
             for k, c in costs.items()
@@ -1019,7 +1085,7 @@ def finish_stress_study(child, out: Path, quick: bool) -> int:
     return code
 
 
-def report(chosen, runs_by_scene, peers_by_scene, costs, kinematic, peers, args, elapsed) -> list[str]:
+def report(chosen, runs_by_scene, peers_by_scene, costs, kinematic, peers, args, elapsed, pairs=()) -> list[str]:
     versions = peers.versions() if peers is not None else {}
     lines = [
         "# mbd bench: run time against error",
@@ -1044,7 +1110,7 @@ def report(chosen, runs_by_scene, peers_by_scene, costs, kinematic, peers, args,
         "",
         "## Ours against the peers, same scenes, same run",
         "",
-        *peer_table(chosen, runs_by_scene, peers_by_scene),
+        *peer_table(chosen, runs_by_scene, peers_by_scene, pairs),
         "",
         "ours / peer: our fastest run to the error (either engine) over the peer's fastest (below 1: we are",
         "faster). The peers have no error control on these models: each of their configurations (every MuJoCo",
@@ -1053,7 +1119,13 @@ def report(chosen, runs_by_scene, peers_by_scene, costs, kinematic, peers, args,
         "Their time is the simulation alone (model built outside the timing; MuJoCo by `mujoco.rollout`), ours the",
         "whole `forward_dynamics` call (initial conditions, the run, q'' and lambda, residuals, energies, reactions",
         "at every output time), " + DIVERGENCE_SAID[DIVERGENCE["divergence"]],
-        "Each configuration is timed on its own, not in interleaved rounds.",
+        (
+            f"ours / peer: the median of {args.rounds} interleaved rounds (one call of each a round, the order "
+            "alternating: `peers.interleaved`) of the two fastest, with the lowest and highest ratio; the times "
+            "beside it are the medians of their own timings."
+            if args.rounds
+            else "ours / peer: the ratio of the two medians, each configuration timed on its own."
+        ),
         "",
         "## The compiled engine",
         "",

@@ -57,6 +57,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from benchmarks.bench import body_positions  # noqa: E402
+from benchmarks.peers import interleaved  # noqa: E402
 from solutions.assembly import build_system  # noqa: E402
 from solutions.diagnostics import AnalysisError  # noqa: E402
 from solutions.dynamics import forward_dynamics  # noqa: E402
@@ -549,14 +550,7 @@ def paired(family: str, n: int, config: Config, scene, mujoco: Row, rounds: int,
         forward_dynamics(system, q0, qd0, T_END, OUTPUTS, config.formulation, config.integrator, **options)
         return now() - start
 
-    ratios = []
-    for r in range(rounds):
-        if r % 2:
-            mine, (other, _) = ours(), theirs()
-        else:
-            (other, _), mine = theirs(), ours()
-        ratios.append(mine / other)
-    return ratios
+    return interleaved(ours, lambda: theirs()[0], rounds)
 
 
 PAIRED = Config("compiled", "joint-coordinates")

@@ -21,8 +21,8 @@ outside the timing): MuJoCo's by ``mujoco.rollout`` (its step loop in C), Exudyn
   in redundant body coordinates (2D rigid bodies with revolute joints), the free slider-crank and the spatial
   double pendulum in redundant coordinates: generalized-alpha (index 3) and the trapezoidal rule (index 2).
 
-Not done (issue 25): interleaved rounds with paired ratios (each configuration is timed on its own), Exudyn's
-step-size-controlled methods (``EXUDYN_SCENES``).
+Exudyn's step-size-controlled solvers (DOPRI5, ODE23) are scanned over tolerances instead of steps. ``mbd bench``
+times our fastest run against each peer's fastest again in interleaved rounds (``interleaved``) for its ratios.
 """
 
 from __future__ import annotations
@@ -468,6 +468,22 @@ def search(scene, quick: bool, repeats: int, progress=None) -> list[PeerRun]:
                 first.ms, first.repeats = again.ms, again.repeats
         runs += scanned
     return runs
+
+
+def interleaved(ours, theirs, rounds: int) -> list[float]:
+    """Ours / the peer's time in each of ``rounds`` interleaved rounds: a round times one call of each (``ours()``
+    and ``theirs()`` return their seconds), the order alternating from round to round, so that both meet the same
+    state of the machine; the spread of the ratios is the measurement's own."""
+    ratios = []
+    for r in range(rounds):
+        if r % 2:
+            mine = ours()
+            other = theirs()
+        else:
+            other = theirs()
+            mine = ours()
+        ratios.append(mine / other)
+    return ratios
 
 
 def execute(family: Family, setting: float, scene, repeats: int) -> PeerRun:

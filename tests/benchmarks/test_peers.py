@@ -67,3 +67,51 @@ def test_a_failing_configuration_is_reported_and_the_others_go_on(scan):
     failed = [r for r in runs if r.config == "broken"]
     assert failed and all(r.failure == "RuntimeError: unstable" for r in failed)
     assert any(r.config == "fourth" and r.error <= 1e-9 for r in runs)
+
+
+def test_interleaved_rounds_alternate_the_order_and_give_one_ratio_a_round():
+    calls = []
+
+    def ours():
+        calls.append("ours")
+        return 3.0 if len(calls) < 3 else 1.0  # the machine slows down in the first round only
+
+    def theirs():
+        calls.append("theirs")
+        return 2.0 if len(calls) < 3 else 1.0
+
+    ratios = peers.interleaved(ours, theirs, 4)
+    assert calls == ["theirs", "ours", "ours", "theirs", "theirs", "ours", "ours", "theirs"]
+    assert ratios == [1.5, 1.0, 1.0, 1.0]
+
+
+def test_the_peer_table_gives_the_paired_median_and_range():
+    from benchmarks import bench
+
+    ours = bench.Run("fake", "compiled joint-coordinates dop853", "compiled", 1e-6, error=1e-7, ms=2.0)
+    peer = peers.PeerRun("fake", "MuJoCo RK4", 1e-3, error=1e-7, ms=4.0)
+    assert bench.ratio_cell(ours, peer, [0.4, 0.7, 0.5]) == "0.50 (0.40-0.70)"
+    assert bench.ratio_cell(ours, peer, None) == "0.50"  # no rounds: the two medians' ratio
+    assert bench.ratio_cell(ours, None, None) == "ours only"
+
+
+def test_paired_rounds_set_our_fastest_run_against_the_peers_fastest_at_each_target():
+    from benchmarks import bench
+
+    scene = next(s for s in bench.scenes() if s.key == "double_pendulum")
+    scene.t_end, scene.outputs = 0.05, 5
+    config = bench.Config("baumgarte dop853", "baumgarte", "DOP853")
+    own = [
+        bench.Run(scene.key, config.label, "", 1e-4, error=5e-4, ms=1.0),  # reaches 1e-3 only
+        bench.Run(scene.key, config.label, "", 1e-7, error=5e-7, ms=3.0),  # the fastest to 1e-6
+        bench.Run(scene.key, config.label, "", 1e-8, error=5e-8, ms=4.0),
+    ]
+    calls = []
+    tried = [peers.PeerRun(scene.key, "MuJoCo RK4", h, error=e, ms=1.0) for h, e in ((1e-2, 1e-4), (1e-3, 1e-7))]
+    fake = peers.Family("MuJoCo RK4", lambda h: (calls.append(h) or 1e-3, None), (1e-2, 1e-3))
+    pairs = bench.paired_rounds(scene, own, tried, {config.label: config}, {"MuJoCo RK4": fake}, 3)
+    assert [(p.target, p.ours, p.theirs) for p in pairs] == [
+        (1e-3, "baumgarte dop853 1e-04", "MuJoCo RK4, h = 0.01"),
+        (1e-6, "baumgarte dop853 1e-07", "MuJoCo RK4, h = 0.001"),
+    ]  # nothing of either reaches 1e-9
+    assert calls == [1e-2] * 3 + [1e-3] * 3 and all(len(p.ratios) == 3 and min(p.ratios) > 0 for p in pairs)
