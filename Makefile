@@ -63,10 +63,12 @@ TEST_WORKERS ?= auto
 PYTEST := MPLBACKEND=Agg $(BIN)/python -m pytest -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder
 test: $(STAMP) sandbox-tools browser-tools
 	$(BIN)/ruff check solutions course autograder mbdkit tests benchmarks
+	$(BIN)/ruff format --check solutions course autograder mbdkit tests benchmarks
 	$(PYTEST) --durations=20 --junitxml=build/junit.xml  # per-file times: python benchmarks/durations.py build/junit.xml
 
 test-fast: $(STAMP)
 	$(BIN)/ruff check solutions course autograder mbdkit tests benchmarks
+	$(BIN)/ruff format --check solutions course autograder mbdkit tests benchmarks
 	$(PYTEST) --durations=10 -m "not slow"
 
 # modules/ is generated from solutions/ (every homework stubbed), committed, never edited by hand.

@@ -111,9 +111,7 @@ def grading_rates(homework: str, students: int, workers: list[int]) -> dict:
         root = Path(tmp)
         make_submissions(root / "submitted", homework, students)
         books = {}
-        for label, options in [("here", {"jobs": 1})] + [
-            (n, {"jobs": n, "cluster": "local"}) for n in workers
-        ]:
+        for label, options in [("here", {"jobs": 1})] + [(n, {"jobs": n, "cluster": "local"}) for n in workers]:
             start = time.perf_counter()
             book = grade(homework, root / "submitted", root / f"out-{label}", progress=False, resume=False, **options)
             rates[label] = 60.0 * students / (time.perf_counter() - start)

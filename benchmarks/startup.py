@@ -62,7 +62,7 @@ def main(argv: list[str] | None = None) -> int:
                 times[model].append(t)
                 ratios[model].append(t / base)
     lines = [
-        f"\n## One-step `mbd run` against `python -c \"import numpy, scipy.linalg, yaml\"` "
+        f'\n## One-step `mbd run` against `python -c "import numpy, scipy.linalg, yaml"` '
         f"({time.strftime('%Y-%m-%d')})\n",
         f"`python benchmarks/startup.py --rounds {args.rounds}`; {os.cpu_count()} cores; ratios paired by round.\n",
         "| run | median s | median ratio | ratio min-max |",

@@ -95,8 +95,7 @@ CHILD_ENV = {
     "LANG": "C.UTF-8",
 }
 BOOT = (
-    "import sys; sys.path += sys.argv[1].split(':'); import mbdkit._zygote as z; "
-    "z.main(int(sys.argv[2]), sys.argv[3])"
+    "import sys; sys.path += sys.argv[1].split(':'); import mbdkit._zygote as z; z.main(int(sys.argv[2]), sys.argv[3])"
 )
 """What the sandbox runs (``python -I -S -c BOOT PATHS FD PRELOAD``): mbdkit from its read-only mount, then the
 zygote (``_zygote``), which imports the modules of PRELOAD (``_zygote.LEVELS``) and forks the children that

@@ -19,4 +19,3 @@ COURSE_DATA = Path(__file__).resolve().parents[1] / "autograder"
 def data_dir() -> Path:
     """The folder holding the homework files, scenes and expected values (kit first, then the course)."""
     return PACKAGE_DATA if PACKAGE_DATA.is_dir() else COURSE_DATA
-

@@ -51,8 +51,9 @@ def test_a_short_run_stays_on_numpy_and_a_longer_one_takes_the_code_on_disk(defa
     forward_dynamics(system, q0, qd0, 0.05, 2, engine="compiled", **options)  # the code on disk
     short = forward_dynamics(system, q0, qd0, 0.05, 2, **options).info["chosen"]
     assert short["engine"] == "numpy", short
-    assert short["engine_why"].startswith("numpy run estimated at ") and "less than loading the compiled" in (
-        short["engine_why"]
+    assert (
+        short["engine_why"].startswith("numpy run estimated at ")
+        and "less than loading the compiled" in (short["engine_why"])
     )
     monkeypatch.setattr(dispatch, "LOAD_SECONDS", 0.0)
     longer = forward_dynamics(system, q0, qd0, 0.05, 2, **options)

@@ -368,7 +368,6 @@ def test_null_space_bases_are_the_complete_qrs_last_columns(shape):
     assert np.allclose(bases, q_full[:, :, shape[1] :], rtol=0.0, atol=1e-13)
 
 
-
 @pytest.mark.parametrize("shape", [(40, 3, 7), (40, 1, 3), (10, 26, 27), (40, 5, 5)])
 def test_null_space_signs_are_the_determinants_of_the_bordered_matrices(shape):
     """``null_space_bases(..., signs=True)``: the sign of det [Psi_q; T^T] read off the QR (det R_1 times the
@@ -382,6 +381,7 @@ def test_null_space_signs_are_the_determinants_of_the_bordered_matrices(shape):
     assert np.array_equal(bases, null_space_bases(stack))
     if shape[0] >= 40:
         assert set(signs) == {-1.0, 1.0}
+
 
 def test_progress_is_told_every_output_time_in_order():
     """``progress(t)`` (what ``mbd serve`` shows of a run): each output time once, in order, up to t_end; the same
