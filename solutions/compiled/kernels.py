@@ -883,10 +883,12 @@ def spatial_load(q, qd, t, ints, floats, fk, fp, Q, power):
 
 # -- the linear solve of eq. 5.30 ------------------------------------------------------------------------------
 RANGE_SPACE_SIZE = 48
-"""The size n + m of eq. 5.30 from which the planar module solves it by eq. 5.31 (``range_space_solve``). Below,
-the LU of eq. 5.30 costs a few microseconds and gives the numpy engine's arithmetic (the same steps on every
-example model); above, it grows as (n + m)^3: per right-hand side on the planar chains of
-``benchmarks/chains.py``, 13.6 against 8.6 us at n + m = 40, 285 against 20 us at 160, 2100 against 48 us at 320."""
+"""The size n + m of eq. 5.30 from which the planar module solves eq. 5.31 within S's envelope
+(``range_space_solve``); below, with S whole (``dense_range_space_solve``: no index work, which costs more than a
+small S's arithmetic). The LU of eq. 5.30 it replaces grows as (n + m)^3: per right-hand side on the planar chains of
+``benchmarks/chains.py``, 13.6 against 8.6 us at n + m = 40, 285 against 20 us at 160, 2100 against 48 us at 320;
+on the planar double pendulum (n + m = 10) the whole right-hand side 1.07 against 0.77 us with S whole, the
+slider-crank (18) 2.09 against 1.89 (thread CPU, called from a compiled loop)."""
 PROFILE_WIDTH = 8
 """The mean envelope width of Psi_q M^-1 Psi_q^T (rows of the lower triangle left of the diagonal) beyond which
 ``range_space_solve`` reorders its rows (``_profile_order``) before Cholesky."""
@@ -1079,6 +1081,57 @@ def range_space_solve(mass, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
     for k in range(n):
         qdd[k] = force[k] / mass[k]
     lam[:] = x
+    return True
+
+
+@jit
+def dense_range_space_solve(mass, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
+    """``range_space_solve`` for a small planar scene (n + m < RANGE_SPACE_SIZE): eq. 5.31 with S = Psi_q M^-1
+    Psi_q^T formed whole (m x m) and factored by Cholesky, where the LU of eq. 5.30's (n + m) x (n + m) matrix
+    costs several times more (the planar double pendulum: 4 x 4 against 10 x 10). False (nothing written) where
+    it does not apply, as ``range_space_solve``: a mass that is not positive, dependent rows."""
+    m, n = jac.shape
+    for k in range(n):
+        if not mass[k] > 0.0:
+            return False
+    S, y = np.empty((m, m)), np.empty(m)
+    for r in range(m):  # the lower triangle of S: row r of Psi_q M^-1 times row s of Psi_q
+        for s in range(r + 1):
+            total = 0.0
+            for k in range(n):
+                total += jac[r, k] * jac[s, k] / mass[k]
+            S[r, s] = total
+    for r in range(m):  # S = L L^T in place; a pivot not positive to 1e-12 of its entry: dependent rows
+        for s in range(r + 1):
+            total = S[r, s]
+            for k in range(s):
+                total -= S[r, k] * S[s, k]
+            if s < r:
+                S[r, s] = total / S[s, s]
+            elif not total > 1e-12 * S[r, r]:
+                return False
+            else:
+                S[r, r] = math.sqrt(total)
+    stabilized = ab[0] != 0.0 or ab[1] != 0.0
+    for r in range(m):  # y = Psi_q M^-1 Q - gamma_bar (eq. 5.29), then L y' = y
+        total, psi_dot = 0.0, psit[r]
+        for k in range(n):
+            total += jac[r, k] * Q[k] / mass[k]
+            psi_dot += jac[r, k] * qd[k]
+        total -= gam[r] - 2.0 * ab[0] * psi_dot - ab[1] ** 2 * psi[r] if stabilized else gam[r]
+        for k in range(r):
+            total -= S[r, k] * y[k]
+        y[r] = total / S[r, r]
+    for r in range(m - 1, -1, -1):  # L^T lambda = y'
+        total = y[r]
+        for k in range(r + 1, m):
+            total -= S[k, r] * lam[k]
+        lam[r] = total / S[r, r]
+    for k in range(n):  # q'' = M^-1 (Q - Psi_q^T lambda)
+        total = Q[k]
+        for r in range(m):
+            total -= jac[r, k] * lam[r]
+        qdd[k] = total / mass[k]
     return True
 
 

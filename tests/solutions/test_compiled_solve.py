@@ -1,4 +1,5 @@
-"""The compiled planar solve of eq. 5.30 in its range-space form (eq. 5.31, ``kernels.range_space_solve``) against
+"""The compiled planar solve of eq. 5.30 in its range-space form (eq. 5.31, ``kernels.range_space_solve``; a small
+scene's dense form, ``dense_range_space_solve``) against
 numpy's dense solve of the augmented system, on Jacobians shaped as mechanisms make them: a chain (banded), a
 chain closed into a loop (a wide envelope), rows in shuffled order; and the cases it must hand back to the LU of
 eq. 5.30 (dependent rows, a body without mass, a row with many nonzeros) without writing anything.
@@ -9,7 +10,9 @@ import pytest
 
 pytest.importorskip("numba")
 
-from solutions.compiled.kernels import MAX_ROW_ENTRIES, range_space_solve  # noqa: E402
+from solutions.compiled.kernels import MAX_ROW_ENTRIES, dense_range_space_solve, range_space_solve  # noqa: E402
+
+SOLVERS = {"envelope": range_space_solve, "dense": dense_range_space_solve}
 
 
 def chain_jacobian(bodies: int, closed: bool, rng: np.random.Generator) -> np.ndarray:
@@ -44,7 +47,8 @@ def problem(jac: np.ndarray, rng: np.random.Generator) -> tuple:
 @pytest.mark.parametrize("closed", [False, True])
 @pytest.mark.parametrize("shuffled", [False, True])
 @pytest.mark.parametrize("ab", [(0.0, 0.0), (5.0, 7.0)])
-def test_range_space_solve_equals_the_augmented_system(bodies, closed, shuffled, ab):
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_range_space_solve_equals_the_augmented_system(bodies, closed, shuffled, ab, solver):
     rng = np.random.default_rng(bodies + 10 * closed + 100 * shuffled)
     jac = chain_jacobian(bodies, closed, rng)
     if closed and bodies == 1:
@@ -54,38 +58,41 @@ def test_range_space_solve_equals_the_augmented_system(bodies, closed, shuffled,
     mass, jac, psi, psit, gam, Q, qd = problem(jac, rng)
     ab = np.array(ab)
     qdd, lam = np.full(jac.shape[1], np.nan), np.full(jac.shape[0], np.nan)
-    assert range_space_solve(mass, jac, psi, psit, gam, Q, qd, ab, qdd, lam)
+    assert SOLVERS[solver](mass, jac, psi, psit, gam, Q, qd, ab, qdd, lam)
     expected_qdd, expected_lam = augmented(mass, jac, psi, psit, gam, Q, qd, ab)
     np.testing.assert_allclose(qdd, expected_qdd, rtol=1e-9, atol=1e-9 * np.max(np.abs(expected_qdd)))
     np.testing.assert_allclose(lam, expected_lam, rtol=1e-9, atol=1e-9 * np.max(np.abs(expected_lam)))
 
 
-def test_no_constraints_is_newtons_law():
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_no_constraints_is_newtons_law(solver):
     rng = np.random.default_rng(1)
     mass, jac, psi, psit, gam, Q, qd = problem(np.zeros((0, 6)), rng)
     qdd, lam = np.empty(6), np.empty(0)
-    assert range_space_solve(mass, jac, psi, psit, gam, Q, qd, np.zeros(2), qdd, lam)
+    assert SOLVERS[solver](mass, jac, psi, psit, gam, Q, qd, np.zeros(2), qdd, lam)
     np.testing.assert_allclose(qdd, Q / mass, rtol=1e-15)
 
 
-def _refused(mass, jac, psi, psit, gam, Q, qd) -> bool:
+def _refused(mass, jac, psi, psit, gam, Q, qd, solver=range_space_solve) -> bool:
     qdd, lam = np.full(jac.shape[1], 7.0), np.full(jac.shape[0], 7.0)
-    done = range_space_solve(mass, jac, psi, psit, gam, Q, qd, np.zeros(2), qdd, lam)
+    done = solver(mass, jac, psi, psit, gam, Q, qd, np.zeros(2), qdd, lam)
     return not done and np.all(qdd == 7.0) and np.all(lam == 7.0)
 
 
-def test_dependent_rows_are_handed_to_the_augmented_lu():
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_dependent_rows_are_handed_to_the_augmented_lu(solver):
     rng = np.random.default_rng(2)
     jac = chain_jacobian(4, False, rng)
     jac = np.vstack([jac, jac[3] + jac[5]])  # a redundant row: Psi_q M^-1 Psi_q^T is singular
-    assert _refused(*problem(jac, rng))
+    assert _refused(*problem(jac, rng), SOLVERS[solver])
 
 
-def test_a_body_without_mass_is_handed_to_the_augmented_lu():
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_a_body_without_mass_is_handed_to_the_augmented_lu(solver):
     rng = np.random.default_rng(3)
     mass, *rest = problem(chain_jacobian(3, False, rng), rng)
     mass[4] = 0.0
-    assert _refused(mass, *rest)
+    assert _refused(mass, *rest, SOLVERS[solver])
 
 
 def test_a_row_with_many_nonzeros_is_handed_to_the_augmented_lu():
