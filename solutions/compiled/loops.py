@@ -9,12 +9,23 @@ right-hand side's dispatcher could not be cached: numba keys such a specializati
   grid: Dormand-Prince 8(5,3) (DOP853) and 5(4) (RK45) with scipy's coefficients, the step-size controller
   of Hairer, Norsett and Wanner (Solving ODEs I, sec. II.4: safety 0.9, factors 0.2 to 10, the starting
   step of sec. II.4), DOP853's error estimate of sec. II.10 and its 7th-order continuous extension. Two
-  variants, the same arithmetic as the two numpy loops they stand for: ``scipy_like`` follows
+  variants, the steps and step-size rules of the two numpy loops they stand for: ``scipy_like`` follows
   ``scipy.integrate.DOP853`` / ``RK45`` step by step as ``integrators._integrate_adaptive`` drives them
   (no growth right after a rejected step, the end time clipped exactly), otherwise this package's own
   ``integrators._integrate_embedded`` (``dop853``, ``rk45``).
 - ``rk4``: the classical Runge-Kutta method with a fixed step (eq. 6.12), each output interval cut into the
   fewest equal steps no longer than ``step``, as ``integrators._integrate_rk4``.
+
+The same formulas, not always the same last bits. The sums over the stages (a stage's argument, the solution, the
+error estimates, the interpolant's coefficients) run as plain loops over work arrays made once per run, each
+component's sum in the order of the stages; the numpy loops hand them to BLAS (``@``), which adds in an order of its
+own. So the states differ from the numpy loops' (and from this module's before session 22) by rounding, a few
+units in the last place a step, which a chaotic motion grows over the run (REPLACE_FIGURE); a step whose error
+estimate falls within rounding of 1 may be accepted by one loop and rejected by the other (step counts within one).
+``rk4`` evaluates numpy's elementwise expressions in numpy's order: the same numbers as ``integrators.rk4_step``.
+Plain loops rather than numpy expressions because each expression on a small array allocates its result and each
+``@`` calls BLAS: together ~0.5 us an evaluation at 2 bodies, a third of the right-hand side
+(``benchmarks/results/call_cost.md``, session 22).
 
 Both take, besides the right-hand side, the scene's ``project(t, z, P, D, info)`` (``PROJECT_SIGNATURE``), called
 after every accepted step as ``integrators.integrate`` calls a formulation's ``after_step``: it corrects z in
@@ -100,6 +111,9 @@ def first_class(function, signature) -> FirstClass:
 
 
 SAFETY, MIN_FACTOR, MAX_FACTOR, MIN_STEP = 0.9, 0.2, 10.0, 1e-12
+_inline = njit(cache=True, inline="always")
+"""The loops' helpers are inlined where they are called (numba's own inlining): called as compiled functions, each
+call of a helper costs tens of ns (its array arguments' reference counts), as much as its arithmetic."""
 
 
 @jit(PROJECT_SIGNATURE)
@@ -113,29 +127,27 @@ def _norm(x):
     return np.sqrt(np.sum(x * x) / x.size)
 
 
-@njit(cache=True)
-def _error(dop, K, h, y, y_new, rtol, atol, E, E3, E5):
+@_inline
+def _error(dop, K, h, y, y_new, rtol, atol, E, E3, E5, sums):
     """The scaled RMS error norm of a step, with sc_i = atol + rtol max(|y_i|, |y_new_i|) (sec. II.4, eq. 4.11):
     DOP853's combination of its 5th and 3rd order estimates (sec. II.10), err = |h| e5 / sqrt(n (e5 + 0.01 e3))
     with e5 = sum_i (sum_s E5_s K_si / sc_i)^2 and e3 likewise; RK45's sqrt(1/n sum_i (h sum_s E_s K_si / sc_i)^2).
-    Plain loops over K's first E.size rows: no temporaries."""
+    The estimates sum_s E_s K_s are made stage by stage into ``sums`` (work, 2 x n), as ``_combination``."""
     n = y.size
+    if dop:
+        _weighted_sum(E5, K, E5.size, sums[0])
+        _weighted_sum(E3, K, E3.size, sums[1])
+    else:
+        _weighted_sum(E, K, E.size, sums[0])
     e5 = e3 = 0.0
     for i in range(n):
         sc = atol + np.maximum(abs(y[i]), abs(y_new[i])) * rtol
         if dop:
-            d5 = d3 = 0.0
-            for s in range(E5.size):
-                d5 += K[s, i] * E5[s]
-                d3 += K[s, i] * E3[s]
-            d5, d3 = d5 / sc, d3 / sc
+            d5, d3 = sums[0, i] / sc, sums[1, i] / sc
             e5 += d5 * d5
             e3 += d3 * d3
         else:
-            d = 0.0
-            for s in range(E.size):
-                d += K[s, i] * E[s]
-            d = d * h / sc
+            d = sums[0, i] * h / sc
             e5 += d * d
     if not dop:
         return np.sqrt(e5 / n)
@@ -162,26 +174,29 @@ def _starting_step(scene_rhs, t, y, f, span, rtol, atol, max_step, order, P, D):
     return min(100.0 * h0, h1, span, max_step)
 
 
-@njit(cache=True)
+@_inline
+def _weighted_sum(weights, K, count, out):
+    """out = sum_{j < count} weights_j K_j, stage after stage: each component's sum in the order of the stages, and
+    the components of one stage side by side (independent additions the processor overlaps; a loop over the stages
+    inside one over the components makes every addition wait for the one before)."""
+    for i in range(out.size):
+        out[i] = 0.0
+    for j in range(count):
+        w = weights[j]
+        for i in range(out.size):
+            out[i] += w * K[j, i]
+
+
+@_inline
 def _combination(y, h, weights, K, count, out):
     """out = y + h sum_{j < count} weights_j K_j: a stage's argument (weights: a row of A) or the step's solution
-    (weights: B). The sum runs over the stages in order, component by component, into ``out``."""
+    (weights: B)."""
+    _weighted_sum(weights, K, count, out)
     for i in range(y.size):
-        total = 0.0
-        for j in range(count):
-            total += weights[j] * K[j, i]
-        out[i] = y[i] + h * total
+        out[i] = y[i] + h * out[i]
 
 
-@njit(cache=True)
-def _stages(scene_rhs, t, y, h, K, first, last, A, C, stage, P, D):
-    """The stage derivatives K[first:last]: K_s = f(t + c_s h, y + h sum_{j < s} a_sj K_j) (``stage``: work)."""
-    for s in range(first, last):
-        _combination(y, h, A[s], K, s, stage)
-        scene_rhs(t + C[s] * h, stage, P, D, K[s])
-
-
-@njit(cache=True)
+@_inline
 def _step_size(t, t_end, h_abs, max_step, span, scipy_like, rejected_now):
     """The next step h, the step-size memory h_abs and the step's end t_new: scipy's rule (no growth right after
     a rejected step, the end time clipped exactly) or this package's own (whose t_new is settled on acceptance);
@@ -200,7 +215,7 @@ def _step_size(t, t_end, h_abs, max_step, span, scipy_like, rejected_now):
     return h, h_abs, t + h
 
 
-@njit(cache=True)
+@_inline
 def _dop853_coefficients(h, y, y_new, f_new, K, Dd, F):
     """DOP853's interpolant (sec. II.10 and II.6) in F (7 x n): F_0 = y_new - y, F_1 = h K_0 - F_0,
     F_2 = 2 F_0 - h (f_new + K_0), F_{3+r} = h sum_s d_rs K_s over all 16 stages (K's three extra ones included)."""
@@ -209,56 +224,71 @@ def _dop853_coefficients(h, y, y_new, f_new, K, Dd, F):
         F[0, i] = delta
         F[1, i] = h * K[0, i] - delta
         F[2, i] = 2.0 * delta - h * (f_new[i] + K[0, i])
-        for r in range(Dd.shape[0]):
-            total = 0.0
-            for s in range(Dd.shape[1]):
-                total += Dd[r, s] * K[s, i]
-            F[3 + r, i] = h * total
+    for r in range(Dd.shape[0]):
+        _weighted_sum(Dd[r], K, Dd.shape[1], F[3 + r])
+        for i in range(y.size):
+            F[3 + r, i] *= h
 
 
-@njit(cache=True)
+@_inline
 def _rk45_coefficients(K, Pd, F):
     """RK45's quartic interpolant in F's first 4 rows: F_r = sum_s p_sr K_s (Q = K^T P of scipy's RK45)."""
     for r in range(Pd.shape[1]):
         for i in range(K.shape[1]):
-            total = 0.0
-            for s in range(Pd.shape[0]):
-                total += K[s, i] * Pd[s, r]
-            F[r, i] = total
+            F[r, i] = 0.0
+        for s in range(Pd.shape[0]):
+            p = Pd[s, r]
+            for i in range(K.shape[1]):
+                F[r, i] += K[s, i] * p
 
 
-@njit(cache=True)
-def _dense(scene_rhs, step, states, K, F, stage, tableau, dop, t_out, k, Y, P, D):
+@_inline
+def _horner(x, F, y, out):
+    """DOP853's interpolant at x = (t - t_n) / h by Horner's rule in x and 1 - x:
+    out = y + x (F_0 + (1 - x) (F_1 + x (F_2 + (1 - x) (F_3 + x (F_4 + (1 - x) (F_5 + x F_6))))))."""
+    last = F.shape[0] - 1
+    for i in range(y.size):
+        out[i] = 0.0
+    for r in range(last, -1, -1):
+        factor = x if (last - r) % 2 == 0 else 1.0 - x
+        for i in range(y.size):
+            out[i] = (out[i] + F[r, i]) * factor
+    for i in range(y.size):
+        out[i] += y[i]
+
+
+@_inline
+def _quartic(x, h, F, y, out):
+    """RK45's interpolant at x = (t - t_n) / h: out = y + h sum_r F_r x^(r+1)."""
+    for i in range(y.size):
+        out[i] = 0.0
+    power = 1.0
+    for r in range(F.shape[0]):
+        power *= x
+        for i in range(y.size):
+            out[i] += F[r, i] * power
+    for i in range(y.size):
+        out[i] = y[i] + h * out[i]
+
+
+@_inline
+def _dense(step, states, K, F, Dd, Pd, dop, t_out, k, Y):
     """States at the output times t_out[k], ... before the step's end: step = (t, t_new, h), states = (y, y_new,
-    f(t_new, y_new)); DOP853's 7th-order continuous extension (three more stages, in K's last rows), evaluated
-    by Horner's rule in x and 1 - x: y + x (F_0 + (1 - x) (F_1 + x (F_2 + (1 - x) (... F_6)))), or RK45's quartic
-    one, y + h sum_r F_r x^(r+1) (F, stage: work). Returns the next k and the evaluations spent."""
+    f(t_new, y_new)); DOP853's 7th-order continuous extension (its three extra stages already in K's last rows) or
+    RK45's quartic one, their coefficients in F (work). Returns the next k."""
     (t, t_new, h), (y, y_new, f_new) = step, states
-    A, B, C, _, _, _, Dd, Pd = tableau
-    evaluations = 0
     if dop:
-        first = B.size + 1  # the 12 stages of the step and f_new, K's 13th row
-        _stages(scene_rhs, t, y, h, K, first, K.shape[0], A, C, stage, P, D)
-        evaluations = K.shape[0] - first
         _dop853_coefficients(h, y, y_new, f_new, K, Dd, F)
     else:
         _rk45_coefficients(K, Pd, F)
     while k < t_out.size and t_out[k] < t_new:
         x = (t_out[k] - t) / h
-        for i in range(y.size):
-            if dop:
-                value = 0.0
-                for r in range(6, -1, -1):
-                    value = (value + F[r, i]) * (x if (6 - r) % 2 == 0 else 1.0 - x)
-                Y[k, i] = value + y[i]
-            else:
-                value, power = 0.0, 1.0
-                for r in range(Pd.shape[1]):
-                    power *= x
-                    value += F[r, i] * power
-                Y[k, i] = y[i] + h * value
+        if dop:
+            _horner(x, F, y, Y[k])
+        else:
+            _quartic(x, h, F, y, Y[k])
         k += 1
-    return k, evaluations
+    return k
 
 
 @jit(
@@ -308,8 +338,9 @@ def embedded(
     K = np.empty((Dd.shape[1] if dop else stages + 1, nz))
     y_new, f_new, stage = np.empty(nz), np.empty(nz), np.empty(nz)
     F = np.empty((Dd.shape[0] + 3 if dop else Pd.shape[1], nz))
+    sums = np.empty((2, nz))  # the error estimates
     Y[0] = y
-    k, steps, rejected, info = np.int64(1), 0, 0, np.zeros(1)  # int64, not the literal 1: (*) below
+    k, steps, rejected, info = np.int64(1), 0, 0, np.zeros(1)  # int64, not the literal 1: one machine code of _dense
     while k < nout:
         if steps >= max_steps:
             Y[k] = y
@@ -324,14 +355,16 @@ def embedded(
                 Y[k] = y
                 return Y, evaluations, steps, rejected, 1, t, h_abs, k
             K[0] = f
-            # (*) numba compiles a function called with a constant once more for that constant's literal type:
-            # np.int64(1) keeps _stages and _dense at one machine code each (3-5 s less to compile)
-            _stages(scene_rhs, t, y, h, K, np.int64(1), stages, A, C, stage, P, D)
+            for s in range(1, stages):  # K_s = f(t + c_s h, y + h sum_{j < s} a_sj K_j)
+                _combination(y, h, A[s], K, s, stage)
+                # (*) the right-hand side is called here, not in a helper: handed on to another compiled function,
+                # a first-class function costs ~0.1 us more a call (numba 0.68: benchmarks/results/call_cost.md)
+                scene_rhs(t + C[s] * h, stage, P, D, K[s])
             _combination(y, h, B, K, stages, y_new)
             scene_rhs(t + h, y_new, P, D, f_new)
             K[stages] = f_new
             evaluations += stages
-            err = _error(dop, K, h, y, y_new, rtol, atol, E, E3, E5)
+            err = _error(dop, K, h, y, y_new, rtol, atol, E, E3, E5, sums)
             if err < 1.0:
                 factor = MAX_FACTOR if err == 0.0 else min(MAX_FACTOR, SAFETY * err**exponent)
                 if scipy_like and rejected_now:
@@ -348,9 +381,11 @@ def embedded(
             Y[k] = y_new
             return Y, evaluations, steps, rejected, 1, t_new, h, k
         if t_out[k] < t_new:  # dense output for the output times passed
-            step, states = (t, t_new, h), (y, y_new, f_new)
-            k, spent = _dense(scene_rhs, step, states, K, F, stage, tableau, dop, t_out, k, Y, P, D)
-            evaluations += spent
+            for s in range(stages + 1, K.shape[0]):  # DOP853's three extra stages (none for RK45)
+                _combination(y, h, A[s], K, s, stage)
+                scene_rhs(t + C[s] * h, stage, P, D, K[s])
+            evaluations += K.shape[0] - stages - 1
+            k = _dense((t, t_new, h), (y, y_new, f_new), K, F, Dd, Pd, dop, t_out, k, Y)
         t = t_new
         y[:] = y_new
         f[:] = f_new
@@ -370,14 +405,14 @@ def embedded(
     return Y, evaluations, steps, rejected, 0, t, h_abs, k
 
 
-@njit(cache=True)
+@_inline
 def _along(y, a, k, out):
     """out = y + a k: the argument of one RK4 stage (a = h/2 or h)."""
     for i in range(y.size):
         out[i] = y[i] + a * k[i]
 
 
-@njit(cache=True)
+@_inline
 def _rk4_update(y, h, k1, k2, k3, k4):
     """y <- y + h/6 (k1 + 2 k2 + 2 k3 + k4) in place (eq. 6.12); False if a component is no longer finite."""
     finite = True
