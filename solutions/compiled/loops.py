@@ -177,15 +177,24 @@ def _starting_step(scene_rhs, t, y, f, span, rtol, atol, max_step, order, P, D):
 
 @_inline
 def _weighted_sum(weights, K, count, out):
-    """out = sum_{j < count} weights_j K_j, stage after stage: each component's sum in the order of the stages, and
-    the components of one stage side by side (independent additions the processor overlaps; a loop over the stages
-    inside one over the components makes every addition wait for the one before)."""
-    for i in range(out.size):
-        out[i] = 0.0
-    for j in range(count):
-        w = weights[j]
-        for i in range(out.size):
-            out[i] += w * K[j, i]
+    """out = sum_{j < count} weights_j K_j, each component's sum in the order of the stages: the same numbers by
+    either loop below. A small state (fewer than 8 components) sums each component in one scalar; a larger one goes
+    stage by stage, its components side by side (additions the processor overlaps; for 4 components that costs
+    twice the scalar sums, for 14 two thirds of them)."""
+    n = out.size
+    if n < 8:
+        for i in range(n):
+            total = 0.0
+            for j in range(count):
+                total += weights[j] * K[j, i]
+            out[i] = total
+    else:
+        for i in range(n):
+            out[i] = 0.0
+        for j in range(count):
+            w = weights[j]
+            for i in range(n):
+                out[i] += w * K[j, i]
 
 
 @_inline
