@@ -9,12 +9,24 @@ right-hand side's dispatcher could not be cached: numba keys such a specializati
   grid: Dormand-Prince 8(5,3) (DOP853) and 5(4) (RK45) with scipy's coefficients, the step-size controller
   of Hairer, Norsett and Wanner (Solving ODEs I, sec. II.4: safety 0.9, factors 0.2 to 10, the starting
   step of sec. II.4), DOP853's error estimate of sec. II.10 and its 7th-order continuous extension. Two
-  variants, the same arithmetic as the two numpy loops they stand for: ``scipy_like`` follows
+  variants, the steps and step-size rules of the two numpy loops they stand for: ``scipy_like`` follows
   ``scipy.integrate.DOP853`` / ``RK45`` step by step as ``integrators._integrate_adaptive`` drives them
   (no growth right after a rejected step, the end time clipped exactly), otherwise this package's own
   ``integrators._integrate_embedded`` (``dop853``, ``rk45``).
 - ``rk4``: the classical Runge-Kutta method with a fixed step (eq. 6.12), each output interval cut into the
   fewest equal steps no longer than ``step``, as ``integrators._integrate_rk4``.
+
+The same formulas, not always the same last bits. The sums over the stages (a stage's argument, the solution, the
+error estimates, the interpolant's coefficients) run as plain loops over work arrays made once per run, each
+component's sum in the order of the stages; the numpy loops hand them to BLAS (``@``), which adds in an order of its
+own. So the states differ from those of loops written with numpy expressions (this module before session 22) by
+rounding, a few units in the last place a step, which a chaotic motion grows over the run: the course's double
+pendulum, DOP853 at rtol 1e-6, q within 5e-15 at 1 s and 1.6e-10 at 10 s (the compiled and numpy engines' right-hand
+sides alone differ by 3e-10 there). A step whose error estimate falls within rounding of 1 may be accepted by one
+loop and rejected by the other: step counts may differ by one. ``rk4`` evaluates numpy's elementwise expressions in
+numpy's order: the same numbers as ``integrators.rk4_step``. Plain loops rather than numpy expressions because
+each expression on a small array allocates its result and each ``@`` calls BLAS: together ~0.5 us an evaluation at
+2 bodies, a third of the right-hand side (``benchmarks/results/call_cost.md``, session 22).
 
 Both take, besides the right-hand side, the scene's ``project(t, z, P, D, info)`` (``PROJECT_SIGNATURE``), called
 after every accepted step as ``integrators.integrate`` calls a formulation's ``after_step``: it corrects z in
@@ -100,6 +112,9 @@ def first_class(function, signature) -> FirstClass:
 
 
 SAFETY, MIN_FACTOR, MAX_FACTOR, MIN_STEP = 0.9, 0.2, 10.0, 1e-12
+_inline = njit(cache=True, inline="always")
+"""The loops' helpers are inlined where they are called (numba's own inlining): called as compiled functions, each
+call of a helper costs tens of ns (its array arguments' reference counts), as much as its arithmetic."""
 
 
 @jit(PROJECT_SIGNATURE)
@@ -113,24 +128,39 @@ def _norm(x):
     return np.sqrt(np.sum(x * x) / x.size)
 
 
-@njit(cache=True)
-def _error(dop, K, h, scale, E, E3, E5):
-    """The scaled RMS error norm: DOP853's combination of its 5th and 3rd order estimates (sec. II.10), or
-    h E^T K for RK45."""
+@_inline
+def _error(dop, K, h, y, y_new, rtol, atol, E, E3, E5, sums):
+    """The scaled RMS error norm of a step, with sc_i = atol + rtol max(|y_i|, |y_new_i|) (sec. II.4, eq. 4.10-4.11):
+    DOP853's combination of its 5th and 3rd order estimates (sec. II.10), err = |h| e5 / sqrt(n (e5 + 0.01 e3))
+    with e5 = sum_i (sum_s E5_s K_si / sc_i)^2 and e3 likewise; RK45's sqrt(1/n sum_i (h sum_s E_s K_si / sc_i)^2).
+    The estimates sum_s E_s K_s are made stage by stage into ``sums`` (work, 2 x n), as ``_combination``."""
+    n = y.size
     if dop:
-        err5 = (K.T @ E5) / scale
-        err3 = (K.T @ E3) / scale
-        e5, e3 = np.sum(err5 * err5), np.sum(err3 * err3)
-        if e5 == 0.0 and e3 == 0.0:
-            return 0.0
-        return abs(h) * e5 / np.sqrt((e5 + 0.01 * e3) * scale.size)
-    return _norm((K.T @ E) * h / scale)
+        _weighted_sum(E5, K, E5.size, sums[0])
+        _weighted_sum(E3, K, E3.size, sums[1])
+    else:
+        _weighted_sum(E, K, E.size, sums[0])
+    e5 = e3 = 0.0
+    for i in range(n):
+        sc = atol + np.maximum(abs(y[i]), abs(y_new[i])) * rtol
+        if dop:
+            d5, d3 = sums[0, i] / sc, sums[1, i] / sc
+            e5 += d5 * d5
+            e3 += d3 * d3
+        else:
+            d = sums[0, i] * h / sc
+            e5 += d * d
+    if not dop:
+        return np.sqrt(e5 / n)
+    if e5 == 0.0 and e3 == 0.0:
+        return 0.0
+    return abs(h) * e5 / np.sqrt((e5 + 0.01 * e3) * n)
 
 
 @njit(cache=True)
 def _starting_step(scene_rhs, t, y, f, span, rtol, atol, max_step, order, P, D):
     """Hairer's starting step (sec. II.4), as scipy's select_initial_step and integrators.initial_step: one
-    evaluation of the right-hand side."""
+    evaluation of the right-hand side (once a run: its few temporaries do not matter)."""
     scale = atol + np.abs(y) * rtol
     d0, d1 = _norm(y / scale), _norm(f / scale)
     h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
@@ -145,24 +175,38 @@ def _starting_step(scene_rhs, t, y, f, span, rtol, atol, max_step, order, P, D):
     return min(100.0 * h0, h1, span, max_step)
 
 
-@njit(cache=True)
-def _combination(y, h, weights, K, scipy_like, out):
-    """out = y + h sum_s weights_s K_s, in the order of operations of the loop it stands for (module docstring)."""
-    if scipy_like:
-        out[:] = y + (K.T @ weights) * h
+@_inline
+def _weighted_sum(weights, K, count, out):
+    """out = sum_{j < count} weights_j K_j, each component's sum in the order of the stages: the same numbers by
+    either loop below. A small state (fewer than 8 components) sums each component in one scalar; a larger one goes
+    stage by stage, its components side by side, additions the processor overlaps (measured: the scalar sums take
+    half the time at 4 components, 1.5 times at 14)."""
+    n = out.size
+    if n < 8:
+        for i in range(n):
+            total = 0.0
+            for j in range(count):
+                total += weights[j] * K[j, i]
+            out[i] = total
     else:
-        out[:] = y + h * (weights @ K)
+        for i in range(n):
+            out[i] = 0.0
+        for j in range(count):
+            w = weights[j]
+            for i in range(n):
+                out[i] += w * K[j, i]
 
 
-@njit(cache=True)
-def _stages(scene_rhs, t, y, h, K, first, last, A, C, scipy_like, stage, P, D):
-    """The stage derivatives K[first:last]: K_s = f(t + c_s h, y + h sum_j a_sj K_j)."""
-    for s in range(first, last):
-        _combination(y, h, A[s, :s], K[:s], scipy_like, stage)
-        scene_rhs(t + C[s] * h, stage, P, D, K[s])
+@_inline
+def _combination(y, h, weights, K, count, out):
+    """out = y + h sum_{j < count} weights_j K_j: a stage's argument (weights: a row of A) or the step's solution
+    (weights: B)."""
+    _weighted_sum(weights, K, count, out)
+    for i in range(y.size):
+        out[i] = y[i] + h * out[i]
 
 
-@njit(cache=True)
+@_inline
 def _step_size(t, t_end, h_abs, max_step, span, scipy_like, rejected_now):
     """The next step h, the step-size memory h_abs and the step's end t_new: scipy's rule (no growth right after
     a rejected step, the end time clipped exactly) or this package's own (whose t_new is settled on acceptance);
@@ -181,41 +225,80 @@ def _step_size(t, t_end, h_abs, max_step, span, scipy_like, rejected_now):
     return h, h_abs, t + h
 
 
-@njit(cache=True)
-def _dense(scene_rhs, step, states, K, tableau, dop, scipy_like, t_out, k, Y, P, D):
+@_inline
+def _dop853_coefficients(h, y, y_new, f_new, K, Dd, F):
+    """DOP853's interpolant (sec. II.10 and II.6) in F (7 x n): F_0 = y_new - y, F_1 = h K_0 - F_0,
+    F_2 = 2 F_0 - h (f_new + K_0), F_{3+r} = h sum_s d_rs K_s over all 16 stages (K's three extra ones included)."""
+    for i in range(y.size):
+        delta = y_new[i] - y[i]
+        F[0, i] = delta
+        F[1, i] = h * K[0, i] - delta
+        F[2, i] = 2.0 * delta - h * (f_new[i] + K[0, i])
+    for r in range(Dd.shape[0]):
+        _weighted_sum(Dd[r], K, Dd.shape[1], F[3 + r])
+        for i in range(y.size):
+            F[3 + r, i] *= h
+
+
+@_inline
+def _rk45_coefficients(K, Pd, F):
+    """RK45's quartic interpolant in F's first 4 rows: F_r = sum_s p_sr K_s (Q = K^T P of scipy's RK45)."""
+    for r in range(Pd.shape[1]):
+        for i in range(K.shape[1]):
+            F[r, i] = 0.0
+        for s in range(Pd.shape[0]):
+            p = Pd[s, r]
+            for i in range(K.shape[1]):
+                F[r, i] += K[s, i] * p
+
+
+@_inline
+def _horner(x, F, y, out):
+    """DOP853's interpolant at x = (t - t_n) / h by Horner's rule in x and 1 - x:
+    out = y + x (F_0 + (1 - x) (F_1 + x (F_2 + (1 - x) (F_3 + x (F_4 + (1 - x) (F_5 + x F_6))))))."""
+    last = F.shape[0] - 1
+    for i in range(y.size):
+        out[i] = 0.0
+    for r in range(last, -1, -1):
+        factor = x if (last - r) % 2 == 0 else 1.0 - x
+        for i in range(y.size):
+            out[i] = (out[i] + F[r, i]) * factor
+    for i in range(y.size):
+        out[i] += y[i]
+
+
+@_inline
+def _quartic(x, h, F, y, out):
+    """RK45's interpolant at x = (t - t_n) / h: out = y + h sum_r F_r x^(r+1)."""
+    for i in range(y.size):
+        out[i] = 0.0
+    power = 1.0
+    for r in range(F.shape[0]):
+        power *= x
+        for i in range(y.size):
+            out[i] += F[r, i] * power
+    for i in range(y.size):
+        out[i] = y[i] + h * out[i]
+
+
+@_inline
+def _dense(step, states, K, F, Dd, Pd, dop, t_out, k, Y):
     """States at the output times t_out[k], ... before the step's end: step = (t, t_new, h), states = (y, y_new,
-    f(t_new, y_new)); DOP853's 7th-order continuous extension (three more stages) or RK45's quartic one.
-    Returns the next k and the evaluations spent."""
+    f(t_new, y_new)); DOP853's 7th-order continuous extension (its three extra stages already in K's last rows) or
+    RK45's quartic one, their coefficients in F (work). Returns the next k."""
     (t, t_new, h), (y, y_new, f_new) = step, states
-    A, B, C, _, _, _, Dd, Pd = tableau
-    stages, nz, evaluations = B.size, y.size, 0
     if dop:
-        _stages(scene_rhs, t, y, h, K, stages + 1, K.shape[0], A, C, scipy_like, np.empty(nz), P, D)
-        evaluations = K.shape[0] - stages - 1
-        delta = y_new - y
-        F = np.empty((7, nz))
-        F[0] = delta
-        F[1] = h * K[0] - delta
-        F[2] = 2.0 * delta - h * (f_new + K[0])
-        F[3:] = h * (Dd @ K)
+        _dop853_coefficients(h, y, y_new, f_new, K, Dd, F)
     else:
-        Q = K.T @ Pd
+        _rk45_coefficients(K, Pd, F)
     while k < t_out.size and t_out[k] < t_new:
         x = (t_out[k] - t) / h
         if dop:
-            out = np.zeros(nz)
-            for r in range(6, -1, -1):
-                out += F[r]
-                out *= x if (6 - r) % 2 == 0 else 1.0 - x
-            Y[k] = out + y
+            _horner(x, F, y, Y[k])
         else:
-            powers = np.empty(Q.shape[1])
-            powers[0] = x
-            for r in range(1, powers.size):
-                powers[r] = powers[r - 1] * x
-            Y[k] = y + h * (Q @ powers)
+            _quartic(x, h, F, y, Y[k])
         k += 1
-    return k, evaluations
+    return k
 
 
 @jit(
@@ -260,10 +343,14 @@ def embedded(
     else:
         h_abs = _starting_step(scene_rhs, t, y, f, t_end - t, rtol, atol, max_step, 7 if dop else 4, P, D)
         evaluations = 2
+    # the run's work arrays, made once: the stages (DOP853's 16: 12, f_new, 3 of the dense output), the step's
+    # solution and its f, a stage's argument, the interpolant's coefficients
     K = np.empty((Dd.shape[1] if dop else stages + 1, nz))
     y_new, f_new, stage = np.empty(nz), np.empty(nz), np.empty(nz)
+    F = np.empty((Dd.shape[0] + 3 if dop else Pd.shape[1], nz))
+    sums = np.empty((2, nz))  # the error estimates
     Y[0] = y
-    k, steps, rejected, info = np.int64(1), 0, 0, np.zeros(1)  # int64, not the literal 1: (*) below
+    k, steps, rejected, info = np.int64(1), 0, 0, np.zeros(1)  # k: the next output time
     while k < nout:
         if steps >= max_steps:
             Y[k] = y
@@ -278,15 +365,16 @@ def embedded(
                 Y[k] = y
                 return Y, evaluations, steps, rejected, 1, t, h_abs, k
             K[0] = f
-            # (*) numba compiles a function called with a constant once more for that constant's literal type:
-            # np.int64(1) keeps _stages and _dense at one machine code each (3-5 s less to compile)
-            _stages(scene_rhs, t, y, h, K, np.int64(1), stages, A, C, scipy_like, stage, P, D)
-            _combination(y, h, B, K[:stages], scipy_like, y_new)
+            for s in range(1, stages):  # K_s = f(t + c_s h, y + h sum_{j < s} a_sj K_j)
+                _combination(y, h, A[s], K, s, stage)
+                # (*) the right-hand side is called here, not in a helper: handed on to another compiled function,
+                # a first-class function costs ~0.1 us more a call (numba 0.68: benchmarks/results/call_cost.md)
+                scene_rhs(t + C[s] * h, stage, P, D, K[s])
+            _combination(y, h, B, K, stages, y_new)
             scene_rhs(t + h, y_new, P, D, f_new)
             K[stages] = f_new
             evaluations += stages
-            scale = atol + np.maximum(np.abs(y), np.abs(y_new)) * rtol
-            err = _error(dop, K[: stages + 1], h, scale, E, E3, E5)
+            err = _error(dop, K, h, y, y_new, rtol, atol, E, E3, E5, sums)
             if err < 1.0:
                 factor = MAX_FACTOR if err == 0.0 else min(MAX_FACTOR, SAFETY * err**exponent)
                 if scipy_like and rejected_now:
@@ -303,9 +391,11 @@ def embedded(
             Y[k] = y_new
             return Y, evaluations, steps, rejected, 1, t_new, h, k
         if t_out[k] < t_new:  # dense output for the output times passed
-            step, states = (t, t_new, h), (y, y_new, f_new)
-            k, spent = _dense(scene_rhs, step, states, K, tableau, dop, scipy_like, t_out, k, Y, P, D)
-            evaluations += spent
+            for s in range(stages + 1, K.shape[0]):  # DOP853's three extra stages (none for RK45)
+                _combination(y, h, A[s], K, s, stage)
+                scene_rhs(t + C[s] * h, stage, P, D, K[s])
+            evaluations += K.shape[0] - stages - 1
+            k = _dense((t, t_new, h), (y, y_new, f_new), K, F, Dd, Pd, dop, t_out, k, Y)
         t = t_new
         y[:] = y_new
         f[:] = f_new
@@ -325,15 +415,33 @@ def embedded(
     return Y, evaluations, steps, rejected, 0, t, h_abs, k
 
 
+@_inline
+def _along(y, a, k, out):
+    """out = y + a k: the argument of one RK4 stage (a = h/2 or h)."""
+    for i in range(y.size):
+        out[i] = y[i] + a * k[i]
+
+
+@_inline
+def _rk4_update(y, h, k1, k2, k3, k4):
+    """y <- y + h/6 (k1 + 2 k2 + 2 k3 + k4) in place (eq. 6.12); False if a component is no longer finite."""
+    finite = True
+    for i in range(y.size):
+        y[i] = y[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+        finite = finite and np.isfinite(y[i])
+    return finite
+
+
 @jit(RESULT_TYPE(_RHS, _PROJECT, _vector, _vector, types.float64, P_TYPE, D_TYPE))
 def rk4(scene_rhs, project, z0, t_out, step, P, D):
     """Fixed-step classical Runge-Kutta (eq. 6.12): k1 = f(t, y), k2 = f(t + h/2, y + h/2 k1), k3 = f(t + h/2,
-    y + h/2 k2), k4 = f(t + h, y + h k3), y <- y + h/6 (k1 + 2 k2 + 2 k3 + k4)."""
+    y + h/2 k2), k4 = f(t + h, y + h k3), y <- y + h/6 (k1 + 2 k2 + 2 k3 + k4), element by element in numpy's order
+    of operations (the same numbers as ``integrators.rk4_step``) into work arrays made once."""
     nz = z0.size
     nout = t_out.size
     Y = np.empty((nout, nz))
     y = z0.copy()
-    k1, k2, k3, k4 = np.empty(nz), np.empty(nz), np.empty(nz), np.empty(nz)
+    k1, k2, k3, k4, stage = np.empty(nz), np.empty(nz), np.empty(nz), np.empty(nz), np.empty(nz)
     info = np.zeros(1)
     Y[0] = y
     evaluations = steps = 0
@@ -344,13 +452,16 @@ def rk4(scene_rhs, project, z0, t_out, step, P, D):
         for s in range(substeps):
             ts = t + s * h
             scene_rhs(ts, y, P, D, k1)
-            scene_rhs(ts + 0.5 * h, y + 0.5 * h * k1, P, D, k2)
-            scene_rhs(ts + 0.5 * h, y + 0.5 * h * k2, P, D, k3)
-            scene_rhs(ts + h, y + h * k3, P, D, k4)
-            y = y + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+            _along(y, 0.5 * h, k1, stage)
+            scene_rhs(ts + 0.5 * h, stage, P, D, k2)
+            _along(y, 0.5 * h, k2, stage)
+            scene_rhs(ts + 0.5 * h, stage, P, D, k3)
+            _along(y, h, k3, stage)
+            scene_rhs(ts + h, stage, P, D, k4)
+            finite = _rk4_update(y, h, k1, k2, k3, k4)
             evaluations += 4
             steps += 1
-            if not np.all(np.isfinite(y)):
+            if not finite:
                 Y[k] = y
                 return Y, evaluations, steps, 0, 3, ts + h, h, k
             if project(ts + h, y, P, D, info) > 0:
@@ -364,9 +475,10 @@ def rk4(scene_rhs, project, z0, t_out, step, P, D):
 def outputs(scene_rhs, T, Y, P, D, width):
     """At every output time T[k], y' of the state Y[k] and the ``width`` outputs the right-hand side writes after it
     (body coordinates: lambda; joint coordinates: q, q', q'' and lambda)."""
-    out = np.empty((T.size, Y.shape[1] + width))
+    out, z = np.empty((T.size, Y.shape[1] + width)), np.empty(Y.shape[1])
     for k in range(T.size):
-        scene_rhs(T[k], Y[k].copy(), P, D, out[k])
+        z[:] = Y[k]  # a copy: the right-hand side may write into its state
+        scene_rhs(T[k], z, P, D, out[k])
     return out
 
 
