@@ -236,11 +236,13 @@ def _body(tree: TreeScene) -> list[str]:
     lines += force_calls(scene, "    ")
     lines += [
         "    if full or ncut > 0:  # the constraint rows: lambda of every row, or the cut rows",
-        "        psi, psit, gam = np.zeros(m), np.zeros(m), np.zeros(m)",
+        "        rows_work = np.empty(3 * m + m * n)  # Psi, Psi_t, gamma and Psi_q: one allocation",
+        "        rows_work[: 3 * m] = 0.0",
+        "        psi, psit, gam = rows_work[:m], rows_work[m : 2 * m], rows_work[2 * m : 3 * m]",
+        "        jac = rows_work[3 * m :].reshape((m, n))",
         "        if out.size == y.size + 3 * n + 3 * m + m * n:  # Psi_q whole, zeros and all (loops.output_history)",
-        "            jac = np.zeros((m, n))",
+        "            jac[:, :] = 0.0",
         "        else:  # the solves read only the rows' blocks at their bodies: those zeroed alone",
-        "            jac = np.empty((m, n))",
         f"            zero_cut_blocks(jac, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], {width})",
         "            if whole:  # lambda of every row: the tree rows at their body and its parent (tree_multipliers)",
         f"                zero_tree_blocks(jac, dims[7 + ncut : 7 + ncut + m], joints, {width})",
