@@ -11,6 +11,7 @@ the whole right-hand side, with and without the outputs (q, q', q'', lambda of e
 augmented LU of eq. 7.6 that the engine solved before (1f2d7c9: assembled (k + m_c)^2, LAPACK's gesv).
 
     .venv/bin/python benchmarks/loop_rhs.py --sizes 4 16 64
+    .venv/bin/python benchmarks/loop_rhs.py --model course/models/slider_crank.yaml   # any model's whole rhs
 
 Nothing is asserted (timing depends on the machine): prints a Markdown table.
 """
@@ -68,20 +69,56 @@ def dense_augmented(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, alpha, 
     return x[:k]
 
 
-def parts(n: int, rounds: int) -> dict[str, float]:
-    """Microseconds per call of each part of the loop chain's right-hand side at N = n."""
-    from numba import njit
-
+def _scene(model):
+    """(module, tree scene, P, D, joint state at the start) of a model in compiled joint coordinates; the energy
+    states appended where the run integrates them (a driven model: its drivers' power)."""
     from solutions.compiled import describe, load, parameters, plan
-    from solutions.compiled.tree_kernels import cut_accelerations, planar_equations, planar_motion
 
-    system, q0, qd0 = build_system(load_model(loop_chain(n)))
+    system, q0, qd0 = build_system(load_model(model))
     forces = build_forces(system.model)
     made = make_formulation("joint-coordinates", system, mass_matrix(system.model), forces)
     job = plan(describe(system, made.masses, forces), "joint-coordinates", made)
     module, _, _ = load(job)
-    tree, P, D = job.scene, parameters(job.scene, *job.numbers), job.scene.data()
-    y = EquationsOfMotion(made, forces, False).initial_state(q0, qd0, 0.0)
+    P, D = parameters(job.scene, *job.numbers), job.scene.data()
+    y = EquationsOfMotion(made, forces, bool(job.scene.scene.drivers)).initial_state(q0, qd0, 0.0)
+    return module, job.scene, P, D, y
+
+
+def in_loop(rhs, y, P, D, out, calls: int, rounds: int) -> float:
+    """Microseconds per call of rhs(0, y, P, D, out) called from a compiled loop, as the integration loops call it
+    (from Python each call also pays numba's unboxing of P and D, ~1 us)."""
+    from numba import njit
+
+    @njit
+    def repeat(y, P, D, out, count):
+        for _ in range(count):
+            rhs(0.0, y, P, D, out)
+
+    inner = 100
+    return per_call(lambda: repeat(y, P, D, out, inner), max(1, calls // inner), rounds) / inner
+
+
+def whole(model, rounds: int) -> dict[str, float]:
+    """Microseconds per call of a model's whole right-hand side, without and with the outputs (``--model``)."""
+    module, tree, P, D, y = _scene(model)
+    out, full = np.empty(y.size), np.empty(y.size + 3 * tree.n + tree.m)
+    return {
+        "k, cut rows": f"{tree.k}, {tree.cut_rows.size}",
+        "right-hand side, from a compiled loop": in_loop(module.scene_rhs, y, P, D, out, 20000, rounds),
+        "right-hand side with the outputs, from a compiled loop": in_loop(
+            module.scene_rhs, y, P, D, full, 20000, rounds
+        ),
+        "right-hand side, from Python": per_call(lambda: module.scene_rhs(0.0, y, P, D, out), 2000, rounds),
+    }
+
+
+def parts(n: int, rounds: int) -> dict[str, float]:
+    """Microseconds per call of each part of the loop chain's right-hand side at N = n."""
+    from numba import njit
+
+    from solutions.compiled.tree_kernels import cut_accelerations, planar_equations, planar_motion
+
+    module, tree, P, D, y = _scene(loop_chain(n))
     n_q, m, k, joints = tree.n, tree.m, tree.k, tree.ints
     calls = max(20, 20000 // (n * n))
     out, full = np.empty(y.size), np.empty(y.size + 3 * n_q + m)
@@ -106,6 +143,7 @@ def parts(n: int, rounds: int) -> dict[str, float]:
     return {
         "k, cut rows": f"{k}, {rows.size}",
         "right-hand side (the integration's)": per_call(lambda: module.scene_rhs(0.0, y, P, D, out), calls, rounds),
+        "right-hand side, from a compiled loop": in_loop(module.scene_rhs, y, P, D, out, 100 * calls, rounds),
         "right-hand side with the outputs": per_call(lambda: module.scene_rhs(0.0, y, P, D, full), calls, rounds),
         "tree recursion with D's columns": per_call(motion, calls, rounds),
         "constraint rows, all kernels, m x n Psi_q zeroed": per_call(constraints, calls, rounds),
@@ -127,13 +165,18 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[4, 16, 64], help="chain sizes N")
     parser.add_argument("--rounds", type=int, default=3, help="rounds; the least is kept (default 3)")
+    parser.add_argument("--model", action="append", help="a model file instead (repeatable): its whole rhs alone")
     args = parser.parse_args(argv)
-    columns = {n: parts(n, args.rounds) for n in args.sizes}
-    print("## The loop chain's right-hand side by part, us per call (thread CPU, least of rounds)\n")
-    print("| part | " + " | ".join(f"N = {n}" for n in args.sizes) + " |")
-    print("|---|" + "---:|" * len(args.sizes))
-    for name in columns[args.sizes[0]]:
-        cells = [columns[n][name] for n in args.sizes]
+    if args.model:
+        columns = {Path(path).stem: whole(path, args.rounds) for path in args.model}
+        print("## Compiled joint-coordinate right-hand side, us per call (thread CPU, least of rounds)\n")
+    else:
+        columns = {f"N = {n}": parts(n, args.rounds) for n in args.sizes}
+        print("## The loop chain's right-hand side by part, us per call (thread CPU, least of rounds)\n")
+    print("| part | " + " | ".join(columns) + " |")
+    print("|---|" + "---:|" * len(columns))
+    for name in next(iter(columns.values())):
+        cells = [column[name] for column in columns.values()]
         print(f"| {name} | " + " | ".join(c if isinstance(c, str) else f"{c:.1f}" for c in cells) + " |")
 
 

@@ -14,7 +14,8 @@ joint's Euler parameters) into the arrays of ``tree_kernels.py``, and the cut ro
   P_drivers]) (``loops.RHS_SIGNATURE``: the integrator loops take it as they take the Baumgarte one); an open
   tree's theta'' by the articulated-body algorithm in O(N) (``articulated.py``); with cut
   rows it evaluates every constraint kernel and keeps the cut rows (P[8][7:]); with drivers and the energy
-  balance, lambda too (the drivers' power, eq. 5.61, as ``dynamics.EquationsOfMotion``). Given an ``out``
+  balance, the drivers' power (eq. 5.61, as ``dynamics.EquationsOfMotion``) lambda^T Psi_t from the cut rows'
+  multipliers mu alone (a driver is a cut row, and the tree's joints have Psi_t = 0). Given an ``out``
   longer than y, it writes after y' the body coordinates q, q' at the joint state, q'' and lambda of the model's
   constraint rows from Psi_q^T lambda = Q - M q'' (normal equations; ``JointCoordinates.accelerations``), for the
   results and reactions, and after those Psi, Psi_t and Psi_q (row by row) when ``out`` is longer still
@@ -201,7 +202,8 @@ def _body(tree: TreeScene) -> list[str]:
     and gamma when they are needed; theta'' (``thdd``): a tree with cut rows (P[8][7:], chosen at run time: one
     module per dimension) solves the augmented system (``cut_accelerations``), one without the embedded equations
     (D^T M D) theta'' = D^T (Q - M xi) by the articulated-body algorithm (``articulated``, O(N), D never formed);
-    q'' and lambda of every row for the outputs or the drivers' power."""
+    q'' and lambda of every row for the outputs; in the integration the drivers' power (eq. 5.61) from the cut rows'
+    mu alone."""
     scene = tree.scene
     spatial = scene.dimension == 3
     rows = slot_rows(SLOTS.index("tree"))
@@ -217,7 +219,7 @@ def _body(tree: TreeScene) -> list[str]:
         "    full = out.size > y.size  # the outputs asked for too (loops.outputs): q, q', q'', lambda after y'",
         "    ncut = dims[6]  # cut rows (P[8][7 : 7 + ncut]); the rows' owners after them",
         "    columns = ncut > 0  # D itself: for the cut rows only (an open tree's outputs: the body accelerations)",
-        "    whole = full or (ncut > 0 and dims[5] != 0)  # lambda of every row: D whole, Psi_q at every row's blocks",
+        "    whole = full  # lambda of every row (the outputs): D whole, Psi_q at every row's blocks",
         *_arrays(spatial),
         "    Q[:] = Q0",
         "    power[:] = 0.0",
@@ -236,11 +238,13 @@ def _body(tree: TreeScene) -> list[str]:
     lines += force_calls(scene, "    ")
     lines += [
         "    if full or ncut > 0:  # the constraint rows: lambda of every row, or the cut rows",
-        "        psi, psit, gam = np.zeros(m), np.zeros(m), np.zeros(m)",
+        "        rows_work = np.empty(3 * m + m * n)  # Psi, Psi_t, gamma and Psi_q: one allocation",
+        "        rows_work[: 3 * m] = 0.0",
+        "        psi, psit, gam = rows_work[:m], rows_work[m : 2 * m], rows_work[2 * m : 3 * m]",
+        "        jac = rows_work[3 * m :].reshape((m, n))",
         "        if out.size == y.size + 3 * n + 3 * m + m * n:  # Psi_q whole, zeros and all (loops.output_history)",
-        "            jac = np.zeros((m, n))",
+        "            jac[:, :] = 0.0",
         "        else:  # the solves read only the rows' blocks at their bodies: those zeroed alone",
-        "            jac = np.empty((m, n))",
         f"            zero_cut_blocks(jac, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], {width})",
         "            if whole:  # lambda of every row: the tree rows at their body and its parent (tree_multipliers)",
         f"                zero_tree_blocks(jac, dims[7 + ncut : 7 + ncut + m], joints, {width})",
@@ -267,10 +271,13 @@ def _body(tree: TreeScene) -> list[str]:
         f"numbers[0], numbers[1], mu, joints, {7 if spatial else 3})",
         "    else:  # an open tree: the articulated-body algorithm, O(N)",
         f"        {equations}_articulated({articulated}, joints, S, links, thdd, acc)",
-        "    if full or (ncut > 0 and dims[5]):  # lambda: the outputs, or the drivers' power (drivers: cut rows)",
+        "    if full:  # lambda of every row: the outputs",
         *_multipliers(scene),
         "        if dims[5]:  # the drivers' power (eq. 5.61)",
         "            power[2] = lam @ psit",
+        "    elif ncut > 0 and dims[5]:  # the drivers' power in the integration: lambda^T Psi_t over the cut rows",
+        "        for a in range(ncut):  # (a driver is a cut row; the tree's joints are scleronomic: Psi_t = 0 there)",
+        "            power[2] += mu[a] * psit[dims[7 + a]]",
     ]
 
 

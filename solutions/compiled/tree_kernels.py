@@ -136,7 +136,8 @@ def planar_articulated(mass, xi, Q, ints, S, links, thdd, acc):
 def planar_equations(mass, Dm, xi, Q, ints):
     """(D^T M D (its lower triangle), D^T (Q - M xi)), M = diag(mass)."""
     k = Dm.shape[1]
-    matrix, rhs = np.zeros((k, k)), np.zeros(k)
+    work = np.zeros(k * k + k)  # one allocation for both
+    matrix, rhs = work[: k * k].reshape((k, k)), work[k * k :]
     for e in range(ints.shape[0]):
         b, count = ints[e, 2], ints[e, 5]
         for r in range(3 * b, 3 * b + 3):
@@ -646,18 +647,18 @@ def zero_cut_blocks(jac, rows, bodies, width):
 
 
 @jit
-def dof_parents(ints, k):
-    """The tree's parent of every joint velocity, lambda(i) (-1 at ground): the previous column of the same joint
-    (a spherical joint's three), else the last column of the joint's parent; lambda(i) < i, since the columns are
-    numbered in the tree's topological order (Featherstone 2008, sec. 6.5, the parent array of H's sparsity)."""
-    parent = np.full(k, -1, dtype=np.int64)
+def dof_parents(ints, parent):
+    """The tree's parent of every joint velocity, lambda(i) (-1 at ground), into ``parent`` (k,): the previous column
+    of the same joint (a spherical joint's three), else the last column of the joint's parent; lambda(i) < i, since
+    the columns are numbered in the tree's topological order (Featherstone 2008, sec. 6.5, the parent array of H's
+    sparsity)."""
+    parent[:] = -1
     for e in range(ints.shape[0]):
         count = ints[e, 5]
         own = 3 if ints[e, 0] == SPHERICAL else 1
         for a in range(count - own, count):
             if a > 0:
                 parent[ints[e, 6 + a]] = ints[e, 6 + a - 1]
-    return parent
 
 
 @jit
@@ -708,12 +709,11 @@ O(m p^2) (the loop chain: p = 3); a wider one goes to LAPACK (``lu_solve``: gesv
 
 
 @jit
-def band_solve(S, p, b):
-    """x from S x = b by S = L diag(d) L^T within the half-band p (S symmetric, entries |i - j| > p zero: no fill-in
-    outside the band; Golub and Van Loan, Matrix Computations, 4th ed., alg. 4.3.5 without the square roots), in
-    O(m p^2), S overwritten. A zero pivot (S singular) gives NaN, as ``lu_solve``."""
-    m = b.size
-    x = b.copy()
+def band_solve(S, p, x):
+    """x <- the solution of S x = x by S = L diag(d) L^T within the half-band p (S symmetric, entries |i - j| > p zero:
+    no fill-in outside the band; Golub and Van Loan, Matrix Computations, 4th ed., alg. 4.3.5 without the square
+    roots), in O(m p^2), S overwritten. A zero pivot (S singular) gives NaN, as ``lu_solve``."""
+    m = x.size
     for j in range(m):
         for i in range(j, min(m, j + p + 1)):  # column j of L: S_ij -= sum_k L_ik d_k L_jk
             s = S[i, j]
@@ -721,7 +721,8 @@ def band_solve(S, p, b):
                 s -= S[i, c] * S[c, c] * S[j, c]
             S[i, j] = s
         if S[j, j] == 0.0:
-            return np.full(m, np.nan)
+            x[:] = np.nan
+            return
         for i in range(j + 1, min(m, j + p + 1)):
             S[i, j] /= S[j, j]
     for i in range(m):  # L z = b, then diag(d) L^T x = z
@@ -731,20 +732,17 @@ def band_solve(S, p, b):
         x[i] /= S[i, i]
         for r in range(i + 1, min(m, i + p + 1)):
             x[i] -= S[r, i] * x[r]
-    return x
 
 
 @jit
 def _cut_rows(Dq, xiq, jac, psi, psit, gam, qd, rows, bodies, alpha, beta, ints, width, H, parent, support, sizes,
-              values, c):  # fmt: skip
+              values, c, joint, dense):  # fmt: skip
     """Each cut row's W_a = L^-T Psi_theta,a^T (Psi_theta = Psi_c,q D) on its support, the columns that move the two
     bodies its element joins (``bodies[2a], bodies[2a + 1]``, -1 for ground), which hold all their ancestors:
-    ``support[a, :sizes[a]]`` (descending), ``values`` alike; and the rows' right side c of eq. 7.6."""
-    k = H.shape[0]
-    joint = np.empty(jac.shape[1] // width, dtype=np.int64)  # the tree joint whose child each body is
-    for e in range(ints.shape[0]):
+    ``support[a, :sizes[a]]`` (descending), ``values`` alike; and the rows' right side c of eq. 7.6. ``joint`` (a
+    body's coordinates / width) and ``dense`` (k, zeros): work arrays (left as found: ``dense`` zero)."""
+    for e in range(ints.shape[0]):  # the tree joint whose child each body is
         joint[ints[e, 2]] = e
-    dense = np.zeros(k)
     for a in range(rows.size):
         row, r = jac[rows[a]], rows[a]
         rate = convective = 0.0
@@ -820,29 +818,45 @@ def cut_accelerations(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, bodie
     (overwritten by its factors), ``ints`` the tree's joints, ``width`` a body's coordinates (3 planar, 7 spatial).
     A singular S, or an H that is not positive definite, gives NaN (the adaptive integrators reject the step)."""
     k, mc = rhs.size, rows.size
-    parent = dof_parents(ints, k)
+    # two allocations for every work array (each allocation costs about what the arithmetic of a small tree does)
+    whole = np.empty(3 * k + 1 + 2 * mc * k + mc + jac.shape[1] // width, dtype=np.int64)
+    parent, counts, filled = whole[:k], whole[k : 2 * k + 1], whole[2 * k + 1 : 3 * k + 1]
+    support = whole[3 * k + 1 : 3 * k + 1 + mc * k].reshape((mc, k))
+    at = whole[3 * k + 1 + mc * k : 3 * k + 1 + 2 * mc * k]
+    sizes, joint = whole[3 * k + 1 + 2 * mc * k : 3 * k + 1 + 2 * mc * k + mc], whole[3 * k + 1 + 2 * mc * k + mc :]
+    work = np.empty(2 * k + 2 * mc * k + mc * mc + 2 * mc)
+    y, dense, S = work[:k], work[k : 2 * k], work[2 * k : 2 * k + mc * mc].reshape((mc, mc))
+    values = work[2 * k + mc * mc : 2 * k + mc * mc + mc * k].reshape((mc, k))
+    w = work[2 * k + mc * mc + mc * k : 2 * k + mc * mc + 2 * mc * k]
+    c, s = (
+        work[2 * k + mc * mc + 2 * mc * k : 2 * k + mc * mc + 2 * mc * k + mc],
+        work[2 * k + mc * mc + 2 * mc * k + mc :],
+    )
+    dof_parents(ints, parent)
     if not tree_factor(matrix, parent):
         mu[:] = np.nan
         return np.full(k, np.nan)
-    support, sizes = np.empty((mc, k), dtype=np.int64), np.empty(mc, dtype=np.int64)
-    values, c = np.empty((mc, k)), np.empty(mc)
+    dense[:] = 0.0
     _cut_rows(Dq, xiq, jac, psi, psit, gam, qd, rows, bodies, alpha, beta, ints, width, matrix, parent, support,
-              sizes, values, c)  # fmt: skip
-    y = rhs.copy()
+              sizes, values, c, joint, dense)  # fmt: skip
+    y[:] = rhs
     tree_back(matrix, parent, y)  # L^-T r
-    counts = np.zeros(k + 1, dtype=np.int64)  # the rows of W meeting column i: at[counts[i] : counts[i + 1]]
+    counts[:] = 0  # the rows of W meeting column i: at[counts[i] : counts[i + 1]]
     for a in range(mc):
         for u in range(sizes[a]):
             counts[support[a, u] + 1] += 1
     for i in range(k):
         counts[i + 1] += counts[i]
-    at, w, filled = np.empty(counts[k], dtype=np.int64), np.empty(counts[k]), counts[:k].copy()
+    filled[:] = counts[:k]
     for a in range(mc):  # rows in increasing order within each column
         for u in range(sizes[a]):
             i = support[a, u]
             at[filled[i]], w[filled[i]] = a, values[a, u]
             filled[i] += 1
-    S, s, p = np.zeros((mc, mc)), -c, 0
+    S[:, :] = 0.0
+    p = 0
+    for a in range(mc):
+        s[a] = -c[a]
     for i in range(k):  # S = W^T d^-1 W (its lower triangle) and its right side, column by column of the tree
         inverse = 1.0 / matrix[i, i]
         for u in range(counts[i], counts[i + 1]):
@@ -852,16 +866,16 @@ def cut_accelerations(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, bodie
                 S[a, at[v]] += wa * w[v]
                 p = max(p, a - at[v])
     if p <= BAND:
-        x = band_solve(S, p, s)
+        band_solve(S, p, s)
+        mu[:] = s
     else:
         for a in range(mc):
             for b in range(a):
                 S[b, a] = S[a, b]
-        x = lu_solve(S, s)
-    mu[:] = x
+        mu[:] = lu_solve(S, s)
     for i in range(k):  # theta'' = L^-1 d^-1 (L^-T r - W mu)
         for u in range(counts[i], counts[i + 1]):
-            y[i] -= w[u] * x[at[u]]
+            y[i] -= w[u] * mu[at[u]]
         y[i] /= matrix[i, i]
     tree_forward(matrix, parent, y)
     return y

@@ -8,7 +8,8 @@ Both are compared at random joint states (off the constraint manifold, so every 
 the chain of parallelogram loops (a shallow tree: cranks from ground, couplers on them; the complement a band of
 half-width 3), a hanging serial chain held by distance drivers from ground to every bar (a deep tree: the
 complement is full and goes to the dense branch), and a spatial loop (a cut spherical joint: Euler parameters'
-rows of dq/dtheta; its compiled module is test_compiled_formulations').
+rows of dq/dtheta; its compiled module is test_compiled_formulations'). A driven tree's energy balance (the
+drivers' power from the cut rows' multipliers alone) against the numpy engine's lambda^T Psi_t of every row.
 """
 
 import sys
@@ -23,6 +24,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from mechanisms import parallelogram_chain  # noqa: E402
 from test_compiled_articulated import compiled_sides  # noqa: E402
 from test_compiled_formulations import _spatial_loop  # noqa: E402
+
+from solutions.assembly import build_system  # noqa: E402
+from solutions.compiled import describe, load, parameters, plan  # noqa: E402
+from solutions.dynamics import EquationsOfMotion, mass_matrix  # noqa: E402
+from solutions.formulations import make_formulation  # noqa: E402
+from solutions.generalized_forces import build_forces  # noqa: E402
+from solutions.io import load_model  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _held_chain(n: int) -> dict:
@@ -95,3 +105,29 @@ def test_outputs_lambda_from_the_rows_blocks_equals_the_whole_psi_q():
         q, qd, lam = blocks[y.size : y.size + n], blocks[y.size + n : y.size + 2 * n], blocks[y.size + 3 * n :]
         _, expected = equations.formulation.accelerations(q, qd, 0.0)
         np.testing.assert_allclose(lam, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+
+
+@pytest.mark.parametrize("name", ["slider_crank"])
+def test_the_drivers_power_from_the_cut_rows_is_lambda_psi_t_of_every_row(name):
+    """A driven tree's energy balance integrates the drivers' power lambda^T Psi_t (eq. 5.61) at every evaluation;
+    the compiled right-hand side sums it over the cut rows' multipliers mu alone (a driver is a cut row; the tree's
+    joints have Psi_t = 0), without lambda of every row. The whole y' (theta'', the three powers) against the numpy
+    engine's, whose drivers' power takes lambda of every row from the normal equations of the whole Psi_q, at
+    random joint states off the constraint manifold and a time where the crank's driver moves."""
+    system, q0, qd0 = build_system(load_model(ROOT / "course" / "models" / f"{name}.yaml"))
+    forces = build_forces(system.model)
+    made = make_formulation("joint-coordinates", system, mass_matrix(system.model), forces)
+    equations = EquationsOfMotion(made, forces, True)
+    job = plan(describe(system, made.masses, forces), "joint-coordinates", made)
+    module, _, _ = load(job)
+    P, D = parameters(job.scene, *job.numbers), job.scene.data()
+    assert P[8][2] == 3 and P[8][5] == 1  # the energy states, the drivers' power: what a run integrates
+    y0 = equations.initial_state(q0, qd0, 0.0)
+    rng = np.random.default_rng(5)
+    out = np.empty(y0.size)
+    for _ in range(3):
+        y = y0 + np.concatenate([rng.uniform(-0.2, 0.2, y0.size - 3), np.zeros(3)])
+        expected = equations.rhs(0.3, y)
+        module.scene_rhs(0.3, y, P, D, out)
+        assert abs(expected[-1]) > 1e-3  # the driver does work here
+        np.testing.assert_allclose(out, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
