@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..joint_coordinates import cut_elements, tree_order
+from .articulated import sizes
 from .codegen import (
     constraint_calls,
     force_calls,
@@ -133,31 +134,37 @@ def _owners(system, joints) -> list[int]:
     return [child.get(element.name, -1) for element in system.elements for _ in element.labels]
 
 
-ARRAYS = (
-    ("xi", "a", None), ("Dm", "a * k", "(a, k)"), ("omega", "3 * nb", "(nb, 3)"), ("Q", "n", None),
-    ("power", "3", None), ("q", "n", None), ("qd", "n", None), ("S", "3 * nv * ne", "(ne, nv, 3)"),
-    ("links", "3 * ne", "(ne, 3)"), ("thdd", "k", None), ("mu", "ncut", None),
-    ("acc", "nv * (nb + 1)", "(nb + 1, nv)"),
-)  # fmt: skip
-"""The arrays of every evaluation (name, size, shape): xi and D (eq. 5.44), omega', Q, the powers, q and q', the
-joints' columns S_e and links (``articulated``), theta'', the cut rows' multipliers mu, the bodies' accelerations of
-the articulated pass (an open tree's q'' at the outputs). (D is written only where it is used. Psi, Psi_q, Psi_t,
-gamma, q'' and lambda are made where they are needed: a tree without cut rows needs none of them on the way to
-theta''.)"""
+VECTORS = (("xi", "a"), ("Q", "n"), ("power", "3"), ("q", "n"), ("qd", "n"), ("thdd", "k"), ("mu", "ncut"))
+"""The vectors of every evaluation (name, size), slices of one allocation: xi (eq. 5.44), Q, the powers, q and q',
+theta'', the cut rows' multipliers mu. (Psi, Psi_q, Psi_t, gamma, q'' and lambda are made where they are needed: a
+tree without cut rows needs none of them on the way to theta''.)"""
 
 
 def _arrays(spatial: bool) -> list[str]:
-    """The lines that cut one allocation into the ``ARRAYS`` (an allocation each costs more than the arithmetic of a
-    small tree)."""
+    """The lines that make the work arrays of an evaluation, three allocations (four spatial: omega'): the vectors
+    cut from one (a slice of a vector costs nothing), and two arrays indexed by body or joint and a named row
+    (``articulated.body_rows``, ``joint_rows``; planar: the recursion's rows ``tree_kernels.MOTION`` after the
+    body's), never cut into views: a reshape costs ~20 ns, an allocation ~30 ns, a view handed on ~10 ns, more than
+    a planar joint's arithmetic. D (eq. 5.44) only for cut rows: an open tree's articulated pass never forms it."""
+    nv = 6 if spatial else 3
+    body, joint = sizes(nv)
     lines = [
         f"    nb = n // {7 if spatial else 3}",
-        f"    nv = {6 if spatial else 3}  # a body's velocity: (v, omega) spatial, (v_x, v_y, omega) planar",
+        f"    nv = {nv}  # a body's velocity: (v, omega) spatial, (v_x, v_y, omega) planar",
         "    a = nv * nb  # the rows of xi and D",
-        f"    work = np.empty({' + '.join(size for _, size, _ in ARRAYS)})",
+        f"    vectors = np.empty({' + '.join(size for _, size in VECTORS)})",
         "    at = 0",
     ]
-    for name, size, shape in ARRAYS:
-        lines += [f"    {name} = work[at : at + {size}]{f'.reshape({shape})' if shape else ''}", f"    at += {size}"]
+    for name, size in VECTORS:
+        lines += [f"    {name} = vectors[at : at + {size}]", f"    at += {size}"]
+    motion = "" if spatial else " and the recursion's"
+    lines += [
+        f"    body = np.empty((nb + 1, {body if spatial else body + 3}, nv))  # ground last: I^A, p^A, A{motion}",
+        f"    joint = np.empty((ne + 1, {joint}, nv))  # S_e, U, D_e's factor, u, l; the passes' scratch last",
+        "    Dm = np.empty((a, k)) if columns else body[0]  # D (a x k) for the cut rows only; else not read",
+    ]
+    if spatial:
+        lines.append("    omega = np.empty((nb, 3))  # the bodies' omega'")
     return lines
 
 
@@ -170,7 +177,7 @@ def _multipliers(scene: Scene) -> list[str]:
             "if ncut > 0:",
             "    spatial_coordinate_accelerations(q, qd, Dm, xi, omega, thdd, qdd)",
             "else:  # the articulated pass's body accelerations: no D",
-            "    spatial_body_accelerations(q, qd, acc, xi, omega, qdd)",
+            "    spatial_body_accelerations(q, qd, body, xi, omega, qdd)",
             "residual = np.empty(n)",
             "spatial_mass_residual(q, qd, qdd, masses, inertias, weights, Q, residual)  # Q += Q_v; Q - M q''",
         ]
@@ -179,7 +186,7 @@ def _multipliers(scene: Scene) -> list[str]:
             "if ncut > 0:",
             "    qdd[:] = Dm @ thdd + xi",
             "else:  # the articulated pass's body accelerations: no D",
-            "    planar_body_accelerations(acc, xi, qdd)",
+            "    planar_body_accelerations(body, xi, qdd)",
             "residual = np.empty(n)",
             "for coordinate in range(n):  # Q - M q'' (one allocation: the tree's multipliers work in it)",
             "    residual[coordinate] = Q[coordinate] - mass[coordinate] * qdd[coordinate]",
@@ -226,12 +233,12 @@ def _body(tree: TreeScene) -> list[str]:
         rates = "out[:npos]"  # the rates of the joint positions (Euler parameters: not theta')
         lines.append(
             "    spatial_motion(y[:npos], y[npos : npos + k], joints, joint_floats, nb, k, q, qd, xi, Dm, omega, "
-            f"{rates}, S, links, columns)"
+            f"{rates}, columns, joint)"
         )
     else:
         lines.append(
-            "    planar_motion(y[:npos], y[npos : npos + k], joints, joint_floats, nb, k, q, qd, xi, Dm, S, links, "
-            "columns, whole)"
+            "    planar_motion(y[:npos], y[npos : npos + k], joints, joint_floats, nb, k, q, qd, xi, Dm, columns, whole, "
+            "body, joint)"
         )
     lines += force_calls(scene, "    ")
     lines += [
@@ -266,7 +273,7 @@ def _body(tree: TreeScene) -> list[str]:
         "matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], "
         f"numbers[0], numbers[1], mu, joints, {7 if spatial else 3})",
         "    else:  # an open tree: the articulated-body algorithm, O(N)",
-        f"        {equations}_articulated({articulated}, joints, S, links, thdd, acc)",
+        f"        {equations}_articulated({articulated}, joints, thdd, body, joint)",
         "    if full or (ncut > 0 and dims[5]):  # lambda: the outputs, or the drivers' power (drivers: cut rows)",
         *_multipliers(scene),
         "        if dims[5]:  # the drivers' power (eq. 5.61)",

@@ -33,7 +33,7 @@ from numba import njit
 
 from ..joint_coordinates import half_transpose_product, scaled_product
 from ..rotation_matrices import quaternion_product_entries
-from .articulated import planar_passes, spatial_passes
+from .articulated import WIDTHS, body_rows, joint_rows, planar_passes, spatial_passes
 from .kernels import (
     inertia_times,
     l_entries_jit,
@@ -52,10 +52,10 @@ a cached kernel here could keep an old copy of a function it calls from another 
 _half_transpose_product, _scaled_product = jit(half_transpose_product), jit(scaled_product)
 """1/2 M^T w and s M x of a 3 x 4 matrix M (G or L), as the joint coordinates write them (``joint_coordinates``)."""
 
-REVOLUTE, PRISMATIC, SPHERICAL = 0, 1, 2
-WIDTHS = np.array([1, 1, 3])
-"""The velocity columns of a joint of each kind: a revolute joint's angle, a prismatic joint's slide, a spherical
-joint's three rates."""
+REVOLUTE, PRISMATIC, SPHERICAL = 0, 1, 2  # the kinds (``articulated.WIDTHS``: the velocity columns of each)
+MOTION = 5
+"""The rows of a planar body's (x, y, phi), (x', y', phi') and (x'', y'') at theta'' = 0 in ``body`` (``planar_motion``),
+after the articulated pass's five (``articulated.body_rows``)."""
 S_PARENT, S_CHILD, AXIS, OFFSET, A, C, U0, U1, FRAME = 0, 3, 6, 9, 10, 14, 18, 22, 26
 WIDTH = 35
 """Columns of a joint's floats (module docstring)."""
@@ -63,11 +63,16 @@ WIDTH = 35
 
 # -- planar ------------------------------------------------------------------------------------------------
 @jit
-def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, S, links, columns, whole):
-    """q, q', xi (3 nb) of a planar tree (``PlanarTree.motion``), each joint's column S_e (S[e, :, 0]: v_x, v_y,
-    omega) and link l = r_C - r_P (``articulated``); with ``columns``, D (3 nb x k) too: on each body the columns
-    that move it (all a right-hand side reads), and with ``whole`` the zeros of the other columns as well."""
-    body = np.zeros((8, nb + 1))  # x, y, phi, vx, vy, w, ax, ay; ground last
+def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, columns, whole, body, joint):
+    """q, q', xi (3 nb) of a planar tree (``PlanarTree.motion``), each joint's column S_e (v_x, v_y, omega) and link
+    l = r_C - r_P into ``joint`` (``articulated.joint_rows``); with ``columns``, D (3 nb x k) too: on each body the
+    columns that move it (all a right-hand side reads), and with ``whole`` the zeros of the other columns as well.
+    ``body`` (ground last; the caller's work array): each body's (x, y, phi), (x', y', phi') and (x'', y'') at
+    theta'' = 0 on the way from ground, at rows ``MOTION``."""
+    S, _, _, _, LINK = joint_rows(3)
+    r, v, a = MOTION, MOTION + 1, MOTION + 2  # the rows of position, velocity, acceleration
+    for i in range(3):  # ground
+        body[nb, r, i] = body[nb, v, i] = body[nb, a, i] = 0.0
     if columns and whole:
         Dm[:] = 0.0  # a column is nonzero only on the bodies its joint moves
     for e in range(ints.shape[0]):
@@ -75,9 +80,9 @@ def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, S, links, col
         if P < 0:
             P = nb
         revolute = ints[e, 0] == REVOLUTE
-        body[2, Cb] = body[2, P] + (theta[c] if revolute else floats[e, OFFSET])
-        cp, _, sp, _ = planar_rotation_entries_jit(body[2, P])  # A_P, A_C (eq. 2.2)
-        cc, _, sc, _ = planar_rotation_entries_jit(body[2, Cb])
+        body[Cb, r, 2] = body[P, r, 2] + (theta[c] if revolute else floats[e, OFFSET])
+        cp, _, sp, _ = planar_rotation_entries_jit(body[P, r, 2])  # A_P, A_C (eq. 2.2)
+        cc, _, sc, _ = planar_rotation_entries_jit(body[Cb, r, 2])
         spx, spy, scx, scy = floats[e, S_PARENT], floats[e, S_PARENT + 1], floats[e, S_CHILD], floats[e, S_CHILD + 1]
         rcx, rcy = cc * scx - sc * scy, sc * scx + cc * scy  # rho_C = A_C s_C'
         ux = uy = s = sd = w_rel = 0.0
@@ -89,20 +94,19 @@ def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, S, links, col
             s, sd = theta[c], rate[c]
         ex, ey = cp * spx - sp * spy + s * ux, sp * spx + cp * spy + s * uy  # rho_P + d
         lx, ly = ex - rcx, ey - rcy  # the link
-        body[0, Cb], body[1, Cb] = body[0, P] + lx, body[1, P] + ly
-        wp = body[5, P]
+        body[Cb, r, 0], body[Cb, r, 1] = body[P, r, 0] + lx, body[P, r, 1] + ly
+        wp = body[P, v, 2]
         wc = wp + w_rel
-        body[5, Cb] = wc
-        body[3, Cb] = body[3, P] - wp * ly + ux * sd + w_rel * rcy
-        body[4, Cb] = body[4, P] + wp * lx + uy * sd - w_rel * rcx
-        body[6, Cb] = body[6, P] - wp * wp * ex + wc * wc * rcx - 2.0 * wp * sd * uy
-        body[7, Cb] = body[7, P] - wp * wp * ey + wc * wc * rcy + 2.0 * wp * sd * ux
-        S[e] = 0.0
-        links[e, 0], links[e, 1], links[e, 2] = lx, ly, 0.0
-        if revolute:
-            S[e, 0, 0], S[e, 1, 0], S[e, 2, 0] = rcy, -rcx, 1.0
+        body[Cb, v, 2] = wc
+        body[Cb, v, 0] = body[P, v, 0] - wp * ly + ux * sd + w_rel * rcy
+        body[Cb, v, 1] = body[P, v, 1] + wp * lx + uy * sd - w_rel * rcx
+        body[Cb, a, 0] = body[P, a, 0] - wp * wp * ex + wc * wc * rcx - 2.0 * wp * sd * uy
+        body[Cb, a, 1] = body[P, a, 1] - wp * wp * ey + wc * wc * rcy + 2.0 * wp * sd * ux
+        joint[e, LINK, 0], joint[e, LINK, 1], joint[e, LINK, 2] = lx, ly, 0.0
+        if revolute:  # S_e: (rho_C rotated by -90 degrees, 1) or (u, 0)
+            joint[e, S, 0], joint[e, S + 1, 0], joint[e, S + 2, 0] = rcy, -rcx, 1.0
         else:
-            S[e, 0, 0], S[e, 1, 0] = ux, uy
+            joint[e, S, 0], joint[e, S + 1, 0], joint[e, S + 2, 0] = ux, uy, 0.0
         if columns:  # D_C = D_P + R90 l (angle row of D_P) over the parent's columns, then the joint's own
             i, j = 3 * Cb, 3 * ints[e, 1]
             for g in range(ints[e, 5] - 1):  # the columns that move the parent (none at ground)
@@ -110,26 +114,30 @@ def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, S, links, col
                 Dm[i, col] = Dm[j, col] - ly * Dm[j + 2, col]
                 Dm[i + 1, col] = Dm[j + 1, col] + lx * Dm[j + 2, col]
                 Dm[i + 2, col] = Dm[j + 2, col]
-            Dm[i, c], Dm[i + 1, c], Dm[i + 2, c] = S[e, 0, 0], S[e, 1, 0], S[e, 2, 0]
+            Dm[i, c], Dm[i + 1, c], Dm[i + 2, c] = joint[e, S, 0], joint[e, S + 1, 0], joint[e, S + 2, 0]
     for b in range(nb):
-        for r in range(3):
-            q[3 * b + r] = body[r, b]
-            qd[3 * b + r] = body[3 + r, b]
-        xi[3 * b], xi[3 * b + 1], xi[3 * b + 2] = body[6, b], body[7, b], 0.0
+        for i in range(3):
+            q[3 * b + i] = body[b, r, i]
+            qd[3 * b + i] = body[b, v, i]
+        xi[3 * b], xi[3 * b + 1], xi[3 * b + 2] = body[b, a, 0], body[b, a, 1], 0.0
 
 
 @jit
-def planar_articulated(mass, xi, Q, ints, S, links, thdd, acc):
+def planar_articulated(mass, xi, Q, ints, thdd, body, joint):
     """theta'' of an open planar tree in O(N) (``articulated``): the bodies' I_b = diag(m, m, J) and bias forces
-    p_b = M_b xi_b - Q_b (no gyroscopic term in the plane); the bodies' accelerations D theta'' in ``acc``."""
+    p_b = M_b xi_b - Q_b (no gyroscopic term in the plane) into ``body`` (ground last), whose rows ACC get the
+    bodies' accelerations D theta''; ``joint`` holds S_e and the links (``planar_motion``). Both the caller's work
+    arrays (``articulated.body_rows``, ``joint_rows``): no allocation here."""
     nb = mass.size // 3
-    bodies = np.zeros((nb + 1, 4, 3))  # one allocation (and no reshape: ~20 ns each): IA, pA
-    IA, pA = bodies[:, :3], bodies[:, 3]
+    IA, PA, _ = body_rows(3)
     for b in range(nb):
         for r in range(3):
-            IA[b, r, r] = mass[3 * b + r]
-            pA[b, r] = mass[3 * b + r] * xi[3 * b + r] - Q[3 * b + r]
-    planar_passes(IA, pA, ints, S, links, WIDTHS, 3, thdd, acc)
+            for c in range(3):
+                body[b, IA + r, c] = mass[3 * b + r] if r == c else 0.0
+            body[b, PA, r] = mass[3 * b + r] * xi[3 * b + r] - Q[3 * b + r]
+    for r in range(3):  # ground
+        body[nb, PA, r] = body[nb, IA + r, 0] = body[nb, IA + r, 1] = body[nb, IA + r, 2] = 0.0
+    planar_passes(body, joint, ints, 3, thdd)
 
 
 @jit
@@ -292,34 +300,39 @@ def _child_motion(vec, P, Cb, e_p, rc, h, w_rel, sd, prismatic):
 
 
 @jit
-def _joint_columns(kind, rc, h, AC, f, S):
-    """The joint's own columns S_e (v, omega, global; ``articulated``): revolute (rho_C x h, h), prismatic (h, 0),
-    spherical (rho_C x x_n, x_n) about the child's joint axes x_n = A_C f, g, h."""
+def _joint_columns(kind, rc, h, AC, f, joint, e):
+    """The joint's own columns S_e (v, omega, global; ``articulated``), into ``joint`` (``articulated.joint_rows``):
+    revolute (rho_C x h, h), prismatic (h, 0), spherical (rho_C x x_n, x_n) about the child's joint axes x_n = A_C
+    f, g, h."""
     rc0, rc1, rc2 = rc
-    S[:] = 0.0
+    S = joint_rows(6)[0]
+    for r in range(6):
+        for n in range(3):
+            joint[e, S + r, n] = 0.0
     if kind == REVOLUTE:
-        S[0, 0], S[1, 0], S[2, 0] = _cross(rc0, rc1, rc2, h[0], h[1], h[2])
-        S[3, 0], S[4, 0], S[5, 0] = h
+        joint[e, S, 0], joint[e, S + 1, 0], joint[e, S + 2, 0] = _cross(rc0, rc1, rc2, h[0], h[1], h[2])
+        joint[e, S + 3, 0], joint[e, S + 4, 0], joint[e, S + 5, 0] = h
     elif kind == PRISMATIC:
-        S[0, 0], S[1, 0], S[2, 0] = h
+        joint[e, S, 0], joint[e, S + 1, 0], joint[e, S + 2, 0] = h
     else:
         for n in range(3):
             x0, x1, x2 = _rotate(AC, f[FRAME + 3 * n], f[FRAME + 3 * n + 1], f[FRAME + 3 * n + 2])
-            S[0, n], S[1, n], S[2, n] = _cross(rc0, rc1, rc2, x0, x1, x2)
-            S[3, n], S[4, n], S[5, n] = x0, x1, x2
+            joint[e, S, n], joint[e, S + 1, n], joint[e, S + 2, n] = _cross(rc0, rc1, rc2, x0, x1, x2)
+            joint[e, S + 3, n], joint[e, S + 4, n], joint[e, S + 5, n] = x0, x1, x2
 
 
 @jit
-def _child_columns(Dv, Dw, P, Cb, kind, c, link, S):
+def _child_columns(Dv, Dw, P, Cb, kind, c, link, joint, e):
     """The child's columns of D (v, omega, global): its parent's moved by omega x l, then the joint's own S_e."""
     l0, l1, l2 = link
+    S = joint_rows(6)[0]
     for col in range(Dv.shape[1]):
         x0, x1, x2 = _cross(l0, l1, l2, Dw[P, col, 0], Dw[P, col, 1], Dw[P, col, 2])
         Dv[Cb, col, 0], Dv[Cb, col, 1], Dv[Cb, col, 2] = Dv[P, col, 0] - x0, Dv[P, col, 1] - x1, Dv[P, col, 2] - x2
         Dw[Cb, col, 0], Dw[Cb, col, 1], Dw[Cb, col, 2] = Dw[P, col, 0], Dw[P, col, 1], Dw[P, col, 2]
     for n in range(3 if kind == SPHERICAL else 1):
         for r in range(3):
-            Dv[Cb, c + n, r], Dw[Cb, c + n, r] = S[r, n], S[3 + r, n]
+            Dv[Cb, c + n, r], Dw[Cb, c + n, r] = joint[e, S + r, n], joint[e, S + 3 + r, n]
 
 
 @jit
@@ -348,9 +361,10 @@ def _spatial_outputs(vec, p, R, Dv, Dw, q, qd, xi, Dm, omega):
 
 
 @jit
-def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates, S, links, columns):
+def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates, columns, joint):
     """q, q' (7 nb), xi (6 nb: a and the body-frame alpha'), omega' (nb x 3), the rates of the joints' position
-    coordinates (``SpatialTree.motion``), each joint's columns S_e and link l (``articulated``); with ``columns``,
+    coordinates (``SpatialTree.motion``), each joint's columns S_e and link l (into ``joint``,
+    ``articulated.joint_rows``); with ``columns``,
     D (6 nb x k: v and omega' per joint velocity) too."""
     k_d = k if columns else 0
     size = (nb + 1) * (15 + 4 + 9 + 6 * k_d)
@@ -362,6 +376,7 @@ def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates
     Dw = work[(28 + 3 * k_d) * (nb + 1) :].reshape((nb + 1, k_d, 3))
     p[nb, 0] = 1.0
     R[nb, 0] = R[nb, 4] = R[nb, 8] = 1.0
+    LINK = joint_rows(6)[4]
     for e in range(ints.shape[0]):
         kind, P, Cb, at, c = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3], ints[e, 4]
         if P < 0:
@@ -374,37 +389,45 @@ def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates
         w_rel = _relative_omega(kind, f, AC, rate, c, h)
         rc = _rotate(AC, f[S_CHILD], f[S_CHILD + 1], f[S_CHILD + 2])
         link = _child_motion(vec, P, Cb, e_p, rc, h, w_rel, sd, kind == PRISMATIC)
-        links[e, 0], links[e, 1], links[e, 2] = link
-        _joint_columns(kind, rc, h, AC, f, S[e])
+        joint[e, LINK, 0], joint[e, LINK, 1], joint[e, LINK, 2] = link
+        _joint_columns(kind, rc, h, AC, f, joint, e)
         if columns:
-            _child_columns(Dv, Dw, P, Cb, kind, c, link, S[e])
+            _child_columns(Dv, Dw, P, Cb, kind, c, link, joint, e)
     _spatial_outputs(vec, p, R, Dv, Dw, q, qd, xi, Dm, omega)
 
 
 @jit
-def spatial_articulated(masses, inertias, q, xi, omega, Q, ints, S, links, thdd, acc):
+def spatial_articulated(masses, inertias, q, xi, omega, Q, ints, thdd, body, joint):
     """theta'' of an open spatial tree in O(N) (``articulated``): I_b = diag(m I, A J' A^T) and the bias force p_b
-    = -(the body force f of ``body_force``, its torque turned to global axes by A); the bodies' accelerations
-    D theta'' (a, and omega'' in global axes) in ``acc``."""
-    nb = masses.size
-    bodies, scratch = np.zeros((nb + 1, 7, 6)), np.empty(15)  # IA, pA; a body's force and rotation
-    IA, pA, force, R = bodies[:, :6], bodies[:, 6], scratch[:6], scratch[6:]
+    = -(the body force f of ``body_force``, its torque turned to global axes by A) into ``body`` (ground last),
+    whose rows ACC get the bodies' accelerations D theta'' (a, and omega'' in global axes); ``joint`` holds S_e and
+    the links (``spatial_motion``). Both the caller's work arrays (``articulated.body_rows``, ``joint_rows``)."""
+    nb, ne = masses.size, ints.shape[0]
+    IA, PA, _ = body_rows(6)
+    force = joint[ne, 0]  # a body's force: the passes' scratch, free until they start
     for b in range(nb):
         J, o = inertias[b], 7 * b
         body_force(masses[b], J, q, xi, omega, Q, b, force)
-        _rotation9(q[o + 3], q[o + 4], q[o + 5], q[o + 6], R)
+        R = unit_rotation_entries_jit(q[o + 3], q[o + 4], q[o + 5], q[o + 6])  # A (eq. 8.12), row by row
         t0, t1, t2 = _rotate(R, force[3], force[4], force[5])
+        for r in range(6):
+            for c in range(6):
+                body[b, IA + r, c] = 0.0
         for r in range(3):
-            IA[b, r, r] = masses[b]
-            pA[b, r] = -force[r]
-        pA[b, 3], pA[b, 4], pA[b, 5] = -t0, -t1, -t2
+            body[b, IA + r, r] = masses[b]
+            body[b, PA, r] = -force[r]
+        body[b, PA, 3], body[b, PA, 4], body[b, PA, 5] = -t0, -t1, -t2
         for c in range(3):  # A J' A^T, column by column
             x0, x1, x2 = _rotate(R, J[0, c], J[1, c], J[2, c])  # A J' e_c
-            IA[b, 3, 3 + c], IA[b, 4, 3 + c], IA[b, 5, 3 + c] = x0, x1, x2
+            body[b, IA + 3, 3 + c], body[b, IA + 4, 3 + c], body[b, IA + 5, 3 + c] = x0, x1, x2
         for r in range(3):  # (A J') A^T, row by row: A times the row
-            row = IA[b, 3 + r, 3:]
-            row[0], row[1], row[2] = _rotate(R, row[0], row[1], row[2])
-    spatial_passes(IA, pA, ints, S, links, WIDTHS, 4, thdd, acc)
+            x0, x1, x2 = _rotate(R, body[b, IA + 3 + r, 3], body[b, IA + 3 + r, 4], body[b, IA + 3 + r, 5])
+            body[b, IA + 3 + r, 3], body[b, IA + 3 + r, 4], body[b, IA + 3 + r, 5] = x0, x1, x2
+    for r in range(6):  # ground
+        body[nb, PA, r] = 0.0
+        for c in range(6):
+            body[nb, IA + r, c] = 0.0
+    spatial_passes(body, joint, ints, 4, thdd)
 
 
 @jit
@@ -569,27 +592,28 @@ def cut_row_forces(jac, mu, rows, bodies, width, residual):
 
 
 @jit
-def planar_body_accelerations(acc, xi, qdd):
-    """q'' = D theta'' + xi of a planar tree from the bodies' accelerations of the articulated pass (``acc``: D
-    theta'' per body, (x'', y'', phi'') at its centre): no D formed."""
+def planar_body_accelerations(body, xi, qdd):
+    """q'' = D theta'' + xi of a planar tree from the bodies' accelerations of the articulated pass (``body``'s rows
+    ACC: D theta'' per body, (x'', y'', phi'') at its centre): no D formed."""
+    ACC = body_rows(3)[2]
     for b in range(xi.size // 3):
         for r in range(3):
-            qdd[3 * b + r] = acc[b, r] + xi[3 * b + r]
+            qdd[3 * b + r] = body[b, ACC, r] + xi[3 * b + r]
 
 
 @jit
-def spatial_body_accelerations(q, qd, acc, xi, omega, qdd):
-    """q'' = (r'', p'') of a spatial tree from the bodies' accelerations of the articulated pass (``acc``: a and
-    the angular acceleration of D theta'' in global axes) and xi (a, A^T alpha): r'' = a + xi_a, the body-frame
+def spatial_body_accelerations(q, qd, body, xi, omega, qdd):
+    """q'' = (r'', p'') of a spatial tree from the bodies' accelerations of the articulated pass (``body``'s rows
+    ACC: a and the angular acceleration of D theta'' in global axes) and xi (a, A^T alpha): r'' = a + xi_a, the body-frame
     angular acceleration w = A^T (D theta'')_alpha + xi_alpha, p'' = 1/2 L(p)^T w + 1/2 L(p')^T omega' (eq. 8.17;
     ``spatial_coordinate_accelerations`` without D)."""
-    R = np.empty(9)
+    ACC = body_rows(6)[2]
     for b in range(omega.shape[0]):
         o = 7 * b
-        _rotation9(q[o + 3], q[o + 4], q[o + 5], q[o + 6], R)
+        R = unit_rotation_entries_jit(q[o + 3], q[o + 4], q[o + 5], q[o + 6])  # A (eq. 8.12), row by row
         for r in range(3):
-            qdd[o + r] = acc[b, r] + xi[6 * b + r]
-        w0, w1, w2 = _rotate_back(R, acc[b, 3], acc[b, 4], acc[b, 5])
+            qdd[o + r] = body[b, ACC, r] + xi[6 * b + r]
+        w0, w1, w2 = _rotate_back(R, body[b, ACC, 3], body[b, ACC, 4], body[b, ACC, 5])
         x = _half_l_transpose(q[o + 3], q[o + 4], q[o + 5], q[o + 6], w0 + xi[6 * b + 3], w1 + xi[6 * b + 4],
                               w2 + xi[6 * b + 5])  # fmt: skip
         y = _half_l_transpose(qd[o + 3], qd[o + 4], qd[o + 5], qd[o + 6], omega[b, 0], omega[b, 1], omega[b, 2])
@@ -868,6 +892,7 @@ def cut_accelerations(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, bodie
 
 
 __all__ = [
+    "WIDTHS",
     "body_force",
     "cut_accelerations",
     "planar_articulated",
