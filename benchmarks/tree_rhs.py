@@ -69,11 +69,11 @@ def repeated():
                 tk.planar_articulated(mass, xi, Q0, joints, thdd, body, joint)
 
     @njit(cache=False)
-    def spatial(theta, rate, joints, floats, nb, k, q, qd, xi, Dm, omega, rates, masses, inertias, Q0, thdd, body, joint,
-                calls, which):  # fmt: skip
+    def spatial(theta, rate, joints, floats, nb, k, q, qd, xi, Dm, omega, rates, masses, inertias, Q0, thdd, body,
+                joint, calls, which):  # fmt: skip
         for _ in range(calls):
             if which == 0:
-                tk.spatial_motion(theta, rate, joints, floats, nb, k, q, qd, xi, Dm, omega, rates, False, joint)
+                tk.spatial_motion(theta, rate, joints, floats, nb, k, q, qd, xi, Dm, omega, rates, False, body, joint)
             else:
                 tk.spatial_articulated(masses, inertias, q, xi, omega, Q0, joints, thdd, body, joint)
 
@@ -103,7 +103,7 @@ def parts(family: str, n: int, rounds: int) -> dict[str, float | str]:
     q, qd, xi, Dm = np.empty(n_q), np.empty(n_q), np.empty(nv * nb), np.empty((nv * nb, k))
     omega, rates = np.empty((nb, 3)), np.empty(npos)
     thdd, (body_rows, joint_rows) = np.empty(k), sizes(nv)
-    body, joint = np.empty((nb + 1, body_rows + 3, nv)), np.empty((ne + 1, joint_rows, nv))  # as scene_rhs's
+    body, joint = np.empty((nb + 1, body_rows + 4, nv)), np.empty((ne + 1, joint_rows, nv))  # as scene_rhs's
     Q0, mass, masses, inertias = P[0], P[1], P[2], P[3]
     theta, rate = y[:npos], y[npos : npos + k]
     if family == "planar":

@@ -143,11 +143,13 @@ tree without cut rows needs none of them on the way to theta''.)"""
 def _arrays(spatial: bool) -> list[str]:
     """The lines that make the work arrays of an evaluation, three allocations (four spatial: omega'): the vectors
     cut from one (a slice of a vector costs nothing), and two arrays indexed by body or joint and a named row
-    (``articulated.body_rows``, ``joint_rows``; planar: the recursion's rows ``tree_kernels.MOTION`` after the
-    body's), never cut into views: a reshape costs ~20 ns, an allocation ~30 ns, a view handed on ~10 ns, more than
-    a planar joint's arithmetic. D (eq. 5.44) only for cut rows: an open tree's articulated pass never forms it."""
+    (``articulated.body_rows``, ``joint_rows``; the recursion's rows after the body's, ``tree_kernels.MOTION``
+    and ``SPATIAL_MOTION``), never cut into views: a reshape costs ~20 ns, an allocation ~30 ns, a view handed
+    on ~10 ns, more than a planar joint's arithmetic. D (eq. 5.44) only for cut rows: an open tree's articulated
+    pass never forms it."""
     nv = 6 if spatial else 3
     body, joint = sizes(nv)
+    body += 4 if spatial else 3  # the recursion's rows
     lines = [
         f"    nb = n // {7 if spatial else 3}",
         f"    nv = {nv}  # a body's velocity: (v, omega) spatial, (v_x, v_y, omega) planar",
@@ -157,9 +159,8 @@ def _arrays(spatial: bool) -> list[str]:
     ]
     for name, size in VECTORS:
         lines += [f"    {name} = vectors[at : at + {size}]", f"    at += {size}"]
-    motion = "" if spatial else " and the recursion's"
     lines += [
-        f"    body = np.empty((nb + 1, {body if spatial else body + 3}, nv))  # ground last: I^A, p^A, A{motion}",
+        f"    body = np.empty((nb + 1, {body}, nv))  # I^A, p^A, A, the recursion's: ground last",
         f"    joint = np.empty((ne + 1, {joint}, nv))  # S_e, U, D_e's factor, u, l; the passes' scratch last",
         "    Dm = np.empty((a, k)) if columns else body[0]  # D (a x k) for the cut rows only; else not read",
     ]
@@ -178,7 +179,6 @@ def _multipliers(scene: Scene) -> list[str]:
             "    spatial_coordinate_accelerations(q, qd, Dm, xi, omega, thdd, qdd)",
             "else:  # the articulated pass's body accelerations: no D",
             "    spatial_body_accelerations(q, qd, body, xi, omega, qdd)",
-            "residual = np.empty(n)",
             "spatial_mass_residual(q, qd, qdd, masses, inertias, weights, Q, residual)  # Q += Q_v; Q - M q''",
         ]
     else:
@@ -187,8 +187,7 @@ def _multipliers(scene: Scene) -> list[str]:
             "    qdd[:] = Dm @ thdd + xi",
             "else:  # the articulated pass's body accelerations: no D",
             "    planar_body_accelerations(body, xi, qdd)",
-            "residual = np.empty(n)",
-            "for coordinate in range(n):  # Q - M q'' (one allocation: the tree's multipliers work in it)",
+            "for coordinate in range(n):  # Q - M q'' (the tree's multipliers work in it)",
             "    residual[coordinate] = Q[coordinate] - mass[coordinate] * qdd[coordinate]",
         ]
     solve = [
@@ -199,8 +198,9 @@ def _multipliers(scene: Scene) -> list[str]:
         "# the tree's rows body by body from the leaves, O(N)",
         f"tree_multipliers(jac, residual, dims[7 + ncut :], {7 if scene.dimension == 3 else 3}, joints, lam)",
     ]
-    both = "outputs = np.empty(n + m)  # q'' and lambda in one allocation"
-    return ["        " + line for line in [both, "qdd, lam = outputs[:n], outputs[n:]", *lines, *solve]]
+    both = "outputs = np.empty(2 * n + m)  # q'', lambda and Q - M q'' in one allocation"
+    cut = "qdd, lam, residual = outputs[:n], outputs[n : n + m], outputs[n + m :]"
+    return ["        " + line for line in [both, cut, *lines, *solve]]
 
 
 def _body(tree: TreeScene) -> list[str]:
@@ -233,17 +233,18 @@ def _body(tree: TreeScene) -> list[str]:
         rates = "out[:npos]"  # the rates of the joint positions (Euler parameters: not theta')
         lines.append(
             "    spatial_motion(y[:npos], y[npos : npos + k], joints, joint_floats, nb, k, q, qd, xi, Dm, omega, "
-            f"{rates}, columns, joint)"
+            f"{rates}, columns, body, joint)"
         )
     else:
         lines.append(
-            "    planar_motion(y[:npos], y[npos : npos + k], joints, joint_floats, nb, k, q, qd, xi, Dm, columns, whole, "
-            "body, joint)"
+            "    planar_motion(y[:npos], y[npos : npos + k], joints, joint_floats, nb, k, q, qd, xi, Dm, columns, "
+            "whole, body, joint)"
         )
     lines += force_calls(scene, "    ")
     lines += [
         "    if full or ncut > 0:  # the constraint rows: lambda of every row, or the cut rows",
-        "        psi, psit, gam = np.zeros(m), np.zeros(m), np.zeros(m)",
+        "        rows = np.zeros(3 * m)  # one allocation",
+        "        psi, psit, gam = rows[:m], rows[m : 2 * m], rows[2 * m :]",
         "        if out.size == y.size + 3 * n + 3 * m + m * n:  # Psi_q whole, zeros and all (loops.output_history)",
         "            jac = np.zeros((m, n))",
         "        else:  # the solves read only the rows' blocks at their bodies: those zeroed alone",

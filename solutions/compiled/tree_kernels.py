@@ -35,9 +35,7 @@ from ..joint_coordinates import half_transpose_product, scaled_product
 from ..rotation_matrices import quaternion_product_entries
 from .articulated import WIDTHS, body_rows, joint_rows, planar_passes, spatial_passes
 from .kernels import (
-    inertia_times,
     l_entries_jit,
-    l_times,
     lu_solve,
     planar_rotation_entries_jit,
     solve_in_place,
@@ -54,8 +52,8 @@ _half_transpose_product, _scaled_product = jit(half_transpose_product), jit(scal
 
 REVOLUTE, PRISMATIC, SPHERICAL = 0, 1, 2  # the kinds (``articulated.WIDTHS``: the velocity columns of each)
 MOTION = 5
-"""The rows of a planar body's (x, y, phi), (x', y', phi') and (x'', y'') at theta'' = 0 in ``body`` (``planar_motion``),
-after the articulated pass's five (``articulated.body_rows``)."""
+"""The rows of a planar body's (x, y, phi), (x', y', phi') and (x'', y'') at theta'' = 0 in ``body``
+(``planar_motion``), after the articulated pass's five (``articulated.body_rows``)."""
 S_PARENT, S_CHILD, AXIS, OFFSET, A, C, U0, U1, FRAME = 0, 3, 6, 9, 10, 14, 18, 22, 26
 WIDTH = 35
 """Columns of a joint's floats (module docstring)."""
@@ -191,14 +189,6 @@ _qmul = jit(quaternion_product_entries)
 
 
 @jit
-def _rotation9(e0, e1, e2, e3, R):
-    """A(p) of unit Euler parameters row by row (eq. 8.12), as ``joint_coordinates.rotation9``."""
-    entries = unit_rotation_entries_jit(e0, e1, e2, e3)
-    for k in range(9):
-        R[k] = entries[k]
-
-
-@jit
 def _half_l_transpose(e0, e1, e2, e3, w0, w1, w2):
     """p' = 1/2 L(p)^T omega' (eq. 8.17), as ``joint_coordinates.half_l_transpose``."""
     return _half_transpose_product(l_entries_jit(e0, e1, e2, e3), (w0, w1, w2))
@@ -259,23 +249,52 @@ def _relative_omega(kind, f, AC, rate, c, h):
     return wr0, wr1, wr2
 
 
+POSITION, VELOCITY, OMEGA, ACCELERATION, ALPHA = 0, 1, 2, 3, 4
+SPATIAL_MOTION = 8
+"""The rows of a spatial body's recursion in ``body``, after the articulated pass's eight (``articulated.body_rows``):
+its global r, v, omega, a and alpha with theta'' = 0 two to a row (``_vector``), then its Euler parameters p."""
+
+
 @jit
-def _child_motion(vec, P, Cb, e_p, rc, h, w_rel, sd, prismatic):
-    """The child's r, v, omega, alpha and a with theta'' = 0 from its parent's (vec rows r, v, w, acc, alpha):
-    e_P and rho_C the joint point from either centre, h, w_rel and s' the joint's axis and rates (module
-    docstring of ``joint_coordinates.py``). Returns the link e_P - rho_C."""
+def _vector(body, b, which):
+    """Body b's global 3-vector ``which`` (POSITION, VELOCITY, OMEGA, ACCELERATION, ALPHA) of the recursion."""
+    row, col = SPATIAL_MOTION + which // 2, 3 * (which % 2)
+    return body[b, row, col], body[b, row, col + 1], body[b, row, col + 2]
+
+
+@jit
+def _set_vector(body, b, which, x0, x1, x2):
+    row, col = SPATIAL_MOTION + which // 2, 3 * (which % 2)
+    body[b, row, col], body[b, row, col + 1], body[b, row, col + 2] = x0, x1, x2
+
+
+@jit
+def _body_rotation(body, b):
+    """A(p) of body b (eq. 8.12) row by row from its Euler parameters in ``body`` (ground: p = (1, 0, 0, 0), A = I)."""
+    row = SPATIAL_MOTION + 3
+    return unit_rotation_entries_jit(body[b, row, 0], body[b, row, 1], body[b, row, 2], body[b, row, 3])
+
+
+@jit
+def _child_motion(body, P, Cb, e_p, rc, h, w_rel, sd, prismatic):
+    """The child's r, v, omega, alpha and a with theta'' = 0 from its parent's (``_vector``): e_P and rho_C the
+    joint point from either centre, h, w_rel and s' the joint's axis and rates (module docstring of
+    ``joint_coordinates.py``). Returns the link e_P - rho_C."""
     ep0, ep1, ep2 = e_p
     rc0, rc1, rc2 = rc
-    wp0, wp1, wp2 = vec[2, P, 0], vec[2, P, 1], vec[2, P, 2]
-    al0, al1, al2 = vec[4, P, 0], vec[4, P, 1], vec[4, P, 2]
+    wp0, wp1, wp2 = _vector(body, P, OMEGA)
+    al0, al1, al2 = _vector(body, P, ALPHA)
+    r0, r1, r2 = _vector(body, P, POSITION)
+    v0, v1, v2 = _vector(body, P, VELOCITY)
+    a0, a1, a2 = _vector(body, P, ACCELERATION)
     l0, l1, l2 = ep0 - rc0, ep1 - rc1, ep2 - rc2  # the link
-    vec[0, Cb, 0], vec[0, Cb, 1], vec[0, Cb, 2] = vec[0, P, 0] + l0, vec[0, P, 1] + l1, vec[0, P, 2] + l2
+    _set_vector(body, Cb, POSITION, r0 + l0, r1 + l1, r2 + l2)
     x0, x1, x2 = _cross(wp0, wp1, wp2, l0, l1, l2)
-    vc0, vc1, vc2 = vec[1, P, 0] + x0, vec[1, P, 1] + x1, vec[1, P, 2] + x2
+    vc0, vc1, vc2 = v0 + x0, v1 + x1, v2 + x2
     x0, x1, x2 = _cross(al0, al1, al2, ep0, ep1, ep2)
     y0, y1, y2 = _cross(wp0, wp1, wp2, ep0, ep1, ep2)
     y0, y1, y2 = _cross(wp0, wp1, wp2, y0, y1, y2)
-    ac0, ac1, ac2 = vec[3, P, 0] + x0 + y0, vec[3, P, 1] + x1 + y1, vec[3, P, 2] + x2 + y2
+    ac0, ac1, ac2 = a0 + x0 + y0, a1 + x1 + y1, a2 + x2 + y2
     if prismatic:
         h0, h1, h2 = h
         wc0, wc1, wc2, ac_0, ac_1, ac_2 = wp0, wp1, wp2, al0, al1, al2
@@ -289,13 +308,13 @@ def _child_motion(vec, P, Cb, e_p, rc, h, w_rel, sd, prismatic):
         ac_0, ac_1, ac_2 = al0 + x0, al1 + x1, al2 + x2
         x0, x1, x2 = _cross(rc0, rc1, rc2, wr0, wr1, wr2)
         vc0, vc1, vc2 = vc0 + x0, vc1 + x1, vc2 + x2
-    vec[1, Cb, 0], vec[1, Cb, 1], vec[1, Cb, 2] = vc0, vc1, vc2
-    vec[2, Cb, 0], vec[2, Cb, 1], vec[2, Cb, 2] = wc0, wc1, wc2
-    vec[4, Cb, 0], vec[4, Cb, 1], vec[4, Cb, 2] = ac_0, ac_1, ac_2
+    _set_vector(body, Cb, VELOCITY, vc0, vc1, vc2)
+    _set_vector(body, Cb, OMEGA, wc0, wc1, wc2)
+    _set_vector(body, Cb, ALPHA, ac_0, ac_1, ac_2)
     x0, x1, x2 = _cross(ac_0, ac_1, ac_2, rc0, rc1, rc2)
     y0, y1, y2 = _cross(wc0, wc1, wc2, rc0, rc1, rc2)
     y0, y1, y2 = _cross(wc0, wc1, wc2, y0, y1, y2)
-    vec[3, Cb, 0], vec[3, Cb, 1], vec[3, Cb, 2] = ac0 - (x0 + y0), ac1 - (x1 + y1), ac2 - (x2 + y2)
+    _set_vector(body, Cb, ACCELERATION, ac0 - (x0 + y0), ac1 - (x1 + y1), ac2 - (x2 + y2))
     return l0, l1, l2
 
 
@@ -336,24 +355,43 @@ def _child_columns(Dv, Dw, P, Cb, kind, c, link, joint, e):
 
 
 @jit
-def _spatial_outputs(vec, p, R, Dv, Dw, q, qd, xi, Dm, omega):
-    """q, q' = (r', 1/2 L(p)^T omega'), xi = (a, A^T alpha), D = (v, A^T omega) per column and omega' = A^T
-    omega of every body from the recursion's global vectors (eq. 8.17)."""
-    nb, k = omega.shape[0], Dv.shape[1]
-    for b in range(nb):
-        Rb = R[b]
-        o0, o1, o2 = _rotate_back(Rb, vec[2, b, 0], vec[2, b, 1], vec[2, b, 2])  # omega' = A^T omega
+def _spatial_outputs(body, q, qd, xi, omega):
+    """q, q' = (r', 1/2 L(p)^T omega'), xi = (a, A^T alpha) and omega' = A^T omega of every body from the recursion's
+    global vectors (eq. 8.17)."""
+    P_ROW = SPATIAL_MOTION + 3
+    for b in range(omega.shape[0]):
+        Rb = _body_rotation(body, b)
+        w0, w1, w2 = _vector(body, b, OMEGA)
+        o0, o1, o2 = _rotate_back(Rb, w0, w1, w2)  # omega' = A^T omega
         omega[b, 0], omega[b, 1], omega[b, 2] = o0, o1, o2
-        for r in range(3):
-            q[7 * b + r] = vec[0, b, r]
-            qd[7 * b + r] = vec[1, b, r]
-            xi[6 * b + r] = vec[3, b, r]
+        q[7 * b], q[7 * b + 1], q[7 * b + 2] = _vector(body, b, POSITION)
+        qd[7 * b], qd[7 * b + 1], qd[7 * b + 2] = _vector(body, b, VELOCITY)
+        xi[6 * b], xi[6 * b + 1], xi[6 * b + 2] = _vector(body, b, ACCELERATION)
         for r in range(4):
-            q[7 * b + 3 + r] = p[b, r]
+            q[7 * b + 3 + r] = body[b, P_ROW, r]
         qd[7 * b + 3], qd[7 * b + 4], qd[7 * b + 5], qd[7 * b + 6] = _half_l_transpose(
-            p[b, 0], p[b, 1], p[b, 2], p[b, 3], o0, o1, o2
+            body[b, P_ROW, 0], body[b, P_ROW, 1], body[b, P_ROW, 2], body[b, P_ROW, 3], o0, o1, o2
         )
-        xi[6 * b + 3], xi[6 * b + 4], xi[6 * b + 5] = _rotate_back(Rb, vec[4, b, 0], vec[4, b, 1], vec[4, b, 2])
+        al0, al1, al2 = _vector(body, b, ALPHA)
+        xi[6 * b + 3], xi[6 * b + 4], xi[6 * b + 5] = _rotate_back(Rb, al0, al1, al2)
+
+
+@jit
+def _spatial_columns(ints, nb, k, body, joint, Dm):
+    """D (6 nb x k: v and omega' per joint velocity) from the joints' S_e and links of the recursion (``joint``):
+    each child's columns its parent's moved by omega x l, then its joint's own (``_child_columns``); omega turned
+    to the body frame, omega' = A^T omega (eq. 8.17). Only for cut rows: an open tree's passes never form D."""
+    D = np.zeros((2, nb + 1, k, 3))  # v and omega of every column at every body, global; ground last
+    Dv, Dw = D[0], D[1]
+    LINK = joint_rows(6)[4]
+    for e in range(ints.shape[0]):
+        kind, P, Cb, c = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 4]
+        if P < 0:
+            P = nb
+        link = joint[e, LINK, 0], joint[e, LINK, 1], joint[e, LINK, 2]
+        _child_columns(Dv, Dw, P, Cb, kind, c, link, joint, e)
+    for b in range(nb):
+        Rb = _body_rotation(body, b)
         for col in range(k):
             Dm[6 * b, col], Dm[6 * b + 1, col], Dm[6 * b + 2, col] = Dv[b, col, 0], Dv[b, col, 1], Dv[b, col, 2]
             x0, x1, x2 = _rotate_back(Rb, Dw[b, col, 0], Dw[b, col, 1], Dw[b, col, 2])
@@ -361,39 +399,36 @@ def _spatial_outputs(vec, p, R, Dv, Dw, q, qd, xi, Dm, omega):
 
 
 @jit
-def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates, columns, joint):
+def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates, columns, body, joint):
     """q, q' (7 nb), xi (6 nb: a and the body-frame alpha'), omega' (nb x 3), the rates of the joints' position
     coordinates (``SpatialTree.motion``), each joint's columns S_e and link l (into ``joint``,
-    ``articulated.joint_rows``); with ``columns``,
-    D (6 nb x k: v and omega' per joint velocity) too."""
-    k_d = k if columns else 0
-    size = (nb + 1) * (15 + 4 + 9 + 6 * k_d)
-    work = np.zeros(size)  # one allocation, cut into: r, v, w, acc, alpha (global), p, A, D; ground last
-    vec = work[: 15 * (nb + 1)].reshape((5, nb + 1, 3))
-    p = work[15 * (nb + 1) : 19 * (nb + 1)].reshape((nb + 1, 4))
-    R = work[19 * (nb + 1) : 28 * (nb + 1)].reshape((nb + 1, 9))
-    Dv = work[28 * (nb + 1) : (28 + 3 * k_d) * (nb + 1)].reshape((nb + 1, k_d, 3))
-    Dw = work[(28 + 3 * k_d) * (nb + 1) :].reshape((nb + 1, k_d, 3))
-    p[nb, 0] = 1.0
-    R[nb, 0] = R[nb, 4] = R[nb, 8] = 1.0
+    ``articulated.joint_rows``); with ``columns``, D (6 nb x k: v and omega' per joint velocity) too. The
+    recursion's global vectors and Euler parameters in ``body``'s rows from ``SPATIAL_MOTION`` (the caller's work
+    array: no allocation on an open tree's way)."""
+    for which in range(5):  # ground: at rest at the origin, p = (1, 0, 0, 0)
+        _set_vector(body, nb, which, 0.0, 0.0, 0.0)
+    P_ROW = SPATIAL_MOTION + 3
+    body[nb, P_ROW, 0], body[nb, P_ROW, 1], body[nb, P_ROW, 2], body[nb, P_ROW, 3] = 1.0, 0.0, 0.0, 0.0
     LINK = joint_rows(6)[4]
     for e in range(ints.shape[0]):
         kind, P, Cb, at, c = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3], ints[e, 4]
         if P < 0:
             P = nb
         f = floats[e]
-        (j0, j1, j2, j3), h, sd, e_p = _spatial_joint(kind, f, R[P], theta, rate, rates, at, c)
-        p[Cb, 0], p[Cb, 1], p[Cb, 2], p[Cb, 3] = _qmul(p[P, 0], p[P, 1], p[P, 2], p[P, 3], j0, j1, j2, j3)
-        _rotation9(p[Cb, 0], p[Cb, 1], p[Cb, 2], p[Cb, 3], R[Cb])
-        AC = R[Cb]
+        (j0, j1, j2, j3), h, sd, e_p = _spatial_joint(kind, f, _body_rotation(body, P), theta, rate, rates, at, c)
+        p0, p1, p2, p3 = _qmul(
+            body[P, P_ROW, 0], body[P, P_ROW, 1], body[P, P_ROW, 2], body[P, P_ROW, 3], j0, j1, j2, j3
+        )
+        body[Cb, P_ROW, 0], body[Cb, P_ROW, 1], body[Cb, P_ROW, 2], body[Cb, P_ROW, 3] = p0, p1, p2, p3
+        AC = _body_rotation(body, Cb)
         w_rel = _relative_omega(kind, f, AC, rate, c, h)
         rc = _rotate(AC, f[S_CHILD], f[S_CHILD + 1], f[S_CHILD + 2])
-        link = _child_motion(vec, P, Cb, e_p, rc, h, w_rel, sd, kind == PRISMATIC)
+        link = _child_motion(body, P, Cb, e_p, rc, h, w_rel, sd, kind == PRISMATIC)
         joint[e, LINK, 0], joint[e, LINK, 1], joint[e, LINK, 2] = link
         _joint_columns(kind, rc, h, AC, f, joint, e)
-        if columns:
-            _child_columns(Dv, Dw, P, Cb, kind, c, link, joint, e)
-    _spatial_outputs(vec, p, R, Dv, Dw, q, qd, xi, Dm, omega)
+    _spatial_outputs(body, q, qd, xi, omega)
+    if columns:
+        _spatial_columns(ints, nb, k, body, joint, Dm)
 
 
 @jit
@@ -537,12 +572,11 @@ def tree_multipliers(jac, residual, owners, width, ints, lam):
     most = 0
     for b in range(nb):
         most = max(most, start[b + 1] - start[b])
-    work = np.empty(most * most + most)  # A A^T and A r of a body, then its lambda in place of A r
+    G = np.empty((most + 1, most))  # A A^T of a body in its first count rows and columns; A r in the last row
     for e in range(ints.shape[0] - 1, -1, -1):
         P, C = ints[e, 1], ints[e, 2]
         first, count = start[C], start[C + 1] - start[C]
-        G = work[: count * count].reshape((count, count))  # A A^T and A r, A = the body's own rows on its columns
-        x = work[count * count : count * count + count]
+        x = G[most, :count]  # A r, then the body's lambda in its place (no reshape: ~20 ns a body)
         for a in range(count):  # by loops: at most 7 x 7, where a BLAS call costs more than the products
             row = mine[first + a]
             x[a] = 0.0
@@ -552,7 +586,7 @@ def tree_multipliers(jac, residual, owners, width, ints, lam):
                 G[a, other] = 0.0
                 for c in range(width * C, width * (C + 1)):
                     G[a, other] += jac[row, c] * jac[mine[first + other], c]
-        solve_in_place(G, x)
+        solve_in_place(G, x)  # reads G's first count rows and columns alone
         for a in range(count):
             row = mine[first + a]
             lam[row] = x[a]
@@ -604,9 +638,9 @@ def planar_body_accelerations(body, xi, qdd):
 @jit
 def spatial_body_accelerations(q, qd, body, xi, omega, qdd):
     """q'' = (r'', p'') of a spatial tree from the bodies' accelerations of the articulated pass (``body``'s rows
-    ACC: a and the angular acceleration of D theta'' in global axes) and xi (a, A^T alpha): r'' = a + xi_a, the body-frame
-    angular acceleration w = A^T (D theta'')_alpha + xi_alpha, p'' = 1/2 L(p)^T w + 1/2 L(p')^T omega' (eq. 8.17;
-    ``spatial_coordinate_accelerations`` without D)."""
+    ACC: a and the angular acceleration of D theta'' in global axes) and xi (a, A^T alpha): r'' = a + xi_a, the
+    body-frame angular acceleration w = A^T (D theta'')_alpha + xi_alpha, p'' = 1/2 L(p)^T w + 1/2 L(p')^T omega'
+    (eq. 8.17; ``spatial_coordinate_accelerations`` without D)."""
     ACC = body_rows(6)[2]
     for b in range(omega.shape[0]):
         o = 7 * b
@@ -622,40 +656,46 @@ def spatial_body_accelerations(q, qd, body, xi, omega, qdd):
 
 
 @jit
-def _l_fill(p, out):
-    """L(p) (eq. 8.14) into out (3 x 4)."""
-    entries = l_entries_jit(p[0], p[1], p[2], p[3])
-    for r in range(3):
-        for c in range(4):
-            out[r, c] = entries[4 * r + c]
-
-
-@jit
 def spatial_mass_residual(q, qd, qdd, masses, inertias, weights, Q, residual):
     """Q += Q_v = 8 L(p')^T J' L(p') p (eq. 10.5) and residual = Q - M q'' body by body, M_b = diag(m I, 4 L^T J' L
     + 4 w p p^T) (eq. 10.4, regularized as ``dynamic_mass_matrix``): ``kernels.spatial_mass`` without the n x n M.
     M_b p'' as 4 L^T (J' (L p'')) + 4 w p (p . p''), every product by loops (3 x 4 at most: numba's matrix products
     are BLAS calls, each dearer than the arithmetic)."""
-    L, Ld = np.empty((3, 4)), np.empty((3, 4))
-    v, u = np.empty(3), np.empty(3)
-    for b in range(masses.size):
-        o = 7 * b
-        p, pd, pdd = q[o + 3 : o + 7], qd[o + 3 : o + 7], qdd[o + 3 : o + 7]
-        _l_fill(p, L)
-        _l_fill(pd, Ld)
-        J = inertias[b]
-        l_times(Ld, p, v)  # L(p') p
-        inertia_times(J, v, u)
+    for b in range(masses.size):  # L(p), L(p') as tuples of their rows (eq. 8.14): no allocation
+        o, J = 7 * b, inertias[b]
+        p0, p1, p2, p3 = q[o + 3], q[o + 4], q[o + 5], q[o + 6]
+        a0, a1, a2, a3 = qdd[o + 3], qdd[o + 4], qdd[o + 5], qdd[o + 6]
+        L, Ld = l_entries_jit(p0, p1, p2, p3), l_entries_jit(qd[o + 3], qd[o + 4], qd[o + 5], qd[o + 6])
+        u = _inertia_times(J, _l_times(Ld, p0, p1, p2, p3))  # J' L(p') p
         for r in range(4):  # Q_v = 8 L(p')^T J' L(p') p
-            Q[o + 3 + r] += 8.0 * (Ld[0, r] * u[0] + Ld[1, r] * u[1] + Ld[2, r] * u[2])
+            Q[o + 3 + r] += 8.0 * (Ld[r] * u[0] + Ld[4 + r] * u[1] + Ld[8 + r] * u[2])
         for r in range(3):
             residual[o + r] = Q[o + r] - masses[b] * qdd[o + r]
-        l_times(L, pdd, v)  # L(p) p''
-        inertia_times(J, v, u)
-        along = 4.0 * weights[b] * (p[0] * pdd[0] + p[1] * pdd[1] + p[2] * pdd[2] + p[3] * pdd[3])
+        u = _inertia_times(J, _l_times(L, a0, a1, a2, a3))  # J' L(p) p''
+        along = 4.0 * weights[b] * (p0 * a0 + p1 * a1 + p2 * a2 + p3 * a3)
         for r in range(4):
-            Mp = 4.0 * (L[0, r] * u[0] + L[1, r] * u[1] + L[2, r] * u[2]) + along * p[r]
+            Mp = 4.0 * (L[r] * u[0] + L[4 + r] * u[1] + L[8 + r] * u[2]) + along * q[o + 3 + r]
             residual[o + 3 + r] = Q[o + 3 + r] - Mp
+
+
+@jit
+def _l_times(L, x0, x1, x2, x3):
+    """L x (L a 3 x 4 matrix as the tuple of its rows, ``l_entries_jit``), as ``kernels.l_times``."""
+    return (
+        L[0] * x0 + L[1] * x1 + L[2] * x2 + L[3] * x3,
+        L[4] * x0 + L[5] * x1 + L[6] * x2 + L[7] * x3,
+        L[8] * x0 + L[9] * x1 + L[10] * x2 + L[11] * x3,
+    )
+
+
+@jit
+def _inertia_times(J, x):
+    """J' x (3 x 3 by 3), as ``kernels.inertia_times``."""
+    return (
+        J[0, 0] * x[0] + J[0, 1] * x[1] + J[0, 2] * x[2],
+        J[1, 0] * x[0] + J[1, 1] * x[1] + J[1, 2] * x[2],
+        J[2, 0] * x[0] + J[2, 1] * x[1] + J[2, 2] * x[2],
+    )
 
 
 @jit
