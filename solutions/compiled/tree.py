@@ -226,8 +226,9 @@ def _body(tree: TreeScene) -> list[str]:
         "    columns = ncut > 0  # D itself: for the cut rows only (an open tree's outputs: the body accelerations)",
         "    whole = full or (ncut > 0 and dims[5] != 0)  # lambda of every row: D whole, Psi_q at every row's blocks",
         *_arrays(spatial),
-        "    Q[:] = Q0",
-        "    power[:] = 0.0",
+        "    for i in range(n):  # loops, not slice assignments (numba's broadcasting: ~20 ns each)",
+        "        Q[i] = Q0[i]",
+        "    power[0] = power[1] = power[2] = 0.0",
     ]
     if spatial:
         rates = "out[:npos]"  # the rates of the joint positions (Euler parameters: not theta')
@@ -311,16 +312,21 @@ def generate(tree: TreeScene) -> str:
         "    \"\"\"y' = (the rates of the joint positions, theta''[, P_dissipated, P_applied, P_drivers]); when",
         "    ``out`` is longer than y, after y' q, q', q'' and lambda (Psi_q^T lambda = Q - M q'', normal eq.).\"\"\"",
         *_body(tree),
-        *([] if spatial else ["    out[:npos] = y[npos : npos + k]  # planar: the rates are theta'"]),
-        "    out[npos : npos + k] = thdd",
+        *(
+            []
+            if spatial
+            else ["    for i in range(k):  # planar: the rates are theta'", "        out[i] = y[npos + i]"]
+        ),
+        "    for i in range(k):",
+        "        out[npos + i] = thdd[i]",
         "    if dims[2]:  # the energy balance's three powers",
         "        out[npos + k], out[npos + k + 1], out[npos + k + 2] = power[0], power[1], power[2]",
         "    if full:  # the outputs at this state",
         "        o = y.size",
-        "        out[o : o + n] = q",
-        "        out[o + n : o + 2 * n] = qd",
-        "        out[o + 2 * n : o + 3 * n] = qdd",
-        "        out[o + 3 * n : o + 3 * n + m] = lam",
+        "        for i in range(n):",
+        "            out[o + i], out[o + n + i], out[o + 2 * n + i] = q[i], qd[i], qdd[i]",
+        "        for i in range(m):",
+        "            out[o + 3 * n + i] = lam[i]",
         "",
         "",
         "@njit(CONSTRAINT_ARRAYS_SIGNATURE, cache=True, nogil=True)",

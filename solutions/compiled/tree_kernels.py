@@ -47,6 +47,11 @@ jit = njit(cache=False, fastmath=False, nogil=True)
 under names that hash this file (numba's cache does not follow a cached function's callees into other files:
 a cached kernel here could keep an old copy of a function it calls from another file)."""
 
+inlined = njit(cache=False, fastmath=False, nogil=True, inline="always")
+"""The steps a right-hand side calls once each (the recursion, the articulated pass): numba writes them into the
+generated ``scene_rhs`` itself, where a call of a compiled function costs two atomic reference counts per array it
+is handed (~10 ns each: ~50 ns a call at two bodies, a quarter of a planar tree's theta'')."""
+
 _half_transpose_product, _scaled_product = jit(half_transpose_product), jit(scaled_product)
 """1/2 M^T w and s M x of a 3 x 4 matrix M (G or L), as the joint coordinates write them (``joint_coordinates``)."""
 
@@ -60,7 +65,7 @@ WIDTH = 35
 
 
 # -- planar ------------------------------------------------------------------------------------------------
-@jit
+@inlined
 def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, columns, whole, body, joint):
     """q, q', xi (3 nb) of a planar tree (``PlanarTree.motion``), each joint's column S_e (v_x, v_y, omega) and link
     l = r_C - r_P into ``joint`` (``articulated.joint_rows``); with ``columns``, D (3 nb x k) too: on each body the
@@ -120,7 +125,7 @@ def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, columns, whol
         xi[3 * b], xi[3 * b + 1], xi[3 * b + 2] = body[b, a, 0], body[b, a, 1], 0.0
 
 
-@jit
+@inlined
 def planar_articulated(mass, xi, Q, ints, thdd, body, joint):
     """theta'' of an open planar tree in O(N) (``articulated``): the bodies' I_b = diag(m, m, J) and bias forces
     p_b = M_b xi_b - Q_b (no gyroscopic term in the plane) into ``body`` (ground last), whose rows ACC get the
@@ -398,7 +403,7 @@ def _spatial_columns(ints, nb, k, body, joint, Dm):
             Dm[6 * b + 3, col], Dm[6 * b + 4, col], Dm[6 * b + 5, col] = x0, x1, x2
 
 
-@jit
+@inlined
 def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates, columns, body, joint):
     """q, q' (7 nb), xi (6 nb: a and the body-frame alpha'), omega' (nb x 3), the rates of the joints' position
     coordinates (``SpatialTree.motion``), each joint's columns S_e and link l (into ``joint``,
@@ -431,7 +436,7 @@ def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates
         _spatial_columns(ints, nb, k, body, joint, Dm)
 
 
-@jit
+@inlined
 def spatial_articulated(masses, inertias, q, xi, omega, Q, ints, thdd, body, joint):
     """theta'' of an open spatial tree in O(N) (``articulated``): I_b = diag(m I, A J' A^T) and the bias force p_b
     = -(the body force f of ``body_force``, its torque turned to global axes by A) into ``body`` (ground last),
