@@ -4,11 +4,12 @@ The planar pendulum chain (revolute joints) and the spatial chain (spherical joi
 their compiled right-hand side (``compiled/tree.py``'s scene_rhs) makes the tree's recursion (``planar_motion`` /
 ``spatial_motion``: q, q', xi, each joint's columns S_e and link) and theta'' by the articulated-body algorithm
 (``planar_articulated`` / ``spatial_articulated``, ``articulated.py``), no D and no constraint rows. Each part is timed
-alone on the chain's starting state (thread CPU, the least of ``--rounds`` rounds, microseconds per call), called from
-a compiled loop as the integration calls it, beside the whole right-hand side with and without the outputs (q, q',
-q'', lambda of every row), and beside the integration loop (``loops.embedded``, DOP853 at rtol = atol = 1e-6 over the
-chains' 1 s and 100 output intervals, as ``chains.py`` runs it) divided by its evaluations: what the loop costs per
-evaluation beyond the right-hand side is DOP853's own stage arithmetic, error norm, step logic and dense output.
+alone on the chain's starting state, its work arrays made once (scene_rhs makes them at every evaluation), thread CPU,
+the least of ``--rounds`` rounds, microseconds per call, called from a compiled loop as the integration calls it,
+beside the whole right-hand side with and without the outputs (q, q', q'', lambda of every row), and beside the
+integration loop (``loops.embedded``, DOP853 at rtol = atol = 1e-6 over the chains' 1 s and 100 output intervals, as
+``chains.py`` runs it) divided by its evaluations: what the loop costs per evaluation beyond the right-hand side is
+DOP853's own stage arithmetic, error norm, step logic and dense output.
 
     .venv/bin/python benchmarks/tree_rhs.py --sizes 2 4 8 16
 
