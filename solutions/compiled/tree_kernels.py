@@ -48,9 +48,10 @@ under names that hash this file (numba's cache does not follow a cached function
 a cached kernel here could keep an old copy of a function it calls from another file)."""
 
 inlined = njit(cache=False, fastmath=False, nogil=True, inline="always")
-"""The steps a right-hand side calls once each (the recursion, the articulated pass): numba writes them into the
-generated ``scene_rhs`` itself, where a call of a compiled function costs two atomic reference counts per array it
-is handed (~10 ns each: ~50 ns a call at two bodies, a quarter of a planar tree's theta'')."""
+"""The steps a right-hand side calls once each (the recursion, the articulated pass, the outputs' q'' and lambda):
+numba writes them into the generated ``scene_rhs`` itself, where a call of a compiled function costs two atomic
+reference counts per array it is handed (~10 ns each: ~50 ns a call at two bodies, a quarter of a planar tree's
+theta'')."""
 
 _half_transpose_product, _scaled_product = jit(half_transpose_product), jit(scaled_product)
 """1/2 M^T w and s M x of a 3 x 4 matrix M (G or L), as the joint coordinates write them (``joint_coordinates``)."""
@@ -550,7 +551,7 @@ def spatial_joint_matrix(q, Dm, out):
                 out[o + 3 + r, col] = x[r]
 
 
-@jit
+@inlined
 def tree_multipliers(jac, residual, owners, width, ints, lam):
     """lambda of an open tree from Psi_q^T lambda = r (r = Q - M q''), body by body from the leaves (the joints in
     reverse topological order): a body's columns meet only the rows it owns (its joint to its parent, its
@@ -600,7 +601,7 @@ def tree_multipliers(jac, residual, owners, width, ints, lam):
                     r[c] -= x[a] * jac[row, c]
 
 
-@jit
+@inlined
 def zero_tree_blocks(jac, owners, ints, width):
     """Zeros in the entries of Psi_q that ``tree_multipliers`` reads: each tree row (``owners``: its body, -1 a cut
     row) at the coordinates of its body and of that body's parent (-1 ground), where the constraint kernels add their
@@ -630,7 +631,7 @@ def cut_row_forces(jac, mu, rows, bodies, width, residual):
                     residual[c] -= mu[a] * jac[rows[a], c]
 
 
-@jit
+@inlined
 def planar_body_accelerations(body, xi, qdd):
     """q'' = D theta'' + xi of a planar tree from the bodies' accelerations of the articulated pass (``body``'s rows
     ACC: D theta'' per body, (x'', y'', phi'') at its centre): no D formed."""
@@ -640,7 +641,7 @@ def planar_body_accelerations(body, xi, qdd):
             qdd[3 * b + r] = body[b, ACC, r] + xi[3 * b + r]
 
 
-@jit
+@inlined
 def spatial_body_accelerations(q, qd, body, xi, omega, qdd):
     """q'' = (r'', p'') of a spatial tree from the bodies' accelerations of the articulated pass (``body``'s rows
     ACC: a and the angular acceleration of D theta'' in global axes) and xi (a, A^T alpha): r'' = a + xi_a, the
@@ -660,7 +661,7 @@ def spatial_body_accelerations(q, qd, body, xi, omega, qdd):
             qdd[o + 3 + r] = x[r] + y[r]
 
 
-@jit
+@inlined
 def spatial_mass_residual(q, qd, qdd, masses, inertias, weights, Q, residual):
     """Q += Q_v = 8 L(p')^T J' L(p') p (eq. 10.5) and residual = Q - M q'' body by body, M_b = diag(m I, 4 L^T J' L
     + 4 w p p^T) (eq. 10.4, regularized as ``dynamic_mass_matrix``): ``kernels.spatial_mass`` without the n x n M.
