@@ -193,7 +193,8 @@ def _multipliers(scene: Scene) -> list[str]:
     solve = [
         "for a in range(ncut):  # the cut rows' lambda: mu of the augmented system; the tree's from what is left",
         "    lam[dims[7 + a]] = mu[a]",
-        "cut_row_forces(jac, mu, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], "
+        "if ncut > 0:  # (an open tree: no call, whose arrays cost ~10 ns each to hand on)",
+        "    cut_row_forces(jac, mu, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], "
         f"{7 if scene.dimension == 3 else 3}, residual)",
         "# the tree's rows body by body from the leaves, O(N)",
         f"tree_multipliers(jac, residual, dims[7 + ncut :], {7 if scene.dimension == 3 else 3}, joints, lam)",
@@ -250,7 +251,8 @@ def _body(tree: TreeScene) -> list[str]:
         "            jac = np.zeros((m, n))",
         "        else:  # the solves read only the rows' blocks at their bodies: those zeroed alone",
         "            jac = np.empty((m, n))",
-        f"            zero_cut_blocks(jac, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], {width})",
+        "            if ncut > 0:",
+        f"                zero_cut_blocks(jac, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], {width})",
         "            if whole:  # lambda of every row: the tree rows at their body and its parent (tree_multipliers)",
         f"                zero_tree_blocks(jac, dims[7 + ncut : 7 + ncut + m], joints, {width})",
         *constraint_calls(scene, "        "),
