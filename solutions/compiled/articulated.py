@@ -313,18 +313,21 @@ def articulated_accelerations(IA, pA, ints, S, links, widths, first, thdd, acc):
     nb + 1 of them with ground last (overwritten by the articulated ones); ints: the tree's joints in topological
     order, a row each (kind, parent, child, ...; parent -1 is ground), the joint's first velocity column in column
     ``first``; widths: the columns of each kind (``WIDTHS``, which the passes read); S (joints x nv x 3): the
-    columns S_e; links (joints x 3): l. (Written as loops over the entries: at
-    3 x 3 and 6 x 6 a call into BLAS costs more than the arithmetic.) The tree kernels fill the work arrays
-    themselves and call ``planar_passes`` or ``spatial_passes`` directly (a module compiles only its own); this
-    is for callers in Python: it copies the arrays into the work arrays and back."""
-    assert np.array_equal(widths, WIDTHS)
+    columns S_e; links (joints x 3): l. (Written as loops over the entries: at 3 x 3 and 6 x 6 a call into BLAS
+    costs more than the arithmetic.) The tree kernels fill the work arrays themselves and call ``planar_passes`` or
+    ``spatial_passes`` directly (a module compiles only its own); this is for callers in Python: it copies the
+    arrays into the work arrays (``sizes``, ``body_rows``, ``joint_rows``) and back."""
+    if not np.array_equal(widths, WIDTHS):
+        raise ValueError(f"widths {widths} differ from the passes' WIDTHS {WIDTHS}")
     nb, nv, ne = IA.shape[0] - 1, IA.shape[1], ints.shape[0]
-    (IA_, PA, ACC), rows = body_rows(nv), sizes(nv)
-    S_, _, _, _, LINK = joint_rows(nv)
-    body, joint = np.zeros((nb + 1, rows[0], nv)), np.zeros((ne + 1, rows[1], nv))
-    body[:, IA_ : IA_ + nv], body[:, PA], joint[:ne, S_ : S_ + nv, :3], joint[:ne, LINK, :3] = IA, pA, S, links
+    (I_rows, p_row, a_row), (s_rows, _, _, _, l_row), (body_size, joint_size) = body_rows(nv), joint_rows(nv), sizes(nv)
+    body, joint = np.zeros((nb + 1, body_size, nv)), np.zeros((ne + 1, joint_size, nv))
+    body[:, I_rows : I_rows + nv] = IA
+    body[:, p_row] = pA
+    joint[:ne, s_rows : s_rows + nv, :3] = S
+    joint[:ne, l_row, :3] = links
     (planar_passes if nv == 3 else spatial_passes)(body, joint, ints, first, thdd)
-    IA[:], pA[:], acc[:] = body[:, IA_ : IA_ + nv], body[:, PA], body[:, ACC]
+    IA[:], pA[:], acc[:] = body[:, I_rows : I_rows + nv], body[:, p_row], body[:, a_row]
 
 
 __all__ = ["WIDTHS", "articulated_accelerations", "body_rows", "joint_rows", "planar_passes", "sizes", "spatial_passes"]
