@@ -116,6 +116,7 @@ def parts(n: int, rounds: int) -> dict[str, float]:
     """Microseconds per call of each part of the loop chain's right-hand side at N = n."""
     from numba import njit
 
+    from solutions.compiled.articulated import sizes
     from solutions.compiled.tree_kernels import cut_accelerations, planar_equations, planar_motion
 
     module, tree, P, D, y = _scene(loop_chain(n))
@@ -123,10 +124,11 @@ def parts(n: int, rounds: int) -> dict[str, float]:
     calls = max(20, 20000 // (n * n))
     out, full = np.empty(y.size), np.empty(y.size + 3 * n_q + m)
     q, qd, xi, Dm = np.empty(n_q), np.empty(n_q), np.empty(n_q), np.empty((n_q, k))
-    S, links = np.empty((joints.shape[0], 3, 3)), np.empty((joints.shape[0], 3))
+    (body_rows, joint_rows), nb = sizes(3), n_q // 3
+    body, joint = np.empty((nb + 1, body_rows + 3, 3)), np.empty((joints.shape[0] + 1, joint_rows, 3))  # as scene_rhs's
 
     def motion(whole=False):  # as the integration's right-hand side: the columns that move each body
-        planar_motion(y[:k], y[k : 2 * k], joints, tree.floats, n_q // 3, k, q, qd, xi, Dm, S, links, True, whole)
+        planar_motion(y[:k], y[k : 2 * k], joints, tree.floats, nb, k, q, qd, xi, Dm, True, whole, body, joint)
 
     motion(True)  # D whole once, its zeros too (the dense solve below reads them)
     times, states = np.zeros(1), np.ascontiguousarray(np.hstack([q, qd])[None, :])

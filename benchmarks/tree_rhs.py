@@ -4,11 +4,12 @@ The planar pendulum chain (revolute joints) and the spatial chain (spherical joi
 their compiled right-hand side (``compiled/tree.py``'s scene_rhs) makes the tree's recursion (``planar_motion`` /
 ``spatial_motion``: q, q', xi, each joint's columns S_e and link) and theta'' by the articulated-body algorithm
 (``planar_articulated`` / ``spatial_articulated``, ``articulated.py``), no D and no constraint rows. Each part is timed
-alone on the chain's starting state (thread CPU, the least of ``--rounds`` rounds, microseconds per call), called from
-a compiled loop as the integration calls it, beside the whole right-hand side with and without the outputs (q, q',
-q'', lambda of every row), and beside the integration loop (``loops.embedded``, DOP853 at rtol = atol = 1e-6 over the
-chains' 1 s and 100 output intervals, as ``chains.py`` runs it) divided by its evaluations: what the loop costs per
-evaluation beyond the right-hand side is DOP853's own stage arithmetic, error norm, step logic and dense output.
+alone on the chain's starting state, its work arrays made once (scene_rhs makes them at every evaluation), thread CPU,
+the least of ``--rounds`` rounds, microseconds per call, called from a compiled loop as the integration calls it,
+beside the whole right-hand side with and without the outputs (q, q', q'', lambda of every row), and beside the
+integration loop (``loops.embedded``, DOP853 at rtol = atol = 1e-6 over the chains' 1 s and 100 output intervals, as
+``chains.py`` runs it) divided by its evaluations: what the loop costs per evaluation beyond the right-hand side is
+DOP853's own stage arithmetic, error norm, step logic and dense output.
 
     .venv/bin/python benchmarks/tree_rhs.py --sizes 2 4 8 16
 
@@ -61,21 +62,21 @@ def repeated():
             f(0.0, y, P, D, out)
 
     @njit(cache=False)
-    def planar(theta, rate, joints, floats, nb, k, q, qd, xi, Dm, S, links, mass, Q0, thdd, acc, calls, which):
+    def planar(theta, rate, joints, floats, nb, k, q, qd, xi, Dm, mass, Q0, thdd, body, joint, calls, which):
         for _ in range(calls):
             if which == 0:
-                tk.planar_motion(theta, rate, joints, floats, nb, k, q, qd, xi, Dm, S, links, False, False)
+                tk.planar_motion(theta, rate, joints, floats, nb, k, q, qd, xi, Dm, False, False, body, joint)
             else:
-                tk.planar_articulated(mass, xi, Q0, joints, S, links, thdd, acc)
+                tk.planar_articulated(mass, xi, Q0, joints, thdd, body, joint)
 
     @njit(cache=False)
-    def spatial(theta, rate, joints, floats, nb, k, q, qd, xi, Dm, omega, rates, S, links, masses, inertias, Q0, thdd,
-                acc, calls, which):  # fmt: skip
+    def spatial(theta, rate, joints, floats, nb, k, q, qd, xi, Dm, omega, rates, masses, inertias, Q0, thdd, body,
+                joint, calls, which):  # fmt: skip
         for _ in range(calls):
             if which == 0:
-                tk.spatial_motion(theta, rate, joints, floats, nb, k, q, qd, xi, Dm, omega, rates, S, links, False)
+                tk.spatial_motion(theta, rate, joints, floats, nb, k, q, qd, xi, Dm, omega, rates, False, body, joint)
             else:
-                tk.spatial_articulated(masses, inertias, q, xi, omega, Q0, joints, S, links, thdd, acc)
+                tk.spatial_articulated(masses, inertias, q, xi, omega, Q0, joints, thdd, body, joint)
 
     del loops
     return rhs, planar, spatial
@@ -85,6 +86,7 @@ def parts(family: str, n: int, rounds: int) -> dict[str, float | str]:
     """Microseconds per call of each part of the chain's right-hand side at N = n, and of its integration loop per
     evaluation."""
     from solutions.compiled import describe, load, loops, parameters, plan, tableau
+    from solutions.compiled.articulated import sizes
 
     system, q0, qd0 = build_system(load_model(CHAINS[family](n)))
     forces = build_forces(system.model)
@@ -100,16 +102,17 @@ def parts(family: str, n: int, rounds: int) -> dict[str, float | str]:
     rhs_loop, planar_loop, spatial_loop = repeated()
     out, full = np.empty(y.size), np.empty(y.size + 3 * n_q + m)
     q, qd, xi, Dm = np.empty(n_q), np.empty(n_q), np.empty(nv * nb), np.empty((nv * nb, k))
-    S, links, omega, rates = np.empty((ne, nv, 3)), np.empty((ne, 3)), np.empty((nb, 3)), np.empty(npos)
-    thdd, acc = np.empty(k), np.empty((nb + 1, nv))
+    omega, rates = np.empty((nb, 3)), np.empty(npos)
+    thdd, (body_rows, joint_rows) = np.empty(k), sizes(nv)
+    body, joint = np.empty((nb + 1, body_rows + 4, nv)), np.empty((ne + 1, joint_rows, nv))  # as scene_rhs's
     Q0, mass, masses, inertias = P[0], P[1], P[2], P[3]
     theta, rate = y[:npos], y[npos : npos + k]
     if family == "planar":
-        arguments = (theta, rate, joints, floats, nb, k, q, qd, xi, Dm, S, links, mass, Q0, thdd, acc, calls)
+        arguments = (theta, rate, joints, floats, nb, k, q, qd, xi, Dm, mass, Q0, thdd, body, joint, calls)
         part = lambda which: planar_loop(*arguments, which)  # noqa: E731
     else:
-        arguments = (theta, rate, joints, floats, nb, k, q, qd, xi, Dm, omega, rates, S, links, masses, inertias, Q0)
-        part = lambda which: spatial_loop(*arguments, thdd, acc, calls, which)  # noqa: E731
+        arguments = (theta, rate, joints, floats, nb, k, q, qd, xi, Dm, omega, rates, masses, inertias, Q0, thdd, body)
+        part = lambda which: spatial_loop(*arguments, joint, calls, which)  # noqa: E731
     rhs = loops.first_class(module.scene_rhs, loops.RHS_SIGNATURE)
     project = loops.first_class(project, loops.PROJECT_SIGNATURE)
     times = np.linspace(0.0, T_END, OUTPUTS + 1)

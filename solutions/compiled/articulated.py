@@ -51,209 +51,252 @@ from numba import njit
 jit = njit(cache=False, fastmath=False, nogil=True)
 """Not cached here: compiled into the generated tree modules that call them (see ``tree_kernels.jit``).
 
-The steps of one joint below index the tree's arrays by joint and body (IA[C, i, j]) rather than take slices of them:
-a slice costs ~20 ns of reference counting, more than a 3 x 3 step's arithmetic (the joint's slices were half the
-algorithm's time on a planar chain; ``benchmarks/tree_rhs.py``). LLVM inlines them into ``two_passes`` (numba's own
-inline="always" made them slower)."""
+Every array of the passes is one of two work arrays, indexed by body or joint and a named row (``body_rows``,
+``joint_rows``, ``scratch_rows``), never a slice or a view of them: in numba each array handed to a function that is
+not inlined, and each view kept across a loop, costs two atomic reference counts (~10 ns), more than a planar joint's
+arithmetic (the views and the eleven arrays handed on were two thirds of the passes' time on a planar chain of two
+bodies; ``benchmarks/tree_rhs.py``)."""
+
+WIDTHS = np.array([1, 1, 3])
+"""The velocity columns d of a joint of each kind (``tree_kernels``: 0 revolute, 1 prismatic, 2 spherical): a
+revolute joint's angle, a prismatic joint's slide, a spherical joint's three rates."""
 
 
 @jit
-def shift_matrix(links, e, X, nv):
-    """X of joint e's link l (module docstring), written into X: 6 x 6 [[1, -[l]x], [0, 1]] on (v, omega); planar
-    3 x 3 [[1, 0, -l_y], [0, 1, l_x], [0, 0, 1]] on (v_x, v_y, omega)."""
-    for i in range(nv):
-        for j in range(nv):
-            X[i, j] = 1.0 if i == j else 0.0
-    l0, l1, l2 = links[e, 0], links[e, 1], links[e, 2]
+def body_rows(nv):
+    """The rows of a body's entry of ``body`` ((nb + 1) entries of ``sizes(nv)[0]`` rows x nv, ground last): its
+    articulated inertia I^A (rows IA to IA + nv - 1), bias force p^A (row PA), acceleration A = (D theta'')_b (row
+    ACC)."""
+    return 0, nv, nv + 1
+
+
+@jit
+def joint_rows(nv):
+    """The rows of a joint's entry of ``joint`` (ne + 1 entries of ``sizes(nv)[1]`` rows x nv): its columns S_e (nv
+    rows, d columns), U = I^A S_e (nv rows, d columns), D_e's factor L (d x d), u (d entries of a row) and the link l
+    (3 entries of a row): eq. 7.8."""
+    return 0, nv, 2 * nv, 2 * nv + 3, 2 * nv + 4
+
+
+@jit
+def scratch_rows(nv):
+    """The rows of the passes' scratch, the entry after the last joint of ``joint``: X's block B (3 x 3), what the
+    child passes on Ia (nv x nv) and pa (a row), D_e^-1 U^T (d rows x nv) and D_e^-1 u (d rows, column 0)."""
+    return 0, 3, 3 + nv, 4 + nv, 7 + nv
+
+
+def sizes(nv: int) -> tuple[int, int]:
+    """The rows of an entry of ``body`` and of ``joint`` (``body_rows``, ``joint_rows``, ``scratch_rows``)."""
+    return nv + 2, max(2 * nv + 5, nv + 10)
+
+
+@jit
+def shift_block(joint, e, s, nv):
+    """X of joint e's link l (eq. 7.7) is the identity but for its block B = -[l]x, which moves the angular part
+    into the linear one: X = [[1, B], [0, 1]] on (v, omega), B 3 x 3 [[0, l_z, -l_y], [-l_z, 0, l_x], [l_y, -l_x,
+    0]] spatial, 2 x 1 (-l_y, l_x) planar on (v_x, v_y, omega); written into the scratch (entry s). The passes
+    multiply by X through it (``shift_to_parent``, ``child_acceleration``): ~3 products an entry instead of nv."""
+    link, B = joint_rows(nv)[4], scratch_rows(nv)[0]
+    l0, l1, l2 = joint[e, link, 0], joint[e, link, 1], joint[e, link, 2]
     if nv == 3:
-        X[0, 2], X[1, 2] = -l1, l0
+        joint[s, B, 0], joint[s, B + 1, 0] = -l1, l0
     else:
-        X[0, 4], X[0, 5] = l2, -l1
-        X[1, 3], X[1, 5] = -l2, l0
-        X[2, 3], X[2, 4] = l1, -l0
+        joint[s, B, 0], joint[s, B, 1], joint[s, B, 2] = 0.0, l2, -l1
+        joint[s, B + 1, 0], joint[s, B + 1, 1], joint[s, B + 1, 2] = -l2, 0.0, l0
+        joint[s, B + 2, 0], joint[s, B + 2, 1], joint[s, B + 2, 2] = l1, -l0, 0.0
 
 
 @jit
-def shift_nonzeros(X, rows, counts, nv):
-    """X's nonzero entries column by column: rows[j, :counts[j]] the rows (ascending) of column j's nonzeros. X is
-    the identity but for the block -[l]x: at most three nonzeros a column, so X^T I X costs ~9 products an entry
-    instead of nv^2, and the same numbers as the dense product (the same nonzero terms summed in the same order)."""
-    for j in range(nv):
-        count = 0
-        for a in range(nv):
-            if X[a, j] != 0.0:
-                rows[j, count] = a
-                count += 1
-        counts[j] = count
-
-
-@jit
-def joint_terms(IA, pA, S, C, e, d, U, u, L, nv):
-    """U = I^A_C S_e, u = -S_e^T p^A_C and D_e = S_e^T U (its lower triangle, into L[e]) of joint e with d columns
+def joint_terms(body, joint, C, e, d, nv):
+    """U = I^A_C S_e, u = -S_e^T p^A_C and D_e = S_e^T U (its lower triangle, into L) of joint e with d columns
     and child C (eq. 7.8)."""
+    IA, PA, _ = body_rows(nv)
+    S, U, L, u, _ = joint_rows(nv)
     for c in range(d):
         for i in range(nv):
-            s = 0.0
+            x = 0.0
             for j in range(nv):
-                s += IA[C, i, j] * S[e, j, c]
-            U[e, i, c] = s
-        s = 0.0
+                x += body[C, IA + i, j] * joint[e, S + j, c]
+            joint[e, U + i, c] = x
+        x = 0.0
         for i in range(nv):
-            s -= S[e, i, c] * pA[C, i]
-        u[e, c] = s
+            x -= joint[e, S + i, c] * body[C, PA, i]
+        joint[e, u, c] = x
         for c2 in range(c + 1):
-            s = 0.0
+            x = 0.0
             for i in range(nv):
-                s += S[e, i, c] * U[e, i, c2]
-            L[e, c, c2] = s
+                x += joint[e, S + i, c] * joint[e, U + i, c2]
+            joint[e, L + c, c2] = x
 
 
 @jit
-def factor_joint(L, e, d):
-    """D_e = L L^T (Cholesky, ``projection_kernels.cholesky``: 1 / L_jj on the diagonal) over L[e]'s lower
-    triangle; False where D_e is not positive definite."""
+def factor_joint(joint, e, d, nv):
+    """D_e = L L^T (Cholesky, ``projection_kernels.cholesky``: 1 / L_jj on the diagonal) over L's lower triangle;
+    False where D_e is not positive definite."""
+    L = joint_rows(nv)[2]
     for j in range(d):
-        s = L[e, j, j]
+        x = joint[e, L + j, j]
         for k in range(j):
-            s -= L[e, j, k] * L[e, j, k]
-        if not s > 0.0:
+            x -= joint[e, L + j, k] * joint[e, L + j, k]
+        if not x > 0.0:
             return False
-        inverse = 1.0 / math.sqrt(s)
-        L[e, j, j] = inverse
+        inverse = 1.0 / math.sqrt(x)
+        joint[e, L + j, j] = inverse
         for i in range(j + 1, d):
-            s = L[e, i, j]
+            x = joint[e, L + i, j]
             for k in range(j):
-                s -= L[e, i, k] * L[e, j, k]
-            L[e, i, j] = s * inverse
+                x -= joint[e, L + i, k] * joint[e, L + j, k]
+            joint[e, L + i, j] = x * inverse
     return True
 
 
 @jit
-def solve_joint(L, e, d, B, columns):
-    """D_e^-1 B: every column of B[:d, :columns] solved in place by forward and back substitution with
-    ``factor_joint``'s L (``projection_kernels.cholesky_solve``, column by column)."""
-    for col in range(columns):
-        for i in range(d):
-            s = B[i, col]
-            for k in range(i):
-                s -= L[e, i, k] * B[k, col]
-            B[i, col] = s * L[e, i, i]
-        for i in range(d - 1, -1, -1):
-            s = B[i, col]
-            for k in range(i + 1, d):
-                s -= L[e, k, i] * B[k, col]
-            B[i, col] = s * L[e, i, i]
+def solve_joint(joint, e, d, s, row, col, nv):
+    """D_e^-1 x in place, x the d entries joint[s, row : row + d, col] (a column of the scratch), by forward and
+    back substitution with ``factor_joint``'s L (``projection_kernels.cholesky_solve``)."""
+    L = joint_rows(nv)[2]
+    for i in range(d):
+        x = joint[s, row + i, col]
+        for k in range(i):
+            x -= joint[e, L + i, k] * joint[s, row + k, col]
+        joint[s, row + i, col] = x * joint[e, L + i, i]
+    for i in range(d - 1, -1, -1):
+        x = joint[s, row + i, col]
+        for k in range(i + 1, d):
+            x -= joint[e, L + k, i] * joint[s, row + k, col]
+        joint[s, row + i, col] = x * joint[e, L + i, i]
 
 
 @jit
-def passed_on(IA, pA, U, u, L, C, e, d, DU, Ia, pa, nv):
-    """What child C passes on through joint e (eq. 7.9 before the shift): Ia = I^A_C - U D_e^-1 U^T, pa = p^A_C +
-    U D_e^-1 u. DU holds D_e^-1 U^T in its first nv columns and D_e^-1 u in its last."""
+def passed_on(body, joint, C, e, d, s, nv):
+    """What child C passes on through joint e (eq. 7.9 before the shift), into the scratch (entry s): Ia = I^A_C -
+    U D_e^-1 U^T, pa = p^A_C + U D_e^-1 u, by way of D_e^-1 U^T (DU) and D_e^-1 u (Du)."""
+    IA, PA, _ = body_rows(nv)
+    _, U, _, u, _ = joint_rows(nv)
+    _, Ia, pa, DU, Du = scratch_rows(nv)
     for c in range(d):
         for i in range(nv):
-            DU[c, i] = U[e, i, c]
-        DU[c, nv] = u[e, c]
-    solve_joint(L, e, d, DU, nv + 1)
+            joint[s, DU + c, i] = joint[e, U + i, c]
+        joint[s, Du + c, 0] = joint[e, u, c]
     for i in range(nv):
-        s = pA[C, i]
+        solve_joint(joint, e, d, s, DU, i, nv)
+    solve_joint(joint, e, d, s, Du, 0, nv)
+    for i in range(nv):
+        x = body[C, PA, i]
         for c in range(d):
-            s += U[e, i, c] * DU[c, nv]
-        pa[i] = s
+            x += joint[e, U + i, c] * joint[s, Du + c, 0]
+        joint[s, pa, i] = x
         for j in range(nv):
-            s = IA[C, i, j]
+            x = body[C, IA + i, j]
             for c in range(d):
-                s -= U[e, i, c] * DU[c, j]
-            Ia[i, j] = s
+                x -= joint[e, U + i, c] * joint[s, DU + c, j]
+            joint[s, Ia + i, j] = x
 
 
 @jit
-def shift_to_parent(X, rows, counts, Ia, pa, IA, pA, P, nv):
-    """The child's articulated inertia and bias force carried to its parent's centre and added there (eq. 7.9):
-    I^A_P += X^T Ia X, p^A_P += X^T pa, over X's nonzeros (``shift_nonzeros``)."""
-    for i in range(nv):
-        s = 0.0
-        for r in range(counts[i]):
-            a = rows[i, r]
-            s += X[a, i] * pa[a]
-        pA[P, i] += s
-        for j in range(nv):
-            s = 0.0
-            for r in range(counts[i]):
-                a = rows[i, r]
-                for c in range(counts[j]):
-                    b = rows[j, c]
-                    s += X[a, i] * Ia[a, b] * X[b, j]
-            IA[P, i, j] += s
-
-
-@jit
-def child_acceleration(X, acc, U, u, L, S, P, C, e, d, shifted, x, nv):
-    """Pass 2 at joint e (eq. 7.10): A' = X A_P, theta''_e = D_e^-1 (u - U^T A') (into x[:d, 0]), A_C = A' +
-    S_e theta''_e."""
-    for i in range(nv):
-        s = 0.0
-        for j in range(nv):
-            s += X[i, j] * acc[P, j]
-        shifted[i] = s
-    for c in range(d):
-        s = u[e, c]
+def shift_to_parent(body, joint, P, s, nv, nw):
+    """The child's articulated inertia and bias force (the scratch's Ia, pa) carried to its parent's centre and added
+    there (eq. 7.9): I^A_P += X^T Ia X, p^A_P += X^T pa, with X = [[1, B], [0, 1]] (``shift_block``; nw angular
+    components, the first nv - nw linear): Ia X changes only Ia's last nw columns (each plus Ia's linear columns
+    times B), and X^T (Ia X) only the last nw rows. Ia is overwritten by Ia X."""
+    IA, PA, _ = body_rows(nv)
+    B, Ia, pa, _, _ = scratch_rows(nv)
+    n1 = nv - nw
+    for j in range(n1, nv):  # Ia X
         for i in range(nv):
-            s -= U[e, i, c] * shifted[i]
-        x[c, 0] = s
-    solve_joint(L, e, d, x, 1)
+            x = joint[s, Ia + i, j]
+            for a in range(n1):
+                x += joint[s, Ia + i, a] * joint[s, B + a, j - n1]
+            joint[s, Ia + i, j] = x
+    for i in range(n1):  # X^T (Ia X) and X^T pa: the linear rows as they are
+        body[P, PA, i] += joint[s, pa, i]
+        for j in range(nv):
+            body[P, IA + i, j] += joint[s, Ia + i, j]
+    for i in range(n1, nv):  # the angular rows plus B^T times the linear ones
+        x = joint[s, pa, i]
+        for a in range(n1):
+            x += joint[s, B + a, i - n1] * joint[s, pa, a]
+        body[P, PA, i] += x
+        for j in range(nv):
+            x = joint[s, Ia + i, j]
+            for a in range(n1):
+                x += joint[s, B + a, i - n1] * joint[s, Ia + a, j]
+            body[P, IA + i, j] += x
+
+
+@jit
+def child_acceleration(body, joint, P, C, e, d, s, nv, nw):
+    """Pass 2 at joint e (eq. 7.10): A' = X A_P (``shift_block``: the linear part plus B times the angular one; into
+    the scratch's pa), theta''_e = D_e^-1 (u - U^T A') (into its Du), A_C = A' + S_e theta''_e."""
+    _, _, ACC = body_rows(nv)
+    S, U, _, u, _ = joint_rows(nv)
+    B, _, shifted, _, x = scratch_rows(nv)
+    n1 = nv - nw
+    for i in range(n1):
+        a = body[P, ACC, i]
+        for j in range(nw):
+            a += joint[s, B + i, j] * body[P, ACC, n1 + j]
+        joint[s, shifted, i] = a
+    for i in range(n1, nv):
+        joint[s, shifted, i] = body[P, ACC, i]
+    for c in range(d):
+        a = joint[e, u, c]
+        for i in range(nv):
+            a -= joint[e, U + i, c] * joint[s, shifted, i]
+        joint[s, x + c, 0] = a
+    solve_joint(joint, e, d, s, x, 0, nv)
     for i in range(nv):
-        s = shifted[i]
+        a = joint[s, shifted, i]
         for c in range(d):
-            s += S[e, i, c] * x[c, 0]
-        acc[C, i] = s
+            a += joint[e, S + i, c] * joint[s, x + c, 0]
+        body[C, ACC, i] = a
 
 
 def two_passes(nv: int):
     """The two passes for bodies of nv velocity components (3 planar, 6 spatial): nv a constant of the compiled
     code, and a joint's columns d (1, or 3 for a spherical joint) constant in each branch, so that every loop has a
     known length and the compiler writes it out (twice as fast as loops whose length is read at run time)."""
+    nw = 1 if nv == 3 else 3  # the angular components: omega (planar), omega's three (spatial)
 
     @jit
-    def passes(IA, pA, ints, S, links, widths, first, thdd, acc):
-        ne, nb = ints.shape[0], IA.shape[0] - 1
-        joint = np.empty((ne, nv + 4, 3))  # per joint (eq. 7.8): U, D_e's factor L, u (an allocation costs ~20 ns)
-        U, L, u = joint[:, :nv], joint[:, nv : nv + 3], joint[:, nv + 3]
-        scratch = np.empty((2 * nv + 4, nv + 1))  # X, Ia, pa, D_e^-1 (U^T, u)
-        X, Ia, pa, DU = scratch[:nv, :nv], scratch[nv : 2 * nv, :nv], scratch[2 * nv, :nv], scratch[2 * nv + 1 :]
-        pattern = np.empty((nv, 4), dtype=np.int64)  # X's nonzeros: the rows of column j, their count
-        rows, counts = pattern[:, :3], pattern[:, 3]
+    def passes(body, joint, ints, first, thdd):
+        """theta'' (into ``thdd``) from ``body``'s I_b and p_b (``body_rows``; overwritten by I^A, p^A and A) and
+        ``joint``'s S_e and links (``joint_rows``; its last entry the scratch): the caller's work arrays."""
+        ne, nb = ints.shape[0], body.shape[0] - 1
+        _, _, ACC = body_rows(nv)
+        x = scratch_rows(nv)[4]
         for e in range(ne - 1, -1, -1):  # 1. from the leaves to ground
-            P, C, d = ints[e, 1], ints[e, 2], widths[ints[e, 0]]
+            P, C, d = ints[e, 1], ints[e, 2], WIDTHS[ints[e, 0]]
             if P < 0:
                 P = nb
             if d == 1:
-                joint_terms(IA, pA, S, C, e, 1, U, u, L, nv)
-                positive = factor_joint(L, e, 1)
+                joint_terms(body, joint, C, e, 1, nv)
+                positive = factor_joint(joint, e, 1, nv)
                 if positive:
-                    passed_on(IA, pA, U, u, L, C, e, 1, DU, Ia, pa, nv)
+                    passed_on(body, joint, C, e, 1, ne, nv)
             else:
-                joint_terms(IA, pA, S, C, e, 3, U, u, L, nv)
-                positive = factor_joint(L, e, 3)
+                joint_terms(body, joint, C, e, 3, nv)
+                positive = factor_joint(joint, e, 3, nv)
                 if positive:
-                    passed_on(IA, pA, U, u, L, C, e, 3, DU, Ia, pa, nv)
+                    passed_on(body, joint, C, e, 3, ne, nv)
             if not positive:
                 thdd[:] = np.nan
                 return
-            shift_matrix(links, e, X, nv)  # to the parent's centre
-            shift_nonzeros(X, rows, counts, nv)
-            shift_to_parent(X, rows, counts, Ia, pa, IA, pA, P, nv)
-        acc[nb] = 0.0  # 2. from ground to the leaves: A of ground is zero
+            shift_block(joint, e, ne, nv)  # to the parent's centre
+            shift_to_parent(body, joint, P, ne, nv, nw)
+        for i in range(nv):  # 2. from ground to the leaves: A of ground is zero
+            body[nb, ACC, i] = 0.0
         for e in range(ne):
-            P, C, d, at = ints[e, 1], ints[e, 2], widths[ints[e, 0]], ints[e, first]
+            P, C, d, at = ints[e, 1], ints[e, 2], WIDTHS[ints[e, 0]], ints[e, first]
             if P < 0:
                 P = nb
-            shift_matrix(links, e, X, nv)
+            shift_block(joint, e, ne, nv)
             if d == 1:
-                child_acceleration(X, acc, U, u, L, S, P, C, e, 1, pa, DU, nv)
+                child_acceleration(body, joint, P, C, e, 1, ne, nv, nw)
             else:
-                child_acceleration(X, acc, U, u, L, S, P, C, e, 3, pa, DU, nv)
+                child_acceleration(body, joint, P, C, e, 3, ne, nv, nw)
             for c in range(d):
-                thdd[at + c] = DU[c, 0]
+                thdd[at + c] = joint[ne, x + c, 0]
 
     return passes
 
@@ -269,12 +312,22 @@ def articulated_accelerations(IA, pA, ints, S, links, widths, first, thdd, acc):
     IA, pA: every body's inertia I_b and bias force p_b at its centre (nv x nv and nv: nv = 3 planar, 6 spatial),
     nb + 1 of them with ground last (overwritten by the articulated ones); ints: the tree's joints in topological
     order, a row each (kind, parent, child, ...; parent -1 is ground), the joint's first velocity column in column
-    ``first``; widths: the columns of each kind; S (joints x nv x 3): the columns S_e; links (joints x 3): l.
-    (Written as loops over the entries: at 3 x 3 and 6 x 6 a call into BLAS costs more than the arithmetic.) The
-    tree kernels call ``planar_passes`` or ``spatial_passes`` directly (a module compiles only its own); this
-    chooser is for callers in Python."""
-    passes = planar_passes if IA.shape[1] == 3 else spatial_passes
-    passes(IA, pA, ints, S, links, widths, first, thdd, acc)
+    ``first``; widths: the columns of each kind (``WIDTHS``, which the passes read); S (joints x nv x 3): the
+    columns S_e; links (joints x 3): l. (Written as loops over the entries: at 3 x 3 and 6 x 6 a call into BLAS
+    costs more than the arithmetic.) The tree kernels fill the work arrays themselves and call ``planar_passes`` or
+    ``spatial_passes`` directly (a module compiles only its own); this is for callers in Python: it copies the
+    arrays into the work arrays (``sizes``, ``body_rows``, ``joint_rows``) and back."""
+    if not np.array_equal(widths, WIDTHS):
+        raise ValueError(f"widths {widths} differ from the passes' WIDTHS {WIDTHS}")
+    nb, nv, ne = IA.shape[0] - 1, IA.shape[1], ints.shape[0]
+    (I_rows, p_row, a_row), (s_rows, _, _, _, l_row), (body_size, joint_size) = body_rows(nv), joint_rows(nv), sizes(nv)
+    body, joint = np.zeros((nb + 1, body_size, nv)), np.zeros((ne + 1, joint_size, nv))
+    body[:, I_rows : I_rows + nv] = IA
+    body[:, p_row] = pA
+    joint[:ne, s_rows : s_rows + nv, :3] = S
+    joint[:ne, l_row, :3] = links
+    (planar_passes if nv == 3 else spatial_passes)(body, joint, ints, first, thdd)
+    IA[:], pA[:], acc[:] = body[:, I_rows : I_rows + nv], body[:, p_row], body[:, a_row]
 
 
-__all__ = ["articulated_accelerations", "planar_passes", "shift_matrix", "spatial_passes"]
+__all__ = ["WIDTHS", "articulated_accelerations", "body_rows", "joint_rows", "planar_passes", "sizes", "spatial_passes"]

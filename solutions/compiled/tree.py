@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..joint_coordinates import cut_elements, tree_order
+from .articulated import sizes
 from .codegen import (
     constraint_calls,
     force_calls,
@@ -134,31 +135,38 @@ def _owners(system, joints) -> list[int]:
     return [child.get(element.name, -1) for element in system.elements for _ in element.labels]
 
 
-ARRAYS = (
-    ("xi", "a", None), ("Dm", "a * k", "(a, k)"), ("omega", "3 * nb", "(nb, 3)"), ("Q", "n", None),
-    ("power", "3", None), ("q", "n", None), ("qd", "n", None), ("S", "3 * nv * ne", "(ne, nv, 3)"),
-    ("links", "3 * ne", "(ne, 3)"), ("thdd", "k", None), ("mu", "ncut", None),
-    ("acc", "nv * (nb + 1)", "(nb + 1, nv)"),
-)  # fmt: skip
-"""The arrays of every evaluation (name, size, shape): xi and D (eq. 5.44), omega', Q, the powers, q and q', the
-joints' columns S_e and links (``articulated``), theta'', the cut rows' multipliers mu, the bodies' accelerations of
-the articulated pass (an open tree's q'' at the outputs). (D is written only where it is used. Psi, Psi_q, Psi_t,
-gamma, q'' and lambda are made where they are needed: a tree without cut rows needs none of them on the way to
-theta''.)"""
+VECTORS = (("xi", "a"), ("Q", "n"), ("power", "3"), ("q", "n"), ("qd", "n"), ("thdd", "k"), ("mu", "ncut"))
+"""The vectors of every evaluation (name, size), slices of one allocation: xi (eq. 5.44), Q, the powers, q and q',
+theta'', the cut rows' multipliers mu. (Psi, Psi_q, Psi_t, gamma, q'' and lambda are made where they are needed: a
+tree without cut rows needs none of them on the way to theta''.)"""
 
 
 def _arrays(spatial: bool) -> list[str]:
-    """The lines that cut one allocation into the ``ARRAYS`` (an allocation each costs more than the arithmetic of a
-    small tree)."""
+    """The lines that make the work arrays of an evaluation, three allocations (four spatial: omega'): the vectors
+    cut from one (a slice of a vector costs nothing), and two arrays indexed by body or joint and a named row
+    (``articulated.body_rows``, ``joint_rows``; the recursion's rows after the body's, ``tree_kernels.MOTION``
+    and ``SPATIAL_MOTION``), never cut into views: a reshape costs ~20 ns, an allocation ~30 ns, a view handed
+    on ~10 ns, more than a planar joint's arithmetic. D (eq. 5.44) only for cut rows: an open tree's articulated
+    pass never forms it."""
+    nv = 6 if spatial else 3
+    body, joint = sizes(nv)
+    body += 4 if spatial else 3  # the recursion's rows
     lines = [
         f"    nb = n // {7 if spatial else 3}",
-        f"    nv = {6 if spatial else 3}  # a body's velocity: (v, omega) spatial, (v_x, v_y, omega) planar",
+        f"    nv = {nv}  # a body's velocity: (v, omega) spatial, (v_x, v_y, omega) planar",
         "    a = nv * nb  # the rows of xi and D",
-        f"    work = np.empty({' + '.join(size for _, size, _ in ARRAYS)})",
+        f"    vectors = np.empty({' + '.join(size for _, size in VECTORS)})",
         "    at = 0",
     ]
-    for name, size, shape in ARRAYS:
-        lines += [f"    {name} = work[at : at + {size}]{f'.reshape({shape})' if shape else ''}", f"    at += {size}"]
+    for name, size in VECTORS:
+        lines += [f"    {name} = vectors[at : at + {size}]", f"    at += {size}"]
+    lines += [
+        f"    body = np.empty((nb + 1, {body}, nv))  # I^A, p^A, A, the recursion's: ground last",
+        f"    joint = np.empty((ne + 1, {joint}, nv))  # S_e, U, D_e's factor, u, l; the passes' scratch last",
+        "    Dm = np.empty((a, k)) if columns else body[0]  # D (a x k) for the cut rows only; else not read",
+    ]
+    if spatial:
+        lines.append("    omega = np.empty((nb, 3))  # the bodies' omega'")
     return lines
 
 
@@ -171,8 +179,7 @@ def _multipliers(scene: Scene) -> list[str]:
             "if ncut > 0:",
             "    spatial_coordinate_accelerations(q, qd, Dm, xi, omega, thdd, qdd)",
             "else:  # the articulated pass's body accelerations: no D",
-            "    spatial_body_accelerations(q, qd, acc, xi, omega, qdd)",
-            "residual = np.empty(n)",
+            "    spatial_body_accelerations(q, qd, body, xi, omega, qdd)",
             "spatial_mass_residual(q, qd, qdd, masses, inertias, weights, Q, residual)  # Q += Q_v; Q - M q''",
         ]
     else:
@@ -180,21 +187,22 @@ def _multipliers(scene: Scene) -> list[str]:
             "if ncut > 0:",
             "    qdd[:] = Dm @ thdd + xi",
             "else:  # the articulated pass's body accelerations: no D",
-            "    planar_body_accelerations(acc, xi, qdd)",
-            "residual = np.empty(n)",
-            "for coordinate in range(n):  # Q - M q'' (one allocation: the tree's multipliers work in it)",
+            "    planar_body_accelerations(body, xi, qdd)",
+            "for coordinate in range(n):  # Q - M q'' (the tree's multipliers work in it)",
             "    residual[coordinate] = Q[coordinate] - mass[coordinate] * qdd[coordinate]",
         ]
     solve = [
         "for a in range(ncut):  # the cut rows' lambda: mu of the augmented system; the tree's from what is left",
         "    lam[dims[7 + a]] = mu[a]",
-        "cut_row_forces(jac, mu, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], "
+        "if ncut > 0:  # (an open tree: no call, whose arrays cost ~10 ns each to hand on)",
+        "    cut_row_forces(jac, mu, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], "
         f"{7 if scene.dimension == 3 else 3}, residual)",
         "# the tree's rows body by body from the leaves, O(N)",
         f"tree_multipliers(jac, residual, dims[7 + ncut :], {7 if scene.dimension == 3 else 3}, joints, lam)",
     ]
-    both = "outputs = np.empty(n + m)  # q'' and lambda in one allocation"
-    return ["        " + line for line in [both, "qdd, lam = outputs[:n], outputs[n:]", *lines, *solve]]
+    both = "outputs = np.empty(2 * n + m)  # q'', lambda and Q - M q'' in one allocation"
+    cut = "qdd, lam, residual = outputs[:n], outputs[n : n + m], outputs[n + m :]"
+    return ["        " + line for line in [both, cut, *lines, *solve]]
 
 
 def _body(tree: TreeScene) -> list[str]:
@@ -221,19 +229,20 @@ def _body(tree: TreeScene) -> list[str]:
         "    columns = ncut > 0  # D itself: for the cut rows only (an open tree's outputs: the body accelerations)",
         "    whole = full  # lambda of every row (the outputs): D whole, Psi_q at every row's blocks",
         *_arrays(spatial),
-        "    Q[:] = Q0",
-        "    power[:] = 0.0",
+        "    for i in range(n):  # loops, not slice assignments (numba's broadcasting: ~20 ns each)",
+        "        Q[i] = Q0[i]",
+        "    power[0] = power[1] = power[2] = 0.0",
     ]
     if spatial:
         rates = "out[:npos]"  # the rates of the joint positions (Euler parameters: not theta')
         lines.append(
             "    spatial_motion(y[:npos], y[npos : npos + k], joints, joint_floats, nb, k, q, qd, xi, Dm, omega, "
-            f"{rates}, S, links, columns)"
+            f"{rates}, columns, body, joint)"
         )
     else:
         lines.append(
-            "    planar_motion(y[:npos], y[npos : npos + k], joints, joint_floats, nb, k, q, qd, xi, Dm, S, links, "
-            "columns, whole)"
+            "    planar_motion(y[:npos], y[npos : npos + k], joints, joint_floats, nb, k, q, qd, xi, Dm, columns, "
+            "whole, body, joint)"
         )
     lines += force_calls(scene, "    ")
     lines += [
@@ -245,7 +254,8 @@ def _body(tree: TreeScene) -> list[str]:
         "        if out.size == y.size + 3 * n + 3 * m + m * n:  # Psi_q whole, zeros and all (loops.output_history)",
         "            jac[:, :] = 0.0",
         "        else:  # the solves read only the rows' blocks at their bodies: those zeroed alone",
-        f"            zero_cut_blocks(jac, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], {width})",
+        "            if ncut > 0:",
+        f"                zero_cut_blocks(jac, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], {width})",
         "            if whole:  # lambda of every row: the tree rows at their body and its parent (tree_multipliers)",
         f"                zero_tree_blocks(jac, dims[7 + ncut : 7 + ncut + m], joints, {width})",
         *constraint_calls(scene, "        "),
@@ -270,7 +280,7 @@ def _body(tree: TreeScene) -> list[str]:
         "matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], "
         f"numbers[0], numbers[1], mu, joints, {7 if spatial else 3})",
         "    else:  # an open tree: the articulated-body algorithm, O(N)",
-        f"        {equations}_articulated({articulated}, joints, S, links, thdd, acc)",
+        f"        {equations}_articulated({articulated}, joints, thdd, body, joint)",
         "    if full:  # lambda of every row: the outputs",
         *_multipliers(scene),
         "        if dims[5]:  # the drivers' power (eq. 5.61)",
@@ -310,16 +320,21 @@ def generate(tree: TreeScene) -> str:
         "    \"\"\"y' = (the rates of the joint positions, theta''[, P_dissipated, P_applied, P_drivers]); when",
         "    ``out`` is longer than y, after y' q, q', q'' and lambda (Psi_q^T lambda = Q - M q'', normal eq.).\"\"\"",
         *_body(tree),
-        *([] if spatial else ["    out[:npos] = y[npos : npos + k]  # planar: the rates are theta'"]),
-        "    out[npos : npos + k] = thdd",
+        *(
+            []
+            if spatial
+            else ["    for i in range(k):  # planar: the rates are theta'", "        out[i] = y[npos + i]"]
+        ),
+        "    for i in range(k):",
+        "        out[npos + i] = thdd[i]",
         "    if dims[2]:  # the energy balance's three powers",
         "        out[npos + k], out[npos + k + 1], out[npos + k + 2] = power[0], power[1], power[2]",
         "    if full:  # the outputs at this state",
         "        o = y.size",
-        "        out[o : o + n] = q",
-        "        out[o + n : o + 2 * n] = qd",
-        "        out[o + 2 * n : o + 3 * n] = qdd",
-        "        out[o + 3 * n : o + 3 * n + m] = lam",
+        "        for i in range(n):",
+        "            out[o + i], out[o + n + i], out[o + 2 * n + i] = q[i], qd[i], qdd[i]",
+        "        for i in range(m):",
+        "            out[o + 3 * n + i] = lam[i]",
         "",
         "",
         "@njit(CONSTRAINT_ARRAYS_SIGNATURE, cache=True, nogil=True)",

@@ -33,11 +33,9 @@ from numba import njit
 
 from ..joint_coordinates import half_transpose_product, scaled_product
 from ..rotation_matrices import quaternion_product_entries
-from .articulated import planar_passes, spatial_passes
+from .articulated import WIDTHS, body_rows, joint_rows, planar_passes, spatial_passes
 from .kernels import (
-    inertia_times,
     l_entries_jit,
-    l_times,
     lu_solve,
     planar_rotation_entries_jit,
     solve_in_place,
@@ -49,25 +47,36 @@ jit = njit(cache=False, fastmath=False, nogil=True)
 under names that hash this file (numba's cache does not follow a cached function's callees into other files:
 a cached kernel here could keep an old copy of a function it calls from another file)."""
 
+inlined = njit(cache=False, fastmath=False, nogil=True, inline="always")
+"""The steps a right-hand side calls once each (the recursion, the articulated pass, the outputs' q'' and lambda):
+numba writes them into the generated ``scene_rhs`` itself, where a call of a compiled function costs two atomic
+reference counts per array it is handed (~10 ns each: ~50 ns a call at two bodies, a quarter of a planar tree's
+theta'')."""
+
 _half_transpose_product, _scaled_product = jit(half_transpose_product), jit(scaled_product)
 """1/2 M^T w and s M x of a 3 x 4 matrix M (G or L), as the joint coordinates write them (``joint_coordinates``)."""
 
-REVOLUTE, PRISMATIC, SPHERICAL = 0, 1, 2
-WIDTHS = np.array([1, 1, 3])
-"""The velocity columns of a joint of each kind: a revolute joint's angle, a prismatic joint's slide, a spherical
-joint's three rates."""
+REVOLUTE, PRISMATIC, SPHERICAL = 0, 1, 2  # the kinds (``articulated.WIDTHS``: the velocity columns of each)
+MOTION = 5
+"""The rows of a planar body's (x, y, phi), (x', y', phi') and (x'', y'') at theta'' = 0 in ``body``
+(``planar_motion``), after the articulated pass's five (``articulated.body_rows``)."""
 S_PARENT, S_CHILD, AXIS, OFFSET, A, C, U0, U1, FRAME = 0, 3, 6, 9, 10, 14, 18, 22, 26
 WIDTH = 35
 """Columns of a joint's floats (module docstring)."""
 
 
 # -- planar ------------------------------------------------------------------------------------------------
-@jit
-def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, S, links, columns, whole):
-    """q, q', xi (3 nb) of a planar tree (``PlanarTree.motion``), each joint's column S_e (S[e, :, 0]: v_x, v_y,
-    omega) and link l = r_C - r_P (``articulated``); with ``columns``, D (3 nb x k) too: on each body the columns
-    that move it (all a right-hand side reads), and with ``whole`` the zeros of the other columns as well."""
-    body = np.zeros((8, nb + 1))  # x, y, phi, vx, vy, w, ax, ay; ground last
+@inlined
+def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, columns, whole, body, joint):
+    """q, q', xi (3 nb) of a planar tree (``PlanarTree.motion``), each joint's column S_e (v_x, v_y, omega) and link
+    l = r_C - r_P into ``joint`` (``articulated.joint_rows``); with ``columns``, D (3 nb x k) too: on each body the
+    columns that move it (all a right-hand side reads), and with ``whole`` the zeros of the other columns as well.
+    ``body`` (ground last; the caller's work array): each body's (x, y, phi), (x', y', phi') and (x'', y'') at
+    theta'' = 0 on the way from ground, at rows ``MOTION``."""
+    S, _, _, _, LINK = joint_rows(3)
+    r, v, a = MOTION, MOTION + 1, MOTION + 2  # the rows of position, velocity, acceleration
+    for i in range(3):  # ground
+        body[nb, r, i] = body[nb, v, i] = body[nb, a, i] = 0.0
     if columns and whole:
         Dm[:] = 0.0  # a column is nonzero only on the bodies its joint moves
     for e in range(ints.shape[0]):
@@ -75,9 +84,9 @@ def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, S, links, col
         if P < 0:
             P = nb
         revolute = ints[e, 0] == REVOLUTE
-        body[2, Cb] = body[2, P] + (theta[c] if revolute else floats[e, OFFSET])
-        cp, _, sp, _ = planar_rotation_entries_jit(body[2, P])  # A_P, A_C (eq. 2.2)
-        cc, _, sc, _ = planar_rotation_entries_jit(body[2, Cb])
+        body[Cb, r, 2] = body[P, r, 2] + (theta[c] if revolute else floats[e, OFFSET])
+        cp, _, sp, _ = planar_rotation_entries_jit(body[P, r, 2])  # A_P, A_C (eq. 2.2)
+        cc, _, sc, _ = planar_rotation_entries_jit(body[Cb, r, 2])
         spx, spy, scx, scy = floats[e, S_PARENT], floats[e, S_PARENT + 1], floats[e, S_CHILD], floats[e, S_CHILD + 1]
         rcx, rcy = cc * scx - sc * scy, sc * scx + cc * scy  # rho_C = A_C s_C'
         ux = uy = s = sd = w_rel = 0.0
@@ -89,20 +98,19 @@ def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, S, links, col
             s, sd = theta[c], rate[c]
         ex, ey = cp * spx - sp * spy + s * ux, sp * spx + cp * spy + s * uy  # rho_P + d
         lx, ly = ex - rcx, ey - rcy  # the link
-        body[0, Cb], body[1, Cb] = body[0, P] + lx, body[1, P] + ly
-        wp = body[5, P]
+        body[Cb, r, 0], body[Cb, r, 1] = body[P, r, 0] + lx, body[P, r, 1] + ly
+        wp = body[P, v, 2]
         wc = wp + w_rel
-        body[5, Cb] = wc
-        body[3, Cb] = body[3, P] - wp * ly + ux * sd + w_rel * rcy
-        body[4, Cb] = body[4, P] + wp * lx + uy * sd - w_rel * rcx
-        body[6, Cb] = body[6, P] - wp * wp * ex + wc * wc * rcx - 2.0 * wp * sd * uy
-        body[7, Cb] = body[7, P] - wp * wp * ey + wc * wc * rcy + 2.0 * wp * sd * ux
-        S[e] = 0.0
-        links[e, 0], links[e, 1], links[e, 2] = lx, ly, 0.0
-        if revolute:
-            S[e, 0, 0], S[e, 1, 0], S[e, 2, 0] = rcy, -rcx, 1.0
+        body[Cb, v, 2] = wc
+        body[Cb, v, 0] = body[P, v, 0] - wp * ly + ux * sd + w_rel * rcy
+        body[Cb, v, 1] = body[P, v, 1] + wp * lx + uy * sd - w_rel * rcx
+        body[Cb, a, 0] = body[P, a, 0] - wp * wp * ex + wc * wc * rcx - 2.0 * wp * sd * uy
+        body[Cb, a, 1] = body[P, a, 1] - wp * wp * ey + wc * wc * rcy + 2.0 * wp * sd * ux
+        joint[e, LINK, 0], joint[e, LINK, 1], joint[e, LINK, 2] = lx, ly, 0.0
+        if revolute:  # S_e: (rho_C rotated by -90 degrees, 1) or (u, 0)
+            joint[e, S, 0], joint[e, S + 1, 0], joint[e, S + 2, 0] = rcy, -rcx, 1.0
         else:
-            S[e, 0, 0], S[e, 1, 0] = ux, uy
+            joint[e, S, 0], joint[e, S + 1, 0], joint[e, S + 2, 0] = ux, uy, 0.0
         if columns:  # D_C = D_P + R90 l (angle row of D_P) over the parent's columns, then the joint's own
             i, j = 3 * Cb, 3 * ints[e, 1]
             for g in range(ints[e, 5] - 1):  # the columns that move the parent (none at ground)
@@ -110,26 +118,30 @@ def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, S, links, col
                 Dm[i, col] = Dm[j, col] - ly * Dm[j + 2, col]
                 Dm[i + 1, col] = Dm[j + 1, col] + lx * Dm[j + 2, col]
                 Dm[i + 2, col] = Dm[j + 2, col]
-            Dm[i, c], Dm[i + 1, c], Dm[i + 2, c] = S[e, 0, 0], S[e, 1, 0], S[e, 2, 0]
+            Dm[i, c], Dm[i + 1, c], Dm[i + 2, c] = joint[e, S, 0], joint[e, S + 1, 0], joint[e, S + 2, 0]
     for b in range(nb):
-        for r in range(3):
-            q[3 * b + r] = body[r, b]
-            qd[3 * b + r] = body[3 + r, b]
-        xi[3 * b], xi[3 * b + 1], xi[3 * b + 2] = body[6, b], body[7, b], 0.0
+        for i in range(3):
+            q[3 * b + i] = body[b, r, i]
+            qd[3 * b + i] = body[b, v, i]
+        xi[3 * b], xi[3 * b + 1], xi[3 * b + 2] = body[b, a, 0], body[b, a, 1], 0.0
 
 
-@jit
-def planar_articulated(mass, xi, Q, ints, S, links, thdd, acc):
+@inlined
+def planar_articulated(mass, xi, Q, ints, thdd, body, joint):
     """theta'' of an open planar tree in O(N) (``articulated``): the bodies' I_b = diag(m, m, J) and bias forces
-    p_b = M_b xi_b - Q_b (no gyroscopic term in the plane); the bodies' accelerations D theta'' in ``acc``."""
+    p_b = M_b xi_b - Q_b (no gyroscopic term in the plane) into ``body`` (ground last), whose rows ACC get the
+    bodies' accelerations D theta''; ``joint`` holds S_e and the links (``planar_motion``). Both the caller's work
+    arrays (``articulated.body_rows``, ``joint_rows``): no allocation here."""
     nb = mass.size // 3
-    bodies = np.zeros((nb + 1, 4, 3))  # one allocation (and no reshape: ~20 ns each): IA, pA
-    IA, pA = bodies[:, :3], bodies[:, 3]
+    IA, PA, _ = body_rows(3)
     for b in range(nb):
         for r in range(3):
-            IA[b, r, r] = mass[3 * b + r]
-            pA[b, r] = mass[3 * b + r] * xi[3 * b + r] - Q[3 * b + r]
-    planar_passes(IA, pA, ints, S, links, WIDTHS, 3, thdd, acc)
+            for c in range(3):
+                body[b, IA + r, c] = mass[3 * b + r] if r == c else 0.0
+            body[b, PA, r] = mass[3 * b + r] * xi[3 * b + r] - Q[3 * b + r]
+    for r in range(3):  # ground
+        body[nb, PA, r] = body[nb, IA + r, 0] = body[nb, IA + r, 1] = body[nb, IA + r, 2] = 0.0
+    planar_passes(body, joint, ints, 3, thdd)
 
 
 @jit
@@ -181,14 +193,6 @@ def _rotate_back(R, v0, v1, v2):
 
 _qmul = jit(quaternion_product_entries)
 """The quaternion product a b entry by entry (``rotation_matrices.quaternion_product_entries``)."""
-
-
-@jit
-def _rotation9(e0, e1, e2, e3, R):
-    """A(p) of unit Euler parameters row by row (eq. 8.12), as ``joint_coordinates.rotation9``."""
-    entries = unit_rotation_entries_jit(e0, e1, e2, e3)
-    for k in range(9):
-        R[k] = entries[k]
 
 
 @jit
@@ -252,23 +256,52 @@ def _relative_omega(kind, f, AC, rate, c, h):
     return wr0, wr1, wr2
 
 
+POSITION, VELOCITY, OMEGA, ACCELERATION, ALPHA = 0, 1, 2, 3, 4
+SPATIAL_MOTION = 8
+"""The rows of a spatial body's recursion in ``body``, after the articulated pass's eight (``articulated.body_rows``):
+its global r, v, omega, a and alpha with theta'' = 0 two to a row (``_vector``), then its Euler parameters p."""
+
+
 @jit
-def _child_motion(vec, P, Cb, e_p, rc, h, w_rel, sd, prismatic):
-    """The child's r, v, omega, alpha and a with theta'' = 0 from its parent's (vec rows r, v, w, acc, alpha):
-    e_P and rho_C the joint point from either centre, h, w_rel and s' the joint's axis and rates (module
-    docstring of ``joint_coordinates.py``). Returns the link e_P - rho_C."""
+def _vector(body, b, which):
+    """Body b's global 3-vector ``which`` (POSITION, VELOCITY, OMEGA, ACCELERATION, ALPHA) of the recursion."""
+    row, col = SPATIAL_MOTION + which // 2, 3 * (which % 2)
+    return body[b, row, col], body[b, row, col + 1], body[b, row, col + 2]
+
+
+@jit
+def _set_vector(body, b, which, x0, x1, x2):
+    row, col = SPATIAL_MOTION + which // 2, 3 * (which % 2)
+    body[b, row, col], body[b, row, col + 1], body[b, row, col + 2] = x0, x1, x2
+
+
+@jit
+def _body_rotation(body, b):
+    """A(p) of body b (eq. 8.12) row by row from its Euler parameters in ``body`` (ground: p = (1, 0, 0, 0), A = I)."""
+    row = SPATIAL_MOTION + 3
+    return unit_rotation_entries_jit(body[b, row, 0], body[b, row, 1], body[b, row, 2], body[b, row, 3])
+
+
+@jit
+def _child_motion(body, P, Cb, e_p, rc, h, w_rel, sd, prismatic):
+    """The child's r, v, omega, alpha and a with theta'' = 0 from its parent's (``_vector``): e_P and rho_C the
+    joint point from either centre, h, w_rel and s' the joint's axis and rates (module docstring of
+    ``joint_coordinates.py``). Returns the link e_P - rho_C."""
     ep0, ep1, ep2 = e_p
     rc0, rc1, rc2 = rc
-    wp0, wp1, wp2 = vec[2, P, 0], vec[2, P, 1], vec[2, P, 2]
-    al0, al1, al2 = vec[4, P, 0], vec[4, P, 1], vec[4, P, 2]
+    wp0, wp1, wp2 = _vector(body, P, OMEGA)
+    al0, al1, al2 = _vector(body, P, ALPHA)
+    r0, r1, r2 = _vector(body, P, POSITION)
+    v0, v1, v2 = _vector(body, P, VELOCITY)
+    a0, a1, a2 = _vector(body, P, ACCELERATION)
     l0, l1, l2 = ep0 - rc0, ep1 - rc1, ep2 - rc2  # the link
-    vec[0, Cb, 0], vec[0, Cb, 1], vec[0, Cb, 2] = vec[0, P, 0] + l0, vec[0, P, 1] + l1, vec[0, P, 2] + l2
+    _set_vector(body, Cb, POSITION, r0 + l0, r1 + l1, r2 + l2)
     x0, x1, x2 = _cross(wp0, wp1, wp2, l0, l1, l2)
-    vc0, vc1, vc2 = vec[1, P, 0] + x0, vec[1, P, 1] + x1, vec[1, P, 2] + x2
+    vc0, vc1, vc2 = v0 + x0, v1 + x1, v2 + x2
     x0, x1, x2 = _cross(al0, al1, al2, ep0, ep1, ep2)
     y0, y1, y2 = _cross(wp0, wp1, wp2, ep0, ep1, ep2)
     y0, y1, y2 = _cross(wp0, wp1, wp2, y0, y1, y2)
-    ac0, ac1, ac2 = vec[3, P, 0] + x0 + y0, vec[3, P, 1] + x1 + y1, vec[3, P, 2] + x2 + y2
+    ac0, ac1, ac2 = a0 + x0 + y0, a1 + x1 + y1, a2 + x2 + y2
     if prismatic:
         h0, h1, h2 = h
         wc0, wc1, wc2, ac_0, ac_1, ac_2 = wp0, wp1, wp2, al0, al1, al2
@@ -282,130 +315,161 @@ def _child_motion(vec, P, Cb, e_p, rc, h, w_rel, sd, prismatic):
         ac_0, ac_1, ac_2 = al0 + x0, al1 + x1, al2 + x2
         x0, x1, x2 = _cross(rc0, rc1, rc2, wr0, wr1, wr2)
         vc0, vc1, vc2 = vc0 + x0, vc1 + x1, vc2 + x2
-    vec[1, Cb, 0], vec[1, Cb, 1], vec[1, Cb, 2] = vc0, vc1, vc2
-    vec[2, Cb, 0], vec[2, Cb, 1], vec[2, Cb, 2] = wc0, wc1, wc2
-    vec[4, Cb, 0], vec[4, Cb, 1], vec[4, Cb, 2] = ac_0, ac_1, ac_2
+    _set_vector(body, Cb, VELOCITY, vc0, vc1, vc2)
+    _set_vector(body, Cb, OMEGA, wc0, wc1, wc2)
+    _set_vector(body, Cb, ALPHA, ac_0, ac_1, ac_2)
     x0, x1, x2 = _cross(ac_0, ac_1, ac_2, rc0, rc1, rc2)
     y0, y1, y2 = _cross(wc0, wc1, wc2, rc0, rc1, rc2)
     y0, y1, y2 = _cross(wc0, wc1, wc2, y0, y1, y2)
-    vec[3, Cb, 0], vec[3, Cb, 1], vec[3, Cb, 2] = ac0 - (x0 + y0), ac1 - (x1 + y1), ac2 - (x2 + y2)
+    _set_vector(body, Cb, ACCELERATION, ac0 - (x0 + y0), ac1 - (x1 + y1), ac2 - (x2 + y2))
     return l0, l1, l2
 
 
 @jit
-def _joint_columns(kind, rc, h, AC, f, S):
-    """The joint's own columns S_e (v, omega, global; ``articulated``): revolute (rho_C x h, h), prismatic (h, 0),
-    spherical (rho_C x x_n, x_n) about the child's joint axes x_n = A_C f, g, h."""
+def _joint_columns(kind, rc, h, AC, f, joint, e):
+    """The joint's own columns S_e (v, omega, global; ``articulated``), into ``joint`` (``articulated.joint_rows``):
+    revolute (rho_C x h, h), prismatic (h, 0), spherical (rho_C x x_n, x_n) about the child's joint axes x_n = A_C
+    f, g, h."""
     rc0, rc1, rc2 = rc
-    S[:] = 0.0
+    S = joint_rows(6)[0]
+    for r in range(6):
+        for n in range(3):
+            joint[e, S + r, n] = 0.0
     if kind == REVOLUTE:
-        S[0, 0], S[1, 0], S[2, 0] = _cross(rc0, rc1, rc2, h[0], h[1], h[2])
-        S[3, 0], S[4, 0], S[5, 0] = h
+        joint[e, S, 0], joint[e, S + 1, 0], joint[e, S + 2, 0] = _cross(rc0, rc1, rc2, h[0], h[1], h[2])
+        joint[e, S + 3, 0], joint[e, S + 4, 0], joint[e, S + 5, 0] = h
     elif kind == PRISMATIC:
-        S[0, 0], S[1, 0], S[2, 0] = h
+        joint[e, S, 0], joint[e, S + 1, 0], joint[e, S + 2, 0] = h
     else:
         for n in range(3):
             x0, x1, x2 = _rotate(AC, f[FRAME + 3 * n], f[FRAME + 3 * n + 1], f[FRAME + 3 * n + 2])
-            S[0, n], S[1, n], S[2, n] = _cross(rc0, rc1, rc2, x0, x1, x2)
-            S[3, n], S[4, n], S[5, n] = x0, x1, x2
+            joint[e, S, n], joint[e, S + 1, n], joint[e, S + 2, n] = _cross(rc0, rc1, rc2, x0, x1, x2)
+            joint[e, S + 3, n], joint[e, S + 4, n], joint[e, S + 5, n] = x0, x1, x2
 
 
 @jit
-def _child_columns(Dv, Dw, P, Cb, kind, c, link, S):
+def _child_columns(Dv, Dw, P, Cb, kind, c, link, joint, e):
     """The child's columns of D (v, omega, global): its parent's moved by omega x l, then the joint's own S_e."""
     l0, l1, l2 = link
+    S = joint_rows(6)[0]
     for col in range(Dv.shape[1]):
         x0, x1, x2 = _cross(l0, l1, l2, Dw[P, col, 0], Dw[P, col, 1], Dw[P, col, 2])
         Dv[Cb, col, 0], Dv[Cb, col, 1], Dv[Cb, col, 2] = Dv[P, col, 0] - x0, Dv[P, col, 1] - x1, Dv[P, col, 2] - x2
         Dw[Cb, col, 0], Dw[Cb, col, 1], Dw[Cb, col, 2] = Dw[P, col, 0], Dw[P, col, 1], Dw[P, col, 2]
     for n in range(3 if kind == SPHERICAL else 1):
         for r in range(3):
-            Dv[Cb, c + n, r], Dw[Cb, c + n, r] = S[r, n], S[3 + r, n]
+            Dv[Cb, c + n, r], Dw[Cb, c + n, r] = joint[e, S + r, n], joint[e, S + 3 + r, n]
 
 
 @jit
-def _spatial_outputs(vec, p, R, Dv, Dw, q, qd, xi, Dm, omega):
-    """q, q' = (r', 1/2 L(p)^T omega'), xi = (a, A^T alpha), D = (v, A^T omega) per column and omega' = A^T
-    omega of every body from the recursion's global vectors (eq. 8.17)."""
-    nb, k = omega.shape[0], Dv.shape[1]
-    for b in range(nb):
-        Rb = R[b]
-        o0, o1, o2 = _rotate_back(Rb, vec[2, b, 0], vec[2, b, 1], vec[2, b, 2])  # omega' = A^T omega
+def _spatial_outputs(body, q, qd, xi, omega):
+    """q, q' = (r', 1/2 L(p)^T omega'), xi = (a, A^T alpha) and omega' = A^T omega of every body from the recursion's
+    global vectors (eq. 8.17)."""
+    P_ROW = SPATIAL_MOTION + 3
+    for b in range(omega.shape[0]):
+        Rb = _body_rotation(body, b)
+        w0, w1, w2 = _vector(body, b, OMEGA)
+        o0, o1, o2 = _rotate_back(Rb, w0, w1, w2)  # omega' = A^T omega
         omega[b, 0], omega[b, 1], omega[b, 2] = o0, o1, o2
-        for r in range(3):
-            q[7 * b + r] = vec[0, b, r]
-            qd[7 * b + r] = vec[1, b, r]
-            xi[6 * b + r] = vec[3, b, r]
+        q[7 * b], q[7 * b + 1], q[7 * b + 2] = _vector(body, b, POSITION)
+        qd[7 * b], qd[7 * b + 1], qd[7 * b + 2] = _vector(body, b, VELOCITY)
+        xi[6 * b], xi[6 * b + 1], xi[6 * b + 2] = _vector(body, b, ACCELERATION)
         for r in range(4):
-            q[7 * b + 3 + r] = p[b, r]
+            q[7 * b + 3 + r] = body[b, P_ROW, r]
         qd[7 * b + 3], qd[7 * b + 4], qd[7 * b + 5], qd[7 * b + 6] = _half_l_transpose(
-            p[b, 0], p[b, 1], p[b, 2], p[b, 3], o0, o1, o2
+            body[b, P_ROW, 0], body[b, P_ROW, 1], body[b, P_ROW, 2], body[b, P_ROW, 3], o0, o1, o2
         )
-        xi[6 * b + 3], xi[6 * b + 4], xi[6 * b + 5] = _rotate_back(Rb, vec[4, b, 0], vec[4, b, 1], vec[4, b, 2])
+        al0, al1, al2 = _vector(body, b, ALPHA)
+        xi[6 * b + 3], xi[6 * b + 4], xi[6 * b + 5] = _rotate_back(Rb, al0, al1, al2)
+
+
+@jit
+def _spatial_columns(ints, nb, k, body, joint, Dm):
+    """D (6 nb x k: v and omega' per joint velocity) from the joints' S_e and links of the recursion (``joint``):
+    each child's columns its parent's moved by omega x l, then its joint's own (``_child_columns``); omega turned
+    to the body frame, omega' = A^T omega (eq. 8.17). Only for cut rows: an open tree's passes never form D."""
+    D = np.zeros((2, nb + 1, k, 3))  # v and omega of every column at every body, global; ground last
+    Dv, Dw = D[0], D[1]
+    LINK = joint_rows(6)[4]
+    for e in range(ints.shape[0]):
+        kind, P, Cb, c = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 4]
+        if P < 0:
+            P = nb
+        link = joint[e, LINK, 0], joint[e, LINK, 1], joint[e, LINK, 2]
+        _child_columns(Dv, Dw, P, Cb, kind, c, link, joint, e)
+    for b in range(nb):
+        Rb = _body_rotation(body, b)
         for col in range(k):
             Dm[6 * b, col], Dm[6 * b + 1, col], Dm[6 * b + 2, col] = Dv[b, col, 0], Dv[b, col, 1], Dv[b, col, 2]
             x0, x1, x2 = _rotate_back(Rb, Dw[b, col, 0], Dw[b, col, 1], Dw[b, col, 2])
             Dm[6 * b + 3, col], Dm[6 * b + 4, col], Dm[6 * b + 5, col] = x0, x1, x2
 
 
-@jit
-def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates, S, links, columns):
+@inlined
+def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates, columns, body, joint):
     """q, q' (7 nb), xi (6 nb: a and the body-frame alpha'), omega' (nb x 3), the rates of the joints' position
-    coordinates (``SpatialTree.motion``), each joint's columns S_e and link l (``articulated``); with ``columns``,
-    D (6 nb x k: v and omega' per joint velocity) too."""
-    k_d = k if columns else 0
-    size = (nb + 1) * (15 + 4 + 9 + 6 * k_d)
-    work = np.zeros(size)  # one allocation, cut into: r, v, w, acc, alpha (global), p, A, D; ground last
-    vec = work[: 15 * (nb + 1)].reshape((5, nb + 1, 3))
-    p = work[15 * (nb + 1) : 19 * (nb + 1)].reshape((nb + 1, 4))
-    R = work[19 * (nb + 1) : 28 * (nb + 1)].reshape((nb + 1, 9))
-    Dv = work[28 * (nb + 1) : (28 + 3 * k_d) * (nb + 1)].reshape((nb + 1, k_d, 3))
-    Dw = work[(28 + 3 * k_d) * (nb + 1) :].reshape((nb + 1, k_d, 3))
-    p[nb, 0] = 1.0
-    R[nb, 0] = R[nb, 4] = R[nb, 8] = 1.0
+    coordinates (``SpatialTree.motion``), each joint's columns S_e and link l (into ``joint``,
+    ``articulated.joint_rows``); with ``columns``, D (6 nb x k: v and omega' per joint velocity) too. The
+    recursion's global vectors and Euler parameters in ``body``'s rows from ``SPATIAL_MOTION`` (the caller's work
+    array: no allocation on an open tree's way)."""
+    for which in range(5):  # ground: at rest at the origin, p = (1, 0, 0, 0)
+        _set_vector(body, nb, which, 0.0, 0.0, 0.0)
+    P_ROW = SPATIAL_MOTION + 3
+    body[nb, P_ROW, 0], body[nb, P_ROW, 1], body[nb, P_ROW, 2], body[nb, P_ROW, 3] = 1.0, 0.0, 0.0, 0.0
+    LINK = joint_rows(6)[4]
     for e in range(ints.shape[0]):
         kind, P, Cb, at, c = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3], ints[e, 4]
         if P < 0:
             P = nb
         f = floats[e]
-        (j0, j1, j2, j3), h, sd, e_p = _spatial_joint(kind, f, R[P], theta, rate, rates, at, c)
-        p[Cb, 0], p[Cb, 1], p[Cb, 2], p[Cb, 3] = _qmul(p[P, 0], p[P, 1], p[P, 2], p[P, 3], j0, j1, j2, j3)
-        _rotation9(p[Cb, 0], p[Cb, 1], p[Cb, 2], p[Cb, 3], R[Cb])
-        AC = R[Cb]
+        (j0, j1, j2, j3), h, sd, e_p = _spatial_joint(kind, f, _body_rotation(body, P), theta, rate, rates, at, c)
+        p0, p1, p2, p3 = _qmul(
+            body[P, P_ROW, 0], body[P, P_ROW, 1], body[P, P_ROW, 2], body[P, P_ROW, 3], j0, j1, j2, j3
+        )
+        body[Cb, P_ROW, 0], body[Cb, P_ROW, 1], body[Cb, P_ROW, 2], body[Cb, P_ROW, 3] = p0, p1, p2, p3
+        AC = _body_rotation(body, Cb)
         w_rel = _relative_omega(kind, f, AC, rate, c, h)
         rc = _rotate(AC, f[S_CHILD], f[S_CHILD + 1], f[S_CHILD + 2])
-        link = _child_motion(vec, P, Cb, e_p, rc, h, w_rel, sd, kind == PRISMATIC)
-        links[e, 0], links[e, 1], links[e, 2] = link
-        _joint_columns(kind, rc, h, AC, f, S[e])
-        if columns:
-            _child_columns(Dv, Dw, P, Cb, kind, c, link, S[e])
-    _spatial_outputs(vec, p, R, Dv, Dw, q, qd, xi, Dm, omega)
+        link = _child_motion(body, P, Cb, e_p, rc, h, w_rel, sd, kind == PRISMATIC)
+        joint[e, LINK, 0], joint[e, LINK, 1], joint[e, LINK, 2] = link
+        _joint_columns(kind, rc, h, AC, f, joint, e)
+    _spatial_outputs(body, q, qd, xi, omega)
+    if columns:
+        _spatial_columns(ints, nb, k, body, joint, Dm)
 
 
-@jit
-def spatial_articulated(masses, inertias, q, xi, omega, Q, ints, S, links, thdd, acc):
+@inlined
+def spatial_articulated(masses, inertias, q, xi, omega, Q, ints, thdd, body, joint):
     """theta'' of an open spatial tree in O(N) (``articulated``): I_b = diag(m I, A J' A^T) and the bias force p_b
-    = -(the body force f of ``body_force``, its torque turned to global axes by A); the bodies' accelerations
-    D theta'' (a, and omega'' in global axes) in ``acc``."""
-    nb = masses.size
-    bodies, scratch = np.zeros((nb + 1, 7, 6)), np.empty(15)  # IA, pA; a body's force and rotation
-    IA, pA, force, R = bodies[:, :6], bodies[:, 6], scratch[:6], scratch[6:]
+    = -(the body force f of ``body_force``, its torque turned to global axes by A) into ``body`` (ground last),
+    whose rows ACC get the bodies' accelerations D theta'' (a, and omega'' in global axes); ``joint`` holds S_e and
+    the links (``spatial_motion``). Both the caller's work arrays (``articulated.body_rows``, ``joint_rows``)."""
+    nb, ne = masses.size, ints.shape[0]
+    IA, PA, _ = body_rows(6)
+    force = joint[ne, 0]  # a body's force: the passes' scratch, free until they start
     for b in range(nb):
         J, o = inertias[b], 7 * b
         body_force(masses[b], J, q, xi, omega, Q, b, force)
-        _rotation9(q[o + 3], q[o + 4], q[o + 5], q[o + 6], R)
+        R = unit_rotation_entries_jit(q[o + 3], q[o + 4], q[o + 5], q[o + 6])  # A (eq. 8.12), row by row
         t0, t1, t2 = _rotate(R, force[3], force[4], force[5])
+        for r in range(6):
+            for c in range(6):
+                body[b, IA + r, c] = 0.0
         for r in range(3):
-            IA[b, r, r] = masses[b]
-            pA[b, r] = -force[r]
-        pA[b, 3], pA[b, 4], pA[b, 5] = -t0, -t1, -t2
+            body[b, IA + r, r] = masses[b]
+            body[b, PA, r] = -force[r]
+        body[b, PA, 3], body[b, PA, 4], body[b, PA, 5] = -t0, -t1, -t2
         for c in range(3):  # A J' A^T, column by column
             x0, x1, x2 = _rotate(R, J[0, c], J[1, c], J[2, c])  # A J' e_c
-            IA[b, 3, 3 + c], IA[b, 4, 3 + c], IA[b, 5, 3 + c] = x0, x1, x2
+            body[b, IA + 3, 3 + c], body[b, IA + 4, 3 + c], body[b, IA + 5, 3 + c] = x0, x1, x2
         for r in range(3):  # (A J') A^T, row by row: A times the row
-            row = IA[b, 3 + r, 3:]
-            row[0], row[1], row[2] = _rotate(R, row[0], row[1], row[2])
-    spatial_passes(IA, pA, ints, S, links, WIDTHS, 4, thdd, acc)
+            x0, x1, x2 = _rotate(R, body[b, IA + 3 + r, 3], body[b, IA + 3 + r, 4], body[b, IA + 3 + r, 5])
+            body[b, IA + 3 + r, 3], body[b, IA + 3 + r, 4], body[b, IA + 3 + r, 5] = x0, x1, x2
+    for r in range(6):  # ground
+        body[nb, PA, r] = 0.0
+        for c in range(6):
+            body[nb, IA + r, c] = 0.0
+    spatial_passes(body, joint, ints, 4, thdd)
 
 
 @jit
@@ -488,7 +552,7 @@ def spatial_joint_matrix(q, Dm, out):
                 out[o + 3 + r, col] = x[r]
 
 
-@jit
+@inlined
 def tree_multipliers(jac, residual, owners, width, ints, lam):
     """lambda of an open tree from Psi_q^T lambda = r (r = Q - M q''), body by body from the leaves (the joints in
     reverse topological order): a body's columns meet only the rows it owns (its joint to its parent, its
@@ -515,12 +579,11 @@ def tree_multipliers(jac, residual, owners, width, ints, lam):
     most = 0
     for b in range(nb):
         most = max(most, start[b + 1] - start[b])
-    work = np.empty(most * most + most)  # A A^T and A r of a body, then its lambda in place of A r
+    G = np.empty((most + 1, most))  # A A^T of a body in its first count rows and columns; A r in the last row
     for e in range(ints.shape[0] - 1, -1, -1):
         P, C = ints[e, 1], ints[e, 2]
         first, count = start[C], start[C + 1] - start[C]
-        G = work[: count * count].reshape((count, count))  # A A^T and A r, A = the body's own rows on its columns
-        x = work[count * count : count * count + count]
+        x = G[most, :count]  # A r, then the body's lambda in its place (no reshape: ~20 ns a body)
         for a in range(count):  # by loops: at most 7 x 7, where a BLAS call costs more than the products
             row = mine[first + a]
             x[a] = 0.0
@@ -530,7 +593,7 @@ def tree_multipliers(jac, residual, owners, width, ints, lam):
                 G[a, other] = 0.0
                 for c in range(width * C, width * (C + 1)):
                     G[a, other] += jac[row, c] * jac[mine[first + other], c]
-        solve_in_place(G, x)
+        solve_in_place(G, x)  # reads G's first count rows and columns alone
         for a in range(count):
             row = mine[first + a]
             lam[row] = x[a]
@@ -539,7 +602,7 @@ def tree_multipliers(jac, residual, owners, width, ints, lam):
                     r[c] -= x[a] * jac[row, c]
 
 
-@jit
+@inlined
 def zero_tree_blocks(jac, owners, ints, width):
     """Zeros in the entries of Psi_q that ``tree_multipliers`` reads: each tree row (``owners``: its body, -1 a cut
     row) at the coordinates of its body and of that body's parent (-1 ground), where the constraint kernels add their
@@ -569,28 +632,29 @@ def cut_row_forces(jac, mu, rows, bodies, width, residual):
                     residual[c] -= mu[a] * jac[rows[a], c]
 
 
-@jit
-def planar_body_accelerations(acc, xi, qdd):
-    """q'' = D theta'' + xi of a planar tree from the bodies' accelerations of the articulated pass (``acc``: D
-    theta'' per body, (x'', y'', phi'') at its centre): no D formed."""
+@inlined
+def planar_body_accelerations(body, xi, qdd):
+    """q'' = D theta'' + xi of a planar tree from the bodies' accelerations of the articulated pass (``body``'s rows
+    ACC: D theta'' per body, (x'', y'', phi'') at its centre): no D formed."""
+    ACC = body_rows(3)[2]
     for b in range(xi.size // 3):
         for r in range(3):
-            qdd[3 * b + r] = acc[b, r] + xi[3 * b + r]
+            qdd[3 * b + r] = body[b, ACC, r] + xi[3 * b + r]
 
 
-@jit
-def spatial_body_accelerations(q, qd, acc, xi, omega, qdd):
-    """q'' = (r'', p'') of a spatial tree from the bodies' accelerations of the articulated pass (``acc``: a and
-    the angular acceleration of D theta'' in global axes) and xi (a, A^T alpha): r'' = a + xi_a, the body-frame
-    angular acceleration w = A^T (D theta'')_alpha + xi_alpha, p'' = 1/2 L(p)^T w + 1/2 L(p')^T omega' (eq. 8.17;
-    ``spatial_coordinate_accelerations`` without D)."""
-    R = np.empty(9)
+@inlined
+def spatial_body_accelerations(q, qd, body, xi, omega, qdd):
+    """q'' = (r'', p'') of a spatial tree from the bodies' accelerations of the articulated pass (``body``'s rows
+    ACC: a and the angular acceleration of D theta'' in global axes) and xi (a, A^T alpha): r'' = a + xi_a, the
+    body-frame angular acceleration w = A^T (D theta'')_alpha + xi_alpha, p'' = 1/2 L(p)^T w + 1/2 L(p')^T omega'
+    (eq. 8.17; ``spatial_coordinate_accelerations`` without D)."""
+    ACC = body_rows(6)[2]
     for b in range(omega.shape[0]):
         o = 7 * b
-        _rotation9(q[o + 3], q[o + 4], q[o + 5], q[o + 6], R)
+        R = unit_rotation_entries_jit(q[o + 3], q[o + 4], q[o + 5], q[o + 6])  # A (eq. 8.12), row by row
         for r in range(3):
-            qdd[o + r] = acc[b, r] + xi[6 * b + r]
-        w0, w1, w2 = _rotate_back(R, acc[b, 3], acc[b, 4], acc[b, 5])
+            qdd[o + r] = body[b, ACC, r] + xi[6 * b + r]
+        w0, w1, w2 = _rotate_back(R, body[b, ACC, 3], body[b, ACC, 4], body[b, ACC, 5])
         x = _half_l_transpose(q[o + 3], q[o + 4], q[o + 5], q[o + 6], w0 + xi[6 * b + 3], w1 + xi[6 * b + 4],
                               w2 + xi[6 * b + 5])  # fmt: skip
         y = _half_l_transpose(qd[o + 3], qd[o + 4], qd[o + 5], qd[o + 6], omega[b, 0], omega[b, 1], omega[b, 2])
@@ -598,41 +662,47 @@ def spatial_body_accelerations(q, qd, acc, xi, omega, qdd):
             qdd[o + 3 + r] = x[r] + y[r]
 
 
-@jit
-def _l_fill(p, out):
-    """L(p) (eq. 8.14) into out (3 x 4)."""
-    entries = l_entries_jit(p[0], p[1], p[2], p[3])
-    for r in range(3):
-        for c in range(4):
-            out[r, c] = entries[4 * r + c]
-
-
-@jit
+@inlined
 def spatial_mass_residual(q, qd, qdd, masses, inertias, weights, Q, residual):
     """Q += Q_v = 8 L(p')^T J' L(p') p (eq. 10.5) and residual = Q - M q'' body by body, M_b = diag(m I, 4 L^T J' L
     + 4 w p p^T) (eq. 10.4, regularized as ``dynamic_mass_matrix``): ``kernels.spatial_mass`` without the n x n M.
     M_b p'' as 4 L^T (J' (L p'')) + 4 w p (p . p''), every product by loops (3 x 4 at most: numba's matrix products
     are BLAS calls, each dearer than the arithmetic)."""
-    L, Ld = np.empty((3, 4)), np.empty((3, 4))
-    v, u = np.empty(3), np.empty(3)
-    for b in range(masses.size):
-        o = 7 * b
-        p, pd, pdd = q[o + 3 : o + 7], qd[o + 3 : o + 7], qdd[o + 3 : o + 7]
-        _l_fill(p, L)
-        _l_fill(pd, Ld)
-        J = inertias[b]
-        l_times(Ld, p, v)  # L(p') p
-        inertia_times(J, v, u)
+    for b in range(masses.size):  # L(p), L(p') as tuples of their rows (eq. 8.14): no allocation
+        o, J = 7 * b, inertias[b]
+        p0, p1, p2, p3 = q[o + 3], q[o + 4], q[o + 5], q[o + 6]
+        a0, a1, a2, a3 = qdd[o + 3], qdd[o + 4], qdd[o + 5], qdd[o + 6]
+        L, Ld = l_entries_jit(p0, p1, p2, p3), l_entries_jit(qd[o + 3], qd[o + 4], qd[o + 5], qd[o + 6])
+        u = _inertia_times(J, _l_times(Ld, p0, p1, p2, p3))  # J' L(p') p
         for r in range(4):  # Q_v = 8 L(p')^T J' L(p') p
-            Q[o + 3 + r] += 8.0 * (Ld[0, r] * u[0] + Ld[1, r] * u[1] + Ld[2, r] * u[2])
+            Q[o + 3 + r] += 8.0 * (Ld[r] * u[0] + Ld[4 + r] * u[1] + Ld[8 + r] * u[2])
         for r in range(3):
             residual[o + r] = Q[o + r] - masses[b] * qdd[o + r]
-        l_times(L, pdd, v)  # L(p) p''
-        inertia_times(J, v, u)
-        along = 4.0 * weights[b] * (p[0] * pdd[0] + p[1] * pdd[1] + p[2] * pdd[2] + p[3] * pdd[3])
+        u = _inertia_times(J, _l_times(L, a0, a1, a2, a3))  # J' L(p) p''
+        along = 4.0 * weights[b] * (p0 * a0 + p1 * a1 + p2 * a2 + p3 * a3)
         for r in range(4):
-            Mp = 4.0 * (L[0, r] * u[0] + L[1, r] * u[1] + L[2, r] * u[2]) + along * p[r]
+            Mp = 4.0 * (L[r] * u[0] + L[4 + r] * u[1] + L[8 + r] * u[2]) + along * q[o + 3 + r]
             residual[o + 3 + r] = Q[o + 3 + r] - Mp
+
+
+@jit
+def _l_times(L, x0, x1, x2, x3):
+    """L x (L a 3 x 4 matrix as the tuple of its rows, ``l_entries_jit``), as ``kernels.l_times``."""
+    return (
+        L[0] * x0 + L[1] * x1 + L[2] * x2 + L[3] * x3,
+        L[4] * x0 + L[5] * x1 + L[6] * x2 + L[7] * x3,
+        L[8] * x0 + L[9] * x1 + L[10] * x2 + L[11] * x3,
+    )
+
+
+@jit
+def _inertia_times(J, x):
+    """J' x (3 x 3 by 3), as ``kernels.inertia_times``."""
+    return (
+        J[0, 0] * x[0] + J[0, 1] * x[1] + J[0, 2] * x[2],
+        J[1, 0] * x[0] + J[1, 1] * x[1] + J[1, 2] * x[2],
+        J[2, 0] * x[0] + J[2, 1] * x[1] + J[2, 2] * x[2],
+    )
 
 
 @jit
@@ -882,6 +952,7 @@ def cut_accelerations(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, bodie
 
 
 __all__ = [
+    "WIDTHS",
     "body_force",
     "cut_accelerations",
     "planar_articulated",
