@@ -428,13 +428,17 @@ def prepare(
 
 class Prepared:
     """A prepared forward-dynamics run (``prepare``): its system and settings, and what its runs share, made by the
-    first run that needs it: the model's M and forces (``model``) and the compiled plans of its formulations
-    (``compiled_plans``: by formulation and, for a spatial prismatic joint in joint coordinates, the sign its
-    initial state gives the joint's rotation, which the compiled tree's data holds)."""
+    first run that needs it: the model's M and forces (``model``), its point masses, the Guard's weights and the
+    joints' extent (``fixed``), the joint-coordinates formulation object (``formulation``) and the compiled plans of
+    its formulations (``compiled_plans``: by formulation and, for a spatial prismatic joint in joint coordinates,
+    the sign its initial state gives the joint's rotation, which the compiled tree's data holds). One run at a time:
+    a run's objects are handed to the next."""
 
     def __init__(self, system: System, settings: Settings, masses=None, forces=None, points=None):
         self.system, self.settings, self.masses, self.forces, self.points = system, settings, masses, forces, points
         self._model: tuple[np.ndarray, ForceModel] | None = None
+        self._fixed: Fixed | None = None
+        self._formulations: dict[str, Formulation] = {}
         self.compiled_plans: dict = {}
 
     def model(self) -> tuple[np.ndarray, ForceModel]:
@@ -442,6 +446,28 @@ class Prepared:
         if self._model is None:
             self._model = dynamic_model(self.system, self.masses, self.forces)
         return self._model
+
+    def fixed(self) -> Fixed:
+        """What the runs' start and Guard read of the model alone (``Fixed``), made at the first call."""
+        if self._fixed is None:
+            model = self.system.model
+            self._fixed = Fixed(point_masses(model), gyration_weights(self.system), _joint_extent(model))
+        return self._fixed
+
+    def formulation(self, name: str, M, forces: ForceModel, options: dict) -> Formulation:
+        """The formulation object ``name`` for a run's start rates (``StartRates``): made anew, but for joint
+        coordinates (REUSED) made once and handed to each run as a new one would be (``start_over``: its last
+        evaluation and compiled plan forgotten; the joints' ``u0``, the only other thing a run changes, set anew by
+        the run's initial state). The others keep what a run leaves (the partition of ``partitioning``, the counters
+        of ``projection`` and the augmented Lagrangian, its penalty set at the first state)."""
+        if name not in REUSED:
+            return make_formulation(name, self.system, M, forces, **options)
+        made = self._formulations.get(name)
+        if made is None:
+            made = self._formulations[name] = make_formulation(name, self.system, M, forces, **options)
+        else:
+            made.start_over()
+        return made
 
     def run(self, q0: np.ndarray, qd0: np.ndarray, progress: Progress | None = None) -> Result:
         """The motion from the (approximate) initial state q0, qd0: ``forward_dynamics``'s result."""
@@ -469,6 +495,21 @@ class Prepared:
         result = judge_divergence(run, result, made)  # stage 5's last guard: a second run, where motion may be chaotic
         result.info["wall_time"] = _time.perf_counter() - start
         return result
+
+
+REUSED = ("joint-coordinates",)
+"""The formulations whose object a prepared run hands from one run to the next (``Prepared.formulation``)."""
+
+
+@dataclass(frozen=True)
+class Fixed:
+    """What a prepared run's stages read of the model alone, made once (``Prepared.fixed``): the point masses
+    (``point_masses``), the Guard's speed weights (``gyration_weights``) and the joints' extent (``_joint_extent``,
+    of the mechanism's size)."""
+
+    point_masses: list[int]
+    weights: np.ndarray
+    extent: float
 
 
 def initial_arrays(system: System, q0, qd0) -> tuple[np.ndarray, np.ndarray]:
@@ -569,7 +610,8 @@ def start_motion(run: Run, formulation: str, integrator: str) -> Start:
     prepared = run.prepared
     M, forces = prepared.model() if prepared is not None else dynamic_model(run.system, run.masses, run.forces)
     notes, turns = [], None
-    if run.masses is None and point_masses(run.system.model):  # M singular: free turns of point masses
+    singular = prepared.fixed().point_masses if prepared is not None else point_masses(run.system.model)
+    if run.masses is None and singular:  # M singular: free turns of point masses
         run, turns, notes = nominal_inertia(run, M, assemble(run.system, run.q0)[0])
         M, forces = dynamic_model(run.system, None, run.forces)
         run = dataclasses.replace(run, prepared=None)  # its system is this run's own: nothing to share
@@ -578,8 +620,7 @@ def start_motion(run: Run, formulation: str, integrator: str) -> Start:
         qd = without_turns(turns, qd)
     settings = run.settings
     options, compiled = settings.formulation_options, settings.engine == "compiled"
-    plans = run.prepared.compiled_plans if run.prepared is not None else None
-    rates = StartRates(run.system, M, forces, q, qd, options, compiled, settings, plans)  # the engine's choice first
+    rates = StartRates(run.system, M, forces, q, qd, options, compiled, settings, run.prepared)  # engine's choice first
     plan = plan_method(run, M, forces, q, qd, formulation, integrator, rates)  # stage 2
     return Start(run, M, forces, q, qd, initial, plan, notes, rates)
 
@@ -926,7 +967,7 @@ def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str, r
             **options,
         )
         formulation, integrator = chosen["formulation"], chosen["integrator"]
-    size = mechanism_size(system, q)
+    size = mechanism_size(system, q, run.prepared.fixed().extent if run.prepared is not None else None)
     periods = rate = None
     if integrator not in INDEX3_INTEGRATORS and integrator not in FIXED_STEP_METHODS:
         rate = motion_rate(system, M, forces, q, qd, formulation, options, rates, size)
@@ -1010,6 +1051,7 @@ def make_guard(run: Run, plan: Plan, equations: EquationsOfMotion, q: np.ndarray
         singular_ratio,
         through=plan.formulation in THROUGH_SINGULAR,
         size=plan.size,
+        weights=run.prepared.fixed().weights if run.prepared is not None else None,
     )
 
 
@@ -1251,9 +1293,11 @@ def run_info(run: Run, plan: Plan, equations, guard, stats, result, energies, in
     }
 
 
-def mechanism_size(system: System, q: np.ndarray) -> float:
-    """L: the largest distance of a body centre or a joint point from the origin, at least 1 mm (``Guard``)."""
-    return max(float(np.max(np.abs(body_positions(system, q)), initial=0.0)), _joint_extent(system.model), 1e-3)
+def mechanism_size(system: System, q: np.ndarray, extent: float | None = None) -> float:
+    """L: the largest distance of a body centre or a joint point from the origin, at least 1 mm (``Guard``);
+    ``extent``: the joint points' (``_joint_extent``) where known."""
+    extent = _joint_extent(system.model) if extent is None else extent
+    return max(float(np.max(np.abs(body_positions(system, q)), initial=0.0)), extent, 1e-3)
 
 
 class StartRates:
@@ -1270,10 +1314,10 @@ class StartRates:
     says why)."""
 
     def __init__(
-        self, system: System, M, forces: ForceModel, q, qd, options: dict, compiled=False, settings=None, plans=None
+        self, system: System, M, forces: ForceModel, q, qd, options: dict, compiled=False, settings=None, prepared=None
     ) -> None:
         self.system, self.M, self.forces, self.q, self.qd, self.options = system, M, forces, q, qd, options
-        self.plans = plans  # a prepared run's compiled plans (``Prepared.compiled_plans``)
+        self.prepared = prepared  # a prepared run's (``Prepared``): its formulation objects and compiled plans
         self.compiled, self.settings = compiled, settings
         self.numpy_seconds: dict[str, tuple] = {}  # the engine's choice's estimates: (rtol, seconds, compiled)
         self.known: dict[str, tuple[float, np.ndarray] | Exception] = {}
@@ -1308,8 +1352,13 @@ class StartRates:
         return found
 
     def _evaluate(self, formulation: str) -> tuple[float, np.ndarray]:
-        made = make_formulation(formulation, self.system, self.M, self.forces, **self.options)
-        equations = EquationsOfMotion(made, self.forces, False, self.plans)  # no drivers' power: it feeds nothing back
+        prepared = self.prepared
+        if prepared is None:
+            made = make_formulation(formulation, self.system, self.M, self.forces, **self.options)
+        else:
+            made = prepared.formulation(formulation, self.M, self.forces, self.options)
+        plans = None if prepared is None else prepared.compiled_plans
+        equations = EquationsOfMotion(made, self.forces, False, plans)  # no drivers' power: it feeds nothing back
         z = equations.initial_state(self.q, self.qd, 0.0)
         self.states[formulation] = (made, equations.split(z)[0])
         if self.compiled or self._will_compile(equations, formulation, z):
@@ -1779,6 +1828,7 @@ class Guard:
         singular_ratio: float | None,
         through: bool = False,
         size: float | None = None,
+        weights: np.ndarray | None = None,
     ):
         self.system, self.singular_ratio, self.through = system, singular_ratio, through
         self.crossings: list[dict] = []  # singular positions passed (with ``through``: the formulation passes them)
@@ -1797,7 +1847,7 @@ class Guard:
         columns = np.ones(per)
         columns[dim:] = 1.0 / size  # derivatives by an angle (Euler parameter) times its arc length, in 1/m
         self._columns = np.tile(columns, system.n_bodies)
-        self._speeds = gyration_weights(system)
+        self._speeds = gyration_weights(system) if weights is None else weights  # read only
 
     def _scaled(self, jacobian: np.ndarray) -> np.ndarray:
         """Psi_q made free of units and size: derivatives by angles per arc length (divided by the mechanism's

@@ -62,17 +62,20 @@ def test_bench_runs_the_stress_study_beside_it(tmp_path, capsys):
     assert "| redundant |" in (tmp_path / "stress_quick.md").read_text()
 
 
-@pytest.mark.parametrize("clock", [[], ["--cpu"]], ids=["wall", "cpu"])
+@pytest.mark.parametrize("clock", [[], ["--cpu"], ["--cpu", "--prepared"]], ids=["wall", "cpu", "prepared"])
 def test_call_cost_times_every_stage_of_a_compiled_call(capsys, clock):
     """benchmarks/call_cost.py: every stage it wraps is still where it looks, and each was timed in the call, by
-    the wall clock or (--cpu) this thread's CPU time."""
+    the wall clock or (--cpu) this thread's CPU time; with --prepared, in prepared.run, the preparation apart."""
     from benchmarks import call_cost
 
     call_cost.main(["--scene", "double_pendulum", "--calls", "1", *clock])
     lines = capsys.readouterr().out.splitlines()
     assert lines[0].endswith("thread CPU)" if clock else "wall)")
+    assert ("prepared.run" in lines[0]) == ("--prepared" in clock)
     rows = [line.split(" | ") for line in lines[4:]]  # | stage | ms |
     cells = {label.strip("| ").replace("&nbsp;", " "): value.strip(" |*") for label, value in rows}
+    if "--prepared" in clock:
+        assert float(cells.pop("preparation (prepare + first run)")) > 0
     assert list(cells)[2] == "whole call with the divergence check" and float(cells[list(cells)[2]]) > 0
     labels = list(dict.fromkeys(label for _, _, label in call_cost.STAGES + call_cost.COMPANION))
     assert labels == list(cells)[3:]
