@@ -71,7 +71,12 @@ if str(ROOT) not in sys.path:
 from solutions.assembly import System, build_system  # noqa: E402
 from solutions.batch import progress_bar  # noqa: E402
 from solutions.diagnostics import AnalysisError  # noqa: E402
-from solutions.dynamics import EquationsOfMotion, consistent_initial_conditions, forward_dynamics  # noqa: E402
+from solutions.dynamics import (  # noqa: E402
+    EquationsOfMotion,
+    consistent_initial_conditions,
+    forward_dynamics,
+    prepare,
+)
 from solutions.formulations import make_formulation  # noqa: E402
 from solutions.generalized_forces import build_forces  # noqa: E402
 from solutions.io.model import Model, load_model  # noqa: E402
@@ -88,6 +93,10 @@ PEER_TARGETS = (1e-3, 1e-6, 1e-9)
 DIVERGENCE = {"divergence": "check"}
 """Our runs' divergence check (``dynamics.judge_divergence``: a second run at 100 x rtol where the motion can be
 chaotic, on by default): ``--divergence skip`` leaves it out, the work the peers do (``chains.DIVERGENCE``)."""
+PREPARED = [False]
+"""With ``--prepared`` our timed runs are ``prepared.run`` of one ``dynamics.prepare`` per scene, configuration and
+setting, its preparation (``prepare`` and a first run, which makes what the runs share) timed apart
+(``Run.prepare_seconds``), as the peers' model building is left out of their timing."""
 DIVERGENCE_SAID = {
     "check": "with the divergence check (a second run at 100 x rtol where the motion can be chaotic, on by default).",
     "skip": "without the divergence check (`--divergence skip`: the second run at 100 x rtol the peers do not make).",
@@ -500,6 +509,7 @@ class Run:
     chosen: str = ""
     us_per_step: float = float("nan")
     compile_seconds: float = float("nan")  # the compiled engine: its first run in this process (load or compile)
+    prepare_seconds: float = float("nan")  # with --prepared: prepare and its first run, outside the timing
     cached: bool = False
 
     @property
@@ -519,6 +529,19 @@ def warm_up(system, q0, qd0, scene: Scene, config: Config, settings: dict, run: 
         run.failure = result.info["chosen"]["engine_why"][:100]
 
 
+def ours(system, q0, qd0, scene: Scene, settings: dict, run: Run):
+    """Our timed call: ``forward_dynamics``, or with ``--prepared`` ``run`` of one ``prepare`` made here, whose
+    preparation and first run go to ``run.prepare_seconds``."""
+    if not PREPARED[0]:
+        return lambda: forward_dynamics(system, q0, qd0, scene.t_end, scene.outputs, **settings)
+    start = time.perf_counter()
+    prepared = prepare(system, scene.t_end, scene.outputs, **settings)
+    with np.errstate(all="ignore"):
+        prepared.run(q0, qd0)
+    run.prepare_seconds = time.perf_counter() - start
+    return lambda: prepared.run(q0, qd0)
+
+
 def execute(scene: Scene, config: Config, setting: float, repeats: int, memory: bool = False) -> Run:
     """Timed runs (median wall time), the first also counting factorizations; with ``memory``, one more run
     under tracemalloc for the peak memory."""
@@ -533,11 +556,12 @@ def execute(scene: Scene, config: Config, setting: float, repeats: int, memory: 
             warm_up(system, q0, qd0, scene, config, settings, run)
             if run.failure:
                 return run
+        call = ours(system, q0, qd0, scene, settings, run)
         times = []
         while len(times) < max(1, repeats) and (not times or sum(times) < 0.3):
             with np.errstate(all="ignore"), counting_factorizations() if not times else contextlib.nullcontext() as c:
                 start = time.perf_counter()
-                result = forward_dynamics(system, q0, qd0, scene.t_end, scene.outputs, **settings)
+                result = call()
                 times.append(time.perf_counter() - start)
             if len(times) == 1:
                 run.factorizations = c["n"]
@@ -904,6 +928,11 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar on standard error")
     parser.add_argument(
+        "--prepared",
+        action="store_true",
+        help="time ours as prepared.run of one dynamics.prepare (its preparation apart, as the peers' model building)",
+    )
+    parser.add_argument(
         "--keep-cache",
         dest="fresh_cache",
         action="store_false",
@@ -915,7 +944,7 @@ def main(argv: list[str] | None = None) -> int:
         help="also run the stress study (stress.py -> stress.md) in a second process, on the other core",
     )
     args = parser.parse_args(argv)
-    DIVERGENCE["divergence"] = args.divergence
+    DIVERGENCE["divergence"], PREPARED[0] = args.divergence, args.prepared
     stress = start_stress_study(args.out, args.quick) if args.stress else None
     cache = None
     if args.fresh_cache:  # the compiled engine compiles every scene's module anew: its compile time is measured
@@ -1019,6 +1048,21 @@ def finish_stress_study(child, out: Path, quick: bool) -> int:
     return code
 
 
+PREPARED_SAID = (
+    "With `--prepared` ours is `prepared.run(q0, qd0)` of one `dynamics.prepare` per configuration and setting (the "
+    "same result, bit for bit); its preparation (`prepare` and a first run, which makes M, the forces and the "
+    "compiled plan and module) is left out, as the peers' model building: "
+)
+
+
+def preparation(runs_by_scene) -> str:
+    """The preparations' range (ms) over our runs, for the report."""
+    seconds = [r.prepare_seconds for runs in runs_by_scene.values() for r in runs if np.isfinite(r.prepare_seconds)]
+    if not seconds:
+        return "none was timed."
+    return f"{1e3 * min(seconds):.2f} to {1e3 * max(seconds):.1f} ms (median {1e3 * statistics.median(seconds):.2f})."
+
+
 def report(chosen, runs_by_scene, peers_by_scene, costs, kinematic, peers, args, elapsed) -> list[str]:
     versions = peers.versions() if peers is not None else {}
     lines = [
@@ -1053,6 +1097,7 @@ def report(chosen, runs_by_scene, peers_by_scene, costs, kinematic, peers, args,
         "Their time is the simulation alone (model built outside the timing; MuJoCo by `mujoco.rollout`), ours the",
         "whole `forward_dynamics` call (initial conditions, the run, q'' and lambda, residuals, energies, reactions",
         "at every output time), " + DIVERGENCE_SAID[DIVERGENCE["divergence"]],
+        *([PREPARED_SAID + preparation(runs_by_scene)] if PREPARED[0] else []),
         "Each configuration is timed on its own, not in interleaved rounds.",
         "",
         "## The compiled engine",

@@ -35,6 +35,26 @@ def test_bench_quick_writes_its_tables_and_diagrams(tmp_path, capsys):
     assert "Summary" in capsys.readouterr().out
 
 
+def test_bench_times_ours_as_a_prepared_run_when_asked(monkeypatch):
+    """``--prepared``: our timed call is ``run`` of one ``prepare`` (the same result as the call), its preparation
+    timed apart and reported."""
+    import numpy as np
+
+    from solutions.assembly import build_system
+    from solutions.dynamics import forward_dynamics
+
+    scene = next(s for s in bench.scenes() if s.key == "double_pendulum")
+    scene.t_end, scene.outputs = 0.2, 4
+    system, q0, qd0 = build_system(scene.load())
+    settings = bench.Config("baumgarte dop853", "baumgarte", "dop853").settings(1e-6)
+    run = bench.Run(scene.key, "baumgarte dop853", "", 1e-6)
+    monkeypatch.setattr(bench, "PREPARED", [True])
+    call = bench.ours(system, q0, qd0, scene, settings, run)
+    assert run.prepare_seconds > 0
+    assert np.array_equal(call().q, forward_dynamics(system, q0, qd0, 0.2, 4, **settings).q)
+    assert bench.preparation({scene.key: [run]}).endswith(")."), "the range and median of the preparations"
+
+
 def test_bench_references_agree_with_a_tight_run():
     """The minimal-coordinate references (written in bench.py) and the solver agree: neither is copied."""
     for scene in bench.scenes():
