@@ -31,7 +31,8 @@ motion and the Guard; an FMU's co-simulation, ``io/fmu.py``, advances them step 
 (2 and 4: the numpy engine, or the compiled one where it covers the run; ``index3_run`` for the implicit index-3
 integrators) -> ``build_result`` (3) -> ``run_info`` and the warnings. When ``auto``'s method stops at a singular
 position (``SingularStop``), the run is made again from the start with the one fallback plan: a formulation that
-passes it.
+passes it. ``forward_dynamics`` is one run of a ``prepare``d one (``Prepared``): what does not depend on the initial
+state (M, the forces, the compiled plan and module) is made once for many runs from other initial states.
 """
 
 from __future__ import annotations
