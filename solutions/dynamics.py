@@ -610,8 +610,11 @@ def start_motion(run: Run, formulation: str, integrator: str) -> Start:
     prepared = run.prepared
     M, forces = prepared.model() if prepared is not None else dynamic_model(run.system, run.masses, run.forces)
     notes, turns = [], None
-    singular = prepared.fixed().point_masses if prepared is not None else point_masses(run.system.model)
-    if run.masses is None and singular:  # M singular: free turns of point masses
+    if run.masses is None:  # the model's M: singular where point masses turn freely
+        singular = prepared.fixed().point_masses if prepared is not None else point_masses(run.system.model)
+    else:
+        singular = []
+    if singular:  # M singular: free turns of point masses
         run, turns, notes = nominal_inertia(run, M, assemble(run.system, run.q0)[0])
         M, forces = dynamic_model(run.system, None, run.forces)
         run = dataclasses.replace(run, prepared=None)  # its system is this run's own: nothing to share
