@@ -88,7 +88,7 @@ def runs_equal_calls(system, q0, qd0, **settings) -> Prepared:
 
 @pytest.mark.parametrize(
     "name, formulation",
-    [("double_pendulum", "joint-coordinates"), ("slider_crank", "joint-coordinates")],
+    [("double_pendulum", "joint-coordinates"), ("slider_crank", "joint-coordinates"), ("double_pendulum", "baumgarte")],
 )
 def test_compiled_runs_of_a_prepared_planar_scene_are_forward_dynamics_calls(scenes, name, formulation):
     system, q0, qd0 = scenes[name]
