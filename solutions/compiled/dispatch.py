@@ -210,6 +210,9 @@ def compiled_plan(equations, formulation: str):
         if found is not None:  # the prepared run's: the same system, M and forces, this run's formulation object
             job = copy.copy(found)  # its loaded module (``load``) and parameters come along
             job.formulation_object = made
+            loaded = found.__dict__.get("_loaded")
+            if loaded is not None:  # this run loads nothing: as a call that finds the module imported already
+                job.__dict__["_loaded"] = (*loaded[:2], True, 0.0)
         else:
             job = plan(describe(made.system, made.masses, equations.forces), formulation, made)
             if shared is not None:
