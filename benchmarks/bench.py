@@ -71,7 +71,12 @@ if str(ROOT) not in sys.path:
 from solutions.assembly import System, build_system  # noqa: E402
 from solutions.batch import progress_bar  # noqa: E402
 from solutions.diagnostics import AnalysisError  # noqa: E402
-from solutions.dynamics import EquationsOfMotion, consistent_initial_conditions, forward_dynamics  # noqa: E402
+from solutions.dynamics import (  # noqa: E402
+    EquationsOfMotion,
+    consistent_initial_conditions,
+    forward_dynamics,
+    prepare,
+)
 from solutions.formulations import make_formulation  # noqa: E402
 from solutions.generalized_forces import build_forces  # noqa: E402
 from solutions.io.model import Model, load_model  # noqa: E402
@@ -88,6 +93,10 @@ PEER_TARGETS = (1e-3, 1e-6, 1e-9)
 DIVERGENCE = {"divergence": "check"}
 """Our runs' divergence check (``dynamics.judge_divergence``: a second run at 100 x rtol where the motion can be
 chaotic, on by default): ``--divergence skip`` leaves it out, the work the peers do (``chains.DIVERGENCE``)."""
+PREPARED = [False]
+"""With ``--prepared`` our timed runs are ``prepared.run`` of one ``dynamics.prepare`` per scene, configuration and
+setting, its preparation (``prepare`` and a first run, which makes what the runs share) timed apart
+(``Run.prepare_seconds``), as the peers' model building is left out of their timing."""
 DIVERGENCE_SAID = {
     "check": "with the divergence check (a second run at 100 x rtol where the motion can be chaotic, on by default).",
     "skip": "without the divergence check (`--divergence skip`: the second run at 100 x rtol the peers do not make).",
@@ -500,6 +509,7 @@ class Run:
     chosen: str = ""
     us_per_step: float = float("nan")
     compile_seconds: float = float("nan")  # the compiled engine: its first run in this process (load or compile)
+    prepare_seconds: float = float("nan")  # with --prepared: prepare and its first run, outside the timing
     cached: bool = False
 
     @property
@@ -519,6 +529,19 @@ def warm_up(system, q0, qd0, scene: Scene, config: Config, settings: dict, run: 
         run.failure = result.info["chosen"]["engine_why"][:100]
 
 
+def our_call(system, q0, qd0, scene: Scene, settings: dict, run: Run):
+    """Our timed call: ``forward_dynamics``, or with ``--prepared`` ``run`` of one ``prepare`` made here, whose
+    preparation and first run go to ``run.prepare_seconds``."""
+    if not PREPARED[0]:
+        return lambda: forward_dynamics(system, q0, qd0, scene.t_end, scene.outputs, **settings)
+    start = time.perf_counter()
+    prepared = prepare(system, scene.t_end, scene.outputs, **settings)
+    with np.errstate(all="ignore"):
+        prepared.run(q0, qd0)
+    run.prepare_seconds = time.perf_counter() - start
+    return lambda: prepared.run(q0, qd0)
+
+
 def execute(scene: Scene, config: Config, setting: float, repeats: int, memory: bool = False) -> Run:
     """Timed runs (median wall time), the first also counting factorizations; with ``memory``, one more run
     under tracemalloc for the peak memory."""
@@ -533,11 +556,12 @@ def execute(scene: Scene, config: Config, setting: float, repeats: int, memory: 
             warm_up(system, q0, qd0, scene, config, settings, run)
             if run.failure:
                 return run
+        call = our_call(system, q0, qd0, scene, settings, run)
         times = []
         while len(times) < max(1, repeats) and (not times or sum(times) < 0.3):
             with np.errstate(all="ignore"), counting_factorizations() if not times else contextlib.nullcontext() as c:
                 start = time.perf_counter()
-                result = forward_dynamics(system, q0, qd0, scene.t_end, scene.outputs, **settings)
+                result = call()
                 times.append(time.perf_counter() - start)
             if len(times) == 1:
                 run.factorizations = c["n"]
@@ -815,8 +839,9 @@ class Pair:
 def paired_rounds(scene: Scene, own: list[Run], tried: list, configs: dict, families: dict, rounds: int) -> list[Pair]:
     """For each peer and target of ``PEER_TARGETS``: our fastest run to the target (``configs``: our configurations
     by label) and the peer's fastest (``families``: its configurations by label), timed again in ``rounds``
-    interleaved rounds (``peers.interleaved``: one call of each a round, the order alternating). Ours: the whole
-    ``forward_dynamics`` call, wall time; the peer's: its simulation, as its search timed it."""
+    interleaved rounds (``peers.interleaved``: one call of each a round, the order alternating). Ours: the call
+    ``execute`` times (``our_call``: the whole ``forward_dynamics``, or with ``--prepared`` ``prepared.run``), wall
+    time; the peer's: its simulation, as its search timed it."""
     from benchmarks.peers import interleaved
 
     system, q0, qd0 = build_system(scene.load())
@@ -827,16 +852,16 @@ def paired_rounds(scene: Scene, own: list[Run], tried: list, configs: dict, fami
             theirs = fastest([r for r in tried if r.config.startswith(peer)], target)
             if ours is None or theirs is None:
                 continue
-            settings = configs[ours.config].settings(ours.setting)
+            call = our_call(system, q0, qd0, scene, configs[ours.config].settings(ours.setting), Run("", "", "", 0))
 
-            def our_call(settings=settings) -> float:
+            def timed(call=call) -> float:
                 start = time.perf_counter()
                 with np.errstate(all="ignore"):
-                    forward_dynamics(system, q0, qd0, scene.t_end, scene.outputs, **settings)
+                    call()
                 return time.perf_counter() - start
 
             family = families[theirs.config]
-            ratios = interleaved(our_call, lambda f=family, h=theirs.setting: f.attempt(h)[0], rounds)
+            ratios = interleaved(timed, lambda f=family, h=theirs.setting: f.attempt(h)[0], rounds)
             label = f"{ours.config} {ours.setting:.0e}"
             pairs.append(Pair(scene.key, peer, target, label, theirs.described, ratios))
     return pairs
@@ -964,6 +989,11 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar on standard error")
     parser.add_argument(
+        "--prepared",
+        action="store_true",
+        help="time ours as prepared.run of one dynamics.prepare (its preparation apart, as the peers' model building)",
+    )
+    parser.add_argument(
         "--keep-cache",
         dest="fresh_cache",
         action="store_false",
@@ -975,7 +1005,7 @@ def main(argv: list[str] | None = None) -> int:
         help="also run the stress study (stress.py -> stress.md) in a second process, on the other core",
     )
     args = parser.parse_args(argv)
-    DIVERGENCE["divergence"] = args.divergence
+    DIVERGENCE["divergence"], PREPARED[0] = args.divergence, args.prepared
     stress = start_stress_study(args.out, args.quick) if args.stress else None
     cache = None
     if args.fresh_cache:  # the compiled engine compiles every scene's module anew: its compile time is measured
@@ -1085,6 +1115,28 @@ def finish_stress_study(child, out: Path, quick: bool) -> int:
     return code
 
 
+PREPARED_SAID = (
+    "With `--prepared` ours is `prepared.run(q0, qd0)` of one `dynamics.prepare` per configuration and setting (the "
+    "same result, bit for bit); its preparation (`prepare` and a first run, which makes M, the forces and the "
+    "compiled plan and module) is left out, as the peers' model building: "
+)
+
+
+def preparation(runs_by_scene) -> str:
+    """The preparations over our runs, for the report: their range (ms), and that of what the first run took more
+    than the timed runs' median (what a prepared run saves from its second run on)."""
+    runs = [r for runs in runs_by_scene.values() for r in runs if np.isfinite(r.prepare_seconds)]
+    if not runs:
+        return "none was timed."
+    seconds = [1e3 * r.prepare_seconds for r in runs]
+    excess = [1e3 * r.prepare_seconds - r.ms for r in runs if np.isfinite(r.ms)]
+    said = f"{min(seconds):.2f} to {max(seconds):.1f} ms with the first run (median {statistics.median(seconds):.2f})"
+    if excess:
+        said += f"; over the timed runs' median {min(excess):.2f} to {max(excess):.1f} ms"
+        said += f" (median {statistics.median(excess):.2f})"
+    return said + "."
+
+
 def report(chosen, runs_by_scene, peers_by_scene, costs, kinematic, peers, args, elapsed, pairs=()) -> list[str]:
     versions = peers.versions() if peers is not None else {}
     lines = [
@@ -1126,6 +1178,7 @@ def report(chosen, runs_by_scene, peers_by_scene, costs, kinematic, peers, args,
             if args.rounds
             else "ours / peer: the ratio of the two medians, each configuration timed on its own."
         ),
+        *([PREPARED_SAID + preparation(runs_by_scene)] if PREPARED[0] else []),
         "",
         "## The compiled engine",
         "",

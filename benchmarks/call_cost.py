@@ -14,6 +14,10 @@ not add up; "outside the loop" is the whole call minus the loop.
     .venv/bin/python benchmarks/call_cost.py --chain loops --sizes 4 8 16     # chains of benchmarks/chains.py
     .venv/bin/python benchmarks/call_cost.py --engine cached --default-rtol   # the start rates of a cached run
     .venv/bin/python benchmarks/call_cost.py --engine auto --t-end 100 --default-rtol   # long enough for auto
+    .venv/bin/python benchmarks/call_cost.py --prepared --cpu --formulation joint-coordinates   # prepared.run
+
+``--prepared`` times ``prepared.run(q0, qd0)`` of one ``dynamics.prepare`` (the preparation, and its first run which
+makes what the runs share, timed apart as MuJoCo's model compilation is left out of its rollouts), not the call.
 
 Runs use the compiled engine from the machine's cache (the first call of a structure compiles it: warm-up), DOP853
 at rtol = 1e-6 (``--default-rtol``: the rule's, eq. 6.60, from the start rates), atol = 1e-8, 1 s simulated
@@ -134,30 +138,45 @@ def timed(stages, seconds: dict):
             setattr(owner, name, original)
 
 
-def measure(model, formulation: str, calls: int, engine: str = "compiled", t_end: float = 1.0, rtol=1e-6):
-    """(seconds per call, {stage label: seconds per call}, seconds per call with the divergence check) of the
-    compiled run of ``model``: the stages of one run (``divergence="skip"``), then the whole call as a user makes
-    it, whose divergence check (``dynamics.judge_divergence``) may add a second run at 100 x rtol (its own stages
-    in ``COMPANION``: the companion, and its loop)."""
+def measure(
+    model, formulation: str, calls: int, engine: str = "compiled", t_end: float = 1.0, rtol=1e-6, prepared=False
+):
+    """(seconds per call, {stage label: seconds per call}, seconds per call with the divergence check, seconds of the
+    preparation or None) of the compiled run of ``model``: the stages of one run (``divergence="skip"``), then the
+    whole call as a user makes it, whose divergence check (``dynamics.judge_divergence``) may add a second run at
+    100 x rtol (its own stages in ``COMPANION``: the companion, and its loop). ``prepared``: each call is ``run`` of
+    one ``dynamics.prepare`` (made, with its first run, before the timed calls, and timed apart)."""
     system, q0, qd0 = build_system(load_model(model))
     options = dict(formulation=formulation, integrator="DOP853", rtol=rtol, atol=1e-8, engine=engine)
     first = dynamics.forward_dynamics(system, q0, qd0, t_end, 100, **options)  # compiles or loads the module
     if first.info["chosen"]["engine"] != "compiled":
         raise SystemExit(f"not compiled: {first.info['chosen']['engine_why']}")
+    preparation = None
+    if prepared:
+        start = CLOCK[0]()
+        skipping = dynamics.prepare(system, t_end, 100, divergence="skip", **options)
+        skipping.run(q0, qd0)  # makes what its runs share (M, forces, the compiled plan and module)
+        preparation = CLOCK[0]() - start
+        checking = dynamics.prepare(system, t_end, 100, **options)
+        checking.run(q0, qd0)
+        skipped, checked_call = (lambda: skipping.run(q0, qd0)), (lambda: checking.run(q0, qd0))
+    else:
+        skipped = lambda: dynamics.forward_dynamics(system, q0, qd0, t_end, 100, divergence="skip", **options)  # noqa: E731
+        checked_call = lambda: dynamics.forward_dynamics(system, q0, qd0, t_end, 100, **options)  # noqa: E731
     seconds: dict[str, float] = {}
     with timed(STAGES, seconds):
         start = CLOCK[0]()
         for _ in range(calls):
-            dynamics.forward_dynamics(system, q0, qd0, t_end, 100, divergence="skip", **options)
+            skipped()
         total = (CLOCK[0]() - start) / calls
     companion: dict[str, float] = {}
     with inside(*COMPANION, companion):
         start = CLOCK[0]()
         for _ in range(calls):
-            dynamics.forward_dynamics(system, q0, qd0, t_end, 100, **options)
+            checked_call()
         checked = (CLOCK[0]() - start) / calls
     seconds.update(companion)
-    return total, {label: value / calls for label, value in seconds.items()}, checked
+    return total, {label: value / calls for label, value in seconds.items()}, checked, preparation
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -178,6 +197,9 @@ def main(argv: list[str] | None = None) -> None:
     )
     parser.add_argument("--default-rtol", action="store_true", help="rtol by the rule (eq. 6.60), not 1e-6")
     parser.add_argument("--cpu", action="store_true", help="time this thread's CPU, not the wall (a shared machine)")
+    parser.add_argument(
+        "--prepared", action="store_true", help="time prepared.run of one dynamics.prepare (its preparation apart)"
+    )
     args = parser.parse_args(argv)
     CLOCK[0] = time.thread_time if args.cpu else time.perf_counter
     if args.chain:
@@ -189,22 +211,26 @@ def main(argv: list[str] | None = None) -> None:
         cases = [(scene, ROOT / "course" / "models" / f"{scene}.yaml") for scene in args.scene or SCENES]
     rtol = None if args.default_rtol else 1e-6
     results = [
-        (name, *measure(model, args.formulation, args.calls, args.engine, args.t_end, rtol)) for name, model in cases
+        (name, *measure(model, args.formulation, args.calls, args.engine, args.t_end, rtol, args.prepared))
+        for name, model in cases
     ]
     setting = (
         f"{args.formulation}, DOP853, {'rtol by the rule' if rtol is None else '1e-6'}, {args.t_end:g} s, 100 outputs, "
         f"engine {args.engine}, {'thread CPU' if args.cpu else 'wall'}"
     )
-    print(f"## Cost of a compiled call by stage, ms per call ({setting})\n")
+    call = "prepared.run" if args.prepared else "compiled call"
+    print(f"## Cost of a {call} by stage, ms per call ({setting})\n")
     print("| stage | " + " | ".join(name for name, *_ in results) + " |")
     print("|---|" + "---:|" * len(results))
-    print("| **whole call** | " + " | ".join(f"**{total * 1e3:.2f}**" for _, total, _, _ in results) + " |")
+    print("| **whole call** | " + " | ".join(f"**{total * 1e3:.2f}**" for _, total, *_ in results) + " |")
     loop = "    integration loop"
-    outside = [total - stages.get(loop, 0.0) for _, total, stages, _ in results]
+    outside = [total - stages.get(loop, 0.0) for _, total, stages, *_ in results]
     print("| **outside the loop** | " + " | ".join(f"**{value * 1e3:.2f}**" for value in outside) + " |")
-    print("| whole call with the divergence check | " + " | ".join(f"{c * 1e3:.2f}" for *_, c in results) + " |")
+    print("| whole call with the divergence check | " + " | ".join(f"{c * 1e3:.2f}" for *_, c, _ in results) + " |")
+    if args.prepared:  # prepare() and the first run, which makes what the runs share
+        print("| preparation (prepare + first run) | " + " | ".join(f"{p * 1e3:.2f}" for *_, p in results) + " |")
     for label in dict.fromkeys(label for _, _, label in STAGES + COMPANION):  # each once (two stages may share one)
-        cells = [_milliseconds(stages[label]) if label in stages else "-" for _, _, stages, _ in results]
+        cells = [_milliseconds(stages[label]) if label in stages else "-" for _, _, stages, *_ in results]
         print(f"| {label.replace('  ', '&nbsp;&nbsp;')} | " + " | ".join(cells) + " |")
 
 

@@ -25,7 +25,9 @@ Per family, N and configuration: the wall time of the whole ``forward_dynamics``
 the compilation when the structure was not cached, about 0 otherwise), the right-hand-
 side evaluations, the time per evaluation and the largest position error of a body centre (m). The growth of the
 time per evaluation with N is fitted as N^p over N >= 8. A configuration whose run at some N takes longer than
-``--limit`` seconds is not run at larger N ("where it breaks").
+``--limit`` seconds is not run at larger N ("where it breaks"). With ``--prepared`` ours is timed as ``prepared.run``
+of one ``dynamics.prepare`` per N and configuration (MuJoCo's timing leaves out compiling its model; "first call +s"
+then holds the preparation: ``prepare``, and the first run, which makes what the runs share).
 
 With ``--mujoco``, MuJoCo's fastest configuration reaching 1e-6 m against the same references and ours at its
 cheapest tolerance reaching it, then both in interleaved rounds (``paired``): the planar and spatial chains as nested
@@ -35,6 +37,7 @@ tree of hinges, each loop closed by a soft ``connect`` equality whose solref and
     .venv/bin/python benchmarks/chains.py                  # N = 2 ... 64, every family (tens of minutes)
     .venv/bin/python benchmarks/chains.py --quick          # N = 2, 4, 8, numpy only (a minute)
     .venv/bin/python benchmarks/chains.py --family planar --sizes 2 8 32
+    .venv/bin/python benchmarks/chains.py --family planar --sizes 2 4 --prepared --cpu   # prepared.run
 """
 
 from __future__ import annotations
@@ -60,7 +63,7 @@ from benchmarks.bench import body_positions  # noqa: E402
 from benchmarks.peers import interleaved  # noqa: E402
 from solutions.assembly import build_system  # noqa: E402
 from solutions.diagnostics import AnalysisError  # noqa: E402
-from solutions.dynamics import forward_dynamics  # noqa: E402
+from solutions.dynamics import forward_dynamics, prepare  # noqa: E402
 from solutions.io.model import load_model  # noqa: E402
 
 LENGTH, MASS, GRAVITY = 0.5, 1.0, 9.81
@@ -76,6 +79,10 @@ CPU = [False]
 """With ``--cpu`` every timer reads this thread's CPU time (``time.thread_time``, as ``call_cost.py --cpu``): steadier
 on a machine other work shares; what it leaves out is waiting, and neither our call nor MuJoCo's rollout (its step
 loop in the calling thread) waits."""
+
+
+PREPARED = [False]
+"""With ``--prepared`` our runs are ``prepared.run`` of one ``dynamics.prepare`` (``ours_call``)."""
 
 
 def now() -> float:
@@ -313,19 +320,30 @@ def reference(family: str, n: int, system, q0, qd0, times: np.ndarray) -> np.nda
     return spatial_reference(n, times)
 
 
+def ours_call(scene, config: Config, options: dict):
+    """Our run as the study times it: ``forward_dynamics``, or with ``--prepared`` ``run`` of one ``prepare``d run
+    made here (the caller's first call makes what its runs share: timed apart, as MuJoCo's model compilation)."""
+    system, q0, qd0, _ = scene
+    if PREPARED[0]:
+        prepared = prepare(system, T_END, OUTPUTS, config.formulation, config.integrator, **options)
+        return lambda: prepared.run(q0, qd0)
+    return lambda: forward_dynamics(system, q0, qd0, T_END, OUTPUTS, config.formulation, config.integrator, **options)
+
+
 def run(family: str, n: int, config: Config, truth: np.ndarray, repeats: int, scene, tol: float = TOL) -> Row:
-    system, q0, qd0, dimension = scene
+    dimension = scene[3]
     row = Row(family, n, config.label if tol == TOL else f"{config.label}, rtol = atol = {tol:g}", setting=(tol,))
     options = dict(rtol=tol, atol=tol, engine=config.engine, divergence=DIVERGENCE)
     try:
-        if config.engine == "compiled":
+        call = ours_call(scene, config, options)
+        if config.engine == "compiled" or PREPARED[0]:
             start = now()
-            forward_dynamics(system, q0, qd0, T_END, OUTPUTS, config.formulation, config.integrator, **options)
-            row.compile_seconds = now() - start  # compilation (or loading the cache) and one run
+            call()
+            row.compile_seconds = now() - start  # compilation (or loading the cache), the preparation and one run
         best = math.inf
         for _ in range(repeats):
             start = now()
-            result = forward_dynamics(system, q0, qd0, T_END, OUTPUTS, config.formulation, config.integrator, **options)
+            result = call()
             best = min(best, now() - start)
             if best > 1.0:
                 break
@@ -540,14 +558,16 @@ def paired(family: str, n: int, config: Config, scene, mujoco: Row, rounds: int,
     """Ours / MuJoCo's time in each of ``rounds`` interleaved rounds: a round times one call of ``config`` and one
     rollout of MuJoCo's configuration, the order alternating from round to round, so that both meet the same state
     of the machine; the spread of the ratios is the measurement's own."""
-    system, q0, qd0, _ = scene
     integrator, k, *closure = mujoco.setting  # the loop chain's closure too
     theirs = MujocoRun(family, n, k, integrator, *closure)
     options = dict(rtol=tol, atol=tol, engine=config.engine, divergence=DIVERGENCE)
+    call = ours_call(scene, config, options)
+    if PREPARED[0]:
+        call()  # the preparation, outside the rounds
 
     def ours() -> float:
         start = now()
-        forward_dynamics(system, q0, qd0, T_END, OUTPUTS, config.formulation, config.integrator, **options)
+        call()
         return now() - start
 
     return interleaved(ours, lambda: theirs()[0], rounds)
@@ -621,8 +641,11 @@ def main(argv: list[str] | None = None) -> int:
         "--rounds", type=int, default=7, help="interleaved rounds of ours against MuJoCo's configuration (--mujoco)"
     )
     parser.add_argument("--cpu", action="store_true", help="time this thread's CPU, not the wall (a shared machine)")
+    parser.add_argument(
+        "--prepared", action="store_true", help="time ours as prepared.run of one dynamics.prepare (prepared apart)"
+    )
     args = parser.parse_args(argv)
-    CPU[0] = args.cpu
+    CPU[0], PREPARED[0] = args.cpu, args.prepared
     if args.mujoco:
         try:
             import mujoco  # noqa: F401
@@ -634,7 +657,8 @@ def main(argv: list[str] | None = None) -> int:
     clock = "thread CPU" if args.cpu else "wall"
     lines = ["# Scaling with the number of bodies (benchmarks/chains.py)", "",
              f"{T_END:g} s simulated, {OUTPUTS} output intervals, rtol = atol = {TOL:g}; machine: {os.cpu_count()} "
-             f"cores, load average {os.getloadavg()[0]:.1f} at the start; times: {clock}."
+             f"cores, load average {os.getloadavg()[0]:.1f} at the start; times: {clock}"
+             f"{'; ours: prepared.run, first call +s: the preparation' if args.prepared else ''}."
              f" Command: `python benchmarks/chains.py "
              f"{' '.join(argv if argv is not None else sys.argv[1:])}`.", ""]  # fmt: skip
     for family in args.family:

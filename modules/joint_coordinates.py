@@ -729,6 +729,15 @@ class JointCoordinates(Formulation):
             self._inertias = [_floats(np.asarray(b.inertia).ravel()) for b in model.bodies]
             self._weights = [scale(b.mass, _floats(model.gravity)) for b in model.bodies]
 
+    def start_over(self) -> None:
+        """Forget the last evaluation (joint state, motion, accelerations) and the compiled plan made for it: the
+        object then evaluates as a new one made for the same system (a prepared run hands it to its next run,
+        ``dynamics.Prepared``; the joints' ``u0`` are set anew by that run's initial state, ``joint_state``)."""
+        self._y = self._motion = self._qdd = self._theta_dd = None
+        self.__dict__.pop("_compiled_plan", None)
+        if self._mass is not None:  # a spatial M(q): the last one evaluated
+            self.M = self.masses
+
     # -- from joint state to bodies, and back
     def motion(self, y: np.ndarray) -> TreeMotion:
         """The bodies' motion at joint state y; the last one is kept (``coordinates``, then ``accelerations``)."""

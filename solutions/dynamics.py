@@ -30,7 +30,8 @@ motion and the Guard; an FMU's co-simulation, ``io/fmu.py``, advances them step 
 (2 and 4: the numpy engine, or the compiled one where it covers the run; ``index3_run`` for the implicit index-3
 integrators) -> ``build_result`` (3) -> ``run_info`` and the warnings. When ``auto``'s method stops at a singular
 position (``SingularStop``), the run is made again from the start with the one fallback plan: a formulation that
-passes it.
+passes it. ``forward_dynamics`` is one run of a ``prepare``d one (``Prepared``): what does not depend on the initial
+state (M, the forces, the compiled plan and module) is made once for many runs from other initial states.
 """
 
 from __future__ import annotations
@@ -299,9 +300,11 @@ class EquationsOfMotion:
     """The ODE an integrator advances: the formulation's state, plus (when the scene needs them) three
     accumulated energies z = (y, D, W_applied, W_drivers) with D' = P_dissipated, W' = P (eq. 5.60)."""
 
-    def __init__(self, formulation: Formulation, forces: ForceModel, has_drivers: bool):
+    def __init__(self, formulation: Formulation, forces: ForceModel, has_drivers: bool, compiled_plans=None):
         self.formulation, self.forces = formulation, forces
         self.has_drivers = has_drivers
+        self.compiled_plans: dict | None = compiled_plans
+        """The compiled plans a prepared run keeps between its runs (``Prepared``), or None: made for this one."""
         self.extra = 0 if forces.is_conservative and not has_drivers else 3
 
     def initial_state(self, q: np.ndarray, qd: np.ndarray, t: float) -> np.ndarray:
@@ -349,7 +352,9 @@ def forward_dynamics(
     progress: Progress | None = None,
     **options,
 ) -> Result:
-    """The motion on the output grid t = 0, t_end/steps, ..., t_end, by the stages of ``run_plan``.
+    """The motion on the output grid t = 0, t_end/steps, ..., t_end, by the stages of ``run_plan``: the same
+    as ``prepare(system, t_end, steps, ...).run(q0, qd0)`` (one run of a prepared one; many runs of one scene
+    from other initial states: ``prepare``).
 
     Parameters
     ----------
@@ -379,29 +384,148 @@ def forward_dynamics(
         formulation or integrator (``SettingError``), an integrator failure: by name.
     """
     start = _time.perf_counter()
-    named = {k: v for k, v in (("formulation", formulation), ("integrator", integrator)) if v is not None}
-    settings = (settings or default_settings()).replace(t_end=t_end, steps=steps, **named, **options)
-    run = Run(system, q0, qd0, settings, masses, forces, points, progress)
-    try:
-        result, made = run_stages(run, settings.formulation, settings.integrator)
-    except SingularStop as stop:  # ``auto`` met a singular position: the formulation that passes it, from the start
-        fallback = THROUGH_SINGULAR[0]
-        result, made = run_stages(run, fallback, settings.integrator)
-        result.info["chosen"] = {
-            "formulation": fallback,
-            "integrator": result.info["integrator"],
-            "why": f"{fallback}: {stop.formulation} stopped near a singular configuration ({stop.first}), "
-            "which it passes; " + stop.why,
-        }
-        result.info["restarted"] = {
-            "t": stop.t,
-            "stopped": stop.formulation,
-            "formulation": fallback,
-            "why": stop.reason,
-        }
-    result = judge_divergence(run, result, made)  # stage 5's last guard: a second run where the motion can be chaotic
+    prepared = prepare(
+        system, t_end, steps, formulation, integrator, settings=settings, masses=masses, forces=forces, points=points,
+        **options,
+    )  # fmt: skip
+    result = prepared.run(q0, qd0, progress)
     result.info["wall_time"] = _time.perf_counter() - start
     return result
+
+
+def prepare(
+    system: System,
+    t_end: float,
+    steps: int,
+    formulation: str | None = None,
+    integrator: str | None = None,
+    *,
+    settings: Settings | None = None,
+    masses: np.ndarray | None = None,
+    forces: ForceModel | None = None,
+    points: dict[str, tuple[int, np.ndarray]] | None = None,
+    **options,
+) -> Prepared:
+    """A forward-dynamics run made ready for many initial states: ``prepare(...).run(q0, qd0)`` gives bit for bit
+    what ``forward_dynamics(system, q0, qd0, t_end, steps, ...)`` gives with the same arguments (which is this, run
+    once). The arguments are ``forward_dynamics``'s (its docstring); bad settings raise here, as there.
+
+    What does not depend on the initial state is made once, by the first run that needs it, and kept for the next
+    (``Prepared``): the mass matrix and the force model (``dynamic_model``), the settings, and per formulation the
+    compiled engine's plan of the scene (its description, packed data, loaded module). What does stays per run:
+    consistent initial conditions, the start rates, ``auto``'s choice, the tolerance rule, the Guard, the
+    divergence check. This is MuJoCo's split of ``mjModel`` (the model compiled once) from ``mjData`` (one
+    simulation's state; Todorov, Erez & Tassa 2012, MuJoCo documentation "Overview: Model and data"): a sweep over
+    initial states, a controller's design loop or a benchmark pays the preparation once.
+
+    The object captures ``system`` as it is now: a model changed afterwards (``Model`` is mutable) needs a new
+    ``prepare``; nothing is cached behind the caller's back, keyed on an object's identity.
+    """
+    named = {k: v for k, v in (("formulation", formulation), ("integrator", integrator)) if v is not None}
+    settings = (settings or default_settings()).replace(t_end=t_end, steps=steps, **named, **options)
+    return Prepared(system, settings, masses, forces, points)
+
+
+class Prepared:
+    """A prepared forward-dynamics run (``prepare``): its system and settings, and what its runs share, made by the
+    first run that needs it: the model's M and forces (``model``), its point masses, the Guard's weights and the
+    joints' extent (``fixed``), the joint-coordinates formulation object (``formulation``) and the compiled plans of
+    its formulations (``compiled_plans``: by formulation and, for a spatial prismatic joint in joint coordinates,
+    the sign its initial state gives the joint's rotation, which the compiled tree's data holds). One run at a time:
+    a run's objects are handed to the next."""
+
+    def __init__(self, system: System, settings: Settings, masses=None, forces=None, points=None):
+        self.system, self.settings, self.masses, self.forces, self.points = system, settings, masses, forces, points
+        self._model: tuple[np.ndarray, ForceModel] | None = None
+        self._fixed: Fixed | None = None
+        self._formulations: dict[str, Formulation] = {}
+        self.compiled_plans: dict = {}
+
+    def model(self) -> tuple[np.ndarray, ForceModel]:
+        """(M, the force model) of the runs (``dynamic_model``), made at the first call."""
+        if self._model is None:
+            self._model = dynamic_model(self.system, self.masses, self.forces)
+        return self._model
+
+    def fixed(self) -> Fixed:
+        """What the runs' start and Guard read of the model alone (``Fixed``), made at the first call."""
+        if self._fixed is None:
+            model = self.system.model
+            self._fixed = Fixed(point_masses(model), gyration_weights(self.system), _joint_extent(model))
+        return self._fixed
+
+    def formulation(self, name: str, M, forces: ForceModel, options: dict) -> Formulation:
+        """The formulation object ``name`` for a run's start rates (``StartRates``): made anew, but for joint
+        coordinates (REUSED) made once and handed to each run as a new one would be (``start_over``: its last
+        evaluation and compiled plan forgotten; the joints' ``u0``, the only other thing a run changes, set anew by
+        the run's initial state). The others keep what a run leaves (the partition of ``partitioning``, the counters
+        of ``projection`` and the augmented Lagrangian, its penalty set at the first state)."""
+        if name not in REUSED:
+            return make_formulation(name, self.system, M, forces, **options)
+        made = self._formulations.get(name)
+        if made is None:
+            made = self._formulations[name] = make_formulation(name, self.system, M, forces, **options)
+        else:
+            made.start_over()
+        return made
+
+    def run(self, q0: np.ndarray, qd0: np.ndarray, progress: Progress | None = None) -> Result:
+        """The motion from the (approximate) initial state q0, qd0: ``forward_dynamics``'s result."""
+        start = _time.perf_counter()
+        q0, qd0 = initial_arrays(self.system, q0, qd0)
+        run = Run(self.system, q0, qd0, self.settings, self.masses, self.forces, self.points, progress, self)
+        settings = self.settings
+        try:
+            result, made = run_stages(run, settings.formulation, settings.integrator)
+        except SingularStop as stop:  # ``auto`` met a singular position: the formulation that passes it, from the start
+            fallback = THROUGH_SINGULAR[0]
+            result, made = run_stages(run, fallback, settings.integrator)
+            result.info["chosen"] = {
+                "formulation": fallback,
+                "integrator": result.info["integrator"],
+                "why": f"{fallback}: {stop.formulation} stopped near a singular configuration ({stop.first}), "
+                "which it passes; " + stop.why,
+            }
+            result.info["restarted"] = {
+                "t": stop.t,
+                "stopped": stop.formulation,
+                "formulation": fallback,
+                "why": stop.reason,
+            }
+        result = judge_divergence(run, result, made)  # stage 5's last guard: a second run, where motion may be chaotic
+        result.info["wall_time"] = _time.perf_counter() - start
+        return result
+
+
+REUSED = ("joint-coordinates",)
+"""The formulations whose object a prepared run hands from one run to the next (``Prepared.formulation``)."""
+
+
+@dataclass(frozen=True)
+class Fixed:
+    """What a prepared run's stages read of the model alone, made once (``Prepared.fixed``): the point masses
+    (``point_masses``), the Guard's speed weights (``gyration_weights``) and the joints' extent (``_joint_extent``,
+    of the mechanism's size)."""
+
+    point_masses: list[int]
+    weights: np.ndarray
+    extent: float
+
+
+def initial_arrays(system: System, q0, qd0) -> tuple[np.ndarray, np.ndarray]:
+    """q0, qd0 as float arrays of the system's coordinates; an AnalysisError that says what was given where they
+    are not."""
+    n = system.n_coordinates
+    arrays = []
+    for name, value in (("q0", q0), ("qd0", qd0)):
+        array = np.asarray(value, dtype=float)
+        if array.shape != (n,):
+            raise AnalysisError(
+                f"{name} has shape {array.shape}: give the {n} coordinates of the system "
+                f"({', '.join(system.coordinate_names)}), as build_system returns them"
+            )
+        arrays.append(array)
+    return arrays[0], arrays[1]
 
 
 @dataclass(frozen=True)
@@ -417,6 +541,8 @@ class Run:
     forces: ForceModel | None
     points: dict | None
     progress: Progress | None = None
+    prepared: Prepared | None = None
+    """The prepared run this one is of (``prepare``): what its runs share."""
 
 
 @dataclass(frozen=True)
@@ -481,17 +607,23 @@ class Made:
 
 def start_motion(run: Run, formulation: str, integrator: str) -> Start:
     """Stages 1 and 2: the model's M and forces, consistent initial conditions, the method and tolerances."""
-    M, forces = dynamic_model(run.system, run.masses, run.forces)
+    prepared = run.prepared
+    M, forces = prepared.model() if prepared is not None else dynamic_model(run.system, run.masses, run.forces)
     notes, turns = [], None
-    if run.masses is None and point_masses(run.system.model):  # M singular: free turns of point masses
+    if run.masses is None:  # the model's M: singular where point masses turn freely
+        singular = prepared.fixed().point_masses if prepared is not None else point_masses(run.system.model)
+    else:
+        singular = []
+    if singular:  # M singular: free turns of point masses
         run, turns, notes = nominal_inertia(run, M, assemble(run.system, run.q0)[0])
         M, forces = dynamic_model(run.system, None, run.forces)
+        run = dataclasses.replace(run, prepared=None)  # its system is this run's own: nothing to share
     q, qd, initial = consistent_initial_conditions(run.system, M, run.q0, run.qd0)  # stage 1
     if turns is not None:
         qd = without_turns(turns, qd)
     settings = run.settings
     options, compiled = settings.formulation_options, settings.engine == "compiled"
-    rates = StartRates(run.system, M, forces, q, qd, options, compiled, settings)  # the engine's choice first
+    rates = StartRates(run.system, M, forces, q, qd, options, compiled, settings, run.prepared)  # engine's choice first
     plan = plan_method(run, M, forces, q, qd, formulation, integrator, rates)  # stage 2
     return Start(run, M, forces, q, qd, initial, plan, notes, rates)
 
@@ -511,7 +643,8 @@ def ode_motion(run: Run, start: Start) -> tuple[Plan, EquationsOfMotion, Guard, 
         made = make_formulation(plan.formulation, system, start.M, start.forces, **run.settings.formulation_options)
     if plan.integrator in DIFFERENCING_INTEGRATORS and hasattr(made, "differenced"):
         made.differenced = True  # the augmented Lagrangian's iterations stop by a fixed rule (``converged``)
-    equations = EquationsOfMotion(made, start.forces, has_drivers=bool(system.model.motors))
+    plans = run.prepared.compiled_plans if run.prepared is not None else None
+    equations = EquationsOfMotion(made, start.forces, has_drivers=bool(system.model.motors), compiled_plans=plans)
     plan, raised = held_tolerances(plan, equations)
     return plan, equations, make_guard(run, plan, equations, start.q), raised
 
@@ -837,7 +970,7 @@ def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str, r
             **options,
         )
         formulation, integrator = chosen["formulation"], chosen["integrator"]
-    size = mechanism_size(system, q)
+    size = mechanism_size(system, q, run.prepared.fixed().extent if run.prepared is not None else None)
     periods = rate = None
     if integrator not in INDEX3_INTEGRATORS and integrator not in FIXED_STEP_METHODS:
         rate = motion_rate(system, M, forces, q, qd, formulation, options, rates, size)
@@ -921,6 +1054,7 @@ def make_guard(run: Run, plan: Plan, equations: EquationsOfMotion, q: np.ndarray
         singular_ratio,
         through=plan.formulation in THROUGH_SINGULAR,
         size=plan.size,
+        weights=run.prepared.fixed().weights if run.prepared is not None else None,
     )
 
 
@@ -1162,9 +1296,11 @@ def run_info(run: Run, plan: Plan, equations, guard, stats, result, energies, in
     }
 
 
-def mechanism_size(system: System, q: np.ndarray) -> float:
-    """L: the largest distance of a body centre or a joint point from the origin, at least 1 mm (``Guard``)."""
-    return max(float(np.max(np.abs(body_positions(system, q)), initial=0.0)), _joint_extent(system.model), 1e-3)
+def mechanism_size(system: System, q: np.ndarray, extent: float | None = None) -> float:
+    """L: the largest distance of a body centre or a joint point from the origin, at least 1 mm (``Guard``);
+    ``extent``: the joint points' (``_joint_extent``) where known."""
+    extent = _joint_extent(system.model) if extent is None else extent
+    return max(float(np.max(np.abs(body_positions(system, q)), initial=0.0)), extent, 1e-3)
 
 
 class StartRates:
@@ -1181,9 +1317,10 @@ class StartRates:
     says why)."""
 
     def __init__(
-        self, system: System, M, forces: ForceModel, q, qd, options: dict, compiled=False, settings=None
+        self, system: System, M, forces: ForceModel, q, qd, options: dict, compiled=False, settings=None, prepared=None
     ) -> None:
         self.system, self.M, self.forces, self.q, self.qd, self.options = system, M, forces, q, qd, options
+        self.prepared = prepared  # a prepared run's (``Prepared``): its formulation objects and compiled plans
         self.compiled, self.settings = compiled, settings
         self.numpy_seconds: dict[str, tuple] = {}  # the engine's choice's estimates: (rtol, seconds, compiled)
         self.known: dict[str, tuple[float, np.ndarray] | Exception] = {}
@@ -1218,8 +1355,13 @@ class StartRates:
         return found
 
     def _evaluate(self, formulation: str) -> tuple[float, np.ndarray]:
-        made = make_formulation(formulation, self.system, self.M, self.forces, **self.options)
-        equations = EquationsOfMotion(made, self.forces, False)  # the drivers' power left out: it feeds nothing back
+        prepared = self.prepared
+        if prepared is None:
+            made = make_formulation(formulation, self.system, self.M, self.forces, **self.options)
+        else:
+            made = prepared.formulation(formulation, self.M, self.forces, self.options)
+        plans = None if prepared is None else prepared.compiled_plans
+        equations = EquationsOfMotion(made, self.forces, False, plans)  # no drivers' power: it feeds nothing back
         z = equations.initial_state(self.q, self.qd, 0.0)
         self.states[formulation] = (made, equations.split(z)[0])
         if self.compiled or self._will_compile(equations, formulation, z):
@@ -1689,6 +1831,7 @@ class Guard:
         singular_ratio: float | None,
         through: bool = False,
         size: float | None = None,
+        weights: np.ndarray | None = None,
     ):
         self.system, self.singular_ratio, self.through = system, singular_ratio, through
         self.crossings: list[dict] = []  # singular positions passed (with ``through``: the formulation passes them)
@@ -1707,7 +1850,7 @@ class Guard:
         columns = np.ones(per)
         columns[dim:] = 1.0 / size  # derivatives by an angle (Euler parameter) times its arc length, in 1/m
         self._columns = np.tile(columns, system.n_bodies)
-        self._speeds = gyration_weights(system)
+        self._speeds = gyration_weights(system) if weights is None else weights  # read only
 
     def _scaled(self, jacobian: np.ndarray) -> np.ndarray:
         """Psi_q made free of units and size: derivatives by angles per arc length (divided by the mechanism's
@@ -2248,4 +2391,6 @@ __all__ = [
     "consistent_initial_conditions",
     "constraint_residuals",
     "forward_dynamics",
+    "prepare",
+    "Prepared",
 ]

@@ -26,6 +26,7 @@ The choice and its reason go into ``info['chosen']`` (``engine``, ``engine_why``
 
 from __future__ import annotations
 
+import copy
 import math
 import sys
 import time
@@ -195,16 +196,36 @@ def compiled_start(
 def compiled_plan(equations, formulation: str):
     """The compiled engine's ``Plan`` of ``equations`` (``solutions.compiled.plan`` of the scene ``describe`` makes),
     made once per formulation object and force model: a run's start rates and its engine's choice share it (the
-    formulation object is made once for both, ``dynamics.StartRates.take``)."""
+    formulation object is made once for both, ``dynamics.StartRates.take``). A prepared run's
+    (``equations.compiled_plans``, ``dynamics.Prepared``) is made once for all its runs: each run's formulation
+    object gets the plan made for the first (the scene, its packed data, the loaded module), with itself in it."""
     from . import describe, plan
 
     made = equations.formulation
     key = (formulation, id(equations.forces))
     kept = made.__dict__.get("_compiled_plan")
     if kept is None or kept[0] != key or kept[1] is not equations.forces:
-        job = plan(describe(made.system, made.masses, equations.forces), formulation, made)
+        shared = equations.compiled_plans
+        found = None if shared is None else shared.get(_plan_key(made, formulation))
+        if found is not None:  # the prepared run's: the same system, M and forces, this run's formulation object
+            job = copy.copy(found)  # its loaded module (``load``) and parameters come along
+            job.formulation_object = made
+            loaded = found.__dict__.get("_loaded")
+            if loaded is not None:  # this run loads nothing: as a call that finds the module imported already
+                job.__dict__["_loaded"] = (*loaded[:2], True, 0.0)
+        else:
+            job = plan(describe(made.system, made.masses, equations.forces), formulation, made)
+            if shared is not None:
+                shared[_plan_key(made, formulation)] = job
         made.__dict__["_compiled_plan"] = kept = (key, equations.forces, job)
     return kept[2]
+
+
+def _plan_key(made, formulation: str) -> tuple:
+    """What a prepared run's compiled plan depends on besides its system, M and forces: the formulation, and the
+    rotation u0 of each joint of a joint-coordinates tree, which the tree's data holds (a spatial prismatic joint's
+    sign follows its initial state: ``joint_coordinates.SpatialTree.joint_state``)."""
+    return (formulation, *(joint.u0 for joint in getattr(made, "joints", None) or ()))
 
 
 def on_disk(is_cached, target, engine: str) -> tuple[bool, str | None]:

@@ -35,6 +35,26 @@ def test_bench_quick_writes_its_tables_and_diagrams(tmp_path, capsys):
     assert "Summary" in capsys.readouterr().out
 
 
+def test_bench_times_ours_as_a_prepared_run_when_asked(monkeypatch):
+    """``--prepared``: our timed call is ``run`` of one ``prepare`` (the same result as the call), its preparation
+    timed apart and reported."""
+    import numpy as np
+
+    from solutions.assembly import build_system
+    from solutions.dynamics import forward_dynamics
+
+    scene = next(s for s in bench.scenes() if s.key == "double_pendulum")
+    scene.t_end, scene.outputs = 0.2, 4
+    system, q0, qd0 = build_system(scene.load())
+    settings = bench.Config("baumgarte dop853", "baumgarte", "dop853").settings(1e-6)
+    run = bench.Run(scene.key, "baumgarte dop853", "", 1e-6)
+    monkeypatch.setattr(bench, "PREPARED", [True])
+    call = bench.our_call(system, q0, qd0, scene, settings, run)
+    assert run.prepare_seconds > 0
+    assert np.array_equal(call().q, forward_dynamics(system, q0, qd0, 0.2, 4, **settings).q)
+    assert bench.preparation({scene.key: [run]}).endswith(")."), "the range and median of the preparations"
+
+
 def test_bench_references_agree_with_a_tight_run():
     """The minimal-coordinate references (written in bench.py) and the solver agree: neither is copied."""
     for scene in bench.scenes():
@@ -62,17 +82,20 @@ def test_bench_runs_the_stress_study_beside_it(tmp_path, capsys):
     assert "| redundant |" in (tmp_path / "stress_quick.md").read_text()
 
 
-@pytest.mark.parametrize("clock", [[], ["--cpu"]], ids=["wall", "cpu"])
+@pytest.mark.parametrize("clock", [[], ["--cpu"], ["--cpu", "--prepared"]], ids=["wall", "cpu", "prepared"])
 def test_call_cost_times_every_stage_of_a_compiled_call(capsys, clock):
     """benchmarks/call_cost.py: every stage it wraps is still where it looks, and each was timed in the call, by
-    the wall clock or (--cpu) this thread's CPU time."""
+    the wall clock or (--cpu) this thread's CPU time; with --prepared, in prepared.run, the preparation apart."""
     from benchmarks import call_cost
 
     call_cost.main(["--scene", "double_pendulum", "--calls", "1", *clock])
     lines = capsys.readouterr().out.splitlines()
     assert lines[0].endswith("thread CPU)" if clock else "wall)")
+    assert ("prepared.run" in lines[0]) == ("--prepared" in clock)
     rows = [line.split(" | ") for line in lines[4:]]  # | stage | ms |
     cells = {label.strip("| ").replace("&nbsp;", " "): value.strip(" |*") for label, value in rows}
+    if "--prepared" in clock:
+        assert float(cells.pop("preparation (prepare + first run)")) > 0
     assert list(cells)[2] == "whole call with the divergence check" and float(cells[list(cells)[2]]) > 0
     labels = list(dict.fromkeys(label for _, _, label in call_cost.STAGES + call_cost.COMPANION))
     assert labels == list(cells)[3:]

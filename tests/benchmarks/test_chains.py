@@ -82,6 +82,23 @@ def test_mbd_bench_scaling_runs_the_study_and_writes_its_table(tmp_path, capsys)
     assert float(row.split("|")[6]) < 1e-4  # the error column: the run follows the reference
 
 
+def test_scaling_times_ours_as_a_prepared_run_when_asked(tmp_path):
+    """``--prepared``: ours is ``prepared.run`` of one ``prepare`` (the header says so), with the same error as the
+    call's (the same run)."""
+    from benchmarks import bench
+
+    out = tmp_path / "chains.md"
+    argv = ["--scaling", "--family", "planar", "--sizes", "2", "--repeats", "1", "--configs", "numpy baumgarte dop853"]
+    try:
+        assert bench.main([*argv, "--prepared", "--out", str(out)]) == 0
+    finally:
+        chains.PREPARED[0] = False
+    text = out.read_text()
+    assert "ours: prepared.run" in text
+    row = next(line for line in text.splitlines() if line.startswith("| 2 | numpy baumgarte dop853 |"))
+    assert float(row.split("|")[6]) < 1e-4
+
+
 @pytest.fixture(scope="module")
 def mujoco_loops():
     """MuJoCo (skipped without it) and the loop chain's reference at N = 1 over the study's 1 s."""
