@@ -34,7 +34,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..joint_coordinates import cut_elements, tree_order
-from .articulated import sizes
 from .codegen import (
     constraint_calls,
     force_calls,
@@ -148,6 +147,8 @@ def _arrays(spatial: bool) -> list[str]:
     and ``SPATIAL_MOTION``), never cut into views: a reshape costs ~20 ns, an allocation ~30 ns, a view handed
     on ~10 ns, more than a planar joint's arithmetic. D (eq. 5.44) only for cut rows: an open tree's articulated
     pass never forms it."""
+    from .articulated import sizes  # numba: imported only where a module is written (this module imports none)
+
     nv = 6 if spatial else 3
     body, joint = sizes(nv)
     body += 4 if spatial else 3  # the recursion's rows
