@@ -130,7 +130,8 @@ def _norm(x):
 
 @_inline
 def _error(dop, K, h, y, y_new, rtol, atol, E, E3, E5, sums):
-    """The scaled RMS error norm of a step, with sc_i = atol + rtol max(|y_i|, |y_new_i|) (sec. II.4, eq. 4.10-4.11):
+    """The scaled RMS error norm of a step, with sc_i = atol + rtol max(|y_i|, |y_new_i|) (Hairer-Norsett-Wanner
+    sec. II.4, their formulas 4.10-4.11):
     DOP853's combination of its 5th and 3rd order estimates (sec. II.10), err = |h| e5 / sqrt(n (e5 + 0.01 e3))
     with e5 = sum_i (sum_s E5_s K_si / sc_i)^2 and e3 likewise; RK45's sqrt(1/n sum_i (h sum_s E_s K_si / sc_i)^2).
     The estimates sum_s E_s K_s are made stage by stage into ``sums`` (work, 2 x n), as ``_combination``."""
