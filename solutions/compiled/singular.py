@@ -102,10 +102,8 @@ _SPECTRA = types.Tuple((_vector, _stack, _vector, _vector, _stack))(
 _AT = _vector(_stack, _vector, _matrix, _ivector, _vector, _ivector, _ivector, _ivector, _stack, _stack, _ivector)
 _SETTLED = types.boolean[::1](_vector, _vector, _vector, _vector, types.float64)
 _DENSE = types.Tuple((_vector, _stack, _vector))(_stack, _vector, _matrix, types.boolean)
-_BRACKETED = types.Tuple((_vector, _stack, _vector, _vector, _stack))(
-    _stack, _vector, _matrix, types.boolean, types.float64, types.float64
-)
-_CLOSED = _vector(_stack, _ivector)
+_BRACKETED = types.Tuple((_vector, _stack, _vector, _vector))(_stack, _vector, _matrix, types.boolean, types.float64)
+_CLOSED = _vector(_stack, _vector, _matrix, _ivector)
 """Signatures compiled at import (and cached on disk, ``precompile``): a run never waits for them."""
 
 
@@ -985,10 +983,12 @@ def dense_spectra(
     jacobians = np.ascontiguousarray(jacobians, dtype=float)
     if settle is None or jacobians.shape[1] < BRACKETED_SMALLEST:
         return _dense_spectra(jacobians, *scale, bool(bases))
-    ratios, tangents, signs, lower, triangles = _dense_bracketed(jacobians, *scale, bool(bases), LOOSE, settle[1])
+    ratios, tangents, signs, lower = _dense_bracketed(jacobians, *scale, bool(bases), LOOSE)
+    if np.array_equal(lower, ratios):  # every ratio closed in the pass
+        return ratios, tangents, signs
     times = _unsettled(lower, ratios, signs, settle)
     if times.size:
-        ratios[times] = _closed_ratios(triangles, times)
+        ratios[times] = _closed_ratios(jacobians, *scale, times)
     return ratios, tangents, signs
 
 
@@ -1123,13 +1123,13 @@ def _dense_gram(J, G):
 
 
 @njit(_BRACKETED, cache=True, nogil=True)
-def _dense_bracketed(jacobians, columns, norms, bases, loose, fall):
-    """``_dense_spectra`` with each ratio in a bracket where one pays: (figures, bases, signs, lower bounds, R^T of
-    every time (N, m, m), for ``_closed_ratios``). The bracket is the band route's (``_bracketed_ratio`` on the dense
-    pattern, from the eigenvectors of the times before, extrapolated), widened by G's rounding (16 eps lambda_1,
-    relative to lambda_m: 16 eps / ratio^2) and 1e-12, so that it holds Jacobi's figure too (a constant ratio's
-    bracket then overlaps Jacobi's figure at the time before, as its exact value does, where the bare Rayleigh
-    quotients can fall an ulp below it and decide a tie).
+def _dense_bracketed(jacobians, columns, norms, bases, loose):
+    """``_dense_spectra`` with each ratio in a bracket where one pays: (figures, bases, signs, lower bounds). The
+    bracket is the band route's (``_bracketed_ratio`` on the dense pattern, from the eigenvectors of the times
+    before, extrapolated), widened by G's rounding (16 eps lambda_1, relative to lambda_m: 16 eps / ratio^2) and
+    1e-12, so that it holds Jacobi's figure too (a constant ratio's bracket then overlaps Jacobi's figure at the
+    time before, as its exact value does, where the bare Rayleigh quotients can fall an ulp below it and decide a
+    tie).
     Jacobi at once (closed: lower = figure) at the first time, where a bracket fails (its eigenvectors then iterated
     to convergence for the next time's, ``_iterated_ratio``), and where the ratio cannot have moved by a bracket's
     width since the time before, so that ``settled`` would close both anyway: by Weyl's inequality each singular
@@ -1137,12 +1137,11 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose, fall):
     most (sigma_1 >= 1: rows of unit length), to first order (a driven mechanism's constant Psi_q, a start from
     rest); and every time once more than half of four or more brackets overlapped the time before's (a constant
     ratio of a moving Psi_q: a cylindrical joint's rotation). The choices cost m n operations a time and decide cost
-    alone, never a figure. ``fall``: unused (kept for the signature)."""
+    alone, never a figure."""
     N, m, n = jacobians.shape
     d = n - m
     ratios, signs, lower = np.empty(N), np.empty(N), np.empty(N)
     tangents = np.zeros((N, n, d if bases else 0))
-    triangles = np.empty((N, m, m))
     J, previous = np.empty((m, n)), np.empty((m, n))
     S, V, beta, B = np.empty((m, n)), np.zeros((m, n)), np.empty(m), np.empty((m, m))
     rows = np.arange(m)
@@ -1150,7 +1149,7 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose, fall):
     indices = np.empty(m * n, dtype=np.int64)
     for r in range(m):
         indices[r * n : (r + 1) * n] = np.arange(n)
-    products = _gram_products(rows, starts, indices, m - 1)  # for ``_iterated_ratio``
+    products = np.empty((0, 5), dtype=np.int64)  # for ``_iterated_ratio``, made at its first call
     made = np.empty((0, 5), dtype=np.int64)  # ``_bracketed_ratio``: G made by ``_dense_gram``
     G, L, low, high, y = np.empty((m, m)), np.empty((m, m)), np.ones(m), np.ones(m), np.empty(n)
     spread, earlier = np.full(2, 0.5), np.empty((2, m))
@@ -1166,7 +1165,6 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose, fall):
                 moved += (J[r, c] - previous[r, c]) ** 2
         S[:, :] = J
         signs[k] = _householder(S, V, beta, tangents[k])
-        triangles[k] = S[:, :m]  # R^T
         ratios[k], lower[k] = np.nan, np.nan
         tried = tried and (tries < 4 or 2 * overlaps <= tries)  # once stopped, for the rest
         if tried and k > 0 and np.sqrt(moved) * (1.0 + 1.0 / lower[k - 1]) >= loose:
@@ -1184,20 +1182,32 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose, fall):
                 if lower[k] <= ratios[k - 1] and lower[k - 1] <= ratios[k]:  # overlaps the time before's
                     overlaps += 1
             else:  # the eigenvectors too far off: iterated to convergence for the next time
+                if products.shape[0] == 0:
+                    products = _gram_products(rows, starts, indices, m - 1)
                 _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y)
         if not np.isfinite(lower[k]):
-            B[:, :] = triangles[k]
+            B[:, :] = S[:, :m]  # R^T
             ratios[k] = _jacobi_ratio(B)
             lower[k] = ratios[k]
-    return ratios, tangents, signs, lower, triangles
+    return ratios, tangents, signs, lower
 
 
 @njit(_CLOSED, cache=True, nogil=True)
-def _closed_ratios(triangles, times):
-    """Jacobi's sigma_m / sigma_1 (``_jacobi_ratio``) of R^T (N, m, m) at the output times ``times``."""
+def _closed_ratios(jacobians, columns, norms, times):
+    """Jacobi's sigma_m / sigma_1 at the output times ``times`` alone, as ``_dense_spectra`` makes it there (the same
+    scaling, Householder's R and sweeps: the same figure to the last bit)."""
+    N, m, n = jacobians.shape
     ratios = np.empty(times.size)
+    J, V, beta, B, T = np.empty((m, n)), np.zeros((m, n)), np.empty(m), np.empty((m, m)), np.empty((n, 0))
     for a in range(times.size):
-        ratios[a] = _jacobi_ratio(triangles[times[a]].copy())
+        k = times[a]
+        for r in range(m):
+            norm = norms[k, r] if norms[k, r] > 0.0 else 1.0
+            for c in range(n):
+                J[r, c] = jacobians[k, r, c] * columns[c] / norm
+        _householder(J, V, beta, T)
+        B[:, :] = J[:, :m]
+        ratios[a] = _jacobi_ratio(B)
     return ratios
 
 
