@@ -1135,9 +1135,9 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
     width since the time before, so that ``settled`` would close both anyway: by Weyl's inequality each singular
     value moves by at most delta = |J_k - J_k-1|_F, so sigma_m / sigma_1 by a relative (1 + 1 / ratio) delta at
     most (sigma_1 >= 1: rows of unit length), to first order (a driven mechanism's constant Psi_q, a start from
-    rest); and every time once more than half of four or more brackets overlapped the time before's (a constant
-    ratio of a moving Psi_q: a cylindrical joint's rotation). The choices cost m n operations a time and decide cost
-    alone, never a figure."""
+    rest); and every time once more than half of four or more brackets overlapped the time before's or failed (a
+    constant ratio of a moving Psi_q: a cylindrical joint's rotation). The choices cost m n operations a time and
+    decide cost alone, never a figure."""
     N, m, n = jacobians.shape
     d = n - m
     ratios, signs, lower = np.empty(N), np.empty(N), np.empty(N)
@@ -1181,7 +1181,8 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
                 ratios[k], lower[k] = figure * (1.0 + margin), bound * (1.0 - margin)
                 if lower[k] <= ratios[k - 1] and lower[k - 1] <= ratios[k]:  # overlaps the time before's
                     overlaps += 1
-            else:  # the eigenvectors too far off: iterated to convergence for the next time
+            else:  # the eigenvectors too far off: iterated to convergence for the next time (a failure counts as
+                overlaps += 1  # an overlap: as useless)
                 if products.shape[0] == 0:
                     products = _gram_products(rows, starts, indices, m - 1)
                 _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y)
