@@ -92,7 +92,8 @@ CPU, bracketed Gram route / numpy's batched SVDs and QRs: the quick-return 12 x 
 BRACKETED_SMALLEST = 6
 """Rows from which ``dense_spectra`` brackets the ratios the Guard's tests settle (``_dense_bracketed``): below,
 Jacobi's few sweeps of an m x m R cost less than a bracket's Gram matrix and Cholesky tests (101 Psi_q of the
-course models, thread CPU, bracketed / Jacobi: 2 x 3 to 5 x 7 1.2-1.9 times the time; 6 x 6 to 9 x 9 0.4-1.1)."""
+course models, thread CPU, bracketed / Jacobi: 2 x 3 to 5 x 7 1.3-3.7 times the time; 6 x 6 to 9 x 9 0.5-1.4,
+``benchmarks/guard_cost.py --small``)."""
 
 _vector, _ivector, _matrix = types.float64[::1], types.int64[::1], types.float64[:, ::1]
 _stack = types.float64[:, :, ::1]
