@@ -19,6 +19,11 @@ batched SVDs and QRs, the compiled one-pass ``singular.dense_spectra``, the comp
 ratios closed or settled by the Guard's tests), ms per history, thread CPU, the best of 3 rounds of 10 after one
 warm-up; "-" where the band is wider than n / 2. How ``dynamics._compiled_spectra`` picks its route (issue 25, item 2).
 
+``--small``: the compiled route of a small Psi_q (``singular.dense_spectra``, up to ``dynamics.DENSE_LARGEST`` rows)
+on the first history of Psi_q the Guard judges in each course model's compiled run (Baumgarte's formulation and
+joint coordinates), closed (Jacobi at every time) against settled (brackets, Jacobi where the Guard's tests need it:
+what the Guard takes), ms per history, thread CPU, as ``--routes``; the times left to Jacobi after the brackets.
+
 ``--verdicts FILE``: what the Guard decided and reported on every course model (``course/models``) and loop chain
 (N = 2, 4, 8, 16), compiled, 1 s and 100 output intervals, in Baumgarte's formulation and in joint coordinates where
 the model has them: the closest ratio and its time, the singular positions passed with their figures and verdicts,
@@ -157,6 +162,46 @@ def print_routes(sizes: list[int]) -> None:
         print(f"| {route} | " + " | ".join(cells) + " |")
 
 
+def print_small() -> None:
+    """``--small``: a Markdown table (module docstring)."""
+    import glob
+
+    histories, dense = [], singular.dense_spectra
+
+    def kept(jacobians, columns, norms, *args, **kwargs):
+        histories.append((np.array(jacobians), np.array(columns), np.array(norms)))
+        return dense(jacobians, columns, norms, *args, **kwargs)
+
+    singular.dense_spectra = kept
+    rows = []
+    try:
+        for source in sorted(glob.glob(str(ROOT.parent / "course/models/*.yaml"))):
+            system, q0, qd0 = build_system(load_model(source))
+            for formulation in ("baumgarte", "joint-coordinates"):
+                histories.clear()
+                options = dict(formulation=formulation, rtol=1e-6, atol=1e-8, engine="compiled", divergence="skip")
+                try:
+                    dynamics.forward_dynamics(system, q0, qd0, 1.0, 100, **options)
+                except Exception:  # noqa: BLE001, S112 -- a formulation the model cannot take, or a stop: no row
+                    continue
+                if histories:
+                    rows.append((Path(source).stem, formulation, histories[0]))
+    finally:
+        singular.dense_spectra = dense
+    settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)  # the Guard's tests (Guard._spectra, default ratio)
+    print("## dense_spectra on each course model's history of Psi_q, ms per 101 Psi_q (thread CPU)\n")
+    print("| model | formulation | m x n | closed | settled | settled / closed | Jacobi after brackets |")
+    print("|---|---|---|---:|---:|---:|---:|")
+    for name, formulation, (jacobians, columns, norms) in rows:
+        closed = _per_history(lambda: dense(jacobians, columns, norms))  # noqa: B023
+        settled = _per_history(lambda: dense(jacobians, columns, norms, settle=settle))  # noqa: B023
+        figures, _, signs, lower = singular._dense_bracketed(jacobians, columns, norms, True, singular.LOOSE)
+        left = (lower == figures).sum() + singular._unsettled(lower, figures, signs, settle).size
+        left = "all" if jacobians.shape[1] < singular.BRACKETED_SMALLEST else left
+        size = "x".join(map(str, jacobians.shape[1:]))
+        print(f"| {name} | {formulation} | {size} | {closed:.3f} | {settled:.3f} | {settled / closed:.2f} | {left} |")
+
+
 def verdicts(path: str, sizes: list[int]) -> None:
     """``--verdicts``: one JSON line per run (module docstring) into ``path``."""
     import glob
@@ -196,10 +241,13 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--sizes", type=int, nargs="+", default=[16, 64], help="loops N of the chain")
     parser.add_argument("--calls", type=int, default=5, help="calls timed per size (default 5)")
     parser.add_argument("--routes", action="store_true", help="time square_spectra's routes instead")
+    parser.add_argument("--small", action="store_true", help="time dense_spectra closed and settled per model")
     parser.add_argument("--verdicts", metavar="FILE", help="the Guard's verdicts and figures on every run into FILE")
     args = parser.parse_args(argv)
     if args.verdicts:
         return verdicts(args.verdicts, args.sizes)
+    if args.small:
+        return print_small()
     if args.routes:
         return print_routes(args.sizes)
     results = [measure(n, args.calls) for n in args.sizes]

@@ -1777,7 +1777,8 @@ def _compiled_spectra(
     jacobians: np.ndarray, columns: np.ndarray, norms: np.ndarray, before: np.ndarray | None, pattern=None, settle=None
 ):
     """The compiled engine's spectra of the scaled Psi_q: in one compiled pass over a small one (up to DENSE_LARGEST
-    rows, ``compiled.singular.dense_spectra``), else from its band (``compiled.singular.spectra``): from
+    rows, ``compiled.singular.dense_spectra``; with ``settle``, Jacobi's figures only where the Guard's tests need
+    them), else from its band (``compiled.singular.spectra``): from
     BAND_SMALLEST coordinates where the band is at most an eighth of them wide (``WIDEST``), below where it is at most
     half of them wide (``WIDEST_MID``: a mid-size Psi_q, the loop chain's of 2-8 loops, costs a quarter to two thirds
     of numpy's batched SVDs and QRs so; a wider band costs more than they), or at any width where it is square and its
@@ -1789,7 +1790,7 @@ def _compiled_spectra(
         return None
     _, m, n = jacobians.shape
     if m <= DENSE_LARGEST and n < BAND_SMALLEST:
-        return singular.dense_spectra(jacobians, columns, norms)
+        return singular.dense_spectra(jacobians, columns, norms, settle=settle)
     if n >= BAND_SMALLEST:
         widest = singular.WIDEST
     else:

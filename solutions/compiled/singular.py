@@ -89,6 +89,12 @@ the Guard's tests (``settled``): any width, even a full matrix (101 Psi_q of the
 CPU, bracketed Gram route / numpy's batched SVDs and QRs: the quick-return 12 x 12 0.43 / 1.26 ms, the six-bar
 15 x 15 0.61 / 1.85, the spatial slider-crank 21 x 21, no band, 1.21 / 3.27)."""
 
+BRACKETED_SMALLEST = 6
+"""Rows from which ``dense_spectra`` brackets the ratios the Guard's tests settle (``_dense_bracketed``): below,
+Jacobi's few sweeps of an m x m R cost less than a bracket's Gram matrix and Cholesky tests (101 Psi_q of the
+course models, thread CPU, bracketed / Jacobi: 2 x 3 to 5 x 7 1.3-3.7 times the time; 6 x 6 to 9 x 9 0.5-1.4,
+``benchmarks/guard_cost.py --small``)."""
+
 _vector, _ivector, _matrix = types.float64[::1], types.int64[::1], types.float64[:, ::1]
 _stack = types.float64[:, :, ::1]
 _SPECTRA = types.Tuple((_vector, _stack, _vector, _vector, _stack))(
@@ -97,6 +103,8 @@ _SPECTRA = types.Tuple((_vector, _stack, _vector, _vector, _stack))(
 _AT = _vector(_stack, _vector, _matrix, _ivector, _vector, _ivector, _ivector, _ivector, _stack, _stack, _ivector)
 _SETTLED = types.boolean[::1](_vector, _vector, _vector, _vector, types.float64)
 _DENSE = types.Tuple((_vector, _stack, _vector))(_stack, _vector, _matrix, types.boolean)
+_BRACKETED = types.Tuple((_vector, _stack, _vector, _vector))(_stack, _vector, _matrix, types.boolean, types.float64)
+_CLOSED = _vector(_stack, _vector, _matrix, _ivector)
 """Signatures compiled at import (and cached on disk, ``precompile``): a run never waits for them."""
 
 
@@ -164,15 +172,22 @@ def spectra(
     arguments = (np.ascontiguousarray(stored), *scale, position, keys, starts, indices, slots)
     ratios, bases, signs, lower, vectors = _spectra(*arguments, first, 0.0 if settle is None else LOOSE)
     if settle is not None:
-        thresholds = np.array([value for value in settle[0] if value], dtype=float)
-        unsettled = ~settled(lower, ratios, signs, thresholds, float(settle[1]))
-        if len(settle) > 2 and settle[2]:  # compared with the batches before and after too (``Guard._record``)
-            unsettled[:2] |= lower[:2] < ratios[:2]
-            unsettled[-2:] |= lower[-2:] < ratios[-2:]
-        times = np.flatnonzero(unsettled)
+        times = _unsettled(lower, ratios, signs, settle)
         if times.size:  # closed there, each from its own vectors
-            ratios[times] = _ratios_at(*arguments, bases, vectors, times.astype(np.int64))
+            ratios[times] = _ratios_at(*arguments, bases, vectors, times)
     return ratios, bases, signs
+
+
+def _unsettled(lower: np.ndarray, ratios: np.ndarray, signs: np.ndarray, settle: tuple) -> np.ndarray:
+    """The output times (int64) whose ratios, known in brackets [lower, ratios], the Guard's tests ``settle``
+    (thresholds, fall[, ends]) need closed (``settled``; ``ends``: the first two and last two times too, which a
+    run ``through`` singular positions compares with the batches before and after, ``Guard._record``)."""
+    thresholds = np.array([value for value in settle[0] if value], dtype=float)
+    unsettled = ~settled(lower, ratios, signs, thresholds, float(settle[1]))
+    if len(settle) > 2 and settle[2]:
+        unsettled[:2] |= lower[:2] < ratios[:2]
+        unsettled[-2:] |= lower[-2:] < ratios[-2:]
+    return np.flatnonzero(unsettled).astype(np.int64)
 
 
 @njit(_SETTLED, cache=True, nogil=True)
@@ -776,8 +791,9 @@ def _bracketed_ratio(J, rows, starts, indices, products, G, L, low, high, y, loo
     ``low`` of the times before (``_extrapolate``), where ``_iterated_ratio`` takes 8-9 tests and 14 solves to
     close it. The figure sqrt(lambda_m's upper / lambda_1's lower) is the ratio's upper end. (NaN, NaN) where a
     bound's tests fail (its vector too far off: the first time) or G's rounding (``_smallest``'s floor) is not well
-    below lambda_m's bracket: ``_iterated_ratio`` then."""
-    _gram(J, products, G)
+    below lambda_m's bracket: ``_iterated_ratio`` then. ``products`` with no rows: G already made (``_dense_gram``)."""
+    if products.shape[0]:
+        _gram(J, products, G)
     top, ceiling = _top(G, L, high, loose, spread)
     if not np.isfinite(ceiling):
         return np.nan, np.nan
@@ -951,15 +967,30 @@ def _ratios_at(jacobians, columns, norms, position, keys, starts, indices, slots
     return ratios
 
 
-def dense_spectra(jacobians: np.ndarray, columns: np.ndarray, norms: np.ndarray, bases: bool = True):
+def dense_spectra(
+    jacobians: np.ndarray, columns: np.ndarray, norms: np.ndarray, bases: bool = True, settle: tuple | None = None
+):
     """``spectra`` of a small Psi_q (N, m, n), m <= n, full row rank, not a band: in one compiled pass over the output
     times, without numpy's per-matrix overhead (on the slider-crank's 101 Psi_q of 9 x 9, batched SVDs and QRs
     cost 1 ms): Householder's QR of Psi_q^T (``_householder``, as ``dynamics.null_space_bases``) gives T and the
     sign of det [Psi_q; T^T], and R, whose singular values are Psi_q's: sigma_m / sigma_1 by one-sided Jacobi
-    (``_jacobi_ratio``). ``bases=False``: T left out (n x 0). NaN where Jacobi did not settle (the dense SVD's)."""
-    N, m, n = jacobians.shape
+    (``_jacobi_ratio``). ``bases=False``: T left out (n x 0). NaN where Jacobi did not settle (the dense SVD's).
+    ``settle`` (the Guard's tests, as ``spectra``'s): each ratio first in a bracket about LOOSE wide from the Gram
+    matrix's extreme eigenvalues (``_bracketed_ratio``, one or two Cholesky tests a bound, m^3 / 6 each, where
+    Jacobi's sweeps cost ~10 m^3), Jacobi only at the times ``settled`` leaves open: there the same figure to the
+    last bit (the same R, the same sweeps), elsewhere a bracket that decides every test of the Guard as the figure
+    does (``_dense_bracketed``)."""
     scale = (np.ascontiguousarray(columns, dtype=float), np.ascontiguousarray(norms, dtype=float))
-    return _dense_spectra(np.ascontiguousarray(jacobians, dtype=float), *scale, bool(bases))
+    jacobians = np.ascontiguousarray(jacobians, dtype=float)
+    if settle is None or jacobians.shape[1] < BRACKETED_SMALLEST:
+        return _dense_spectra(jacobians, *scale, bool(bases))
+    ratios, tangents, signs, lower = _dense_bracketed(jacobians, *scale, bool(bases), LOOSE)
+    if np.array_equal(lower, ratios):  # every ratio closed in the pass
+        return ratios, tangents, signs
+    times = _unsettled(lower, ratios, signs, settle)
+    if times.size:
+        ratios[times] = _closed_ratios(jacobians, *scale, times)
+    return ratios, tangents, signs
 
 
 @njit(cache=True, nogil=True)
@@ -1076,6 +1107,110 @@ def _dense_spectra(jacobians, columns, norms, bases):
         B[:, :] = J[:, :m]  # R^T
         ratios[k] = _jacobi_ratio(B)
     return ratios, tangents, signs
+
+
+@njit(cache=True, nogil=True)
+def _dense_gram(J, G):
+    """``_gram`` of a dense Psi_q (m x n; G (m, m) in lower band storage, w = m - 1): each entry's products in the
+    order of the columns, as ``_gram_products`` lists them for a full pattern (the same sums), without reading
+    their indices."""
+    m, n = J.shape
+    for i in range(m):
+        for t in range(i + 1):
+            total = 0.0
+            for c in range(n):
+                total += J[i, c] * J[i - t, c]
+            G[i, t] = total
+
+
+@njit(_BRACKETED, cache=True, nogil=True)
+def _dense_bracketed(jacobians, columns, norms, bases, loose):
+    """``_dense_spectra`` with each ratio in a bracket where one pays: (figures, bases, signs, lower bounds). The
+    bracket is the band route's (``_bracketed_ratio`` on the dense pattern, from the eigenvectors of the times
+    before, extrapolated), widened by G's rounding (16 eps lambda_1, relative to lambda_m: 16 eps / ratio^2) and
+    1e-12, so that it holds Jacobi's figure too (a constant ratio's bracket then overlaps Jacobi's figure at the
+    time before, as its exact value does, where the bare Rayleigh quotients can fall an ulp below it and decide a
+    tie).
+    Jacobi at once (closed: lower = figure) at the first time, where a bracket fails (its eigenvectors then iterated
+    to convergence for the next time's, ``_iterated_ratio``), and where the ratio cannot have moved by a bracket's
+    width since the time before, so that ``settled`` would close both anyway: by Weyl's inequality each singular
+    value moves by at most delta = |J_k - J_k-1|_F, so sigma_m / sigma_1 by a relative (1 + 1 / ratio) delta at
+    most (sigma_1 >= 1: rows of unit length), to first order (a driven mechanism's constant Psi_q, a start from
+    rest); and every time once more than half of four or more brackets overlapped the time before's or failed (a
+    constant ratio of a moving Psi_q: a cylindrical joint's rotation). The choices cost m n operations a time and
+    decide cost alone, never a figure."""
+    N, m, n = jacobians.shape
+    d = n - m
+    ratios, signs, lower = np.empty(N), np.empty(N), np.empty(N)
+    tangents = np.zeros((N, n, d if bases else 0))
+    J, previous = np.empty((m, n)), np.empty((m, n))
+    S, V, beta, B = np.empty((m, n)), np.zeros((m, n)), np.empty(m), np.empty((m, m))
+    rows = np.arange(m)
+    starts = np.arange(0, m * n + 1, n)
+    indices = np.empty(m * n, dtype=np.int64)
+    for r in range(m):
+        indices[r * n : (r + 1) * n] = np.arange(n)
+    products = np.empty((0, 5), dtype=np.int64)  # for ``_iterated_ratio``, made at its first call
+    made = np.empty((0, 5), dtype=np.int64)  # ``_bracketed_ratio``: G made by ``_dense_gram``
+    G, L, low, high, y = np.empty((m, m)), np.empty((m, m)), np.ones(m), np.ones(m), np.empty(n)
+    spread, earlier = np.full(2, 0.5), np.empty((2, m))
+    eps = np.finfo(np.float64).eps
+    tried, tries, overlaps = True, 0, 0  # brackets made, and how many overlapped the time before's
+    for k in range(N):
+        moved = 0.0
+        for r in range(m):
+            norm = norms[k, r] if norms[k, r] > 0.0 else 1.0
+            for c in range(n):  # as ``dynamics.scale_rows``, to the last bit
+                previous[r, c] = J[r, c]
+                J[r, c] = jacobians[k, r, c] * columns[c] / norm
+                moved += (J[r, c] - previous[r, c]) ** 2
+        S[:, :] = J
+        signs[k] = _householder(S, V, beta, tangents[k])
+        ratios[k], lower[k] = np.nan, np.nan
+        tried = tried and (tries < 4 or 2 * overlaps <= tries)  # once stopped, for the rest
+        if tried and k > 0 and np.sqrt(moved) * (1.0 + 1.0 / lower[k - 1]) >= loose:
+            tries += 1
+            if k >= 2 and lower[k - 1] < ratios[k - 1] and lower[k - 2] < ratios[k - 2]:  # both bracketed
+                _extrapolate(low, earlier[0], y)
+                _extrapolate(high, earlier[1], y)
+            else:
+                earlier[0, :], earlier[1, :] = low, high
+            _dense_gram(J, G)
+            figure, bound = _bracketed_ratio(J, rows, starts, indices, made, G, L, low, high, y, loose, spread)
+            if np.isfinite(bound):
+                margin = 1e-12 + 16.0 * eps / (bound * bound)  # G's rounding, relative to lambda_m
+                ratios[k], lower[k] = figure * (1.0 + margin), bound * (1.0 - margin)
+                if lower[k] <= ratios[k - 1] and lower[k - 1] <= ratios[k]:  # overlaps the time before's
+                    overlaps += 1
+            else:  # the eigenvectors too far off: iterated to convergence for the next time (a failure counts as
+                overlaps += 1  # an overlap: as useless)
+                if products.shape[0] == 0:
+                    products = _gram_products(rows, starts, indices, m - 1)
+                _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y)
+        if not np.isfinite(lower[k]):
+            B[:, :] = S[:, :m]  # R^T
+            ratios[k] = _jacobi_ratio(B)
+            lower[k] = ratios[k]
+    return ratios, tangents, signs, lower
+
+
+@njit(_CLOSED, cache=True, nogil=True)
+def _closed_ratios(jacobians, columns, norms, times):
+    """Jacobi's sigma_m / sigma_1 at the output times ``times`` alone, as ``_dense_spectra`` makes it there (the same
+    scaling, Householder's R and sweeps: the same figure to the last bit)."""
+    N, m, n = jacobians.shape
+    ratios = np.empty(times.size)
+    J, V, beta, B, T = np.empty((m, n)), np.zeros((m, n)), np.empty(m), np.empty((m, m)), np.empty((n, 0))
+    for a in range(times.size):
+        k = times[a]
+        for r in range(m):
+            norm = norms[k, r] if norms[k, r] > 0.0 else 1.0
+            for c in range(n):
+                J[r, c] = jacobians[k, r, c] * columns[c] / norm
+        _householder(J, V, beta, T)
+        B[:, :] = J[:, :m]
+        ratios[a] = _jacobi_ratio(B)
+    return ratios
 
 
 __all__ = [

@@ -323,3 +323,62 @@ def test_a_mid_size_run_through_records_the_dense_crossings_and_figures(swing, m
     assert len(crossings) == 1 and [c["t"] for c in crossings] == [c["t"] for c in dense_crossings]
     assert crossings[0]["ratio"] == pytest.approx(dense_crossings[0]["ratio"], rel=1e-10)
     assert closest["t"] == dense_closest["t"] and closest["ratio"] == pytest.approx(dense_closest["ratio"], rel=1e-10)
+
+
+@pytest.fixture(scope="module")
+def small_swing():
+    """One parallelogram loop (8 x 9: a small Psi_q, compiled.singular.dense_spectra's) swung from 30 to 149 degrees
+    through flat (90, between two of the 61 output times): its Guard, Psi_q there, and numpy's SVD ratios of the
+    scaled Psi_q."""
+    angles = np.linspace(30.0, 149.0, 61)
+    system = build_system(load_model(loop_chain(1)))[0]
+    qs = np.array([build_system(load_model(loop_chain(1, math.radians(a))))[1] for a in angles])
+    jacobians = np.array([system.jacobian(q, 0.0) for q in qs])
+    guard = Guard(system, qs[0], 1e-3, 1e-8)
+    s = np.linalg.svd(np.array([guard._scaled(J) for J in jacobians]), compute_uv=False)
+    return guard, jacobians, s[:, -1] / s[:, 0]
+
+
+def test_small_settled_ratios_decide_as_numpys_svd_through_a_singular_position(small_swing):
+    """A small Psi_q's ratios in brackets (dense_spectra with the Guard's ``settle``: Jacobi only where its tests need
+    the figure) give every decision numpy's SVD ratios give: the order of adjacent times, the falls, the dips, the
+    thresholds; the smallest and the dip's three to 1e-10; every other within the brackets' width, and each
+    bracket holds numpy's figure; the basis and sign those of the closed route, bit for bit."""
+    guard, jacobians, exact = small_swing
+    assert jacobians.shape[1:] == (8, 9) and jacobians.shape[1] <= dynamics.DENSE_LARGEST
+    norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
+    settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)
+    ratios, bases, signs = dynamics.square_spectra(jacobians, guard._columns, norms, None, True, None, settle)
+    closed = singular.dense_spectra(jacobians, guard._columns, norms)
+    dip = int(np.argmin(exact))
+    assert exact[dip] < 1e-2 < exact[0]
+    np.testing.assert_allclose(ratios, exact, rtol=3e-4)
+    assert not np.allclose(ratios, exact, rtol=1e-12, atol=0.0)  # brackets, not closed figures, at most times
+    np.testing.assert_allclose(ratios[dip - 1 : dip + 2], exact[dip - 1 : dip + 2], rtol=1e-10)
+    np.testing.assert_array_equal(ratios[dip - 1 : dip + 2], closed[0][dip - 1 : dip + 2])  # Jacobi's own figures
+    np.testing.assert_array_equal(dynamics.dips(ratios), dynamics.dips(exact))
+    assert dynamics.dips(exact)[dip - 1]  # the crossing is seen
+    np.testing.assert_array_equal(ratios[:-1] <= ratios[1:], exact[:-1] <= exact[1:])
+    falls = [np.minimum(r[:-1], r[1:]) < dynamics.FALL * np.maximum(r[:-1], r[1:]) for r in (ratios, exact)]
+    np.testing.assert_array_equal(*falls)
+    for value in settle[0]:
+        np.testing.assert_array_equal(ratios < value, exact < value)
+    np.testing.assert_array_equal(bases, closed[1])
+    np.testing.assert_array_equal(signs, closed[2])
+    scale = (np.ascontiguousarray(guard._columns), np.ascontiguousarray(norms))
+    figures, _, _, lower = singular._dense_bracketed(np.ascontiguousarray(jacobians), *scale, True, singular.LOOSE)
+    assert np.all(lower <= exact * (1 + 1e-13)) and np.all(exact <= figures * (1 + 1e-13))
+
+
+def test_a_constant_small_ratio_is_closed_as_before(small_swing):
+    """A Psi_q that does not change (a driven mechanism held still): no bracket can settle its ratios, each equal to
+    its neighbours' (Weyl's bound: the pass closes them at once), so the settled route gives Jacobi's figures of
+    the closed route, bit for bit."""
+    guard, jacobians, _ = small_swing
+    still = np.repeat(jacobians[:1], 20, axis=0)
+    norms = np.linalg.norm(still * guard._columns, axis=-1)
+    settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)
+    made = singular.dense_spectra(still, guard._columns, norms, settle=settle)
+    closed = singular.dense_spectra(still, guard._columns, norms)
+    for a, b in zip(made, closed, strict=True):
+        np.testing.assert_array_equal(a, b)
