@@ -1964,7 +1964,7 @@ class Guard:
             from .compiled import history, singular
 
             try:
-                reach = history.layout(self.system, history._row_columns)
+                reach = history.row_columns(self.system)
             except AttributeError:  # a system without elements' rows (no structure to read): every column
                 reach = None
             return singular.history_norms(jacobians, self._columns, reach)

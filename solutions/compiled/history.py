@@ -28,7 +28,7 @@ from ..output_history import axes, planar_joints, spatial_columns
 
 def constraint_arrays(module, scene, times: np.ndarray, Y: np.ndarray, columns: np.ndarray | None = None) -> tuple:
     """(Psi, Psi_q, Psi_t) at every output time, shapes (N, m), (N, m, n), (N, m), from the compiled module; with the
-    rows' ``columns`` (m, w) (``_row_columns``), Psi_q by its rows' blocks (``BlockedJacobians``): the module writes
+    rows' ``columns`` (m, w) (``row_columns``), Psi_q by its rows' blocks (``BlockedJacobians``): the module writes
     each time into one reused (m, n) and its blocks are gathered (``history_kernels.blocked_constraint_arrays``)."""
     from . import parameters
 
@@ -56,7 +56,7 @@ def block_slots(columns: np.ndarray) -> np.ndarray:
 
 class BlockedJacobians:
     """Psi_q at N output times by its rows' blocks: ``values`` (N, m, w), entry s of row r in column
-    ``columns[r, s]`` (-1 after the row's last: ``_row_columns``, the columns of the bodies the row's element
+    ``columns[r, s]`` (-1 after the row's last: ``row_columns``, the columns of the bodies the row's element
     joins), every other entry zero. Read as the dense (N, m, n) it stands for where a reader needs that (``dense``,
     ``np.asarray``, a time ``[k]``: one (m, n)); the compiled readers (residuals, reactions, the Guard's norms and
     spectra) read the blocks. Indexing by a slice or a mask of times keeps the blocks."""
@@ -122,11 +122,11 @@ def residuals(psi: np.ndarray, jac, psit: np.ndarray, qd: np.ndarray, system=Non
     if isinstance(jac, BlockedJacobians):
         values = np.ascontiguousarray(jac.values, dtype=float)  # a slice of times may not be
         history_kernels.velocity_residuals(values, qd, psit, jac.columns, block_slots(jac.columns), velocity)
-    elif system is None or layout(system, _row_columns) is None:
+    elif system is None or row_columns(system) is None:
         velocity = (jac @ qd[:, :, None])[:, :, 0] + psit  # Psi_q q' at every time, by BLAS
     else:
         jac = np.ascontiguousarray(jac, dtype=float)
-        columns = layout(system, _row_columns)
+        columns = row_columns(system)
         history_kernels.velocity_residuals(jac, qd, psit, columns, columns, velocity)
     return {
         "residual.position": np.max(np.abs(psi), axis=1, initial=0.0),
@@ -143,7 +143,12 @@ def layout(system, make):
     return kept[make]
 
 
-def _row_columns(system) -> np.ndarray | None:
+def row_columns(system) -> np.ndarray | None:
+    """(m, w): the columns of Psi_q where each row can be nonzero (``_element_columns``), made once per system."""
+    return layout(system, _element_columns)
+
+
+def _element_columns(system) -> np.ndarray | None:
     """(m, w): the columns of Psi_q where each row can be nonzero, those of the bodies its element joins (-1 after
     the last), or None where an element's rows reach other columns (checked once, at a configuration off the
     model's: then the dense product)."""
@@ -181,7 +186,7 @@ def _histories(q: np.ndarray, lam: np.ndarray, jac, rows: np.ndarray, columns: n
     begin (``columns``) in Psi_q's row: that column, or in a blocked history its slot among the row's blocks."""
     if isinstance(jac, BlockedJacobians):
         slots, jac = jac.slots(rows, columns), jac.values
-        if np.any(slots < 0):  # _row_columns gives every row its element's bodies: a joint's own body is there
+        if np.any(slots < 0):  # row_columns gives every row its element's bodies: a joint's own body is there
             raise ValueError("a joint's row of Psi_q does not reach its own body's columns")
     else:
         slots = columns

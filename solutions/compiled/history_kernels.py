@@ -70,7 +70,7 @@ def blocked_constraint_arrays(constraint_arrays, T, Y, P, D, psi, values, psit, 
     """Psi (N, m), Psi_q by its rows' blocks (N, m, w) and Psi_t (N, m) at every output time: the module's
     ``constraint_arrays`` at one time after another into one (m, n) (zeros on entry, as it wants them), its
     entries in each row's ``columns`` gathered into ``values`` and zeroed again (the only ones it writes:
-    ``history._row_columns``); no (N, m, n) history, whose first touch costs more than its arithmetic."""
+    ``history.row_columns``); no (N, m, n) history, whose first touch costs more than its arithmetic."""
     m, w = columns.shape
     one_t, one_y = np.empty(1), np.empty((1, Y.shape[1]))
     one_psi, jac, one_psit = np.zeros((1, m)), np.zeros((1, m, n)), np.zeros((1, m))

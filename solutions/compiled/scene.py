@@ -62,7 +62,7 @@ class Scene:
     unsupported: str | None = None
     packed_data: tuple | None = field(default=None, repr=False, compare=False)  # ``data()``, made once
     row_columns: np.ndarray | None = field(default=None, repr=False, compare=False)
-    """A large Psi_q's rows' columns (m, w) (``history._row_columns``): its history is kept by those blocks
+    """A large Psi_q's rows' columns (m, w) (``history.row_columns``): its history is kept by those blocks
     (``history.BlockedJacobians``); None: dense (a small Psi_q, or rows that reach further)."""
 
     @property
@@ -358,7 +358,7 @@ def _row_columns(system) -> np.ndarray | None:
 
     if system.n_constraints * system.n_coordinates <= ONE_PASS_LARGEST:
         return None
-    return history.layout(system, history._row_columns)
+    return history.row_columns(system)
 
 
 __all__ = ["Scene", "Unsupported", "describe"]

@@ -307,7 +307,7 @@ def _band_structure(pattern: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nda
 def history_norms(jacobians: np.ndarray, columns: np.ndarray, reach: np.ndarray | None = None):
     """(``row_norms`` (N, m), pattern (m, n) or None) of a history of Psi_q (N, m, n). With ``reach`` (m, w): the
     columns where each row can be nonzero, those of the bodies its element joins (-1 after the last,
-    ``history._row_columns``), both in one pass over those entries alone (``_reached_norms``: on a chain of 64
+    ``history.row_columns``), both in one pass over those entries alone (``_reached_norms``: on a chain of 64
     loops 6 of 387 columns a row, where the dense pass reads all 121 MB of the history); the same norms to the
     last bit (the dense sum adds zeros between them). Without, the dense pass and no pattern."""
     columns = np.ascontiguousarray(columns, dtype=float)

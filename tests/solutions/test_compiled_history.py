@@ -56,7 +56,7 @@ def test_history_matches_numpy_functions(path):
     expected = constraint_residuals(system, run.t, run.q, run.qd)
     got = history.residuals(psi, jac, psit, run.qd)
     sparse = history.residuals(psi, jac, psit, run.qd, system)  # over each row's nonzero columns
-    assert history.layout(system, history._row_columns) is not None  # every element's rows: its bodies' columns
+    assert history.row_columns(system) is not None  # every element's rows: its bodies' columns
     for key in expected:
         assert np.allclose(got[key], expected[key], rtol=1e-10, atol=1e-14), key
         assert np.allclose(sparse[key], expected[key], rtol=1e-10, atol=1e-14), key
@@ -74,7 +74,7 @@ def _blocked_history_is_the_dense_one(system, run, scene, module, Y, dense, resi
     one entry for entry, and the residuals and reactions read from its blocks are the dense history's to the last
     bit (the same products in the same order)."""
     psi, jac, psit = dense
-    columns = history.layout(system, history._row_columns)
+    columns = history.row_columns(system)
     bpsi, blocked, bpsit = history.constraint_arrays(module, scene, run.t, Y, columns)
     assert isinstance(blocked, history.BlockedJacobians) and blocked.shape == jac.shape
     assert blocked.values.shape == (*jac.shape[:2], columns.shape[1])
@@ -91,7 +91,7 @@ def _blocked_history_is_the_dense_one(system, run, scene, module, Y, dense, resi
 
 
 def test_residuals_take_the_dense_product_where_a_row_reaches_other_bodies():
-    """The nonzero columns of each row are those of its element's bodies (``history._row_columns``), checked once
+    """The nonzero columns of each row are those of its element's bodies (``history.row_columns``), checked once
     against Psi_q: where a row reaches another body's columns (here made so), the residuals come from the dense
     product, which counts that column."""
     from types import SimpleNamespace
@@ -103,7 +103,7 @@ def test_residuals_take_the_dense_product_where_a_row_reaches_other_bodies():
         name: getattr(system, name)
         for name in ("coordinates_per_body", "n_constraints", "n_coordinates", "elements", "rows")
     }, jacobian=lambda q, t: reaching)  # fmt: skip
-    assert history.layout(other, history._row_columns) is None
+    assert history.row_columns(other) is None
     jac = np.zeros((1, *reaching.shape))
     jac[0, 0, -1] = 1.0  # only that entry: Psi_q q' = 2 in row 0 with q' on that column
     qd, zeros = np.zeros((1, system.n_coordinates)), np.zeros((1, reaching.shape[0]))

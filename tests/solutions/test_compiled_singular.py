@@ -181,7 +181,7 @@ def test_row_norms_from_the_bodies_columns_are_numpys_with_the_pattern():
     system, qs = chain_at([40.0, 60.0, 75.0])
     jacobians = np.array([system.jacobian(q, 0.0) for q in qs])
     guard = Guard(system, qs[0], 1e-3, 1e-8)
-    reach = history.layout(system, history._row_columns)
+    reach = history.row_columns(system)
     assert reach is not None and reach.shape[1] < jacobians.shape[2] // 8  # a few columns a row: the pass pays
     norms, pattern = singular.history_norms(jacobians, guard._columns, reach)
     np.testing.assert_array_equal(norms, singular.row_norms(jacobians, guard._columns))  # the dense pass's sums
@@ -201,10 +201,10 @@ def test_a_blocked_history_gives_the_dense_ones_norms_pattern_and_spectra():
 
     system, qs = chain_at([40.0, 60.0, 75.0, 89.99])
     jacobians = np.array([system.jacobian(q, 0.0) for q in qs])
-    blocked = history.BlockedJacobians.gather(jacobians, history.layout(system, history._row_columns))
+    blocked = history.BlockedJacobians.gather(jacobians, history.row_columns(system))
     np.testing.assert_array_equal(blocked.dense(), jacobians)  # the rows' blocks hold every nonzero
     guard = Guard(system, qs[0], 1e-3, 1e-8)
-    norms, pattern = singular.history_norms(jacobians, guard._columns, history.layout(system, history._row_columns))
+    norms, pattern = singular.history_norms(jacobians, guard._columns, history.row_columns(system))
     got_norms, got_pattern = singular.history_norms(blocked, guard._columns)
     np.testing.assert_array_equal(got_norms, norms)
     np.testing.assert_array_equal(got_pattern, pattern)
