@@ -1138,6 +1138,128 @@ def dense_range_space_solve(mass, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
     return True
 
 
+@jit
+def _block_inverse(M, o, B, L):
+    """B = M[o : o + 4, o : o + 4]^-1, a body's Euler-parameter block of eq. 10.4 (regularized: positive definite),
+    from its Cholesky factor L L^T (L: a 4 x 5 work array, the reciprocals of its diagonal in the last column), the
+    four columns of the identity solved. False when a pivot is not positive to 1e-12 of its entry (a block without
+    inertia). Formed once per evaluation, the block of M^-1 is then applied by products: a triangular solve for
+    each row of Psi_q is a chain of divisions, several times slower."""
+    for r in range(4):
+        for s in range(r + 1):
+            total = M[o + r, o + s]
+            for k in range(s):
+                total -= L[r, k] * L[s, k]
+            if s < r:
+                L[r, s] = total * L[s, 4]
+            elif not total > 1e-12 * M[o + r, o + r]:
+                return False
+            else:
+                L[r, r] = math.sqrt(total)
+                L[r, 4] = 1.0 / L[r, r]
+    for c in range(4):  # column c of B: L L^T x = e_c, x written into B[:, c]
+        for r in range(4):
+            total = 1.0 if r == c else 0.0
+            for k in range(r):
+                total -= L[r, k] * B[k, c]
+            B[r, c] = total * L[r, 4]
+        for r in range(3, -1, -1):
+            total = B[r, c]
+            for k in range(r + 1, 4):
+                total -= L[k, r] * B[k, c]
+            B[r, c] = total * L[r, 4]
+    return True
+
+
+@jit
+def _mass_solve(M, B, x, first, last, out):
+    """out = M^-1 x over bodies first ... last, M block-diagonal (eq. 10.4: m I, then the 4 x 4 block whose inverse
+    is B[b], ``_block_inverse``)."""
+    for b in range(first, last + 1):
+        o = 7 * b
+        for k in range(3):
+            out[o + k] = x[o + k] / M[o + k, o + k]
+        for r in range(4):
+            Br = B[b, r]
+            out[o + 3 + r] = Br[0] * x[o + 3] + Br[1] * x[o + 4] + Br[2] * x[o + 5] + Br[3] * x[o + 6]
+
+
+@jit
+def spatial_range_space_solve(M, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
+    """q'' and lambda of eq. 5.30 for the spatial M(q) (eq. 10.4, block-diagonal: m I and a 4 x 4 Euler-parameter
+    block per body) by eq. 5.31: X = M^-1 Psi_q^T block by block (each 4 x 4 block inverted once, by Cholesky),
+    S = Psi_q X whole (m x m) and factored by Cholesky, S lambda = Psi_q M^-1 Q - gamma_bar (eq. 5.29),
+    q'' = M^-1 Q - X^T lambda. A row of Psi_q reaches the bodies first[r] ... last[r] (an element joins two), so
+    S[r, s] sums over the bodies rows r and s share: on a chain S is banded. The LU of eq. 5.30's matrix
+    (``augmented_solve``; the spatial double pendulum's is 22 x 22) costs more from the smallest scene on. False
+    (nothing written) where it does not apply: a block or mass not positive, dependent rows; the LU then. Its
+    arrays are views of one work array (an allocation costs as much as a hundred of these products)."""
+    m, n = jac.shape
+    nb = n // 7
+    work = np.empty(16 * nb + 20 + m * n + m * m + m + n)
+    B = work[: 16 * nb].reshape((nb, 4, 4))  # the blocks of M^-1
+    L = work[16 * nb : 16 * nb + 20].reshape((4, 5))
+    at = 16 * nb + 20
+    X = work[at : at + m * n].reshape((m, n))
+    at += m * n
+    S = work[at : at + m * m].reshape((m, m))
+    at += m * m
+    y, u = work[at : at + m], work[at + m : at + m + n]
+    for b in range(nb):
+        o = 7 * b
+        for k in range(3):
+            if not M[o + k, o + k] > 0.0:
+                return False
+        if not _block_inverse(M, o + 3, B[b], L):
+            return False
+    reach = np.empty((m, 2), np.int64)  # the first and last body each row reaches
+    for r in range(m):  # and X's row r = M^-1 (row r of Psi_q) over them
+        first, last = nb, -1
+        for k in range(n):
+            if jac[r, k] != 0.0:
+                first, last = min(first, k // 7), k // 7
+        reach[r, 0], reach[r, 1] = first, last
+        _mass_solve(M, B, jac[r], first, last, X[r])
+    for r in range(m):  # the lower triangle of S over the bodies rows r and s share
+        for s in range(r + 1):
+            total = 0.0
+            for k in range(7 * max(reach[r, 0], reach[s, 0]), 7 * min(reach[r, 1], reach[s, 1]) + 7):
+                total += jac[r, k] * X[s, k]
+            S[r, s] = total
+    for r in range(m):  # S = L L^T in place (dependent rows: a pivot not positive to 1e-12 of its entry)
+        for s in range(r + 1):
+            total = S[r, s]
+            for k in range(s):
+                total -= S[r, k] * S[s, k]
+            if s < r:
+                S[r, s] = total / S[s, s]
+            elif not total > 1e-12 * S[r, r]:
+                return False
+            else:
+                S[r, r] = math.sqrt(total)
+    _mass_solve(M, B, Q, 0, nb - 1, u)  # u = M^-1 Q
+    stabilized = ab[0] != 0.0 or ab[1] != 0.0
+    for r in range(m):  # y = Psi_q M^-1 Q - gamma_bar (eq. 5.29), then L y' = y
+        total, psi_dot = 0.0, psit[r]
+        for k in range(7 * reach[r, 0], 7 * reach[r, 1] + 7):
+            total += jac[r, k] * u[k]
+            psi_dot += jac[r, k] * qd[k]
+        total -= gam[r] - 2.0 * ab[0] * psi_dot - ab[1] ** 2 * psi[r] if stabilized else gam[r]
+        for k in range(r):
+            total -= S[r, k] * y[k]
+        y[r] = total / S[r, r]
+    for r in range(m - 1, -1, -1):  # L^T lambda = y'
+        total = y[r]
+        for k in range(r + 1, m):
+            total -= S[k, r] * lam[k]
+        lam[r] = total / S[r, r]
+    qdd[:] = u  # q'' = M^-1 Q - X^T lambda
+    for r in range(m):
+        for k in range(7 * reach[r, 0], 7 * reach[r, 1] + 7):
+            qdd[k] -= X[r, k] * lam[r]
+    return True
+
+
 LAPACK_SIZE = 32
 """Systems with more unknowns than this go to LAPACK's gesv (blocked LU on BLAS: 3.3x faster at 129 unknowns, 5x at
 260); smaller ones, where LAPACK's call costs more than the arithmetic (3.5x slower at 6 unknowns), are eliminated

@@ -1,8 +1,9 @@
-"""The compiled planar solve of eq. 5.30 in its range-space form (eq. 5.31, ``kernels.range_space_solve``; a small
-scene's dense form, ``dense_range_space_solve``) against
-numpy's dense solve of the augmented system, on Jacobians shaped as mechanisms make them: a chain (banded), a
-chain closed into a loop (a wide envelope), rows in shuffled order; and the cases it must hand back to the LU of
-eq. 5.30 (dependent rows, a body without mass, a row with many nonzeros) without writing anything.
+"""The compiled solve of eq. 5.30 in its range-space form (eq. 5.31): planar (``kernels.range_space_solve``; a small
+scene's dense form, ``dense_range_space_solve``) and spatial (``spatial_range_space_solve``: M block-diagonal,
+eq. 10.4) against numpy's dense solve of the augmented system, on Jacobians shaped as mechanisms make them: a chain
+(banded), a chain closed into a loop (a wide envelope), rows in shuffled order; and the cases it must hand back to
+the LU of eq. 5.30 (dependent rows, a body without mass or inertia, a row with many nonzeros) without writing
+anything.
 """
 
 import numpy as np
@@ -166,3 +167,68 @@ def test_a_wide_envelope_is_narrowed_by_reordering_the_rows():
     assert np.max(np.arange(m) - first) <= 8  # a band: a joint's rows couple with its neighbours' only
     full = np.tril(S) + np.tril(S, -1).T
     np.testing.assert_array_equal(np.tril(full[np.ix_(order, order)]), np.tril(P))
+
+
+# -- the spatial form: M block-diagonal (eq. 10.4), M^-1 applied body by body -------------------------------------
+def spatial_problem(bodies: int, rng: np.random.Generator) -> tuple:
+    """A spatial chain's eq. 5.30: M of eq. 10.4's shape (m I and a positive definite 4 x 4 Euler-parameter block per
+    body of 7 coordinates), Psi_q with a joint's 5 rows between neighbours (ground to body 0) on both bodies' 14
+    columns and each body's normalization row 2 p^T on its own 4; psi, Psi_t, gamma, Q, q' random."""
+    n = 7 * bodies
+    M = np.zeros((n, n))
+    rows = []
+    for b in range(bodies):
+        o = 7 * b
+        M[o : o + 3, o : o + 3] = rng.uniform(0.5, 3.0) * np.eye(3)
+        A = rng.normal(size=(4, 4))
+        M[o + 3 : o + 7, o + 3 : o + 7] = A @ A.T + 0.1 * np.eye(4)
+        joint = np.zeros((5, n))
+        joint[:, max(0, o - 7) : o + 7] = rng.normal(size=(5, min(14, o + 7)))
+        normalization = np.zeros((1, n))
+        normalization[0, o + 3 : o + 7] = 2.0 * rng.normal(size=4)
+        rows += [joint, normalization]
+    jac = np.vstack(rows)
+    m = jac.shape[0]
+    return M, jac, rng.normal(size=m), rng.normal(size=m), rng.normal(size=m), rng.normal(size=n), rng.normal(size=n)
+
+
+def spatial_augmented(M, jac, psi, psit, gam, Q, qd, ab):
+    """q'' and lambda of eq. 5.30 with gamma_bar of eq. 5.29 and a full M, by numpy's dense solve."""
+    m, n = jac.shape
+    K = np.block([[M, jac.T], [jac, np.zeros((m, m))]])
+    gamma_bar = gam - 2.0 * ab[0] * (jac @ qd + psit) - ab[1] ** 2 * psi
+    x = np.linalg.solve(K, np.concatenate([Q, gamma_bar]))
+    return x[:n], x[n:]
+
+
+@pytest.mark.parametrize("bodies", [1, 2, 8])
+@pytest.mark.parametrize("ab", [(0.0, 0.0), (5.0, 7.0)])
+def test_spatial_range_space_solve_equals_the_augmented_system(bodies, ab):
+    from solutions.compiled.kernels import spatial_range_space_solve
+
+    rng = np.random.default_rng(20 + bodies)
+    M, jac, psi, psit, gam, Q, qd = spatial_problem(bodies, rng)
+    ab = np.array(ab)
+    qdd, lam = np.full(jac.shape[1], np.nan), np.full(jac.shape[0], np.nan)
+    assert spatial_range_space_solve(M, jac, psi, psit, gam, Q, qd, ab, qdd, lam)
+    expected_qdd, expected_lam = spatial_augmented(M, jac, psi, psit, gam, Q, qd, ab)
+    np.testing.assert_allclose(qdd, expected_qdd, rtol=1e-9, atol=1e-9 * np.max(np.abs(expected_qdd)))
+    np.testing.assert_allclose(lam, expected_lam, rtol=1e-9, atol=1e-9 * np.max(np.abs(expected_lam)))
+
+
+@pytest.mark.parametrize("fault", ["dependent rows", "a block without inertia", "a body without mass"])
+def test_the_spatial_solve_hands_what_it_cannot_take_to_the_augmented_lu(fault):
+    from solutions.compiled.kernels import spatial_range_space_solve
+
+    rng = np.random.default_rng(30)
+    M, jac, psi, psit, gam, Q, qd = spatial_problem(3, rng)
+    if fault == "dependent rows":  # S = Psi_q M^-1 Psi_q^T singular
+        jac = np.vstack([jac, jac[2] - jac[7]])
+        psi, psit, gam = (np.append(v, 0.0) for v in (psi, psit, gam))
+    elif fault == "a block without inertia":
+        M[10:14, 10:14] = 0.0
+    else:
+        M[7, 7] = 0.0
+    qdd, lam = np.full(jac.shape[1], 7.0), np.full(jac.shape[0], 7.0)
+    assert not spatial_range_space_solve(M, jac, psi, psit, gam, Q, qd, np.zeros(2), qdd, lam)
+    assert np.all(qdd == 7.0) and np.all(lam == 7.0)
