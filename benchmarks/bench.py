@@ -589,6 +589,12 @@ def execute(scene: Scene, config: Config, setting: float, repeats: int, memory: 
 FORMULATIONS = ("baumgarte", "partitioning", "qr", "svd", "projection")
 
 
+RK4_SUBSTEPS = (1, 2, 3, 4, 5, 6, 8, 10, 12, 16)
+"""Steps per output interval of our fixed-step runs in joint coordinates on the peers' scenes: h = interval / k, the
+grid of the peers' RK4 (``peers.SUBSTEPS``) up to where DOP853 is the cheaper way to the finer errors (a fourth-order
+step's error falls as h^4: at 1e-3 on the double pendulum k = 3, 1200 evaluations, as MuJoCo's RK4)."""
+
+
 def plan(scene: Scene, quick: bool) -> list[tuple[Config, tuple[float, ...]]]:
     """The configurations of a scene and the tolerances (or rk4 steps) each runs at."""
     main = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-11)  # fine near the targets: the cheapest setting there
@@ -618,6 +624,10 @@ def plan(scene: Scene, quick: bool) -> list[tuple[Config, tuple[float, ...]]]:
         joint = Config("compiled joint-coordinates dop853", "joint-coordinates", "dop853", family="compiled")
         joint.engine = "compiled"
         compiled.append((joint, main))
+        if scene.peers and not quick:  # a fixed step h = output interval / k, as the peers' steps are searched
+            rk4 = Config("compiled joint-coordinates rk4", "joint-coordinates", "rk4", fixed_step=True)
+            rk4.family, rk4.engine = "compiled", "compiled"
+            compiled.append((rk4, tuple(scene.t_end / scene.outputs / k for k in RK4_SUBSTEPS)))
     if quick:  # the compiled engine on the double pendulum only (its module is one the tests compile anyway)
         return entries + (compiled[:1] if scene.key == "double_pendulum" else [])
     entries += compiled
