@@ -573,21 +573,22 @@ def tree_multipliers(jac, residual, index, width, ints, lam):
         first, count = start[C], start[C + 1] - start[C]
         for a in range(count):  # by loops: at most 7 x 7, where a BLAS call costs more than the products
             row = mine[first + a]
-            G[most, a] = 0.0
+            total = 0.0  # sums in a local (G may alias jac for the compiler: each += would store to memory)
             for c in range(width * C, width * (C + 1)):
-                G[most, a] += jac[row, c] * r[c]
+                total += jac[row, c] * r[c]
+            G[most, a] = total
             for other in range(a + 1):  # A A^T is symmetric: the same products, in the same order, either side
-                G[a, other] = 0.0
+                other_row, total = mine[first + other], 0.0
                 for c in range(width * C, width * (C + 1)):
-                    G[a, other] += jac[row, c] * jac[mine[first + other], c]
-                G[other, a] = G[a, other]
+                    total += jac[row, c] * jac[other_row, c]
+                G[a, other] = G[other, a] = total
         _small_solve(G, count, most)
         for a in range(count):
-            row = mine[first + a]
-            lam[row] = G[most, a]
+            row, x = mine[first + a], G[most, a]
+            lam[row] = x
             if P >= 0:  # what the body's rows exert on its parent
                 for c in range(width * P, width * (P + 1)):
-                    r[c] -= G[most, a] * jac[row, c]
+                    r[c] -= x * jac[row, c]
 
 
 @inlined
