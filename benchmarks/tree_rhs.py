@@ -6,7 +6,8 @@ their compiled right-hand side (``compiled/tree.py``'s scene_rhs) makes the tree
 (``planar_articulated`` / ``spatial_articulated``, ``articulated.py``), no D and no constraint rows. Each part is timed
 alone on the chain's starting state, its work arrays made once (scene_rhs makes them at every evaluation), thread CPU,
 the least of ``--rounds`` rounds, microseconds per call, called from a compiled loop as the integration calls it,
-beside the whole right-hand side with and without the outputs (q, q', q'', lambda of every row), and beside the
+beside the whole right-hand side with and without the outputs (q, q', q'', lambda of every row; with Psi, Psi_t and
+Psi_q as ``loops.output_history`` asks; q alone, the divergence check's companion), and beside the
 integration loop (``loops.embedded``, DOP853 at rtol = atol = 1e-6 over the chains' 1 s and 100 output intervals, as
 ``chains.py`` runs it) divided by its evaluations: what the loop costs per evaluation beyond the right-hand side is
 DOP853's own stage arithmetic, error norm, step logic and dense output.
@@ -101,6 +102,7 @@ def parts(family: str, n: int, rounds: int) -> dict[str, float | str]:
     calls = max(2000, 200000 // n)
     rhs_loop, planar_loop, spatial_loop = repeated()
     out, full = np.empty(y.size), np.empty(y.size + 3 * n_q + m)
+    history, positions = np.empty(y.size + 3 * n_q + 3 * m + m * n_q), np.empty(y.size + n_q)  # output pass, companion
     q, qd, xi, Dm = np.empty(n_q), np.empty(n_q), np.empty(nv * nb), np.empty((nv * nb, k))
     omega, rates = np.empty((nb, 3)), np.empty(npos)
     thdd, (body_rows, joint_rows) = np.empty(k), sizes(nv)
@@ -136,6 +138,14 @@ def parts(family: str, n: int, rounds: int) -> dict[str, float | str]:
         "k, evaluations of the 1 s run": f"{k}, {evaluations}",
         "right-hand side (the integration's)": rhs_alone,
         "right-hand side with the outputs": per_call(lambda: rhs_loop(rhs, y, P, D, full, calls), 1, rounds) / calls,
+        "with the outputs and Psi, Psi_t, Psi_q (loops.output_history's)": per_call(
+            lambda: rhs_loop(rhs, y, P, D, history, calls), 1, rounds
+        )
+        / calls,
+        "the positions alone (the companion run's, dispatch.positions)": per_call(
+            lambda: rhs_loop(rhs, y, P, D, positions, calls), 1, rounds
+        )
+        / calls,
         "right-hand side called from Python": per_call(lambda: module.scene_rhs(0.0, y, P, D, out), calls, rounds),
         "tree recursion (q, q', xi, S_e, links)": per_call(lambda: part(0), 1, rounds) / calls,
         "articulated-body algorithm (theta'')": per_call(lambda: part(1), 1, rounds) / calls,

@@ -321,8 +321,8 @@ def positions(job, z0: np.ndarray, times: np.ndarray, plan, settings: Settings) 
         stats = IntegrationStats(plan.integrator, rhs_evaluations=evaluations, steps=steps, rejected=rejected)
         said = settings.replace(integrator=plan.integrator)  # the run's settings may say 'auto'
         raise stop(SimpleNamespace(status=status, t=t, h=h), stats, said, float(times[-1] - times[0]))
-    if isinstance(scene, TreeScene):  # the body coordinates of the joint states, written after y'
-        return loops.outputs(rhs, times, Y, P, D, 3 * scene.n + scene.m)[:, Y.shape[1] : Y.shape[1] + scene.n]
+    if isinstance(scene, TreeScene):  # the body coordinates of the joint states, written after y (``tree.py``: the
+        return loops.outputs(rhs, times, Y, P, D, scene.n)[:, Y.shape[1] :]  # forward kinematics alone, no y')
     return Y[:, : scene.n]
 
 

@@ -113,25 +113,27 @@ class BlockedJacobians:
 
 def residuals(psi: np.ndarray, jac, psit: np.ndarray, qd: np.ndarray, system=None) -> dict[str, np.ndarray]:
     """'residual.position' max |Psi| and 'residual.velocity' max |Psi_q q' + Psi_t| at every output time. With the
-    ``system``, Psi_q q' over each row's nonzero columns (``history_kernels.velocity_residuals``; of a blocked
-    history, over its blocks: the same products in the same order), else by BLAS."""
+    ``system``, both maxima in one compiled pass, Psi_q q' over each row's nonzero columns
+    (``history_kernels.residual_maxima``; of a blocked history, over its blocks: the same products in the same
+    order), else Psi_q q' by BLAS."""
     from . import history_kernels
 
     qd, psit = (np.ascontiguousarray(a, dtype=float) for a in (qd, psit))
-    velocity = np.empty(psit.shape)
     if isinstance(jac, BlockedJacobians):
-        values = np.ascontiguousarray(jac.values, dtype=float)  # a slice of times may not be
-        history_kernels.velocity_residuals(values, qd, psit, jac.columns, block_slots(jac.columns), velocity)
+        stored, columns, slots = jac.values, jac.columns, block_slots(jac.columns)
     elif system is None or row_columns(system) is None:
         velocity = (jac @ qd[:, :, None])[:, :, 0] + psit  # Psi_q q' at every time, by BLAS
+        return {
+            "residual.position": np.max(np.abs(psi), axis=1, initial=0.0),
+            "residual.velocity": np.max(np.abs(velocity), axis=1, initial=0.0),
+        }
     else:
-        jac = np.ascontiguousarray(jac, dtype=float)
-        columns = row_columns(system)
-        history_kernels.velocity_residuals(jac, qd, psit, columns, columns, velocity)
-    return {
-        "residual.position": np.max(np.abs(psi), axis=1, initial=0.0),
-        "residual.velocity": np.max(np.abs(velocity), axis=1, initial=0.0),
-    }
+        stored, columns = jac, row_columns(system)
+        slots = columns
+    position, velocity = np.empty(psit.shape[0]), np.empty(psit.shape[0])
+    stored, psi = (np.ascontiguousarray(a, dtype=float) for a in (stored, psi))  # a slice of times may not be
+    history_kernels.residual_maxima(stored, qd, psi, psit, columns, slots, position, velocity)
+    return {"residual.position": position, "residual.velocity": velocity}
 
 
 def layout(system, make):
@@ -201,6 +203,16 @@ def _reported_columns(arrays: tuple, per: int) -> np.ndarray:
     return per * np.repeat(body, np.diff(np.append(starts, rows.size)))
 
 
+def _planar_reported(system) -> np.ndarray:
+    """``_reported_columns`` of the planar layout, made once per system (``layout``)."""
+    return _reported_columns(layout(system, _planar_layout)[1], 3)
+
+
+def _spatial_reported(system) -> np.ndarray:
+    """``_reported_columns`` of the spatial layout, made once per system (``layout``)."""
+    return _reported_columns(layout(system, _spatial_layout)[2], 7)
+
+
 def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac) -> dict[str, np.ndarray]:
     """``reactions.joint_reactions(system, q, lam, t)`` over the histories q (N, n), lambda (N, m), every joint at
     once (``history_kernels.planar_reactions``): each row's part -(Psi_q)_r^T lambda_r of the generalized force on
@@ -213,7 +225,8 @@ def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac) -> dict[str, n
     names, arrays = layout(system, _planar_layout)
     N = q.shape[0]
     F, M = np.empty((N, len(names), 2)), np.empty((N, len(names)))
-    history_kernels.planar_reactions(*_histories(q, lam, jac, arrays[0], _reported_columns(arrays, 3)), *arrays, F, M)
+    histories = _histories(q, lam, jac, arrays[0], layout(system, _planar_reported))
+    history_kernels.planar_reactions(*histories, *arrays, F, M)
     columns = {}
     for k, name in enumerate(names):
         columns[f"{name}.Fx"], columns[f"{name}.Fy"], columns[f"{name}.Mz"] = F[:, k, 0], F[:, k, 1], M[:, k]
@@ -261,7 +274,7 @@ def spatial_reactions(system, q: np.ndarray, lam: np.ndarray, jac) -> dict[str, 
     N, framed = q.shape[0], int(np.count_nonzero(place >= 0))
     F, M = np.empty((N, len(names), 3)), np.empty((N, len(names), 3))
     F_joint, M_joint = np.empty((N, framed, 3)), np.empty((N, framed, 3))
-    histories = _histories(q, lam, jac, arrays[0], _reported_columns(arrays, 7))
+    histories = _histories(q, lam, jac, arrays[0], layout(system, _spatial_reported))
     history_kernels.spatial_reactions(*histories, *arrays, F, M, F_joint, M_joint)
     return spatial_columns(names, F, M, F_joint, M_joint, place)
 

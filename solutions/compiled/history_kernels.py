@@ -1,10 +1,10 @@
 """What a compiled run reports at every output time besides its motion, compiled: ``history.py`` hands its index
 layouts (made once per system) and the run's histories q, q', lambda, Psi_q and Psi_t to these loops.
 
-``velocity_residuals``: Psi_q q' + Psi_t of every row at every output time over the columns of the bodies the row's
-element joins (its nonzeros: at most 2 x 7 of n columns), where a batched product of the dense Psi_q with q'
-multiplies every zero too (101 x 256 x 448 on a spatial chain of 64 bodies: 6 ms, more than a tenth of the
-integration).
+``residual_maxima``: max |Psi| and max |Psi_q q' + Psi_t| over the rows at every output time, the product over the
+columns of the bodies the row's element joins (its nonzeros: at most 2 x 7 of n columns), where a batched product
+of the dense Psi_q with q' multiplies every zero too (101 x 256 x 448 on a spatial chain of 64 bodies: 6 ms, more
+than a tenth of the integration).
 
 ``planar_reactions``, ``spatial_reactions``: the force and moment of every joint at every output time in one pass.
 
@@ -48,13 +48,24 @@ def eager(*arguments):
     return njit(types.void(*arguments), cache=True, fastmath=False, nogil=True)
 
 
-@eager(_cube, _matrix, _matrix, _imatrix, _imatrix, _matrix)
-def velocity_residuals(stored, qd, psit, columns, slots, velocity):
-    """velocity[t, r] = (Psi_q q')_r + (Psi_t)_r at every output time t, the product over ``columns[r]`` (the
-    row's nonzero columns, -1 after the last): the residual of the velocity equation (eq. 4.5). The entry of
-    column columns[r, c] is stored[t, r, slots[r, c]]: in that column of a dense history (N, m, n), slots =
-    columns, or in slot c of a history by its rows' blocks (N, m, w), ``history.BlockedJacobians``."""
+@jit
+def _larger(largest, value):
+    """max(largest, value), NaN kept once met (``np.max``'s rule)."""
+    if math.isnan(largest) or math.isnan(value):
+        return math.nan
+    return value if value > largest else largest
+
+
+@eager(_cube, _matrix, _matrix, _matrix, _imatrix, _imatrix, _vector, _vector)
+def residual_maxima(stored, qd, psi, psit, columns, slots, position, velocity):
+    """position[t] = max_r |Psi_r| and velocity[t] = max_r |(Psi_q q')_r + (Psi_t)_r| at every output time t (the
+    residuals of eq. 4.1 and 4.5, ``dynamics.constraint_residuals``), 0 without rows, NaN where any entry is NaN (as
+    ``np.max``). The product over ``columns[r]`` (the row's nonzero columns, -1 after the last): the entry of column
+    columns[r, c] is stored[t, r, slots[r, c]], in that column of a dense history (N, m, n), slots = columns, or in
+    slot c of a history by its rows' blocks (N, m, w), ``history.BlockedJacobians``. One pass, where the velocity
+    residual of every row and two reductions in numpy made three (a maximum is exact: the same numbers)."""
     for t in range(stored.shape[0]):
+        largest_position = largest_velocity = 0.0
         for r in range(stored.shape[1]):
             total = 0.0
             for c in range(columns.shape[1]):
@@ -62,7 +73,9 @@ def velocity_residuals(stored, qd, psit, columns, slots, velocity):
                 if column < 0:
                     break
                 total += stored[t, r, slots[r, c]] * qd[t, column]
-            velocity[t, r] = total + psit[t, r]
+            largest_position = _larger(largest_position, abs(psi[t, r]))
+            largest_velocity = _larger(largest_velocity, abs(total + psit[t, r]))
+        position[t], velocity[t] = largest_position, largest_velocity
 
 
 @eager(_CONSTRAINTS, _vector, _matrix, P_TYPE, D_TYPE, _matrix, _cube, _matrix, _imatrix, types.int64)
@@ -158,14 +171,13 @@ def spatial_reactions(q, lam, jac, slots, rows, starts, i, j, offsets, frames, f
     the elements with joint frames (``framed``: their place in ``frames``, else -1) F and M in that frame, the
     frame's axes f, g, h (columns of ``frames``) turned to global axes by A(p_j) (module docstring)."""
     N, elements = q.shape[0], i.size
-    g, n, arm = np.empty(7), np.empty(3), np.empty(3)
+    g, n, arm, point = np.empty(7), np.empty(3), np.empty(3), np.empty(3)
     A, G, axes = np.empty((3, 3)), np.empty((3, 4)), np.empty((3, 3))
     for t in range(N):
         for k in range(elements):
             first = starts[k]
             last = starts[k + 1] if k + 1 < elements else rows.size
             _rotation(q, t, j[k], A)
-            point = np.empty(3)
             for a in range(3):
                 origin = q[t, 7 * j[k] + a] if j[k] >= 0 else 0.0
                 point[a] = origin + (A[a, 0] * offsets[k, 0] + A[a, 1] * offsets[k, 1] + A[a, 2] * offsets[k, 2])

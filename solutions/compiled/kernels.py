@@ -1287,8 +1287,8 @@ def lu_solve(K, b):
 @jit
 def solve_in_place(K, x):
     """x <- K^-1 x in place by Gaussian elimination with partial pivoting (P K = L U, then two triangular solves), K
-    overwritten: ``lu_solve``'s small branch, and ``tree_kernels.tree_multipliers``' one small system per body at
-    every output time (no copy of x). A zero pivot (K singular) gives NaN."""
+    overwritten: ``lu_solve``'s small branch (no copy of x; ``tree_kernels._small_solve`` is its copy written into
+    the tree's outputs, step for step). A zero pivot (K singular) gives NaN."""
     n = x.size
     for c in range(n):
         pivot = c

@@ -20,7 +20,8 @@ joint's Euler parameters) into the arrays of ``tree_kernels.py``, and the cut ro
   constraint rows from Psi_q^T lambda = Q - M q'' (normal equations; ``JointCoordinates.accelerations``), for the
   results and reactions, and after those Psi, Psi_t and Psi_q (row by row) when ``out`` is longer still
   (``loops.output_history``): one function for both, since numba optimizes the kernels again in every function
-  that calls them;
+  that calls them. Given an ``out`` of y.size + n, only q after y (the tree's forward kinematics: the body
+  coordinates of a divergence check's companion run, ``dispatch.positions``; y' not written);
 - ``constraint_arrays(T, Y, P, D, Psi, Psi_q, Psi_t)`` at the output times from the body coordinates, as the
   scene's own module (``codegen.py``; ``history.py`` makes the residuals and reactions of them).
 
@@ -65,6 +66,9 @@ class TreeScene:
     cut_bodies: np.ndarray = None
     """The two bodies of each cut row's element, row after row (-1 ground): the bodies its row of Psi_q meets
     (``tree_kernels.cut_accelerations``)."""
+    row_index: np.ndarray = None
+    """The tree's rows body by body (``owned_rows``: start (nb + 1), then the rows), made once per scene: what
+    ``tree_multipliers`` and ``zero_tree_blocks`` read (P[8] after the cut rows' bodies)."""
     unsupported: str | None = None
     packed_data: tuple | None = field(default=None, repr=False, compare=False)  # ``data()``, made once
 
@@ -120,6 +124,7 @@ def describe(scene: Scene, formulation) -> TreeScene:
     tree = TreeScene(scene, ints, floats, formulation.tree.n_positions, k, np.array(rows, dtype=np.int64))
     tree.cut_bodies = np.array(bodies, dtype=np.int64)
     tree.owners = np.array(_owners(system, joints), dtype=np.int64)
+    tree.row_index = owned_rows(tree.owners, len(system.model.bodies))
     if not joints:
         tree.unsupported = "a tree without joints"
     return tree
@@ -132,6 +137,19 @@ def _owners(system, joints) -> list[int]:
     child = {joint.name: joint.child for joint in joints}
     child |= {f"{body.name}.p": b for b, body in enumerate(system.model.bodies)}
     return [child.get(element.name, -1) for element in system.elements for _ in element.labels]
+
+
+def owned_rows(owners: np.ndarray, nb: int) -> np.ndarray:
+    """The rows each body owns (``TreeScene.owners``), as one array: start (nb + 1), then the rows in body order,
+    body b's at [nb + 1 + start[b], nb + 1 + start[b + 1]) (a counting sort, row order kept within a body; cut rows,
+    owner -1, left out). Made once per scene, where ``tree_multipliers`` sorted them at every output time (two
+    allocations and three passes over the rows: ~0.25 us of an evaluation at two bodies)."""
+    owned = owners >= 0
+    counts = np.bincount(owners[owned], minlength=nb)
+    start = np.concatenate([[0], np.cumsum(counts)])
+    rows = np.flatnonzero(owned)
+    rows = rows[np.argsort(owners[owned], kind="stable")]
+    return np.concatenate([start, rows]).astype(np.int64)
 
 
 VECTORS = (("xi", "a"), ("Q", "n"), ("power", "3"), ("q", "n"), ("qd", "n"), ("thdd", "k"), ("mu", "ncut"))
@@ -199,7 +217,7 @@ def _multipliers(scene: Scene) -> list[str]:
         "    cut_row_forces(jac, mu, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], "
         f"{7 if scene.dimension == 3 else 3}, residual)",
         "# the tree's rows body by body from the leaves, O(N)",
-        f"tree_multipliers(jac, residual, dims[7 + ncut :], {7 if scene.dimension == 3 else 3}, joints, lam)",
+        f"tree_multipliers(jac, residual, dims[7 + 3 * ncut + m :], {7 if scene.dimension == 3 else 3}, joints, lam)",
     ]
     both = "outputs = np.empty(2 * n + m)  # q'', lambda and Q - M q'' in one allocation"
     cut = "qdd, lam, residual = outputs[:n], outputs[n : n + m], outputs[n + m :]"
@@ -225,7 +243,8 @@ def _body(tree: TreeScene) -> list[str]:
         "    n, m, npos, k = dims[0], dims[1], dims[3], dims[4]",
         f"    joints, joint_floats = D[0][{rows}], D[1][{rows}]",
         "    ne = joints.shape[0]",
-        "    full = out.size > y.size  # the outputs asked for too (loops.outputs): q, q', q'', lambda after y'",
+        "    positions = out.size == y.size + n  # q alone after y (the companion run's: dispatch.positions)",
+        "    full = out.size > y.size + n  # the outputs asked for too (loops.outputs): q, q', q'', lambda after y'",
         "    ncut = dims[6]  # cut rows (P[8][7 : 7 + ncut]); the rows' owners after them",
         "    columns = ncut > 0  # D itself: for the cut rows only (an open tree's outputs: the body accelerations)",
         "    whole = full  # lambda of every row (the outputs): D whole, Psi_q at every row's blocks",
@@ -245,26 +264,33 @@ def _body(tree: TreeScene) -> list[str]:
             "    planar_motion(y[:npos], y[npos : npos + k], joints, joint_floats, nb, k, q, qd, xi, Dm, columns, "
             "whole, body, joint)"
         )
+    lines += [
+        "    if positions:  # the tree's forward kinematics alone: q after y (y' not written)",
+        "        for i in range(n):",
+        "            out[y.size + i] = q[i]",
+        "        return",
+    ]
     lines += force_calls(scene, "    ")
     lines += [
         "    if full or ncut > 0:  # the constraint rows: lambda of every row, or the cut rows",
-        "        rows_work = np.empty(3 * m + m * n)  # Psi, Psi_t, gamma and Psi_q: one allocation",
+        "        history = out.size == y.size + 3 * n + 3 * m + m * n  # Psi, Psi_t, Psi_q too (loops.output_history)",
+        "        rows_work = np.empty(3 * m + (0 if history else m * n))  # Psi, Psi_t, gamma[, Psi_q]: one allocation",
         "        rows_work[: 3 * m] = 0.0",
         "        psi, psit, gam = rows_work[:m], rows_work[m : 2 * m], rows_work[2 * m : 3 * m]",
-        "        jac = rows_work[3 * m :].reshape((m, n))",
-        "        if out.size == y.size + 3 * n + 3 * m + m * n:  # Psi_q whole, zeros and all (loops.output_history)",
+        "        if history:  # Psi_q whole, zeros and all, written in its place in out (no copy)",
+        "            jac = out[y.size + 3 * n + 3 * m :].reshape((m, n))",
         "            jac[:, :] = 0.0",
         "        else:  # the solves read only the rows' blocks at their bodies: those zeroed alone",
+        "            jac = rows_work[3 * m :].reshape((m, n))",
         "            if ncut > 0:",
         f"                zero_cut_blocks(jac, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], {width})",
         "            if whole:  # lambda of every row: the tree rows at their body and its parent (tree_multipliers)",
-        f"                zero_tree_blocks(jac, dims[7 + ncut : 7 + ncut + m], joints, {width})",
+        f"                zero_tree_blocks(jac, dims[7 + 3 * ncut + m :], joints, {width})",
         *constraint_calls(scene, "        "),
-        "        if out.size == y.size + 3 * n + 3 * m + m * n:  # Psi, Psi_t, Psi_q too (loops.output_history)",
+        "        if history:  # Psi and Psi_t after the outputs, before Psi_q",
         "            o = y.size + 3 * n + m",
-        "            out[o : o + m] = psi",
-        "            out[o + m : o + 2 * m] = psit",
-        "            out[o + 2 * m : o + 2 * m + m * n] = jac.reshape(m * n)",
+        "            for i in range(m):",
+        "                out[o + i], out[o + m + i] = psi[i], psit[i]",
         "    if ncut > 0:  # cut rows: the augmented system (eq. 5.29, 5.30 in joint coordinates)",
         f"        matrix, rhs = {equations}_equations({arguments}, joints)",
     ]

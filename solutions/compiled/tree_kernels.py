@@ -38,7 +38,6 @@ from .kernels import (
     l_entries_jit,
     lu_solve,
     planar_rotation_entries_jit,
-    solve_in_place,
     unit_rotation_entries_jit,
 )
 
@@ -553,70 +552,96 @@ def spatial_joint_matrix(q, Dm, out):
 
 
 @inlined
-def tree_multipliers(jac, residual, owners, width, ints, lam):
+def tree_multipliers(jac, residual, index, width, ints, lam):
     """lambda of an open tree from Psi_q^T lambda = r (r = Q - M q''), body by body from the leaves (the joints in
     reverse topological order): a body's columns meet only the rows it owns (its joint to its parent, its
     Euler-parameter normalization; ``TreeScene.owners``) and its children's rows, already known and moved to the
     right side. So each body solves A lambda_own = r_C (A: its columns of its own rows, at most 7 x 6, full column
     rank) by least squares, whose residual is zero, and moves what its rows exert on its parent, the only other
     body they hold, to the parent's columns: O(N), where the normal equations of all rows cost O(m^3).
-    ``width``: a body's columns (3 planar, 7 spatial). ``residual`` is worked in (the rows' parts moved to parents).
-    (Allocations few: at two bodies each costs as much as a body's arithmetic.)"""
-    m, nb = jac.shape[0], residual.size // width
-    r = residual
-    index = np.zeros(2 * nb + 1 + m, dtype=np.int64)
-    start, filled, mine = index[: nb + 1], index[nb + 1 : 2 * nb + 1], index[2 * nb + 1 :]
-    for row in range(m):  # the rows of body b: mine[start[b] : start[b + 1]] (counting sort)
-        if owners[row] >= 0:
-            start[owners[row] + 1] += 1
-    for b in range(nb):
-        start[b + 1] += start[b]
-    filled[:] = start[:nb]
-    for row in range(m):
-        if owners[row] >= 0:
-            mine[filled[owners[row]]] = row
-            filled[owners[row]] += 1
+    ``width``: a body's columns (3 planar, 7 spatial); ``index``: the rows of each body (``tree.owned_rows``, made
+    once per scene). ``residual`` is worked in (the rows' parts moved to parents)."""
+    nb = residual.size // width
+    start, mine = index[: nb + 1], index[nb + 1 :]
     most = 0
     for b in range(nb):
         most = max(most, start[b + 1] - start[b])
     G = np.empty((most + 1, most))  # A A^T of a body in its first count rows and columns; A r in the last row
+    r = residual
     for e in range(ints.shape[0] - 1, -1, -1):
         P, C = ints[e, 1], ints[e, 2]
         first, count = start[C], start[C + 1] - start[C]
-        x = G[most, :count]  # A r, then the body's lambda in its place (no reshape: ~20 ns a body)
         for a in range(count):  # by loops: at most 7 x 7, where a BLAS call costs more than the products
             row = mine[first + a]
-            x[a] = 0.0
+            total = 0.0  # sums in a local (G may alias jac for the compiler: each += would store to memory)
             for c in range(width * C, width * (C + 1)):
-                x[a] += jac[row, c] * r[c]
-            for other in range(count):
-                G[a, other] = 0.0
+                total += jac[row, c] * r[c]
+            G[most, a] = total
+            for other in range(a + 1):  # A A^T is symmetric: the same products, in the same order, either side
+                other_row, total = mine[first + other], 0.0
                 for c in range(width * C, width * (C + 1)):
-                    G[a, other] += jac[row, c] * jac[mine[first + other], c]
-        solve_in_place(G, x)  # reads G's first count rows and columns alone
+                    total += jac[row, c] * jac[other_row, c]
+                G[a, other] = G[other, a] = total
+        _small_solve(G, count, most)
         for a in range(count):
-            row = mine[first + a]
-            lam[row] = x[a]
+            row, x = mine[first + a], G[most, a]
+            lam[row] = x
             if P >= 0:  # what the body's rows exert on its parent
                 for c in range(width * P, width * (P + 1)):
-                    r[c] -= x[a] * jac[row, c]
+                    r[c] -= x * jac[row, c]
 
 
 @inlined
-def zero_tree_blocks(jac, owners, ints, width):
-    """Zeros in the entries of Psi_q that ``tree_multipliers`` reads: each tree row (``owners``: its body, -1 a cut
-    row) at the coordinates of its body and of that body's parent (-1 ground), where the constraint kernels add their
-    terms. With ``zero_cut_blocks`` all that lambda of every row needs, where zeroing the whole m x n Psi_q at every
-    output time of a loop chain of 64 bodies wrote 1.2 MB per evaluation."""
-    parent = np.full(jac.shape[1] // width, -1, dtype=np.int64)
+def _small_solve(G, count, b):
+    """x <- K^-1 x with K = G[:count, :count] and x = G[b, :count], in place: ``kernels.solve_in_place`` step for step
+    (the same pivots and operations, so the same numbers), written into ``tree_multipliers``: its call and the
+    views it was handed cost more than a planar body's elimination (~30 ns a body). A zero pivot gives NaN."""
+    singular = False
+    for c in range(count):
+        pivot = c
+        biggest = abs(G[c, c])
+        for r in range(c + 1, count):
+            if abs(G[r, c]) > biggest:
+                biggest, pivot = abs(G[r, c]), r
+        if pivot != c:
+            for k in range(count):
+                G[c, k], G[pivot, k] = G[pivot, k], G[c, k]
+            G[b, c], G[b, pivot] = G[b, pivot], G[b, c]
+        if G[c, c] == 0.0:  # every remaining entry of the column is zero: K is singular
+            singular = True
+            break
+        inverse = 1.0 / G[c, c]
+        for r in range(c + 1, count):
+            factor = G[r, c] * inverse
+            if factor != 0.0:
+                G[r, c] = factor
+                for k in range(c + 1, count):
+                    G[r, k] -= factor * G[c, k]
+                G[b, r] -= factor * G[b, c]
+    for r in range(count - 1, -1, -1):
+        if singular:
+            G[b, r] = np.nan
+        else:
+            s = G[b, r]
+            for k in range(r + 1, count):
+                s -= G[r, k] * G[b, k]
+            G[b, r] = s / G[r, r]
+
+
+@inlined
+def zero_tree_blocks(jac, index, ints, width):
+    """Zeros in the entries of Psi_q that ``tree_multipliers`` reads: each tree row (``index``: the rows of each body,
+    ``tree.owned_rows``) at the coordinates of its body and of that body's parent (-1 ground), where the constraint
+    kernels add their terms. With ``zero_cut_blocks`` all that lambda of every row needs, where zeroing the whole
+    m x n Psi_q at every output time of a loop chain of 64 bodies wrote 1.2 MB per evaluation."""
+    nb = jac.shape[1] // width
+    start, mine = index[: nb + 1], index[nb + 1 :]
     for e in range(ints.shape[0]):
-        parent[ints[e, 2]] = ints[e, 1]
-    for row in range(jac.shape[0]):
-        b = owners[row]
-        if b >= 0:
-            jac[row, width * b : width * (b + 1)] = 0.0
-            if parent[b] >= 0:
-                jac[row, width * parent[b] : width * (parent[b] + 1)] = 0.0
+        P, C = ints[e, 1], ints[e, 2]
+        for a in range(start[C], start[C + 1]):
+            jac[mine[a], width * C : width * (C + 1)] = 0.0
+            if P >= 0:
+                jac[mine[a], width * P : width * (P + 1)] = 0.0
 
 
 @jit

@@ -134,3 +134,34 @@ def test_a_pendulum_gets_its_closed_form_and_a_massless_one_nan():
     IA, pA, ints, S, links = _pendulum(0.0, 0.0, r, theta)  # no inertia at the end of the tree: D_e = 0
     articulated_accelerations(IA, pA, ints, S, links, WIDTHS, 3, thdd, acc)
     assert np.isnan(thdd).all()  # the adaptive integrators reject such a step, as with the dense solve
+
+
+@pytest.mark.parametrize(("dimension", "n", "seed"), [(2, 6, 1), (3, 6, 3)])
+def test_the_positions_pass_gives_the_body_coordinates_of_the_joint_state(dimension, n, seed):
+    """An ``out`` of y.size + n asks scene_rhs for q alone after y (the divergence check's companion run,
+    ``dispatch.positions``): the numpy tree's recursive kinematics at the same joint state (spatial: the same
+    orientations), and the q the whole outputs write, bit for bit (the same recursion)."""
+    equations, made, (rhs, P, D), y0 = _both_sides(_random_tree(dimension, n, seed))
+    rng = np.random.default_rng(seed)
+    nq, m = made.system.n_coordinates, made.system.n_constraints
+    for _ in range(3):
+        y = _random_state(made, y0, rng)
+        positions, full = np.full(y.size + nq, np.nan), np.empty(y.size + 3 * nq + m)
+        rhs(0.0, y, P, D, positions)
+        rhs(0.0, y, P, D, full)
+        q, expected = positions[y.size :].copy(), made.motion(y).q
+        if dimension == 3:  # Euler parameters p and -p are one orientation: the numpy tree's sign taken
+            for p, reference in zip(q.reshape(-1, 7)[:, 3:], expected.reshape(-1, 7)[:, 3:], strict=True):
+                p *= np.sign(p @ reference)
+        np.testing.assert_allclose(q, expected, rtol=1e-13, atol=1e-13)
+        np.testing.assert_array_equal(positions[y.size :], full[y.size : y.size + nq])
+
+
+def test_owned_rows_list_each_bodys_rows_in_row_order_without_cut_rows():
+    """``tree.owned_rows``: start (nb + 1), then the rows of body 0, body 1, ... (``tree_multipliers``' index, made
+    once per scene); a cut row (owner -1) belongs to no body."""
+    from solutions.compiled.tree import owned_rows
+
+    index = owned_rows(np.array([1, 0, -1, 1, 0, 2]), 3)
+    assert index.tolist() == [0, 2, 4, 5, 1, 4, 0, 3, 5]
+    assert owned_rows(np.array([-1, -1]), 2).tolist() == [0, 0, 0]

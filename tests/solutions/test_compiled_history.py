@@ -112,6 +112,24 @@ def test_residuals_take_the_dense_product_where_a_row_reaches_other_bodies():
     assert history.residuals(zeros, jac, zeros, qd, system)["residual.velocity"][0] == 0.0  # the crank's columns
 
 
+def test_residuals_keep_a_nan_as_numpy_does():
+    """The compiled maxima (``history_kernels.residual_maxima``) give what numpy's max gives over each output time's
+    rows: exact maxima, and NaN where any entry is NaN (a run that left the mechanism says so in its residuals)."""
+    from solutions.output_history import residuals as numpy_residuals
+
+    system, q0, qd0 = build_system(load_model("course/models/slider_crank.yaml"))
+    rng = np.random.default_rng(7)
+    m, n = system.n_constraints, system.n_coordinates
+    psi, psit, qd = rng.standard_normal((4, m)), rng.standard_normal((4, m)), rng.standard_normal((4, n))
+    jac = np.stack([system.jacobian(q0 + 0.1 * rng.standard_normal(n), 0.0) for _ in range(4)])
+    psi[1, 2], psit[2, 0], qd[3, 1] = np.nan, np.nan, np.nan
+    got, expected = history.residuals(psi, jac, psit, qd, system), numpy_residuals(psi, jac, psit, qd)
+    for key, value in expected.items():
+        position = key == "residual.position"
+        assert np.isnan(value).tolist() == [False, position, not position, not position], key
+        np.testing.assert_allclose(got[key], value, rtol=1e-15, atol=0.0, err_msg=key)
+
+
 @pytest.mark.parametrize(
     "name",
     [
