@@ -278,7 +278,9 @@ def _first_basis(jacobian, columns, norms, position, keys, starts, indices):
     chosen = np.sort(order[taken[m:]])
     slot = _layout(keys, position, chosen)
     kl, ku = _widths(slot, m, starts, indices, position, chosen, True)
-    basis, _ = _null_space(J, slot, m, starts, indices, position, chosen, 1.0, kl, ku)
+    basis = np.empty((n, d))
+    work = np.empty((n, 2 * kl + ku + 1)), np.empty(n, dtype=np.int64), np.empty(n)
+    _null_space(J, slot, m, starts, indices, position, chosen, 1.0, kl, ku, *work, basis)
     return basis
 
 
@@ -497,45 +499,94 @@ def _ratio(J, slot, m, starts, indices, position, chosen):
 
 
 @njit(cache=True, nogil=True)
-def _null_space(J, slot, m, starts, indices, position, chosen, ordered, kl, ku):
-    """(T, sign of det [Psi_q; T^T]) from the banded LU of A = [Psi_q; E^T] (module docstring); NaN on failure.
-    ordered: the parities of the rows' order ``slot`` and the columns' ``position`` (``_parity``), multiplied; kl, ku:
-    the band's widths (``_widths``): all three found once for each choice of E's coordinates, ``chosen``."""
+def _band_lu(ab, kl, ku, pivots):
+    """LU with partial pivoting of the square band A (n x n, half-widths kl, ku) in place, as LAPACK's unblocked
+    dgbtf2 (which dgbtrf calls at these widths): ab[j, kl + ku + i - j] = A[i, j], kl rows above for the fill;
+    pivots[j] the row swapped with row j (0-based). False at an exact zero pivot. Written out: LAPACK's column step
+    makes four BLAS calls (idamax, dswap, dscal, dger), whose call costs more than the arithmetic of a band a few
+    entries wide (101 LUs of the loop chain's 15 x 15 to 51 x 51: 0.12 -> 0.08 ms and 0.39 -> 0.25, session 22)."""
+    n = ab.shape[0]
+    kv = kl + ku  # the diagonal's column in ab
+    ju = 0  # the last column U reaches so far
+    for j in range(n):
+        below = min(kl, n - 1 - j)
+        p, size = 0, abs(ab[j, kv])
+        for i in range(1, below + 1):
+            if abs(ab[j, kv + i]) > size:
+                p, size = i, abs(ab[j, kv + i])
+        pivots[j] = j + p
+        if ab[j, kv + p] == 0.0:
+            return False
+        ju = max(ju, min(j + ku + p, n - 1))
+        if p != 0:  # rows j and j + p, columns j..ju
+            for c in range(j, ju + 1):
+                a, b = kv + j - c, kv + j + p - c
+                ab[c, a], ab[c, b] = ab[c, b], ab[c, a]
+        reciprocal = 1.0 / ab[j, kv]
+        for i in range(1, below + 1):
+            ab[j, kv + i] *= reciprocal
+        for c in range(j + 1, ju + 1):  # the rank-one update of the rows below
+            u = ab[c, kv + j - c]
+            if u != 0.0:
+                for i in range(1, below + 1):
+                    ab[c, kv + j + i - c] -= ab[j, kv + i] * u
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _band_solve(ab, kl, ku, pivots, b):
+    """b <- A^-1 b (b (n,)) with ``_band_lu``'s factors, as LAPACK's dgbtrs: L's swaps and columns forward, then U
+    (upper band kl + ku wide) back."""
+    n = ab.shape[0]
+    kv = kl + ku
+    for j in range(n - 1):
+        p = pivots[j]
+        if p != j:
+            b[j], b[p] = b[p], b[j]
+        for i in range(1, min(kl, n - 1 - j) + 1):
+            b[j + i] -= ab[j, kv + i] * b[j]
+    for j in range(n - 1, -1, -1):
+        b[j] /= ab[j, kv]
+        for i in range(max(0, j - kv), j):
+            b[i] -= b[j] * ab[j, kv + i - j]
+
+
+@njit(cache=True, nogil=True)
+def _null_space(J, slot, m, starts, indices, position, chosen, ordered, kl, ku, ab, pivots, rhs, basis):
+    """The sign of det [Psi_q; T^T] and T into ``basis`` (n, d), from the banded LU of A = [Psi_q; E^T] (module
+    docstring; ``_band_lu``); NaN on failure. ordered: the parities of the rows' order ``slot`` and the columns'
+    ``position`` (``_parity``), multiplied; kl, ku: the band's widths (``_widths``): all three found once for each
+    choice of E's coordinates, ``chosen``. Work arrays, made once per choice of E: ab (n, 2 kl + ku + 1), pivots
+    (n,), rhs (n,)."""
     n, d = slot.size, chosen.size
-    ldab = 2 * kl + ku + 1
-    ab = np.zeros((n, ldab))  # dgbtrf's AB: ab[j, kl + ku + i - j] = A[i, j], kl rows above for the fill
-    rhs = np.zeros((d, n))  # Fortran's B(n, d): the unit vectors of E's rows in the band layout
+    kv = kl + ku
+    ab[:, :] = 0.0
     for i in range(n):
         r = slot[i]
         if r < m:
             for p in range(starts[r], starts[r + 1]):
                 j = position[indices[p]]
-                ab[j, kl + ku + i - j] = J[r, indices[p]]
+                ab[j, kv + i - j] = J[r, indices[p]]
         else:
             j = position[chosen[r - m]]
-            ab[j, kl + ku + i - j] = 1.0
-            rhs[r - m, i] = 1.0
-    pivots = np.empty(n, dtype=PIVOT_TYPE)
-    sizes = np.array([n, n, kl, ku, ldab, 0, d], dtype=PIVOT_TYPE)  # m, n, kl, ku, ldab, info, nrhs
-    _GBTRF(sizes[0:].ctypes, sizes[1:].ctypes, sizes[2:].ctypes, sizes[3:].ctypes, ab.ctypes, sizes[4:].ctypes,
-           pivots.ctypes, sizes[5:].ctypes)  # fmt: skip
-    if sizes[5] != 0:
-        return np.full((n, d), np.nan), np.nan
-    sign = 1.0
+            ab[j, kv + i - j] = 1.0
+    if not _band_lu(ab, kl, ku, pivots):
+        basis[:, :] = np.nan
+        return np.nan
+    sign = ordered  # B[i, j] = A[slot[i], columns[j]] (A's rows: Psi_q's, then E's): sign(slot) det A sign(columns)
     for i in range(n):
-        if ab[i, kl + ku] < 0.0:
+        if ab[i, kv] < 0.0:
             sign = -sign
-        if pivots[i] - 1 != i:
+        if pivots[i] != i:
             sign = -sign
-    trans = np.full(1, ord("N"), dtype=np.uint8)
-    _GBTRS(trans.ctypes, sizes[0:].ctypes, sizes[2:].ctypes, sizes[3:].ctypes, sizes[6:].ctypes, ab.ctypes,
-           sizes[4:].ctypes, pivots.ctypes, rhs.ctypes, sizes[0:].ctypes, sizes[5:].ctypes)  # fmt: skip
-    # B[i, j] = A[slot[i], columns[j]] (A's rows: Psi_q's, then E's): det B = sign(slot) det A sign(columns)
-    sign *= ordered
-    basis = np.empty((n, d))
-    for c in range(n):
-        for a in range(d):
-            basis[c, a] = rhs[a, position[c]]
+    for a in range(d):  # T_0 = A^-1 [0; I_d]: E's unit vectors in the band layout
+        rhs[:] = 0.0
+        for i in range(n):
+            if slot[i] == m + a:
+                rhs[i] = 1.0
+        _band_solve(ab, kl, ku, pivots, rhs)
+        for c in range(n):
+            basis[c, a] = rhs[position[c]]
     for a in range(d):  # Gram-Schmidt: T = T_0 S^-1, S upper triangular with a positive diagonal
         for b in range(a):
             along = 0.0
@@ -549,7 +600,7 @@ def _null_space(J, slot, m, starts, indices, position, chosen, ordered, kl, ku):
         norm = np.sqrt(norm)
         for c in range(n):
             basis[c, a] /= norm
-    return basis, sign
+    return sign
 
 
 EXTREME_TOLERANCE = 1e-13
@@ -905,6 +956,7 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
     G, L, low, high, y = np.empty((m, w + 1)), np.empty((m, w + 1)), np.ones(m), np.ones(m), np.empty(n)
     before, ordered = first, _parity(position)
     kept, slot, kl, ku, parity = np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), 0, 0, 1.0
+    ab, pivots = np.empty((0, 0)), np.empty(0, dtype=np.int64)  # the banded LU's work arrays (``_null_space``)
     spread = np.full(2, 0.5)  # how far the time before's Rayleigh quotients were off (``_bracketed_ratio``)
     earlier = np.empty((2, m))  # the eigenvectors of the time before the last (``_extrapolate``)
     J = np.zeros((m, n))  # this time's scaled Psi_q, written on its pattern alone
@@ -918,6 +970,7 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
             kept, slot = chosen, _layout(keys, position, chosen)
             kl, ku = _widths(slot, m, starts, indices, position, chosen, True)
             parity = _parity(slot) * ordered
+            ab, pivots = np.empty((n, 2 * kl + ku + 1)), np.empty(n, dtype=np.int64)
         ratios[k], lower[k] = np.nan, np.nan
         if loose > 0.0:
             if k >= 2 and lower[k - 1] < ratios[k - 1] and lower[k - 2] < ratios[k - 2]:  # both bracketed
@@ -935,7 +988,7 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
             ratios[k] = _ratio(J, slot, m, starts, indices, position, chosen)
             lower[k] = ratios[k]
         vectors[k, 0], vectors[k, 1] = low, high
-        bases[k], signs[k] = _null_space(J, slot, m, starts, indices, position, chosen, parity, kl, ku)
+        signs[k] = _null_space(J, slot, m, starts, indices, position, chosen, parity, kl, ku, ab, pivots, y, bases[k])
         if np.all(np.isfinite(bases[k])):
             before = bases[k]
     return ratios, bases, signs, lower, vectors
