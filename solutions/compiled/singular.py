@@ -403,8 +403,17 @@ def _independent(basis, d):
     """The d coordinates in which the null-space basis (n, d) is largest: greedy pivoting of its rows (the
     columns of T^T), each chosen row's direction removed from the rest (Gram-Schmidt), so that [Psi_q; E^T] is
     as far from singular as a choice of d unit rows makes it."""
-    rest = basis.copy()
     chosen = np.empty(d, dtype=np.int64)
+    _choose(basis, basis.copy(), np.empty(d), chosen)
+    return chosen
+
+
+@njit(cache=True, nogil=True)
+def _choose(basis, rest, direction, chosen):
+    """``_independent`` into ``chosen`` (d,), sorted, with work arrays ``rest`` (n, d) and ``direction`` (d,) (made
+    once per history by ``_spectra``, which asks at every output time)."""
+    d = chosen.size
+    rest[:, :] = basis
     for a in range(d):
         best, size = 0, -1.0
         for r in range(rest.shape[0]):
@@ -414,14 +423,15 @@ def _independent(basis, d):
             if norm > size:
                 best, size = r, norm
         chosen[a] = best
-        direction = rest[best] / np.sqrt(size) if size > 0.0 else rest[best] * 0.0
+        for c in range(d):
+            direction[c] = rest[best, c] / np.sqrt(size) if size > 0.0 else rest[best, c] * 0.0
         for r in range(rest.shape[0]):
             along = 0.0
             for c in range(d):
                 along += rest[r, c] * direction[c]
             for c in range(d):
                 rest[r, c] -= along * direction[c]
-    return np.sort(chosen)
+    chosen.sort()
 
 
 @njit(cache=True, nogil=True)
@@ -684,17 +694,25 @@ def _cholesky(G, a, b, L):
     """L L^T = a G + b I (band storage as G's, L[i, 0] holding 1 / L_ii: a product where the pivot's division
     cost most of the factorization on a narrow band), True if it is positive definite (every pivot > 0): the Sturm
     test of continuation, here of an eigenvalue bound (a = 1, b = -s: all eigenvalues of G above s; a = -1, b = s:
-    all below s), O(m w^2) (Golub and Van Loan, Matrix Computations, sec. 4.3.5, band Cholesky; sec. 8.4.1)."""
+    all below s), O(m w^2) (Golub and Van Loan, Matrix Computations, sec. 4.3.5, band Cholesky; sec. 8.4.1).
+    Each row from its first nonzero entry of G on (its envelope: no fill before it, George and Liu, ch. 4; the loop
+    chain's G, 5 wide, holds 2-5 entries left of the diagonal): L is zero before it, so the sums skip products that
+    are exact zeros, the same figures to the last bit."""
     m, w = G.shape[0], G.shape[1] - 1
     for i in range(m):
-        for t in range(min(w, i), 0, -1):
+        top = min(w, i)
+        while top > 0 and G[i, top] == 0.0:
+            L[i, top] = 0.0
+            top -= 1
+        first = i - top  # the row's first nonzero column
+        for t in range(top, 0, -1):
             j = i - t
             total = a * G[i, t]
-            for k in range(max(i - w, 0), j):
+            for k in range(first, j):
                 total -= L[i, i - k] * L[j, j - k]
             L[i, t] = total * L[j, 0]
         total = a * G[i, 0] + b
-        for k in range(max(i - w, 0), i):
+        for k in range(first, i):
             total -= L[i, i - k] * L[i, i - k]
         if not total > 0.0:
             return False
@@ -957,6 +975,7 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
     before, ordered = first, _parity(position)
     kept, slot, kl, ku, parity = np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), 0, 0, 1.0
     ab, pivots = np.empty((0, 0)), np.empty(0, dtype=np.int64)  # the banded LU's work arrays (``_null_space``)
+    rest, direction, chosen = np.empty((n, d)), np.empty(d), np.empty(d, dtype=np.int64)  # ``_choose``'s
     spread = np.full(2, 0.5)  # how far the time before's Rayleigh quotients were off (``_bracketed_ratio``)
     earlier = np.empty((2, m))  # the eigenvectors of the time before the last (``_extrapolate``)
     J = np.zeros((m, n))  # this time's scaled Psi_q, written on its pattern alone
@@ -965,9 +984,12 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
             norm = norms[k, r] if norms[k, r] > 0.0 else 1.0
             for p in range(starts[r], starts[r + 1]):  # as ``dynamics.scale_rows``, to the last bit
                 J[r, indices[p]] = jacobians[k, r, slots[p]] * columns[indices[p]] / norm
-        chosen = _independent(before, d)
-        if k == 0 or np.any(chosen != kept):  # E's coordinates changed: the band's rows, widths and parity
-            kept, slot = chosen, _layout(keys, position, chosen)
+        _choose(before, rest, direction, chosen)
+        changed = k == 0
+        for a in range(d):
+            changed = changed or chosen[a] != kept[a]
+        if changed:  # E's coordinates changed: the band's rows, widths and parity
+            kept, slot = chosen.copy(), _layout(keys, position, chosen)
             kl, ku = _widths(slot, m, starts, indices, position, chosen, True)
             parity = _parity(slot) * ordered
             ab, pivots = np.empty((n, 2 * kl + ku + 1)), np.empty(n, dtype=np.int64)
