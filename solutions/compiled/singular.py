@@ -108,10 +108,10 @@ _CLOSED = _vector(_stack, _vector, _matrix, _ivector)
 """Signatures compiled at import (and cached on disk, ``precompile``): a run never waits for them."""
 
 MOVING = 3.0
-"""``_dense_bracketed`` brackets a ratio only where the two figures before it differ by more than this many
-brackets' relative widths (LOOSE): nearer, the brackets of neighbouring times overlap and ``settled`` closes both
-(four models that start from rest or keep a constant ratio paid brackets and Jacobi, 1.1-1.4 times Jacobi alone,
-session 22)."""
+"""Until a first bracket settles apart from its neighbour's, ``_dense_bracketed`` brackets a ratio only where the
+two figures before it differ by more than this many brackets' relative widths (LOOSE): nearer, the brackets of
+neighbouring times overlap and ``settled`` closes both (models that start from rest or keep a constant ratio paid
+brackets and Jacobi, 1.1-1.4 times Jacobi alone, session 22)."""
 
 
 def band_order(pattern: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -1228,12 +1228,13 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
     to convergence for the next time's, ``_iterated_ratio``), and where the ratio cannot have moved by a bracket's
     width since the time before, so that ``settled`` would close both anyway: by Weyl's inequality each singular
     value moves by at most delta = |J_k - J_k-1|_F, so sigma_m / sigma_1 by a relative (1 + 1 / ratio) delta at
-    most (sigma_1 >= 1: rows of unit length), to first order (a driven mechanism's constant Psi_q); and where the
-    two figures before differ by less than MOVING brackets' widths (a start from rest, whose ratio moves less than
-    a bracket's width over the first output times while Psi_q moves more; a constant ratio of a moving Psi_q, a
-    cylindrical joint's rotation): their brackets would overlap, and ``settled`` close both; bracketing starts
-    again once the figures move (the back-off: tried again at every time, from the figures). The choices cost m n
-    operations a time and decide cost alone, never a figure."""
+    most (sigma_1 >= 1: rows of unit length), to first order (a driven mechanism's constant Psi_q); until a first
+    bracket settled apart from the time before's, where the two figures before differ by less than MOVING
+    brackets' widths (a start from rest, whose ratio moves less than a bracket's width over the first output times
+    while Psi_q moves more; a constant ratio of a moving Psi_q, a cylindrical joint's rotation: their brackets would
+    overlap, and ``settled`` close both); and every time once more than half of four or more brackets overlapped
+    the time before's or failed (a fast flywheel's ratio: brackets that stay wide). The choices cost m n operations
+    a time and decide cost alone, never a figure."""
     N, m, n = jacobians.shape
     d = n - m
     ratios, signs, lower = np.empty(N), np.empty(N), np.empty(N)
@@ -1249,6 +1250,7 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
     made = np.empty((0, 5), dtype=np.int64)  # ``_bracketed_ratio``: G made by ``_dense_gram``
     G, L, low, high, y = np.empty((m, m)), np.empty((m, m)), np.ones(m), np.ones(m), np.empty(n)
     spread, earlier = np.full(2, 0.5), np.empty((2, m))
+    tried, tries, overlaps, apart = True, 0, 0, False  # brackets made, how many overlapped, one apart yet
     for k in range(N):
         moved = 0.0
         for r in range(m):
@@ -1260,8 +1262,10 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
         S[:, :] = J
         signs[k] = _householder(S, V, beta, tangents[k])
         ratios[k], lower[k] = np.nan, np.nan
-        moving = k >= 2 and abs(ratios[k - 1] - ratios[k - 2]) > MOVING * loose * ratios[k - 1]
-        if moving and np.sqrt(moved) * (1.0 + 1.0 / lower[k - 1]) >= loose:
+        moving = apart or (k >= 2 and abs(ratios[k - 1] - ratios[k - 2]) > MOVING * loose * ratios[k - 1])
+        tried = tried and (tries < 4 or 2 * overlaps <= tries)  # once stopped, for the rest
+        if tried and moving and np.sqrt(moved) * (1.0 + 1.0 / lower[k - 1]) >= loose:
+            tries += 1
             if k >= 2 and lower[k - 1] < ratios[k - 1] and lower[k - 2] < ratios[k - 2]:  # both bracketed
                 _extrapolate(low, earlier[0], y)
                 _extrapolate(high, earlier[1], y)
@@ -1271,7 +1275,12 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
             figure, bound = _bracketed_ratio(J, rows, starts, indices, made, G, L, low, high, y, loose, spread)
             if np.isfinite(bound):
                 ratios[k], lower[k] = _widened(figure, bound)
-            else:  # the eigenvectors too far off: iterated to convergence for the next time
+                if lower[k] <= ratios[k - 1] and lower[k - 1] <= ratios[k]:  # overlaps the time before's
+                    overlaps += 1
+                else:
+                    apart = True
+            else:  # the eigenvectors too far off: iterated to convergence for the next time (a failure counts as
+                overlaps += 1  # an overlap: as useless)
                 if products.shape[0] == 0:
                     products = _gram_products(rows, starts, indices, m - 1)
                 _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y)
