@@ -38,11 +38,12 @@ matrix [Psi_q; 0] is a band whose half-widths kl, ku do not grow with the number
   tests and 14 solves. The verdicts are those of the closed figures, the figures reported the same to ~1e-14.
 - null space and sign: with d unit rows E^T in the empty slots (``e_c`` for the d coordinates in which the null
   space of the time before is largest, the independent coordinates of coordinate partitioning, eq. 5.40), the
-  square band A = [Psi_q; E^T] is factored by LAPACK's banded LU (dgbtrf, O(n kl (kl + ku))); then
-  T_0 = A^-1 [0; I_d] (dgbtrs) spans the null space (Psi_q T_0 = 0, E^T T_0 = I), T = T_0 S^-1 by Gram-Schmidt
-  with S's diagonal positive, and det [Psi_q; T^T] = det S det A, so its sign is that of det A: the product of
-  U's diagonal, the pivots' swaps and the two orderings' parities. (Proof: with W = A^-1 [I_m; 0],
-  [Psi_q; T^T] [W T_0] = [[I, 0], [T^T W, S]] and det [W T_0] = 1 / det A.)
+  square band A = [Psi_q; E^T] is factored by the banded LU with partial pivoting (LAPACK's dgbtf2 steps written
+  out, ``_band_lu``: O(n kl (kl + ku))); then T_0 = A^-1 [0; I_d] (``_band_solve``) spans the null space
+  (Psi_q T_0 = 0, E^T T_0 = I), T = T_0 S^-1 by Gram-Schmidt with S's diagonal positive, and det [Psi_q; T^T] =
+  det S det A, so its sign is that of det A: the product of U's diagonal, the pivots' swaps and the two orderings'
+  parities. (Proof: with W = A^-1 [I_m; 0], [Psi_q; T^T] [W T_0] = [[I, 0], [T^T W, S]] and det [W T_0] =
+  1 / det A.)
 
 Any orthonormal basis serves the Guard (``dynamics.null_space_bases``): a different E gives T R with R
 orthogonal, which multiplies det [Psi_q; T^T] and the turn det(T_prev^T T) by the same det R = +-1.
@@ -51,7 +52,7 @@ orthogonal, which multiplies det [Psi_q; T^T] and the turn det(T_prev^T T) by th
 signs (N,) (given Psi_q and the column weights and row norms instead, it scales each output time's Psi_q on its
 pattern as it goes, no scaled copy of the history, and given the pattern too, ``history_norms``, it reads the
 history only there: the band's ordering is kept per pattern, ``_band_structure``); ``dense_spectra`` the same for
-a small Psi_q that is no band, from a QR and one-sided Jacobi. A time where LAPACK reports a failure (a zero
+a small Psi_q that is no band, from a QR and one-sided Jacobi. A time where a factorization fails (a zero
 pivot: Psi_q singular to the last bit at an output time) gets NaN there, and the Guard computes that time densely.
 No numba in the numpy engine: this module is imported by compiled runs only (``dynamics.square_spectra``, from
 ``Guard.check_outputs``).
@@ -66,10 +67,10 @@ from .history import BlockedJacobians, block_slots
 from .kinematic_loop import PIVOT_TYPE, lapack
 
 _GBBRD, _STEBZ = lapack("dgbbrd", 18), lapack("dstebz", 18)
-_GBTRF, _GBTRS = lapack("dgbtrf", 8), lapack("dgbtrs", 11)
+_GBTRF = lapack("dgbtrf", 8)
 """LAPACK's dgbbrd(vect, m, n, ncc, kl, ku, ab, ldab, d, e, q, ldq, pt, ldpt, c, ldc, work, info), dstebz(range,
 order, n, vl, vu, il, iu, abstol, d, e, m, nsplit, w, iblock, isplit, work, iwork, info), dgbtrf(m, n, kl, ku, ab,
-ldab, ipiv, info) and dgbtrs(trans, n, kl, ku, nrhs, ab, ldab, ipiv, b, ldb, info): Fortran calls, every argument
+ldab, ipiv, info) (``_first_basis``'s n x m band, once a history): Fortran calls, every argument
 by address (``kinematic_loop.lapack``)."""
 
 WIDEST = 8
