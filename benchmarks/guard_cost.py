@@ -55,6 +55,7 @@ import numpy as np  # noqa: E402
 from solutions import dynamics  # noqa: E402
 from solutions.assembly import build_system  # noqa: E402
 from solutions.compiled import singular  # noqa: E402
+from solutions.compiled.history import BlockedJacobians  # noqa: E402
 from solutions.io import load_model  # noqa: E402
 
 PARTS = (
@@ -122,7 +123,9 @@ def routes(n_loops: int) -> tuple[tuple[int, int], dict[str, float | None]]:
     histories, square_spectra = [], dynamics.square_spectra
 
     def kept(jacobians, columns, norms, before, *args):
-        histories.append((jacobians.copy(), columns.copy(), norms.copy(), before))
+        held = jacobians  # a dense history, or one by its rows' blocks (``history.BlockedJacobians``, from N = 8)
+        held = BlockedJacobians(held.values.copy(), held.columns, held.n) if hasattr(held, "values") else held.copy()
+        histories.append((held, columns.copy(), norms.copy(), before))
         return square_spectra(jacobians, columns, norms, before, *args)
 
     dynamics.square_spectra = kept
@@ -132,9 +135,10 @@ def routes(n_loops: int) -> tuple[tuple[int, int], dict[str, float | None]]:
     finally:
         dynamics.square_spectra = square_spectra
     jacobians, columns, norms, before = histories[0]
+    dense = np.asarray(jacobians)  # numpy's and the dense route's input; the band reads the history as the run wrote it
 
     def numpy_route():
-        scaled = dynamics.scale_rows(jacobians, columns, norms)
+        scaled = dynamics.scale_rows(dense, columns, norms)
         dynamics.null_space_bases(scaled, signs=True)
         np.linalg.svd(scaled, compute_uv=False)
 
@@ -143,7 +147,7 @@ def routes(n_loops: int) -> tuple[tuple[int, int], dict[str, float | None]]:
     settled = lambda: singular.spectra(jacobians, before, columns, norms, None, singular.WIDEST_MID, settle)  # noqa: E731
     return jacobians.shape[1:], {
         "numpy batched": _per_history(numpy_route),
-        "compiled dense": _per_history(lambda: singular.dense_spectra(jacobians, columns, norms)),
+        "compiled dense": _per_history(lambda: singular.dense_spectra(dense, columns, norms)),
         "compiled band": None if band() is None else _per_history(band),
         "compiled band, settled": None if band() is None or not hasattr(singular, "settled") else _per_history(settled),
     }

@@ -38,11 +38,12 @@ matrix [Psi_q; 0] is a band whose half-widths kl, ku do not grow with the number
   tests and 14 solves. The verdicts are those of the closed figures, the figures reported the same to ~1e-14.
 - null space and sign: with d unit rows E^T in the empty slots (``e_c`` for the d coordinates in which the null
   space of the time before is largest, the independent coordinates of coordinate partitioning, eq. 5.40), the
-  square band A = [Psi_q; E^T] is factored by LAPACK's banded LU (dgbtrf, O(n kl (kl + ku))); then
-  T_0 = A^-1 [0; I_d] (dgbtrs) spans the null space (Psi_q T_0 = 0, E^T T_0 = I), T = T_0 S^-1 by Gram-Schmidt
-  with S's diagonal positive, and det [Psi_q; T^T] = det S det A, so its sign is that of det A: the product of
-  U's diagonal, the pivots' swaps and the two orderings' parities. (Proof: with W = A^-1 [I_m; 0],
-  [Psi_q; T^T] [W T_0] = [[I, 0], [T^T W, S]] and det [W T_0] = 1 / det A.)
+  square band A = [Psi_q; E^T] is factored by the banded LU with partial pivoting (LAPACK's dgbtf2 steps written
+  out, ``_band_lu``: O(n kl (kl + ku))); then T_0 = A^-1 [0; I_d] (``_band_solve``) spans the null space
+  (Psi_q T_0 = 0, E^T T_0 = I), T = T_0 S^-1 by Gram-Schmidt with S's diagonal positive, and det [Psi_q; T^T] =
+  det S det A, so its sign is that of det A: the product of U's diagonal, the pivots' swaps and the two orderings'
+  parities. (Proof: with W = A^-1 [I_m; 0], [Psi_q; T^T] [W T_0] = [[I, 0], [T^T W, S]] and det [W T_0] =
+  1 / det A.)
 
 Any orthonormal basis serves the Guard (``dynamics.null_space_bases``): a different E gives T R with R
 orthogonal, which multiplies det [Psi_q; T^T] and the turn det(T_prev^T T) by the same det R = +-1.
@@ -51,7 +52,7 @@ orthogonal, which multiplies det [Psi_q; T^T] and the turn det(T_prev^T T) by th
 signs (N,) (given Psi_q and the column weights and row norms instead, it scales each output time's Psi_q on its
 pattern as it goes, no scaled copy of the history, and given the pattern too, ``history_norms``, it reads the
 history only there: the band's ordering is kept per pattern, ``_band_structure``); ``dense_spectra`` the same for
-a small Psi_q that is no band, from a QR and one-sided Jacobi. A time where LAPACK reports a failure (a zero
+a small Psi_q that is no band, from a QR and one-sided Jacobi. A time where a factorization fails (a zero
 pivot: Psi_q singular to the last bit at an output time) gets NaN there, and the Guard computes that time densely.
 No numba in the numpy engine: this module is imported by compiled runs only (``dynamics.square_spectra``, from
 ``Guard.check_outputs``).
@@ -66,10 +67,10 @@ from .history import BlockedJacobians, block_slots
 from .kinematic_loop import PIVOT_TYPE, lapack
 
 _GBBRD, _STEBZ = lapack("dgbbrd", 18), lapack("dstebz", 18)
-_GBTRF, _GBTRS = lapack("dgbtrf", 8), lapack("dgbtrs", 11)
+_GBTRF = lapack("dgbtrf", 8)
 """LAPACK's dgbbrd(vect, m, n, ncc, kl, ku, ab, ldab, d, e, q, ldq, pt, ldpt, c, ldc, work, info), dstebz(range,
 order, n, vl, vu, il, iu, abstol, d, e, m, nsplit, w, iblock, isplit, work, iwork, info), dgbtrf(m, n, kl, ku, ab,
-ldab, ipiv, info) and dgbtrs(trans, n, kl, ku, nrhs, ab, ldab, ipiv, b, ldb, info): Fortran calls, every argument
+ldab, ipiv, info) (``_first_basis``'s n x m band, once a history): Fortran calls, every argument
 by address (``kinematic_loop.lapack``)."""
 
 WIDEST = 8
@@ -106,6 +107,12 @@ _DENSE = types.Tuple((_vector, _stack, _vector))(_stack, _vector, _matrix, types
 _BRACKETED = types.Tuple((_vector, _stack, _vector, _vector))(_stack, _vector, _matrix, types.boolean, types.float64)
 _CLOSED = _vector(_stack, _vector, _matrix, _ivector)
 """Signatures compiled at import (and cached on disk, ``precompile``): a run never waits for them."""
+
+MOVING = 3.0
+"""Until a first bracket settles apart from its neighbour's, ``_dense_bracketed`` brackets a ratio only where the
+two figures before it differ by more than this many brackets' relative widths (LOOSE): nearer, the brackets of
+neighbouring times overlap and ``settled`` closes both (models that start from rest or keep a constant ratio paid
+brackets and Jacobi, 1.1-1.4 times Jacobi alone, session 22)."""
 
 
 def band_order(pattern: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -278,7 +285,9 @@ def _first_basis(jacobian, columns, norms, position, keys, starts, indices):
     chosen = np.sort(order[taken[m:]])
     slot = _layout(keys, position, chosen)
     kl, ku = _widths(slot, m, starts, indices, position, chosen, True)
-    basis, _ = _null_space(J, slot, m, starts, indices, position, chosen, 1.0, kl, ku)
+    basis = np.empty((n, d))
+    work = np.empty((n, 2 * kl + ku + 1)), np.empty(n, dtype=np.int64), np.empty(n)
+    _null_space(J, slot, m, starts, indices, position, chosen, 1.0, kl, ku, *work, basis)
     return basis
 
 
@@ -401,8 +410,17 @@ def _independent(basis, d):
     """The d coordinates in which the null-space basis (n, d) is largest: greedy pivoting of its rows (the
     columns of T^T), each chosen row's direction removed from the rest (Gram-Schmidt), so that [Psi_q; E^T] is
     as far from singular as a choice of d unit rows makes it."""
-    rest = basis.copy()
     chosen = np.empty(d, dtype=np.int64)
+    _choose(basis, basis.copy(), np.empty(d), chosen)
+    return chosen
+
+
+@njit(cache=True, nogil=True)
+def _choose(basis, rest, direction, chosen):
+    """``_independent`` into ``chosen`` (d,), sorted, with work arrays ``rest`` (n, d) and ``direction`` (d,) (made
+    once per history by ``_spectra``, which asks at every output time)."""
+    d = chosen.size
+    rest[:, :] = basis
     for a in range(d):
         best, size = 0, -1.0
         for r in range(rest.shape[0]):
@@ -412,14 +430,15 @@ def _independent(basis, d):
             if norm > size:
                 best, size = r, norm
         chosen[a] = best
-        direction = rest[best] / np.sqrt(size) if size > 0.0 else rest[best] * 0.0
+        for c in range(d):
+            direction[c] = rest[best, c] / np.sqrt(size) if size > 0.0 else rest[best, c] * 0.0
         for r in range(rest.shape[0]):
             along = 0.0
             for c in range(d):
                 along += rest[r, c] * direction[c]
             for c in range(d):
                 rest[r, c] -= along * direction[c]
-    return np.sort(chosen)
+    chosen.sort()
 
 
 @njit(cache=True, nogil=True)
@@ -497,45 +516,94 @@ def _ratio(J, slot, m, starts, indices, position, chosen):
 
 
 @njit(cache=True, nogil=True)
-def _null_space(J, slot, m, starts, indices, position, chosen, ordered, kl, ku):
-    """(T, sign of det [Psi_q; T^T]) from the banded LU of A = [Psi_q; E^T] (module docstring); NaN on failure.
-    ordered: the parities of the rows' order ``slot`` and the columns' ``position`` (``_parity``), multiplied; kl, ku:
-    the band's widths (``_widths``): all three found once for each choice of E's coordinates, ``chosen``."""
+def _band_lu(ab, kl, ku, pivots):
+    """LU with partial pivoting of the square band A (n x n, half-widths kl, ku) in place, as LAPACK's unblocked
+    dgbtf2 (which dgbtrf calls at these widths): ab[j, kl + ku + i - j] = A[i, j], kl rows above for the fill;
+    pivots[j] the row swapped with row j (0-based). False at an exact zero pivot. Written out: LAPACK's column step
+    makes four BLAS calls (idamax, dswap, dscal, dger), whose call costs more than the arithmetic of a band a few
+    entries wide (101 LUs of the loop chain's 15 x 15 to 51 x 51: 0.12 -> 0.08 ms and 0.39 -> 0.25, session 22)."""
+    n = ab.shape[0]
+    kv = kl + ku  # the diagonal's column in ab
+    ju = 0  # the last column U reaches so far
+    for j in range(n):
+        below = min(kl, n - 1 - j)
+        p, size = 0, abs(ab[j, kv])
+        for i in range(1, below + 1):
+            if abs(ab[j, kv + i]) > size:
+                p, size = i, abs(ab[j, kv + i])
+        pivots[j] = j + p
+        if ab[j, kv + p] == 0.0:
+            return False
+        ju = max(ju, min(j + ku + p, n - 1))
+        if p != 0:  # rows j and j + p, columns j..ju
+            for c in range(j, ju + 1):
+                a, b = kv + j - c, kv + j + p - c
+                ab[c, a], ab[c, b] = ab[c, b], ab[c, a]
+        reciprocal = 1.0 / ab[j, kv]
+        for i in range(1, below + 1):
+            ab[j, kv + i] *= reciprocal
+        for c in range(j + 1, ju + 1):  # the rank-one update of the rows below
+            u = ab[c, kv + j - c]
+            if u != 0.0:
+                for i in range(1, below + 1):
+                    ab[c, kv + j + i - c] -= ab[j, kv + i] * u
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _band_solve(ab, kl, ku, pivots, b):
+    """b <- A^-1 b (b (n,)) with ``_band_lu``'s factors, as LAPACK's dgbtrs: L's swaps and columns forward, then U
+    (upper band kl + ku wide) back."""
+    n = ab.shape[0]
+    kv = kl + ku
+    for j in range(n - 1):
+        p = pivots[j]
+        if p != j:
+            b[j], b[p] = b[p], b[j]
+        for i in range(1, min(kl, n - 1 - j) + 1):
+            b[j + i] -= ab[j, kv + i] * b[j]
+    for j in range(n - 1, -1, -1):
+        b[j] /= ab[j, kv]
+        for i in range(max(0, j - kv), j):
+            b[i] -= b[j] * ab[j, kv + i - j]
+
+
+@njit(cache=True, nogil=True)
+def _null_space(J, slot, m, starts, indices, position, chosen, ordered, kl, ku, ab, pivots, rhs, basis):
+    """The sign of det [Psi_q; T^T] and T into ``basis`` (n, d), from the banded LU of A = [Psi_q; E^T] (module
+    docstring; ``_band_lu``); NaN on failure. ordered: the parities of the rows' order ``slot`` and the columns'
+    ``position`` (``_parity``), multiplied; kl, ku: the band's widths (``_widths``): all three found once for each
+    choice of E's coordinates, ``chosen``. Work arrays, made once per choice of E: ab (n, 2 kl + ku + 1), pivots
+    (n,), rhs (n,)."""
     n, d = slot.size, chosen.size
-    ldab = 2 * kl + ku + 1
-    ab = np.zeros((n, ldab))  # dgbtrf's AB: ab[j, kl + ku + i - j] = A[i, j], kl rows above for the fill
-    rhs = np.zeros((d, n))  # Fortran's B(n, d): the unit vectors of E's rows in the band layout
+    kv = kl + ku
+    ab[:, :] = 0.0
     for i in range(n):
         r = slot[i]
         if r < m:
             for p in range(starts[r], starts[r + 1]):
                 j = position[indices[p]]
-                ab[j, kl + ku + i - j] = J[r, indices[p]]
+                ab[j, kv + i - j] = J[r, indices[p]]
         else:
             j = position[chosen[r - m]]
-            ab[j, kl + ku + i - j] = 1.0
-            rhs[r - m, i] = 1.0
-    pivots = np.empty(n, dtype=PIVOT_TYPE)
-    sizes = np.array([n, n, kl, ku, ldab, 0, d], dtype=PIVOT_TYPE)  # m, n, kl, ku, ldab, info, nrhs
-    _GBTRF(sizes[0:].ctypes, sizes[1:].ctypes, sizes[2:].ctypes, sizes[3:].ctypes, ab.ctypes, sizes[4:].ctypes,
-           pivots.ctypes, sizes[5:].ctypes)  # fmt: skip
-    if sizes[5] != 0:
-        return np.full((n, d), np.nan), np.nan
-    sign = 1.0
+            ab[j, kv + i - j] = 1.0
+    if not _band_lu(ab, kl, ku, pivots):
+        basis[:, :] = np.nan
+        return np.nan
+    sign = ordered  # B[i, j] = A[slot[i], columns[j]] (A's rows: Psi_q's, then E's): sign(slot) det A sign(columns)
     for i in range(n):
-        if ab[i, kl + ku] < 0.0:
+        if ab[i, kv] < 0.0:
             sign = -sign
-        if pivots[i] - 1 != i:
+        if pivots[i] != i:
             sign = -sign
-    trans = np.full(1, ord("N"), dtype=np.uint8)
-    _GBTRS(trans.ctypes, sizes[0:].ctypes, sizes[2:].ctypes, sizes[3:].ctypes, sizes[6:].ctypes, ab.ctypes,
-           sizes[4:].ctypes, pivots.ctypes, rhs.ctypes, sizes[0:].ctypes, sizes[5:].ctypes)  # fmt: skip
-    # B[i, j] = A[slot[i], columns[j]] (A's rows: Psi_q's, then E's): det B = sign(slot) det A sign(columns)
-    sign *= ordered
-    basis = np.empty((n, d))
-    for c in range(n):
-        for a in range(d):
-            basis[c, a] = rhs[a, position[c]]
+    for a in range(d):  # T_0 = A^-1 [0; I_d]: E's unit vectors in the band layout
+        rhs[:] = 0.0
+        for i in range(n):
+            if slot[i] == m + a:
+                rhs[i] = 1.0
+        _band_solve(ab, kl, ku, pivots, rhs)
+        for c in range(n):
+            basis[c, a] = rhs[position[c]]
     for a in range(d):  # Gram-Schmidt: T = T_0 S^-1, S upper triangular with a positive diagonal
         for b in range(a):
             along = 0.0
@@ -549,7 +617,7 @@ def _null_space(J, slot, m, starts, indices, position, chosen, ordered, kl, ku):
         norm = np.sqrt(norm)
         for c in range(n):
             basis[c, a] /= norm
-    return basis, sign
+    return sign
 
 
 EXTREME_TOLERANCE = 1e-13
@@ -633,17 +701,25 @@ def _cholesky(G, a, b, L):
     """L L^T = a G + b I (band storage as G's, L[i, 0] holding 1 / L_ii: a product where the pivot's division
     cost most of the factorization on a narrow band), True if it is positive definite (every pivot > 0): the Sturm
     test of continuation, here of an eigenvalue bound (a = 1, b = -s: all eigenvalues of G above s; a = -1, b = s:
-    all below s), O(m w^2) (Golub and Van Loan, Matrix Computations, sec. 4.3.5, band Cholesky; sec. 8.4.1)."""
+    all below s), O(m w^2) (Golub and Van Loan, Matrix Computations, sec. 4.3.5, band Cholesky; sec. 8.4.1).
+    Each row from its first nonzero entry of G on (its envelope: no fill before it, George and Liu, ch. 4; the loop
+    chain's G, 5 wide, holds 2-5 entries left of the diagonal): L is zero before it, so the sums skip products that
+    are exact zeros, the same figures to the last bit."""
     m, w = G.shape[0], G.shape[1] - 1
     for i in range(m):
-        for t in range(min(w, i), 0, -1):
+        top = min(w, i)
+        while top > 0 and G[i, top] == 0.0:
+            L[i, top] = 0.0
+            top -= 1
+        first = i - top  # the row's first nonzero column
+        for t in range(top, 0, -1):
             j = i - t
             total = a * G[i, t]
-            for k in range(max(i - w, 0), j):
+            for k in range(first, j):
                 total -= L[i, i - k] * L[j, j - k]
             L[i, t] = total * L[j, 0]
         total = a * G[i, 0] + b
-        for k in range(max(i - w, 0), i):
+        for k in range(first, i):
             total -= L[i, i - k] * L[i, i - k]
         if not total > 0.0:
             return False
@@ -858,6 +934,17 @@ def _bottom(J, rows, starts, indices, G, L, x, y, loose, spread, ceiling):
 
 
 @njit(cache=True, nogil=True)
+def _widened(figure, bound):
+    """(upper, lower) of a ratio's bracket [bound, figure] from ``_bracketed_ratio`` widened by G's rounding (16 eps
+    lambda_1 on each eigenvalue's test, relative to lambda_m: 16 eps / ratio^2) and 1e-12: its ends are Rayleigh
+    quotients and Cholesky tests, bounds of the exact ratio only up to that rounding (on a constant ratio the bare
+    quotient falls an ulp below the exact figure), so widened it holds the closed figure too (``_iterated_ratio``'s
+    to EXTREME_TOLERANCE, Jacobi's), and a comparison with a closed neighbour goes the way theirs does."""
+    margin = 1e-12 + 16.0 * np.finfo(np.float64).eps / (bound * bound)
+    return figure * (1.0 + margin), bound * (1.0 - margin)
+
+
+@njit(cache=True, nogil=True)
 def _extrapolate(x, before, scratch):
     """x <- 2 x - x_before, unit, and x_before <- x (the eigenvector of the last time; ``before`` of the time before
     it): a linear extrapolation in time of the vectors ``_bracketed_ratio`` starts from, whose error is then
@@ -905,6 +992,8 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
     G, L, low, high, y = np.empty((m, w + 1)), np.empty((m, w + 1)), np.ones(m), np.ones(m), np.empty(n)
     before, ordered = first, _parity(position)
     kept, slot, kl, ku, parity = np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), 0, 0, 1.0
+    ab, pivots = np.empty((0, 0)), np.empty(0, dtype=np.int64)  # the banded LU's work arrays (``_null_space``)
+    rest, direction, chosen = np.empty((n, d)), np.empty(d), np.empty(d, dtype=np.int64)  # ``_choose``'s
     spread = np.full(2, 0.5)  # how far the time before's Rayleigh quotients were off (``_bracketed_ratio``)
     earlier = np.empty((2, m))  # the eigenvectors of the time before the last (``_extrapolate``)
     J = np.zeros((m, n))  # this time's scaled Psi_q, written on its pattern alone
@@ -913,11 +1002,15 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
             norm = norms[k, r] if norms[k, r] > 0.0 else 1.0
             for p in range(starts[r], starts[r + 1]):  # as ``dynamics.scale_rows``, to the last bit
                 J[r, indices[p]] = jacobians[k, r, slots[p]] * columns[indices[p]] / norm
-        chosen = _independent(before, d)
-        if k == 0 or np.any(chosen != kept):  # E's coordinates changed: the band's rows, widths and parity
-            kept, slot = chosen, _layout(keys, position, chosen)
+        _choose(before, rest, direction, chosen)
+        changed = k == 0
+        for a in range(d):
+            changed = changed or chosen[a] != kept[a]
+        if changed:  # E's coordinates changed: the band's rows, widths and parity
+            kept, slot = chosen.copy(), _layout(keys, position, chosen)
             kl, ku = _widths(slot, m, starts, indices, position, chosen, True)
             parity = _parity(slot) * ordered
+            ab, pivots = np.empty((n, 2 * kl + ku + 1)), np.empty(n, dtype=np.int64)
         ratios[k], lower[k] = np.nan, np.nan
         if loose > 0.0:
             if k >= 2 and lower[k - 1] < ratios[k - 1] and lower[k - 2] < ratios[k - 2]:  # both bracketed
@@ -925,8 +1018,9 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
                 _extrapolate(high, earlier[1], y)
             else:
                 earlier[0, :], earlier[1, :] = low, high
-            bracket = _bracketed_ratio(J, rows, starts, indices, products, G, L, low, high, y, loose, spread)
-            ratios[k], lower[k] = bracket
+            figure, bound = _bracketed_ratio(J, rows, starts, indices, products, G, L, low, high, y, loose, spread)
+            if np.isfinite(bound):  # widened by G's rounding: it holds the closed figure too
+                ratios[k], lower[k] = _widened(figure, bound)
         if not np.isfinite(lower[k]):
             ratios[k] = _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y)
             lower[k] = ratios[k]
@@ -935,7 +1029,7 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
             ratios[k] = _ratio(J, slot, m, starts, indices, position, chosen)
             lower[k] = ratios[k]
         vectors[k, 0], vectors[k, 1] = low, high
-        bases[k], signs[k] = _null_space(J, slot, m, starts, indices, position, chosen, parity, kl, ku)
+        signs[k] = _null_space(J, slot, m, starts, indices, position, chosen, parity, kl, ku, ab, pivots, y, bases[k])
         if np.all(np.isfinite(bases[k])):
             before = bases[k]
     return ratios, bases, signs, lower, vectors
@@ -1135,10 +1229,13 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
     to convergence for the next time's, ``_iterated_ratio``), and where the ratio cannot have moved by a bracket's
     width since the time before, so that ``settled`` would close both anyway: by Weyl's inequality each singular
     value moves by at most delta = |J_k - J_k-1|_F, so sigma_m / sigma_1 by a relative (1 + 1 / ratio) delta at
-    most (sigma_1 >= 1: rows of unit length), to first order (a driven mechanism's constant Psi_q, a start from
-    rest); and every time once more than half of four or more brackets overlapped the time before's or failed (a
-    constant ratio of a moving Psi_q: a cylindrical joint's rotation). The choices cost m n operations a time and
-    decide cost alone, never a figure."""
+    most (sigma_1 >= 1: rows of unit length), to first order (a driven mechanism's constant Psi_q); until a first
+    bracket settled apart from the time before's, where the two figures before differ by less than MOVING
+    brackets' widths (a start from rest, whose ratio moves less than a bracket's width over the first output times
+    while Psi_q moves more; a constant ratio of a moving Psi_q, a cylindrical joint's rotation: their brackets would
+    overlap, and ``settled`` close both); and every time once more than half of four or more brackets overlapped
+    the time before's or failed (a fast flywheel's ratio: brackets that stay wide). The choices cost m n operations
+    a time and decide cost alone, never a figure."""
     N, m, n = jacobians.shape
     d = n - m
     ratios, signs, lower = np.empty(N), np.empty(N), np.empty(N)
@@ -1154,8 +1251,7 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
     made = np.empty((0, 5), dtype=np.int64)  # ``_bracketed_ratio``: G made by ``_dense_gram``
     G, L, low, high, y = np.empty((m, m)), np.empty((m, m)), np.ones(m), np.ones(m), np.empty(n)
     spread, earlier = np.full(2, 0.5), np.empty((2, m))
-    eps = np.finfo(np.float64).eps
-    tried, tries, overlaps = True, 0, 0  # brackets made, and how many overlapped the time before's
+    tried, tries, overlaps, apart = True, 0, 0, False  # brackets made, how many overlapped, one apart yet
     for k in range(N):
         moved = 0.0
         for r in range(m):
@@ -1167,8 +1263,9 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
         S[:, :] = J
         signs[k] = _householder(S, V, beta, tangents[k])
         ratios[k], lower[k] = np.nan, np.nan
+        moving = apart or (k >= 2 and abs(ratios[k - 1] - ratios[k - 2]) > MOVING * loose * ratios[k - 1])
         tried = tried and (tries < 4 or 2 * overlaps <= tries)  # once stopped, for the rest
-        if tried and k > 0 and np.sqrt(moved) * (1.0 + 1.0 / lower[k - 1]) >= loose:
+        if tried and moving and np.sqrt(moved) * (1.0 + 1.0 / lower[k - 1]) >= loose:
             tries += 1
             if k >= 2 and lower[k - 1] < ratios[k - 1] and lower[k - 2] < ratios[k - 2]:  # both bracketed
                 _extrapolate(low, earlier[0], y)
@@ -1178,10 +1275,11 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
             _dense_gram(J, G)
             figure, bound = _bracketed_ratio(J, rows, starts, indices, made, G, L, low, high, y, loose, spread)
             if np.isfinite(bound):
-                margin = 1e-12 + 16.0 * eps / (bound * bound)  # G's rounding, relative to lambda_m
-                ratios[k], lower[k] = figure * (1.0 + margin), bound * (1.0 - margin)
+                ratios[k], lower[k] = _widened(figure, bound)
                 if lower[k] <= ratios[k - 1] and lower[k - 1] <= ratios[k]:  # overlaps the time before's
                     overlaps += 1
+                else:
+                    apart = True
             else:  # the eigenvectors too far off: iterated to convergence for the next time (a failure counts as
                 overlaps += 1  # an overlap: as useless)
                 if products.shape[0] == 0:

@@ -117,12 +117,23 @@ def test_guard_stops_at_the_crossing_with_the_dense_message(monkeypatch):
 
 
 def test_a_run_through_records_the_dense_crossings(monkeypatch):
+    """The chain swung from 80 to 100 degrees at 20 output times passes flat (90 degrees) at t = 0.5, midway between
+    t_9 (89.47) and t_10 (90.53): mirror images, whose ratios are equal but for rounding (~1e-13 apart), so either
+    is the dip's bottom and the crossing's time (which one depends on the last bits of the route: the band's LU or
+    numpy's QR). The band records one crossing there, at one of the two, with the dense SVD's figure at that time."""
     crossings, closest = _through(True, monkeypatch, through=True)
     dense_crossings, dense_closest = _through(False, monkeypatch, through=True)
-    assert [c["t"] for c in crossings] == [c["t"] for c in dense_crossings]
-    assert len(crossings) == 1 and abs(crossings[0]["t"] - 0.5) < 0.06  # flat at t = 0.5, between two output times
-    assert closest["t"] == dense_closest["t"]
-    assert closest["ratio"] == pytest.approx(dense_closest["ratio"], rel=1e-10)
+    times = np.linspace(0.0, 1.0, 20)
+    system, qs = chain_at(np.linspace(80.0, 100.0, 20)[9:11])
+    scaled = [Guard(system, qs[0], 1e-3, 1e-8)._scaled(system.jacobian(q, 0.0)) for q in qs]
+    s = np.linalg.svd(np.array(scaled), compute_uv=False)
+    tied = dict(zip(times[9:11], s[:, -1] / s[:, 0], strict=True))  # numpy's ratio at t_9 and t_10
+    assert tied[times[9]] == pytest.approx(tied[times[10]], rel=1e-9) and max(tied.values()) < 1e-2
+    for found in (crossings, dense_crossings):
+        assert len(found) == 1 and found[0]["t"] in tied
+        assert found[0]["ratio"] == pytest.approx(tied[found[0]["t"]], rel=1e-10)
+    for found in (closest, dense_closest):
+        assert found["t"] in tied and found["ratio"] == pytest.approx(tied[found["t"]], rel=1e-10)
 
 
 @pytest.mark.parametrize("shape", [(9, 9), (4, 6), (8, 9), (20, 23)])
@@ -382,3 +393,94 @@ def test_a_constant_small_ratio_is_closed_as_before(small_swing):
     closed = singular.dense_spectra(still, guard._columns, norms)
     for a, b in zip(made, closed, strict=True):
         np.testing.assert_array_equal(a, b)
+
+
+def test_a_moving_psi_q_of_constant_ratio_is_not_bracketed(small_swing):
+    """Psi_q turned by rotations of its columns (it moves far more than a bracket's width; its singular values stay,
+    the ratio constant to rounding, as a cylindrical joint's rotation): the brackets of neighbouring times would
+    overlap, so none is tried (the figures do not move: singular.MOVING) and every ratio is Jacobi's, the settled
+    route the closed one bit for bit."""
+    _, jacobians, _ = small_swing
+    J = jacobians[10] / np.linalg.norm(jacobians[10], axis=-1, keepdims=True)
+    n = J.shape[1]
+    turns = []
+    for angle in np.linspace(0.0, 1.0, 20):
+        R = np.eye(n)
+        R[[0, 0, 3, 3], [0, 3, 0, 3]] = np.cos(angle), -np.sin(angle), np.sin(angle), np.cos(angle)
+        turns.append(J @ R)
+    turning = np.array(turns)
+    columns, norms = np.ones(n), np.linalg.norm(turning, axis=-1)
+    assert np.min(np.linalg.norm(np.diff(turning, axis=0), axis=(1, 2))) > 1e-2  # Psi_q moves
+    figures, _, _, lower = singular._dense_bracketed(turning, columns, norms, True, singular.LOOSE)
+    np.testing.assert_array_equal(lower, figures)  # every ratio closed by Jacobi, no bracket tried
+    s = np.linalg.svd(turning, compute_uv=False)
+    np.testing.assert_allclose(figures, s[:, -1] / s[:, 0], rtol=1e-12)
+    settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)
+    for a, b in zip(singular.dense_spectra(turning, columns, norms, settle=settle),
+                    singular.dense_spectra(turning, columns, norms), strict=True):  # fmt: skip
+        np.testing.assert_array_equal(a, b)
+
+
+def test_the_band_lu_solves_and_signs_as_numpy():
+    """singular._band_lu / _band_solve (the banded LU with partial pivoting written out) on a random band 17 x 17
+    (kl = 2, ku = 3) whose small diagonal forces row swaps: A^-1 b as numpy's solve, the sign of det A from U's
+    diagonal and the swaps as numpy's determinant's; an exact zero column stops it (False)."""
+    rng = np.random.default_rng(5)
+    n, kl, ku = 17, 2, 3
+    A = np.zeros((n, n))
+    for i in range(n):
+        for j in range(max(0, i - kl), min(n, i + ku + 1)):
+            A[i, j] = rng.standard_normal()
+        A[i, i] *= 1e-3
+    ab = np.zeros((n, 2 * kl + ku + 1))
+    for i in range(n):
+        for j in range(max(0, i - kl), min(n, i + ku + 1)):
+            ab[j, kl + ku + i - j] = A[i, j]
+    pivots = np.empty(n, dtype=np.int64)
+    assert singular._band_lu(ab, kl, ku, pivots)
+    assert np.any(pivots != np.arange(n))  # rows were swapped
+    b = rng.standard_normal(n)
+    x = b.copy()
+    singular._band_solve(ab, kl, ku, pivots, x)
+    np.testing.assert_allclose(A @ x, b, atol=1e-12)
+    np.testing.assert_allclose(x, np.linalg.solve(A, b), rtol=1e-9)
+    sign = np.prod(np.sign(ab[:, kl + ku])) * (-1.0) ** np.count_nonzero(pivots != np.arange(n))
+    assert sign == np.sign(np.linalg.det(A))
+    A[:, 4] = 0.0
+    ab[:, :] = 0.0
+    for i in range(n):
+        for j in range(max(0, i - kl), min(n, i + ku + 1)):
+            ab[j, kl + ku + i - j] = A[i, j]
+    assert not singular._band_lu(ab, kl, ku, pivots)
+
+
+def test_the_envelope_cholesky_is_numpys_and_tests_the_eigenvalues():
+    """singular._cholesky on a band (w = 4) whose rows start at different columns (zeros left of each row's first
+    entry, as the loop chain's Gram matrix): the factor numpy's Cholesky's, and a + b shift definite exactly where
+    numpy's eigenvalues say (the Sturm test of the brackets), on both sides of the smallest and largest."""
+    rng = np.random.default_rng(11)
+    m, w = 12, 4
+    starts = [max(0, i - rng.integers(0, w + 1)) for i in range(m)]
+    B = np.zeros((m, m))
+    for i in range(m):
+        B[i, starts[i] : i + 1] = rng.standard_normal(i + 1 - starts[i])
+    A = B @ B.T + 0.1 * np.eye(m)
+    A[np.abs(np.subtract.outer(np.arange(m), np.arange(m))) > w] = 0.0
+    A = A + m * np.eye(m)  # definite after the band's cut
+    G = np.zeros((m, w + 1))
+    for i in range(m):
+        for t in range(min(w, i) + 1):
+            G[i, t] = A[i, i - t]
+    L = np.empty_like(G)
+    assert singular._cholesky(G, 1.0, 0.0, L)
+    dense = np.zeros((m, m))
+    for i in range(m):
+        dense[i, i] = 1.0 / L[i, 0]
+        for t in range(1, min(w, i) + 1):
+            dense[i, i - t] = L[i, t]
+    np.testing.assert_allclose(dense, np.linalg.cholesky(A), atol=1e-13)
+    eigenvalues = np.linalg.eigvalsh(A)
+    for s in (eigenvalues[0] * (1 - 1e-6), eigenvalues[0] * (1 + 1e-6)):
+        assert singular._cholesky(G, 1.0, -s, L) == (eigenvalues[0] > s)
+    for s in (eigenvalues[-1] * (1 - 1e-6), eigenvalues[-1] * (1 + 1e-6)):
+        assert singular._cholesky(G, -1.0, s, L) == (eigenvalues[-1] < s)
