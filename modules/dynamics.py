@@ -126,11 +126,14 @@ def consistent_initial_conditions(
     constraints exactly (a mechanism released at rest), x = 0 and nothing is solved.
     """
     q, assembly = assemble(system, q0, t)
-    jacobian = system.jacobian(q, t)
-    residual = jacobian @ qd0 + system.psi_t(q, t)
-    if not np.any(residual):  # q0' satisfies the velocity constraints exactly (e.g. at rest): x = 0
+    jacobian, psi_t = system.jacobian(q, t), system.psi_t(q, t)
+    residual = jacobian @ qd0 + psi_t
+    before = float(np.abs(residual).max()) if residual.size else 0.0
+    if not before:  # q0' satisfies the velocity constraints exactly (e.g. at rest): x = 0, nothing to correct
         qd = np.array(qd0, dtype=float)
-    elif point_masses(system.model):  # M singular: the same minimum, from [M Psi_q^T; Psi_q 0] (eq. 5.30's matrix)
+        report = {"velocity_residual_before": 0.0, "velocity_correction": 0.0, "velocity_residual": 0.0}
+        return q, qd, {"assembly": assembly, **report}
+    if point_masses(system.model):  # M singular: the same minimum, from [M Psi_q^T; Psi_q 0] (eq. 5.30's matrix)
         n, m = jacobian.shape[1], jacobian.shape[0]
         kkt = np.block([[mass_at(M, q), jacobian.T], [jacobian, np.zeros((m, m))]])
         qd = qd0 + np.linalg.lstsq(kkt, np.concatenate([np.zeros(n), -residual]), rcond=None)[0][:n]
@@ -140,9 +143,9 @@ def consistent_initial_conditions(
         qd = qd0 - weighted @ x
     report = {
         "assembly": assembly,
-        "velocity_residual_before": float(np.max(np.abs(residual), initial=0.0)),
+        "velocity_residual_before": before,
         "velocity_correction": float(np.max(np.abs(qd - qd0), initial=0.0)),
-        "velocity_residual": float(np.max(np.abs(jacobian @ qd + system.psi_t(q, t)), initial=0.0)),
+        "velocity_residual": float(np.max(np.abs(jacobian @ qd + psi_t), initial=0.0)),
     }
     return q, qd, report
 
@@ -686,12 +689,12 @@ def run_stages(run: Run, formulation: str, integrator: str) -> tuple[Result, Mad
     if notes:
         result.info["notes"] = notes
     result.info["warnings"] = drift_warnings(result.info, guard.size, plan.formulation, settings.formulation_options)
-    speed = float(np.max(np.abs(body_positions(system, result.qd)), initial=0.0))  # V: the largest speed, m/s
-    result.info["accuracy_estimate"] = accuracy_estimate(result.info, guard.size, plan.periods)
+    speed = largest(body_positions(system, result.qd))  # V: the largest speed, m/s
+    found = result.info["accuracy_estimate"] = accuracy_estimate(result.info, guard.size, plan.periods)
     held = max(HELD_RTOL, getattr(equations.formulation, "held_rtol", 0.0))
     result.info["held_rtol"] = held
     result.info["warnings"] += raised + accuracy_warnings(
-        result.info, guard.size, settings.accuracy, plan.periods, speed, held
+        result.info, guard.size, settings.accuracy, plan.periods, speed, held, found
     )
     result.info["warnings"] += guard.warnings
     if not plan.rtol_given and plan.periods is not None:
@@ -1143,7 +1146,7 @@ def compiled_motion(settings: Settings, equations, guard, z0, times, history, pl
     guard.banded = True  # numba is loaded: the output times' checks may take the band of a large Psi_q
     on_pause = None  # the checks between steps (``judge_pause``): only where the Guard watches for singular positions
     if guard.singular_ratio and guard.rank and not guard.through:
-        pauses = copy.copy(guard)  # sees the pauses in time order, apart from the output times' checks
+        pauses = shallow_copy(guard)  # sees the pauses in time order, apart from the output times' checks
         on_pause = lambda *state: judge_pause(pauses, *state)  # noqa: E731
     compiled, stats = dispatch.run(scene, z0, times, settings, on_pause=on_pause)
     n = equations.formulation.n
@@ -1159,7 +1162,7 @@ def compiled_motion(settings: Settings, equations, guard, z0, times, history, pl
         raise stopped
     # the checks at the output times (the numpy engine: drift at output times, configuration after every
     # step), from Psi and Psi_q the compiled module gives for all of them at once
-    judged = copy.copy(guard)
+    judged = shallow_copy(guard)
     try:
         judged.check_outputs(times, Y[:, :n], compiled.psi, compiled.jac)
     except AnalysisError as err:  # a branch switch before the stop is its cause: said first, as the numpy run
@@ -1180,6 +1183,14 @@ def compiled_motion(settings: Settings, equations, guard, z0, times, history, pl
     history.psi, history.jac, history.psit = compiled.psi, compiled.jac, compiled.psit
     guard.check_branches(times, history.q, history.qd, history.qdd, compiled.jac)
     return compiled, stats, chosen
+
+
+def shallow_copy(guard: Guard) -> Guard:
+    """``copy.copy(guard)``: a new Guard with the same attributes (its lists and arrays shared), made directly (1 us,
+    not ``copy``'s protocol's 4)."""
+    copied = object.__new__(type(guard))
+    copied.__dict__.update(guard.__dict__)
+    return copied
 
 
 def singular_dip(guard: Guard, times: np.ndarray, jacobians: np.ndarray) -> tuple[float, float] | None:
@@ -1272,6 +1283,7 @@ def build_result(run: Run, equations, guard, history, compiled, times) -> tuple[
 
 def run_info(run: Run, plan: Plan, equations, guard, stats, result, energies, initial: dict) -> DynamicInfo:
     """How the result was obtained (DESIGN section 5)."""
+    drift = largest(energies.error)  # max |E(t) - E(0)|: E(t) summed once (``EnergyHistory.error``)
     return {
         "analysis": "dynamic",
         "formulation": plan.formulation,
@@ -1289,8 +1301,8 @@ def run_info(run: Run, plan: Plan, equations, guard, stats, result, energies, in
         "singular_positions": guard.crossings,
         "max_constraint_residual": float(result.points["residual.position"].max()),
         "max_velocity_residual": float(result.points["residual.velocity"].max()),
-        "energy_drift": float(np.max(np.abs(energies.error))),
-        "energy_drift_relative": float(np.max(np.abs(energies.error)) / energies.scale),
+        "energy_drift": drift,
+        "energy_drift_relative": drift / energies.scale,
         "assembly": initial["assembly"],
         "initial_conditions": initial,
         **_formulation_info(equations.formulation),
@@ -1301,7 +1313,12 @@ def mechanism_size(system: System, q: np.ndarray, extent: float | None = None) -
     """L: the largest distance of a body centre or a joint point from the origin, at least 1 mm (``Guard``);
     ``extent``: the joint points' (``_joint_extent``) where known."""
     extent = _joint_extent(system.model) if extent is None else extent
-    return max(float(np.max(np.abs(body_positions(system, q)), initial=0.0)), extent, 1e-3)
+    return max(largest(body_positions(system, q)), extent, 1e-3)
+
+
+def largest(x: np.ndarray) -> float:
+    """max |x|, 0 for an empty array (``np.max(np.abs(x), initial=0.0)``, without its dispatch: 1 us, not 4)."""
+    return float(np.abs(x).max()) if x.size else 0.0
 
 
 class StartRates:
@@ -1526,12 +1543,13 @@ def accuracy_warnings(
     periods: float | None,
     speed: float | None = None,
     held: float = HELD_RTOL,
+    found: dict | None = None,
 ) -> list[str]:
-    """One line for positions and velocities and one for energy when the estimated error (``accuracy_estimate``)
-    exceeds ``accuracy`` (positions: times the mechanism's size; velocities: times ``speed``, the run's largest;
-    energy: of the energy scale), with the figure and what to do (``held``: the tightest rtol the run's formulation
-    holds, ``held_tolerances``)."""
-    found = accuracy_estimate(info, size, periods)
+    """One line for positions and velocities and one for energy when the estimated error (``accuracy_estimate``,
+    ``found`` where the caller made it) exceeds ``accuracy`` (positions: times the mechanism's size; velocities:
+    times ``speed``, the run's largest; energy: of the energy scale), with the figure and what to do (``held``: the
+    tightest rtol the run's formulation holds, ``held_tolerances``)."""
+    found = accuracy_estimate(info, size, periods) if found is None else found
     if found is None:
         return []
     rtol, p = info.get("rtol"), 1.0 if periods is None else periods
@@ -1849,9 +1867,9 @@ class Guard:
         self._tangent, self._t, self._sign = None, 0.0, 1.0
         self._pending: list = []  # (t, q, Psi_q) after steps not judged yet (``queue``)
         per, dim = system.coordinates_per_body, system.model.dimension
-        columns = np.ones(per)
-        columns[dim:] = 1.0 / size  # derivatives by an angle (Euler parameter) times its arc length, in 1/m
-        self._columns = np.tile(columns, system.n_bodies)
+        columns = np.ones((system.n_bodies, per))
+        columns[:, dim:] = 1.0 / size  # derivatives by an angle (Euler parameter) times its arc length, in 1/m
+        self._columns = columns.reshape(-1)
         self._speeds = gyration_weights(system) if weights is None else weights  # read only
 
     def _scaled(self, jacobian: np.ndarray) -> np.ndarray:
@@ -2256,14 +2274,16 @@ def possible_switches(weights: np.ndarray, t: np.ndarray, qd: np.ndarray, qdd: n
     call at a time cost more than the run's integration (a loop chain of 2 parallelograms: 100 steps, 3 ms)."""
     i, j = k, k + 1
     h = (t[j] - t[i])[:, None]
-    shape = (k.size, *weights.shape)
 
     def per_body(x: np.ndarray) -> np.ndarray:
-        return np.linalg.norm(x.reshape(shape) * weights, axis=2)
+        return np.linalg.norm(x.reshape(-1, *weights.shape) * weights, axis=2)
 
     mismatch = per_body(qd[j] - qd[i] - 0.5 * h * (qdd[i] + qdd[j]))
-    allowance = h * np.maximum(per_body(qdd[i]), per_body(qdd[j]))
-    fastest = np.max(np.maximum(per_body(qd[i]), per_body(qd[j])), axis=1, initial=0.0)
+    samples = np.union1d(i, j)  # each sample's norms once: a step shares its ends with its neighbours (4 -> 2 norms)
+    speeds, rates = np.empty((t.size, weights.shape[0])), np.empty((t.size, weights.shape[0]))
+    speeds[samples], rates[samples] = per_body(qd[samples]), per_body(qdd[samples])
+    allowance = h * np.maximum(rates[i], rates[j])
+    fastest = np.max(np.maximum(speeds[i], speeds[j]), axis=1, initial=0.0)
     return np.max(mismatch - allowance, axis=1, initial=-np.inf) > 0.5 * BRANCH_JUMP * fastest
 
 

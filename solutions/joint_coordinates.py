@@ -486,8 +486,8 @@ class PlanarTree:
     def joint_state(self, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(theta, theta') of body coordinates on the constraints, in closed form: a revolute joint's
         phi_C - phi_P, a prismatic joint's u^T d with d between the two joint points."""
-        X = np.vstack([q.reshape(-1, 3), np.zeros(3)])  # ground's row last
-        V = np.vstack([qd.reshape(-1, 3), np.zeros(3)])
+        X, V = np.zeros((q.size // 3 + 1, 3)), np.zeros((q.size // 3 + 1, 3))  # ground's row last (zeros)
+        X[:-1], V[:-1] = q.reshape(-1, 3), qd.reshape(-1, 3)
         theta, rate = np.empty(self.k), np.empty(self.k)
         for joint in self.joints:
             P, C, c = joint.parent, joint.child, joint.position

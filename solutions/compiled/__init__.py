@@ -252,7 +252,10 @@ def _load(plan: Plan) -> tuple[object, object, bool]:
 
 
 def is_cached(plan: Plan) -> bool:
-    """Whether numba's machine code of everything the plan runs is on disk (no compilation needed)."""
+    """Whether numba's machine code of everything the plan runs is on disk (no compilation needed): so where the plan
+    has loaded it (``load``: its start rates did, or the prepared run's first run), without asking the disk."""
+    if "_loaded" in plan.__dict__:
+        return True
     if isinstance(plan.scene, TreeScene):
         from . import tree
 
