@@ -63,7 +63,6 @@ An open tree has no cut rows, and this is (D^T M D) theta'' = D^T (Q - M xi) abo
 
 from __future__ import annotations
 
-import copy
 import math
 from collections import deque
 from dataclasses import dataclass
@@ -247,7 +246,14 @@ def tree_joints(system: System) -> list[TreeJoint]:
     handed out as copies: a run's ``joint_state`` sets a prismatic joint's ``u0``."""
     if "_tree_joints" not in system.__dict__:
         system.__dict__["_tree_joints"] = build_tree(system)
-    return [copy.copy(joint) for joint in system.__dict__["_tree_joints"]]
+    return [_copied(joint) for joint in system.__dict__["_tree_joints"]]
+
+
+def _copied(joint: TreeJoint) -> TreeJoint:
+    """A shallow copy of a joint (``copy.copy`` without its protocol: 1 us, not 4)."""
+    made = object.__new__(type(joint))
+    made.__dict__.update(joint.__dict__)
+    return made
 
 
 def build_tree(system: System) -> list[TreeJoint]:

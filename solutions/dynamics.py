@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import math
 import re
 import time as _time
@@ -454,7 +455,7 @@ class Prepared:
         """What the runs' start and Guard read of the model alone (``Fixed``), made at the first call."""
         if self._fixed is None:
             model = self.system.model
-            self._fixed = Fixed(point_masses(model), gyration_weights(self.system), _joint_extent(model))
+            self._fixed = Fixed(point_masses(model), _joint_extent(model), self.system)
         return self._fixed
 
     def formulation(self, name: str, M, forces: ForceModel, options: dict) -> Formulation:
@@ -507,12 +508,18 @@ REUSED = ("joint-coordinates",)
 @dataclass(frozen=True)
 class Fixed:
     """What a prepared run's stages read of the model alone, made once (``Prepared.fixed``): the point masses
-    (``point_masses``), the Guard's speed weights (``gyration_weights``) and the joints' extent (``_joint_extent``,
-    of the mechanism's size)."""
+    (``point_masses``), the joints' extent (``_joint_extent``, of the mechanism's size) and the Guard's speed weights
+    (``weights``)."""
 
     point_masses: list[int]
-    weights: np.ndarray
     extent: float
+    system: System = dataclasses.field(repr=False, compare=False)
+
+    @functools.cached_property
+    def weights(self) -> np.ndarray:
+        """The Guard's speed weights (``gyration_weights``), made by the first run whose Guard judges branches (none
+        for an open tree in joint coordinates: 8-20 us a call saved)."""
+        return gyration_weights(self.system)
 
 
 def initial_arrays(system: System, q0, qd0) -> tuple[np.ndarray, np.ndarray]:
@@ -1057,7 +1064,7 @@ def make_guard(run: Run, plan: Plan, equations: EquationsOfMotion, q: np.ndarray
         singular_ratio,
         through=plan.formulation in THROUGH_SINGULAR,
         size=plan.size,
-        weights=run.prepared.fixed().weights if run.prepared is not None else None,
+        weights=run.prepared.fixed().weights if run.prepared is not None and singular_ratio else None,
     )
 
 
@@ -1075,6 +1082,7 @@ def integrate_motion(run: Run, plan: Plan, equations, guard: Guard, z0: np.ndarr
         if compiled is not None:
             return history, stats, compiled, chosen
 
+    history.allocate()
     filled = [0]  # output times stored so far
 
     def record(k: int, t: float, z: np.ndarray) -> None:
@@ -1549,8 +1557,8 @@ def accuracy_warnings(
     times ``speed``, the run's largest; energy: of the energy scale), with the figure and what to do (``held``: the
     tightest rtol the run's formulation holds, ``held_tolerances``)."""
     found = accuracy_estimate(info, size, periods) if found is None else found
-    if found is None:
-        return []
+    if found is None or not _beyond(found, size, accuracy, speed):
+        return []  # nothing to say: no remedy worded (most runs)
     rtol, p = info.get("rtol"), 1.0 if periods is None else periods
     if found["positions"] is None:  # rk4: a smaller step is its only remedy
         remedy = "a smaller --step"
@@ -1595,6 +1603,17 @@ def accuracy_warnings(
             + f"; {remedy}"
         )
     return lines
+
+
+def _beyond(found: dict, size: float, accuracy: float, speed: float | None) -> bool:
+    """Whether ``accuracy_warnings`` has a line to say of the estimate ``found``: energy, positions or velocities
+    beyond the accuracy (its tests, in its order)."""
+    energy, positions = found["energy"], found["positions"]
+    if energy is not None and energy > accuracy:
+        return True
+    if positions is not None and positions <= accuracy * size and speed:
+        return bool(found["velocities"] > accuracy)
+    return positions is not None and positions > accuracy * size
 
 
 def _energy_remedy(found: dict, rtol: float | None, accuracy: float, held: float, remedy: str) -> str:
@@ -1869,7 +1888,15 @@ class Guard:
         columns = np.ones((system.n_bodies, per))
         columns[:, dim:] = 1.0 / size  # derivatives by an angle (Euler parameter) times its arc length, in 1/m
         self._columns = columns.reshape(-1)
-        self._speeds = gyration_weights(system) if weights is None else weights  # read only
+        self._weights = weights  # the speed weights (``speeds``): made where a branch is judged, read only
+
+    @property
+    def speeds(self) -> np.ndarray:
+        """The weights that make each velocity coordinate a speed (``gyration_weights``), made at the first branch
+        judged: a Guard that judges none (an open tree's) makes none."""
+        if self._weights is None:
+            self._weights = gyration_weights(self.system)
+        return self._weights
 
     def _scaled(self, jacobian: np.ndarray) -> np.ndarray:
         """Psi_q made free of units and size: derivatives by angles per arc length (divided by the mechanism's
@@ -2049,7 +2076,7 @@ class Guard:
         # a switch between two regular branches shows in the velocities of the step onto the other: every step next
         # to a singular position is judged too, but only a switch counts there
         near = np.flatnonzero((ratios[:-1] < NEAR_SINGULAR) | (ratios[1:] < NEAR_SINGULAR))
-        near = near[possible_switches(self._speeds, t, qd, qdd, near)]  # the others are no switch: not judged
+        near = near[possible_switches(self.speeds, t, qd, qdd, near)]  # the others are no switch: not judged
         steps = [(k, k if ratios[k] <= ratios[k + 1] else k + 1, k + 1) for k in near]
         for a, middle, b, crossing in sorted([(*i, True) for i in intervals] + [(*i, False) for i in steps]):
             self._judge_branch(t, q, qd, qdd, a, middle, b, float(ratios[middle]), crossing)
@@ -2108,7 +2135,7 @@ class Guard:
         from .diagnostics import singular_joints
 
         verdicts = [
-            branch_verdict(self._speeds, float(t[j] - t[i]), (qd[i], qdd[i]), (qd[j], qdd[j]), self.system.model.bodies)
+            branch_verdict(self.speeds, float(t[j] - t[i]), (qd[i], qdd[i]), (qd[j], qdd[j]), self.system.model.bodies)
             for i, j in ((a, middle), (middle, b)) if i < j
         ]  # fmt: skip
         judged = {v[0]: v for v in verdicts}
@@ -2316,19 +2343,26 @@ def _joint_extent(model) -> float:
 
 
 class _History:
-    """Output arrays filled as the integrator passes the output times."""
+    """Output arrays filled as the integrator passes the output times (``allocate``: a compiled run hands its own
+    over instead)."""
 
     def __init__(self, size: int, n: int, m: int, extra: int):
+        self.q = self.qd = self.qdd = self.lam = self.energies = None
+        self.psi = self.jac = self.psit = None  # made at the first ``constraints``: a compiled run hands its own over
+        self._sizes = (size, n, m, extra)  # (a chain of 64 loops' dense Psi_q history: 121 MB)
+
+    def allocate(self) -> _History:
+        """The arrays of q, q', q'', lambda and the energies, for the numpy engine to fill."""
+        size, n, m, extra = self._sizes
         self.q, self.qd, self.qdd = (np.empty((size, n)) for _ in range(3))
         self.lam = np.empty((size, m))
         self.energies = np.zeros((size, extra))
-        self.psi = self.jac = self.psit = None  # made at the first ``constraints``: a compiled run hands its own over
-        self._sizes = (size, n, m)  # (a chain of 64 loops' dense Psi_q history: 121 MB)
+        return self
 
     def constraints(self, k: int, system: System, q: np.ndarray, t: float) -> None:
         """Psi, Psi_q and Psi_t at the output time t[k] (the residuals, reactions and checks of the result)."""
         if self.jac is None:
-            size, n, m = self._sizes
+            size, n, m, _ = self._sizes
             self.psi, self.jac, self.psit = np.empty((size, m)), np.empty((size, m, n)), np.empty((size, m))
         self.psi[k], self.jac[k], self.psit[k] = system.constraints(q, t), system.jacobian(q, t), system.psi_t(q, t)
 

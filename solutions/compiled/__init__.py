@@ -289,8 +289,13 @@ def paused_embedded(loops, rhs, project, z0: np.ndarray, times: np.ndarray, numb
     raises to stop the run); the same results as one call (the loop resumes with its next step size, and f(t, z) is
     evaluated anew, one evaluation more per pause). (Y, evaluations, steps, rejected, status, t, h, reached)."""
     rtol, atol, max_step, budget, dop, scipy_like, tableau_, P, D = numbers
-    span, Y = float(times[-1] - times[0]), np.empty((times.size, z0.size))
-    every = PAUSE_STEPS if on_pause is not None else np.iinfo(np.int64).max
+    span = float(times[-1] - times[0])
+    if on_pause is None:  # one piece: the loop's own array is the history (its row 0 is z0, a stop's state after k)
+        return loops.embedded(
+            rhs, project, z0, times, rtol, atol, max_step, budget, dop, scipy_like, tableau_, P, D, span, 0.0,
+            np.iinfo(np.int64).max,
+        )  # fmt: skip
+    Y, every = np.empty((times.size, z0.size)), PAUSE_STEPS
     Y[0], k, t, z, h, spent, steps, rejected = z0, 1, float(times[0]), z0, 0.0, 0, 0, 0
     while True:
         piece = np.ascontiguousarray(np.append(t, times[k:]))
