@@ -1209,7 +1209,10 @@ def singular_dip(guard: Guard, times: np.ndarray, jacobians: np.ndarray) -> tupl
     if guard.rank == 0 or times.size < 3:
         return None
     ratios = guard.spectra(times, jacobians)[0]  # those of the output times' checks
-    for k in range(1, ratios.size - 1):
+    # ``dips`` finds them all at once (a loop chain: 100 calls of passes_zero, 70 us); passes_zero decides the first
+    # in time and those next to a NaN, on which the two disagree
+    maybe = dips(ratios) | np.isnan(ratios[:-2]) | np.isnan(ratios[2:])
+    for k in 1 + np.flatnonzero(maybe):
         if passes_zero(ratios[k - 1], ratios[k], ratios[k + 1]):
             return float(times[k]), float(ratios[k])
     return None
@@ -2298,14 +2301,16 @@ def possible_switches(weights: np.ndarray, t: np.ndarray, qd: np.ndarray, qdd: n
     above rounding, so no step the verdict would call a switch is left out); ``branch_verdict`` judges each one
     kept. A long chain stays below NEAR_SINGULAR at every ordinary position, and judging each of its steps one
     call at a time cost more than the run's integration (a loop chain of 2 parallelograms: 100 steps, 3 ms)."""
-    i, j = k, k + 1
+    if k.size and k[-1] - k[0] == k.size - 1:  # consecutive steps (a chain near singular throughout): views, no copies
+        i, j, samples = slice(k[0], k[-1] + 1), slice(k[0] + 1, k[-1] + 2), slice(k[0], k[-1] + 2)
+    else:  # samples: the steps' ends, whose norms each step shares with its neighbours (made once: 4 norms -> 2)
+        i, j, samples = k, k + 1, np.union1d(k, k + 1)
     h = (t[j] - t[i])[:, None]
 
     def per_body(x: np.ndarray) -> np.ndarray:
         return np.linalg.norm(x.reshape(-1, *weights.shape) * weights, axis=2)
 
     mismatch = per_body(qd[j] - qd[i] - 0.5 * h * (qdd[i] + qdd[j]))
-    samples = np.union1d(i, j)  # each sample's norms once: a step shares its ends with its neighbours (4 -> 2 norms)
     speeds, rates = np.empty((t.size, weights.shape[0])), np.empty((t.size, weights.shape[0]))
     speeds[samples], rates[samples] = per_body(qd[samples]), per_body(qdd[samples])
     allowance = h * np.maximum(rates[i], rates[j])
