@@ -726,7 +726,8 @@ def judge_divergence(run: Run, result: Result, made: Made) -> Result:
     if why is not None:
         info["divergence"] = {"positions": None, "why": why}
         return result
-    rtol, size = info["rtol"], mechanism_size(run.system, result.q[0])
+    extent = run.prepared.fixed().extent if run.prepared is not None else None  # the joints': made once
+    rtol, size = info["rtol"], mechanism_size(run.system, result.q[0], extent)
     k = companion_factor(rtol)
     try:
         companion = companion_centres(made, result, k * rtol, k * info["atol"])
