@@ -1479,7 +1479,7 @@ def motion_rate(
         return None  # the run itself will say what is wrong
     rho, qdd = start
     size = mechanism_size(system, q) if size is None else size
-    speed, acceleration = float(np.max(np.abs(qd), initial=0.0)), float(np.max(np.abs(qdd), initial=0.0))
+    speed, acceleration = largest(qd), largest(qdd)
     rate = max(rho, speed / size, (acceleration / size) ** 0.5)
     return float(rate) if np.isfinite(rate) else None
 
