@@ -361,6 +361,11 @@ def rotate_back(A: tuple, v: tuple) -> tuple:
     return (A[0] * v0 + A[3] * v1 + A[6] * v2, A[1] * v0 + A[4] * v1 + A[7] * v2, A[2] * v0 + A[5] * v1 + A[8] * v2)
 
 
+def _conjugate(p: tuple) -> tuple:
+    """(e0, -e): the inverse rotation, as Python floats (``CONJUGATE * p`` entry by entry, without an array)."""
+    return (float(p[0]), -float(p[1]), -float(p[2]), -float(p[3]))
+
+
 def qmul(a: tuple, b: tuple) -> tuple:
     """The quaternion product a b: A(a b) = A(a) A(b) (``rotation_matrices.quaternion_product_entries``)."""
     return quaternion_product_entries(*a, *b)
@@ -640,17 +645,15 @@ class SpatialTree:
         h^T d', and (A_C F_C)^T (omega_C - omega_P).
         """
         nb = self.nb
-        X = np.vstack([q.reshape(nb, 7), [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]])
-        V = np.vstack([qd.reshape(nb, 7), np.zeros(7)])
+        X, V = np.zeros((nb + 1, 7)), np.zeros((nb + 1, 7))  # ground's row last: at the origin, not turned
+        X[:nb], V[:nb], X[nb, 3] = q.reshape(nb, 7), qd.reshape(nb, 7), 1.0
         omega = [np.array(twice_g(_floats(X[b, 3:]), _floats(V[b, 3:]))) for b in range(nb + 1)]  # eq. 8.16
         positions, velocities = np.empty(self.n_positions), np.empty(self.k)
         for joint in self.joints:
             P, C, at, c = joint.parent, joint.child, joint.position, joint.velocity
             pP, pC = _floats(X[P, 3:]), _floats(X[C, 3:])
             AP, AC = np.reshape(rotation9(pP), (3, 3)), np.reshape(rotation9(pC), (3, 3))
-            relative = qmul(
-                qmul(tuple(CONJUGATE * joint.a), qmul(tuple(CONJUGATE * pP), pC)), tuple(CONJUGATE * joint.c)
-            )
+            relative = qmul(qmul(_conjugate(joint.a), qmul(_conjugate(pP), pC)), _conjugate(joint.c))
             w_rel = omega[C] - omega[P]
             if joint.kind == "spherical":
                 positions[at : at + 4] = relative
