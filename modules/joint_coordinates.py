@@ -63,7 +63,6 @@ An open tree has no cut rows, and this is (D^T M D) theta'' = D^T (Q - M xi) abo
 
 from __future__ import annotations
 
-import copy
 import math
 from collections import deque
 from dataclasses import dataclass
@@ -247,7 +246,14 @@ def tree_joints(system: System) -> list[TreeJoint]:
     handed out as copies: a run's ``joint_state`` sets a prismatic joint's ``u0``."""
     if "_tree_joints" not in system.__dict__:
         system.__dict__["_tree_joints"] = build_tree(system)
-    return [copy.copy(joint) for joint in system.__dict__["_tree_joints"]]
+    return [_copied(joint) for joint in system.__dict__["_tree_joints"]]
+
+
+def _copied(joint: TreeJoint) -> TreeJoint:
+    """A shallow copy of a joint (``copy.copy`` without its protocol: 1 us, not 4)."""
+    made = object.__new__(type(joint))
+    made.__dict__.update(joint.__dict__)
+    return made
 
 
 def build_tree(system: System) -> list[TreeJoint]:
@@ -354,6 +360,11 @@ def rotate_back(A: tuple, v: tuple) -> tuple:
     """A^T v: a global vector in the body frame."""
     v0, v1, v2 = v
     return (A[0] * v0 + A[3] * v1 + A[6] * v2, A[1] * v0 + A[4] * v1 + A[7] * v2, A[2] * v0 + A[5] * v1 + A[8] * v2)
+
+
+def _conjugate(p: tuple) -> tuple:
+    """(e0, -e): the inverse rotation, as Python floats (``CONJUGATE * p`` entry by entry, without an array)."""
+    return (float(p[0]), -float(p[1]), -float(p[2]), -float(p[3]))
 
 
 def qmul(a: tuple, b: tuple) -> tuple:
@@ -487,8 +498,8 @@ class PlanarTree:
     def joint_state(self, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(theta, theta') of body coordinates on the constraints, in closed form: a revolute joint's
         phi_C - phi_P, a prismatic joint's u^T d with d between the two joint points."""
-        X = np.vstack([q.reshape(-1, 3), np.zeros(3)])  # ground's row last
-        V = np.vstack([qd.reshape(-1, 3), np.zeros(3)])
+        X, V = np.zeros((q.size // 3 + 1, 3)), np.zeros((q.size // 3 + 1, 3))  # ground's row last (zeros)
+        X[:-1], V[:-1] = q.reshape(-1, 3), qd.reshape(-1, 3)
         theta, rate = np.empty(self.k), np.empty(self.k)
         for joint in self.joints:
             P, C, c = joint.parent, joint.child, joint.position
@@ -635,17 +646,15 @@ class SpatialTree:
         h^T d', and (A_C F_C)^T (omega_C - omega_P).
         """
         nb = self.nb
-        X = np.vstack([q.reshape(nb, 7), [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]])
-        V = np.vstack([qd.reshape(nb, 7), np.zeros(7)])
+        X, V = np.zeros((nb + 1, 7)), np.zeros((nb + 1, 7))  # ground's row last: at the origin, not turned
+        X[:nb], V[:nb], X[nb, 3] = q.reshape(nb, 7), qd.reshape(nb, 7), 1.0
         omega = [np.array(twice_g(_floats(X[b, 3:]), _floats(V[b, 3:]))) for b in range(nb + 1)]  # eq. 8.16
         positions, velocities = np.empty(self.n_positions), np.empty(self.k)
         for joint in self.joints:
             P, C, at, c = joint.parent, joint.child, joint.position, joint.velocity
             pP, pC = _floats(X[P, 3:]), _floats(X[C, 3:])
             AP, AC = np.reshape(rotation9(pP), (3, 3)), np.reshape(rotation9(pC), (3, 3))
-            relative = qmul(
-                qmul(tuple(CONJUGATE * joint.a), qmul(tuple(CONJUGATE * pP), pC)), tuple(CONJUGATE * joint.c)
-            )
+            relative = qmul(qmul(_conjugate(joint.a), qmul(_conjugate(pP), pC)), _conjugate(joint.c))
             w_rel = omega[C] - omega[P]
             if joint.kind == "spherical":
                 positions[at : at + 4] = relative

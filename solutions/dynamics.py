@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import math
 import re
 import time as _time
@@ -125,11 +126,14 @@ def consistent_initial_conditions(
     constraints exactly (a mechanism released at rest), x = 0 and nothing is solved.
     """
     q, assembly = assemble(system, q0, t)
-    jacobian = system.jacobian(q, t)
-    residual = jacobian @ qd0 + system.psi_t(q, t)
-    if not np.any(residual):  # q0' satisfies the velocity constraints exactly (e.g. at rest): x = 0
+    jacobian, psi_t = system.jacobian(q, t), system.psi_t(q, t)
+    residual = jacobian @ qd0 + psi_t
+    before = float(np.abs(residual).max()) if residual.size else 0.0
+    if not before:  # q0' satisfies the velocity constraints exactly (e.g. at rest): x = 0, nothing to correct
         qd = np.array(qd0, dtype=float)
-    elif point_masses(system.model):  # M singular: the same minimum, from [M Psi_q^T; Psi_q 0] (eq. 5.30's matrix)
+        report = {"velocity_residual_before": 0.0, "velocity_correction": 0.0, "velocity_residual": 0.0}
+        return q, qd, {"assembly": assembly, **report}
+    if point_masses(system.model):  # M singular: the same minimum, from [M Psi_q^T; Psi_q 0] (eq. 5.30's matrix)
         n, m = jacobian.shape[1], jacobian.shape[0]
         kkt = np.block([[mass_at(M, q), jacobian.T], [jacobian, np.zeros((m, m))]])
         qd = qd0 + np.linalg.lstsq(kkt, np.concatenate([np.zeros(n), -residual]), rcond=None)[0][:n]
@@ -139,9 +143,9 @@ def consistent_initial_conditions(
         qd = qd0 - weighted @ x
     report = {
         "assembly": assembly,
-        "velocity_residual_before": float(np.max(np.abs(residual), initial=0.0)),
+        "velocity_residual_before": before,
         "velocity_correction": float(np.max(np.abs(qd - qd0), initial=0.0)),
-        "velocity_residual": float(np.max(np.abs(jacobian @ qd + system.psi_t(q, t)), initial=0.0)),
+        "velocity_residual": float(np.max(np.abs(jacobian @ qd + psi_t), initial=0.0)),
     }
     return q, qd, report
 
@@ -451,7 +455,7 @@ class Prepared:
         """What the runs' start and Guard read of the model alone (``Fixed``), made at the first call."""
         if self._fixed is None:
             model = self.system.model
-            self._fixed = Fixed(point_masses(model), gyration_weights(self.system), _joint_extent(model))
+            self._fixed = Fixed(point_masses(model), _joint_extent(model), self.system)
         return self._fixed
 
     def formulation(self, name: str, M, forces: ForceModel, options: dict) -> Formulation:
@@ -504,12 +508,18 @@ REUSED = ("joint-coordinates",)
 @dataclass(frozen=True)
 class Fixed:
     """What a prepared run's stages read of the model alone, made once (``Prepared.fixed``): the point masses
-    (``point_masses``), the Guard's speed weights (``gyration_weights``) and the joints' extent (``_joint_extent``,
-    of the mechanism's size)."""
+    (``point_masses``), the joints' extent (``_joint_extent``, of the mechanism's size) and the Guard's speed weights
+    (``weights``)."""
 
     point_masses: list[int]
-    weights: np.ndarray
     extent: float
+    system: System = dataclasses.field(repr=False, compare=False)
+
+    @functools.cached_property
+    def weights(self) -> np.ndarray:
+        """The Guard's speed weights (``gyration_weights``), made by the first run whose Guard judges branches (none
+        for an open tree in joint coordinates: 8-20 us a call saved)."""
+        return gyration_weights(self.system)
 
 
 def initial_arrays(system: System, q0, qd0) -> tuple[np.ndarray, np.ndarray]:
@@ -685,12 +695,12 @@ def run_stages(run: Run, formulation: str, integrator: str) -> tuple[Result, Mad
     if notes:
         result.info["notes"] = notes
     result.info["warnings"] = drift_warnings(result.info, guard.size, plan.formulation, settings.formulation_options)
-    speed = float(np.max(np.abs(body_positions(system, result.qd)), initial=0.0))  # V: the largest speed, m/s
-    result.info["accuracy_estimate"] = accuracy_estimate(result.info, guard.size, plan.periods)
+    speed = largest(body_positions(system, result.qd))  # V: the largest speed, m/s
+    found = result.info["accuracy_estimate"] = accuracy_estimate(result.info, guard.size, plan.periods)
     held = max(HELD_RTOL, getattr(equations.formulation, "held_rtol", 0.0))
     result.info["held_rtol"] = held
     result.info["warnings"] += raised + accuracy_warnings(
-        result.info, guard.size, settings.accuracy, plan.periods, speed, held
+        result.info, guard.size, settings.accuracy, plan.periods, speed, held, found
     )
     result.info["warnings"] += guard.warnings
     if not plan.rtol_given and plan.periods is not None:
@@ -715,7 +725,8 @@ def judge_divergence(run: Run, result: Result, made: Made) -> Result:
     if why is not None:
         info["divergence"] = {"positions": None, "why": why}
         return result
-    rtol, size = info["rtol"], mechanism_size(run.system, result.q[0])
+    extent = run.prepared.fixed().extent if run.prepared is not None else None  # the joints': made once
+    rtol, size = info["rtol"], mechanism_size(run.system, result.q[0], extent)
     k = companion_factor(rtol)
     try:
         companion = companion_centres(made, result, k * rtol, k * info["atol"])
@@ -1054,7 +1065,7 @@ def make_guard(run: Run, plan: Plan, equations: EquationsOfMotion, q: np.ndarray
         singular_ratio,
         through=plan.formulation in THROUGH_SINGULAR,
         size=plan.size,
-        weights=run.prepared.fixed().weights if run.prepared is not None else None,
+        weights=run.prepared.fixed().weights if run.prepared is not None and singular_ratio else None,
     )
 
 
@@ -1072,6 +1083,7 @@ def integrate_motion(run: Run, plan: Plan, equations, guard: Guard, z0: np.ndarr
         if compiled is not None:
             return history, stats, compiled, chosen
 
+    history.allocate()
     filled = [0]  # output times stored so far
 
     def record(k: int, t: float, z: np.ndarray) -> None:
@@ -1142,7 +1154,7 @@ def compiled_motion(settings: Settings, equations, guard, z0, times, history, pl
     guard.banded = True  # numba is loaded: the output times' checks may take the band of a large Psi_q
     on_pause = None  # the checks between steps (``judge_pause``): only where the Guard watches for singular positions
     if guard.singular_ratio and guard.rank and not guard.through:
-        pauses = copy.copy(guard)  # sees the pauses in time order, apart from the output times' checks
+        pauses = shallow_copy(guard)  # sees the pauses in time order, apart from the output times' checks
         on_pause = lambda *state: judge_pause(pauses, *state)  # noqa: E731
     compiled, stats = dispatch.run(scene, z0, times, settings, on_pause=on_pause)
     n = equations.formulation.n
@@ -1158,7 +1170,7 @@ def compiled_motion(settings: Settings, equations, guard, z0, times, history, pl
         raise stopped
     # the checks at the output times (the numpy engine: drift at output times, configuration after every
     # step), from Psi and Psi_q the compiled module gives for all of them at once
-    judged = copy.copy(guard)
+    judged = shallow_copy(guard)
     try:
         judged.check_outputs(times, Y[:, :n], compiled.psi, compiled.jac)
     except AnalysisError as err:  # a branch switch before the stop is its cause: said first, as the numpy run
@@ -1181,6 +1193,14 @@ def compiled_motion(settings: Settings, equations, guard, z0, times, history, pl
     return compiled, stats, chosen
 
 
+def shallow_copy(guard: Guard) -> Guard:
+    """``copy.copy(guard)``: a new Guard with the same attributes (its lists and arrays shared), made directly (1 us,
+    not ``copy``'s protocol's 4)."""
+    copied = object.__new__(type(guard))
+    copied.__dict__.update(guard.__dict__)
+    return copied
+
+
 def singular_dip(guard: Guard, times: np.ndarray, jacobians: np.ndarray) -> tuple[float, float] | None:
     """(t, sigma_r / sigma_1) where the ratio of the Guard's scaled Psi_q dips towards zero at an output time
     (``diagnostics.passes_zero``: a local minimum below NEAR_SINGULAR, deep against its neighbours), else None.
@@ -1190,7 +1210,10 @@ def singular_dip(guard: Guard, times: np.ndarray, jacobians: np.ndarray) -> tupl
     if guard.rank == 0 or times.size < 3:
         return None
     ratios = guard.spectra(times, jacobians)[0]  # those of the output times' checks
-    for k in range(1, ratios.size - 1):
+    # ``dips`` finds them all at once (a loop chain: 100 calls of passes_zero, 70 us); passes_zero decides the first
+    # in time and those next to a NaN, on which the two disagree
+    maybe = dips(ratios) | np.isnan(ratios[:-2]) | np.isnan(ratios[2:])
+    for k in 1 + np.flatnonzero(maybe):
         if passes_zero(ratios[k - 1], ratios[k], ratios[k + 1]):
             return float(times[k]), float(ratios[k])
     return None
@@ -1271,6 +1294,7 @@ def build_result(run: Run, equations, guard, history, compiled, times) -> tuple[
 
 def run_info(run: Run, plan: Plan, equations, guard, stats, result, energies, initial: dict) -> DynamicInfo:
     """How the result was obtained (DESIGN section 5)."""
+    drift = largest(energies.error)  # max |E(t) - E(0)|: E(t) summed once (``EnergyHistory.error``)
     return {
         "analysis": "dynamic",
         "formulation": plan.formulation,
@@ -1288,8 +1312,8 @@ def run_info(run: Run, plan: Plan, equations, guard, stats, result, energies, in
         "singular_positions": guard.crossings,
         "max_constraint_residual": float(result.points["residual.position"].max()),
         "max_velocity_residual": float(result.points["residual.velocity"].max()),
-        "energy_drift": float(np.max(np.abs(energies.error))),
-        "energy_drift_relative": float(np.max(np.abs(energies.error)) / energies.scale),
+        "energy_drift": drift,
+        "energy_drift_relative": drift / energies.scale,
         "assembly": initial["assembly"],
         "initial_conditions": initial,
         **_formulation_info(equations.formulation),
@@ -1300,7 +1324,12 @@ def mechanism_size(system: System, q: np.ndarray, extent: float | None = None) -
     """L: the largest distance of a body centre or a joint point from the origin, at least 1 mm (``Guard``);
     ``extent``: the joint points' (``_joint_extent``) where known."""
     extent = _joint_extent(system.model) if extent is None else extent
-    return max(float(np.max(np.abs(body_positions(system, q)), initial=0.0)), extent, 1e-3)
+    return max(largest(body_positions(system, q)), extent, 1e-3)
+
+
+def largest(x: np.ndarray) -> float:
+    """max |x|, 0 for an empty array (``np.max(np.abs(x), initial=0.0)``, without its dispatch: 1 us, not 4)."""
+    return float(np.abs(x).max()) if x.size else 0.0
 
 
 class StartRates:
@@ -1449,7 +1478,7 @@ def motion_rate(
         return None  # the run itself will say what is wrong
     rho, qdd = start
     size = mechanism_size(system, q) if size is None else size
-    speed, acceleration = float(np.max(np.abs(qd), initial=0.0)), float(np.max(np.abs(qdd), initial=0.0))
+    speed, acceleration = largest(qd), largest(qdd)
     rate = max(rho, speed / size, (acceleration / size) ** 0.5)
     return float(rate) if np.isfinite(rate) else None
 
@@ -1525,14 +1554,15 @@ def accuracy_warnings(
     periods: float | None,
     speed: float | None = None,
     held: float = HELD_RTOL,
+    found: dict | None = None,
 ) -> list[str]:
-    """One line for positions and velocities and one for energy when the estimated error (``accuracy_estimate``)
-    exceeds ``accuracy`` (positions: times the mechanism's size; velocities: times ``speed``, the run's largest;
-    energy: of the energy scale), with the figure and what to do (``held``: the tightest rtol the run's formulation
-    holds, ``held_tolerances``)."""
-    found = accuracy_estimate(info, size, periods)
-    if found is None:
-        return []
+    """One line for positions and velocities and one for energy when the estimated error (``accuracy_estimate``,
+    ``found`` where the caller made it) exceeds ``accuracy`` (positions: times the mechanism's size; velocities:
+    times ``speed``, the run's largest; energy: of the energy scale), with the figure and what to do (``held``: the
+    tightest rtol the run's formulation holds, ``held_tolerances``)."""
+    found = accuracy_estimate(info, size, periods) if found is None else found
+    if found is None or not _beyond(found, size, accuracy, speed):
+        return []  # nothing to say: no remedy worded (most runs)
     rtol, p = info.get("rtol"), 1.0 if periods is None else periods
     if found["positions"] is None:  # rk4: a smaller step is its only remedy
         remedy = "a smaller --step"
@@ -1577,6 +1607,17 @@ def accuracy_warnings(
             + f"; {remedy}"
         )
     return lines
+
+
+def _beyond(found: dict, size: float, accuracy: float, speed: float | None) -> bool:
+    """Whether ``accuracy_warnings`` has a line to say of the estimate ``found``: energy, positions or velocities
+    beyond the accuracy (its tests, in its order)."""
+    energy, positions = found["energy"], found["positions"]
+    if energy is not None and energy > accuracy:
+        return True
+    if positions is not None and positions <= accuracy * size and speed:
+        return bool(found["velocities"] > accuracy)
+    return positions is not None and positions > accuracy * size
 
 
 def _energy_remedy(found: dict, rtol: float | None, accuracy: float, held: float, remedy: str) -> str:
@@ -1848,10 +1889,18 @@ class Guard:
         self._tangent, self._t, self._sign = None, 0.0, 1.0
         self._pending: list = []  # (t, q, Psi_q) after steps not judged yet (``queue``)
         per, dim = system.coordinates_per_body, system.model.dimension
-        columns = np.ones(per)
-        columns[dim:] = 1.0 / size  # derivatives by an angle (Euler parameter) times its arc length, in 1/m
-        self._columns = np.tile(columns, system.n_bodies)
-        self._speeds = gyration_weights(system) if weights is None else weights  # read only
+        columns = np.ones((system.n_bodies, per))
+        columns[:, dim:] = 1.0 / size  # derivatives by an angle (Euler parameter) times its arc length, in 1/m
+        self._columns = columns.reshape(-1)
+        self._weights = weights  # the speed weights (``speeds``): made where a branch is judged, read only
+
+    @property
+    def speeds(self) -> np.ndarray:
+        """The weights that make each velocity coordinate a speed (``gyration_weights``), made at the first branch
+        judged: a Guard that judges none (an open tree's) makes none."""
+        if self._weights is None:
+            self._weights = gyration_weights(self.system)
+        return self._weights
 
     def _scaled(self, jacobian: np.ndarray) -> np.ndarray:
         """Psi_q made free of units and size: derivatives by angles per arc length (divided by the mechanism's
@@ -2031,7 +2080,7 @@ class Guard:
         # a switch between two regular branches shows in the velocities of the step onto the other: every step next
         # to a singular position is judged too, but only a switch counts there
         near = np.flatnonzero((ratios[:-1] < NEAR_SINGULAR) | (ratios[1:] < NEAR_SINGULAR))
-        near = near[possible_switches(self._speeds, t, qd, qdd, near)]  # the others are no switch: not judged
+        near = near[possible_switches(self.speeds, t, qd, qdd, near)]  # the others are no switch: not judged
         steps = [(k, k if ratios[k] <= ratios[k + 1] else k + 1, k + 1) for k in near]
         for a, middle, b, crossing in sorted([(*i, True) for i in intervals] + [(*i, False) for i in steps]):
             self._judge_branch(t, q, qd, qdd, a, middle, b, float(ratios[middle]), crossing)
@@ -2090,7 +2139,7 @@ class Guard:
         from .diagnostics import singular_joints
 
         verdicts = [
-            branch_verdict(self._speeds, float(t[j] - t[i]), (qd[i], qdd[i]), (qd[j], qdd[j]), self.system.model.bodies)
+            branch_verdict(self.speeds, float(t[j] - t[i]), (qd[i], qdd[i]), (qd[j], qdd[j]), self.system.model.bodies)
             for i, j in ((a, middle), (middle, b)) if i < j
         ]  # fmt: skip
         judged = {v[0]: v for v in verdicts}
@@ -2253,16 +2302,20 @@ def possible_switches(weights: np.ndarray, t: np.ndarray, qd: np.ndarray, qdd: n
     above rounding, so no step the verdict would call a switch is left out); ``branch_verdict`` judges each one
     kept. A long chain stays below NEAR_SINGULAR at every ordinary position, and judging each of its steps one
     call at a time cost more than the run's integration (a loop chain of 2 parallelograms: 100 steps, 3 ms)."""
-    i, j = k, k + 1
+    if k.size and k[-1] - k[0] == k.size - 1:  # consecutive steps (a chain near singular throughout): views, no copies
+        i, j, samples = slice(k[0], k[-1] + 1), slice(k[0] + 1, k[-1] + 2), slice(k[0], k[-1] + 2)
+    else:  # samples: the steps' ends, whose norms each step shares with its neighbours (made once: 4 norms -> 2)
+        i, j, samples = k, k + 1, np.union1d(k, k + 1)
     h = (t[j] - t[i])[:, None]
-    shape = (k.size, *weights.shape)
 
     def per_body(x: np.ndarray) -> np.ndarray:
-        return np.linalg.norm(x.reshape(shape) * weights, axis=2)
+        return np.linalg.norm(x.reshape(-1, *weights.shape) * weights, axis=2)
 
     mismatch = per_body(qd[j] - qd[i] - 0.5 * h * (qdd[i] + qdd[j]))
-    allowance = h * np.maximum(per_body(qdd[i]), per_body(qdd[j]))
-    fastest = np.max(np.maximum(per_body(qd[i]), per_body(qd[j])), axis=1, initial=0.0)
+    speeds, rates = np.empty((t.size, weights.shape[0])), np.empty((t.size, weights.shape[0]))
+    speeds[samples], rates[samples] = per_body(qd[samples]), per_body(qdd[samples])
+    allowance = h * np.maximum(rates[i], rates[j])
+    fastest = np.max(np.maximum(speeds[i], speeds[j]), axis=1, initial=0.0)
     return np.max(mismatch - allowance, axis=1, initial=-np.inf) > 0.5 * BRANCH_JUMP * fastest
 
 
@@ -2296,19 +2349,26 @@ def _joint_extent(model) -> float:
 
 
 class _History:
-    """Output arrays filled as the integrator passes the output times."""
+    """Output arrays filled as the integrator passes the output times (``allocate``: a compiled run hands its own
+    over instead)."""
 
     def __init__(self, size: int, n: int, m: int, extra: int):
+        self.q = self.qd = self.qdd = self.lam = self.energies = None
+        self.psi = self.jac = self.psit = None  # made at the first ``constraints``: a compiled run hands its own over
+        self._sizes = (size, n, m, extra)  # (a chain of 64 loops' dense Psi_q history: 121 MB)
+
+    def allocate(self) -> _History:
+        """The arrays of q, q', q'', lambda and the energies, for the numpy engine to fill."""
+        size, n, m, extra = self._sizes
         self.q, self.qd, self.qdd = (np.empty((size, n)) for _ in range(3))
         self.lam = np.empty((size, m))
         self.energies = np.zeros((size, extra))
-        self.psi = self.jac = self.psit = None  # made at the first ``constraints``: a compiled run hands its own over
-        self._sizes = (size, n, m)  # (a chain of 64 loops' dense Psi_q history: 121 MB)
+        return self
 
     def constraints(self, k: int, system: System, q: np.ndarray, t: float) -> None:
         """Psi, Psi_q and Psi_t at the output time t[k] (the residuals, reactions and checks of the result)."""
         if self.jac is None:
-            size, n, m = self._sizes
+            size, n, m, _ = self._sizes
             self.psi, self.jac, self.psit = np.empty((size, m)), np.empty((size, m, n)), np.empty((size, m))
         self.psi[k], self.jac[k], self.psit[k] = system.constraints(q, t), system.jacobian(q, t), system.psi_t(q, t)
 

@@ -110,6 +110,9 @@ def assemble(system: System, q0: np.ndarray, t: float = 0.0) -> tuple[np.ndarray
         raise AnalysisError(f"the mechanism cannot be assembled: {err}") from None
     moved = {}
     n, dim = system.coordinates_per_body, system.model.dimension
+    if solution.iterations == 0 and dim == 2:  # q0 on the constraints already: no body moved (exactly 0, 0)
+        moved = {b.name: {"translation": 0.0, "rotation": 0.0} for b in system.model.bodies}
+        return solution.q, {"iterations": 0, "residual": solution.residual, "moved": moved}
     for k, name in enumerate(b.name for b in system.model.bodies):
         old, new = q0[n * k : n * k + n], solution.q[n * k : n * k + n]
         if dim == 3:  # the angle of the relative rotation conj(p0) p

@@ -253,7 +253,10 @@ def _load(plan: Plan) -> tuple[object, object, bool]:
 
 
 def is_cached(plan: Plan) -> bool:
-    """Whether numba's machine code of everything the plan runs is on disk (no compilation needed)."""
+    """Whether numba's machine code of everything the plan runs is on disk (no compilation needed): so where the plan
+    has loaded it (``load``: its start rates did, or the prepared run's first run), without asking the disk."""
+    if "_loaded" in plan.__dict__:
+        return True
     if isinstance(plan.scene, TreeScene):
         from . import tree
 
@@ -277,6 +280,8 @@ touch costs more than the arithmetic). Whole call, one pass against two with the
 chain, joint coordinates): N = 2-6 (m n 210-1482) the same within 0.3 ms, N = 8 (2550) 10.9 -> 10.6 ms, N = 12
 (5550) 16.1 -> 13.9 ms; the spatial chain of 16 (7168) 29.0 -> 26.8 ms (benchmarks/results/call_cost.md,
 twenty-first session)."""
+INT64_MAX = int(np.iinfo(np.int64).max)
+"""The largest budget of evaluations or steps: none (``np.iinfo`` made once, not 2 us a run)."""
 PAUSE_STEPS = 1000
 """The compiled loop pauses after this many steps for the configuration check of ``on_pause`` (``run``): a run that
 crawls at a singular position stops there as the numpy engine's run, which checks after every step, stops."""
@@ -287,8 +292,13 @@ def paused_embedded(loops, rhs, project, z0: np.ndarray, times: np.ndarray, numb
     raises to stop the run); the same results as one call (the loop resumes with its next step size, and f(t, z) is
     evaluated anew, one evaluation more per pause). (Y, evaluations, steps, rejected, status, t, h, reached)."""
     rtol, atol, max_step, budget, dop, scipy_like, tableau_, P, D = numbers
-    span, Y = float(times[-1] - times[0]), np.empty((times.size, z0.size))
-    every = PAUSE_STEPS if on_pause is not None else np.iinfo(np.int64).max
+    span = float(times[-1] - times[0])
+    if on_pause is None:  # one piece: the loop's own array is the history (its row 0 is z0, a stop's state after k)
+        return loops.embedded(
+            rhs, project, z0, times, rtol, atol, max_step, budget, dop, scipy_like, tableau_, P, D, span, 0.0,
+            INT64_MAX,
+        )  # fmt: skip
+    Y, every = np.empty((times.size, z0.size)), PAUSE_STEPS
     Y[0], k, t, z, h, spent, steps, rejected = z0, 1, float(times[0]), z0, 0.0, 0, 0, 0
     while True:
         piece = np.ascontiguousarray(np.append(t, times[k:]))
@@ -346,7 +356,7 @@ def run(
         )
     else:
         dop, scipy_like = COMPILED_INTEGRATORS[integrator]
-        budget = np.iinfo(np.int64).max if max_evaluations is None else int(max_evaluations)
+        budget = INT64_MAX if max_evaluations is None else int(max_evaluations)
         max_step = float(step) if step else np.inf
         numbers = (float(rtol), float(atol), max_step, budget, dop, scipy_like, tableau(dop), P, D)
         judge = None

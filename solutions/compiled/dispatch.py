@@ -26,7 +26,6 @@ The choice and its reason go into ``info['chosen']`` (``engine``, ``engine_why``
 
 from __future__ import annotations
 
-import copy
 import math
 import sys
 import time
@@ -208,7 +207,8 @@ def compiled_plan(equations, formulation: str):
         shared = equations.compiled_plans
         found = None if shared is None else shared.get(_plan_key(made, formulation))
         if found is not None:  # the prepared run's: the same system, M and forces, this run's formulation object
-            job = copy.copy(found)  # its loaded module (``load``) and parameters come along
+            job = object.__new__(type(found))  # a shallow copy: its loaded module (``load``) and parameters come along
+            job.__dict__.update(found.__dict__)
             job.formulation_object = made
             loaded = found.__dict__.get("_loaded")
             if loaded is not None:  # this run loads nothing: as a call that finds the module imported already
@@ -259,7 +259,7 @@ def start_rates(equations, formulation: str, options: dict, z: np.ndarray) -> tu
     rho: ``loops.spectral_radius`` (the 21 evaluations of ``integrators.spectral_radius`` in one compiled call);
     q'': a tree's body accelerations are written after y' (with q, q' and lambda), other scenes' are y'[n:2n].
     Any compiled integrator would do (the right-hand side does not depend on it): DOP853 stands for them."""
-    from . import parameters, unsupported
+    from . import unsupported
     from .tree import TreeScene
 
     job = compiled_plan(equations, formulation)
@@ -268,10 +268,7 @@ def start_rates(equations, formulation: str, options: dict, z: np.ndarray) -> tu
     from . import load, loops  # imports numba
 
     module, _, _ = load(job)
-    P, D, n, m = parameters(job.scene, *job.numbers), job.scene.data(), job.scene.n, job.scene.m
-    dims = P[8].copy()  # the energy states as ``equations`` has them; no drivers' power (it feeds nothing back)
-    dims[2], dims[5] = equations.extra, 0
-    P = (*P[:8], dims)
+    P, D, n, m = start_parameters(job, equations.extra), job.scene.data(), job.scene.n, job.scene.m
     z = np.ascontiguousarray(z, dtype=float)
     out = np.empty(z.size + 3 * n + m)  # y', and after it the outputs of the state
     module.scene_rhs(0.0, z, P, D, out)
@@ -280,6 +277,22 @@ def start_rates(equations, formulation: str, options: dict, z: np.ndarray) -> tu
     rho = loops.spectral_radius(rhs, 0.0, z, fz, power_start(z.size), P, D, 10)
     qdd = out[z.size + 2 * n : z.size + 3 * n] if isinstance(job.scene, TreeScene) else out[n : 2 * n]
     return float(rho), qdd.copy()
+
+
+def start_parameters(job, extra: int) -> tuple:
+    """P of the start rates (``start_rates``): the run's (``parameters``) with the energy states ``extra`` as the
+    equations have them and no drivers' power (it feeds nothing back), made once per plan's scene and ``extra``
+    (a run's start rates made it anew: 3 us)."""
+    from . import parameters
+
+    kept = job.scene.__dict__.setdefault("_start_parameters", {})
+    key = (*job.numbers, extra)
+    if key not in kept:
+        P = parameters(job.scene, *job.numbers)
+        dims = P[8].copy()
+        dims[2], dims[5] = extra, 0
+        kept[key] = (*P[:8], dims)
+    return kept[key]
 
 
 def run(job, z0: np.ndarray, times: np.ndarray, settings: Settings, on_pause=None):

@@ -334,3 +334,51 @@ def test_the_whole_array_prefilter_flags_every_step_the_verdict_calls_a_switch()
         assert possible_switches(weights, t, bent, qdd, np.array([11]))[0] or verdict != "switched", kink
         seen.add(verdict)
     assert {"kept", "switched"} <= seen  # the grid crosses the verdict's threshold
+
+
+def test_the_prefilter_flags_the_same_steps_taken_apart_or_together():
+    """``possible_switches`` over consecutive steps (views of the histories) and over steps taken apart (index
+    arrays) flags each step alike: every other step, and the steps one by one, against all steps at once."""
+    from solutions.dynamics import possible_switches
+
+    rng = np.random.default_rng(3)
+    t = np.cumsum(rng.uniform(0.01, 0.03, 31))
+    qd, qdd = rng.standard_normal((31, 6)), rng.standard_normal((31, 6))
+    qd[17:, :3] *= -1.0  # a switch between samples 16 and 17
+    weights = np.array([[1.0, 1.0, 0.2], [1.0, 1.0, 0.5]])
+    together = possible_switches(weights, t, qd, qdd, np.arange(30))
+    assert together[16]
+    for part in (np.arange(0, 30, 2), np.arange(1, 30, 2), np.array([3, 16, 29])):
+        np.testing.assert_array_equal(possible_switches(weights, t, qd, qdd, part), together[part])
+    alone = [possible_switches(weights, t, qd, qdd, np.array([k]))[0] for k in range(30)]
+    np.testing.assert_array_equal(alone, together)
+
+
+def test_a_dip_between_output_times_is_found_as_passes_zero_finds_it_next_to_a_nan_too():
+    """``singular_dip`` takes the first output time where sigma_r / sigma_1 dips (``diagnostics.passes_zero``,
+    sample by sample: a NaN after the minimum leaves Python's min and max the other neighbour, so it still dips)."""
+    from solutions.diagnostics import passes_zero
+    from solutions.dynamics import singular_dip
+
+    def first_by_hand(ratios):
+        return next((k for k in range(1, len(ratios) - 1) if passes_zero(*ratios[k - 1 : k + 2])), None)
+
+    cases = (
+        [0.5, 0.4, 0.3, 0.4, 0.5],  # a smooth minimum far from zero
+        [0.5, 0.3, 1e-6, 0.3, 0.5, 1e-7, 0.4],  # two dips: the first
+        [np.nan, 1e-6, 0.3, 0.4],  # a NaN before the minimum: no dip
+        [0.3, 1e-6, np.nan, 0.4],  # a NaN after it: a dip
+    )
+
+    class Spectra:  # a Guard's ratios at the output times, as its output checks made them
+        rank = 1
+
+        def __init__(self, ratios):
+            self.ratios = np.array(ratios)
+
+        def spectra(self, t, jacobians):
+            return self.ratios, None, None
+
+    for ratios in cases:
+        times, guard, k = np.arange(float(len(ratios))), Spectra(ratios), first_by_hand(ratios)
+        assert singular_dip(guard, times, None) == (None if k is None else (times[k], ratios[k])), ratios

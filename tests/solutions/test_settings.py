@@ -65,6 +65,19 @@ def test_zero_turns_a_check_off_and_other_keywords_are_options_of_the_formulatio
     assert changed.formulation_options == {"alpha": 2.0, "tol": 1e-13}
 
 
+def test_replace_checks_what_it_changes_and_keeps_what_it_does_not():
+    """``replace`` checks a changed value, and one equal to the old but of another type (steps = 100.0 is no whole
+    number); values equal to the old ones (a run's plan repeats them) stay as they are, the options merged."""
+    settings = Settings(steps=100, rtol=1e-6, options={"tol": 1e-12})
+    same = settings.replace(steps=100, rtol=1e-6, formulation=settings.formulation)
+    assert same == settings and same is not settings and same.options is not settings.options
+    with pytest.raises(ValueError, match="steps = 100.0: must be a whole number"):
+        settings.replace(steps=100.0)
+    with pytest.raises(ValueError, match="rtol = -1e-06: must be a number > 0"):
+        settings.replace(rtol=-1e-6)
+    assert settings.replace(drift_limit=0).drift_limit is None and settings.replace(penalty=5.0).penalty == 5.0
+
+
 def test_a_settings_object_and_keywords_give_the_same_run():
     system, q0, qd0 = build_system(load_model(MODELS / "double_pendulum.yaml"))
     settings = Settings(formulation="baumgarte", integrator="DOP853", rtol=1e-9, alpha=2.0, beta=2.0)
