@@ -692,7 +692,7 @@ def run_stages(run: Run, formulation: str, integrator: str) -> tuple[Result, Mad
         result.info["chosen"] = chosen
     if compiled is not None:  # what the compiled engine's start cost: loading (or compiling) the scene's module
         result.info["compiled"] = {"cached": compiled.cached, "load_seconds": compiled.load_seconds}
-    notes += [REDUNDANT_NOTE] if guard.rank < system.n_constraints else []
+    notes = notes + ([REDUNDANT_NOTE] if guard.rank < system.n_constraints else [])  # start.notes kept as made
     if notes:
         result.info["notes"] = notes
     result.info["warnings"] = drift_warnings(result.info, guard.size, plan.formulation, settings.formulation_options)
