@@ -8,6 +8,9 @@ than a tenth of the integration).
 
 ``planar_reactions``, ``spatial_reactions``: the force and moment of every joint at every output time in one pass.
 
+``spatial_kinetic_energy``: T of a spatial model at every output time (``spatial.mass.kinetic_energy_history``'s
+three einsums and the stack of L cost ~0.05-0.1 ms of a two-body run's result).
+
 ``blocked_constraint_arrays``: a large Psi_q's history by its rows' blocks
 (``history.BlockedJacobians``), made and read without the dense (N, m, n) array (the reactions take its blocks
 through ``slots``: where the reported body's columns begin in each row).
@@ -33,7 +36,7 @@ import math
 import numpy as np
 from numba import njit, types
 
-from .kernels import g_entries_jit, rotation_entries_jit
+from .kernels import g_entries_jit, l_entries_jit, rotation_entries_jit
 from .loops import CONSTRAINT_ARRAYS_SIGNATURE, D_TYPE, P_TYPE
 
 jit = njit(cache=True, fastmath=False, nogil=True)
@@ -202,3 +205,26 @@ def spatial_reactions(q, lam, jac, slots, rows, starts, i, j, offsets, frames, f
                 for b in range(3):
                     F_joint[t, f, b] = axes[0, b] * F[t, k, 0] + axes[1, b] * F[t, k, 1] + axes[2, b] * F[t, k, 2]
                     M_joint[t, f, b] = axes[0, b] * M[t, k, 0] + axes[1, b] * M[t, k, 1] + axes[2, b] * M[t, k, 2]
+
+
+@eager(_matrix, _matrix, _vector, _cube, _vector)
+def spatial_kinetic_energy(q, qd, masses, inertias, out):
+    """T = sum_b 1/2 m_b r_b'^T r_b' + 1/2 omega_b'^T J_b' omega_b', omega_b' = 2 L(p_b) p_b' (eq. 10.3, 8.14) at
+    every output time: ``spatial.mass.kinetic_energy_history``'s numbers within rounding (the same products,
+    summed body by body where its einsums sum as numpy orders them), in one pass with no (N, nb, 3, 4) L."""
+    for t in range(q.shape[0]):
+        translation, rotation = 0.0, 0.0
+        for b in range(masses.size):
+            o = 7 * b
+            v0, v1, v2 = qd[t, o], qd[t, o + 1], qd[t, o + 2]
+            translation += masses[b] * (v0 * v0 + v1 * v1 + v2 * v2)
+            L = l_entries_jit(q[t, o + 3], q[t, o + 4], q[t, o + 5], q[t, o + 6])
+            d0, d1, d2, d3 = qd[t, o + 3], qd[t, o + 4], qd[t, o + 5], qd[t, o + 6]
+            w0 = 2.0 * (L[0] * d0 + L[1] * d1 + L[2] * d2 + L[3] * d3)
+            w1 = 2.0 * (L[4] * d0 + L[5] * d1 + L[6] * d2 + L[7] * d3)
+            w2 = 2.0 * (L[8] * d0 + L[9] * d1 + L[10] * d2 + L[11] * d3)
+            J = inertias[b]
+            rotation += w0 * (J[0, 0] * w0 + J[0, 1] * w1 + J[0, 2] * w2)
+            rotation += w1 * (J[1, 0] * w0 + J[1, 1] * w1 + J[1, 2] * w2)
+            rotation += w2 * (J[2, 0] * w0 + J[2, 1] * w1 + J[2, 2] * w2)
+        out[t] = 0.5 * translation + 0.5 * rotation
