@@ -132,7 +132,7 @@ def generate(scene: Scene) -> str:
         "    Q0, mass, masses, inertias, weights, fk, fp, ab, dims = P",
         "    n, m = dims[0], dims[1]",
         "    nz = 2 * n + dims[2]  # q, q' and the energy balance's three states (P[8][2] = 3 or 0)",
-        "    if z.size != nz or not (out.size == nz or out.size == nz + m or out.size == nz + 3 * m + m * n):",
+        "    if z.size != nz or (out.size != nz and out.size < nz + m):  # (y'[, lambda[, Psi, Psi_t, Psi_q]])",
         "        out[:] = np.nan  # a size it does not know: NaN, not a write past out's end (no bounds checks)",
         "        return",
         "    q, qd = z[:n].copy(), z[n : 2 * n].copy()",
