@@ -196,7 +196,7 @@ def _multipliers(scene: Scene) -> list[str]:
     if scene.dimension == 3:
         lines = [
             "if ncut > 0:",
-            "    spatial_coordinate_accelerations(q, qd, Dm, xi, omega, thdd, qdd)",
+            "    spatial_coordinate_accelerations(q, qd, Dm, xi, omega, thdd, joints, qdd)",
             "else:  # the articulated pass's body accelerations: no D",
             "    spatial_body_accelerations(q, qd, body, xi, omega, qdd)",
             "spatial_mass_residual(q, qd, qdd, masses, inertias, weights, Q, residual)  # Q += Q_v; Q - M q''",
@@ -204,7 +204,7 @@ def _multipliers(scene: Scene) -> list[str]:
     else:
         lines = [
             "if ncut > 0:",
-            "    qdd[:] = Dm @ thdd + xi",
+            "    tree_accelerations(Dm, thdd, xi, joints, 3, qdd)  # D theta'' + xi over each body's columns",
             "else:  # the articulated pass's body accelerations: no D",
             "    planar_body_accelerations(body, xi, qdd)",
             "for coordinate in range(n):  # Q - M q'' (the tree's multipliers work in it)",
@@ -302,7 +302,7 @@ def _body(tree: TreeScene) -> list[str]:
         lines += [
             "        Dq, xiq = np.empty((n, k)), np.empty(n)",
             "        spatial_joint_matrix(q, Dm, Dq)",
-            "        spatial_coordinate_accelerations(q, qd, Dm, xi, omega, np.zeros(k), xiq)",
+            "        spatial_coordinate_accelerations(q, qd, Dm, xi, omega, np.zeros(k), joints, xiq)",
         ]
     else:
         lines.append("        Dq, xiq = Dm, xi")
@@ -333,7 +333,7 @@ def generate(tree: TreeScene) -> str:
     kernels = sorted({*forces, *constraints})
     dimension = "spatial" if spatial else "planar"
     tree_imports = {f"{dimension}_motion", f"{dimension}_equations", f"{dimension}_articulated", "cut_accelerations"}
-    tree_imports |= {"tree_multipliers", "zero_cut_blocks", "zero_tree_blocks", "cut_row_forces"}
+    tree_imports |= {"tree_multipliers", "zero_cut_blocks", "zero_tree_blocks", "cut_row_forces", "tree_accelerations"}
     spatial_kernels = {"spatial_coordinate_accelerations", "spatial_joint_matrix", "spatial_body_accelerations"}
     tree_imports |= spatial_kernels | {"spatial_mass_residual"} if spatial else {"planar_body_accelerations"}
     lines = [
