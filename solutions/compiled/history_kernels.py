@@ -40,6 +40,9 @@ from .kernels import g_entries_jit, l_entries_jit, rotation_entries_jit
 from .loops import CONSTRAINT_ARRAYS_SIGNATURE, D_TYPE, P_TYPE
 
 jit = njit(cache=True, fastmath=False, nogil=True)
+inlined = njit(cache=True, fastmath=False, nogil=True, inline="always")
+"""The helpers a loop calls per element and output time, written into the loop by numba (a call of a compiled
+function costs two atomic reference counts per array it is handed, ~10 ns each: more than a 3 x 3 rotation)."""
 _vector, _ivector = types.float64[::1], types.int64[::1]
 _matrix, _imatrix, _cube = types.float64[:, ::1], types.int64[:, ::1], types.float64[:, :, ::1]
 _CONSTRAINTS = types.FunctionType(CONSTRAINT_ARRAYS_SIGNATURE)
@@ -107,7 +110,7 @@ def blocked_constraint_arrays(constraint_arrays, T, Y, P, D, psi, values, psit, 
                 jac[0, r, column] = 0.0
 
 
-@jit
+@inlined
 def _joint_force(jac, lam, t, rows, first, last, slots, size, g):
     """g = -(Psi_q)^T lambda on the ``size`` columns of a body, summed over the joint's rows rows[first:last] (eq.
     5.70, 10.20), at output time t; the body's columns begin at slots[r] in row rows[r] of ``jac`` (its column, or
@@ -142,7 +145,7 @@ def planar_reactions(q, lam, jac, slots, rows, starts, i, j, carrier, s, F, M):
             M[t, k] = sign * (g[2] - (ax * g[1] - ay * g[0]))
 
 
-@jit
+@inlined
 def _unit_parameters(q, t, body):
     """The unit Euler parameters of ``body`` at output time t (ground: (1, 0, 0, 0))."""
     if body < 0:
@@ -152,7 +155,7 @@ def _unit_parameters(q, t, body):
     return e0 / size, e1 / size, e2 / size, e3 / size
 
 
-@jit
+@inlined
 def _rotation(q, t, body, A):
     """A(p) of ``body`` at output time t, p normalized (eq. 8.12)."""
     entries = rotation_entries_jit(*_unit_parameters(q, t, body))
@@ -160,7 +163,7 @@ def _rotation(q, t, body, A):
         A[a // 3, a % 3] = entries[a]
 
 
-@jit
+@inlined
 def _g_matrix(q, t, body, G):
     """G(p) of ``body`` at output time t, p normalized (eq. 8.14)."""
     entries = g_entries_jit(*_unit_parameters(q, t, body))
