@@ -21,7 +21,9 @@ joint's Euler parameters) into the arrays of ``tree_kernels.py``, and the cut ro
   results and reactions, and after those Psi, Psi_t and Psi_q (row by row) when ``out`` is longer still
   (``loops.output_history``): one function for both, since numba optimizes the kernels again in every function
   that calls them. Given an ``out`` of y.size + n, only q after y (the tree's forward kinematics: the body
-  coordinates of a divergence check's companion run, ``dispatch.positions``; y' not written);
+  coordinates of a divergence check's companion run, ``dispatch.positions``; y' not written). A state of another
+  size than the tree's, or an ``out`` longer than y' + n but too short for the outputs, gets ``out`` filled with
+  NaN (numba checks no bounds: it wrote past ``out``'s end);
 - ``constraint_arrays(T, Y, P, D, Psi, Psi_q, Psi_t)`` at the output times from the body coordinates, as the
   scene's own module (``codegen.py``; ``history.py`` makes the residuals and reactions of them).
 
