@@ -1271,7 +1271,12 @@ def build_result(run: Run, equations, guard, history, compiled, times) -> tuple[
 
         residuals = compiled_history.residuals(compiled.psi, compiled.jac, compiled.psit, history.qd, system)
     accumulated = history.energies.T if equations.extra else ()
-    energies = energy_history(equations.formulation.masses, equations.forces, history.q, history.qd, *accumulated)
+    masses, kinetic = equations.formulation.masses, None
+    if compiled is not None:  # a spatial model's T in one compiled pass (None: planar, M q' by numpy)
+        from .compiled import history as compiled_history
+
+        kinetic = compiled_history.kinetic_energy(masses, history.q, history.qd)
+    energies = energy_history(masses, equations.forces, history.q, history.qd, *accumulated, kinetic=kinetic)
     result.points.update(residuals)
     result.points.update(energies.columns())
     for label, (body, point) in (run.points or {}).items():

@@ -100,13 +100,13 @@ def energy_history(
     dissipated: np.ndarray | None = None,
     applied: np.ndarray | None = None,
     drivers: np.ndarray | None = None,
+    kinetic: np.ndarray | None = None,
 ) -> EnergyHistory:
-    """The energies of a run from its q, q' histories and the accumulated D, W (zero when not given)."""
+    """The energies of a run from its q, q' histories and the accumulated D, W (zero when not given); ``kinetic``:
+    T at every output time when the caller has it already (the compiled engine's, ``compiled.history``)."""
     zero = np.zeros(len(q))
-    if callable(M):  # a spatial model's M(q) (spatial/mass.py) knows its exact T(q, q')
-        kinetic = M.kinetic_energy_history(q, qd)
-    else:
-        kinetic = kinetic_energy(M, qd)
+    if kinetic is None:  # a spatial model's M(q) (spatial/mass.py) knows its exact T(q, q')
+        kinetic = M.kinetic_energy_history(q, qd) if callable(M) else kinetic_energy(M, qd)
     return EnergyHistory(
         kinetic=kinetic,
         potential=potential_energy(forces, q),

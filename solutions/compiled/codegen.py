@@ -18,7 +18,9 @@ For a ``Scene`` (``scene.py``) the generator writes a Python module with
   (``range_space_solve``); by the LU of eq. 5.30 with partial pivoting (as ``formulations.Baumgarte``'s LAPACK
   gesv) where neither applies (a body without mass, dependent rows). Given an ``out`` longer than z, it also writes
   lambda after y', and given one longer still Psi, Psi_t and Psi_q (row by row) after lambda: the outputs at the
-  output times (``loops.output_history``) come from the same function as the integration;
+  output times (``loops.output_history``) come from the same function as the integration. A state of another size
+  than the scene's, or an ``out`` longer than y' but too short for lambda, gets ``out`` filled with NaN (numba
+  checks no bounds: it wrote past ``out``'s end);
 - ``constraint_arrays(T, Y, P, D, Psi, Psi_q, Psi_t)``: the constraints at given states (``history.py``);
 both with the fixed signatures of ``loops.py``, whose integrator loops (compiled once per machine) take
 them as first-class functions. (One function for the integration and the outputs: numba optimizes every
@@ -131,6 +133,10 @@ def generate(scene: Scene) -> str:
         '    stabilized (eq. 5.29); when ``out`` is longer than z, lambda after y\' (``loops.outputs``)."""',
         "    Q0, mass, masses, inertias, weights, fk, fp, ab, dims = P",
         "    n, m = dims[0], dims[1]",
+        "    nz = 2 * n + dims[2]  # q, q' and the energy balance's three states (P[8][2] = 3 or 0)",
+        "    if z.size != nz or (out.size != nz and out.size < nz + m):  # (y'[, lambda[, Psi, Psi_t, Psi_q]])",
+        "        out[:] = np.nan  # a size it does not know: NaN, not a write past out's end (no bounds checks)",
+        "        return",
         "    q, qd = z[:n].copy(), z[n : 2 * n].copy()",
         "    if out.size == z.size + 3 * m + m * n:  # Psi, Psi_t, Psi_q into the outputs (``loops.output_history``)",
         "        rows = out[z.size + m :]",

@@ -136,6 +136,31 @@ def residuals(psi: np.ndarray, jac, psit: np.ndarray, qd: np.ndarray, system=Non
     return {"residual.position": position, "residual.velocity": velocity}
 
 
+def kinetic_energy(masses, q: np.ndarray, qd: np.ndarray) -> np.ndarray | None:
+    """T at every output time of a spatial model (``masses``: its ``spatial.mass.SpatialMassMatrix``) in one compiled
+    pass (``history_kernels.spatial_kinetic_energy``, eq. 10.3); None for a planar model (a constant M: numpy's
+    sum is already one product)."""
+    from ..spatial.mass import SpatialMassMatrix
+    from . import history_kernels
+
+    if not isinstance(masses, SpatialMassMatrix):
+        return None
+    constants = layout(masses, _body_constants)  # kept on the mass matrix: every run of a formulation
+    out = np.empty(len(q))
+    q, qd = (np.ascontiguousarray(a, dtype=float) for a in (q, qd))
+    history_kernels.spatial_kinetic_energy(q, qd, *constants, out)
+    return out
+
+
+def _body_constants(mass_matrix) -> tuple[np.ndarray, np.ndarray]:
+    """(the bodies' masses, their body-frame inertia matrices (nb, 3, 3)) of a ``SpatialMassMatrix``, made once
+    (``layout``)."""
+    bodies = mass_matrix.model.bodies
+    masses = np.array([body.mass for body in bodies], dtype=float)
+    inertias = np.ascontiguousarray([body.inertia for body in bodies], dtype=float).reshape(-1, 3, 3)
+    return masses, inertias
+
+
 def layout(system, make):
     """``make(system)``, the index arrays of the reaction columns that depend only on the system's structure, made
     once per system (every run of a system asks for the same columns)."""
@@ -286,4 +311,4 @@ def joint_reactions(system, q: np.ndarray, lam: np.ndarray, jac) -> dict[str, np
     return planar_reactions(system, q, lam, jac)
 
 
-__all__ = ["BlockedJacobians", "block_slots", "constraint_arrays", "joint_reactions", "residuals"]
+__all__ = ["BlockedJacobians", "block_slots", "constraint_arrays", "joint_reactions", "kinetic_energy", "residuals"]

@@ -21,7 +21,9 @@ joint's Euler parameters) into the arrays of ``tree_kernels.py``, and the cut ro
   results and reactions, and after those Psi, Psi_t and Psi_q (row by row) when ``out`` is longer still
   (``loops.output_history``): one function for both, since numba optimizes the kernels again in every function
   that calls them. Given an ``out`` of y.size + n, only q after y (the tree's forward kinematics: the body
-  coordinates of a divergence check's companion run, ``dispatch.positions``; y' not written);
+  coordinates of a divergence check's companion run, ``dispatch.positions``; y' not written). A state of another
+  size than the tree's, or an ``out`` longer than y' + n but too short for the outputs, gets ``out`` filled with
+  NaN (numba checks no bounds: it wrote past ``out``'s end);
 - ``constraint_arrays(T, Y, P, D, Psi, Psi_q, Psi_t)`` at the output times from the body coordinates, as the
   scene's own module (``codegen.py``; ``history.py`` makes the residuals and reactions of them).
 
@@ -196,7 +198,7 @@ def _multipliers(scene: Scene) -> list[str]:
     if scene.dimension == 3:
         lines = [
             "if ncut > 0:",
-            "    spatial_coordinate_accelerations(q, qd, Dm, xi, omega, thdd, qdd)",
+            "    spatial_coordinate_accelerations(q, qd, Dm, xi, omega, thdd, joints, qdd)",
             "else:  # the articulated pass's body accelerations: no D",
             "    spatial_body_accelerations(q, qd, body, xi, omega, qdd)",
             "spatial_mass_residual(q, qd, qdd, masses, inertias, weights, Q, residual)  # Q += Q_v; Q - M q''",
@@ -204,7 +206,7 @@ def _multipliers(scene: Scene) -> list[str]:
     else:
         lines = [
             "if ncut > 0:",
-            "    qdd[:] = Dm @ thdd + xi",
+            "    tree_accelerations(Dm, thdd, xi, joints, 3, qdd)  # D theta'' + xi over each body's columns",
             "else:  # the articulated pass's body accelerations: no D",
             "    planar_body_accelerations(body, xi, qdd)",
             "for coordinate in range(n):  # Q - M q'' (the tree's multipliers work in it)",
@@ -243,6 +245,10 @@ def _body(tree: TreeScene) -> list[str]:
         "    n, m, npos, k = dims[0], dims[1], dims[3], dims[4]",
         f"    joints, joint_floats = D[0][{rows}], D[1][{rows}]",
         "    ne = joints.shape[0]",
+        "    ny = npos + k + dims[2]  # the joint state and the energy balance's three states (P[8][2] = 3 or 0)",
+        "    if y.size != ny or (out.size != ny and out.size != ny + n and out.size < ny + 3 * n + m):",
+        "        out[:] = np.nan  # a size it does not know: NaN, not a write past out's end (no bounds checks)",
+        "        return  # (y', [q alone | q, q', q'', lambda [, Psi, Psi_t, Psi_q when out is exactly that long]])",
         "    positions = out.size == y.size + n  # q alone after y (the companion run's: dispatch.positions)",
         "    full = out.size > y.size + n  # the outputs asked for too (loops.outputs): q, q', q'', lambda after y'",
         "    ncut = dims[6]  # cut rows (P[8][7 : 7 + ncut]); the rows' owners after them",
@@ -298,7 +304,7 @@ def _body(tree: TreeScene) -> list[str]:
         lines += [
             "        Dq, xiq = np.empty((n, k)), np.empty(n)",
             "        spatial_joint_matrix(q, Dm, Dq)",
-            "        spatial_coordinate_accelerations(q, qd, Dm, xi, omega, np.zeros(k), xiq)",
+            "        spatial_coordinate_accelerations(q, qd, Dm, xi, omega, np.zeros(k), joints, xiq)",
         ]
     else:
         lines.append("        Dq, xiq = Dm, xi")
@@ -329,7 +335,7 @@ def generate(tree: TreeScene) -> str:
     kernels = sorted({*forces, *constraints})
     dimension = "spatial" if spatial else "planar"
     tree_imports = {f"{dimension}_motion", f"{dimension}_equations", f"{dimension}_articulated", "cut_accelerations"}
-    tree_imports |= {"tree_multipliers", "zero_cut_blocks", "zero_tree_blocks", "cut_row_forces"}
+    tree_imports |= {"tree_multipliers", "zero_cut_blocks", "zero_tree_blocks", "cut_row_forces", "tree_accelerations"}
     spatial_kernels = {"spatial_coordinate_accelerations", "spatial_joint_matrix", "spatial_body_accelerations"}
     tree_imports |= spatial_kernels | {"spatial_mass_residual"} if spatial else {"planar_body_accelerations"}
     lines = [

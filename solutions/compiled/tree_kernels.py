@@ -522,10 +522,27 @@ def spatial_equations(masses, inertias, q, Dm, xi, omega, Q, ints):
     return matrix, rhs
 
 
+@inlined
+def tree_accelerations(Dm, thdd, xi, ints, nv, acc):
+    """acc = D theta'' + xi (eq. 5.44) body by body over the columns that move the body (its joint's and its
+    ancestors', ``describe``'s ints[e, 6 : 6 + ints[e, 5]]): D's only nonzeros in the body's rows, so the same sum
+    as the dense product's but for the order of its terms (rounding) and the zeros skipped; no BLAS call and no
+    allocation (``Dm @ thdd + xi`` made two arrays)."""
+    for e in range(ints.shape[0]):
+        b, count = ints[e, 2], ints[e, 5]
+        for r in range(nv * b, nv * b + nv):
+            s = 0.0
+            for g in range(count):
+                col = ints[e, 6 + g]
+                s += Dm[r, col] * thdd[col]
+            acc[r] = s + xi[r]
+
+
 @jit
-def spatial_coordinate_accelerations(q, qd, Dm, xi, omega, thdd, qdd):
+def spatial_coordinate_accelerations(q, qd, Dm, xi, omega, thdd, ints, qdd):
     """q'' = (r'', p'') from (a, omega'') = D theta'' + xi: p'' = 1/2 L(p)^T omega'' + 1/2 L(p')^T omega'."""
-    acc = Dm @ thdd + xi
+    acc = np.empty(xi.size)
+    tree_accelerations(Dm, thdd, xi, ints, 6, acc)
     for b in range(omega.shape[0]):
         o = 7 * b
         for r in range(3):
@@ -980,6 +997,7 @@ __all__ = [
     "WIDTHS",
     "body_force",
     "cut_accelerations",
+    "cut_row_forces",
     "planar_articulated",
     "planar_equations",
     "planar_motion",
@@ -988,8 +1006,8 @@ __all__ = [
     "spatial_equations",
     "spatial_joint_matrix",
     "spatial_motion",
+    "tree_accelerations",
     "tree_multipliers",
-    "zero_tree_blocks",
-    "cut_row_forces",
     "zero_cut_blocks",
+    "zero_tree_blocks",
 ]

@@ -251,3 +251,33 @@ def test_a_second_load_of_a_plan_says_what_the_first_found(monkeypatch):
     assert compiled.load(plan) == ("module", "project", False)
     assert compiled.load(plan) == ("module", "project", False)  # not 'cached' the second time
     assert compiled.load_seconds(plan) >= 0.02
+
+
+def test_a_state_or_out_of_a_size_scene_rhs_does_not_know_gets_nan_not_a_write_past_its_end():
+    """numba checks no bounds: an ``out`` longer than y' but too short for lambda wrote past its end. Now such an
+    ``out``, or a state of another size, is filled with NaN; the sizes it knows (y', with lambda and anything
+    after, with Psi, Psi_t and Psi_q) are still filled with finite numbers (a harness that guesses wrong sees NaN,
+    not a crash)."""
+    from solutions.compiled import describe, load, parameters, plan
+    from solutions.generalized_forces import build_forces
+    from solutions.mass_matrix import mass_matrix
+
+    system, q0, qd0 = build_system(load_model(SCENES["double_pendulum"]))
+    scene = describe(system, mass_matrix(system.model), build_forces(system.model))
+    job = plan(scene, "baumgarte", SimpleNamespace(alpha=5.0, beta=5.0))
+    module, _, _ = load(job)
+    P, D = parameters(job.scene, *job.numbers), job.scene.data()
+    n, m = job.scene.n, job.scene.m
+    z = np.concatenate([q0, qd0])
+    for size in (z.size, z.size + m, z.size + 3 * m + m * n):  # y', with lambda, with the output pass's Psi
+        out = np.full(size, np.nan)
+        module.scene_rhs(0.0, z, P, D, out)
+        assert np.isfinite(out).all(), size
+    for size in (z.size - 1, z.size + 1, z.size + m - 1):
+        out = np.zeros(size + 8)[:size]  # the 8 after its end must stay untouched
+        module.scene_rhs(0.0, z, P, D, out)
+        assert np.isnan(out).all(), size
+        assert not np.any(out.base[size:]), size
+    out = np.zeros(z.size)
+    module.scene_rhs(0.0, z[:-1].copy(), P, D, out)  # a state one short
+    assert np.isnan(out).all()

@@ -157,6 +157,28 @@ def test_the_positions_pass_gives_the_body_coordinates_of_the_joint_state(dimens
         np.testing.assert_array_equal(positions[y.size :], full[y.size : y.size + nq])
 
 
+def test_a_state_or_out_of_a_size_scene_rhs_does_not_know_gets_nan_not_a_write_past_its_end():
+    """numba checks no bounds: an ``out`` longer than y' and q alone but too short for the outputs (q, q', q'',
+    lambda) wrote past its end. Now such an ``out``, or a joint state of another size, is filled with NaN; the
+    sizes it knows (y', q alone, the outputs, with Psi, Psi_t and Psi_q after them) are still filled with finite
+    numbers."""
+    _, made, (rhs, P, D), y = _both_sides(_random_tree(2, 6, 1))
+    n, m = made.system.n_coordinates, made.system.n_constraints
+    full = y.size + 3 * n + m
+    for size in (y.size, y.size + n, full, full + 2 * m + m * n):
+        out = np.full(size, np.nan)
+        rhs(0.0, y, P, D, out)
+        assert np.isfinite(out[y.size :] if size == y.size + n else out).all(), size  # q alone: y' not written
+    for size in (y.size - 1, y.size + 1, y.size + n - 1, y.size + n + 1, full - 1):
+        out = np.zeros(size + 8)[:size]  # the 8 after its end must stay untouched
+        rhs(0.0, y, P, D, out)
+        assert np.isnan(out).all(), size
+        assert not np.any(out.base[size:]), size
+    out = np.zeros(y.size)
+    rhs(0.0, y[:-1].copy(), P, D, out)  # a state one short
+    assert np.isnan(out).all()
+
+
 def test_owned_rows_list_each_bodys_rows_in_row_order_without_cut_rows():
     """``tree.owned_rows``: start (nb + 1), then the rows of body 0, body 1, ... (``tree_multipliers``' index, made
     once per scene); a cut row (owner -1) belongs to no body."""
