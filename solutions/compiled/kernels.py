@@ -1085,6 +1085,38 @@ def range_space_solve(mass, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
 
 
 @jit
+def _dense_cholesky(S):
+    """S = L L^T in place, L in S's lower triangle (S symmetric, its lower triangle filled): eq. 5.31's matrix in
+    the range-space solves. False when a pivot is not positive to 1e-12 of its entry (dependent constraint rows).
+    ``_envelope_cholesky`` with the envelope whole, without its index array (which cost 0.04-0.06 us an evaluation
+    on the double pendulum)."""
+    m = S.shape[0]
+    for r in range(m):
+        for s in range(r + 1):
+            total = S[r, s]
+            for k in range(s):
+                total -= S[r, k] * S[s, k]
+            if s < r:
+                S[r, s] = total / S[s, s]
+            elif not total > 1e-12 * S[r, r]:
+                return False
+            else:
+                S[r, r] = math.sqrt(total)
+    return True
+
+
+@jit
+def _back_substitution(L, y, x):
+    """x from L^T x = y, L lower triangular (``_dense_cholesky``'s factor)."""
+    m = y.size
+    for r in range(m - 1, -1, -1):
+        total = y[r]
+        for k in range(r + 1, m):
+            total -= L[k, r] * x[k]
+        x[r] = total / L[r, r]
+
+
+@jit
 def dense_range_space_solve(mass, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
     """``range_space_solve`` for a small planar scene (n + m < RANGE_SPACE_SIZE): eq. 5.31 with S = Psi_q M^-1
     Psi_q^T formed whole (m x m) and factored by Cholesky, where the LU of eq. 5.30's (n + m) x (n + m) matrix
@@ -1101,20 +1133,8 @@ def dense_range_space_solve(mass, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
             for k in range(n):
                 total += jac[r, k] * jac[s, k] / mass[k]
             S[r, s] = total
-    # S = L L^T in place; a pivot not positive to 1e-12 of its entry: dependent rows. This is _envelope_cholesky
-    # with the envelope whole, written out: called with an index array of zeros it costs 0.04-0.06 us more an
-    # evaluation (the array and the call), 5 % of the double pendulum's right-hand side.
-    for r in range(m):
-        for s in range(r + 1):
-            total = S[r, s]
-            for k in range(s):
-                total -= S[r, k] * S[s, k]
-            if s < r:
-                S[r, s] = total / S[s, s]
-            elif not total > 1e-12 * S[r, r]:
-                return False
-            else:
-                S[r, r] = math.sqrt(total)
+    if not _dense_cholesky(S):  # dependent rows
+        return False
     stabilized = ab[0] != 0.0 or ab[1] != 0.0
     for r in range(m):  # y = Psi_q M^-1 Q - gamma_bar (eq. 5.29), then L y' = y
         total, psi_dot = 0.0, psit[r]
@@ -1125,11 +1145,7 @@ def dense_range_space_solve(mass, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
         for k in range(r):
             total -= S[r, k] * y[k]
         y[r] = total / S[r, r]
-    for r in range(m - 1, -1, -1):  # L^T lambda = y'
-        total = y[r]
-        for k in range(r + 1, m):
-            total -= S[k, r] * lam[k]
-        lam[r] = total / S[r, r]
+    _back_substitution(S, y, lam)  # L^T lambda = y'
     for k in range(n):  # q'' = M^-1 (Q - Psi_q^T lambda)
         total = Q[k]
         for r in range(m):
@@ -1226,17 +1242,8 @@ def spatial_range_space_solve(M, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
             for k in range(7 * max(reach[r, 0], reach[s, 0]), 7 * min(reach[r, 1], reach[s, 1]) + 7):
                 total += jac[r, k] * X[s, k]
             S[r, s] = total
-    for r in range(m):  # S = L L^T in place (dependent rows: a pivot not positive to 1e-12 of its entry)
-        for s in range(r + 1):
-            total = S[r, s]
-            for k in range(s):
-                total -= S[r, k] * S[s, k]
-            if s < r:
-                S[r, s] = total / S[s, s]
-            elif not total > 1e-12 * S[r, r]:
-                return False
-            else:
-                S[r, r] = math.sqrt(total)
+    if not _dense_cholesky(S):  # dependent rows
+        return False
     _mass_solve(M, B, Q, 0, nb - 1, u)  # u = M^-1 Q
     stabilized = ab[0] != 0.0 or ab[1] != 0.0
     for r in range(m):  # y = Psi_q M^-1 Q - gamma_bar (eq. 5.29), then L y' = y
@@ -1248,11 +1255,7 @@ def spatial_range_space_solve(M, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
         for k in range(r):
             total -= S[r, k] * y[k]
         y[r] = total / S[r, r]
-    for r in range(m - 1, -1, -1):  # L^T lambda = y'
-        total = y[r]
-        for k in range(r + 1, m):
-            total -= S[k, r] * lam[k]
-        lam[r] = total / S[r, r]
+    _back_substitution(S, y, lam)  # L^T lambda = y'
     qdd[:] = u  # q'' = M^-1 Q - X^T lambda
     for r in range(m):
         for k in range(7 * reach[r, 0], 7 * reach[r, 1] + 7):
