@@ -1566,36 +1566,17 @@ def accuracy_warnings(
     times ``speed``, the run's largest; energy: of the energy scale), with the figure and what to do (``held``: the
     tightest rtol the run's formulation holds, ``held_tolerances``)."""
     found = accuracy_estimate(info, size, periods) if found is None else found
-    if found is None or not _beyond(found, size, accuracy, speed):
-        return []  # nothing to say: no remedy worded (most runs)
-    rtol, p = info.get("rtol"), 1.0 if periods is None else periods
-    if found["positions"] is None:  # rk4: a smaller step is its only remedy
-        remedy = "a smaller --step"
-    elif info.get("integrator") in INDEX3_INTEGRATORS:
-        steps = max(1, int(info.get("integrator_steps", 1)))
-        remedy = (
-            f"dop853 at the same rtol reaches about {rtol * size:.2g} m over a few periods; use it, or rtol <= "
-            f"{accuracy / steps:.2g}"
-        )
-    else:
-        factor = PARTITIONING_VELOCITIES if info.get("formulation") == "partitioning" else 1.0
-        remedy = f"use rtol <= {max(accuracy / p / p / factor, MIN_RTOL):.2g}" + (
-            " (or leave rtol unset: the default follows this rule)"
-            if accuracy / p / p >= HELD_RTOL
-            else ", the tightest a double-precision run can hold; or split the run, or ask for less (accuracy)"
-        )
-    energy = found["energy"]
-    energy_remedy = _energy_remedy(found, rtol, accuracy, held, remedy)
-    if found["how"].startswith("pi x the energy"):  # the position estimate is the energy's
-        remedy = energy_remedy
+    if found is None:
+        return []
+    rtol, energy, positions = info.get("rtol"), found["energy"], found["positions"]
     lines = []
     if energy is not None and energy > accuracy:
         lines.append(
             f"accuracy: energy balance off by {energy:.2g} of the energy scale (max |E(t) - E(0)| = "
             f"{info.get('energy_drift', float('nan')):.2g} J, eq. 5.60), more than the accuracy {accuracy:g}; "
-            + energy_remedy
+            + _energy_remedy(found, rtol, accuracy, held, _remedy(info, found, size, accuracy, periods))
         )
-    if found["positions"] is not None and found["positions"] <= accuracy * size and speed:
+    if positions is not None and positions <= accuracy * size and speed:
         if found["velocities"] > accuracy:  # partitioning's: velocities beyond, positions within
             smaller = max(rtol * accuracy / found["velocities"] / 3.0, MIN_RTOL)
             lines.append(
@@ -1603,10 +1584,13 @@ def accuracy_warnings(
                 f"the accuracy {accuracy:g} x {speed:.3g} m/s, the largest speed, = {accuracy * speed:.2g} m/s; use "
                 f"rtol <= {smaller:.2g}"
             )
-    elif found["positions"] is not None and found["positions"] > accuracy * size:
+    elif positions is not None and positions > accuracy * size:
+        remedy = _remedy(info, found, size, accuracy, periods)
+        if found["how"].startswith("pi x the energy"):  # the position estimate is the energy's
+            remedy = _energy_remedy(found, rtol, accuracy, held, remedy)
         velocities = f" and velocity error {found['velocities'] * speed:.2g} m/s" if speed else ""
         lines.append(
-            f"accuracy: estimated position error {found['positions']:.2g} m{velocities} ({found['how']}) exceeds the "
+            f"accuracy: estimated position error {positions:.2g} m{velocities} ({found['how']}) exceeds the "
             f"accuracy {accuracy:g} x {size:.3g} m = {accuracy * size:.2g} m"
             + (f" (x {speed:.3g} m/s, the largest speed, = {accuracy * speed:.2g} m/s)" if speed else "")
             + f"; {remedy}"
@@ -1614,15 +1598,24 @@ def accuracy_warnings(
     return lines
 
 
-def _beyond(found: dict, size: float, accuracy: float, speed: float | None) -> bool:
-    """Whether ``accuracy_warnings`` has a line to say of the estimate ``found``: energy, positions or velocities
-    beyond the accuracy (its tests, in its order)."""
-    energy, positions = found["energy"], found["positions"]
-    if energy is not None and energy > accuracy:
-        return True
-    if positions is not None and positions <= accuracy * size and speed:
-        return bool(found["velocities"] > accuracy)
-    return positions is not None and positions > accuracy * size
+def _remedy(info: dict, found: dict, size: float, accuracy: float, periods: float | None) -> str:
+    """What ``accuracy_warnings`` advises for a position error beyond the accuracy: the rtol of the tolerance rule
+    (eq. 6.60), dop853 for an index-3 run, a smaller step for rk4; worded only where a line says it."""
+    rtol, p = info.get("rtol"), 1.0 if periods is None else periods
+    if found["positions"] is None:  # rk4: a smaller step is its only remedy
+        return "a smaller --step"
+    if info.get("integrator") in INDEX3_INTEGRATORS:
+        steps = max(1, int(info.get("integrator_steps", 1)))
+        return (
+            f"dop853 at the same rtol reaches about {rtol * size:.2g} m over a few periods; use it, or rtol <= "
+            f"{accuracy / steps:.2g}"
+        )
+    factor = PARTITIONING_VELOCITIES if info.get("formulation") == "partitioning" else 1.0
+    return f"use rtol <= {max(accuracy / p / p / factor, MIN_RTOL):.2g}" + (
+        " (or leave rtol unset: the default follows this rule)"
+        if accuracy / p / p >= HELD_RTOL
+        else ", the tightest a double-precision run can hold; or split the run, or ask for less (accuracy)"
+    )
 
 
 def _energy_remedy(found: dict, rtol: float | None, accuracy: float, held: float, remedy: str) -> str:
