@@ -208,7 +208,9 @@ def settled(lower, upper, signs, thresholds, fall):
     - does not overlap its neighbours' (each comparison of two ratios of adjacent times decided, ``fall`` times
       the other's too: the falls of ``check_branches``);
     - is no possible dip (``passes_zero`` of it and its neighbours decided false; a dip's three are closed: its
-      figure is reported) nor next to a flip of the sign of det [Psi_q; T^T] (the crossing's figure).
+      figure is reported), no possible fall's low end (below NEAR_SINGULAR, ``fall`` times its neighbour's upper
+      end or less: ``check_branches`` reports it as the crossing's figure) nor next to a flip of the sign of
+      det [Psi_q; T^T] (the crossing's figure).
     A closed ratio (lower = upper) is settled. One compiled pass: numpy's forty array operations on 101 times
     cost 90 us, a tenth of the ratios' own time on a small chain."""
     N = lower.size
@@ -232,6 +234,8 @@ def settled(lower, upper, signs, thresholds, fall):
             for factor in (1.0, fall):  # ratios[a] <= factor ratios[b]: decided unless the brackets overlap
                 if lower[a] <= factor * upper[b] and factor * lower[b] <= upper[a]:
                     unsettled[k] = unsettled[k + 1] = True
+            if lower[a] < near and lower[a] <= fall * upper[b]:  # a possible fall: its low end's figure is reported
+                unsettled[a] = True
         if signs[k] * signs[k + 1] < 0.0:
             unsettled[k] = unsettled[k + 1] = True
     for k in range(1, N - 1):  # passes_zero(before, middle, after) unless decided false

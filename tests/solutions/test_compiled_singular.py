@@ -484,3 +484,18 @@ def test_the_envelope_cholesky_is_numpys_and_tests_the_eigenvalues():
         assert singular._cholesky(G, 1.0, -s, L) == (eigenvalues[0] > s)
     for s in (eigenvalues[-1] * (1 - 1e-6), eigenvalues[-1] * (1 + 1e-6)):
         assert singular._cholesky(G, -1.0, s, L) == (eigenvalues[-1] < s)
+
+
+def test_a_fall_s_figure_is_closed():
+    """A fall of the ratio (a hundredfold over a step, below NEAR_SINGULAR: ``Guard.check_branches`` records a
+    crossing there with the low end's ratio as its figure) is closed at its low end, though its bracket decides
+    every comparison and is not the run's smallest: a reported figure is never a bracket's end (i25-guard6 found
+    the bracket's upper end, up to LOOSE off, reported)."""
+    upper = np.array([0.05, 2e-4, 1e-4, 1.5e-4])
+    lower = upper * (1.0 - singular.LOOSE)
+    lower[2] = upper[2]  # the smallest, closed
+    thresholds = np.array([1e-8, dynamics.NEAR_SINGULAR])
+    done = singular.settled(lower, upper, np.ones(4), thresholds, dynamics.FALL)
+    assert not done[1]  # the fall's low end: its figure is reported
+    assert done[0] and done[3]  # the fall's high end and a time that neither falls nor dips: brackets
+    assert upper[1] < dynamics.FALL * upper[0] and not dynamics.dips(upper)[0]  # a fall, no dip, not the smallest
