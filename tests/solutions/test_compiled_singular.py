@@ -56,7 +56,8 @@ def perturbed():
 def test_band_gives_the_dense_ratio_basis_and_sign(perturbed, first):
     """With the first time's basis given (a QR's) or found from the band (the banded LU of Psi_q^T picks E)."""
     before = null_space_bases(perturbed[:1])[0] if first == "dense" else None
-    ratios, bases, signs = singular.spectra(perturbed, before)
+    ratios, bases, signs, certified = singular.spectra(perturbed, before)
+    assert not np.any(certified)  # closed: every basis made
     s = np.linalg.svd(perturbed, compute_uv=False)
     m = perturbed.shape[1]
     np.testing.assert_allclose(ratios, s[:, m - 1] / s[:, 0], rtol=1e-11)
@@ -73,7 +74,7 @@ def test_near_singular_ratio_to_its_relative_accuracy():
     system, qs = chain_at([89.99, 90.01])
     guard = Guard(system, chain_at([60.0])[1][0], 1e-3, 1e-8)
     scaled = np.array([guard._scaled(system.jacobian(q, 0.0)) for q in qs])
-    ratios, _, _ = singular.spectra(scaled, null_space_bases(scaled[:1])[0])
+    ratios = singular.spectra(scaled, null_space_bases(scaled[:1])[0])[0]
     s = np.linalg.svd(scaled, compute_uv=False)
     dense = s[:, -1] / s[:, 0]
     assert np.all(dense < 1e-3)
@@ -251,7 +252,7 @@ def test_mid_size_psi_q_takes_the_band_with_numpys_ratio_basis_and_sign(loops, m
     N, m, n = jacobians.shape
     assert dynamics.DENSE_LARGEST < m < n < dynamics.BAND_SMALLEST
     norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
-    ratios, bases, signs = dynamics.square_spectra(jacobians, guard._columns, norms, None)
+    ratios, bases, signs, _ = dynamics.square_spectra(jacobians, guard._columns, norms, None)
     assert taken  # the band, not numpy's dense route
     scaled = np.array([guard._scaled(J) for J in jacobians])
     s = np.linalg.svd(scaled, compute_uv=False)
@@ -297,7 +298,7 @@ def test_settled_ratios_decide_as_numpys_svd_through_a_singular_position(swing, 
     monkeypatch.setattr(singular, "spectra", lambda *args: taken.append(1) or spectra(*args))
     norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
     settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)
-    ratios, bases, signs = dynamics.square_spectra(jacobians, guard._columns, norms, None, True, None, settle)
+    ratios, bases, signs, turns = dynamics.square_spectra(jacobians, guard._columns, norms, None, True, None, settle)
     assert taken  # the band
     scaled = np.array([guard._scaled(J) for J in jacobians])
     s = np.linalg.svd(scaled, compute_uv=False)
@@ -312,9 +313,15 @@ def test_settled_ratios_decide_as_numpys_svd_through_a_singular_position(swing, 
     np.testing.assert_array_equal(ratios[:-1] <= ratios[1:], exact[:-1] <= exact[1:])
     falls = [np.minimum(r[:-1], r[1:]) < dynamics.FALL * np.maximum(r[:-1], r[1:]) for r in (ratios, exact)]
     np.testing.assert_array_equal(*falls)
-    assert np.max(np.abs(scaled @ bases), initial=0.0) < 1e-13
-    determinants = [np.linalg.det(np.vstack([J, T.T])) for J, T in zip(scaled, bases, strict=True)]
-    np.testing.assert_array_equal(signs, np.sign(determinants))
+    made = np.all(np.isfinite(bases), axis=(1, 2))  # the bases made: at the ends of the steps not certified
+    assert made[0] and made[-1] and made[dip - 1 : dip + 2].all() and (square or not made.all())  # square: no T
+    assert np.max(np.abs(scaled[made] @ bases[made]), initial=0.0) < 1e-13
+    determinants = [np.linalg.det(np.vstack([J, T.T])) for J, T in zip(scaled[made], bases[made], strict=True)]
+    np.testing.assert_array_equal(signs[made], np.sign(determinants))
+    tangents, dense_signs = null_space_bases(scaled, signs=True)  # numpy's: every step's flip test as the Guard's
+    flips = [(np.abs(u) > dynamics.ALIGNED) & (u * g[1:] * g[:-1] < 0)
+             for u, g in ((turns, signs), (dynamics.null_space_turns(tangents, dense_signs), dense_signs))]  # fmt: skip
+    np.testing.assert_array_equal(*flips)
 
 
 def test_a_mid_size_run_through_records_the_dense_crossings_and_figures(swing, monkeypatch):
@@ -359,7 +366,7 @@ def test_small_settled_ratios_decide_as_numpys_svd_through_a_singular_position(s
     assert jacobians.shape[1:] == (8, 9) and jacobians.shape[1] <= dynamics.DENSE_LARGEST
     norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
     settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)
-    ratios, bases, signs = dynamics.square_spectra(jacobians, guard._columns, norms, None, True, None, settle)
+    ratios, bases, signs, _ = dynamics.square_spectra(jacobians, guard._columns, norms, None, True, None, settle)
     closed = singular.dense_spectra(jacobians, guard._columns, norms)
     dip = int(np.argmin(exact))
     assert exact[dip] < 1e-2 < exact[0]
