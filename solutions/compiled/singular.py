@@ -47,7 +47,8 @@ matrix [Psi_q; 0] is a band whose half-widths kl, ku do not grow with the number
 - most steps need neither (``certified``, issue 25): the Guard reads T and the sign only to see a flip between two
   times, and by Weyl's inequality none can lie on a step over which Psi_q moves by less than sigma_m (its bracket
   gives that bound). Given the Guard's tests, ``spectra`` makes T only at the first and last times and at both ends
-  of a step it cannot certify so: on the loop chain of 2-16 loops at no other time (0.3 of the pass over the output times).
+  of a step it cannot certify so: on the loop chain of 2-16 loops at no other time (the pass over the output
+  times 0.3 shorter).
 
 Any orthonormal basis serves the Guard (``dynamics.null_space_bases``): a different E gives T R with R
 orthogonal, which multiplies det [Psi_q; T^T] and the turn det(T_prev^T T) by the same det R = +-1.

@@ -506,3 +506,30 @@ def test_a_fall_s_figure_is_closed():
     assert not done[1]  # the fall's low end: its figure is reported
     assert done[0] and done[3]  # the fall's high end and a time that neither falls nor dips: brackets
     assert upper[1] < dynamics.FALL * upper[0] and not dynamics.dips(upper)[0]  # a fall, no dip, not the smallest
+
+
+def test_a_certified_step_moves_psi_q_by_less_than_sigma_m(swing):
+    """``singular._scale``'s bound of |J_k - J_k-1|_2 holds (numpy's 2-norm of the scaled difference is below it), and
+    a step ``certified`` from it is one over which [J; T^T] (T the basis at t_k-1) cannot turn singular: its
+    smallest singular value at t_k-1, min(sigma_m, 1), is above the move (Weyl's inequality), and numpy's
+    det [J_k; T^T] keeps the sign of det [J_k-1; T^T]."""
+    system, t, qs, jacobians = swing
+    guard = Guard(system, qs[0], 1e-3, 1e-8)
+    norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
+    scaled = dynamics.scale_rows(jacobians, guard._columns, norms)
+    position, keys, starts, indices = singular._band_structure(np.any(jacobians != 0.0, axis=0))
+    J, previous, sums = np.zeros(scaled.shape[1:]), np.zeros(scaled.shape[1:]), np.empty(scaled.shape[2])
+    columns, norms = np.ascontiguousarray(guard._columns), np.ascontiguousarray(norms)
+    moved = [singular._scale(jacobians, k, columns, norms, starts, indices, indices, J, previous, sums)
+             for k in range(len(t))][1:]  # fmt: skip
+    np.testing.assert_array_equal(J, scaled[-1])  # the last time's scaled Psi_q, as scale_rows makes it
+    exact = np.linalg.norm(np.diff(scaled, axis=0), ord=2, axis=(1, 2))
+    assert np.all(exact <= np.array(moved) * (1.0 + 1e-12))
+    s = np.linalg.svd(scaled, compute_uv=False)
+    ratios = s[:, -1] / s[:, 0]
+    tangents, signs = null_space_bases(scaled, signs=True)
+    steps = [k for k in range(len(moved)) if singular.certified(moved[k], ratios[k])]
+    assert 0 < len(steps) < len(moved)  # the steps next to the flat position are not certified
+    for k in steps:
+        assert moved[k] < min(s[k, -1], 1.0)
+        assert np.sign(np.linalg.det(np.vstack([scaled[k + 1], tangents[k].T]))) == signs[k]
