@@ -44,6 +44,11 @@ matrix [Psi_q; 0] is a band whose half-widths kl, ku do not grow with the number
   det S det A, so its sign is that of det A: the product of U's diagonal, the pivots' swaps and the two orderings'
   parities. (Proof: with W = A^-1 [I_m; 0], [Psi_q; T^T] [W T_0] = [[I, 0], [T^T W, S]] and det [W T_0] =
   1 / det A.)
+- most steps need neither (``certified``, issue 25): the Guard reads T and the sign only to see a flip between two
+  times, and by Weyl's inequality none can lie on a step over which Psi_q moves by less than sigma_m (its bracket
+  gives that bound). Given the Guard's tests, ``spectra`` makes T only at the first and last times and at both ends
+  of a step it cannot certify so: on the loop chain of 2-16 loops at no other time (the pass over the output
+  times 0.3 shorter).
 
 Any orthonormal basis serves the Guard (``dynamics.null_space_bases``): a different E gives T R with R
 orthogonal, which multiplies det [Psi_q; T^T] and the turn det(T_prev^T T) by the same det R = +-1.
@@ -98,7 +103,7 @@ course models, thread CPU, bracketed / Jacobi: 2 x 3 to 5 x 7 1.3-3.7 times the 
 
 _vector, _ivector, _matrix = types.float64[::1], types.int64[::1], types.float64[:, ::1]
 _stack = types.float64[:, :, ::1]
-_SPECTRA = types.Tuple((_vector, _stack, _vector, _vector, _stack))(
+_SPECTRA = types.Tuple((_vector, _stack, _vector, _vector, _stack, types.boolean[::1]))(
     _stack, _vector, _matrix, _ivector, _vector, _ivector, _ivector, _ivector, _matrix, types.float64
 )
 _AT = _vector(_stack, _vector, _matrix, _ivector, _vector, _ivector, _ivector, _ivector, _stack, _stack, _ivector)
@@ -135,8 +140,9 @@ def band_order(pattern: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def spectra(
     scaled: np.ndarray, first: np.ndarray | None, columns=None, norms=None, pattern=None, widest=WIDEST, settle=None
 ):
-    """(sigma_m / sigma_1 (N,), null-space bases (N, n, d), signs of det [Psi_q; T^T] (N,)) of each scaled Psi_q
-    (N, m, n) of full row rank, from the band (module docstring); None where the ordered Psi_q is not a band
+    """(sigma_m / sigma_1 (N,), null-space bases (N, n, d), signs of det [Psi_q; T^T] (N,), the steps certified
+    to hold no flip of that sign (N - 1,), ``certified``) of each scaled Psi_q (N, m, n) of full row rank, from the
+    band (module docstring); None where the ordered Psi_q is not a band
     at most n / ``widest`` wide (an eighth of n, ``WIDEST``; half of n at mid sizes, ``WIDEST_MID``). ``first``
     (n, d): a null-space basis at (or just before) the first time, which picks its independent coordinates (None:
     from the band, ``_first_basis``). NaN at a time where LAPACK failed.
@@ -148,7 +154,9 @@ def spectra(
     before and after, ``Guard._record``): each ratio first in a bracket of
     relative width about LOOSE (one Cholesky test a bound, ``_bracketed_ratio``), then closed to EXTREME_TOLERANCE
     only at the times where a test of the Guard could go the other way within it or whose figure it reports (the
-    smallest, a dip); None: every ratio closed."""
+    smallest, a dip), and the bases and signs made only at the first and last times and at both ends of each step
+    that ``certified`` leaves open (elsewhere NaN, and the signs carried over from the time before: ``_spectra``);
+    None: every ratio closed, every basis made, no step certified."""
     if columns is None:
         columns, norms = np.ones(scaled.shape[2]), np.ones(scaled.shape[:2])
         pattern = np.any(scaled != 0.0, axis=0)
@@ -177,12 +185,12 @@ def spectra(
         rows = np.repeat(np.arange(keys.size), np.diff(starts))
         stored, slots = scaled.values, scaled.slots(rows, indices)
     arguments = (np.ascontiguousarray(stored), *scale, position, keys, starts, indices, slots)
-    ratios, bases, signs, lower, vectors = _spectra(*arguments, first, 0.0 if settle is None else LOOSE)
+    ratios, bases, signs, lower, vectors, certified = _spectra(*arguments, first, 0.0 if settle is None else LOOSE)
     if settle is not None:
         times = _unsettled(lower, ratios, signs, settle)
         if times.size:  # closed there, each from its own vectors
             ratios[times] = _ratios_at(*arguments, bases, vectors, times)
-    return ratios, bases, signs
+    return ratios, bases, signs, certified
 
 
 def _unsettled(lower: np.ndarray, ratios: np.ndarray, signs: np.ndarray, settle: tuple) -> np.ndarray:
@@ -208,7 +216,9 @@ def settled(lower, upper, signs, thresholds, fall):
     - does not overlap its neighbours' (each comparison of two ratios of adjacent times decided, ``fall`` times
       the other's too: the falls of ``check_branches``);
     - is no possible dip (``passes_zero`` of it and its neighbours decided false; a dip's three are closed: its
-      figure is reported) nor next to a flip of the sign of det [Psi_q; T^T] (the crossing's figure).
+      figure is reported), no possible fall's low end (below NEAR_SINGULAR, ``fall`` times its neighbour's upper
+      end or less: ``check_branches`` reports it as the crossing's figure) nor next to a flip of the sign of
+      det [Psi_q; T^T] (the crossing's figure).
     A closed ratio (lower = upper) is settled. One compiled pass: numpy's forty array operations on 101 times
     cost 90 us, a tenth of the ratios' own time on a small chain."""
     N = lower.size
@@ -232,6 +242,8 @@ def settled(lower, upper, signs, thresholds, fall):
             for factor in (1.0, fall):  # ratios[a] <= factor ratios[b]: decided unless the brackets overlap
                 if lower[a] <= factor * upper[b] and factor * lower[b] <= upper[a]:
                     unsettled[k] = unsettled[k + 1] = True
+            if lower[a] < near and lower[a] <= fall * upper[b]:  # a possible fall: its low end's figure is reported
+                unsettled[a] = True
         if signs[k] * signs[k + 1] < 0.0:
             unsettled[k] = unsettled[k + 1] = True
     for k in range(1, N - 1):  # passes_zero(before, middle, after) unless decided false
@@ -975,42 +987,78 @@ def _residual(J, rows, starts, indices, x, y):
     return total
 
 
+CERTAIN = 0.9
+"""``certified``'s margin: a step is certified where the bound of |J_k - J_k-1|_2 is below this fraction of the
+lower bound of sigma_m (J_k-1) (far above the bounds' rounding, ~1e-15 of them)."""
+
+
+@njit(cache=True, nogil=True)
+def certified(moved, lower):
+    """Whether the step from t_k-1 to t_k certainly holds no flip of the sign of det [Psi_q; T^T] the Guard tests
+    (``dynamics.Guard._judge``: a rank loss between the two times), from ``moved``, a bound of |J_k - J_k-1|_2 of
+    the scaled Psi_q (``_scale``), and ``lower``, the lower end of sigma_m / sigma_1 at t_k-1.
+    With T the null-space basis at t_k-1, [J_k-1; T^T] has the singular values of J_k-1 and d ones (J T = 0, T^T T
+    = I), so its smallest is min(sigma_m, 1) >= the ratio (sigma_1 >= 1: rows of unit length). By Weyl's
+    inequality [J_k-1 + s (J_k - J_k-1); T^T] stays nonsingular for s in [0, 1] where |J_k - J_k-1|_2 is below
+    that: det [J_k; T^T] keeps the sign of det [J_k-1; T^T]. It is det(T^T T_k) det [J_k; T_k^T] for any basis T_k
+    at t_k (``dynamics.Guard._judge``), so turn * sign_k * sign_k-1 > 0: no flip, whatever bases are taken
+    (Golub and Van Loan, Matrix Computations, sec. 8.6.2). The Guard then needs no basis at t_k for that step."""
+    return moved < CERTAIN * lower
+
+
+@njit(cache=True, nogil=True)
+def _scale(jacobians, k, columns, norms, starts, indices, slots, J, previous, sums):
+    """J <- the scaled Psi_q at time k (as ``dynamics.scale_rows``, to the last bit, on its pattern alone), previous
+    <- the J it held; returns a bound of |J - previous|_2: the least of its Frobenius norm and sqrt(|.|_1 |.|_inf)
+    (Golub and Van Loan, sec. 2.3.3; the latter does not grow with the chain's length). ``sums``: work (n,)."""
+    m = starts.size - 1
+    frobenius, rows = 0.0, 0.0
+    sums[:] = 0.0
+    for r in range(m):
+        norm = norms[k, r] if norms[k, r] > 0.0 else 1.0
+        row = 0.0
+        for p in range(starts[r], starts[r + 1]):
+            c = indices[p]
+            previous[r, c] = J[r, c]
+            J[r, c] = jacobians[k, r, slots[p]] * columns[c] / norm
+            change = abs(J[r, c] - previous[r, c])
+            frobenius += change * change
+            row += change
+            sums[c] += change
+        rows = max(rows, row)
+    return min(np.sqrt(frobenius), np.sqrt(rows * np.max(sums)))
+
+
 @njit(_SPECTRA, cache=True, nogil=True)
 def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, first, loose):
-    """(ratios, bases, signs, the ratios' lower bounds) at every time; ``loose`` > 0: the ratios in brackets of that
-    relative width where one test a bound gives them (``_bracketed_ratio``), else closed. Entry p of the CSR pattern
-    (row r, column indices[p]) is jacobians[k, r, slots[p]]: its column (slots = indices), or its slot among a
-    blocked history's blocks (``history.BlockedJacobians``)."""
+    """(ratios, bases, signs, the ratios' lower bounds, eigenvectors, certified steps) at every time; ``loose`` > 0:
+    the ratios in brackets of that relative width where one test a bound gives them (``_bracketed_ratio``), else
+    closed; and the basis and sign made only where a step needs them (not ``certified``: both its ends), at the
+    first and last times (the Guard compares them with the batches before and after), elsewhere bases NaN and the
+    sign the time before's (the sign of a basis carried along continuously, by ``certified``'s proof). ``loose`` = 0:
+    every basis made (as closed, no step certified). Entry p of the CSR pattern (row r, column indices[p]) is
+    jacobians[k, r, slots[p]]: its column (slots = indices), or its slot among a blocked history's blocks
+    (``history.BlockedJacobians``)."""
     N, m = jacobians.shape[:2]
     n = position.size
     d = n - m
-    ratios, bases, signs, lower = np.empty(N), np.empty((N, n, d)), np.empty(N), np.empty(N)
+    ratios, bases, signs, lower = np.empty(N), np.full((N, n, d), np.nan), np.empty(N), np.empty(N)
+    steps = np.zeros(max(N - 1, 0), dtype=np.bool_)  # certified: no flip, no basis needed
+    made = np.zeros(N, dtype=np.bool_)
     vectors = np.empty((N, 2, m))  # each time's eigenvectors (``_ratios_at`` starts from them)
     rows = np.argsort(keys, kind="mergesort")  # Psi_q's rows along the band: G = Psi_q Psi_q^T a band too
     w = _gram_width(rows, starts, indices, n)
     products = _gram_products(rows, starts, indices, w)
     G, L, low, high, y = np.empty((m, w + 1)), np.empty((m, w + 1)), np.ones(m), np.ones(m), np.empty(n)
-    before, ordered = first, _parity(position)
+    before, ordered, last = first, _parity(position), -1  # the basis E's coordinates come from, and its time
     kept, slot, kl, ku, parity = np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), 0, 0, 1.0
     ab, pivots = np.empty((0, 0)), np.empty(0, dtype=np.int64)  # the banded LU's work arrays (``_null_space``)
     rest, direction, chosen = np.empty((n, d)), np.empty(d), np.empty(d, dtype=np.int64)  # ``_choose``'s
     spread = np.full(2, 0.5)  # how far the time before's Rayleigh quotients were off (``_bracketed_ratio``)
     earlier = np.empty((2, m))  # the eigenvectors of the time before the last (``_extrapolate``)
-    J = np.zeros((m, n))  # this time's scaled Psi_q, written on its pattern alone
+    J, previous = np.zeros((m, n)), np.zeros((m, n))  # this time's scaled Psi_q and the time before's
     for k in range(N):
-        for r in range(m):
-            norm = norms[k, r] if norms[k, r] > 0.0 else 1.0
-            for p in range(starts[r], starts[r + 1]):  # as ``dynamics.scale_rows``, to the last bit
-                J[r, indices[p]] = jacobians[k, r, slots[p]] * columns[indices[p]] / norm
-        _choose(before, rest, direction, chosen)
-        changed = k == 0
-        for a in range(d):
-            changed = changed or chosen[a] != kept[a]
-        if changed:  # E's coordinates changed: the band's rows, widths and parity
-            kept, slot = chosen.copy(), _layout(keys, position, chosen)
-            kl, ku = _widths(slot, m, starts, indices, position, chosen, True)
-            parity = _parity(slot) * ordered
-            ab, pivots = np.empty((n, 2 * kl + ku + 1)), np.empty(n, dtype=np.int64)
+        moved = _scale(jacobians, k, columns, norms, starts, indices, slots, J, previous, y)
         ratios[k], lower[k] = np.nan, np.nan
         if loose > 0.0:
             if k >= 2 and lower[k - 1] < ratios[k - 1] and lower[k - 2] < ratios[k - 2]:  # both bracketed
@@ -1026,20 +1074,48 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
             lower[k] = ratios[k]
         if not np.isfinite(ratios[k]):  # near a rank loss: the bidiagonal reduction's figure
             low[:], high[:] = 1.0, 1.0
-            ratios[k] = _ratio(J, slot, m, starts, indices, position, chosen)
+            chosen = _independent(before, d)  # E's rows' places along the band (their values do not matter)
+            ratios[k] = _ratio(J, _layout(keys, position, chosen), m, starts, indices, position, chosen)
             lower[k] = ratios[k]
         vectors[k, 0], vectors[k, 1] = low, high
-        signs[k] = _null_space(J, slot, m, starts, indices, position, chosen, parity, kl, ku, ab, pivots, y, bases[k])
-        if np.all(np.isfinite(bases[k])):
-            before = bases[k]
-    return ratios, bases, signs, lower, vectors
+        if k >= 1:
+            steps[k - 1] = loose > 0.0 and certified(moved, lower[k - 1])
+        open_step = k == 0 or not steps[k - 1]  # the step to t_k needs its ends' bases
+        for at in range(max(k - 1, 0), k + 1):
+            if made[at] or not (open_step or at == N - 1):
+                continue
+            source = previous if at < k else J
+            for _ in range(2):  # E from the nearest basis made; after a gap, again from this one if it picks others
+                _choose(before, rest, direction, chosen)
+                changed = last < 0
+                for a in range(d):
+                    changed = changed or chosen[a] != kept[a]
+                if changed:  # E's coordinates changed: the band's rows, widths and parity
+                    kept, slot = chosen.copy(), _layout(keys, position, chosen)
+                    kl, ku = _widths(slot, m, starts, indices, position, chosen, True)
+                    parity = _parity(slot) * ordered
+                    ab, pivots = np.empty((n, 2 * kl + ku + 1)), np.empty(n, dtype=np.int64)
+                signs[at] = _null_space(source, slot, m, starts, indices, position, chosen, parity, kl, ku, ab, pivots,
+                                        y, bases[at])  # fmt: skip
+                gap = last >= 0 and at - last > 1
+                if np.all(np.isfinite(bases[at])):
+                    before, last = bases[at], at
+                if not gap:
+                    break
+                _choose(before, rest, direction, chosen)
+                if np.all(chosen == kept):
+                    break
+            made[at] = True
+        if not made[k]:  # the sign of the basis carried along from the time before (``certified``)
+            signs[k] = signs[k - 1]
+    return ratios, bases, signs, lower, vectors, steps
 
 
 @njit(_AT, cache=True, nogil=True)
 def _ratios_at(jacobians, columns, norms, position, keys, starts, indices, slots, bases, vectors, times):
     """The ratios closed to EXTREME_TOLERANCE (``_spectra``'s) at the output times ``times`` alone, each from the
     eigenvectors its bracket left (``vectors`` (N, 2, m): lambda_m's, lambda_1's); ``bases``: the null-space bases
-    (E's rows, for the bidiagonal route); ``slots``: as ``_spectra``'s."""
+    (E's rows, for the bidiagonal route: the nearest made at or before the time); ``slots``: as ``_spectra``'s."""
     N, m = jacobians.shape[:2]
     n = position.size
     rows = np.argsort(keys, kind="mergesort")
@@ -1056,7 +1132,10 @@ def _ratios_at(jacobians, columns, norms, position, keys, starts, indices, slots
         low, high = vectors[k, 0].copy(), vectors[k, 1].copy()
         ratios[a] = _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y)
         if not np.isfinite(ratios[a]):
-            chosen = _independent(bases[k], n - m)
+            made = k
+            while made > 0 and not np.all(np.isfinite(bases[made])):  # the nearest basis made (``_spectra``)
+                made -= 1
+            chosen = _independent(bases[made], n - m)
             ratios[a] = _ratio(J, _layout(keys, position, chosen), m, starts, indices, position, chosen)
     return ratios
 

@@ -56,7 +56,8 @@ def perturbed():
 def test_band_gives_the_dense_ratio_basis_and_sign(perturbed, first):
     """With the first time's basis given (a QR's) or found from the band (the banded LU of Psi_q^T picks E)."""
     before = null_space_bases(perturbed[:1])[0] if first == "dense" else None
-    ratios, bases, signs = singular.spectra(perturbed, before)
+    ratios, bases, signs, certified = singular.spectra(perturbed, before)
+    assert not np.any(certified)  # closed: every basis made
     s = np.linalg.svd(perturbed, compute_uv=False)
     m = perturbed.shape[1]
     np.testing.assert_allclose(ratios, s[:, m - 1] / s[:, 0], rtol=1e-11)
@@ -73,7 +74,7 @@ def test_near_singular_ratio_to_its_relative_accuracy():
     system, qs = chain_at([89.99, 90.01])
     guard = Guard(system, chain_at([60.0])[1][0], 1e-3, 1e-8)
     scaled = np.array([guard._scaled(system.jacobian(q, 0.0)) for q in qs])
-    ratios, _, _ = singular.spectra(scaled, null_space_bases(scaled[:1])[0])
+    ratios = singular.spectra(scaled, null_space_bases(scaled[:1])[0])[0]
     s = np.linalg.svd(scaled, compute_uv=False)
     dense = s[:, -1] / s[:, 0]
     assert np.all(dense < 1e-3)
@@ -251,7 +252,7 @@ def test_mid_size_psi_q_takes_the_band_with_numpys_ratio_basis_and_sign(loops, m
     N, m, n = jacobians.shape
     assert dynamics.DENSE_LARGEST < m < n < dynamics.BAND_SMALLEST
     norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
-    ratios, bases, signs = dynamics.square_spectra(jacobians, guard._columns, norms, None)
+    ratios, bases, signs, _ = dynamics.square_spectra(jacobians, guard._columns, norms, None)
     assert taken  # the band, not numpy's dense route
     scaled = np.array([guard._scaled(J) for J in jacobians])
     s = np.linalg.svd(scaled, compute_uv=False)
@@ -297,7 +298,7 @@ def test_settled_ratios_decide_as_numpys_svd_through_a_singular_position(swing, 
     monkeypatch.setattr(singular, "spectra", lambda *args: taken.append(1) or spectra(*args))
     norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
     settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)
-    ratios, bases, signs = dynamics.square_spectra(jacobians, guard._columns, norms, None, True, None, settle)
+    ratios, bases, signs, turns = dynamics.square_spectra(jacobians, guard._columns, norms, None, True, None, settle)
     assert taken  # the band
     scaled = np.array([guard._scaled(J) for J in jacobians])
     s = np.linalg.svd(scaled, compute_uv=False)
@@ -312,9 +313,15 @@ def test_settled_ratios_decide_as_numpys_svd_through_a_singular_position(swing, 
     np.testing.assert_array_equal(ratios[:-1] <= ratios[1:], exact[:-1] <= exact[1:])
     falls = [np.minimum(r[:-1], r[1:]) < dynamics.FALL * np.maximum(r[:-1], r[1:]) for r in (ratios, exact)]
     np.testing.assert_array_equal(*falls)
-    assert np.max(np.abs(scaled @ bases), initial=0.0) < 1e-13
-    determinants = [np.linalg.det(np.vstack([J, T.T])) for J, T in zip(scaled, bases, strict=True)]
-    np.testing.assert_array_equal(signs, np.sign(determinants))
+    made = np.all(np.isfinite(bases), axis=(1, 2))  # the bases made: at the ends of the steps not certified
+    assert made[0] and made[-1] and made[dip - 1 : dip + 2].all() and (square or not made.all())  # square: no T
+    assert np.max(np.abs(scaled[made] @ bases[made]), initial=0.0) < 1e-13
+    determinants = [np.linalg.det(np.vstack([J, T.T])) for J, T in zip(scaled[made], bases[made], strict=True)]
+    np.testing.assert_array_equal(signs[made], np.sign(determinants))
+    tangents, dense_signs = null_space_bases(scaled, signs=True)  # numpy's: every step's flip test as the Guard's
+    flips = [(np.abs(u) > dynamics.ALIGNED) & (u * g[1:] * g[:-1] < 0)
+             for u, g in ((turns, signs), (dynamics.null_space_turns(tangents, dense_signs), dense_signs))]  # fmt: skip
+    np.testing.assert_array_equal(*flips)
 
 
 def test_a_mid_size_run_through_records_the_dense_crossings_and_figures(swing, monkeypatch):
@@ -359,7 +366,7 @@ def test_small_settled_ratios_decide_as_numpys_svd_through_a_singular_position(s
     assert jacobians.shape[1:] == (8, 9) and jacobians.shape[1] <= dynamics.DENSE_LARGEST
     norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
     settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)
-    ratios, bases, signs = dynamics.square_spectra(jacobians, guard._columns, norms, None, True, None, settle)
+    ratios, bases, signs, _ = dynamics.square_spectra(jacobians, guard._columns, norms, None, True, None, settle)
     closed = singular.dense_spectra(jacobians, guard._columns, norms)
     dip = int(np.argmin(exact))
     assert exact[dip] < 1e-2 < exact[0]
@@ -484,3 +491,45 @@ def test_the_envelope_cholesky_is_numpys_and_tests_the_eigenvalues():
         assert singular._cholesky(G, 1.0, -s, L) == (eigenvalues[0] > s)
     for s in (eigenvalues[-1] * (1 - 1e-6), eigenvalues[-1] * (1 + 1e-6)):
         assert singular._cholesky(G, -1.0, s, L) == (eigenvalues[-1] < s)
+
+
+def test_a_fall_s_figure_is_closed():
+    """A fall of the ratio (a hundredfold over a step, below NEAR_SINGULAR: ``Guard.check_branches`` records a
+    crossing there with the low end's ratio as its figure) is closed at its low end, though its bracket decides
+    every comparison and is not the run's smallest: a reported figure is never a bracket's end (i25-guard6 found
+    the bracket's upper end, up to LOOSE off, reported)."""
+    upper = np.array([0.05, 2e-4, 1e-4, 1.5e-4])
+    lower = upper * (1.0 - singular.LOOSE)
+    lower[2] = upper[2]  # the smallest, closed
+    thresholds = np.array([1e-8, dynamics.NEAR_SINGULAR])
+    done = singular.settled(lower, upper, np.ones(4), thresholds, dynamics.FALL)
+    assert not done[1]  # the fall's low end: its figure is reported
+    assert done[0] and done[3]  # the fall's high end and a time that neither falls nor dips: brackets
+    assert upper[1] < dynamics.FALL * upper[0] and not dynamics.dips(upper)[0]  # a fall, no dip, not the smallest
+
+
+def test_a_certified_step_moves_psi_q_by_less_than_sigma_m(swing):
+    """``singular._scale``'s bound of |J_k - J_k-1|_2 holds (numpy's 2-norm of the scaled difference is below it), and
+    a step ``certified`` from it is one over which [J; T^T] (T the basis at t_k-1) cannot turn singular: its
+    smallest singular value at t_k-1, min(sigma_m, 1), is above the move (Weyl's inequality), and numpy's
+    det [J_k; T^T] keeps the sign of det [J_k-1; T^T]."""
+    system, t, qs, jacobians = swing
+    guard = Guard(system, qs[0], 1e-3, 1e-8)
+    norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
+    scaled = dynamics.scale_rows(jacobians, guard._columns, norms)
+    position, keys, starts, indices = singular._band_structure(np.any(jacobians != 0.0, axis=0))
+    J, previous, sums = np.zeros(scaled.shape[1:]), np.zeros(scaled.shape[1:]), np.empty(scaled.shape[2])
+    columns, norms = np.ascontiguousarray(guard._columns), np.ascontiguousarray(norms)
+    moved = [singular._scale(jacobians, k, columns, norms, starts, indices, indices, J, previous, sums)
+             for k in range(len(t))][1:]  # fmt: skip
+    np.testing.assert_array_equal(J, scaled[-1])  # the last time's scaled Psi_q, as scale_rows makes it
+    exact = np.linalg.norm(np.diff(scaled, axis=0), ord=2, axis=(1, 2))
+    assert np.all(exact <= np.array(moved) * (1.0 + 1e-12))
+    s = np.linalg.svd(scaled, compute_uv=False)
+    ratios = s[:, -1] / s[:, 0]
+    tangents, signs = null_space_bases(scaled, signs=True)
+    steps = [k for k in range(len(moved)) if singular.certified(moved[k], ratios[k])]
+    assert 0 < len(steps) < len(moved)  # the steps next to the flat position are not certified
+    for k in steps:
+        assert moved[k] < min(s[k, -1], 1.0)
+        assert np.sign(np.linalg.det(np.vstack([scaled[k + 1], tangents[k].T]))) == signs[k]
