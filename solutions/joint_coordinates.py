@@ -647,17 +647,19 @@ class SpatialTree:
         nb = self.nb
         X, V = np.zeros((nb + 1, 7)), np.zeros((nb + 1, 7))  # ground's row last: at the origin, not turned
         X[:nb], V[:nb], X[nb, 3] = q.reshape(nb, 7), qd.reshape(nb, 7), 1.0
-        omega = [np.array(twice_g(_floats(X[b, 3:]), _floats(V[b, 3:]))) for b in range(nb + 1)]  # eq. 8.16
+        p, pd = [tuple(row[3:]) for row in X.tolist()], [tuple(row[3:]) for row in V.tolist()]  # floats, at once
+        omega = [np.array(twice_g(p[b], pd[b])) for b in range(nb + 1)]  # eq. 8.16
         positions, velocities = np.empty(self.n_positions), np.empty(self.k)
         for joint in self.joints:
             P, C, at, c = joint.parent, joint.child, joint.position, joint.velocity
-            pP, pC = _floats(X[P, 3:]), _floats(X[C, 3:])
-            AP, AC = np.reshape(rotation9(pP), (3, 3)), np.reshape(rotation9(pC), (3, 3))
+            pP, pC = p[P], p[C]
+            AP, AC = np.array(rotation9(pP)).reshape(3, 3), np.array(rotation9(pC)).reshape(3, 3)
             relative = qmul(qmul(_conjugate(joint.a), qmul(_conjugate(pP), pC)), _conjugate(joint.c))
             w_rel = omega[C] - omega[P]
             if joint.kind == "spherical":
                 positions[at : at + 4] = relative
-                velocities[c : c + 3] = (AC @ np.column_stack(joint.frame)).T @ w_rel
+                frame = np.array(joint.frame).T.copy()  # the child's joint axes as columns (np.column_stack's)
+                velocities[c : c + 3] = (AC @ frame).T @ w_rel
                 continue
             h = AP @ joint.axis
             if joint.kind == "revolute":

@@ -56,10 +56,11 @@ def singular_inertia(model: Model) -> list[int]:
         ]
     stacked = np.array(inertias)  # every body's 3 x 3 at once (the same LAPACK call per matrix as one by one)
     smallest = np.linalg.eigvalsh(0.5 * (stacked + np.swapaxes(stacked, 1, 2)))[:, 0]
+    scales = np.abs(stacked).max(axis=(1, 2))  # each body's largest |entry|, all at once (no np.max a body)
     return [
         k
-        for k, (body, inertia, least) in enumerate(zip(model.bodies, inertias, smallest, strict=True))
-        if body.has_mass and not least > 1e-12 * np.max(np.abs(inertia))
+        for k, (body, least, scale) in enumerate(zip(model.bodies, smallest.tolist(), scales.tolist(), strict=True))
+        if body.has_mass and not least > 1e-12 * scale
     ]
 
 

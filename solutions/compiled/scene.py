@@ -13,6 +13,7 @@ No numba here: this module is imported to decide whether the compiled engine can
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -86,15 +87,15 @@ def packed(kernels: list, slots: tuple[str, ...]) -> tuple[np.ndarray, np.ndarra
     when the scene lacks it). Three arrays, whatever the scene: a compiled call passes each array it takes as
     several machine words, and one int and one float array per slot (46 arrays) made every right-hand side 1.2-2.4x
     slower (benchmarks/results/rhs_cost.md)."""
-    present = {name: (ints, floats) for name, ints, floats in kernels}
+    present = {name: (ints, floats) for name, ints, floats in kernels if ints.shape[0]}  # those with rows
     blocks = [present.get(name) for name in slots]
     counts = [0 if block is None else block[0].shape[0] for block in blocks]
-    offsets = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
+    offsets = np.array([0, *itertools.accumulate(counts)], dtype=np.int64)
     width_i = max([block[0].shape[1] for block in blocks if block is not None] + [1])
     width_f = max([block[1].shape[1] for block in blocks if block is not None] + [1])
     ints, floats = np.zeros((offsets[-1], width_i), dtype=np.int64), np.zeros((offsets[-1], width_f))
     for s, block in enumerate(blocks):
-        if counts[s]:  # a kernel without rows has nothing to copy (most of a dimension's kernels, in a scene)
+        if block is not None:  # a kernel without rows has nothing to copy (most of a dimension's kernels, in a scene)
             ints[offsets[s] : offsets[s + 1], : block[0].shape[1]] = block[0]
             floats[offsets[s] : offsets[s + 1], : block[1].shape[1]] = block[1]
     return ints, floats, offsets
@@ -140,9 +141,10 @@ class Functions:
 
 
 def _group(rows: dict, name: str, ints: list, floats: list) -> None:
-    rows.setdefault(name, ([], []))
-    rows[name][0].append([int(v) for v in ints])
-    rows[name][1].append([float(v) for v in floats])
+    """One element's row of kernel ``name``: its ints and floats, made arrays (int64, float) by ``scene_arrays``."""
+    int_rows, float_rows = rows.setdefault(name, ([], []))
+    int_rows.append(ints)
+    float_rows.append(floats)
 
 
 def scene_arrays(rows: dict, order: tuple[str, ...]) -> list[tuple[str, np.ndarray, np.ndarray]]:
