@@ -55,7 +55,10 @@ def singular_inertia(model: Model) -> list[int]:
             if body.has_mass and not least > 1e-12 * abs(least)
         ]
     stacked = np.array(inertias)  # every body's 3 x 3 at once (the same LAPACK call per matrix as one by one)
-    smallest = np.linalg.eigvalsh(0.5 * (stacked + np.swapaxes(stacked, 1, 2)))[:, 0]
+    if np.count_nonzero(stacked) == np.count_nonzero(stacked.diagonal(axis1=1, axis2=2)):  # principal axes, all
+        smallest = stacked.diagonal(axis1=1, axis2=2).min(axis=1)  # the moments are the eigenvalues (exactly)
+    else:
+        smallest = np.linalg.eigvalsh(0.5 * (stacked + np.swapaxes(stacked, 1, 2)))[:, 0]
     scales = np.abs(stacked).max(axis=(1, 2))  # each body's largest |entry|, all at once (no np.max a body)
     return [
         k
