@@ -107,12 +107,12 @@ class SpatialMassMatrix:
 
     def __init__(self, model: Model):
         self.model = model
-        self.weights = [float(np.trace(body.inertia)) / 3.0 for body in model.bodies]
-        n = 7 * len(model.bodies)
-        self.translational = np.zeros((n, n))  # the constant m I blocks of every body, zero elsewhere
-        for k, body in enumerate(model.bodies):
-            self.translational[7 * k : 7 * k + 3, 7 * k : 7 * k + 3] = body.mass * np.eye(3)
         self.inertias = [np.asarray(body.inertia, dtype=float) for body in model.bodies]
+        stacked = np.array(self.inertias).reshape(-1, 3, 3)
+        self.weights = (np.trace(stacked, axis1=1, axis2=2) / 3.0).tolist()  # every body's tr(J') / 3 at once
+        diagonal = np.zeros((len(model.bodies), 7))  # the constant m I blocks of every body, zero elsewhere
+        diagonal[:, :3] = np.array([body.mass for body in model.bodies], dtype=float)[:, None]
+        self.translational = np.diag(diagonal.ravel())
 
     def __call__(self, q: np.ndarray) -> np.ndarray:
         """``dynamic_mass_matrix(model, q)``, the same numbers, from the m I blocks kept since the start: at every
