@@ -348,7 +348,7 @@ def describe(system, M, forces) -> Scene:
             loads = scene_arrays(_spatial_forces(forces, functions), SPATIAL_FORCES)
             scene.Q0 = np.asarray(forces.gravity, dtype=float).copy()
             scene.masses = np.array([b.mass for b in model.bodies], dtype=float)
-            scene.inertias = np.array([np.asarray(b.inertia, dtype=float) for b in model.bodies]).reshape(-1, 3, 3)
+            scene.inertias = np.array(M.inertias, dtype=float).reshape(-1, 3, 3)  # the model's, as M holds them
             scene.weights = np.array(M.weights, dtype=float)
     except Unsupported as why:
         scene.unsupported = str(why)
