@@ -33,6 +33,7 @@ The mass matrix is constant (planar body coordinates), so its inverse is made on
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -119,14 +120,21 @@ class Formulation:
                 "constraint error grow as exp(|alpha| t) instead of dying out (eq. 5.29)"
             )
         self._mass = M if callable(M) else None  # a spatial model's M(q): evaluated at every state
-        # a point mass: M^-1 does not exist (``mass_orthogonal_correction``); a spatial M(q) is singular with a body's
-        # inertia (``singular_inertia``), a matrix where it has an eigenvalue <= 0
-        self.singular_mass = bool(singular_inertia(system.model)) if callable(M) else not smallest_eigenvalue(M) > 0.0
         if self._mass is None:
             self.factor_mass(M)
         self._Q_constant = (
             forces.generalized_forces(np.zeros(self.n), np.zeros(self.n), 0.0) if forces.is_constant else None
         )
+
+    @functools.cached_property
+    def singular_mass(self) -> bool:
+        """Whether M is singular (a point mass: M^-1 does not exist, ``mass_orthogonal_correction``): a spatial M(q)
+        with a body's singular inertia (``singular_inertia``), a matrix with an eigenvalue <= 0. Decided where first
+        asked (a projection's correction): the other formulations never ask (an eigensolver of a spatial model's
+        inertias, 13-18 us of every run's start)."""
+        if callable(self.masses):
+            return bool(singular_inertia(self.system.model))
+        return not smallest_eigenvalue(self.masses) > 0.0
 
     # -- pieces every formulation uses
     def factor_mass(self, M: np.ndarray) -> None:

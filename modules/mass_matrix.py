@@ -42,20 +42,30 @@ def singular_inertia(model: Model) -> list[int]:
     """Bodies with mass whose inertia about the centre of mass is singular: a point mass (inertia 0, spatial
     [0, 0, 0]) or a spatial body with a zero principal moment (a slender rod's about its axis). M is then
     singular; the equations of motion stay solvable where it is regular on the motions the joints allow (eq. 5.44)."""
+    if all(isinstance(body.inertia, float | int) for body in model.bodies):  # planar moments, as a file gives them
+        return _singular_moments(model, [float(body.inertia) for body in model.bodies])
     inertias = [np.atleast_2d(np.asarray(body.inertia, dtype=float)) for body in model.bodies]
-    if all(inertia.shape == (1, 1) for inertia in inertias):  # planar: the moment is its own eigenvalue
-        moments = [float(inertia[0, 0]) for inertia in inertias]  # and its own largest |entry|: no np.max a body
-        return [
-            k
-            for k, (body, least) in enumerate(zip(model.bodies, moments, strict=True))
-            if body.has_mass and not least > 1e-12 * abs(least)
-        ]
+    if all(inertia.shape == (1, 1) for inertia in inertias):  # planar moments given as arrays
+        return _singular_moments(model, [float(inertia[0, 0]) for inertia in inertias])
     stacked = np.array(inertias)  # every body's 3 x 3 at once (the same LAPACK call per matrix as one by one)
-    smallest = np.linalg.eigvalsh(0.5 * (stacked + np.swapaxes(stacked, 1, 2)))[:, 0]
+    if np.count_nonzero(stacked) == np.count_nonzero(stacked.diagonal(axis1=1, axis2=2)):  # principal axes, all
+        smallest = stacked.diagonal(axis1=1, axis2=2).min(axis=1)  # the moments are the eigenvalues (exactly)
+    else:
+        smallest = np.linalg.eigvalsh(0.5 * (stacked + np.swapaxes(stacked, 1, 2)))[:, 0]
+    scales = np.abs(stacked).max(axis=(1, 2))  # each body's largest |entry|, all at once (no np.max a body)
     return [
         k
-        for k, (body, inertia, least) in enumerate(zip(model.bodies, inertias, smallest, strict=True))
-        if body.has_mass and not least > 1e-12 * np.max(np.abs(inertia))
+        for k, (body, least, scale) in enumerate(zip(model.bodies, smallest.tolist(), scales.tolist(), strict=True))
+        if body.has_mass and not least > 1e-12 * scale
+    ]
+
+
+def _singular_moments(model: Model, moments: list[float]) -> list[int]:
+    """``singular_inertia`` of planar bodies: a moment is its own eigenvalue and its own largest |entry|."""
+    return [
+        k
+        for k, (body, least) in enumerate(zip(model.bodies, moments, strict=True))
+        if body.has_mass and not least > 1e-12 * abs(least)
     ]
 
 

@@ -259,20 +259,27 @@ def check_setting(name: str, value, source: str | None = None) -> None:
     if value is None:
         return
     meta = _metadata()[name]
-    takes, said = meta["takes"], f"{name} = {value!r}" if source is None else f"{source} {value!r}"
+    takes = meta["takes"]
     if takes == NAME:
         if value not in meta["names"]:
-            named = f"unknown {name} {value!r}" if source is None else f"{said}: unknown {name}"
+            named = f"unknown {name} {value!r}" if source is None else f"{_said(name, value, source)}: unknown {name}"
             raise SettingError(f"{named} (one of: {', '.join(meta['names'])})")
         return
     if takes == FLAG:
         if not isinstance(value, bool):
-            raise SettingError(f"{said}: must be true or false")
+            raise SettingError(f"{_said(name, value, source)}: must be true or false")
         return
-    number = isinstance(value, numbers.Integral if takes == WHOLE else numbers.Real) and not isinstance(value, bool)
+    exact = type(value) is int or (type(value) is float and takes != WHOLE)  # the usual ones, without the ABCs' check
+    kind = numbers.Integral if takes == WHOLE else numbers.Real
+    number = exact or (isinstance(value, kind) and not isinstance(value, bool))
     if not number or not math.isfinite(value) or value < 0 or (takes != OFF_AT_ZERO and value == 0):
         wanted = {WHOLE: "a whole number >= 1", OFF_AT_ZERO: "a number >= 0"}.get(takes, "a number > 0")
-        raise SettingError(f"{said}: must be {wanted}")
+        raise SettingError(f"{_said(name, value, source)}: must be {wanted}")
+
+
+def _said(name: str, value, source: str | None) -> str:
+    """How the user wrote a refused value: 'rtol = -1.0' from Python, '--rtol -1.0' or 'simulation.rtol -1.0'."""
+    return f"{name} = {value!r}" if source is None else f"{source} {value!r}"
 
 
 def formulations_taking(option: str) -> list[str]:

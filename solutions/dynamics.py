@@ -675,7 +675,7 @@ def run_stages(run: Run, formulation: str, integrator: str) -> tuple[Result, Mad
             result.info["notes"] = notes + result.info.get("notes", [])
         return result, Made(start)
     plan, equations, guard, raised = ode_motion(run, start)
-    times = np.linspace(0.0, settings.t_end, settings.steps + 1)
+    times = output_grid(settings.t_end, settings.steps)
     try:  # stage 3: the engine
         z0 = start.rates.initial_state(equations) if start.rates is not None else equations.initial_state(q, qd, 0.0)
         history, stats, compiled, chosen = integrate_motion(run, plan, equations, guard, z0, times)
@@ -708,6 +708,14 @@ def run_stages(run: Run, formulation: str, integrator: str) -> tuple[Result, Mad
             f"rtol = max({MIN_RTOL:g}, min({DEFAULT_RTOL:g}, accuracy / periods^2)) with {plan.periods:.3g} periods"
         )
     return result, Made(start, plan, equations)
+
+
+def output_grid(t_end: float, steps: int) -> np.ndarray:
+    """The output times t_k = k (t_end / steps), k = 0 ... steps, the last exactly t_end: ``np.linspace(0, t_end,
+    steps + 1)``'s own arithmetic (the same bits), without its dispatch (4 us; 13 at a call's cold start)."""
+    times = np.arange(steps + 1) * (t_end / steps)
+    times[-1] = t_end
+    return times
 
 
 def judge_divergence(run: Run, result: Result, made: Made) -> Result:
@@ -2366,7 +2374,7 @@ def _joint_extent(model) -> float:
     if not points:
         return 0.0
     try:
-        return float(np.max(np.abs(np.array(points, dtype=float))))
+        return float(np.abs(np.array(points, dtype=float)).max())
     except ValueError:  # points of different lengths
         return max(float(np.max(np.abs(np.asarray(p, dtype=float)))) for p in points)
 

@@ -647,18 +647,21 @@ class SpatialTree:
         nb = self.nb
         X, V = np.zeros((nb + 1, 7)), np.zeros((nb + 1, 7))  # ground's row last: at the origin, not turned
         X[:nb], V[:nb], X[nb, 3] = q.reshape(nb, 7), qd.reshape(nb, 7), 1.0
-        omega = [np.array(twice_g(_floats(X[b, 3:]), _floats(V[b, 3:]))) for b in range(nb + 1)]  # eq. 8.16
+        p, pd = [tuple(row[3:]) for row in X.tolist()], [tuple(row[3:]) for row in V.tolist()]  # floats, at once
+        omega = [np.array(twice_g(p[b], pd[b])) for b in range(nb + 1)]  # eq. 8.16
         positions, velocities = np.empty(self.n_positions), np.empty(self.k)
         for joint in self.joints:
             P, C, at, c = joint.parent, joint.child, joint.position, joint.velocity
-            pP, pC = _floats(X[P, 3:]), _floats(X[C, 3:])
-            AP, AC = np.reshape(rotation9(pP), (3, 3)), np.reshape(rotation9(pC), (3, 3))
+            pP, pC = p[P], p[C]
+            AC = np.array(rotation9(pC)).reshape(3, 3)
             relative = qmul(qmul(_conjugate(joint.a), qmul(_conjugate(pP), pC)), _conjugate(joint.c))
             w_rel = omega[C] - omega[P]
             if joint.kind == "spherical":
                 positions[at : at + 4] = relative
-                velocities[c : c + 3] = (AC @ np.column_stack(joint.frame)).T @ w_rel
+                frame = np.array(joint.frame).T.copy()  # the child's joint axes as columns (np.column_stack's)
+                velocities[c : c + 3] = (AC @ frame).T @ w_rel
                 continue
+            AP = np.array(rotation9(pP)).reshape(3, 3)
             h = AP @ joint.axis
             if joint.kind == "revolute":
                 positions[at], velocities[c] = 2.0 * math.atan2(relative[3], relative[0]), h @ w_rel
@@ -726,15 +729,18 @@ class JointCoordinates(Formulation):
         self._y = self._motion = self._qdd = self._theta_dd = None
         self._forced = bool(getattr(forces, "elements", None) or getattr(forces, "user_forces", None))
         if model.dimension == 2:
-            diagonal = np.diag(self.M)
-            self._m = diagonal if np.array_equal(self.M, np.diag(diagonal)) else None  # M diagonal: D^T M = D^T * m
+            diagonal = np.diag(self.M)  # M diagonal (no nonzero off it): D^T M = D^T * m
+            self._m = diagonal if np.count_nonzero(self.M) == np.count_nonzero(diagonal) else None
         else:  # constant: diag(m I, J') per body, and the weights
-            self._body_mass = np.zeros((6 * nb, 6 * nb))
-            for k, b in enumerate(model.bodies):
-                self._body_mass[6 * k : 6 * k + 3, 6 * k : 6 * k + 3] = b.mass * np.eye(3)
-                self._body_mass[6 * k + 3 : 6 * k + 6, 6 * k + 3 : 6 * k + 6] = b.inertia
             self._masses = [float(b.mass) for b in model.bodies]
-            self._inertias = [_floats(np.asarray(b.inertia).ravel()) for b in model.bodies]
+            inertias = np.array([b.inertia for b in model.bodies], dtype=float).reshape(nb, 3, 3)
+            blocks = np.zeros((nb, 6, 6))  # each body's diag(m I, J'), set into M's diagonal all at once
+            blocks[:, :3, :3] = np.multiply.outer(self._masses, np.eye(3))
+            blocks[:, 3:, 3:] = inertias
+            self._body_mass = np.zeros((nb, 6, nb, 6))
+            self._body_mass[range(nb), :, range(nb), :] = blocks
+            self._body_mass = self._body_mass.reshape(6 * nb, 6 * nb)
+            self._inertias = [tuple(inertia) for inertia in inertias.reshape(nb, 9).tolist()]
             self._weights = [scale(b.mass, _floats(model.gravity)) for b in model.bodies]
 
     def start_over(self) -> None:

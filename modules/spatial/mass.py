@@ -35,6 +35,8 @@ every joint and driver are the same as with M_p.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ..io.model import Model
@@ -107,12 +109,17 @@ class SpatialMassMatrix:
 
     def __init__(self, model: Model):
         self.model = model
-        self.weights = [float(np.trace(body.inertia)) / 3.0 for body in model.bodies]
-        n = 7 * len(model.bodies)
-        self.translational = np.zeros((n, n))  # the constant m I blocks of every body, zero elsewhere
-        for k, body in enumerate(model.bodies):
-            self.translational[7 * k : 7 * k + 3, 7 * k : 7 * k + 3] = body.mass * np.eye(3)
         self.inertias = [np.asarray(body.inertia, dtype=float) for body in model.bodies]
+        stacked = np.array(self.inertias).reshape(-1, 3, 3)
+        self.weights = (np.trace(stacked, axis1=1, axis2=2) / 3.0).tolist()  # every body's tr(J') / 3 at once
+
+    @functools.cached_property
+    def translational(self) -> np.ndarray:
+        """The constant m I blocks of every body, zero elsewhere: made at the first M(q) (a compiled run, whose
+        module keeps the masses itself, never evaluates one)."""
+        diagonal = np.zeros((len(self.model.bodies), 7))
+        diagonal[:, :3] = np.array([body.mass for body in self.model.bodies], dtype=float)[:, None]
+        return np.diag(diagonal.ravel())
 
     def __call__(self, q: np.ndarray) -> np.ndarray:
         """``dynamic_mass_matrix(model, q)``, the same numbers, from the m I blocks kept since the start: at every

@@ -13,6 +13,7 @@ No numba here: this module is imported to decide whether the compiled engine can
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -86,15 +87,15 @@ def packed(kernels: list, slots: tuple[str, ...]) -> tuple[np.ndarray, np.ndarra
     when the scene lacks it). Three arrays, whatever the scene: a compiled call passes each array it takes as
     several machine words, and one int and one float array per slot (46 arrays) made every right-hand side 1.2-2.4x
     slower (benchmarks/results/rhs_cost.md)."""
-    present = {name: (ints, floats) for name, ints, floats in kernels}
+    present = {name: (ints, floats) for name, ints, floats in kernels if ints.shape[0]}  # those with rows
     blocks = [present.get(name) for name in slots]
     counts = [0 if block is None else block[0].shape[0] for block in blocks]
-    offsets = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
+    offsets = np.array([0, *itertools.accumulate(counts)], dtype=np.int64)
     width_i = max([block[0].shape[1] for block in blocks if block is not None] + [1])
     width_f = max([block[1].shape[1] for block in blocks if block is not None] + [1])
     ints, floats = np.zeros((offsets[-1], width_i), dtype=np.int64), np.zeros((offsets[-1], width_f))
     for s, block in enumerate(blocks):
-        if counts[s]:  # a kernel without rows has nothing to copy (most of a dimension's kernels, in a scene)
+        if block is not None:  # a kernel without rows has nothing to copy (most of a dimension's kernels, in a scene)
             ints[offsets[s] : offsets[s + 1], : block[0].shape[1]] = block[0]
             floats[offsets[s] : offsets[s + 1], : block[1].shape[1]] = block[1]
     return ints, floats, offsets
@@ -140,9 +141,16 @@ class Functions:
 
 
 def _group(rows: dict, name: str, ints: list, floats: list) -> None:
-    rows.setdefault(name, ([], []))
-    rows[name][0].append([int(v) for v in ints])
-    rows[name][1].append([float(v) for v in floats])
+    """One element's row of kernel ``name``: its ints and floats, made arrays (int64, float) by ``scene_arrays``."""
+    int_rows, float_rows = rows.setdefault(name, ([], []))
+    int_rows.append(ints)
+    float_rows.append(floats)
+
+
+def _entries(*vectors) -> list[float]:
+    """The entries of body-frame vectors (arrays, or sequences), one after the other, as Python floats: an array's
+    by ``tolist`` (unpacking one makes a numpy scalar of every entry: 1.6 us an element against 0.4)."""
+    return [v for x in vectors for v in (x.tolist() if isinstance(x, np.ndarray) else x)]
 
 
 def scene_arrays(rows: dict, order: tuple[str, ...]) -> list[tuple[str, np.ndarray, np.ndarray]]:
@@ -196,7 +204,7 @@ def planar_constraints(system, functions: Functions) -> dict:
         i, j, row = element.i, element.j, where.start
         kind = type(element)
         if kind is pj.Revolute:
-            _group(rows, "planar_revolute", [i, j, row], [*element.si, *element.sj])
+            _group(rows, "planar_revolute", [i, j, row], _entries(element.si, element.sj))
         elif kind is pj.PinInSlot:
             _group(rows, "planar_along", [i, j, row, -1], [*element.si, *element.sj, *element._normal, 0.0, 0.0])
         elif kind is pj.Translation:
@@ -211,7 +219,7 @@ def planar_constraints(system, functions: Functions) -> dict:
             f = functions.index(element.length)
             if f < 0:  # a zero length: the function table needs an entry anyway
                 f = functions.index(Constant(1e-300))
-            _group(rows, "planar_distance", [i, j, row, f], [*element.si, *element.sj])
+            _group(rows, "planar_distance", [i, j, row, f], _entries(element.si, element.sj))
         elif kind is pj.Gear:
             radii = [element.radius_i, element.radius_j, element.sigma, element.c0]
             _group(rows, "planar_gear", [i, j, row], [*element.si, *element.sj, *radii])
@@ -262,11 +270,11 @@ def spatial_constraints(system, functions: Functions) -> dict:
         elif kind is sj.Joint:
             for part in element.parts:
                 if type(part) is sj.Spherical:
-                    _group(rows, "spatial_spherical", [i, j, row], [*part.si, *part.sj])
+                    _group(rows, "spatial_spherical", [i, j, row], _entries(part.si, part.sj))
                 elif type(part) is sj.Dot1:
-                    _group(rows, "spatial_dot1", [i, j, row], [*part.ai, *part.aj])
+                    _group(rows, "spatial_dot1", [i, j, row], _entries(part.ai, part.aj))
                 elif type(part) is sj.Dot2:
-                    _group(rows, "spatial_dot2", [i, j, row], [*part.ai, *part.si, *part.sj])
+                    _group(rows, "spatial_dot2", [i, j, row], _entries(part.ai, part.si, part.sj))
                 else:
                     raise Unsupported(f"a {type(part).__name__} constraint in joint {element.name}")
                 row += len(part.labels)
@@ -327,11 +335,11 @@ def describe(system, M, forces) -> Scene:
         if forces.user_forces:
             raise Unsupported("user forces (Python callables)")
         if model.dimension == 2:
-            if callable(M) or not np.array_equal(M, np.diag(np.diag(M))):
+            if callable(M) or np.count_nonzero(M) != np.count_nonzero(np.diagonal(M)):  # a nonzero off the diagonal
                 raise Unsupported("a planar mass matrix that is not diagonal")
             constraints = scene_arrays(planar_constraints(system, functions), PLANAR_CONSTRAINTS)
             loads = scene_arrays(_planar_forces(forces, functions), PLANAR_FORCES)
-            scene.mass_diagonal = np.diag(M).astype(float)
+            scene.mass_diagonal = np.diagonal(M).astype(float)
             scene.Q0 = np.asarray(forces.gravity, dtype=float).copy()
         else:
             if type(M).__name__ != "SpatialMassMatrix":
@@ -340,7 +348,7 @@ def describe(system, M, forces) -> Scene:
             loads = scene_arrays(_spatial_forces(forces, functions), SPATIAL_FORCES)
             scene.Q0 = np.asarray(forces.gravity, dtype=float).copy()
             scene.masses = np.array([b.mass for b in model.bodies], dtype=float)
-            scene.inertias = np.array([np.asarray(b.inertia, dtype=float) for b in model.bodies]).reshape(-1, 3, 3)
+            scene.inertias = np.array(M.inertias, dtype=float).reshape(-1, 3, 3)  # the model's, as M holds them
             scene.weights = np.array(M.weights, dtype=float)
     except Unsupported as why:
         scene.unsupported = str(why)

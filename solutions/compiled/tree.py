@@ -36,7 +36,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..joint_coordinates import cut_elements, tree_order
 from .codegen import (
     constraint_calls,
     force_calls,
@@ -117,28 +116,30 @@ def describe(scene: Scene, formulation) -> TreeScene:
     ints = np.array(rows, dtype=np.int64).reshape(-1, 6 + k)
     floats = np.array([_row(j) for j in joints], dtype=float).reshape(-1, 35)
     system = formulation.system
-    cut = {id(element) for element in cut_elements(system, tree_order(system)[0])} if formulation.cut else set()
-    rows, bodies = [], []
-    for element, where in zip(system.elements, system.rows, strict=True):
-        if id(element) in cut:
-            rows += range(where.start, where.stop)
-            bodies += [element.i, element.j] * (where.stop - where.start)
-    tree = TreeScene(scene, ints, floats, formulation.tree.n_positions, k, np.array(rows, dtype=np.int64))
-    tree.cut_bodies = np.array(bodies, dtype=np.int64)
-    tree.owners = np.array(_owners(system, joints), dtype=np.int64)
+    owners, cut, bodies = _owners(system, joints)
+    tree = TreeScene(scene, ints, floats, formulation.tree.n_positions, k, cut, owners=owners, cut_bodies=bodies)
     tree.row_index = owned_rows(tree.owners, len(system.model.bodies))
     if not joints:
         tree.unsupported = "a tree without joints"
     return tree
 
 
-def _owners(system, joints) -> list[int]:
-    """The owner of every constraint row of the tree (``TreeScene.owners``): the child of its tree joint, or the
+def _owners(system, joints) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(the owner of every constraint row of the tree (``TreeScene.owners``): the child of its tree joint, or the
     body of its Euler-parameter normalization (element ``<body>.p``); -1 for a cut row (a cut joint's or a
-    driver's), whose multiplier comes from the augmented system (``cut_accelerations``)."""
+    driver's: ``joint_coordinates.cut_elements``), whose multiplier comes from the augmented system
+    (``cut_accelerations``); the cut rows; their elements' two bodies, row after row (``TreeScene.cut_bodies``)),
+    in one pass over the elements (a loop: faster than numpy's repeat up to a loop chain of 16 at least)."""
     child = {joint.name: joint.child for joint in joints}
     child |= {f"{body.name}.p": b for b, body in enumerate(system.model.bodies)}
-    return [child.get(element.name, -1) for element in system.elements for _ in element.labels]
+    owners, cut, bodies = [], [], []
+    for element, where in zip(system.elements, system.rows, strict=True):
+        owner, size = child.get(element.name, -1), where.stop - where.start
+        owners += [owner] * size
+        if owner < 0:
+            cut += range(where.start, where.stop)
+            bodies += [element.i, element.j] * size
+    return tuple(np.array(x, dtype=np.int64) for x in (owners, cut, bodies))
 
 
 def owned_rows(owners: np.ndarray, nb: int) -> np.ndarray:
@@ -146,12 +147,10 @@ def owned_rows(owners: np.ndarray, nb: int) -> np.ndarray:
     body b's at [nb + 1 + start[b], nb + 1 + start[b + 1]) (a counting sort, row order kept within a body; cut rows,
     owner -1, left out). Made once per scene, where ``tree_multipliers`` sorted them at every output time (two
     allocations and three passes over the rows: ~0.25 us of an evaluation at two bodies)."""
-    owned = owners >= 0
-    counts = np.bincount(owners[owned], minlength=nb)
-    start = np.concatenate([[0], np.cumsum(counts)])
-    rows = np.flatnonzero(owned)
-    rows = rows[np.argsort(owners[owned], kind="stable")]
-    return np.concatenate([start, rows]).astype(np.int64)
+    counts = np.bincount(owners + 1, minlength=nb + 1)  # the cut rows' count first (owner -1), then each body's
+    start = np.cumsum(counts) - counts[0]  # body b's rows at [start[b], start[b + 1]), counted past the cut rows
+    rows = np.argsort(owners, kind="stable")[counts[0] :]  # by owner, row order kept; the cut rows first, left out
+    return np.concatenate([start, rows])
 
 
 VECTORS = (("xi", "a"), ("Q", "n"), ("power", "3"), ("q", "n"), ("qd", "n"), ("thdd", "k"), ("mu", "ncut"))

@@ -6,6 +6,7 @@ says ``frame: body``. Each is turned into the body frame once, here: s' = A(phi)
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -32,9 +33,9 @@ COORDINATE_INDEX = {"x": 0, "y": 1, "phi": 2}
 
 def initial_coordinates(model: Model) -> tuple[np.ndarray, np.ndarray]:
     """q0 and q0' stacked body after body: (x, y, phi) and (x', y', phi') as the file gives them."""
-    q = np.concatenate([[*b.location, b.orientation] for b in model.bodies])
-    qd = np.concatenate([[*b.velocity, b.angular_velocity] for b in model.bodies])
-    return q.astype(float), qd.astype(float)
+    q = np.array([[*b.location, b.orientation] for b in model.bodies], dtype=float).reshape(-1)
+    qd = np.array([[*b.velocity, b.angular_velocity] for b in model.bodies], dtype=float).reshape(-1)
+    return q, qd
 
 
 class _Frames:
@@ -42,7 +43,13 @@ class _Frames:
 
     def __init__(self, model: Model):
         self.model = model
-        self.q0, _ = initial_coordinates(model)
+
+    @functools.cached_property
+    def q0(self) -> np.ndarray:
+        """q0 of the file (``initial_coordinates``), made where a global point or axis is first read: a model
+        whose elements are all given in body frames, or that has none (the force elements of a pendulum under
+        gravity), never needs it (5-10 us of every run's force model)."""
+        return initial_coordinates(self.model)[0]
 
     def q(self, body: int) -> np.ndarray:
         return np.zeros(3) if body < 0 else self.q0[3 * body : 3 * body + 3]

@@ -1,0 +1,123 @@
+"""The start of a ``forward_dynamics`` call, made cheaper without changing what it makes (issue 25).
+
+A call builds M, the force model, the joint-coordinates object and the compiled engine's description of the scene
+anew (nothing kept across calls: ``dynamics.prepare`` is the way to keep them). These tests hold the faster
+constructions to what they replace: the output grid is ``np.linspace``'s, the tree's cut rows are those of the cut
+elements, the singular inertias are the eigensolver's verdicts, and what only some runs read is made where read.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from benchmarks import chains  # noqa: E402
+from solutions import dynamics  # noqa: E402
+from solutions.assembly import build_system  # noqa: E402
+from solutions.compiled import describe, plan  # noqa: E402
+from solutions.io.model import load_model  # noqa: E402
+from solutions.joint_coordinates import cut_elements, tree_order  # noqa: E402
+from solutions.mass_matrix import singular_inertia  # noqa: E402
+from solutions.planar import build  # noqa: E402
+
+MODELS = ROOT / "course" / "models"
+
+
+@pytest.mark.parametrize("t_end, steps", [(1.0, 100), (2.5, 7), (10.0, 1000), (0.3, 3), (1e-3, 17), (7, 1), (3.7, 251)])
+def test_the_output_grid_is_linspace_bit_for_bit(t_end, steps):
+    expected = np.linspace(0.0, t_end, steps + 1)
+    grid = dynamics.output_grid(t_end, steps)
+    assert grid.dtype == expected.dtype and grid.tobytes() == expected.tobytes()
+
+
+def _tree(model):
+    system, q0, qd0 = build_system(model)
+    M, forces = dynamics.dynamic_model(system, None, None)
+    formulation = dynamics.make_formulation("joint-coordinates", system, M, forces)
+    formulation.initial_state(q0, qd0, 0.0)
+    return system, plan(describe(system, M, forces), "joint-coordinates", formulation).scene
+
+
+@pytest.mark.parametrize("name", ["slider_crank", "four_bar", "double_pendulum", "spatial_slider_crank", "loops3"])
+def test_the_tree_cut_rows_are_the_cut_elements_rows(name):
+    model = load_model(chains.loop_chain(3)) if name == "loops3" else load_model(MODELS / f"{name}.yaml")
+    system, tree = _tree(model)
+    cut = {id(element) for element in cut_elements(system, tree_order(system)[0])}
+    rows, bodies = [], []
+    for element, where in zip(system.elements, system.rows, strict=True):
+        if id(element) in cut:
+            rows += range(where.start, where.stop)
+            bodies += [element.i, element.j] * (where.stop - where.start)
+    assert tree.cut_rows.tolist() == rows and tree.cut_bodies.tolist() == bodies
+    assert np.flatnonzero(tree.owners < 0).tolist() == rows  # a row is cut exactly where it has no owner
+    for array in (tree.cut_rows, tree.cut_bodies, tree.owners, tree.row_index):
+        assert array.dtype == np.int64
+    start, owned = tree.row_index[: len(system.model.bodies) + 1], tree.row_index[len(system.model.bodies) + 1 :]
+    for b in range(len(system.model.bodies)):  # each body's rows, in row order
+        assert owned[start[b] : start[b + 1]].tolist() == np.flatnonzero(tree.owners == b).tolist()
+
+
+def _spatial_model(inertias):
+    model = load_model(MODELS / "spatial_double_pendulum.yaml")
+    for body, inertia in zip(model.bodies, inertias, strict=True):
+        body.inertia = np.asarray(inertia, dtype=float)
+    return model
+
+
+def _eigensolver_verdict(model) -> list[int]:
+    stacked = np.array([np.asarray(body.inertia, dtype=float) for body in model.bodies])
+    smallest = np.linalg.eigvalsh(0.5 * (stacked + np.swapaxes(stacked, 1, 2)))[:, 0]
+    return [k for k, body in enumerate(model.bodies) if not smallest[k] > 1e-12 * np.max(np.abs(stacked[k]))]
+
+
+@pytest.mark.parametrize(
+    "inertias",
+    [
+        [np.diag([0.1, 0.2, 0.3]), np.diag([0.0, 0.0, 0.0])],  # principal axes, a point mass
+        [np.diag([0.1, 0.2, 0.3]), np.diag([1.0, 1.0, 1e-14])],  # a slender rod about its axis
+        [np.diag([0.1, 0.2, 0.3]), np.diag([0.5, 0.5, 0.5])],  # none singular
+        [[[0.2, 0.1, 0.0], [0.1, 0.2, 0.0], [0.0, 0.0, 0.3]], np.diag([0.0, 0.0, 0.0])],  # not principal: eigvalsh
+        [[[0.5, 0.5, 0.0], [0.5, 0.5, 0.0], [0.0, 0.0, 0.3]], np.diag([0.1, 0.1, 0.1])],  # singular off its axes
+    ],
+)
+def test_singular_inertias_are_the_eigensolvers_verdicts(inertias):
+    model = _spatial_model(inertias)
+    assert singular_inertia(model) == _eigensolver_verdict(model)
+
+
+def test_planar_moments_as_numbers_or_arrays_give_one_verdict():
+    model = load_model(MODELS / "double_pendulum.yaml")
+    model.bodies[1].inertia = 0.0
+    as_numbers = singular_inertia(model)
+    for body in model.bodies:
+        body.inertia = np.array([[body.inertia]])
+    assert as_numbers == singular_inertia(model) == [1]
+
+
+@pytest.mark.parametrize("name", ["spatial_double_pendulum", "double_pendulum"])
+def test_singular_mass_is_decided_where_first_asked(name):
+    system, _, _ = build_system(load_model(MODELS / f"{name}.yaml"))
+    M, forces = dynamics.dynamic_model(system, None, None)
+    formulation = dynamics.make_formulation("joint-coordinates", system, M, forces)
+    assert "singular_mass" not in formulation.__dict__  # made by no run that does not project
+    expected = bool(singular_inertia(system.model)) if callable(M) else not np.linalg.eigvalsh(M)[0] > 0.0
+    assert formulation.singular_mass is expected
+
+
+def test_body_frames_read_the_file_configuration_only_for_a_global_point():
+    model = load_model(MODELS / "double_pendulum.yaml")
+    frames = build._Frames(model)
+    assert np.array_equal(frames.local_point(0, [0.1, 0.2], "body"), [0.1, 0.2])
+    assert "q0" not in frames.__dict__  # a body-frame point needs no configuration (a pendulum's forces: none)
+    q0, _ = build.initial_coordinates(model)
+    x, y, phi = q0[:3]
+    expected = np.array([[np.cos(phi), np.sin(phi)], [-np.sin(phi), np.cos(phi)]]) @ (np.array([1.0, 0.5]) - [x, y])
+    assert np.allclose(frames.local_point(0, [1.0, 0.5], "global"), expected, rtol=0, atol=1e-15)
+    assert np.array_equal(frames.q0, q0) and q0.dtype == np.float64
