@@ -68,7 +68,9 @@ PARTS = (
     (singular, "_band_structure", "    band ordering (kept per pattern)"),
     (dynamics, "null_space_bases", "    first basis: dense QR"),
     (singular, "_first_basis", "    first basis: banded LU of Psi_q^T"),
+    (singular, "_band_start", "    first basis and the band's widths: one compiled call"),
     (singular, "_spectra", "    time by time: ratio, basis, sign"),
+    (singular, "_settled_spectra", "    time by time, the ratios settled: one compiled call"),
     (dynamics.Guard, "_quiet", "  verdicts (_quiet)"),
 )
 """(owner, attribute, label) of each part timed, where the checkout has it."""
@@ -200,7 +202,7 @@ def print_small() -> None:
         closed = _per_history(lambda: dense(jacobians, columns, norms))  # noqa: B023
         settled = _per_history(lambda: dense(jacobians, columns, norms, settle=settle))  # noqa: B023
         figures, _, signs, lower = singular._dense_bracketed(jacobians, columns, norms, True, singular.LOOSE)
-        left = (lower == figures).sum() + singular._unsettled(lower, figures, signs, settle).size
+        left = (lower == figures).sum() + singular._unsettled(lower, figures, signs, *singular._tests(settle)).size
         left = "all" if jacobians.shape[1] < singular.BRACKETED_SMALLEST else left
         size = "x".join(map(str, jacobians.shape[1:]))
         print(f"| {name} | {formulation} | {size} | {closed:.3f} | {settled:.3f} | {settled / closed:.2f} | {left} |")

@@ -2111,7 +2111,7 @@ class Guard:
         # a switch between two regular branches shows in the velocities of the step onto the other: every step next
         # to a singular position is judged too, but only a switch counts there
         near = np.flatnonzero((ratios[:-1] < NEAR_SINGULAR) | (ratios[1:] < NEAR_SINGULAR))
-        near = near[possible_switches(self.speeds, t, qd, qdd, near)]  # the others are no switch: not judged
+        near = near[self._possible_switches(t, qd, qdd, near)]  # the others are no switch: not judged
         steps = [(k, k if ratios[k] <= ratios[k + 1] else k + 1, k + 1) for k in near]
         for a, middle, b, crossing in sorted([(*i, True) for i in intervals] + [(*i, False) for i in steps]):
             self._judge_branch(t, q, qd, qdd, a, middle, b, float(ratios[middle]), crossing)
@@ -2121,6 +2121,16 @@ class Guard:
             k = int(np.searchsorted(t, record["t"]))  # t[k - 1] < t_c <= t[k]
             middle = k - 1 if ratios[k - 1] <= ratios[k] else k
             self._judge_branch(t, q, qd, qdd, k - 1, middle, k, float(ratios[middle]), True, record)
+
+    def _possible_switches(self, t: np.ndarray, qd: np.ndarray, qdd: np.ndarray, steps: np.ndarray) -> np.ndarray:
+        """``possible_switches`` of the steps (k to k + 1): in one compiled pass in a compiled run (``banded``: numba
+        is loaded; ``compiled.branches``, the same screen without numpy's dozen array operations), else numpy's."""
+        if not self.banded:
+            return possible_switches(self.speeds, t, qd, qdd, steps)
+        from .compiled import branches
+
+        arrays = (np.ascontiguousarray(x, dtype=float) for x in (self.speeds, t, qd, qdd))
+        return branches.possible_switches(*arrays, steps.astype(np.int64), 0.5 * BRANCH_JUMP)
 
     @property
     def warnings(self) -> list[str]:

@@ -49,9 +49,9 @@ class Part:
 def _loops() -> bool:
     from numba.core.registry import CPUDispatcher
 
-    from . import history_kernels, kinematic_loop, loops, singular  # compiled, or loaded from disk, at import
+    from . import branches, history_kernels, kinematic_loop, loops, singular  # compiled, or loaded from disk, at import
 
-    modules = (loops, kinematic_loop, singular, history_kernels)  # history_kernels: the reactions and residuals
+    modules = (loops, kinematic_loop, singular, history_kernels, branches)  # history_kernels: reactions, residuals
     functions = [f for m in modules for f in vars(m).values() if isinstance(f, CPUDispatcher)]
     return not any(sum(f.stats.cache_misses.values()) for f in functions)
 

@@ -164,45 +164,62 @@ def spectra(
         pattern = scaled.pattern()
     elif pattern is None:
         pattern = _pattern(np.ascontiguousarray(scaled, dtype=float))
-    position, keys, starts, indices = _band_structure(pattern)
+    structure = _band_structure(pattern)  # position, keys, starts, indices
     scale = (np.ascontiguousarray(columns, dtype=float), np.ascontiguousarray(norms, dtype=float))
-    if first is None:  # a basis at the first time from the band too (``_first_basis``), if it is one
-        last = np.sort(np.argsort(position)[keys.size :])  # E's rows at the band's end: the widths of Psi_q's rows
-        kl, ku = _widths(_layout(keys, position, last), keys.size, starts, indices, position, last, False)
-        if widest * (kl + ku + 1) > position.size:
-            return None
-        first = _first_basis(np.ascontiguousarray(scaled[0]), scale[0], scale[1][0], position, keys, starts, indices)
-        if not np.all(np.isfinite(first)):  # U singular to the last bit: Householder's QR of the scaled Psi_q
-            J = scaled[0] * scale[0] / np.where(scale[1][0] > 0.0, scale[1][0], 1.0)[:, None]
-            first = np.linalg.qr(J.T, mode="complete")[0][:, keys.size :]
-    first = np.ascontiguousarray(first, dtype=float)
-    chosen = _independent(first, first.shape[1])
-    kl, ku = _widths(_layout(keys, position, chosen), keys.size, starts, indices, position, chosen, True)
-    if widest * (kl + ku + 1) > position.size:  # not a band: dense costs less
+    given = np.empty((0, 0)) if first is None else np.ascontiguousarray(first, dtype=float)
+    at_first = (np.ascontiguousarray(scaled[0]), scale[0], scale[1][0], *structure)
+    first, found = _band_start(*at_first, given, float(widest))
+    if found == NOT_A_BAND:  # dense costs less
         return None
+    if found == FIRST_FAILED:  # U singular to the last bit: Householder's QR of the scaled Psi_q
+        J = scaled[0] * scale[0] / np.where(scale[1][0] > 0.0, scale[1][0], 1.0)[:, None]
+        first = np.ascontiguousarray(np.linalg.qr(J.T, mode="complete")[0][:, structure[1].size :])
+        if _band_start(*at_first, first, float(widest))[1] == NOT_A_BAND:
+            return None
+    position, keys, starts, indices = structure
     stored, slots = scaled, indices
     if isinstance(scaled, BlockedJacobians):  # its blocks: each pattern entry's slot in its row
         rows = np.repeat(np.arange(keys.size), np.diff(starts))
         stored, slots = scaled.values, scaled.slots(rows, indices)
     arguments = (np.ascontiguousarray(stored), *scale, position, keys, starts, indices, slots)
-    ratios, bases, signs, lower, vectors, certified = _spectra(*arguments, first, 0.0 if settle is None else LOOSE)
-    if settle is not None:
-        times = _unsettled(lower, ratios, signs, settle)
-        if times.size:  # closed there, each from its own vectors
-            ratios[times] = _ratios_at(*arguments, bases, vectors, times)
+    if settle is None:
+        ratios, bases, signs, _, _, certified = _spectra(*arguments, first, 0.0)
+        return ratios, bases, signs, certified
+    return _settled_spectra(*arguments, first, *_tests(settle))
+
+
+@njit(cache=True, nogil=True)
+def _settled_spectra(jacobians, columns, norms, position, keys, starts, indices, slots, first, thresholds, fall, ends):
+    """``_spectra`` with each ratio in a bracket LOOSE wide, then closed at the times the Guard's tests (thresholds,
+    fall, ends: ``_tests``) need (``_unsettled``), each from its own eigenvectors (``_ratios_at``): (ratios, bases,
+    signs, certified steps), in one compiled call (from Python, the three calls and the tests' arrays between them
+    cost ~0.03 ms a history)."""
+    arguments = (jacobians, columns, norms, position, keys, starts, indices, slots)
+    ratios, bases, signs, lower, vectors, certified = _spectra(*arguments, first, LOOSE)
+    times = _unsettled(lower, ratios, signs, thresholds, fall, ends)
+    if times.size:  # closed there, each from its own vectors
+        ratios[times] = _ratios_at(*arguments, bases, vectors, times)
     return ratios, bases, signs, certified
 
 
-def _unsettled(lower: np.ndarray, ratios: np.ndarray, signs: np.ndarray, settle: tuple) -> np.ndarray:
-    """The output times (int64) whose ratios, known in brackets [lower, ratios], the Guard's tests ``settle``
-    (thresholds, fall[, ends]) need closed (``settled``; ``ends``: the first two and last two times too, which a
-    run ``through`` singular positions compares with the batches before and after, ``Guard._record``)."""
+def _tests(settle: tuple) -> tuple[np.ndarray, float, bool]:
+    """(thresholds (the nonzero ones), fall, ends) of the Guard's tests ``settle`` (thresholds, fall[, ends]) of the
+    ratios, as ``_unsettled`` takes them."""
     thresholds = np.array([value for value in settle[0] if value], dtype=float)
-    unsettled = ~settled(lower, ratios, signs, thresholds, float(settle[1]))
-    if len(settle) > 2 and settle[2]:
-        unsettled[:2] |= lower[:2] < ratios[:2]
-        unsettled[-2:] |= lower[-2:] < ratios[-2:]
-    return np.flatnonzero(unsettled).astype(np.int64)
+    return thresholds, float(settle[1]), bool(len(settle) > 2 and settle[2])
+
+
+@njit(cache=True, nogil=True)
+def _unsettled(lower, ratios, signs, thresholds, fall, ends):
+    """The output times (int64) whose ratios, known in brackets [lower, ratios], the Guard's tests (``thresholds``,
+    ``fall``: ``_tests``) need closed (``settled``); with ``ends``, the first two and last two times too, which a
+    run ``through`` singular positions compares with the batches before and after (``Guard._record``)."""
+    unsettled = ~settled(lower, ratios, signs, thresholds, fall)
+    N = lower.size
+    for k in range(N):
+        if ends and (k < 2 or k >= N - 2) and lower[k] < ratios[k]:
+            unsettled[k] = True
+    return np.nonzero(unsettled)[0].astype(np.int64)
 
 
 @njit(_SETTLED, cache=True, nogil=True)
@@ -301,6 +318,33 @@ def _first_basis(jacobian, columns, norms, position, keys, starts, indices):
     work = np.empty((n, 2 * kl + ku + 1)), np.empty(n, dtype=np.int64), np.empty(n)
     _null_space(J, slot, m, starts, indices, position, chosen, 1.0, kl, ku, *work, basis)
     return basis
+
+
+NOT_A_BAND, BAND, FIRST_FAILED = 0, 1, 2
+"""``_band_start``'s verdicts: the ordered Psi_q is wider than ``spectra``'s ``widest`` allows; a band, with a first
+basis; a band whose first Psi_q's banded LU met an exact zero pivot (no first basis from it)."""
+
+
+@njit(cache=True, nogil=True)
+def _band_start(jacobian, columns, norms, position, keys, starts, indices, first, widest):
+    """(the null-space basis at the first time, ``NOT_A_BAND`` | ``BAND`` | ``FIRST_FAILED``) of a history whose
+    first Psi_q (m, n) is ``jacobian`` (scaled by ``columns`` and ``norms`` as ``_first_basis``), in one compiled
+    call (each call from Python costs some microseconds a dozen times a history; once per history here). ``first``
+    (n, d): a basis known at (or just before) the first time, or (0, 0) for none: then from the band
+    (``_first_basis``), if the rows' widths with E's rows at the band's end leave one. The band is one where its
+    width kl + ku + 1 with E's rows where the basis puts them (``_independent``) is at most n / ``widest``."""
+    m, n = keys.size, position.size
+    if first.shape[0] == 0:
+        last = np.sort(np.argsort(position)[m:])  # E's rows at the band's end: the widths of Psi_q's rows
+        kl, ku = _widths(_layout(keys, position, last), m, starts, indices, position, last, False)
+        if widest * (kl + ku + 1) > n:
+            return first, NOT_A_BAND
+        first = _first_basis(jacobian, columns, norms, position, keys, starts, indices)
+        if not np.all(np.isfinite(first)):
+            return first, FIRST_FAILED
+    chosen = _independent(first, n - m)
+    kl, ku = _widths(_layout(keys, position, chosen), m, starts, indices, position, chosen, True)
+    return first, NOT_A_BAND if widest * (kl + ku + 1) > n else BAND
 
 
 _STRUCTURES: dict = {}
@@ -1160,7 +1204,7 @@ def dense_spectra(
     ratios, tangents, signs, lower = _dense_bracketed(jacobians, *scale, bool(bases), LOOSE)
     if np.array_equal(lower, ratios):  # every ratio closed in the pass
         return ratios, tangents, signs
-    times = _unsettled(lower, ratios, signs, settle)
+    times = _unsettled(lower, ratios, signs, *_tests(settle))
     if times.size:
         ratios[times] = _closed_ratios(jacobians, *scale, times)
     return ratios, tangents, signs

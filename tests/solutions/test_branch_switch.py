@@ -354,6 +354,31 @@ def test_the_prefilter_flags_the_same_steps_taken_apart_or_together():
     np.testing.assert_array_equal(alone, together)
 
 
+def test_the_compiled_prefilter_flags_the_steps_numpy_s_flags():
+    """``compiled.branches.possible_switches`` (one pass, a compiled run's) flags the steps ``possible_switches``
+    (numpy's whole arrays) flags: random histories with switches and kinks from nothing past the threshold, and a
+    NaN (numpy's max keeps it: no step flagged there)."""
+    pytest.importorskip("numba")
+    from solutions.compiled import branches
+    from solutions.dynamics import possible_switches
+
+    rng = np.random.default_rng(5)
+    t = np.cumsum(rng.uniform(0.01, 0.03, 41))
+    weights = np.array([[1.0, 1.0, 0.2], [1.0, 1.0, 0.5], [1.0, 1.0, 0.0]])
+    steps = np.arange(40)
+    for kink in np.linspace(0.0, 2.0, 41):
+        qd, qdd = rng.standard_normal((41, 9)), rng.standard_normal((41, 9))
+        qd[17:, :3] *= -1.0
+        qd[30:, 4] += kink
+        qd[35, 7] = np.nan if kink > 1.9 else qd[35, 7]
+        compiled = branches.possible_switches(weights, t, qd, qdd, steps, 0.5 * BRANCH_JUMP)
+        np.testing.assert_array_equal(compiled, possible_switches(weights, t, qd, qdd, steps), err_msg=f"{kink}")
+        part = steps[::3].copy()
+        np.testing.assert_array_equal(branches.possible_switches(weights, t, qd, qdd, part, 0.5 * BRANCH_JUMP),
+                                      compiled[part])  # fmt: skip
+    assert not compiled[34] and not compiled[35]  # the NaN's two steps
+
+
 def test_a_dip_between_output_times_is_found_as_passes_zero_finds_it_next_to_a_nan_too():
     """``singular_dip`` takes the first output time where sigma_r / sigma_1 dips (``diagnostics.passes_zero``,
     sample by sample: a NaN after the minimum leaves Python's min and max the other neighbour, so it still dips)."""

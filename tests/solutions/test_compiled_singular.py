@@ -87,6 +87,23 @@ def test_not_a_band_is_left_to_the_dense_code():
     assert singular.spectra(dense, null_space_bases(dense[:1])[0]) is None
 
 
+def test_a_first_psi_q_singular_to_the_last_bit_takes_householder_s_basis():
+    """``singular.spectra`` with no basis known: where the banded LU of the first Psi_q^T meets an exact zero pivot
+    (a zero row, ``_band_start``'s FIRST_FAILED), the pass starts from Householder's QR of it, and gives what it
+    gives when handed that basis; a band that is wide takes neither (None)."""
+    rng = np.random.default_rng(7)
+    m, n = 6, 14
+    jacobians = np.zeros((5, m, n))
+    for r in range(m):
+        jacobians[:, r, 2 * r : 2 * r + 3] = rng.uniform(0.5, 1.5, (5, 3))
+    jacobians[0, 2] = 0.0  # Psi_q singular to the last bit at the first time
+    first = np.linalg.qr(jacobians[0].T, mode="complete")[0][:, m:]
+    found, given = singular.spectra(jacobians, None, widest=2), singular.spectra(jacobians, first, widest=2)
+    for a, b in zip(found, given, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert singular.spectra(jacobians, None, widest=8) is None
+
+
 def _through(band: bool, monkeypatch, through: bool = False):
     """The Guard's message on the chain driven from 80 to 100 degrees through flat (not at an output time: there the
     ratio is rounding, ~1e-18 both ways), at 20 output times, from the band or (``band=False``) from numpy's dense
