@@ -46,7 +46,8 @@ the state where it stopped, at t, in the row after them, for the checks the nump
 
 ``outputs`` gives what the right-hand side writes at every output time, y' and after it the outputs of the state:
 lambda (``codegen.py``), or the body coordinates, q'' and lambda of a joint-coordinates state (``tree.py``);
-``output_history`` the same and Psi, Psi_q, Psi_t there, from the same evaluations (a run's output stage).
+``output_history`` the same and Psi, Psi_q, Psi_t there, from the same evaluations (a run's output stage;
+``blocked_output_history`` keeps a large Psi_q by its rows' blocks).
 """
 
 import numpy as np
