@@ -58,7 +58,8 @@ STAGES = (
     (dispatch, "run", "  compiled run"),
     (loops, "embedded", "    integration loop"),
     (loops, "output_history", "    outputs at the output times"),
-    (loops, "outputs", "    outputs at the output times"),  # a large Psi_q's two passes (compiled.ONE_PASS_LARGEST)
+    (loops, "blocked_output_history", "    outputs at the output times"),  # a large Psi_q's (ONE_PASS_LARGEST)
+    (loops, "outputs", "    outputs at the output times"),  # rows that reach other columns: two passes
     (history, "constraint_arrays", "    constraints at the output times"),
     (dynamics.Guard, "check_outputs", "  checks at the output times (Guard)"),
     (dynamics, "build_result", "result"),

@@ -26,9 +26,10 @@ and caches its module, ``kernels.py`` holds the compiled element formulas.
 
 ``projection.py`` and ``tree.py`` write the modules of the projection and joint-coordinates formulations
 (their kernels: ``projection_kernels.py``, ``tree_kernels.py``); ``plan`` says which a run takes. Every
-run's output stage is one compiled pass (``loops.output_history``): at every output time the right-hand side
-with its outputs (q'', lambda) and Psi, Psi_q, Psi_t, from which ``history.py`` builds the residuals and the
-reactions and ``dynamics.Guard.check_outputs`` makes its checks.
+run's output stage is one compiled pass (``loops.output_history``; a large Psi_q's by its rows' blocks,
+``blocked_output_history``): at every output time the right-hand side with its outputs (q'', lambda) and Psi,
+Psi_q, Psi_t, from which ``history.py`` builds the residuals and the reactions and ``dynamics.Guard.check_outputs``
+makes its checks.
 
 The kinematic analysis has a compiled engine of its own on the same kernels (``kinematic.py``, its step
 loop ``kinematic_loop.py``): ``kinematics.kinematic_analysis(..., engine="compiled")``.
@@ -271,15 +272,13 @@ def is_cached(plan: Plan) -> bool:
 
 
 ONE_PASS_LARGEST = 2048
-"""Entries of Psi_q (m n) up to which a run's outputs and its Psi, Psi_q, Psi_t come from one compiled pass
-(``loops.output_history``: 101 output times of the double pendulum 0.36 -> 0.25 ms); above, the outputs and the
-module's ``constraint_arrays`` in two, which write only the nonzeros of a large sparse Psi_q (a spatial chain of 64
-bodies, 256 x 448: 23 ms against 51 for one pass writing every entry: memory, not arithmetic), and keep its
-history by its rows' blocks (``Scene.row_columns``, ``history.BlockedJacobians``: no (N, m, n) array, whose first
-touch costs more than the arithmetic). Whole call, one pass against two with the blocks (thread CPU, the loop
-chain, joint coordinates): N = 2-6 (m n 210-1482) the same within 0.3 ms, N = 8 (2550) 10.9 -> 10.6 ms, N = 12
-(5550) 16.1 -> 13.9 ms; the spatial chain of 16 (7168) 29.0 -> 26.8 ms (benchmarks/results/call_cost.md,
-twenty-first session)."""
+"""Entries of Psi_q (m n) up to which a run keeps Psi_q's history dense (N, m, n) (``loops.output_history``);
+above, by its rows' blocks (``Scene.row_columns``, ``history.BlockedJacobians``, ``loops.blocked_output_history``:
+no (N, m, n) array, whose first touch costs more than the arithmetic: a spatial chain of 64 bodies, 256 x 448, 23
+ms against 51 for the dense history). Both from the one pass of the outputs (q'', lambda). Whole call, dense against
+blocks (thread CPU, the loop chain, joint coordinates; the blocks then in a second pass): N = 2-6 (m n 210-1482) the
+same within 0.3 ms, N = 8 (2550) 10.9 -> 10.6 ms, N = 12 (5550) 16.1 -> 13.9 ms; the spatial chain of 16 (7168)
+29.0 -> 26.8 ms (benchmarks/results/call_cost.md, twenty-first session). The Guard reads either form."""
 INT64_MAX = int(np.iinfo(np.int64).max)
 """The largest budget of evaluations or steps: none (``np.iinfo`` made once, not 2 us a run)."""
 PAUSE_STEPS = 1000
@@ -369,21 +368,26 @@ def run(
         times, Y = np.append(times[:reached], t), Y[: reached + 1]
     joint_states, n, m, ny = None, scene.n, scene.m, Y.shape[1]
     tree = isinstance(scene, TreeScene)  # after y': the body coordinates of the joint states, and q'', lambda there
-    one_pass = m * n <= ONE_PASS_LARGEST
-    if one_pass:  # and Psi, Psi_q, Psi_t from the same evaluations
-        out, psi, jac, psit = loops.output_history(rhs, times, Y, P, D, 3 * n + m if tree else m)
-    else:
-        out = loops.outputs(rhs, times, Y, P, D, 3 * n + m if tree else m)
+    width = 3 * n + m if tree else m
+    columns = None if m * n <= ONE_PASS_LARGEST else getattr(scene, "scene", scene).row_columns  # (a tree's scene)
+    if m * n <= ONE_PASS_LARGEST:  # and Psi, Psi_q, Psi_t from the same evaluations
+        out, psi, jac, psit = loops.output_history(rhs, times, Y, P, D, width)
+    elif columns is not None:  # the same, Psi_q by its rows' blocks
+        out, psi, values, psit = loops.blocked_output_history(rhs, times, Y, P, D, width, columns)
+        from .history import BlockedJacobians
+
+        jac = BlockedJacobians(values, columns, n)
+    else:  # rows that reach other columns: Psi_q's history dense, from the module's constraint_arrays
+        out = loops.outputs(rhs, times, Y, P, D, width)
     if tree:
         qdd, lam = np.ascontiguousarray(out[:, ny + 2 * n : ny + 3 * n]), np.ascontiguousarray(out[:, ny + 3 * n :])
         joint_states, Y = Y, np.hstack([out[:, ny : ny + 2 * n], Y[:, scene.n_positions + scene.k :]])
     else:  # q'' in y', lambda after it
         qdd, lam = np.ascontiguousarray(out[:, n : 2 * n]), np.ascontiguousarray(out[:, ny:])
-    if not one_pass:
+    if m * n > ONE_PASS_LARGEST and columns is None:
         from . import history
 
-        columns = getattr(scene, "scene", scene).row_columns  # a tree's scene is in it: Psi_q of the body coordinates
-        psi, jac, psit = history.constraint_arrays(module, scene, times, Y, columns)
+        psi, jac, psit = history.constraint_arrays(module, scene, times, Y)
     return CompiledRun(
         Y, qdd, lam, int(evaluations), int(steps), int(rejected), int(status), float(t), float(h),
         load_seconds(plan), cached, psi, jac, psit, joint_states, int(reached),

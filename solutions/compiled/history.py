@@ -107,8 +107,14 @@ class BlockedJacobians:
     def slots(self, rows: np.ndarray, targets: np.ndarray) -> np.ndarray:
         """Where column ``targets[a]`` of row ``rows[a]`` sits among the row's blocks (its slot s); -1 where the row
         does not reach it."""
-        found = self.columns[rows] == np.asarray(targets)[:, None]
-        return np.where(found.any(axis=1), np.argmax(found, axis=1), -1).astype(np.int64)
+        return column_slots(self.columns, rows, targets)
+
+
+def column_slots(columns: np.ndarray, rows: np.ndarray, targets: np.ndarray) -> np.ndarray:
+    """Where column ``targets[a]`` of row ``rows[a]`` sits among the row's blocks (``columns`` (m, w): a blocked
+    history's, ``BlockedJacobians``); -1 where the row does not reach it."""
+    found = columns[rows] == np.asarray(targets)[:, None]
+    return np.where(found.any(axis=1), np.argmax(found, axis=1), -1).astype(np.int64)
 
 
 def residuals(psi: np.ndarray, jac, psit: np.ndarray, qd: np.ndarray, system=None) -> dict[str, np.ndarray]:
@@ -207,17 +213,39 @@ def _planar_layout(system) -> tuple:
     return names, (*layout, np.asarray(points, dtype=float).reshape(-1, 2))
 
 
-def _histories(q: np.ndarray, lam: np.ndarray, jac, rows: np.ndarray, columns: np.ndarray) -> tuple:
+def _histories(system, q: np.ndarray, lam: np.ndarray, jac, rows: np.ndarray, reported, reported_slots) -> tuple:
     """q, lambda, Psi_q as the compiled loops take them (C-contiguous float arrays: one machine code for all), and
     for each of the ``rows`` (of all joints in joint order) where the columns of the body whose reaction it reports
-    begin (``columns``) in Psi_q's row: that column, or in a blocked history its slot among the row's blocks."""
+    begin (``reported(system)``: those columns) in Psi_q's row: that column, or in a blocked history its slot among
+    the row's blocks (``reported_slots(system)`` where the blocks are the system's ``row_columns``, as a compiled
+    run's are, ``compiled.run``); both made once per system (``layout``)."""
+    columns = layout(system, reported)
     if isinstance(jac, BlockedJacobians):
-        slots, jac = jac.slots(rows, columns), jac.values
-        if np.any(slots < 0):  # row_columns gives every row its element's bodies: a joint's own body is there
-            raise ValueError("a joint's row of Psi_q does not reach its own body's columns")
+        own = jac.columns is row_columns(system)
+        slots = layout(system, reported_slots) if own else _slots(jac.columns, rows, columns)
+        jac = jac.values
     else:
         slots = columns
     return (*(np.ascontiguousarray(a, dtype=float) for a in (q, lam, jac)), np.ascontiguousarray(slots, np.int64))
+
+
+def _slots(blocks: np.ndarray, rows: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """Where column ``columns[a]`` of row ``rows[a]`` sits among the row's blocks (``blocks``: a history's
+    ``BlockedJacobians.columns``); every joint's row reaches its own bodies' columns."""
+    slots = column_slots(blocks, rows, columns)
+    if np.any(slots < 0):  # row_columns gives every row its element's bodies: a joint's own body is there
+        raise ValueError("a joint's row of Psi_q does not reach its own body's columns")
+    return slots
+
+
+def _planar_slots(system) -> np.ndarray:
+    """``_slots`` of the planar layout in the system's ``row_columns``, made once per system (``layout``)."""
+    return _slots(row_columns(system), layout(system, _planar_layout)[1][0], layout(system, _planar_reported))
+
+
+def _spatial_slots(system) -> np.ndarray:
+    """``_slots`` of the spatial layout in the system's ``row_columns``, made once per system (``layout``)."""
+    return _slots(row_columns(system), layout(system, _spatial_layout)[2][0], layout(system, _spatial_reported))
 
 
 def _reported_columns(arrays: tuple, per: int) -> np.ndarray:
@@ -250,7 +278,7 @@ def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac) -> dict[str, n
     names, arrays = layout(system, _planar_layout)
     N = q.shape[0]
     F, M = np.empty((N, len(names), 2)), np.empty((N, len(names)))
-    histories = _histories(q, lam, jac, arrays[0], layout(system, _planar_reported))
+    histories = _histories(system, q, lam, jac, arrays[0], _planar_reported, _planar_slots)
     history_kernels.planar_reactions(*histories, *arrays, F, M)
     columns = {}
     for k, name in enumerate(names):
@@ -299,7 +327,7 @@ def spatial_reactions(system, q: np.ndarray, lam: np.ndarray, jac) -> dict[str, 
     N, framed = q.shape[0], int(np.count_nonzero(place >= 0))
     F, M = np.empty((N, len(names), 3)), np.empty((N, len(names), 3))
     F_joint, M_joint = np.empty((N, framed, 3)), np.empty((N, framed, 3))
-    histories = _histories(q, lam, jac, arrays[0], layout(system, _spatial_reported))
+    histories = _histories(system, q, lam, jac, arrays[0], _spatial_reported, _spatial_slots)
     history_kernels.spatial_reactions(*histories, *arrays, F, M, F_joint, M_joint)
     return spatial_columns(names, F, M, F_joint, M_joint, place)
 

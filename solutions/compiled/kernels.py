@@ -466,14 +466,25 @@ def _r(x, b):
 
 
 @jit
-def b_matrix(e0, e1, e2, e3, a1, a2, a3, out):
-    """B(p, a') = d(A(p) a')/dp (3 x 4, eq. 9.3), entry by entry as ``spatial.bodies.b_matrix``."""
+def b_entries(e0, e1, e2, e3, a1, a2, a3):
+    """B(p, a') = d(A(p) a')/dp (3 x 4, eq. 9.3) row by row, entry by entry as ``spatial.bodies.b_matrix``."""
     v1, v2, v3 = e0 * a1 + e2 * a3 - e3 * a2, e0 * a2 + e3 * a1 - e1 * a3, e0 * a3 + e1 * a2 - e2 * a1
     ea = e1 * a1 + e2 * a2 + e3 * a3
     w12, w13, w23 = e1 * a2 - e2 * a1, e1 * a3 - e3 * a1, e2 * a3 - e3 * a2
-    out[0, 0], out[0, 1], out[0, 2], out[0, 3] = 2.0 * v1, 2.0 * ea, 2.0 * (w12 + e0 * a3), 2.0 * (w13 - e0 * a2)
-    out[1, 0], out[1, 1], out[1, 2], out[1, 3] = 2.0 * v2, 2.0 * (-w12 - e0 * a3), 2.0 * ea, 2.0 * (w23 + e0 * a1)
-    out[2, 0], out[2, 1], out[2, 2], out[2, 3] = 2.0 * v3, 2.0 * (-w13 + e0 * a2), 2.0 * (-w23 - e0 * a1), 2.0 * ea
+    return (
+        2.0 * v1, 2.0 * ea, 2.0 * (w12 + e0 * a3), 2.0 * (w13 - e0 * a2),
+        2.0 * v2, 2.0 * (-w12 - e0 * a3), 2.0 * ea, 2.0 * (w23 + e0 * a1),
+        2.0 * v3, 2.0 * (-w13 + e0 * a2), 2.0 * (-w23 - e0 * a1), 2.0 * ea,
+    )  # fmt: skip
+
+
+@jit
+def b_matrix(e0, e1, e2, e3, a1, a2, a3, out):
+    """B(p, a') (``b_entries``) into the 3 x 4 ``out``."""
+    B = b_entries(e0, e1, e2, e3, a1, a2, a3)
+    for r in range(3):
+        for c in range(4):
+            out[r, c] = B[4 * r + c]
 
 
 @jit
@@ -503,15 +514,35 @@ def _body_vector(q, qd, b, a, A, B, Bd, dot, quad):
 
 
 @jit
+def _point_terms(q, qd, b, a0, a1, a2):
+    """(A a', B(p, a') row by row, B(p', a') p') of the body-fixed point a' of body b (ground: p = (1, 0, 0, 0),
+    p' = 0), as scalars: ``_body_vector``'s numbers (the same products in the same order) without its five arrays,
+    whose writes and reads cost more than a spherical joint's arithmetic (eq. 9.1, 9.3)."""
+    e0, e1, e2, e3 = _pq(q, b)
+    d0, d1, d2, d3 = _p(qd, b)
+    R = rotation_entries_jit(e0, e1, e2, e3)
+    A = (
+        R[0] * a0 + R[1] * a1 + R[2] * a2,
+        R[3] * a0 + R[4] * a1 + R[5] * a2,
+        R[6] * a0 + R[7] * a1 + R[8] * a2,
+    )
+    Bd = b_entries(d0, d1, d2, d3, a0, a1, a2)
+    quadratic = (
+        Bd[0] * d0 + Bd[1] * d1 + Bd[2] * d2 + Bd[3] * d3,
+        Bd[4] * d0 + Bd[5] * d1 + Bd[6] * d2 + Bd[7] * d3,
+        Bd[8] * d0 + Bd[9] * d1 + Bd[10] * d2 + Bd[11] * d3,
+    )
+    return A, b_entries(e0, e1, e2, e3, a0, a1, a2), quadratic
+
+
+@jit
 def spatial_spherical(q, qd, t, ints, floats, psi, jac, gam):
     """spherical (eq. 9.12): -d_ij = 0, Psi_qi = [I, B(p_i, s_i')], Psi_qj = [-I, -B(p_j, s_j')],
     gamma = B(p_j', s_j') p_j' - B(p_i', s_i') p_i'. ints (i, j, row), floats (s_i', s_j')."""
-    Ai, Aj, doti, dotj, qi, qj = np.empty((6, 3))  # two allocations, not ten: each costs more than an element
-    Bi, Bj, Bdi, Bdj = np.empty((4, 3, 4))
     for e in range(ints.shape[0]):
         i, j, row = ints[e, 0], ints[e, 1], ints[e, 2]
-        _body_vector(q, qd, i, floats[e, 0:3], Ai, Bi, Bdi, doti, qi)
-        _body_vector(q, qd, j, floats[e, 3:6], Aj, Bj, Bdj, dotj, qj)
+        Ai, Bi, qi = _point_terms(q, qd, i, floats[e, 0], floats[e, 1], floats[e, 2])
+        Aj, Bj, qj = _point_terms(q, qd, j, floats[e, 3], floats[e, 4], floats[e, 5])
         ri, rj = _r(q, i), _r(q, j)
         for k in range(3):
             psi[row + k] = ri[k] + Ai[k] - rj[k] - Aj[k]
@@ -519,11 +550,11 @@ def spatial_spherical(q, qd, t, ints, floats, psi, jac, gam):
             if i >= 0:
                 jac[row + k, 7 * i + k] += 1.0
                 for c in range(4):
-                    jac[row + k, 7 * i + 3 + c] += Bi[k, c]
+                    jac[row + k, 7 * i + 3 + c] += Bi[4 * k + c]
             if j >= 0:
                 jac[row + k, 7 * j + k] -= 1.0
                 for c in range(4):
-                    jac[row + k, 7 * j + 3 + c] -= Bj[k, c]
+                    jac[row + k, 7 * j + 3 + c] -= Bj[4 * k + c]
 
 
 @jit

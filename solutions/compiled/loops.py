@@ -46,7 +46,8 @@ the state where it stopped, at t, in the row after them, for the checks the nump
 
 ``outputs`` gives what the right-hand side writes at every output time, y' and after it the outputs of the state:
 lambda (``codegen.py``), or the body coordinates, q'' and lambda of a joint-coordinates state (``tree.py``);
-``output_history`` the same and Psi, Psi_q, Psi_t there, from the same evaluations (a run's output stage).
+``output_history`` the same and Psi, Psi_q, Psi_t there, from the same evaluations (a run's output stage;
+``blocked_output_history`` keeps a large Psi_q by its rows' blocks).
 """
 
 import numpy as np
@@ -495,7 +496,8 @@ def output_history(scene_rhs, T, Y, P, D, width):
     its ``width`` outputs, writes them after those (``codegen.py``, ``tree.py``). One compiled call for the output
     stage of a run, where ``outputs`` and the module's ``constraint_arrays`` made two passes over the output times,
     the second evaluating every constraint kernel again; the same numbers (the same kernels on the same q, q', t).
-    It writes every entry of Psi_q: a large sparse one is cheaper by the two passes (``compiled.ONE_PASS_LARGEST``)."""
+    It keeps every entry of Psi_q: a large sparse one by its rows' blocks (``blocked_output_history``).
+    The right-hand side wants Psi_q's part of ``out`` zero on entry (a tree's adds only in its rows' blocks)."""
     N, ny = T.size, Y.shape[1]
     n, m = P[8][0], P[8][1]
     out = np.empty((N, ny + width))
@@ -504,12 +506,51 @@ def output_history(scene_rhs, T, Y, P, D, width):
     o = ny + width
     for k in range(N):
         z[:] = Y[k]
+        row[o + 2 * m :] = 0.0
         scene_rhs(T[k], z, P, D, row)
         out[k] = row[:o]
         psi[k] = row[o : o + m]
         psit[k] = row[o + m : o + 2 * m]
         jac[k] = row[o + 2 * m :].reshape((m, n))
     return out, psi, jac, psit
+
+
+BLOCKED_OUTPUT_HISTORY_TYPE = types.Tuple((_matrix, _matrix, types.float64[:, :, ::1], _matrix))(
+    _RHS, _vector, _matrix, P_TYPE, D_TYPE, types.int64, _imatrix
+)
+
+
+@jit(BLOCKED_OUTPUT_HISTORY_TYPE)
+def blocked_output_history(scene_rhs, T, Y, P, D, width, columns):
+    """``output_history`` with Psi_q kept by its rows' blocks (N, m, w) (``history.BlockedJacobians``): entry s of
+    row r is Psi_q's entry in column ``columns[r, s]`` (-1 after the row's last: 0 there), the only columns the
+    row's element reaches (``history.row_columns``). The right-hand side writes Psi_q into one reused (m, n) part of
+    ``out`` (zeros on entry); each row's blocks are gathered and zeroed again, the only entries it writes. One pass
+    over the output times, where ``outputs`` and the module's ``constraint_arrays`` made two, evaluating every
+    constraint kernel twice; no dense (N, m, n) history, whose first touch costs more than its arithmetic."""
+    N, ny = T.size, Y.shape[1]
+    n, m = P[8][0], P[8][1]
+    w = columns.shape[1]
+    out = np.empty((N, ny + width))
+    psi, values, psit = np.empty((N, m)), np.empty((N, m, w)), np.empty((N, m))
+    row, z = np.zeros(ny + width + 2 * m + m * n), np.empty(ny)
+    o = ny + width
+    jac = row[o + 2 * m :].reshape((m, n))
+    for k in range(N):
+        z[:] = Y[k]
+        scene_rhs(T[k], z, P, D, row)
+        out[k] = row[:o]
+        psi[k] = row[o : o + m]
+        psit[k] = row[o + m : o + 2 * m]
+        for r in range(m):
+            for s in range(w):
+                column = columns[r, s]
+                if column < 0:
+                    values[k, r, s] = 0.0
+                else:
+                    values[k, r, s] = jac[r, column]
+                    jac[r, column] = 0.0
+    return out, psi, values, psit
 
 
 @jit(types.float64(_RHS, types.float64, _vector, _vector, _vector, P_TYPE, D_TYPE, types.int64))

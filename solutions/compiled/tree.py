@@ -18,12 +18,13 @@ joint's Euler parameters) into the arrays of ``tree_kernels.py``, and the cut ro
   multipliers mu alone (a driver is a cut row, and the tree's joints have Psi_t = 0). Given an ``out``
   longer than y, it writes after y' the body coordinates q, q' at the joint state, q'' and lambda of the model's
   constraint rows from Psi_q^T lambda = Q - M q'' (normal equations; ``JointCoordinates.accelerations``), for the
-  results and reactions, and after those Psi, Psi_t and Psi_q (row by row) when ``out`` is longer still
-  (``loops.output_history``): one function for both, since numba optimizes the kernels again in every function
-  that calls them. Given an ``out`` of y.size + n, only q after y (the tree's forward kinematics: the body
-  coordinates of a divergence check's companion run, ``dispatch.positions``; y' not written). A state of another
-  size than the tree's, or an ``out`` longer than y' + n but too short for the outputs, gets ``out`` filled with
-  NaN (numba checks no bounds: it wrote past ``out``'s end);
+  results and reactions, and after those Psi, Psi_t and Psi_q (row by row; its part of ``out`` zero on entry, the
+  kernels add into it) when ``out`` is longer still (``loops.output_history``, ``blocked_output_history``, which
+  gathers the rows' blocks and zeroes them again): one function for both, since numba optimizes the kernels again
+  in every function that calls them. Given an ``out`` of y.size + n, only q after y (the tree's forward
+  kinematics: the body coordinates of a divergence check's companion run, ``dispatch.positions``; y' not
+  written). A state of another size than the tree's, or an ``out`` longer than y' + n but too short for the
+  outputs, gets ``out`` filled with NaN (numba checks no bounds: it wrote past ``out``'s end);
 - ``constraint_arrays(T, Y, P, D, Psi, Psi_q, Psi_t)`` at the output times from the body coordinates, as the
   scene's own module (``codegen.py``; ``history.py`` makes the residuals and reactions of them).
 
@@ -282,9 +283,8 @@ def _body(tree: TreeScene) -> list[str]:
         "        rows_work = np.empty(3 * m + (0 if history else m * n))  # Psi, Psi_t, gamma[, Psi_q]: one allocation",
         "        rows_work[: 3 * m] = 0.0",
         "        psi, psit, gam = rows_work[:m], rows_work[m : 2 * m], rows_work[2 * m : 3 * m]",
-        "        if history:  # Psi_q whole, zeros and all, written in its place in out (no copy)",
+        "        if history:  # Psi_q whole, in its place in out (zeros on entry: the caller's, loops.output_history)",
         "            jac = out[y.size + 3 * n + 3 * m :].reshape((m, n))",
-        "            jac[:, :] = 0.0",
         "        else:  # the solves read only the rows' blocks at their bodies: those zeroed alone",
         "            jac = rows_work[3 * m :].reshape((m, n))",
         "            if ncut > 0:",

@@ -161,12 +161,13 @@ def test_a_state_or_out_of_a_size_scene_rhs_does_not_know_gets_nan_not_a_write_p
     """numba checks no bounds: an ``out`` longer than y' and q alone but too short for the outputs (q, q', q'',
     lambda) wrote past its end. Now such an ``out``, or a joint state of another size, is filled with NaN; the
     sizes it knows (y', q alone, the outputs, with Psi, Psi_t and Psi_q after them) are still filled with finite
-    numbers."""
+    numbers (Psi_q's part of the last handed over zero, as ``loops.output_history`` hands it)."""
     _, made, (rhs, P, D), y = _both_sides(_random_tree(2, 6, 1))
     n, m = made.system.n_coordinates, made.system.n_constraints
     full = y.size + 3 * n + m
     for size in (y.size, y.size + n, full, full + 2 * m + m * n):
         out = np.full(size, np.nan)
+        out[full + 2 * m :] = 0.0  # (only the last size has a Psi_q part)
         rhs(0.0, y, P, D, out)
         assert np.isfinite(out[y.size :] if size == y.size + n else out).all(), size  # q alone: y' not written
     for size in (y.size - 1, y.size + 1, y.size + n - 1, y.size + n + 1, full - 1):

@@ -90,15 +90,16 @@ def test_cut_solve_equals_the_dense_augmented_solve(model, cut):
 def test_outputs_lambda_from_the_rows_blocks_equals_the_whole_psi_q():
     """The outputs' right-hand side (``loops.outputs``) zeroes only the blocks of Psi_q the solves read (each row at
     its bodies: ``zero_cut_blocks``, ``zero_tree_blocks``); the output stage's one pass (``loops.output_history``)
-    zeroes it whole. The same q'' and lambda, bit for bit, at states off the constraint manifold; and the numpy
-    engine's lambda (normal equations of the whole Psi_q, ``JointCoordinates.accelerations``) within rounding."""
+    hands it over zero whole, in the outputs. The same q'' and lambda, bit for bit, at states off the constraint
+    manifold; and the numpy engine's lambda (normal equations of the whole Psi_q, ``JointCoordinates.accelerations``)
+    within rounding."""
     equations, (rhs, P, D), _, y0 = _both_sides(parallelogram_chain(6))
     n, m = int(P[8][0]), int(P[8][1])
     width = 3 * n + m  # q, q', q'', lambda after y'
     rng = np.random.default_rng(11)
     for _ in range(2):
         y = y0 + rng.uniform(-0.2, 0.2, y0.size)
-        blocks, whole = np.full(y.size + width, np.nan), np.empty(y.size + width + 2 * m + m * n)
+        blocks, whole = np.full(y.size + width, np.nan), np.zeros(y.size + width + 2 * m + m * n)
         rhs(0.0, y.copy(), P, D, blocks)
         rhs(0.0, y.copy(), P, D, whole)
         np.testing.assert_array_equal(blocks, whole[: y.size + width])

@@ -266,12 +266,14 @@ def test_a_free_body_runs_compiled_with_no_reaction_columns(dimension):
 @pytest.mark.parametrize(
     ("path", "formulation"),
     [("course/models/slider_crank_flywheel.yaml", "baumgarte"), ("course/models/spatial_double_pendulum.yaml",
-                                                                 "joint-coordinates")],
+     "joint-coordinates"), ("course/models/slider_crank.yaml", "joint-coordinates")],
 )  # fmt: skip
-def test_one_output_pass_gives_the_systems_constraints_and_the_two_passes_numbers(path, formulation, monkeypatch):
+def test_one_output_pass_gives_the_systems_constraints_and_the_blocked_pass_numbers(path, formulation, monkeypatch):
     """A compiled run's Psi, Psi_q, Psi_t at the output times from its one output pass (``loops.output_history``: the
     right-hand side writes them beside q'' and lambda) are the System's at the run's q, and to the last bit those of
-    the outputs and the module's ``constraint_arrays`` in two passes (what a large Psi_q takes, ONE_PASS_LARGEST)."""
+    the pass that keeps a large Psi_q by its rows' blocks (``loops.blocked_output_history``, above ONE_PASS_LARGEST),
+    which evaluates no constraint kernel a second time (the module's ``constraint_arrays`` is not called); with a tree's
+    cut rows too (the slider-crank in joint coordinates)."""
     import solutions.compiled as compiled
 
     system, q0, qd0 = build_system(load_model(path))
@@ -292,6 +294,11 @@ def test_one_output_pass_gives_the_systems_constraints_and_the_two_passes_number
         assert np.allclose(one.jac[k], system.jacobian(result.q[k], t), rtol=1e-13, atol=1e-13)
         assert np.allclose(one.psit[k], system.psi_t(result.q[k], t), rtol=1e-13, atol=1e-13)
     monkeypatch.setattr(compiled, "ONE_PASS_LARGEST", 0)
+
+    def second_pass(*args, **kwargs):
+        raise AssertionError("the constraints evaluated again after the output pass")
+
+    monkeypatch.setattr(history, "constraint_arrays", second_pass)
     blocked = forward_dynamics(system, q0, qd0, 0.3, 12, **options)
     two = made.pop("run")
     assert isinstance(two.jac, history.BlockedJacobians)  # above ONE_PASS_LARGEST: Psi_q by its rows' blocks
