@@ -2283,11 +2283,21 @@ def gyration_weights(system: System) -> np.ndarray:
     per, dim = system.coordinates_per_body, system.model.dimension
     weights = np.ones((system.n_bodies, per))
     for k, body in enumerate(system.model.bodies):
-        inertia = np.asarray(body.inertia if body.inertia is not None else 0.0, dtype=float)
-        moment = float(np.trace(inertia) / 3.0 if inertia.ndim == 2 else np.mean(inertia))
+        moment = _mean_moment(body.inertia)
         radius = math.sqrt(moment / body.mass) if body.mass and moment > 0 else 0.0
         weights[k, dim:] = radius if dim == 2 else 2.0 * radius
     return weights
+
+
+def _mean_moment(inertia) -> float:
+    """J of ``gyration_weights``: a planar moment itself (given as a number: no array made of it, 3 us a body at a
+    loop chain's start), a 3 x 3 inertia's trace / 3, the mean of principal moments."""
+    if inertia is None:
+        return 0.0
+    if isinstance(inertia, float | int):
+        return float(inertia)
+    inertia = np.asarray(inertia, dtype=float)
+    return float(np.trace(inertia) / 3.0 if inertia.ndim == 2 else np.mean(inertia))
 
 
 def branch_verdict(weights: np.ndarray, h: float, before: tuple, after: tuple, bodies) -> tuple:
