@@ -127,13 +127,16 @@ def consistent_initial_conditions(
     constraints exactly (a mechanism released at rest), x = 0 and nothing is solved.
     """
     q, assembly = assemble(system, q0, t)
-    jacobian, psi_t = system.jacobian(q, t), system.psi_t(q, t)
-    residual = jacobian @ qd0 + psi_t
+    psi_t = system.psi_t(q, t)
+    at_rest = not np.any(qd0)  # Psi_q 0 = 0: the residual is Psi_t, and Psi_q is made only to correct q0'
+    jacobian = None if at_rest else system.jacobian(q, t)
+    residual = psi_t + 0.0 if at_rest else jacobian @ qd0 + psi_t
     before = float(np.abs(residual).max()) if residual.size else 0.0
     if not before:  # q0' satisfies the velocity constraints exactly (e.g. at rest): x = 0, nothing to correct
         qd = np.array(qd0, dtype=float)
         report = {"velocity_residual_before": 0.0, "velocity_correction": 0.0, "velocity_residual": 0.0}
         return q, qd, {"assembly": assembly, **report}
+    jacobian = system.jacobian(q, t) if jacobian is None else jacobian
     if point_masses(system.model):  # M singular: the same minimum, from [M Psi_q^T; Psi_q 0] (eq. 5.30's matrix)
         n, m = jacobian.shape[1], jacobian.shape[0]
         kkt = np.block([[mass_at(M, q), jacobian.T], [jacobian, np.zeros((m, m))]])
@@ -1780,6 +1783,20 @@ def singular_ratios(s: np.ndarray, rank: int) -> np.ndarray:
     return np.where(s[:, 0] > 0, s[:, rank - 1] / np.where(s[:, 0] > 0, s[:, 0], 1.0), 0.0)
 
 
+def null_space_turns(tangents: np.ndarray, signs: np.ndarray, certified: np.ndarray | None = None) -> np.ndarray:
+    """det(T_k-1^T T_k) of each two adjacent null-space bases (N, n, d) -> (N - 1,): how far the null space turned
+    over each step (``Guard._judge``'s ALIGNED), with which the sign of det [Psi_q; T^T] is compared across it. At a
+    step ``certified`` (``compiled.singular.certified``: by Weyl's inequality no flip of that sign, and no basis made
+    at its end) the sign its proof gives, signs[k-1] signs[k], of size 1: the Guard's test reads no flip there."""
+    if certified is None or not np.any(certified):
+        return np.linalg.det(np.swapaxes(tangents[:-1], 1, 2) @ tangents[1:])
+    turns = signs[:-1] * signs[1:]
+    steps = np.flatnonzero(~certified)  # the bases made at both ends
+    if steps.size:
+        turns[steps] = np.linalg.det(np.swapaxes(tangents[steps], 1, 2) @ tangents[steps + 1])
+    return turns
+
+
 def scale_rows(jacobians: np.ndarray, columns: np.ndarray, norms: np.ndarray) -> np.ndarray:
     """``Guard._scaled`` of Psi_q (N, m, n) whose weighted rows' norms (N, m) are known."""
     return jacobians * columns / np.where(norms > 0, norms, 1.0)[..., None]
@@ -1793,31 +1810,38 @@ def square_spectra(
     banded: bool = True,
     pattern: np.ndarray | None = None,
     settle: tuple | None = None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(sigma_m / sigma_1, null-space bases T, signs of det [Psi_q; T^T]) of each Psi_q (N, m, n) of full row rank
-    m, scaled (``scale_rows`` with its column weights and row norms), for ``Guard.check_outputs``. Dense: SVDs and
-    ``null_space_bases``, O(m^2 n) each. A large mechanism's Psi_q is a band once its rows and columns are
-    ordered (``compiled.singular``, the compiled runs' code that calls this): extreme eigenvalues of Psi_q Psi_q^T
-    by shifted inverse iteration and Cholesky tests for the ratio, banded LU for T and the sign, O(n b^2) each;
-    scaled entry by entry, no scaled copy of the history. ``before``: a null-space basis just before the first time
-    (which picks the band's independent coordinates), None if none is known. ``banded=False``: dense whatever the
-    size (a numpy engine's run, which loads no compiled code). ``pattern`` (m, n): where any Psi_q is nonzero, if
-    known (the band's structure; else found from the history). ``settle`` ((thresholds, fall, through): the Guard's
-    tests of the ratios): the band's ratios closed only where those tests or the Guard's reported figures need it
-    (``compiled.singular.spectra``, ``settled``); None: everywhere."""
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(sigma_m / sigma_1, null-space bases T, signs of det [Psi_q; T^T], turns det(T_k-1^T T_k) of each step,
+    ``null_space_turns``) of each Psi_q (N, m, n) of full row rank m, scaled (``scale_rows`` with its column weights and
+    row norms), for ``Guard.check_outputs``. Dense: SVDs and ``null_space_bases``, O(m^2 n) each. A large mechanism's
+    Psi_q is a band once its rows and columns are ordered (``compiled.singular``, the compiled runs' code that calls
+    this): extreme eigenvalues of Psi_q Psi_q^T by shifted inverse iteration and Cholesky tests for the ratio, banded LU
+    for T and the sign, O(n b^2) each; scaled entry by entry, no scaled copy of the history. ``before``: a null-space
+    basis just before the first time (which picks the band's independent coordinates), None if none is known.
+    ``banded=False``: dense whatever the size (a numpy engine's run, which loads no compiled code). ``pattern`` (m, n):
+    where any Psi_q is nonzero, if known (the band's structure; else found from the history). ``settle`` ((thresholds,
+    fall, through): the Guard's tests of the ratios): the band's ratios closed only where those tests or the Guard's
+    reported figures need it (``compiled.singular.spectra``, ``settled``), its bases made only where a step is not
+    certified to hold no flip of the sign (``compiled.singular.certified``; NaN elsewhere, no test reads them); None:
+    everywhere."""
     N, m, n = jacobians.shape
     found = _compiled_spectra(jacobians, columns, norms, before, pattern, settle) if banded and m <= n else None
     if found is None:
         scaled = scale_rows(jacobians, columns, norms)
         tangents, signs = null_space_bases(scaled, signs=True)
-        return singular_ratios(np.linalg.svd(scaled, compute_uv=False), m), tangents, signs
-    ratios, tangents, signs = found
-    failed = ~(np.isfinite(ratios) & np.isfinite(signs) & np.all(np.isfinite(tangents), axis=(1, 2)))
-    if np.any(failed):  # LAPACK met an exact zero pivot there: those times densely
+        ratios = singular_ratios(np.linalg.svd(scaled, compute_uv=False), m)
+        return ratios, tangents, signs, null_space_turns(tangents, signs)
+    ratios, tangents, signs, certified = found
+    made = np.ones(N, dtype=bool)
+    made[1:-1] = ~(certified[:-1] & certified[1:])  # interior times whose two steps are certified: no basis
+    failed = ~(np.isfinite(ratios) & np.isfinite(signs)) | (made & ~np.all(np.isfinite(tangents), axis=(1, 2)))
+    if np.any(failed):  # LAPACK met an exact zero pivot there: those times densely, and every basis not made
+        failed |= ~made
         scaled = scale_rows(jacobians[failed], columns, norms[failed])
         tangents[failed], signs[failed] = null_space_bases(scaled, signs=True)
         ratios[failed] = singular_ratios(np.linalg.svd(scaled, compute_uv=False), m)
-    return ratios, tangents, signs
+        certified = np.zeros_like(certified)
+    return ratios, tangents, signs, null_space_turns(tangents, signs, certified)
 
 
 def _compiled_spectra(
@@ -1829,15 +1853,16 @@ def _compiled_spectra(
     BAND_SMALLEST coordinates where the band is at most an eighth of them wide (``WIDEST``), below where it is at most
     half of them wide (``WIDEST_MID``: a mid-size Psi_q, the loop chain's of 2-8 loops, costs a quarter to two thirds
     of numpy's batched SVDs and QRs so; a wider band costs more than they), or at any width where it is square and its
-    ratios are settled by the Guard's tests (``WIDEST_SQUARE``: no null space to solve for). None where there is no
+    ratios are settled by the Guard's tests (``WIDEST_SQUARE``: no null space to solve for). (ratios, bases, signs,
+    the steps certified to hold no flip of the sign, ``compiled.singular.certified``); None where there is no
     compiled engine (a student package) or not such a band: numpy's dense SVDs and QRs then."""
     try:
         from .compiled import singular
     except ImportError:  # a student package: dense
         return None
-    _, m, n = jacobians.shape
-    if m <= DENSE_LARGEST and n < BAND_SMALLEST:
-        return singular.dense_spectra(jacobians, columns, norms, settle=settle)
+    N, m, n = jacobians.shape
+    if m <= DENSE_LARGEST and n < BAND_SMALLEST:  # every basis made: no step certified
+        return *singular.dense_spectra(jacobians, columns, norms, settle=settle), np.zeros(max(N - 1, 0), dtype=bool)
     if n >= BAND_SMALLEST:
         widest = singular.WIDEST
     else:
@@ -2002,8 +2027,7 @@ class Guard:
                 self.check_drift(q[k], float(t[k]))  # raises, with the message of the step-by-step check
         if not self.singular_ratio or self.rank == 0:
             return
-        ratios, tangents, signs = self._spectra(t, jacobians, norms, pattern)
-        turns = np.linalg.det(np.swapaxes(tangents[:-1], 1, 2) @ tangents[1:])  # det(T_k-1^T T_k), k >= 1
+        ratios, tangents, signs, turns = self._spectra(t, jacobians, norms, pattern)  # turns[k - 1]: to t_k
         if self._quiet(t, ratios, tangents, signs, turns):
             return
         for k in range(t.size):
@@ -2028,14 +2052,16 @@ class Guard:
 
     def _spectra(
         self, t: np.ndarray, jacobians: np.ndarray, norms: np.ndarray | None = None, pattern: np.ndarray | None = None
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-        """(sigma_r / sigma_1, null-space bases T, signs of det [Psi_q; T^T] or None) of the scaled Psi_q (``_scaled``)
-        of Psi_q (N, m, n) at the times t (``norms``, ``pattern``: ``_row_norms``, if known), kept for
-        ``spectra``: the run's later looks at the same output times (``singular_dip``, ``check_branches``) take them
-        instead of a second and third batch of SVDs (on a chain of 32 loops each batch cost more than the
-        integration). The ratios from the band are closed only where the Guard's tests of them (singular_ratio,
-        NEAR_SINGULAR, FALL, the dips; the smallest and a crossing's figure reported) need it, elsewhere known in a
-        bracket about 1e-4 wide that decides them the same way (``compiled.singular.settled``)."""
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]:
+        """(sigma_r / sigma_1, null-space bases T, signs of det [Psi_q; T^T] or None, turns det(T_k-1^T T_k),
+        ``null_space_turns``) of the scaled Psi_q (``_scaled``) of Psi_q (N, m, n) at the times t (``norms``,
+        ``pattern``: ``_row_norms``, if known), kept for ``spectra``: the run's later looks at the same output times
+        (``singular_dip``, ``check_branches``) take them instead of a second and third batch of SVDs (on a chain of 32
+        loops each batch cost more than the integration). The ratios from the band are closed only where the Guard's
+        tests of them (singular_ratio, NEAR_SINGULAR, FALL, the dips; the smallest and a crossing's figure reported)
+        need it, elsewhere known in a bracket about 1e-4 wide that decides them the same way
+        (``compiled.singular.settled``); its bases made only at the ends of the steps not certified to hold no flip of
+        the sign (``compiled.singular.certified``)."""
         if norms is None:
             norms, pattern = self._row_norms(jacobians)
         if jacobians.shape[1] == self.rank:  # independent rows: T and det [Psi_q; T^T], from the band where it pays
@@ -2043,11 +2069,14 @@ class Guard:
             made = square_spectra(jacobians, self._columns, norms, self._tangent, self.banded, pattern, settle)
         else:  # redundant rows: the null space of rank r needs the SVD's V; det [Psi_q; T^T] is not defined
             _, s, vt = np.linalg.svd(scale_rows(jacobians, self._columns, norms))
-            made = singular_ratios(s, self.rank), np.swapaxes(vt[:, self.rank :], 1, 2), None
+            tangents = np.swapaxes(vt[:, self.rank :], 1, 2)
+            made = singular_ratios(s, self.rank), tangents, None, null_space_turns(tangents, None)
         self._made = (np.array(t, dtype=float), made)
         return made
 
-    def spectra(self, t: np.ndarray, jacobians: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    def spectra(
+        self, t: np.ndarray, jacobians: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]:
         """``_spectra`` of Psi_q (N, m, n) at the output times t: those ``check_outputs`` made for the same times,
         else made here."""
         made = self.__dict__.get("_made")
@@ -2070,10 +2099,9 @@ class Guard:
         (``closest``, what the checks before saw) has nothing to judge."""
         if not self.judges_branches(t):
             return
-        ratios, tangents, signs = self.spectra(t, jacobians)
+        ratios, _, signs, turns = self.spectra(t, jacobians)
         intervals = [(k - 1, k, k + 1) for k in 1 + np.flatnonzero(dips(ratios))]
         if signs is not None:  # det [Psi_q; T^T] defined (independent rows): its sign flips
-            turns = np.linalg.det(np.swapaxes(tangents[:-1], 1, 2) @ tangents[1:])
             flips = (np.abs(turns) > ALIGNED) & (turns * signs[1:] * signs[:-1] < 0)
             for k in 1 + np.flatnonzero(flips):
                 if not any(a <= k - 1 and k <= b for a, _, b in intervals):  # not within a dip's interval
@@ -2259,11 +2287,21 @@ def gyration_weights(system: System) -> np.ndarray:
     per, dim = system.coordinates_per_body, system.model.dimension
     weights = np.ones((system.n_bodies, per))
     for k, body in enumerate(system.model.bodies):
-        inertia = np.asarray(body.inertia if body.inertia is not None else 0.0, dtype=float)
-        moment = float(np.trace(inertia) / 3.0 if inertia.ndim == 2 else np.mean(inertia))
+        moment = _mean_moment(body.inertia)
         radius = math.sqrt(moment / body.mass) if body.mass and moment > 0 else 0.0
         weights[k, dim:] = radius if dim == 2 else 2.0 * radius
     return weights
+
+
+def _mean_moment(inertia) -> float:
+    """J of ``gyration_weights``: a planar moment itself (given as a number: no array made of it, 3 us a body at a
+    loop chain's start), a 3 x 3 inertia's trace / 3, the mean of principal moments."""
+    if inertia is None:
+        return 0.0
+    if isinstance(inertia, float | int):
+        return float(inertia)
+    inertia = np.asarray(inertia, dtype=float)
+    return float(np.trace(inertia) / 3.0 if inertia.ndim == 2 else np.mean(inertia))
 
 
 def branch_verdict(weights: np.ndarray, h: float, before: tuple, after: tuple, bodies) -> tuple:
