@@ -162,3 +162,20 @@ def test_consistent_initial_conditions_at_rest_take_psi_t_as_the_residual():
     assert report["velocity_residual"] <= 1e-10 * max(1.0, report["velocity_residual_before"])
     if not report["velocity_residual_before"]:
         assert qd.tobytes() == rest.tobytes()
+
+
+def test_the_spatial_tree_mass_is_made_at_its_first_numpy_evaluation():
+    """diag(m I, J') of every body (``JointCoordinates._body_mass``): not made by the object (a compiled run never
+    reads it), made by the first numpy evaluation, the blocks of each body's mass and inertia."""
+    system, q0, qd0 = build_system(load_model(MODELS / "spatial_double_pendulum.yaml"))
+    M, forces = dynamics.dynamic_model(system, None, None)
+    formulation = dynamics.make_formulation("joint-coordinates", system, M, forces)
+    assert "_body_mass" not in formulation.__dict__
+    formulation.accelerations(*formulation.coordinates(0.0, formulation.initial_state(q0, qd0, 0.0)), 0.0)
+    body_mass = formulation.__dict__["_body_mass"]
+    for b, body in enumerate(system.model.bodies):
+        block = body_mass[6 * b : 6 * b + 6, 6 * b : 6 * b + 6]
+        assert np.array_equal(block[:3, :3], body.mass * np.eye(3)) and np.array_equal(block[3:, 3:], body.inertia)
+    assert np.count_nonzero(body_mass) == sum(
+        np.count_nonzero(body_mass[6 * b : 6 * b + 6, 6 * b : 6 * b + 6]) for b in range(2)
+    )
