@@ -80,7 +80,10 @@ def acceleration_analysis(system: System, q: np.ndarray, qd: np.ndarray, t: floa
 def assemble(system: System, q0: np.ndarray, t: float = 0.0) -> tuple[np.ndarray, dict]:
     """Make the file's approximate configuration consistent: Psi(q, t) = 0 by Newton-Raphson.
 
-    Returns the assembled q and a report of how far each body moved (translation and rotation).
+    Returns the assembled q and a report of how far each body moved (translation and rotation). Where q0 is on
+    the constraints already (no Newton iteration) q is q0 itself and every body's move is exactly zero, planar or
+    spatial: the angle of conj(p0) p0 would be the rounding of the quaternion product alone (up to 2e-16 rad),
+    no motion, and an axis-angle per body is most of a spatial call's initial conditions (a few us a body).
     """
     try:
         solution = newton_raphson(system, q0, t)
@@ -88,7 +91,7 @@ def assemble(system: System, q0: np.ndarray, t: float = 0.0) -> tuple[np.ndarray
         raise AnalysisError(f"the mechanism cannot be assembled: {err}") from None
     moved = {}
     n, dim = system.coordinates_per_body, system.model.dimension
-    if solution.iterations == 0 and dim == 2:  # q0 on the constraints already: no body moved (exactly 0, 0)
+    if solution.iterations == 0:  # q0 on the constraints already: q is q0, no body moved (exactly 0, 0)
         moved = {b.name: {"translation": 0.0, "rotation": 0.0} for b in system.model.bodies}
         return solution.q, {"iterations": 0, "residual": solution.residual, "moved": moved}
     for k, name in enumerate(b.name for b in system.model.bodies):

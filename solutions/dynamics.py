@@ -126,13 +126,16 @@ def consistent_initial_conditions(
     constraints exactly (a mechanism released at rest), x = 0 and nothing is solved.
     """
     q, assembly = assemble(system, q0, t)
-    jacobian, psi_t = system.jacobian(q, t), system.psi_t(q, t)
-    residual = jacobian @ qd0 + psi_t
+    psi_t = system.psi_t(q, t)
+    at_rest = not np.any(qd0)  # Psi_q 0 = 0: the residual is Psi_t, and Psi_q is made only to correct q0'
+    jacobian = None if at_rest else system.jacobian(q, t)
+    residual = psi_t + 0.0 if at_rest else jacobian @ qd0 + psi_t
     before = float(np.abs(residual).max()) if residual.size else 0.0
     if not before:  # q0' satisfies the velocity constraints exactly (e.g. at rest): x = 0, nothing to correct
         qd = np.array(qd0, dtype=float)
         report = {"velocity_residual_before": 0.0, "velocity_correction": 0.0, "velocity_residual": 0.0}
         return q, qd, {"assembly": assembly, **report}
+    jacobian = system.jacobian(q, t) if jacobian is None else jacobian
     if point_masses(system.model):  # M singular: the same minimum, from [M Psi_q^T; Psi_q 0] (eq. 5.30's matrix)
         n, m = jacobian.shape[1], jacobian.shape[0]
         kkt = np.block([[mass_at(M, q), jacobian.T], [jacobian, np.zeros((m, m))]])
@@ -2293,11 +2296,21 @@ def gyration_weights(system: System) -> np.ndarray:
     per, dim = system.coordinates_per_body, system.model.dimension
     weights = np.ones((system.n_bodies, per))
     for k, body in enumerate(system.model.bodies):
-        inertia = np.asarray(body.inertia if body.inertia is not None else 0.0, dtype=float)
-        moment = float(np.trace(inertia) / 3.0 if inertia.ndim == 2 else np.mean(inertia))
+        moment = _mean_moment(body.inertia)
         radius = math.sqrt(moment / body.mass) if body.mass and moment > 0 else 0.0
         weights[k, dim:] = radius if dim == 2 else 2.0 * radius
     return weights
+
+
+def _mean_moment(inertia) -> float:
+    """J of ``gyration_weights``: a planar moment itself (given as a number: no array made of it, 3 us a body at a
+    loop chain's start), a 3 x 3 inertia's trace / 3, the mean of principal moments."""
+    if inertia is None:
+        return 0.0
+    if isinstance(inertia, float | int):
+        return float(inertia)
+    inertia = np.asarray(inertia, dtype=float)
+    return float(np.trace(inertia) / 3.0 if inertia.ndim == 2 else np.mean(inertia))
 
 
 def branch_verdict(weights: np.ndarray, h: float, before: tuple, after: tuple, bodies) -> tuple:

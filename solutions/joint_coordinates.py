@@ -62,6 +62,7 @@ An open tree has no cut rows, and this is (D^T M D) theta'' = D^T (Q - M xi) abo
 
 from __future__ import annotations
 
+import functools
 import math
 from collections import deque
 from dataclasses import dataclass
@@ -733,15 +734,21 @@ class JointCoordinates(Formulation):
             self._m = diagonal if np.count_nonzero(self.M) == np.count_nonzero(diagonal) else None
         else:  # constant: diag(m I, J') per body, and the weights
             self._masses = [float(b.mass) for b in model.bodies]
-            inertias = np.array([b.inertia for b in model.bodies], dtype=float).reshape(nb, 3, 3)
-            blocks = np.zeros((nb, 6, 6))  # each body's diag(m I, J'), set into M's diagonal all at once
-            blocks[:, :3, :3] = np.multiply.outer(self._masses, np.eye(3))
-            blocks[:, 3:, 3:] = inertias
-            self._body_mass = np.zeros((nb, 6, nb, 6))
-            self._body_mass[range(nb), :, range(nb), :] = blocks
-            self._body_mass = self._body_mass.reshape(6 * nb, 6 * nb)
-            self._inertias = [tuple(inertia) for inertia in inertias.reshape(nb, 9).tolist()]
+            inertias = np.array([b.inertia for b in model.bodies], dtype=float).reshape(nb, 9)
+            self._inertias = [tuple(inertia) for inertia in inertias.tolist()]
             self._weights = [scale(b.mass, _floats(model.gravity)) for b in model.bodies]
+
+    @functools.cached_property
+    def _body_mass(self) -> np.ndarray:
+        """diag(m I, J') of every body (6 nb x 6 nb, constant), made at the first numpy evaluation that needs it
+        (``embedded_equations``): a compiled run never does (7.5 us of a spatial call's start)."""
+        nb = len(self._masses)
+        blocks = np.zeros((nb, 6, 6))  # each body's diag(m I, J'), set into M's diagonal all at once
+        blocks[:, :3, :3] = np.multiply.outer(self._masses, np.eye(3))
+        blocks[:, 3:, 3:] = np.array(self._inertias, dtype=float).reshape(nb, 3, 3)
+        body_mass = np.zeros((nb, 6, nb, 6))
+        body_mass[range(nb), :, range(nb), :] = blocks
+        return body_mass.reshape(6 * nb, 6 * nb)
 
     def start_over(self) -> None:
         """Forget the last evaluation (joint state, motion, accelerations) and the compiled plan made for it: the

@@ -195,10 +195,10 @@ def _parameters(scene: Scene | TreeScene, alpha: float, beta: float, tol: float,
     scene = scene.scene if tree is not None else scene
     extra = 3 if scene.energies else 0
     positions, velocities = (tree.n_positions, tree.k) if tree is not None else (scene.n, scene.n)
-    cut = list(tree.cut_rows) if tree is not None else []
-    owners = list(tree.owners) if tree is not None else []
-    bodies = list(tree.cut_bodies) if tree is not None else []
-    bodies += list(tree.row_index) if tree is not None else []  # the tree's rows body by body (tree.owned_rows)
+    cut = tree.cut_rows.tolist() if tree is not None else []  # Python ints: no numpy scalar per entry
+    owners = tree.owners.tolist() if tree is not None else []
+    bodies = tree.cut_bodies.tolist() if tree is not None else []
+    bodies += tree.row_index.tolist() if tree is not None else []  # the tree's rows body by body (tree.owned_rows)
     drivers_power = int(tree is not None and scene.drivers and scene.energies)  # a tree's lambda at every evaluation
     empty1, empty3 = np.zeros(1), np.zeros((1, 3, 3))
     mass = scene.mass_diagonal if scene.mass_diagonal is not None else empty1

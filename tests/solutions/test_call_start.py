@@ -121,3 +121,61 @@ def test_body_frames_read_the_file_configuration_only_for_a_global_point():
     expected = np.array([[np.cos(phi), np.sin(phi)], [-np.sin(phi), np.cos(phi)]]) @ (np.array([1.0, 0.5]) - [x, y])
     assert np.allclose(frames.local_point(0, [1.0, 0.5], "global"), expected, rtol=0, atol=1e-15)
     assert np.array_equal(frames.q0, q0) and q0.dtype == np.float64
+
+
+def _turned_top(p: np.ndarray):
+    """The heavy top turned to the unit Euler parameters p about its tip O (the origin): q on its constraints."""
+    from solutions.rotations import rotation_matrix
+
+    system, q0, _ = build_system(load_model(MODELS / "heavy_top.yaml"))
+    return system, np.concatenate([rotation_matrix(p) @ np.array([0.0, 0.0, 0.05]), p])
+
+
+def test_a_spatial_q0_on_the_constraints_moves_no_body_exactly():
+    """No Newton iteration: q is q0 and every body's move is reported exactly 0, spatial as planar (the angle of
+    conj(p0) p0 was the rounding of the quaternion product, a few 1e-17 rad for some p0: this test picks one)."""
+    from solutions.kinematics import assemble
+    from solutions.rotations import conjugate, normalized, quaternion_product, to_axis_angle
+
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        p = normalized(rng.normal(size=4))
+        if to_axis_angle(quaternion_product(conjugate(normalized(p)), normalized(p)))[1] != 0.0:
+            break  # the old report's rounding: not a motion
+    else:
+        pytest.fail("no Euler parameters with a rounding-level conj(p) p among 200")
+    system, q = _turned_top(p)
+    assembled, report = assemble(system, q)
+    assert report["iterations"] == 0 and assembled.tobytes() == q.tobytes()
+    assert report["moved"] == {"top": {"translation": 0.0, "rotation": 0.0}}
+
+
+def test_consistent_initial_conditions_at_rest_take_psi_t_as_the_residual():
+    """q0' = 0: Psi_q q0' + Psi_t is Psi_t (Psi_q made only where q0' needs a correction): a driven mechanism at rest
+    is corrected as before, bit for bit against Psi_q q0' + Psi_t."""
+    system, q0, _ = build_system(load_model(MODELS / "slider_crank.yaml"))
+    M = dynamics.dynamic_model(system, None, None)[0]
+    rest = np.zeros_like(q0)
+    q, qd, report = dynamics.consistent_initial_conditions(system, M, q0, rest)
+    jacobian, psi_t = system.jacobian(q, 0.0), system.psi_t(q, 0.0)
+    assert report["velocity_residual_before"] == float(np.abs(jacobian @ rest + psi_t).max())
+    assert report["velocity_residual"] <= 1e-10 * max(1.0, report["velocity_residual_before"])
+    if not report["velocity_residual_before"]:
+        assert qd.tobytes() == rest.tobytes()
+
+
+def test_the_spatial_tree_mass_is_made_at_its_first_numpy_evaluation():
+    """diag(m I, J') of every body (``JointCoordinates._body_mass``): not made by the object (a compiled run never
+    reads it), made by the first numpy evaluation, the blocks of each body's mass and inertia."""
+    system, q0, qd0 = build_system(load_model(MODELS / "spatial_double_pendulum.yaml"))
+    M, forces = dynamics.dynamic_model(system, None, None)
+    formulation = dynamics.make_formulation("joint-coordinates", system, M, forces)
+    assert "_body_mass" not in formulation.__dict__
+    formulation.accelerations(*formulation.coordinates(0.0, formulation.initial_state(q0, qd0, 0.0)), 0.0)
+    body_mass = formulation.__dict__["_body_mass"]
+    for b, body in enumerate(system.model.bodies):
+        block = body_mass[6 * b : 6 * b + 6, 6 * b : 6 * b + 6]
+        assert np.array_equal(block[:3, :3], body.mass * np.eye(3)) and np.array_equal(block[3:, 3:], body.inertia)
+    assert np.count_nonzero(body_mass) == sum(
+        np.count_nonzero(body_mass[6 * b : 6 * b + 6, 6 * b : 6 * b + 6]) for b in range(2)
+    )
