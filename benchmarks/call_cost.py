@@ -5,7 +5,8 @@ never more than the integration at any N. This script measures where that cost g
 ``forward_dynamics`` (``solutions/dynamics.py``: initial conditions, the plan and its motion periods, the engine's
 choice, the compiled loop, the outputs at the output times, the checks, the result with its residuals, energies
 and reactions) is wrapped by a timer for the measured calls, and the table gives its milliseconds per call (the
-mean of ``--calls`` calls after one warm-up call), the integration loop (``loops.embedded``) beside the rest.
+mean of ``--calls`` calls after one warm-up call, the set-up's garbage collected before them: a full collection among
+them, ~60 ms once, would swamp the mean), the integration loop (``loops.embedded``) beside the rest.
 Stages nest (``integrate_motion`` holds the engine's choice, the compiled run and the checks), so the rows do
 not add up; "outside the loop" is the whole call minus the loop.
 
@@ -36,6 +37,7 @@ for _variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 import argparse  # noqa: E402
 import contextlib  # noqa: E402
 import functools  # noqa: E402
+import gc  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -165,12 +167,14 @@ def measure(
         skipped = lambda: dynamics.forward_dynamics(system, q0, qd0, t_end, 100, divergence="skip", **options)  # noqa: E731
         checked_call = lambda: dynamics.forward_dynamics(system, q0, qd0, t_end, 100, **options)  # noqa: E731
     seconds: dict[str, float] = {}
+    gc.collect()  # the garbage of the set-up collected before the timed calls, not by a full collection among them
     with timed(STAGES, seconds):
         start = CLOCK[0]()
         for _ in range(calls):
             skipped()
         total = (CLOCK[0]() - start) / calls
     companion: dict[str, float] = {}
+    gc.collect()
     with inside(*COMPANION, companion):
         start = CLOCK[0]()
         for _ in range(calls):
