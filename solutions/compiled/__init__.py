@@ -200,7 +200,7 @@ def _parameters(scene: Scene | TreeScene, alpha: float, beta: float, tol: float,
     owners = list(tree.owners) if tree is not None else []
     bodies = list(tree.cut_bodies) if tree is not None else []
     bodies += list(tree.row_index) if tree is not None else []  # the tree's rows body by body (tree.owned_rows)
-    bodies += list(tree.cut_index) if tree is not None else []  # the cut solve's sparsity (tree.cut_structure)
+    bodies += tree.cut_index.tolist() if tree is not None else []  # the cut solve's sparsity (tree.cut_structure)
     drivers_power = int(tree is not None and scene.drivers and scene.energies)  # a tree's lambda at every evaluation
     empty1, empty3 = np.zeros(1), np.zeros((1, 3, 3))
     mass = scene.mass_diagonal if scene.mass_diagonal is not None else empty1

@@ -34,6 +34,7 @@ No numba here; the generated module is cached as ``codegen.py`` caches the scene
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from itertools import accumulate
 
 import numpy as np
 
@@ -171,32 +172,33 @@ def cut_structure(ints: np.ndarray, bodies: np.ndarray, k: int, nb: int) -> np.n
     - each cut row's support, the columns that move the two bodies its element joins (their union, descending:
       the ancestors of each column come after it, as L^-T needs); the slot of each of those entries in W stored
       column by column; the row of each entry column by column (rows increasing within a column)."""
-    ints, bodies = ints.tolist(), bodies.tolist()
+    heads, bodies = ints[:, :6].tolist(), bodies.tolist()
+    moving = [ints[e, 6 : 6 + head[5]].tolist() for e, head in enumerate(heads)]  # the columns that move each child
     joint, parent = [-1] * nb, [-1] * k
-    for e, (kind, _, child, _, _, count, *moving) in enumerate(ints):
+    for e, (kind, _, child, _, _, count) in enumerate(heads):
         joint[child] = e
         own = 3 if kind == KINDS["spherical"] else 1
         for a in range(max(count - own, 1), count):
-            parent[moving[a]] = moving[a - 1]
+            parent[moving[e][a]] = moving[e][a - 1]
     supports = []
     for a in range(len(bodies) // 2):
         columns = set()
         for b in bodies[2 * a : 2 * a + 2]:
             if b >= 0:
-                columns.update(ints[joint[b]][6 : 6 + ints[joint[b]][5]])
+                columns.update(moving[joint[b]])
         supports.append(sorted(columns, reverse=True))
     column_rows = [[] for _ in range(k)]  # the entries of W column by column, rows increasing
     for a, support in enumerate(supports):
         for i in support:
             column_rows[i].append(a)
-    column_start = np.cumsum([0] + [len(rows) for rows in column_rows]).tolist()
+    column_start = list(accumulate((len(rows) for rows in column_rows), initial=0))
     filled, slots = column_start[:k], []
     for support in supports:
         for i in support:
             slots.append(filled[i])
             filled[i] += 1
     band = max([rows[-1] - rows[0] for rows in column_rows if rows], default=0)
-    row_start = np.cumsum([0] + [len(support) for support in supports]).tolist()
+    row_start = list(accumulate((len(support) for support in supports), initial=0))
     every = [band, *parent, *joint, *row_start, *column_start, *(i for s in supports for i in s), *slots]
     return np.array(every + [a for rows in column_rows for a in rows], dtype=np.int64)
 
