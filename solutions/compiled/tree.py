@@ -172,6 +172,8 @@ def cut_structure(ints: np.ndarray, bodies: np.ndarray, k: int, nb: int) -> np.n
     - each cut row's support, the columns that move the two bodies its element joins (their union, descending:
       the ancestors of each column come after it, as L^-T needs); the slot of each of those entries in W stored
       column by column; the row of each entry column by column (rows increasing within a column)."""
+    if bodies.size == 0:  # an open tree: no cut solve (its Python costs ~20 us a call at four joints)
+        return np.zeros(0, dtype=np.int64)
     heads, bodies = ints[:, :6].tolist(), bodies.tolist()
     moving = [ints[e, 6 : 6 + head[5]].tolist() for e, head in enumerate(heads)]  # the columns that move each child
     joint, parent = [-1] * nb, [-1] * k
