@@ -34,6 +34,7 @@ No numba here; the generated module is cached as ``codegen.py`` caches the scene
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from itertools import accumulate
 
 import numpy as np
 
@@ -71,6 +72,9 @@ class TreeScene:
     row_index: np.ndarray = None
     """The tree's rows body by body (``owned_rows``: start (nb + 1), then the rows), made once per scene: what
     ``tree_multipliers`` and ``zero_tree_blocks`` read (P[8] after the cut rows' bodies)."""
+    cut_index: np.ndarray = None
+    """The sparsity of the cut solve (``cut_structure``), made once per scene: what ``cut_accelerations`` reads
+    (P[8] after the row index)."""
     unsupported: str | None = None
     packed_data: tuple | None = field(default=None, repr=False, compare=False)  # ``data()``, made once
 
@@ -120,6 +124,7 @@ def describe(scene: Scene, formulation) -> TreeScene:
     owners, cut, bodies = _owners(system, joints)
     tree = TreeScene(scene, ints, floats, formulation.tree.n_positions, k, cut, owners=owners, cut_bodies=bodies)
     tree.row_index = owned_rows(tree.owners, len(system.model.bodies))
+    tree.cut_index = cut_structure(ints, bodies, k, len(system.model.bodies))
     if not joints:
         tree.unsupported = "a tree without joints"
     return tree
@@ -152,6 +157,52 @@ def owned_rows(owners: np.ndarray, nb: int) -> np.ndarray:
     start = np.cumsum(counts) - counts[0]  # body b's rows at [start[b], start[b + 1]), counted past the cut rows
     rows = np.argsort(owners, kind="stable")[counts[0] :]  # by owner, row order kept; the cut rows first, left out
     return np.concatenate([start, rows])
+
+
+def cut_structure(ints: np.ndarray, bodies: np.ndarray, k: int, nb: int) -> np.ndarray:
+    """The integer side of the cut solve (``tree_kernels.cut_accelerations``), the tree's structure alone, as one
+    array: made once per scene, where the solve made it at every evaluation (~0.5 us of the loop chain's right-hand
+    side at N = 4). In order (``tree_kernels.cut_parts`` cuts it):
+
+    - the half-band p of the cut rows' S = W^T d^-1 W (``band_solve``; a wider one goes to LAPACK);
+    - lambda(i), the tree's parent of every joint velocity (-1 at ground; H's sparsity: Featherstone 2008, sec. 6.5):
+      the previous column of the same joint (a spherical joint's three), else the last column of the joint's parent;
+    - the tree joint whose child each body is (-1 ground);
+    - where each cut row's entries of W begin (mc + 1), and where each column's (k + 1);
+    - each cut row's support, the columns that move the two bodies its element joins (their union, descending:
+      the ancestors of each column come after it, as L^-T needs); the slot of each of those entries in W stored
+      column by column; the row of each entry column by column (rows increasing within a column)."""
+    if bodies.size == 0:  # an open tree: no cut solve (its Python costs ~20 us a call at four joints)
+        return np.zeros(0, dtype=np.int64)
+    heads, bodies = ints[:, :6].tolist(), bodies.tolist()
+    moving = [ints[e, 6 : 6 + head[5]].tolist() for e, head in enumerate(heads)]  # the columns that move each child
+    joint, parent = [-1] * nb, [-1] * k
+    for e, (kind, _, child, _, _, count) in enumerate(heads):
+        joint[child] = e
+        own = 3 if kind == KINDS["spherical"] else 1
+        for a in range(max(count - own, 1), count):
+            parent[moving[e][a]] = moving[e][a - 1]
+    supports = []
+    for a in range(len(bodies) // 2):
+        columns = set()
+        for b in bodies[2 * a : 2 * a + 2]:
+            if b >= 0:
+                columns.update(moving[joint[b]])
+        supports.append(sorted(columns, reverse=True))
+    column_rows = [[] for _ in range(k)]  # the entries of W column by column, rows increasing
+    for a, support in enumerate(supports):
+        for i in support:
+            column_rows[i].append(a)
+    column_start = list(accumulate((len(rows) for rows in column_rows), initial=0))
+    filled, slots = column_start[:k], []
+    for support in supports:
+        for i in support:
+            slots.append(filled[i])
+            filled[i] += 1
+    band = max([rows[-1] - rows[0] for rows in column_rows if rows], default=0)
+    row_start = list(accumulate((len(support) for support in supports), initial=0))
+    every = [band, *parent, *joint, *row_start, *column_start, *(i for s in supports for i in s), *slots]
+    return np.array(every + [a for rows in column_rows for a in rows], dtype=np.int64)
 
 
 VECTORS = (("xi", "a"), ("Q", "n"), ("power", "3"), ("q", "n"), ("qd", "n"), ("thdd", "k"), ("mu", "ncut"))
@@ -219,7 +270,7 @@ def _multipliers(scene: Scene) -> list[str]:
         "    cut_row_forces(jac, mu, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], "
         f"{7 if scene.dimension == 3 else 3}, residual)",
         "# the tree's rows body by body from the leaves, O(N)",
-        f"tree_multipliers(jac, residual, dims[7 + 3 * ncut + m :], {7 if scene.dimension == 3 else 3}, joints, lam)",
+        f"tree_multipliers(jac, residual, tree_rows, {7 if scene.dimension == 3 else 3}, joints, lam)",
     ]
     both = "outputs = np.empty(2 * n + m)  # q'', lambda and Q - M q'' in one allocation"
     cut = "qdd, lam, residual = outputs[:n], outputs[n : n + m], outputs[n + m :]"
@@ -255,6 +306,8 @@ def _body(tree: TreeScene) -> list[str]:
         "    columns = ncut > 0  # D itself: for the cut rows only (an open tree's outputs: the body accelerations)",
         "    whole = full  # lambda of every row (the outputs): D whole, Psi_q at every row's blocks",
         *_arrays(spatial),
+        "    tree_rows = dims[7 + 3 * ncut + m : 8 + 2 * ncut + 2 * m + nb]  # body by body (tree.owned_rows)",
+        "    structure = dims[8 + 2 * ncut + 2 * m + nb :]  # the cut solve's sparsity (tree.cut_structure)",
         "    for i in range(n):  # loops, not slice assignments (numba's broadcasting: ~20 ns each)",
         "        Q[i] = Q0[i]",
         "    power[0] = power[1] = power[2] = 0.0",
@@ -290,7 +343,7 @@ def _body(tree: TreeScene) -> list[str]:
         "            if ncut > 0:",
         f"                zero_cut_blocks(jac, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], {width})",
         "            if whole:  # lambda of every row: the tree rows at their body and its parent (tree_multipliers)",
-        f"                zero_tree_blocks(jac, dims[7 + 3 * ncut + m :], joints, {width})",
+        f"                zero_tree_blocks(jac, tree_rows, joints, {width})",
         *constraint_calls(scene, "        "),
         "        if history:  # Psi and Psi_t after the outputs, before Psi_q",
         "            o = y.size + 3 * n + m",
@@ -310,7 +363,7 @@ def _body(tree: TreeScene) -> list[str]:
     return lines + [
         "        thdd[:] = cut_accelerations("
         "matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], "
-        f"numbers[0], numbers[1], mu, joints, {7 if spatial else 3})",
+        f"numbers[0], numbers[1], mu, joints, {7 if spatial else 3}, structure)",
         "    else:  # an open tree: the articulated-body algorithm, O(N)",
         f"        {equations}_articulated({articulated}, joints, thdd, body, joint)",
         "    if full:  # lambda of every row: the outputs",

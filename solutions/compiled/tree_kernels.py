@@ -759,21 +759,6 @@ def zero_cut_blocks(jac, rows, bodies, width):
 
 
 @jit
-def dof_parents(ints, parent):
-    """The tree's parent of every joint velocity, lambda(i) (-1 at ground), into ``parent`` (k,): the previous column
-    of the same joint (a spherical joint's three), else the last column of the joint's parent; lambda(i) < i, since
-    the columns are numbered in the tree's topological order (Featherstone 2008, sec. 6.5, the parent array of H's
-    sparsity)."""
-    parent[:] = -1
-    for e in range(ints.shape[0]):
-        count = ints[e, 5]
-        own = 3 if ints[e, 0] == SPHERICAL else 1
-        for a in range(count - own, count):
-            if a > 0:
-                parent[ints[e, 6 + a]] = ints[e, 6 + a - 1]
-
-
-@jit
 def tree_factor(H, parent):
     """H = L^T diag(d) L in place (Featherstone 2008, table 6.3, "LTDL"; MuJoCo's mj_factorM): L unit lower
     triangular with L_ij nonzero only where j is an ancestor of i, so it fills in nothing outside the tree's
@@ -847,14 +832,25 @@ def band_solve(S, p, x):
 
 
 @jit
-def _cut_rows(Dq, xiq, jac, psi, psit, gam, qd, rows, bodies, alpha, beta, ints, width, H, parent, support, sizes,
-              values, c, joint, dense):  # fmt: skip
-    """Each cut row's W_a = L^-T Psi_theta,a^T (Psi_theta = Psi_c,q D) on its support, the columns that move the two
-    bodies its element joins (``bodies[2a], bodies[2a + 1]``, -1 for ground), which hold all their ancestors:
-    ``support[a, :sizes[a]]`` (descending), ``values`` alike; and the rows' right side c of eq. 7.6. ``joint`` (a
-    body's coordinates / width) and ``dense`` (k, zeros): work arrays (left as found: ``dense`` zero)."""
-    for e in range(ints.shape[0]):  # the tree joint whose child each body is
-        joint[ints[e, 2]] = e
+def cut_parts(structure, k, mc, nb):
+    """The views of ``tree.cut_structure``'s array (made once per scene, P[8]'s last part): (p, lambda(i) of every
+    joint velocity, each body's tree joint, where each cut row's and each column's entries of W begin, the rows'
+    supports, each entry's slot in W column by column, the row of each entry column by column)."""
+    parent, joint = structure[1 : 1 + k], structure[1 + k : 1 + k + nb]
+    o = 1 + k + nb
+    row_start, column_start = structure[o : o + mc + 1], structure[o + mc + 1 : o + mc + k + 2]
+    o, entries = o + mc + k + 2, row_start[mc]
+    support, slot = structure[o : o + entries], structure[o + entries : o + 2 * entries]
+    return structure[0], parent, joint, row_start, column_start, support, slot, structure[o + 2 * entries :]
+
+
+@jit
+def _cut_rows(Dq, xiq, jac, psi, psit, gam, qd, rows, bodies, alpha, beta, ints, width, H, parts, w, c, dense):
+    """Each cut row's W_a = L^-T Psi_theta,a^T (Psi_theta = Psi_c,q D) on its support (the columns that move the two
+    bodies its element joins, ``bodies[2a], bodies[2a + 1]``, -1 for ground, which hold all their ancestors), into
+    W stored column by column (``w``, the slots of ``tree.cut_structure``); and the rows' right side c of eq. 7.6.
+    ``dense`` (k, zeros): a work array (left as found)."""
+    _, parent, joint, row_start, _, support, slot, _ = parts
     for a in range(rows.size):
         row, r = jac[rows[a]], rows[a]
         rate = convective = 0.0
@@ -871,45 +867,22 @@ def _cut_rows(Dq, xiq, jac, psi, psit, gam, qd, rows, bodies, alpha, beta, ints,
                 for s in range(o, o + width):
                     total += row[s] * Dq[s, col]
                 dense[col] += total
-        size = _merged_columns(ints, joint, bodies[2 * a], bodies[2 * a + 1], support[a])
-        for u in range(size):  # L^-T from the leaves: the support holds every ancestor it reaches
-            i = support[a, u]
+        for u in range(row_start[a], row_start[a + 1]):  # L^-T from the leaves: the support holds every ancestor
+            i = support[u]
             if dense[i] != 0.0:
                 j = parent[i]
                 while j >= 0:
                     dense[j] -= H[i, j] * dense[i]
                     j = parent[j]
-        for u in range(size):
-            values[a, u] = dense[support[a, u]]
-            dense[support[a, u]] = 0.0
-        sizes[a] = size
+        for u in range(row_start[a], row_start[a + 1]):
+            w[slot[u]] = dense[support[u]]
+            dense[support[u]] = 0.0
         c[a] = gam[r] - 2.0 * alpha * (psit[r] + rate) - beta * beta * psi[r] - convective
 
 
 @jit
-def _merged_columns(ints, joint, b1, b2, out):
-    """The union of the columns that move body b1 and body b2 (each list ascending, -1: ground moves nothing), in
-    descending order, into ``out``; returns its length."""
-    n1 = ints[joint[b1], 5] if b1 >= 0 else 0
-    n2 = ints[joint[b2], 5] if b2 >= 0 else 0
-    i, j, size = n1 - 1, n2 - 1, 0
-    while i >= 0 or j >= 0:
-        x = ints[joint[b1], 6 + i] if i >= 0 else -1
-        z = ints[joint[b2], 6 + j] if j >= 0 else -1
-        if x >= z:
-            out[size] = x
-            i -= 1
-            if x == z:
-                j -= 1
-        else:
-            out[size] = z
-            j -= 1
-        size += 1
-    return size
-
-
-@jit
-def cut_accelerations(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, bodies, alpha, beta, mu, ints, width):
+def cut_accelerations(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, bodies, alpha, beta, mu, ints, width,
+                      structure):  # fmt: skip
     """theta'' of a tree with cut constraints (the rows ``rows`` of Psi, Psi_q, Psi_t, gamma), and their multipliers
     mu in ``mu``, from the augmented system of eq. 7.6 (``JointCoordinates.joint_accelerations``)
 
@@ -926,48 +899,29 @@ def cut_accelerations(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, bodie
     so on a shallow tree (the loop chain: cranks from ground, couplers on them) W has a few entries per row and S is
     a band (half-width 3), factored in O(m_c) (``band_solve``); the solve is O(N) in arithmetic where the dense
     augmented LU was O((k + m_c)^3) (a deep tree, a serial chain cut at its end, fills W and S: then S goes to LAPACK).
+    The sparsity (lambda(i), W's entries row by row and column by column, S's band) is the tree's structure, the
+    same at every evaluation: ``structure`` (``tree.cut_structure``, made once per scene); here only arithmetic.
     ``bodies``: the two bodies of each cut row's element (-1 ground); ``matrix`` holds the lower triangle of H
     (overwritten by its factors), ``ints`` the tree's joints, ``width`` a body's coordinates (3 planar, 7 spatial).
     A singular S, or an H that is not positive definite, gives NaN (the adaptive integrators reject the step)."""
     k, mc = rhs.size, rows.size
-    # two allocations for every work array (each allocation costs about what the arithmetic of a small tree does)
-    whole = np.empty(3 * k + 1 + 2 * mc * k + mc + jac.shape[1] // width, dtype=np.int64)
-    parent, counts, filled = whole[:k], whole[k : 2 * k + 1], whole[2 * k + 1 : 3 * k + 1]
-    support = whole[3 * k + 1 : 3 * k + 1 + mc * k].reshape((mc, k))
-    at = whole[3 * k + 1 + mc * k : 3 * k + 1 + 2 * mc * k]
-    sizes, joint = whole[3 * k + 1 + 2 * mc * k : 3 * k + 1 + 2 * mc * k + mc], whole[3 * k + 1 + 2 * mc * k + mc :]
-    work = np.empty(2 * k + 2 * mc * k + mc * mc + 2 * mc)
-    y, dense, S = work[:k], work[k : 2 * k], work[2 * k : 2 * k + mc * mc].reshape((mc, mc))
-    values = work[2 * k + mc * mc : 2 * k + mc * mc + mc * k].reshape((mc, k))
-    w = work[2 * k + mc * mc + mc * k : 2 * k + mc * mc + 2 * mc * k]
-    c, s = (
-        work[2 * k + mc * mc + 2 * mc * k : 2 * k + mc * mc + 2 * mc * k + mc],
-        work[2 * k + mc * mc + 2 * mc * k + mc :],
-    )
-    dof_parents(ints, parent)
+    parts = cut_parts(structure, k, mc, jac.shape[1] // width)
+    p, parent, _, _, counts, _, _, at = parts
+    entries = at.size
+    work = np.empty(2 * k + entries + mc * mc + 2 * mc)  # one allocation for every work array
+    y, dense, w = work[:k], work[k : 2 * k], work[2 * k : 2 * k + entries]
+    S = work[2 * k + entries : 2 * k + entries + mc * mc].reshape((mc, mc))
+    c, s = work[2 * k + entries + mc * mc : 2 * k + entries + mc * mc + mc], work[2 * k + entries + mc * mc + mc :]
     if not tree_factor(matrix, parent):
         mu[:] = np.nan
         return np.full(k, np.nan)
     dense[:] = 0.0
-    _cut_rows(Dq, xiq, jac, psi, psit, gam, qd, rows, bodies, alpha, beta, ints, width, matrix, parent, support,
-              sizes, values, c, joint, dense)  # fmt: skip
+    _cut_rows(Dq, xiq, jac, psi, psit, gam, qd, rows, bodies, alpha, beta, ints, width, matrix, parts, w, c, dense)
     y[:] = rhs
     tree_back(matrix, parent, y)  # L^-T r
-    counts[:] = 0  # the rows of W meeting column i: at[counts[i] : counts[i + 1]]
-    for a in range(mc):
-        for u in range(sizes[a]):
-            counts[support[a, u] + 1] += 1
-    for i in range(k):
-        counts[i + 1] += counts[i]
-    filled[:] = counts[:k]
-    for a in range(mc):  # rows in increasing order within each column
-        for u in range(sizes[a]):
-            i = support[a, u]
-            at[filled[i]], w[filled[i]] = a, values[a, u]
-            filled[i] += 1
-    S[:, :] = 0.0
-    p = 0
-    for a in range(mc):
+    for a in range(mc):  # S's lower triangle within its band zeroed (all of it beyond BAND, for LAPACK)
+        for b in range(max(0, a - p) if p <= BAND else 0, a + 1 if p <= BAND else mc):
+            S[a, b] = 0.0
         s[a] = -c[a]
     for i in range(k):  # S = W^T d^-1 W (its lower triangle) and its right side, column by column of the tree
         inverse = 1.0 / matrix[i, i]
@@ -976,7 +930,6 @@ def cut_accelerations(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, bodie
             s[a] += wa * y[i]
             for v in range(counts[i], u + 1):
                 S[a, at[v]] += wa * w[v]
-                p = max(p, a - at[v])
     if p <= BAND:
         band_solve(S, p, s)
         mu[:] = s

@@ -132,3 +132,46 @@ def test_the_drivers_power_from_the_cut_rows_is_lambda_psi_t_of_every_row(name):
         module.scene_rhs(0.3, y, P, D, out)
         assert abs(expected[-1]) > 1e-3  # the driver does work here
         np.testing.assert_allclose(out, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+
+
+@pytest.mark.parametrize(
+    ("model", "band"),
+    [(parallelogram_chain(6), 3), (_held_chain(12), 10), (_spatial_loop(), 2)],
+    ids=["loop-chain-band", "held-chain-dense", "spatial-loop"],
+)
+def test_the_cut_solves_sparsity_is_made_once_per_scene_from_the_tree(model, band):
+    """The cut solve's integer work is the tree's structure (``tree.cut_structure``, in P[8] after the row index):
+    lambda(i) of every joint velocity (an ancestor: smaller), each cut row's support (the columns that move its two
+    bodies, walked up lambda from each body's own last column: every ancestor, descending), each entry's slot in W
+    stored column by column (that column's range, its row recorded there, rows increasing), and S's half-band (the
+    widest distance of two rows sharing a column: the band solve up to ``BAND``, LAPACK beyond)."""
+    from solutions.compiled.tree_kernels import cut_parts
+
+    _, _, job, (_, P, _), _ = compiled_sides(model)
+    tree = job.scene
+    k, mc, width = tree.k, tree.cut_rows.size, 7 if tree.scene.dimension == 3 else 3
+    nb = tree.n // width
+    structure = P[8][8 + 2 * mc + 2 * tree.m + nb :]
+    np.testing.assert_array_equal(structure, tree.cut_index)
+    p, parent, joint, row_start, column_start, support, slot, at = cut_parts(structure, k, mc, nb)
+    assert p == band
+    assert all(parent[i] < i for i in range(k))
+    for a in range(mc):
+        expected = set()
+        for b in tree.cut_bodies[2 * a : 2 * a + 2]:
+            i = tree.ints[joint[b], 6 + tree.ints[joint[b], 5] - 1] if b >= 0 else -1
+            while i >= 0:
+                expected.add(i)
+                i = parent[i]
+        entries = range(row_start[a], row_start[a + 1])
+        assert [support[u] for u in entries] == sorted(expected, reverse=True)
+        for u in entries:
+            assert column_start[support[u]] <= slot[u] < column_start[support[u] + 1] and at[slot[u]] == a
+    for i in range(k):
+        rows = list(at[column_start[i] : column_start[i + 1]])
+        assert rows == sorted(rows)
+    widest = max(
+        (at[column_start[i + 1] - 1] - at[column_start[i]] for i in range(k) if column_start[i + 1] > column_start[i]),
+        default=0,
+    )
+    assert p == widest
