@@ -130,13 +130,14 @@ def consistent_initial_conditions(
     psi_t = system.psi_t(q, t)
     at_rest = not np.any(qd0)  # Psi_q 0 = 0: the residual is Psi_t, and Psi_q is made only to correct q0'
     jacobian = None if at_rest else system.jacobian(q, t)
-    residual = psi_t + 0.0 if at_rest else jacobian @ qd0 + psi_t
+    residual = psi_t if at_rest else jacobian @ qd0 + psi_t
     before = float(np.abs(residual).max()) if residual.size else 0.0
     if not before:  # q0' satisfies the velocity constraints exactly (e.g. at rest): x = 0, nothing to correct
         qd = np.array(qd0, dtype=float)
         report = {"velocity_residual_before": 0.0, "velocity_correction": 0.0, "velocity_residual": 0.0}
         return q, qd, {"assembly": assembly, **report}
-    jacobian = system.jacobian(q, t) if jacobian is None else jacobian
+    if jacobian is None:  # at rest, with a Psi_t to correct (a driven mechanism released at rest)
+        jacobian = system.jacobian(q, t)
     if point_masses(system.model):  # M singular: the same minimum, from [M Psi_q^T; Psi_q 0] (eq. 5.30's matrix)
         n, m = jacobian.shape[1], jacobian.shape[0]
         kkt = np.block([[mass_at(M, q), jacobian.T], [jacobian, np.zeros((m, m))]])

@@ -68,6 +68,7 @@ from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 
 from .assembly import System
 from .diagnostics import AnalysisError, rank_report
@@ -743,12 +744,10 @@ class JointCoordinates(Formulation):
         """diag(m I, J') of every body (6 nb x 6 nb, constant), made at the first numpy evaluation that needs it
         (``embedded_equations``): a compiled run never does (7.5 us of a spatial call's start)."""
         nb = len(self._masses)
-        blocks = np.zeros((nb, 6, 6))  # each body's diag(m I, J'), set into M's diagonal all at once
+        blocks = np.zeros((nb, 6, 6))  # each body's diag(m I, J')
         blocks[:, :3, :3] = np.multiply.outer(self._masses, np.eye(3))
         blocks[:, 3:, 3:] = np.array(self._inertias, dtype=float).reshape(nb, 3, 3)
-        body_mass = np.zeros((nb, 6, nb, 6))
-        body_mass[range(nb), :, range(nb), :] = blocks
-        return body_mass.reshape(6 * nb, 6 * nb)
+        return scipy.linalg.block_diag(*blocks)
 
     def start_over(self) -> None:
         """Forget the last evaluation (joint state, motion, accelerations) and the compiled plan made for it: the
