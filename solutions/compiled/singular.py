@@ -784,6 +784,38 @@ def _cholesky(G, a, b, L):
 
 
 @njit(cache=True, nogil=True)
+def _cholesky_pair(G, above, below, upper, lower):
+    """``_cholesky`` of above I - G into ``upper`` and of G - below I into ``lower`` (the first tests of lambda_1's
+    and lambda_m's brackets, ``_bracketed_ratio``), side by side: True if both are positive definite. Each factor's
+    sums wait on the product before and each row on the rows before (a square root and a division), the two
+    factors not on each other: with each sum of the one beside the same sum of the other, the processor overlaps
+    them (on the loop chain's G, 26 x 6: 0.6 of the two apart). Each sum in ``_cholesky``'s order: the same
+    factors to the last bit."""
+    w = G.shape[1] - 1
+    for i in range(G.shape[0]):
+        top = min(w, i)
+        while top > 0 and G[i, top] == 0.0:
+            upper[i, top], lower[i, top] = 0.0, 0.0
+            top -= 1
+        first = i - top
+        for t in range(top, 0, -1):
+            j = i - t
+            one, other = -1.0 * G[i, t], 1.0 * G[i, t]
+            for k in range(first, j):
+                one -= upper[i, i - k] * upper[j, j - k]
+                other -= lower[i, i - k] * lower[j, j - k]
+            upper[i, t], lower[i, t] = one * upper[j, 0], other * lower[j, 0]
+        one, other = -1.0 * G[i, 0] + above, 1.0 * G[i, 0] + -below
+        for k in range(first, i):
+            one -= upper[i, i - k] * upper[i, i - k]
+            other -= lower[i, i - k] * lower[i, i - k]
+        if not (one > 0.0 and other > 0.0):
+            return False
+        upper[i, 0], lower[i, 0] = 1.0 / np.sqrt(one), 1.0 / np.sqrt(other)
+    return True
+
+
+@njit(cache=True, nogil=True)
 def _solve_normalized(L, x):
     """x <- (L L^T)^-1 x / |(L L^T)^-1 x|: one step of inverse iteration with the factor of ``_cholesky``."""
     m, w = L.shape[0], L.shape[1] - 1
@@ -800,6 +832,31 @@ def _solve_normalized(L, x):
         x[i] = total * L[i, 0]
         size += x[i] * x[i]
     x *= 1.0 / np.sqrt(size)
+
+
+@njit(cache=True, nogil=True)
+def _solve_pair(upper, high, lower, low):
+    """``_solve_normalized`` of ``high`` with ``upper`` and of ``low`` with ``lower``, side by side (as
+    ``_cholesky_pair``: two chains of dependent sums the processor overlaps), each sum in its order: the same
+    vectors to the last bit as two calls."""
+    m, w = upper.shape[0], upper.shape[1] - 1
+    for i in range(m):
+        one, other = high[i], low[i]
+        for k in range(max(i - w, 0), i):
+            one -= upper[i, i - k] * high[k]
+            other -= lower[i, i - k] * low[k]
+        high[i], low[i] = one * upper[i, 0], other * lower[i, 0]
+    above, below = 0.0, 0.0
+    for i in range(m - 1, -1, -1):
+        one, other = high[i], low[i]
+        for k in range(i + 1, min(i + w, m - 1) + 1):
+            one -= upper[k, k - i] * high[k]
+            other -= lower[k, k - i] * low[k]
+        high[i], low[i] = one * upper[i, 0], other * lower[i, 0]
+        above += high[i] * high[i]
+        below += low[i] * low[i]
+    high *= 1.0 / np.sqrt(above)
+    low *= 1.0 / np.sqrt(below)
 
 
 @njit(cache=True, nogil=True)
@@ -917,19 +974,33 @@ def _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y):
 
 
 @njit(cache=True, nogil=True)
-def _bracketed_ratio(J, rows, starts, indices, products, G, L, low, high, y, loose, spread):
+def _bracketed_ratio(J, rows, starts, indices, products, G, factors, low, high, y, loose, spread):
     """(figure, lower bound) of sigma_m / sigma_1 with each extreme eigenvalue of G = Psi_q Psi_q^T in a bracket
     about ``loose`` wide, by one or two Cholesky tests each (``_top``, ``_bottom``), from the eigenvectors ``high``,
     ``low`` of the times before (``_extrapolate``), where ``_iterated_ratio`` takes 8-9 tests and 14 solves to
     close it. The figure sqrt(lambda_m's upper / lambda_1's lower) is the ratio's upper end. (NaN, NaN) where a
     bound's tests fail (its vector too far off: the first time) or G's rounding (``_smallest``'s floor) is not well
-    below lambda_m's bracket: ``_iterated_ratio`` then. ``products`` with no rows: G already made (``_dense_gram``)."""
+    below lambda_m's bracket: ``_iterated_ratio`` then. ``products`` with no rows: G already made (``_dense_gram``).
+    ``factors`` (2, m, w + 1): the two brackets' Cholesky factors.
+    The two brackets are independent but for lambda_m's rounding test, which reads lambda_1's upper end: their
+    first tests and inverse-iteration steps run side by side (``_cholesky_pair``, ``_solve_pair``) where both
+    first tests pass and that rounding test passes whatever lambda_1's bracket becomes (it only narrows), else one
+    after the other; either way the arithmetic of ``_top`` then ``_bottom``: the same figures to the last bit."""
     if products.shape[0]:
         _gram(J, products, G)
-    top, ceiling = _top(G, L, high, loose, spread)
+    quotient, hi = _quotients(G, high, J, rows, starts, indices, low, y)
+    lo, width = _top_start(G, quotient, loose, spread)
+    above, below = lo * (1.0 + width), hi * (1.0 - _bottom_width(loose, spread))
+    if _rounding_ok(2.0 * above, below, loose) and _cholesky_pair(G, above, below, factors[0], factors[1]):
+        _solve_pair(factors[0], high, factors[1], low)
+        quotient, residual = _quotients(G, high, J, rows, starts, indices, low, y)
+        top, ceiling = _top_sharpen(G, factors[0], quotient, lo, above, loose, spread)
+        bottom, floor = _bottom_sharpen(G, factors[1], residual, hi, below, loose, spread)
+        return np.sqrt(bottom / top), np.sqrt(floor / ceiling)
+    top, ceiling = _top(G, factors[0], high, loose, spread)
     if not np.isfinite(ceiling):
         return np.nan, np.nan
-    bottom, floor = _bottom(J, rows, starts, indices, G, L, low, y, loose, spread, ceiling)
+    bottom, floor = _bottom(J, rows, starts, indices, G, factors[0], low, y, loose, spread, ceiling)
     if not np.isfinite(floor):
         return np.nan, np.nan
     return np.sqrt(bottom / top), np.sqrt(floor / ceiling)
@@ -942,12 +1013,8 @@ def _top(G, L, x, loose, spread):
     (``spread[0]``, updated), at least ``loose``; a hundred times wider if that fails. The factor then takes one step
     of inverse iteration shifted to hi (Parlett, ch. 4; its rate (hi - lambda_1) / (hi - lambda_2) is small), whose
     quotient is the sharper lo and x the next time's; where hi - lo is still above ``loose`` lo, one more test at
-    lo (1 + loose). (lo, NaN) where both first tests fail."""
-    lo = 0.0
-    for i in range(G.shape[0]):
-        lo = max(lo, G[i, 0])
-    lo = max(lo, _rayleigh(G, x))
-    width = max(loose, spread[0])
+    lo (1 + loose) (``_top_sharpen``). (lo, NaN) where both first tests fail."""
+    lo, width = _top_start(G, _rayleigh(G, x), loose, spread)
     hi = lo * (1.0 + width)
     if not _cholesky(G, -1.0, hi, L):
         width = min(0.5, 100.0 * width)
@@ -956,7 +1023,24 @@ def _top(G, L, x, loose, spread):
             spread[0] = width
             return lo, np.nan
     _solve_normalized(L, x)
-    sharper = max(lo, _rayleigh(G, x))
+    return _top_sharpen(G, L, _rayleigh(G, x), lo, hi, loose, spread)
+
+
+@njit(cache=True, nogil=True)
+def _top_start(G, quotient, loose, spread):
+    """(lo, s) of ``_top``: the Rayleigh ``quotient`` of its vector or G's largest diagonal entry, and the first
+    test's width."""
+    lo = 0.0
+    for i in range(G.shape[0]):
+        lo = max(lo, G[i, 0])
+    return max(lo, quotient), max(loose, spread[0])
+
+
+@njit(cache=True, nogil=True)
+def _top_sharpen(G, L, quotient, lo, hi, loose, spread):
+    """``_top``'s (lo, hi) after its step of inverse iteration, given its vector's new Rayleigh ``quotient``: the
+    sharper lo, ``spread[0]``, and where hi - lo is still above ``loose`` lo, one more test at lo (1 + loose)."""
+    sharper = max(lo, quotient)
     spread[0] = 4.0 * (sharper - lo) / sharper
     lo = sharper
     if hi - lo > loose * lo and _cholesky(G, -1.0, lo * (1.0 + loose), L):
@@ -968,11 +1052,11 @@ def _top(G, L, x, loose, spread):
 def _bottom(J, rows, starts, indices, G, L, x, y, loose, spread, ceiling):
     """(hi, lo) about lambda_m of G, as ``_top`` from below: hi = |Psi_q^T x|^2 (``_residual``: from Psi_q, the dense
     SVD's accuracy), lo = hi (1 - s) if G - lo I is positive definite (``spread[1]``); (hi, NaN) where both first
-    tests fail or G's rounding, 16 eps ``ceiling`` (lambda_1's upper bound), is above a tenth of ``loose`` lo."""
-    hi = _residual(J, rows, starts, indices, x, y)
-    width = min(0.5, max(loose, spread[1]))
+    tests fail or G's rounding, 16 eps ``ceiling`` (lambda_1's upper bound), is above a tenth of ``loose`` lo
+    (``_rounding_ok``)."""
+    hi, width = _residual(J, rows, starts, indices, x, y), _bottom_width(loose, spread)
     lo = hi * (1.0 - width)
-    if 16.0 * np.finfo(np.float64).eps * ceiling > 0.1 * loose * lo:
+    if not _rounding_ok(ceiling, lo, loose):
         return hi, np.nan
     if not _cholesky(G, 1.0, -lo, L):
         width = min(0.5, 100.0 * width)
@@ -981,7 +1065,27 @@ def _bottom(J, rows, starts, indices, G, L, x, y, loose, spread, ceiling):
             spread[1] = width
             return hi, np.nan
     _solve_normalized(L, x)
-    sharper = min(hi, _residual(J, rows, starts, indices, x, y))
+    return _bottom_sharpen(G, L, _residual(J, rows, starts, indices, x, y), hi, lo, loose, spread)
+
+
+@njit(cache=True, nogil=True)
+def _bottom_width(loose, spread):
+    """The relative width of ``_bottom``'s first test."""
+    return min(0.5, max(loose, spread[1]))
+
+
+@njit(cache=True, nogil=True)
+def _rounding_ok(ceiling, lo, loose):
+    """Whether G's rounding, 16 eps ``ceiling`` (an upper bound of lambda_1), is at most a tenth of ``loose`` lo: a
+    Cholesky test of G - lo I can then certify lambda_m's bracket (``_bottom``)."""
+    return not 16.0 * np.finfo(np.float64).eps * ceiling > 0.1 * loose * lo
+
+
+@njit(cache=True, nogil=True)
+def _bottom_sharpen(G, L, residual, hi, lo, loose, spread):
+    """``_bottom``'s (hi, lo) after its step of inverse iteration, given its vector's new ``residual`` |Psi_q^T x|^2,
+    as ``_top_sharpen``."""
+    sharper = min(hi, residual)
     spread[1] = 4.0 * (hi - sharper) / sharper
     hi = sharper
     if hi - lo > loose * hi and _cholesky(G, 1.0, -hi * (1.0 - loose), L):
@@ -1029,6 +1133,26 @@ def _residual(J, rows, starts, indices, x, y):
     for c in range(y.size):
         total += y[c] * y[c]
     return total
+
+
+@njit(cache=True, nogil=True)
+def _quotients(G, high, J, rows, starts, indices, low, y):
+    """(``_rayleigh`` of ``high``, ``_residual`` of ``low``) in one pass over the rows: two serial sums side by side,
+    which the processor overlaps (``_bracketed_ratio``); each in its own order, the same figures to the last bit."""
+    m, w = G.shape[0], G.shape[1] - 1
+    y[:] = 0.0
+    quotient = 0.0
+    for i in range(m):
+        quotient += G[i, 0] * high[i] * high[i]
+        for t in range(1, min(w, i) + 1):
+            quotient += 2.0 * G[i, t] * high[i] * high[i - t]
+        r = rows[i]
+        for p in range(starts[r], starts[r + 1]):
+            y[indices[p]] += J[r, indices[p]] * low[i]
+    residual = 0.0
+    for c in range(y.size):
+        residual += y[c] * y[c]
+    return quotient, residual
 
 
 CERTAIN = 0.9
@@ -1093,7 +1217,8 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
     rows = np.argsort(keys, kind="mergesort")  # Psi_q's rows along the band: G = Psi_q Psi_q^T a band too
     w = _gram_width(rows, starts, indices, n)
     products = _gram_products(rows, starts, indices, w)
-    G, L, low, high, y = np.empty((m, w + 1)), np.empty((m, w + 1)), np.ones(m), np.ones(m), np.empty(n)
+    G, factors, low, high, y = np.empty((m, w + 1)), np.empty((2, m, w + 1)), np.ones(m), np.ones(m), np.empty(n)
+    L = factors[0]  # ``_bracketed_ratio``'s two factors, ``_iterated_ratio``'s one
     before, ordered, last = first, _parity(position), -1  # the basis E's coordinates come from, and its time
     kept, slot, kl, ku, parity = np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), 0, 0, 1.0
     ab, pivots = np.empty((0, 0)), np.empty(0, dtype=np.int64)  # the banded LU's work arrays (``_null_space``)
@@ -1110,7 +1235,9 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
                 _extrapolate(high, earlier[1], y)
             else:
                 earlier[0, :], earlier[1, :] = low, high
-            figure, bound = _bracketed_ratio(J, rows, starts, indices, products, G, L, low, high, y, loose, spread)
+            figure, bound = _bracketed_ratio(
+                J, rows, starts, indices, products, G, factors, low, high, y, loose, spread
+            )
             if np.isfinite(bound):  # widened by G's rounding: it holds the closed figure too
                 ratios[k], lower[k] = _widened(figure, bound)
         if not np.isfinite(lower[k]):
@@ -1372,7 +1499,8 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
         indices[r * n : (r + 1) * n] = np.arange(n)
     products = np.empty((0, 5), dtype=np.int64)  # for ``_iterated_ratio``, made at its first call
     made = np.empty((0, 5), dtype=np.int64)  # ``_bracketed_ratio``: G made by ``_dense_gram``
-    G, L, low, high, y = np.empty((m, m)), np.empty((m, m)), np.ones(m), np.ones(m), np.empty(n)
+    G, factors, low, high, y = np.empty((m, m)), np.empty((2, m, m)), np.ones(m), np.ones(m), np.empty(n)
+    L = factors[0]  # ``_bracketed_ratio``'s two factors, ``_iterated_ratio``'s one
     spread, earlier = np.full(2, 0.5), np.empty((2, m))
     tried, tries, overlaps, apart = True, 0, 0, False  # brackets made, how many overlapped, one apart yet
     for k in range(N):
@@ -1396,7 +1524,7 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
             else:
                 earlier[0, :], earlier[1, :] = low, high
             _dense_gram(J, G)
-            figure, bound = _bracketed_ratio(J, rows, starts, indices, made, G, L, low, high, y, loose, spread)
+            figure, bound = _bracketed_ratio(J, rows, starts, indices, made, G, factors, low, high, y, loose, spread)
             if np.isfinite(bound):
                 ratios[k], lower[k] = _widened(figure, bound)
                 if lower[k] <= ratios[k - 1] and lower[k - 1] <= ratios[k]:  # overlaps the time before's
