@@ -550,3 +550,67 @@ def test_a_certified_step_moves_psi_q_by_less_than_sigma_m(swing):
     for k in steps:
         assert moved[k] < min(s[k, -1], 1.0)
         assert np.sign(np.linalg.det(np.vstack([scaled[k + 1], tangents[k].T]))) == signs[k]
+
+
+def _bracket_reference(J, rows, starts, indices, G, low, high, loose, spread):
+    """``singular._bracketed_ratio`` as it was before its brackets ran side by side: ``_top``, then ``_bottom``."""
+    y, L = np.empty(J.shape[1]), np.empty_like(G)
+    top, ceiling = singular._top(G, L, high, loose, spread)
+    if not np.isfinite(ceiling):
+        return np.nan, np.nan
+    bottom, floor = singular._bottom(J, rows, starts, indices, G, L, low, y, loose, spread, ceiling)
+    if not np.isfinite(floor):
+        return np.nan, np.nan
+    return np.sqrt(bottom / top), np.sqrt(floor / ceiling)
+
+
+def test_the_brackets_side_by_side_are_the_brackets_one_after_the_other():
+    """The two extreme eigenvalues' brackets side by side (``singular._cholesky_pair``, ``_solve_pair``,
+    ``_quotients``: the processor overlaps the two chains) give the factors, vectors and quotients of ``_cholesky``,
+    ``_solve_normalized``, ``_rayleigh`` and ``_residual`` one after the other, to the last bit, with shifts on both
+    sides of the extreme eigenvalues of a loop chain's Gram matrix; and ``_bracketed_ratio`` the figures, vectors and
+    spreads of ``_top`` then ``_bottom``, from vectors near the eigenvectors (the side-by-side route) and far off."""
+    system, q, _ = build_system(load_model(loop_chain(4)))
+    J = Guard(system, q, 1e-3, 1e-8)._scaled(system.jacobian(q, 0.0))
+    position, keys, starts, indices = singular._band_structure(J != 0.0)
+    rows = np.argsort(keys, kind="mergesort")
+    w = singular._gram_width(rows, starts, indices, J.shape[1])
+    G = np.empty((J.shape[0], w + 1))
+    singular._gram(J, singular._gram_products(rows, starts, indices, w), G)
+    values, vectors = np.linalg.eigh((J @ J.T)[np.ix_(rows, rows)])
+    band = np.array([[t <= i for t in range(w + 1)] for i in range(J.shape[0])])  # the factors' stored entries
+    for above in values[-1] * np.array([1 + 1e-3, 1 - 1e-3]):
+        for below in values[0] * np.array([1 - 1e-3, 1 + 1e-3]):
+            pair, apart = np.empty((2, *G.shape)), np.empty((2, *G.shape))
+            both = singular._cholesky(G, -1.0, above, apart[0]) & singular._cholesky(G, 1.0, -below, apart[1])
+            assert singular._cholesky_pair(G, above, below, pair[0], pair[1]) == both
+            if both:
+                assert np.array_equal(pair[:, band], apart[:, band])
+    rng = np.random.default_rng(5)
+    high, low = vectors[:, -1] + 1e-3 * rng.standard_normal(G.shape[0]), vectors[:, 0].copy()
+    factors = np.empty((2, *G.shape))
+    assert singular._cholesky_pair(G, values[-1] * 1.01, values[0] * 0.99, factors[0], factors[1])
+    side = high.copy(), low.copy()
+    singular._solve_pair(factors[0], side[0], factors[1], side[1])
+    apart = high.copy(), low.copy()
+    singular._solve_normalized(factors[0], apart[0])
+    singular._solve_normalized(factors[1], apart[1])
+    assert np.array_equal(side[0], apart[0]) and np.array_equal(side[1], apart[1])
+    y = np.empty(J.shape[1])
+    assert singular._quotients(G, high, J, rows, starts, indices, low, y) == (
+        singular._rayleigh(G, high),
+        singular._residual(J, rows, starts, indices, low, y),
+    )
+    for start in (0.0, 1e-6, 1e-2, 1.0):  # from near the eigenvectors (side by side) to far off (one after the other)
+        low = vectors[:, 0] + start * rng.standard_normal(G.shape[0])
+        high = vectors[:, -1] + start * rng.standard_normal(G.shape[0])
+        low, high = low / np.linalg.norm(low), high / np.linalg.norm(high)
+        given = [low.copy(), high.copy(), np.array([0.5, 0.5])]
+        expected = _bracket_reference(J, rows, starts, indices, G, given[0], given[1], singular.LOOSE, given[2])
+        found = [low.copy(), high.copy(), np.array([0.5, 0.5])]
+        products = np.empty((0, 5), dtype=np.int64)  # G made above
+        figures = singular._bracketed_ratio(J, rows, starts, indices, products, G, factors, found[0], found[1], y,
+                                            singular.LOOSE, found[2])  # fmt: skip
+        assert np.array_equal(figures, expected, equal_nan=True)
+        for a, b in zip(found, given, strict=True):
+            assert np.array_equal(a, b)
