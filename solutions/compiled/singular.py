@@ -1126,9 +1126,20 @@ def _residual(J, rows, starts, indices, x, y):
     """|Psi_q^T x|^2 (x along G's rows, ``rows``): the Rayleigh quotient of G at a unit x without forming G."""
     y[:] = 0.0
     for i in range(rows.size):
-        r = rows[i]
-        for p in range(starts[r], starts[r + 1]):
-            y[indices[p]] += J[r, indices[p]] * x[i]
+        _add_row(J, rows[i], starts, indices, x[i], y)
+    return _squares(y)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _add_row(J, r, starts, indices, weight, y):
+    """y += weight times row r of Psi_q (on its pattern: ``starts``, ``indices``)."""
+    for p in range(starts[r], starts[r + 1]):
+        y[indices[p]] += J[r, indices[p]] * weight
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _squares(y):
+    """|y|^2, summed from the first entry."""
     total = 0.0
     for c in range(y.size):
         total += y[c] * y[c]
@@ -1146,13 +1157,8 @@ def _quotients(G, high, J, rows, starts, indices, low, y):
         quotient += G[i, 0] * high[i] * high[i]
         for t in range(1, min(w, i) + 1):
             quotient += 2.0 * G[i, t] * high[i] * high[i - t]
-        r = rows[i]
-        for p in range(starts[r], starts[r + 1]):
-            y[indices[p]] += J[r, indices[p]] * low[i]
-    residual = 0.0
-    for c in range(y.size):
-        residual += y[c] * y[c]
-    return quotient, residual
+        _add_row(J, rows[i], starts, indices, low[i], y)
+    return quotient, _squares(y)
 
 
 CERTAIN = 0.9
