@@ -110,32 +110,38 @@ def _row(joint) -> list[float]:
 
 
 def describe(scene: Scene, formulation) -> TreeScene:
-    """The tree of a ``JointCoordinates`` formulation over the scene (``unsupported`` says why not compiled)."""
-    joints = formulation.joints
-    k = formulation.tree.k
-    rows = []
-    for j in joints:  # the columns of D that move the child: its parent's and the joint's own
-        moving = [*j.inherited, *range(j.velocity, j.velocity + j.n_velocities)]
-        rows.append([KINDS[j.kind], j.parent, j.child, j.position, j.velocity, len(moving), *moving])
-        rows[-1] += [-1] * (6 + k - len(rows[-1]))
-    ints = np.array(rows, dtype=np.int64).reshape(-1, 6 + k)
-    floats = np.array([_row(j) for j in joints], dtype=float).reshape(-1, 35)
+    """The tree of a ``JointCoordinates`` formulation over the scene (``unsupported`` says why not compiled): the
+    joints' rows built as flat lists of Python numbers and made arrays once each (an array of nested lists, or of
+    numpy scalars, costs several times as much: ~20 us of a loop chain of four's start)."""
+    joints, k = formulation.joints, formulation.tree.k
+    moving = [[*j.inherited, *range(j.velocity, j.velocity + j.n_velocities)] for j in joints]  # D's columns
+    heads, floats = [], []
+    for j, columns in zip(joints, moving, strict=True):  # the columns of D that move the child: parent's and own
+        heads += [KINDS[j.kind], j.parent, j.child, j.position, j.velocity, len(columns), *columns]
+        heads += [-1] * (k - len(columns))
+        floats += _row(j)
+    ints = np.array(heads, dtype=np.int64).reshape(-1, 6 + k)
     system = formulation.system
+    nb = len(system.model.bodies)
     owners, cut, bodies = _owners(system, joints)
-    tree = TreeScene(scene, ints, floats, formulation.tree.n_positions, k, cut, owners=owners, cut_bodies=bodies)
-    tree.row_index = owned_rows(tree.owners, len(system.model.bodies))
-    tree.cut_index = cut_structure(ints, bodies, k, len(system.model.bodies))
+    tree = TreeScene(
+        scene, ints, np.array(floats, dtype=float).reshape(-1, 35), formulation.tree.n_positions, k,
+        np.array(cut, dtype=np.int64), owners=np.array(owners, dtype=np.int64),
+        cut_bodies=np.array(bodies, dtype=np.int64),
+    )  # fmt: skip
+    tree.row_index = owned_rows(tree.owners, nb)
+    tree.cut_index = cut_structure(joints, moving, bodies, k, nb)
     if not joints:
         tree.unsupported = "a tree without joints"
     return tree
 
 
-def _owners(system, joints) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _owners(system, joints) -> tuple[list[int], list[int], list[int]]:
     """(the owner of every constraint row of the tree (``TreeScene.owners``): the child of its tree joint, or the
     body of its Euler-parameter normalization (element ``<body>.p``); -1 for a cut row (a cut joint's or a
     driver's: ``joint_coordinates.cut_elements``), whose multiplier comes from the augmented system
     (``cut_accelerations``); the cut rows; their elements' two bodies, row after row (``TreeScene.cut_bodies``)),
-    in one pass over the elements (a loop: faster than numpy's repeat up to a loop chain of 16 at least)."""
+    in one pass over the elements (a loop: faster than numpy's repeat up to a loop chain of 16 at least), as lists."""
     child = {joint.name: joint.child for joint in joints}
     child |= {f"{body.name}.p": b for b, body in enumerate(system.model.bodies)}
     owners, cut, bodies = [], [], []
@@ -145,7 +151,7 @@ def _owners(system, joints) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if owner < 0:
             cut += range(where.start, where.stop)
             bodies += [element.i, element.j] * size
-    return tuple(np.array(x, dtype=np.int64) for x in (owners, cut, bodies))
+    return owners, cut, bodies
 
 
 def owned_rows(owners: np.ndarray, nb: int) -> np.ndarray:
@@ -159,10 +165,11 @@ def owned_rows(owners: np.ndarray, nb: int) -> np.ndarray:
     return np.concatenate([start, rows])
 
 
-def cut_structure(ints: np.ndarray, bodies: np.ndarray, k: int, nb: int) -> np.ndarray:
+def cut_structure(joints, moving: list[list[int]], bodies: list[int], k: int, nb: int) -> np.ndarray:
     """The integer side of the cut solve (``tree_kernels.cut_accelerations``), the tree's structure alone, as one
     array: made once per scene, where the solve made it at every evaluation (~0.5 us of the loop chain's right-hand
-    side at N = 4). In order (``tree_kernels.cut_parts`` cuts it):
+    side at N = 4); ``moving``: the columns of D that move each joint's child (ascending), ``bodies``: the two
+    bodies of each cut row, row after row. In order (``tree_kernels.cut_parts`` cuts it):
 
     - the half-band p of the cut rows' S = W^T d^-1 W (``band_solve``; a wider one goes to LAPACK);
     - lambda(i), the tree's parent of every joint velocity (-1 at ground; H's sparsity: Featherstone 2008, sec. 6.5):
@@ -171,36 +178,35 @@ def cut_structure(ints: np.ndarray, bodies: np.ndarray, k: int, nb: int) -> np.n
     - where each cut row's entries of W begin (mc + 1), and where each column's (k + 1);
     - each cut row's support, the columns that move the two bodies its element joins (their union, descending:
       the ancestors of each column come after it, as L^-T needs); the slot of each of those entries in W stored
-      column by column; the row of each entry column by column (rows increasing within a column)."""
-    if bodies.size == 0:  # an open tree: no cut solve (its Python costs ~20 us a call at four joints)
+      column by column; the row of each entry column by column (rows increasing within a column).
+
+    Python lists throughout (the sizes are a few dozen at a loop chain of four: a numpy call costs more than the
+    work); an element's rows share one support, found once."""
+    if not bodies:  # an open tree: no cut solve (its Python costs ~20 us a call at four joints)
         return np.zeros(0, dtype=np.int64)
-    heads, bodies = ints[:, :6].tolist(), bodies.tolist()
-    moving = [ints[e, 6 : 6 + head[5]].tolist() for e, head in enumerate(heads)]  # the columns that move each child
     joint, parent = [-1] * nb, [-1] * k
-    for e, (kind, _, child, _, _, count) in enumerate(heads):
-        joint[child] = e
-        own = 3 if kind == KINDS["spherical"] else 1
-        for a in range(max(count - own, 1), count):
-            parent[moving[e][a]] = moving[e][a - 1]
-    supports = []
-    for a in range(len(bodies) // 2):
-        columns = set()
-        for b in bodies[2 * a : 2 * a + 2]:
-            if b >= 0:
-                columns.update(moving[joint[b]])
-        supports.append(sorted(columns, reverse=True))
+    for e, (j, columns) in enumerate(zip(joints, moving, strict=True)):
+        joint[j.child] = e
+        for a in range(max(len(columns) - j.n_velocities, 1), len(columns)):
+            parent[columns[a]] = columns[a - 1]
+    supports, found = [], {}
+    for a in range(0, len(bodies), 2):
+        pair = (bodies[a], bodies[a + 1])
+        if pair not in found:
+            found[pair] = sorted({i for b in pair if b >= 0 for i in moving[joint[b]]}, reverse=True)
+        supports.append(found[pair])
     column_rows = [[] for _ in range(k)]  # the entries of W column by column, rows increasing
     for a, support in enumerate(supports):
         for i in support:
             column_rows[i].append(a)
-    column_start = list(accumulate((len(rows) for rows in column_rows), initial=0))
+    column_start = list(accumulate(map(len, column_rows), initial=0))
     filled, slots = column_start[:k], []
     for support in supports:
         for i in support:
             slots.append(filled[i])
             filled[i] += 1
     band = max([rows[-1] - rows[0] for rows in column_rows if rows], default=0)
-    row_start = list(accumulate((len(support) for support in supports), initial=0))
+    row_start = list(accumulate(map(len, supports), initial=0))
     every = [band, *parent, *joint, *row_start, *column_start, *(i for s in supports for i in s), *slots]
     return np.array(every + [a for rows in column_rows for a in rows], dtype=np.int64)
 
