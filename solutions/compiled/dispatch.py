@@ -257,7 +257,8 @@ def start_rates(equations, formulation: str, options: dict, z: np.ndarray) -> tu
     """(rho, q'') at the state z of ``equations`` by the scene's compiled module, or None where the compiled engine
     does not cover the formulation's scene: the start rates of a run asked to be compiled (``dynamics.StartRates``).
     rho: ``loops.spectral_radius`` (the 21 evaluations of ``integrators.spectral_radius`` in one compiled call);
-    q'': a tree's body accelerations are written after y' (with q, q' and lambda), other scenes' are y'[n:2n].
+    q'': a tree's body accelerations are written after y' (with q, q' and lambda: ``out`` that long), other scenes'
+    are y'[n:2n] (``out`` of y' alone: no lambda written after it, which nothing here reads).
     Any compiled integrator would do (the right-hand side does not depend on it): DOP853 stands for them."""
     from . import unsupported
     from .tree import TreeScene
@@ -268,15 +269,15 @@ def start_rates(equations, formulation: str, options: dict, z: np.ndarray) -> tu
     from . import load, loops  # imports numba
 
     module, _, _ = load(job)
-    P, D, n, m = start_parameters(job, equations.extra), job.scene.data(), job.scene.n, job.scene.m
+    P, D, n = start_parameters(job, equations.extra), job.scene.data(), job.scene.n
     z = np.ascontiguousarray(z, dtype=float)
-    out = np.empty(z.size + 3 * n + m)  # y', and after it the outputs of the state
+    tree = isinstance(job.scene, TreeScene)
+    out = np.empty(z.size + 3 * n + job.scene.m if tree else z.size)  # y' (a tree's q'' in the outputs after it)
     module.scene_rhs(0.0, z, P, D, out)
     fz = out[: z.size].copy()
     rhs = loops.first_class(module.scene_rhs, loops.RHS_SIGNATURE)
     rho = loops.spectral_radius(rhs, 0.0, z, fz, power_start(z.size), P, D, 10)
-    qdd = out[z.size + 2 * n : z.size + 3 * n] if isinstance(job.scene, TreeScene) else out[n : 2 * n]
-    return float(rho), qdd.copy()
+    return float(rho), (out[z.size + 2 * n : z.size + 3 * n] if tree else out[n : 2 * n]).copy()
 
 
 def start_parameters(job, extra: int) -> tuple:

@@ -34,7 +34,6 @@ No numba here; the generated module is cached as ``codegen.py`` caches the scene
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from itertools import accumulate
 
 import numpy as np
 
@@ -73,8 +72,8 @@ class TreeScene:
     """The tree's rows body by body (``owned_rows``: start (nb + 1), then the rows), made once per scene: what
     ``tree_multipliers`` and ``zero_tree_blocks`` read (P[8] after the cut rows' bodies)."""
     cut_index: np.ndarray = None
-    """The sparsity of the cut solve (``cut_structure``), made once per scene: what ``cut_accelerations`` reads
-    (P[8] after the row index)."""
+    """The sparsity of the cut solve (``structure``), made once per scene: what ``cut_accelerations`` reads (P[8]
+    after the row index)."""
     unsupported: str | None = None
     packed_data: tuple | None = field(default=None, repr=False, compare=False)  # ``data()``, made once
 
@@ -98,6 +97,20 @@ class TreeScene:
             kernels = [*self.scene.constraint_kernels, *self.scene.force_kernels, ("tree", self.ints, self.floats)]
             self.packed_data = packed(kernels, SLOTS)
         return self.packed_data
+
+    def structure(self) -> np.ndarray:
+        """The sparsity of the cut solve (``structure.cut_structure``, compiled), made at the first call: by the
+        run's parameters (``compiled.parameters``), where numba is loaded already (the engine's choice, which
+        describes the tree too, loads none). An open tree has none."""
+        if self.cut_index is None:
+            if self.cut_bodies.size == 0:  # no cut rows: no cut solve
+                self.cut_index = np.zeros(0, dtype=np.int64)
+            else:
+                from .structure import cut_structure  # imports numba
+
+                nb = self.n // (7 if self.scene.dimension == 3 else 3)
+                self.cut_index = cut_structure(self.ints, self.cut_bodies, self.k, nb)
+        return self.cut_index
 
 
 def _row(joint) -> list[float]:
@@ -130,7 +143,6 @@ def describe(scene: Scene, formulation) -> TreeScene:
         cut_bodies=np.array(bodies, dtype=np.int64),
     )  # fmt: skip
     tree.row_index = owned_rows(tree.owners, nb)
-    tree.cut_index = cut_structure(joints, moving, bodies, k, nb)
     if not joints:
         tree.unsupported = "a tree without joints"
     return tree
@@ -163,52 +175,6 @@ def owned_rows(owners: np.ndarray, nb: int) -> np.ndarray:
     start = np.cumsum(counts) - counts[0]  # body b's rows at [start[b], start[b + 1]), counted past the cut rows
     rows = np.argsort(owners, kind="stable")[counts[0] :]  # by owner, row order kept; the cut rows first, left out
     return np.concatenate([start, rows])
-
-
-def cut_structure(joints, moving: list[list[int]], bodies: list[int], k: int, nb: int) -> np.ndarray:
-    """The integer side of the cut solve (``tree_kernels.cut_accelerations``), the tree's structure alone, as one
-    array: made once per scene, where the solve made it at every evaluation (~0.5 us of the loop chain's right-hand
-    side at N = 4); ``moving``: the columns of D that move each joint's child (ascending), ``bodies``: the two
-    bodies of each cut row, row after row. In order (``tree_kernels.cut_parts`` cuts it):
-
-    - the half-band p of the cut rows' S = W^T d^-1 W (``band_solve``; a wider one goes to LAPACK);
-    - lambda(i), the tree's parent of every joint velocity (-1 at ground; H's sparsity: Featherstone 2008, sec. 6.5):
-      the previous column of the same joint (a spherical joint's three), else the last column of the joint's parent;
-    - the tree joint whose child each body is (-1 ground);
-    - where each cut row's entries of W begin (mc + 1), and where each column's (k + 1);
-    - each cut row's support, the columns that move the two bodies its element joins (their union, descending:
-      the ancestors of each column come after it, as L^-T needs); the slot of each of those entries in W stored
-      column by column; the row of each entry column by column (rows increasing within a column).
-
-    Python lists throughout (the sizes are a few dozen at a loop chain of four: a numpy call costs more than the
-    work); an element's rows share one support, found once."""
-    if not bodies:  # an open tree: no cut solve (its Python costs ~20 us a call at four joints)
-        return np.zeros(0, dtype=np.int64)
-    joint, parent = [-1] * nb, [-1] * k
-    for e, (j, columns) in enumerate(zip(joints, moving, strict=True)):
-        joint[j.child] = e
-        for a in range(max(len(columns) - j.n_velocities, 1), len(columns)):
-            parent[columns[a]] = columns[a - 1]
-    supports, found = [], {}
-    for a in range(0, len(bodies), 2):
-        pair = (bodies[a], bodies[a + 1])
-        if pair not in found:
-            found[pair] = sorted({i for b in pair if b >= 0 for i in moving[joint[b]]}, reverse=True)
-        supports.append(found[pair])
-    column_rows = [[] for _ in range(k)]  # the entries of W column by column, rows increasing
-    for a, support in enumerate(supports):
-        for i in support:
-            column_rows[i].append(a)
-    column_start = list(accumulate(map(len, column_rows), initial=0))
-    filled, slots = column_start[:k], []
-    for support in supports:
-        for i in support:
-            slots.append(filled[i])
-            filled[i] += 1
-    band = max([rows[-1] - rows[0] for rows in column_rows if rows], default=0)
-    row_start = list(accumulate(map(len, supports), initial=0))
-    every = [band, *parent, *joint, *row_start, *column_start, *(i for s in supports for i in s), *slots]
-    return np.array(every + [a for rows in column_rows for a in rows], dtype=np.int64)
 
 
 VECTORS = (("xi", "a"), ("Q", "n"), ("power", "3"), ("q", "n"), ("qd", "n"), ("thdd", "k"), ("mu", "ncut"))
