@@ -681,8 +681,9 @@ def run_stages(run: Run, formulation: str, integrator: str) -> tuple[Result, Mad
     plan, equations, guard, raised = ode_motion(run, start)
     times = output_grid(settings.t_end, settings.steps)
     try:  # stage 3: the engine
-        z0 = start.rates.initial_state(equations) if start.rates is not None else equations.initial_state(q, qd, 0.0)
-        history, stats, compiled, chosen = integrate_motion(run, plan, equations, guard, z0, times)
+        history, stats, compiled, chosen = integrate_motion(
+            run, plan, equations, guard, start_state(start, equations), times
+        )
     except AnalysisError as err:
         if formulation == "auto" and restartable(err, guard, plan):
             t = getattr(err, "t", None)
@@ -712,6 +713,15 @@ def run_stages(run: Run, formulation: str, integrator: str) -> tuple[Result, Mad
             f"rtol = max({MIN_RTOL:g}, min({DEFAULT_RTOL:g}, accuracy / periods^2)) with {plan.periods:.3g} periods"
         )
     return result, Made(start, plan, equations)
+
+
+def start_state(start: Start, equations: EquationsOfMotion) -> np.ndarray:
+    """z0 of ``equations`` at the run's start (q, q'): the one its start rates evaluated (``StartRates.initial_state``,
+    the same numbers: a joint-coordinates state costs 15-80 us of Python), else made anew. The run and the divergence
+    check's compiled companion (``companion_centres``) start from it."""
+    if start.rates is not None:
+        return start.rates.initial_state(equations)
+    return equations.initial_state(start.q, start.qd, 0.0)
 
 
 def output_grid(t_end: float, steps: int) -> np.ndarray:
@@ -823,7 +833,7 @@ def companion_centres(made: Made, result: Result, rtol: float, atol: float) -> n
         from .compiled import dispatch
 
         job = dispatch.compiled_plan(made.equations, plan.formulation)
-        z0 = made.equations.initial_state(start.q, start.qd, 0.0)
+        z0 = start_state(start, made.equations)
         q = dispatch.positions(job, z0, result.t, plan, start.run.settings)
     else:
         q = numpy_positions(start, plan, result.t)
