@@ -743,7 +743,7 @@ def judge_divergence(run: Run, result: Result, made: Made) -> Result:
     if settings.divergence == "skip" or info.get("integrator") in (*FIXED_STEP_METHODS, *INDEX3_INTEGRATORS):
         return result
     start = made.start
-    why = cannot_be_chaotic(run, start.q) or too_short_to_diverge(start.plan, result.info["rtol"], settings)
+    why = cannot_be_chaotic(run, start.q, start.forces) or too_short_to_diverge(start.plan, info["rtol"], settings)
     if why is not None:
         info["divergence"] = {"positions": None, "why": why}
         return result
@@ -779,11 +779,12 @@ def judge_divergence(run: Run, result: Result, made: Made) -> Result:
     return result
 
 
-def cannot_be_chaotic(run: Run, q: np.ndarray) -> str | None:
+def cannot_be_chaotic(run: Run, q: np.ndarray, forces: ForceModel) -> str | None:
     """Why the run's motion cannot be chaotic, or None: no degree of freedom left by the joints and drivers at its
     start q (the motion is prescribed), or one and nothing that changes with time (no driver, no actuator, every
     force from a potential or a damper): the state (q, q') then moves on a plane or cylinder, where by the
-    Poincare-Bendixson theorem no motion is chaotic; a regular motion's error is eq. 6.61's."""
+    Poincare-Bendixson theorem no motion is chaotic; a regular motion's error is eq. 6.61's. ``forces``: the run's
+    force model, as its start made it (``Start.forces``: not built again)."""
     system = run.system
     rank = rank_at(system, q).rank if system.n_constraints else 0  # the run's start: its Guard asked it already
     freedom = system.n_coordinates - rank
@@ -791,7 +792,7 @@ def cannot_be_chaotic(run: Run, q: np.ndarray) -> str | None:
         return "no degree of freedom left by the joints and drivers: the motion is prescribed"
     if system.model.motors or freedom > 1:
         return None
-    if not autonomous(run.forces if run.forces is not None else build_forces(system.model)):
+    if not autonomous(forces):
         return None
     return "one degree of freedom and no driver or force that changes with time: no chaotic motion (Poincare-Bendixson)"
 
