@@ -319,14 +319,14 @@ def positions(job, z0: np.ndarray, times: np.ndarray, plan, settings: Settings) 
     adaptive one): the integration loop alone, and a tree's body coordinates from its joint states (the divergence
     check's companion run, ``dynamics.companion_centres``: the run's plan and loaded module, another tolerance).
     Raises as the run would where it stops early (``stop``); ``settings``: the run's step, budget."""
-    from . import COMPILED_INTEGRATORS, load, loops, parameters, paused_embedded, tableau
+    from . import COMPILED_INTEGRATORS, INT64_MAX, load, loops, parameters, paused_embedded, tableau
     from .tree import TreeScene
 
     module, project, _ = load(job)
     scene, rhs = job.scene, loops.first_class(module.scene_rhs, loops.RHS_SIGNATURE)
     P, D = parameters(scene, *job.numbers), scene.data()
     dop, scipy_like = COMPILED_INTEGRATORS[plan.integrator]
-    budget = np.iinfo(np.int64).max if settings.max_evaluations is None else int(settings.max_evaluations)
+    budget = INT64_MAX if settings.max_evaluations is None else int(settings.max_evaluations)
     numbers = (plan.rtol, plan.atol, float(settings.step or np.inf), budget, dop, scipy_like, tableau(dop), P, D)
     z0, times = np.ascontiguousarray(z0, dtype=float), np.ascontiguousarray(times, dtype=float)
     project = loops.first_class(project, loops.PROJECT_SIGNATURE)
