@@ -142,7 +142,7 @@ def parts(n: int, rounds: int) -> dict[str, float]:
     matrix, rhs = planar_equations(P[1], Dm, xi, P[0].copy(), joints)
     rows, mu, dense = tree.cut_rows, np.empty(tree.cut_rows.size), njit(dense_augmented)
     gam = np.zeros(m)
-    cut = (rows, tree.cut_bodies, 5.0, 5.0, mu, joints, 3, tree.cut_index)  # its sparsity made once per scene
+    cut = (rows, tree.cut_bodies, 5.0, 5.0, mu, joints, 3, tree.structure())  # its sparsity made once per scene
     return {
         "k, cut rows": f"{k}, {rows.size}",
         "right-hand side (the integration's)": per_call(lambda: module.scene_rhs(0.0, y, P, D, out), calls, rounds),

@@ -681,8 +681,9 @@ def run_stages(run: Run, formulation: str, integrator: str) -> tuple[Result, Mad
     plan, equations, guard, raised = ode_motion(run, start)
     times = output_grid(settings.t_end, settings.steps)
     try:  # stage 3: the engine
-        z0 = start.rates.initial_state(equations) if start.rates is not None else equations.initial_state(q, qd, 0.0)
-        history, stats, compiled, chosen = integrate_motion(run, plan, equations, guard, z0, times)
+        history, stats, compiled, chosen = integrate_motion(
+            run, plan, equations, guard, start_state(start, equations), times
+        )
     except AnalysisError as err:
         if formulation == "auto" and restartable(err, guard, plan):
             t = getattr(err, "t", None)
@@ -714,6 +715,15 @@ def run_stages(run: Run, formulation: str, integrator: str) -> tuple[Result, Mad
     return result, Made(start, plan, equations)
 
 
+def start_state(start: Start, equations: EquationsOfMotion) -> np.ndarray:
+    """z0 of ``equations`` at the run's start (q, q'): the one its start rates evaluated (``StartRates.initial_state``,
+    the same numbers: a joint-coordinates state costs 15-80 us of Python), else made anew. The run and the divergence
+    check's compiled companion (``companion_centres``) start from it."""
+    if start.rates is not None:
+        return start.rates.initial_state(equations)
+    return equations.initial_state(start.q, start.qd, 0.0)
+
+
 def output_grid(t_end: float, steps: int) -> np.ndarray:
     """The output times t_k = k (t_end / steps), k = 0 ... steps, the last exactly t_end: ``np.linspace(0, t_end,
     steps + 1)``'s own arithmetic (the same bits), without its dispatch (4 us; 13 at a call's cold start)."""
@@ -733,7 +743,7 @@ def judge_divergence(run: Run, result: Result, made: Made) -> Result:
     if settings.divergence == "skip" or info.get("integrator") in (*FIXED_STEP_METHODS, *INDEX3_INTEGRATORS):
         return result
     start = made.start
-    why = cannot_be_chaotic(run, start.q) or too_short_to_diverge(start.plan, result.info["rtol"], settings)
+    why = cannot_be_chaotic(run, start.q, start.forces) or too_short_to_diverge(start.plan, info["rtol"], settings)
     if why is not None:
         info["divergence"] = {"positions": None, "why": why}
         return result
@@ -769,11 +779,12 @@ def judge_divergence(run: Run, result: Result, made: Made) -> Result:
     return result
 
 
-def cannot_be_chaotic(run: Run, q: np.ndarray) -> str | None:
+def cannot_be_chaotic(run: Run, q: np.ndarray, forces: ForceModel) -> str | None:
     """Why the run's motion cannot be chaotic, or None: no degree of freedom left by the joints and drivers at its
     start q (the motion is prescribed), or one and nothing that changes with time (no driver, no actuator, every
     force from a potential or a damper): the state (q, q') then moves on a plane or cylinder, where by the
-    Poincare-Bendixson theorem no motion is chaotic; a regular motion's error is eq. 6.61's."""
+    Poincare-Bendixson theorem no motion is chaotic; a regular motion's error is eq. 6.61's. ``forces``: the run's
+    force model, as its start made it (``Start.forces``: not built again)."""
     system = run.system
     rank = rank_at(system, q).rank if system.n_constraints else 0  # the run's start: its Guard asked it already
     freedom = system.n_coordinates - rank
@@ -781,7 +792,7 @@ def cannot_be_chaotic(run: Run, q: np.ndarray) -> str | None:
         return "no degree of freedom left by the joints and drivers: the motion is prescribed"
     if system.model.motors or freedom > 1:
         return None
-    if not autonomous(run.forces if run.forces is not None else build_forces(system.model)):
+    if not autonomous(forces):
         return None
     return "one degree of freedom and no driver or force that changes with time: no chaotic motion (Poincare-Bendixson)"
 
@@ -823,7 +834,7 @@ def companion_centres(made: Made, result: Result, rtol: float, atol: float) -> n
         from .compiled import dispatch
 
         job = dispatch.compiled_plan(made.equations, plan.formulation)
-        z0 = made.equations.initial_state(start.q, start.qd, 0.0)
+        z0 = start_state(start, made.equations)
         q = dispatch.positions(job, z0, result.t, plan, start.run.settings)
     else:
         q = numpy_positions(start, plan, result.t)

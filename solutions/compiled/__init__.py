@@ -182,7 +182,7 @@ def parameters(
     sizes and switches P[8] = (n, m, 3 with the energy states else 0, joint positions, joint velocities, 1 when a
     tree's drivers' power needs lambda at every evaluation, the number of cut rows, the cut rows..., the tree's
     rows' owners..., the two bodies of each cut row..., the tree's rows body by body: ``tree.owned_rows``, the cut
-    solve's sparsity: ``tree.cut_structure``). Made
+    solve's sparsity: ``structure.cut_structure``). Made
     once per scene and numbers (a run's start rates and its loop ask for the same)."""
     kept = scene.__dict__.setdefault("_parameters", {})
     key = (alpha, beta, tol, iterations)
@@ -200,7 +200,7 @@ def _parameters(scene: Scene | TreeScene, alpha: float, beta: float, tol: float,
     owners = tree.owners.tolist() if tree is not None else []
     bodies = tree.cut_bodies.tolist() if tree is not None else []
     bodies += tree.row_index.tolist() if tree is not None else []  # the tree's rows body by body (tree.owned_rows)
-    bodies += tree.cut_index.tolist() if tree is not None else []  # the cut solve's sparsity (tree.cut_structure)
+    bodies += tree.structure().tolist() if tree is not None else []  # the cut solve's sparsity (compiled/structure)
     drivers_power = int(tree is not None and scene.drivers and scene.energies)  # a tree's lambda at every evaluation
     empty1, empty3 = np.zeros(1), np.zeros((1, 3, 3))
     mass = scene.mass_diagonal if scene.mass_diagonal is not None else empty1

@@ -257,7 +257,8 @@ def start_rates(equations, formulation: str, options: dict, z: np.ndarray) -> tu
     """(rho, q'') at the state z of ``equations`` by the scene's compiled module, or None where the compiled engine
     does not cover the formulation's scene: the start rates of a run asked to be compiled (``dynamics.StartRates``).
     rho: ``loops.spectral_radius`` (the 21 evaluations of ``integrators.spectral_radius`` in one compiled call);
-    q'': a tree's body accelerations are written after y' (with q, q' and lambda), other scenes' are y'[n:2n].
+    q'': a tree's body accelerations are written after y' (with q, q' and lambda: ``out`` that long), other scenes'
+    are y'[n:2n] (``out`` of y' alone: no lambda written after it, which nothing here reads).
     Any compiled integrator would do (the right-hand side does not depend on it): DOP853 stands for them."""
     from . import unsupported
     from .tree import TreeScene
@@ -268,15 +269,15 @@ def start_rates(equations, formulation: str, options: dict, z: np.ndarray) -> tu
     from . import load, loops  # imports numba
 
     module, _, _ = load(job)
-    P, D, n, m = start_parameters(job, equations.extra), job.scene.data(), job.scene.n, job.scene.m
+    P, D, n = start_parameters(job, equations.extra), job.scene.data(), job.scene.n
     z = np.ascontiguousarray(z, dtype=float)
-    out = np.empty(z.size + 3 * n + m)  # y', and after it the outputs of the state
+    tree = isinstance(job.scene, TreeScene)
+    out = np.empty(z.size + 3 * n + job.scene.m if tree else z.size)  # y' (a tree's q'' in the outputs after it)
     module.scene_rhs(0.0, z, P, D, out)
     fz = out[: z.size].copy()
     rhs = loops.first_class(module.scene_rhs, loops.RHS_SIGNATURE)
     rho = loops.spectral_radius(rhs, 0.0, z, fz, power_start(z.size), P, D, 10)
-    qdd = out[z.size + 2 * n : z.size + 3 * n] if isinstance(job.scene, TreeScene) else out[n : 2 * n]
-    return float(rho), qdd.copy()
+    return float(rho), (out[z.size + 2 * n : z.size + 3 * n] if tree else out[n : 2 * n]).copy()
 
 
 def start_parameters(job, extra: int) -> tuple:
@@ -318,14 +319,14 @@ def positions(job, z0: np.ndarray, times: np.ndarray, plan, settings: Settings) 
     adaptive one): the integration loop alone, and a tree's body coordinates from its joint states (the divergence
     check's companion run, ``dynamics.companion_centres``: the run's plan and loaded module, another tolerance).
     Raises as the run would where it stops early (``stop``); ``settings``: the run's step, budget."""
-    from . import COMPILED_INTEGRATORS, load, loops, parameters, paused_embedded, tableau
+    from . import COMPILED_INTEGRATORS, INT64_MAX, load, loops, parameters, paused_embedded, tableau
     from .tree import TreeScene
 
     module, project, _ = load(job)
     scene, rhs = job.scene, loops.first_class(module.scene_rhs, loops.RHS_SIGNATURE)
     P, D = parameters(scene, *job.numbers), scene.data()
     dop, scipy_like = COMPILED_INTEGRATORS[plan.integrator]
-    budget = np.iinfo(np.int64).max if settings.max_evaluations is None else int(settings.max_evaluations)
+    budget = INT64_MAX if settings.max_evaluations is None else int(settings.max_evaluations)
     numbers = (plan.rtol, plan.atol, float(settings.step or np.inf), budget, dop, scipy_like, tableau(dop), P, D)
     z0, times = np.ascontiguousarray(z0, dtype=float), np.ascontiguousarray(times, dtype=float)
     project = loops.first_class(project, loops.PROJECT_SIGNATURE)

@@ -49,9 +49,9 @@ class Part:
 def _loops() -> bool:
     from numba.core.registry import CPUDispatcher
 
-    from . import branches, history_kernels, kinematic_loop, loops, singular  # compiled, or loaded from disk, at import
+    from . import branches, history_kernels, kinematic_loop, loops, singular, structure  # compiled or loaded, at import
 
-    modules = (loops, kinematic_loop, singular, history_kernels, branches)  # history_kernels: reactions, residuals
+    modules = (loops, kinematic_loop, singular, history_kernels, branches, structure)  # history_kernels: reactions
     functions = [f for m in modules for f in vars(m).values() if isinstance(f, CPUDispatcher)]
     return not any(sum(f.stats.cache_misses.values()) for f in functions)
 

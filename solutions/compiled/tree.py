@@ -34,7 +34,6 @@ No numba here; the generated module is cached as ``codegen.py`` caches the scene
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from itertools import accumulate
 
 import numpy as np
 
@@ -73,8 +72,8 @@ class TreeScene:
     """The tree's rows body by body (``owned_rows``: start (nb + 1), then the rows), made once per scene: what
     ``tree_multipliers`` and ``zero_tree_blocks`` read (P[8] after the cut rows' bodies)."""
     cut_index: np.ndarray = None
-    """The sparsity of the cut solve (``cut_structure``), made once per scene: what ``cut_accelerations`` reads
-    (P[8] after the row index)."""
+    """The sparsity of the cut solve (``structure``), made once per scene: what ``cut_accelerations`` reads (P[8]
+    after the row index)."""
     unsupported: str | None = None
     packed_data: tuple | None = field(default=None, repr=False, compare=False)  # ``data()``, made once
 
@@ -99,6 +98,20 @@ class TreeScene:
             self.packed_data = packed(kernels, SLOTS)
         return self.packed_data
 
+    def structure(self) -> np.ndarray:
+        """The sparsity of the cut solve (``structure.cut_structure``, compiled), made at the first call: by the
+        run's parameters (``compiled.parameters``), where numba is loaded already (the engine's choice, which
+        describes the tree too, loads none). An open tree has none."""
+        if self.cut_index is None:
+            if self.cut_bodies.size == 0:  # no cut rows: no cut solve
+                self.cut_index = np.zeros(0, dtype=np.int64)
+            else:
+                from .structure import cut_structure  # imports numba
+
+                nb = self.n // (7 if self.scene.dimension == 3 else 3)
+                self.cut_index = cut_structure(self.ints, self.cut_bodies, self.k, nb)
+        return self.cut_index
+
 
 def _row(joint) -> list[float]:
     pad = [0.0] * (3 - len(joint.s_parent))
@@ -110,32 +123,37 @@ def _row(joint) -> list[float]:
 
 
 def describe(scene: Scene, formulation) -> TreeScene:
-    """The tree of a ``JointCoordinates`` formulation over the scene (``unsupported`` says why not compiled)."""
-    joints = formulation.joints
-    k = formulation.tree.k
-    rows = []
-    for j in joints:  # the columns of D that move the child: its parent's and the joint's own
-        moving = [*j.inherited, *range(j.velocity, j.velocity + j.n_velocities)]
-        rows.append([KINDS[j.kind], j.parent, j.child, j.position, j.velocity, len(moving), *moving])
-        rows[-1] += [-1] * (6 + k - len(rows[-1]))
-    ints = np.array(rows, dtype=np.int64).reshape(-1, 6 + k)
-    floats = np.array([_row(j) for j in joints], dtype=float).reshape(-1, 35)
+    """The tree of a ``JointCoordinates`` formulation over the scene (``unsupported`` says why not compiled): the
+    joints' rows built as flat lists of Python numbers and made arrays once each (an array of nested lists, or of
+    numpy scalars, costs several times as much: ~20 us of a loop chain of four's start)."""
+    joints, k = formulation.joints, formulation.tree.k
+    moving = [[*j.inherited, *range(j.velocity, j.velocity + j.n_velocities)] for j in joints]  # D's columns
+    heads, floats = [], []
+    for j, columns in zip(joints, moving, strict=True):  # the columns of D that move the child: parent's and own
+        heads += [KINDS[j.kind], j.parent, j.child, j.position, j.velocity, len(columns), *columns]
+        heads += [-1] * (k - len(columns))
+        floats += _row(j)
+    ints = np.array(heads, dtype=np.int64).reshape(-1, 6 + k)
     system = formulation.system
+    nb = len(system.model.bodies)
     owners, cut, bodies = _owners(system, joints)
-    tree = TreeScene(scene, ints, floats, formulation.tree.n_positions, k, cut, owners=owners, cut_bodies=bodies)
-    tree.row_index = owned_rows(tree.owners, len(system.model.bodies))
-    tree.cut_index = cut_structure(ints, bodies, k, len(system.model.bodies))
+    tree = TreeScene(
+        scene, ints, np.array(floats, dtype=float).reshape(-1, 35), formulation.tree.n_positions, k,
+        np.array(cut, dtype=np.int64), owners=np.array(owners, dtype=np.int64),
+        cut_bodies=np.array(bodies, dtype=np.int64),
+    )  # fmt: skip
+    tree.row_index = owned_rows(tree.owners, nb)
     if not joints:
         tree.unsupported = "a tree without joints"
     return tree
 
 
-def _owners(system, joints) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _owners(system, joints) -> tuple[list[int], list[int], list[int]]:
     """(the owner of every constraint row of the tree (``TreeScene.owners``): the child of its tree joint, or the
     body of its Euler-parameter normalization (element ``<body>.p``); -1 for a cut row (a cut joint's or a
     driver's: ``joint_coordinates.cut_elements``), whose multiplier comes from the augmented system
     (``cut_accelerations``); the cut rows; their elements' two bodies, row after row (``TreeScene.cut_bodies``)),
-    in one pass over the elements (a loop: faster than numpy's repeat up to a loop chain of 16 at least)."""
+    in one pass over the elements (a loop: faster than numpy's repeat up to a loop chain of 16 at least), as lists."""
     child = {joint.name: joint.child for joint in joints}
     child |= {f"{body.name}.p": b for b, body in enumerate(system.model.bodies)}
     owners, cut, bodies = [], [], []
@@ -145,7 +163,7 @@ def _owners(system, joints) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if owner < 0:
             cut += range(where.start, where.stop)
             bodies += [element.i, element.j] * size
-    return tuple(np.array(x, dtype=np.int64) for x in (owners, cut, bodies))
+    return owners, cut, bodies
 
 
 def owned_rows(owners: np.ndarray, nb: int) -> np.ndarray:
@@ -157,52 +175,6 @@ def owned_rows(owners: np.ndarray, nb: int) -> np.ndarray:
     start = np.cumsum(counts) - counts[0]  # body b's rows at [start[b], start[b + 1]), counted past the cut rows
     rows = np.argsort(owners, kind="stable")[counts[0] :]  # by owner, row order kept; the cut rows first, left out
     return np.concatenate([start, rows])
-
-
-def cut_structure(ints: np.ndarray, bodies: np.ndarray, k: int, nb: int) -> np.ndarray:
-    """The integer side of the cut solve (``tree_kernels.cut_accelerations``), the tree's structure alone, as one
-    array: made once per scene, where the solve made it at every evaluation (~0.5 us of the loop chain's right-hand
-    side at N = 4). In order (``tree_kernels.cut_parts`` cuts it):
-
-    - the half-band p of the cut rows' S = W^T d^-1 W (``band_solve``; a wider one goes to LAPACK);
-    - lambda(i), the tree's parent of every joint velocity (-1 at ground; H's sparsity: Featherstone 2008, sec. 6.5):
-      the previous column of the same joint (a spherical joint's three), else the last column of the joint's parent;
-    - the tree joint whose child each body is (-1 ground);
-    - where each cut row's entries of W begin (mc + 1), and where each column's (k + 1);
-    - each cut row's support, the columns that move the two bodies its element joins (their union, descending:
-      the ancestors of each column come after it, as L^-T needs); the slot of each of those entries in W stored
-      column by column; the row of each entry column by column (rows increasing within a column)."""
-    if bodies.size == 0:  # an open tree: no cut solve (its Python costs ~20 us a call at four joints)
-        return np.zeros(0, dtype=np.int64)
-    heads, bodies = ints[:, :6].tolist(), bodies.tolist()
-    moving = [ints[e, 6 : 6 + head[5]].tolist() for e, head in enumerate(heads)]  # the columns that move each child
-    joint, parent = [-1] * nb, [-1] * k
-    for e, (kind, _, child, _, _, count) in enumerate(heads):
-        joint[child] = e
-        own = 3 if kind == KINDS["spherical"] else 1
-        for a in range(max(count - own, 1), count):
-            parent[moving[e][a]] = moving[e][a - 1]
-    supports = []
-    for a in range(len(bodies) // 2):
-        columns = set()
-        for b in bodies[2 * a : 2 * a + 2]:
-            if b >= 0:
-                columns.update(moving[joint[b]])
-        supports.append(sorted(columns, reverse=True))
-    column_rows = [[] for _ in range(k)]  # the entries of W column by column, rows increasing
-    for a, support in enumerate(supports):
-        for i in support:
-            column_rows[i].append(a)
-    column_start = list(accumulate((len(rows) for rows in column_rows), initial=0))
-    filled, slots = column_start[:k], []
-    for support in supports:
-        for i in support:
-            slots.append(filled[i])
-            filled[i] += 1
-    band = max([rows[-1] - rows[0] for rows in column_rows if rows], default=0)
-    row_start = list(accumulate((len(support) for support in supports), initial=0))
-    every = [band, *parent, *joint, *row_start, *column_start, *(i for s in supports for i in s), *slots]
-    return np.array(every + [a for rows in column_rows for a in rows], dtype=np.int64)
 
 
 VECTORS = (("xi", "a"), ("Q", "n"), ("power", "3"), ("q", "n"), ("qd", "n"), ("thdd", "k"), ("mu", "ncut"))

@@ -179,3 +179,23 @@ def test_the_spatial_tree_mass_is_made_at_its_first_numpy_evaluation():
     assert np.count_nonzero(body_mass) == sum(
         np.count_nonzero(body_mass[6 * b : 6 * b + 6, 6 * b : 6 * b + 6]) for b in range(2)
     )
+
+
+def test_the_divergence_companion_starts_from_the_runs_start_state(monkeypatch):
+    """A compiled call whose divergence check runs a companion (the spatial double pendulum: two degrees of freedom
+    and more) makes the joint state of its start once, for its start rates, and hands it to the run and to the
+    companion (``dynamics.start_state``): the same numbers as a joint state made again (the result is the call's)."""
+    from solutions.joint_coordinates import JointCoordinates
+
+    system, q0, qd0 = build_system(load_model(MODELS / "spatial_double_pendulum.yaml"))
+    options = dict(formulation="joint-coordinates", integrator="DOP853", rtol=1e-6, atol=1e-8, engine="compiled")
+    reference = dynamics.forward_dynamics(system, q0, qd0, 1.0, 20, **options)
+    assert "doubling_time" in reference.info["divergence"]  # the companion ran
+    made = []
+    original = JointCoordinates.initial_state
+    monkeypatch.setattr(JointCoordinates, "initial_state", lambda self, *a: made.append(1) or original(self, *a))
+    result = dynamics.forward_dynamics(system, q0, qd0, 1.0, 20, **options)
+    assert len(made) == 1
+    for name in ("q", "qd", "qdd", "lam"):
+        assert np.array_equal(getattr(result, name), getattr(reference, name))
+    assert result.info["divergence"] == reference.info["divergence"]

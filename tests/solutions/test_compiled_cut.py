@@ -140,7 +140,7 @@ def test_the_drivers_power_from_the_cut_rows_is_lambda_psi_t_of_every_row(name):
     ids=["loop-chain-band", "held-chain-dense", "spatial-loop"],
 )
 def test_the_cut_solves_sparsity_is_made_once_per_scene_from_the_tree(model, band):
-    """The cut solve's integer work is the tree's structure (``tree.cut_structure``, in P[8] after the row index):
+    """The cut solve's integer work is the tree's structure (``structure.cut_structure``, in P[8] after the row index):
     lambda(i) of every joint velocity (an ancestor: smaller), each cut row's support (the columns that move its two
     bodies, walked up lambda from each body's own last column: every ancestor, descending), each entry's slot in W
     stored column by column (that column's range, its row recorded there, rows increasing), and S's half-band (the
@@ -175,3 +175,53 @@ def test_the_cut_solves_sparsity_is_made_once_per_scene_from_the_tree(model, ban
         default=0,
     )
     assert p == widest
+
+
+def _python_structure(tree) -> list[int]:
+    """``structure.cut_structure`` written with Python lists and sets (the structure as the twenty-fourth session
+    made it in ``tree.py``, at every call's start): the reference of the compiled one."""
+    from itertools import accumulate
+
+    k, width = tree.k, 7 if tree.scene.dimension == 3 else 3
+    nb, heads, bodies = tree.n // width, tree.ints[:, :6].tolist(), tree.cut_bodies.tolist()
+    moving = [tree.ints[e, 6 : 6 + head[5]].tolist() for e, head in enumerate(heads)]
+    joint, parent = [-1] * nb, [-1] * k
+    for e, (kind, _, child, _, _, count) in enumerate(heads):
+        joint[child] = e
+        for a in range(max(count - (3 if kind == 2 else 1), 1), count):
+            parent[moving[e][a]] = moving[e][a - 1]
+    supports = [
+        sorted({i for b in bodies[2 * a : 2 * a + 2] if b >= 0 for i in moving[joint[b]]}, reverse=True)
+        for a in range(len(bodies) // 2)
+    ]
+    column_rows = [[a for a, support in enumerate(supports) if i in support] for i in range(k)]
+    column_start = list(accumulate(map(len, column_rows), initial=0))
+    filled, slots = column_start[:k], []
+    for support in supports:
+        for i in support:
+            slots.append(filled[i])
+            filled[i] += 1
+    band = max([rows[-1] - rows[0] for rows in column_rows if rows], default=0)
+    row_start = list(accumulate(map(len, supports), initial=0))
+    every = [band, *parent, *joint, *row_start, *column_start, *(i for s in supports for i in s), *slots]
+    return every + [a for rows in column_rows for a in rows]
+
+
+@pytest.mark.parametrize(
+    "model",
+    [parallelogram_chain(1), parallelogram_chain(6), _held_chain(12), _spatial_loop()],
+    ids=["loop-chain-1", "loop-chain-6", "held-chain", "spatial-loop"],
+)
+def test_the_compiled_cut_structure_equals_the_python_lists_one_and_is_made_only_for_the_run(model):
+    """``TreeScene.structure`` (numba, ``compiled/structure.py``) gives the Python reference's array entry for entry;
+    ``tree.describe`` (which the engine's choice calls before numba is loaded) leaves it to the run's parameters."""
+    from solutions.compiled import tree as tree_module
+
+    system, _, _ = build_system(load_model(model))
+    M, forces = mass_matrix(system.model), build_forces(system.model)
+    made = make_formulation("joint-coordinates", system, M, forces)
+    EquationsOfMotion(made, forces, False).initial_state(*build_system(load_model(model))[1:], 0.0)
+    tree = tree_module.describe(describe(system, M, forces), made)
+    assert tree.cut_index is None  # not made by the description
+    assert tree.structure().tolist() == _python_structure(tree)
+    assert tree.structure() is tree.cut_index  # made once per scene
