@@ -93,14 +93,16 @@ def rank_report(jacobian: np.ndarray, row_owner: list[str], rtol: float | None =
 
     The rank is decided by the package's one rule (``linalg.rank_tolerance``: singular values above
     sigma_1 max(m, n) sqrt(eps)); ``rtol`` replaces the relative threshold max(m, n) sqrt(eps) when given.
+    The singular values alone first (2-3x cheaper than the whole SVD); the left singular vectors of the
+    redundant rows, which name the joints, only where rows are redundant.
     """
     m, n = jacobian.shape
-    u, s, _ = np.linalg.svd(jacobian)
+    s = np.linalg.svd(jacobian, compute_uv=False)
     if rtol is None:
         rank = numerical_rank(s, jacobian.shape)
     else:
         rank = int(np.sum(s > rtol * s[0])) if s.size and s[0] > 0 else 0
-    redundant = involved_joints(u[:, rank:], row_owner) if m > rank else []
+    redundant = involved_joints(np.linalg.svd(jacobian)[0][:, rank:], row_owner) if m > rank else []
     padded = np.concatenate([s, np.zeros(max(0, min(m, n) - s.size))])
     return RankReport(n, m, rank, padded, redundant)
 

@@ -52,6 +52,7 @@ from .diagnostics import (
     NEAR_SINGULAR,
     AnalysisError,
     BranchSwitchError,
+    RankReport,
     SingularConfigurationError,
     passes_zero,
     rank_report,
@@ -606,6 +607,9 @@ class Start:
     plan: Plan
     notes: list[str]
     rates: StartRates | None = None
+    rank: RankReport | None = None
+    """Psi_q's rank at q (``rank_at``), made once at the start for the method's choice, the redundancy checks,
+    the Guard and the divergence check; None for a run without constraints."""
 
 
 @dataclass(frozen=True)
@@ -638,15 +642,16 @@ def start_motion(run: Run, formulation: str, integrator: str) -> Start:
     settings = run.settings
     options, compiled = settings.formulation_options, settings.engine == "compiled"
     rates = StartRates(run.system, M, forces, q, qd, options, compiled, settings, run.prepared)  # engine's choice first
-    plan = plan_method(run, M, forces, q, qd, formulation, integrator, rates)  # stage 2
-    return Start(run, M, forces, q, qd, initial, plan, notes, rates)
+    rank = rank_at(run.system, q)
+    plan = plan_method(run, M, forces, q, qd, formulation, integrator, rates, rank)  # stage 2
+    return Start(run, M, forces, q, qd, initial, plan, notes, rates, rank)
 
 
 def ode_motion(run: Run, start: Start) -> tuple[Plan, EquationsOfMotion, Guard, list[str]]:
     """What an ODE integrator advances for a plan that is not index-3: the plan with the tolerances the formulation
     holds (``held_tolerances``), the equations of motion, the run's ``Guard`` and the warnings said on the way."""
     system, plan = run.system, start.plan
-    _check_redundancy(system, start.q, plan.formulation)
+    _check_redundancy(start.rank, plan.formulation)
     if plan.formulation in RESTARTING and plan.integrator in MULTISTEP_INTEGRATORS:
         raise AnalysisError(
             f"the {plan.formulation} formulation restarts the integrator after every step, which a multistep "
@@ -660,7 +665,7 @@ def ode_motion(run: Run, start: Start) -> tuple[Plan, EquationsOfMotion, Guard, 
     plans = run.prepared.compiled_plans if run.prepared is not None else None
     equations = EquationsOfMotion(made, start.forces, has_drivers=bool(system.model.motors), compiled_plans=plans)
     plan, raised = held_tolerances(plan, equations)
-    return plan, equations, make_guard(run, plan, equations, start.q), raised
+    return plan, equations, make_guard(run, plan, equations, start.q, start.rank), raised
 
 
 def run_plan(run: Run, formulation: str, integrator: str) -> Result:
@@ -743,7 +748,7 @@ def judge_divergence(run: Run, result: Result, made: Made) -> Result:
     if settings.divergence == "skip" or info.get("integrator") in (*FIXED_STEP_METHODS, *INDEX3_INTEGRATORS):
         return result
     start = made.start
-    why = cannot_be_chaotic(run, start.q, start.forces) or too_short_to_diverge(start.plan, info["rtol"], settings)
+    why = cannot_be_chaotic(run, start.rank, start.forces) or too_short_to_diverge(start.plan, info["rtol"], settings)
     if why is not None:
         info["divergence"] = {"positions": None, "why": why}
         return result
@@ -779,15 +784,14 @@ def judge_divergence(run: Run, result: Result, made: Made) -> Result:
     return result
 
 
-def cannot_be_chaotic(run: Run, q: np.ndarray, forces: ForceModel) -> str | None:
+def cannot_be_chaotic(run: Run, rank: RankReport | None, forces: ForceModel) -> str | None:
     """Why the run's motion cannot be chaotic, or None: no degree of freedom left by the joints and drivers at its
     start q (the motion is prescribed), or one and nothing that changes with time (no driver, no actuator, every
     force from a potential or a damper): the state (q, q') then moves on a plane or cylinder, where by the
-    Poincare-Bendixson theorem no motion is chaotic; a regular motion's error is eq. 6.61's. ``forces``: the run's
-    force model, as its start made it (``Start.forces``: not built again)."""
+    Poincare-Bendixson theorem no motion is chaotic; a regular motion's error is eq. 6.61's. ``rank``, ``forces``:
+    Psi_q's rank and the force model, as the run's start made them (``Start``: not made again)."""
     system = run.system
-    rank = rank_at(system, q).rank if system.n_constraints else 0  # the run's start: its Guard asked it already
-    freedom = system.n_coordinates - rank
+    freedom = system.n_coordinates - (rank.rank if rank is not None else 0)
     if freedom == 0:
         return "no degree of freedom left by the joints and drivers: the motion is prescribed"
     if system.model.motors or freedom > 1:
@@ -971,10 +975,20 @@ def dynamic_model(system: System, masses, forces) -> tuple[np.ndarray, ForceMode
     return M, build_forces(system.model) if forces is None else forces
 
 
-def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str, rates: StartRates | None = None) -> Plan:
+def plan_method(
+    run: Run,
+    M,
+    forces,
+    q,
+    qd,
+    formulation: str,
+    integrator: str,
+    rates: StartRates | None = None,
+    rank: RankReport | None = None,
+) -> Plan:
     """Stage 2: the formulation and integrator (``choose_method`` for ``auto``) and the tolerance rule
-    (``default_rtol`` over the motion's periods), computed once; ``rates``: the run's ``StartRates``, made here
-    when not given."""
+    (``default_rtol`` over the motion's periods), computed once; ``rates``, ``rank``: the run's ``StartRates`` and
+    Psi_q's rank at q (``rank_at``), made here when not given."""
     system, model, settings = run.system, run.system.model, run.settings
     options = settings.formulation_options
     chosen = None
@@ -983,8 +997,10 @@ def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str, r
             "the joint-coordinates formulation takes a spatial model's masses and inertias from the model: "
             "drop masses=, or choose another formulation"
         )
+    if rank is None:
+        rank = rank_at(system, q)
     if formulation != "auto" and integrator not in INDEX3_INTEGRATORS:
-        _check_redundancy(system, q, formulation)  # before ``auto`` evaluates the equations of motion
+        _check_redundancy(rank, formulation)  # before ``auto`` evaluates the equations of motion
     if rates is None:
         rates = StartRates(system, M, forces, q, qd, options, settings.engine == "compiled", settings)
     if "auto" in (formulation, integrator):
@@ -1001,6 +1017,7 @@ def plan_method(run: Run, M, forces, q, qd, formulation: str, integrator: str, r
             integrator,
             trees=not own_masses,
             rates=rates,
+            rank=rank,
             **options,
         )
         formulation, integrator = chosen["formulation"], chosen["integrator"]
@@ -1074,7 +1091,7 @@ def held_tolerances(plan: Plan, equations: EquationsOfMotion) -> tuple[Plan, lis
     return dataclasses.replace(plan, rtol=max(rtol, held), atol=max(atol, held)), [said]
 
 
-def make_guard(run: Run, plan: Plan, equations: EquationsOfMotion, q: np.ndarray) -> Guard:
+def make_guard(run: Run, plan: Plan, equations: EquationsOfMotion, q: np.ndarray, rank: RankReport | None) -> Guard:
     """The run's ``Guard``: drift at least 100 rtol for a loose tolerance; none for an open tree in joint
     coordinates, on the constraints by construction with a full-rank Psi_q everywhere."""
     drift_limit, singular_ratio = run.settings.drift_limit, run.settings.singular_ratio
@@ -1089,6 +1106,7 @@ def make_guard(run: Run, plan: Plan, equations: EquationsOfMotion, q: np.ndarray
         through=plan.formulation in THROUGH_SINGULAR,
         size=plan.size,
         weights=run.prepared.fixed().weights if run.prepared is not None and singular_ratio else None,
+        rank=0 if rank is None else rank.rank,
     )
 
 
@@ -1705,6 +1723,7 @@ def choose_method(
     *,
     trees: bool = True,
     rates: StartRates | None = None,
+    rank: RankReport | None = None,
     **options,
 ) -> dict:
     """The cheapest adequate formulation and integrator for a scene (``auto``), and why (rho from ``rates``,
@@ -1728,7 +1747,7 @@ def choose_method(
     reasons = []
     if formulation == "auto":
         not_a_tree = "formulation options given" if options else open_tree(system) if trees else "masses given"
-        redundant = rank_at(system, q).n_redundant
+        redundant = (rank or rank_at(system, q)).n_redundant
         if not_a_tree is None:
             formulation = "joint-coordinates"
             reasons.append("joint-coordinates: an open tree of joints (minimal coordinates)")
@@ -1917,6 +1936,7 @@ class Guard:
         through: bool = False,
         size: float | None = None,
         weights: np.ndarray | None = None,
+        rank: int | None = None,
     ):
         self.system, self.singular_ratio, self.through = system, singular_ratio, through
         self.crossings: list[dict] = []  # singular positions passed (with ``through``: the formulation passes them)
@@ -1927,7 +1947,10 @@ class Guard:
         self.size = size = mechanism_size(system, q) if size is None else size  # L, as the run's Plan has it
         self.drift_limit = None if drift_limit is None else drift_limit * size
         self.remedy = DRIFT_REMEDY  # what to do when the positions drift (index-3 runs: ``index3_guard``)
-        self.rank = rank_at(system, q).rank
+        if rank is None:  # a run's Guard is given it by the run's start (``Start.rank``)
+            report = rank_at(system, q)
+            rank = report.rank if report is not None else 0
+        self.rank = rank
         self.closest: dict | None = None
         self._tangent, self._t, self._sign = None, 0.0, 1.0
         self._pending: list = []  # (t, q, Psi_q) after steps not judged yet (``queue``)
@@ -2463,20 +2486,16 @@ def constraint_residuals(system: System, t: np.ndarray, q: np.ndarray, qd: np.nd
     return {"residual.position": position, "residual.velocity": velocity}
 
 
-def rank_at(system: System, q: np.ndarray):
-    """``rank_report`` of Psi_q at q (an SVD of the whole Jacobian), made once per system and state: a run asks it
-    up to four times at its start (the method's choice, the redundancy check before and after it, the Guard)."""
-    key = np.asarray(q, dtype=float).tobytes()
-    known = system.__dict__.get("_rank_at")
-    if known is None or known[0] != key:
-        known = system.__dict__["_rank_at"] = (key, rank_report(system.jacobian(q, 0.0), system.row_owners))
-    return known[1]
+def rank_at(system: System, q: np.ndarray) -> RankReport | None:
+    """``rank_report`` of Psi_q at q (the singular values of the whole Jacobian), or None without constraints:
+    made once per run at its start (``Start.rank``) and handed to the method's choice, the redundancy checks, the
+    Guard and the divergence check."""
+    return rank_report(system.jacobian(q, 0.0), system.row_owners) if system.n_constraints else None
 
 
-def _check_redundancy(system: System, q: np.ndarray, formulation: str) -> None:
+def _check_redundancy(report: RankReport | None, formulation: str) -> None:
     """Only the SVD and augmented Lagrangian formulations cope with redundant constraints: refuse the others."""
-    report = rank_at(system, q)
-    if report.n_redundant and formulation not in ("svd", *THROUGH_SINGULAR):
+    if report is not None and report.n_redundant and formulation not in ("svd", *THROUGH_SINGULAR):
         raise AnalysisError(
             f"{report.n_redundant} redundant constraint equation(s) among joints "
             f"{', '.join(report.redundant_joints)}: the {formulation} formulation needs independent "
