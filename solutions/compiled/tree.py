@@ -93,11 +93,35 @@ class TreeScene:
         return f"tree|{self.scene.key}"
 
     def data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """D of the scene with the tree's joints in their slot (``scene.packed``), made at the first call."""
+        """D of the scene with the tree's joints in their slot (``scene.packed``), made at the first call; in each
+        constraint kernel's slot the elements of cut rows first, and after the offsets of every slot (len(SLOTS) + 1)
+        where each slot's cut elements stop: the integration evaluates those alone (``cut_first``)."""
         if self.packed_data is None:
-            kernels = [*self.scene.constraint_kernels, *self.scene.force_kernels, ("tree", self.ints, self.floats)]
-            self.packed_data = packed(kernels, SLOTS)
+            constraints, counts = [], dict.fromkeys(SLOTS, 0)
+            for name, ints, floats in self.scene.constraint_kernels:
+                order, counts[name] = cut_first(name, ints, self.owners)
+                constraints.append((name, ints[order], floats[order]))
+            kernels = [*constraints, *self.scene.force_kernels, ("tree", self.ints, self.floats)]
+            ints, floats, offsets = packed(kernels, SLOTS)
+            stops = offsets[:-1] + np.array(list(counts.values()), dtype=np.int64)
+            self.packed_data = ints, floats, np.concatenate([offsets, stops])
         return self.packed_data
+
+
+ONE_BODY = ("planar_coordinate", "spatial_coordinate", "spatial_normalization")
+"""The constraint kernels whose ints begin (body, row, ...) (``scene.py``); every other's begin (i, j, row, ...)."""
+
+
+def cut_first(name: str, ints: np.ndarray, owners: np.ndarray) -> tuple[np.ndarray, int]:
+    """(the order of a constraint kernel's elements (``Scene.constraint_kernels``: its ints) with those of cut rows
+    (``TreeScene.owners``: -1) first, each group in its order; how many those are). The tree's joints satisfy their
+    rows by construction (eq. 5.44: the joint coordinates parametrize them), so the integration's right-hand side,
+    which reads the cut rows alone, calls each kernel on its cut elements only. Every element writes Psi, Psi_q and
+    gamma of its own rows alone, so the order of a kernel's elements changes no number."""
+    if ints.shape[0] == 0:  # a kernel the scene lacks
+        return np.zeros(0, dtype=np.int64), 0
+    tree_row = owners[ints[:, 1 if name in ONE_BODY else 2]] >= 0  # by each element's first row
+    return np.argsort(tree_row, kind="stable"), int(tree_row.size - np.count_nonzero(tree_row))
 
 
 def _row(joint) -> list[float]:
@@ -344,7 +368,8 @@ def _body(tree: TreeScene) -> list[str]:
         f"                zero_cut_blocks(jac, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], {width})",
         "            if whole:  # lambda of every row: the tree rows at their body and its parent (tree_multipliers)",
         f"                zero_tree_blocks(jac, tree_rows, joints, {width})",
-        *constraint_calls(scene, "        "),
+        f"        cut = 0 if whole else {len(SLOTS)}  # each slot's stop: every row's, or its cut rows' (TreeScene.data)",
+        *constraint_calls(scene, "        ", " + cut"),
         "        if history:  # Psi and Psi_t after the outputs, before Psi_q",
         "            o = y.size + 3 * n + m",
         "            for i in range(m):",
