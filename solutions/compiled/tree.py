@@ -328,7 +328,6 @@ def _body(tree: TreeScene) -> list[str]:
         "    full = out.size > y.size + n  # the outputs asked for too (loops.outputs): q, q', q'', lambda after y'",
         "    ncut = dims[6]  # cut rows (P[8][7 : 7 + ncut]); the rows' owners after them",
         "    columns = ncut > 0  # D itself: for the cut rows only (an open tree's outputs: the body accelerations)",
-        "    whole = full  # lambda of every row (the outputs): D whole, Psi_q at every row's blocks",
         *_arrays(spatial),
         "    tree_rows = dims[7 + 3 * ncut + m : 8 + 2 * ncut + 2 * m + nb]  # body by body (tree.owned_rows)",
         "    structure = dims[8 + 2 * ncut + 2 * m + nb :]  # the cut solve's sparsity (tree.cut_structure)",
@@ -344,8 +343,8 @@ def _body(tree: TreeScene) -> list[str]:
         )
     else:
         lines.append(
-            "    planar_motion(y[:npos], y[npos : npos + k], joints, joint_floats, nb, k, q, qd, xi, Dm, columns, "
-            "whole, body, joint)"
+            "    planar_motion(y[:npos], y[npos : npos + k], joints, joint_floats, nb, k, q, qd, xi, Dm, columns, body, "
+            "joint)"
         )
     lines += [
         "    if positions:  # the tree's forward kinematics alone: q after y (y' not written)",
@@ -366,9 +365,9 @@ def _body(tree: TreeScene) -> list[str]:
         "            jac = rows_work[3 * m :].reshape((m, n))",
         "            if ncut > 0:",
         f"                zero_cut_blocks(jac, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], {width})",
-        "            if whole:  # lambda of every row: the tree rows at their body and its parent (tree_multipliers)",
+        "            if full:  # lambda of every row: the tree rows at their body and its parent (tree_multipliers)",
         f"                zero_tree_blocks(jac, tree_rows, joints, {width})",
-        f"        cut = 0 if whole else {len(SLOTS)}  # each slot's stop: every row's, or its cut rows' (TreeScene.data)",
+        f"        cut = 0 if full else {len(SLOTS)}  # each slot's stop: every row's, or its cut rows' (TreeScene.data)",
         *constraint_calls(scene, "        ", " + cut"),
         "        if history:  # Psi and Psi_t after the outputs, before Psi_q",
         "            o = y.size + 3 * n + m",
