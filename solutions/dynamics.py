@@ -1306,7 +1306,7 @@ def build_result(run: Run, equations, guard, history, compiled, times) -> tuple[
 
 def run_info(run: Run, plan: Plan, equations, guard, stats, result, energies, initial: dict) -> DynamicInfo:
     """How the result was obtained (DESIGN section 5)."""
-    drift = largest(energies.error)  # max |E(t) - E(0)|: E(t) summed once (``EnergyHistory.error``)
+    drift = largest(result.points["energy.error"])  # max |E(t) - E(0)|: the result's column (``EnergyHistory.error``)
     return {
         "analysis": "dynamic",
         "formulation": plan.formulation,

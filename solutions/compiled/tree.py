@@ -343,8 +343,8 @@ def _body(tree: TreeScene) -> list[str]:
         )
     else:
         lines.append(
-            "    planar_motion(y[:npos], y[npos : npos + k], joints, joint_floats, nb, k, q, qd, xi, Dm, columns, body, "
-            "joint)"
+            "    planar_motion(y[:npos], y[npos : npos + k], joints, joint_floats, nb, k, q, qd, xi, Dm, columns, "
+            "body, joint)"
         )
     lines += [
         "    if positions:  # the tree's forward kinematics alone: q after y (y' not written)",
@@ -367,7 +367,7 @@ def _body(tree: TreeScene) -> list[str]:
         f"                zero_cut_blocks(jac, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], {width})",
         "            if full:  # lambda of every row: the tree rows at their body and its parent (tree_multipliers)",
         f"                zero_tree_blocks(jac, tree_rows, joints, {width})",
-        f"        cut = 0 if full else {len(SLOTS)}  # each slot's stop: every row's, or its cut rows' (TreeScene.data)",
+        f"        cut = 0 if full else {len(SLOTS)}  # each slot's stop: every row's or its cut rows' (TreeScene.data)",
         *constraint_calls(scene, "        ", " + cut"),
         "        if history:  # Psi and Psi_t after the outputs, before Psi_q",
         "            o = y.size + 3 * n + m",
