@@ -97,13 +97,14 @@ class TreeScene:
         constraint kernel's slot the elements of cut rows first, and after the offsets of every slot (len(SLOTS) + 1)
         where each slot's cut elements stop: the integration evaluates those alone (``cut_first``)."""
         if self.packed_data is None:
-            constraints, counts = [], dict.fromkeys(SLOTS, 0)
-            for name, ints, floats in self.scene.constraint_kernels:
-                order, counts[name] = cut_first(name, ints, self.owners)
-                constraints.append((name, ints[order], floats[order]))
+            constraints, cut = self.scene.constraint_kernels, {}
+            if self.cut_rows.size:  # an open tree has no cut element: each slot's cut elements stop at its start
+                constraints = [cut_first(*kernel, self.owners, cut) for kernel in constraints]
             kernels = [*constraints, *self.scene.force_kernels, ("tree", self.ints, self.floats)]
             ints, floats, offsets = packed(kernels, SLOTS)
-            stops = offsets[:-1] + np.array(list(counts.values()), dtype=np.int64)
+            stops = offsets[:-1].copy()
+            for name, count in cut.items():
+                stops[SLOTS.index(name)] += count
             self.packed_data = ints, floats, np.concatenate([offsets, stops])
         return self.packed_data
 
@@ -112,16 +113,18 @@ ONE_BODY = ("planar_coordinate", "spatial_coordinate", "spatial_normalization")
 """The constraint kernels whose ints begin (body, row, ...) (``scene.py``); every other's begin (i, j, row, ...)."""
 
 
-def cut_first(name: str, ints: np.ndarray, owners: np.ndarray) -> tuple[np.ndarray, int]:
-    """(the order of a constraint kernel's elements (``Scene.constraint_kernels``: its ints) with those of cut rows
-    (``TreeScene.owners``: -1) first, each group in its order; how many those are). The tree's joints satisfy their
-    rows by construction (eq. 5.44: the joint coordinates parametrize them), so the integration's right-hand side,
-    which reads the cut rows alone, calls each kernel on its cut elements only. Every element writes Psi, Psi_q and
-    gamma of its own rows alone, so the order of a kernel's elements changes no number."""
+def cut_first(name: str, ints: np.ndarray, floats: np.ndarray, owners: np.ndarray, cut: dict) -> tuple:
+    """A constraint kernel's data (name, ints, floats: ``Scene.constraint_kernels``) with the elements of cut rows
+    (``TreeScene.owners``: -1) first, each group in its order; their count in ``cut[name]``. The tree's joints
+    satisfy their rows by construction (eq. 5.44: the joint coordinates parametrize them), so the integration's
+    right-hand side, which reads the cut rows alone, calls each kernel on its cut elements only. Every element writes
+    Psi, Psi_q and gamma of its own rows alone, so the order of a kernel's elements changes no number."""
     if ints.shape[0] == 0:  # a kernel the scene lacks
-        return np.zeros(0, dtype=np.int64), 0
+        return name, ints, floats
     tree_row = owners[ints[:, 1 if name in ONE_BODY else 2]] >= 0  # by each element's first row
-    return np.argsort(tree_row, kind="stable"), int(tree_row.size - np.count_nonzero(tree_row))
+    cut[name] = int(tree_row.size - np.count_nonzero(tree_row))
+    order = np.argsort(tree_row, kind="stable")
+    return name, ints[order], floats[order]
 
 
 def _row(joint) -> list[float]:
