@@ -99,7 +99,8 @@ class TreeScene:
         if self.packed_data is None:
             constraints, cut = self.scene.constraint_kernels, {}
             if self.cut_rows.size:  # an open tree has no cut element: each slot's cut elements stop at its start
-                constraints = [cut_first(*kernel, self.owners, cut) for kernel in constraints]
+                owners = self.owners.tolist()
+                constraints = [cut_first(*kernel, owners, cut) for kernel in constraints]
             kernels = [*constraints, *self.scene.force_kernels, ("tree", self.ints, self.floats)]
             ints, floats, offsets = packed(kernels, SLOTS)
             stops = offsets[:-1].copy()
@@ -113,17 +114,21 @@ ONE_BODY = ("planar_coordinate", "spatial_coordinate", "spatial_normalization")
 """The constraint kernels whose ints begin (body, row, ...) (``scene.py``); every other's begin (i, j, row, ...)."""
 
 
-def cut_first(name: str, ints: np.ndarray, floats: np.ndarray, owners: np.ndarray, cut: dict) -> tuple:
+def cut_first(name: str, ints: np.ndarray, floats: np.ndarray, owners: list, cut: dict) -> tuple:
     """A constraint kernel's data (name, ints, floats: ``Scene.constraint_kernels``) with the elements of cut rows
     (``TreeScene.owners``: -1) first, each group in its order; their count in ``cut[name]``. The tree's joints
     satisfy their rows by construction (eq. 5.44: the joint coordinates parametrize them), so the integration's
     right-hand side, which reads the cut rows alone, calls each kernel on its cut elements only. Every element writes
-    Psi, Psi_q and gamma of its own rows alone, so the order of a kernel's elements changes no number."""
+    Psi, Psi_q and gamma of its own rows alone, so the order of a kernel's elements changes no number. (Lists: a
+    few elements a kernel, where each numpy call costs more than the loop.)"""
     if ints.shape[0] == 0:  # a kernel the scene lacks
         return name, ints, floats
-    tree_row = owners[ints[:, 1 if name in ONE_BODY else 2]] >= 0  # by each element's first row
-    cut[name] = int(tree_row.size - np.count_nonzero(tree_row))
-    order = np.argsort(tree_row, kind="stable")
+    rows = ints[:, 1 if name in ONE_BODY else 2].tolist()  # each element's first row
+    order = [e for e, row in enumerate(rows) if owners[row] < 0]
+    cut[name] = len(order)
+    if order == list(range(len(order))):  # the cut elements first already (or none)
+        return name, ints, floats
+    order += [e for e, row in enumerate(rows) if owners[row] >= 0]
     return name, ints[order], floats[order]
 
 
