@@ -123,14 +123,14 @@ def parts(n: int, rounds: int) -> dict[str, float]:
     n_q, m, k, joints = tree.n, tree.m, tree.k, tree.ints
     calls = max(20, 20000 // (n * n))
     out, full = np.empty(y.size), np.empty(y.size + 3 * n_q + m)
-    q, qd, xi, Dm = np.empty(n_q), np.empty(n_q), np.empty(n_q), np.empty((n_q, k))
+    q, qd, xi, Dm = np.empty(n_q), np.empty(n_q), np.empty(n_q), np.zeros((n_q, k))
     (body_rows, joint_rows), nb = sizes(3), n_q // 3
     body, joint = np.empty((nb + 1, body_rows + 3, 3)), np.empty((joints.shape[0] + 1, joint_rows, 3))  # as scene_rhs's
 
-    def motion(whole=False):  # as the integration's right-hand side: the columns that move each body
-        planar_motion(y[:k], y[k : 2 * k], joints, tree.floats, nb, k, q, qd, xi, Dm, True, whole, body, joint)
+    def motion():  # as the integration's right-hand side: the columns that move each body
+        planar_motion(y[:k], y[k : 2 * k], joints, tree.floats, nb, k, q, qd, xi, Dm, True, body, joint)
 
-    motion(True)  # D whole once, its zeros too (the dense solve below reads them)
+    motion()  # D once, its zeros left (Dm made by np.zeros: the dense solve below reads them)
     times, states = np.zeros(1), np.ascontiguousarray(np.hstack([q, qd])[None, :])
 
     def constraints():

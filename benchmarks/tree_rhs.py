@@ -66,7 +66,7 @@ def repeated():
     def planar(theta, rate, joints, floats, nb, k, q, qd, xi, Dm, mass, Q0, thdd, body, joint, calls, which):
         for _ in range(calls):
             if which == 0:
-                tk.planar_motion(theta, rate, joints, floats, nb, k, q, qd, xi, Dm, False, False, body, joint)
+                tk.planar_motion(theta, rate, joints, floats, nb, k, q, qd, xi, Dm, False, body, joint)
             else:
                 tk.planar_articulated(mass, xi, Q0, joints, thdd, body, joint)
 

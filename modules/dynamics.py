@@ -1306,18 +1306,15 @@ def build_result(run: Run, equations, guard, history, compiled, times) -> tuple[
     )
     if getattr(history, "jac", None) is None:  # a history kept without Psi at its output times (an FMU's steps)
         history.psi, history.jac, history.psit = constraint_arrays(system, times, history.q)
+    masses, kinetic = equations.formulation.masses, None
     if compiled is None:
         residuals = output_history.residuals(history.psi, history.jac, history.psit, history.qd)
-    else:  # over each row's nonzero columns, in compiled loops
+    else:  # over each row's nonzero columns, in compiled loops; T by the model's M (``kinetic_energy``)
         from .compiled import history as compiled_history
 
         residuals = compiled_history.residuals(compiled.psi, compiled.jac, compiled.psit, history.qd, system)
-    accumulated = history.energies.T if equations.extra else ()
-    masses, kinetic = equations.formulation.masses, None
-    if compiled is not None:  # a spatial model's T in one compiled pass (None: planar, M q' by numpy)
-        from .compiled import history as compiled_history
-
         kinetic = compiled_history.kinetic_energy(masses, history.q, history.qd)
+    accumulated = history.energies.T if equations.extra else ()
     energies = energy_history(masses, equations.forces, history.q, history.qd, *accumulated, kinetic=kinetic)
     result.points.update(residuals)
     result.points.update(energies.columns())
@@ -1331,8 +1328,6 @@ def build_result(run: Run, equations, guard, history, compiled, times) -> tuple[
     elif compiled is None:  # every joint at every output time at once, from the Psi_q there (eq. 5.70, 10.20)
         result.reactions.update(output_history.joint_reactions(system, history.q, history.lam, history.jac))
     else:  # the same, in compiled loops over an index layout made once per system
-        from .compiled import history as compiled_history
-
         result.reactions.update(compiled_history.joint_reactions(system, history.q, history.lam, compiled.jac))
     result.reactions.update(effort_columns(system, history.q, history.lam, times))
     result.forces.update(element_columns(equations.forces, times, history.q, history.qd))
@@ -1341,7 +1336,7 @@ def build_result(run: Run, equations, guard, history, compiled, times) -> tuple[
 
 def run_info(run: Run, plan: Plan, equations, guard, stats, result, energies, initial: dict) -> DynamicInfo:
     """How the result was obtained (DESIGN section 5)."""
-    drift = largest(energies.error)  # max |E(t) - E(0)|: E(t) summed once (``EnergyHistory.error``)
+    drift = largest(result.points["energy.error"])  # max |E(t) - E(0)|: the result's column (``EnergyHistory.error``)
     return {
         "analysis": "dynamic",
         "formulation": plan.formulation,

@@ -78,7 +78,7 @@ class EnergyHistory:
     def scale(self) -> float:
         """An energy scale to judge the error against: the largest of T, |V - V(0)|, D, |W|."""
         parts = (self.kinetic, self.potential - self.potential[0], self.dissipated, self.applied, self.drivers)
-        return float(max(np.max(np.abs(p)) for p in parts)) or 1.0
+        return float(max(np.abs(p).max() for p in parts)) or 1.0  # the array's max: no np.max dispatch (~2 us each)
 
     def columns(self) -> dict[str, np.ndarray]:
         """Result columns 'energy.kinetic', ..., 'energy.error'."""

@@ -89,21 +89,27 @@ def slot_rows(slot: int, offsets: str = "D[2]") -> str:
     return " : ".join(slot_bounds(slot, offsets))
 
 
-def kernel_call(call: str, name: str, indent: str, slot: int, data: tuple = ("D[0]", "D[1]", "D[2]")) -> list[str]:
+def kernel_call(
+    call: str, name: str, indent: str, slot: int, data: tuple = ("D[0]", "D[1]", "D[2]"), stops: str = ""
+) -> list[str]:
     """The call of kernel ``name`` on its rows of the element data (``data``: the names of ints, floats and offsets;
     ``scene.packed``), the rows of ``slot``, made only when it has rows: a scene's module calls every kernel of
-    its dimension."""
+    its dimension. ``stops``: a shift added to the index of the slot's stop (" + cut": a tree's cut rows alone,
+    ``tree.TreeScene.data``)."""
     ints, floats, offsets = data
     first, stop = slot_bounds(slot, offsets)
-    rows = slot_rows(slot, offsets)
+    if stops:  # the slot's stop further on in the offsets: offsets[slot + 1 + shift]
+        stop = f"{offsets}[{slot + 1}{stops}]"
+    rows = f"{first} : {stop}"
     call = call.format(name=name, ints=f"{ints}[{rows}]", floats=f"{floats}[{rows}]")
     return [f"{indent}if {stop} > {first}:", f"{indent}    {call}"]
 
 
-def constraint_calls(scene: Scene, indent: str) -> list[str]:
-    """The calls of the scene's constraint kernels, each on its slot of the element data D when it has rows."""
+def constraint_calls(scene: Scene, indent: str, stops: str = "") -> list[str]:
+    """The calls of the scene's constraint kernels, each on its slot of the element data D when it has rows (``stops``:
+    ``kernel_call``'s)."""
     calls = [(CONSTRAINT_CALLS[name], name) for name, _, _ in scene.constraint_kernels]
-    return [line for call, name in calls for line in kernel_call(call, name, indent, SLOTS.index(name))]
+    return [line for call, name in calls for line in kernel_call(call, name, indent, SLOTS.index(name), stops=stops)]
 
 
 def force_calls(scene: Scene, indent: str) -> list[str]:

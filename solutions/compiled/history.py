@@ -143,12 +143,20 @@ def residuals(psi: np.ndarray, jac, psit: np.ndarray, qd: np.ndarray, system=Non
 
 
 def kinetic_energy(masses, q: np.ndarray, qd: np.ndarray) -> np.ndarray | None:
-    """T at every output time of a spatial model (``masses``: its ``spatial.mass.SpatialMassMatrix``) in one compiled
-    pass (``history_kernels.spatial_kinetic_energy``, eq. 10.3); None for a planar model (a constant M: numpy's
-    sum is already one product)."""
+    """T at every output time: of a spatial model (``masses``: its ``spatial.mass.SpatialMassMatrix``) in one compiled
+    pass (``history_kernels.spatial_kinetic_energy``, eq. 10.3); of a planar model with a diagonal M = diag(m, m, J)
+    (every planar model the compiled engine runs: ``scene.describe``) as T = 1/2 sum_i m_i q_i'^2 (eq. 5.2), where
+    ``energy.kinetic_energy``'s q' M multiplies every zero of M too (BLAS over n x n: ~20-30 us of a loop chain's
+    result at n = 27). The same numbers: each entry of q' M is its one product q_i' m_i (the others add exact zeros),
+    summed by the same np.sum. None otherwise (numpy's product)."""
     from ..spatial.mass import SpatialMassMatrix
     from . import history_kernels
 
+    if isinstance(masses, np.ndarray):
+        diagonal = np.diagonal(masses)
+        if np.count_nonzero(masses) != np.count_nonzero(diagonal):  # not diagonal: numpy's product
+            return None
+        return 0.5 * np.sum((qd * diagonal) * qd, axis=-1)
     if not isinstance(masses, SpatialMassMatrix):
         return None
     constants = layout(masses, _body_constants)  # kept on the mass matrix: every run of a formulation
@@ -280,10 +288,17 @@ def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac) -> dict[str, n
     F, M = np.empty((N, len(names), 2)), np.empty((N, len(names)))
     histories = _histories(system, q, lam, jac, arrays[0], _planar_reported, _planar_slots)
     history_kernels.planar_reactions(*histories, *arrays, F, M)
-    columns = {}
-    for k, name in enumerate(names):
-        columns[f"{name}.Fx"], columns[f"{name}.Fy"], columns[f"{name}.Mz"] = F[:, k, 0], F[:, k, 1], M[:, k]
-    return columns
+    columns = []
+    for k in range(len(names)):
+        columns += [F[:, k, 0], F[:, k, 1], M[:, k]]
+    return dict(zip(layout(system, _planar_labels), columns, strict=True))
+
+
+def _planar_labels(system) -> list[str]:
+    """The planar reaction columns' names, joint after joint (``name.Fx``, ``name.Fy``, ``name.Mz``), made once per
+    system (``layout``)."""
+    names = layout(system, _planar_layout)[0]
+    return [f"{name}.{part}" for name in names for part in ("Fx", "Fy", "Mz")]
 
 
 def _spatial_layout(system) -> tuple:

@@ -92,10 +92,20 @@ class TreeScene:
         return f"tree|{self.scene.key}"
 
     def data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """D of the scene with the tree's joints in their slot (``scene.packed``), made at the first call."""
+        """D of the scene with the tree's joints in their slot (``scene.packed``), made at the first call; in each
+        constraint kernel's slot the elements of cut rows first, and after the offsets of every slot (len(SLOTS) + 1)
+        where each slot's cut elements stop: the integration evaluates those alone (``cut_first``)."""
         if self.packed_data is None:
-            kernels = [*self.scene.constraint_kernels, *self.scene.force_kernels, ("tree", self.ints, self.floats)]
-            self.packed_data = packed(kernels, SLOTS)
+            constraints, cut = self.scene.constraint_kernels, {}
+            if self.cut_rows.size:  # an open tree has no cut element: each slot's cut elements stop at its start
+                owners = self.owners.tolist()
+                constraints = [cut_first(*kernel, owners, cut) for kernel in constraints]
+            kernels = [*constraints, *self.scene.force_kernels, ("tree", self.ints, self.floats)]
+            ints, floats, offsets = packed(kernels, SLOTS)
+            stops = offsets[:-1].copy()
+            for name, count in cut.items():
+                stops[SLOTS.index(name)] += count
+            self.packed_data = ints, floats, np.concatenate([offsets, stops])
         return self.packed_data
 
     def structure(self) -> np.ndarray:
@@ -111,6 +121,28 @@ class TreeScene:
                 nb = self.n // (7 if self.scene.dimension == 3 else 3)
                 self.cut_index = cut_structure(self.ints, self.cut_bodies, self.k, nb)
         return self.cut_index
+
+
+ONE_BODY = ("planar_coordinate", "spatial_coordinate", "spatial_normalization")
+"""The constraint kernels whose ints begin (body, row, ...) (``scene.py``); every other's begin (i, j, row, ...)."""
+
+
+def cut_first(name: str, ints: np.ndarray, floats: np.ndarray, owners: list, cut: dict) -> tuple:
+    """A constraint kernel's data (name, ints, floats: ``Scene.constraint_kernels``) with the elements of cut rows
+    (``TreeScene.owners``: -1) first, each group in its order; their count in ``cut[name]``. The tree's joints
+    satisfy their rows by construction (eq. 5.44: the joint coordinates parametrize them), so the integration's
+    right-hand side, which reads the cut rows alone, calls each kernel on its cut elements only. Every element writes
+    Psi, Psi_q and gamma of its own rows alone, so the order of a kernel's elements changes no number. (Lists: a
+    few elements a kernel, where each numpy call costs more than the loop.)"""
+    if ints.shape[0] == 0:  # a kernel the scene lacks
+        return name, ints, floats
+    rows = ints[:, 1 if name in ONE_BODY else 2].tolist()  # each element's first row
+    order = [e for e, row in enumerate(rows) if owners[row] < 0]
+    cut[name] = len(order)
+    if order == list(range(len(order))):  # the cut elements first already (or none)
+        return name, ints, floats
+    order += [e for e, row in enumerate(rows) if owners[row] >= 0]
+    return name, ints[order], floats[order]
 
 
 def _row(joint) -> list[float]:
@@ -276,7 +308,6 @@ def _body(tree: TreeScene) -> list[str]:
         "    full = out.size > y.size + n  # the outputs asked for too (loops.outputs): q, q', q'', lambda after y'",
         "    ncut = dims[6]  # cut rows (P[8][7 : 7 + ncut]); the rows' owners after them",
         "    columns = ncut > 0  # D itself: for the cut rows only (an open tree's outputs: the body accelerations)",
-        "    whole = full  # lambda of every row (the outputs): D whole, Psi_q at every row's blocks",
         *_arrays(spatial),
         "    tree_rows = dims[7 + 3 * ncut + m : 8 + 2 * ncut + 2 * m + nb]  # body by body (tree.owned_rows)",
         "    structure = dims[8 + 2 * ncut + 2 * m + nb :]  # the cut solve's sparsity (tree.cut_structure)",
@@ -293,7 +324,7 @@ def _body(tree: TreeScene) -> list[str]:
     else:
         lines.append(
             "    planar_motion(y[:npos], y[npos : npos + k], joints, joint_floats, nb, k, q, qd, xi, Dm, columns, "
-            "whole, body, joint)"
+            "body, joint)"
         )
     lines += [
         "    if positions:  # the tree's forward kinematics alone: q after y (y' not written)",
@@ -314,9 +345,10 @@ def _body(tree: TreeScene) -> list[str]:
         "            jac = rows_work[3 * m :].reshape((m, n))",
         "            if ncut > 0:",
         f"                zero_cut_blocks(jac, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], {width})",
-        "            if whole:  # lambda of every row: the tree rows at their body and its parent (tree_multipliers)",
+        "            if full:  # lambda of every row: the tree rows at their body and its parent (tree_multipliers)",
         f"                zero_tree_blocks(jac, tree_rows, joints, {width})",
-        *constraint_calls(scene, "        "),
+        f"        cut = 0 if full else {len(SLOTS)}  # each slot's stop: every row's or its cut rows' (TreeScene.data)",
+        *constraint_calls(scene, "        ", " + cut"),
         "        if history:  # Psi and Psi_t after the outputs, before Psi_q",
         "            o = y.size + 3 * n + m",
         "            for i in range(m):",

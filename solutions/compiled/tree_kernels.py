@@ -14,9 +14,9 @@ Recursion from ground, joint after joint (module docstring of ``joint_coordinate
 body coordinates; spatial: v and the body-frame omega'), xi (the accelerations with theta'' = 0) and each joint's
 columns S_e and link l. An open tree then gets theta'' from (D^T M D) theta'' = D^T (Q - M xi) (eq. 5.44 with
 Z = D) by the articulated-body algorithm in O(N) (``articulated.py``), without ever forming D. A tree with cut
-joints, and the outputs at the output times, also need D = dq/dtheta: the recursion carries every column of D
-through every body (zero where a joint does not move a body: the same numbers as the numpy code's inherited
-columns), and the cut rows join D^T M D (summed over the columns that move each body) in the augmented system
+joints, and the outputs at the output times, also need D = dq/dtheta: the recursion carries the columns of D that
+move each body (the numpy code's inherited columns; a planar tree leaves the other entries, zeros, unwritten: no
+reader reads them), and the cut rows join D^T M D (summed over the columns that move each body) in the augmented system
 of eq. 7.6, solved by the cut rows' Schur complement on the tree's factorization H = L^T D L (``cut_accelerations``,
 notes eq. 7.11-7.12: O(N) on a shallow tree). A matrix that is not positive definite gives NaN, which the adaptive
 integrators reject.
@@ -66,18 +66,18 @@ WIDTH = 35
 
 # -- planar ------------------------------------------------------------------------------------------------
 @inlined
-def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, columns, whole, body, joint):
+def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, columns, body, joint):
     """q, q', xi (3 nb) of a planar tree (``PlanarTree.motion``), each joint's column S_e (v_x, v_y, omega) and link
     l = r_C - r_P into ``joint`` (``articulated.joint_rows``); with ``columns``, D (3 nb x k) too: on each body the
-    columns that move it (all a right-hand side reads), and with ``whole`` the zeros of the other columns as well.
+    columns that move it, all that any reader reads (``planar_equations``, ``cut_accelerations``,
+    ``tree_accelerations``); the other entries, zeros of D, are left as the caller's array has them (the outputs
+    zeroed all 3 nb x k at every output time: 0.4 MB an evaluation at a loop chain of 64).
     ``body`` (ground last; the caller's work array): each body's (x, y, phi), (x', y', phi') and (x'', y'') at
     theta'' = 0 on the way from ground, at rows ``MOTION``."""
     S, _, _, _, LINK = joint_rows(3)
     r, v, a = MOTION, MOTION + 1, MOTION + 2  # the rows of position, velocity, acceleration
     for i in range(3):  # ground
         body[nb, r, i] = body[nb, v, i] = body[nb, a, i] = 0.0
-    if columns and whole:
-        Dm[:] = 0.0  # a column is nonzero only on the bodies its joint moves
     for e in range(ints.shape[0]):
         P, Cb, c = ints[e, 1], ints[e, 2], ints[e, 3]
         if P < 0:

@@ -58,11 +58,11 @@ def _held_chain(n: int) -> dict:
 
 
 def _both_sides(model):
-    """(numpy equations of motion, the compiled scene_rhs with its P and D, the cut rows, the start's joint state)."""
+    """(numpy equations of motion, the compiled scene_rhs with its P and D, the tree scene, the start's joint state)."""
     equations, _, job, (rhs, P, D), y0 = compiled_sides(model)
     dims = P[8].copy()  # the energy states as ``equations`` has them, no drivers' power (``dispatch.start_rates``)
     dims[2], dims[5] = equations.extra, 0
-    return equations, (rhs, (*P[:8], dims), D), job.scene.cut_rows.size, y0
+    return equations, (rhs, (*P[:8], dims), D), job.scene, y0
 
 
 @pytest.mark.parametrize(
@@ -71,8 +71,8 @@ def _both_sides(model):
     ids=["loop-chain-band", "held-chain-dense", "spatial-loop"],
 )
 def test_cut_solve_equals_the_dense_augmented_solve(model, cut):
-    equations, (rhs, P, D), rows, y0 = _both_sides(model)
-    assert rows == cut
+    equations, (rhs, P, D), tree, y0 = _both_sides(model)
+    assert tree.cut_rows.size == cut
     rng = np.random.default_rng(7)
     out = np.empty(y0.size)
     for _ in range(3):
@@ -225,3 +225,42 @@ def test_the_compiled_cut_structure_equals_the_python_lists_one_and_is_made_only
     assert tree.cut_index is None  # not made by the description
     assert tree.structure().tolist() == _python_structure(tree)
     assert tree.structure() is tree.cut_index  # made once per scene
+
+
+@pytest.mark.parametrize(
+    "model", [parallelogram_chain(6), _held_chain(12), _spatial_loop()], ids=["loop-chain", "held-chain", "spatial"]
+)
+def test_the_integration_evaluates_the_cut_elements_kernels_alone(model):
+    """The tree's joints satisfy their rows by construction, so the integration's right-hand side reads the cut rows
+    alone and calls each constraint kernel on its cut elements only: ``TreeScene.data`` puts each slot's elements of
+    cut rows first (each group in its order) and appends, after the offsets of every slot, where each slot's cut
+    elements stop. The same y', bit for bit, as with every element evaluated (the stops moved to the slots' ends),
+    at states off the constraint manifold; the outputs evaluate every element (lambda and Psi_q of every row)."""
+    from solutions.compiled.scene import SLOTS
+    from solutions.compiled.tree import ONE_BODY
+
+    _, (rhs, P, D), tree, y0 = _both_sides(model)
+    ints, floats, offsets = D
+    slots = len(SLOTS)
+    assert offsets.shape == (2 * slots + 1,)
+    evaluated = 0
+    for s, name in enumerate(SLOTS):
+        first, stop, cut_stop = offsets[s], offsets[s + 1], offsets[slots + 1 + s]
+        assert first <= cut_stop <= stop
+        if name not in {kernel for kernel, _, _ in tree.scene.constraint_kernels}:
+            assert cut_stop == first, name  # forces and the tree's joints: no cut elements
+            continue
+        column = 1 if name in ONE_BODY else 2
+        owners = tree.owners[ints[first:stop, column]]
+        assert np.all(owners[: cut_stop - first] < 0) and np.all(owners[cut_stop - first :] >= 0), name
+        evaluated += cut_stop - first
+    assert 0 < evaluated < ints.shape[0]
+    every = (ints, floats, np.concatenate([offsets[: slots + 1], offsets[1 : slots + 1]]))  # every element's stop
+    rng = np.random.default_rng(3)
+    out, expected = np.empty(y0.size), np.empty(y0.size)
+    for _ in range(3):
+        y = y0 + rng.uniform(-0.2, 0.2, y0.size)
+        rhs(0.0, y.copy(), P, D, out)
+        rhs(0.0, y.copy(), P, every, expected)
+        assert np.all(np.isfinite(out))
+        np.testing.assert_array_equal(out, expected)

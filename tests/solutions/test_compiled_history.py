@@ -316,7 +316,7 @@ def test_one_output_pass_gives_the_systems_constraints_and_the_blocked_pass_numb
 def test_the_compiled_kinetic_energy_of_a_spatial_model_is_each_states_t():
     """``history.kinetic_energy``: T at every output time in one compiled pass (eq. 10.3), against the state-by-state
     sum ``spatial.mass.kinetic_energy`` (1/2 m r'^T r' + 1/2 omega'^T J' omega', omega' = 2 L p') at random states of
-    a model with a full inertia matrix, within rounding; planar models (a constant M) are left to numpy (None)."""
+    a model with a full inertia matrix, within rounding."""
     from solutions.spatial.mass import SpatialMassMatrix, kinetic_energy
 
     system, _, _ = build_system(load_model("course/models/spatial_double_pendulum.yaml"))
@@ -329,5 +329,21 @@ def test_the_compiled_kinetic_energy_of_a_spatial_model_is_each_states_t():
     kinetic = history.kinetic_energy(SpatialMassMatrix(model), q, qd)
     expected = [kinetic_energy(model, q[k], qd[k]) for k in range(len(q))]
     np.testing.assert_allclose(kinetic, expected, rtol=1e-14, atol=0)
-    planar, _, _ = build_system(load_model("course/models/double_pendulum.yaml"))
-    assert history.kinetic_energy(mass_matrix(planar.model), q, qd) is None
+
+
+@pytest.mark.parametrize("name", ["double_pendulum", "slider_crank", "six_bar"])
+def test_the_compiled_kinetic_energy_of_a_planar_model_is_numpys_bit_for_bit(name):
+    """``history.kinetic_energy`` of a planar model, M = diag(m, m, J) (every planar M the compiled engine runs):
+    1/2 sum_i m_i q_i'^2 by the diagonal, the same numbers as ``energy.kinetic_energy``'s q' M by BLAS (each entry's
+    other terms are exact zeros), random velocities of every sign and scale; a non-diagonal M is left to numpy."""
+    from solutions.energy import kinetic_energy
+
+    system, _, _ = build_system(load_model(f"course/models/{name}.yaml"))
+    M = mass_matrix(system.model)
+    rng = np.random.default_rng(5)
+    qd = rng.standard_normal((40, system.n_coordinates)) * 10.0 ** rng.integers(-8, 8, (40, system.n_coordinates))
+    kinetic = history.kinetic_energy(M, qd, qd)
+    assert kinetic.tobytes() == kinetic_energy(M, qd).tobytes()
+    coupled = M.copy()
+    coupled[0, 1] = coupled[1, 0] = 0.01
+    assert history.kinetic_energy(coupled, qd, qd) is None
