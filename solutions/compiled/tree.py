@@ -219,10 +219,11 @@ def _arrays(spatial: bool) -> list[str]:
     on ~10 ns, more than a planar joint's arithmetic. D (eq. 5.44) only for cut rows: an open tree's articulated
     pass never forms it."""
     from .articulated import sizes  # numba: imported only where a module is written (this module imports none)
+    from .tree_kernels import SPATIAL_MOTION_ROWS
 
     nv = 6 if spatial else 3
     body, joint = sizes(nv)
-    body += 4 if spatial else 3  # the recursion's rows
+    body += SPATIAL_MOTION_ROWS if spatial else 3  # the recursion's rows
     lines = [
         f"    nb = n // {7 if spatial else 3}",
         f"    nv = {nv}  # a body's velocity: (v, omega) spatial, (v_x, v_y, omega) planar",

@@ -72,7 +72,7 @@ def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, columns, whol
     columns that move it (all a right-hand side reads), and with ``whole`` the zeros of the other columns as well.
     ``body`` (ground last; the caller's work array): each body's (x, y, phi), (x', y', phi') and (x'', y'') at
     theta'' = 0 on the way from ground, at rows ``MOTION``."""
-    S, _, _, _, LINK = joint_rows(3)
+    S, _, _, _, LINK, _ = joint_rows(3)
     r, v, a = MOTION, MOTION + 1, MOTION + 2  # the rows of position, velocity, acceleration
     for i in range(3):  # ground
         body[nb, r, i] = body[nb, v, i] = body[nb, a, i] = 0.0
@@ -238,15 +238,17 @@ def _spatial_joint(kind, f, AP, theta, rate, rates, at, c):
 
 
 @jit
-def _relative_omega(kind, f, AC, rate, c, h):
+def _relative_omega(kind, joint, e, rate, c, h):
     """The child's angular velocity relative to its parent, global: theta' h (revolute), zero (prismatic), the
-    three rates about the child's joint frame A_C (f, g, h) (spherical)."""
+    three rates about the child's joint frame A_C (f, g, h) (spherical: the angular rows of its columns S_e,
+    ``_joint_columns``)."""
+    S = joint_rows(6)[0]
     wr0 = wr1 = wr2 = 0.0
     if kind == REVOLUTE:
         wr0, wr1, wr2 = rate[c] * h[0], rate[c] * h[1], rate[c] * h[2]
     elif kind == SPHERICAL:
         for n in range(3):
-            x0, x1, x2 = _rotate(AC, f[FRAME + 3 * n], f[FRAME + 3 * n + 1], f[FRAME + 3 * n + 2])
+            x0, x1, x2 = joint[e, S + 3, n], joint[e, S + 4, n], joint[e, S + 5, n]
             rel = rate[c + n]
             if n == 0:
                 wr0, wr1, wr2 = rel * x0, rel * x1, rel * x2
@@ -258,7 +260,10 @@ def _relative_omega(kind, f, AC, rate, c, h):
 POSITION, VELOCITY, OMEGA, ACCELERATION, ALPHA = 0, 1, 2, 3, 4
 SPATIAL_MOTION = 8
 """The rows of a spatial body's recursion in ``body``, after the articulated pass's eight (``articulated.body_rows``):
-its global r, v, omega, a and alpha with theta'' = 0 two to a row (``_vector``), then its Euler parameters p."""
+its global r, v, omega, a and alpha with theta'' = 0 two to a row (``_vector``), then its Euler parameters p, then
+its rotation A(p) (eq. 8.12, nine entries over two rows: made once per evaluation, ``_body_rotation``)."""
+SPATIAL_MOTION_ROWS = 6
+"""The recursion's rows of a spatial body in ``body`` (``tree._arrays``)."""
 
 
 @jit
@@ -276,9 +281,26 @@ def _set_vector(body, b, which, x0, x1, x2):
 
 @jit
 def _body_rotation(body, b):
-    """A(p) of body b (eq. 8.12) row by row from its Euler parameters in ``body`` (ground: p = (1, 0, 0, 0), A = I)."""
+    """A(p) of body b (eq. 8.12) row by row, as the recursion keeps it (``_keep_rotation``)."""
+    row = SPATIAL_MOTION + 4
+    return (
+        body[b, row, 0], body[b, row, 1], body[b, row, 2], body[b, row, 3], body[b, row, 4], body[b, row, 5],
+        body[b, row + 1, 0], body[b, row + 1, 1], body[b, row + 1, 2],
+    )  # fmt: skip
+
+
+@jit
+def _keep_rotation(body, b):
+    """A(p) of body b (eq. 8.12) from its Euler parameters in ``body``, kept in its rows for every later use in the
+    evaluation (the joint's parent, the outputs, the inertia A J' A^T, q''): one rotation per body and evaluation,
+    where each of those made it again. Returns it."""
     row = SPATIAL_MOTION + 3
-    return unit_rotation_entries_jit(body[b, row, 0], body[b, row, 1], body[b, row, 2], body[b, row, 3])
+    R = unit_rotation_entries_jit(body[b, row, 0], body[b, row, 1], body[b, row, 2], body[b, row, 3])
+    for i in range(6):
+        body[b, row + 1, i] = R[i]
+    for i in range(3):
+        body[b, row + 2, i] = R[6 + i]
+    return R
 
 
 @jit
@@ -415,7 +437,8 @@ def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates
         _set_vector(body, nb, which, 0.0, 0.0, 0.0)
     P_ROW = SPATIAL_MOTION + 3
     body[nb, P_ROW, 0], body[nb, P_ROW, 1], body[nb, P_ROW, 2], body[nb, P_ROW, 3] = 1.0, 0.0, 0.0, 0.0
-    LINK = joint_rows(6)[4]
+    _keep_rotation(body, nb)
+    LINK, ARM = joint_rows(6)[4], joint_rows(6)[5]
     for e in range(ints.shape[0]):
         kind, P, Cb, at, c = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3], ints[e, 4]
         if P < 0:
@@ -426,12 +449,14 @@ def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates
             body[P, P_ROW, 0], body[P, P_ROW, 1], body[P, P_ROW, 2], body[P, P_ROW, 3], j0, j1, j2, j3
         )
         body[Cb, P_ROW, 0], body[Cb, P_ROW, 1], body[Cb, P_ROW, 2], body[Cb, P_ROW, 3] = p0, p1, p2, p3
-        AC = _body_rotation(body, Cb)
-        w_rel = _relative_omega(kind, f, AC, rate, c, h)
+        AC = _keep_rotation(body, Cb)
         rc = _rotate(AC, f[S_CHILD], f[S_CHILD + 1], f[S_CHILD + 2])
+        _joint_columns(kind, rc, h, AC, f, joint, e)
+        w_rel = _relative_omega(kind, joint, e, rate, c, h)
         link = _child_motion(body, P, Cb, e_p, rc, h, w_rel, sd, kind == PRISMATIC)
         joint[e, LINK, 0], joint[e, LINK, 1], joint[e, LINK, 2] = link
-        _joint_columns(kind, rc, h, AC, f, joint, e)
+        joint[e, ARM, 0], joint[e, ARM, 1], joint[e, ARM, 2] = rc  # the joint point from either centre
+        joint[e, ARM, 3], joint[e, ARM, 4], joint[e, ARM, 5] = e_p
     _spatial_outputs(body, q, qd, xi, omega)
     if columns:
         _spatial_columns(ints, nb, k, body, joint, Dm)
@@ -447,9 +472,9 @@ def spatial_articulated(masses, inertias, q, xi, omega, Q, ints, thdd, body, joi
     IA, PA, _ = body_rows(6)
     force = joint[ne, 0]  # a body's force: the passes' scratch, free until they start
     for b in range(nb):
-        J, o = inertias[b], 7 * b
+        J = inertias[b]
         body_force(masses[b], J, q, xi, omega, Q, b, force)
-        R = unit_rotation_entries_jit(q[o + 3], q[o + 4], q[o + 5], q[o + 6])  # A (eq. 8.12), row by row
+        R = _body_rotation(body, b)  # A (eq. 8.12), row by row
         t0, t1, t2 = _rotate(R, force[3], force[4], force[5])
         for r in range(6):
             for c in range(6):
@@ -693,7 +718,7 @@ def spatial_body_accelerations(q, qd, body, xi, omega, qdd):
     ACC = body_rows(6)[2]
     for b in range(omega.shape[0]):
         o = 7 * b
-        R = unit_rotation_entries_jit(q[o + 3], q[o + 4], q[o + 5], q[o + 6])  # A (eq. 8.12), row by row
+        R = _body_rotation(body, b)  # A (eq. 8.12), row by row
         for r in range(3):
             qdd[o + r] = body[b, ACC, r] + xi[6 * b + r]
         w0, w1, w2 = _rotate_back(R, body[b, ACC, 3], body[b, ACC, 4], body[b, ACC, 5])
