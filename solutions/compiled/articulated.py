@@ -97,14 +97,8 @@ def shift_block(joint, e, s, nv):
     into the linear one: X = [[1, B], [0, 1]] on (v, omega), B 3 x 3 [[0, l_z, -l_y], [-l_z, 0, l_x], [l_y, -l_x,
     0]] spatial, 2 x 1 (-l_y, l_x) planar on (v_x, v_y, omega); written into the scratch (entry s). The passes
     multiply by X through it (``shift_to_parent``, ``child_acceleration``): ~3 products an entry instead of nv."""
-    link = joint_rows(nv)[4]
-    write_shift(joint, s, nv, joint[e, link, 0], joint[e, link, 1], joint[e, link, 2])
-
-
-@jit
-def write_shift(joint, s, nv, l0, l1, l2):
-    """B = -[l]x of an offset l (``shift_block``) into the scratch (entry s)."""
-    B = scratch_rows(nv)[0]
+    link, B = joint_rows(nv)[4], scratch_rows(nv)[0]
+    l0, l1, l2 = joint[e, link, 0], joint[e, link, 1], joint[e, link, 2]
     if nv == 3:
         joint[s, B, 0], joint[s, B + 1, 0] = -l1, l0
     else:
@@ -319,49 +313,45 @@ def spherical_passed_on(body, joint, C, e, s):
 
 
 @jit
-def shift_point_to_parent(body, joint, P, s):
+def shift_point_to_parent(body, joint, P, e, s):
     """``shift_to_parent`` of a translational block alone (``spherical_passed_on``: Ia = [[M, 0], [0, 0]], pa = (p,
-    0) at the joint point; X's block B = -[e_P]x in the scratch): I^A_P += [[M, M B], [B^T M, B^T M B]], p^A_P += (p,
-    B^T p). The same sums as ``shift_to_parent``'s over the nonzero entries."""
+    0) at joint e's point, in the scratch), carried to the parent's centre by X = [[1, B], [0, 1]], B = -[e_P]x:
+    I^A_P += [[M, M B], [B^T M, B^T M B]], p^A_P += (p, B^T p), with B^T x = e_P x x and a row times B, a B = e_P x
+    a: ``shift_to_parent``'s sums without B's zero diagonal (the same numbers)."""
     IA, PA, _ = body_rows(6)
-    B, Ia, pa, _, _ = scratch_rows(6)
-    for i in range(3):  # M B into Ia's angular columns
-        for j in range(3):
-            x = 0.0
-            for a in range(3):
-                x += joint[s, Ia + i, a] * joint[s, B + a, j]
-            joint[s, Ia + i, 3 + j] = x
+    ARM = joint_rows(6)[5]
+    _, Ia, pa, _, _ = scratch_rows(6)
+    e0, e1, e2 = joint[e, ARM, 3], joint[e, ARM, 4], joint[e, ARM, 5]
+    for i in range(3):  # M B into Ia's angular columns, row by row
+        x0, x1, x2 = _cross(e0, e1, e2, joint[s, Ia + i, 0], joint[s, Ia + i, 1], joint[s, Ia + i, 2])
+        joint[s, Ia + i, 3], joint[s, Ia + i, 4], joint[s, Ia + i, 5] = x0, x1, x2
     for i in range(3):
         body[P, PA, i] += joint[s, pa, i]
         for j in range(6):
             body[P, IA + i, j] += joint[s, Ia + i, j]
-    for i in range(3):  # B^T times the linear rows
-        x = 0.0
-        for a in range(3):
-            x += joint[s, B + a, i] * joint[s, pa, a]
-        body[P, PA, 3 + i] += x
-        for j in range(6):
-            x = 0.0
-            for a in range(3):
-                x += joint[s, B + a, i] * joint[s, Ia + a, j]
-            body[P, IA + 3 + i, j] += x
+    x0, x1, x2 = _cross(e0, e1, e2, joint[s, pa, 0], joint[s, pa, 1], joint[s, pa, 2])  # B^T p
+    body[P, PA, 3], body[P, PA, 4], body[P, PA, 5] = body[P, PA, 3] + x0, body[P, PA, 4] + x1, body[P, PA, 5] + x2
+    for j in range(6):  # B^T times the linear rows, column by column
+        x0, x1, x2 = _cross(e0, e1, e2, joint[s, Ia, j], joint[s, Ia + 1, j], joint[s, Ia + 2, j])
+        body[P, IA + 3, j] += x0
+        body[P, IA + 4, j] += x1
+        body[P, IA + 5, j] += x2
 
 
 @jit
 def spherical_acceleration(body, joint, P, C, e, s):
     """Pass 2 at a spherical joint e (eq. 7.10 at its joint point, ``spherical_passed_on``): the joint point's
-    acceleration a_J = (X A_P)_v (``shift_block`` of e_P, in the scratch), the child's angular acceleration from the
-    joint's zero moment, G^T a_J + K alpha_C + p'_w = 0, theta''_e = F^T (alpha_C - alpha_P) (the rates about the
-    orthonormal axes F: S_e's angular rows), into the scratch's D_e^-1 u rows; A_C at the centre = (a_J + rho_C x
-    alpha_C, alpha_C)."""
+    acceleration a_J = (X A_P)_v = a_P + alpha_P x e_P, the child's angular acceleration from the joint's zero moment,
+    G^T a_J + K alpha_C + p'_w = 0, theta''_e = F^T (alpha_C - alpha_P) (the rates about the orthonormal axes F: S_e's
+    angular rows), into the scratch's D_e^-1 u rows; A_C at the centre = (a_J + rho_C x alpha_C, alpha_C)."""
     _, _, ACC = body_rows(6)
     S, U, _, u, _, ARM = joint_rows(6)
-    B, _, shifted, _, x = scratch_rows(6)
-    for i in range(3):
-        a = body[P, ACC, i]
-        for j in range(3):
-            a += joint[s, B + i, j] * body[P, ACC, 3 + j]
-        joint[s, shifted, i] = a
+    _, _, shifted, _, x = scratch_rows(6)
+    x0, x1, x2 = _cross(body[P, ACC, 3], body[P, ACC, 4], body[P, ACC, 5], joint[e, ARM, 3], joint[e, ARM, 4],
+                        joint[e, ARM, 5])  # fmt: skip
+    joint[s, shifted, 0], joint[s, shifted, 1], joint[s, shifted, 2] = (
+        body[P, ACC, 0] + x0, body[P, ACC, 1] + x1, body[P, ACC, 2] + x2,
+    )  # fmt: skip
     for c in range(3):
         a = joint[e, u, c]
         for i in range(3):
@@ -391,7 +381,7 @@ def two_passes(nv: int):
         ``joint``'s S_e and links (``joint_rows``; its last entry the scratch): the caller's work arrays."""
         ne, nb = ints.shape[0], body.shape[0] - 1
         _, _, ACC = body_rows(nv)
-        x, arm = scratch_rows(nv)[4], joint_rows(nv)[5]
+        x = scratch_rows(nv)[4]
         for e in range(ne - 1, -1, -1):  # 1. from the leaves to ground
             P, C, d = ints[e, 1], ints[e, 2], WIDTHS[ints[e, 0]]
             if P < 0:
@@ -404,14 +394,13 @@ def two_passes(nv: int):
                 shift_block(joint, e, ne, nv)  # to the parent's centre
             else:  # a spherical joint (space only): at its joint point, then from there to the parent's centre
                 positive = spherical_passed_on(body, joint, C, e, ne)
-                write_shift(joint, ne, nv, joint[e, arm, 3], joint[e, arm, 4], joint[e, arm, 5])
             if not positive:
                 thdd[:] = np.nan
                 return
             if d == 1:
                 shift_to_parent(body, joint, P, ne, nv, nw)
             else:
-                shift_point_to_parent(body, joint, P, ne)
+                shift_point_to_parent(body, joint, P, e, ne)
         for i in range(nv):  # 2. from ground to the leaves: A of ground is zero
             body[nb, ACC, i] = 0.0
         for e in range(ne):
@@ -422,7 +411,6 @@ def two_passes(nv: int):
                 shift_block(joint, e, ne, nv)
                 child_acceleration(body, joint, P, C, e, 1, ne, nv, nw)
             else:
-                write_shift(joint, ne, nv, joint[e, arm, 3], joint[e, arm, 4], joint[e, arm, 5])
                 spherical_acceleration(body, joint, P, C, e, ne)
             for c in range(d):
                 thdd[at + c] = joint[ne, x + c, 0]
