@@ -36,6 +36,12 @@ Each joint costs a fixed number of 3 x 3 or 6 x 6 operations, whatever N. D_e (1
 joint) is factored by Cholesky; a D_e that is not positive definite (a massless end of the tree) gives NaN,
 which the adaptive integrators reject, as the dense solve does.
 
+A spherical joint takes the same two passes at its joint point instead of the child's centre
+(``spherical_passed_on``, ``spherical_acceleration``): there S_e = [0; F] (F its three axes), the joint transmits
+no moment, and what the child passes on is a 3 x 3 translational block, F dropping out of U D_e^-1 U^T: about a
+third of the 6 x 6 route's products (Featherstone 2008, sec. 7.3: each joint's quantities where its S is simplest).
+The same theta'' to rounding (the products in another order).
+
 Trees with cut joints (closed loops, drivers) keep the augmented system of ``tree_kernels.cut_accelerations``.
 
 This module imports numba: it is imported only when the compiled engine runs (``solutions.compiled``).

@@ -429,10 +429,11 @@ def _spatial_columns(ints, nb, k, body, joint, Dm):
 @inlined
 def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates, columns, body, joint):
     """q, q' (7 nb), xi (6 nb: a and the body-frame alpha'), omega' (nb x 3), the rates of the joints' position
-    coordinates (``SpatialTree.motion``), each joint's columns S_e and link l (into ``joint``,
+    coordinates (``SpatialTree.motion``), each joint's columns S_e, link l and joint point from either centre
+    (rho_C, e_P: a spherical joint's pass, ``articulated.spherical_passed_on``) (into ``joint``,
     ``articulated.joint_rows``); with ``columns``, D (6 nb x k: v and omega' per joint velocity) too. The
-    recursion's global vectors and Euler parameters in ``body``'s rows from ``SPATIAL_MOTION`` (the caller's work
-    array: no allocation on an open tree's way)."""
+    recursion's global vectors, Euler parameters and rotation in ``body``'s rows from ``SPATIAL_MOTION`` (the
+    caller's work array: no allocation on an open tree's way)."""
     for which in range(5):  # ground: at rest at the origin, p = (1, 0, 0, 0)
         _set_vector(body, nb, which, 0.0, 0.0, 0.0)
     P_ROW = SPATIAL_MOTION + 3
@@ -714,7 +715,7 @@ def spatial_body_accelerations(q, qd, body, xi, omega, qdd):
     """q'' = (r'', p'') of a spatial tree from the bodies' accelerations of the articulated pass (``body``'s rows
     ACC: a and the angular acceleration of D theta'' in global axes) and xi (a, A^T alpha): r'' = a + xi_a, the
     body-frame angular acceleration w = A^T (D theta'')_alpha + xi_alpha, p'' = 1/2 L(p)^T w + 1/2 L(p')^T omega'
-    (eq. 8.17; ``spatial_coordinate_accelerations`` without D)."""
+    (eq. 8.17; ``spatial_coordinate_accelerations`` without D). A from the recursion's rows (``_body_rotation``)."""
     ACC = body_rows(6)[2]
     for b in range(omega.shape[0]):
         o = 7 * b
