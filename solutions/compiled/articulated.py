@@ -55,6 +55,10 @@ import numpy as np
 from numba import njit
 
 jit = njit(cache=False, fastmath=False, nogil=True)
+inlined = njit(cache=False, fastmath=False, nogil=True, inline="always")
+"""A spherical joint's steps, written into the passes (``tree_kernels.inlined``: each array handed to a compiled
+function costs two atomic reference counts): -60 ns a chain of four spherical joints. The general route's steps stay
+functions (inlined they were slower, twenty-first session)."""
 """Not cached here: compiled into the generated tree modules that call them (see ``tree_kernels.jit``).
 
 Every array of the passes is one of two work arrays, indexed by body or joint and a named row (``body_rows``,
@@ -264,7 +268,7 @@ def _cross(a0, a1, a2, b0, b1, b2):
     return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
 
 
-@jit
+@inlined
 def spherical_passed_on(body, joint, C, e, s):
     """Pass 1 at a spherical joint e with child C (eq. 7.8-7.9), at the joint point J = r_C + rho_C, where the joint's
     columns are S_e = [0; F] (F = [x_0 x_1 x_2] the child's joint axes, global): there the child's inertia reads
@@ -318,7 +322,7 @@ def spherical_passed_on(body, joint, C, e, s):
     return True
 
 
-@jit
+@inlined
 def shift_point_to_parent(body, joint, P, e, s):
     """``shift_to_parent`` of a translational block alone (``spherical_passed_on``: Ia = [[M, 0], [0, 0]], pa = (p,
     0) at joint e's point, in the scratch), carried to the parent's centre by X = [[1, B], [0, 1]], B = -[e_P]x:
@@ -344,7 +348,7 @@ def shift_point_to_parent(body, joint, P, e, s):
         body[P, IA + 5, j] += x2
 
 
-@jit
+@inlined
 def spherical_acceleration(body, joint, P, C, e, s):
     """Pass 2 at a spherical joint e (eq. 7.10 at its joint point, ``spherical_passed_on``): the joint point's
     acceleration a_J = (X A_P)_v = a_P + alpha_P x e_P, the child's angular acceleration from the joint's zero moment,

@@ -47,10 +47,12 @@ under names that hash this file (numba's cache does not follow a cached function
 a cached kernel here could keep an old copy of a function it calls from another file)."""
 
 inlined = njit(cache=False, fastmath=False, nogil=True, inline="always")
-"""The steps a right-hand side calls once each (the recursion, the articulated pass, the outputs' q'' and lambda):
-numba writes them into the generated ``scene_rhs`` itself, where a call of a compiled function costs two atomic
-reference counts per array it is handed (~10 ns each: ~50 ns a call at two bodies, a quarter of a planar tree's
-theta'')."""
+"""The steps a right-hand side calls once each (the recursion, the articulated pass, the outputs' q'' and lambda),
+and the spatial recursion's steps of a joint or a body that read or write the work arrays (``_child_motion``,
+``_vector``, ``body_force``, ...): numba writes them into the generated ``scene_rhs`` itself, where a call of a
+compiled function costs two atomic reference counts per array it is handed (~10 ns each: ~50 ns a call at two
+bodies, a quarter of a planar tree's theta''; the spatial recursion's helpers called as functions were ~40 ns a
+joint of its ~130)."""
 
 _half_transpose_product, _scaled_product = jit(half_transpose_product), jit(scaled_product)
 """1/2 M^T w and s M x of a 3 x 4 matrix M (G or L), as the joint coordinates write them (``joint_coordinates``)."""
@@ -207,7 +209,7 @@ def _half_l(e0, e1, e2, e3, x0, x1, x2, x3):
 
 
 # -- spatial tree ------------------------------------------------------------------------------------------
-@jit
+@inlined
 def _spatial_joint(kind, f, AP, theta, rate, rates, at, c):
     """What a joint adds to its parent, A_P the parent's rotation (``joint_coordinates.joint_rotation``): its own
     rotation j, its global axis h (zero for a spherical joint), the sliding rate s' and e_P = rho_P (+ s h for a
@@ -237,7 +239,7 @@ def _spatial_joint(kind, f, AP, theta, rate, rates, at, c):
     return j, (0.0, 0.0, 0.0), 0.0, (rp0, rp1, rp2)
 
 
-@jit
+@inlined
 def _relative_omega(kind, joint, e, rate, c, h):
     """The child's angular velocity relative to its parent, global: theta' h (revolute), zero (prismatic), the
     three rates about the child's joint frame A_C (f, g, h) (spherical: the angular rows of its columns S_e,
@@ -266,20 +268,20 @@ SPATIAL_MOTION_ROWS = 6
 """The recursion's rows of a spatial body in ``body`` (``tree._arrays``)."""
 
 
-@jit
+@inlined
 def _vector(body, b, which):
     """Body b's global 3-vector ``which`` (POSITION, VELOCITY, OMEGA, ACCELERATION, ALPHA) of the recursion."""
     row, col = SPATIAL_MOTION + which // 2, 3 * (which % 2)
     return body[b, row, col], body[b, row, col + 1], body[b, row, col + 2]
 
 
-@jit
+@inlined
 def _set_vector(body, b, which, x0, x1, x2):
     row, col = SPATIAL_MOTION + which // 2, 3 * (which % 2)
     body[b, row, col], body[b, row, col + 1], body[b, row, col + 2] = x0, x1, x2
 
 
-@jit
+@inlined
 def _body_rotation(body, b):
     """A(p) of body b (eq. 8.12) row by row, as the recursion keeps it (``_keep_rotation``)."""
     row = SPATIAL_MOTION + 4
@@ -289,7 +291,7 @@ def _body_rotation(body, b):
     )  # fmt: skip
 
 
-@jit
+@inlined
 def _keep_rotation(body, b):
     """A(p) of body b (eq. 8.12) from its Euler parameters in ``body``, kept in its rows for every later use in the
     evaluation (the joint's parent, the outputs, the inertia A J' A^T, q''): one rotation per body and evaluation,
@@ -303,7 +305,7 @@ def _keep_rotation(body, b):
     return R
 
 
-@jit
+@inlined
 def _child_motion(body, P, Cb, e_p, rc, h, w_rel, sd, prismatic):
     """The child's r, v, omega, alpha and a with theta'' = 0 from its parent's (``_vector``): e_P and rho_C the
     joint point from either centre, h, w_rel and s' the joint's axis and rates (module docstring of
@@ -346,7 +348,7 @@ def _child_motion(body, P, Cb, e_p, rc, h, w_rel, sd, prismatic):
     return l0, l1, l2
 
 
-@jit
+@inlined
 def _joint_columns(kind, rc, h, AC, f, joint, e):
     """The joint's own columns S_e (v, omega, global; ``articulated``), into ``joint`` (``articulated.joint_rows``):
     revolute (rho_C x h, h), prismatic (h, 0), spherical (rho_C x x_n, x_n) about the child's joint axes x_n = A_C
@@ -382,7 +384,7 @@ def _child_columns(Dv, Dw, P, Cb, kind, c, link, joint, e):
             Dv[Cb, c + n, r], Dw[Cb, c + n, r] = joint[e, S + r, n], joint[e, S + 3 + r, n]
 
 
-@jit
+@inlined
 def _spatial_outputs(body, q, qd, xi, omega):
     """q, q' = (r', 1/2 L(p)^T omega'), xi = (a, A^T alpha) and omega' = A^T omega of every body from the recursion's
     global vectors (eq. 8.17)."""
@@ -497,7 +499,7 @@ def spatial_articulated(masses, inertias, q, xi, omega, Q, ints, thdd, body, joi
     spatial_passes(body, joint, ints, 4, thdd)
 
 
-@jit
+@inlined
 def body_force(m, J, q, xi, omega, Q, b, force):
     """The force on body b at theta'' = 0, f = (F - m a_xi, n' - J' alpha'_xi - omega' x J' omega') with F = Q_r and
     n' = 1/2 L(p) Q_p (``JointCoordinates.spatial_forces``; Q without Q_v): the right side of eq. 5.44 is D^T f."""
