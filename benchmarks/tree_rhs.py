@@ -88,6 +88,7 @@ def parts(family: str, n: int, rounds: int) -> dict[str, float | str]:
     evaluation."""
     from solutions.compiled import describe, load, loops, parameters, plan, tableau
     from solutions.compiled.articulated import sizes
+    from solutions.compiled.tree_kernels import SPATIAL_MOTION_ROWS
 
     system, q0, qd0 = build_system(load_model(CHAINS[family](n)))
     forces = build_forces(system.model)
@@ -106,7 +107,8 @@ def parts(family: str, n: int, rounds: int) -> dict[str, float | str]:
     q, qd, xi, Dm = np.empty(n_q), np.empty(n_q), np.empty(nv * nb), np.empty((nv * nb, k))
     omega, rates = np.empty((nb, 3)), np.empty(npos)
     thdd, (body_rows, joint_rows) = np.empty(k), sizes(nv)
-    body, joint = np.empty((nb + 1, body_rows + 4, nv)), np.empty((ne + 1, joint_rows, nv))  # as scene_rhs's
+    body = np.empty((nb + 1, body_rows + SPATIAL_MOTION_ROWS, nv))  # as scene_rhs's (planar: 3 rows of them)
+    joint = np.empty((ne + 1, joint_rows, nv))
     Q0, mass, masses, inertias = P[0], P[1], P[2], P[3]
     theta, rate = y[:npos], y[npos : npos + k]
     if family == "planar":

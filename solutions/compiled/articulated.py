@@ -36,6 +36,12 @@ Each joint costs a fixed number of 3 x 3 or 6 x 6 operations, whatever N. D_e (1
 joint) is factored by Cholesky; a D_e that is not positive definite (a massless end of the tree) gives NaN,
 which the adaptive integrators reject, as the dense solve does.
 
+A spherical joint takes the same two passes at its joint point instead of the child's centre
+(``spherical_passed_on``, ``spherical_acceleration``): there S_e = [0; F] (F its three axes), the joint transmits
+no moment, and what the child passes on is a 3 x 3 translational block, F dropping out of U D_e^-1 U^T: about a
+third of the 6 x 6 route's products (Featherstone 2008, sec. 7.3: each joint's quantities where its S is simplest).
+The same theta'' to rounding (the products in another order).
+
 Trees with cut joints (closed loops, drivers) keep the augmented system of ``tree_kernels.cut_accelerations``.
 
 This module imports numba: it is imported only when the compiled engine runs (``solutions.compiled``).
@@ -49,6 +55,10 @@ import numpy as np
 from numba import njit
 
 jit = njit(cache=False, fastmath=False, nogil=True)
+inlined = njit(cache=False, fastmath=False, nogil=True, inline="always")
+"""A spherical joint's steps, written into the passes (``tree_kernels.inlined``: each array handed to a compiled
+function costs two atomic reference counts): -60 ns a chain of four spherical joints. The general route's steps stay
+functions (inlined they were slower, twenty-first session)."""
 """Not cached here: compiled into the generated tree modules that call them (see ``tree_kernels.jit``).
 
 Every array of the passes is one of two work arrays, indexed by body or joint and a named row (``body_rows``,
@@ -73,9 +83,10 @@ def body_rows(nv):
 @jit
 def joint_rows(nv):
     """The rows of a joint's entry of ``joint`` (ne + 1 entries of ``sizes(nv)[1]`` rows x nv): its columns S_e (nv
-    rows, d columns), U = I^A S_e (nv rows, d columns), D_e's factor L (d x d), u (d entries of a row) and the link l
-    (3 entries of a row): eq. 7.8."""
-    return 0, nv, 2 * nv, 2 * nv + 3, 2 * nv + 4
+    rows, d columns), U = I^A S_e (nv rows, d columns), D_e's factor L (d x d), u (d entries of a row), the link l
+    (3 entries of a row): eq. 7.8; and (spatial) the joint point from either centre, rho_C and e_P = l + rho_C (a
+    row: ``spherical_passed_on``)."""
+    return 0, nv, 2 * nv, 2 * nv + 3, 2 * nv + 4, 2 * nv + 5
 
 
 @jit
@@ -87,7 +98,7 @@ def scratch_rows(nv):
 
 def sizes(nv: int) -> tuple[int, int]:
     """The rows of an entry of ``body`` and of ``joint`` (``body_rows``, ``joint_rows``, ``scratch_rows``)."""
-    return nv + 2, max(2 * nv + 5, nv + 10)
+    return nv + 2, max(2 * nv + 6, nv + 10)
 
 
 @jit
@@ -111,7 +122,7 @@ def joint_terms(body, joint, C, e, d, nv):
     """U = I^A_C S_e, u = -S_e^T p^A_C and D_e = S_e^T U (its lower triangle, into L) of joint e with d columns
     and child C (eq. 7.8)."""
     IA, PA, _ = body_rows(nv)
-    S, U, L, u, _ = joint_rows(nv)
+    S, U, L, u, _, _ = joint_rows(nv)
     for c in range(d):
         for i in range(nv):
             x = 0.0
@@ -172,7 +183,7 @@ def passed_on(body, joint, C, e, d, s, nv):
     """What child C passes on through joint e (eq. 7.9 before the shift), into the scratch (entry s): Ia = I^A_C -
     U D_e^-1 U^T, pa = p^A_C + U D_e^-1 u, by way of D_e^-1 U^T (DU) and D_e^-1 u (Du)."""
     IA, PA, _ = body_rows(nv)
-    _, U, _, u, _ = joint_rows(nv)
+    _, U, _, u, _, _ = joint_rows(nv)
     _, Ia, pa, DU, Du = scratch_rows(nv)
     for c in range(d):
         for i in range(nv):
@@ -229,7 +240,7 @@ def child_acceleration(body, joint, P, C, e, d, s, nv, nw):
     """Pass 2 at joint e (eq. 7.10): A' = X A_P (``shift_block``: the linear part plus B times the angular one; into
     the scratch's pa), theta''_e = D_e^-1 (u - U^T A') (into its Du), A_C = A' + S_e theta''_e."""
     _, _, ACC = body_rows(nv)
-    S, U, _, u, _ = joint_rows(nv)
+    S, U, _, u, _, _ = joint_rows(nv)
     B, _, shifted, _, x = scratch_rows(nv)
     n1 = nv - nw
     for i in range(n1):
@@ -250,6 +261,122 @@ def child_acceleration(body, joint, P, C, e, d, s, nv, nw):
         for c in range(d):
             a += joint[e, S + i, c] * joint[s, x + c, 0]
         body[C, ACC, i] = a
+
+
+@jit
+def _cross(a0, a1, a2, b0, b1, b2):
+    return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+
+
+@inlined
+def spherical_passed_on(body, joint, C, e, s):
+    """Pass 1 at a spherical joint e with child C (eq. 7.8-7.9), at the joint point J = r_C + rho_C, where the joint's
+    columns are S_e = [0; F] (F = [x_0 x_1 x_2] the child's joint axes, global): there the child's inertia reads
+    I' = X_c^T I^A_C X_c = [[I_vv, G], [G^T, K]] and its bias force p' = X_c^T p^A_C (X_c = [[1, [rho_C]x], [0, 1]]
+    carries motion at J to the centre: G = I_vv [rho_C]x + I_vw, K = I_ww + I_wv [rho_C]x + [rho_C]x^T G, p'_w = p_w
+    + [rho_C]x^T p_v). With U = I' S_e, D_e = F^T K F, U D_e^-1 U^T = I'_:w K^-1 I'_w: for any invertible F: F drops
+    out, and what the child passes on (eq. 7.9) at J is a translational block alone, the joint transmitting no
+    moment:
+
+        Ia = [[I_vv - G K^-1 G^T, 0], [0, 0]],        pa = [p_v - G K^-1 p'_w; 0]                   (eq. 7.9 at J)
+
+    (Featherstone 2008, sec. 7.3: a joint's articulated inertia in the frame where S is simplest). Into the
+    scratch (entry s: Ia's and pa's first three rows and columns; D_e^-1 U^T's rows hold K^-1 G^T, D_e^-1 u's K^-1
+    p'_w); into the joint's rows G (U's first three), K's factor (``factor_joint``) and p'_w (u) for pass 2. About
+    a third of the 6 x 6 route's products. False where K is not positive definite."""
+    IA, PA, _ = body_rows(6)
+    _, U, L, u, _, ARM = joint_rows(6)
+    _, Ia, pa, DU, Du = scratch_rows(6)
+    r0, r1, r2 = joint[e, ARM, 0], joint[e, ARM, 1], joint[e, ARM, 2]  # rho_C
+    for i in range(6):  # I^A_C X_c's angular columns, row by row: row_i [rho]x = row_i x rho (rows 0-2: G)
+        x0, x1, x2 = _cross(body[C, IA + i, 0], body[C, IA + i, 1], body[C, IA + i, 2], r0, r1, r2)
+        joint[e, U + i, 0] = x0 + body[C, IA + i, 3]
+        joint[e, U + i, 1] = x1 + body[C, IA + i, 4]
+        joint[e, U + i, 2] = x2 + body[C, IA + i, 5]
+    for j in range(3):  # K = (its angular rows) + [rho]x^T G, column by column: [rho]x^T g = g x rho
+        x0, x1, x2 = _cross(joint[e, U, j], joint[e, U + 1, j], joint[e, U + 2, j], r0, r1, r2)
+        joint[e, L, j], joint[e, L + 1, j], joint[e, L + 2, j] = (
+            joint[e, U + 3, j] + x0, joint[e, U + 4, j] + x1, joint[e, U + 5, j] + x2,
+        )  # fmt: skip
+    x0, x1, x2 = _cross(body[C, PA, 0], body[C, PA, 1], body[C, PA, 2], r0, r1, r2)
+    joint[e, u, 0], joint[e, u, 1], joint[e, u, 2] = body[C, PA, 3] + x0, body[C, PA, 4] + x1, body[C, PA, 5] + x2
+    if not factor_joint(joint, e, 3, 6):
+        return False
+    for c in range(3):  # K^-1 G^T and K^-1 p'_w
+        for i in range(3):
+            joint[s, DU + c, i] = joint[e, U + i, c]
+        joint[s, Du + c, 0] = joint[e, u, c]
+    for i in range(3):
+        solve_joint(joint, e, 3, s, DU, i, 6)
+    solve_joint(joint, e, 3, s, Du, 0, 6)
+    for i in range(3):  # the translational block M and p_v - G K^-1 p'_w (``shift_point_to_parent``)
+        x = body[C, PA, i]
+        for c in range(3):
+            x -= joint[e, U + i, c] * joint[s, Du + c, 0]
+        joint[s, pa, i] = x
+        for j in range(3):
+            x = body[C, IA + i, j]
+            for c in range(3):
+                x -= joint[e, U + i, c] * joint[s, DU + c, j]
+            joint[s, Ia + i, j] = x
+    return True
+
+
+@inlined
+def shift_point_to_parent(body, joint, P, e, s):
+    """``shift_to_parent`` of a translational block alone (``spherical_passed_on``: Ia = [[M, 0], [0, 0]], pa = (p,
+    0) at joint e's point, in the scratch), carried to the parent's centre by X = [[1, B], [0, 1]], B = -[e_P]x:
+    I^A_P += [[M, M B], [B^T M, B^T M B]], p^A_P += (p, B^T p), with B^T x = e_P x x and a row times B, a B = e_P x
+    a: ``shift_to_parent``'s sums without B's zero diagonal (the same numbers)."""
+    IA, PA, _ = body_rows(6)
+    ARM = joint_rows(6)[5]
+    _, Ia, pa, _, _ = scratch_rows(6)
+    e0, e1, e2 = joint[e, ARM, 3], joint[e, ARM, 4], joint[e, ARM, 5]
+    for i in range(3):  # M B into Ia's angular columns, row by row
+        x0, x1, x2 = _cross(e0, e1, e2, joint[s, Ia + i, 0], joint[s, Ia + i, 1], joint[s, Ia + i, 2])
+        joint[s, Ia + i, 3], joint[s, Ia + i, 4], joint[s, Ia + i, 5] = x0, x1, x2
+    for i in range(3):
+        body[P, PA, i] += joint[s, pa, i]
+        for j in range(6):
+            body[P, IA + i, j] += joint[s, Ia + i, j]
+    x0, x1, x2 = _cross(e0, e1, e2, joint[s, pa, 0], joint[s, pa, 1], joint[s, pa, 2])  # B^T p
+    body[P, PA, 3], body[P, PA, 4], body[P, PA, 5] = body[P, PA, 3] + x0, body[P, PA, 4] + x1, body[P, PA, 5] + x2
+    for j in range(6):  # B^T times the linear rows, column by column
+        x0, x1, x2 = _cross(e0, e1, e2, joint[s, Ia, j], joint[s, Ia + 1, j], joint[s, Ia + 2, j])
+        body[P, IA + 3, j] += x0
+        body[P, IA + 4, j] += x1
+        body[P, IA + 5, j] += x2
+
+
+@inlined
+def spherical_acceleration(body, joint, P, C, e, s):
+    """Pass 2 at a spherical joint e (eq. 7.10 at its joint point, ``spherical_passed_on``): the joint point's
+    acceleration a_J = (X A_P)_v = a_P + alpha_P x e_P, the child's angular acceleration from the joint's zero moment,
+    G^T a_J + K alpha_C + p'_w = 0, theta''_e = F^T (alpha_C - alpha_P) (the rates about the orthonormal axes F: S_e's
+    angular rows), into the scratch's D_e^-1 u rows; A_C at the centre = (a_J + rho_C x alpha_C, alpha_C)."""
+    _, _, ACC = body_rows(6)
+    S, U, _, u, _, ARM = joint_rows(6)
+    _, _, shifted, _, x = scratch_rows(6)
+    x0, x1, x2 = _cross(body[P, ACC, 3], body[P, ACC, 4], body[P, ACC, 5], joint[e, ARM, 3], joint[e, ARM, 4],
+                        joint[e, ARM, 5])  # fmt: skip
+    joint[s, shifted, 0], joint[s, shifted, 1], joint[s, shifted, 2] = (
+        body[P, ACC, 0] + x0, body[P, ACC, 1] + x1, body[P, ACC, 2] + x2,
+    )  # fmt: skip
+    for c in range(3):
+        a = joint[e, u, c]
+        for i in range(3):
+            a += joint[e, U + i, c] * joint[s, shifted, i]
+        joint[s, x + c, 0] = a
+    solve_joint(joint, e, 3, s, x, 0, 6)
+    w0, w1, w2 = -joint[s, x, 0], -joint[s, x + 1, 0], -joint[s, x + 2, 0]  # alpha_C
+    d0, d1, d2 = w0 - body[P, ACC, 3], w1 - body[P, ACC, 4], w2 - body[P, ACC, 5]
+    for n in range(3):
+        joint[s, x + n, 0] = joint[e, S + 3, n] * d0 + joint[e, S + 4, n] * d1 + joint[e, S + 5, n] * d2
+    x0, x1, x2 = _cross(joint[e, ARM, 0], joint[e, ARM, 1], joint[e, ARM, 2], w0, w1, w2)
+    body[C, ACC, 0], body[C, ACC, 1], body[C, ACC, 2] = (
+        joint[s, shifted, 0] + x0, joint[s, shifted, 1] + x1, joint[s, shifted, 2] + x2,
+    )  # fmt: skip
+    body[C, ACC, 3], body[C, ACC, 4], body[C, ACC, 5] = w0, w1, w2
 
 
 def two_passes(nv: int):
@@ -274,27 +401,27 @@ def two_passes(nv: int):
                 positive = factor_joint(joint, e, 1, nv)
                 if positive:
                     passed_on(body, joint, C, e, 1, ne, nv)
-            else:
-                joint_terms(body, joint, C, e, 3, nv)
-                positive = factor_joint(joint, e, 3, nv)
-                if positive:
-                    passed_on(body, joint, C, e, 3, ne, nv)
+                shift_block(joint, e, ne, nv)  # to the parent's centre
+            else:  # a spherical joint (space only): at its joint point, then from there to the parent's centre
+                positive = spherical_passed_on(body, joint, C, e, ne)
             if not positive:
                 thdd[:] = np.nan
                 return
-            shift_block(joint, e, ne, nv)  # to the parent's centre
-            shift_to_parent(body, joint, P, ne, nv, nw)
+            if d == 1:
+                shift_to_parent(body, joint, P, ne, nv, nw)
+            else:
+                shift_point_to_parent(body, joint, P, e, ne)
         for i in range(nv):  # 2. from ground to the leaves: A of ground is zero
             body[nb, ACC, i] = 0.0
         for e in range(ne):
             P, C, d, at = ints[e, 1], ints[e, 2], WIDTHS[ints[e, 0]], ints[e, first]
             if P < 0:
                 P = nb
-            shift_block(joint, e, ne, nv)
             if d == 1:
+                shift_block(joint, e, ne, nv)
                 child_acceleration(body, joint, P, C, e, 1, ne, nv, nw)
             else:
-                child_acceleration(body, joint, P, C, e, 3, ne, nv, nw)
+                spherical_acceleration(body, joint, P, C, e, ne)
             for c in range(d):
                 thdd[at + c] = joint[ne, x + c, 0]
 
@@ -316,16 +443,23 @@ def articulated_accelerations(IA, pA, ints, S, links, widths, first, thdd, acc):
     columns S_e; links (joints x 3): l. (Written as loops over the entries: at 3 x 3 and 6 x 6 a call into BLAS
     costs more than the arithmetic.) The tree kernels fill the work arrays themselves and call ``planar_passes`` or
     ``spatial_passes`` directly (a module compiles only its own); this is for callers in Python: it copies the
-    arrays into the work arrays (``sizes``, ``body_rows``, ``joint_rows``) and back."""
+    arrays into the work arrays (``sizes``, ``body_rows``, ``joint_rows``) and back. A spherical joint's point
+    (``spherical_passed_on``) comes from its columns S_n = (rho_C x x_n, x_n) about orthonormal axes x_n:
+    sum_n x_n x (rho_C x x_n) = 3 rho_C - rho_C = 2 rho_C."""
     if not np.array_equal(widths, WIDTHS):
         raise ValueError(f"widths {widths} differ from the passes' WIDTHS {WIDTHS}")
     nb, nv, ne = IA.shape[0] - 1, IA.shape[1], ints.shape[0]
-    (I_rows, p_row, a_row), (s_rows, _, _, _, l_row), (body_size, joint_size) = body_rows(nv), joint_rows(nv), sizes(nv)
+    (I_rows, p_row, a_row), (body_size, joint_size) = body_rows(nv), sizes(nv)
+    s_rows, _, _, _, l_row, arm_row = joint_rows(nv)
     body, joint = np.zeros((nb + 1, body_size, nv)), np.zeros((ne + 1, joint_size, nv))
     body[:, I_rows : I_rows + nv] = IA
     body[:, p_row] = pA
     joint[:ne, s_rows : s_rows + nv, :3] = S
     joint[:ne, l_row, :3] = links
+    for e in range(ne):
+        if widths[ints[e, 0]] == 3:
+            rho = 0.5 * np.cross(S[e, 3:6].T, S[e, :3].T).sum(axis=0)
+            joint[e, arm_row] = [*rho, *(links[e] + rho)]
     (planar_passes if nv == 3 else spatial_passes)(body, joint, ints, first, thdd)
     IA[:], pA[:], acc[:] = body[:, I_rows : I_rows + nv], body[:, p_row], body[:, a_row]
 

@@ -216,17 +216,19 @@ tree without cut rows needs none of them on the way to theta''.)"""
 
 
 def _arrays(spatial: bool) -> list[str]:
-    """The lines that make the work arrays of an evaluation, three allocations (four spatial: omega'): the vectors
+    """The lines that make the work arrays of an evaluation, two allocations (three spatial: omega'): the vectors
     cut from one (a slice of a vector costs nothing), and two arrays indexed by body or joint and a named row
     (``articulated.body_rows``, ``joint_rows``; the recursion's rows after the body's, ``tree_kernels.MOTION``
-    and ``SPATIAL_MOTION``), never cut into views: a reshape costs ~20 ns, an allocation ~30 ns, a view handed
-    on ~10 ns, more than a planar joint's arithmetic. D (eq. 5.44) only for cut rows: an open tree's articulated
-    pass never forms it."""
+    and ``SPATIAL_MOTION``), the leading slices of one array of entries with the rows of the longer (a leading
+    slice stays C-contiguous for numba), never cut further into views: a reshape costs ~20 ns, an allocation ~30
+    ns, a view handed on ~10 ns, more than a planar joint's arithmetic. D (eq. 5.44) only for cut rows: an open
+    tree's articulated pass never forms it."""
     from .articulated import sizes  # numba: imported only where a module is written (this module imports none)
+    from .tree_kernels import SPATIAL_MOTION_ROWS
 
     nv = 6 if spatial else 3
     body, joint = sizes(nv)
-    body += 4 if spatial else 3  # the recursion's rows
+    body += SPATIAL_MOTION_ROWS if spatial else 3  # the recursion's rows
     lines = [
         f"    nb = n // {7 if spatial else 3}",
         f"    nv = {nv}  # a body's velocity: (v, omega) spatial, (v_x, v_y, omega) planar",
@@ -237,8 +239,9 @@ def _arrays(spatial: bool) -> list[str]:
     for name, size in VECTORS:
         lines += [f"    {name} = vectors[at : at + {size}]", f"    at += {size}"]
     lines += [
-        f"    body = np.empty((nb + 1, {body}, nv))  # I^A, p^A, A, the recursion's: ground last",
-        f"    joint = np.empty((ne + 1, {joint}, nv))  # S_e, U, D_e's factor, u, l; the passes' scratch last",
+        f"    entries = np.empty((nb + 1 + ne + 1, {max(body, joint)}, nv))  # one allocation: a body's, a joint's",
+        "    body = entries[: nb + 1]  # I^A, p^A, A, the recursion's: ground last (a leading slice stays contiguous)",
+        "    joint = entries[nb + 1 :]  # S_e, U, D_e's factor, u, l; the passes' scratch last",
         "    Dm = np.empty((a, k)) if columns else body[0]  # D (a x k) for the cut rows only; else not read",
     ]
     if spatial:

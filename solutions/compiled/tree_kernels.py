@@ -47,10 +47,12 @@ under names that hash this file (numba's cache does not follow a cached function
 a cached kernel here could keep an old copy of a function it calls from another file)."""
 
 inlined = njit(cache=False, fastmath=False, nogil=True, inline="always")
-"""The steps a right-hand side calls once each (the recursion, the articulated pass, the outputs' q'' and lambda):
-numba writes them into the generated ``scene_rhs`` itself, where a call of a compiled function costs two atomic
-reference counts per array it is handed (~10 ns each: ~50 ns a call at two bodies, a quarter of a planar tree's
-theta'')."""
+"""The steps a right-hand side calls once each (the recursion, the articulated pass, the outputs' q'' and lambda),
+and the spatial recursion's steps of a joint or a body that read or write the work arrays (``_child_motion``,
+``_vector``, ``body_force``, ...): numba writes them into the generated ``scene_rhs`` itself, where a call of a
+compiled function costs two atomic reference counts per array it is handed (~10 ns each: ~50 ns a call at two
+bodies, a quarter of a planar tree's theta''; the spatial recursion's helpers called as functions were ~40 ns a
+joint of its ~130)."""
 
 _half_transpose_product, _scaled_product = jit(half_transpose_product), jit(scaled_product)
 """1/2 M^T w and s M x of a 3 x 4 matrix M (G or L), as the joint coordinates write them (``joint_coordinates``)."""
@@ -74,7 +76,7 @@ def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, columns, body
     zeroed all 3 nb x k at every output time: 0.4 MB an evaluation at a loop chain of 64).
     ``body`` (ground last; the caller's work array): each body's (x, y, phi), (x', y', phi') and (x'', y'') at
     theta'' = 0 on the way from ground, at rows ``MOTION``."""
-    S, _, _, _, LINK = joint_rows(3)
+    S, _, _, _, LINK, _ = joint_rows(3)
     r, v, a = MOTION, MOTION + 1, MOTION + 2  # the rows of position, velocity, acceleration
     for i in range(3):  # ground
         body[nb, r, i] = body[nb, v, i] = body[nb, a, i] = 0.0
@@ -207,7 +209,7 @@ def _half_l(e0, e1, e2, e3, x0, x1, x2, x3):
 
 
 # -- spatial tree ------------------------------------------------------------------------------------------
-@jit
+@inlined
 def _spatial_joint(kind, f, AP, theta, rate, rates, at, c):
     """What a joint adds to its parent, A_P the parent's rotation (``joint_coordinates.joint_rotation``): its own
     rotation j, its global axis h (zero for a spherical joint), the sliding rate s' and e_P = rho_P (+ s h for a
@@ -237,16 +239,18 @@ def _spatial_joint(kind, f, AP, theta, rate, rates, at, c):
     return j, (0.0, 0.0, 0.0), 0.0, (rp0, rp1, rp2)
 
 
-@jit
-def _relative_omega(kind, f, AC, rate, c, h):
+@inlined
+def _relative_omega(kind, joint, e, rate, c, h):
     """The child's angular velocity relative to its parent, global: theta' h (revolute), zero (prismatic), the
-    three rates about the child's joint frame A_C (f, g, h) (spherical)."""
+    three rates about the child's joint frame A_C (f, g, h) (spherical: the angular rows of its columns S_e,
+    ``_joint_columns``)."""
+    S = joint_rows(6)[0]
     wr0 = wr1 = wr2 = 0.0
     if kind == REVOLUTE:
         wr0, wr1, wr2 = rate[c] * h[0], rate[c] * h[1], rate[c] * h[2]
     elif kind == SPHERICAL:
         for n in range(3):
-            x0, x1, x2 = _rotate(AC, f[FRAME + 3 * n], f[FRAME + 3 * n + 1], f[FRAME + 3 * n + 2])
+            x0, x1, x2 = joint[e, S + 3, n], joint[e, S + 4, n], joint[e, S + 5, n]
             rel = rate[c + n]
             if n == 0:
                 wr0, wr1, wr2 = rel * x0, rel * x1, rel * x2
@@ -258,30 +262,50 @@ def _relative_omega(kind, f, AC, rate, c, h):
 POSITION, VELOCITY, OMEGA, ACCELERATION, ALPHA = 0, 1, 2, 3, 4
 SPATIAL_MOTION = 8
 """The rows of a spatial body's recursion in ``body``, after the articulated pass's eight (``articulated.body_rows``):
-its global r, v, omega, a and alpha with theta'' = 0 two to a row (``_vector``), then its Euler parameters p."""
+its global r, v, omega, a and alpha with theta'' = 0 two to a row (``_vector``), then its Euler parameters p, then
+its rotation A(p) (eq. 8.12, nine entries over two rows: made once per evaluation, ``_body_rotation``)."""
+SPATIAL_MOTION_ROWS = 6
+"""The recursion's rows of a spatial body in ``body`` (``tree._arrays``)."""
 
 
-@jit
+@inlined
 def _vector(body, b, which):
     """Body b's global 3-vector ``which`` (POSITION, VELOCITY, OMEGA, ACCELERATION, ALPHA) of the recursion."""
     row, col = SPATIAL_MOTION + which // 2, 3 * (which % 2)
     return body[b, row, col], body[b, row, col + 1], body[b, row, col + 2]
 
 
-@jit
+@inlined
 def _set_vector(body, b, which, x0, x1, x2):
     row, col = SPATIAL_MOTION + which // 2, 3 * (which % 2)
     body[b, row, col], body[b, row, col + 1], body[b, row, col + 2] = x0, x1, x2
 
 
-@jit
+@inlined
 def _body_rotation(body, b):
-    """A(p) of body b (eq. 8.12) row by row from its Euler parameters in ``body`` (ground: p = (1, 0, 0, 0), A = I)."""
+    """A(p) of body b (eq. 8.12) row by row, as the recursion keeps it (``_keep_rotation``)."""
+    row = SPATIAL_MOTION + 4
+    return (
+        body[b, row, 0], body[b, row, 1], body[b, row, 2], body[b, row, 3], body[b, row, 4], body[b, row, 5],
+        body[b, row + 1, 0], body[b, row + 1, 1], body[b, row + 1, 2],
+    )  # fmt: skip
+
+
+@inlined
+def _keep_rotation(body, b):
+    """A(p) of body b (eq. 8.12) from its Euler parameters in ``body``, kept in its rows for every later use in the
+    evaluation (the joint's parent, the outputs, the inertia A J' A^T, q''): one rotation per body and evaluation,
+    where each of those made it again. Returns it."""
     row = SPATIAL_MOTION + 3
-    return unit_rotation_entries_jit(body[b, row, 0], body[b, row, 1], body[b, row, 2], body[b, row, 3])
+    R = unit_rotation_entries_jit(body[b, row, 0], body[b, row, 1], body[b, row, 2], body[b, row, 3])
+    for i in range(6):
+        body[b, row + 1, i] = R[i]
+    for i in range(3):
+        body[b, row + 2, i] = R[6 + i]
+    return R
 
 
-@jit
+@inlined
 def _child_motion(body, P, Cb, e_p, rc, h, w_rel, sd, prismatic):
     """The child's r, v, omega, alpha and a with theta'' = 0 from its parent's (``_vector``): e_P and rho_C the
     joint point from either centre, h, w_rel and s' the joint's axis and rates (module docstring of
@@ -324,7 +348,7 @@ def _child_motion(body, P, Cb, e_p, rc, h, w_rel, sd, prismatic):
     return l0, l1, l2
 
 
-@jit
+@inlined
 def _joint_columns(kind, rc, h, AC, f, joint, e):
     """The joint's own columns S_e (v, omega, global; ``articulated``), into ``joint`` (``articulated.joint_rows``):
     revolute (rho_C x h, h), prismatic (h, 0), spherical (rho_C x x_n, x_n) about the child's joint axes x_n = A_C
@@ -360,7 +384,7 @@ def _child_columns(Dv, Dw, P, Cb, kind, c, link, joint, e):
             Dv[Cb, c + n, r], Dw[Cb, c + n, r] = joint[e, S + r, n], joint[e, S + 3 + r, n]
 
 
-@jit
+@inlined
 def _spatial_outputs(body, q, qd, xi, omega):
     """q, q' = (r', 1/2 L(p)^T omega'), xi = (a, A^T alpha) and omega' = A^T omega of every body from the recursion's
     global vectors (eq. 8.17)."""
@@ -407,15 +431,17 @@ def _spatial_columns(ints, nb, k, body, joint, Dm):
 @inlined
 def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates, columns, body, joint):
     """q, q' (7 nb), xi (6 nb: a and the body-frame alpha'), omega' (nb x 3), the rates of the joints' position
-    coordinates (``SpatialTree.motion``), each joint's columns S_e and link l (into ``joint``,
+    coordinates (``SpatialTree.motion``), each joint's columns S_e, link l and joint point from either centre
+    (rho_C, e_P: a spherical joint's pass, ``articulated.spherical_passed_on``) (into ``joint``,
     ``articulated.joint_rows``); with ``columns``, D (6 nb x k: v and omega' per joint velocity) too. The
-    recursion's global vectors and Euler parameters in ``body``'s rows from ``SPATIAL_MOTION`` (the caller's work
-    array: no allocation on an open tree's way)."""
+    recursion's global vectors, Euler parameters and rotation in ``body``'s rows from ``SPATIAL_MOTION`` (the
+    caller's work array: no allocation on an open tree's way)."""
     for which in range(5):  # ground: at rest at the origin, p = (1, 0, 0, 0)
         _set_vector(body, nb, which, 0.0, 0.0, 0.0)
     P_ROW = SPATIAL_MOTION + 3
     body[nb, P_ROW, 0], body[nb, P_ROW, 1], body[nb, P_ROW, 2], body[nb, P_ROW, 3] = 1.0, 0.0, 0.0, 0.0
-    LINK = joint_rows(6)[4]
+    _keep_rotation(body, nb)
+    LINK, ARM = joint_rows(6)[4], joint_rows(6)[5]
     for e in range(ints.shape[0]):
         kind, P, Cb, at, c = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3], ints[e, 4]
         if P < 0:
@@ -426,12 +452,14 @@ def spatial_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, omega, rates
             body[P, P_ROW, 0], body[P, P_ROW, 1], body[P, P_ROW, 2], body[P, P_ROW, 3], j0, j1, j2, j3
         )
         body[Cb, P_ROW, 0], body[Cb, P_ROW, 1], body[Cb, P_ROW, 2], body[Cb, P_ROW, 3] = p0, p1, p2, p3
-        AC = _body_rotation(body, Cb)
-        w_rel = _relative_omega(kind, f, AC, rate, c, h)
+        AC = _keep_rotation(body, Cb)
         rc = _rotate(AC, f[S_CHILD], f[S_CHILD + 1], f[S_CHILD + 2])
+        _joint_columns(kind, rc, h, AC, f, joint, e)
+        w_rel = _relative_omega(kind, joint, e, rate, c, h)
         link = _child_motion(body, P, Cb, e_p, rc, h, w_rel, sd, kind == PRISMATIC)
         joint[e, LINK, 0], joint[e, LINK, 1], joint[e, LINK, 2] = link
-        _joint_columns(kind, rc, h, AC, f, joint, e)
+        joint[e, ARM, 0], joint[e, ARM, 1], joint[e, ARM, 2] = rc  # the joint point from either centre
+        joint[e, ARM, 3], joint[e, ARM, 4], joint[e, ARM, 5] = e_p
     _spatial_outputs(body, q, qd, xi, omega)
     if columns:
         _spatial_columns(ints, nb, k, body, joint, Dm)
@@ -447,9 +475,9 @@ def spatial_articulated(masses, inertias, q, xi, omega, Q, ints, thdd, body, joi
     IA, PA, _ = body_rows(6)
     force = joint[ne, 0]  # a body's force: the passes' scratch, free until they start
     for b in range(nb):
-        J, o = inertias[b], 7 * b
+        J = inertias[b]
         body_force(masses[b], J, q, xi, omega, Q, b, force)
-        R = unit_rotation_entries_jit(q[o + 3], q[o + 4], q[o + 5], q[o + 6])  # A (eq. 8.12), row by row
+        R = _body_rotation(body, b)  # A (eq. 8.12), row by row
         t0, t1, t2 = _rotate(R, force[3], force[4], force[5])
         for r in range(6):
             for c in range(6):
@@ -471,7 +499,7 @@ def spatial_articulated(masses, inertias, q, xi, omega, Q, ints, thdd, body, joi
     spatial_passes(body, joint, ints, 4, thdd)
 
 
-@jit
+@inlined
 def body_force(m, J, q, xi, omega, Q, b, force):
     """The force on body b at theta'' = 0, f = (F - m a_xi, n' - J' alpha'_xi - omega' x J' omega') with F = Q_r and
     n' = 1/2 L(p) Q_p (``JointCoordinates.spatial_forces``; Q without Q_v): the right side of eq. 5.44 is D^T f."""
@@ -689,11 +717,11 @@ def spatial_body_accelerations(q, qd, body, xi, omega, qdd):
     """q'' = (r'', p'') of a spatial tree from the bodies' accelerations of the articulated pass (``body``'s rows
     ACC: a and the angular acceleration of D theta'' in global axes) and xi (a, A^T alpha): r'' = a + xi_a, the
     body-frame angular acceleration w = A^T (D theta'')_alpha + xi_alpha, p'' = 1/2 L(p)^T w + 1/2 L(p')^T omega'
-    (eq. 8.17; ``spatial_coordinate_accelerations`` without D)."""
+    (eq. 8.17; ``spatial_coordinate_accelerations`` without D). A from the recursion's rows (``_body_rotation``)."""
     ACC = body_rows(6)[2]
     for b in range(omega.shape[0]):
         o = 7 * b
-        R = unit_rotation_entries_jit(q[o + 3], q[o + 4], q[o + 5], q[o + 6])  # A (eq. 8.12), row by row
+        R = _body_rotation(body, b)  # A (eq. 8.12), row by row
         for r in range(3):
             qdd[o + r] = body[b, ACC, r] + xi[6 * b + r]
         w0, w1, w2 = _rotate_back(R, body[b, ACC, 3], body[b, ACC, 4], body[b, ACC, 5])

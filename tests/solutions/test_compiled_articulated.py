@@ -136,6 +136,52 @@ def test_a_pendulum_gets_its_closed_form_and_a_massless_one_nan():
     assert np.isnan(thdd).all()  # the adaptive integrators reject such a step, as with the dense solve
 
 
+def _cross_matrix(a: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+
+
+def _shift(link: np.ndarray) -> np.ndarray:
+    """X (eq. 7.7): motion at a point carried to a point ``link`` away from it, (v - l x omega, omega)."""
+    X = np.eye(6)
+    X[:3, 3:] = -_cross_matrix(link)
+    return X
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_spherical_joint_passes_on_a_translational_block_at_its_point(seed):
+    """A spherical joint transmits no moment: the spatial passes carry a spherical joint's child to its parent as
+    [[I_vv - G K^-1 G^T, 0], [0, 0]] at the joint point (``articulated.spherical_passed_on``), not by the 6 x 6
+    route I - U D_e^-1 U^T with U = I S_e. One body on a spherical joint to ground, a random inertia and bias force
+    at its centre, joint axes turned every way: theta'' and what ground receives equal the dense formulas of eq.
+    7.8-7.10, and ground's articulated inertia seen at the joint point has no angular rows or columns."""
+    from solutions.compiled.articulated import articulated_accelerations
+    from solutions.compiled.tree_kernels import WIDTHS
+
+    rng = np.random.default_rng(seed)
+    root = rng.standard_normal((6, 6))
+    inertia = root @ root.T + 6.0 * np.eye(6)  # symmetric positive definite, coupled v and omega
+    bias = rng.standard_normal(6)
+    axes = np.linalg.qr(rng.standard_normal((3, 3)))[0]  # the child's joint axes x_n (columns), orthonormal
+    rho, e_p = rng.uniform(-0.5, 0.5, 3), rng.uniform(-0.5, 0.5, 3)  # the joint point from the child's, parent's centre
+    S = np.vstack([np.cross(rho, axes.T).T, axes])  # (rho_C x x_n, x_n)
+    IA, pA = np.zeros((2, 6, 6)), np.zeros((2, 6))
+    IA[0], pA[0] = inertia, bias
+    thdd, acc = np.zeros(3), np.zeros((2, 6))
+    articulated_accelerations(IA, pA, np.array([[2, -1, 0, 0]]), S[None], (e_p - rho)[None], WIDTHS, 3, thdd, acc)
+    U = inertia @ S
+    D_inverse = np.linalg.inv(S.T @ U)
+    expected = -D_inverse @ (S.T @ bias)  # ground at rest: theta'' = D_e^-1 (u - U^T 0), u = -S^T p
+    np.testing.assert_allclose(thdd, expected, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(acc[0], S @ expected, rtol=1e-12, atol=1e-12)
+    X = _shift(e_p - rho)  # ground's origin to the child's centre
+    passed = X.T @ (inertia - U @ D_inverse @ U.T) @ X
+    np.testing.assert_allclose(IA[1], passed, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(pA[1], X.T @ (bias + U @ D_inverse @ (-S.T @ bias)), rtol=1e-12, atol=1e-12)
+    at_point = np.linalg.inv(_shift(e_p)).T @ IA[1] @ np.linalg.inv(_shift(e_p))  # from ground's origin to the point
+    np.testing.assert_allclose(at_point[3:], 0.0, atol=1e-12)
+    np.testing.assert_allclose(at_point[:, 3:], 0.0, atol=1e-12)
+
+
 @pytest.mark.parametrize(("dimension", "n", "seed"), [(2, 6, 1), (3, 6, 3)])
 def test_the_positions_pass_gives_the_body_coordinates_of_the_joint_state(dimension, n, seed):
     """An ``out`` of y.size + n asks scene_rhs for q alone after y (the divergence check's companion run,
