@@ -1743,7 +1743,8 @@ def choose_method(
     reasons = []
     if formulation == "auto":
         not_a_tree = "formulation options given" if options else open_tree(system) if trees else "masses given"
-        redundant = (rank or rank_at(system, q)).n_redundant
+        report = rank if rank is not None else rank_at(system, q)
+        redundant = report.n_redundant if report is not None else 0
         if not_a_tree is None:
             formulation = "joint-coordinates"
             reasons.append("joint-coordinates: an open tree of joints (minimal coordinates)")
