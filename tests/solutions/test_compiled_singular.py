@@ -269,7 +269,7 @@ def test_mid_size_psi_q_takes_the_band_with_numpys_ratio_basis_and_sign(loops, m
     N, m, n = jacobians.shape
     assert dynamics.DENSE_LARGEST < m < n < dynamics.BAND_SMALLEST
     norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
-    ratios, bases, signs, _ = dynamics.square_spectra(jacobians, guard._columns, norms, None)
+    ratios, bases, signs, _, _ = dynamics.square_spectra(jacobians, guard._columns, norms, None)
     assert taken  # the band, not numpy's dense route
     scaled = np.array([guard._scaled(J) for J in jacobians])
     s = np.linalg.svd(scaled, compute_uv=False)
@@ -315,7 +315,7 @@ def test_settled_ratios_decide_as_numpys_svd_through_a_singular_position(swing, 
     monkeypatch.setattr(singular, "spectra", lambda *args: taken.append(1) or spectra(*args))
     norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
     settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)
-    ratios, bases, signs, turns = dynamics.square_spectra(jacobians, guard._columns, norms, None, True, None, settle)
+    ratios, bases, signs, turns, _ = dynamics.square_spectra(jacobians, guard._columns, norms, None, True, None, settle)
     assert taken  # the band
     scaled = np.array([guard._scaled(J) for J in jacobians])
     s = np.linalg.svd(scaled, compute_uv=False)
@@ -383,7 +383,7 @@ def test_small_settled_ratios_decide_as_numpys_svd_through_a_singular_position(s
     assert jacobians.shape[1:] == (8, 9) and jacobians.shape[1] <= dynamics.DENSE_LARGEST
     norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
     settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)
-    ratios, bases, signs, _ = dynamics.square_spectra(jacobians, guard._columns, norms, None, True, None, settle)
+    ratios, bases, signs, _, _ = dynamics.square_spectra(jacobians, guard._columns, norms, None, True, None, settle)
     closed = singular.dense_spectra(jacobians, guard._columns, norms)
     dip = int(np.argmin(exact))
     assert exact[dip] < 1e-2 < exact[0]
@@ -519,7 +519,7 @@ def test_a_fall_s_figure_is_closed():
     lower = upper * (1.0 - singular.LOOSE)
     lower[2] = upper[2]  # the smallest, closed
     thresholds = np.array([1e-8, dynamics.NEAR_SINGULAR])
-    done = singular.settled(lower, upper, np.ones(4), thresholds, dynamics.FALL)
+    done = singular.settled(lower, upper, np.ones(4), thresholds, dynamics.FALL, True)
     assert not done[1]  # the fall's low end: its figure is reported
     assert done[0] and done[3]  # the fall's high end and a time that neither falls nor dips: brackets
     assert upper[1] < dynamics.FALL * upper[0] and not dynamics.dips(upper)[0]  # a fall, no dip, not the smallest
