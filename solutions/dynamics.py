@@ -2058,14 +2058,15 @@ class Guard:
         self, t: np.ndarray, jacobians: np.ndarray, norms: np.ndarray | None = None, pattern: np.ndarray | None = None
     ) -> tuple:
         """(sigma_r / sigma_1, null-space bases T, signs of det [Psi_q; T^T] or None, turns det(T_k-1^T T_k),
-        ``null_space_turns``, the band's ``Brackets`` or None: ``square_spectra``) of the scaled Psi_q (``_scaled``) of Psi_q (N, m, n) at the times t (``norms``,
-        ``pattern``: ``_row_norms``, if known), kept for ``spectra``: the run's later looks at the same output times
-        (``singular_dip``, ``check_branches``) take them instead of a second and third batch of SVDs (on a chain of 32
-        loops each batch cost more than the integration). The ratios from the band are closed only where the Guard's
-        tests of them (singular_ratio, NEAR_SINGULAR, FALL, the dips; the smallest and a crossing's figure reported)
-        need it, elsewhere known in a bracket about 1e-4 wide that decides them the same way
-        (``compiled.singular.settled``); its bases made only at the ends of the steps not certified to hold no flip of
-        the sign (``compiled.singular.certified``)."""
+        ``null_space_turns``, the band's ``Brackets`` or None: ``square_spectra``) of the scaled Psi_q (``_scaled``)
+        of Psi_q (N, m, n) at the times t (``norms``, ``pattern``: ``_row_norms``, if known), kept for ``spectra``:
+        the run's later looks at the same output times (``singular_dip``, ``check_branches``) take them instead of a
+        second and third batch of SVDs (on a chain of 32 loops each batch cost more than the integration). The ratios
+        from the band are closed only where the Guard's tests of them (singular_ratio, NEAR_SINGULAR, FALL, the dips;
+        the smallest and a crossing's figure reported) need it, elsewhere known in a bracket (about 1e-4 wide, or
+        carried over a step by Weyl's inequality) that decides them the same way, the order of two neighbours worked
+        out where ``check_branches`` reads it (``smaller``; ``compiled.singular.settled``); its bases made only at
+        the ends of the steps not certified to hold no flip of the sign (``compiled.singular.certified``)."""
         if norms is None:
             norms, pattern = self._row_norms(jacobians)
         if jacobians.shape[1] == self.rank:  # independent rows: T and det [Psi_q; T^T], from the band where it pays

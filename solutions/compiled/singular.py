@@ -103,9 +103,9 @@ course models, thread CPU, bracketed / Jacobi: 2 x 3 to 5 x 7 1.3-3.7 times the 
 
 _vector, _ivector, _matrix = types.float64[::1], types.int64[::1], types.float64[:, ::1]
 _stack = types.float64[:, :, ::1]
+_PATTERN = (_ivector, _vector, _ivector, _ivector, _ivector)  # position, keys, starts, indices, slots
 _SPECTRA = types.Tuple((_vector, _stack, _vector, _vector, _stack, types.boolean[::1]))(
-    _stack, _vector, _matrix, _ivector, _vector, _ivector, _ivector, _ivector, _matrix, types.float64, types.boolean,
-    _vector,
+    _stack, _vector, _matrix, *_PATTERN, _matrix, types.float64, types.boolean, _vector
 )
 _AT = _vector(_stack, _vector, _matrix, _ivector, _vector, _ivector, _ivector, _ivector, _stack, _stack, _ivector)
 _SETTLED = types.boolean[::1](_vector, _vector, _vector, _vector, types.float64, types.boolean)
@@ -158,7 +158,7 @@ def spectra(
     smallest, a dip), and the bases and signs made only at the first and last times and at both ends of each step
     that ``certified`` leaves open (elsewhere NaN, and the signs carried over from the time before: ``_spectra``),
     and a fifth item, the ``Brackets`` whose order ``check_branches`` reads (None with ``ends``: every two
-    neighbours ordered in the pass); None: every ratio closed, every basis made, no step certified.""" 
+    neighbours ordered in the pass); None: every ratio closed, every basis made, no step certified."""
     if columns is None:
         columns, norms = np.ones(scaled.shape[2]), np.ones(scaled.shape[:2])
         pattern = np.any(scaled != 0.0, axis=0)
@@ -1282,10 +1282,11 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
     """(ratios, bases, signs, the ratios' lower bounds, eigenvectors, certified steps) at every time; ``loose`` > 0:
     the ratios in brackets of that relative width where one test a bound gives them (``_bracketed_ratio``), else
     closed; with ``carry``, a time's bracket carried over its step from the time before's where that decides the
-    Guard's tests (``thresholds``: ``_carries``), no eigenvalue test there (its eigenvectors the time before's); and the basis and sign made only where a step needs them (not ``certified``: both its ends), at the
-    first and last times (the Guard compares them with the batches before and after), elsewhere bases NaN and the
-    sign the time before's (the sign of a basis carried along continuously, by ``certified``'s proof). ``loose`` = 0:
-    every basis made (as closed, no step certified). Entry p of the CSR pattern (row r, column indices[p]) is
+    Guard's tests (``thresholds``: ``_carries``), no eigenvalue test there (its eigenvectors the time before's);
+    and the basis and sign made only where a step needs them (not ``certified``: both its ends), at the first and
+    last times (the Guard compares them with the batches before and after), elsewhere bases NaN and the sign the
+    time before's (the sign of a basis carried along continuously, by ``certified``'s proof). ``loose`` = 0: every
+    basis made (as closed, no step certified). Entry p of the CSR pattern (row r, column indices[p]) is
     jacobians[k, r, slots[p]]: its column (slots = indices), or its slot among a blocked history's blocks
     (``history.BlockedJacobians``)."""
     N, m = jacobians.shape[:2]
