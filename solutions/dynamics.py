@@ -2024,10 +2024,8 @@ class Guard:
             return
         norms, pattern = self._row_norms(jacobians)  # |grad Psi_i| of every row at every time, angles as arc lengths
         if drift and self.drift_limit is not None:
-            distance = np.abs(psi) / np.where(norms > 0, norms, 1.0)
-            bad = ~(np.max(distance, axis=1, initial=0.0) <= self.drift_limit)
-            if np.any(bad):
-                k = int(np.argmax(bad))
+            k = self._drifted(psi, norms)
+            if k >= 0:
                 self.check_drift(q[k], float(t[k]))  # raises, with the message of the step-by-step check
         if not self.singular_ratio or self.rank == 0:
             return
@@ -2038,6 +2036,19 @@ class Guard:
             sign = self._sign if signs is None else signs[k]
             turn = None if k == 0 else turns[k - 1]
             self._judge(q[k], float(t[k]), float(ratios[k]), tangents[k], sign, turn)
+
+    def _drifted(self, psi: np.ndarray, norms: np.ndarray) -> int:
+        """The first output time whose drift |Psi_i| / |grad Psi_i| (Psi (N, m), the rows' norms (N, m)) is not
+        within drift_limit, or -1: in one compiled pass in a compiled run (``compiled.singular.drifted``, the same
+        verdict), else by numpy's arrays."""
+        if self.banded:
+            from .compiled import singular
+
+            arrays = (np.ascontiguousarray(x, dtype=float) for x in (psi, norms))
+            return singular.drifted(*arrays, float(self.drift_limit))
+        distance = np.abs(psi) / np.where(norms > 0, norms, 1.0)
+        bad = ~(np.max(distance, axis=1, initial=0.0) <= self.drift_limit)
+        return int(np.argmax(bad)) if np.any(bad) else -1
 
     def _row_norms(self, jacobians: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         """(|grad Psi_i| (N, m) of every row of Psi_q (N, m, n), angles as arc lengths; where any Psi_q is nonzero

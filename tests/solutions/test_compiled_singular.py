@@ -649,3 +649,24 @@ def test_a_carried_bracket_holds_the_ratio_and_smaller_orders_neighbours_as_nump
     asked = brackets.lower == ratios  # closed where their order was asked (every pair here): numpy's figures
     assert asked[carried].all()
     np.testing.assert_allclose(ratios[asked], exact[asked], rtol=1e-12)
+
+
+def test_the_compiled_drift_test_finds_numpys_first_drifted_time():
+    """``singular.drifted`` (the compiled runs' drift test) names the first time numpy's test names: over the limit,
+    a NaN, a zero row norm (taken as 1), exactly at the limit (within it), none at all (-1)."""
+    rng = np.random.default_rng(5)
+    psi, norms = rng.uniform(-1e-4, 1e-4, (12, 5)), rng.uniform(0.5, 2.0, (12, 5))
+    norms[2, 1] = 0.0
+
+    def numpy_test(psi, norms, limit):
+        bad = ~(np.max(np.abs(psi) / np.where(norms > 0, norms, 1.0), axis=1, initial=0.0) <= limit)
+        return int(np.argmax(bad)) if np.any(bad) else -1
+
+    cases = [(psi, 1e-3)]
+    for k, r, value in ((7, 3, 5e-3), (4, 0, np.nan), (2, 1, 2e-3), (9, 4, 1e-3 * norms[9, 4])):
+        changed = psi.copy()
+        changed[k, r] = value
+        cases.append((changed, 1e-3))
+    for case, limit in cases:
+        assert singular.drifted(case, norms, limit) == numpy_test(case, norms, limit)
+    assert singular.drifted(psi, norms, 1e-3) == -1 and singular.drifted(cases[1][0], norms, 1e-3) == 7
