@@ -749,6 +749,13 @@ LOOSE = 1e-4
 """Relative width of the bracket of each extreme eigenvalue of Psi_q Psi_q^T that ``_bracketed_ratio`` first tries
 (one Cholesky test each): the ratios of adjacent output times differ by more (loop chain: the two times' brackets
 overlap at fewer than one time in 20, ``benchmarks/guard_cost.py``), so most verdicts are decided there."""
+WIDE = 1e-2
+"""Relative width of a tested bracket where neighbours need not be ordered (``_spectra`` with ``carry``) next after
+a carried one (whose eigenvectors, two steps old, would take a sharpening test) away from the smallest ratio so far
+(``_away``): wide enough for every test of ``settled`` but the smallest (thresholds, dips
+2x, falls 100x), and no sharpening test (``_top_sharpen``) after the first; nearer the smallest, LOOSE (a bracket
+WIDE wide there makes a candidate for the smallest, closed: on the loop chain, which starts from rest at its
+smallest ratio, the first 8 times)."""
 CARRIED = 2.2
 """Widest a bracket carried over a step by Weyl's inequality may be (upper / lower end, ``_carried``) for ``_spectra``
 to keep it instead of a bracket of its own; and it must decide the Guard's tests as far as the times so far tell
@@ -1188,6 +1195,18 @@ def _carried(upper, lower, moved):
 
 
 @njit(cache=True, nogil=True)
+def _away(before, last, smallest, thresholds):
+    """Whether the ratio at the next time is likely more than 5 % above the smallest so far and 5 % off each
+    threshold: the last figure plus or minus twice its last step's change is (``WIDE``'s choice, of cost alone: a
+    WIDE bracket that reaches the smallest or a threshold is closed by ``settled``)."""
+    change = 2.0 * abs(last - before)
+    for value in thresholds:
+        if last - change < 1.05 * value and last + change > 0.95 * value:
+            return False
+    return last - change > 1.05 * smallest
+
+
+@njit(cache=True, nogil=True)
 def _carries(upper, lower, before_upper, before_lower, smallest, thresholds):
     """Whether a carried bracket [lower, upper] (``_carried``) is kept: at most CARRIED wide, above the least upper
     end so far (no candidate for the smallest: ``settled`` would close it), on one side of each threshold and no
@@ -1337,6 +1356,7 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
     for k in range(N):
         moved = _scale(jacobians, k, columns, norms, starts, indices, slots, J, previous, y)
         ratios[k], lower[k] = np.nan, np.nan
+        carried = k >= 2 and np.isfinite(lower[k - 1]) and not tested[1] == k - 1  # the time before's carried
         if carry and k >= 1 and np.isfinite(lower[k - 1]):
             upper, bound = _carried(ratios[k - 1], lower[k - 1], moved)
             if _carries(upper, bound, ratios[k - 1], lower[k - 1], smallest, thresholds):
@@ -1348,8 +1368,10 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
                 _extrapolate(high, earlier[1], y)
             else:
                 earlier[0, :], earlier[1, :] = low, high
+            after = carried and _away(ratios[k - 2], ratios[k - 1], smallest, thresholds)  # after a carried one
+            width = WIDE if after else loose
             figure, bound = _bracketed_ratio(
-                J, rows, starts, indices, products, G, factors, low, high, y, loose, spread
+                J, rows, starts, indices, products, G, factors, low, high, y, width, spread
             )
             if np.isfinite(bound):  # widened by G's rounding: it holds the closed figure too
                 ratios[k], lower[k] = _widened(figure, bound)
