@@ -202,7 +202,8 @@ def print_small() -> None:
         closed = _per_history(lambda: dense(jacobians, columns, norms))  # noqa: B023
         settled = _per_history(lambda: dense(jacobians, columns, norms, settle=settle))  # noqa: B023
         figures, _, signs, lower = singular._dense_bracketed(jacobians, columns, norms, True, singular.LOOSE)
-        left = (lower == figures).sum() + singular._unsettled(lower, figures, signs, *singular._tests(settle)).size
+        tests = (*singular._tests(settle), True)  # every two neighbours ordered, as dense_spectra does
+        left = (lower == figures).sum() + singular._unsettled(lower, figures, signs, *tests).size
         left = "all" if jacobians.shape[1] < singular.BRACKETED_SMALLEST else left
         size = "x".join(map(str, jacobians.shape[1:]))
         print(f"| {name} | {formulation} | {size} | {closed:.3f} | {settled:.3f} | {settled / closed:.2f} | {left} |")

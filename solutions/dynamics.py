@@ -1849,15 +1849,17 @@ def square_spectra(
     fall, through): the Guard's tests of the ratios): the band's ratios closed only where those tests or the Guard's
     reported figures need it (``compiled.singular.spectra``, ``settled``), its bases made only where a step is not
     certified to hold no flip of the sign (``compiled.singular.certified``; NaN elsewhere, no test reads them); None:
-    everywhere."""
+    everywhere. A fifth item: the band's ``compiled.singular.Brackets`` that order two neighbours where their
+    figures do not (None: the figures do, ``smaller``)."""
     N, m, n = jacobians.shape
     found = _compiled_spectra(jacobians, columns, norms, before, pattern, settle) if banded and m <= n else None
     if found is None:
         scaled = scale_rows(jacobians, columns, norms)
         tangents, signs = null_space_bases(scaled, signs=True)
         ratios = singular_ratios(np.linalg.svd(scaled, compute_uv=False), m)
-        return ratios, tangents, signs, null_space_turns(tangents, signs)
-    ratios, tangents, signs, certified = found
+        return ratios, tangents, signs, null_space_turns(tangents, signs), None
+    ratios, tangents, signs, certified, *rest = found
+    brackets = rest[0] if rest else None
     made = np.ones(N, dtype=bool)
     made[1:-1] = ~(certified[:-1] & certified[1:])  # interior times whose two steps are certified: no basis
     failed = ~(np.isfinite(ratios) & np.isfinite(signs)) | (made & ~np.all(np.isfinite(tangents), axis=(1, 2)))
@@ -1867,7 +1869,9 @@ def square_spectra(
         tangents[failed], signs[failed] = null_space_bases(scaled, signs=True)
         ratios[failed] = singular_ratios(np.linalg.svd(scaled, compute_uv=False), m)
         certified = np.zeros_like(certified)
-    return ratios, tangents, signs, null_space_turns(tangents, signs, certified)
+        if brackets is not None:  # closed there
+            brackets.lower[failed] = ratios[failed]
+    return ratios, tangents, signs, null_space_turns(tangents, signs, certified), brackets
 
 
 def _compiled_spectra(
@@ -2050,20 +2054,31 @@ class Guard:
             return
         norms, pattern = self._row_norms(jacobians)  # |grad Psi_i| of every row at every time, angles as arc lengths
         if drift and self.drift_limit is not None:
-            distance = np.abs(psi) / np.where(norms > 0, norms, 1.0)
-            bad = ~(np.max(distance, axis=1, initial=0.0) <= self.drift_limit)
-            if np.any(bad):
-                k = int(np.argmax(bad))
+            k = self._drifted(psi, norms)
+            if k >= 0:
                 self.check_drift(q[k], float(t[k]))  # raises, with the message of the step-by-step check
         if not self.singular_ratio or self.rank == 0:
             return
-        ratios, tangents, signs, turns = self._spectra(t, jacobians, norms, pattern)  # turns[k - 1]: to t_k
+        ratios, tangents, signs, turns, _ = self._spectra(t, jacobians, norms, pattern)  # turns[k - 1]: to t_k
         if self._quiet(t, ratios, tangents, signs, turns):
             return
         for k in range(t.size):
             sign = self._sign if signs is None else signs[k]
             turn = None if k == 0 else turns[k - 1]
             self._judge(q[k], float(t[k]), float(ratios[k]), tangents[k], sign, turn)
+
+    def _drifted(self, psi: np.ndarray, norms: np.ndarray) -> int:
+        """The first output time whose drift |Psi_i| / |grad Psi_i| (Psi (N, m), the rows' norms (N, m)) is not
+        within drift_limit, or -1: in one compiled pass in a compiled run (``compiled.singular.drifted``, the same
+        verdict), else by numpy's arrays."""
+        if self.banded:
+            from .compiled import singular
+
+            arrays = (np.ascontiguousarray(x, dtype=float) for x in (psi, norms))
+            return singular.drifted(*arrays, float(self.drift_limit))
+        distance = np.abs(psi) / np.where(norms > 0, norms, 1.0)
+        bad = ~(np.max(distance, axis=1, initial=0.0) <= self.drift_limit)
+        return int(np.argmax(bad)) if np.any(bad) else -1
 
     def _row_norms(self, jacobians: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         """(|grad Psi_i| (N, m) of every row of Psi_q (N, m, n), angles as arc lengths; where any Psi_q is nonzero
@@ -2082,16 +2097,17 @@ class Guard:
 
     def _spectra(
         self, t: np.ndarray, jacobians: np.ndarray, norms: np.ndarray | None = None, pattern: np.ndarray | None = None
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]:
+    ) -> tuple:
         """(sigma_r / sigma_1, null-space bases T, signs of det [Psi_q; T^T] or None, turns det(T_k-1^T T_k),
-        ``null_space_turns``) of the scaled Psi_q (``_scaled``) of Psi_q (N, m, n) at the times t (``norms``,
-        ``pattern``: ``_row_norms``, if known), kept for ``spectra``: the run's later looks at the same output times
-        (``singular_dip``, ``check_branches``) take them instead of a second and third batch of SVDs (on a chain of 32
-        loops each batch cost more than the integration). The ratios from the band are closed only where the Guard's
-        tests of them (singular_ratio, NEAR_SINGULAR, FALL, the dips; the smallest and a crossing's figure reported)
-        need it, elsewhere known in a bracket about 1e-4 wide that decides them the same way
-        (``compiled.singular.settled``); its bases made only at the ends of the steps not certified to hold no flip of
-        the sign (``compiled.singular.certified``)."""
+        ``null_space_turns``, the band's ``Brackets`` or None: ``square_spectra``) of the scaled Psi_q (``_scaled``)
+        of Psi_q (N, m, n) at the times t (``norms``, ``pattern``: ``_row_norms``, if known), kept for ``spectra``:
+        the run's later looks at the same output times (``singular_dip``, ``check_branches``) take them instead of a
+        second and third batch of SVDs (on a chain of 32 loops each batch cost more than the integration). The ratios
+        from the band are closed only where the Guard's tests of them (singular_ratio, NEAR_SINGULAR, FALL, the dips;
+        the smallest and a crossing's figure reported) need it, elsewhere known in a bracket (about 1e-4 wide, or
+        carried over a step by Weyl's inequality) that decides them the same way, the order of two neighbours worked
+        out where ``check_branches`` reads it (``smaller``; ``compiled.singular.settled``); its bases made only at
+        the ends of the steps not certified to hold no flip of the sign (``compiled.singular.certified``)."""
         if norms is None:
             norms, pattern = self._row_norms(jacobians)
         if jacobians.shape[1] == self.rank:  # independent rows: T and det [Psi_q; T^T], from the band where it pays
@@ -2100,13 +2116,11 @@ class Guard:
         else:  # redundant rows: the null space of rank r needs the SVD's V; det [Psi_q; T^T] is not defined
             _, s, vt = np.linalg.svd(scale_rows(jacobians, self._columns, norms))
             tangents = np.swapaxes(vt[:, self.rank :], 1, 2)
-            made = singular_ratios(s, self.rank), tangents, None, null_space_turns(tangents, None)
+            made = singular_ratios(s, self.rank), tangents, None, null_space_turns(tangents, None), None
         self._made = (np.array(t, dtype=float), made)
         return made
 
-    def spectra(
-        self, t: np.ndarray, jacobians: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]:
+    def spectra(self, t: np.ndarray, jacobians: np.ndarray) -> tuple:
         """``_spectra`` of Psi_q (N, m, n) at the output times t: those ``check_outputs`` made for the same times,
         else made here."""
         made = self.__dict__.get("_made")
@@ -2129,31 +2143,31 @@ class Guard:
         (``closest``, what the checks before saw) has nothing to judge."""
         if not self.judges_branches(t):
             return
-        ratios, _, signs, turns = self.spectra(t, jacobians)
+        ratios, _, signs, turns, brackets = self.spectra(t, jacobians)
         intervals = [(k - 1, k, k + 1) for k in 1 + np.flatnonzero(dips(ratios))]
         if signs is not None:  # det [Psi_q; T^T] defined (independent rows): its sign flips
             flips = (np.abs(turns) > ALIGNED) & (turns * signs[1:] * signs[:-1] < 0)
             for k in 1 + np.flatnonzero(flips):
                 if not any(a <= k - 1 and k <= b for a, _, b in intervals):  # not within a dip's interval
-                    intervals.append((k - 1, k - 1 if ratios[k - 1] <= ratios[k] else k, k))
+                    intervals.append((k - 1, smaller(ratios, brackets, k - 1, k), k))
         # a fall into (or rise out of) a configuration that stays singular, e.g. a parallelogram folded flat onto
         # itself, has no dip: a step over which the ratio changes a hundredfold below NEAR_SINGULAR is a crossing
         low, high = np.minimum(ratios[:-1], ratios[1:]), np.maximum(ratios[:-1], ratios[1:])
         for k in np.flatnonzero((low < NEAR_SINGULAR) & (low < FALL * high)):
             if not any(a <= k and k + 1 <= b for a, _, b in intervals):
-                intervals.append((k, k if ratios[k] <= ratios[k + 1] else k + 1, k + 1))
+                intervals.append((k, smaller(ratios, brackets, k, k + 1), k + 1))
         # a switch between two regular branches shows in the velocities of the step onto the other: every step next
         # to a singular position is judged too, but only a switch counts there
         near = np.flatnonzero((ratios[:-1] < NEAR_SINGULAR) | (ratios[1:] < NEAR_SINGULAR))
         near = near[self._possible_switches(t, qd, qdd, near)]  # the others are no switch: not judged
-        steps = [(k, k if ratios[k] <= ratios[k + 1] else k + 1, k + 1) for k in near]
+        steps = [(k, smaller(ratios, brackets, k, k + 1), k + 1) for k in near]
         for a, middle, b, crossing in sorted([(*i, True) for i in intervals] + [(*i, False) for i in steps]):
             self._judge_branch(t, q, qd, qdd, a, middle, b, float(ratios[middle]), crossing)
         # a singular position recorded step by step (``through``) between two output times at which no dip showed
         # (the output times too coarse for it): judged over the output interval that holds it
         for record in [c for c in self.crossings if "branch" not in c and t[0] < c["t"] < t[-1]]:
             k = int(np.searchsorted(t, record["t"]))  # t[k - 1] < t_c <= t[k]
-            middle = k - 1 if ratios[k - 1] <= ratios[k] else k
+            middle = smaller(ratios, brackets, k - 1, k)
             self._judge_branch(t, q, qd, qdd, k - 1, middle, k, float(ratios[middle]), True, record)
 
     def _possible_switches(self, t: np.ndarray, qd: np.ndarray, qdd: np.ndarray, steps: np.ndarray) -> np.ndarray:
@@ -2402,6 +2416,16 @@ def possible_switches(weights: np.ndarray, t: np.ndarray, qd: np.ndarray, qdd: n
     allowance = h * np.maximum(rates[i], rates[j])
     fastest = np.max(np.maximum(speeds[i], speeds[j]), axis=1, initial=0.0)
     return np.max(mismatch - allowance, axis=1, initial=-np.inf) > 0.5 * BRANCH_JUMP * fastest
+
+
+def smaller(ratios: np.ndarray, brackets, a: int, b: int) -> int:
+    """a if ratios[a] <= ratios[b], else b: the middle of a step ``check_branches`` judges (the time whose joints a
+    switch there names). From the figures, or where the band left the two in overlapping brackets
+    (``compiled.singular.Brackets``: a run that stops at singular positions), from the two closed there: the same
+    order as closed figures give."""
+    if brackets is not None:
+        return brackets.smaller(a, b)
+    return a if ratios[a] <= ratios[b] else b
 
 
 def dips(ratios: np.ndarray) -> np.ndarray:

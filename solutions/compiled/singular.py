@@ -36,6 +36,12 @@ matrix [Psi_q; 0] is a band whose half-widths kl, ku do not grow with the number
   before (``_bracketed_ratio``), and closes it only at the times where a test could go the other way within the
   bracket or whose figure is reported: on the loop chain 0-3 of 101 times; 2-3 tests a time where closing took 8-9
   tests and 14 solves. The verdicts are those of the closed figures, the figures reported the same to ~1e-14.
+  Many times need no test at all (a run that stops at singular positions): by Weyl's inequality each singular value
+  moves by at most |J_k - J_k-1|_2 over a step, a bound ``_scale`` makes anyway, so the time before's bracket,
+  widened by it (``_carried``: 1.5-2.2 times wide on the loop chain of 2-8 loops), holds the ratio; it is kept
+  where it still decides the tests (``_carries``: above the smallest so far, off the thresholds, no dip), on the
+  loop chain at 37-43 of 101 times from N = 2 to 4. Such a bracket overlaps its neighbours': their order, which
+  ``check_branches`` reads at the few steps it judges, is worked out there (``Brackets``).
 - null space and sign: with d unit rows E^T in the empty slots (``e_c`` for the d coordinates in which the null
   space of the time before is largest, the independent coordinates of coordinate partitioning, eq. 5.40), the
   square band A = [Psi_q; E^T] is factored by the banded LU with partial pivoting (LAPACK's dgbtf2 steps written
@@ -103,11 +109,12 @@ course models, thread CPU, bracketed / Jacobi: 2 x 3 to 5 x 7 1.3-3.7 times the 
 
 _vector, _ivector, _matrix = types.float64[::1], types.int64[::1], types.float64[:, ::1]
 _stack = types.float64[:, :, ::1]
+_PATTERN = (_ivector, _vector, _ivector, _ivector, _ivector)  # position, keys, starts, indices, slots
 _SPECTRA = types.Tuple((_vector, _stack, _vector, _vector, _stack, types.boolean[::1]))(
-    _stack, _vector, _matrix, _ivector, _vector, _ivector, _ivector, _ivector, _matrix, types.float64
+    _stack, _vector, _matrix, *_PATTERN, _matrix, types.float64, types.boolean, _vector
 )
 _AT = _vector(_stack, _vector, _matrix, _ivector, _vector, _ivector, _ivector, _ivector, _stack, _stack, _ivector)
-_SETTLED = types.boolean[::1](_vector, _vector, _vector, _vector, types.float64)
+_SETTLED = types.boolean[::1](_vector, _vector, _vector, _vector, types.float64, types.boolean)
 _DENSE = types.Tuple((_vector, _stack, _vector))(_stack, _vector, _matrix, types.boolean)
 _BRACKETED = types.Tuple((_vector, _stack, _vector, _vector))(_stack, _vector, _matrix, types.boolean, types.float64)
 _CLOSED = _vector(_stack, _vector, _matrix, _ivector)
@@ -155,8 +162,9 @@ def spectra(
     relative width about LOOSE (one Cholesky test a bound, ``_bracketed_ratio``), then closed to EXTREME_TOLERANCE
     only at the times where a test of the Guard could go the other way within it or whose figure it reports (the
     smallest, a dip), and the bases and signs made only at the first and last times and at both ends of each step
-    that ``certified`` leaves open (elsewhere NaN, and the signs carried over from the time before: ``_spectra``);
-    None: every ratio closed, every basis made, no step certified."""
+    that ``certified`` leaves open (elsewhere NaN, and the signs carried over from the time before: ``_spectra``),
+    and a fifth item, the ``Brackets`` whose order ``check_branches`` reads (None with ``ends``: every two
+    neighbours ordered in the pass); None: every ratio closed, every basis made, no step certified."""
     if columns is None:
         columns, norms = np.ones(scaled.shape[2]), np.ones(scaled.shape[:2])
         pattern = np.any(scaled != 0.0, axis=0)
@@ -183,23 +191,58 @@ def spectra(
         stored, slots = scaled.values, scaled.slots(rows, indices)
     arguments = (np.ascontiguousarray(stored), *scale, position, keys, starts, indices, slots)
     if settle is None:
-        ratios, bases, signs, _, _, certified = _spectra(*arguments, first, 0.0)
+        ratios, bases, signs, _, _, certified = _spectra(*arguments, first, 0.0, False, np.empty(0))
         return ratios, bases, signs, certified
-    return _settled_spectra(*arguments, first, *_tests(settle))
+    tests = _tests(settle)
+    ratios, bases, signs, certified, lower, vectors = _settled_spectra(*arguments, first, *tests)
+    brackets = None if tests[2] else Brackets(ratios, lower, arguments, bases, vectors)
+    return ratios, bases, signs, certified, brackets
 
 
 @njit(cache=True, nogil=True)
 def _settled_spectra(jacobians, columns, norms, position, keys, starts, indices, slots, first, thresholds, fall, ends):
-    """``_spectra`` with each ratio in a bracket LOOSE wide, then closed at the times the Guard's tests (thresholds,
-    fall, ends: ``_tests``) need (``_unsettled``), each from its own eigenvectors (``_ratios_at``): (ratios, bases,
-    signs, certified steps), in one compiled call (from Python, the three calls and the tests' arrays between them
-    cost ~0.03 ms a history)."""
+    """``_spectra`` with each ratio in a bracket LOOSE wide or (without ``ends``) one carried over a step where that
+    decides the Guard's tests (``_carried``), then closed at the times those tests (thresholds, fall, ends:
+    ``_tests``) need (``_unsettled``), each from its own eigenvectors (``_ratios_at``): (ratios, bases, signs,
+    certified steps, the ratios' lower ends, each time's eigenvectors: ``Brackets``), in one compiled call (from
+    Python, the three calls and the tests' arrays between them cost ~0.03 ms a history)."""
     arguments = (jacobians, columns, norms, position, keys, starts, indices, slots)
-    ratios, bases, signs, lower, vectors, certified = _spectra(*arguments, first, LOOSE)
-    times = _unsettled(lower, ratios, signs, thresholds, fall, ends)
+    carry = thresholds if not ends else np.empty(0)
+    ratios, bases, signs, lower, vectors, certified = _spectra(*arguments, first, LOOSE, not ends, carry)
+    times = _unsettled(lower, ratios, signs, thresholds, fall, ends, ends)
     if times.size:  # closed there, each from its own vectors
         ratios[times] = _ratios_at(*arguments, bases, vectors, times)
-    return ratios, bases, signs, certified
+        lower[times] = ratios[times]
+    return ratios, bases, signs, certified, lower, vectors
+
+
+class Brackets:
+    """The band's ratios as ``spectra`` leaves them under the Guard's tests of a run that stops at singular
+    positions (``settle`` without ``ends``): each closed or in a bracket [lower, upper] (LOOSE wide, or carried over
+    a step up to CARRIED wide: ``_carried``) that decides every test of ``settled`` but one (``adjacent`` False):
+    which of two neighbours is the smaller, which ``dynamics.Guard.check_branches`` reads at the steps it judges
+    alone (the middle of a step next to a singular position, whose joints a switch found there names; ``smaller``).
+    Where their brackets overlap, ``smaller`` closes both as ``_settled_spectra`` closes a ratio (``_ratios_at``,
+    from the eigenvectors their brackets left) and writes the figures into ``upper``, the ratios' array the Guard
+    holds: the order of the closed figures, as when every overlapping pair was closed in the pass (i25-guard9), at
+    the few steps a run reads it, not at every carried bracket (each overlaps its neighbours)."""
+
+    def __init__(self, upper, lower, arguments, bases, vectors):
+        self.upper, self.lower = upper, lower
+        self._arguments, self._bases, self._vectors = arguments, bases, vectors
+
+    def smaller(self, a: int, b: int) -> int:
+        """a if the ratio at time a is at most that at b, else b, as their closed figures compare. Where the
+        brackets are apart, their figures (upper ends) compare so: each bracket holds its closed figure
+        (``_widened``), so upper[a] < lower[b] gives closed_a <= upper[a] < lower[b] <= closed_b and upper[a] <=
+        upper[b]."""
+        upper, lower = self.upper, self.lower
+        if not (upper[a] < lower[b] or upper[b] < lower[a]):  # overlapping: both closed
+            times = np.array([k for k in (a, b) if lower[k] < upper[k]], dtype=np.int64)
+            if times.size:
+                upper[times] = _ratios_at(*self._arguments, self._bases, self._vectors, times)
+                lower[times] = upper[times]
+        return a if upper[a] <= upper[b] else b
 
 
 def _tests(settle: tuple) -> tuple[np.ndarray, float, bool]:
@@ -210,11 +253,12 @@ def _tests(settle: tuple) -> tuple[np.ndarray, float, bool]:
 
 
 @njit(cache=True, nogil=True)
-def _unsettled(lower, ratios, signs, thresholds, fall, ends):
+def _unsettled(lower, ratios, signs, thresholds, fall, ends, adjacent):
     """The output times (int64) whose ratios, known in brackets [lower, ratios], the Guard's tests (``thresholds``,
-    ``fall``: ``_tests``) need closed (``settled``); with ``ends``, the first two and last two times too, which a
-    run ``through`` singular positions compares with the batches before and after (``Guard._record``)."""
-    unsettled = ~settled(lower, ratios, signs, thresholds, fall)
+    ``fall``: ``_tests``; ``adjacent``: every two neighbours ordered) need closed (``settled``); with ``ends``, the
+    first two and last two times too, which a run ``through`` singular positions compares with the batches before
+    and after (``Guard._record``)."""
+    unsettled = ~settled(lower, ratios, signs, thresholds, fall, adjacent)
     N = lower.size
     for k in range(N):
         if ends and (k < 2 or k >= N - 2) and lower[k] < ratios[k]:
@@ -223,15 +267,16 @@ def _unsettled(lower, ratios, signs, thresholds, fall, ends):
 
 
 @njit(_SETTLED, cache=True, nogil=True)
-def settled(lower, upper, signs, thresholds, fall):
+def settled(lower, upper, signs, thresholds, fall, adjacent):
     """Where a ratio known only in its bracket [lower, upper] (N,) (``upper`` the figure) gives every test of the
     Guard the verdict its exact value gives, and is no figure the Guard reports (``dynamics.Guard``: ``_quiet``,
     ``_judge``, ``check_branches``, ``diagnostics.passes_zero``): True where the bracket
     - lies on one side of each of the ``thresholds`` (NEAR_SINGULAR, the run's singular_ratio), and above the
       smallest (the Guard stops below singular_ratio and reports that figure);
     - holds no candidate for the smallest ratio of the run (``closest``, reported): its lower end above every upper;
-    - does not overlap its neighbours' (each comparison of two ratios of adjacent times decided, ``fall`` times
-      the other's too: the falls of ``check_branches``);
+    - does not overlap its neighbours' ``fall`` times (the falls of ``check_branches`` decided) nor, if
+      ``adjacent``, its neighbours' own (each comparison of two ratios of adjacent times decided: a run ``through``
+      singular positions reads any of them; else ``Brackets.smaller`` decides the few ``check_branches`` reads);
     - is no possible dip (``passes_zero`` of it and its neighbours decided false; a dip's three are closed: its
       figure is reported), no possible fall's low end (below NEAR_SINGULAR, ``fall`` times its neighbour's upper
       end or less: ``check_branches`` reports it as the crossing's figure) nor next to a flip of the sign of
@@ -257,7 +302,7 @@ def settled(lower, upper, signs, thresholds, fall):
             continue
         for a, b in ((k, k + 1), (k + 1, k)):
             for factor in (1.0, fall):  # ratios[a] <= factor ratios[b]: decided unless the brackets overlap
-                if lower[a] <= factor * upper[b] and factor * lower[b] <= upper[a]:
+                if (adjacent or factor != 1.0) and lower[a] <= factor * upper[b] and factor * lower[b] <= upper[a]:
                     unsettled[k] = unsettled[k + 1] = True
             if lower[a] < near and lower[a] <= fall * upper[b]:  # a possible fall: its low end's figure is reported
                 unsettled[a] = True
@@ -428,6 +473,24 @@ def row_norms(jacobians, columns):
                 total += value * value
             norms[k, r] = np.sqrt(total)
     return norms
+
+
+@njit(types.int64(_matrix, _matrix, types.float64), cache=True, nogil=True)
+def drifted(psi, norms, limit):
+    """The first output time at which a row's drift |Psi_i| / |grad Psi_i| (``psi`` (N, m), ``norms`` (N, m):
+    ``row_norms``, 1 where a row's is 0) is not within ``limit``, a NaN counting, or -1: ``dynamics.Guard.
+    check_outputs``' drift test in one pass, where numpy's quotient, maximum over the rows and test make five
+    arrays (70 us on the loop chain of 4 loops). The same verdict: numpy's max(0, d_1, ..., d_m) <= limit (the
+    maximum propagates a NaN) holds exactly when 0 <= limit and d_r <= limit for every r, each d_r the same
+    quotient."""
+    for k in range(psi.shape[0]):
+        if not 0.0 <= limit:
+            return k
+        for r in range(psi.shape[1]):
+            norm = norms[k, r] if norms[k, r] > 0.0 else 1.0
+            if not abs(psi[k, r]) / norm <= limit:
+                return k
+    return -1
 
 
 @njit(types.boolean[:, ::1](_stack), cache=True, nogil=True)
@@ -686,6 +749,17 @@ LOOSE = 1e-4
 """Relative width of the bracket of each extreme eigenvalue of Psi_q Psi_q^T that ``_bracketed_ratio`` first tries
 (one Cholesky test each): the ratios of adjacent output times differ by more (loop chain: the two times' brackets
 overlap at fewer than one time in 20, ``benchmarks/guard_cost.py``), so most verdicts are decided there."""
+WIDE = 1e-2
+"""Relative width of a tested bracket where neighbours need not be ordered (``_spectra`` with ``carry``) next after
+a carried one (whose eigenvectors, two steps old, would take a sharpening test) away from the smallest ratio so far
+(``_away``): wide enough for every test of ``settled`` but the smallest (thresholds, dips
+2x, falls 100x), and no sharpening test (``_top_sharpen``) after the first; nearer the smallest, LOOSE (a bracket
+WIDE wide there makes a candidate for the smallest, closed: on the loop chain, which starts from rest at its
+smallest ratio, the first 8 times)."""
+CARRIED = 2.2
+"""Widest a bracket carried over a step by Weyl's inequality may be (upper / lower end, ``_carried``) for ``_spectra``
+to keep it instead of a bracket of its own; and it must decide the Guard's tests as far as the times so far tell
+(``_carries``)."""
 _ROUNDS = 60
 STEP = 1e-5
 GUESS = 1e-3
@@ -1105,6 +1179,49 @@ def _widened(figure, bound):
 
 
 @njit(cache=True, nogil=True)
+def _carried(upper, lower, moved):
+    """(upper, lower) ends of the ratio sigma_m / sigma_1 of the scaled J_k from those of J_k-1 and ``moved``, a bound
+    of |J_k - J_k-1|_2 (``_scale``). Weyl's inequality: each singular value moves by at most delta = |J_k - J_k-1|_2,
+    so with x = delta / sigma_1(J_k-1) <= delta (sigma_1 >= 1: rows of unit length),
+    r_k >= (sigma_m - delta) / (sigma_1 + delta) = (r - x) / (1 + x) >= (lower - delta) / (1 + delta) and r_k <=
+    (r + x) / (1 - x) <= (upper + delta) / (1 - delta) (the first decreasing, the second increasing in x); delta
+    and the ends widened by 1e-12 relative for the rounding of ``moved`` (~m eps) and of these operations, as
+    ``_widened``: the carried bracket holds the exact ratio and the closed figure (to 1e-13). (inf, 0) where delta
+    >= 1 or the lower end is not positive: no bound."""
+    delta = moved * (1.0 + 1e-12)
+    if not (delta < 1.0 and lower > delta):
+        return np.inf, 0.0
+    return (upper + delta) / (1.0 - delta) * (1.0 + 1e-12), (lower - delta) / (1.0 + delta) * (1.0 - 1e-12)
+
+
+@njit(cache=True, nogil=True)
+def _away(before, last, smallest, thresholds):
+    """Whether the ratio at the next time is likely more than 5 % above the smallest so far and 5 % off each
+    threshold: the last figure plus or minus twice its last step's change is (``WIDE``'s choice, of cost alone: a
+    WIDE bracket that reaches the smallest or a threshold is closed by ``settled``)."""
+    change = 2.0 * abs(last - before)
+    for value in thresholds:
+        if last - change < 1.05 * value and last + change > 0.95 * value:
+            return False
+    return last - change > 1.05 * smallest
+
+
+@njit(cache=True, nogil=True)
+def _carries(upper, lower, before_upper, before_lower, smallest, thresholds):
+    """Whether a carried bracket [lower, upper] (``_carried``) is kept: at most CARRIED wide, above the least upper
+    end so far (no candidate for the smallest: ``settled`` would close it), on one side of each threshold and no
+    dip of its own nor of the time before (a dip's middle is under half its neighbours: 2 lower above the time
+    before's upper end, upper under the time before's lower end times 1.6). A choice of cost alone: any bracket
+    that holds the ratio gives the verdicts, ``settled`` closes the times whose tests it leaves open."""
+    if not (upper <= CARRIED * lower and lower > smallest):
+        return False
+    for value in thresholds:
+        if lower < value <= upper:
+            return False
+    return 2.0 * lower > 1.25 * before_upper and upper < 1.6 * before_lower
+
+
+@njit(cache=True, nogil=True)
 def _extrapolate(x, before, scratch):
     """x <- 2 x - x_before, unit, and x_before <- x (the eigenvector of the last time; ``before`` of the time before
     it): a linear extrapolation in time of the vectors ``_bracketed_ratio`` starts from, whose error is then
@@ -1204,13 +1321,15 @@ def _scale(jacobians, k, columns, norms, starts, indices, slots, J, previous, su
 
 
 @njit(_SPECTRA, cache=True, nogil=True)
-def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, first, loose):
+def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, first, loose, carry, thresholds):
     """(ratios, bases, signs, the ratios' lower bounds, eigenvectors, certified steps) at every time; ``loose`` > 0:
     the ratios in brackets of that relative width where one test a bound gives them (``_bracketed_ratio``), else
-    closed; and the basis and sign made only where a step needs them (not ``certified``: both its ends), at the
-    first and last times (the Guard compares them with the batches before and after), elsewhere bases NaN and the
-    sign the time before's (the sign of a basis carried along continuously, by ``certified``'s proof). ``loose`` = 0:
-    every basis made (as closed, no step certified). Entry p of the CSR pattern (row r, column indices[p]) is
+    closed; with ``carry``, a time's bracket carried over its step from the time before's where that decides the
+    Guard's tests (``thresholds``: ``_carries``), no eigenvalue test there (its eigenvectors the time before's);
+    and the basis and sign made only where a step needs them (not ``certified``: both its ends), at the first and
+    last times (the Guard compares them with the batches before and after), elsewhere bases NaN and the sign the
+    time before's (the sign of a basis carried along continuously, by ``certified``'s proof). ``loose`` = 0: every
+    basis made (as closed, no step certified). Entry p of the CSR pattern (row r, column indices[p]) is
     jacobians[k, r, slots[p]]: its column (slots = indices), or its slot among a blocked history's blocks
     (``history.BlockedJacobians``)."""
     N, m = jacobians.shape[:2]
@@ -1232,20 +1351,31 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
     spread = np.full(2, 0.5)  # how far the time before's Rayleigh quotients were off (``_bracketed_ratio``)
     earlier = np.empty((2, m))  # the eigenvectors of the time before the last (``_extrapolate``)
     J, previous = np.zeros((m, n)), np.zeros((m, n))  # this time's scaled Psi_q and the time before's
+    tested = np.full(2, -1)  # the times of the last two brackets of their own (``_extrapolate``'s spacing)
+    smallest = np.inf  # the least upper end so far
     for k in range(N):
         moved = _scale(jacobians, k, columns, norms, starts, indices, slots, J, previous, y)
         ratios[k], lower[k] = np.nan, np.nan
-        if loose > 0.0:
-            if k >= 2 and lower[k - 1] < ratios[k - 1] and lower[k - 2] < ratios[k - 2]:  # both bracketed
+        carried = k >= 2 and np.isfinite(lower[k - 1]) and not tested[1] == k - 1  # the time before's carried
+        if carry and k >= 1 and np.isfinite(lower[k - 1]):
+            upper, bound = _carried(ratios[k - 1], lower[k - 1], moved)
+            if _carries(upper, bound, ratios[k - 1], lower[k - 1], smallest, thresholds):
+                ratios[k], lower[k] = upper, bound
+        if loose > 0.0 and not np.isfinite(lower[k]):
+            spaced = tested[0] >= 0 and k - tested[1] == tested[1] - tested[0]  # evenly: a linear extrapolation
+            if spaced and lower[tested[1]] < ratios[tested[1]] and lower[tested[0]] < ratios[tested[0]]:
                 _extrapolate(low, earlier[0], y)
                 _extrapolate(high, earlier[1], y)
             else:
                 earlier[0, :], earlier[1, :] = low, high
+            after = carried and _away(ratios[k - 2], ratios[k - 1], smallest, thresholds)  # after a carried one
+            width = WIDE if after else loose
             figure, bound = _bracketed_ratio(
-                J, rows, starts, indices, products, G, factors, low, high, y, loose, spread
+                J, rows, starts, indices, products, G, factors, low, high, y, width, spread
             )
             if np.isfinite(bound):  # widened by G's rounding: it holds the closed figure too
                 ratios[k], lower[k] = _widened(figure, bound)
+            tested[0], tested[1] = tested[1], k
         if not np.isfinite(lower[k]):
             ratios[k] = _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y)
             lower[k] = ratios[k]
@@ -1255,6 +1385,7 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
             ratios[k] = _ratio(J, _layout(keys, position, chosen), m, starts, indices, position, chosen)
             lower[k] = ratios[k]
         vectors[k, 0], vectors[k, 1] = low, high
+        smallest = min(smallest, ratios[k])
         if k >= 1:
             steps[k - 1] = loose > 0.0 and certified(moved, lower[k - 1])
         open_step = k == 0 or not steps[k - 1]  # the step to t_k needs its ends' bases
@@ -1337,7 +1468,7 @@ def dense_spectra(
     ratios, tangents, signs, lower = _dense_bracketed(jacobians, *scale, bool(bases), LOOSE)
     if np.array_equal(lower, ratios):  # every ratio closed in the pass
         return ratios, tangents, signs
-    times = _unsettled(lower, ratios, signs, *_tests(settle))
+    times = _unsettled(lower, ratios, signs, *_tests(settle), True)
     if times.size:
         ratios[times] = _closed_ratios(jacobians, *scale, times)
     return ratios, tangents, signs
@@ -1570,10 +1701,12 @@ def _closed_ratios(jacobians, columns, norms, times):
 
 __all__ = [
     "WIDEST",
+    "Brackets",
     "WIDEST_MID",
     "WIDEST_SQUARE",
     "band_order",
     "dense_spectra",
+    "drifted",
     "history_norms",
     "row_norms",
     "settled",

@@ -269,7 +269,7 @@ def test_mid_size_psi_q_takes_the_band_with_numpys_ratio_basis_and_sign(loops, m
     N, m, n = jacobians.shape
     assert dynamics.DENSE_LARGEST < m < n < dynamics.BAND_SMALLEST
     norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
-    ratios, bases, signs, _ = dynamics.square_spectra(jacobians, guard._columns, norms, None)
+    ratios, bases, signs, _, _ = dynamics.square_spectra(jacobians, guard._columns, norms, None)
     assert taken  # the band, not numpy's dense route
     scaled = np.array([guard._scaled(J) for J in jacobians])
     s = np.linalg.svd(scaled, compute_uv=False)
@@ -315,7 +315,8 @@ def test_settled_ratios_decide_as_numpys_svd_through_a_singular_position(swing, 
     monkeypatch.setattr(singular, "spectra", lambda *args: taken.append(1) or spectra(*args))
     norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
     settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)
-    ratios, bases, signs, turns = dynamics.square_spectra(jacobians, guard._columns, norms, None, True, None, settle)
+    ratios, bases, signs, turns, brackets = dynamics.square_spectra(jacobians, guard._columns, norms, None, True, None,
+                                                                     settle)  # fmt: skip
     assert taken  # the band
     scaled = np.array([guard._scaled(J) for J in jacobians])
     s = np.linalg.svd(scaled, compute_uv=False)
@@ -327,7 +328,8 @@ def test_settled_ratios_decide_as_numpys_svd_through_a_singular_position(swing, 
     np.testing.assert_allclose(ratios[dip - 1 : dip + 2], exact[dip - 1 : dip + 2], rtol=1e-10)
     np.testing.assert_array_equal(dynamics.dips(ratios), dynamics.dips(exact))
     assert dynamics.dips(exact)[dip - 1]  # the crossing is seen
-    np.testing.assert_array_equal(ratios[:-1] <= ratios[1:], exact[:-1] <= exact[1:])
+    ordered = [dynamics.smaller(ratios, brackets, k, k + 1) == k for k in range(len(t) - 1)]  # as check_branches
+    np.testing.assert_array_equal(ordered, exact[:-1] <= exact[1:])
     falls = [np.minimum(r[:-1], r[1:]) < dynamics.FALL * np.maximum(r[:-1], r[1:]) for r in (ratios, exact)]
     np.testing.assert_array_equal(*falls)
     made = np.all(np.isfinite(bases), axis=(1, 2))  # the bases made: at the ends of the steps not certified
@@ -383,7 +385,7 @@ def test_small_settled_ratios_decide_as_numpys_svd_through_a_singular_position(s
     assert jacobians.shape[1:] == (8, 9) and jacobians.shape[1] <= dynamics.DENSE_LARGEST
     norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
     settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)
-    ratios, bases, signs, _ = dynamics.square_spectra(jacobians, guard._columns, norms, None, True, None, settle)
+    ratios, bases, signs, _, _ = dynamics.square_spectra(jacobians, guard._columns, norms, None, True, None, settle)
     closed = singular.dense_spectra(jacobians, guard._columns, norms)
     dip = int(np.argmin(exact))
     assert exact[dip] < 1e-2 < exact[0]
@@ -519,7 +521,7 @@ def test_a_fall_s_figure_is_closed():
     lower = upper * (1.0 - singular.LOOSE)
     lower[2] = upper[2]  # the smallest, closed
     thresholds = np.array([1e-8, dynamics.NEAR_SINGULAR])
-    done = singular.settled(lower, upper, np.ones(4), thresholds, dynamics.FALL)
+    done = singular.settled(lower, upper, np.ones(4), thresholds, dynamics.FALL, True)
     assert not done[1]  # the fall's low end: its figure is reported
     assert done[0] and done[3]  # the fall's high end and a time that neither falls nor dips: brackets
     assert upper[1] < dynamics.FALL * upper[0] and not dynamics.dips(upper)[0]  # a fall, no dip, not the smallest
@@ -614,3 +616,57 @@ def test_the_brackets_side_by_side_are_the_brackets_one_after_the_other():
         assert np.array_equal(figures, expected, equal_nan=True)
         for a, b in zip(found, given, strict=True):
             assert np.array_equal(a, b)
+
+
+def test_a_carried_bracket_holds_the_ratio_and_smaller_orders_neighbours_as_numpy():
+    """Over small steps (the chain of MID loops swung by 0.3 degrees a time) the band carries most times' brackets
+    over their step by Weyl's inequality (``singular._carried``: no eigenvalue test there), each holding numpy's SVD
+    ratio; the Guard's tests decide as numpy's figures (thresholds, dips), the smallest is closed, and the order of
+    two neighbours, which the carried brackets leave open, is numpy's where ``check_branches`` asks it
+    (``dynamics.smaller``, ``singular.Brackets``: the two closed there). Fails on the code before: no carried
+    bracket, no ``Brackets``."""
+    angles = np.linspace(60.0, 30.0, 101)  # away from flat: the ratio grows, each time above the smallest before
+    system = build_system(load_model(loop_chain(MID)))[0]
+    qs = np.array([build_system(load_model(loop_chain(MID, math.radians(a))))[1] for a in angles])
+    jacobians = np.array([system.jacobian(q, 0.0) for q in qs])
+    guard = Guard(system, qs[0], 1e-3, 1e-8)
+    norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
+    settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)
+    ratios, _, _, _, brackets = dynamics.square_spectra(jacobians, guard._columns, norms, None, True, None, settle)
+    s = np.linalg.svd(np.array([guard._scaled(J) for J in jacobians]), compute_uv=False)
+    exact = s[:, -1] / s[:, 0]
+    lower = brackets.lower.copy()
+    carried = ratios > 1.01 * lower  # wider than any bracket of its own (LOOSE, a sharpened one)
+    assert carried.sum() >= 20
+    assert np.all(lower * (1.0 - 1e-12) <= exact) and np.all(exact <= ratios * (1.0 + 1e-12))
+    k = int(np.argmin(exact))
+    assert ratios[k] == lower[k] and ratios[k] == pytest.approx(exact[k], rel=1e-12)  # the smallest: closed
+    np.testing.assert_array_equal(dynamics.dips(ratios), dynamics.dips(exact))
+    assert np.all(ratios < dynamics.NEAR_SINGULAR) and np.all(exact < dynamics.NEAR_SINGULAR)
+    apart = np.abs(exact[1:] - exact[:-1]) > 1e-10 * exact[1:]  # numpy's order is the exact one there
+    for a in np.flatnonzero(apart):
+        assert dynamics.smaller(ratios, brackets, a, a + 1) == (a if exact[a] <= exact[a + 1] else a + 1)
+    asked = brackets.lower == ratios  # closed where their order was asked (every pair here): numpy's figures
+    assert asked[carried].all()
+    np.testing.assert_allclose(ratios[asked], exact[asked], rtol=1e-12)
+
+
+def test_the_compiled_drift_test_finds_numpys_first_drifted_time():
+    """``singular.drifted`` (the compiled runs' drift test) names the first time numpy's test names: over the limit,
+    a NaN, a zero row norm (taken as 1), exactly at the limit (within it), none at all (-1)."""
+    rng = np.random.default_rng(5)
+    psi, norms = rng.uniform(-1e-4, 1e-4, (12, 5)), rng.uniform(0.5, 2.0, (12, 5))
+    norms[2, 1] = 0.0
+
+    def numpy_test(psi, norms, limit):
+        bad = ~(np.max(np.abs(psi) / np.where(norms > 0, norms, 1.0), axis=1, initial=0.0) <= limit)
+        return int(np.argmax(bad)) if np.any(bad) else -1
+
+    cases = [(psi, 1e-3)]
+    for k, r, value in ((7, 3, 5e-3), (4, 0, np.nan), (2, 1, 2e-3), (9, 4, 1e-3 * norms[9, 4])):
+        changed = psi.copy()
+        changed[k, r] = value
+        cases.append((changed, 1e-3))
+    for case, limit in cases:
+        assert singular.drifted(case, norms, limit) == numpy_test(case, norms, limit)
+    assert singular.drifted(psi, norms, 1e-3) == -1 and singular.drifted(cases[1][0], norms, 1e-3) == 7
