@@ -1743,7 +1743,8 @@ def choose_method(
     reasons = []
     if formulation == "auto":
         not_a_tree = "formulation options given" if options else open_tree(system) if trees else "masses given"
-        redundant = (rank or rank_at(system, q)).n_redundant
+        report = rank or rank_at(system, q)  # None without constraints (free bodies): nothing redundant
+        redundant = report is not None and report.n_redundant
         if not_a_tree is None:
             formulation = "joint-coordinates"
             reasons.append("joint-coordinates: an open tree of joints (minimal coordinates)")
