@@ -142,7 +142,9 @@ def test_reactions_of_every_joint_kind_at_any_state(name):
     """The batched reactions (every joint at once) against the numpy engine's ``joint_reactions`` on planar models
     with motors (rows with Psi_t), revolute-prismatic, gear and prismatic pairs (two elements), and spatial ones
     with every joint kind and motors, joints to ground on either side: the reactions are algebraic in (q, lambda),
-    so random states and multipliers test every term."""
+    so random states and multipliers test every term. Each column is a contiguous (N,) array: the compiled loops
+    write a column a row of one (columns, N) array, each body's cos and sin (planar) or A(p) and G(p) (spatial)
+    taken once an output time however many joints it carries (six_bar: bodies with two and three joint points)."""
     model = yaml.safe_load(Path(f"course/models/{name}.yaml").read_text())
     for joint in model["model"]["joints"][::2]:  # every other joint written the other way round: ground as body2
         joint["body1"], joint["body2"] = joint["body2"], joint["body1"]
@@ -160,29 +162,7 @@ def test_reactions_of_every_joint_kind_at_any_state(name):
     assert list(got) == list(expected)
     for key, value in expected.items():
         assert np.max(np.abs(got[key] - value)) <= 1e-12 * max(1.0, float(np.max(np.abs(value)))), key
-
-
-@pytest.mark.parametrize("name", ["six_bar", "spatial_slider_crank"])
-def test_the_compiled_reaction_columns_are_rows_of_one_array_in_the_numpy_order(name):
-    """The compiled reactions are written a result column a row of one (columns, N) array, each body's cos and sin
-    (planar) or A(p) and G(p) (spatial) taken once an output time however many joints it carries: the columns come
-    in ``joint_reactions``' order, each a contiguous (N,) array (no strided view of an (N, joints, 3) array), with
-    the numbers of the numpy functions (six_bar: bodies carrying two and three joint points)."""
-    system, q0, _ = build_system(load_model(f"course/models/{name}.yaml"))
-    rng = np.random.default_rng(5)
-    t = np.linspace(0.0, 0.5, 7)
-    q = q0 + 0.3 * rng.normal(size=(t.size, q0.size))
-    lam = rng.normal(size=(t.size, system.n_constraints))
-    if system.model.dimension == 3:
-        bodies = q.reshape(t.size, -1, 7)
-        bodies[..., 3:] /= np.linalg.norm(bodies[..., 3:], axis=2, keepdims=True)
-    jac = np.stack([system.jacobian(q[k], t[k]) for k in range(t.size)])
-    expected = joint_reactions(system, q, lam, t)
-    got = history.joint_reactions(system, q, lam, jac)
-    assert list(got) == list(expected)
-    for key, value in got.items():
-        assert value.shape == (t.size,) and value.flags.c_contiguous, key
-        assert np.max(np.abs(value - expected[key])) <= 1e-12 * max(1.0, float(np.max(np.abs(expected[key])))), key
+        assert got[key].shape == (t.size,) and got[key].flags.c_contiguous, key
 
 
 def _verdict(check):
