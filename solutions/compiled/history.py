@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..output_history import axes, planar_joints, spatial_columns
+from ..output_history import axes, planar_joints
 
 
 def constraint_arrays(module, scene, times: np.ndarray, Y: np.ndarray, columns: np.ndarray | None = None) -> tuple:
@@ -213,12 +213,14 @@ def _element_columns(system) -> np.ndarray | None:
 
 def _planar_layout(system) -> tuple:
     """(joint names, the rows of all joints in joint order, each joint's first row among them, its two bodies (i, j),
-    the body carrying its point and the point in that body), as ``history_kernels.planar_reactions`` takes them."""
+    the body carrying its point and the point in that body, the bodies that carry one), as
+    ``history_kernels.planar_reactions`` takes them."""
     names, rows, sides, carriers, points = planar_joints(system)
     starts = np.cumsum([0, *[len(r) for r in rows[:-1]]])  # each joint's first row in the rows of all
     i, j = (np.ascontiguousarray(side, dtype=np.int64) for side in np.array(sides, dtype=np.int64).reshape(-1, 2).T)
-    layout = (np.concatenate(rows).astype(np.int64), starts.astype(np.int64), i, j, np.array(carriers, np.int64))
-    return names, (*layout, np.asarray(points, dtype=float).reshape(-1, 2))
+    carrier = np.array(carriers, np.int64)
+    layout = (np.concatenate(rows).astype(np.int64), starts.astype(np.int64), i, j, carrier)
+    return names, (*layout, np.asarray(points, dtype=float).reshape(-1, 2), np.unique(carrier[carrier >= 0]))
 
 
 def _histories(system, q: np.ndarray, lam: np.ndarray, jac, rows: np.ndarray, reported, reported_slots) -> tuple:
@@ -284,14 +286,10 @@ def planar_reactions(system, q: np.ndarray, lam: np.ndarray, jac) -> dict[str, n
     if not system.elements:  # free bodies: no joint, no reaction
         return {}
     names, arrays = layout(system, _planar_layout)
-    N = q.shape[0]
-    F, M = np.empty((N, len(names), 2)), np.empty((N, len(names)))
+    out = np.empty((3 * len(names), q.shape[0]))  # a column a row: Fx, Fy, Mz joint after joint
     histories = _histories(system, q, lam, jac, arrays[0], _planar_reported, _planar_slots)
-    history_kernels.planar_reactions(*histories, *arrays, F, M)
-    columns = []
-    for k in range(len(names)):
-        columns += [F[:, k, 0], F[:, k, 1], M[:, k]]
-    return dict(zip(layout(system, _planar_labels), columns, strict=True))
+    history_kernels.planar_reactions(*histories, *arrays, out)
+    return dict(zip(layout(system, _planar_labels), out, strict=True))
 
 
 def _planar_labels(system) -> list[str]:
@@ -305,7 +303,8 @@ def _spatial_layout(system) -> tuple:
     """(element names, each element's place among those with joint frames or -1, and the arrays
     ``history_kernels.spatial_reactions`` takes: the rows of all elements (the Euler parameters' normalization
     left out), each element's first row among them, its bodies (i, j), the joint point in body j, the frames' axes
-    as columns, each element's place among the framed ones)."""
+    as columns, each element's place among the framed ones, the bodies whose A(p) or G(p) it reads, each element's
+    first result column)."""
     from ..spatial.joints import EulerNormalization, Joint
 
     every_row = np.arange(system.n_constraints)
@@ -324,7 +323,10 @@ def _spatial_layout(system) -> tuple:
     place = np.full(len(elements), -1, dtype=np.int64)
     place[joints] = np.arange(joints.size)
     names = [e.name for _, e in elements]
-    return names, place, (np.concatenate(rows).astype(np.int64), starts, i, j, offsets, frames, place)
+    turned = np.unique(np.concatenate([j[j >= 0], np.where(j >= 0, j, i)]))  # A(p_j) and G(p) of the reported body
+    columns = np.cumsum([0, *[12 if f else 6 for f in framed[:-1]]]).astype(np.int64)  # each element's first column
+    arrays = (np.concatenate(rows).astype(np.int64), starts, i, j, offsets, frames, place, turned, columns)
+    return names, place, arrays
 
 
 def spatial_reactions(system, q: np.ndarray, lam: np.ndarray, jac) -> dict[str, np.ndarray]:
@@ -338,13 +340,24 @@ def spatial_reactions(system, q: np.ndarray, lam: np.ndarray, jac) -> dict[str, 
 
     if all(isinstance(e, EulerNormalization) for e in system.elements):  # free bodies: no joint, no reaction
         return {}
-    names, place, arrays = layout(system, _spatial_layout)
-    N, framed = q.shape[0], int(np.count_nonzero(place >= 0))
-    F, M = np.empty((N, len(names), 3)), np.empty((N, len(names), 3))
-    F_joint, M_joint = np.empty((N, framed, 3)), np.empty((N, framed, 3))
+    _, _, arrays = layout(system, _spatial_layout)
+    labels = layout(system, _spatial_labels)
+    out = np.empty((len(labels), q.shape[0]))  # a column a row, in ``output_history.spatial_columns``' order
     histories = _histories(system, q, lam, jac, arrays[0], _spatial_reported, _spatial_slots)
-    history_kernels.spatial_reactions(*histories, *arrays, F, M, F_joint, M_joint)
-    return spatial_columns(names, F, M, F_joint, M_joint, place)
+    history_kernels.spatial_reactions(*histories, *arrays, out)
+    return dict(zip(labels, out, strict=True))
+
+
+def _spatial_labels(system) -> list[str]:
+    """The spatial reaction columns' names in ``output_history.spatial_columns``' order (each element's F and M,
+    then where it has joint frames F and M in the joint frame, axis by axis), made once per system (``layout``)."""
+    names, place, _ = layout(system, _spatial_layout)
+    labels = []
+    for name, framed in zip(names, place, strict=True):
+        labels += [f"{name}.{part}{axis}" for part in "FM" for axis in "xyz"]
+        if framed >= 0:
+            labels += [f"{name}.{part}{axis}_joint" for axis in "xyz" for part in "FM"]
+    return labels
 
 
 def joint_reactions(system, q: np.ndarray, lam: np.ndarray, jac) -> dict[str, np.ndarray]:

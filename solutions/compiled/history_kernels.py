@@ -123,26 +123,28 @@ def _joint_force(jac, lam, t, rows, first, last, slots, size, g):
         g[c] = total
 
 
-@eager(_matrix, _matrix, _cube, _ivector, _ivector, _ivector, _ivector, _ivector, _ivector, _matrix, _cube, _matrix)
-def planar_reactions(q, lam, jac, slots, rows, starts, i, j, carrier, s, F, M):
-    """F (N, joints, 2) and M (N, joints): every planar joint's force and moment about its point on its second
-    body (module docstring), at every output time; ``slots``: where that body's columns begin in each row of ``jac``
-    (``_joint_force``)."""
+@eager(_matrix, _matrix, _cube, *(_ivector,) * 6, _matrix, _ivector, _matrix)
+def planar_reactions(q, lam, jac, slots, rows, starts, i, j, carrier, s, carriers, out):
+    """out (3 joints, N): every planar joint's force (rows 3k, 3k + 1) and moment about its point on its second
+    body (row 3k + 2, module docstring) at every output time, a result column a row; ``slots``: where that body's
+    columns begin in each row of ``jac`` (``_joint_force``). cos and sin of each body in ``carriers`` (those that
+    carry a joint point) are taken once an output time: a body carries the points of up to three joints."""
     N, joints = q.shape[0], i.size
-    g = np.empty(3)
+    g, turn = np.empty(3), np.empty((q.shape[1] // 3, 2))
     for t in range(N):
+        for b in carriers:
+            turn[b, 0], turn[b, 1] = math.cos(q[t, 3 * b + 2]), math.sin(q[t, 3 * b + 2])
         for k in range(joints):
             first = starts[k]
             last = starts[k + 1] if k + 1 < joints else rows.size
-            b = carrier[k]  # the joint point r_b + A(phi_b) s (eq. 2.2); ground: the origin
-            x, y, phi = (q[t, 3 * b], q[t, 3 * b + 1], q[t, 3 * b + 2]) if b >= 0 else (0.0, 0.0, 0.0)
-            c, sn = math.cos(phi), math.sin(phi)
+            b = carrier[k]  # the joint point r_b + A(phi_b) s (eq. 2.2); ground: the origin, A = I
+            x, y, c, sn = (q[t, 3 * b], q[t, 3 * b + 1], turn[b, 0], turn[b, 1]) if b >= 0 else (0.0, 0.0, 1.0, 0.0)
             px, py = x + (c * s[k, 0] - sn * s[k, 1]), y + (sn * s[k, 0] + c * s[k, 1])
             body, sign = (j[k], 1.0) if j[k] >= 0 else (i[k], -1.0)
             _joint_force(jac, lam, t, rows, first, last, slots, 3, g)
             ax, ay = px - q[t, 3 * body], py - q[t, 3 * body + 1]
-            F[t, k, 0], F[t, k, 1] = sign * g[0], sign * g[1]
-            M[t, k] = sign * (g[2] - (ax * g[1] - ay * g[0]))
+            out[3 * k, t], out[3 * k + 1, t] = sign * g[0], sign * g[1]
+            out[3 * k + 2, t] = sign * (g[2] - (ax * g[1] - ay * g[0]))
 
 
 @inlined
@@ -156,58 +158,63 @@ def _unit_parameters(q, t, body):
 
 
 @inlined
-def _rotation(q, t, body, A):
-    """A(p) of ``body`` at output time t, p normalized (eq. 8.12)."""
-    entries = rotation_entries_jit(*_unit_parameters(q, t, body))
+def _turns(q, t, body, A, G):
+    """A(p) (eq. 8.12) and G(p) (eq. 8.14) of ``body`` at output time t, p normalized, into A[body] (3, 3) and
+    G[body] (3, 4); ground's into the last rows A[-1], G[-1]."""
+    parameters = _unit_parameters(q, t, body)
+    rotation, g = rotation_entries_jit(*parameters), g_entries_jit(*parameters)
     for a in range(9):
-        A[a // 3, a % 3] = entries[a]
-
-
-@inlined
-def _g_matrix(q, t, body, G):
-    """G(p) of ``body`` at output time t, p normalized (eq. 8.14)."""
-    entries = g_entries_jit(*_unit_parameters(q, t, body))
+        A[body, a // 3, a % 3] = rotation[a]
     for a in range(12):
-        G[a // 4, a % 4] = entries[a]
+        G[body, a // 4, a % 4] = g[a]
 
 
-@eager(_matrix, _matrix, _cube, *(_ivector,) * 5, _matrix, _cube, _ivector, _cube, _cube, _cube, _cube)
-def spatial_reactions(q, lam, jac, slots, rows, starts, i, j, offsets, frames, framed, F, M, F_joint, M_joint):
-    """F, M (N, elements, 3): every spatial element's force and moment about its point on its second body, and of
-    the elements with joint frames (``framed``: their place in ``frames``, else -1) F and M in that frame, the
-    frame's axes f, g, h (columns of ``frames``) turned to global axes by A(p_j) (module docstring)."""
+@eager(_matrix, _matrix, _cube, *(_ivector,) * 5, _matrix, _cube, _ivector, _ivector, _ivector, _matrix)
+def spatial_reactions(q, lam, jac, slots, rows, starts, i, j, offsets, frames, framed, turned, columns, out):
+    """out (columns, N): every spatial element's force and moment about its point on its second body (rows c to
+    c + 5 from its first column c = ``columns[k]``: Fx, Fy, Fz, Mx, My, Mz) and of the elements with joint frames
+    (``framed``: their place in ``frames``, else -1) F and M in that frame (rows c + 6 to c + 11: Fx, Mx, Fy, My,
+    Fz, Mz), the frame's axes f, g, h (columns of ``frames``) turned to global axes by A(p_j) (module docstring),
+    a result column a row. A(p) and G(p) of each body in ``turned`` (those the elements read) are made once an
+    output time: an element reads A of its body j and G of the body it reports, most often the same."""
     N, elements = q.shape[0], i.size
-    g, n, arm, point = np.empty(7), np.empty(3), np.empty(3), np.empty(3)
-    A, G, axes = np.empty((3, 3)), np.empty((3, 4)), np.empty((3, 3))
+    g, n, arm, point, force, moment = np.empty(7), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    axes = np.empty((3, 3))
+    A, G = np.empty((q.shape[1] // 7 + 1, 3, 3)), np.empty((q.shape[1] // 7 + 1, 3, 4))  # ground's last
+    _turns(q, 0, -1, A, G)
     for t in range(N):
+        for b in turned:
+            _turns(q, t, b, A, G)
         for k in range(elements):
             first = starts[k]
             last = starts[k + 1] if k + 1 < elements else rows.size
-            _rotation(q, t, j[k], A)
+            Aj = A[j[k]]  # ground: the last, A = I
             for a in range(3):
                 origin = q[t, 7 * j[k] + a] if j[k] >= 0 else 0.0
-                point[a] = origin + (A[a, 0] * offsets[k, 0] + A[a, 1] * offsets[k, 1] + A[a, 2] * offsets[k, 2])
+                point[a] = origin + (Aj[a, 0] * offsets[k, 0] + Aj[a, 1] * offsets[k, 1] + Aj[a, 2] * offsets[k, 2])
             body, sign = (j[k], 1.0) if j[k] >= 0 else (i[k], -1.0)
             _joint_force(jac, lam, t, rows, first, last, slots, 7, g)
-            _g_matrix(q, t, body, G)
+            Gb = G[body]
             for a in range(3):  # n = 1/2 G(p) Q_p (eq. 8.14)
-                n[a] = 0.5 * (G[a, 0] * g[3] + G[a, 1] * g[4] + G[a, 2] * g[5] + G[a, 3] * g[6])
+                n[a] = 0.5 * (Gb[a, 0] * g[3] + Gb[a, 1] * g[4] + Gb[a, 2] * g[5] + Gb[a, 3] * g[6])
                 arm[a] = point[a] - q[t, 7 * body + a]
-            moment = (
-                n[0] - (arm[1] * g[2] - arm[2] * g[1]),
-                n[1] - (arm[2] * g[0] - arm[0] * g[2]),
-                n[2] - (arm[0] * g[1] - arm[1] * g[0]),
-            )
+            moment[0] = n[0] - (arm[1] * g[2] - arm[2] * g[1])
+            moment[1] = n[1] - (arm[2] * g[0] - arm[0] * g[2])
+            moment[2] = n[2] - (arm[0] * g[1] - arm[1] * g[0])
+            c = columns[k]
             for a in range(3):
-                F[t, k, a], M[t, k, a] = sign * g[a], sign * moment[a]
+                force[a], moment[a] = sign * g[a], sign * moment[a]
+                out[c + a, t], out[c + 3 + a, t] = force[a], moment[a]
             f = framed[k]
             if f >= 0:  # [f g h]^T A(p_j)^T F: the joint frame's axes, global, as rows
                 for a in range(3):
                     for b in range(3):
-                        axes[a, b] = A[a, 0] * frames[f, 0, b] + A[a, 1] * frames[f, 1, b] + A[a, 2] * frames[f, 2, b]
+                        axes[a, b] = (
+                            Aj[a, 0] * frames[f, 0, b] + Aj[a, 1] * frames[f, 1, b] + Aj[a, 2] * frames[f, 2, b]
+                        )
                 for b in range(3):
-                    F_joint[t, f, b] = axes[0, b] * F[t, k, 0] + axes[1, b] * F[t, k, 1] + axes[2, b] * F[t, k, 2]
-                    M_joint[t, f, b] = axes[0, b] * M[t, k, 0] + axes[1, b] * M[t, k, 1] + axes[2, b] * M[t, k, 2]
+                    out[c + 6 + 2 * b, t] = axes[0, b] * force[0] + axes[1, b] * force[1] + axes[2, b] * force[2]
+                    out[c + 7 + 2 * b, t] = axes[0, b] * moment[0] + axes[1, b] * moment[1] + axes[2, b] * moment[2]
 
 
 @eager(_matrix, _matrix, _vector, _cube, _vector)

@@ -142,7 +142,9 @@ def test_reactions_of_every_joint_kind_at_any_state(name):
     """The batched reactions (every joint at once) against the numpy engine's ``joint_reactions`` on planar models
     with motors (rows with Psi_t), revolute-prismatic, gear and prismatic pairs (two elements), and spatial ones
     with every joint kind and motors, joints to ground on either side: the reactions are algebraic in (q, lambda),
-    so random states and multipliers test every term."""
+    so random states and multipliers test every term. Each column is a contiguous (N,) array: the compiled loops
+    write a column a row of one (columns, N) array, each body's cos and sin (planar) or A(p) and G(p) (spatial)
+    taken once an output time however many joints it carries (six_bar: bodies with two and three joint points)."""
     model = yaml.safe_load(Path(f"course/models/{name}.yaml").read_text())
     for joint in model["model"]["joints"][::2]:  # every other joint written the other way round: ground as body2
         joint["body1"], joint["body2"] = joint["body2"], joint["body1"]
@@ -160,6 +162,7 @@ def test_reactions_of_every_joint_kind_at_any_state(name):
     assert list(got) == list(expected)
     for key, value in expected.items():
         assert np.max(np.abs(got[key] - value)) <= 1e-12 * max(1.0, float(np.max(np.abs(value)))), key
+        assert got[key].shape == (t.size,) and got[key].flags.c_contiguous, key
 
 
 def _verdict(check):
