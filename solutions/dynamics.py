@@ -1851,7 +1851,7 @@ def square_spectra(
     certified to hold no flip of the sign (``compiled.singular.certified``; NaN elsewhere, no test reads them); None:
     everywhere. A fifth item: the band's ``compiled.singular.Brackets`` that order two neighbours where their
     figures do not (None: the figures do, ``smaller``)."""
-    N, m, n = jacobians.shape
+    _, m, n = jacobians.shape
     found = _compiled_spectra(jacobians, columns, norms, before, pattern, settle) if banded and m <= n else None
     if found is None:
         scaled = scale_rows(jacobians, columns, norms)
@@ -1860,10 +1860,10 @@ def square_spectra(
         return ratios, tangents, signs, null_space_turns(tangents, signs), None
     ratios, tangents, signs, certified, *rest = found
     brackets = rest[0] if rest else None
-    made = np.ones(N, dtype=bool)
-    made[1:-1] = ~(certified[:-1] & certified[1:])  # interior times whose two steps are certified: no basis
-    failed = ~(np.isfinite(ratios) & np.isfinite(signs)) | (made & ~np.all(np.isfinite(tangents), axis=(1, 2)))
-    if np.any(failed):  # LAPACK met an exact zero pivot there: those times densely, and every basis not made
+    from .compiled.singular import unmade  # found by the compiled engine: it is there
+
+    made, failed = unmade(ratios, signs, tangents, certified)  # no basis at times whose two steps are certified
+    if failed.any():  # LAPACK met an exact zero pivot there: those times densely, and every basis not made
         failed |= ~made
         scaled = scale_rows(jacobians[failed], columns, norms[failed])
         tangents[failed], signs[failed] = null_space_bases(scaled, signs=True)
@@ -2271,16 +2271,31 @@ class Guard:
         if self.through or signs is None or self.rank != self.system.n_constraints:
             return False
         first = np.linalg.det(self._tangent.T @ tangents[0]) if self._tangent is not None else np.nan
-        turn = np.concatenate([[first], turns])  # the null space's turn since the step before, at every time
-        before = np.concatenate([[self._sign], signs[:-1]])
-        passed = (np.abs(turn) > ALIGNED) & (turn * signs * before < 0)
-        if np.any(passed) or not np.all(ratios >= self.singular_ratio):
+        k = self._smallest_if_quiet(first, turns, signs, ratios)
+        if k < 0:
             return False
-        k = int(np.argmin(ratios))  # the first of the smallest, as the time-ordered verdicts keep it
         if self.closest is None or ratios[k] < self.closest["ratio"]:
             self.closest = {"t": float(t[k]), "ratio": float(ratios[k])}
         self._tangent, self._t, self._sign = tangents[-1], float(t[-1]), signs[-1]
         return True
+
+    def _smallest_if_quiet(self, first: float, turns: np.ndarray, signs: np.ndarray, ratios: np.ndarray) -> int:
+        """The first output time of the smallest ratio (as the time-ordered verdicts keep it) if none is near a
+        singular position nor past one, else -1: where the null space's turn since the time before (``first``,
+        since the Guard's last basis, then ``turns``) is above ALIGNED and the sign flips against it, or the ratio
+        is below singular_ratio. In one compiled pass in a compiled run (``compiled.singular.quiet``), else by
+        numpy's arrays: the same products and tests."""
+        if self.banded:
+            from .compiled import singular
+
+            limit = float(self.singular_ratio)
+            return int(singular.quiet(float(first), turns, signs, float(self._sign), ratios, limit, ALIGNED))
+        turn = np.concatenate([[first], turns])  # the null space's turn since the step before, at every time
+        before = np.concatenate([[self._sign], signs[:-1]])
+        passed = (np.abs(turn) > ALIGNED) & (turn * signs * before < 0)
+        if np.any(passed) or not np.all(ratios >= self.singular_ratio):
+            return -1
+        return int(np.argmin(ratios))
 
     def _judge(
         self, q: np.ndarray, t: float, ratio: float, tangent: np.ndarray, sign: float, turn: float | None = None

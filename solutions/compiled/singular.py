@@ -493,6 +493,52 @@ def drifted(psi, norms, limit):
     return -1
 
 
+@njit(cache=True, nogil=True)
+def unmade(ratios, signs, bases, certified):
+    """(made, failed) (N,) of the band's pass (``spectra`` with ``settle``: ratios, bases, signs, certified steps):
+    made where a basis was made (the first and last times and both ends of each step not certified), failed where
+    LAPACK met an exact zero pivot (a ratio or sign NaN, or a made basis with a NaN), which
+    ``dynamics.square_spectra`` makes densely: its test in one pass, where numpy's made nine arrays (~20 us a
+    history on the loop chain of 4 loops)."""
+    N = ratios.size
+    made = np.ones(N, dtype=np.bool_)
+    failed = np.zeros(N, dtype=np.bool_)
+    for k in range(N):
+        if 0 < k < N - 1:
+            made[k] = not (certified[k - 1] and certified[k])
+        failed[k] = not (np.isfinite(ratios[k]) and np.isfinite(signs[k]))
+        if made[k] and not failed[k]:
+            failed[k] = not _finite(bases[k])
+    return made, failed
+
+
+@njit(cache=True, nogil=True)
+def _finite(basis):
+    """Whether every entry of a basis (n, d) is finite (no array made, as np.all(np.isfinite) makes one)."""
+    for value in basis.ravel():
+        if not np.isfinite(value):
+            return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def quiet(first, turns, signs, sign, ratios, singular_ratio, aligned):
+    """The first output time of the smallest ratio if no output time is near a singular position nor past one,
+    else -1: ``dynamics.Guard._quiet``'s test in one pass (numpy's made fifteen arrays, ~25 us a history). Time k
+    is past one where the null space's turn since the time before (``first`` at k = 0, since the Guard's last
+    basis; turns[k - 1] after) is above ``aligned`` and the sign of det [Psi_q; T^T] flips against it, turn
+    signs[k] signs[k - 1] < 0 (``sign`` before k = 0), each product as numpy's in that order; near one where the
+    ratio is not at least ``singular_ratio`` (a NaN is)."""
+    for k in range(ratios.size):
+        turn = first if k == 0 else turns[k - 1]
+        before = sign if k == 0 else signs[k - 1]
+        if abs(turn) > aligned and turn * signs[k] * before < 0.0:
+            return -1
+        if not ratios[k] >= singular_ratio:
+            return -1
+    return np.argmin(ratios)
+
+
 @njit(types.boolean[:, ::1](_stack), cache=True, nogil=True)
 def _pattern(jacobians):
     """Where any Psi_q of the history (N, m, n) has a nonzero entry (m, n)."""

@@ -670,3 +670,47 @@ def test_the_compiled_drift_test_finds_numpys_first_drifted_time():
     for case, limit in cases:
         assert singular.drifted(case, norms, limit) == numpy_test(case, norms, limit)
     assert singular.drifted(psi, norms, 1e-3) == -1 and singular.drifted(cases[1][0], norms, 1e-3) == 7
+
+
+def test_the_compiled_failure_test_finds_numpys_made_and_failed_times():
+    """``singular.unmade`` (``square_spectra``'s failure test of the band's pass) gives numpy's made times (the ends
+    and both ends of each step not certified) and failed ones (a NaN ratio or sign anywhere, a NaN in a basis made;
+    one in a basis not made is no failure)."""
+    rng = np.random.default_rng(11)
+    N = 9
+    ratios, signs, bases = rng.uniform(0.1, 1.0, N), np.sign(rng.uniform(-1, 1, N)), rng.standard_normal((N, 5, 2))
+    certified = np.array([True, True, False, True, True, True, False, True])
+    ratios[3], signs[6], bases[2, 4, 1], bases[5, 0, 0] = np.nan, np.nan, np.inf, np.nan
+
+    made = np.ones(N, dtype=bool)
+    made[1:-1] = ~(certified[:-1] & certified[1:])
+    failed = ~(np.isfinite(ratios) & np.isfinite(signs)) | (made & ~np.all(np.isfinite(bases), axis=(1, 2)))
+    found = singular.unmade(ratios, signs, bases, certified)
+    np.testing.assert_array_equal(found[0], made)
+    np.testing.assert_array_equal(found[1], failed)
+    assert not made[5] and failed.tolist() == [k in (2, 3, 6) for k in range(N)]
+
+
+@pytest.mark.parametrize("banded", [False, True])
+def test_the_quiet_test_finds_numpys_smallest_or_a_crossing(banded):
+    """``Guard._smallest_if_quiet`` in one compiled pass (``singular.quiet``, a compiled run's Guard) and by numpy's
+    arrays: the first time of the smallest ratio, or -1 at a flip of the sign against a turn above ALIGNED (at the
+    first time against the Guard's sign too), a ratio below singular_ratio or NaN; a flip with the null space
+    turned too far, or a NaN first turn, is none."""
+    system, qs = chain_at([60.0])
+    guard = Guard(system, qs[0], 1e-3, 1e-8)
+    guard.banded = banded
+    ratios = np.array([0.3, 0.2, 0.25, 0.2, 0.4])
+    signs, turns = np.ones(5), np.array([0.99, -0.98, 0.97, 0.5])
+    signs[2:] = -1.0  # the turn to t_2 is negative: no flip
+    assert guard._smallest_if_quiet(0.99, turns, signs, ratios) == 1
+    assert guard._smallest_if_quiet(np.nan, turns, signs, ratios) == 1
+    assert guard._smallest_if_quiet(-0.99, turns, signs, ratios) == -1  # flipped since the Guard's last time
+    flipped = signs.copy()
+    flipped[4] = 1.0
+    assert guard._smallest_if_quiet(0.99, turns, flipped, ratios) == 1  # turned by 0.5: too far to tell
+    assert guard._smallest_if_quiet(0.99, np.array([0.99, -0.98, 0.97, 0.99]), flipped, ratios) == -1
+    for value in (1e-9, np.nan):
+        low = ratios.copy()
+        low[3] = value
+        assert guard._smallest_if_quiet(0.99, turns, signs, low) == -1
