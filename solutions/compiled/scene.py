@@ -162,10 +162,13 @@ def leading(first: dict, later: dict) -> dict:
     for group in first.values():
         group.append(group[2])
     for name, (ints, floats, count) in later.items():
-        group = first.setdefault(name, [[], [], 0, 0])
-        group[0] += ints
-        group[1] += floats
-        group[2] += count
+        group = first.get(name)
+        if group is None:  # none of the kernel's elements first (every kernel of an open tree): its lists as made
+            first[name] = [ints, floats, count, 0]
+        else:
+            group[0] += ints
+            group[1] += floats
+            group[2] += count
     return first
 
 
