@@ -65,7 +65,7 @@ class Scene:
     """The elements described first in each constraint kernel's data (``describe``'s ``first``: a joint-coordinates
     tree's cut elements, which its integration evaluates alone: ``tree.TreeScene.data``)."""
     first_counts: dict = field(default_factory=dict)
-    """Their count in each constraint kernel (by name; 0 where it has none)."""
+    """Their count in each constraint kernel that has any (by name)."""
     packed_data: tuple | None = field(default=None, repr=False, compare=False)  # ``data()``, made once
     row_columns: np.ndarray | None = field(default=None, repr=False, compare=False)
     """A large Psi_q's rows' columns (m, w) (``history.row_columns``): its history is kept by those blocks
@@ -387,7 +387,7 @@ def describe(system, M, forces, first: frozenset = frozenset()) -> Scene:
         scene.unsupported = str(why)
         return scene
     scene.constraint_kernels, scene.force_kernels = constraints, loads
-    scene.first, scene.first_counts = first, {name: group[3] for name, group in rows.items()}
+    scene.first, scene.first_counts = first, {name: group[3] for name, group in rows.items() if group[3]}
     scene.function_kinds, scene.function_params = functions.arrays()
     scene.row_columns = _row_columns(system)
     return scene

@@ -100,9 +100,11 @@ class TreeScene:
         where it was told them (``scene.describe``'s ``first``, as the engine describes a tree's scene: its
         ``first_counts``), else they are put first here (``cut_first``: a scene described for any formulation)."""
         if self.packed_data is None:
-            constraints, cut = self.scene.constraint_kernels, self.scene.first_counts
-            if self.cut_rows.size and self.scene.first != self.first:  # (an open tree: none to put first)
-                owners, cut = self.owners.tolist(), {}
+            constraints, cut = self.scene.constraint_kernels, {}  # an open tree: no cut element in any slot
+            if self.cut_rows.size and self.scene.first == self.first:  # the scene's own order
+                cut = self.scene.first_counts
+            elif self.cut_rows.size:  # a scene described without them first: put first here
+                owners = self.owners.tolist()
                 constraints = [cut_first(*kernel, owners, cut) for kernel in constraints]
             kernels = [*constraints, *self.scene.force_kernels, ("tree", self.ints, self.floats)]
             ints, floats, offsets = packed(kernels, SLOTS)

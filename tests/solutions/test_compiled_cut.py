@@ -288,7 +288,7 @@ def test_the_scene_describes_the_cut_elements_first_as_the_tree_orders_them(mode
     owners = told.owners
     for name, ints, _ in told.scene.constraint_kernels:
         if ints.shape[0]:
-            cut = told.scene.first_counts[name]
+            cut = told.scene.first_counts.get(name, 0)
             column_owners = owners[ints[:, 1 if name in ONE_BODY else 2]]
             assert np.all(column_owners[:cut] < 0) and np.all(column_owners[cut:] >= 0), name
     for ours, theirs in zip(told.data(), untold.data(), strict=True):
