@@ -2354,12 +2354,12 @@ def gyration_weights(system: System) -> np.ndarray:
     gyration rho = sqrt(J / m) for phi' (planar), 2 rho for the Euler parameters' rates (|omega| = 2 |p'|;
     J the mean principal moment); so |weights * q'| of a body is sqrt(2 T / m), T its kinetic energy."""
     per, dim = system.coordinates_per_body, system.model.dimension
-    weights = np.ones((system.n_bodies, per))
-    for k, body in enumerate(system.model.bodies):
+    weights = []  # body by body, as one list made an array once (a row written per body: 0.5 us each)
+    for body in system.model.bodies:
         moment = _mean_moment(body.inertia)
         radius = math.sqrt(moment / body.mass) if body.mass and moment > 0 else 0.0
-        weights[k, dim:] = radius if dim == 2 else 2.0 * radius
-    return weights
+        weights += [1.0] * dim + [radius if dim == 2 else 2.0 * radius] * (per - dim)
+    return np.array(weights, dtype=float).reshape(system.n_bodies, per)
 
 
 def _mean_moment(inertia) -> float:

@@ -61,6 +61,11 @@ class Scene:
     energies: bool = False
     drivers: bool = False
     unsupported: str | None = None
+    first: frozenset = frozenset()
+    """The elements described first in each constraint kernel's data (``describe``'s ``first``: a joint-coordinates
+    tree's cut elements, which its integration evaluates alone: ``tree.TreeScene.data``)."""
+    first_counts: dict = field(default_factory=dict)
+    """Their count in each constraint kernel that has any (by name)."""
     packed_data: tuple | None = field(default=None, repr=False, compare=False)  # ``data()``, made once
     row_columns: np.ndarray | None = field(default=None, repr=False, compare=False)
     """A large Psi_q's rows' columns (m, w) (``history.row_columns``): its history is kept by those blocks
@@ -149,6 +154,24 @@ def _group(rows: dict, name: str, ints: list, floats: list) -> None:
     group[2] += 1
 
 
+def leading(first: dict, later: dict) -> dict:
+    """Each constraint kernel's rows (``_group``'s [ints, floats, count]) of the elements described first, then of
+    the others, each group in the elements' order; the count of the first appended to each kernel's entry
+    (``Scene.first_counts``). A tree's cut elements first in its scene's own data: where a joint-coordinates run's
+    integration reads them alone, with no reordering of the kernels' arrays at every run (``tree.TreeScene.data``)."""
+    for group in first.values():
+        group.append(group[2])
+    for name, (ints, floats, count) in later.items():
+        group = first.get(name)
+        if group is None:  # none of the kernel's elements first (every kernel of an open tree): its lists as made
+            first[name] = [ints, floats, count, 0]
+        else:
+            group[0] += ints
+            group[1] += floats
+            group[2] += count
+    return first
+
+
 def _entries(*vectors) -> list[float]:
     """The entries of body-frame vectors (arrays, or sequences), one after the other, as Python floats: an array's
     by ``tolist`` (unpacking one makes a numpy scalar of every entry: 1.6 us an element against 0.4)."""
@@ -164,7 +187,7 @@ def scene_arrays(rows: dict, order: tuple[str, ...]) -> list[tuple[str, np.ndarr
     out = []
     for name in order:
         if name in rows:
-            ints, floats, count = rows[name]
+            ints, floats, count = rows[name][:3]
             floats_array = np.array(floats, dtype=float).reshape(count, -1) if floats else np.zeros((count, 1))
             out.append((name, np.array(ints, dtype=np.int64).reshape(count, -1), floats_array))
         else:
@@ -201,11 +224,12 @@ SPATIAL_CONSTRAINTS = (
 SPATIAL_FORCES = ("spatial_tsda", "spatial_rsda", "spatial_load")
 
 
-def planar_constraints(system, functions: Functions) -> dict:
+def planar_constraints(system, functions: Functions, first: frozenset = frozenset()) -> dict:
     from ..planar import joints as pj
 
-    rows: dict = {}
+    leading_rows, later = {}, {}  # the kernels' rows of the elements in ``first``, of the others (``leading``)
     for element, where in zip(system.elements, system.rows, strict=True):
+        rows = leading_rows if element.name in first else later
         i, j, row = element.i, element.j, where.start
         kind = type(element)
         if kind is pj.Revolute:
@@ -235,7 +259,7 @@ def planar_constraints(system, functions: Functions) -> dict:
             _group(rows, "planar_flat_cam", [i, j, row, functions.index(element.profile)], floats)
         else:
             raise Unsupported(f"a planar {kind.__name__} element ({element.name})")
-    return rows
+    return leading(leading_rows, later)
 
 
 def _planar_forces(forces, functions: Functions) -> dict:
@@ -263,11 +287,12 @@ def _planar_forces(forces, functions: Functions) -> dict:
     return rows
 
 
-def spatial_constraints(system, functions: Functions) -> dict:
+def spatial_constraints(system, functions: Functions, first: frozenset = frozenset()) -> dict:
     from ..spatial import joints as sj
 
-    rows: dict = {}
+    leading_rows, later = {}, {}  # the kernels' rows of the elements in ``first``, of the others (``leading``)
     for element, where in zip(system.elements, system.rows, strict=True):
+        rows = leading_rows if element.name in first else later
         i, j, row = element.i, element.j, where.start
         kind = type(element)
         if kind is sj.EulerNormalization:
@@ -297,7 +322,7 @@ def spatial_constraints(system, functions: Functions) -> dict:
             _group(rows, "spatial_coordinate", [j, row, element.index, f], [])
         else:
             raise Unsupported(f"a spatial {kind.__name__} element ({element.name})")
-    return rows
+    return leading(leading_rows, later)
 
 
 def _spatial_forces(forces, functions: Functions) -> dict:
@@ -329,8 +354,9 @@ def _spatial_forces(forces, functions: Functions) -> dict:
     return rows
 
 
-def describe(system, M, forces) -> Scene:
-    """The scene's kernels and data (module docstring); ``unsupported`` says why it cannot be compiled."""
+def describe(system, M, forces, first: frozenset = frozenset()) -> Scene:
+    """The scene's kernels and data (module docstring); ``unsupported`` says why it cannot be compiled. ``first``: the
+    names of the elements whose rows come first in each constraint kernel's data (``Scene.first``)."""
     model = system.model
     scene = Scene(model.dimension, system.n_coordinates, system.n_constraints)
     scene.drivers = bool(model.motors)
@@ -342,14 +368,16 @@ def describe(system, M, forces) -> Scene:
         if model.dimension == 2:
             if callable(M) or np.count_nonzero(M) != np.count_nonzero(np.diagonal(M)):  # a nonzero off the diagonal
                 raise Unsupported("a planar mass matrix that is not diagonal")
-            constraints = scene_arrays(planar_constraints(system, functions), PLANAR_CONSTRAINTS)
+            rows = planar_constraints(system, functions, first)
+            constraints = scene_arrays(rows, PLANAR_CONSTRAINTS)
             loads = scene_arrays(_planar_forces(forces, functions), PLANAR_FORCES)
             scene.mass_diagonal = np.diagonal(M).astype(float)
             scene.Q0 = np.asarray(forces.gravity, dtype=float).copy()
         else:
             if type(M).__name__ != "SpatialMassMatrix":
                 raise Unsupported("a spatial mass matrix given by the caller (masses=)")
-            constraints = scene_arrays(spatial_constraints(system, functions), SPATIAL_CONSTRAINTS)
+            rows = spatial_constraints(system, functions, first)
+            constraints = scene_arrays(rows, SPATIAL_CONSTRAINTS)
             loads = scene_arrays(_spatial_forces(forces, functions), SPATIAL_FORCES)
             scene.Q0 = np.asarray(forces.gravity, dtype=float).copy()
             scene.masses = np.array([b.mass for b in model.bodies], dtype=float)
@@ -359,6 +387,7 @@ def describe(system, M, forces) -> Scene:
         scene.unsupported = str(why)
         return scene
     scene.constraint_kernels, scene.force_kernels = constraints, loads
+    scene.first, scene.first_counts = first, {name: group[3] for name, group in rows.items() if group[3]}
     scene.function_kinds, scene.function_params = functions.arrays()
     scene.row_columns = _row_columns(system)
     return scene

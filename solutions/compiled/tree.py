@@ -75,6 +75,8 @@ class TreeScene:
     """The sparsity of the cut solve (``structure``), made once per scene: what ``cut_accelerations`` reads (P[8]
     after the row index)."""
     unsupported: str | None = None
+    first: frozenset = frozenset()
+    """The names of the cut elements (``cut_names``): those whose rows the integration evaluates alone."""
     packed_data: tuple | None = field(default=None, repr=False, compare=False)  # ``data()``, made once
 
     @property
@@ -94,10 +96,14 @@ class TreeScene:
     def data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """D of the scene with the tree's joints in their slot (``scene.packed``), made at the first call; in each
         constraint kernel's slot the elements of cut rows first, and after the offsets of every slot (len(SLOTS) + 1)
-        where each slot's cut elements stop: the integration evaluates those alone (``cut_first``)."""
+        where each slot's cut elements stop: the integration evaluates those alone. The scene describes them first
+        where it was told them (``scene.describe``'s ``first``, as the engine describes a tree's scene: its
+        ``first_counts``), else they are put first here (``cut_first``: a scene described for any formulation)."""
         if self.packed_data is None:
-            constraints, cut = self.scene.constraint_kernels, {}
-            if self.cut_rows.size:  # an open tree has no cut element: each slot's cut elements stop at its start
+            constraints, cut = self.scene.constraint_kernels, {}  # an open tree: no cut element in any slot
+            if self.cut_rows.size and self.scene.first == self.first:  # the scene's own order
+                cut = self.scene.first_counts
+            elif self.cut_rows.size:  # a scene described without them first: put first here
                 owners = self.owners.tolist()
                 constraints = [cut_first(*kernel, owners, cut) for kernel in constraints]
             kernels = [*constraints, *self.scene.force_kernels, ("tree", self.ints, self.floats)]
@@ -175,9 +181,17 @@ def describe(scene: Scene, formulation) -> TreeScene:
         cut_bodies=np.array(bodies, dtype=np.int64),
     )  # fmt: skip
     tree.row_index = owned_rows(tree.owners, nb)
+    tree.first = cut_names(formulation)
     if not joints:
         tree.unsupported = "a tree without joints"
     return tree
+
+
+def cut_names(formulation) -> frozenset:
+    """The names of a ``JointCoordinates`` formulation's cut elements (``joint_coordinates.cut_elements``: loop
+    closures, gears, cams and drivers, the rows the tree does not satisfy by construction)."""
+    cut = formulation.cut
+    return frozenset() if cut is None else frozenset(element.name for element in cut.elements)
 
 
 def _owners(system, joints) -> tuple[list[int], list[int], list[int]]:

@@ -264,3 +264,35 @@ def test_the_integration_evaluates_the_cut_elements_kernels_alone(model):
         rhs(0.0, y.copy(), P, every, expected)
         assert np.all(np.isfinite(out))
         np.testing.assert_array_equal(out, expected)
+
+
+@pytest.mark.parametrize(
+    "model", [parallelogram_chain(6), _held_chain(12), _spatial_loop()], ids=["loop-chain", "held-chain", "spatial"]
+)
+def test_the_scene_describes_the_cut_elements_first_as_the_tree_orders_them(model):
+    """The cut-first order is made where the scene is described (``scene.describe``'s ``first``: the engine passes a
+    tree's cut elements, ``dispatch.compiled_plan``): each constraint kernel's cut elements lead its own data, their
+    count in ``first_counts``; the tree's D equals, array for array, the one of a scene described without them
+    (``TreeScene.data`` reorders that one, ``cut_first``), and a scene described for any other formulation keeps the
+    elements' order."""
+    from solutions.compiled.tree import ONE_BODY, cut_names
+
+    system = build_system(load_model(model))[0]
+    M, forces = mass_matrix(system.model), build_forces(system.model)
+    made = make_formulation("joint-coordinates", system, M, forces)
+    first = cut_names(made)
+    told = plan(describe(system, M, forces, first), "joint-coordinates", made).scene
+    untold = plan(describe(system, M, forces), "joint-coordinates", made).scene
+    assert told.scene.first == told.first == first and untold.scene.first == frozenset()
+    assert sum(told.scene.first_counts.values()) == len(first) > 0
+    owners = told.owners
+    for name, ints, _ in told.scene.constraint_kernels:
+        if ints.shape[0]:
+            cut = told.scene.first_counts.get(name, 0)
+            column_owners = owners[ints[:, 1 if name in ONE_BODY else 2]]
+            assert np.all(column_owners[:cut] < 0) and np.all(column_owners[cut:] >= 0), name
+    for ours, theirs in zip(told.data(), untold.data(), strict=True):
+        assert ours.dtype == theirs.dtype and ours.tobytes() == theirs.tobytes()
+    kernels = [(name, ints) for name, ints, _ in untold.scene.constraint_kernels if ints.shape[0]]
+    rows = [ints[:, 1 if name in ONE_BODY else 2].tolist() for name, ints in kernels]
+    assert all(r == sorted(r) for r in rows)  # the elements' order: each element's first row increasing
