@@ -327,7 +327,7 @@ def _body(tree: TreeScene) -> list[str]:
         "    columns = ncut > 0  # D itself: for the cut rows only (an open tree's outputs: the body accelerations)",
         *_arrays(spatial),
         "    tree_rows = dims[7 + 3 * ncut + m : 8 + 2 * ncut + 2 * m + nb]  # body by body (tree.owned_rows)",
-        "    structure = dims[8 + 2 * ncut + 2 * m + nb :]  # the cut solve's sparsity (tree.cut_structure)",
+        "    structure = dims[8 + 2 * ncut + 2 * m + nb :]  # the cut solve's sparsity (structure.cut_structure)",
         "    for i in range(n):  # loops, not slice assignments (numba's broadcasting: ~20 ns each)",
         "        Q[i] = Q0[i]",
         "    power[0] = power[1] = power[2] = 0.0",

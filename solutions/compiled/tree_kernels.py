@@ -861,7 +861,7 @@ def band_solve(S, p, x):
 
 @jit
 def cut_parts(structure, k, mc, nb):
-    """The views of ``tree.cut_structure``'s array (made once per scene, P[8]'s last part): (p, lambda(i) of every
+    """The views of ``structure.cut_structure``'s array (made once per scene, P[8]'s last part): (p, lambda(i) of every
     joint velocity, each body's tree joint, where each cut row's and each column's entries of W begin, the rows'
     supports, each entry's slot in W column by column, the row of each entry column by column)."""
     parent, joint = structure[1 : 1 + k], structure[1 + k : 1 + k + nb]
@@ -876,7 +876,7 @@ def cut_parts(structure, k, mc, nb):
 def _cut_rows(Dq, xiq, jac, psi, psit, gam, qd, rows, bodies, alpha, beta, ints, width, H, parts, w, c, dense):
     """Each cut row's W_a = L^-T Psi_theta,a^T (Psi_theta = Psi_c,q D) on its support (the columns that move the two
     bodies its element joins, ``bodies[2a], bodies[2a + 1]``, -1 for ground, which hold all their ancestors), into
-    W stored column by column (``w``, the slots of ``tree.cut_structure``); and the rows' right side c of eq. 7.6.
+    W stored column by column (``w``, the slots of ``structure.cut_structure``); and the rows' right side c of eq. 7.6.
     ``dense`` (k, zeros): a work array (left as found)."""
     _, parent, joint, row_start, _, support, slot, _ = parts
     for a in range(rows.size):
@@ -928,7 +928,7 @@ def cut_accelerations(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, bodie
     a band (half-width 3), factored in O(m_c) (``band_solve``); the solve is O(N) in arithmetic where the dense
     augmented LU was O((k + m_c)^3) (a deep tree, a serial chain cut at its end, fills W and S: then S goes to LAPACK).
     The sparsity (lambda(i), W's entries row by row and column by column, S's band) is the tree's structure, the
-    same at every evaluation: ``structure`` (``tree.cut_structure``, made once per scene); here only arithmetic.
+    same at every evaluation: ``structure`` (``structure.cut_structure``, made once per scene); here only arithmetic.
     ``bodies``: the two bodies of each cut row's element (-1 ground); ``matrix`` holds the lower triangle of H
     (overwritten by its factors), ``ints`` the tree's joints, ``width`` a body's coordinates (3 planar, 7 spatial).
     A singular S, or an H that is not positive definite, gives NaN (the adaptive integrators reject the step)."""
