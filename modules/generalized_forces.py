@@ -22,7 +22,7 @@ import numpy as np
 
 from .io.model import Model
 from .planar.build import force_elements
-from .planar.forces import ForceElement
+from .planar.forces import ForceElement, gravity_force
 
 UserForce = Callable[[np.ndarray, np.ndarray, float], np.ndarray]
 """A user force: Q_user(q, q', t), an (n,) array of generalized forces, counted as applied work."""

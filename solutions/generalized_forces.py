@@ -21,7 +21,7 @@ import numpy as np
 
 from .io.model import Model
 from .planar.build import force_elements
-from .planar.forces import ForceElement
+from .planar.forces import ForceElement, gravity_force
 
 UserForce = Callable[[np.ndarray, np.ndarray, float], np.ndarray]
 """A user force: Q_user(q, q', t), an (n,) array of generalized forces, counted as applied work."""
@@ -30,10 +30,7 @@ UserForce = Callable[[np.ndarray, np.ndarray, float], np.ndarray]
 def gravity_vector(model: Model) -> np.ndarray:
     """Q_gravity: [m_k g_x, m_k g_y, 0] for every body k, stacked (eq. 5.11)."""
     ### BEGIN SOLUTION hw2
-    # each body's [m_k g_x, m_k g_y, 0] (``gravity_force``), the same products, as one list made an array once (an
-    # array per body and their concatenation cost ~1 us a body)
-    g_x, g_y = model.gravity[0], model.gravity[1]
-    return np.array([value for body in model.bodies for value in (body.mass * g_x, body.mass * g_y, 0.0)], dtype=float)
+    return np.concatenate([gravity_force(body.mass, model.gravity) for body in model.bodies])
     ### END SOLUTION
 
 

@@ -13,10 +13,9 @@ import math
 import numpy as np
 import pytest
 
-from solutions.generalized_forces import build_forces, gravity_vector
+from solutions.generalized_forces import build_forces
 from solutions.io.model import ModelError, load_model
-from solutions.mass_matrix import body_mass_matrix, mass_matrix
-from solutions.planar.forces import gravity_force
+from solutions.mass_matrix import mass_matrix
 
 G = 9.81
 RNG = np.random.default_rng(3)
@@ -66,21 +65,6 @@ def test_mass_matrix_is_block_diagonal_of_m_m_J():
     model = load_model(two_bodies())
     expected = np.diag([2.0, 2.0, 0.3, 1.5, 1.5, 0.2])
     assert np.array_equal(mass_matrix(model), expected)
-
-
-def test_mass_matrix_and_gravity_are_the_bodies_blocks_bit_for_bit():
-    """M and Q_gravity written at once equal the bodies' blocks (eq. 5.3, 5.11) put together one by one, to the
-    last bit, with integer masses and moments as a file may give them (float arrays)."""
-    scene = two_bodies(gravity=(1, -10))
-    scene["model"]["bodies"][0].update(mass=3, inertia=1)
-    model = load_model(scene)
-    blocks = np.zeros((6, 6))
-    for k, body in enumerate(model.bodies):
-        blocks[3 * k : 3 * k + 3, 3 * k : 3 * k + 3] = body_mass_matrix(body.mass, body.inertia)
-    stacked = np.concatenate([gravity_force(body.mass, model.gravity) for body in model.bodies])
-    M, Q = mass_matrix(model), gravity_vector(model)
-    assert M.dtype == Q.dtype == np.float64
-    assert M.tobytes() == blocks.tobytes() and Q.tobytes() == stacked.tobytes()
 
 
 def test_gravity_is_minus_gradient_of_m_g_y():
