@@ -679,7 +679,7 @@ def run_stages(run: Run, formulation: str, integrator: str) -> tuple[Result, Mad
     run, q, qd, initial, notes = start.run, start.q, start.qd, start.initial, start.notes
     system, settings = run.system, run.settings
     if start.plan.integrator in INDEX3_INTEGRATORS:
-        result = index3_run(run, start.plan, start.M, start.forces, q, qd, initial)
+        result = index3_run(run, start.plan, start.M, start.forces, q, qd, initial, start.rank)
         if notes:
             result.info["notes"] = notes + result.info.get("notes", [])
         return result, Made(start)
@@ -1035,12 +1035,13 @@ def plan_method(
     return Plan(formulation, integrator, rtol, settings.atol, given, periods, size, chosen, rate, expected)
 
 
-def index3_run(run: Run, plan: Plan, M, forces, q, qd, initial: dict) -> Result:
-    """The implicit index-3 integrators (HHT-alpha, generalized-alpha, ``implicit.py``): formulation and ODE in one."""
+def index3_run(run: Run, plan: Plan, M, forces, q, qd, initial: dict, rank: RankReport | None = None) -> Result:
+    """The implicit index-3 integrators (HHT-alpha, generalized-alpha, ``implicit.py``): formulation and ODE in one;
+    ``rank``: Psi_q's rank at q as the run's start made it (``Start.rank``)."""
     from .implicit import integrate_index3
 
     system, settings = run.system, run.settings.replace(integrator=plan.integrator, rtol=plan.rtol)
-    guard = index3_guard(run, plan, q)
+    guard = index3_guard(run, plan, q, rank)
     result = integrate_index3(system, M, forces, q, qd, settings, guard)
     for label, (body, point) in (run.points or {}).items():
         result.points.update(point_columns(result, label, body, point))
@@ -1064,14 +1065,15 @@ INDEX3_DRIFT_REMEDY = (
 """What it advises for an index-3 run (hht, generalized-alpha), which solves Psi(q) = 0 itself at every step."""
 
 
-def index3_guard(run: Run, plan: Plan, q: np.ndarray) -> Guard:
+def index3_guard(run: Run, plan: Plan, q: np.ndarray, rank: RankReport | None = None) -> Guard:
     """The ``Guard`` of an index-3 run (``implicit.GuardedSteps`` makes its checks): drift as ``make_guard``'s, and
     singular positions recorded as passed (``through``), as with the augmented Lagrangian: the index-3 equations
     carry the motion through them, and the branch check judges the branch it took at each."""
     drift_limit = run.settings.drift_limit
     loose = 100.0 * plan.rtol if run.settings.step is None else 0.0  # a loose tolerance drifts further
     drift_limit = None if drift_limit is None else max(drift_limit, loose)
-    guard = Guard(run.system, q, drift_limit, run.settings.singular_ratio, through=True, size=plan.size)
+    known = None if rank is None else rank.rank  # None: the Guard makes it
+    guard = Guard(run.system, q, drift_limit, run.settings.singular_ratio, through=True, size=plan.size, rank=known)
     guard.remedy = INDEX3_DRIFT_REMEDY
     return guard
 
