@@ -147,8 +147,9 @@ def kinetic_energy(masses, q: np.ndarray, qd: np.ndarray) -> np.ndarray | None:
     pass (``history_kernels.spatial_kinetic_energy``, eq. 10.3); of a planar model with a diagonal M = diag(m, m, J)
     (every planar model the compiled engine runs: ``scene.describe``) as T = 1/2 sum_i m_i q_i'^2 (eq. 5.2), where
     ``energy.kinetic_energy``'s q' M multiplies every zero of M too (BLAS over n x n: ~20-30 us of a loop chain's
-    result at n = 27). The same numbers: each entry of q' M is its one product q_i' m_i (the others add exact zeros),
-    summed by the same np.sum. None otherwise (numpy's product)."""
+    result at n = 27), in one compiled pass (``history_kernels.planar_kinetic_energy``). The same numbers: each entry
+    of q' M is its one product q_i' m_i (the others add exact zeros), summed in np.sum's order. None otherwise
+    (numpy's product)."""
     from ..spatial.mass import SpatialMassMatrix
     from . import history_kernels
 
@@ -156,7 +157,12 @@ def kinetic_energy(masses, q: np.ndarray, qd: np.ndarray) -> np.ndarray | None:
         diagonal = np.diagonal(masses)
         if np.count_nonzero(masses) != np.count_nonzero(diagonal):  # not diagonal: numpy's product
             return None
-        return 0.5 * np.sum((qd * diagonal) * qd, axis=-1)
+        if qd.shape[-1] > history_kernels.PAIRWISE_BLOCK:  # numpy's order splits the sum: numpy's expression
+            return 0.5 * np.sum((qd * diagonal) * qd, axis=-1)
+        out = np.empty(len(qd))
+        qd, diagonal = (np.ascontiguousarray(a, dtype=float) for a in (qd, diagonal))
+        history_kernels.planar_kinetic_energy(qd, diagonal, out)
+        return out
     if not isinstance(masses, SpatialMassMatrix):
         return None
     constants = layout(masses, _body_constants)  # kept on the mass matrix: every run of a formulation

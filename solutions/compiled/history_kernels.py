@@ -111,26 +111,48 @@ def blocked_constraint_arrays(constraint_arrays, T, Y, P, D, psi, values, psit, 
 
 
 @inlined
-def _joint_force(jac, lam, t, rows, first, last, slots, size, g):
-    """g = -(Psi_q)^T lambda on the ``size`` columns of a body, summed over the joint's rows rows[first:last] (eq.
-    5.70, 10.20), at output time t; the body's columns begin at slots[r] in row rows[r] of ``jac`` (its column, or
-    its slot among a blocked history's blocks)."""
-    for c in range(size):
-        total = 0.0
-        for r in range(first, last):
-            row = rows[r]
-            total += -jac[t, row, slots[r] + c] * lam[t, row]
-        g[c] = total
+def _planar_joint_force(jac, lam, t, rows, first, last, slots):
+    """(Q_x, Q_y, Q_phi) = -(Psi_q)^T lambda on the three columns of a body, summed over the joint's rows
+    rows[first:last] (eq. 5.70) at output time t; the body's columns begin at slots[r] in row rows[r] of ``jac`` (its
+    column, or its slot among a blocked history's blocks). Each column's sum over the rows in their order, in locals:
+    sums kept in an array (aliasing ``jac`` for the compiler) went to memory at every term, a third of the reactions'
+    time (``benchmarks/results/call_cost.md``, twenty-sixth session)."""
+    x = y = phi = 0.0
+    for r in range(first, last):
+        row, column = rows[r], slots[r]
+        multiplier = lam[t, row]
+        x += -jac[t, row, column] * multiplier
+        y += -jac[t, row, column + 1] * multiplier
+        phi += -jac[t, row, column + 2] * multiplier
+    return x, y, phi
+
+
+@inlined
+def _spatial_joint_force(jac, lam, t, rows, first, last, slots, g):
+    """g = -(Psi_q)^T lambda on the seven columns of a body, summed over the element's rows rows[first:last] (eq.
+    10.20), at output time t: ``_planar_joint_force``'s sums over seven columns, each in a local, written to g once."""
+    g0 = g1 = g2 = g3 = g4 = g5 = g6 = 0.0
+    for r in range(first, last):
+        row, column = rows[r], slots[r]
+        multiplier = lam[t, row]
+        g0 += -jac[t, row, column] * multiplier
+        g1 += -jac[t, row, column + 1] * multiplier
+        g2 += -jac[t, row, column + 2] * multiplier
+        g3 += -jac[t, row, column + 3] * multiplier
+        g4 += -jac[t, row, column + 4] * multiplier
+        g5 += -jac[t, row, column + 5] * multiplier
+        g6 += -jac[t, row, column + 6] * multiplier
+    g[0], g[1], g[2], g[3], g[4], g[5], g[6] = g0, g1, g2, g3, g4, g5, g6
 
 
 @eager(_matrix, _matrix, _cube, *(_ivector,) * 6, _matrix, _ivector, _matrix)
 def planar_reactions(q, lam, jac, slots, rows, starts, i, j, carrier, s, carriers, out):
     """out (3 joints, N): every planar joint's force (rows 3k, 3k + 1) and moment about its point on its second
     body (row 3k + 2, module docstring) at every output time, a result column a row; ``slots``: where that body's
-    columns begin in each row of ``jac`` (``_joint_force``). cos and sin of each body in ``carriers`` (those that
+    columns begin in each row of ``jac`` (``_planar_joint_force``). cos and sin of each body in ``carriers`` (those that
     carry a joint point) are taken once an output time: a body carries the points of up to three joints."""
     N, joints = q.shape[0], i.size
-    g, turn = np.empty(3), np.empty((q.shape[1] // 3, 2))
+    turn = np.empty((q.shape[1] // 3, 2))
     for t in range(N):
         for b in carriers:
             turn[b, 0], turn[b, 1] = math.cos(q[t, 3 * b + 2]), math.sin(q[t, 3 * b + 2])
@@ -141,10 +163,10 @@ def planar_reactions(q, lam, jac, slots, rows, starts, i, j, carrier, s, carrier
             x, y, c, sn = (q[t, 3 * b], q[t, 3 * b + 1], turn[b, 0], turn[b, 1]) if b >= 0 else (0.0, 0.0, 1.0, 0.0)
             px, py = x + (c * s[k, 0] - sn * s[k, 1]), y + (sn * s[k, 0] + c * s[k, 1])
             body, sign = (j[k], 1.0) if j[k] >= 0 else (i[k], -1.0)
-            _joint_force(jac, lam, t, rows, first, last, slots, 3, g)
+            fx, fy, torque = _planar_joint_force(jac, lam, t, rows, first, last, slots)
             ax, ay = px - q[t, 3 * body], py - q[t, 3 * body + 1]
-            out[3 * k, t], out[3 * k + 1, t] = sign * g[0], sign * g[1]
-            out[3 * k + 2, t] = sign * (g[2] - (ax * g[1] - ay * g[0]))
+            out[3 * k, t], out[3 * k + 1, t] = sign * fx, sign * fy
+            out[3 * k + 2, t] = sign * (torque - (ax * fy - ay * fx))
 
 
 @inlined
@@ -193,7 +215,7 @@ def spatial_reactions(q, lam, jac, slots, rows, starts, i, j, offsets, frames, f
                 origin = q[t, 7 * j[k] + a] if j[k] >= 0 else 0.0
                 point[a] = origin + (Aj[a, 0] * offsets[k, 0] + Aj[a, 1] * offsets[k, 1] + Aj[a, 2] * offsets[k, 2])
             body, sign = (j[k], 1.0) if j[k] >= 0 else (i[k], -1.0)
-            _joint_force(jac, lam, t, rows, first, last, slots, 7, g)
+            _spatial_joint_force(jac, lam, t, rows, first, last, slots, g)
             Gb = G[body]
             for a in range(3):  # n = 1/2 G(p) Q_p (eq. 8.14)
                 n[a] = 0.5 * (Gb[a, 0] * g[3] + Gb[a, 1] * g[4] + Gb[a, 2] * g[5] + Gb[a, 3] * g[6])
@@ -238,3 +260,44 @@ def spatial_kinetic_energy(q, qd, masses, inertias, out):
             rotation += w1 * (J[1, 0] * w0 + J[1, 1] * w1 + J[1, 2] * w2)
             rotation += w2 * (J[2, 0] * w0 + J[2, 1] * w1 + J[2, 2] * w2)
         out[t] = 0.5 * translation + 0.5 * rotation
+
+
+PAIRWISE_BLOCK = 128
+"""Terms that numpy's pairwise summation adds in one block (its ``PW_BLOCKSIZE``); a longer row it splits in two."""
+
+
+@inlined
+def _pairwise_sum(a):
+    """sum_i a_i in the order of numpy's ``np.sum`` over a contiguous row of at most ``PAIRWISE_BLOCK`` terms (its
+    ``pairwise_sum``): fewer than 8 terms one after another; else eight running sums (terms i, i + 8, ...) added as
+    ((s0 + s1) + (s2 + s3)) + ((s4 + s5) + (s6 + s7)), then the terms after the last multiple of 8 one by one. The
+    same additions in the same order: the same bits. (A longer row's halves would need a recursion, which numba's
+    cache loads wrongly: the caller keeps those rows to numpy.)"""
+    count = a.size
+    if count < 8:
+        total = 0.0
+        for i in range(count):
+            total += a[i]
+        return total
+    s0, s1, s2, s3, s4, s5, s6, s7 = a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7]
+    blocks_end = count - count % 8
+    for i in range(8, blocks_end, 8):
+        s0, s1, s2, s3 = s0 + a[i], s1 + a[i + 1], s2 + a[i + 2], s3 + a[i + 3]
+        s4, s5, s6, s7 = s4 + a[i + 4], s5 + a[i + 5], s6 + a[i + 6], s7 + a[i + 7]
+    total = ((s0 + s1) + (s2 + s3)) + ((s4 + s5) + (s6 + s7))
+    for i in range(blocks_end, count):
+        total += a[i]
+    return total
+
+
+@eager(_matrix, _vector, _vector)
+def planar_kinetic_energy(qd, diagonal, out):
+    """T = 1/2 sum_i m_i q_i'^2 (eq. 5.2, M = diag(m, m, J): ``diagonal``) at every output time in one pass, q' of at
+    most ``PAIRWISE_BLOCK`` coordinates: each term (q_i' m_i) q_i' as numpy's elementwise products, their sum in
+    ``np.sum``'s order (``_pairwise_sum``), so ``0.5 * np.sum((qd * diagonal) * qd, axis=-1)`` bit for bit without
+    its three array operations over the history (~9 of a loop chain's 13 us)."""
+    terms = np.empty(qd.shape[1])
+    for t in range(qd.shape[0]):
+        for i in range(qd.shape[1]):
+            terms[i] = (qd[t, i] * diagonal[i]) * qd[t, i]
+        out[t] = 0.5 * _pairwise_sum(terms)
