@@ -350,3 +350,23 @@ def test_the_compiled_kinetic_energy_of_a_planar_model_is_numpys_bit_for_bit(nam
     coupled = M.copy()
     coupled[0, 1] = coupled[1, 0] = 0.01
     assert history.kinetic_energy(coupled, qd, qd) is None
+
+
+def test_the_planar_kinetic_energy_sums_in_numpys_order_at_every_size():
+    """``history_kernels.planar_kinetic_energy``: 1/2 sum_i (q_i' m_i) q_i' summed in np.sum's pairwise order
+    (``_pairwise_sum``: one by one below 8 terms, eight running sums up to 128), bit for bit against
+    ``0.5 * np.sum((qd * m) * qd, axis=-1)`` at every row length from 0 to 128 (a chain of 42 bodies), velocities of
+    every sign and scale; ``history.kinetic_energy`` keeps longer rows (numpy splits them in halves) to numpy."""
+    from solutions.compiled import history_kernels
+
+    rng = np.random.default_rng(11)
+    for n in range(history_kernels.PAIRWISE_BLOCK + 1):
+        qd = rng.standard_normal((9, n)) * 10.0 ** rng.integers(-8, 8, (9, n))
+        diagonal = rng.uniform(0.1, 3.0, n)
+        out = np.empty(9)
+        history_kernels.planar_kinetic_energy(qd, diagonal, out)
+        assert out.tobytes() == (0.5 * np.sum((qd * diagonal) * qd, axis=-1)).tobytes(), n
+    n = 3 * 50  # longer than a block: numpy's own expression
+    qd, M = rng.standard_normal((9, n)), np.diag(rng.uniform(0.1, 3.0, n))
+    expected = 0.5 * np.sum((qd * np.diagonal(M)) * qd, axis=-1)
+    assert history.kinetic_energy(M, qd, qd).tobytes() == expected.tobytes()
