@@ -111,45 +111,28 @@ def blocked_constraint_arrays(constraint_arrays, T, Y, P, D, psi, values, psit, 
 
 
 @inlined
-def _planar_joint_force(jac, lam, t, rows, first, last, slots):
-    """(Q_x, Q_y, Q_phi) = -(Psi_q)^T lambda on the three columns of a body, summed over the joint's rows
-    rows[first:last] (eq. 5.70) at output time t; the body's columns begin at slots[r] in row rows[r] of ``jac`` (its
-    column, or its slot among a blocked history's blocks). Each column's sum over the rows in their order, in locals:
-    sums kept in an array (aliasing ``jac`` for the compiler) went to memory at every term, a third of the reactions'
-    time (``benchmarks/results/call_cost.md``, twenty-sixth session)."""
-    x = y = phi = 0.0
+def _joint_force(jac, lam, t, rows, first, last, slots, c):
+    """Entries c, c + 1, c + 2 of -(Psi_q)^T lambda on a body's columns, summed over the joint's rows rows[first:last]
+    (eq. 5.70, 10.20) at output time t; the body's columns begin at slots[r] in row rows[r] of ``jac`` (its column,
+    or its slot among a blocked history's blocks). The three sums side by side in locals, each over the rows in their
+    order, in one pass over the rows: sums kept in an array (which may alias ``jac`` for the compiler) went to memory
+    at every term, and one entry a pass read each row's index and multiplier again: either way a third more of the
+    reactions' time (``benchmarks/results/call_cost.md``, twenty-sixth session)."""
+    a = b = d = 0.0
     for r in range(first, last):
-        row, column = rows[r], slots[r]
+        row, column = rows[r], slots[r] + c
         multiplier = lam[t, row]
-        x += -jac[t, row, column] * multiplier
-        y += -jac[t, row, column + 1] * multiplier
-        phi += -jac[t, row, column + 2] * multiplier
-    return x, y, phi
-
-
-@inlined
-def _spatial_joint_force(jac, lam, t, rows, first, last, slots, g):
-    """g = -(Psi_q)^T lambda on the seven columns of a body, summed over the element's rows rows[first:last] (eq.
-    10.20), at output time t: ``_planar_joint_force``'s sums over seven columns, each in a local, written to g once."""
-    g0 = g1 = g2 = g3 = g4 = g5 = g6 = 0.0
-    for r in range(first, last):
-        row, column = rows[r], slots[r]
-        multiplier = lam[t, row]
-        g0 += -jac[t, row, column] * multiplier
-        g1 += -jac[t, row, column + 1] * multiplier
-        g2 += -jac[t, row, column + 2] * multiplier
-        g3 += -jac[t, row, column + 3] * multiplier
-        g4 += -jac[t, row, column + 4] * multiplier
-        g5 += -jac[t, row, column + 5] * multiplier
-        g6 += -jac[t, row, column + 6] * multiplier
-    g[0], g[1], g[2], g[3], g[4], g[5], g[6] = g0, g1, g2, g3, g4, g5, g6
+        a += -jac[t, row, column] * multiplier
+        b += -jac[t, row, column + 1] * multiplier
+        d += -jac[t, row, column + 2] * multiplier
+    return a, b, d
 
 
 @eager(_matrix, _matrix, _cube, *(_ivector,) * 6, _matrix, _ivector, _matrix)
 def planar_reactions(q, lam, jac, slots, rows, starts, i, j, carrier, s, carriers, out):
     """out (3 joints, N): every planar joint's force (rows 3k, 3k + 1) and moment about its point on its second
     body (row 3k + 2, module docstring) at every output time, a result column a row; ``slots``: where that body's
-    columns begin in each row of ``jac`` (``_planar_joint_force``). cos and sin of each body in ``carriers`` (those that
+    columns begin in each row of ``jac`` (``_joint_force``). cos and sin of each body in ``carriers`` (those that
     carry a joint point) are taken once an output time: a body carries the points of up to three joints."""
     N, joints = q.shape[0], i.size
     turn = np.empty((q.shape[1] // 3, 2))
@@ -163,7 +146,7 @@ def planar_reactions(q, lam, jac, slots, rows, starts, i, j, carrier, s, carrier
             x, y, c, sn = (q[t, 3 * b], q[t, 3 * b + 1], turn[b, 0], turn[b, 1]) if b >= 0 else (0.0, 0.0, 1.0, 0.0)
             px, py = x + (c * s[k, 0] - sn * s[k, 1]), y + (sn * s[k, 0] + c * s[k, 1])
             body, sign = (j[k], 1.0) if j[k] >= 0 else (i[k], -1.0)
-            fx, fy, torque = _planar_joint_force(jac, lam, t, rows, first, last, slots)
+            fx, fy, torque = _joint_force(jac, lam, t, rows, first, last, slots, 0)
             ax, ay = px - q[t, 3 * body], py - q[t, 3 * body + 1]
             out[3 * k, t], out[3 * k + 1, t] = sign * fx, sign * fy
             out[3 * k + 2, t] = sign * (torque - (ax * fy - ay * fx))
@@ -215,7 +198,9 @@ def spatial_reactions(q, lam, jac, slots, rows, starts, i, j, offsets, frames, f
                 origin = q[t, 7 * j[k] + a] if j[k] >= 0 else 0.0
                 point[a] = origin + (Aj[a, 0] * offsets[k, 0] + Aj[a, 1] * offsets[k, 1] + Aj[a, 2] * offsets[k, 2])
             body, sign = (j[k], 1.0) if j[k] >= 0 else (i[k], -1.0)
-            _spatial_joint_force(jac, lam, t, rows, first, last, slots, g)
+            g[0], g[1], g[2] = _joint_force(jac, lam, t, rows, first, last, slots, 0)  # r's columns
+            g[3], g[4], g[5] = _joint_force(jac, lam, t, rows, first, last, slots, 3)  # p's: seven in runs of three,
+            g[4], g[5], g[6] = _joint_force(jac, lam, t, rows, first, last, slots, 4)  # the last two sums made again
             Gb = G[body]
             for a in range(3):  # n = 1/2 G(p) Q_p (eq. 8.14)
                 n[a] = 0.5 * (Gb[a, 0] * g[3] + Gb[a, 1] * g[4] + Gb[a, 2] * g[5] + Gb[a, 3] * g[6])
