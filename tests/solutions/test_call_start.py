@@ -21,7 +21,7 @@ if str(ROOT) not in sys.path:
 from benchmarks import chains  # noqa: E402
 from solutions import dynamics  # noqa: E402
 from solutions.assembly import build_system  # noqa: E402
-from solutions.compiled import describe, plan  # noqa: E402
+from solutions.compiled import plan  # noqa: E402
 from solutions.io.model import load_model  # noqa: E402
 from solutions.joint_coordinates import cut_elements, tree_order  # noqa: E402
 from solutions.mass_matrix import singular_inertia  # noqa: E402
@@ -42,7 +42,7 @@ def _tree(model):
     M, forces = dynamics.dynamic_model(system, None, None)
     formulation = dynamics.make_formulation("joint-coordinates", system, M, forces)
     formulation.initial_state(q0, qd0, 0.0)
-    return system, plan(describe(system, M, forces), "joint-coordinates", formulation).scene
+    return system, plan(system, M, forces, "joint-coordinates", formulation).scene
 
 
 @pytest.mark.parametrize("name", ["slider_crank", "four_bar", "double_pendulum", "spatial_slider_crank", "loops3"])
