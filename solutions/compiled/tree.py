@@ -161,7 +161,7 @@ def describe(scene: Scene, formulation) -> TreeScene:
         np.array(cut, dtype=np.int64), owners=np.array(owners, dtype=np.int64),
         cut_bodies=np.array(bodies, dtype=np.int64),
     )  # fmt: skip
-    tree.row_index = owned_rows(tree.owners, nb)
+    tree.row_index = owned_rows(owners, nb)
     if not joints:
         tree.unsupported = "a tree without joints"
     return tree
@@ -192,15 +192,22 @@ def _owners(system, joints) -> tuple[list[int], list[int], list[int]]:
     return owners, cut, bodies
 
 
-def owned_rows(owners: np.ndarray, nb: int) -> np.ndarray:
-    """The rows each body owns (``TreeScene.owners``), as one array: start (nb + 1), then the rows in body order,
-    body b's at [nb + 1 + start[b], nb + 1 + start[b + 1]) (a counting sort, row order kept within a body; cut rows,
-    owner -1, left out). Made once per scene, where ``tree_multipliers`` sorted them at every output time (two
-    allocations and three passes over the rows: ~0.25 us of an evaluation at two bodies)."""
-    counts = np.bincount(owners + 1, minlength=nb + 1)  # the cut rows' count first (owner -1), then each body's
-    start = np.cumsum(counts) - counts[0]  # body b's rows at [start[b], start[b + 1]), counted past the cut rows
-    rows = np.argsort(owners, kind="stable")[counts[0] :]  # by owner, row order kept; the cut rows first, left out
-    return np.concatenate([start, rows])
+def owned_rows(owners: list, nb: int) -> np.ndarray:
+    """The rows each body owns (``TreeScene.owners``, a list), as one array: start (nb + 1), then the rows in body
+    order, body b's at [nb + 1 + start[b], nb + 1 + start[b + 1]) (a counting sort, row order kept within a body;
+    cut rows, owner -1, left out). Made once per scene, where ``tree_multipliers`` sorted them at every output time
+    (two allocations and three passes over the rows: ~0.25 us of an evaluation at two bodies); in Python lists, one
+    array at the end (numpy's bincount, cumsum, argsort and concatenate cost ~20 us at a call's start against a
+    loop chain's few dozen rows)."""
+    rows = [[] for _ in range(nb)]  # each body's rows, in row order
+    for row, owner in enumerate(owners):
+        if owner >= 0:
+            rows[owner].append(row)
+    start, at = [0], 0
+    for body in rows:
+        at += len(body)
+        start.append(at)
+    return np.array([*start, *(row for body in rows for row in body)], dtype=np.int64)
 
 
 VECTORS = (("xi", "a"), ("Q", "n"), ("power", "3"), ("q", "n"), ("qd", "n"), ("thdd", "k"), ("mu", "ncut"))
