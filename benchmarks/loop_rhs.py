@@ -72,12 +72,12 @@ def dense_augmented(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, alpha, 
 def _scene(model):
     """(module, tree scene, P, D, joint state at the start) of a model in compiled joint coordinates; the energy
     states appended where the run integrates them (a driven model: its drivers' power)."""
-    from solutions.compiled import describe, load, parameters, plan
+    from solutions.compiled import load, parameters, plan
 
     system, q0, qd0 = build_system(load_model(model))
     forces = build_forces(system.model)
     made = make_formulation("joint-coordinates", system, mass_matrix(system.model), forces)
-    job = plan(describe(system, made.masses, forces), "joint-coordinates", made)
+    job = plan(system, made.masses, forces, "joint-coordinates", made)
     module, _, _ = load(job)
     P, D = parameters(job.scene, *job.numbers), job.scene.data()
     y = EquationsOfMotion(made, forces, bool(job.scene.scene.drivers)).initial_state(q0, qd0, 0.0)

@@ -86,14 +86,14 @@ def repeated():
 def parts(family: str, n: int, rounds: int) -> dict[str, float | str]:
     """Microseconds per call of each part of the chain's right-hand side at N = n, and of its integration loop per
     evaluation."""
-    from solutions.compiled import describe, load, loops, parameters, plan, tableau
+    from solutions.compiled import load, loops, parameters, plan, tableau
     from solutions.compiled.articulated import sizes
     from solutions.compiled.tree_kernels import SPATIAL_MOTION_ROWS
 
     system, q0, qd0 = build_system(load_model(CHAINS[family](n)))
     forces = build_forces(system.model)
     made = make_formulation("joint-coordinates", system, mass_matrix(system.model), forces)
-    job = plan(describe(system, made.masses, forces), "joint-coordinates", made)
+    job = plan(system, made.masses, forces, "joint-coordinates", made)
     module, project, _ = load(job)
     tree, P, D = job.scene, parameters(job.scene, *job.numbers), job.scene.data()
     y = EquationsOfMotion(made, forces, False).initial_state(q0, qd0, 0.0)

@@ -79,12 +79,21 @@ class Plan:
     formulation_object: object = None
 
 
-def plan(scene: Scene, formulation: str, formulation_object) -> Plan:
-    """The compiled run of a scene with the numpy ``formulation_object`` (made for the same run)."""
-    if formulation == "joint-coordinates" and scene.unsupported is None:
+def plan(system, M, forces, formulation: str, formulation_object) -> Plan:
+    """The compiled run of ``system`` with M and ``forces`` by the numpy ``formulation_object`` (made for the same
+    run): its scene described (``describe``), and for joint coordinates the tree over it (``tree.describe``), whose
+    cut elements (``tree.cut_names``) the scene describes first in each constraint kernel's data (the integration
+    evaluates those alone: ``TreeScene.data``). The one place a tree's scene is described: every caller's scene
+    has its cut elements first."""
+    if formulation != "joint-coordinates":
+        scene = describe(system, M, forces)
+    else:
+        from .tree import cut_names
         from .tree import describe as describe_tree
 
-        scene = describe_tree(scene, formulation_object)
+        scene = describe(system, M, forces, cut_names(formulation_object))
+        if scene.unsupported is None:
+            scene = describe_tree(scene, formulation_object)
     f = formulation_object
     numbers = (
         float(getattr(f, "alpha", 0.0)),

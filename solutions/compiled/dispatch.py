@@ -193,13 +193,12 @@ def compiled_start(
 
 
 def compiled_plan(equations, formulation: str):
-    """The compiled engine's ``Plan`` of ``equations`` (``solutions.compiled.plan`` of the scene ``describe`` makes),
+    """The compiled engine's ``Plan`` of ``equations`` (``solutions.compiled.plan``: the scene described),
     made once per formulation object and force model: a run's start rates and its engine's choice share it (the
     formulation object is made once for both, ``dynamics.StartRates.take``). A prepared run's
     (``equations.compiled_plans``, ``dynamics.Prepared``) is made once for all its runs: each run's formulation
     object gets the plan made for the first (the scene, its packed data, the loaded module), with itself in it."""
-    from . import describe, plan
-    from .tree import cut_names
+    from . import plan
 
     made = equations.formulation
     key = (formulation, id(equations.forces))
@@ -215,8 +214,7 @@ def compiled_plan(equations, formulation: str):
             if loaded is not None:  # this run loads nothing: as a call that finds the module imported already
                 job.__dict__["_loaded"] = (*loaded[:2], True, 0.0)
         else:
-            first = cut_names(made) if formulation == "joint-coordinates" else frozenset()  # the cut rows' first
-            job = plan(describe(made.system, made.masses, equations.forces, first), formulation, made)
+            job = plan(made.system, made.masses, equations.forces, formulation, made)
             if shared is not None:
                 shared[_plan_key(made, formulation)] = job
         made.__dict__["_compiled_plan"] = kept = (key, equations.forces, job)

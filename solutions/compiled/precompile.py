@@ -75,7 +75,7 @@ def _dynamic(dimension: str, formulation: str) -> Callable[[], bool]:
         system = _pendulum(dimension)
         M, forces = mass_matrix(system.model), build_forces(system.model)
         made = make_formulation(formulation, system, M, forces)
-        return compiled.load(compiled.plan(compiled.describe(system, M, forces), formulation, made))[2]
+        return compiled.load(compiled.plan(system, M, forces, formulation, made))[2]
 
     return load
 

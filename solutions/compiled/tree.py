@@ -75,8 +75,6 @@ class TreeScene:
     """The sparsity of the cut solve (``structure``), made once per scene: what ``cut_accelerations`` reads (P[8]
     after the row index)."""
     unsupported: str | None = None
-    first: frozenset = frozenset()
-    """The names of the cut elements (``cut_names``): those whose rows the integration evaluates alone."""
     packed_data: tuple | None = field(default=None, repr=False, compare=False)  # ``data()``, made once
 
     @property
@@ -95,21 +93,18 @@ class TreeScene:
 
     def data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """D of the scene with the tree's joints in their slot (``scene.packed``), made at the first call; in each
-        constraint kernel's slot the elements of cut rows first, and after the offsets of every slot (len(SLOTS) + 1)
-        where each slot's cut elements stop: the integration evaluates those alone. The scene describes them first
-        where it was told them (``scene.describe``'s ``first``, as the engine describes a tree's scene: its
-        ``first_counts``), else they are put first here (``cut_first``: a scene described for any formulation)."""
+        constraint kernel's slot the elements of cut rows first, as the scene describes them (``compiled.plan``
+        gives ``scene.describe`` the tree's ``cut_names``: ``Scene.first_counts``), and after the offsets of every
+        slot (len(SLOTS) + 1) where each slot's cut elements stop: the integration evaluates those alone. The tree's
+        joints satisfy their rows by construction (eq. 5.44: the joint coordinates parametrize them), so the
+        integration's right-hand side, which reads the cut rows alone, calls each kernel on its cut elements only.
+        Every element writes Psi, Psi_q and gamma of its own rows alone, so the order of a kernel's elements
+        changes no number."""
         if self.packed_data is None:
-            constraints, cut = self.scene.constraint_kernels, {}  # an open tree: no cut element in any slot
-            if self.cut_rows.size and self.scene.first == self.first:  # the scene's own order
-                cut = self.scene.first_counts
-            elif self.cut_rows.size:  # a scene described without them first: put first here
-                owners = self.owners.tolist()
-                constraints = [cut_first(*kernel, owners, cut) for kernel in constraints]
-            kernels = [*constraints, *self.scene.force_kernels, ("tree", self.ints, self.floats)]
+            kernels = [*self.scene.constraint_kernels, *self.scene.force_kernels, ("tree", self.ints, self.floats)]
             ints, floats, offsets = packed(kernels, SLOTS)
             stops = offsets[:-1].copy()
-            for name, count in cut.items():
+            for name, count in self.scene.first_counts.items():
                 stops[SLOTS.index(name)] += count
             self.packed_data = ints, floats, np.concatenate([offsets, stops])
         return self.packed_data
@@ -133,24 +128,6 @@ ONE_BODY = ("planar_coordinate", "spatial_coordinate", "spatial_normalization")
 """The constraint kernels whose ints begin (body, row, ...) (``scene.py``); every other's begin (i, j, row, ...)."""
 
 
-def cut_first(name: str, ints: np.ndarray, floats: np.ndarray, owners: list, cut: dict) -> tuple:
-    """A constraint kernel's data (name, ints, floats: ``Scene.constraint_kernels``) with the elements of cut rows
-    (``TreeScene.owners``: -1) first, each group in its order; their count in ``cut[name]``. The tree's joints
-    satisfy their rows by construction (eq. 5.44: the joint coordinates parametrize them), so the integration's
-    right-hand side, which reads the cut rows alone, calls each kernel on its cut elements only. Every element writes
-    Psi, Psi_q and gamma of its own rows alone, so the order of a kernel's elements changes no number. (Lists: a
-    few elements a kernel, where each numpy call costs more than the loop.)"""
-    if ints.shape[0] == 0:  # a kernel the scene lacks
-        return name, ints, floats
-    rows = ints[:, 1 if name in ONE_BODY else 2].tolist()  # each element's first row
-    order = [e for e, row in enumerate(rows) if owners[row] < 0]
-    cut[name] = len(order)
-    if order == list(range(len(order))):  # the cut elements first already (or none)
-        return name, ints, floats
-    order += [e for e, row in enumerate(rows) if owners[row] >= 0]
-    return name, ints[order], floats[order]
-
-
 def _row(joint) -> list[float]:
     pad = [0.0] * (3 - len(joint.s_parent))
     frame = [v for axis in joint.frame for v in axis] or [0.0] * 9
@@ -161,9 +138,13 @@ def _row(joint) -> list[float]:
 
 
 def describe(scene: Scene, formulation) -> TreeScene:
-    """The tree of a ``JointCoordinates`` formulation over the scene (``unsupported`` says why not compiled): the
-    joints' rows built as flat lists of Python numbers and made arrays once each (an array of nested lists, or of
-    numpy scalars, costs several times as much: ~20 us of a loop chain of four's start)."""
+    """The tree of a ``JointCoordinates`` formulation over the scene (``unsupported`` says why not compiled), a scene
+    described with the tree's cut elements first (``compiled.plan``; ``scene.describe``'s ``first``: ValueError
+    otherwise, whose integration would read the wrong rows): the joints' rows built as flat lists of Python numbers
+    and made arrays once each (an array of nested lists, or of numpy scalars, costs several times as much: ~20 us
+    of a loop chain of four's start)."""
+    if scene.first != cut_names(formulation):
+        raise ValueError("a tree's scene is described with its cut elements first: compiled.plan describes it")
     joints, k = formulation.joints, formulation.tree.k
     moving = [[*j.inherited, *range(j.velocity, j.velocity + j.n_velocities)] for j in joints]  # D's columns
     heads, floats = [], []
@@ -180,8 +161,7 @@ def describe(scene: Scene, formulation) -> TreeScene:
         np.array(cut, dtype=np.int64), owners=np.array(owners, dtype=np.int64),
         cut_bodies=np.array(bodies, dtype=np.int64),
     )  # fmt: skip
-    tree.row_index = owned_rows(tree.owners, nb)
-    tree.first = cut_names(formulation)
+    tree.row_index = owned_rows(owners, nb)
     if not joints:
         tree.unsupported = "a tree without joints"
     return tree
@@ -212,15 +192,22 @@ def _owners(system, joints) -> tuple[list[int], list[int], list[int]]:
     return owners, cut, bodies
 
 
-def owned_rows(owners: np.ndarray, nb: int) -> np.ndarray:
-    """The rows each body owns (``TreeScene.owners``), as one array: start (nb + 1), then the rows in body order,
-    body b's at [nb + 1 + start[b], nb + 1 + start[b + 1]) (a counting sort, row order kept within a body; cut rows,
-    owner -1, left out). Made once per scene, where ``tree_multipliers`` sorted them at every output time (two
-    allocations and three passes over the rows: ~0.25 us of an evaluation at two bodies)."""
-    counts = np.bincount(owners + 1, minlength=nb + 1)  # the cut rows' count first (owner -1), then each body's
-    start = np.cumsum(counts) - counts[0]  # body b's rows at [start[b], start[b + 1]), counted past the cut rows
-    rows = np.argsort(owners, kind="stable")[counts[0] :]  # by owner, row order kept; the cut rows first, left out
-    return np.concatenate([start, rows])
+def owned_rows(owners: list, nb: int) -> np.ndarray:
+    """The rows each body owns (``TreeScene.owners``, a list), as one array: start (nb + 1), then the rows in body
+    order, body b's at [nb + 1 + start[b], nb + 1 + start[b + 1]) (a counting sort, row order kept within a body;
+    cut rows, owner -1, left out). Made once per scene, where ``tree_multipliers`` sorted them at every output time
+    (two allocations and three passes over the rows: ~0.25 us of an evaluation at two bodies); in Python lists, one
+    array at the end (numpy's bincount, cumsum, argsort and concatenate cost ~20 us at a call's start against a
+    loop chain's few dozen rows)."""
+    rows = [[] for _ in range(nb)]  # each body's rows, in row order
+    for row, owner in enumerate(owners):
+        if owner >= 0:
+            rows[owner].append(row)
+    start, at = [0], 0
+    for body in rows:
+        at += len(body)
+        start.append(at)
+    return np.array([*start, *(row for body in rows for row in body)], dtype=np.int64)
 
 
 VECTORS = (("xi", "a"), ("Q", "n"), ("power", "3"), ("q", "n"), ("qd", "n"), ("thdd", "k"), ("mu", "ncut"))

@@ -21,7 +21,7 @@ if str(ROOT) not in sys.path:
 from benchmarks import chains  # noqa: E402
 from solutions import dynamics  # noqa: E402
 from solutions.assembly import build_system  # noqa: E402
-from solutions.compiled import describe, plan  # noqa: E402
+from solutions.compiled import plan  # noqa: E402
 from solutions.io.model import load_model  # noqa: E402
 from solutions.joint_coordinates import cut_elements, tree_order  # noqa: E402
 from solutions.mass_matrix import singular_inertia  # noqa: E402
@@ -42,7 +42,7 @@ def _tree(model):
     M, forces = dynamics.dynamic_model(system, None, None)
     formulation = dynamics.make_formulation("joint-coordinates", system, M, forces)
     formulation.initial_state(q0, qd0, 0.0)
-    return system, plan(describe(system, M, forces), "joint-coordinates", formulation).scene
+    return system, plan(system, M, forces, "joint-coordinates", formulation).scene
 
 
 @pytest.mark.parametrize("name", ["slider_crank", "four_bar", "double_pendulum", "spatial_slider_crank", "loops3"])
@@ -203,16 +203,17 @@ def test_the_divergence_companion_starts_from_the_runs_start_state(monkeypatch):
 
 @pytest.mark.parametrize("engine", ["numpy", "compiled"])
 def test_each_call_makes_psi_q_s_rank_once_and_keeps_nothing_for_the_next(monkeypatch, engine):
-    """Psi_q's rank at the start (``dynamics.rank_at``: an SVD, 0.1-1 ms on the loop chains) is made once per call,
-    at its start (``Start.rank``), and handed to the method's choice, the redundancy checks, the Guard and the
-    divergence check: a second identical call makes it again (no result kept on the system across calls), and a
+    """Psi_q's rank at the start (``dynamics.rank_at``: a certificate or an SVD, 0.1-1 ms on the loop chains) is made
+    once per call, at its start (``Start.rank``), and handed to the method's choice, the redundancy checks, the Guard
+    and the divergence check: a second identical call makes it again (no result kept on the system across calls), and a
     call from another q0 gets its own. The results are the same as without counting."""
     system, q0, qd0 = build_system(load_model(chains.loop_chain(2)))
     options = dict(formulation="auto", rtol=1e-6, atol=1e-8, engine=engine)
     reference = dynamics.forward_dynamics(system, q0, qd0, 0.2, 10, **options)
-    made = []
-    original = dynamics.rank_report
-    monkeypatch.setattr(dynamics, "rank_report", lambda *a, **k: made.append(1) or original(*a, **k))
+    made = []  # each decision of the rank: the certificate (``full_row_rank``), the SVD where it fails
+    for name in ("full_row_rank", "rank_report"):
+        original = getattr(dynamics, name)
+        monkeypatch.setattr(dynamics, name, lambda *a, _f=original, **k: made.append(1) or _f(*a, **k))
     first = dynamics.forward_dynamics(system, q0, qd0, 0.2, 10, **options)
     second = dynamics.forward_dynamics(system, q0, qd0, 0.2, 10, **options)
     assert len(made) == 2

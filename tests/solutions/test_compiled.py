@@ -202,13 +202,13 @@ def test_a_function_handed_to_the_loops_is_typed_once_and_computes_the_same():
     """``loops.first_class``: the scene's right-hand side handed to a loop with its numba type and address found
     once (handed as the dispatcher, numba derives the type anew at every call): the same numbers as the
     dispatcher, one object per function and signature."""
-    from solutions.compiled import describe, load, loops, parameters, plan
+    from solutions.compiled import load, loops, parameters, plan
     from solutions.generalized_forces import build_forces
     from solutions.mass_matrix import mass_matrix
 
     system, _, _ = build_system(load_model(SCENES["double_pendulum"]))
-    scene = describe(system, mass_matrix(system.model), build_forces(system.model))
-    job = plan(scene, "baumgarte", SimpleNamespace(alpha=5.0, beta=5.0))
+    M, forces = mass_matrix(system.model), build_forces(system.model)
+    job = plan(system, M, forces, "baumgarte", SimpleNamespace(alpha=5.0, beta=5.0))
     module, _, _ = load(job)
     P, D = parameters(job.scene, *job.numbers), job.scene.data()
     rng = np.random.default_rng(3)
@@ -258,13 +258,13 @@ def test_a_state_or_out_of_a_size_scene_rhs_does_not_know_gets_nan_not_a_write_p
     ``out``, or a state of another size, is filled with NaN; the sizes it knows (y', with lambda and anything
     after, with Psi, Psi_t and Psi_q) are still filled with finite numbers (a harness that guesses wrong sees NaN,
     not a crash)."""
-    from solutions.compiled import describe, load, parameters, plan
+    from solutions.compiled import load, parameters, plan
     from solutions.generalized_forces import build_forces
     from solutions.mass_matrix import mass_matrix
 
     system, q0, qd0 = build_system(load_model(SCENES["double_pendulum"]))
-    scene = describe(system, mass_matrix(system.model), build_forces(system.model))
-    job = plan(scene, "baumgarte", SimpleNamespace(alpha=5.0, beta=5.0))
+    M, forces = mass_matrix(system.model), build_forces(system.model)
+    job = plan(system, M, forces, "baumgarte", SimpleNamespace(alpha=5.0, beta=5.0))
     module, _, _ = load(job)
     P, D = parameters(job.scene, *job.numbers), job.scene.data()
     n, m = job.scene.n, job.scene.m

@@ -56,13 +56,13 @@ def _random_tree(dimension: int, n: int, seed: int) -> dict:
 def compiled_sides(model: dict):
     """(numpy equations of motion, its formulation, the compiled plan, the compiled scene_rhs with its P and D, the
     joint state at the start) of a model in joint coordinates (also ``test_compiled_cut``)."""
-    from solutions.compiled import describe, load, parameters, plan
+    from solutions.compiled import load, parameters, plan
 
     system, q0, qd0 = build_system(load_model(model))
     forces = build_forces(system.model)
     made = make_formulation("joint-coordinates", system, mass_matrix(system.model), forces)
     equations = EquationsOfMotion(made, forces, False)
-    job = plan(describe(system, made.masses, forces), "joint-coordinates", made)
+    job = plan(system, made.masses, forces, "joint-coordinates", made)
     assert job.scene.unsupported is None
     module, _, _ = load(job)
     P, D = parameters(job.scene, *job.numbers), job.scene.data()

@@ -119,7 +119,7 @@ def test_the_drivers_power_from_the_cut_rows_is_lambda_psi_t_of_every_row(name):
     forces = build_forces(system.model)
     made = make_formulation("joint-coordinates", system, mass_matrix(system.model), forces)
     equations = EquationsOfMotion(made, forces, True)
-    job = plan(describe(system, made.masses, forces), "joint-coordinates", made)
+    job = plan(system, made.masses, forces, "joint-coordinates", made)
     module, _, _ = load(job)
     P, D = parameters(job.scene, *job.numbers), job.scene.data()
     assert P[8][2] == 3 and P[8][5] == 1  # the energy states, the drivers' power: what a run integrates
@@ -215,13 +215,12 @@ def _python_structure(tree) -> list[int]:
 def test_the_compiled_cut_structure_equals_the_python_lists_one_and_is_made_only_for_the_run(model):
     """``TreeScene.structure`` (numba, ``compiled/structure.py``) gives the Python reference's array entry for entry;
     ``tree.describe`` (which the engine's choice calls before numba is loaded) leaves it to the run's parameters."""
-    from solutions.compiled import tree as tree_module
 
     system, _, _ = build_system(load_model(model))
     M, forces = mass_matrix(system.model), build_forces(system.model)
     made = make_formulation("joint-coordinates", system, M, forces)
     EquationsOfMotion(made, forces, False).initial_state(*build_system(load_model(model))[1:], 0.0)
-    tree = tree_module.describe(describe(system, M, forces), made)
+    tree = plan(system, M, forces, "joint-coordinates", made).scene
     assert tree.cut_index is None  # not made by the description
     assert tree.structure().tolist() == _python_structure(tree)
     assert tree.structure() is tree.cut_index  # made once per scene
@@ -270,20 +269,23 @@ def test_the_integration_evaluates_the_cut_elements_kernels_alone(model):
     "model", [parallelogram_chain(6), _held_chain(12), _spatial_loop()], ids=["loop-chain", "held-chain", "spatial"]
 )
 def test_the_scene_describes_the_cut_elements_first_as_the_tree_orders_them(model):
-    """The cut-first order is made where the scene is described (``scene.describe``'s ``first``: the engine passes a
-    tree's cut elements, ``dispatch.compiled_plan``): each constraint kernel's cut elements lead its own data, their
-    count in ``first_counts``; the tree's D equals, array for array, the one of a scene described without them
-    (``TreeScene.data`` reorders that one, ``cut_first``), and a scene described for any other formulation keeps the
-    elements' order."""
+    """The cut-first order is made where the scene is described, by ``compiled.plan`` alone (it gives
+    ``scene.describe`` the tree's cut elements, ``tree.cut_names``): each constraint kernel's cut elements lead its own
+    data, their count in ``first_counts``; the tree's D equals, array for array, the one of a scene described
+    without them with each kernel's cut elements moved first (``_cut_first``, the reorder ``TreeScene.data`` made
+    before session 26); a scene described for any other formulation keeps the elements' order, and the tree refuses
+    a scene described without its cut elements first (its integration would read the wrong rows)."""
+    from solutions.compiled import tree as tree_module
+    from solutions.compiled.scene import SLOTS, packed
     from solutions.compiled.tree import ONE_BODY, cut_names
 
     system = build_system(load_model(model))[0]
     M, forces = mass_matrix(system.model), build_forces(system.model)
     made = make_formulation("joint-coordinates", system, M, forces)
     first = cut_names(made)
-    told = plan(describe(system, M, forces, first), "joint-coordinates", made).scene
-    untold = plan(describe(system, M, forces), "joint-coordinates", made).scene
-    assert told.scene.first == told.first == first and untold.scene.first == frozenset()
+    told = plan(system, M, forces, "joint-coordinates", made).scene
+    untold = describe(system, M, forces)
+    assert told.scene.first == first and untold.first == frozenset()
     assert sum(told.scene.first_counts.values()) == len(first) > 0
     owners = told.owners
     for name, ints, _ in told.scene.constraint_kernels:
@@ -291,8 +293,30 @@ def test_the_scene_describes_the_cut_elements_first_as_the_tree_orders_them(mode
             cut = told.scene.first_counts.get(name, 0)
             column_owners = owners[ints[:, 1 if name in ONE_BODY else 2]]
             assert np.all(column_owners[:cut] < 0) and np.all(column_owners[cut:] >= 0), name
-    for ours, theirs in zip(told.data(), untold.data(), strict=True):
+    cut = {}
+    constraints = [_cut_first(*kernel, owners.tolist(), cut) for kernel in untold.constraint_kernels]
+    ints, floats, offsets = packed([*constraints, *untold.force_kernels, ("tree", told.ints, told.floats)], SLOTS)
+    stops = offsets[:-1].copy()
+    for name, count in cut.items():
+        stops[SLOTS.index(name)] += count
+    for ours, theirs in zip(told.data(), (ints, floats, np.concatenate([offsets, stops])), strict=True):
         assert ours.dtype == theirs.dtype and ours.tobytes() == theirs.tobytes()
-    kernels = [(name, ints) for name, ints, _ in untold.scene.constraint_kernels if ints.shape[0]]
+    kernels = [(name, ints) for name, ints, _ in untold.constraint_kernels if ints.shape[0]]
     rows = [ints[:, 1 if name in ONE_BODY else 2].tolist() for name, ints in kernels]
     assert all(r == sorted(r) for r in rows)  # the elements' order: each element's first row increasing
+    with pytest.raises(ValueError, match="cut elements first"):
+        tree_module.describe(untold, made)
+
+
+def _cut_first(name: str, ints: np.ndarray, floats: np.ndarray, owners: list, cut: dict) -> tuple:
+    """A constraint kernel's data with the elements of cut rows (owner -1) first, each group in its order; their count
+    in ``cut[name]``: the reference of the cut-first order (``TreeScene.data``'s own reorder before session 26)."""
+    from solutions.compiled.tree import ONE_BODY
+
+    if ints.shape[0] == 0:
+        return name, ints, floats
+    rows = ints[:, 1 if name in ONE_BODY else 2].tolist()
+    order = [e for e, row in enumerate(rows) if owners[row] < 0]
+    cut[name] = len(order)
+    order += [e for e, row in enumerate(rows) if owners[row] >= 0]
+    return name, ints[order], floats[order]
