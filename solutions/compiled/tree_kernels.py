@@ -86,7 +86,8 @@ def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, columns, body
         cp, sp = 1.0, 0.0
         if P >= 0:
             o = 3 * P
-            px, py, pphi, pvx, pvy, wp, pax, pay = q[o], q[o + 1], q[o + 2], qd[o], qd[o + 1], qd[o + 2], xi[o], xi[o + 1]
+            px, py, pphi, pvx, pvy, wp = q[o], q[o + 1], q[o + 2], qd[o], qd[o + 1], qd[o + 2]
+            pax, pay = xi[o], xi[o + 1]
             cp, sp = body[P, MOTION, 0], body[P, MOTION, 1]
         revolute = ints[e, 0] == REVOLUTE
         phi = pphi + (theta[c] if revolute else floats[e, OFFSET])
