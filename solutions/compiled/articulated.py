@@ -501,7 +501,8 @@ def planar_passes(body, joint, ints, first, thdd):
 
 
 def two_passes(nv: int):
-    """The two passes for bodies of nv velocity components (3 planar, 6 spatial): nv a constant of the compiled
+    """The two passes for bodies of nv velocity components (6 spatial; 3 would be the planar passes by the 3 x 3
+    route at every joint, which ``planar_passes`` keeps for prismatic joints alone): nv a constant of the compiled
     code, and a joint's columns d (1, or 3 for a spherical joint) constant in each branch, so that every loop has a
     known length and the compiler writes it out (twice as fast as loops whose length is read at run time)."""
     nw = 1 if nv == 3 else 3  # the angular components: omega (planar), omega's three (spatial)
@@ -550,9 +551,7 @@ def two_passes(nv: int):
 
 
 spatial_passes = two_passes(6)
-general_planar_passes = two_passes(3)
-"""The planar passes by the 3 x 3 route at every joint (each child's centre): ``planar_passes``' reference in the
-tests."""
+"""(``planar_passes`` is written out above: a revolute joint at its point, which the spatial passes do not yet do.)"""
 
 
 def articulated_accelerations(IA, pA, ints, S, links, widths, first, thdd, acc):
@@ -595,7 +594,6 @@ __all__ = [
     "WIDTHS",
     "articulated_accelerations",
     "body_rows",
-    "general_planar_passes",
     "joint_rows",
     "planar_passes",
     "sizes",
