@@ -59,7 +59,7 @@ a 2 x 2 block and a force, carried on to the parent's centre by X_p = [[1, B], [
 = l + rho_C, the joint point from the parent's centre): I^A_P += [[M, M B], [B^T M, B^T M B]], p^A_P += (pa_v,
 B^T pa_v). Pass 2 (eq. 7.10 at J): the point's acceleration a_J = a_P + alpha_P B, the child's angular acceleration
 from the zero moment G^T a_J + K alpha_C + p'_w = 0, theta''_e = alpha_C - alpha_P, and A_C = (a_J + alpha_C b,
-alpha_C). About a third of the products of the 3 x 3 route, and no square root (D_e = K is a number). A prismatic
+alpha_C). About half the products of the 3 x 3 route, no square root (D_e = K is a number). A prismatic
 joint keeps the 3 x 3 route at the child's centre (its S_e = (u, 0) has no point where it is simpler).
 
 Trees with cut joints (closed loops, drivers) keep the augmented system of ``tree_kernels.cut_accelerations``.
