@@ -3,7 +3,8 @@
 The planar pendulum chain (revolute joints) and the spatial chain (spherical joints) of ``chains.py`` are open trees:
 their compiled right-hand side (``compiled/tree.py``'s scene_rhs) makes the tree's recursion (``planar_motion`` /
 ``spatial_motion``: q, q', xi, each joint's columns S_e and link) and theta'' by the articulated-body algorithm
-(``planar_articulated`` / ``spatial_articulated``, ``articulated.py``), no D and no constraint rows. Each part is timed
+(``planar_articulated`` / ``spatial_articulated``, ``articulated.py``: a planar revolute or a spherical joint at its
+joint point), no D and no constraint rows. Each part is timed
 alone on the chain's starting state, its work arrays made once (scene_rhs makes them at every evaluation), thread CPU,
 the least of ``--rounds`` rounds, microseconds per call, called from a compiled loop as the integration calls it,
 beside the whole right-hand side with and without the outputs (q, q', q'', lambda of every row; with Psi, Psi_t and
@@ -88,7 +89,7 @@ def parts(family: str, n: int, rounds: int) -> dict[str, float | str]:
     evaluation."""
     from solutions.compiled import load, loops, parameters, plan, tableau
     from solutions.compiled.articulated import sizes
-    from solutions.compiled.tree_kernels import SPATIAL_MOTION_ROWS
+    from solutions.compiled.tree_kernels import PLANAR_MOTION_ROWS, SPATIAL_MOTION_ROWS
 
     system, q0, qd0 = build_system(load_model(CHAINS[family](n)))
     forces = build_forces(system.model)
@@ -107,7 +108,8 @@ def parts(family: str, n: int, rounds: int) -> dict[str, float | str]:
     q, qd, xi, Dm = np.empty(n_q), np.empty(n_q), np.empty(nv * nb), np.empty((nv * nb, k))
     omega, rates = np.empty((nb, 3)), np.empty(npos)
     thdd, (body_rows, joint_rows) = np.empty(k), sizes(nv)
-    body = np.empty((nb + 1, body_rows + SPATIAL_MOTION_ROWS, nv))  # as scene_rhs's (planar: 3 rows of them)
+    recursion = SPATIAL_MOTION_ROWS if family == "spatial" else PLANAR_MOTION_ROWS
+    body = np.empty((nb + 1, body_rows + recursion, nv))  # the rows scene_rhs's have
     joint = np.empty((ne + 1, joint_rows, nv))
     Q0, mass, masses, inertias = P[0], P[1], P[2], P[3]
     theta, rate = y[:npos], y[npos : npos + k]

@@ -42,6 +42,26 @@ no moment, and what the child passes on is a 3 x 3 translational block, F droppi
 third of the 6 x 6 route's products (Featherstone 2008, sec. 7.3: each joint's quantities where its S is simplest).
 The same theta'' to rounding (the products in another order).
 
+A planar revolute joint takes them at its joint point too (``revolute_passed_on``, ``revolute_point_to_parent``,
+``revolute_acceleration``). Motion at the point J = r_C + rho_C reaches the child's centre by X_c = [[1, b], [0,
+1]] on (v_x, v_y, omega), b = (rho_y, -rho_x) (v_C = v_J + omega k x (-rho_C)), and there S_e = (0, 0, 1): X_c (0,
+0, 1) = (b, 1) is the joint's column at the centre. Seen at J the child's articulated inertia and bias force read
+
+    I' = X_c^T I^A_C X_c = [[I_vv, G], [G^T, K]],      G = I_vv b + I_vw,   K = I_ww + I_wv b + b^T G,
+    p' = X_c^T p^A_C = (p_v, p'_w),                    p'_w = p_w + b^T p_v                             (eq. 7.7)
+
+so that eq. 7.8 gives U = (G, K), D_e = K, u = -p'_w, and eq. 7.9 what the child passes on at J: the joint
+transmits no moment, and U D_e^-1 U^T = [[G G^T / K, G], [G^T, K]] takes away the angular row and column whole,
+
+    Ia = [[M, 0], [0, 0]],   M = I_vv - G G^T / K,      pa = (p_v - G p'_w / K, 0)                   (eq. 7.9 at J)
+
+a 2 x 2 block and a force, carried on to the parent's centre by X_p = [[1, B], [0, 1]], B = (-e_y, e_x) (e = e_P
+= l + rho_C, the joint point from the parent's centre): I^A_P += [[M, M B], [B^T M, B^T M B]], p^A_P += (pa_v,
+B^T pa_v). Pass 2 (eq. 7.10 at J): the point's acceleration a_J = a_P + alpha_P B, the child's angular acceleration
+from the zero moment G^T a_J + K alpha_C + p'_w = 0, theta''_e = alpha_C - alpha_P, and A_C = (a_J + alpha_C b,
+alpha_C). About half the products of the 3 x 3 route, no square root (D_e = K is a number). A prismatic
+joint keeps the 3 x 3 route at the child's centre (its S_e = (u, 0) has no point where it is simpler).
+
 Trees with cut joints (closed loops, drivers) keep the augmented system of ``tree_kernels.cut_accelerations``.
 
 This module imports numba: it is imported only when the compiled engine runs (``solutions.compiled``).
@@ -84,8 +104,8 @@ def body_rows(nv):
 def joint_rows(nv):
     """The rows of a joint's entry of ``joint`` (ne + 1 entries of ``sizes(nv)[1]`` rows x nv): its columns S_e (nv
     rows, d columns), U = I^A S_e (nv rows, d columns), D_e's factor L (d x d), u (d entries of a row), the link l
-    (3 entries of a row): eq. 7.8; and (spatial) the joint point from either centre, rho_C and e_P = l + rho_C (a
-    row: ``spherical_passed_on``)."""
+    (3 entries of a row): eq. 7.8; and the joint point from either centre, rho_C and e_P = l + rho_C (a row:
+    ``spherical_passed_on``), planar e_P alone (``revolute_passed_on``: rho_C is in S_e)."""
     return 0, nv, 2 * nv, 2 * nv + 3, 2 * nv + 4, 2 * nv + 5
 
 
@@ -379,8 +399,112 @@ def spherical_acceleration(body, joint, P, C, e, s):
     body[C, ACC, 3], body[C, ACC, 4], body[C, ACC, 5] = w0, w1, w2
 
 
+@inlined
+def revolute_passed_on(body, joint, C, e):
+    """Pass 1 at a planar revolute joint e with child C (eq. 7.8-7.9 at its joint point J, module docstring): G, K
+    and p'_w of I^A_C and p^A_C seen at J (b = S_e's linear part, I^A read by its upper triangle: it is symmetric),
+    kept in the joint's rows U (G), L (1 / K) and u (p'_w) for pass 2; returns (K > 0, M's entries m00, m01, m11
+    and pa_v): what the child passes on at J, a 2 x 2 translational block and a force."""
+    IA, PA, _ = body_rows(3)
+    S, U, L, u, _, _ = joint_rows(3)
+    b0, b1 = joint[e, S, 0], joint[e, S + 1, 0]
+    I00, I01, I02 = body[C, IA, 0], body[C, IA, 1], body[C, IA, 2]
+    I11, I12, I22 = body[C, IA + 1, 1], body[C, IA + 1, 2], body[C, IA + 2, 2]
+    g0, g1 = I00 * b0 + I01 * b1 + I02, I01 * b0 + I11 * b1 + I12  # G = I_vv b + I_vw
+    K = I22 + b0 * (I02 + g0) + b1 * (I12 + g1)  # I_ww + I_wv b + b^T G
+    pw = body[C, PA, 2] + (b0 * body[C, PA, 0] + b1 * body[C, PA, 1])  # p'_w = p_w + b^T p_v
+    if not K > 0.0:
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0
+    inverse = 1.0 / K
+    joint[e, U, 0], joint[e, U + 1, 0], joint[e, L, 0], joint[e, u, 0] = g0, g1, inverse, pw
+    h0, h1 = g0 * inverse, g1 * inverse  # G / K
+    return True, I00 - h0 * g0, I01 - h0 * g1, I11 - h1 * g1, body[C, PA, 0] - h0 * pw, body[C, PA, 1] - h1 * pw
+
+
+@inlined
+def revolute_point_to_parent(body, joint, P, e, m00, m01, m11, pa0, pa1):
+    """The child's block M and force pa_v at joint e's point (``revolute_passed_on``) carried to the parent's centre
+    and added there (eq. 7.9): I^A_P += [[M, M B], [B^T M, B^T M B]], p^A_P += (pa_v, B^T pa_v), B = (-e_y, e_x)
+    from e_P (the joint's row ARM). M symmetric: B^T M is (M B)^T, the same two numbers."""
+    IA, PA, _ = body_rows(3)
+    ARM = joint_rows(3)[5]
+    e0, e1 = joint[e, ARM, 0], joint[e, ARM, 1]
+    c0, c1 = e0 * m01 - e1 * m00, e0 * m11 - e1 * m01  # M B
+    body[P, IA, 0] += m00
+    body[P, IA, 1] += m01
+    body[P, IA, 2] += c0
+    body[P, IA + 1, 0] += m01
+    body[P, IA + 1, 1] += m11
+    body[P, IA + 1, 2] += c1
+    body[P, IA + 2, 0] += c0
+    body[P, IA + 2, 1] += c1
+    body[P, IA + 2, 2] += e0 * c1 - e1 * c0
+    body[P, PA, 0] += pa0
+    body[P, PA, 1] += pa1
+    body[P, PA, 2] += e0 * pa1 - e1 * pa0
+
+
+@inlined
+def revolute_acceleration(body, joint, P, C, e):
+    """Pass 2 at a planar revolute joint e (eq. 7.10 at its joint point, module docstring): a_J = a_P + alpha_P B,
+    alpha_C = -(G^T a_J + p'_w) / K, A_C = (a_J + alpha_C b, alpha_C); returns theta''_e = alpha_C - alpha_P."""
+    _, _, ACC = body_rows(3)
+    S, U, L, u, _, ARM = joint_rows(3)
+    alpha = body[P, ACC, 2]
+    a0 = body[P, ACC, 0] - alpha * joint[e, ARM, 1]
+    a1 = body[P, ACC, 1] + alpha * joint[e, ARM, 0]
+    alpha_c = -(joint[e, U, 0] * a0 + joint[e, U + 1, 0] * a1 + joint[e, u, 0]) * joint[e, L, 0]
+    body[C, ACC, 0] = a0 + alpha_c * joint[e, S, 0]
+    body[C, ACC, 1] = a1 + alpha_c * joint[e, S + 1, 0]
+    body[C, ACC, 2] = alpha_c
+    return alpha_c - alpha
+
+
+@inlined
+def planar_passes(body, joint, ints, first, thdd):
+    """theta'' of an open planar tree (into ``thdd``), as ``two_passes``' but a revolute joint at its joint point
+    (``revolute_passed_on``: S_e = (0, 0, 1) there; its row ARM e_P, the joint point from the parent's centre), a
+    prismatic one by the 3 x 3 route at the child's centre. Written into the caller (``tree_kernels.
+    planar_articulated``, itself in scene_rhs): the four arrays it was handed cost more than its arithmetic at two
+    bodies (rhs N = 2 0.32 -> 0.29 us, N = 16 1.04 -> 0.97; the prismatic route's steps stay functions)."""
+    ne, nb = ints.shape[0], body.shape[0] - 1
+    _, _, ACC = body_rows(3)
+    x = scratch_rows(3)[4]
+    for e in range(ne - 1, -1, -1):  # 1. from the leaves to ground
+        P, C = ints[e, 1], ints[e, 2]
+        if P < 0:
+            P = nb
+        if ints[e, 0] == 0:  # revolute
+            positive, m00, m01, m11, pa0, pa1 = revolute_passed_on(body, joint, C, e)
+            if positive:
+                revolute_point_to_parent(body, joint, P, e, m00, m01, m11, pa0, pa1)
+        else:  # prismatic
+            joint_terms(body, joint, C, e, 1, 3)
+            positive = factor_joint(joint, e, 1, 3)
+            if positive:
+                passed_on(body, joint, C, e, 1, ne, 3)
+                shift_block(joint, e, ne, 3)
+                shift_to_parent(body, joint, P, ne, 3, 1)
+        if not positive:
+            thdd[:] = np.nan
+            return
+    for i in range(3):  # 2. from ground to the leaves: A of ground is zero
+        body[nb, ACC, i] = 0.0
+    for e in range(ne):
+        P, C, at = ints[e, 1], ints[e, 2], ints[e, first]
+        if P < 0:
+            P = nb
+        if ints[e, 0] == 0:
+            thdd[at] = revolute_acceleration(body, joint, P, C, e)
+        else:
+            shift_block(joint, e, ne, 3)
+            child_acceleration(body, joint, P, C, e, 1, ne, 3, 1)
+            thdd[at] = joint[ne, x, 0]
+
+
 def two_passes(nv: int):
-    """The two passes for bodies of nv velocity components (3 planar, 6 spatial): nv a constant of the compiled
+    """The two passes for bodies of nv velocity components (6 spatial; 3 would be the planar passes by the 3 x 3
+    route at every joint, which ``planar_passes`` keeps for prismatic joints alone): nv a constant of the compiled
     code, and a joint's columns d (1, or 3 for a spherical joint) constant in each branch, so that every loop has a
     known length and the compiler writes it out (twice as fast as loops whose length is read at run time)."""
     nw = 1 if nv == 3 else 3  # the angular components: omega (planar), omega's three (spatial)
@@ -428,7 +552,8 @@ def two_passes(nv: int):
     return passes
 
 
-planar_passes, spatial_passes = two_passes(3), two_passes(6)
+spatial_passes = two_passes(6)
+"""(``planar_passes`` is written out above: a revolute joint at its point, which the spatial passes do not yet do.)"""
 
 
 def articulated_accelerations(IA, pA, ints, S, links, widths, first, thdd, acc):
@@ -445,7 +570,8 @@ def articulated_accelerations(IA, pA, ints, S, links, widths, first, thdd, acc):
     ``spatial_passes`` directly (a module compiles only its own); this is for callers in Python: it copies the
     arrays into the work arrays (``sizes``, ``body_rows``, ``joint_rows``) and back. A spherical joint's point
     (``spherical_passed_on``) comes from its columns S_n = (rho_C x x_n, x_n) about orthonormal axes x_n:
-    sum_n x_n x (rho_C x x_n) = 3 rho_C - rho_C = 2 rho_C."""
+    sum_n x_n x (rho_C x x_n) = 3 rho_C - rho_C = 2 rho_C; a planar revolute joint's from its column (rho_y,
+    -rho_x, 1)."""
     if not np.array_equal(widths, WIDTHS):
         raise ValueError(f"widths {widths} differ from the passes' WIDTHS {WIDTHS}")
     nb, nv, ne = IA.shape[0] - 1, IA.shape[1], ints.shape[0]
@@ -460,8 +586,18 @@ def articulated_accelerations(IA, pA, ints, S, links, widths, first, thdd, acc):
         if widths[ints[e, 0]] == 3:
             rho = 0.5 * np.cross(S[e, 3:6].T, S[e, :3].T).sum(axis=0)
             joint[e, arm_row] = [*rho, *(links[e] + rho)]
+        elif nv == 3 and ints[e, 0] == 0:  # a planar revolute joint's point: S_e = (rho_y, -rho_x, 1)
+            joint[e, arm_row, :2] = links[e, :2] + (-S[e, 1, 0], S[e, 0, 0])
     (planar_passes if nv == 3 else spatial_passes)(body, joint, ints, first, thdd)
     IA[:], pA[:], acc[:] = body[:, I_rows : I_rows + nv], body[:, p_row], body[:, a_row]
 
 
-__all__ = ["WIDTHS", "articulated_accelerations", "body_rows", "joint_rows", "planar_passes", "sizes", "spatial_passes"]
+__all__ = [
+    "WIDTHS",
+    "articulated_accelerations",
+    "body_rows",
+    "joint_rows",
+    "planar_passes",
+    "sizes",
+    "spatial_passes",
+]

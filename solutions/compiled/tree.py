@@ -225,11 +225,11 @@ def _arrays(spatial: bool) -> list[str]:
     ns, a view handed on ~10 ns, more than a planar joint's arithmetic. D (eq. 5.44) only for cut rows: an open
     tree's articulated pass never forms it."""
     from .articulated import sizes  # numba: imported only where a module is written (this module imports none)
-    from .tree_kernels import SPATIAL_MOTION_ROWS
+    from .tree_kernels import PLANAR_MOTION_ROWS, SPATIAL_MOTION_ROWS
 
     nv = 6 if spatial else 3
     body, joint = sizes(nv)
-    body += SPATIAL_MOTION_ROWS if spatial else 3  # the recursion's rows
+    body += SPATIAL_MOTION_ROWS if spatial else PLANAR_MOTION_ROWS  # the recursion's rows
     lines = [
         f"    nb = n // {7 if spatial else 3}",
         f"    nv = {nv}  # a body's velocity: (v, omega) spatial, (v_x, v_y, omega) planar",

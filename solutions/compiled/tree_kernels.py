@@ -59,8 +59,10 @@ _half_transpose_product, _scaled_product = jit(half_transpose_product), jit(scal
 
 REVOLUTE, PRISMATIC, SPHERICAL = 0, 1, 2  # the kinds (``articulated.WIDTHS``: the velocity columns of each)
 MOTION = 5
-"""The rows of a planar body's (x, y, phi), (x', y', phi') and (x'', y'') at theta'' = 0 in ``body``
-(``planar_motion``), after the articulated pass's five (``articulated.body_rows``)."""
+"""The row of a planar body's cos phi and sin phi in ``body`` (``planar_motion``), after the articulated pass's five
+(``articulated.body_rows``)."""
+PLANAR_MOTION_ROWS = 1
+"""The recursion's rows of a planar body in ``body`` (``tree._arrays``)."""
 S_PARENT, S_CHILD, AXIS, OFFSET, A, C, U0, U1, FRAME = 0, 3, 6, 9, 10, 14, 18, 22, 26
 WIDTH = 35
 """Columns of a joint's floats (module docstring)."""
@@ -70,24 +72,27 @@ WIDTH = 35
 @inlined
 def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, columns, body, joint):
     """q, q', xi (3 nb) of a planar tree (``PlanarTree.motion``), each joint's column S_e (v_x, v_y, omega) and link
-    l = r_C - r_P into ``joint`` (``articulated.joint_rows``); with ``columns``, D (3 nb x k) too: on each body the
-    columns that move it, all that any reader reads (``planar_equations``, ``cut_accelerations``,
-    ``tree_accelerations``); the other entries, zeros of D, are left as the caller's array has them (the outputs
-    zeroed all 3 nb x k at every output time: 0.4 MB an evaluation at a loop chain of 64).
-    ``body`` (ground last; the caller's work array): each body's (x, y, phi), (x', y', phi') and (x'', y'') at
-    theta'' = 0 on the way from ground, at rows ``MOTION``."""
-    S, _, _, _, LINK, _ = joint_rows(3)
-    r, v, a = MOTION, MOTION + 1, MOTION + 2  # the rows of position, velocity, acceleration
-    for i in range(3):  # ground
-        body[nb, r, i] = body[nb, v, i] = body[nb, a, i] = 0.0
+    l = r_C - r_P (a revolute joint: its point from the parent's centre e_P = l + rho_C instead, for its pass at
+    the point, ``articulated.revolute_passed_on``) into ``joint`` (``articulated.joint_rows``); with ``columns``, D
+    (3 nb x k) too: on each body the columns that move it, all that any reader reads (``planar_equations``,
+    ``cut_accelerations``, ``tree_accelerations``); the other entries, zeros of D, are left as the caller's array
+    has them (the outputs zeroed all 3 nb x k at every output time: 0.4 MB an evaluation at a loop chain of 64).
+    One pass from ground, each child from its parent's q, q', xi (ground's: zero), each body's cos phi and sin phi
+    made once (eq. 2.2) and kept in ``body``'s row ``MOTION`` (the caller's work array) for its children."""
+    S, _, _, _, LINK, ARM = joint_rows(3)
     for e in range(ints.shape[0]):
         P, Cb, c = ints[e, 1], ints[e, 2], ints[e, 3]
-        if P < 0:
-            P = nb
+        px = py = pphi = pvx = pvy = wp = pax = pay = 0.0  # ground: at rest at the origin, A = 1
+        cp, sp = 1.0, 0.0
+        if P >= 0:
+            o = 3 * P
+            px, py, pphi, pvx, pvy, wp = q[o], q[o + 1], q[o + 2], qd[o], qd[o + 1], qd[o + 2]
+            pax, pay = xi[o], xi[o + 1]
+            cp, sp = body[P, MOTION, 0], body[P, MOTION, 1]
         revolute = ints[e, 0] == REVOLUTE
-        body[Cb, r, 2] = body[P, r, 2] + (theta[c] if revolute else floats[e, OFFSET])
-        cp, _, sp, _ = planar_rotation_entries_jit(body[P, r, 2])  # A_P, A_C (eq. 2.2)
-        cc, _, sc, _ = planar_rotation_entries_jit(body[Cb, r, 2])
+        phi = pphi + (theta[c] if revolute else floats[e, OFFSET])
+        cc, _, sc, _ = planar_rotation_entries_jit(phi)  # A_C (eq. 2.2), once per body
+        body[Cb, MOTION, 0], body[Cb, MOTION, 1] = cc, sc
         spx, spy, scx, scy = floats[e, S_PARENT], floats[e, S_PARENT + 1], floats[e, S_CHILD], floats[e, S_CHILD + 1]
         rcx, rcy = cc * scx - sc * scy, sc * scx + cc * scy  # rho_C = A_C s_C'
         ux = uy = s = sd = w_rel = 0.0
@@ -99,19 +104,21 @@ def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, columns, body
             s, sd = theta[c], rate[c]
         ex, ey = cp * spx - sp * spy + s * ux, sp * spx + cp * spy + s * uy  # rho_P + d
         lx, ly = ex - rcx, ey - rcy  # the link
-        body[Cb, r, 0], body[Cb, r, 1] = body[P, r, 0] + lx, body[P, r, 1] + ly
-        wp = body[P, v, 2]
+        o = 3 * Cb
+        q[o], q[o + 1], q[o + 2] = px + lx, py + ly, phi
         wc = wp + w_rel
-        body[Cb, v, 2] = wc
-        body[Cb, v, 0] = body[P, v, 0] - wp * ly + ux * sd + w_rel * rcy
-        body[Cb, v, 1] = body[P, v, 1] + wp * lx + uy * sd - w_rel * rcx
-        body[Cb, a, 0] = body[P, a, 0] - wp * wp * ex + wc * wc * rcx - 2.0 * wp * sd * uy
-        body[Cb, a, 1] = body[P, a, 1] - wp * wp * ey + wc * wc * rcy + 2.0 * wp * sd * ux
-        joint[e, LINK, 0], joint[e, LINK, 1], joint[e, LINK, 2] = lx, ly, 0.0
+        qd[o] = pvx - wp * ly + ux * sd + w_rel * rcy
+        qd[o + 1] = pvy + wp * lx + uy * sd - w_rel * rcx
+        qd[o + 2] = wc
+        xi[o] = pax - wp * wp * ex + wc * wc * rcx - 2.0 * wp * sd * uy
+        xi[o + 1] = pay - wp * wp * ey + wc * wc * rcy + 2.0 * wp * sd * ux
+        xi[o + 2] = 0.0
         if revolute:  # S_e: (rho_C rotated by -90 degrees, 1) or (u, 0)
             joint[e, S, 0], joint[e, S + 1, 0], joint[e, S + 2, 0] = rcy, -rcx, 1.0
+            joint[e, ARM, 0], joint[e, ARM, 1] = ex, ey
         else:
             joint[e, S, 0], joint[e, S + 1, 0], joint[e, S + 2, 0] = ux, uy, 0.0
+            joint[e, LINK, 0], joint[e, LINK, 1], joint[e, LINK, 2] = lx, ly, 0.0
         if columns:  # D_C = D_P + R90 l (angle row of D_P) over the parent's columns, then the joint's own
             i, j = 3 * Cb, 3 * ints[e, 1]
             for g in range(ints[e, 5] - 1):  # the columns that move the parent (none at ground)
@@ -120,11 +127,6 @@ def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, columns, body
                 Dm[i + 1, col] = Dm[j + 1, col] + lx * Dm[j + 2, col]
                 Dm[i + 2, col] = Dm[j + 2, col]
             Dm[i, c], Dm[i + 1, c], Dm[i + 2, c] = joint[e, S, 0], joint[e, S + 1, 0], joint[e, S + 2, 0]
-    for b in range(nb):
-        for i in range(3):
-            q[3 * b + i] = body[b, r, i]
-            qd[3 * b + i] = body[b, v, i]
-        xi[3 * b], xi[3 * b + 1], xi[3 * b + 2] = body[b, a, 0], body[b, a, 1], 0.0
 
 
 @inlined

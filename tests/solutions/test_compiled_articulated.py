@@ -234,3 +234,92 @@ def test_owned_rows_list_each_bodys_rows_in_row_order_without_cut_rows():
     index = owned_rows(np.array([1, 0, -1, 1, 0, 2]), 3)
     assert index.tolist() == [0, 2, 4, 5, 1, 4, 0, 3, 5]
     assert owned_rows(np.array([-1, -1]), 2).tolist() == [0, 0, 0]
+
+
+def _planar_shift(link: np.ndarray) -> np.ndarray:
+    """X (eq. 7.7) in the plane: motion at a point carried to a point ``link`` away, (v + omega (-l_y, l_x), omega)."""
+    X = np.eye(3)
+    X[:2, 2] = -link[1], link[0]
+    return X
+
+
+def _spd(rng, size: int) -> np.ndarray:
+    root = rng.standard_normal((size, size))
+    return root @ root.T + size * np.eye(size)  # symmetric positive definite, v and omega coupled
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_planar_joint_point_passes_equal_the_dense_embedded_equations(seed):
+    """The planar passes take a revolute joint at its joint point (``articulated.revolute_passed_on``: S_e = (0, 0, 1)
+    there, the child passes on a 2 x 2 translational block) and a prismatic one by the 3 x 3 route at the child's
+    centre. On a random branching tree of both kinds, every body a coupled symmetric positive definite inertia and a
+    bias force p_b at its centre: theta'' equals the dense solve of eq. 7.4, (D^T M D) theta'' = -D^T p, with D's
+    columns made from S_e and the links (D_C = X D_P, then S_e: eq. 7.5, 7.7), and each body's acceleration D_b
+    theta''."""
+    from solutions.compiled.articulated import articulated_accelerations
+    from solutions.compiled.tree_kernels import WIDTHS
+
+    rng = np.random.default_rng(seed)
+    nb = 7
+    IA, pA = np.zeros((nb + 1, 3, 3)), np.zeros((nb + 1, 3))
+    ints, S, links = np.zeros((nb, 4), dtype=np.int64), np.zeros((nb, 3, 3)), np.zeros((nb, 3))
+    D = np.zeros((nb, 3, nb))  # D_b (3 x k) body by body
+    for e in range(nb):  # joint e moves body e, its parent an earlier body or ground (-1)
+        parent, kind = int(rng.integers(-1, e)), (0 if e % 3 else 1)
+        IA[e], pA[e] = _spd(rng, 3), rng.standard_normal(3)
+        if kind == 0:  # revolute: the joint point rho_C from the child's centre, e_P from the parent's
+            rho, e_p = rng.uniform(-0.5, 0.5, 2), rng.uniform(-0.5, 0.5, 2)
+            S[e, :, 0], links[e, :2] = (rho[1], -rho[0], 1.0), e_p - rho
+        else:  # prismatic: its axis u
+            u = rng.standard_normal(2)
+            S[e, :2, 0], links[e, :2] = u / np.linalg.norm(u), rng.uniform(-0.5, 0.5, 2)
+        ints[e] = kind, parent, e, e
+        if parent >= 0:
+            D[e] = _planar_shift(links[e]) @ D[parent]
+        D[e, :, e] = S[e, :, 0]
+    assert set(ints[:, 0]) == {0, 1}
+    H = sum(D[b].T @ IA[b] @ D[b] for b in range(nb))
+    expected = np.linalg.solve(H, -sum(D[b].T @ pA[b] for b in range(nb)))
+    thdd, acc = np.zeros(nb), np.zeros((nb + 1, 3))
+    articulated_accelerations(IA.copy(), pA.copy(), ints, S, links, WIDTHS, 3, thdd, acc)
+    np.testing.assert_allclose(thdd, expected, rtol=1e-11, atol=1e-11)
+    np.testing.assert_allclose(acc[:nb], np.einsum("bik,k->bi", D, expected), rtol=1e-11, atol=1e-11)
+    np.testing.assert_array_equal(acc[nb], 0.0)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_planar_revolute_joint_passes_on_a_translational_block_at_its_point(seed):
+    """What a child passes on at a revolute joint's point (``revolute_passed_on``, eq. 7.9 at J): with I' = X_c^T I
+    X_c and p' = X_c^T p (X_c from the point to the child's centre), U = I' (0, 0, 1) and D_e = K, I' - U D_e^-1 U^T
+    has no angular row or column and its 2 x 2 block is the M returned; p' + U D_e^-1 u (u = -p'_w) has no angular
+    entry and its linear part is pa_v. Ground then receives X_p^T of them at its centre
+    (``articulated_accelerations``)."""
+    from solutions.compiled.articulated import articulated_accelerations, joint_rows, revolute_passed_on, sizes
+    from solutions.compiled.tree_kernels import WIDTHS
+
+    rng = np.random.default_rng(seed)
+    inertia, bias = _spd(rng, 3), rng.standard_normal(3)
+    rho, e_p = rng.uniform(-0.5, 0.5, 2), rng.uniform(-0.5, 0.5, 2)
+    X_c = _planar_shift(-rho)  # the point to the child's centre: v_C = v_J + omega (rho_y, -rho_x)
+    I_point, p_point = X_c.T @ inertia @ X_c, X_c.T @ bias
+    U = I_point[:, 2]
+    Ia = I_point - np.outer(U, U) / I_point[2, 2]
+    pa = p_point - U * p_point[2] / I_point[2, 2]
+    np.testing.assert_allclose(Ia[2], 0.0, atol=1e-12)
+    np.testing.assert_allclose(pa[2], 0.0, atol=1e-12)
+    body, joint = np.zeros((2, sizes(3)[0], 3)), np.zeros((2, sizes(3)[1], 3))
+    body[0, :3], body[0, 3] = inertia, bias
+    joint[0, joint_rows(3)[0], 0], joint[0, joint_rows(3)[0] + 1, 0] = rho[1], -rho[0]
+    positive, m00, m01, m11, pa0, pa1 = revolute_passed_on(body, joint, 0, 0)
+    assert positive
+    np.testing.assert_allclose([[m00, m01], [m01, m11]], Ia[:2, :2], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose([pa0, pa1], pa[:2], rtol=1e-12, atol=1e-12)
+    IA, pA, thdd, acc = np.zeros((2, 3, 3)), np.zeros((2, 3)), np.zeros(1), np.zeros((2, 3))
+    IA[0], pA[0] = inertia, bias
+    S = np.array([[[rho[1], 0, 0], [-rho[0], 0, 0], [1.0, 0, 0]]])
+    link = np.array([[*(e_p - rho), 0.0]])
+    articulated_accelerations(IA, pA, np.array([[0, -1, 0, 0]]), S, link, WIDTHS, 3, thdd, acc)
+    X_p = _planar_shift(e_p)  # ground's centre to the point
+    np.testing.assert_allclose(IA[1], X_p.T @ Ia @ X_p, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(pA[1], X_p.T @ pa, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(thdd, -p_point[2] / I_point[2, 2], rtol=1e-12)  # ground at rest: K theta'' = -p'_w
