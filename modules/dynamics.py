@@ -1254,6 +1254,11 @@ def singular_dip(guard: Guard, times: np.ndarray, jacobians: np.ndarray) -> tupl
     if guard.rank == 0 or times.size < 3:
         return None
     ratios = guard.spectra(times, jacobians)[0]  # those of the output times' checks
+    if guard.banded:  # numba is loaded (a compiled run): passes_zero time by time in one compiled pass
+        from .compiled import branches
+
+        k = int(branches.first_dip(np.ascontiguousarray(ratios, dtype=float), NEAR_SINGULAR))
+        return None if k < 0 else (float(times[k]), float(ratios[k]))
     # ``dips`` finds them all at once (a loop chain: 100 calls of passes_zero, 70 us); passes_zero decides the first
     # in time and those next to a NaN, on which the two disagree
     maybe = dips(ratios) | np.isnan(ratios[:-2]) | np.isnan(ratios[2:])

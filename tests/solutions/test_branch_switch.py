@@ -11,6 +11,7 @@ of mass, and at the joints with ``com:``), must stay within 1e-6 m of it or stop
 
 from __future__ import annotations
 
+import importlib.util
 import math
 import sys
 from functools import cache
@@ -429,12 +430,19 @@ def test_a_dip_between_output_times_is_found_as_passes_zero_finds_it_next_to_a_n
     class Spectra:  # a Guard's ratios at the output times, as its output checks made them
         rank = 1
 
-        def __init__(self, ratios):
-            self.ratios = np.array(ratios)
+        def __init__(self, ratios, banded):
+            self.ratios, self.banded = np.array(ratios), banded  # banded: a compiled run's (``branches.first_dip``)
 
         def spectra(self, t, jacobians):
             return self.ratios, None, None
 
-    for ratios in cases:
-        times, guard, k = np.arange(float(len(ratios))), Spectra(ratios), first_by_hand(ratios)
-        assert singular_dip(guard, times, None) == (None if k is None else (times[k], ratios[k])), ratios
+    rng = np.random.default_rng(11)
+    levels = [0.0, 1e-6, 0.05, 0.099, 0.1, 0.3, 0.5, np.nan, np.inf]
+    drawn = [list(rng.choice(levels, int(rng.integers(3, 9)))) for _ in range(400)]
+    engines = (False, True) if importlib.util.find_spec("numba") else (False,)
+    for ratios in [*cases, *drawn]:
+        times, k = np.arange(float(len(ratios))), first_by_hand(ratios)
+        for banded in engines:
+            with np.errstate(invalid="ignore"):  # inf - inf
+                found = singular_dip(Spectra(ratios, banded), times, None)
+            assert found == (None if k is None else (times[k], ratios[k])), (ratios, banded)
