@@ -1255,6 +1255,11 @@ def singular_dip(guard: Guard, times: np.ndarray, jacobians: np.ndarray) -> tupl
     if guard.rank == 0 or times.size < 3:
         return None
     ratios = guard.spectra(times, jacobians)[0]  # those of the output times' checks
+    if guard.banded:  # numba is loaded (a compiled run): passes_zero time by time in one compiled pass
+        from .compiled import branches
+
+        k = int(branches.first_dip(np.ascontiguousarray(ratios, dtype=float), NEAR_SINGULAR))
+        return None if k < 0 else (float(times[k]), float(ratios[k]))
     # ``dips`` finds them all at once (a loop chain: 100 calls of passes_zero, 70 us); passes_zero decides the first
     # in time and those next to a NaN, on which the two disagree
     maybe = dips(ratios) | np.isnan(ratios[:-2]) | np.isnan(ratios[2:])
@@ -2148,21 +2153,16 @@ class Guard:
         if not self.judges_branches(t):
             return
         ratios, _, signs, turns, brackets = self.spectra(t, jacobians)
-        intervals = [(k - 1, k, k + 1) for k in 1 + np.flatnonzero(dips(ratios))]
-        if signs is not None:  # det [Psi_q; T^T] defined (independent rows): its sign flips
-            flips = (np.abs(turns) > ALIGNED) & (turns * signs[1:] * signs[:-1] < 0)
-            for k in 1 + np.flatnonzero(flips):
-                if not any(a <= k - 1 and k <= b for a, _, b in intervals):  # not within a dip's interval
-                    intervals.append((k - 1, smaller(ratios, brackets, k - 1, k), k))
-        # a fall into (or rise out of) a configuration that stays singular, e.g. a parallelogram folded flat onto
-        # itself, has no dip: a step over which the ratio changes a hundredfold below NEAR_SINGULAR is a crossing
-        low, high = np.minimum(ratios[:-1], ratios[1:]), np.maximum(ratios[:-1], ratios[1:])
-        for k in np.flatnonzero((low < NEAR_SINGULAR) & (low < FALL * high)):
+        dipped, flipped, fallen, near = self._screen(ratios, signs, turns)
+        intervals = [(k - 1, k, k + 1) for k in dipped]
+        for k in flipped:  # det [Psi_q; T^T] defined (independent rows): its sign flips
+            if not any(a <= k - 1 and k <= b for a, _, b in intervals):  # not within a dip's interval
+                intervals.append((k - 1, smaller(ratios, brackets, k - 1, k), k))
+        for k in fallen:  # a fall into (or rise out of) a configuration that stays singular: no dip
             if not any(a <= k and k + 1 <= b for a, _, b in intervals):
                 intervals.append((k, smaller(ratios, brackets, k, k + 1), k + 1))
         # a switch between two regular branches shows in the velocities of the step onto the other: every step next
         # to a singular position is judged too, but only a switch counts there
-        near = np.flatnonzero((ratios[:-1] < NEAR_SINGULAR) | (ratios[1:] < NEAR_SINGULAR))
         near = near[self._possible_switches(t, qd, qdd, near)]  # the others are no switch: not judged
         steps = [(k, smaller(ratios, brackets, k, k + 1), k + 1) for k in near]
         for a, middle, b, crossing in sorted([(*i, True) for i in intervals] + [(*i, False) for i in steps]):
@@ -2173,6 +2173,18 @@ class Guard:
             k = int(np.searchsorted(t, record["t"]))  # t[k - 1] < t_c <= t[k]
             middle = smaller(ratios, brackets, k - 1, k)
             self._judge_branch(t, q, qd, qdd, k - 1, middle, k, float(ratios[middle]), True, record)
+
+    def _screen(self, ratios: np.ndarray, signs: np.ndarray | None, turns: np.ndarray) -> tuple:
+        """``branch_screen`` of the ratios, signs and turns: in one compiled pass in a compiled run (``banded``: numba
+        is loaded; ``compiled.branches.screen``, the same tests without numpy's dozen array operations), else
+        numpy's."""
+        if not self.banded:
+            return branch_screen(ratios, signs, turns)
+        from .compiled import branches
+
+        signs = np.empty(0) if signs is None else np.ascontiguousarray(signs, dtype=float)
+        arrays = (np.ascontiguousarray(x, dtype=float) for x in (ratios, signs, turns))
+        return branches.screen(*arrays, NEAR_SINGULAR, FALL, ALIGNED)
 
     def _possible_switches(self, t: np.ndarray, qd: np.ndarray, qdd: np.ndarray, steps: np.ndarray) -> np.ndarray:
         """``possible_switches`` of the steps (k to k + 1): in one compiled pass in a compiled run (``banded``: numba
@@ -2435,6 +2447,23 @@ def possible_switches(weights: np.ndarray, t: np.ndarray, qd: np.ndarray, qdd: n
     allowance = h * np.maximum(rates[i], rates[j])
     fastest = np.max(np.maximum(speeds[i], speeds[j]), axis=1, initial=0.0)
     return np.max(mismatch - allowance, axis=1, initial=-np.inf) > 0.5 * BRANCH_JUMP * fastest
+
+
+def branch_screen(ratios: np.ndarray, signs: np.ndarray | None, turns: np.ndarray) -> tuple:
+    """What ``Guard.check_branches`` judges, from the ratios sigma_r / sigma_1 at the output times (N,), the signs of
+    det [Psi_q; T^T] (N,) or None (redundant rows: not defined) and the turns of the null space over each step (N - 1,):
+    (the times k where the ratio dips, ``dips``; the times k whose step from k - 1 flips the sign against a turn above
+    ALIGNED, an odd rank loss; the steps k (to k + 1) over which the ratio changes a hundredfold (FALL) below
+    NEAR_SINGULAR, a fall into or rise out of a configuration that stays singular, e.g. a parallelogram folded flat
+    onto itself, which has no dip; the steps k with a ratio below NEAR_SINGULAR at either end), each ascending."""
+    dipped = 1 + np.flatnonzero(dips(ratios))
+    flipped = np.zeros(0, dtype=np.int64)
+    if signs is not None:
+        flipped = 1 + np.flatnonzero((np.abs(turns) > ALIGNED) & (turns * signs[1:] * signs[:-1] < 0))
+    low, high = np.minimum(ratios[:-1], ratios[1:]), np.maximum(ratios[:-1], ratios[1:])
+    fallen = np.flatnonzero((low < NEAR_SINGULAR) & (low < FALL * high))
+    near = np.flatnonzero((ratios[:-1] < NEAR_SINGULAR) | (ratios[1:] < NEAR_SINGULAR))
+    return dipped, flipped, fallen, near
 
 
 def smaller(ratios: np.ndarray, brackets, a: int, b: int) -> int:

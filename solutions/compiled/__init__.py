@@ -302,20 +302,16 @@ def paused_embedded(loops, rhs, project, z0: np.ndarray, times: np.ndarray, numb
     raises to stop the run); the same results as one call (the loop resumes with its next step size, and f(t, z) is
     evaluated anew, one evaluation more per pause). (Y, evaluations, steps, rejected, status, t, h, reached)."""
     rtol, atol, max_step, budget, dop, scipy_like, tableau_, P, D = numbers
-    span = float(times[-1] - times[0])
-    if on_pause is None:  # one piece: the loop's own array is the history (its row 0 is z0, a stop's state after k)
-        return loops.embedded(
-            rhs, project, z0, times, rtol, atol, max_step, budget, dop, scipy_like, tableau_, P, D, span, 0.0,
-            INT64_MAX,
-        )  # fmt: skip
-    Y, every = np.empty((times.size, z0.size)), PAUSE_STEPS
-    Y[0], k, t, z, h, spent, steps, rejected = z0, 1, float(times[0]), z0, 0.0, 0, 0, 0
+    span, every = float(times[-1] - times[0]), INT64_MAX if on_pause is None else PAUSE_STEPS
+    piece = loops.embedded(
+        rhs, project, z0, times, rtol, atol, max_step, budget, dop, scipy_like, tableau_, P, D, span, 0.0, every
+    )
+    if piece[4] != 5:  # one piece: the loop's own array is the history (its row 0 is z0, a stop's state after k)
+        return piece
+    Y, k, spent, steps, rejected = np.empty((times.size, z0.size)), 1, 0, 0, 0
+    Y[0] = z0
     while True:
-        piece = np.ascontiguousarray(np.append(t, times[k:]))
-        Yp, evaluations, done, refused, status, t, h, reached = loops.embedded(
-            rhs, project, z, piece, rtol, atol, max_step, budget - spent, dop, scipy_like, tableau_, P, D, span, h,
-            every,
-        )  # fmt: skip
+        Yp, evaluations, done, refused, status, t, h, reached = piece
         spent, steps, rejected = spent + evaluations, steps + done, rejected + refused
         Y[k : k + reached - 1] = Yp[1:reached]
         k += reached - 1
@@ -325,6 +321,11 @@ def paused_embedded(loops, rhs, project, z0: np.ndarray, times: np.ndarray, numb
             return Y, spent, steps, rejected, status, t, h, k
         z = Yp[reached].copy()
         on_pause(t, z)
+        rest = np.ascontiguousarray(np.append(t, times[k:]))
+        piece = loops.embedded(
+            rhs, project, z, rest, rtol, atol, max_step, budget - spent, dop, scipy_like, tableau_, P, D, span, h,
+            every,
+        )  # fmt: skip
 
 
 def configuration(t: float, z: np.ndarray, module, scene, P, D, rhs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -27,12 +27,34 @@ from numba import njit, types
 _vector, _ivector, _matrix = types.float64[::1], types.int64[::1], types.float64[:, ::1]
 
 
+@njit(cache=True, nogil=True)
+def _sample_norms(weights, qd, qdd, steps):
+    """(speeds, rates) (samples, bodies): each body's |weights q'| and |weights q''| at the ends of the steps in
+    ``steps``, each sample once, summed coordinate by coordinate as the mismatch is (the other rows unset)."""
+    bodies, per = weights.shape
+    ends = np.zeros(qd.shape[0], dtype=np.bool_)
+    for a in range(steps.size):
+        ends[steps[a]] = ends[steps[a] + 1] = True
+    speeds, rates = np.empty((qd.shape[0], bodies)), np.empty((qd.shape[0], bodies))
+    for i in np.flatnonzero(ends):
+        for b in range(bodies):
+            speed, rate = 0.0, 0.0
+            for s in range(per):
+                c, w = b * per + s, weights[b, s]
+                rate += (qdd[i, c] * w) ** 2
+                speed += (qd[i, c] * w) ** 2
+            speeds[i, b], rates[i, b] = math.sqrt(speed), math.sqrt(rate)
+    return speeds, rates
+
+
 @njit(types.boolean[::1](_matrix, _vector, _matrix, _matrix, _ivector, types.float64), cache=True, nogil=True)
 def possible_switches(weights, t, qd, qdd, steps, margin):
     """Which steps from sample k to k + 1 (k in ``steps``) ``dynamics.branch_verdict`` could call 'switched': the
     largest mismatch of a body over the step beyond its allowance exceeds ``margin`` (BRANCH_JUMP / 2) times the
-    fastest body's speed (module docstring); ``weights`` (bodies, per): ``gyration_weights``."""
+    fastest body's speed (module docstring); ``weights`` (bodies, per): ``gyration_weights``. Each sample's speeds
+    and rates |q''| are made once (``_sample_norms``), where a step shares its ends with its neighbours."""
     bodies, per = weights.shape
+    speeds, rates = _sample_norms(weights, qd, qdd, steps)
     possible = np.zeros(steps.size, dtype=np.bool_)
     for a in range(steps.size):
         i = steps[a]
@@ -40,18 +62,67 @@ def possible_switches(weights, t, qd, qdd, steps, margin):
         h = t[j] - t[i]
         worst, fastest, unknown = -np.inf, 0.0, False
         for b in range(bodies):
-            mismatch, rate_i, rate_j, speed_i, speed_j = 0.0, 0.0, 0.0, 0.0, 0.0
+            mismatch = 0.0
             for s in range(per):
                 c, w = b * per + s, weights[b, s]
                 value = (qd[j, c] - qd[i, c] - 0.5 * h * (qdd[i, c] + qdd[j, c])) * w
                 mismatch += value * value
-                rate_i += (qdd[i, c] * w) ** 2
-                rate_j += (qdd[j, c] * w) ** 2
-                speed_i += (qd[i, c] * w) ** 2
-                speed_j += (qd[j, c] * w) ** 2
-            allowance = h * max(math.sqrt(rate_i), math.sqrt(rate_j))
-            beyond, speed = math.sqrt(mismatch) - allowance, max(math.sqrt(speed_i), math.sqrt(speed_j))
+            allowance = h * max(rates[i, b], rates[j, b])
+            beyond, speed = math.sqrt(mismatch) - allowance, max(speeds[i, b], speeds[j, b])
             unknown = unknown or math.isnan(beyond) or math.isnan(speed)  # numpy's max keeps a NaN: no switch seen
             worst, fastest = max(worst, beyond), max(fastest, speed)
         possible[a] = not unknown and worst > margin * fastest
     return possible
+
+
+@njit(types.UniTuple(_ivector, 4)(_vector, _vector, _vector, types.float64, types.float64, types.float64), cache=True,
+      nogil=True)  # fmt: skip
+def screen(ratios, signs, turns, near, fall, aligned):
+    """``dynamics.branch_screen`` in one pass over the output times (a compiled run's): (the times k where the ratio
+    dips, ``diagnostics.passes_zero``; the times k whose step from k - 1 flips the sign of det [Psi_q; T^T] against
+    a turn above ``aligned``, none where ``signs`` is empty; the steps k (to k + 1) over which the ratio falls or
+    rises by more than 1 / ``fall`` below ``near``; the steps k with a ratio below ``near`` at either end). The same
+    tests as numpy's arrays make, a NaN failing each test as there (np.minimum and np.maximum keep a NaN)."""
+    N = ratios.size
+    size = max(N - 1, 0)
+    dipped, flipped, fallen, close = (np.empty(size, dtype=np.int64), np.empty(size, dtype=np.int64),
+                                      np.empty(size, dtype=np.int64), np.empty(size, dtype=np.int64))  # fmt: skip
+    counts = np.zeros(4, dtype=np.int64)
+    for k in range(1, N - 1):
+        before, middle, after = ratios[k - 1], ratios[k], ratios[k + 1]
+        lowest = not (math.isnan(before) or math.isnan(after)) and middle <= before and middle <= after
+        up, down = before - middle, after - middle
+        deep = not (math.isnan(up) or math.isnan(down)) and middle < max(up, down)
+        if middle < near and lowest and deep:
+            dipped[counts[0]] = k
+            counts[0] += 1
+    for k in range(1, N if signs.size else 0):
+        turn = turns[k - 1]
+        if abs(turn) > aligned and turn * signs[k] * signs[k - 1] < 0:
+            flipped[counts[1]] = k
+            counts[1] += 1
+    for k in range(N - 1):
+        a, b = ratios[k], ratios[k + 1]
+        if not (math.isnan(a) or math.isnan(b)) and min(a, b) < near and min(a, b) < fall * max(a, b):
+            fallen[counts[2]] = k
+            counts[2] += 1
+        if a < near or b < near:
+            close[counts[3]] = k
+            counts[3] += 1
+    return dipped[: counts[0]], flipped[: counts[1]], fallen[: counts[2]], close[: counts[3]]
+
+
+@njit(types.int64(_vector, types.float64), cache=True, nogil=True)
+def first_dip(ratios, near):
+    """The first output time k whose ratio dips (``diagnostics.passes_zero`` of ratios[k - 1], ratios[k], ratios[k +
+    1], ``near``: NEAR_SINGULAR), or -1: ``dynamics.singular_dip`` in one pass. Python's min and max as passes_zero
+    takes them (the first argument kept unless the second is smaller, larger), so a NaN next to the minimum decides
+    as there: one after it leaves the other neighbour, one before it no dip."""
+    for k in range(1, ratios.size - 1):
+        before, middle, after = ratios[k - 1], ratios[k], ratios[k + 1]
+        lowest = after if after < before else before  # min(before, after)
+        up, down = before - middle, after - middle
+        deepest = down if down > up else up  # max(before - middle, after - middle)
+        if middle < near and middle <= lowest and middle < deepest:
+            return k
+    return -1

@@ -11,6 +11,7 @@ of mass, and at the joints with ``com:``), must stay within 1e-6 m of it or stop
 
 from __future__ import annotations
 
+import importlib.util
 import math
 import sys
 from functools import cache
@@ -379,6 +380,37 @@ def test_the_compiled_prefilter_flags_the_steps_numpy_s_flags():
     assert not compiled[34] and not compiled[35]  # the NaN's two steps
 
 
+def test_the_compiled_screen_finds_the_steps_numpy_s_screen_finds():
+    """``compiled.branches.screen`` (one pass, a compiled run's ``Guard._screen``) gives ``branch_screen``'s four
+    index arrays (numpy's whole arrays): the dips, the sign's flips, the falls and the steps near a singular
+    position, on random ratios at and around NEAR_SINGULAR, FALL's hundredfold and zero, with NaN and infinite
+    ratios (np.minimum and np.maximum keep a NaN: no test passes there), NaN signs and turns, and without signs
+    (redundant rows)."""
+    pytest.importorskip("numba")
+    from solutions.compiled import branches
+    from solutions.dynamics import ALIGNED, FALL, NEAR_SINGULAR, branch_screen
+
+    rng = np.random.default_rng(7)
+    levels = np.array([0.0, 1e-4, 1e-3, 5e-3, 0.02, 0.05, 0.099, 0.1, 0.3, 1.0, np.nan, np.inf])
+    found = [0, 0, 0, 0]
+    for trial in range(3000):
+        size = int(rng.integers(2, 14))
+        ratios = rng.choice(levels, size) if trial % 2 else rng.uniform(0.0, 0.2, size)
+        if trial % 3 == 0:
+            ratios[rng.integers(0, size)] = np.nan
+        signs = rng.choice([1.0, -1.0, np.nan] if trial % 5 == 0 else [1.0, -1.0], size)
+        turns = rng.choice([0.95, -0.95, 0.5, -0.99, np.nan], size - 1)
+        for given in (signs, None):
+            with np.errstate(invalid="ignore"):  # inf - inf: NaN, as the screen takes it
+                numpy_s = branch_screen(ratios, given, turns)
+            compiled = branches.screen(ratios, np.empty(0) if given is None else given, turns, NEAR_SINGULAR, FALL,
+                                       ALIGNED)  # fmt: skip
+            for a, b in zip(numpy_s, compiled, strict=True):
+                np.testing.assert_array_equal(a, b, err_msg=f"{ratios} {given} {turns}")
+            found = [f + len(a) for f, a in zip(found, numpy_s, strict=True)]
+    assert all(found)  # every test passed somewhere
+
+
 def test_a_dip_between_output_times_is_found_as_passes_zero_finds_it_next_to_a_nan_too():
     """``singular_dip`` takes the first output time where sigma_r / sigma_1 dips (``diagnostics.passes_zero``,
     sample by sample: a NaN after the minimum leaves Python's min and max the other neighbour, so it still dips)."""
@@ -398,12 +430,19 @@ def test_a_dip_between_output_times_is_found_as_passes_zero_finds_it_next_to_a_n
     class Spectra:  # a Guard's ratios at the output times, as its output checks made them
         rank = 1
 
-        def __init__(self, ratios):
-            self.ratios = np.array(ratios)
+        def __init__(self, ratios, banded):
+            self.ratios, self.banded = np.array(ratios), banded  # banded: a compiled run's (``branches.first_dip``)
 
         def spectra(self, t, jacobians):
             return self.ratios, None, None
 
-    for ratios in cases:
-        times, guard, k = np.arange(float(len(ratios))), Spectra(ratios), first_by_hand(ratios)
-        assert singular_dip(guard, times, None) == (None if k is None else (times[k], ratios[k])), ratios
+    rng = np.random.default_rng(11)
+    levels = [0.0, 1e-6, 0.05, 0.099, 0.1, 0.3, 0.5, np.nan, np.inf]
+    drawn = [list(rng.choice(levels, int(rng.integers(3, 9)))) for _ in range(400)]
+    engines = (False, True) if importlib.util.find_spec("numba") else (False,)
+    for ratios in [*cases, *drawn]:
+        times, k = np.arange(float(len(ratios))), first_by_hand(ratios)
+        for banded in engines:
+            with np.errstate(invalid="ignore"):  # inf - inf
+                found = singular_dip(Spectra(ratios, banded), times, None)
+            assert found == (None if k is None else (times[k], ratios[k])), (ratios, banded)
