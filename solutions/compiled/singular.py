@@ -862,6 +862,26 @@ def _gram_products(rows, starts, indices, w):
 
 
 @njit(cache=True, nogil=True)
+def _envelope(products, m):
+    """(first, last) (2, m) of G = Psi_q Psi_q^T's envelope from its products (``_gram_products``), found once
+    from the pattern: first[i] the first column of row i that holds a product (left of it G and its Cholesky factor
+    hold exact zeros: ``_cholesky``), last[j] the last row whose envelope reaches column j (at least j). The loop
+    chain's G, 5 wide, holds 2-5 entries left of the diagonal (3 on average): the solves and the Rayleigh quotient
+    sum over the envelope alone (``_solve_pair``, ``_quotients``), skipping products with exact zeros of the band
+    (George and Liu, ch. 4: the envelope of a matrix is its Cholesky factor's), the same sums to the last bit."""
+    envelope = np.empty((2, m), dtype=np.int64)
+    first, last = envelope[0], envelope[1]
+    first[:], last[:] = np.arange(m), np.arange(m)
+    for p in range(products.shape[0]):
+        i = products[p, 0]
+        first[i] = min(first[i], i - products[p, 1])
+    for i in range(m):
+        for j in range(first[i], i):
+            last[j] = max(last[j], i)
+    return envelope
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _gram(J, products, G):
     """G = Psi_q Psi_q^T in lower band storage, G[i, t] = (Psi_q Psi_q^T)[i, i - t], rows in the order of
     ``_gram_products``: each entry the sum of its products in their order (the merge of two rows' columns gave
@@ -903,7 +923,7 @@ def _cholesky(G, a, b, L):
     return True
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _cholesky_pair(G, above, below, upper, lower):
     """``_cholesky`` of above I - G into ``upper`` and of G - below I into ``lower`` (the first tests of lambda_1's
     and lambda_m's brackets, ``_bracketed_ratio``), side by side: True if both are positive definite. Each factor's
@@ -954,22 +974,23 @@ def _solve_normalized(L, x):
     x *= 1.0 / np.sqrt(size)
 
 
-@njit(cache=True, nogil=True)
-def _solve_pair(upper, high, lower, low):
+@njit(cache=True, nogil=True, inline="always")
+def _solve_pair(upper, high, lower, low, first, last):
     """``_solve_normalized`` of ``high`` with ``upper`` and of ``low`` with ``lower``, side by side (as
     ``_cholesky_pair``: two chains of dependent sums the processor overlaps), each sum in its order: the same
-    vectors to the last bit as two calls."""
-    m, w = upper.shape[0], upper.shape[1] - 1
+    vectors to the last bit as two calls. Over the envelope of G (``first``, ``last``: ``_envelope``) alone: the
+    products left out are of the factors' exact zeros."""
+    m = upper.shape[0]
     for i in range(m):
         one, other = high[i], low[i]
-        for k in range(max(i - w, 0), i):
+        for k in range(first[i], i):
             one -= upper[i, i - k] * high[k]
             other -= lower[i, i - k] * low[k]
         high[i], low[i] = one * upper[i, 0], other * lower[i, 0]
     above, below = 0.0, 0.0
     for i in range(m - 1, -1, -1):
         one, other = high[i], low[i]
-        for k in range(i + 1, min(i + w, m - 1) + 1):
+        for k in range(i + 1, last[i] + 1):
             one -= upper[k, k - i] * high[k]
             other -= lower[k, k - i] * low[k]
         high[i], low[i] = one * upper[i, 0], other * lower[i, 0]
@@ -1093,27 +1114,28 @@ def _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y):
     return np.sqrt(smallest / largest)
 
 
-@njit(cache=True, nogil=True)
-def _bracketed_ratio(J, rows, starts, indices, products, G, factors, low, high, y, loose, spread):
+@njit(cache=True, nogil=True, inline="always")
+def _bracketed_ratio(J, rows, starts, indices, products, envelope, G, factors, low, high, y, loose, spread):
     """(figure, lower bound) of sigma_m / sigma_1 with each extreme eigenvalue of G = Psi_q Psi_q^T in a bracket
     about ``loose`` wide, by one or two Cholesky tests each (``_top``, ``_bottom``), from the eigenvectors ``high``,
     ``low`` of the times before (``_extrapolate``), where ``_iterated_ratio`` takes 8-9 tests and 14 solves to
     close it. The figure sqrt(lambda_m's upper / lambda_1's lower) is the ratio's upper end. (NaN, NaN) where a
     bound's tests fail (its vector too far off: the first time) or G's rounding (``_smallest``'s floor) is not well
     below lambda_m's bracket: ``_iterated_ratio`` then. ``products`` with no rows: G already made (``_dense_gram``).
-    ``factors`` (2, m, w + 1): the two brackets' Cholesky factors.
+    ``envelope`` (2, m): G's (``_envelope``). ``factors`` (2, m, w + 1): the two brackets' Cholesky factors.
     The two brackets are independent but for lambda_m's rounding test, which reads lambda_1's upper end: their
     first tests and inverse-iteration steps run side by side (``_cholesky_pair``, ``_solve_pair``) where both
     first tests pass and that rounding test passes whatever lambda_1's bracket becomes (it only narrows), else one
     after the other; either way the arithmetic of ``_top`` then ``_bottom``: the same figures to the last bit."""
     if products.shape[0]:
         _gram(J, products, G)
-    quotient, hi = _quotients(G, high, J, rows, starts, indices, low, y)
+    first, last = envelope[0], envelope[1]
+    quotient, hi = _quotients(G, high, J, rows, starts, indices, low, y, first)
     lo, width = _top_start(G, quotient, loose, spread)
     above, below = lo * (1.0 + width), hi * (1.0 - _bottom_width(loose, spread))
     if _rounding_ok(2.0 * above, below, loose) and _cholesky_pair(G, above, below, factors[0], factors[1]):
-        _solve_pair(factors[0], high, factors[1], low)
-        quotient, residual = _quotients(G, high, J, rows, starts, indices, low, y)
+        _solve_pair(factors[0], high, factors[1], low, first, last)
+        quotient, residual = _quotients(G, high, J, rows, starts, indices, low, y, first)
         top, ceiling = _top_sharpen(G, factors[0], quotient, lo, above, loose, spread)
         bottom, floor = _bottom_sharpen(G, factors[1], residual, hi, below, loose, spread)
         return np.sqrt(bottom / top), np.sqrt(floor / ceiling)
@@ -1146,7 +1168,7 @@ def _top(G, L, x, loose, spread):
     return _top_sharpen(G, L, _rayleigh(G, x), lo, hi, loose, spread)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _top_start(G, quotient, loose, spread):
     """(lo, s) of ``_top``: the Rayleigh ``quotient`` of its vector or G's largest diagonal entry, and the first
     test's width."""
@@ -1156,7 +1178,7 @@ def _top_start(G, quotient, loose, spread):
     return max(lo, quotient), max(loose, spread[0])
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _top_sharpen(G, L, quotient, lo, hi, loose, spread):
     """``_top``'s (lo, hi) after its step of inverse iteration, given its vector's new Rayleigh ``quotient``: the
     sharper lo, ``spread[0]``, and where hi - lo is still above ``loose`` lo, one more test at lo (1 + loose)."""
@@ -1188,20 +1210,20 @@ def _bottom(J, rows, starts, indices, G, L, x, y, loose, spread, ceiling):
     return _bottom_sharpen(G, L, _residual(J, rows, starts, indices, x, y), hi, lo, loose, spread)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _bottom_width(loose, spread):
     """The relative width of ``_bottom``'s first test."""
     return min(0.5, max(loose, spread[1]))
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _rounding_ok(ceiling, lo, loose):
     """Whether G's rounding, 16 eps ``ceiling`` (an upper bound of lambda_1), is at most a tenth of ``loose`` lo: a
     Cholesky test of G - lo I can then certify lambda_m's bracket (``_bottom``)."""
     return not 16.0 * np.finfo(np.float64).eps * ceiling > 0.1 * loose * lo
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _bottom_sharpen(G, L, residual, hi, lo, loose, spread):
     """``_bottom``'s (hi, lo) after its step of inverse iteration, given its vector's new ``residual`` |Psi_q^T x|^2,
     as ``_top_sharpen``."""
@@ -1213,7 +1235,7 @@ def _bottom_sharpen(G, L, residual, hi, lo, loose, spread):
     return hi, lo
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _widened(figure, bound):
     """(upper, lower) of a ratio's bracket [bound, figure] from ``_bracketed_ratio`` widened by G's rounding (16 eps
     lambda_1 on each eigenvalue's test, relative to lambda_m: 16 eps / ratio^2) and 1e-12: its ends are Rayleigh
@@ -1224,7 +1246,7 @@ def _widened(figure, bound):
     return figure * (1.0 + margin), bound * (1.0 - margin)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _carried(upper, lower, moved):
     """(upper, lower) ends of the ratio sigma_m / sigma_1 of the scaled J_k from those of J_k-1 and ``moved``, a bound
     of |J_k - J_k-1|_2 (``_scale``). Weyl's inequality: each singular value moves by at most delta = |J_k - J_k-1|_2,
@@ -1240,7 +1262,7 @@ def _carried(upper, lower, moved):
     return (upper + delta) / (1.0 - delta) * (1.0 + 1e-12), (lower - delta) / (1.0 + delta) * (1.0 - 1e-12)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _away(before, last, smallest, thresholds):
     """Whether the ratio at the next time is likely more than 5 % above the smallest so far and 5 % off each
     threshold: the last figure plus or minus twice its last step's change is (``WIDE``'s choice, of cost alone: a
@@ -1252,7 +1274,7 @@ def _away(before, last, smallest, thresholds):
     return last - change > 1.05 * smallest
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _carries(upper, lower, before_upper, before_lower, smallest, thresholds):
     """Whether a carried bracket [lower, upper] (``_carried``) is kept: at most CARRIED wide, above the least upper
     end so far (no candidate for the smallest: ``settled`` would close it), on one side of each threshold and no
@@ -1267,7 +1289,7 @@ def _carries(upper, lower, before_upper, before_lower, smallest, thresholds):
     return 2.0 * lower > 1.25 * before_upper and upper < 1.6 * before_lower
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _extrapolate(x, before, scratch):
     """x <- 2 x - x_before, unit, and x_before <- x (the eigenvector of the last time; ``before`` of the time before
     it): a linear extrapolation in time of the vectors ``_bracketed_ratio`` starts from, whose error is then
@@ -1309,16 +1331,17 @@ def _squares(y):
     return total
 
 
-@njit(cache=True, nogil=True)
-def _quotients(G, high, J, rows, starts, indices, low, y):
+@njit(cache=True, nogil=True, inline="always")
+def _quotients(G, high, J, rows, starts, indices, low, y, first):
     """(``_rayleigh`` of ``high``, ``_residual`` of ``low``) in one pass over the rows: two serial sums side by side,
-    which the processor overlaps (``_bracketed_ratio``); each in its own order, the same figures to the last bit."""
-    m, w = G.shape[0], G.shape[1] - 1
+    which the processor overlaps (``_bracketed_ratio``); each in its own order, the same figures to the last bit
+    (the Rayleigh quotient over G's envelope, ``first``: ``_envelope``; past it G's entries are exact zeros)."""
+    m = G.shape[0]
     y[:] = 0.0
     quotient = 0.0
     for i in range(m):
         quotient += G[i, 0] * high[i] * high[i]
-        for t in range(1, min(w, i) + 1):
+        for t in range(1, i - first[i] + 1):
             quotient += 2.0 * G[i, t] * high[i] * high[i - t]
         _add_row(J, rows[i], starts, indices, low[i], y)
     return quotient, _squares(y)
@@ -1329,7 +1352,7 @@ CERTAIN = 0.9
 lower bound of sigma_m (J_k-1) (far above the bounds' rounding, ~1e-15 of them)."""
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def certified(moved, lower):
     """Whether the step from t_k-1 to t_k certainly holds no flip of the sign of det [Psi_q; T^T] the Guard tests
     (``dynamics.Guard._judge``: a rank loss between the two times), from ``moved``, a bound of |J_k - J_k-1|_2 of
@@ -1343,7 +1366,7 @@ def certified(moved, lower):
     return moved < CERTAIN * lower
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _scale(jacobians, k, columns, norms, starts, indices, slots, J, previous, sums):
     """J <- the scaled Psi_q at time k (as ``dynamics.scale_rows``, to the last bit, on its pattern alone), previous
     <- the J it held; returns a bound of |J - previous|_2: the least of its Frobenius norm and sqrt(|.|_1 |.|_inf)
@@ -1388,6 +1411,7 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
     rows = np.argsort(keys, kind="mergesort")  # Psi_q's rows along the band: G = Psi_q Psi_q^T a band too
     w = _gram_width(rows, starts, indices, n)
     products = _gram_products(rows, starts, indices, w)
+    envelope = _envelope(products, m)
     G, factors, low, high, y = np.empty((m, w + 1)), np.empty((2, m, w + 1)), np.ones(m), np.ones(m), np.empty(n)
     L = factors[0]  # ``_bracketed_ratio``'s two factors, ``_iterated_ratio``'s one
     before, ordered, last = first, _parity(position), -1  # the basis E's coordinates come from, and its time
@@ -1417,7 +1441,7 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
             after = carried and _away(ratios[k - 2], ratios[k - 1], smallest, thresholds)  # after a carried one
             width = WIDE if after else loose
             figure, bound = _bracketed_ratio(
-                J, rows, starts, indices, products, G, factors, low, high, y, width, spread
+                J, rows, starts, indices, products, envelope, G, factors, low, high, y, width, spread
             )
             if np.isfinite(bound):  # widened by G's rounding: it holds the closed figure too
                 ratios[k], lower[k] = _widened(figure, bound)
@@ -1682,6 +1706,8 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
         indices[r * n : (r + 1) * n] = np.arange(n)
     products = np.empty((0, 5), dtype=np.int64)  # for ``_iterated_ratio``, made at its first call
     made = np.empty((0, 5), dtype=np.int64)  # ``_bracketed_ratio``: G made by ``_dense_gram``
+    full = _envelope(np.empty((0, 5), dtype=np.int64), m)  # a full G's envelope: first 0, last m - 1
+    full[0, :], full[1, :] = 0, m - 1
     G, factors, low, high, y = np.empty((m, m)), np.empty((2, m, m)), np.ones(m), np.ones(m), np.empty(n)
     L = factors[0]  # ``_bracketed_ratio``'s two factors, ``_iterated_ratio``'s one
     spread, earlier = np.full(2, 0.5), np.empty((2, m))
@@ -1707,7 +1733,7 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
             else:
                 earlier[0, :], earlier[1, :] = low, high
             _dense_gram(J, G)
-            figure, bound = _bracketed_ratio(J, rows, starts, indices, made, G, factors, low, high, y, loose, spread)
+            figure, bound = _bracketed_ratio(J, rows, starts, indices, made, full, G, factors, low, high, y, loose, spread)
             if np.isfinite(bound):
                 ratios[k], lower[k] = _widened(figure, bound)
                 if lower[k] <= ratios[k - 1] and lower[k - 1] <= ratios[k]:  # overlaps the time before's
