@@ -884,6 +884,16 @@ def _envelope(products, m, w):
     return envelope
 
 
+@njit(cache=True, nogil=True)
+def _whole_band(m, w):
+    """The ``_envelope`` (2, m) of a band of half-width w with no zeros in it: first[i] = max(i - w, 0), last[j] =
+    min(j + w, m - 1) (a full G: w = m - 1)."""
+    envelope = np.empty((2, m), dtype=np.int64)
+    for i in range(m):
+        envelope[0, i], envelope[1, i] = max(i - w, 0), min(i + w, m - 1)
+    return envelope
+
+
 @njit(cache=True, nogil=True, inline="always")
 def _gram(J, products, G):
     """G = Psi_q Psi_q^T in lower band storage, G[i, t] = (Psi_q Psi_q^T)[i, i - t], rows in the order of
@@ -959,18 +969,20 @@ def _cholesky_pair(G, above, below, upper, lower):
 
 
 @njit(cache=True, nogil=True)
-def _solve_normalized(L, x):
-    """x <- (L L^T)^-1 x / |(L L^T)^-1 x|: one step of inverse iteration with the factor of ``_cholesky``."""
-    m, w = L.shape[0], L.shape[1] - 1
+def _solve_normalized(L, x, envelope):
+    """x <- (L L^T)^-1 x / |(L L^T)^-1 x|: one step of inverse iteration with the factor of ``_cholesky``, over
+    G's ``envelope`` (``_envelope``: the products left out are of the factor's exact zeros; ``_whole_band``)."""
+    m = L.shape[0]
+    first, last = envelope[0], envelope[1]
     for i in range(m):
         total = x[i]
-        for k in range(max(i - w, 0), i):
+        for k in range(first[i], i):
             total -= L[i, i - k] * x[k]
         x[i] = total * L[i, 0]
     size = 0.0
     for i in range(m - 1, -1, -1):
         total = x[i]
-        for k in range(i + 1, min(i + w, m - 1) + 1):
+        for k in range(i + 1, last[i] + 1):
             total -= L[k, k - i] * x[k]
         x[i] = total * L[i, 0]
         size += x[i] * x[i]
@@ -978,12 +990,13 @@ def _solve_normalized(L, x):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _solve_pair(upper, high, lower, low, first, last):
+def _solve_pair(upper, high, lower, low, envelope):
     """``_solve_normalized`` of ``high`` with ``upper`` and of ``low`` with ``lower``, side by side (as
     ``_cholesky_pair``: two chains of dependent sums the processor overlaps), each sum in its order: the same
-    vectors to the last bit as two calls. Over the envelope of G (``first``, ``last``: ``_envelope``) alone: the
-    products left out are of the factors' exact zeros."""
+    vectors to the last bit as two calls. Over G's ``envelope`` (``_envelope``) alone: the products left out are of
+    the factors' exact zeros."""
     m = upper.shape[0]
+    first, last = envelope[0], envelope[1]
     for i in range(m):
         one, other = high[i], low[i]
         for k in range(first[i], i):
@@ -1004,13 +1017,13 @@ def _solve_pair(upper, high, lower, low, first, last):
 
 
 @njit(cache=True, nogil=True)
-def _rayleigh(G, x):
-    """x^T G x of a unit x, G in lower band storage."""
-    m, w = G.shape[0], G.shape[1] - 1
+def _rayleigh(G, x, envelope):
+    """x^T G x of a unit x, G in lower band storage, over its ``envelope`` (``_envelope``: past it, exact zeros)."""
+    m, first = G.shape[0], envelope[0]
     total = 0.0
     for i in range(m):
         total += G[i, 0] * x[i] * x[i]
-        for t in range(1, min(w, i) + 1):
+        for t in range(1, i - first[i] + 1):
             total += 2.0 * G[i, t] * x[i] * x[i - t]
     return total
 
@@ -1025,7 +1038,7 @@ def _warm(x):
 
 
 @njit(cache=True, nogil=True)
-def _largest(G, L, x):
+def _largest(G, L, x, envelope):
     """sigma_1^2, the largest eigenvalue of G = Psi_q Psi_q^T, in a bracket [lo, hi] closed to EXTREME_TOLERANCE: lo
     from Rayleigh quotients of inverse iteration shifted to hi (x, the vector of the time before, converges to
     its eigenvector), hi from a Cholesky test of hi' I - G at a trial just above lo; NaN if it does not close.
@@ -1042,7 +1055,7 @@ def _largest(G, L, x):
         hi, lo = max(hi, total), max(lo, G[i, 0])
     hi *= 1.0 + 1e-12
     _warm(x)
-    lo = max(lo, _rayleigh(G, x))
+    lo = max(lo, _rayleigh(G, x, envelope))
     factored = False
     guess = lo * (1.0 + GUESS)  # the Rayleigh quotient of the time before's eigenvector: sigma_1^2 is rarely far above
     if guess < hi and _cholesky(G, -1.0, guess, L):
@@ -1054,8 +1067,8 @@ def _largest(G, L, x):
         if not factored and not _cholesky(G, -1.0, hi, L):
             return np.nan
         for _ in range(2):
-            _solve_normalized(L, x)
-        lo = max(lo, _rayleigh(G, x))
+            _solve_normalized(L, x, envelope)
+        lo = max(lo, _rayleigh(G, x, envelope))
         if hi - lo <= EXTREME_TOLERANCE * hi:
             return lo
         trial = lo + max(step * (hi - lo), 0.5 * EXTREME_TOLERANCE * lo)
@@ -1068,7 +1081,7 @@ def _largest(G, L, x):
 
 
 @njit(cache=True, nogil=True)
-def _smallest(J, rows, starts, indices, G, L, x, largest, y):
+def _smallest(J, rows, starts, indices, G, L, x, largest, y, envelope):
     """sigma_m^2, the smallest eigenvalue of G = Psi_q Psi_q^T: the Rayleigh quotient |Psi_q^T x|^2 of inverse
     iteration (from Psi_q itself, not G: no squaring of the condition, the figure to the dense SVD's accuracy),
     certified the smallest by a Cholesky test of G - s I at s just below it, the shift then taken for two more
@@ -1081,7 +1094,7 @@ def _smallest(J, rows, starts, indices, G, L, x, largest, y):
     lo, hi, step = 0.0, np.inf, STEP
     for _ in range(_ROUNDS):
         for _ in range(2):
-            _solve_normalized(L, x)
+            _solve_normalized(L, x, envelope)
         y[:] = 0.0
         for i in range(rows.size):
             r = rows[i]
@@ -1104,16 +1117,16 @@ def _smallest(J, rows, starts, indices, G, L, x, largest, y):
 
 
 @njit(cache=True, nogil=True)
-def _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y):
+def _iterated_ratio(J, rows, starts, indices, products, envelope, G, L, low, high, y):
     """sigma_m / sigma_1 of Psi_q from its Gram matrix's extreme eigenvalues (``_largest``, ``_smallest``): O(m w^2)
     per Cholesky test and a few of them, against the band's bidiagonal reduction's O(n^2 (kl + ku)); NaN where
     they cannot give it (the caller takes the exact route). low, high: the eigenvectors of the time before;
-    products: ``_gram_products`` of the pattern."""
+    products: ``_gram_products`` of the pattern; envelope: G's (``_envelope``)."""
     _gram(J, products, G)
-    largest = _largest(G, L, high)
+    largest = _largest(G, L, high, envelope)
     if not np.isfinite(largest) or largest <= 0.0:
         return np.nan
-    smallest = _smallest(J, rows, starts, indices, G, L, low, largest, y)
+    smallest = _smallest(J, rows, starts, indices, G, L, low, largest, y, envelope)
     return np.sqrt(smallest / largest)
 
 
@@ -1132,34 +1145,33 @@ def _bracketed_ratio(J, rows, starts, indices, products, envelope, G, factors, l
     after the other; either way the arithmetic of ``_top`` then ``_bottom``: the same figures to the last bit."""
     if products.shape[0]:
         _gram(J, products, G)
-    first, last = envelope[0], envelope[1]
-    quotient, hi = _quotients(G, high, J, rows, starts, indices, low, y, first)
+    quotient, hi = _quotients(G, high, J, rows, starts, indices, low, y, envelope)
     lo, width = _top_start(G, quotient, loose, spread)
     above, below = lo * (1.0 + width), hi * (1.0 - _bottom_width(loose, spread))
     if _rounding_ok(2.0 * above, below, loose) and _cholesky_pair(G, above, below, factors[0], factors[1]):
-        _solve_pair(factors[0], high, factors[1], low, first, last)
-        quotient, residual = _quotients(G, high, J, rows, starts, indices, low, y, first)
+        _solve_pair(factors[0], high, factors[1], low, envelope)
+        quotient, residual = _quotients(G, high, J, rows, starts, indices, low, y, envelope)
         top, ceiling = _top_sharpen(G, factors[0], quotient, lo, above, loose, spread)
         bottom, floor = _bottom_sharpen(G, factors[1], residual, hi, below, loose, spread)
         return np.sqrt(bottom / top), np.sqrt(floor / ceiling)
-    top, ceiling = _top(G, factors[0], high, loose, spread)
+    top, ceiling = _top(G, factors[0], high, loose, spread, envelope)
     if not np.isfinite(ceiling):
         return np.nan, np.nan
-    bottom, floor = _bottom(J, rows, starts, indices, G, factors[0], low, y, loose, spread, ceiling)
+    bottom, floor = _bottom(J, rows, starts, indices, G, factors[0], low, y, loose, spread, ceiling, envelope)
     if not np.isfinite(floor):
         return np.nan, np.nan
     return np.sqrt(bottom / top), np.sqrt(floor / ceiling)
 
 
 @njit(cache=True, nogil=True)
-def _top(G, L, x, loose, spread):
+def _top(G, L, x, loose, spread, envelope):
     """(lo, hi) about lambda_1 of G: lo the Rayleigh quotient of x (or G's largest diagonal entry), hi = lo (1 + s)
     if hi I - G is positive definite (Cholesky), s = four times how far the time before's quotient was off
     (``spread[0]``, updated), at least ``loose``; a hundred times wider if that fails. The factor then takes one step
     of inverse iteration shifted to hi (Parlett, ch. 4; its rate (hi - lambda_1) / (hi - lambda_2) is small), whose
     quotient is the sharper lo and x the next time's; where hi - lo is still above ``loose`` lo, one more test at
     lo (1 + loose) (``_top_sharpen``). (lo, NaN) where both first tests fail."""
-    lo, width = _top_start(G, _rayleigh(G, x), loose, spread)
+    lo, width = _top_start(G, _rayleigh(G, x, envelope), loose, spread)
     hi = lo * (1.0 + width)
     if not _cholesky(G, -1.0, hi, L):
         width = min(0.5, 100.0 * width)
@@ -1167,8 +1179,8 @@ def _top(G, L, x, loose, spread):
         if not _cholesky(G, -1.0, hi, L):
             spread[0] = width
             return lo, np.nan
-    _solve_normalized(L, x)
-    return _top_sharpen(G, L, _rayleigh(G, x), lo, hi, loose, spread)
+    _solve_normalized(L, x, envelope)
+    return _top_sharpen(G, L, _rayleigh(G, x, envelope), lo, hi, loose, spread)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -1194,7 +1206,7 @@ def _top_sharpen(G, L, quotient, lo, hi, loose, spread):
 
 
 @njit(cache=True, nogil=True)
-def _bottom(J, rows, starts, indices, G, L, x, y, loose, spread, ceiling):
+def _bottom(J, rows, starts, indices, G, L, x, y, loose, spread, ceiling, envelope):
     """(hi, lo) about lambda_m of G, as ``_top`` from below: hi = |Psi_q^T x|^2 (``_residual``: from Psi_q, the dense
     SVD's accuracy), lo = hi (1 - s) if G - lo I is positive definite (``spread[1]``); (hi, NaN) where both first
     tests fail or G's rounding, 16 eps ``ceiling`` (lambda_1's upper bound), is above a tenth of ``loose`` lo
@@ -1209,7 +1221,7 @@ def _bottom(J, rows, starts, indices, G, L, x, y, loose, spread, ceiling):
         if not _cholesky(G, 1.0, -lo, L):
             spread[1] = width
             return hi, np.nan
-    _solve_normalized(L, x)
+    _solve_normalized(L, x, envelope)
     return _bottom_sharpen(G, L, _residual(J, rows, starts, indices, x, y), hi, lo, loose, spread)
 
 
@@ -1335,11 +1347,11 @@ def _squares(y):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _quotients(G, high, J, rows, starts, indices, low, y, first):
+def _quotients(G, high, J, rows, starts, indices, low, y, envelope):
     """(``_rayleigh`` of ``high``, ``_residual`` of ``low``) in one pass over the rows: two serial sums side by side,
     which the processor overlaps (``_bracketed_ratio``); each in its own order, the same figures to the last bit
-    (the Rayleigh quotient over G's envelope, ``first``: ``_envelope``; past it G's entries are exact zeros)."""
-    m = G.shape[0]
+    (the Rayleigh quotient over G's ``envelope``, as ``_rayleigh``)."""
+    m, first = G.shape[0], envelope[0]
     y[:] = 0.0
     quotient = 0.0
     for i in range(m):
@@ -1450,7 +1462,7 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
                 ratios[k], lower[k] = _widened(figure, bound)
             tested[0], tested[1] = tested[1], k
         if not np.isfinite(lower[k]):
-            ratios[k] = _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y)
+            ratios[k] = _iterated_ratio(J, rows, starts, indices, products, envelope, G, L, low, high, y)
             lower[k] = ratios[k]
         if not np.isfinite(ratios[k]):  # near a rank loss: the bidiagonal reduction's figure
             low[:], high[:] = 1.0, 1.0
@@ -1502,6 +1514,7 @@ def _ratios_at(jacobians, columns, norms, position, keys, starts, indices, slots
     rows = np.argsort(keys, kind="mergesort")
     w = _gram_width(rows, starts, indices, n)
     products = _gram_products(rows, starts, indices, w, n)
+    envelope = _envelope(products, m, w)
     G, L, y, J = np.empty((m, w + 1)), np.empty((m, w + 1)), np.empty(n), np.zeros((m, n))
     ratios = np.empty(times.size)
     for a in range(times.size):
@@ -1511,7 +1524,7 @@ def _ratios_at(jacobians, columns, norms, position, keys, starts, indices, slots
             for p in range(starts[r], starts[r + 1]):
                 J[r, indices[p]] = jacobians[k, r, slots[p]] * columns[indices[p]] / norm
         low, high = vectors[k, 0].copy(), vectors[k, 1].copy()
-        ratios[a] = _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y)
+        ratios[a] = _iterated_ratio(J, rows, starts, indices, products, envelope, G, L, low, high, y)
         if not np.isfinite(ratios[a]):
             made = k
             while made > 0 and not np.all(np.isfinite(bases[made])):  # the nearest basis made (``_spectra``)
@@ -1709,8 +1722,7 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
         indices[r * n : (r + 1) * n] = np.arange(n)
     products = np.empty((0, 3), dtype=np.int64)  # for ``_iterated_ratio``, made at its first call
     made = np.empty((0, 3), dtype=np.int64)  # ``_bracketed_ratio``: G made by ``_dense_gram``
-    full = _envelope(made, m, m - 1)  # a full G's envelope: first 0, last m - 1
-    full[0, :], full[1, :] = 0, m - 1
+    full = _whole_band(m, m - 1)  # a full G's envelope
     G, factors, low, high, y = np.empty((m, m)), np.empty((2, m, m)), np.ones(m), np.ones(m), np.empty(n)
     L = factors[0]  # ``_bracketed_ratio``'s two factors, ``_iterated_ratio``'s one
     spread, earlier = np.full(2, 0.5), np.empty((2, m))
@@ -1749,7 +1761,7 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
                 overlaps += 1  # an overlap: as useless)
                 if products.shape[0] == 0:
                     products = _gram_products(rows, starts, indices, m - 1, n)
-                _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y)
+                _iterated_ratio(J, rows, starts, indices, products, full, G, L, low, high, y)
         if not np.isfinite(lower[k]):
             B[:, :] = S[:, :m]  # R^T
             ratios[k] = _jacobi_ratio(B)

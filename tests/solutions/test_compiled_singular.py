@@ -194,7 +194,10 @@ def test_the_bands_iterated_ratio_is_numpys_without_the_bidiagonal_route():
     w = singular._gram_width(rows, starts, indices, n)
     G, L, low, high, y = np.empty((m, w + 1)), np.empty((m, w + 1)), np.ones(m), np.ones(m), np.empty(n)
     products = singular._gram_products(rows, starts, indices, w, n)
-    ratios = [singular._iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y) for J in scaled]
+    envelope = singular._envelope(products, m, w)
+    ratios = [
+        singular._iterated_ratio(J, rows, starts, indices, products, envelope, G, L, low, high, y) for J in scaled
+    ]
     s = np.linalg.svd(scaled, compute_uv=False)
     assert w < 16 and np.all(s[:, -1] / s[:, 0] < 0.1)  # a band, and near singular all along: the figure matters
     np.testing.assert_allclose(ratios, s[:, -1] / s[:, 0], rtol=1e-10)
@@ -555,12 +558,14 @@ def test_a_certified_step_moves_psi_q_by_less_than_sigma_m(swing):
 
 
 def _bracket_reference(J, rows, starts, indices, G, low, high, loose, spread):
-    """``singular._bracketed_ratio`` as it was before its brackets ran side by side: ``_top``, then ``_bottom``."""
+    """``singular._bracketed_ratio`` as it was before its brackets ran side by side: ``_top``, then ``_bottom``, over
+    the whole band (``_whole_band``: no envelope)."""
     y, L = np.empty(J.shape[1]), np.empty_like(G)
-    top, ceiling = singular._top(G, L, high, loose, spread)
+    whole = singular._whole_band(G.shape[0], G.shape[1] - 1)
+    top, ceiling = singular._top(G, L, high, loose, spread, whole)
     if not np.isfinite(ceiling):
         return np.nan, np.nan
-    bottom, floor = singular._bottom(J, rows, starts, indices, G, L, low, y, loose, spread, ceiling)
+    bottom, floor = singular._bottom(J, rows, starts, indices, G, L, low, y, loose, spread, ceiling, whole)
     if not np.isfinite(floor):
         return np.nan, np.nan
     return np.sqrt(bottom / top), np.sqrt(floor / ceiling)
@@ -597,14 +602,15 @@ def test_the_brackets_side_by_side_are_the_brackets_one_after_the_other():
     factors = np.empty((2, *G.shape))
     assert singular._cholesky_pair(G, values[-1] * 1.01, values[0] * 0.99, factors[0], factors[1])
     side = high.copy(), low.copy()
-    singular._solve_pair(factors[0], side[0], factors[1], side[1], *envelope)
+    singular._solve_pair(factors[0], side[0], factors[1], side[1], envelope)
     apart = high.copy(), low.copy()
-    singular._solve_normalized(factors[0], apart[0])
-    singular._solve_normalized(factors[1], apart[1])
+    whole = singular._whole_band(J.shape[0], w)
+    singular._solve_normalized(factors[0], apart[0], whole)
+    singular._solve_normalized(factors[1], apart[1], whole)
     assert np.array_equal(side[0], apart[0]) and np.array_equal(side[1], apart[1])
     y = np.empty(J.shape[1])
-    assert singular._quotients(G, high, J, rows, starts, indices, low, y, envelope[0]) == (
-        singular._rayleigh(G, high),
+    assert singular._quotients(G, high, J, rows, starts, indices, low, y, envelope) == (
+        singular._rayleigh(G, high, whole),
         singular._residual(J, rows, starts, indices, low, y),
     )
     for start in (0.0, 1e-6, 1e-2, 1.0):  # from near the eigenvectors (side by side) to far off (one after the other)
