@@ -830,13 +830,16 @@ def _gram_width(rows, starts, indices, n):
 
 
 @njit(cache=True, nogil=True)
-def _gram_products(rows, starts, indices, w):
-    """The products that make G = Psi_q Psi_q^T in lower band storage (``_gram``), found once from the pattern:
-    (P, 5) rows (i, t, a, b, c), G[i, t] += Psi_q[a, c] Psi_q[b, c] with a = rows[i], b = rows[i - t], for each
-    column c the two rows share, in the order of G's entries and of their common columns (on a chain of 64 loops
-    2,000 products, where merging every pair of rows within the band's width costs 8 times their time)."""
+def _gram_products(rows, starts, indices, w, n):
+    """The products that make G = Psi_q Psi_q^T (m x n) in lower band storage (``_gram``), found once from the
+    pattern: (P, 3) rows (g, x, y) of places in the flat arrays, G.flat[g] += Psi_q.flat[x] Psi_q.flat[y] with
+    g = i (w + 1) + t (G[i, t]), x = a n + c, y = b n + c (Psi_q[a, c], Psi_q[b, c]), a = rows[i], b = rows[i - t],
+    for each column c the two rows share, in the order of G's entries and of their common columns (on a chain of
+    64 loops 2,000 products, where merging every pair of rows within the band's width costs 8 times their time;
+    three places a product, where (i, t, a, b, c) took five reads and three index products: 0.51 -> 0.43 us for
+    the loop chain's 26 x 6 G)."""
     m = rows.size
-    products = np.empty((0, 5), dtype=np.int64)
+    products = np.empty((0, 3), dtype=np.int64)
     for counting in (True, False):
         count = 0
         for i in range(m):
@@ -847,8 +850,8 @@ def _gram_products(rows, starts, indices, w):
                 while p < starts[a + 1] and q < starts[b + 1]:
                     if indices[p] == indices[q]:
                         if not counting:
-                            products[count, 0], products[count, 1], products[count, 2] = i, t, a
-                            products[count, 3], products[count, 4] = b, indices[p]
+                            products[count, 0] = i * (w + 1) + t
+                            products[count, 1], products[count, 2] = a * n + indices[p], b * n + indices[p]
                         count += 1
                         p += 1
                         q += 1
@@ -857,19 +860,49 @@ def _gram_products(rows, starts, indices, w):
                     else:
                         q += 1
         if counting:
-            products = np.empty((count, 5), dtype=np.int64)
+            products = np.empty((count, 3), dtype=np.int64)
     return products
 
 
 @njit(cache=True, nogil=True)
+def _envelope(products, m, w):
+    """(first, last) (2, m) of G = Psi_q Psi_q^T's envelope from its products (``_gram_products``), found once
+    from the pattern: first[i] the first column of row i that holds a product (left of it G and its Cholesky factor
+    hold exact zeros: ``_cholesky``), last[j] the last row whose envelope reaches column j (at least j). The loop
+    chain's G, 5 wide, holds 2-5 entries left of the diagonal (3 on average): the solves and the Rayleigh quotient
+    sum over the envelope alone (``_solve_pair``, ``_quotients``), skipping products with exact zeros of the band
+    (George and Liu, ch. 4: the envelope of a matrix is its Cholesky factor's), the same sums to the last bit."""
+    envelope = np.empty((2, m), dtype=np.int64)
+    first, last = envelope[0], envelope[1]
+    first[:], last[:] = np.arange(m), np.arange(m)
+    for p in range(products.shape[0]):
+        i, t = products[p, 0] // (w + 1), products[p, 0] % (w + 1)
+        first[i] = min(first[i], i - t)
+    for i in range(m):
+        for j in range(first[i], i):
+            last[j] = max(last[j], i)
+    return envelope
+
+
+@njit(cache=True, nogil=True)
+def _whole_band(m, w):
+    """The ``_envelope`` (2, m) of a band of half-width w with no zeros in it: first[i] = max(i - w, 0), last[j] =
+    min(j + w, m - 1) (a full G: w = m - 1)."""
+    envelope = np.empty((2, m), dtype=np.int64)
+    for i in range(m):
+        envelope[0, i], envelope[1, i] = max(i - w, 0), min(i + w, m - 1)
+    return envelope
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _gram(J, products, G):
     """G = Psi_q Psi_q^T in lower band storage, G[i, t] = (Psi_q Psi_q^T)[i, i - t], rows in the order of
     ``_gram_products``: each entry the sum of its products in their order (the merge of two rows' columns gave
-    the same sums, to the last bit)."""
-    G[:, :] = 0.0
+    the same sums, to the last bit). J and G C-contiguous (``reshape`` refuses others): their flat places."""
+    flat, gram = J.reshape(J.size), G.reshape(G.size)
+    gram[:] = 0.0
     for p in range(products.shape[0]):
-        i, t, a, b, c = products[p, 0], products[p, 1], products[p, 2], products[p, 3], products[p, 4]
-        G[i, t] += J[a, c] * J[b, c]
+        gram[products[p, 0]] += flat[products[p, 1]] * flat[products[p, 2]]
 
 
 @njit(cache=True, nogil=True)
@@ -903,7 +936,7 @@ def _cholesky(G, a, b, L):
     return True
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _cholesky_pair(G, above, below, upper, lower):
     """``_cholesky`` of above I - G into ``upper`` and of G - below I into ``lower`` (the first tests of lambda_1's
     and lambda_m's brackets, ``_bracketed_ratio``), side by side: True if both are positive definite. Each factor's
@@ -936,40 +969,44 @@ def _cholesky_pair(G, above, below, upper, lower):
 
 
 @njit(cache=True, nogil=True)
-def _solve_normalized(L, x):
-    """x <- (L L^T)^-1 x / |(L L^T)^-1 x|: one step of inverse iteration with the factor of ``_cholesky``."""
-    m, w = L.shape[0], L.shape[1] - 1
+def _solve_normalized(L, x, envelope):
+    """x <- (L L^T)^-1 x / |(L L^T)^-1 x|: one step of inverse iteration with the factor of ``_cholesky``, over
+    G's ``envelope`` (``_envelope``: the products left out are of the factor's exact zeros; ``_whole_band``)."""
+    m = L.shape[0]
+    first, last = envelope[0], envelope[1]
     for i in range(m):
         total = x[i]
-        for k in range(max(i - w, 0), i):
+        for k in range(first[i], i):
             total -= L[i, i - k] * x[k]
         x[i] = total * L[i, 0]
     size = 0.0
     for i in range(m - 1, -1, -1):
         total = x[i]
-        for k in range(i + 1, min(i + w, m - 1) + 1):
+        for k in range(i + 1, last[i] + 1):
             total -= L[k, k - i] * x[k]
         x[i] = total * L[i, 0]
         size += x[i] * x[i]
     x *= 1.0 / np.sqrt(size)
 
 
-@njit(cache=True, nogil=True)
-def _solve_pair(upper, high, lower, low):
+@njit(cache=True, nogil=True, inline="always")
+def _solve_pair(upper, high, lower, low, envelope):
     """``_solve_normalized`` of ``high`` with ``upper`` and of ``low`` with ``lower``, side by side (as
     ``_cholesky_pair``: two chains of dependent sums the processor overlaps), each sum in its order: the same
-    vectors to the last bit as two calls."""
-    m, w = upper.shape[0], upper.shape[1] - 1
+    vectors to the last bit as two calls. Over G's ``envelope`` (``_envelope``) alone: the products left out are of
+    the factors' exact zeros."""
+    m = upper.shape[0]
+    first, last = envelope[0], envelope[1]
     for i in range(m):
         one, other = high[i], low[i]
-        for k in range(max(i - w, 0), i):
+        for k in range(first[i], i):
             one -= upper[i, i - k] * high[k]
             other -= lower[i, i - k] * low[k]
         high[i], low[i] = one * upper[i, 0], other * lower[i, 0]
     above, below = 0.0, 0.0
     for i in range(m - 1, -1, -1):
         one, other = high[i], low[i]
-        for k in range(i + 1, min(i + w, m - 1) + 1):
+        for k in range(i + 1, last[i] + 1):
             one -= upper[k, k - i] * high[k]
             other -= lower[k, k - i] * low[k]
         high[i], low[i] = one * upper[i, 0], other * lower[i, 0]
@@ -980,13 +1017,13 @@ def _solve_pair(upper, high, lower, low):
 
 
 @njit(cache=True, nogil=True)
-def _rayleigh(G, x):
-    """x^T G x of a unit x, G in lower band storage."""
-    m, w = G.shape[0], G.shape[1] - 1
+def _rayleigh(G, x, envelope):
+    """x^T G x of a unit x, G in lower band storage, over its ``envelope`` (``_envelope``: past it, exact zeros)."""
+    m, first = G.shape[0], envelope[0]
     total = 0.0
     for i in range(m):
         total += G[i, 0] * x[i] * x[i]
-        for t in range(1, min(w, i) + 1):
+        for t in range(1, i - first[i] + 1):
             total += 2.0 * G[i, t] * x[i] * x[i - t]
     return total
 
@@ -1001,7 +1038,7 @@ def _warm(x):
 
 
 @njit(cache=True, nogil=True)
-def _largest(G, L, x):
+def _largest(G, L, x, envelope):
     """sigma_1^2, the largest eigenvalue of G = Psi_q Psi_q^T, in a bracket [lo, hi] closed to EXTREME_TOLERANCE: lo
     from Rayleigh quotients of inverse iteration shifted to hi (x, the vector of the time before, converges to
     its eigenvector), hi from a Cholesky test of hi' I - G at a trial just above lo; NaN if it does not close.
@@ -1018,7 +1055,7 @@ def _largest(G, L, x):
         hi, lo = max(hi, total), max(lo, G[i, 0])
     hi *= 1.0 + 1e-12
     _warm(x)
-    lo = max(lo, _rayleigh(G, x))
+    lo = max(lo, _rayleigh(G, x, envelope))
     factored = False
     guess = lo * (1.0 + GUESS)  # the Rayleigh quotient of the time before's eigenvector: sigma_1^2 is rarely far above
     if guess < hi and _cholesky(G, -1.0, guess, L):
@@ -1030,8 +1067,8 @@ def _largest(G, L, x):
         if not factored and not _cholesky(G, -1.0, hi, L):
             return np.nan
         for _ in range(2):
-            _solve_normalized(L, x)
-        lo = max(lo, _rayleigh(G, x))
+            _solve_normalized(L, x, envelope)
+        lo = max(lo, _rayleigh(G, x, envelope))
         if hi - lo <= EXTREME_TOLERANCE * hi:
             return lo
         trial = lo + max(step * (hi - lo), 0.5 * EXTREME_TOLERANCE * lo)
@@ -1044,7 +1081,7 @@ def _largest(G, L, x):
 
 
 @njit(cache=True, nogil=True)
-def _smallest(J, rows, starts, indices, G, L, x, largest, y):
+def _smallest(J, rows, starts, indices, G, L, x, largest, y, envelope):
     """sigma_m^2, the smallest eigenvalue of G = Psi_q Psi_q^T: the Rayleigh quotient |Psi_q^T x|^2 of inverse
     iteration (from Psi_q itself, not G: no squaring of the condition, the figure to the dense SVD's accuracy),
     certified the smallest by a Cholesky test of G - s I at s just below it, the shift then taken for two more
@@ -1057,7 +1094,7 @@ def _smallest(J, rows, starts, indices, G, L, x, largest, y):
     lo, hi, step = 0.0, np.inf, STEP
     for _ in range(_ROUNDS):
         for _ in range(2):
-            _solve_normalized(L, x)
+            _solve_normalized(L, x, envelope)
         y[:] = 0.0
         for i in range(rows.size):
             r = rows[i]
@@ -1080,61 +1117,61 @@ def _smallest(J, rows, starts, indices, G, L, x, largest, y):
 
 
 @njit(cache=True, nogil=True)
-def _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y):
+def _iterated_ratio(J, rows, starts, indices, products, envelope, G, L, low, high, y):
     """sigma_m / sigma_1 of Psi_q from its Gram matrix's extreme eigenvalues (``_largest``, ``_smallest``): O(m w^2)
     per Cholesky test and a few of them, against the band's bidiagonal reduction's O(n^2 (kl + ku)); NaN where
     they cannot give it (the caller takes the exact route). low, high: the eigenvectors of the time before;
-    products: ``_gram_products`` of the pattern."""
+    products: ``_gram_products`` of the pattern; envelope: G's (``_envelope``)."""
     _gram(J, products, G)
-    largest = _largest(G, L, high)
+    largest = _largest(G, L, high, envelope)
     if not np.isfinite(largest) or largest <= 0.0:
         return np.nan
-    smallest = _smallest(J, rows, starts, indices, G, L, low, largest, y)
+    smallest = _smallest(J, rows, starts, indices, G, L, low, largest, y, envelope)
     return np.sqrt(smallest / largest)
 
 
-@njit(cache=True, nogil=True)
-def _bracketed_ratio(J, rows, starts, indices, products, G, factors, low, high, y, loose, spread):
+@njit(cache=True, nogil=True, inline="always")
+def _bracketed_ratio(J, rows, starts, indices, products, envelope, G, factors, low, high, y, loose, spread):
     """(figure, lower bound) of sigma_m / sigma_1 with each extreme eigenvalue of G = Psi_q Psi_q^T in a bracket
     about ``loose`` wide, by one or two Cholesky tests each (``_top``, ``_bottom``), from the eigenvectors ``high``,
     ``low`` of the times before (``_extrapolate``), where ``_iterated_ratio`` takes 8-9 tests and 14 solves to
     close it. The figure sqrt(lambda_m's upper / lambda_1's lower) is the ratio's upper end. (NaN, NaN) where a
     bound's tests fail (its vector too far off: the first time) or G's rounding (``_smallest``'s floor) is not well
     below lambda_m's bracket: ``_iterated_ratio`` then. ``products`` with no rows: G already made (``_dense_gram``).
-    ``factors`` (2, m, w + 1): the two brackets' Cholesky factors.
+    ``envelope`` (2, m): G's (``_envelope``). ``factors`` (2, m, w + 1): the two brackets' Cholesky factors.
     The two brackets are independent but for lambda_m's rounding test, which reads lambda_1's upper end: their
     first tests and inverse-iteration steps run side by side (``_cholesky_pair``, ``_solve_pair``) where both
     first tests pass and that rounding test passes whatever lambda_1's bracket becomes (it only narrows), else one
     after the other; either way the arithmetic of ``_top`` then ``_bottom``: the same figures to the last bit."""
     if products.shape[0]:
         _gram(J, products, G)
-    quotient, hi = _quotients(G, high, J, rows, starts, indices, low, y)
+    quotient, hi = _quotients(G, high, J, rows, starts, indices, low, y, envelope)
     lo, width = _top_start(G, quotient, loose, spread)
     above, below = lo * (1.0 + width), hi * (1.0 - _bottom_width(loose, spread))
     if _rounding_ok(2.0 * above, below, loose) and _cholesky_pair(G, above, below, factors[0], factors[1]):
-        _solve_pair(factors[0], high, factors[1], low)
-        quotient, residual = _quotients(G, high, J, rows, starts, indices, low, y)
+        _solve_pair(factors[0], high, factors[1], low, envelope)
+        quotient, residual = _quotients(G, high, J, rows, starts, indices, low, y, envelope)
         top, ceiling = _top_sharpen(G, factors[0], quotient, lo, above, loose, spread)
         bottom, floor = _bottom_sharpen(G, factors[1], residual, hi, below, loose, spread)
         return np.sqrt(bottom / top), np.sqrt(floor / ceiling)
-    top, ceiling = _top(G, factors[0], high, loose, spread)
+    top, ceiling = _top(G, factors[0], high, loose, spread, envelope)
     if not np.isfinite(ceiling):
         return np.nan, np.nan
-    bottom, floor = _bottom(J, rows, starts, indices, G, factors[0], low, y, loose, spread, ceiling)
+    bottom, floor = _bottom(J, rows, starts, indices, G, factors[0], low, y, loose, spread, ceiling, envelope)
     if not np.isfinite(floor):
         return np.nan, np.nan
     return np.sqrt(bottom / top), np.sqrt(floor / ceiling)
 
 
 @njit(cache=True, nogil=True)
-def _top(G, L, x, loose, spread):
+def _top(G, L, x, loose, spread, envelope):
     """(lo, hi) about lambda_1 of G: lo the Rayleigh quotient of x (or G's largest diagonal entry), hi = lo (1 + s)
     if hi I - G is positive definite (Cholesky), s = four times how far the time before's quotient was off
     (``spread[0]``, updated), at least ``loose``; a hundred times wider if that fails. The factor then takes one step
     of inverse iteration shifted to hi (Parlett, ch. 4; its rate (hi - lambda_1) / (hi - lambda_2) is small), whose
     quotient is the sharper lo and x the next time's; where hi - lo is still above ``loose`` lo, one more test at
     lo (1 + loose) (``_top_sharpen``). (lo, NaN) where both first tests fail."""
-    lo, width = _top_start(G, _rayleigh(G, x), loose, spread)
+    lo, width = _top_start(G, _rayleigh(G, x, envelope), loose, spread)
     hi = lo * (1.0 + width)
     if not _cholesky(G, -1.0, hi, L):
         width = min(0.5, 100.0 * width)
@@ -1142,11 +1179,11 @@ def _top(G, L, x, loose, spread):
         if not _cholesky(G, -1.0, hi, L):
             spread[0] = width
             return lo, np.nan
-    _solve_normalized(L, x)
-    return _top_sharpen(G, L, _rayleigh(G, x), lo, hi, loose, spread)
+    _solve_normalized(L, x, envelope)
+    return _top_sharpen(G, L, _rayleigh(G, x, envelope), lo, hi, loose, spread)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _top_start(G, quotient, loose, spread):
     """(lo, s) of ``_top``: the Rayleigh ``quotient`` of its vector or G's largest diagonal entry, and the first
     test's width."""
@@ -1156,7 +1193,7 @@ def _top_start(G, quotient, loose, spread):
     return max(lo, quotient), max(loose, spread[0])
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _top_sharpen(G, L, quotient, lo, hi, loose, spread):
     """``_top``'s (lo, hi) after its step of inverse iteration, given its vector's new Rayleigh ``quotient``: the
     sharper lo, ``spread[0]``, and where hi - lo is still above ``loose`` lo, one more test at lo (1 + loose)."""
@@ -1169,7 +1206,7 @@ def _top_sharpen(G, L, quotient, lo, hi, loose, spread):
 
 
 @njit(cache=True, nogil=True)
-def _bottom(J, rows, starts, indices, G, L, x, y, loose, spread, ceiling):
+def _bottom(J, rows, starts, indices, G, L, x, y, loose, spread, ceiling, envelope):
     """(hi, lo) about lambda_m of G, as ``_top`` from below: hi = |Psi_q^T x|^2 (``_residual``: from Psi_q, the dense
     SVD's accuracy), lo = hi (1 - s) if G - lo I is positive definite (``spread[1]``); (hi, NaN) where both first
     tests fail or G's rounding, 16 eps ``ceiling`` (lambda_1's upper bound), is above a tenth of ``loose`` lo
@@ -1184,24 +1221,24 @@ def _bottom(J, rows, starts, indices, G, L, x, y, loose, spread, ceiling):
         if not _cholesky(G, 1.0, -lo, L):
             spread[1] = width
             return hi, np.nan
-    _solve_normalized(L, x)
+    _solve_normalized(L, x, envelope)
     return _bottom_sharpen(G, L, _residual(J, rows, starts, indices, x, y), hi, lo, loose, spread)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _bottom_width(loose, spread):
     """The relative width of ``_bottom``'s first test."""
     return min(0.5, max(loose, spread[1]))
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _rounding_ok(ceiling, lo, loose):
     """Whether G's rounding, 16 eps ``ceiling`` (an upper bound of lambda_1), is at most a tenth of ``loose`` lo: a
     Cholesky test of G - lo I can then certify lambda_m's bracket (``_bottom``)."""
     return not 16.0 * np.finfo(np.float64).eps * ceiling > 0.1 * loose * lo
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _bottom_sharpen(G, L, residual, hi, lo, loose, spread):
     """``_bottom``'s (hi, lo) after its step of inverse iteration, given its vector's new ``residual`` |Psi_q^T x|^2,
     as ``_top_sharpen``."""
@@ -1213,7 +1250,7 @@ def _bottom_sharpen(G, L, residual, hi, lo, loose, spread):
     return hi, lo
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _widened(figure, bound):
     """(upper, lower) of a ratio's bracket [bound, figure] from ``_bracketed_ratio`` widened by G's rounding (16 eps
     lambda_1 on each eigenvalue's test, relative to lambda_m: 16 eps / ratio^2) and 1e-12: its ends are Rayleigh
@@ -1224,7 +1261,7 @@ def _widened(figure, bound):
     return figure * (1.0 + margin), bound * (1.0 - margin)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _carried(upper, lower, moved):
     """(upper, lower) ends of the ratio sigma_m / sigma_1 of the scaled J_k from those of J_k-1 and ``moved``, a bound
     of |J_k - J_k-1|_2 (``_scale``). Weyl's inequality: each singular value moves by at most delta = |J_k - J_k-1|_2,
@@ -1240,7 +1277,7 @@ def _carried(upper, lower, moved):
     return (upper + delta) / (1.0 - delta) * (1.0 + 1e-12), (lower - delta) / (1.0 + delta) * (1.0 - 1e-12)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _away(before, last, smallest, thresholds):
     """Whether the ratio at the next time is likely more than 5 % above the smallest so far and 5 % off each
     threshold: the last figure plus or minus twice its last step's change is (``WIDE``'s choice, of cost alone: a
@@ -1252,7 +1289,7 @@ def _away(before, last, smallest, thresholds):
     return last - change > 1.05 * smallest
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _carries(upper, lower, before_upper, before_lower, smallest, thresholds):
     """Whether a carried bracket [lower, upper] (``_carried``) is kept: at most CARRIED wide, above the least upper
     end so far (no candidate for the smallest: ``settled`` would close it), on one side of each threshold and no
@@ -1267,7 +1304,7 @@ def _carries(upper, lower, before_upper, before_lower, smallest, thresholds):
     return 2.0 * lower > 1.25 * before_upper and upper < 1.6 * before_lower
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _extrapolate(x, before, scratch):
     """x <- 2 x - x_before, unit, and x_before <- x (the eigenvector of the last time; ``before`` of the time before
     it): a linear extrapolation in time of the vectors ``_bracketed_ratio`` starts from, whose error is then
@@ -1309,16 +1346,17 @@ def _squares(y):
     return total
 
 
-@njit(cache=True, nogil=True)
-def _quotients(G, high, J, rows, starts, indices, low, y):
+@njit(cache=True, nogil=True, inline="always")
+def _quotients(G, high, J, rows, starts, indices, low, y, envelope):
     """(``_rayleigh`` of ``high``, ``_residual`` of ``low``) in one pass over the rows: two serial sums side by side,
-    which the processor overlaps (``_bracketed_ratio``); each in its own order, the same figures to the last bit."""
-    m, w = G.shape[0], G.shape[1] - 1
+    which the processor overlaps (``_bracketed_ratio``); each in its own order, the same figures to the last bit
+    (the Rayleigh quotient over G's ``envelope``, as ``_rayleigh``)."""
+    m, first = G.shape[0], envelope[0]
     y[:] = 0.0
     quotient = 0.0
     for i in range(m):
         quotient += G[i, 0] * high[i] * high[i]
-        for t in range(1, min(w, i) + 1):
+        for t in range(1, i - first[i] + 1):
             quotient += 2.0 * G[i, t] * high[i] * high[i - t]
         _add_row(J, rows[i], starts, indices, low[i], y)
     return quotient, _squares(y)
@@ -1329,7 +1367,7 @@ CERTAIN = 0.9
 lower bound of sigma_m (J_k-1) (far above the bounds' rounding, ~1e-15 of them)."""
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def certified(moved, lower):
     """Whether the step from t_k-1 to t_k certainly holds no flip of the sign of det [Psi_q; T^T] the Guard tests
     (``dynamics.Guard._judge``: a rank loss between the two times), from ``moved``, a bound of |J_k - J_k-1|_2 of
@@ -1343,7 +1381,7 @@ def certified(moved, lower):
     return moved < CERTAIN * lower
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _scale(jacobians, k, columns, norms, starts, indices, slots, J, previous, sums):
     """J <- the scaled Psi_q at time k (as ``dynamics.scale_rows``, to the last bit, on its pattern alone), previous
     <- the J it held; returns a bound of |J - previous|_2: the least of its Frobenius norm and sqrt(|.|_1 |.|_inf)
@@ -1387,7 +1425,8 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
     vectors = np.empty((N, 2, m))  # each time's eigenvectors (``_ratios_at`` starts from them)
     rows = np.argsort(keys, kind="mergesort")  # Psi_q's rows along the band: G = Psi_q Psi_q^T a band too
     w = _gram_width(rows, starts, indices, n)
-    products = _gram_products(rows, starts, indices, w)
+    products = _gram_products(rows, starts, indices, w, n)
+    envelope = _envelope(products, m, w)
     G, factors, low, high, y = np.empty((m, w + 1)), np.empty((2, m, w + 1)), np.ones(m), np.ones(m), np.empty(n)
     L = factors[0]  # ``_bracketed_ratio``'s two factors, ``_iterated_ratio``'s one
     before, ordered, last = first, _parity(position), -1  # the basis E's coordinates come from, and its time
@@ -1417,13 +1456,13 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
             after = carried and _away(ratios[k - 2], ratios[k - 1], smallest, thresholds)  # after a carried one
             width = WIDE if after else loose
             figure, bound = _bracketed_ratio(
-                J, rows, starts, indices, products, G, factors, low, high, y, width, spread
+                J, rows, starts, indices, products, envelope, G, factors, low, high, y, width, spread
             )
             if np.isfinite(bound):  # widened by G's rounding: it holds the closed figure too
                 ratios[k], lower[k] = _widened(figure, bound)
             tested[0], tested[1] = tested[1], k
         if not np.isfinite(lower[k]):
-            ratios[k] = _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y)
+            ratios[k] = _iterated_ratio(J, rows, starts, indices, products, envelope, G, L, low, high, y)
             lower[k] = ratios[k]
         if not np.isfinite(ratios[k]):  # near a rank loss: the bidiagonal reduction's figure
             low[:], high[:] = 1.0, 1.0
@@ -1474,7 +1513,8 @@ def _ratios_at(jacobians, columns, norms, position, keys, starts, indices, slots
     n = position.size
     rows = np.argsort(keys, kind="mergesort")
     w = _gram_width(rows, starts, indices, n)
-    products = _gram_products(rows, starts, indices, w)
+    products = _gram_products(rows, starts, indices, w, n)
+    envelope = _envelope(products, m, w)
     G, L, y, J = np.empty((m, w + 1)), np.empty((m, w + 1)), np.empty(n), np.zeros((m, n))
     ratios = np.empty(times.size)
     for a in range(times.size):
@@ -1484,7 +1524,7 @@ def _ratios_at(jacobians, columns, norms, position, keys, starts, indices, slots
             for p in range(starts[r], starts[r + 1]):
                 J[r, indices[p]] = jacobians[k, r, slots[p]] * columns[indices[p]] / norm
         low, high = vectors[k, 0].copy(), vectors[k, 1].copy()
-        ratios[a] = _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y)
+        ratios[a] = _iterated_ratio(J, rows, starts, indices, products, envelope, G, L, low, high, y)
         if not np.isfinite(ratios[a]):
             made = k
             while made > 0 and not np.all(np.isfinite(bases[made])):  # the nearest basis made (``_spectra``)
@@ -1680,8 +1720,9 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
     indices = np.empty(m * n, dtype=np.int64)
     for r in range(m):
         indices[r * n : (r + 1) * n] = np.arange(n)
-    products = np.empty((0, 5), dtype=np.int64)  # for ``_iterated_ratio``, made at its first call
-    made = np.empty((0, 5), dtype=np.int64)  # ``_bracketed_ratio``: G made by ``_dense_gram``
+    products = np.empty((0, 3), dtype=np.int64)  # for ``_iterated_ratio``, made at its first call
+    made = np.empty((0, 3), dtype=np.int64)  # ``_bracketed_ratio``: G made by ``_dense_gram``
+    full = _whole_band(m, m - 1)  # a full G's envelope
     G, factors, low, high, y = np.empty((m, m)), np.empty((2, m, m)), np.ones(m), np.ones(m), np.empty(n)
     L = factors[0]  # ``_bracketed_ratio``'s two factors, ``_iterated_ratio``'s one
     spread, earlier = np.full(2, 0.5), np.empty((2, m))
@@ -1707,7 +1748,9 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
             else:
                 earlier[0, :], earlier[1, :] = low, high
             _dense_gram(J, G)
-            figure, bound = _bracketed_ratio(J, rows, starts, indices, made, G, factors, low, high, y, loose, spread)
+            figure, bound = _bracketed_ratio(
+                J, rows, starts, indices, made, full, G, factors, low, high, y, loose, spread
+            )
             if np.isfinite(bound):
                 ratios[k], lower[k] = _widened(figure, bound)
                 if lower[k] <= ratios[k - 1] and lower[k - 1] <= ratios[k]:  # overlaps the time before's
@@ -1717,8 +1760,8 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
             else:  # the eigenvectors too far off: iterated to convergence for the next time (a failure counts as
                 overlaps += 1  # an overlap: as useless)
                 if products.shape[0] == 0:
-                    products = _gram_products(rows, starts, indices, m - 1)
-                _iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y)
+                    products = _gram_products(rows, starts, indices, m - 1, n)
+                _iterated_ratio(J, rows, starts, indices, products, full, G, L, low, high, y)
         if not np.isfinite(lower[k]):
             B[:, :] = S[:, :m]  # R^T
             ratios[k] = _jacobi_ratio(B)

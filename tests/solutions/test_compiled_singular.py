@@ -193,8 +193,11 @@ def test_the_bands_iterated_ratio_is_numpys_without_the_bidiagonal_route():
     m, n = scaled.shape[1:]
     w = singular._gram_width(rows, starts, indices, n)
     G, L, low, high, y = np.empty((m, w + 1)), np.empty((m, w + 1)), np.ones(m), np.ones(m), np.empty(n)
-    products = singular._gram_products(rows, starts, indices, w)
-    ratios = [singular._iterated_ratio(J, rows, starts, indices, products, G, L, low, high, y) for J in scaled]
+    products = singular._gram_products(rows, starts, indices, w, n)
+    envelope = singular._envelope(products, m, w)
+    ratios = [
+        singular._iterated_ratio(J, rows, starts, indices, products, envelope, G, L, low, high, y) for J in scaled
+    ]
     s = np.linalg.svd(scaled, compute_uv=False)
     assert w < 16 and np.all(s[:, -1] / s[:, 0] < 0.1)  # a band, and near singular all along: the figure matters
     np.testing.assert_allclose(ratios, s[:, -1] / s[:, 0], rtol=1e-10)
@@ -555,12 +558,14 @@ def test_a_certified_step_moves_psi_q_by_less_than_sigma_m(swing):
 
 
 def _bracket_reference(J, rows, starts, indices, G, low, high, loose, spread):
-    """``singular._bracketed_ratio`` as it was before its brackets ran side by side: ``_top``, then ``_bottom``."""
+    """``singular._bracketed_ratio`` as it was before its brackets ran side by side: ``_top``, then ``_bottom``, over
+    the whole band (``_whole_band``: no envelope)."""
     y, L = np.empty(J.shape[1]), np.empty_like(G)
-    top, ceiling = singular._top(G, L, high, loose, spread)
+    whole = singular._whole_band(G.shape[0], G.shape[1] - 1)
+    top, ceiling = singular._top(G, L, high, loose, spread, whole)
     if not np.isfinite(ceiling):
         return np.nan, np.nan
-    bottom, floor = singular._bottom(J, rows, starts, indices, G, L, low, y, loose, spread, ceiling)
+    bottom, floor = singular._bottom(J, rows, starts, indices, G, L, low, y, loose, spread, ceiling, whole)
     if not np.isfinite(floor):
         return np.nan, np.nan
     return np.sqrt(bottom / top), np.sqrt(floor / ceiling)
@@ -568,8 +573,9 @@ def _bracket_reference(J, rows, starts, indices, G, low, high, loose, spread):
 
 def test_the_brackets_side_by_side_are_the_brackets_one_after_the_other():
     """The two extreme eigenvalues' brackets side by side (``singular._cholesky_pair``, ``_solve_pair``,
-    ``_quotients``: the processor overlaps the two chains) give the factors, vectors and quotients of ``_cholesky``,
-    ``_solve_normalized``, ``_rayleigh`` and ``_residual`` one after the other, to the last bit, with shifts on both
+    ``_quotients``: the processor overlaps the two chains; the solves and quotients over G's envelope alone,
+    ``_envelope``) give the factors, vectors and quotients of ``_cholesky``, ``_solve_normalized``, ``_rayleigh`` and
+    ``_residual`` (over the whole band) one after the other, to the last bit, with shifts on both
     sides of the extreme eigenvalues of a loop chain's Gram matrix; and ``_bracketed_ratio`` the figures, vectors and
     spreads of ``_top`` then ``_bottom``, from vectors near the eigenvectors (the side-by-side route) and far off."""
     system, q, _ = build_system(load_model(loop_chain(4)))
@@ -578,7 +584,10 @@ def test_the_brackets_side_by_side_are_the_brackets_one_after_the_other():
     rows = np.argsort(keys, kind="mergesort")
     w = singular._gram_width(rows, starts, indices, J.shape[1])
     G = np.empty((J.shape[0], w + 1))
-    singular._gram(J, singular._gram_products(rows, starts, indices, w), G)
+    products = singular._gram_products(rows, starts, indices, w, J.shape[1])
+    singular._gram(J, products, G)
+    envelope = singular._envelope(products, J.shape[0], w)  # the pair's solves and quotients: over it alone
+    assert np.sum(envelope[0] > np.arange(J.shape[0]) - w) > J.shape[0] // 2  # most rows shorter than the band
     values, vectors = np.linalg.eigh((J @ J.T)[np.ix_(rows, rows)])
     band = np.array([[t <= i for t in range(w + 1)] for i in range(J.shape[0])])  # the factors' stored entries
     for above in values[-1] * np.array([1 + 1e-3, 1 - 1e-3]):
@@ -593,14 +602,15 @@ def test_the_brackets_side_by_side_are_the_brackets_one_after_the_other():
     factors = np.empty((2, *G.shape))
     assert singular._cholesky_pair(G, values[-1] * 1.01, values[0] * 0.99, factors[0], factors[1])
     side = high.copy(), low.copy()
-    singular._solve_pair(factors[0], side[0], factors[1], side[1])
+    singular._solve_pair(factors[0], side[0], factors[1], side[1], envelope)
     apart = high.copy(), low.copy()
-    singular._solve_normalized(factors[0], apart[0])
-    singular._solve_normalized(factors[1], apart[1])
+    whole = singular._whole_band(J.shape[0], w)
+    singular._solve_normalized(factors[0], apart[0], whole)
+    singular._solve_normalized(factors[1], apart[1], whole)
     assert np.array_equal(side[0], apart[0]) and np.array_equal(side[1], apart[1])
     y = np.empty(J.shape[1])
-    assert singular._quotients(G, high, J, rows, starts, indices, low, y) == (
-        singular._rayleigh(G, high),
+    assert singular._quotients(G, high, J, rows, starts, indices, low, y, envelope) == (
+        singular._rayleigh(G, high, whole),
         singular._residual(J, rows, starts, indices, low, y),
     )
     for start in (0.0, 1e-6, 1e-2, 1.0):  # from near the eigenvectors (side by side) to far off (one after the other)
@@ -610,9 +620,9 @@ def test_the_brackets_side_by_side_are_the_brackets_one_after_the_other():
         given = [low.copy(), high.copy(), np.array([0.5, 0.5])]
         expected = _bracket_reference(J, rows, starts, indices, G, given[0], given[1], singular.LOOSE, given[2])
         found = [low.copy(), high.copy(), np.array([0.5, 0.5])]
-        products = np.empty((0, 5), dtype=np.int64)  # G made above
-        figures = singular._bracketed_ratio(J, rows, starts, indices, products, G, factors, found[0], found[1], y,
-                                            singular.LOOSE, found[2])  # fmt: skip
+        products = np.empty((0, 3), dtype=np.int64)  # G made above
+        figures = singular._bracketed_ratio(J, rows, starts, indices, products, envelope, G, factors, found[0],
+                                            found[1], y, singular.LOOSE, found[2])  # fmt: skip
         assert np.array_equal(figures, expected, equal_nan=True)
         for a, b in zip(found, given, strict=True):
             assert np.array_equal(a, b)
