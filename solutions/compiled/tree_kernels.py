@@ -38,6 +38,7 @@ from .kernels import (
     l_entries_jit,
     lu_solve,
     planar_rotation_entries_jit,
+    revolute_rows,
     unit_rotation_entries_jit,
 )
 
@@ -127,6 +128,27 @@ def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, columns, body
                 Dm[i + 1, col] = Dm[j + 1, col] + lx * Dm[j + 2, col]
                 Dm[i + 2, col] = Dm[j + 2, col]
             Dm[i, c], Dm[i + 1, c], Dm[i + 2, c] = joint[e, S, 0], joint[e, S + 1, 0], joint[e, S + 2, 0]
+
+
+@inlined
+def tree_revolute(q, qd, ints, floats, psi, jac, gam, body, rates):
+    """``kernels.planar_revolute`` in a planar tree's module (eq. 3.17), each body's A (eq. 2.2) from the recursion:
+    cos phi and sin phi of ``body``'s row MOTION (``planar_motion``), where the kernel made both bodies' again at
+    every joint (two cos/sin pairs a joint); gamma only where ``rates`` (the cut rows' solve reads it, the outputs
+    none). The same numbers: the same cos and sin of the same angle, in the same expressions."""
+    for e in range(ints.shape[0]):
+        Ai, Aj = _rotation(body, ints[e, 0]), _rotation(body, ints[e, 1])
+        revolute_rows(q, qd, ints, floats, e, Ai, Aj, psi, jac, gam, rates)
+
+
+@inlined
+def _rotation(body, b):
+    """A(phi_b) row by row (eq. 2.2) from the recursion's cos phi, sin phi; ground's A(0) as
+    ``planar_rotation_entries`` makes it."""
+    if b < 0:
+        return 1.0, -0.0, 0.0, 1.0
+    c, s = body[b, MOTION, 0], body[b, MOTION, 1]
+    return c, -s, s, c
 
 
 @inlined
@@ -1051,6 +1073,7 @@ __all__ = [
     "spatial_motion",
     "tree_accelerations",
     "tree_multipliers",
+    "tree_revolute",
     "zero_cut_blocks",
     "zero_tree_blocks",
 ]
