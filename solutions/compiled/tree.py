@@ -17,10 +17,11 @@ joint's Euler parameters) into the arrays of ``tree_kernels.py``, and the cut ro
   balance, the drivers' power (eq. 5.61, as ``dynamics.EquationsOfMotion``) lambda^T Psi_t from the cut rows'
   multipliers mu alone (a driver is a cut row, and the tree's joints have Psi_t = 0). Given an ``out``
   longer than y, it writes after y' the body coordinates q, q' at the joint state, q'' and lambda of the model's
-  constraint rows from Psi_q^T lambda = Q - M q'' (normal equations; ``JointCoordinates.accelerations``), for the
-  results and reactions, and after those Psi, Psi_t and Psi_q (row by row; its part of ``out`` zero on entry, the
-  kernels add into it) when ``out`` is longer still (``loops.output_history``, ``blocked_output_history``, which
-  gathers the rows' blocks and zeroes them again): one function for both, since numba optimizes the kernels again
+  constraint rows from Psi_q^T lambda = Q - M q'' (an open planar tree's from its articulated pass's joint forces;
+  ``JointCoordinates.accelerations``), for the results and reactions, and after those Psi, Psi_t and Psi_q (row by
+  row; its part of ``out`` zero on entry but in the rows' blocks, which it zeroes before the kernels add into them)
+  when ``out`` is longer still (``loops.output_history``, ``blocked_output_history``, which gathers the rows'
+  blocks and zeroes them again): one function for both, since numba optimizes the kernels again
   in every function that calls them. Given an ``out`` of y.size + n, only q after y (the tree's forward
   kinematics: the body coordinates of a divergence check's companion run, ``dispatch.positions``; y' not
   written). A state of another size than the tree's, or an ``out`` longer than y' + n but too short for the
@@ -355,14 +356,14 @@ def _body(tree: TreeScene) -> list[str]:
         "        rows_work = np.empty(3 * m + (0 if history else m * n))  # Psi, Psi_t, gamma[, Psi_q]: one allocation",
         "        rows_work[: 3 * m] = 0.0",
         "        psi, psit, gam = rows_work[:m], rows_work[m : 2 * m], rows_work[2 * m : 3 * m]",
-        "        if history:  # Psi_q whole, in its place in out (zeros on entry: the caller's, loops.output_history)",
+        "        if history:  # Psi_q whole, in its place in out (zero but in the rows' blocks: loops.output_history)",
         "            jac = out[y.size + 3 * n + 3 * m :].reshape((m, n))",
-        "        else:  # the solves read only the rows' blocks at their bodies: those zeroed alone",
+        "        else:",
         "            jac = rows_work[3 * m :].reshape((m, n))",
-        "            if ncut > 0:",
-        f"                zero_cut_blocks(jac, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], {width})",
-        "            if full:  # lambda of every row: the tree rows at their body and its parent (tree_multipliers)",
-        f"                zero_tree_blocks(jac, tree_rows, joints, {width})",
+        "        if ncut > 0:  # the kernels add into each row's blocks at its bodies, all that is read: zeroed alone",
+        f"            zero_cut_blocks(jac, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], {width})",
+        "        if full:  # every row: the tree rows at their body and its parent",
+        f"            zero_tree_blocks(jac, tree_rows, joints, {width})",
         f"        cut = 0 if full else {len(SLOTS)}  # each slot's stop: every row's or its cut rows' (TreeScene.data)",
         *constraint_calls(scene, "        ", " + cut", {**CONSTRAINT_CALLS, **TREE_CALLS}),
         "        if history:  # Psi and Psi_t after the outputs, before Psi_q",
