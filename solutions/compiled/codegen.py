@@ -105,10 +105,10 @@ def kernel_call(
     return [f"{indent}if {stop} > {first}:", f"{indent}    {call}"]
 
 
-def constraint_calls(scene: Scene, indent: str, stops: str = "") -> list[str]:
+def constraint_calls(scene: Scene, indent: str, stops: str = "", written: dict = CONSTRAINT_CALLS) -> list[str]:
     """The calls of the scene's constraint kernels, each on its slot of the element data D when it has rows (``stops``:
-    ``kernel_call``'s)."""
-    calls = [(CONSTRAINT_CALLS[name], name) for name, _, _ in scene.constraint_kernels]
+    ``kernel_call``'s; ``written``: each kernel's call, a tree's module calls some by another form)."""
+    calls = [(written[name], name) for name, _, _ in scene.constraint_kernels]
     return [line for call, name in calls for line in kernel_call(call, name, indent, SLOTS.index(name), stops=stops)]
 
 

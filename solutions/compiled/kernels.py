@@ -33,6 +33,7 @@ from numba import njit
 from ..rotation_matrices import g_entries, l_entries, planar_rotation_entries, rotation_entries, unit_rotation_entries
 
 jit = njit(cache=True, fastmath=False, nogil=True)
+inlined = njit(cache=True, fastmath=False, nogil=True, inline="always")
 
 planar_rotation_entries_jit, rotation_entries_jit = jit(planar_rotation_entries), jit(rotation_entries)
 unit_rotation_entries_jit, g_entries_jit, l_entries_jit = jit(unit_rotation_entries), jit(g_entries), jit(l_entries)
@@ -142,6 +143,12 @@ def _planar(x, b):
 def _rot(phi, sx, sy):
     """A s' and B s' = A R90 s', R90 s' = (-s_y', s_x') (eq. 2.1, 2.5)."""
     a11, a12, a21, a22 = planar_rotation_entries_jit(phi)
+    return turned(a11, a12, a21, a22, sx, sy)
+
+
+@jit
+def turned(a11, a12, a21, a22, sx, sy):
+    """``_rot`` of A's entries (eq. 2.2, row by row): A s' and B s' = A R90 s'."""
     return a11 * sx + a12 * sy, a21 * sx + a22 * sy, a11 * -sy + a12 * sx, a21 * -sy + a22 * sx
 
 
@@ -156,22 +163,35 @@ def planar_revolute(q, qd, t, ints, floats, psi, jac, gam):
     """Revolute joints (eq. 3.17): Psi = r_i + A_i s_i' - r_j - A_j s_j', Psi_q = [I, B_i s_i', -I, -B_j s_j'],
     gamma = A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2. ints (i, j, row), floats (s_i', s_j')."""
     for e in range(ints.shape[0]):
-        i, j, row = ints[e, 0], ints[e, 1], ints[e, 2]
-        xi, yi, phii = _planar(q, i)
-        xj, yj, phij = _planar(q, j)
+        i, j = ints[e, 0], ints[e, 1]
+        Ai = planar_rotation_entries_jit(_planar(q, i)[2])
+        Aj = planar_rotation_entries_jit(_planar(q, j)[2])
+        revolute_rows(q, qd, ints, floats, e, Ai, Aj, psi, jac, gam, True)
+
+
+@inlined
+def revolute_rows(q, qd, ints, floats, e, Ai, Aj, psi, jac, gam, rates):
+    """Revolute joint e's rows (``planar_revolute``: ints (i, j, row), floats (s_i', s_j')) with its bodies' A_i,
+    A_j given (eq. 2.2, row by row: a tree's recursion has them, ``tree_kernels.tree_revolute``); gamma only where
+    ``rates`` (the outputs read none). Written into its callers (a function handed five arrays costs more than a
+    joint's arithmetic)."""
+    i, j, row = ints[e, 0], ints[e, 1], ints[e, 2]
+    xi, yi, _ = _planar(q, i)
+    xj, yj, _ = _planar(q, j)
+    aix, aiy, bix, biy = turned(Ai[0], Ai[1], Ai[2], Ai[3], floats[e, 0], floats[e, 1])
+    ajx, ajy, bjx, bjy = turned(Aj[0], Aj[1], Aj[2], Aj[3], floats[e, 2], floats[e, 3])
+    psi[row] = xi + aix - xj - ajx
+    psi[row + 1] = yi + aiy - yj - ajy
+    _jac_add(jac, row, i, 3, 0, 1.0)
+    _jac_add(jac, row + 1, i, 3, 1, 1.0)
+    _jac_add(jac, row, i, 3, 2, bix)
+    _jac_add(jac, row + 1, i, 3, 2, biy)
+    _jac_add(jac, row, j, 3, 0, -1.0)
+    _jac_add(jac, row + 1, j, 3, 1, -1.0)
+    _jac_add(jac, row, j, 3, 2, -bjx)
+    _jac_add(jac, row + 1, j, 3, 2, -bjy)
+    if rates:
         wi, wj = _planar(qd, i)[2], _planar(qd, j)[2]
-        aix, aiy, bix, biy = _rot(phii, floats[e, 0], floats[e, 1])
-        ajx, ajy, bjx, bjy = _rot(phij, floats[e, 2], floats[e, 3])
-        psi[row] = xi + aix - xj - ajx
-        psi[row + 1] = yi + aiy - yj - ajy
-        _jac_add(jac, row, i, 3, 0, 1.0)
-        _jac_add(jac, row + 1, i, 3, 1, 1.0)
-        _jac_add(jac, row, i, 3, 2, bix)
-        _jac_add(jac, row + 1, i, 3, 2, biy)
-        _jac_add(jac, row, j, 3, 0, -1.0)
-        _jac_add(jac, row + 1, j, 3, 1, -1.0)
-        _jac_add(jac, row, j, 3, 2, -bjx)
-        _jac_add(jac, row + 1, j, 3, 2, -bjy)
         gam[row] = aix * wi * wi - ajx * wj * wj
         gam[row + 1] = aiy * wi * wi - ajy * wj * wj
 

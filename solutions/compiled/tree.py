@@ -17,10 +17,11 @@ joint's Euler parameters) into the arrays of ``tree_kernels.py``, and the cut ro
   balance, the drivers' power (eq. 5.61, as ``dynamics.EquationsOfMotion``) lambda^T Psi_t from the cut rows'
   multipliers mu alone (a driver is a cut row, and the tree's joints have Psi_t = 0). Given an ``out``
   longer than y, it writes after y' the body coordinates q, q' at the joint state, q'' and lambda of the model's
-  constraint rows from Psi_q^T lambda = Q - M q'' (normal equations; ``JointCoordinates.accelerations``), for the
-  results and reactions, and after those Psi, Psi_t and Psi_q (row by row; its part of ``out`` zero on entry, the
-  kernels add into it) when ``out`` is longer still (``loops.output_history``, ``blocked_output_history``, which
-  gathers the rows' blocks and zeroes them again): one function for both, since numba optimizes the kernels again
+  constraint rows from Psi_q^T lambda = Q - M q'' (an open planar tree's from its articulated pass's joint forces;
+  ``JointCoordinates.accelerations``), for the results and reactions, and after those Psi, Psi_t and Psi_q (row by
+  row; its part of ``out`` zero on entry but in the rows' blocks, which it zeroes before the kernels add into them)
+  when ``out`` is longer still (``loops.output_history``, ``blocked_output_history``, which gathers the rows'
+  blocks and zeroes them again): one function for both, since numba optimizes the kernels again
   in every function that calls them. Given an ``out`` of y.size + n, only q after y (the tree's forward
   kinematics: the body coordinates of a divergence check's companion run, ``dispatch.positions``; y' not
   written). A state of another size than the tree's, or an ``out`` longer than y' + n but too short for the
@@ -38,6 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .codegen import (
+    CONSTRAINT_CALLS,
     constraint_calls,
     force_calls,
     is_generated_cached,
@@ -50,6 +52,9 @@ from .scene import SLOTS, Scene, packed
 
 SOURCES = ("tree_kernels.py", "articulated.py", "projection_kernels.py", "../joint_coordinates.py")
 KINDS = {"revolute": 0, "prismatic": 1, "spherical": 2}
+TREE_CALLS = {"planar_revolute": "tree_revolute(q, qd, {ints}, {floats}, psi, jac, gam, body, ncut > 0)"}
+"""The constraint kernels a tree's module calls by another form (``codegen.CONSTRAINT_CALLS``): a planar revolute
+joint's rows with the recursion's cos and sin (``tree_kernels.tree_revolute``), gamma only for the cut solve."""
 
 
 @dataclass
@@ -252,25 +257,10 @@ def _arrays(spatial: bool) -> list[str]:
 
 def _multipliers(scene: Scene) -> list[str]:
     """The lines that make q'' (``qdd``) from theta'' and lambda of every row from Psi_q^T lambda = Q - M q'' (an open
-    tree's q'' from the articulated pass's body accelerations and lambda by ``tree_multipliers``, each body's rows
-    from its own columns, O(N); with cut rows q'' = D theta'' + xi and their lambda from the augmented system)."""
-    if scene.dimension == 3:
-        lines = [
-            "if ncut > 0:",
-            "    spatial_coordinate_accelerations(q, qd, Dm, xi, omega, thdd, joints, qdd)",
-            "else:  # the articulated pass's body accelerations: no D",
-            "    spatial_body_accelerations(q, qd, body, xi, omega, qdd)",
-            "spatial_mass_residual(q, qd, qdd, masses, inertias, weights, Q, residual)  # Q += Q_v; Q - M q''",
-        ]
-    else:
-        lines = [
-            "if ncut > 0:",
-            "    tree_accelerations(Dm, thdd, xi, joints, 3, qdd)  # D theta'' + xi over each body's columns",
-            "else:  # the articulated pass's body accelerations: no D",
-            "    planar_body_accelerations(body, xi, qdd)",
-            "for coordinate in range(n):  # Q - M q'' (the tree's multipliers work in it)",
-            "    residual[coordinate] = Q[coordinate] - mass[coordinate] * qdd[coordinate]",
-        ]
+    tree's q'' from the articulated pass's body accelerations; lambda of an open planar tree from the pass's joint
+    forces (``tree_kernels.planar_joint_multipliers``: no solve), of an open spatial tree by ``tree_multipliers``,
+    each body's rows from its own columns, O(N); with cut rows q'' = D theta'' + xi and their lambda from the
+    augmented system)."""
     solve = [
         "for a in range(ncut):  # the cut rows' lambda: mu of the augmented system; the tree's from what is left",
         "    lam[dims[7 + a]] = mu[a]",
@@ -280,9 +270,32 @@ def _multipliers(scene: Scene) -> list[str]:
         "# the tree's rows body by body from the leaves, O(N)",
         f"tree_multipliers(jac, residual, tree_rows, {7 if scene.dimension == 3 else 3}, joints, lam)",
     ]
+    if scene.dimension == 3:
+        lines = [
+            "if ncut > 0:",
+            "    spatial_coordinate_accelerations(q, qd, Dm, xi, omega, thdd, joints, qdd)",
+            "else:  # the articulated pass's body accelerations: no D",
+            "    spatial_body_accelerations(q, qd, body, xi, omega, qdd)",
+            "spatial_mass_residual(q, qd, qdd, masses, inertias, weights, Q, residual)  # Q += Q_v; Q - M q''",
+            *solve,
+        ]
+    else:
+        cut = [
+            "tree_accelerations(Dm, thdd, xi, joints, 3, qdd)  # D theta'' + xi over each body's columns",
+            "for coordinate in range(n):  # Q - M q'' (the tree's multipliers work in it)",
+            "    residual[coordinate] = Q[coordinate] - mass[coordinate] * qdd[coordinate]",
+            *solve,
+        ]
+        lines = [
+            "if ncut == 0:  # the articulated pass's body accelerations (no D) and joint forces (no solve)",
+            "    planar_body_accelerations(body, xi, qdd)",
+            "    planar_joint_multipliers(jac, body, tree_rows, joints, lam)",
+            "else:",
+            *("    " + line for line in cut),
+        ]
     both = "outputs = np.empty(2 * n + m)  # q'', lambda and Q - M q'' in one allocation"
-    cut = "qdd, lam, residual = outputs[:n], outputs[n : n + m], outputs[n + m :]"
-    return ["        " + line for line in [both, cut, *lines, *solve]]
+    split = "qdd, lam, residual = outputs[:n], outputs[n : n + m], outputs[n + m :]"
+    return ["        " + line for line in [both, split, *lines]]
 
 
 def _body(tree: TreeScene) -> list[str]:
@@ -343,16 +356,16 @@ def _body(tree: TreeScene) -> list[str]:
         "        rows_work = np.empty(3 * m + (0 if history else m * n))  # Psi, Psi_t, gamma[, Psi_q]: one allocation",
         "        rows_work[: 3 * m] = 0.0",
         "        psi, psit, gam = rows_work[:m], rows_work[m : 2 * m], rows_work[2 * m : 3 * m]",
-        "        if history:  # Psi_q whole, in its place in out (zeros on entry: the caller's, loops.output_history)",
+        "        if history:  # Psi_q whole, in its place in out (zero but in the rows' blocks: loops.output_history)",
         "            jac = out[y.size + 3 * n + 3 * m :].reshape((m, n))",
-        "        else:  # the solves read only the rows' blocks at their bodies: those zeroed alone",
+        "        else:",
         "            jac = rows_work[3 * m :].reshape((m, n))",
-        "            if ncut > 0:",
-        f"                zero_cut_blocks(jac, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], {width})",
-        "            if full:  # lambda of every row: the tree rows at their body and its parent (tree_multipliers)",
-        f"                zero_tree_blocks(jac, tree_rows, joints, {width})",
+        "        if ncut > 0:  # the kernels add into each row's blocks at its bodies, all that is read: zeroed alone",
+        f"            zero_cut_blocks(jac, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], {width})",
+        "        if full:  # every row: the tree rows at their body and its parent",
+        f"            zero_tree_blocks(jac, tree_rows, joints, {width})",
         f"        cut = 0 if full else {len(SLOTS)}  # each slot's stop: every row's or its cut rows' (TreeScene.data)",
-        *constraint_calls(scene, "        ", " + cut"),
+        *constraint_calls(scene, "        ", " + cut", {**CONSTRAINT_CALLS, **TREE_CALLS}),
         "        if history:  # Psi and Psi_t after the outputs, before Psi_q",
         "            o = y.size + 3 * n + m",
         "            for i in range(m):",
@@ -397,7 +410,8 @@ def generate(tree: TreeScene) -> str:
     tree_imports = {f"{dimension}_motion", f"{dimension}_equations", f"{dimension}_articulated", "cut_accelerations"}
     tree_imports |= {"tree_multipliers", "zero_cut_blocks", "zero_tree_blocks", "cut_row_forces", "tree_accelerations"}
     spatial_kernels = {"spatial_coordinate_accelerations", "spatial_joint_matrix", "spatial_body_accelerations"}
-    tree_imports |= spatial_kernels | {"spatial_mass_residual"} if spatial else {"planar_body_accelerations"}
+    planar_kernels = {"planar_body_accelerations", "planar_joint_multipliers", "tree_revolute"}
+    tree_imports |= spatial_kernels | {"spatial_mass_residual"} if spatial else planar_kernels
     lines = [
         f'"""Generated by solutions.compiled.tree for the tree {tree.key!r}: do not edit."""',
         "import numpy as np",

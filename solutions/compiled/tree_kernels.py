@@ -38,6 +38,7 @@ from .kernels import (
     l_entries_jit,
     lu_solve,
     planar_rotation_entries_jit,
+    revolute_rows,
     unit_rotation_entries_jit,
 )
 
@@ -127,6 +128,27 @@ def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, columns, body
                 Dm[i + 1, col] = Dm[j + 1, col] + lx * Dm[j + 2, col]
                 Dm[i + 2, col] = Dm[j + 2, col]
             Dm[i, c], Dm[i + 1, c], Dm[i + 2, c] = joint[e, S, 0], joint[e, S + 1, 0], joint[e, S + 2, 0]
+
+
+@inlined
+def tree_revolute(q, qd, ints, floats, psi, jac, gam, body, rates):
+    """``kernels.planar_revolute`` in a planar tree's module (eq. 3.17), each body's A (eq. 2.2) from the recursion:
+    cos phi and sin phi of ``body``'s row MOTION (``planar_motion``), where the kernel made both bodies' again at
+    every joint (two cos/sin pairs a joint); gamma only where ``rates`` (the cut rows' solve reads it, the outputs
+    none). The same numbers: the same cos and sin of the same angle, in the same expressions."""
+    for e in range(ints.shape[0]):
+        Ai, Aj = _rotation(body, ints[e, 0]), _rotation(body, ints[e, 1])
+        revolute_rows(q, qd, ints, floats, e, Ai, Aj, psi, jac, gam, rates)
+
+
+@inlined
+def _rotation(body, b):
+    """A(phi_b) row by row (eq. 2.2) from the recursion's cos phi, sin phi; ground's A(0) as
+    ``planar_rotation_entries`` makes it."""
+    if b < 0:
+        return 1.0, -0.0, 0.0, 1.0
+    c, s = body[b, MOTION, 0], body[b, MOTION, 1]
+    return c, -s, s, c
 
 
 @inlined
@@ -610,32 +632,91 @@ def tree_multipliers(jac, residual, index, width, ints, lam):
     once per scene). ``residual`` is worked in (the rows' parts moved to parents)."""
     nb = residual.size // width
     start, mine = index[: nb + 1], index[nb + 1 :]
-    most = 0
-    for b in range(nb):
-        most = max(most, start[b + 1] - start[b])
-    G = np.empty((most + 1, most))  # A A^T of a body in its first count rows and columns; A r in the last row
+    G = np.empty((_most_rows(start, nb) + 1, _most_rows(start, nb)))  # A A^T of a body; A r in its last row
     r = residual
     for e in range(ints.shape[0] - 1, -1, -1):
         P, C = ints[e, 1], ints[e, 2]
         first, count = start[C], start[C + 1] - start[C]
-        for a in range(count):  # by loops: at most 7 x 7, where a BLAS call costs more than the products
-            row = mine[first + a]
-            total = 0.0  # sums in a local (G may alias jac for the compiler: each += would store to memory)
-            for c in range(width * C, width * (C + 1)):
-                total += jac[row, c] * r[c]
-            G[most, a] = total
-            for other in range(a + 1):  # A A^T is symmetric: the same products, in the same order, either side
-                other_row, total = mine[first + other], 0.0
-                for c in range(width * C, width * (C + 1)):
-                    total += jac[row, c] * jac[other_row, c]
-                G[a, other] = G[other, a] = total
-        _small_solve(G, count, most)
+        _own_rows(jac, r, 0, mine, first, count, width * C, width * (C + 1), G)
         for a in range(count):
-            row, x = mine[first + a], G[most, a]
+            row, x = mine[first + a], G[G.shape[0] - 1, a]
             lam[row] = x
             if P >= 0:  # what the body's rows exert on its parent
                 for c in range(width * P, width * (P + 1)):
                     r[c] -= x * jac[row, c]
+
+
+@inlined
+def _most_rows(start, nb):
+    """The most rows a body owns (``tree.owned_rows``' start)."""
+    most = 0
+    for b in range(nb):
+        most = max(most, start[b + 1] - start[b])
+    return most
+
+
+@inlined
+def _own_rows(jac, r, shift, mine, first, count, lo, hi, G):
+    """lambda of a body's own ``count`` rows (``mine[first : first + count]``) from A^T lambda = r over its columns
+    [lo, hi) (A: those rows' block of Psi_q, full row rank; column c's entry of r at r[c - shift]) by least
+    squares, (A A^T) lambda = A r: into G's last row (its first count entries)."""
+    b = G.shape[0] - 1
+    for a in range(count):  # by loops: at most 7 x 7, where a BLAS call costs more than the products
+        row = mine[first + a]
+        total = 0.0  # sums in a local (G may alias jac for the compiler: each += would store to memory)
+        for c in range(lo, hi):
+            total += jac[row, c] * r[c - shift]
+        G[b, a] = total
+        for other in range(a + 1):  # A A^T is symmetric: the same products, in the same order, either side
+            other_row, total = mine[first + other], 0.0
+            for c in range(lo, hi):
+                total += jac[row, c] * jac[other_row, c]
+            G[a, other] = G[other, a] = total
+    _small_solve(G, count, b)
+
+
+@inlined
+def planar_joint_multipliers(jac, body, index, ints, lam):
+    """lambda of an open planar tree's rows from its articulated-body pass (``articulated``; ``body`` after
+    ``planar_articulated``: I^A_C, p^A_C and A_C of every body), without ``tree_multipliers``' solve.
+
+    The subtree of child C moves under its own applied forces and what joint e passes it, nothing else. The force
+    joint e passes to C, at C's centre in global axes (Featherstone 2008, sec. 7.3 and table 7.1: the joint force
+    of the articulated-body algorithm), is
+
+        f_e = I^A_C A_C + p^A_C
+
+    (a leaf: I_C A_C + M_C xi_C - Q_C = M_C q''_C - Q_C, the force its joint must add; the articulated pass folds
+    each child's subtree into I^A and p^A the same way). The equations of motion M q'' + Psi_q^T lambda = Q (eq.
+    5.29) give the joint's rows' force on C as -(Psi_q)_C^T lambda_e, so (Psi_q)_C^T lambda_e = -f_e: what
+    ``tree_multipliers``' least squares finds for C once its children's rows are moved to its side, here with no
+    matrix formed. A revolute joint (eq. 3.17, Psi = r_i + A_i s_i' - r_j - A_j s_j'): (Psi_q)_C = s [I, B_C s_C'],
+    s = +1 where C is the element's body i, -1 where it is body j, read from Psi_q's entry at C's x column (exactly
+    +-1), so lambda_e = -s f_v from the translational components alone (the angular one, (B_C s_C')^T lambda_e, is
+    the same equation's: the joint passes no moment about its point). A prismatic joint's two rows meet C's three
+    columns in a 2 x 3 block A: (A A^T) lambda_e = A (-f_e), least squares on C's block alone (``_own_rows``),
+    nothing moved to the parent: f_e holds what C's children pass it. The same lambda as ``tree_multipliers`` to
+    rounding (the sums in another order)."""
+    IA, PA, ACC = body_rows(3)
+    nb = body.shape[0] - 1
+    start, mine = index[: nb + 1], index[nb + 1 :]
+    G = np.empty((3, 2))  # a prismatic joint's 2 x 2 A A^T; A (-f) in the last row
+    f = np.empty(3)
+    for e in range(ints.shape[0]):
+        C = ints[e, 2]
+        first = start[C]
+        for i in range(3):  # -f_e = -(I^A_C A_C + p^A_C)
+            x = body[C, PA, i]
+            for j in range(3):
+                x += body[C, IA + i, j] * body[C, ACC, j]
+            f[i] = -x
+        if ints[e, 0] == REVOLUTE:
+            for a in range(2):
+                row = mine[first + a]
+                lam[row] = f[a] * jac[row, 3 * C + a]  # s = +-1: its own inverse
+        else:
+            _own_rows(jac, f, 3 * C, mine, first, 2, 3 * C, 3 * C + 3, G)
+            lam[mine[first]], lam[mine[first + 1]] = G[2, 0], G[2, 1]
 
 
 @inlined
@@ -983,6 +1064,7 @@ __all__ = [
     "cut_row_forces",
     "planar_articulated",
     "planar_equations",
+    "planar_joint_multipliers",
     "planar_motion",
     "spatial_articulated",
     "spatial_coordinate_accelerations",
@@ -991,6 +1073,7 @@ __all__ = [
     "spatial_motion",
     "tree_accelerations",
     "tree_multipliers",
+    "tree_revolute",
     "zero_cut_blocks",
     "zero_tree_blocks",
 ]

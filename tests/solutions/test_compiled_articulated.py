@@ -323,3 +323,26 @@ def test_a_planar_revolute_joint_passes_on_a_translational_block_at_its_point(se
     np.testing.assert_allclose(IA[1], X_p.T @ Ia @ X_p, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(pA[1], X_p.T @ pa, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(thdd, -p_point[2] / I_point[2, 2], rtol=1e-12)  # ground at rest: K theta'' = -p'_w
+
+
+@pytest.mark.parametrize(("n", "seed"), [(6, 1), (12, 2), (8, 6)])
+def test_an_open_planar_trees_lambda_from_its_joint_forces_equals_the_normal_equations(n, seed):
+    """The outputs' lambda of an open planar tree (revolute and prismatic joints, branching) from the articulated
+    pass's joint forces f_e = I^A_C A_C + p^A_C (``tree_kernels.planar_joint_multipliers``, no solve) against the
+    numpy engine's (the normal equations of the whole Psi_q, ``JointCoordinates.accelerations``) at states off
+    the start (rounding: the sums in another order), and the outputs alone (Psi_q's blocks in the work array) equal
+    the output pass's (Psi_q whole in ``out``) bit for bit."""
+    equations, made, (rhs, P, D), y0 = _both_sides(_random_tree(2, n, seed))
+    n3, m = int(P[8][0]), int(P[8][1])
+    rng = np.random.default_rng(seed)
+    for _ in range(4):
+        y = _random_state(made, y0, rng)
+        out = np.zeros(y.size + 3 * n3 + 3 * m + m * n3)  # with Psi, Psi_t and Psi_q (``loops.output_history``)
+        rhs(0.0, y.copy(), P, D, out)
+        o = y.size
+        q, qd, lam = out[o : o + n3], out[o + n3 : o + 2 * n3], out[o + 3 * n3 : o + 3 * n3 + m]
+        _, expected = equations.formulation.accelerations(q, qd, 0.0)
+        np.testing.assert_allclose(lam, expected, rtol=0, atol=1e-10 * np.abs(expected).max())
+        blocks = np.full(y.size + 3 * n3 + m, np.nan)  # the outputs alone: Psi_q's blocks zeroed in the work array
+        rhs(0.0, y.copy(), P, D, blocks)
+        np.testing.assert_array_equal(blocks, out[: blocks.size])
