@@ -366,12 +366,13 @@ def describe(system, M, forces, first: frozenset = frozenset()) -> Scene:
         if forces.user_forces:
             raise Unsupported("user forces (Python callables)")
         if model.dimension == 2:
-            if callable(M) or np.count_nonzero(M) != np.count_nonzero(np.diagonal(M)):  # a nonzero off the diagonal
+            diagonal = None if callable(M) else np.diagonal(M)
+            if diagonal is None or np.count_nonzero(M) != np.count_nonzero(diagonal):  # a nonzero off the diagonal
                 raise Unsupported("a planar mass matrix that is not diagonal")
             rows = planar_constraints(system, functions, first)
             constraints = scene_arrays(rows, PLANAR_CONSTRAINTS)
             loads = scene_arrays(_planar_forces(forces, functions), PLANAR_FORCES)
-            scene.mass_diagonal = np.diagonal(M).astype(float)
+            scene.mass_diagonal = diagonal.astype(float)
             scene.Q0 = np.asarray(forces.gravity, dtype=float).copy()
         else:
             if type(M).__name__ != "SpatialMassMatrix":

@@ -103,11 +103,18 @@ class TreeScene:
         if self.packed_data is None:
             kernels = [*self.scene.constraint_kernels, *self.scene.force_kernels, ("tree", self.ints, self.floats)]
             ints, floats, offsets = packed(kernels, SLOTS)
-            stops = offsets[:-1].copy()
-            for name, count in self.scene.first_counts.items():
-                stops[SLOTS.index(name)] += count
-            self.packed_data = ints, floats, np.concatenate([offsets, stops])
+            counts = self.scene.first_counts
+            starts = offsets.tolist()  # Python ints: the stops made in a list, one array (no numpy call per slot)
+            stops = [start + counts.get(name, 0) for name, start in zip(SLOTS, starts, strict=False)]
+            self.packed_data = ints, floats, np.array(starts + stops, dtype=np.int64)
         return self.packed_data
+
+    def arrays(self) -> tuple[np.ndarray, ...]:
+        """The tree's integer tables in P[8] after the sizes (``compiled.parameters``), in order: the cut rows, the
+        rows' owners, the cut rows' bodies, the tree's rows body by body (``row_index``) and the cut solve's
+        sparsity (``structure``): concatenated as they are (each made into a list and the whole into one array
+        again cost ~5-15 us of a call's start)."""
+        return self.cut_rows, self.owners, self.cut_bodies, self.row_index, self.structure()
 
     def structure(self) -> np.ndarray:
         """The sparsity of the cut solve (``structure.cut_structure``, compiled), made at the first call: by the
@@ -128,13 +135,28 @@ ONE_BODY = ("planar_coordinate", "spatial_coordinate", "spatial_normalization")
 """The constraint kernels whose ints begin (body, row, ...) (``scene.py``); every other's begin (i, j, row, ...)."""
 
 
+NO_FRAME = (0.0,) * 9
+"""The frame entries of a joint without a child frame (a planar joint's)."""
+
+
 def _row(joint) -> list[float]:
-    pad = [0.0] * (3 - len(joint.s_parent))
-    frame = [v for axis in joint.frame for v in axis] or [0.0] * 9
-    return [
-        *joint.s_parent, *pad, *joint.s_child, *pad, *joint.axis, *([0.0] * (3 - len(joint.axis))), joint.offset,
-        *joint.a, *joint.c, *joint.u0, *joint.u1, *frame,
-    ]  # fmt: skip
+    """A joint's 35 floats (``tree_kernels``' joint_floats): s_parent, s_child and the axis, each padded to 3, the
+    offset, a, c, u0, u1 and the child's frame axes (zeros without one), extended in place (a list made of seven
+    unpackings and three padding lists cost twice as much: ~1 us a planar joint at a call's start)."""
+    row = list(joint.s_parent)
+    row += (0.0,) * (3 - len(row))
+    row += joint.s_child
+    row += (0.0,) * (6 - len(row))
+    row += joint.axis
+    row += (0.0,) * (9 - len(row))
+    row.append(joint.offset)
+    row += joint.a
+    row += joint.c
+    row += joint.u0
+    row += joint.u1
+    for axis in joint.frame or (NO_FRAME,):
+        row += axis
+    return row
 
 
 def describe(scene: Scene, formulation) -> TreeScene:
@@ -149,8 +171,9 @@ def describe(scene: Scene, formulation) -> TreeScene:
     moving = [[*j.inherited, *range(j.velocity, j.velocity + j.n_velocities)] for j in joints]  # D's columns
     heads, floats = [], []
     for j, columns in zip(joints, moving, strict=True):  # the columns of D that move the child: parent's and own
-        heads += [KINDS[j.kind], j.parent, j.child, j.position, j.velocity, len(columns), *columns]
-        heads += [-1] * (k - len(columns))
+        heads += (KINDS[j.kind], j.parent, j.child, j.position, j.velocity, len(columns))
+        heads += columns
+        heads += (-1,) * (k - len(columns))
         floats += _row(j)
     ints = np.array(heads, dtype=np.int64).reshape(-1, 6 + k)
     system = formulation.system
