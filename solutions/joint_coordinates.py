@@ -733,14 +733,18 @@ class JointCoordinates(Formulation):
         self.n_positions = self.tree.n_positions
         self._y = self._motion = self._qdd = self._theta_dd = None
         self._forced = bool(getattr(forces, "elements", None) or getattr(forces, "user_forces", None))
-        if model.dimension == 2:
-            diagonal = np.diag(self.M)  # M diagonal (no nonzero off it): D^T M = D^T * m
-            self._m = diagonal if np.count_nonzero(self.M) == np.count_nonzero(diagonal) else None
-        else:  # constant: diag(m I, J') per body, and the weights
+        if model.dimension == 3:  # constant: diag(m I, J') per body, and the weights
             self._masses = [float(b.mass) for b in model.bodies]
             inertias = np.array([b.inertia for b in model.bodies], dtype=float).reshape(nb, 9)
             self._inertias = [tuple(inertia) for inertia in inertias.tolist()]
             self._weights = [scale(b.mass, _floats(model.gravity)) for b in model.bodies]
+
+    @functools.cached_property
+    def _m(self) -> np.ndarray | None:
+        """A planar M's diagonal m where M is diagonal (no nonzero off it: D^T M = D^T * m), else None; made at the
+        first numpy evaluation that needs it (``embedded_equations``): a compiled run never does."""
+        diagonal = np.diag(self.M)
+        return diagonal if np.count_nonzero(self.M) == np.count_nonzero(diagonal) else None
 
     @functools.cached_property
     def _body_mass(self) -> np.ndarray:

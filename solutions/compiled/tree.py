@@ -204,7 +204,8 @@ def _owners(system, joints) -> tuple[list[int], list[int], list[int]]:
     (``cut_accelerations``); the cut rows; their elements' two bodies, row after row (``TreeScene.cut_bodies``)),
     in one pass over the elements (a loop: faster than numpy's repeat up to a loop chain of 16 at least), as lists."""
     child = {joint.name: joint.child for joint in joints}
-    child |= {f"{body.name}.p": b for b, body in enumerate(system.model.bodies)}
+    if system.model.dimension == 3:  # the Euler-parameter normalizations (a planar scene has none)
+        child |= {f"{body.name}.p": b for b, body in enumerate(system.model.bodies)}
     owners, cut, bodies = [], [], []
     for element, where in zip(system.elements, system.rows, strict=True):
         owner, size = child.get(element.name, -1), where.stop - where.start
