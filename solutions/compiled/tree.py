@@ -177,14 +177,13 @@ def describe(scene: Scene, formulation) -> TreeScene:
         floats += _row(j)
     ints = np.array(heads, dtype=np.int64).reshape(-1, 6 + k)
     system = formulation.system
-    nb = len(system.model.bodies)
-    owners, cut, bodies = _owners(system, joints)
+    owners, cut, bodies, owned = _owners(system, joints)
     tree = TreeScene(
         scene, ints, np.array(floats, dtype=float).reshape(-1, 35), formulation.tree.n_positions, k,
         np.array(cut, dtype=np.int64), owners=np.array(owners, dtype=np.int64),
         cut_bodies=np.array(bodies, dtype=np.int64),
     )  # fmt: skip
-    tree.row_index = owned_rows(owners, nb)
+    tree.row_index = row_index(owned)
     if not joints:
         tree.unsupported = "a tree without joints"
     return tree
@@ -197,23 +196,26 @@ def cut_names(formulation) -> frozenset:
     return frozenset() if cut is None else frozenset(element.name for element in cut.elements)
 
 
-def _owners(system, joints) -> tuple[list[int], list[int], list[int]]:
+def _owners(system, joints) -> tuple[list[int], list[int], list[int], list[list[int]]]:
     """(the owner of every constraint row of the tree (``TreeScene.owners``): the child of its tree joint, or the
     body of its Euler-parameter normalization (element ``<body>.p``); -1 for a cut row (a cut joint's or a
     driver's: ``joint_coordinates.cut_elements``), whose multiplier comes from the augmented system
-    (``cut_accelerations``); the cut rows; their elements' two bodies, row after row (``TreeScene.cut_bodies``)),
-    in one pass over the elements (a loop: faster than numpy's repeat up to a loop chain of 16 at least), as lists."""
+    (``cut_accelerations``); the cut rows; their elements' two bodies, row after row (``TreeScene.cut_bodies``);
+    each body's rows in row order (``owned_rows``)), in one pass over the elements (a loop: faster than numpy's
+    repeat up to a loop chain of 16 at least), as lists."""
     child = {joint.name: joint.child for joint in joints}
     if system.model.dimension == 3:  # the Euler-parameter normalizations (a planar scene has none)
         child |= {f"{body.name}.p": b for b, body in enumerate(system.model.bodies)}
-    owners, cut, bodies = [], [], []
+    owners, cut, bodies, owned = [], [], [], [[] for _ in system.model.bodies]
     for element, where in zip(system.elements, system.rows, strict=True):
         owner, size = child.get(element.name, -1), where.stop - where.start
         owners += [owner] * size
         if owner < 0:
             cut += range(where.start, where.stop)
             bodies += [element.i, element.j] * size
-    return owners, cut, bodies
+        else:
+            owned[owner] += range(where.start, where.stop)
+    return owners, cut, bodies, owned
 
 
 def owned_rows(owners: list, nb: int) -> np.ndarray:
@@ -222,16 +224,23 @@ def owned_rows(owners: list, nb: int) -> np.ndarray:
     cut rows, owner -1, left out). Made once per scene, where ``tree_multipliers`` sorted them at every output time
     (two allocations and three passes over the rows: ~0.25 us of an evaluation at two bodies); in Python lists, one
     array at the end (numpy's bincount, cumsum, argsort and concatenate cost ~20 us at a call's start against a
-    loop chain's few dozen rows)."""
+    loop chain's few dozen rows). ``describe`` has each body's rows from ``_owners``' pass (``row_index``)."""
     rows = [[] for _ in range(nb)]  # each body's rows, in row order
     for row, owner in enumerate(owners):
         if owner >= 0:
             rows[owner].append(row)
-    start, at = [0], 0
+    return row_index(rows)
+
+
+def row_index(rows: list[list[int]]) -> np.ndarray:
+    """``owned_rows``' array from each body's rows (lists in row order): the starts, then the rows body by body."""
+    flat, at = [0], 0
     for body in rows:
         at += len(body)
-        start.append(at)
-    return np.array([*start, *(row for body in rows for row in body)], dtype=np.int64)
+        flat.append(at)
+    for body in rows:
+        flat += body
+    return np.array(flat, dtype=np.int64)
 
 
 VECTORS = (("xi", "a"), ("Q", "n"), ("power", "3"), ("q", "n"), ("qd", "n"), ("thdd", "k"), ("mu", "ncut"))
