@@ -168,12 +168,14 @@ def describe(scene: Scene, formulation) -> TreeScene:
     if scene.first != cut_names(formulation):
         raise ValueError("a tree's scene is described with its cut elements first: compiled.plan describes it")
     joints, k = formulation.joints, formulation.tree.k
-    moving = [[*j.inherited, *range(j.velocity, j.velocity + j.n_velocities)] for j in joints]  # D's columns
     heads, floats = [], []
-    for j, columns in zip(joints, moving, strict=True):  # the columns of D that move the child: parent's and own
-        heads += (KINDS[j.kind], j.parent, j.child, j.position, j.velocity, len(columns))
-        heads += columns
-        heads += (-1,) * (k - len(columns))
+    for j in joints:  # the columns of D that move the child: its parent's (inherited), then its own
+        own = j.n_velocities
+        count = len(j.inherited) + own
+        heads += (KINDS[j.kind], j.parent, j.child, j.position, j.velocity, count)
+        heads += j.inherited
+        heads += range(j.velocity, j.velocity + own)
+        heads += (-1,) * (k - count)
         floats += _row(j)
     ints = np.array(heads, dtype=np.int64).reshape(-1, 6 + k)
     system = formulation.system
