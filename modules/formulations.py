@@ -122,9 +122,12 @@ class Formulation:
         self._mass = M if callable(M) else None  # a spatial model's M(q): evaluated at every state
         if self._mass is None:
             self.factor_mass(M)
-        self._Q_constant = (
-            forces.generalized_forces(np.zeros(self.n), np.zeros(self.n), 0.0) if forces.is_constant else None
-        )
+
+    @functools.cached_property
+    def _Q_constant(self) -> np.ndarray:
+        """Q of gravity alone (or nothing), for ``applied_forces`` when the forces are constant: made where first
+        asked (a compiled run never asks; made in every formulation's construction it was 2-5 us of a call's start)."""
+        return self.forces.generalized_forces(np.zeros(self.n), np.zeros(self.n), 0.0)
 
     @functools.cached_property
     def singular_mass(self) -> bool:

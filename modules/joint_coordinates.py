@@ -245,10 +245,13 @@ class TreeJoint:
 # -- the tree's joints from the system's elements --------------------------------------------------
 def tree_joints(system: System) -> list[TreeJoint]:
     """``build_tree(system)``, built once per system (a spatial chain of 64 joints: 4 ms of Python, every run) and
-    handed out as copies: a run's ``joint_state`` sets a prismatic joint's ``u0``."""
+    handed out: a copy of each joint a run changes (a spatial prismatic joint, whose ``u0`` its ``joint_state``
+    sets), the others as built (nothing writes them: a copy of each, ~1 us, was ~9 us of a loop chain of four's
+    start in a call, ~16 us of a planar chain of sixteen's)."""
     if "_tree_joints" not in system.__dict__:
         system.__dict__["_tree_joints"] = build_tree(system)
-    return [_copied(joint) for joint in system.__dict__["_tree_joints"]]
+    spatial = system.model.dimension == 3
+    return [_copied(j) if spatial and j.kind == "prismatic" else j for j in system.__dict__["_tree_joints"]]
 
 
 def _copied(joint: TreeJoint) -> TreeJoint:
@@ -731,14 +734,18 @@ class JointCoordinates(Formulation):
         self.n_positions = self.tree.n_positions
         self._y = self._motion = self._qdd = self._theta_dd = None
         self._forced = bool(getattr(forces, "elements", None) or getattr(forces, "user_forces", None))
-        if model.dimension == 2:
-            diagonal = np.diag(self.M)  # M diagonal (no nonzero off it): D^T M = D^T * m
-            self._m = diagonal if np.count_nonzero(self.M) == np.count_nonzero(diagonal) else None
-        else:  # constant: diag(m I, J') per body, and the weights
+        if model.dimension == 3:  # constant: diag(m I, J') per body, and the weights
             self._masses = [float(b.mass) for b in model.bodies]
             inertias = np.array([b.inertia for b in model.bodies], dtype=float).reshape(nb, 9)
             self._inertias = [tuple(inertia) for inertia in inertias.tolist()]
             self._weights = [scale(b.mass, _floats(model.gravity)) for b in model.bodies]
+
+    @functools.cached_property
+    def _m(self) -> np.ndarray | None:
+        """A planar M's diagonal m where M is diagonal (no nonzero off it: D^T M = D^T * m), else None; made at the
+        first numpy evaluation that needs it (``embedded_equations``): a compiled run never does."""
+        diagonal = np.diag(self.M)
+        return diagonal if np.count_nonzero(self.M) == np.count_nonzero(diagonal) else None
 
     @functools.cached_property
     def _body_mass(self) -> np.ndarray:

@@ -205,12 +205,9 @@ def _parameters(scene: Scene | TreeScene, alpha: float, beta: float, tol: float,
     scene = scene.scene if tree is not None else scene
     extra = 3 if scene.energies else 0
     positions, velocities = (tree.n_positions, tree.k) if tree is not None else (scene.n, scene.n)
-    cut = tree.cut_rows.tolist() if tree is not None else []  # Python ints: no numpy scalar per entry
-    owners = tree.owners.tolist() if tree is not None else []
-    bodies = tree.cut_bodies.tolist() if tree is not None else []
-    bodies += tree.row_index.tolist() if tree is not None else []  # the tree's rows body by body (tree.owned_rows)
-    bodies += tree.structure().tolist() if tree is not None else []  # the cut solve's sparsity (compiled/structure)
     drivers_power = int(tree is not None and scene.drivers and scene.energies)  # a tree's lambda at every evaluation
+    ncut = tree.cut_rows.size if tree is not None else 0
+    sizes = np.array([scene.n, scene.m, extra, positions, velocities, drivers_power, ncut], np.int64)
     empty1, empty3 = np.zeros(1), np.zeros((1, 3, 3))
     mass = scene.mass_diagonal if scene.mass_diagonal is not None else empty1
     return (
@@ -222,9 +219,7 @@ def _parameters(scene: Scene | TreeScene, alpha: float, beta: float, tol: float,
         scene.function_kinds,
         scene.function_params,
         np.array([alpha, beta, tol, iterations], dtype=float),
-        np.array(
-            [scene.n, scene.m, extra, positions, velocities, drivers_power, len(cut), *cut, *owners, *bodies], np.int64
-        ),
+        sizes if tree is None else np.concatenate([sizes, *tree.arrays()]),
     )
 
 

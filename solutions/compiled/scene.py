@@ -13,7 +13,6 @@ No numba here: this module is imported to decide whether the compiled engine can
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -94,9 +93,11 @@ def packed(kernels: list, slots: tuple[str, ...]) -> tuple[np.ndarray, np.ndarra
     slower (benchmarks/results/rhs_cost.md)."""
     present = {name: (ints, floats) for name, ints, floats in kernels if ints.shape[0]}  # those with rows
     blocks = [present.get(name) for name in slots]
-    starts = [0, *itertools.accumulate(0 if block is None else block[0].shape[0] for block in blocks)]
-    width_i = max([block[0].shape[1] for block in blocks if block is not None] + [1])
-    width_f = max([block[1].shape[1] for block in blocks if block is not None] + [1])
+    starts, width_i, width_f = [0], 1, 1  # in one pass over the slots
+    for block in blocks:
+        starts.append(starts[-1] + (0 if block is None else block[0].shape[0]))
+        if block is not None:
+            width_i, width_f = max(width_i, block[0].shape[1]), max(width_f, block[1].shape[1])
     ints, floats = np.zeros((starts[-1], width_i), dtype=np.int64), np.zeros((starts[-1], width_f))
     for s, block in enumerate(blocks):
         if block is not None:  # a kernel without rows has nothing to copy (most of a dimension's kernels, in a scene)
@@ -147,8 +148,12 @@ class Functions:
 def _group(rows: dict, name: str, ints: list, floats: list) -> None:
     """One element's row of kernel ``name``: its ints and floats added to the kernel's flat lists, with the count of
     rows (a kernel's rows have one width; ``scene_arrays`` makes each list an array: a flat list converts 3-4x faster
-    than a list of rows, 4 us of a loop chain of four's start)."""
-    group = rows.setdefault(name, [[], [], 0])
+    than a list of rows, 4 us of a loop chain of four's start). A kernel's entry is made at its first element
+    (``setdefault`` made a spare entry, three lists, at every element)."""
+    group = rows.get(name)
+    if group is None:
+        rows[name] = [ints, floats, 1]
+        return
     group[0] += ints
     group[1] += floats
     group[2] += 1
@@ -366,12 +371,13 @@ def describe(system, M, forces, first: frozenset = frozenset()) -> Scene:
         if forces.user_forces:
             raise Unsupported("user forces (Python callables)")
         if model.dimension == 2:
-            if callable(M) or np.count_nonzero(M) != np.count_nonzero(np.diagonal(M)):  # a nonzero off the diagonal
+            diagonal = None if callable(M) else np.diagonal(M)
+            if diagonal is None or np.count_nonzero(M) != np.count_nonzero(diagonal):  # a nonzero off the diagonal
                 raise Unsupported("a planar mass matrix that is not diagonal")
             rows = planar_constraints(system, functions, first)
             constraints = scene_arrays(rows, PLANAR_CONSTRAINTS)
             loads = scene_arrays(_planar_forces(forces, functions), PLANAR_FORCES)
-            scene.mass_diagonal = np.diagonal(M).astype(float)
+            scene.mass_diagonal = diagonal.astype(float)
             scene.Q0 = np.asarray(forces.gravity, dtype=float).copy()
         else:
             if type(M).__name__ != "SpatialMassMatrix":

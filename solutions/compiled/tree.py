@@ -108,11 +108,18 @@ class TreeScene:
         if self.packed_data is None:
             kernels = [*self.scene.constraint_kernels, *self.scene.force_kernels, ("tree", self.ints, self.floats)]
             ints, floats, offsets = packed(kernels, SLOTS)
-            stops = offsets[:-1].copy()
-            for name, count in self.scene.first_counts.items():
-                stops[SLOTS.index(name)] += count
-            self.packed_data = ints, floats, np.concatenate([offsets, stops])
+            counts = self.scene.first_counts
+            starts = offsets.tolist()  # Python ints: the stops made in a list, one array (no numpy call per slot)
+            stops = [start + counts.get(name, 0) for name, start in zip(SLOTS, starts, strict=False)]
+            self.packed_data = ints, floats, np.array(starts + stops, dtype=np.int64)
         return self.packed_data
+
+    def arrays(self) -> tuple[np.ndarray, ...]:
+        """The tree's integer tables in P[8] after the sizes (``compiled.parameters``), in order: the cut rows, the
+        rows' owners, the cut rows' bodies, the tree's rows body by body (``row_index``) and the cut solve's
+        sparsity (``structure``): concatenated as they are (each made into a list and the whole into one array
+        again cost ~5-15 us of a call's start)."""
+        return self.cut_rows, self.owners, self.cut_bodies, self.row_index, self.structure()
 
     def structure(self) -> np.ndarray:
         """The sparsity of the cut solve (``structure.cut_structure``, compiled), made at the first call: by the
@@ -133,13 +140,28 @@ ONE_BODY = ("planar_coordinate", "spatial_coordinate", "spatial_normalization")
 """The constraint kernels whose ints begin (body, row, ...) (``scene.py``); every other's begin (i, j, row, ...)."""
 
 
+NO_FRAME = (0.0,) * 9
+"""The frame entries of a joint without a child frame (a planar joint's)."""
+
+
 def _row(joint) -> list[float]:
-    pad = [0.0] * (3 - len(joint.s_parent))
-    frame = [v for axis in joint.frame for v in axis] or [0.0] * 9
-    return [
-        *joint.s_parent, *pad, *joint.s_child, *pad, *joint.axis, *([0.0] * (3 - len(joint.axis))), joint.offset,
-        *joint.a, *joint.c, *joint.u0, *joint.u1, *frame,
-    ]  # fmt: skip
+    """A joint's 35 floats (``tree_kernels``' joint_floats): s_parent, s_child and the axis, each padded to 3, the
+    offset, a, c, u0, u1 and the child's frame axes (zeros without one), extended in place (a list made of seven
+    unpackings and three padding lists cost twice as much: ~1 us a planar joint at a call's start)."""
+    row = list(joint.s_parent)
+    row += (0.0,) * (3 - len(row))
+    row += joint.s_child
+    row += (0.0,) * (6 - len(row))
+    row += joint.axis
+    row += (0.0,) * (9 - len(row))
+    row.append(joint.offset)
+    row += joint.a
+    row += joint.c
+    row += joint.u0
+    row += joint.u1
+    for axis in joint.frame or (NO_FRAME,):
+        row += axis
+    return row
 
 
 def describe(scene: Scene, formulation) -> TreeScene:
@@ -151,22 +173,24 @@ def describe(scene: Scene, formulation) -> TreeScene:
     if scene.first != cut_names(formulation):
         raise ValueError("a tree's scene is described with its cut elements first: compiled.plan describes it")
     joints, k = formulation.joints, formulation.tree.k
-    moving = [[*j.inherited, *range(j.velocity, j.velocity + j.n_velocities)] for j in joints]  # D's columns
     heads, floats = [], []
-    for j, columns in zip(joints, moving, strict=True):  # the columns of D that move the child: parent's and own
-        heads += [KINDS[j.kind], j.parent, j.child, j.position, j.velocity, len(columns), *columns]
-        heads += [-1] * (k - len(columns))
+    for j in joints:  # the columns of D that move the child: its parent's (inherited), then its own
+        own = j.n_velocities
+        count = len(j.inherited) + own
+        heads += (KINDS[j.kind], j.parent, j.child, j.position, j.velocity, count)
+        heads += j.inherited
+        heads += range(j.velocity, j.velocity + own)
+        heads += (-1,) * (k - count)
         floats += _row(j)
     ints = np.array(heads, dtype=np.int64).reshape(-1, 6 + k)
     system = formulation.system
-    nb = len(system.model.bodies)
-    owners, cut, bodies = _owners(system, joints)
+    owners, cut, bodies, owned = _owners(system, joints)
     tree = TreeScene(
         scene, ints, np.array(floats, dtype=float).reshape(-1, 35), formulation.tree.n_positions, k,
         np.array(cut, dtype=np.int64), owners=np.array(owners, dtype=np.int64),
         cut_bodies=np.array(bodies, dtype=np.int64),
     )  # fmt: skip
-    tree.row_index = owned_rows(owners, nb)
+    tree.row_index = row_index(owned)
     if not joints:
         tree.unsupported = "a tree without joints"
     return tree
@@ -179,22 +203,26 @@ def cut_names(formulation) -> frozenset:
     return frozenset() if cut is None else frozenset(element.name for element in cut.elements)
 
 
-def _owners(system, joints) -> tuple[list[int], list[int], list[int]]:
+def _owners(system, joints) -> tuple[list[int], list[int], list[int], list[list[int]]]:
     """(the owner of every constraint row of the tree (``TreeScene.owners``): the child of its tree joint, or the
     body of its Euler-parameter normalization (element ``<body>.p``); -1 for a cut row (a cut joint's or a
     driver's: ``joint_coordinates.cut_elements``), whose multiplier comes from the augmented system
-    (``cut_accelerations``); the cut rows; their elements' two bodies, row after row (``TreeScene.cut_bodies``)),
-    in one pass over the elements (a loop: faster than numpy's repeat up to a loop chain of 16 at least), as lists."""
+    (``cut_accelerations``); the cut rows; their elements' two bodies, row after row (``TreeScene.cut_bodies``);
+    each body's rows in row order (``owned_rows``)), in one pass over the elements (a loop: faster than numpy's
+    repeat up to a loop chain of 16 at least), as lists."""
     child = {joint.name: joint.child for joint in joints}
-    child |= {f"{body.name}.p": b for b, body in enumerate(system.model.bodies)}
-    owners, cut, bodies = [], [], []
+    if system.model.dimension == 3:  # the Euler-parameter normalizations (a planar scene has none)
+        child |= {f"{body.name}.p": b for b, body in enumerate(system.model.bodies)}
+    owners, cut, bodies, owned = [], [], [], [[] for _ in system.model.bodies]
     for element, where in zip(system.elements, system.rows, strict=True):
         owner, size = child.get(element.name, -1), where.stop - where.start
         owners += [owner] * size
         if owner < 0:
             cut += range(where.start, where.stop)
             bodies += [element.i, element.j] * size
-    return owners, cut, bodies
+        else:
+            owned[owner] += range(where.start, where.stop)
+    return owners, cut, bodies, owned
 
 
 def owned_rows(owners: list, nb: int) -> np.ndarray:
@@ -203,16 +231,23 @@ def owned_rows(owners: list, nb: int) -> np.ndarray:
     cut rows, owner -1, left out). Made once per scene, where ``tree_multipliers`` sorted them at every output time
     (two allocations and three passes over the rows: ~0.25 us of an evaluation at two bodies); in Python lists, one
     array at the end (numpy's bincount, cumsum, argsort and concatenate cost ~20 us at a call's start against a
-    loop chain's few dozen rows)."""
+    loop chain's few dozen rows). ``describe`` has each body's rows from ``_owners``' pass (``row_index``)."""
     rows = [[] for _ in range(nb)]  # each body's rows, in row order
     for row, owner in enumerate(owners):
         if owner >= 0:
             rows[owner].append(row)
-    start, at = [0], 0
+    return row_index(rows)
+
+
+def row_index(rows: list[list[int]]) -> np.ndarray:
+    """``owned_rows``' array from each body's rows (lists in row order): the starts, then the rows body by body."""
+    flat, at = [0], 0
     for body in rows:
         at += len(body)
-        start.append(at)
-    return np.array([*start, *(row for body in rows for row in body)], dtype=np.int64)
+        flat.append(at)
+    for body in rows:
+        flat += body
+    return np.array(flat, dtype=np.int64)
 
 
 VECTORS = (("xi", "a"), ("Q", "n"), ("power", "3"), ("q", "n"), ("qd", "n"), ("thdd", "k"), ("mu", "ncut"))
