@@ -175,7 +175,12 @@ def spectra(
     structure = _band_structure(pattern)  # position, keys, starts, indices
     scale = (np.ascontiguousarray(columns, dtype=float), np.ascontiguousarray(norms, dtype=float))
     given = np.empty((0, 0)) if first is None else np.ascontiguousarray(first, dtype=float)
-    at_first = (np.ascontiguousarray(scaled[0]), scale[0], scale[1][0], *structure)
+    position, keys, starts, indices = structure
+    stored, slots = scaled, indices
+    if isinstance(scaled, BlockedJacobians):  # its blocks: each pattern entry's slot in its row
+        stored, slots = scaled.values, _entry_slots(scaled.columns, starts, indices)
+    stored = np.ascontiguousarray(stored)
+    at_first = (_first_entries(stored, starts, indices, slots, position.size), scale[0], scale[1][0], *structure)
     first, found = _band_start(*at_first, given, float(widest))
     if found == NOT_A_BAND:  # dense costs less
         return None
@@ -184,12 +189,7 @@ def spectra(
         first = np.ascontiguousarray(np.linalg.qr(J.T, mode="complete")[0][:, structure[1].size :])
         if _band_start(*at_first, first, float(widest))[1] == NOT_A_BAND:
             return None
-    position, keys, starts, indices = structure
-    stored, slots = scaled, indices
-    if isinstance(scaled, BlockedJacobians):  # its blocks: each pattern entry's slot in its row
-        rows = np.repeat(np.arange(keys.size), np.diff(starts))
-        stored, slots = scaled.values, scaled.slots(rows, indices)
-    arguments = (np.ascontiguousarray(stored), *scale, position, keys, starts, indices, slots)
+    arguments = (stored, *scale, position, keys, starts, indices, slots)
     if settle is None:
         ratios, bases, signs, _, _, certified = _spectra(*arguments, first, 0.0, False, np.empty(0))
         return ratios, bases, signs, certified
@@ -392,6 +392,35 @@ def _band_start(jacobian, columns, norms, position, keys, starts, indices, first
     return first, NOT_A_BAND if widest * (kl + ku + 1) > n else BAND
 
 
+@njit(cache=True, nogil=True)
+def _entry_slots(reach, starts, indices):
+    """Each pattern entry's slot among its row's blocks (``history.BlockedJacobians``: entry s of row r in column
+    reach[r, s], -1 after the last): slots[p] = s where reach[r, indices[p]] holds column indices[p] (-1 where the
+    row does not reach it), as ``history.column_slots`` finds them, in one compiled pass (numpy's comparison of
+    every entry's row with its column, ``any`` and ``argmax`` cost ~70 us in a call at N = 8 loops)."""
+    slots = np.full(indices.size, -1, dtype=np.int64)
+    for r in range(starts.size - 1):
+        for p in range(starts[r], starts[r + 1]):
+            for s in range(reach.shape[1]):
+                if reach[r, s] == indices[p]:
+                    slots[p] = s
+                    break
+    return slots
+
+
+@njit(cache=True, nogil=True)
+def _first_entries(stored, starts, indices, slots, n):
+    """The first output time's Psi_q (m, n) on its pattern (entry p of row r, column indices[p], is
+    stored[0, r, slots[p]]; zero elsewhere): all that ``_band_start`` reads of it (``_first_basis`` reads the
+    pattern's entries alone), without a dense copy of a blocked history's time (~40 us in a call at N = 8 loops)."""
+    m = starts.size - 1
+    jacobian = np.zeros((m, n))
+    for r in range(m):
+        for p in range(starts[r], starts[r + 1]):
+            jacobian[r, indices[p]] = stored[0, r, slots[p]]
+    return jacobian
+
+
 _STRUCTURES: dict = {}
 """``_band_structure`` of the patterns met (a mechanism's Psi_q has the same pattern at every output time and in
 every run: its band ordering is found once)."""
@@ -401,7 +430,7 @@ def _band_structure(pattern: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nda
     """(position (n,): each column's place in the band order, keys (m,): each row's place along the diagonal
     (``band_order``), starts (m + 1,) and indices: each row's nonzero columns, CSR) of a pattern (m, n), kept in
     ``_STRUCTURES`` (the reverse Cuthill-McKee ordering and the rows' keys cost 5 ms on a chain of 64 loops)."""
-    key = (pattern.shape, np.packbits(pattern).tobytes())
+    key = (pattern.shape, np.asarray(pattern, dtype=bool).tobytes())  # one byte an entry: no packing needed
     if key not in _STRUCTURES:
         columns_order, keys = band_order(pattern)
         position = np.empty(columns_order.size, dtype=np.int64)

@@ -255,6 +255,31 @@ def test_a_blocked_history_gives_the_dense_ones_norms_pattern_and_spectra():
     assert verdicts[0] == verdicts[1] and verdicts[0]["ratio"] < 1e-3  # near flat: the figure matters
 
 
+def test_the_compiled_slots_and_first_entries_are_the_blocked_history_s():
+    """``spectra``'s compiled reads of a blocked history (``_entry_slots``, ``_first_entries``) find each entry's
+    slot as ``history.column_slots`` does (-1 where a row does not reach the column) and the first time's Psi_q on
+    its pattern as the dense history holds it, to the last bit."""
+    from solutions.compiled import history
+
+    system, qs = chain_at([40.0, 60.0, 89.99])
+    jacobians = np.array([system.jacobian(q, 0.0) for q in qs])
+    reach = history.row_columns(system)
+    blocked = history.BlockedJacobians.gather(jacobians, reach)
+    m, n = jacobians.shape[1:]
+    everywhere = np.ones((m, n), dtype=bool)  # every column of every row: most not reached
+    for pattern in (history.BlockedJacobians.pattern(blocked), everywhere):
+        starts = np.concatenate([[0], np.cumsum(pattern.sum(axis=1))]).astype(np.int64)
+        rows, indices = (np.asarray(a, dtype=np.int64) for a in np.nonzero(pattern))
+        slots = singular._entry_slots(reach, starts, indices)
+        np.testing.assert_array_equal(slots, history.column_slots(reach, rows, indices))
+        if pattern is everywhere:
+            assert np.any(slots < 0)
+            continue
+        first = singular._first_entries(blocked.values, starts, indices, slots, n)
+        np.testing.assert_array_equal(first[pattern], jacobians[0][pattern])
+        assert not np.any(first[~pattern])
+
+
 @pytest.mark.parametrize("loops", [2, 5])
 def test_mid_size_psi_q_takes_the_band_with_numpys_ratio_basis_and_sign(loops, monkeypatch):
     """A Psi_q of more than dynamics.DENSE_LARGEST rows and fewer than BAND_SMALLEST coordinates (the loop chain of 2
