@@ -52,6 +52,7 @@ from .cache_stamp import forget_stale_machine_code
 
 forget_stale_machine_code()  # before any compiled module of the package loads its cached machine code
 
+from . import tree  # noqa: E402
 from .scene import Scene, describe  # noqa: E402
 from .tree import TreeScene  # noqa: E402
 
@@ -88,12 +89,9 @@ def plan(system, M, forces, formulation: str, formulation_object) -> Plan:
     if formulation != "joint-coordinates":
         scene = describe(system, M, forces)
     else:
-        from .tree import cut_names
-        from .tree import describe as describe_tree
-
-        scene = describe(system, M, forces, cut_names(formulation_object))
+        scene = describe(system, M, forces, tree.cut_names(formulation_object))
         if scene.unsupported is None:
-            scene = describe_tree(scene, formulation_object)
+            scene = tree.describe(scene, formulation_object)
     f = formulation_object
     numbers = (
         float(getattr(f, "alpha", 0.0)),
@@ -244,8 +242,6 @@ def _load(plan: Plan) -> tuple[object, object, bool]:
     from . import loops  # imports numba
 
     if isinstance(plan.scene, TreeScene):
-        from . import tree
-
         module, cached = tree.load(plan.scene)
         return module, loops.no_projection, cached
     from .codegen import load as load_scene
@@ -265,8 +261,6 @@ def is_cached(plan: Plan) -> bool:
     if "_loaded" in plan.__dict__:
         return True
     if isinstance(plan.scene, TreeScene):
-        from . import tree
-
         return tree.is_cached(plan.scene)
     from .codegen import is_cached as scene_cached
 

@@ -33,6 +33,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from .. import compiled  # the package: its functions looked up at each call (a test may replace one)
 from ..diagnostics import AnalysisError
 from ..integrators import (
     FIXED_STEP_METHODS,
@@ -45,6 +46,7 @@ from ..integrators import (
     power_start,
 )
 from ..settings import ENGINES, Settings
+from .tree import TreeScene
 
 COMPILE_SECONDS = 8.0
 """What a first compilation of a scene's module costs (numba 0.68, one core of the course machine: 5.7-8.7 s
@@ -133,13 +135,11 @@ def choose(settings: Settings, equations, z0: np.ndarray, expected: float | None
         if expected <= LOAD_SECONDS:
             why = f"numpy run estimated at {expected:.3g} s, less than loading the compiled code ({LOAD_SECONDS:g} s)"
             return None, {"engine": "numpy", "engine_why": why}
-    from . import is_cached, unsupported
-
     job = compiled_plan(equations, formulation)
-    why_not = unsupported(job.scene, formulation, integrator, settings.formulation_options)
+    why_not = compiled.unsupported(job.scene, formulation, integrator, settings.formulation_options)
     if why_not is not None:
         return None, {"engine": "numpy", "engine_why": f"not compiled: {why_not}"}
-    cached, cannot = on_disk(is_cached, job, engine)
+    cached, cannot = on_disk(compiled.is_cached, job, engine)
     if cannot:
         return None, {"engine": "numpy", "engine_why": cannot}
     if engine == "compiled":
@@ -173,12 +173,10 @@ def compiled_start(
     loosest the run can have (the tolerance rule only tightens it, which lengthens the run; the estimate comes
     first: a short run looks no further). No numba is imported to decide. ``choose`` takes the estimate instead of
     making it again (``dynamics.plan_method``: where the run's rtol is this one, or where it said 'compile')."""
-    from . import COMPILED_INTEGRATORS, FIXED, is_cached, unsupported
-
     integrator = "DOP853" if settings.integrator == "auto" else settings.integrator
     if settings.engine not in ("cached", "auto") or settings.stiffness == "error":
         return False, None
-    if integrator not in COMPILED_INTEGRATORS and integrator not in FIXED:
+    if integrator not in compiled.COMPILED_INTEGRATORS and integrator not in compiled.FIXED:
         return False, None
     expected = None
     if settings.engine == "auto":
@@ -187,9 +185,9 @@ def compiled_start(
         if expected <= LOAD_SECONDS:
             return False, expected
     job = compiled_plan(equations, formulation)
-    if unsupported(job.scene, formulation, integrator, settings.formulation_options) is not None:
+    if compiled.unsupported(job.scene, formulation, integrator, settings.formulation_options) is not None:
         return False, expected
-    return on_disk(is_cached, job, settings.engine)[0], expected
+    return on_disk(compiled.is_cached, job, settings.engine)[0], expected
 
 
 def compiled_plan(equations, formulation: str):
@@ -198,8 +196,6 @@ def compiled_plan(equations, formulation: str):
     formulation object is made once for both, ``dynamics.StartRates.take``). A prepared run's
     (``equations.compiled_plans``, ``dynamics.Prepared``) is made once for all its runs: each run's formulation
     object gets the plan made for the first (the scene, its packed data, the loaded module), with itself in it."""
-    from . import plan
-
     made = equations.formulation
     key = (formulation, id(equations.forces))
     kept = made.__dict__.get("_compiled_plan")
@@ -214,7 +210,7 @@ def compiled_plan(equations, formulation: str):
             if loaded is not None:  # this run loads nothing: as a call that finds the module imported already
                 job.__dict__["_loaded"] = (*loaded[:2], True, 0.0)
         else:
-            job = plan(made.system, made.masses, equations.forces, formulation, made)
+            job = compiled.plan(made.system, made.masses, equations.forces, formulation, made)
             if shared is not None:
                 shared[_plan_key(made, formulation)] = job
         made.__dict__["_compiled_plan"] = kept = (key, equations.forces, job)
@@ -242,8 +238,6 @@ def on_disk(is_cached, target, engine: str) -> tuple[bool, str | None]:
 def _compiling(job, cached: bool):
     """The job, after one line on stderr when its machine code is not on disk: a first compilation takes a while."""
     if not cached:
-        from .tree import TreeScene
-
         scene = job.scene.scene if isinstance(job.scene, TreeScene) else job.scene
         dimension = "planar" if scene.dimension == 2 else "spatial"
         print(
@@ -260,15 +254,12 @@ def start_rates(equations, formulation: str, options: dict, z: np.ndarray) -> tu
     q'': a tree's body accelerations are written after y' (with q, q' and lambda: ``out`` that long), other scenes'
     are y'[n:2n] (``out`` of y' alone: no lambda written after it, which nothing here reads).
     Any compiled integrator would do (the right-hand side does not depend on it): DOP853 stands for them."""
-    from . import unsupported
-    from .tree import TreeScene
-
     job = compiled_plan(equations, formulation)
-    if unsupported(job.scene, formulation, "DOP853", options) is not None:
+    if compiled.unsupported(job.scene, formulation, "DOP853", options) is not None:
         return None
-    from . import load, loops  # imports numba
+    from . import loops  # imports numba
 
-    module, _, _ = load(job)
+    module, _, _ = compiled.load(job)
     P, D, n = start_parameters(job, equations.extra), job.scene.data(), job.scene.n
     z = np.ascontiguousarray(z, dtype=float)
     tree = isinstance(job.scene, TreeScene)
@@ -284,12 +275,10 @@ def start_parameters(job, extra: int) -> tuple:
     """P of the start rates (``start_rates``): the run's (``parameters``) with the energy states ``extra`` as the
     equations have them and no drivers' power (it feeds nothing back), made once per plan's scene and ``extra``
     (a run's start rates made it anew: 3 us)."""
-    from . import parameters
-
     kept = job.scene.__dict__.setdefault("_start_parameters", {})
     key = (*job.numbers, extra)
     if key not in kept:
-        P = parameters(job.scene, *job.numbers)
+        P = compiled.parameters(job.scene, *job.numbers)
         dims = P[8].copy()
         dims[2], dims[5] = extra, 0
         kept[key] = (*P[:8], dims)
@@ -302,10 +291,8 @@ def run(job, z0: np.ndarray, times: np.ndarray, settings: Settings, on_pause=Non
     projection run also counts its projections and restarts as the numpy run does: one projection per accepted
     step, a restart after each (``integrators.integrate``; the solve_ivp loop does not restart after its last step,
     rk4 never counts restarts)."""
-    from . import run as compiled_run
-
     integrator, budget = settings.integrator, settings.max_evaluations
-    out = compiled_run(job, z0, times, integrator, settings.rtol, settings.atol, settings.step, budget, on_pause)
+    out = compiled.run(job, z0, times, integrator, settings.rtol, settings.atol, settings.step, budget, on_pause)
     stats = IntegrationStats(integrator, rhs_evaluations=out.evaluations, steps=out.steps, rejected=out.rejected)
     if job.formulation == "projection":
         job.formulation_object.projections = out.steps
@@ -320,7 +307,6 @@ def positions(job, z0: np.ndarray, times: np.ndarray, plan, settings: Settings) 
     check's companion run, ``dynamics.companion_centres``: the run's plan and loaded module, another tolerance).
     Raises as the run would where it stops early (``stop``); ``settings``: the run's step, budget."""
     from . import COMPILED_INTEGRATORS, INT64_MAX, load, loops, parameters, paused_embedded, tableau
-    from .tree import TreeScene
 
     module, project, _ = load(job)
     scene, rhs = job.scene, loops.first_class(module.scene_rhs, loops.RHS_SIGNATURE)
