@@ -382,7 +382,7 @@ def run(
         out = loops.outputs(rhs, times, Y, P, D, width)
     if tree:
         qdd, lam = np.ascontiguousarray(out[:, ny + 2 * n : ny + 3 * n]), np.ascontiguousarray(out[:, ny + 3 * n :])
-        joint_states, Y = Y, np.hstack([out[:, ny : ny + 2 * n], Y[:, scene.n_positions + scene.k :]])
+        joint_states, Y = Y, np.concatenate([out[:, ny : ny + 2 * n], Y[:, scene.n_positions + scene.k :]], axis=1)
     else:  # q'' in y', lambda after it
         qdd, lam = np.ascontiguousarray(out[:, n : 2 * n]), np.ascontiguousarray(out[:, ny:])
     if m * n > ONE_PASS_LARGEST and columns is None:
