@@ -130,7 +130,7 @@ def consistent_initial_conditions(
     """
     q, assembly = assemble(system, q0, t)
     psi_t = system.psi_t(q, t)
-    at_rest = not np.any(qd0)  # Psi_q 0 = 0: the residual is Psi_t, and Psi_q is made only to correct q0'
+    at_rest = not np.asarray(qd0).any()  # Psi_q 0 = 0: the residual is Psi_t, and Psi_q is made only to correct q0'
     jacobian = None if at_rest else system.jacobian(q, t)
     residual = psi_t if at_rest else jacobian @ qd0 + psi_t
     before = float(np.abs(residual).max()) if residual.size else 0.0
