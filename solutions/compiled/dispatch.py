@@ -201,7 +201,8 @@ def compiled_plan(equations, formulation: str):
     kept = made.__dict__.get("_compiled_plan")
     if kept is None or kept[0] != key or kept[1] is not equations.forces:
         shared = equations.compiled_plans
-        found = None if shared is None else shared.get(_plan_key(made, formulation))
+        shared_key = None if shared is None else _plan_key(made, formulation)
+        found = None if shared is None else shared.get(shared_key)
         if found is not None:  # the prepared run's: the same system, M and forces, this run's formulation object
             job = object.__new__(type(found))  # a shallow copy: its loaded module (``load``) and parameters come along
             job.__dict__.update(found.__dict__)
@@ -212,7 +213,7 @@ def compiled_plan(equations, formulation: str):
         else:
             job = compiled.plan(made.system, made.masses, equations.forces, formulation, made)
             if shared is not None:
-                shared[_plan_key(made, formulation)] = job
+                shared[shared_key] = job
         made.__dict__["_compiled_plan"] = kept = (key, equations.forces, job)
     return kept[2]
 
