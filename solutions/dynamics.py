@@ -1825,6 +1825,8 @@ def null_space_turns(tangents: np.ndarray, signs: np.ndarray, certified: np.ndar
     if certified is None or not np.any(certified):
         return np.linalg.det(np.swapaxes(tangents[:-1], 1, 2) @ tangents[1:])
     turns = signs[:-1] * signs[1:]
+    if certified.all():  # every step (a run far from singular positions): no basis to compare
+        return turns
     steps = np.flatnonzero(~certified)  # the bases made at both ends
     if steps.size:
         turns[steps] = np.linalg.det(np.swapaxes(tangents[steps], 1, 2) @ tangents[steps + 1])
@@ -2082,8 +2084,8 @@ class Guard:
         if self.banded:
             from .compiled import singular
 
-            arrays = (np.ascontiguousarray(x, dtype=float) for x in (psi, norms))
-            return singular.drifted(*arrays, float(self.drift_limit))
+            contiguous = np.ascontiguousarray(psi, dtype=float), np.ascontiguousarray(norms, dtype=float)
+            return singular.drifted(*contiguous, float(self.drift_limit))
         distance = np.abs(psi) / np.where(norms > 0, norms, 1.0)
         bad = ~(np.max(distance, axis=1, initial=0.0) <= self.drift_limit)
         return int(np.argmax(bad)) if np.any(bad) else -1

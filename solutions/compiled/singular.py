@@ -180,7 +180,7 @@ def spectra(
     if isinstance(scaled, BlockedJacobians):  # its blocks: each pattern entry's slot in its row
         stored, slots = scaled.values, _entry_slots(scaled.columns, starts, indices)
     stored = np.ascontiguousarray(stored)
-    at_first = (_first_entries(stored, starts, indices, slots, position.size), scale[0], scale[1][0], *structure)
+    at_first = (stored, slots, scale[0], scale[1][0], *structure)
     first, found = _band_start(*at_first, given, float(widest))
     if found == NOT_A_BAND:  # dense costs less
         return None
@@ -371,10 +371,11 @@ basis; a band whose first Psi_q's banded LU met an exact zero pivot (no first ba
 
 
 @njit(cache=True, nogil=True)
-def _band_start(jacobian, columns, norms, position, keys, starts, indices, first, widest):
+def _band_start(stored, slots, columns, norms, position, keys, starts, indices, first, widest):
     """(the null-space basis at the first time, ``NOT_A_BAND`` | ``BAND`` | ``FIRST_FAILED``) of a history whose
-    first Psi_q (m, n) is ``jacobian`` (scaled by ``columns`` and ``norms`` as ``_first_basis``), in one compiled
-    call (each call from Python costs some microseconds a dozen times a history; once per history here). ``first``
+    first Psi_q (m, n) is read from ``stored`` (``_first_entries``: entry p of the pattern at slots[p]) and scaled
+    by ``columns`` and ``norms`` as ``_first_basis`` scales it, in one compiled call (each call from Python costs
+    some microseconds a dozen times a history; once per history here, its first entries read inside). ``first``
     (n, d): a basis known at (or just before) the first time, or (0, 0) for none: then from the band
     (``_first_basis``), if the rows' widths with E's rows at the band's end leave one. The band is one where its
     width kl + ku + 1 with E's rows where the basis puts them (``_independent``) is at most n / ``widest``."""
@@ -384,6 +385,7 @@ def _band_start(jacobian, columns, norms, position, keys, starts, indices, first
         kl, ku = _widths(_layout(keys, position, last), m, starts, indices, position, last, False)
         if widest * (kl + ku + 1) > n:
             return first, NOT_A_BAND
+        jacobian = _first_entries(stored, starts, indices, slots, n)
         first = _first_basis(jacobian, columns, norms, position, keys, starts, indices)
         if not np.all(np.isfinite(first)):
             return first, FIRST_FAILED
@@ -454,7 +456,7 @@ def history_norms(jacobians: np.ndarray, columns: np.ndarray, reach: np.ndarray 
         reach = jacobians.columns
         return _reached_norms(np.ascontiguousarray(jacobians.values), columns, reach, block_slots(reach))
     jacobians = np.ascontiguousarray(jacobians, dtype=float)
-    if reach is not None and (reach.shape[0] != jacobians.shape[1] or np.max(reach, initial=-1) >= jacobians.shape[2]):
+    if reach is not None and (reach.shape[0] != jacobians.shape[1] or reach.max(initial=-1) >= jacobians.shape[2]):
         reach = None  # not this history's rows and columns: the dense pass
         return row_norms(jacobians, columns), None
     reach = np.ascontiguousarray(reach, dtype=np.int64)

@@ -280,6 +280,29 @@ def test_the_compiled_slots_and_first_entries_are_the_blocked_history_s():
         assert not np.any(first[~pattern])
 
 
+def test_the_band_start_reads_the_first_time_from_the_stored_history():
+    """``_band_start`` reads the first time's entries itself (``_first_entries``), from a dense history (slots =
+    columns) or one by its rows' blocks: the same first null-space basis and verdict from both, to the last bit,
+    and the basis of the first Psi_q's null space."""
+    from solutions.compiled import history
+
+    system, qs = chain_at([40.0, 60.0, 89.99])
+    jacobians = np.array([system.jacobian(q, 0.0) for q in qs])
+    reach = history.row_columns(system)
+    blocked = history.BlockedJacobians.gather(jacobians, reach)
+    guard = Guard(system, qs[0], 1e-3, 1e-8)
+    norms, pattern = singular.history_norms(jacobians, guard._columns, reach)
+    position, keys, starts, indices = singular._band_structure(pattern)
+    scale = (guard._columns, norms[0], position, keys, starts, indices, np.empty((0, 0)), float(singular.WIDEST_MID))
+    slots = singular._entry_slots(reach, starts, indices)
+    dense_first, dense_found = singular._band_start(jacobians, indices, *scale)
+    first, found = singular._band_start(blocked.values, slots, *scale)
+    assert found == dense_found == singular.BAND
+    np.testing.assert_array_equal(first, dense_first)
+    scaled = jacobians[0] * guard._columns / norms[0][:, None]
+    assert np.max(np.abs(scaled @ first)) < 1e-13
+
+
 @pytest.mark.parametrize("loops", [2, 5])
 def test_mid_size_psi_q_takes_the_band_with_numpys_ratio_basis_and_sign(loops, monkeypatch):
     """A Psi_q of more than dynamics.DENSE_LARGEST rows and fewer than BAND_SMALLEST coordinates (the loop chain of 2
@@ -749,3 +772,22 @@ def test_the_quiet_test_finds_numpys_smallest_or_a_crossing(banded):
         low = ratios.copy()
         low[3] = value
         assert guard._smallest_if_quiet(0.99, turns, signs, low) == -1
+
+
+def test_null_space_turns_reads_the_signs_at_certified_steps_and_the_bases_elsewhere():
+    """``dynamics.null_space_turns``: det(T_k-1^T T_k) of each step without certified steps; the signs' product
+    signs[k-1] signs[k] at a certified step (every step certified: no basis read, NaN bases allowed), the
+    determinant at the others."""
+    rng = np.random.default_rng(5)
+    tangents = np.linalg.qr(rng.standard_normal((6, 5, 2)))[0]
+    signs = np.array([1.0, -1.0, -1.0, 1.0, 1.0, -1.0])
+    turns = np.linalg.det(np.swapaxes(tangents[:-1], 1, 2) @ tangents[1:])
+    np.testing.assert_array_equal(dynamics.null_space_turns(tangents, signs), turns)
+    np.testing.assert_array_equal(dynamics.null_space_turns(tangents, signs, np.zeros(5, dtype=bool)), turns)
+    unmade = np.full_like(tangents, np.nan)
+    every = dynamics.null_space_turns(unmade, signs, np.ones(5, dtype=bool))
+    np.testing.assert_array_equal(every, signs[:-1] * signs[1:])
+    some = np.array([True, False, True, True, False])
+    mixed = dynamics.null_space_turns(tangents, signs, some)
+    np.testing.assert_array_equal(mixed[some], (signs[:-1] * signs[1:])[some])
+    np.testing.assert_array_equal(mixed[~some], turns[~some])
