@@ -120,7 +120,7 @@ def _random_loops(dimension: int, n: int, seed: int) -> dict:
     joints, bodies = model["model"]["joints"], model["model"]["bodies"]
     parent = [-1 if j["body1"] == "ground" else int(j["body1"][1:]) for j in joints]
     freedom = [{"revolute": 1, "prismatic": 1, "spherical": 3}[j["type"]] for j in joints]
-    for i, joint in enumerate(joints[1::2], start=0):
+    for joint in joints[1::2]:
         joint["body1"], joint["body2"] = joint["body2"], joint["body1"]  # child first
 
     def path(b):  # the tree joints from body b to ground (joint i moves body i)
