@@ -628,7 +628,7 @@ def tree_multipliers(jac, residual, index, width, ints, lam):
     right side. So each body solves A lambda_own = r_C (A: its columns of its own rows, at most 7 x 6, full column
     rank) by least squares, whose residual is zero, and moves what its rows exert on its parent, the only other
     body they hold, to the parent's columns: O(N), where the normal equations of all rows cost O(m^3).
-    ``width``: a body's columns (3 planar, 7 spatial); ``index``: the rows of each body (``tree.owned_rows``, made
+    ``width``: a body's columns (3 planar, 7 spatial); ``index``: the rows of each body (``tree.row_index``, made
     once per scene). ``residual`` is worked in (the rows' parts moved to parents)."""
     nb = residual.size // width
     start, mine = index[: nb + 1], index[nb + 1 :]
@@ -648,7 +648,7 @@ def tree_multipliers(jac, residual, index, width, ints, lam):
 
 @inlined
 def _most_rows(start, nb):
-    """The most rows a body owns (``tree.owned_rows``' start)."""
+    """The most rows a body owns (``tree.row_index``' start)."""
     most = 0
     for b in range(nb):
         most = max(most, start[b + 1] - start[b])
@@ -804,7 +804,7 @@ def _small_solve(G, count, b):
 @inlined
 def zero_tree_blocks(jac, index, ints, width):
     """Zeros in the entries of Psi_q that ``tree_multipliers`` reads: each tree row (``index``: the rows of each body,
-    ``tree.owned_rows``) at the coordinates of its body and of that body's parent (-1 ground), where the constraint
+    ``tree.row_index``) at the coordinates of its body and of that body's parent (-1 ground), where the constraint
     kernels add their terms. With ``zero_cut_blocks`` all that lambda of every row needs, where zeroing the whole
     m x n Psi_q at every output time of a loop chain of 64 bodies wrote 1.2 MB per evaluation."""
     nb = jac.shape[1] // width

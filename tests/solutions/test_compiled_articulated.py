@@ -226,14 +226,15 @@ def test_a_state_or_out_of_a_size_scene_rhs_does_not_know_gets_nan_not_a_write_p
     assert np.isnan(out).all()
 
 
-def test_owned_rows_list_each_bodys_rows_in_row_order_without_cut_rows():
-    """``tree.owned_rows``: start (nb + 1), then the rows of body 0, body 1, ... (``tree_multipliers``' index, made
-    once per scene); a cut row (owner -1) belongs to no body."""
-    from solutions.compiled.tree import owned_rows
+def test_the_row_index_lists_each_bodys_rows_in_row_order_without_cut_rows():
+    """``tree.row_index``: start (nb + 1), then the rows of body 0, body 1, ... from ``_owners``' lists of each
+    body's rows (``tree_multipliers``' and the joint forces' index, made once per scene); a cut row (owner -1)
+    belongs to no body (``test_call_start`` checks ``describe``'s against the owners of real scenes)."""
+    from solutions.compiled.tree import row_index
 
-    index = owned_rows(np.array([1, 0, -1, 1, 0, 2]), 3)
-    assert index.tolist() == [0, 2, 4, 5, 1, 4, 0, 3, 5]
-    assert owned_rows(np.array([-1, -1]), 2).tolist() == [0, 0, 0]
+    assert row_index([[1, 4], [0, 3], [5]]).tolist() == [0, 2, 4, 5, 1, 4, 0, 3, 5]
+    assert row_index([[], []]).tolist() == [0, 0, 0]
+    assert row_index([[2, 3], []]).dtype == np.int64
 
 
 def _planar_shift(link: np.ndarray) -> np.ndarray:
