@@ -22,7 +22,7 @@ pytest.importorskip("numba")
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from mechanisms import parallelogram_chain  # noqa: E402
-from test_compiled_articulated import _random_state, _random_tree, compiled_sides  # noqa: E402
+from test_compiled_articulated import _random_state, _random_tree, compiled_sides, output_pass  # noqa: E402
 from test_compiled_formulations import _spatial_loop  # noqa: E402
 
 from solutions.assembly import build_system  # noqa: E402
@@ -151,15 +151,9 @@ def test_a_closed_loops_lambda_equals_the_numpy_engines_on_random_loops(dimensio
     model = _random_loops(dimension, n, seed)
     equations, made, job, (rhs, P, D), y0 = compiled_sides(model)
     assert job.scene.cut_rows.size > 0  # closed loops: the cut route
-    n_q, m = int(P[8][0]), int(P[8][1])
     rng = np.random.default_rng(seed)
     for _ in range(3):
-        y = _random_state(made, y0, rng)
-        out = np.zeros(y.size + 3 * n_q + 3 * m + m * n_q)  # with Psi, Psi_t and Psi_q (``loops.output_history``)
-        rhs(0.0, y.copy(), P, D, out)
-        o = y.size
-        q, qd = out[o : o + n_q], out[o + n_q : o + 2 * n_q]
-        qdd, lam = out[o + 2 * n_q : o + 3 * n_q], out[o + 3 * n_q : o + 3 * n_q + m]
+        q, qd, qdd, lam, _ = output_pass(rhs, P, D, _random_state(made, y0, rng))
         expected_qdd, expected = equations.formulation.accelerations(q, qd, 0.0)
         np.testing.assert_allclose(qdd, expected_qdd, rtol=0, atol=1e-9 * np.abs(expected_qdd).max())
         np.testing.assert_allclose(lam, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
