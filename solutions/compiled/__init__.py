@@ -188,7 +188,7 @@ def parameters(
     formulation's (Baumgarte's alpha, beta; the projection's tolerance and iterations, ``Plan.numbers``) and the
     sizes and switches P[8] = (n, m, 3 with the energy states else 0, joint positions, joint velocities, 1 when a
     tree's drivers' power needs lambda at every evaluation, the number of cut rows, the cut rows..., the tree's
-    rows' owners..., the two bodies of each cut row..., the tree's rows body by body: ``tree.owned_rows``, the cut
+    rows' owners..., the two bodies of each cut row..., the tree's rows body by body: ``tree.row_index``, the cut
     solve's sparsity: ``structure.cut_structure``). Made
     once per scene and numbers (a run's start rates and its loop ask for the same)."""
     kept = scene.__dict__.setdefault("_parameters", {})

@@ -526,9 +526,10 @@ def blocked_output_history(scene_rhs, T, Y, P, D, width, columns):
     """``output_history`` with Psi_q kept by its rows' blocks (N, m, w) (``history.BlockedJacobians``): entry s of
     row r is Psi_q's entry in column ``columns[r, s]`` (-1 after the row's last: 0 there), the only columns the
     row's element reaches (``history.row_columns``). The right-hand side writes Psi_q into one reused (m, n) part of
-    ``out`` (zeros on entry); each row's blocks are gathered and zeroed again, the only entries it writes. One pass
-    over the output times, where ``outputs`` and the module's ``constraint_arrays`` made two, evaluating every
-    constraint kernel twice; no dense (N, m, n) history, whose first touch costs more than its arithmetic."""
+    ``out``, zeroed here once: it zeroes the entries it adds into itself at every state (the scene's module all of
+    Psi_q, a tree's its rows' blocks: ``output_history``), so the gather leaves them as they are. One pass over the
+    output times, where ``outputs`` and the module's ``constraint_arrays`` made two, evaluating every constraint
+    kernel twice; no dense (N, m, n) history, whose first touch costs more than its arithmetic."""
     N, ny = T.size, Y.shape[1]
     n, m = P[8][0], P[8][1]
     w = columns.shape[1]
@@ -546,11 +547,7 @@ def blocked_output_history(scene_rhs, T, Y, P, D, width, columns):
         for r in range(m):
             for s in range(w):
                 column = columns[r, s]
-                if column < 0:
-                    values[k, r, s] = 0.0
-                else:
-                    values[k, r, s] = jac[r, column]
-                    jac[r, column] = 0.0
+                values[k, r, s] = 0.0 if column < 0 else jac[r, column]
     return out, psi, values, psit
 
 

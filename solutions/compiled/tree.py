@@ -74,7 +74,7 @@ class TreeScene:
     """The two bodies of each cut row's element, row after row (-1 ground): the bodies its row of Psi_q meets
     (``tree_kernels.cut_accelerations``)."""
     row_index: np.ndarray = None
-    """The tree's rows body by body (``owned_rows``: start (nb + 1), then the rows), made once per scene: what
+    """The tree's rows body by body (``row_index``: start (nb + 1), then the rows), made once per scene: what
     ``tree_multipliers`` and ``zero_tree_blocks`` read (P[8] after the cut rows' bodies)."""
     cut_index: np.ndarray = None
     """The sparsity of the cut solve (``structure``), made once per scene: what ``cut_accelerations`` reads (P[8]
@@ -208,7 +208,7 @@ def _owners(system, joints) -> tuple[list[int], list[int], list[int], list[list[
     body of its Euler-parameter normalization (element ``<body>.p``); -1 for a cut row (a cut joint's or a
     driver's: ``joint_coordinates.cut_elements``), whose multiplier comes from the augmented system
     (``cut_accelerations``); the cut rows; their elements' two bodies, row after row (``TreeScene.cut_bodies``);
-    each body's rows in row order (``owned_rows``)), in one pass over the elements (a loop: faster than numpy's
+    each body's rows in row order (``row_index``)), in one pass over the elements (a loop: faster than numpy's
     repeat up to a loop chain of 16 at least), as lists."""
     child = {joint.name: joint.child for joint in joints}
     if system.model.dimension == 3:  # the Euler-parameter normalizations (a planar scene has none)
@@ -225,22 +225,12 @@ def _owners(system, joints) -> tuple[list[int], list[int], list[int], list[list[
     return owners, cut, bodies, owned
 
 
-def owned_rows(owners: list, nb: int) -> np.ndarray:
-    """The rows each body owns (``TreeScene.owners``, a list), as one array: start (nb + 1), then the rows in body
-    order, body b's at [nb + 1 + start[b], nb + 1 + start[b + 1]) (a counting sort, row order kept within a body;
-    cut rows, owner -1, left out). Made once per scene, where ``tree_multipliers`` sorted them at every output time
-    (two allocations and three passes over the rows: ~0.25 us of an evaluation at two bodies); in Python lists, one
-    array at the end (numpy's bincount, cumsum, argsort and concatenate cost ~20 us at a call's start against a
-    loop chain's few dozen rows). ``describe`` has each body's rows from ``_owners``' pass (``row_index``)."""
-    rows = [[] for _ in range(nb)]  # each body's rows, in row order
-    for row, owner in enumerate(owners):
-        if owner >= 0:
-            rows[owner].append(row)
-    return row_index(rows)
-
-
 def row_index(rows: list[list[int]]) -> np.ndarray:
-    """``owned_rows``' array from each body's rows (lists in row order): the starts, then the rows body by body."""
+    """The rows each body owns (``_owners``' lists, in row order; cut rows, owner -1, in none) as one array: start
+    (nb + 1), then the rows body by body, body b's at [nb + 1 + start[b], nb + 1 + start[b + 1]). Made once per scene
+    (``describe``), where ``tree_multipliers`` sorted them at every output time (two allocations and three passes over
+    the rows: ~0.25 us of an evaluation at two bodies); from Python lists, one array at the end (numpy's bincount,
+    cumsum, argsort and concatenate cost ~20 us at a call's start against a loop chain's few dozen rows)."""
     flat, at = [0], 0
     for body in rows:
         at += len(body)
@@ -294,8 +284,14 @@ def _multipliers(scene: Scene) -> list[str]:
     """The lines that make q'' (``qdd``) from theta'' and lambda of every row from Psi_q^T lambda = Q - M q'' (an open
     tree's q'' from the articulated pass's body accelerations; lambda of an open planar tree from the pass's joint
     forces (``tree_kernels.planar_joint_multipliers``: no solve), of an open spatial tree by ``tree_multipliers``,
-    each body's rows from its own columns, O(N); with cut rows q'' = D theta'' + xi and their lambda from the
-    augmented system)."""
+    each body's rows from its own columns, O(N); with cut rows q'' = D theta'' + xi, the cut rows' lambda mu from
+    the augmented system, and a planar tree's rows from the backward pass of inverse dynamics with the cut rows'
+    forces applied (``tree_kernels.planar_cut_multipliers``: no solve of a revolute joint's rows))."""
+    tree_rows = (
+        "tree_multipliers(jac, residual, tree_rows, 7, joints, lam)"
+        if scene.dimension == 3
+        else "planar_cut_multipliers(jac, residual, tree_rows, joints, lam)"
+    )
     solve = [
         "for a in range(ncut):  # the cut rows' lambda: mu of the augmented system; the tree's from what is left",
         "    lam[dims[7 + a]] = mu[a]",
@@ -303,7 +299,7 @@ def _multipliers(scene: Scene) -> list[str]:
         "    cut_row_forces(jac, mu, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], "
         f"{7 if scene.dimension == 3 else 3}, residual)",
         "# the tree's rows body by body from the leaves, O(N)",
-        f"tree_multipliers(jac, residual, tree_rows, {7 if scene.dimension == 3 else 3}, joints, lam)",
+        tree_rows,
     ]
     if scene.dimension == 3:
         lines = [
@@ -361,7 +357,7 @@ def _body(tree: TreeScene) -> list[str]:
         "    ncut = dims[6]  # cut rows (P[8][7 : 7 + ncut]); the rows' owners after them",
         "    columns = ncut > 0  # D itself: for the cut rows only (an open tree's outputs: the body accelerations)",
         *_arrays(spatial),
-        "    tree_rows = dims[7 + 3 * ncut + m : 8 + 2 * ncut + 2 * m + nb]  # body by body (tree.owned_rows)",
+        "    tree_rows = dims[7 + 3 * ncut + m : 8 + 2 * ncut + 2 * m + nb]  # body by body (tree.row_index)",
         "    structure = dims[8 + 2 * ncut + 2 * m + nb :]  # the cut solve's sparsity (structure.cut_structure)",
         "    for i in range(n):  # loops, not slice assignments (numba's broadcasting: ~20 ns each)",
         "        Q[i] = Q0[i]",
@@ -443,9 +439,11 @@ def generate(tree: TreeScene) -> str:
     kernels = sorted({*forces, *constraints})
     dimension = "spatial" if spatial else "planar"
     tree_imports = {f"{dimension}_motion", f"{dimension}_equations", f"{dimension}_articulated", "cut_accelerations"}
-    tree_imports |= {"tree_multipliers", "zero_cut_blocks", "zero_tree_blocks", "cut_row_forces", "tree_accelerations"}
+    tree_imports |= {"zero_cut_blocks", "zero_tree_blocks", "cut_row_forces", "tree_accelerations"}
     spatial_kernels = {"spatial_coordinate_accelerations", "spatial_joint_matrix", "spatial_body_accelerations"}
-    planar_kernels = {"planar_body_accelerations", "planar_joint_multipliers", "tree_revolute"}
+    spatial_kernels |= {"tree_multipliers"}  # a planar tree's lambda: its joint forces, open or cut
+    planar_kernels = {"planar_body_accelerations", "planar_joint_multipliers", "planar_cut_multipliers"}
+    planar_kernels |= {"tree_revolute"}
     tree_imports |= spatial_kernels | {"spatial_mass_residual"} if spatial else planar_kernels
     lines = [
         f'"""Generated by solutions.compiled.tree for the tree {tree.key!r}: do not edit."""',

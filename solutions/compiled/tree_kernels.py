@@ -628,7 +628,7 @@ def tree_multipliers(jac, residual, index, width, ints, lam):
     right side. So each body solves A lambda_own = r_C (A: its columns of its own rows, at most 7 x 6, full column
     rank) by least squares, whose residual is zero, and moves what its rows exert on its parent, the only other
     body they hold, to the parent's columns: O(N), where the normal equations of all rows cost O(m^3).
-    ``width``: a body's columns (3 planar, 7 spatial); ``index``: the rows of each body (``tree.owned_rows``, made
+    ``width``: a body's columns (3 planar, 7 spatial); ``index``: the rows of each body (``tree.row_index``, made
     once per scene). ``residual`` is worked in (the rows' parts moved to parents)."""
     nb = residual.size // width
     start, mine = index[: nb + 1], index[nb + 1 :]
@@ -648,7 +648,7 @@ def tree_multipliers(jac, residual, index, width, ints, lam):
 
 @inlined
 def _most_rows(start, nb):
-    """The most rows a body owns (``tree.owned_rows``' start)."""
+    """The most rows a body owns (``tree.row_index``' start)."""
     most = 0
     for b in range(nb):
         most = max(most, start[b + 1] - start[b])
@@ -720,6 +720,51 @@ def planar_joint_multipliers(jac, body, index, ints, lam):
 
 
 @inlined
+def planar_cut_multipliers(jac, residual, index, ints, lam):
+    """lambda of a planar tree's rows on the cut route (closed loops: no articulated pass), from r = Q - M q'' -
+    Psi_c,q^T mu with q'' and the cut rows' mu of the augmented system (eq. 7.6, ``cut_accelerations``) and
+    ``cut_row_forces``: no solve of a revolute joint's rows.
+
+    This is the backward pass of inverse dynamics (Featherstone 2008, sec. 5.3, table 5.1, the recursive
+    Newton-Euler algorithm: f_i = I_i a_i + v_i x* I_i v_i - f^x_i, then f_parent += f_i carried over), with the
+    accelerations given (q'' of the cut solve) and the cut rows' forces -Psi_c,q^T mu applied as external forces
+    (Featherstone 2008, sec. 8.1-8.2: a loop closed by cut constraints is the tree with the loop-closure forces
+    applied). The equations of motion M q'' + Psi_q^T lambda = Q (eq. 5.29) read on body C's columns
+
+        (Psi_q)_C^T lambda_e + sum over C's children c (Psi_q)_C^T lambda_c = r_C,
+
+    e the tree joint to C's parent: from the leaves (the joints in reverse topological order) every child's
+    lambda_c is known, and moving its terms to the right side (r_P -= (Psi_q)_P^T lambda_e, what joint e exerts on
+    the parent P) leaves in r_C the force joint e passes to C, f_e = -r_C. A revolute joint (eq. 3.17):
+    (Psi_q)_C = s [I, B_C s_C'], s = +1 where C is the element's body i, -1 where body j, read from Psi_q's entry at
+    C's x or y column (exactly +-1), so lambda_e = s r_C,v from the translational entries alone (the angular entry
+    is the same equation's: the joint passes no moment about its point); a prismatic joint's two rows by least
+    squares on C's 2 x 3 block (``_own_rows``), as ``planar_joint_multipliers``. ``tree_multipliers`` solves
+    (A A^T) lambda_e = A r_C for every joint: the same lambda to rounding (r_C is consistent with A^T lambda = r_C
+    up to rounding, which the least squares spreads over both entries and this puts in the angular one alone).
+    ``residual`` is worked in; ``index``: the rows of each body (``tree.row_index``)."""
+    nb = residual.size // 3
+    start, mine = index[: nb + 1], index[nb + 1 :]
+    G = np.empty((_most_rows(start, nb) + 1, _most_rows(start, nb)))  # a prismatic joint's A A^T; A r last
+    for e in range(ints.shape[0] - 1, -1, -1):
+        P, C = ints[e, 1], ints[e, 2]
+        first, count = start[C], start[C + 1] - start[C]
+        if ints[e, 0] == REVOLUTE and count == 2:
+            for a in range(2):
+                row = mine[first + a]
+                lam[row] = residual[3 * C + a] * jac[row, 3 * C + a]  # s = +-1: its own inverse
+        else:
+            _own_rows(jac, residual, 0, mine, first, count, 3 * C, 3 * C + 3, G)
+            for a in range(count):
+                lam[mine[first + a]] = G[G.shape[0] - 1, a]
+        if P >= 0:  # what the joint's rows exert on its parent
+            for a in range(count):
+                row, x = mine[first + a], lam[mine[first + a]]
+                for c in range(3 * P, 3 * P + 3):
+                    residual[c] -= x * jac[row, c]
+
+
+@inlined
 def _small_solve(G, count, b):
     """x <- K^-1 x with K = G[:count, :count] and x = G[b, :count], in place: ``kernels.solve_in_place`` step for step
     (the same pivots and operations, so the same numbers), written into ``tree_multipliers``: its call and the
@@ -759,7 +804,7 @@ def _small_solve(G, count, b):
 @inlined
 def zero_tree_blocks(jac, index, ints, width):
     """Zeros in the entries of Psi_q that ``tree_multipliers`` reads: each tree row (``index``: the rows of each body,
-    ``tree.owned_rows``) at the coordinates of its body and of that body's parent (-1 ground), where the constraint
+    ``tree.row_index``) at the coordinates of its body and of that body's parent (-1 ground), where the constraint
     kernels add their terms. With ``zero_cut_blocks`` all that lambda of every row needs, where zeroing the whole
     m x n Psi_q at every output time of a loop chain of 64 bodies wrote 1.2 MB per evaluation."""
     nb = jac.shape[1] // width
@@ -1063,6 +1108,7 @@ __all__ = [
     "cut_accelerations",
     "cut_row_forces",
     "planar_articulated",
+    "planar_cut_multipliers",
     "planar_equations",
     "planar_joint_multipliers",
     "planar_motion",

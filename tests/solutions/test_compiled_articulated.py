@@ -76,6 +76,16 @@ def _both_sides(model: dict):
     return equations, made, compiled, y0
 
 
+def output_pass(rhs, P, D, y: np.ndarray) -> tuple[np.ndarray, ...]:
+    """(q, q', q'', lambda, the whole ``out``) of the compiled right-hand side's output pass at the joint state y,
+    with Psi, Psi_t and Psi_q after the outputs (``loops.output_history``'s ``out``; also ``test_compiled_cut``)."""
+    n, m = int(P[8][0]), int(P[8][1])
+    out = np.zeros(y.size + 3 * n + 3 * m + m * n)
+    rhs(0.0, y.copy(), P, D, out)
+    q, qd, qdd = (out[y.size + a * n : y.size + (a + 1) * n] for a in range(3))
+    return q, qd, qdd, out[y.size + 3 * n : y.size + 3 * n + m], out
+
+
 def _random_state(made, y0: np.ndarray, rng) -> np.ndarray:
     """The joint state moved by a random amount: every angle, slide and rate; spherical joints' Euler parameters
     turned and normalized."""
@@ -226,14 +236,15 @@ def test_a_state_or_out_of_a_size_scene_rhs_does_not_know_gets_nan_not_a_write_p
     assert np.isnan(out).all()
 
 
-def test_owned_rows_list_each_bodys_rows_in_row_order_without_cut_rows():
-    """``tree.owned_rows``: start (nb + 1), then the rows of body 0, body 1, ... (``tree_multipliers``' index, made
-    once per scene); a cut row (owner -1) belongs to no body."""
-    from solutions.compiled.tree import owned_rows
+def test_the_row_index_lists_each_bodys_rows_in_row_order_without_cut_rows():
+    """``tree.row_index``: start (nb + 1), then the rows of body 0, body 1, ... from ``_owners``' lists of each
+    body's rows (``tree_multipliers``' and the joint forces' index, made once per scene); a cut row (owner -1)
+    belongs to no body (``test_call_start`` checks ``describe``'s against the owners of real scenes)."""
+    from solutions.compiled.tree import row_index
 
-    index = owned_rows(np.array([1, 0, -1, 1, 0, 2]), 3)
-    assert index.tolist() == [0, 2, 4, 5, 1, 4, 0, 3, 5]
-    assert owned_rows(np.array([-1, -1]), 2).tolist() == [0, 0, 0]
+    assert row_index([[1, 4], [0, 3], [5]]).tolist() == [0, 2, 4, 5, 1, 4, 0, 3, 5]
+    assert row_index([[], []]).tolist() == [0, 0, 0]
+    assert row_index([[2, 3], []]).dtype == np.int64
 
 
 def _planar_shift(link: np.ndarray) -> np.ndarray:
@@ -337,10 +348,7 @@ def test_an_open_planar_trees_lambda_from_its_joint_forces_equals_the_normal_equ
     rng = np.random.default_rng(seed)
     for _ in range(4):
         y = _random_state(made, y0, rng)
-        out = np.zeros(y.size + 3 * n3 + 3 * m + m * n3)  # with Psi, Psi_t and Psi_q (``loops.output_history``)
-        rhs(0.0, y.copy(), P, D, out)
-        o = y.size
-        q, qd, lam = out[o : o + n3], out[o + n3 : o + 2 * n3], out[o + 3 * n3 : o + 3 * n3 + m]
+        q, qd, _, lam, out = output_pass(rhs, P, D, y)
         _, expected = equations.formulation.accelerations(q, qd, 0.0)
         np.testing.assert_allclose(lam, expected, rtol=0, atol=1e-10 * np.abs(expected).max())
         blocks = np.full(y.size + 3 * n3 + m, np.nan)  # the outputs alone: Psi_q's blocks zeroed in the work array

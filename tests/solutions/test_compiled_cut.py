@@ -22,7 +22,7 @@ pytest.importorskip("numba")
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from mechanisms import parallelogram_chain  # noqa: E402
-from test_compiled_articulated import compiled_sides  # noqa: E402
+from test_compiled_articulated import _random_state, _random_tree, compiled_sides, output_pass  # noqa: E402
 from test_compiled_formulations import _spatial_loop  # noqa: E402
 
 from solutions.assembly import build_system  # noqa: E402
@@ -105,6 +105,57 @@ def test_outputs_lambda_from_the_rows_blocks_equals_the_whole_psi_q():
         np.testing.assert_array_equal(blocks, whole[: y.size + width])
         q, qd, lam = blocks[y.size : y.size + n], blocks[y.size + n : y.size + 2 * n], blocks[y.size + 3 * n :]
         _, expected = equations.formulation.accelerations(q, qd, 0.0)
+        np.testing.assert_allclose(lam, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+
+
+def _random_loops(dimension: int, n: int, seed: int) -> dict:
+    """A random branching tree (``_random_tree``: revolute and prismatic joints, spherical in space), every other
+    tree joint written child first (its child the element's body i: the sign of its Psi_q block +1, else -1), closed
+    by cut joints (revolute in the plane, spherical in space) at a point between two bodies whose loop is mobile
+    (in the plane at least three tree joints on the path between them, so a loop of four joints or more; in space
+    freedoms enough that the cut's three and the path's exceed six), each assembled at the start (the joint's point
+    is where both bodies are)."""
+    rng = np.random.default_rng(100 + seed)
+    model = _random_tree(dimension, n, seed)
+    joints, bodies = model["model"]["joints"], model["model"]["bodies"]
+    parent = [-1 if j["body1"] == "ground" else int(j["body1"][1:]) for j in joints]
+    freedom = [{"revolute": 1, "prismatic": 1, "spherical": 3}[j["type"]] for j in joints]
+    for joint in joints[1::2]:
+        joint["body1"], joint["body2"] = joint["body2"], joint["body1"]  # child first
+
+    def path(b):  # the tree joints from body b to ground (joint i moves body i)
+        return [b] + path(parent[b]) if b >= 0 else []
+
+    cuts = 0
+    for a in range(n):
+        for b in range(a + 1, n):
+            loop = set(path(a)) ^ set(path(b))  # the joints of the loop's tree path
+            mobile = len(loop) >= 3 if dimension == 2 else 3 + sum(freedom[j] for j in loop) >= 8
+            if mobile and cuts < 2 and rng.uniform() < 0.5:
+                point = 0.5 * (np.array(bodies[a]["location"]) + np.array(bodies[b]["location"]))
+                joints.append({"name": f"cut{cuts}", "type": "revolute" if dimension == 2 else "spherical",
+                               "body1": f"b{a}", "body2": f"b{b}", "location": point.tolist()})  # fmt: skip
+                cuts += 1
+    assert cuts > 0
+    return model
+
+
+@pytest.mark.parametrize(("dimension", "n", "seed"), [(2, 6, 1), (2, 9, 2), (2, 12, 3), (3, 6, 4), (3, 8, 5)])
+def test_a_closed_loops_lambda_equals_the_numpy_engines_on_random_loops(dimension, n, seed):
+    """The outputs' lambda of random closed loops in joint coordinates (the cut route: the cut rows' mu of the
+    augmented system, the tree's rows from r = Q - M q'' - Psi_c,q^T mu body by body from the leaves; a planar
+    tree's revolute rows without a solve, ``tree_kernels.planar_cut_multipliers``) against the numpy engine's (the
+    dense augmented solve for q'', then the normal equations of the whole Psi_q, ``JointCoordinates.accelerations``)
+    at random joint states off the constraint manifold: every row's multiplier, tree and cut, and q''. Revolute
+    joints with their child as body i or j (Psi_q's sign), prismatic and spherical joints, two loops."""
+    model = _random_loops(dimension, n, seed)
+    equations, made, job, (rhs, P, D), y0 = compiled_sides(model)
+    assert job.scene.cut_rows.size > 0  # closed loops: the cut route
+    rng = np.random.default_rng(seed)
+    for _ in range(3):
+        q, qd, qdd, lam, _ = output_pass(rhs, P, D, _random_state(made, y0, rng))
+        expected_qdd, expected = equations.formulation.accelerations(q, qd, 0.0)
+        np.testing.assert_allclose(qdd, expected_qdd, rtol=0, atol=1e-9 * np.abs(expected_qdd).max())
         np.testing.assert_allclose(lam, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
 
 
