@@ -144,7 +144,7 @@ def residuals(psi: np.ndarray, jac, psit: np.ndarray, qd: np.ndarray, system=Non
 
 def kinetic_energy(masses, q: np.ndarray, qd: np.ndarray) -> np.ndarray | None:
     """T at every output time: of a spatial model (``masses``: its ``spatial.mass.SpatialMassMatrix``) in one compiled
-    pass (``history_kernels.spatial_kinetic_energy``, eq. 10.3); of a planar model with a diagonal M = diag(m, m, J)
+    pass (``spatial_history_kernels``, eq. 10.3); of a planar model with a diagonal M = diag(m, m, J)
     (every planar model the compiled engine runs: ``scene.describe``) as T = 1/2 sum_i m_i q_i'^2 (eq. 5.2), where
     ``energy.kinetic_energy``'s q' M multiplies every zero of M too (BLAS over n x n: ~20-30 us of a loop chain's
     result at n = 27), in one compiled pass (``history_kernels.planar_kinetic_energy``). The same numbers: each entry
@@ -165,10 +165,12 @@ def kinetic_energy(masses, q: np.ndarray, qd: np.ndarray) -> np.ndarray | None:
         return out
     if not isinstance(masses, SpatialMassMatrix):
         return None
+    from . import spatial_history_kernels  # compiled at its import: a planar run never imports it
+
     constants = layout(masses, _body_constants)  # kept on the mass matrix: every run of a formulation
     out = np.empty(len(q))
     q, qd = (np.ascontiguousarray(a, dtype=float) for a in (q, qd))
-    history_kernels.spatial_kinetic_energy(q, qd, *constants, out)
+    spatial_history_kernels.spatial_kinetic_energy(q, qd, *constants, out)
     return out
 
 
@@ -307,7 +309,7 @@ def _planar_labels(system) -> list[str]:
 
 def _spatial_layout(system) -> tuple:
     """(element names, each element's place among those with joint frames or -1, and the arrays
-    ``history_kernels.spatial_reactions`` takes: the rows of all elements (the Euler parameters' normalization
+    ``spatial_history_kernels.spatial_reactions`` takes: the rows of all elements (the Euler parameters' normalization
     left out), each element's first row among them, its bodies (i, j), the joint point in body j, the frames' axes
     as columns, each element's place among the framed ones, the bodies whose A(p) or G(p) it reads, each element's
     first result column)."""
@@ -337,12 +339,12 @@ def _spatial_layout(system) -> tuple:
 
 def spatial_reactions(system, q: np.ndarray, lam: np.ndarray, jac) -> dict[str, np.ndarray]:
     """``spatial.reactions.joint_reactions(system, q, lam, t)`` over the histories q (N, n), lambda (N, m), every
-    element at once (``history_kernels.spatial_reactions``): each row's part -(Psi_q)_r^T lambda_r of the
+    element at once (``spatial_history_kernels``): each row's part -(Psi_q)_r^T lambda_r of the
     generalized force on the seven columns of either body (eq. 10.20), summed over the element's rows; the force F
     and the torque n = 1/2 G(p) Q_p (eq. 8.14), its moment taken about the joint point (eq. 10.21); a ground side
     gets the opposite of the other side's."""
     from ..spatial.joints import EulerNormalization
-    from . import history_kernels
+    from . import spatial_history_kernels
 
     if all(isinstance(e, EulerNormalization) for e in system.elements):  # free bodies: no joint, no reaction
         return {}
@@ -350,7 +352,7 @@ def spatial_reactions(system, q: np.ndarray, lam: np.ndarray, jac) -> dict[str, 
     labels = layout(system, _spatial_labels)
     out = np.empty((len(labels), q.shape[0]))  # a column a row, in ``output_history.spatial_columns``' order
     histories = _histories(system, q, lam, jac, arrays[0], _spatial_reported, _spatial_slots)
-    history_kernels.spatial_reactions(*histories, *arrays, out)
+    spatial_history_kernels.spatial_reactions(*histories, *arrays, out)
     return dict(zip(labels, out, strict=True))
 
 

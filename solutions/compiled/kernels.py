@@ -28,12 +28,20 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 
 from ..rotation_matrices import g_entries, l_entries, planar_rotation_entries, rotation_entries, unit_rotation_entries
 
 jit = njit(cache=True, fastmath=False, nogil=True)
 inlined = njit(cache=True, fastmath=False, nogil=True, inline="always")
+
+
+def typed(signature):
+    """Compiled once, at import (or loaded from disk), under this one signature: called with a constant (an order 0,
+    1 or 2, a column 0, 1 or 2) numba would otherwise compile one version per value of the constant, and every
+    generated module that calls the function would optimize each version again."""
+    return njit(signature, cache=True, fastmath=False, nogil=True)
+
 
 planar_rotation_entries_jit, rotation_entries_jit = jit(planar_rotation_entries), jit(rotation_entries)
 unit_rotation_entries_jit, g_entries_jit, l_entries_jit = jit(unit_rotation_entries), jit(g_entries), jit(l_entries)
@@ -81,7 +89,7 @@ def _eccentric(p, theta, order):
     return -e * c - (dg * root - g * droot) / (root * root)
 
 
-@jit
+@typed(types.float64(types.int64[::1], types.float64[:, ::1], types.int64, types.float64, types.int64))
 def function(kinds, params, f, t, order):
     """f(t), f'(t) or f''(t) (order 0, 1, 2) of function number f; f < 0 is the zero function.
 
@@ -152,7 +160,7 @@ def turned(a11, a12, a21, a22, sx, sy):
     return a11 * sx + a12 * sy, a21 * sx + a22 * sy, a11 * -sy + a12 * sx, a21 * -sy + a22 * sx
 
 
-@jit
+@typed(types.void(types.float64[:, ::1], types.int64, types.int64, types.int64, types.int64, types.float64))
 def _jac_add(jac, row, b, per, k, value):
     if b >= 0:
         jac[row, per * b + k] += value

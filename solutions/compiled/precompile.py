@@ -46,14 +46,28 @@ class Part:
     cached: bool
 
 
-def _loops() -> bool:
+def _compiled(*names: str) -> bool:
+    """Import the engine's modules ``names`` (compiled at import, or loaded from disk) and say whether none of their
+    functions was compiled (all on disk already)."""
+    import importlib
+
     from numba.core.registry import CPUDispatcher
 
-    from . import branches, history_kernels, kinematic_loop, loops, singular, structure  # compiled or loaded, at import
-
-    modules = (loops, kinematic_loop, singular, history_kernels, branches, structure)  # history_kernels: reactions
+    modules = [importlib.import_module(f"{__package__}.{name}") for name in names]
     functions = [f for m in modules for f in vars(m).values() if isinstance(f, CPUDispatcher)]
     return not any(sum(f.stats.cache_misses.values()) for f in functions)
+
+
+def _integrator_loops() -> bool:
+    """The integrator loops and the loops over the output times (``history_kernels``, ``spatial_history_kernels``:
+    residuals, reactions, energy), which every dynamic module imports."""
+    return _compiled("loops", "history_kernels", "spatial_history_kernels")
+
+
+def _kinematic_loops() -> bool:
+    """The kinematic step loop (which the kinematic modules import) and the checks' compiled code (``singular``:
+    the Guard, ``branches``, ``structure``: the cut solve's sparsity), which no generated module imports."""
+    return _compiled("kinematic_loop", "singular", "branches", "structure")
 
 
 @functools.cache
@@ -91,65 +105,78 @@ def _kinematic(dimension: str) -> Callable[[], bool]:
 
 
 LOOPS = "integrator and kinematic loops"
+SHARED = {"integrator loops": _integrator_loops, "kinematic loops": _kinematic_loops}
+"""The two halves of ``LOOPS``, compiled side by side: neither imports the other."""
 
 
 def parts(dimension: str) -> list[tuple[str, Callable[[], bool]]]:
-    """(name, load) of the parts of one dimension, the loops first (every module imports them); ``load()``
-    compiles the part or loads it from disk and returns whether its machine code was on disk already."""
-    steps = [(LOOPS, _loops)]
-    steps += [(f"{dimension} {formulation}", _dynamic(dimension, formulation)) for formulation in FORMULATIONS]
+    """(name, load) of the generated modules of one dimension; ``load()`` compiles the module or loads it from disk
+    and returns whether its machine code was on disk already."""
+    steps = [(f"{dimension} {formulation}", _dynamic(dimension, formulation)) for formulation in FORMULATIONS]
     return [*steps, (f"{dimension} kinematic", _kinematic(dimension))]
 
 
-def _chain(dimension: str, report) -> None:
-    """Compile the parts of one dimension in this process, one after the other, each put on ``report`` when done."""
-    for name, load in parts(dimension):
-        start = time.perf_counter()
-        cached = load()
-        report.put(Part(name, time.perf_counter() - start, cached))
+def _needs(name: str) -> str:
+    """The half of the loops (``SHARED``) a part imports: a kinematic module the kinematic step loop, the others the
+    integrator loops."""
+    return "kinematic loops" if name.endswith("kinematic") else "integrator loops"
+
+
+def _load_part(name: str) -> Part:
+    """Compile (or load) one part in this worker process: a half of the loops or a dimension's module."""
+    loads = dict(SHARED) | {part: load for dimension in PENDULUMS for part, load in parts(dimension)}
+    start = time.perf_counter()
+    cached = loads[name]()
+    return Part(name, time.perf_counter() - start, cached)
 
 
 def compile_engine(progress: bool = True, jobs: int | None = None) -> list[Part]:
-    """Compile (or load from disk) every part of the engine, with a progress bar: the dimensions side by side in
-    ``jobs`` processes (default: one per dimension, at most one per core; each compiles the loops it needs, or
-    loads them when another has put them on disk first), every part reported once."""
+    """Compile (or load from disk) every part of the engine, with a progress bar, in ``jobs`` processes (default: one
+    per core, at most two) taking the parts as they become ready: the two halves of the loops first, side by side,
+    then each module once the loops it imports are on disk (so that no two processes compile the same code); every
+    part compiled once, in one process. The loops are reported as one part (``LOOPS``, their two halves' seconds)."""
     import multiprocessing
     import os
-    import queue
-    from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
     from tqdm.auto import tqdm
 
-    jobs = jobs or max(1, min(len(PENDULUMS), os.cpu_count() or 1))
-    names = list(dict.fromkeys(name for dimension in PENDULUMS for name, _ in parts(dimension)))
+    jobs = jobs or max(1, min(2, os.cpu_count() or 1))
+    modules = [name for dimension in PENDULUMS for name, _ in parts(dimension)]
     done: dict[str, Part] = {}
     context = multiprocessing.get_context("spawn")  # a fresh interpreter: no numba or LLVM state inherited
-    with context.Manager() as manager, ProcessPoolExecutor(jobs, mp_context=context) as pool:
-        report = manager.Queue()
-        chains = [pool.submit(_chain, dimension, report) for dimension in PENDULUMS]
-        with tqdm(total=len(names), desc="compiling the engine", unit="part", disable=not progress) as bar:
-            while len(done) < len(names):
-                try:
-                    part = report.get(timeout=0.5)
-                except queue.Empty:
-                    for chain in chains:
-                        if chain.done():
-                            chain.result()  # a chain that failed raises here
-                    continue
-                if part.name not in done:
+    with ProcessPoolExecutor(jobs, mp_context=context) as pool:
+        running = {pool.submit(_load_part, name) for name in SHARED}
+        with tqdm(total=1 + len(modules), desc="compiling the engine", unit="part", disable=not progress) as bar:
+            while running:
+                finished, running = wait(running, return_when=FIRST_COMPLETED)
+                for future in finished:
+                    part = future.result()  # a part that failed raises here
                     done[part.name] = part
+                    if part.name in SHARED:  # its modules are ready (``_order``)
+                        ready = sorted((m for m in modules if _needs(m) == part.name), key=_order)
+                        running |= {pool.submit(_load_part, name) for name in ready}
                     bar.set_postfix_str(part.name)
-                    bar.update()
-        for chain in chains:
-            chain.result()
-    return [done[name] for name in names]
+                    bar.update(part.name not in SHARED or all(name in done for name in SHARED))
+    halves = [done.pop(name) for name in SHARED]
+    loops = Part(LOOPS, sum(half.seconds for half in halves), all(half.cached for half in halves))
+    return [loops, *(done[name] for name in modules)]
+
+
+def _order(name: str) -> tuple[int, int]:
+    """The order in which a half's modules are taken: joint coordinates first (the tree modules, the longest to
+    compile: the last to finish is a short one), then by formulation, the two dimensions side by side (two processes
+    compiling one dimension's modules at once would both compile its kernels)."""
+    formulation = name.split(" ", 1)[1]
+    rank = FORMULATIONS.index(formulation) if formulation in FORMULATIONS else len(FORMULATIONS)
+    return (0 if formulation == "joint-coordinates" else 1, rank)
 
 
 def add_compile(sub) -> None:
     """``mbd compile``: compile the engine once per machine (an entry point of ``mbd.commands``)."""
     command = sub.add_parser("compile", help="compile the numba engine once per machine: no run waits for it later")
     command.add_argument("--quiet", action="store_true", help="no progress bar")
-    command.add_argument("--jobs", type=_positive, help="processes side by side (default: one per dimension and core)")
+    command.add_argument("--jobs", type=_positive, help="processes side by side (default: one per core, at most two)")
     command.set_defaults(handler=_command)
 
 
@@ -170,4 +197,4 @@ def _command(args: argparse.Namespace) -> int:
     return 0
 
 
-__all__ = ["FORMULATIONS", "LOOPS", "PENDULUMS", "Part", "add_compile", "compile_engine", "parts"]
+__all__ = ["FORMULATIONS", "LOOPS", "PENDULUMS", "Part", "SHARED", "add_compile", "compile_engine", "parts"]

@@ -370,3 +370,31 @@ def test_the_planar_kinetic_energy_sums_in_numpys_order_at_every_size():
     qd, M = rng.standard_normal((9, n)), np.diag(rng.uniform(0.1, 3.0, n))
     expected = 0.5 * np.sum((qd * np.diagonal(M)) * qd, axis=-1)
     assert history.kinetic_energy(M, qd, qd).tobytes() == expected.tobytes()
+
+
+def test_a_planar_compiled_run_never_compiles_the_spatial_output_kernels():
+    """The spatial reactions and kinetic energy live in ``spatial_history_kernels`` (compiled at its import, ~2.5 s
+    on a new machine): a planar compiled run, in a process of its own, imports no module that holds them."""
+    import os
+    import subprocess
+    import sys
+
+    script = (
+        "import sys\n"
+        "from solutions.assembly import build_system\n"
+        "from solutions.dynamics import forward_dynamics\n"
+        "from solutions.io import load_model\n"
+        "system, q0, qd0 = build_system(load_model('course/models/slider_crank_flywheel.yaml'))\n"
+        "run = forward_dynamics(system, q0, qd0, 0.1, 5, formulation='baumgarte', integrator='DOP853',"
+        " engine='compiled')\n"
+        "assert run.reactions and run.info['chosen']['engine'] == 'compiled'\n"
+        "kernels = sys.modules['solutions.compiled.history_kernels']\n"
+        "print('solutions.compiled.spatial_history_kernels' in sys.modules, hasattr(kernels, 'spatial_reactions'))\n"
+    )
+    root = Path(__file__).resolve().parents[2]
+    environment = dict(os.environ, PYTHONPATH=str(root))
+    done = subprocess.run(
+        [sys.executable, "-c", script], cwd=root, env=environment, capture_output=True, text=True, timeout=600
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip().splitlines()[-1] == "False False"

@@ -130,6 +130,16 @@ def test_benchmark_scene(name):
     _agree(scene.load())
 
 
+def test_the_function_of_time_and_the_jacobian_helper_are_compiled_once():
+    """``kernels.function`` and ``_jac_add`` are called with constant orders and columns (0, 1, 2): under one
+    explicit signature, compiled at import, numba converts the constants instead of compiling (and every generated
+    module optimizing again) one version per constant."""
+    from solutions.compiled import kernels
+
+    for dispatcher in (kernels.function, kernels._jac_add):
+        assert len(dispatcher.nopython_signatures) == 1 and not dispatcher._can_compile
+
+
 def test_function_table_matches_functions():
     """Every compiled function kind against ``functions.py``: value, first and second derivative."""
     from solutions.compiled.kernels import function
