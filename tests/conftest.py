@@ -18,6 +18,7 @@ import contextlib
 import math
 import os
 import resource
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -186,11 +187,13 @@ def _cpu_seconds() -> float:
 
 
 _CPU_START = pytest.StashKey[float]()
+_STARTED = pytest.StashKey[float]()
 
 
 @pytest.hookimpl(tryfirst=True)
 def pytest_runtest_setup(item):
     item.stash[_CPU_START] = _cpu_seconds()
+    item.stash[_STARTED] = time.time()
 
 
 @pytest.hookimpl(hookwrapper=True)
@@ -198,9 +201,12 @@ def pytest_runtest_makereport(item, call):
     """Each test's CPU seconds (setup, call and teardown; a module fixture's on the test that built it;
     ``_cpu_seconds``) as the JUnit property ``cpu``: what a test costs the run on a CPU-bound machine, whatever
     the other worker does meanwhile (``python benchmarks/durations.py build/junit.xml`` lists it beside the wall
-    time)."""
+    time); when its setup started (``started``, seconds since the epoch) and on which pytest-xdist worker
+    (``worker``): where each worker was busy, idle or done before the run ended (durations.py's workers table)."""
     if call.when == "teardown" and _CPU_START in item.stash:
         item.user_properties.append(("cpu", f"{_cpu_seconds() - item.stash[_CPU_START]:.2f}"))
+        item.user_properties.append(("started", f"{item.stash[_STARTED]:.3f}"))
+        item.user_properties.append(("worker", os.environ.get("PYTEST_XDIST_WORKER", "main")))
     yield
 
 
