@@ -146,6 +146,18 @@ def _random_loops(dimension: int, n: int, seed: int) -> dict:
     return model
 
 
+def _assert_outputs_equal_numpys(sides, seed: int) -> None:
+    """The output pass's q'' and lambda (``compiled_sides``' scene_rhs) against the numpy engine's
+    (``JointCoordinates.accelerations``: the normal equations of the whole Psi_q) at three random joint states."""
+    equations, made, _, (rhs, P, D), y0 = sides
+    rng = np.random.default_rng(seed)
+    for _ in range(3):
+        q, qd, qdd, lam, _ = output_pass(rhs, P, D, _random_state(made, y0, rng))
+        expected_qdd, expected = equations.formulation.accelerations(q, qd, 0.0)
+        np.testing.assert_allclose(qdd, expected_qdd, rtol=0, atol=1e-9 * np.abs(expected_qdd).max())
+        np.testing.assert_allclose(lam, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+
+
 @pytest.mark.parametrize(("dimension", "n", "seed"), [(2, 6, 1), (2, 9, 2), (2, 12, 3), (3, 6, 4), (3, 8, 5)])
 def test_a_closed_loops_lambda_equals_the_numpy_engines_on_random_loops(dimension, n, seed):
     """The outputs' lambda of random closed loops in joint coordinates (the cut route: the cut rows' mu of the
@@ -154,15 +166,9 @@ def test_a_closed_loops_lambda_equals_the_numpy_engines_on_random_loops(dimensio
     dense augmented solve for q'', then the normal equations of the whole Psi_q, ``JointCoordinates.accelerations``)
     at random joint states off the constraint manifold: every row's multiplier, tree and cut, and q''. Revolute
     joints with their child as body i or j (Psi_q's sign), prismatic and spherical joints, two loops."""
-    model = _random_loops(dimension, n, seed)
-    equations, made, job, (rhs, P, D), y0 = compiled_sides(model)
-    assert job.scene.cut_rows.size > 0  # closed loops: the cut route
-    rng = np.random.default_rng(seed)
-    for _ in range(3):
-        q, qd, qdd, lam, _ = output_pass(rhs, P, D, _random_state(made, y0, rng))
-        expected_qdd, expected = equations.formulation.accelerations(q, qd, 0.0)
-        np.testing.assert_allclose(qdd, expected_qdd, rtol=0, atol=1e-9 * np.abs(expected_qdd).max())
-        np.testing.assert_allclose(lam, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+    sides = compiled_sides(_random_loops(dimension, n, seed))
+    assert sides[2].scene.cut_rows.size > 0  # closed loops: the cut route
+    _assert_outputs_equal_numpys(sides, seed)
 
 
 @pytest.mark.parametrize("name", ["slider_crank"])
@@ -388,11 +394,6 @@ def test_an_open_spatial_trees_lambda_equals_the_numpy_engines_on_random_trees(n
     random joint states off the constraint manifold: every row's multiplier, and q''."""
     model = _random_tree(3, n, seed)
     _child_first(model["model"]["joints"])
-    equations, made, job, (rhs, P, D), y0 = compiled_sides(model)
-    assert job.scene.cut_rows.size == 0  # an open tree: the articulated pass, no cut solve
-    rng = np.random.default_rng(seed)
-    for _ in range(3):
-        q, qd, qdd, lam, _ = output_pass(rhs, P, D, _random_state(made, y0, rng))
-        expected_qdd, expected = equations.formulation.accelerations(q, qd, 0.0)
-        np.testing.assert_allclose(qdd, expected_qdd, rtol=0, atol=1e-9 * np.abs(expected_qdd).max())
-        np.testing.assert_allclose(lam, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+    sides = compiled_sides(model)
+    assert sides[2].scene.cut_rows.size == 0  # an open tree: the articulated pass, no cut solve
+    _assert_outputs_equal_numpys(sides, seed)
