@@ -283,10 +283,11 @@ def _arrays(spatial: bool) -> list[str]:
 def _multipliers(scene: Scene) -> list[str]:
     """The lines that make q'' (``qdd``) from theta'' and lambda of every row from Psi_q^T lambda = Q - M q'' (an open
     tree's q'' from the articulated pass's body accelerations; lambda of an open planar tree from the pass's joint
-    forces (``tree_kernels.planar_joint_multipliers``: no solve), of an open spatial tree by ``tree_multipliers``,
-    each body's rows from its own columns, O(N); with cut rows q'' = D theta'' + xi, the cut rows' lambda mu from
-    the augmented system, and a planar tree's rows from the backward pass of inverse dynamics with the cut rows'
-    forces applied (``tree_kernels.planar_cut_multipliers``: no solve of a revolute joint's rows))."""
+    forces (``tree_kernels.planar_joint_multipliers``: no solve), of a spatial tree by ``tree_multipliers``, each
+    body's rows from its own columns, O(N) (a spherical part's rows without a solve); with cut rows q'' = D theta''
+    + xi, the cut rows' lambda mu from the augmented system, and a planar tree's rows from the backward pass of
+    inverse dynamics with the cut rows' forces applied (``tree_kernels.planar_cut_multipliers``: no solve of a
+    revolute joint's rows))."""
     tree_rows = (
         "tree_multipliers(jac, residual, tree_rows, 7, joints, lam)"
         if scene.dimension == 3

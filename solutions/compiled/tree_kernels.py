@@ -622,26 +622,45 @@ def spatial_joint_matrix(q, Dm, out):
 
 @inlined
 def tree_multipliers(jac, residual, index, width, ints, lam):
-    """lambda of an open tree from Psi_q^T lambda = r (r = Q - M q''), body by body from the leaves (the joints in
-    reverse topological order): a body's columns meet only the rows it owns (its joint to its parent, its
-    Euler-parameter normalization; ``TreeScene.owners``) and its children's rows, already known and moved to the
-    right side. So each body solves A lambda_own = r_C (A: its columns of its own rows, at most 7 x 6, full column
-    rank) by least squares, whose residual is zero, and moves what its rows exert on its parent, the only other
-    body they hold, to the parent's columns: O(N), where the normal equations of all rows cost O(m^3).
-    ``width``: a body's columns (3 planar, 7 spatial); ``index``: the rows of each body (``tree.row_index``, made
-    once per scene). ``residual`` is worked in (the rows' parts moved to parents)."""
+    """lambda of a spatial tree's rows from Psi_q^T lambda = r (r = Q - M q'' [- Psi_c,q^T mu on the cut route]), body
+    by body from the leaves: the backward pass of inverse dynamics (Featherstone 2008, sec. 5.3, table 5.1: a body's
+    joint force is what its own equations leave once its children's joint forces are carried over), with the cut
+    rows' forces applied on the cut route (sec. 8.1-8.2). Body C's columns meet only the rows it owns (its joint to
+    its parent, then its Euler-parameter normalization, in row order: ``spatial.build.build_elements`` puts the
+    normalizations last; ``TreeScene.owners``) and its children's rows, already known and moved to the right side
+    (r_P -= (Psi_q)_P^T lambda_e: what joint e exerts on the parent P), so (Psi_q)_C^T lambda_C = r_C.
+
+    A spherical joint, and a revolute one (its spherical part first, then two dot-1 rows, eq. 9.16), begin with
+    the spherical rows (eq. 9.12), whose block at C's position columns is s I (s = +1 where C is the element's body
+    i, -1 where body j, read from Psi_q's entry: exactly +-1); no other row of C meets those columns (dot-1 rows and
+    the normalization hold only Euler parameters). So the position columns give lambda_a = s r_C,a (the joint's
+    force, the residual's translational part: no solve), and the rest of C's rows (the dot-1 rows and the
+    normalization: at most 3 x 4) by least squares on C's Euler-parameter columns once the spherical rows' terms
+    are moved to the right side (``_own_rows``). A prismatic joint's rows (dot-2 rows meet the position columns
+    along an axis) by least squares on C's whole block (at most 6 x 7), A A^T lambda = A r_C, whose residual is
+    zero. O(N), where the normal equations of all rows cost O(m^3); the same lambda as the whole block's least
+    squares to rounding (r_C is consistent with A^T lambda = r_C up to rounding, which the least squares spreads
+    over every entry and this puts in the Euler-parameter entries alone). ``width``: a body's columns (7);
+    ``index``: the rows of each body (``tree.row_index``, made once per scene). ``residual`` is worked in."""
     nb = residual.size // width
     start, mine = index[: nb + 1], index[nb + 1 :]
     G = np.empty((_most_rows(start, nb) + 1, _most_rows(start, nb)))  # A A^T of a body; A r in its last row
     r = residual
     for e in range(ints.shape[0] - 1, -1, -1):
         P, C = ints[e, 1], ints[e, 2]
-        first, count = start[C], start[C + 1] - start[C]
-        _own_rows(jac, r, 0, mine, first, count, width * C, width * (C + 1), G)
-        for a in range(count):
-            row, x = mine[first + a], G[G.shape[0] - 1, a]
-            lam[row] = x
-            if P >= 0:  # what the body's rows exert on its parent
+        first, count, o = start[C], start[C + 1] - start[C], width * C
+        point = 3 if ints[e, 0] != PRISMATIC else 0  # the spherical rows, first of C's rows
+        for a in range(point):
+            row = mine[first + a]
+            lam[row] = r[o + a] * jac[row, o + a]  # s = +-1: its own inverse
+            for c in range(o + 3, o + width):  # moved to the right side of C's Euler-parameter columns
+                r[c] -= lam[row] * jac[row, c]
+        _own_rows(jac, r, 0, mine, first + point, count - point, o + point, o + width, G)
+        for a in range(point, count):
+            lam[mine[first + a]] = G[G.shape[0] - 1, a - point]
+        if P >= 0:  # what the body's rows exert on its parent
+            for a in range(count):
+                row, x = mine[first + a], lam[mine[first + a]]
                 for c in range(width * P, width * (P + 1)):
                     r[c] -= x * jac[row, c]
 

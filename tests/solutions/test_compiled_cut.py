@@ -108,6 +108,13 @@ def test_outputs_lambda_from_the_rows_blocks_equals_the_whole_psi_q():
         np.testing.assert_allclose(lam, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
 
 
+def _child_first(joints: list[dict]) -> None:
+    """Every other tree joint written child first: its child the element's body i (the sign of its Psi_q block +1,
+    else -1)."""
+    for joint in joints[1::2]:
+        joint["body1"], joint["body2"] = joint["body2"], joint["body1"]
+
+
 def _random_loops(dimension: int, n: int, seed: int) -> dict:
     """A random branching tree (``_random_tree``: revolute and prismatic joints, spherical in space), every other
     tree joint written child first (its child the element's body i: the sign of its Psi_q block +1, else -1), closed
@@ -120,8 +127,7 @@ def _random_loops(dimension: int, n: int, seed: int) -> dict:
     joints, bodies = model["model"]["joints"], model["model"]["bodies"]
     parent = [-1 if j["body1"] == "ground" else int(j["body1"][1:]) for j in joints]
     freedom = [{"revolute": 1, "prismatic": 1, "spherical": 3}[j["type"]] for j in joints]
-    for joint in joints[1::2]:
-        joint["body1"], joint["body2"] = joint["body2"], joint["body1"]  # child first
+    _child_first(joints)
 
     def path(b):  # the tree joints from body b to ground (joint i moves body i)
         return [b] + path(parent[b]) if b >= 0 else []
@@ -140,6 +146,18 @@ def _random_loops(dimension: int, n: int, seed: int) -> dict:
     return model
 
 
+def _assert_outputs_equal_numpys(sides, seed: int) -> None:
+    """The output pass's q'' and lambda (``compiled_sides``' scene_rhs) against the numpy engine's
+    (``JointCoordinates.accelerations``: the normal equations of the whole Psi_q) at three random joint states."""
+    equations, made, _, (rhs, P, D), y0 = sides
+    rng = np.random.default_rng(seed)
+    for _ in range(3):
+        q, qd, qdd, lam, _ = output_pass(rhs, P, D, _random_state(made, y0, rng))
+        expected_qdd, expected = equations.formulation.accelerations(q, qd, 0.0)
+        np.testing.assert_allclose(qdd, expected_qdd, rtol=0, atol=1e-9 * np.abs(expected_qdd).max())
+        np.testing.assert_allclose(lam, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+
+
 @pytest.mark.parametrize(("dimension", "n", "seed"), [(2, 6, 1), (2, 9, 2), (2, 12, 3), (3, 6, 4), (3, 8, 5)])
 def test_a_closed_loops_lambda_equals_the_numpy_engines_on_random_loops(dimension, n, seed):
     """The outputs' lambda of random closed loops in joint coordinates (the cut route: the cut rows' mu of the
@@ -148,15 +166,9 @@ def test_a_closed_loops_lambda_equals_the_numpy_engines_on_random_loops(dimensio
     dense augmented solve for q'', then the normal equations of the whole Psi_q, ``JointCoordinates.accelerations``)
     at random joint states off the constraint manifold: every row's multiplier, tree and cut, and q''. Revolute
     joints with their child as body i or j (Psi_q's sign), prismatic and spherical joints, two loops."""
-    model = _random_loops(dimension, n, seed)
-    equations, made, job, (rhs, P, D), y0 = compiled_sides(model)
-    assert job.scene.cut_rows.size > 0  # closed loops: the cut route
-    rng = np.random.default_rng(seed)
-    for _ in range(3):
-        q, qd, qdd, lam, _ = output_pass(rhs, P, D, _random_state(made, y0, rng))
-        expected_qdd, expected = equations.formulation.accelerations(q, qd, 0.0)
-        np.testing.assert_allclose(qdd, expected_qdd, rtol=0, atol=1e-9 * np.abs(expected_qdd).max())
-        np.testing.assert_allclose(lam, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+    sides = compiled_sides(_random_loops(dimension, n, seed))
+    assert sides[2].scene.cut_rows.size > 0  # closed loops: the cut route
+    _assert_outputs_equal_numpys(sides, seed)
 
 
 @pytest.mark.parametrize("name", ["slider_crank"])
@@ -371,3 +383,17 @@ def _cut_first(name: str, ints: np.ndarray, floats: np.ndarray, owners: list, cu
     cut[name] = len(order)
     order += [e for e, row in enumerate(rows) if owners[row] >= 0]
     return name, ints[order], floats[order]
+
+
+@pytest.mark.parametrize(("n", "seed"), [(6, 4), (9, 5), (12, 6)])
+def test_an_open_spatial_trees_lambda_equals_the_numpy_engines_on_random_trees(n, seed):
+    """The outputs' lambda of an open spatial tree (revolute, prismatic and spherical joints, branching, every other
+    joint child first: Psi_q's sign) from r = Q - M q'' body by body from the leaves (``tree_kernels.tree_multipliers``:
+    a spherical or revolute joint's spherical rows read from the residual's translational part, s r_C,v, no solve)
+    against the numpy engine's (the normal equations of the whole Psi_q, ``JointCoordinates.accelerations``) at
+    random joint states off the constraint manifold: every row's multiplier, and q''."""
+    model = _random_tree(3, n, seed)
+    _child_first(model["model"]["joints"])
+    sides = compiled_sides(model)
+    assert sides[2].scene.cut_rows.size == 0  # an open tree: the articulated pass, no cut solve
+    _assert_outputs_equal_numpys(sides, seed)
