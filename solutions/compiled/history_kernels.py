@@ -42,8 +42,8 @@ jit = njit(cache=True, fastmath=False, nogil=True)
 inlined = njit(cache=True, fastmath=False, nogil=True, inline="always")
 """The helpers a loop calls per element and output time, written into the loop by numba (a call of a compiled
 function costs two atomic reference counts per array it is handed, ~10 ns each: more than a 3 x 3 rotation)."""
-_vector, _ivector = types.float64[::1], types.int64[::1]
-_matrix, _imatrix, _cube = types.float64[:, ::1], types.int64[:, ::1], types.float64[:, :, ::1]
+VECTOR, IVECTOR = types.float64[::1], types.int64[::1]
+MATRIX, IMATRIX, CUBE = types.float64[:, ::1], types.int64[:, ::1], types.float64[:, :, ::1]
 _CONSTRAINTS = types.FunctionType(CONSTRAINT_ARRAYS_SIGNATURE)
 
 
@@ -61,7 +61,7 @@ def _larger(largest, value):
     return value if value > largest else largest
 
 
-@eager(_cube, _matrix, _matrix, _matrix, _imatrix, _imatrix, _vector, _vector)
+@eager(CUBE, MATRIX, MATRIX, MATRIX, IMATRIX, IMATRIX, VECTOR, VECTOR)
 def residual_maxima(stored, qd, psi, psit, columns, slots, position, velocity):
     """position[t] = max_r |Psi_r| and velocity[t] = max_r |(Psi_q q')_r + (Psi_t)_r| at every output time t (the
     residuals of eq. 4.1 and 4.5, ``dynamics.constraint_residuals``), 0 without rows, NaN where any entry is NaN (as
@@ -83,7 +83,7 @@ def residual_maxima(stored, qd, psi, psit, columns, slots, position, velocity):
         position[t], velocity[t] = largest_position, largest_velocity
 
 
-@eager(_CONSTRAINTS, _vector, _matrix, P_TYPE, D_TYPE, _matrix, _cube, _matrix, _imatrix, types.int64)
+@eager(_CONSTRAINTS, VECTOR, MATRIX, P_TYPE, D_TYPE, MATRIX, CUBE, MATRIX, IMATRIX, types.int64)
 def blocked_constraint_arrays(constraint_arrays, T, Y, P, D, psi, values, psit, columns, n):
     """Psi (N, m), Psi_q by its rows' blocks (N, m, w) and Psi_t (N, m) at every output time: the module's
     ``constraint_arrays`` at one time after another into one (m, n) (zeros on entry, as it wants them), its
@@ -110,7 +110,7 @@ def blocked_constraint_arrays(constraint_arrays, T, Y, P, D, psi, values, psit, 
 
 
 @inlined
-def _joint_force(jac, lam, t, rows, first, last, slots, c):
+def joint_force(jac, lam, t, rows, first, last, slots, c):
     """Entries c, c + 1, c + 2 of -(Psi_q)^T lambda on a body's columns, summed over the joint's rows rows[first:last]
     (eq. 5.70, 10.20) at output time t; the body's columns begin at slots[r] in row rows[r] of ``jac`` (its column,
     or its slot among a blocked history's blocks). The three sums side by side in locals, each over the rows in their
@@ -127,11 +127,11 @@ def _joint_force(jac, lam, t, rows, first, last, slots, c):
     return a, b, d
 
 
-@eager(_matrix, _matrix, _cube, *(_ivector,) * 6, _matrix, _ivector, _matrix)
+@eager(MATRIX, MATRIX, CUBE, *(IVECTOR,) * 6, MATRIX, IVECTOR, MATRIX)
 def planar_reactions(q, lam, jac, slots, rows, starts, i, j, carrier, s, carriers, out):
     """out (3 joints, N): every planar joint's force (rows 3k, 3k + 1) and moment about its point on its second
     body (row 3k + 2, module docstring) at every output time, a result column a row; ``slots``: where that body's
-    columns begin in each row of ``jac`` (``_joint_force``). cos and sin of each body in ``carriers`` (those that
+    columns begin in each row of ``jac`` (``joint_force``). cos and sin of each body in ``carriers`` (those that
     carry a joint point) are taken once an output time: a body carries the points of up to three joints."""
     N, joints = q.shape[0], i.size
     turn = np.empty((q.shape[1] // 3, 2))
@@ -145,7 +145,7 @@ def planar_reactions(q, lam, jac, slots, rows, starts, i, j, carrier, s, carrier
             x, y, c, sn = (q[t, 3 * b], q[t, 3 * b + 1], turn[b, 0], turn[b, 1]) if b >= 0 else (0.0, 0.0, 1.0, 0.0)
             px, py = x + (c * s[k, 0] - sn * s[k, 1]), y + (sn * s[k, 0] + c * s[k, 1])
             body, sign = (j[k], 1.0) if j[k] >= 0 else (i[k], -1.0)
-            fx, fy, torque = _joint_force(jac, lam, t, rows, first, last, slots, 0)
+            fx, fy, torque = joint_force(jac, lam, t, rows, first, last, slots, 0)
             ax, ay = px - q[t, 3 * body], py - q[t, 3 * body + 1]
             out[3 * k, t], out[3 * k + 1, t] = sign * fx, sign * fy
             out[3 * k + 2, t] = sign * (torque - (ax * fy - ay * fx))
@@ -179,7 +179,7 @@ def _pairwise_sum(a):
     return total
 
 
-@eager(_matrix, _vector, _vector)
+@eager(MATRIX, VECTOR, VECTOR)
 def planar_kinetic_energy(qd, diagonal, out):
     """T = 1/2 sum_i m_i q_i'^2 (eq. 5.2, M = diag(m, m, J): ``diagonal``) at every output time in one pass, q' of at
     most ``PAIRWISE_BLOCK`` coordinates: each term (q_i' m_i) q_i' as numpy's elementwise products, their sum in

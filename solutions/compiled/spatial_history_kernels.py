@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from .history_kernels import _cube, _ivector, _joint_force, _matrix, _vector, eager, inlined
+from .history_kernels import CUBE, IVECTOR, MATRIX, VECTOR, eager, inlined, joint_force
 from .kernels import g_entries_jit, l_entries_jit, rotation_entries_jit
 
 
@@ -43,7 +43,7 @@ def _turns(q, t, body, A, G):
         G[body, a // 4, a % 4] = g[a]
 
 
-@eager(_matrix, _matrix, _cube, *(_ivector,) * 5, _matrix, _cube, _ivector, _ivector, _ivector, _matrix)
+@eager(MATRIX, MATRIX, CUBE, *(IVECTOR,) * 5, MATRIX, CUBE, IVECTOR, IVECTOR, IVECTOR, MATRIX)
 def spatial_reactions(q, lam, jac, slots, rows, starts, i, j, offsets, frames, framed, turned, columns, out):
     """out (columns, N): every spatial element's force and moment about its point on its second body (rows c to
     c + 5 from its first column c = ``columns[k]``: Fx, Fy, Fz, Mx, My, Mz) and of the elements with joint frames
@@ -67,9 +67,9 @@ def spatial_reactions(q, lam, jac, slots, rows, starts, i, j, offsets, frames, f
                 origin = q[t, 7 * j[k] + a] if j[k] >= 0 else 0.0
                 point[a] = origin + (Aj[a, 0] * offsets[k, 0] + Aj[a, 1] * offsets[k, 1] + Aj[a, 2] * offsets[k, 2])
             body, sign = (j[k], 1.0) if j[k] >= 0 else (i[k], -1.0)
-            g[0], g[1], g[2] = _joint_force(jac, lam, t, rows, first, last, slots, 0)  # r's columns
-            g[3], g[4], g[5] = _joint_force(jac, lam, t, rows, first, last, slots, 3)  # p's: seven in runs of three,
-            g[4], g[5], g[6] = _joint_force(jac, lam, t, rows, first, last, slots, 4)  # the last two sums made again
+            g[0], g[1], g[2] = joint_force(jac, lam, t, rows, first, last, slots, 0)  # r's columns
+            g[3], g[4], g[5] = joint_force(jac, lam, t, rows, first, last, slots, 3)  # p's: seven in runs of three,
+            g[4], g[5], g[6] = joint_force(jac, lam, t, rows, first, last, slots, 4)  # the last two sums made again
             Gb = G[body]
             for a in range(3):  # n = 1/2 G(p) Q_p (eq. 8.14)
                 n[a] = 0.5 * (Gb[a, 0] * g[3] + Gb[a, 1] * g[4] + Gb[a, 2] * g[5] + Gb[a, 3] * g[6])
@@ -93,7 +93,7 @@ def spatial_reactions(q, lam, jac, slots, rows, starts, i, j, offsets, frames, f
                     out[c + 7 + 2 * b, t] = axes[0, b] * moment[0] + axes[1, b] * moment[1] + axes[2, b] * moment[2]
 
 
-@eager(_matrix, _matrix, _vector, _cube, _vector)
+@eager(MATRIX, MATRIX, VECTOR, CUBE, VECTOR)
 def spatial_kinetic_energy(q, qd, masses, inertias, out):
     """T = sum_b 1/2 m_b r_b'^T r_b' + 1/2 omega_b'^T J_b' omega_b', omega_b' = 2 L(p_b) p_b' (eq. 10.3, 8.14) at
     every output time: ``spatial.mass.kinetic_energy_history``'s numbers within rounding (the same products,
