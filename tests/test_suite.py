@@ -8,6 +8,7 @@ of its own and the nbgrader cycles, the executed notebooks and the graded classe
 
 from __future__ import annotations
 
+import ast
 import re
 import shlex
 import subprocess
@@ -95,3 +96,42 @@ def test_a_tests_cpu_counts_a_process_it_started_and_never_waited_for(request):
     assert conftest._cpu_seconds() - before >= 0.5
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     assert after.ru_utime + after.ru_stime - waited.ru_utime - waited.ru_stime < 0.4  # getrusage misses it
+
+
+COMPILED_AT_IMPORT = {
+    "solutions.compiled.singular": 42,
+    "solutions.compiled.loops": 15,
+    "solutions.compiled.kinematic_loop": 6,
+}
+"""Modules whose import compiles machine code on a fresh cache (functions with explicit signatures), with its
+seconds measured on the course's VM (``NUMBA_CACHE_DIR`` empty, ``python -c "import ..."``, 2026-12-06)."""
+
+
+def _module_level_imports(path: Path) -> list[tuple[int, str]]:
+    """(line, module) of each import a test file runs when it is collected: its module body's, also under a
+    top-level ``if`` or ``try``; ``from package import name`` gives ``package`` and ``package.name``."""
+    found, body = [], list(ast.parse(path.read_text()).body)
+    while body:
+        node = body.pop(0)
+        if isinstance(node, (ast.If, ast.Try)):
+            body += [*node.body, *getattr(node, "orelse", []), *getattr(node, "finalbody", [])]
+            body += [n for handler in getattr(node, "handlers", []) for n in handler.body]
+        elif isinstance(node, ast.Import):
+            found += [(node.lineno, alias.name) for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            found += [(node.lineno, node.module)] + [(node.lineno, f"{node.module}.{a.name}") for a in node.names]
+    return found
+
+
+def test_no_test_file_compiles_machine_code_when_it_is_collected():
+    """Every pytest-xdist worker collects every test file before any test runs: a module that compiles at import,
+    imported at a test file's module level, was compiled by both workers at once, with nothing else running (69 s
+    of the clean-clone run's start-up). Test files import them where a test first needs them
+    (``tests/conftest.py::lazy_module``)."""
+    wrong = [
+        f"{path.relative_to(REPO)}:{line}: {module}"
+        for path in sorted((REPO / "tests").rglob("test_*.py"))
+        for line, module in _module_level_imports(path)
+        if module in COMPILED_AT_IMPORT
+    ]
+    assert not wrong, "\n".join(wrong)

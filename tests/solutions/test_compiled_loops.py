@@ -17,7 +17,11 @@ from solutions.integrators import integrate
 
 pytest.importorskip("numba")
 
-from solutions.compiled import loops, tableau  # noqa: E402
+from solutions.compiled import tableau  # noqa: E402
+
+from ..conftest import lazy_module  # noqa: E402
+
+loops = lazy_module("solutions.compiled.loops")  # compiled where a test first needs it (lazy_module)
 
 T_OUT = np.linspace(0.0, 2.0, 41)
 TOL = 1e-8
