@@ -210,25 +210,46 @@ def pytest_runtest_makereport(item, call):
     yield
 
 
-def lazy_module(name: str):
-    """The module ``name``, executed at its first attribute access, not at import (the standard library's
-    ``importlib.util.LazyLoader``): for a test file whose module compiles machine code when it is imported
-    (``solutions.compiled.singular`` 42 s, ``loops`` 15 s on a fresh cache). Imported at collection, such a module
-    was compiled by every pytest-xdist worker at once before any test ran (69 s of a clean clone's start-up, both
-    workers, in the run of 2026-12-06); imported where a test first needs it, it is compiled by one worker while the
-    other runs tests (tests/test_suite.py checks that no test file imports one at module level)."""
-    import importlib.util
+class LazyModule:
+    """The module ``name``, imported at the first use of one of its names, not at collection: for a test file whose
+    module compiles machine code when it is imported (``solutions.compiled.singular`` 42 s, ``loops`` 15 s on a fresh
+    cache). Imported at collection, such a module was compiled by every pytest-xdist worker at once before any test
+    ran (69 s of a clean clone's start-up, both workers, in the run of 2026-12-06); imported where a test first needs
+    it, it is compiled by one worker while the other runs tests (tests/test_suite.py checks that collecting imports
+    none). Dunder names and ``_mock_name`` are pytest's probes of every module-level object at collection: refused,
+    not imported for. Setting a name (``monkeypatch.setattr``) sets the module's."""
+
+    __slots__ = ("_module_name",)
+
+    def __init__(self, name: str):
+        object.__setattr__(self, "_module_name", name)
+
+    @property
+    def __dict__(self):  # monkeypatch reads what it will put back from here
+        return self._module().__dict__
+
+    def _module(self):
+        import importlib
+
+        return importlib.import_module(self._module_name)
+
+    def __getattr__(self, attribute: str):
+        if attribute.startswith("__") or attribute == "_mock_name":
+            raise AttributeError(attribute)
+        return getattr(self._module(), attribute)
+
+    def __setattr__(self, attribute: str, value) -> None:  # monkeypatch.setattr: the module's own name
+        setattr(self._module(), attribute, value)
+
+
+COLLECTED: dict[str, set] = {}
+"""The modules imported once the tests were collected (``pytest_collection_finish``; tests/test_suite.py)."""
+
+
+def pytest_collection_finish(session):
     import sys
 
-    if name in sys.modules:
-        return sys.modules[name]
-    spec = importlib.util.find_spec(name)
-    loader = importlib.util.LazyLoader(spec.loader)
-    spec.loader = loader
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    loader.exec_module(module)
-    return module
+    COLLECTED["modules"] = set(sys.modules)
 
 
 def pytest_report_header(config):

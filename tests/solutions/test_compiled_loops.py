@@ -19,9 +19,9 @@ pytest.importorskip("numba")
 
 from solutions.compiled import tableau  # noqa: E402
 
-from ..conftest import lazy_module  # noqa: E402
+from ..conftest import LazyModule  # noqa: E402
 
-loops = lazy_module("solutions.compiled.loops")  # compiled where a test first needs it (lazy_module)
+loops = LazyModule("solutions.compiled.loops")  # compiled where a test first needs it (conftest.LazyModule)
 
 T_OUT = np.linspace(0.0, 2.0, 41)
 TOL = 1e-8

@@ -25,9 +25,9 @@ from solutions.io import load_model  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 from benchmarks.chains import loop_chain  # noqa: E402
 
-from ..conftest import lazy_module  # noqa: E402
+from ..conftest import LazyModule  # noqa: E402
 
-singular = lazy_module("solutions.compiled.singular")  # compiled where a test first needs it (lazy_module)
+singular = LazyModule("solutions.compiled.singular")  # compiled where a test first needs it (conftest.LazyModule)
 
 LOOPS = 25  # 76 bodies, 152 rows, 153 coordinates: past dynamics.BAND_SMALLEST. Flat, each loop loses a rank: an
 # odd count flips the sign of det [Psi_q; T^T] (an even one cancels in pairs, and only the ratio's dip tells)
