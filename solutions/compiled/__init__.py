@@ -206,7 +206,7 @@ def _parameters(scene: Scene | TreeScene, alpha: float, beta: float, tol: float,
     drivers_power = int(tree is not None and scene.drivers and scene.energies)  # a tree's lambda at every evaluation
     ncut = tree.cut_rows.size if tree is not None else 0
     sizes = np.array([scene.n, scene.m, extra, positions, velocities, drivers_power, ncut], np.int64)
-    empty1, empty3 = np.zeros(1), np.zeros((1, 3, 3))
+    empty1, empty3 = _EMPTY
     mass = scene.mass_diagonal if scene.mass_diagonal is not None else empty1
     return (
         scene.Q0,
@@ -219,6 +219,11 @@ def _parameters(scene: Scene | TreeScene, alpha: float, beta: float, tol: float,
         np.array([alpha, beta, tol, iterations], dtype=float),
         sizes if tree is None else np.concatenate([sizes, *tree.arrays()]),
     )
+
+
+_EMPTY = (np.zeros(1), np.zeros((1, 3, 3)))
+"""The entries of P a scene does not use (a planar scene's masses and inertias, a spatial one's diagonal), made once
+(no kernel writes P; two numpy calls a run at its start, 2-8 us there)."""
 
 
 def load(plan: Plan) -> tuple[object, object, bool]:

@@ -266,9 +266,8 @@ def start_rates(equations, formulation: str, options: dict, z: np.ndarray) -> tu
     tree = isinstance(job.scene, TreeScene)
     out = np.empty(z.size + 3 * n + job.scene.m if tree else z.size)  # y' (a tree's q'' in the outputs after it)
     module.scene_rhs(0.0, z, P, D, out)
-    fz = out[: z.size].copy()
     rhs = loops.first_class(module.scene_rhs, loops.RHS_SIGNATURE)
-    rho = loops.spectral_radius(rhs, 0.0, z, fz, power_start(z.size), P, D, 10)
+    rho = loops.spectral_radius(rhs, 0.0, z, out[: z.size], power_start(z.size), P, D, 10)  # f(z): read, not written
     return float(rho), (out[z.size + 2 * n : z.size + 3 * n] if tree else out[n : 2 * n]).copy()
 
 

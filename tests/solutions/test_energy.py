@@ -142,3 +142,29 @@ def test_driven_double_pendulum_balances_with_the_motor_work():
         math.pi / 6 + 0.5 * np.sin(4.0 * result.t),
         atol=1e-9,
     )
+
+
+def test_the_energy_scale_is_the_largest_part_part_by_part_with_nan_and_inf():
+    """``EnergyHistory.scale`` (from one array of the five parts) is its definition taken part by part: the
+    largest of max |T|, max |V - V(0)|, max |D|, max |W_applied|, max |W_drivers| in that order, a NaN kept as
+    Python's max keeps it, 1 where every part is zero; bit for bit on random histories."""
+    from solutions.energy import EnergyHistory
+
+    rng = np.random.default_rng(5)
+    for _ in range(2000):
+        n = int(rng.integers(1, 40))
+        parts = [rng.normal(size=n) * 10.0 ** rng.integers(-20, 5) for _ in range(5)]
+        for part in parts:
+            draw = rng.random()
+            if draw < 0.05:
+                part[rng.integers(n)] = np.nan
+            elif draw < 0.1:
+                part[rng.integers(n)] = -np.inf
+            elif draw < 0.3:
+                part[:] = 0.0
+        history = EnergyHistory(*parts)
+        with np.errstate(invalid="ignore"):  # inf - inf in V - V(0)
+            by_part = [np.abs(p).max() for p in (parts[0], parts[1] - parts[1][0], *parts[2:])]
+            scale = history.scale
+        expected = float(max(by_part)) or 1.0
+        assert np.array([scale]).tobytes() == np.array([expected]).tobytes()
