@@ -77,11 +77,8 @@ class EnergyHistory:
     @property
     def scale(self) -> float:
         """An energy scale to judge the error against: the largest of T, |V - V(0)|, D, |W|."""
-        parts = np.array([self.kinetic, self.potential, self.dissipated, self.applied, self.drivers])
-        parts[1] -= self.potential[0]
-        # each part's max |p| from one array (four numpy calls where five parts took eleven: each costs 3-10 us at a
-        # run's end, its code out of the caches), the largest of them in the parts' order (a NaN as max() keeps it)
-        return float(max(np.abs(parts).max(axis=1).tolist())) or 1.0
+        parts = (self.kinetic, self.potential - self.potential[0], self.dissipated, self.applied, self.drivers)
+        return float(max(np.abs(p).max() for p in parts)) or 1.0  # the array's max: no np.max dispatch (~2 us each)
 
     def columns(self) -> dict[str, np.ndarray]:
         """Result columns 'energy.kinetic', ..., 'energy.error'."""
