@@ -319,7 +319,9 @@ class EquationsOfMotion:
         self.extra = 0 if forces.is_conservative and not has_drivers else 3
 
     def initial_state(self, q: np.ndarray, qd: np.ndarray, t: float) -> np.ndarray:
-        return np.concatenate([self.formulation.initial_state(q, qd, t), np.zeros(self.extra)])
+        """z0: the formulation's state (a new array), then the accumulated energies (zero) where there are any."""
+        y = self.formulation.initial_state(q, qd, t)
+        return np.concatenate([y, np.zeros(self.extra)]) if self.extra else y
 
     def split(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         k = z.size - self.extra
@@ -1459,7 +1461,7 @@ class StartRates:
         run's equations have (zero); else made anew."""
         for made, y in self.states.values():
             if made is equations.formulation:
-                return np.concatenate([y, np.zeros(equations.extra)])
+                return np.concatenate([y, np.zeros(equations.extra)]) if equations.extra else y.copy()
         return equations.initial_state(self.q, self.qd, 0.0)
 
     def _will_compile(self, equations, formulation: str, z: np.ndarray) -> bool:

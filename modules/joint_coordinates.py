@@ -502,21 +502,17 @@ class PlanarTree:
 
     def joint_state(self, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(theta, theta') of body coordinates on the constraints, in closed form: a revolute joint's
-        phi_C - phi_P, a prismatic joint's u^T d with d between the two joint points."""
-        X, V = np.zeros((q.size // 3 + 1, 3)), np.zeros((q.size // 3 + 1, 3))  # ground's row last (zeros)
-        X[:-1], V[:-1] = q.reshape(-1, 3), qd.reshape(-1, 3)
-        theta, rate = np.empty(self.k), np.empty(self.k)
+        phi_C - phi_P (the angles as Python floats, as ``motion`` reads them: a numpy scalar per joint cost more
+        than the subtraction), a prismatic joint's u^T d with d between the two joint points (``slide``)."""
+        angles, spins = q[2::3].tolist() + [0.0], qd[2::3].tolist() + [0.0]  # ground's entry last (-1)
+        theta, rate = [0.0] * self.k, [0.0] * self.k
         for joint in self.joints:
             P, C, c = joint.parent, joint.child, joint.position
             if joint.kind == "revolute":
-                theta[c], rate[c] = X[C, 2] - X[P, 2], V[C, 2] - V[P, 2]
-                continue
-            AP, AC = planar_rotation(X[P, 2]), planar_rotation(X[C, 2])
-            rho_p, rho_c, u = AP @ joint.s_parent, AC @ joint.s_child, AP @ joint.axis
-            d = X[C, :2] + rho_c - X[P, :2] - rho_p
-            d_dot = V[C, :2] + V[C, 2] * (R90 @ rho_c) - V[P, :2] - V[P, 2] * (R90 @ rho_p)
-            theta[c], rate[c] = u @ d, u @ d_dot
-        return theta, rate
+                theta[c], rate[c] = angles[C] - angles[P], spins[C] - spins[P]
+            else:
+                theta[c], rate[c] = slide(joint, q, qd)
+        return np.array(theta), np.array(rate)
 
     def joint_matrix(self, motion: TreeMotion) -> np.ndarray:
         """dq/dtheta (n x k): D itself."""
@@ -525,6 +521,19 @@ class PlanarTree:
     def coordinate_accelerations(self, motion: TreeMotion, accelerations: np.ndarray) -> np.ndarray:
         """q'' = D theta'' + xi."""
         return motion.D @ accelerations + motion.xi
+
+
+def slide(joint: TreeJoint, q: np.ndarray, qd: np.ndarray) -> tuple[float, float]:
+    """(s, s') of a planar prismatic joint from its bodies' coordinates: u^T d and u^T d' with d = r_C + rho_C - r_P
+    - rho_P between the two joint points and u the axis in the parent's frame turned to the plane's."""
+    X, V = np.zeros((q.size // 3 + 1, 3)), np.zeros((q.size // 3 + 1, 3))  # ground's row last (zeros)
+    X[:-1], V[:-1] = q.reshape(-1, 3), qd.reshape(-1, 3)
+    P, C = joint.parent, joint.child
+    AP, AC = planar_rotation(X[P, 2]), planar_rotation(X[C, 2])
+    rho_p, rho_c, u = AP @ joint.s_parent, AC @ joint.s_child, AP @ joint.axis
+    d = X[C, :2] + rho_c - X[P, :2] - rho_p
+    d_dot = V[C, :2] + V[C, 2] * (R90 @ rho_c) - V[P, :2] - V[P, 2] * (R90 @ rho_p)
+    return u @ d, u @ d_dot
 
 
 def joint_rotation(joint: TreeJoint, AP: tuple, theta: list, rate: list, rates: list) -> tuple:
