@@ -30,7 +30,8 @@ if str(ROOT) not in sys.path:
 from benchmarks import chains  # noqa: E402
 from solutions.assembly import build_system  # noqa: E402
 from solutions.diagnostics import AnalysisError  # noqa: E402
-from solutions.dynamics import Guard, forward_dynamics  # noqa: E402
+from solutions.dynamics import forward_dynamics  # noqa: E402
+from solutions.guard import Guard  # noqa: E402
 from solutions.io.model import load_model  # noqa: E402
 
 ANGLE, RATE = math.radians(60.0), 8.0

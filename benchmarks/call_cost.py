@@ -45,7 +45,7 @@ from pathlib import Path  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from solutions import dynamics  # noqa: E402
+from solutions import dynamics, guard  # noqa: E402
 from solutions.assembly import build_system  # noqa: E402
 from solutions.compiled import dispatch, history, loops  # noqa: E402
 from solutions.io import load_model  # noqa: E402
@@ -63,7 +63,7 @@ STAGES = (
     (loops, "blocked_output_history", "    outputs at the output times"),  # a large Psi_q's (ONE_PASS_LARGEST)
     (loops, "outputs", "    outputs at the output times"),  # rows that reach other columns: two passes
     (history, "constraint_arrays", "    constraints at the output times"),
-    (dynamics.Guard, "check_outputs", "  checks at the output times (Guard)"),
+    (guard.Guard, "check_outputs", "  checks at the output times (Guard)"),
     (dynamics, "build_result", "result"),
     (history, "residuals", "  residuals"),
     (dynamics, "energy_history", "  energies"),

@@ -1,6 +1,6 @@
 """The Guard's checks at the output times of a compiled run on the loop chain, part by part (issue 25, item 2).
 
-``dynamics.Guard.check_outputs`` judges, at the 101 output times of a compiled run, the drift and the nearness to
+``guard.Guard.check_outputs`` judges, at the 101 output times of a compiled run, the drift and the nearness to
 a singular position from Psi and the history of Psi_q (N, m, n) that the run wrote: the rows' norms (scaling and
 drift), the pattern of Psi_q and its band ordering, the first output time's null-space basis, then, time by time
 (``compiled.singular._spectra``), sigma_m / sigma_1 from the Gram matrix's extreme eigenvalues and the null space
@@ -14,12 +14,12 @@ holds ``_spectra``): the rows do not add up.
     .venv/bin/python benchmarks/guard_cost.py --sizes 16 64
     .venv/bin/python benchmarks/guard_cost.py --routes --sizes 2 4 8 16
 
-``--routes``: each route of ``dynamics.square_spectra`` on the first history of Psi_q a run's Guard judges (numpy's
+``--routes``: each route of ``guard.square_spectra`` on the first history of Psi_q a run's Guard judges (numpy's
 batched SVDs and QRs, the compiled one-pass ``singular.dense_spectra``, the compiled band ``singular.spectra``, its
 ratios closed or settled by the Guard's tests), ms per history, thread CPU, the best of 3 rounds of 10 after one
-warm-up; "-" where the band is wider than n / 2. How ``dynamics._compiled_spectra`` picks its route (issue 25, item 2).
+warm-up; "-" where the band is wider than n / 2. How ``guard._compiled_spectra`` picks its route (issue 25, item 2).
 
-``--small``: the compiled route of a small Psi_q (``singular.dense_spectra``, up to ``dynamics.DENSE_LARGEST`` rows)
+``--small``: the compiled route of a small Psi_q (``singular.dense_spectra``, up to ``guard.DENSE_LARGEST`` rows)
 on the first history of Psi_q the Guard judges in each course model's compiled run (Baumgarte's formulation and
 joint coordinates), closed (Jacobi at every time) against settled (brackets, Jacobi where the Guard's tests need it:
 what the Guard takes), ms per history, thread CPU, as ``--routes``; the times left to Jacobi after the brackets.
@@ -52,26 +52,26 @@ sys.path.insert(0, str(ROOT))
 import chains  # noqa: E402
 import numpy as np  # noqa: E402
 
-from solutions import dynamics  # noqa: E402
+from solutions import dynamics, guard  # noqa: E402
 from solutions.assembly import build_system  # noqa: E402
 from solutions.compiled import singular  # noqa: E402
 from solutions.compiled.history import BlockedJacobians  # noqa: E402
 from solutions.io import load_model  # noqa: E402
 
 PARTS = (
-    (dynamics.Guard, "check_outputs", "checks at the output times (Guard)"),
+    (guard.Guard, "check_outputs", "checks at the output times (Guard)"),
     (singular, "row_norms", "  rows' norms: dense pass over the history"),
     (singular, "history_norms", "  rows' norms and pattern: the bodies' columns"),
     (singular, "_pattern", "  pattern: dense pass over the history"),
     (singular, "spectra", "  band spectra (singular.spectra)"),
     (singular, "band_order", "    band ordering (reverse Cuthill-McKee)"),
     (singular, "_band_structure", "    band ordering (kept per pattern)"),
-    (dynamics, "null_space_bases", "    first basis: dense QR"),
+    (guard, "null_space_bases", "    first basis: dense QR"),
     (singular, "_first_basis", "    first basis: banded LU of Psi_q^T"),
     (singular, "_band_start", "    first basis and the band's widths: one compiled call"),
     (singular, "_spectra", "    time by time: ratio, basis, sign"),
     (singular, "_settled_spectra", "    time by time, the ratios settled: one compiled call"),
-    (dynamics.Guard, "_quiet", "  verdicts (_quiet)"),
+    (guard.Guard, "_quiet", "  verdicts (_quiet)"),
 )
 """(owner, attribute, label) of each part timed, where the checkout has it."""
 
@@ -122,7 +122,7 @@ def routes(n_loops: int) -> tuple[tuple[int, int], dict[str, float | None]]:
     """((m, n), {route: ms per history}) of ``square_spectra``'s routes on the first history of Psi_q (101 output
     times) that a compiled run's Guard judges on the chain of n_loops."""
     system, q0, qd0 = build_system(load_model(chains.loop_chain(n_loops)))
-    histories, square_spectra = [], dynamics.square_spectra
+    histories, square_spectra = [], guard.square_spectra
 
     def kept(jacobians, columns, norms, before, *args):
         held = jacobians  # a dense history, or one by its rows' blocks (``history.BlockedJacobians``, from N = 8)
@@ -130,22 +130,22 @@ def routes(n_loops: int) -> tuple[tuple[int, int], dict[str, float | None]]:
         histories.append((held, columns.copy(), norms.copy(), before))
         return square_spectra(jacobians, columns, norms, before, *args)
 
-    dynamics.square_spectra = kept
+    guard.square_spectra = kept
     try:
         options = dict(formulation="joint-coordinates", integrator="DOP853", rtol=1e-6, atol=1e-8, engine="compiled")
         dynamics.forward_dynamics(system, q0, qd0, 1.0, 100, divergence="skip", **options)
     finally:
-        dynamics.square_spectra = square_spectra
+        guard.square_spectra = square_spectra
     jacobians, columns, norms, before = histories[0]
     dense = np.asarray(jacobians)  # numpy's and the dense route's input; the band reads the history as the run wrote it
 
     def numpy_route():
-        scaled = dynamics.scale_rows(dense, columns, norms)
-        dynamics.null_space_bases(scaled, signs=True)
+        scaled = guard.scale_rows(dense, columns, norms)
+        guard.null_space_bases(scaled, signs=True)
         np.linalg.svd(scaled, compute_uv=False)
 
     band = lambda: singular.spectra(jacobians, before, columns, norms, None, singular.WIDEST_MID)  # noqa: E731
-    settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)  # the Guard's tests (Guard._spectra)
+    settle = ((1e-8, guard.NEAR_SINGULAR), guard.FALL)  # the Guard's tests (Guard._spectra)
     settled = lambda: singular.spectra(jacobians, before, columns, norms, None, singular.WIDEST_MID, settle)  # noqa: E731
     return jacobians.shape[1:], {
         "numpy batched": _per_history(numpy_route),
@@ -194,7 +194,7 @@ def print_small() -> None:
                     rows.append((Path(source).stem, formulation, histories[0]))
     finally:
         singular.dense_spectra = dense
-    settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)  # the Guard's tests (Guard._spectra, default ratio)
+    settle = ((1e-8, guard.NEAR_SINGULAR), guard.FALL)  # the Guard's tests (Guard._spectra, default ratio)
     print("## dense_spectra on each course model's history of Psi_q, ms per 101 Psi_q (thread CPU)\n")
     print("| model | formulation | m x n | closed | settled | settled / closed | Jacobi after brackets |")
     print("|---|---|---|---:|---:|---:|---:|")

@@ -53,7 +53,7 @@ class SingularConfigurationError(AnalysisError):
 
 
 class BranchSwitchError(SingularConfigurationError):
-    """A run left a singular position on another branch than the one it came along (``dynamics.branch_verdict``):
+    """A run left a singular position on another branch than the one it came along (``guard.branch_verdict``):
     its velocities jumped there, where the physical motion keeps them continuous."""
 
 

@@ -88,7 +88,7 @@ def rank_tolerance(largest: float, shape: tuple[int, ...]) -> float:
     (1e-10 of the mechanism's size and below in a run at the default tolerances). The assembly check,
     ``mbd check``, the svd formulation, the minimum-norm multipliers of the reactions and the implicit
     integrators all decide with it; a configuration closer than this to a rank loss is a singular position
-    (``dynamics.Guard`` and the kinematic analysis report those by name).
+    (``guard.Guard`` and the kinematic analysis report those by name).
     """
     return float(largest) * max(shape, default=1) * RANK_EPS
 

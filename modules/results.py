@@ -74,7 +74,7 @@ class DynamicInfo(Info, total=False):
     closest_singularity: dict | None
     singular_positions: list[dict]
     """Each singular position passed (t, ratio, joints) and the branch the motion took there ('branch': 'kept', or
-    'cannot tell' when the output times are too coarse to judge: ``dynamics.Guard.check_branches``)."""
+    'cannot tell' when the output times are too coarse to judge: ``guard.Guard.check_branches``)."""
     max_velocity_residual: float
     energy_drift: float
     energy_drift_relative: float

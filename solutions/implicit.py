@@ -57,7 +57,7 @@ estimate h^2 (a_n+1 - a_n) of such a mode does not fall with h, so step control 
 and the run crawls to a stop (measured on the double pendulum: q'' from 9 to 2500 m/s^2 over 0.03 s, the step
 from 6e-4 to 7e-7 s). Fixed steps keep the amplitude constant, and any rho_inf < 1 damps it (0.999 runs).
 
-Guards (``GuardedSteps``, issue 29): the run's ``dynamics.Guard`` checks the drift at every output time and
+Guards (``GuardedSteps``, issue 29): the run's ``guard.Guard`` checks the drift at every output time and
 Psi_q at every accepted step, as on the other formulations. The method passes singular positions (S is singular
 only at one, and a step lands there with probability zero); each one passed is listed with the run, and the branch
 the motion took there is judged from the steps on either side (a switch stops the run by name, a crossing it
@@ -76,10 +76,11 @@ import scipy.linalg
 
 from .assembly import System
 from .diagnostics import NEAR_SINGULAR, AnalysisError
-from .dynamics import Guard, constraint_residuals
+from .dynamics import constraint_residuals
 from .energy import constraint_power, energy_history
 from .formulations import augmented_accelerations
 from .generalized_forces import ForceModel
+from .guard import Guard
 from .integrators import BudgetError, IntegrationStats, budget_message
 from .linalg import independent_rows
 from .mass_matrix import mass_at
@@ -294,7 +295,7 @@ BATCH_STEPS = 50
 
 
 class GuardedSteps:
-    """The run's ``dynamics.Guard`` on an index-3 run, with the checks it makes on the other formulations (issue 29):
+    """The run's ``guard.Guard`` on an index-3 run, with the checks it makes on the other formulations (issue 29):
 
     - drift: at every output time, how far q is off the constraints (``Guard.check_drift``);
     - singular positions: at every accepted step, sigma_r / sigma_1 of Psi_q and the sign of det [Psi_q; T^T]
@@ -303,7 +304,7 @@ class GuardedSteps:
       matrix loses rank only at it, and a step lands there with probability zero), as the augmented Lagrangian
       does: the Guard records it (``Guard.through``) instead of stopping;
     - branch switches: at each singular position passed, whether the velocities changed by what the accelerations
-      give (``Guard.check_branches``, ``dynamics.branch_verdict``), judged from the accepted steps around it, not
+      give (``Guard.check_branches``, ``guard.branch_verdict``), judged from the accepted steps around it, not
       the output times: a crossing between two output times is judged too, from samples much closer together.
       Each batch with a step near a singular position is judged with the last two steps of the batch before (a
       crossing at the border has its neighbours on both sides); so a long run keeps a few steps only.
@@ -496,7 +497,7 @@ def integrate_index3(
     settings : ``integrator`` ('generalized-alpha' or 'hht'); the output grid t = 0, t_end/steps, ..., t_end
         (every step ends on it); ``rtol``, ``atol``: local error tolerances of the positions (step control and
         Newton iterations); ``step``: a fixed step size instead of step control; the options ``Index3Options``
-    guard : the run's ``dynamics.Guard`` (drift, singular positions passed, the branch at each: ``GuardedSteps``),
+    guard : the run's ``guard.Guard`` (drift, singular positions passed, the branch at each: ``GuardedSteps``),
         or None for none
 
     Returns

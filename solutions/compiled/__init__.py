@@ -28,7 +28,7 @@ and caches its module, ``kernels.py`` holds the compiled element formulas.
 (their kernels: ``projection_kernels.py``, ``tree_kernels.py``); ``plan`` says which a run takes. Every
 run's output stage is one compiled pass (``loops.output_history``; a large Psi_q's by its rows' blocks,
 ``blocked_output_history``): at every output time the right-hand side with its outputs (q'', lambda) and Psi,
-Psi_q, Psi_t, from which ``history.py`` builds the residuals and the reactions and ``dynamics.Guard.check_outputs``
+Psi_q, Psi_t, from which ``history.py`` builds the residuals and the reactions and ``guard.Guard.check_outputs``
 makes its checks.
 
 The kinematic analysis has a compiled engine of its own on the same kernels (``kinematic.py``, its step

@@ -1,9 +1,9 @@
 """The Guard's screen of the steps next to a singular position for a branch switch, compiled (issue 25).
 
-``dynamics.Guard.check_branches`` judges every step of a run whose ratio sigma_r / sigma_1 is below NEAR_SINGULAR
-(``dynamics.branch_verdict``: did the velocities change by more than the accelerations explain?). A long chain of
+``guard.Guard.check_branches`` judges every step of a run whose ratio sigma_r / sigma_1 is below NEAR_SINGULAR
+(``guard.branch_verdict``: did the velocities change by more than the accelerations explain?). A long chain of
 loops is below NEAR_SINGULAR at every ordinary position, so every one of its steps is screened first by
-``dynamics.possible_switches``: whole-array numpy over the steps (a dozen array operations on 100 steps, 0.12 ms of
+``guard.possible_switches``: whole-array numpy over the steps (a dozen array operations on 100 steps, 0.12 ms of
 a loop chain's 3 ms call). ``possible_switches`` here is the same screen in one pass over the steps, for the
 compiled runs (which import numba anyway): per body, every velocity coordinate a speed (``gyration_weights``),
 
@@ -49,7 +49,7 @@ def _sample_norms(weights, qd, qdd, steps):
 
 @njit(types.boolean[::1](_matrix, _vector, _matrix, _matrix, _ivector, types.float64), cache=True, nogil=True)
 def possible_switches(weights, t, qd, qdd, steps, margin):
-    """Which steps from sample k to k + 1 (k in ``steps``) ``dynamics.branch_verdict`` could call 'switched': the
+    """Which steps from sample k to k + 1 (k in ``steps``) ``guard.branch_verdict`` could call 'switched': the
     largest mismatch of a body over the step beyond its allowance exceeds ``margin`` (BRANCH_JUMP / 2) times the
     fastest body's speed (module docstring); ``weights`` (bodies, per): ``gyration_weights``. Each sample's speeds
     and rates |q''| are made once (``_sample_norms``), where a step shares its ends with its neighbours."""
@@ -78,7 +78,7 @@ def possible_switches(weights, t, qd, qdd, steps, margin):
 @njit(types.UniTuple(_ivector, 4)(_vector, _vector, _vector, types.float64, types.float64, types.float64), cache=True,
       nogil=True)  # fmt: skip
 def screen(ratios, signs, turns, near, fall, aligned):
-    """``dynamics.branch_screen`` in one pass over the output times (a compiled run's): (the times k where the ratio
+    """``guard.branch_screen`` in one pass over the output times (a compiled run's): (the times k where the ratio
     dips, ``diagnostics.passes_zero``; the times k whose step from k - 1 flips the sign of det [Psi_q; T^T] against
     a turn above ``aligned``, none where ``signs`` is empty; the steps k (to k + 1) over which the ratio falls or
     rises by more than 1 / ``fall`` below ``near``; the steps k with a ratio below ``near`` at either end). The same

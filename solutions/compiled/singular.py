@@ -1,6 +1,6 @@
 """The Guard's singularity test at the output times of a large mechanism, from the band of Psi_q (issue 25).
 
-``dynamics.Guard.check_outputs`` needs, at every output time of a compiled run, three things of the scaled
+``guard.Guard.check_outputs`` needs, at every output time of a compiled run, three things of the scaled
 Jacobian Psi_q (m x n, full row rank m at the start):
 
 - the ratio sigma_m / sigma_1 of its smallest and largest singular values (how near a rank loss it is);
@@ -56,7 +56,7 @@ matrix [Psi_q; 0] is a band whose half-widths kl, ku do not grow with the number
   of a step it cannot certify so: on the loop chain of 2-16 loops at no other time (the pass over the output
   times 0.3 shorter).
 
-Any orthonormal basis serves the Guard (``dynamics.null_space_bases``): a different E gives T R with R
+Any orthonormal basis serves the Guard (``guard.null_space_bases``): a different E gives T R with R
 orthogonal, which multiplies det [Psi_q; T^T] and the turn det(T_prev^T T) by the same det R = +-1.
 
 ``spectra`` returns, for a stack of scaled Jacobians (N, m, n), the ratios (N,), the bases (N, n, d) and the
@@ -65,7 +65,7 @@ pattern as it goes, no scaled copy of the history, and given the pattern too, ``
 history only there: the band's ordering is kept per pattern, ``_band_structure``); ``dense_spectra`` the same for
 a small Psi_q that is no band, from a QR and one-sided Jacobi. A time where a factorization fails (a zero
 pivot: Psi_q singular to the last bit at an output time) gets NaN there, and the Guard computes that time densely.
-No numba in the numpy engine: this module is imported by compiled runs only (``dynamics.square_spectra``, from
+No numba in the numpy engine: this module is imported by compiled runs only (``guard.square_spectra``, from
 ``Guard.check_outputs``).
 """
 
@@ -87,7 +87,7 @@ by address (``kinematic_loop.lapack``)."""
 WIDEST = 8
 """The band pays where its width kl + ku + 1 is at most an eighth of the coordinates (``spectra``: None otherwise)."""
 WIDEST_MID = 2
-"""``widest`` for a Psi_q of fewer than ``dynamics.BAND_SMALLEST`` coordinates: there a band up to half the
+"""``widest`` for a Psi_q of fewer than ``guard.BAND_SMALLEST`` coordinates: there a band up to half the
 coordinates wide pays, for the compiled pass has none of numpy's per-matrix overhead (101 Psi_q, thread CPU, band /
 numpy's batched SVDs and QRs: the loop chain's, 6-7 wide, 1.2 / 1.7 ms at 14 x 15, 2.1 / 4.2 at 26 x 27, 4.1 / 14.1
 at 50 x 51; the carriage pendulum's 12 x 14, 5 wide, 0.67 / 1.30), where a wider one does not (random sparse Psi_q
@@ -96,7 +96,7 @@ of bands 0.7-1.0 n wide: 4.3 / 3.5 at 20 x 24, 19 / 13 at 40 x 45, 48 / 25 at 55
 
 WIDEST_SQUARE = 0.5
 """``widest`` for a square Psi_q (m = n, d = 0: the sign of det Psi_q and the ratio alone) of more than
-``dynamics.DENSE_LARGEST`` rows and fewer than ``dynamics.BAND_SMALLEST`` coordinates whose ratios are settled by
+``guard.DENSE_LARGEST`` rows and fewer than ``guard.BAND_SMALLEST`` coordinates whose ratios are settled by
 the Guard's tests (``settled``): any width, even a full matrix (101 Psi_q of the course's driven mechanisms, thread
 CPU, bracketed Gram route / numpy's batched SVDs and QRs: the quick-return 12 x 12 0.43 / 1.26 ms, the six-bar
 15 x 15 0.61 / 1.85, the spatial slider-crank 21 x 21, no band, 1.21 / 3.27)."""
@@ -220,7 +220,7 @@ class Brackets:
     """The band's ratios as ``spectra`` leaves them under the Guard's tests of a run that stops at singular
     positions (``settle`` without ``ends``): each closed or in a bracket [lower, upper] (LOOSE wide, or carried over
     a step up to CARRIED wide: ``_carried``) that decides every test of ``settled`` but one (``adjacent`` False):
-    which of two neighbours is the smaller, which ``dynamics.Guard.check_branches`` reads at the steps it judges
+    which of two neighbours is the smaller, which ``guard.Guard.check_branches`` reads at the steps it judges
     alone (the middle of a step next to a singular position, whose joints a switch found there names; ``smaller``).
     Where their brackets overlap, ``smaller`` closes both as ``_settled_spectra`` closes a ratio (``_ratios_at``,
     from the eigenvectors their brackets left) and writes the figures into ``upper``, the ratios' array the Guard
@@ -269,7 +269,7 @@ def _unsettled(lower, ratios, signs, thresholds, fall, ends, adjacent):
 @njit(_SETTLED, cache=True, nogil=True)
 def settled(lower, upper, signs, thresholds, fall, adjacent):
     """Where a ratio known only in its bracket [lower, upper] (N,) (``upper`` the figure) gives every test of the
-    Guard the verdict its exact value gives, and is no figure the Guard reports (``dynamics.Guard``: ``_quiet``,
+    Guard the verdict its exact value gives, and is no figure the Guard reports (``guard.Guard``: ``_quiet``,
     ``_judge``, ``check_branches``, ``diagnostics.passes_zero``): True where the bracket
     - lies on one side of each of the ``thresholds`` (NEAR_SINGULAR, the run's singular_ratio), and above the
       smallest (the Guard stops below singular_ratio and reports that figure);
@@ -509,7 +509,7 @@ def row_norms(jacobians, columns):
 @njit(types.int64(_matrix, _matrix, types.float64), cache=True, nogil=True)
 def drifted(psi, norms, limit):
     """The first output time at which a row's drift |Psi_i| / |grad Psi_i| (``psi`` (N, m), ``norms`` (N, m):
-    ``row_norms``, 1 where a row's is 0) is not within ``limit``, a NaN counting, or -1: ``dynamics.Guard.
+    ``row_norms``, 1 where a row's is 0) is not within ``limit``, a NaN counting, or -1: ``guard.Guard.
     check_outputs``' drift test in one pass, where numpy's quotient, maximum over the rows and test make five
     arrays (70 us on the loop chain of 4 loops). The same verdict: numpy's max(0, d_1, ..., d_m) <= limit (the
     maximum propagates a NaN) holds exactly when 0 <= limit and d_r <= limit for every r, each d_r the same
@@ -529,7 +529,7 @@ def unmade(ratios, signs, bases, certified):
     """(made, failed) (N,) of the band's pass (``spectra`` with ``settle``: ratios, bases, signs, certified steps):
     made where a basis was made (the first and last times and both ends of each step not certified), failed where
     LAPACK met an exact zero pivot (a ratio or sign NaN, or a made basis with a NaN), which
-    ``dynamics.square_spectra`` makes densely: its test in one pass, where numpy's made nine arrays (~20 us a
+    ``guard.square_spectra`` makes densely: its test in one pass, where numpy's made nine arrays (~20 us a
     history on the loop chain of 4 loops)."""
     N = ratios.size
     made = np.ones(N, dtype=np.bool_)
@@ -555,7 +555,7 @@ def _finite(basis):
 @njit(cache=True, nogil=True)
 def quiet(first, turns, signs, sign, ratios, singular_ratio, aligned):
     """The first output time of the smallest ratio if no output time is near a singular position nor past one,
-    else -1: ``dynamics.Guard._quiet``'s test in one pass (numpy's made fifteen arrays, ~25 us a history). Time k
+    else -1: ``guard.Guard._quiet``'s test in one pass (numpy's made fifteen arrays, ~25 us a history). Time k
     is past one where the null space's turn since the time before (``first`` at k = 0, since the Guard's last
     basis; turns[k - 1] after) is above ``aligned`` and the sign of det [Psi_q; T^T] flips against it, turn
     signs[k] signs[k - 1] < 0 (``sign`` before k = 0), each product as numpy's in that order; near one where the
@@ -1401,20 +1401,20 @@ lower bound of sigma_m (J_k-1) (far above the bounds' rounding, ~1e-15 of them).
 @njit(cache=True, nogil=True, inline="always")
 def certified(moved, lower):
     """Whether the step from t_k-1 to t_k certainly holds no flip of the sign of det [Psi_q; T^T] the Guard tests
-    (``dynamics.Guard._judge``: a rank loss between the two times), from ``moved``, a bound of |J_k - J_k-1|_2 of
+    (``guard.Guard._judge``: a rank loss between the two times), from ``moved``, a bound of |J_k - J_k-1|_2 of
     the scaled Psi_q (``_scale``), and ``lower``, the lower end of sigma_m / sigma_1 at t_k-1.
     With T the null-space basis at t_k-1, [J_k-1; T^T] has the singular values of J_k-1 and d ones (J T = 0, T^T T
     = I), so its smallest is min(sigma_m, 1) >= the ratio (sigma_1 >= 1: rows of unit length). By Weyl's
     inequality [J_k-1 + s (J_k - J_k-1); T^T] stays nonsingular for s in [0, 1] where |J_k - J_k-1|_2 is below
     that: det [J_k; T^T] keeps the sign of det [J_k-1; T^T]. It is det(T^T T_k) det [J_k; T_k^T] for any basis T_k
-    at t_k (``dynamics.Guard._judge``), so turn * sign_k * sign_k-1 > 0: no flip, whatever bases are taken
+    at t_k (``guard.Guard._judge``), so turn * sign_k * sign_k-1 > 0: no flip, whatever bases are taken
     (Golub and Van Loan, Matrix Computations, sec. 8.6.2). The Guard then needs no basis at t_k for that step."""
     return moved < CERTAIN * lower
 
 
 @njit(cache=True, nogil=True, inline="always")
 def _scale(jacobians, k, columns, norms, starts, indices, slots, J, previous, sums):
-    """J <- the scaled Psi_q at time k (as ``dynamics.scale_rows``, to the last bit, on its pattern alone), previous
+    """J <- the scaled Psi_q at time k (as ``guard.scale_rows``, to the last bit, on its pattern alone), previous
     <- the J it held; returns a bound of |J - previous|_2: the least of its Frobenius norm and sqrt(|.|_1 |.|_inf)
     (Golub and Van Loan, sec. 2.3.3; the latter does not grow with the chain's length). ``sums``: work (n,)."""
     m = starts.size - 1
@@ -1570,7 +1570,7 @@ def dense_spectra(
 ):
     """``spectra`` of a small Psi_q (N, m, n), m <= n, full row rank, not a band: in one compiled pass over the output
     times, without numpy's per-matrix overhead (on the slider-crank's 101 Psi_q of 9 x 9, batched SVDs and QRs
-    cost 1 ms): Householder's QR of Psi_q^T (``_householder``, as ``dynamics.null_space_bases``) gives T and the
+    cost 1 ms): Householder's QR of Psi_q^T (``_householder``, as ``guard.null_space_bases``) gives T and the
     sign of det [Psi_q; T^T], and R, whose singular values are Psi_q's: sigma_m / sigma_1 by one-sided Jacobi
     (``_jacobi_ratio``). ``bases=False``: T left out (n x 0). NaN where Jacobi did not settle (the dense SVD's).
     ``settle`` (the Guard's tests, as ``spectra``'s): each ratio first in a bracket about LOOSE wide from the Gram
@@ -1699,7 +1699,7 @@ def _dense_spectra(jacobians, columns, norms, bases):
     for k in range(N):
         for r in range(m):
             norm = norms[k, r] if norms[k, r] > 0.0 else 1.0
-            for c in range(n):  # as ``dynamics.scale_rows``, to the last bit
+            for c in range(n):  # as ``guard.scale_rows``, to the last bit
                 J[r, c] = jacobians[k, r, c] * columns[c] / norm
         signs[k] = _householder(J, V, beta, tangents[k])
         B[:, :] = J[:, :m]  # R^T
@@ -1762,7 +1762,7 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
         moved = 0.0
         for r in range(m):
             norm = norms[k, r] if norms[k, r] > 0.0 else 1.0
-            for c in range(n):  # as ``dynamics.scale_rows``, to the last bit
+            for c in range(n):  # as ``guard.scale_rows``, to the last bit
                 previous[r, c] = J[r, c]
                 J[r, c] = jacobians[k, r, c] * columns[c] / norm
                 moved += (J[r, c] - previous[r, c]) ** 2

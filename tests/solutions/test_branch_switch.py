@@ -29,7 +29,8 @@ from benchmarks import chains  # noqa: E402
 from solutions.assembly import build_system  # noqa: E402
 from solutions.cli import main  # noqa: E402
 from solutions.diagnostics import AnalysisError, BranchSwitchError  # noqa: E402
-from solutions.dynamics import BRANCH_JUMP, Guard, branch_verdict, forward_dynamics  # noqa: E402
+from solutions.dynamics import forward_dynamics  # noqa: E402
+from solutions.guard import BRANCH_JUMP, Guard, branch_verdict  # noqa: E402
 from solutions.io.model import load_model  # noqa: E402
 
 ANGLE, RATE, TOL = math.radians(60.0), 8.0, 7e-10
@@ -311,7 +312,7 @@ def test_the_whole_array_prefilter_flags_every_step_the_verdict_calls_a_switch()
     """``possible_switches`` (all steps at once) keeps every step ``branch_verdict`` (one step) calls 'switched'
     and drops the smooth ones: two bodies moving as q' = sin(w t) (q'' its derivative), then one body's
     velocity reversed from sample 6 on (a switch between samples 5 and 6), and a smaller kink at 12."""
-    from solutions.dynamics import possible_switches
+    from solutions.guard import possible_switches
 
     t = np.linspace(0.0, 1.0, 21)
     qd = np.stack([np.sin(3.0 * t + phase) for phase in np.linspace(0.0, 1.0, 6)], axis=1)
@@ -340,7 +341,7 @@ def test_the_whole_array_prefilter_flags_every_step_the_verdict_calls_a_switch()
 def test_the_prefilter_flags_the_same_steps_taken_apart_or_together():
     """``possible_switches`` over consecutive steps (views of the histories) and over steps taken apart (index
     arrays) flags each step alike: every other step, and the steps one by one, against all steps at once."""
-    from solutions.dynamics import possible_switches
+    from solutions.guard import possible_switches
 
     rng = np.random.default_rng(3)
     t = np.cumsum(rng.uniform(0.01, 0.03, 31))
@@ -361,7 +362,7 @@ def test_the_compiled_prefilter_flags_the_steps_numpy_s_flags():
     NaN (numpy's max keeps it: no step flagged there)."""
     pytest.importorskip("numba")
     from solutions.compiled import branches
-    from solutions.dynamics import possible_switches
+    from solutions.guard import possible_switches
 
     rng = np.random.default_rng(5)
     t = np.cumsum(rng.uniform(0.01, 0.03, 41))
@@ -388,7 +389,7 @@ def test_the_compiled_screen_finds_the_steps_numpy_s_screen_finds():
     (redundant rows)."""
     pytest.importorskip("numba")
     from solutions.compiled import branches
-    from solutions.dynamics import ALIGNED, FALL, NEAR_SINGULAR, branch_screen
+    from solutions.guard import ALIGNED, FALL, NEAR_SINGULAR, branch_screen
 
     rng = np.random.default_rng(7)
     levels = np.array([0.0, 1e-4, 1e-3, 5e-3, 0.02, 0.05, 0.099, 0.1, 0.3, 1.0, np.nan, np.inf])

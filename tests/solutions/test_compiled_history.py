@@ -12,7 +12,8 @@ import yaml
 
 from solutions.assembly import build_system
 from solutions.diagnostics import AnalysisError, SingularConfigurationError
-from solutions.dynamics import Guard, constraint_residuals, forward_dynamics
+from solutions.dynamics import constraint_residuals, forward_dynamics
+from solutions.guard import Guard
 from solutions.io import load_model
 from solutions.reactions import joint_reactions
 

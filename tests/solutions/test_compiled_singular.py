@@ -16,10 +16,21 @@ import pytest
 
 pytest.importorskip("numba")
 
-from solutions import dynamics  # noqa: E402
 from solutions.assembly import build_system  # noqa: E402
-from solutions.diagnostics import SingularConfigurationError  # noqa: E402
-from solutions.dynamics import Guard, null_space_bases  # noqa: E402
+from solutions.diagnostics import NEAR_SINGULAR, SingularConfigurationError  # noqa: E402
+from solutions.guard import (  # noqa: E402
+    ALIGNED,
+    BAND_SMALLEST,
+    DENSE_LARGEST,
+    FALL,
+    Guard,
+    dips,
+    null_space_bases,
+    null_space_turns,
+    scale_rows,
+    smaller,
+    square_spectra,
+)
 from solutions.io import load_model  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
@@ -29,7 +40,7 @@ from ..conftest import LazyModule  # noqa: E402
 
 singular = LazyModule("solutions.compiled.singular")  # compiled where a test first needs it (conftest.LazyModule)
 
-LOOPS = 25  # 76 bodies, 152 rows, 153 coordinates: past dynamics.BAND_SMALLEST. Flat, each loop loses a rank: an
+LOOPS = 25  # 76 bodies, 152 rows, 153 coordinates: past BAND_SMALLEST. Flat, each loop loses a rank: an
 # odd count flips the sign of det [Psi_q; T^T] (an even one cancels in pairs, and only the ratio's dip tells)
 
 
@@ -112,7 +123,7 @@ def _through(band: bool, monkeypatch, through: bool = False):
     ratio is rounding, ~1e-18 both ways), at 20 output times, from the band or (``band=False``) from numpy's dense
     SVDs and QRs; with ``through``, the crossings it records."""
     if not band:
-        monkeypatch.setattr(dynamics, "_compiled_spectra", lambda *args: None)
+        monkeypatch.setattr("solutions.guard._compiled_spectra", lambda *args: None)
     banded, spectra = [], singular.spectra
     monkeypatch.setattr(singular, "spectra", lambda *args: banded.append(1) or spectra(*args))
     angles = np.linspace(80.0, 100.0, 20)
@@ -160,7 +171,7 @@ def test_a_run_through_records_the_dense_crossings(monkeypatch):
 @pytest.mark.parametrize("shape", [(9, 9), (4, 6), (8, 9), (20, 23)])
 def test_small_dense_spectra_give_numpys_ratio_basis_and_sign(shape):
     """dense_spectra (QR of Psi_q^T, one-sided Jacobi on R) against numpy's SVD and determinant, on random Psi_q with
-    columns weighted and rows of any length (scaled by the routine, as dynamics.scale_rows), near singular ones
+    columns weighted and rows of any length (scaled by the routine, as scale_rows), near singular ones
     among them (a row replaced by its neighbour plus 1e-6 of noise)."""
     m, n = shape
     rng = np.random.default_rng(m * n)
@@ -169,7 +180,7 @@ def test_small_dense_spectra_give_numpys_ratio_basis_and_sign(shape):
     columns = rng.uniform(0.5, 2.0, n)
     norms = np.linalg.norm(jacobians * columns, axis=-1)
     ratios, bases, signs = singular.dense_spectra(jacobians, columns, norms)
-    scaled = dynamics.scale_rows(jacobians, columns, norms)
+    scaled = scale_rows(jacobians, columns, norms)
     s = np.linalg.svd(scaled, compute_uv=False)
     assert np.all(s[6:, -1] / s[6:, 0] < 1e-5) and np.all(s[:6, -1] / s[:6, 0] > 1e-3)
     np.testing.assert_allclose(ratios[:6], s[:6, -1] / s[:6, 0], rtol=1e-10)
@@ -308,7 +319,7 @@ def test_the_band_start_reads_the_first_time_from_the_stored_history():
 
 @pytest.mark.parametrize("loops", [2, 5])
 def test_mid_size_psi_q_takes_the_band_with_numpys_ratio_basis_and_sign(loops, monkeypatch):
-    """A Psi_q of more than dynamics.DENSE_LARGEST rows and fewer than BAND_SMALLEST coordinates (the loop chain of 2
+    """A Psi_q of more than DENSE_LARGEST rows and fewer than BAND_SMALLEST coordinates (the loop chain of 2
     and 5 loops: 14 x 15, 32 x 33) goes to the band (up to half of n wide, ``singular.WIDEST_MID``) in a compiled
     run's square_spectra, and gives numpy's SVD ratio, an orthonormal null-space basis and numpy's sign of
     det [Psi_q; T^T], near-singular states (a hundredth of a degree off flat) among them."""
@@ -321,9 +332,9 @@ def test_mid_size_psi_q_takes_the_band_with_numpys_ratio_basis_and_sign(loops, m
     jacobians = np.array([system.jacobian(q, 0.0) for q in qs])
     guard = Guard(system, qs[0], 1e-3, 1e-8)
     N, m, n = jacobians.shape
-    assert dynamics.DENSE_LARGEST < m < n < dynamics.BAND_SMALLEST
+    assert DENSE_LARGEST < m < n < BAND_SMALLEST
     norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
-    ratios, bases, signs, _, _ = dynamics.square_spectra(jacobians, guard._columns, norms, None)
+    ratios, bases, signs, _, _ = square_spectra(jacobians, guard._columns, norms, None)
     assert taken  # the band, not numpy's dense route
     scaled = np.array([guard._scaled(J) for J in jacobians])
     s = np.linalg.svd(scaled, compute_uv=False)
@@ -368,23 +379,23 @@ def test_settled_ratios_decide_as_numpys_svd_through_a_singular_position(swing, 
     taken, spectra = [], singular.spectra
     monkeypatch.setattr(singular, "spectra", lambda *args: taken.append(1) or spectra(*args))
     norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
-    settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)
-    ratios, bases, signs, turns, brackets = dynamics.square_spectra(jacobians, guard._columns, norms, None, True, None,
+    settle = ((1e-8, NEAR_SINGULAR), FALL)
+    ratios, bases, signs, turns, brackets = square_spectra(jacobians, guard._columns, norms, None, True, None,
                                                                      settle)  # fmt: skip
     assert taken  # the band
     scaled = np.array([guard._scaled(J) for J in jacobians])
     s = np.linalg.svd(scaled, compute_uv=False)
     exact = s[:, -1] / s[:, 0]
     dip = int(np.argmin(exact))
-    assert exact[dip] < 1e-2 and np.all(exact < dynamics.NEAR_SINGULAR)  # every time judged by check_branches
+    assert exact[dip] < 1e-2 and np.all(exact < NEAR_SINGULAR)  # every time judged by check_branches
     np.testing.assert_allclose(ratios, exact, rtol=1e-3)
     assert not np.allclose(ratios, exact, rtol=1e-12, atol=0.0)  # brackets, not closed figures, at most times
     np.testing.assert_allclose(ratios[dip - 1 : dip + 2], exact[dip - 1 : dip + 2], rtol=1e-10)
-    np.testing.assert_array_equal(dynamics.dips(ratios), dynamics.dips(exact))
-    assert dynamics.dips(exact)[dip - 1]  # the crossing is seen
-    ordered = [dynamics.smaller(ratios, brackets, k, k + 1) == k for k in range(len(t) - 1)]  # as check_branches
+    np.testing.assert_array_equal(dips(ratios), dips(exact))
+    assert dips(exact)[dip - 1]  # the crossing is seen
+    ordered = [smaller(ratios, brackets, k, k + 1) == k for k in range(len(t) - 1)]  # as check_branches
     np.testing.assert_array_equal(ordered, exact[:-1] <= exact[1:])
-    falls = [np.minimum(r[:-1], r[1:]) < dynamics.FALL * np.maximum(r[:-1], r[1:]) for r in (ratios, exact)]
+    falls = [np.minimum(r[:-1], r[1:]) < FALL * np.maximum(r[:-1], r[1:]) for r in (ratios, exact)]
     np.testing.assert_array_equal(*falls)
     made = np.all(np.isfinite(bases), axis=(1, 2))  # the bases made: at the ends of the steps not certified
     assert made[0] and made[-1] and made[dip - 1 : dip + 2].all() and (square or not made.all())  # square: no T
@@ -392,8 +403,8 @@ def test_settled_ratios_decide_as_numpys_svd_through_a_singular_position(swing, 
     determinants = [np.linalg.det(np.vstack([J, T.T])) for J, T in zip(scaled[made], bases[made], strict=True)]
     np.testing.assert_array_equal(signs[made], np.sign(determinants))
     tangents, dense_signs = null_space_bases(scaled, signs=True)  # numpy's: every step's flip test as the Guard's
-    flips = [(np.abs(u) > dynamics.ALIGNED) & (u * g[1:] * g[:-1] < 0)
-             for u, g in ((turns, signs), (dynamics.null_space_turns(tangents, dense_signs), dense_signs))]  # fmt: skip
+    flips = [(np.abs(u) > ALIGNED) & (u * g[1:] * g[:-1] < 0)
+             for u, g in ((turns, signs), (null_space_turns(tangents, dense_signs), dense_signs))]  # fmt: skip
     np.testing.assert_array_equal(*flips)
 
 
@@ -405,7 +416,7 @@ def test_a_mid_size_run_through_records_the_dense_crossings_and_figures(swing, m
     found = []
     for band in (True, False):
         if not band:
-            monkeypatch.setattr(dynamics, "_compiled_spectra", lambda *args: None)
+            monkeypatch.setattr("solutions.guard._compiled_spectra", lambda *args: None)
         guard = Guard(system, qs[0], 1e-3, 1e-8, through=True)
         guard.banded = True
         guard.check_outputs(t, qs, psi, jacobians)
@@ -436,10 +447,10 @@ def test_small_settled_ratios_decide_as_numpys_svd_through_a_singular_position(s
     thresholds; the smallest and the dip's three to 1e-10; every other within the brackets' width, and each
     bracket holds numpy's figure; the basis and sign those of the closed route, bit for bit."""
     guard, jacobians, exact = small_swing
-    assert jacobians.shape[1:] == (8, 9) and jacobians.shape[1] <= dynamics.DENSE_LARGEST
+    assert jacobians.shape[1:] == (8, 9) and jacobians.shape[1] <= DENSE_LARGEST
     norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
-    settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)
-    ratios, bases, signs, _, _ = dynamics.square_spectra(jacobians, guard._columns, norms, None, True, None, settle)
+    settle = ((1e-8, NEAR_SINGULAR), FALL)
+    ratios, bases, signs, _, _ = square_spectra(jacobians, guard._columns, norms, None, True, None, settle)
     closed = singular.dense_spectra(jacobians, guard._columns, norms)
     dip = int(np.argmin(exact))
     assert exact[dip] < 1e-2 < exact[0]
@@ -447,10 +458,10 @@ def test_small_settled_ratios_decide_as_numpys_svd_through_a_singular_position(s
     assert not np.allclose(ratios, exact, rtol=1e-12, atol=0.0)  # brackets, not closed figures, at most times
     np.testing.assert_allclose(ratios[dip - 1 : dip + 2], exact[dip - 1 : dip + 2], rtol=1e-10)
     np.testing.assert_array_equal(ratios[dip - 1 : dip + 2], closed[0][dip - 1 : dip + 2])  # Jacobi's own figures
-    np.testing.assert_array_equal(dynamics.dips(ratios), dynamics.dips(exact))
-    assert dynamics.dips(exact)[dip - 1]  # the crossing is seen
+    np.testing.assert_array_equal(dips(ratios), dips(exact))
+    assert dips(exact)[dip - 1]  # the crossing is seen
     np.testing.assert_array_equal(ratios[:-1] <= ratios[1:], exact[:-1] <= exact[1:])
-    falls = [np.minimum(r[:-1], r[1:]) < dynamics.FALL * np.maximum(r[:-1], r[1:]) for r in (ratios, exact)]
+    falls = [np.minimum(r[:-1], r[1:]) < FALL * np.maximum(r[:-1], r[1:]) for r in (ratios, exact)]
     np.testing.assert_array_equal(*falls)
     for value in settle[0]:
         np.testing.assert_array_equal(ratios < value, exact < value)
@@ -468,7 +479,7 @@ def test_a_constant_small_ratio_is_closed_as_before(small_swing):
     guard, jacobians, _ = small_swing
     still = np.repeat(jacobians[:1], 20, axis=0)
     norms = np.linalg.norm(still * guard._columns, axis=-1)
-    settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)
+    settle = ((1e-8, NEAR_SINGULAR), FALL)
     made = singular.dense_spectra(still, guard._columns, norms, settle=settle)
     closed = singular.dense_spectra(still, guard._columns, norms)
     for a, b in zip(made, closed, strict=True):
@@ -495,7 +506,7 @@ def test_a_moving_psi_q_of_constant_ratio_is_not_bracketed(small_swing):
     np.testing.assert_array_equal(lower, figures)  # every ratio closed by Jacobi, no bracket tried
     s = np.linalg.svd(turning, compute_uv=False)
     np.testing.assert_allclose(figures, s[:, -1] / s[:, 0], rtol=1e-12)
-    settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)
+    settle = ((1e-8, NEAR_SINGULAR), FALL)
     for a, b in zip(singular.dense_spectra(turning, columns, norms, settle=settle),
                     singular.dense_spectra(turning, columns, norms), strict=True):  # fmt: skip
         np.testing.assert_array_equal(a, b)
@@ -574,11 +585,11 @@ def test_a_fall_s_figure_is_closed():
     upper = np.array([0.05, 2e-4, 1e-4, 1.5e-4])
     lower = upper * (1.0 - singular.LOOSE)
     lower[2] = upper[2]  # the smallest, closed
-    thresholds = np.array([1e-8, dynamics.NEAR_SINGULAR])
-    done = singular.settled(lower, upper, np.ones(4), thresholds, dynamics.FALL, True)
+    thresholds = np.array([1e-8, NEAR_SINGULAR])
+    done = singular.settled(lower, upper, np.ones(4), thresholds, FALL, True)
     assert not done[1]  # the fall's low end: its figure is reported
     assert done[0] and done[3]  # the fall's high end and a time that neither falls nor dips: brackets
-    assert upper[1] < dynamics.FALL * upper[0] and not dynamics.dips(upper)[0]  # a fall, no dip, not the smallest
+    assert upper[1] < FALL * upper[0] and not dips(upper)[0]  # a fall, no dip, not the smallest
 
 
 def test_a_certified_step_moves_psi_q_by_less_than_sigma_m(swing):
@@ -589,7 +600,7 @@ def test_a_certified_step_moves_psi_q_by_less_than_sigma_m(swing):
     system, t, qs, jacobians = swing
     guard = Guard(system, qs[0], 1e-3, 1e-8)
     norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
-    scaled = dynamics.scale_rows(jacobians, guard._columns, norms)
+    scaled = scale_rows(jacobians, guard._columns, norms)
     position, keys, starts, indices = singular._band_structure(np.any(jacobians != 0.0, axis=0))
     J, previous, sums = np.zeros(scaled.shape[1:]), np.zeros(scaled.shape[1:]), np.empty(scaled.shape[2])
     columns, norms = np.ascontiguousarray(guard._columns), np.ascontiguousarray(norms)
@@ -684,7 +695,7 @@ def test_a_carried_bracket_holds_the_ratio_and_smaller_orders_neighbours_as_nump
     over their step by Weyl's inequality (``singular._carried``: no eigenvalue test there), each holding numpy's SVD
     ratio; the Guard's tests decide as numpy's figures (thresholds, dips), the smallest is closed, and the order of
     two neighbours, which the carried brackets leave open, is numpy's where ``check_branches`` asks it
-    (``dynamics.smaller``, ``singular.Brackets``: the two closed there). Fails on the code before: no carried
+    (``smaller``, ``singular.Brackets``: the two closed there). Fails on the code before: no carried
     bracket, no ``Brackets``."""
     angles = np.linspace(60.0, 30.0, 101)  # away from flat: the ratio grows, each time above the smallest before
     system = build_system(load_model(loop_chain(MID)))[0]
@@ -692,8 +703,8 @@ def test_a_carried_bracket_holds_the_ratio_and_smaller_orders_neighbours_as_nump
     jacobians = np.array([system.jacobian(q, 0.0) for q in qs])
     guard = Guard(system, qs[0], 1e-3, 1e-8)
     norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
-    settle = ((1e-8, dynamics.NEAR_SINGULAR), dynamics.FALL)
-    ratios, _, _, _, brackets = dynamics.square_spectra(jacobians, guard._columns, norms, None, True, None, settle)
+    settle = ((1e-8, NEAR_SINGULAR), FALL)
+    ratios, _, _, _, brackets = square_spectra(jacobians, guard._columns, norms, None, True, None, settle)
     s = np.linalg.svd(np.array([guard._scaled(J) for J in jacobians]), compute_uv=False)
     exact = s[:, -1] / s[:, 0]
     lower = brackets.lower.copy()
@@ -702,11 +713,11 @@ def test_a_carried_bracket_holds_the_ratio_and_smaller_orders_neighbours_as_nump
     assert np.all(lower * (1.0 - 1e-12) <= exact) and np.all(exact <= ratios * (1.0 + 1e-12))
     k = int(np.argmin(exact))
     assert ratios[k] == lower[k] and ratios[k] == pytest.approx(exact[k], rel=1e-12)  # the smallest: closed
-    np.testing.assert_array_equal(dynamics.dips(ratios), dynamics.dips(exact))
-    assert np.all(ratios < dynamics.NEAR_SINGULAR) and np.all(exact < dynamics.NEAR_SINGULAR)
+    np.testing.assert_array_equal(dips(ratios), dips(exact))
+    assert np.all(ratios < NEAR_SINGULAR) and np.all(exact < NEAR_SINGULAR)
     apart = np.abs(exact[1:] - exact[:-1]) > 1e-10 * exact[1:]  # numpy's order is the exact one there
     for a in np.flatnonzero(apart):
-        assert dynamics.smaller(ratios, brackets, a, a + 1) == (a if exact[a] <= exact[a + 1] else a + 1)
+        assert smaller(ratios, brackets, a, a + 1) == (a if exact[a] <= exact[a + 1] else a + 1)
     asked = brackets.lower == ratios  # closed where their order was asked (every pair here): numpy's figures
     assert asked[carried].all()
     np.testing.assert_allclose(ratios[asked], exact[asked], rtol=1e-12)
@@ -778,19 +789,19 @@ def test_the_quiet_test_finds_numpys_smallest_or_a_crossing(banded):
 
 
 def test_null_space_turns_reads_the_signs_at_certified_steps_and_the_bases_elsewhere():
-    """``dynamics.null_space_turns``: det(T_k-1^T T_k) of each step without certified steps; the signs' product
+    """``null_space_turns``: det(T_k-1^T T_k) of each step without certified steps; the signs' product
     signs[k-1] signs[k] at a certified step (every step certified: no basis read, NaN bases allowed), the
     determinant at the others."""
     rng = np.random.default_rng(5)
     tangents = np.linalg.qr(rng.standard_normal((6, 5, 2)))[0]
     signs = np.array([1.0, -1.0, -1.0, 1.0, 1.0, -1.0])
     turns = np.linalg.det(np.swapaxes(tangents[:-1], 1, 2) @ tangents[1:])
-    np.testing.assert_array_equal(dynamics.null_space_turns(tangents, signs), turns)
-    np.testing.assert_array_equal(dynamics.null_space_turns(tangents, signs, np.zeros(5, dtype=bool)), turns)
+    np.testing.assert_array_equal(null_space_turns(tangents, signs), turns)
+    np.testing.assert_array_equal(null_space_turns(tangents, signs, np.zeros(5, dtype=bool)), turns)
     unmade = np.full_like(tangents, np.nan)
-    every = dynamics.null_space_turns(unmade, signs, np.ones(5, dtype=bool))
+    every = null_space_turns(unmade, signs, np.ones(5, dtype=bool))
     np.testing.assert_array_equal(every, signs[:-1] * signs[1:])
     some = np.array([True, False, True, True, False])
-    mixed = dynamics.null_space_turns(tangents, signs, some)
+    mixed = null_space_turns(tangents, signs, some)
     np.testing.assert_array_equal(mixed[some], (signs[:-1] * signs[1:])[some])
     np.testing.assert_array_equal(mixed[~some], turns[~some])

@@ -340,9 +340,9 @@ def test_augmented_lagrangian_raises_a_tolerance_it_cannot_hold(double_pendulum)
 
 
 def test_null_space_bases_are_orthonormal_bases_of_each_jacobians_null_space():
-    """The batched guard's null spaces (``dynamics.null_space_bases``, from a QR of Psi_q^T): n - m
+    """The batched guard's null spaces (``guard.null_space_bases``, from a QR of Psi_q^T): n - m
     orthonormal columns that Psi_q maps to zero, for each matrix of a stack, as the SVD's last columns of V."""
-    from solutions.dynamics import null_space_bases
+    from solutions.guard import null_space_bases
 
     rng = np.random.default_rng(7)
     stack = rng.standard_normal((5, 3, 7))
@@ -359,7 +359,7 @@ def test_null_space_bases_are_orthonormal_bases_of_each_jacobians_null_space():
 def test_null_space_bases_are_the_complete_qrs_last_columns(shape):
     """The reflectors applied to the identity's last columns (``null_space_bases``) give the columns of Q that
     numpy's complete QR forms (LAPACK's dorgqr), to rounding: the same basis, not only the same space."""
-    from solutions.dynamics import null_space_bases
+    from solutions.guard import null_space_bases
 
     stack = np.random.default_rng(11).standard_normal(shape)
     q_full, _ = np.linalg.qr(np.swapaxes(stack, 1, 2), mode="complete")
@@ -372,7 +372,7 @@ def test_null_space_bases_are_the_complete_qrs_last_columns(shape):
 def test_null_space_signs_are_the_determinants_of_the_bordered_matrices(shape):
     """``null_space_bases(..., signs=True)``: the sign of det [Psi_q; T^T] read off the QR (det R_1 times the
     reflectors' -1 each) is numpy's determinant's sign, both signs occurring."""
-    from solutions.dynamics import null_space_bases
+    from solutions.guard import null_space_bases
 
     stack = np.random.default_rng(13).standard_normal(shape)
     bases, signs = null_space_bases(stack, signs=True)
@@ -407,7 +407,8 @@ def test_the_drift_stop_names_its_own_limit_and_the_remedy_of_the_method():
     """The Guard's drift stop says the limit it was given, as a fraction of the mechanism's size (not always the
     default thousandth), and a remedy that fits the run: stabilization for an index-1 formulation, a tighter rtol
     or step for an index-3 integrator, which solves Psi = 0 itself."""
-    from solutions.dynamics import Guard, Plan, Run, index3_guard
+    from solutions.dynamics import Plan, Run, index3_guard
+    from solutions.guard import Guard
     from solutions.settings import Settings
 
     system, q0, qd0 = build_system(load_model(MODELS / "slider_crank_flywheel.yaml"))

@@ -15,8 +15,9 @@ import pytest
 
 from solutions.assembly import System, build_system
 from solutions.diagnostics import AnalysisError
-from solutions.dynamics import Guard, choose_method, forward_dynamics
+from solutions.dynamics import choose_method, forward_dynamics
 from solutions.generalized_forces import build_forces
+from solutions.guard import Guard
 from solutions.integrators import BudgetError, StiffnessError, integrate, spectral_radius
 from solutions.io.model import load_model
 from solutions.mass_matrix import mass_matrix
