@@ -29,6 +29,7 @@ import numpy as np
 
 from .elements import ConstraintElement
 from .io.model import Model
+from .linalg import largest
 from .planar.build import build_elements, initial_coordinates
 
 COORDINATES_PER_BODY = {2: 3, 3: 7}
@@ -400,3 +401,29 @@ def build_system(model: Model) -> tuple[System, np.ndarray, np.ndarray]:
         return System(model, spatial.build_elements(model)), q0, qd0
     q0, qd0 = initial_coordinates(model)
     return System(model, build_elements(model)), q0, qd0
+
+
+def mechanism_size(system: System, q: np.ndarray, extent: float | None = None) -> float:
+    """L: the largest distance of a body centre or a joint point from the origin, at least 1 mm (``Guard``);
+    ``extent``: the joint points' (``joint_extent``) where known."""
+    extent = joint_extent(system.model) if extent is None else extent
+    return max(largest(body_positions(system, q)), extent, 1e-3)
+
+
+def body_positions(system: System, q: np.ndarray) -> np.ndarray:
+    """The body centres' coordinates in q (planar x, y; spatial x, y, z)."""
+    per, dim = system.coordinates_per_body, system.model.dimension
+    return q.reshape(-1, per)[:, :dim]
+
+
+def joint_extent(model) -> float:
+    """The largest |coordinate| of a joint point: one array of all of them where they have one length (a model's
+    dimension; 3 us where one max a joint took 3 us each: 49 us a run of the loop chain N = 4), else joint by
+    joint. The same maximum either way."""
+    points = [j["location"] for j in model.joints if "location" in j]
+    if not points:
+        return 0.0
+    try:
+        return float(np.abs(np.array(points, dtype=float)).max())
+    except ValueError:  # points of different lengths
+        return max(float(np.max(np.abs(np.asarray(p, dtype=float)))) for p in points)

@@ -33,13 +33,14 @@ import math
 
 import numpy as np
 
-from .assembly import System
+from .assembly import System, mechanism_size
 from .diagnostics import (
     NEAR_SINGULAR,
     AnalysisError,
     BranchSwitchError,
     SingularConfigurationError,
     passes_zero,
+    rank_at,
     setting_words,
 )
 
@@ -230,15 +231,11 @@ class Guard:
         self._last_ratios: tuple[float | None, float | None] = (None, None)
         self._last_q: tuple[np.ndarray, float] = (q, 0.0)
         if size is None:  # L, as the run's Plan has it
-            from .dynamics import mechanism_size  # (dynamics imports this module: here, not at its top)
-
             size = mechanism_size(system, q)
         self.size = size
         self.drift_limit = None if drift_limit is None else drift_limit * size
         self.remedy = DRIFT_REMEDY  # what to do when the positions drift (index-3 runs: ``index3_guard``)
         if rank is None:  # a run's Guard is given it by the run's start (``Start.rank``)
-            from .dynamics import rank_at  # (dynamics imports this module: here, not at its top)
-
             report = rank_at(system, q)
             rank = report.rank if report is not None else 0
         self.rank = rank

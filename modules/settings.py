@@ -48,7 +48,7 @@ DRIFT_LIMIT = 1e-3
 SINGULAR_RATIO = 1e-8
 """Default ``singular_ratio``: sigma_min / sigma_max of Psi_q below which a configuration counts as singular."""
 DEFAULT_ACCURACY = 1e-6
-"""Default ``accuracy``: a millionth of the mechanism's size (``dynamics.mechanism_size``)."""
+"""Default ``accuracy``: a millionth of the mechanism's size (``assembly.mechanism_size``)."""
 
 NAME, FLAG, WHOLE, POSITIVE, OFF_AT_ZERO = "name", "flag", "whole", "positive", "off at zero"
 """What a setting takes: one of its names; true or false; a whole number >= 1; a number > 0; a number >= 0."""

@@ -11,11 +11,15 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.linalg import lapack
 
 from .linalg import RANK_EPS, numerical_rank
+
+if TYPE_CHECKING:
+    from .assembly import System
 
 
 class AnalysisError(RuntimeError):
@@ -142,6 +146,17 @@ def full_row_rank(jacobian: np.ndarray) -> RankReport | None:
     if lapack.dpotrf(shifted, overwrite_a=True)[1] != 0:  # LAPACK's Cholesky: not positive definite, sigma_min <= tau
         return None
     return RankReport(n, m, m, None, [])
+
+
+def rank_at(system: System, q: np.ndarray) -> RankReport | None:
+    """``rank_report`` of Psi_q at q (the singular values of the whole Jacobian), or None without constraints:
+    made once per run at its start (``Start.rank``) and handed to the method's choice, the redundancy checks, the
+    Guard and the divergence check. Where Psi_q has full row rank with a margin, a shifted Cholesky factorization
+    certifies the rule's verdict without the SVD (``full_row_rank``: a fifth of its cost)."""
+    if not system.n_constraints:
+        return None
+    jacobian = system.jacobian(q, 0.0)
+    return full_row_rank(jacobian) or rank_report(jacobian, system.row_owners)
 
 
 def singular_joints(jacobian: np.ndarray, row_owner: list[str]) -> tuple[float, list[str]]:

@@ -47,15 +47,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import output_history
-from .assembly import System
+from .assembly import System, body_positions, joint_extent, mechanism_size
 from .diagnostics import (
     NEAR_SINGULAR,
     AnalysisError,
     RankReport,
     SingularConfigurationError,
-    full_row_rank,
     passes_zero,
-    rank_report,
+    rank_at,
 )
 from .divergence import Divergence, companion_factor, departure, estimate, needed_rtol, scaled
 from .energy import driver_power, energy_history
@@ -71,7 +70,7 @@ from .integrators import (
 )
 from .joint_coordinates import open_tree
 from .kinematics import assemble, point_columns
-from .linalg import RANK_EPS, numerical_rank
+from .linalg import RANK_EPS, largest, numerical_rank
 from .mass_matrix import mass_at, mass_matrix, singular_inertia
 from .reactions import REDUNDANT_NOTE, joint_reactions, minimum_norm_multipliers
 from .results import DynamicInfo, Progress, Result
@@ -462,7 +461,7 @@ class Prepared:
         """What the runs' start and Guard read of the model alone (``Fixed``), made at the first call."""
         if self._fixed is None:
             model = self.system.model
-            self._fixed = Fixed(point_masses(model), _joint_extent(model), self.system)
+            self._fixed = Fixed(point_masses(model), joint_extent(model), self.system)
         return self._fixed
 
     def formulation(self, name: str, M, forces: ForceModel, options: dict) -> Formulation:
@@ -515,7 +514,7 @@ REUSED = ("joint-coordinates",)
 @dataclass(frozen=True)
 class Fixed:
     """What a prepared run's stages read of the model alone, made once (``Prepared.fixed``): the point masses
-    (``point_masses``), the joints' extent (``_joint_extent``, of the mechanism's size) and the Guard's speed weights
+    (``point_masses``), the joints' extent (``joint_extent``, of the mechanism's size) and the Guard's speed weights
     (``weights``)."""
 
     point_masses: list[int]
@@ -1368,18 +1367,6 @@ def run_info(run: Run, plan: Plan, equations, guard, stats, result, energies, in
     }
 
 
-def mechanism_size(system: System, q: np.ndarray, extent: float | None = None) -> float:
-    """L: the largest distance of a body centre or a joint point from the origin, at least 1 mm (``Guard``);
-    ``extent``: the joint points' (``_joint_extent``) where known."""
-    extent = _joint_extent(system.model) if extent is None else extent
-    return max(largest(body_positions(system, q)), extent, 1e-3)
-
-
-def largest(x: np.ndarray) -> float:
-    """max |x|, 0 for an empty array (``np.max(np.abs(x), initial=0.0)``, without its dispatch: 1 us, not 4)."""
-    return float(np.abs(x).max()) if x.size else 0.0
-
-
 class StartRates:
     """rho, the spectral radius of the ODE's Jacobian at the start (``integrators.spectral_radius``: 21
     evaluations of the right-hand side), and q'' at the start, for a formulation: computed once per formulation
@@ -1769,25 +1756,6 @@ def choose_method(
     return {"formulation": formulation, "integrator": integrator, "why": "; ".join(reasons)}
 
 
-def body_positions(system: System, q: np.ndarray) -> np.ndarray:
-    """The body centres' coordinates in q (planar x, y; spatial x, y, z)."""
-    per, dim = system.coordinates_per_body, system.model.dimension
-    return q.reshape(-1, per)[:, :dim]
-
-
-def _joint_extent(model) -> float:
-    """The largest |coordinate| of a joint point: one array of all of them where they have one length (a model's
-    dimension; 3 us where one max a joint took 3 us each: 49 us a run of the loop chain N = 4), else joint by
-    joint. The same maximum either way."""
-    points = [j["location"] for j in model.joints if "location" in j]
-    if not points:
-        return 0.0
-    try:
-        return float(np.abs(np.array(points, dtype=float)).max())
-    except ValueError:  # points of different lengths
-        return max(float(np.max(np.abs(np.asarray(p, dtype=float)))) for p in points)
-
-
 class _History:
     """Output arrays filled as the integrator passes the output times (``allocate``: a compiled run hands its own
     over instead)."""
@@ -1837,17 +1805,6 @@ def constraint_residuals(system: System, t: np.ndarray, q: np.ndarray, qd: np.nd
     return {"residual.position": position, "residual.velocity": velocity}
 
 
-def rank_at(system: System, q: np.ndarray) -> RankReport | None:
-    """``rank_report`` of Psi_q at q (the singular values of the whole Jacobian), or None without constraints:
-    made once per run at its start (``Start.rank``) and handed to the method's choice, the redundancy checks, the
-    Guard and the divergence check. Where Psi_q has full row rank with a margin, a shifted Cholesky factorization
-    certifies the rule's verdict without the SVD (``full_row_rank``: a fifth of its cost)."""
-    if not system.n_constraints:
-        return None
-    jacobian = system.jacobian(q, 0.0)
-    return full_row_rank(jacobian) or rank_report(jacobian, system.row_owners)
-
-
 def _check_redundancy(report: RankReport | None, formulation: str) -> None:
     """Only the SVD and augmented Lagrangian formulations cope with redundant constraints: refuse the others."""
     if report is not None and report.n_redundant and formulation not in ("svd", *THROUGH_SINGULAR):
@@ -1887,7 +1844,6 @@ __all__ = [
     "Settings",
     "choose_method",
     "default_rtol",
-    "mechanism_size",
     "motion_periods",
     "consistent_initial_conditions",
     "constraint_residuals",

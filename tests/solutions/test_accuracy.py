@@ -27,8 +27,8 @@ import numpy as np
 import pytest
 import yaml
 
-from solutions.assembly import build_system
-from solutions.dynamics import DEFAULT_ACCURACY, accuracy_warnings, forward_dynamics, mechanism_size
+from solutions.assembly import build_system, mechanism_size
+from solutions.dynamics import DEFAULT_ACCURACY, accuracy_warnings, forward_dynamics
 from solutions.io.model import load_model
 from solutions.settings import read_settings
 

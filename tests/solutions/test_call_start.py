@@ -19,7 +19,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from benchmarks import chains  # noqa: E402
-from solutions import dynamics  # noqa: E402
+from solutions import diagnostics, dynamics  # noqa: E402
 from solutions.assembly import build_system  # noqa: E402
 from solutions.compiled import plan  # noqa: E402
 from solutions.io.model import load_model  # noqa: E402
@@ -203,7 +203,7 @@ def test_the_divergence_companion_starts_from_the_runs_start_state(monkeypatch):
 
 @pytest.mark.parametrize("engine", ["numpy", "compiled"])
 def test_each_call_makes_psi_q_s_rank_once_and_keeps_nothing_for_the_next(monkeypatch, engine):
-    """Psi_q's rank at the start (``dynamics.rank_at``: a certificate or an SVD, 0.1-1 ms on the loop chains) is made
+    """Psi_q's rank at the start (``diagnostics.rank_at``: a certificate or an SVD, 0.1-1 ms on the loop chains) is made
     once per call, at its start (``Start.rank``), and handed to the method's choice, the redundancy checks, the Guard
     and the divergence check: a second identical call makes it again (no result kept on the system across calls), and a
     call from another q0 gets its own. The results are the same as without counting."""
@@ -212,8 +212,8 @@ def test_each_call_makes_psi_q_s_rank_once_and_keeps_nothing_for_the_next(monkey
     reference = dynamics.forward_dynamics(system, q0, qd0, 0.2, 10, **options)
     made = []  # each decision of the rank: the certificate (``full_row_rank``), the SVD where it fails
     for name in ("full_row_rank", "rank_report"):
-        original = getattr(dynamics, name)
-        monkeypatch.setattr(dynamics, name, lambda *a, _f=original, **k: made.append(1) or _f(*a, **k))
+        original = getattr(diagnostics, name)
+        monkeypatch.setattr(diagnostics, name, lambda *a, _f=original, **k: made.append(1) or _f(*a, **k))
     first = dynamics.forward_dynamics(system, q0, qd0, 0.2, 10, **options)
     second = dynamics.forward_dynamics(system, q0, qd0, 0.2, 10, **options)
     assert len(made) == 2

@@ -15,9 +15,9 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from benchmarks import chains  # noqa: E402
-from solutions import dynamics  # noqa: E402
+from solutions import diagnostics  # noqa: E402
 from solutions.assembly import build_system  # noqa: E402
-from solutions.diagnostics import full_row_rank, rank_report  # noqa: E402
+from solutions.diagnostics import full_row_rank, rank_at, rank_report  # noqa: E402
 from solutions.io.model import load_model  # noqa: E402
 from solutions.linalg import RANK_EPS  # noqa: E402
 
@@ -41,8 +41,8 @@ def test_a_full_rank_psi_q_is_certified_without_an_svd_and_agrees_with_it(monkey
     system, q0, _ = build_system(load_model(model))
     reference = rank_report(system.jacobian(q0, 0.0), system.row_owners)
     called = []
-    monkeypatch.setattr(dynamics, "rank_report", lambda *a, **k: called.append(1) or rank_report(*a, **k))
-    found = dynamics.rank_at(system, q0)
+    monkeypatch.setattr(diagnostics, "rank_report", lambda *a, **k: called.append(1) or rank_report(*a, **k))
+    found = rank_at(system, q0)
     assert not called
     assert (found.rank, found.n_redundant, found.redundant_joints) == (reference.rank, 0, [])
     assert found.degrees_of_freedom == reference.degrees_of_freedom
@@ -54,7 +54,7 @@ def test_redundant_rows_are_left_to_the_svd_which_names_the_joints():
     system, q0, _ = build_system(load_model(MODELS / "parallel_swing.yaml"))
     jacobian = system.jacobian(q0, 0.0)
     assert full_row_rank(jacobian) is None
-    found, reference = dynamics.rank_at(system, q0), rank_report(jacobian, system.row_owners)
+    found, reference = rank_at(system, q0), rank_report(jacobian, system.row_owners)
     assert found.n_redundant == reference.n_redundant > 0 and found.redundant_joints == reference.redundant_joints
     assert np.array_equal(found.singular_values, reference.singular_values)
 

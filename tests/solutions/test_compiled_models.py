@@ -18,7 +18,8 @@ import numpy as np
 import pytest
 
 from solutions.assembly import build_system
-from solutions.dynamics import forward_dynamics, rank_at
+from solutions.diagnostics import rank_at
+from solutions.dynamics import forward_dynamics
 from solutions.io import load_model
 
 pytest.importorskip("numba")

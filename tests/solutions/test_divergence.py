@@ -16,9 +16,9 @@ import pytest
 import yaml
 
 from solutions import dynamics
-from solutions.assembly import build_system
+from solutions.assembly import build_system, mechanism_size
 from solutions.cli import main
-from solutions.dynamics import centres, forward_dynamics, mechanism_size
+from solutions.dynamics import centres, forward_dynamics
 from solutions.io.model import load_model
 
 from .test_accuracy import MODELS

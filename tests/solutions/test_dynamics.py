@@ -426,14 +426,14 @@ def test_the_drift_stop_names_its_own_limit_and_the_remedy_of_the_method():
 
 
 def test_the_mechanism_size_is_the_farthest_body_centre_or_joint_point():
-    """L (``dynamics.mechanism_size``): the four-bar's body centres reach 0.25 m (the rocker's x), its joint O4 sits
+    """L (``assembly.mechanism_size``): the four-bar's body centres reach 0.25 m (the rocker's x), its joint O4 sits
     at x = 0.3 m (the file's numbers), so L = 0.3; joint points of different lengths, or none, are read too."""
     from types import SimpleNamespace
 
-    from solutions.dynamics import _joint_extent, mechanism_size
+    from solutions.assembly import joint_extent, mechanism_size
 
     system, q0, _ = build_system(load_model(MODELS / "four_bar.yaml"))
     assert mechanism_size(system, q0) == 0.3
     mixed = SimpleNamespace(joints=[{"location": [0.1, 0.2]}, {"location": [0.0, -0.5, 0.1]}, {"name": "no point"}])
-    assert _joint_extent(mixed) == 0.5
-    assert _joint_extent(SimpleNamespace(joints=[{"name": "no point"}])) == 0.0
+    assert joint_extent(mixed) == 0.5
+    assert joint_extent(SimpleNamespace(joints=[{"name": "no point"}])) == 0.0

@@ -26,9 +26,9 @@ import numpy as np
 import pytest
 import scipy.special
 
-from solutions.assembly import build_system
+from solutions.assembly import build_system, mechanism_size
 from solutions.diagnostics import AnalysisError, SingularConfigurationError, rank_report
-from solutions.dynamics import DEFAULT_ACCURACY, forward_dynamics, mechanism_size
+from solutions.dynamics import DEFAULT_ACCURACY, forward_dynamics
 from solutions.io.model import load_model
 from solutions.kinematics import kinematic_analysis, locate_singular_position
 from solutions.linalg import independent_rows, minimum_norm_solution, numerical_rank

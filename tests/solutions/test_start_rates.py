@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from solutions import dynamics
-from solutions.assembly import build_system
+from solutions.assembly import build_system, mechanism_size
 from solutions.dynamics import (
     EquationsOfMotion,
     StartRates,
@@ -71,8 +71,8 @@ def test_a_dissipative_scene_gets_its_start_rates():
     assert np.allclose(start[1], qdd, rtol=1e-12, atol=1e-12)
     assert start[0] > 1.0  # the spring and Baumgarte's terms give the linearized motion its rates
     periods = motion_periods(system, M, forces, q, qd, 20.0, "baumgarte", {}, rates=rates)
-    assert periods == pytest.approx(20.0 * max(start[0], np.max(np.abs(qd)) / dynamics.mechanism_size(system, q),
-                                               (np.max(np.abs(qdd)) / dynamics.mechanism_size(system, q)) ** 0.5)
+    assert periods == pytest.approx(20.0 * max(start[0], np.max(np.abs(qd)) / mechanism_size(system, q),
+                                               (np.max(np.abs(qdd)) / mechanism_size(system, q)) ** 0.5)
                                     / (2 * np.pi), rel=1e-12)  # fmt: skip
 
 
