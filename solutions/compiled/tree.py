@@ -52,9 +52,14 @@ from .scene import SLOTS, Scene, packed
 
 SOURCES = ("tree_kernels.py", "articulated.py", "projection_kernels.py", "../joint_coordinates.py")
 KINDS = {"revolute": 0, "prismatic": 1, "spherical": 2}
-TREE_CALLS = {"planar_revolute": "tree_revolute(q, qd, {ints}, {floats}, psi, jac, gam, body, ncut > 0)"}
+_REVOLUTE = SLOTS.index("planar_revolute")
+TREE_CALLS = {
+    "planar_revolute": "tree_revolute(q, qd, {ints}, {floats}, psi, jac, gam, body, "
+    f"D[2][{_REVOLUTE + 1 + len(SLOTS)}] - D[2][{_REVOLUTE}] if ncut > 0 else 0)"
+}
 """The constraint kernels a tree's module calls by another form (``codegen.CONSTRAINT_CALLS``): a planar revolute
-joint's rows with the recursion's cos and sin (``tree_kernels.tree_revolute``), gamma only for the cut solve."""
+joint's rows with the recursion's cos and sin (``tree_kernels.tree_revolute``), gamma only of the cut joints (the
+slot's first, ``TreeScene.data``: its stop among the offsets after the starts), all the cut solve reads."""
 
 
 @dataclass

@@ -131,14 +131,16 @@ def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, columns, body
 
 
 @inlined
-def tree_revolute(q, qd, ints, floats, psi, jac, gam, body, rates):
+def tree_revolute(q, qd, ints, floats, psi, jac, gam, body, rated):
     """``kernels.planar_revolute`` in a planar tree's module (eq. 3.17), each body's A (eq. 2.2) from the recursion:
     cos phi and sin phi of ``body``'s row MOTION (``planar_motion``), where the kernel made both bodies' again at
-    every joint (two cos/sin pairs a joint); gamma only where ``rates`` (the cut rows' solve reads it, the outputs
-    none). The same numbers: the same cos and sin of the same angle, in the same expressions."""
+    every joint (two cos/sin pairs a joint); gamma of the first ``rated`` joints alone: the cut joints, first in the
+    slot, whose rows the cut solve reads (the tree joints' gamma is read nowhere: the integration evaluates the cut
+    joints alone, the outputs every joint). The same numbers: the same cos and sin of the same angle, in the same
+    expressions."""
     for e in range(ints.shape[0]):
         Ai, Aj = _rotation(body, ints[e, 0]), _rotation(body, ints[e, 1])
-        revolute_rows(q, qd, ints, floats, e, Ai, Aj, psi, jac, gam, rates)
+        revolute_rows(q, qd, ints, floats, e, Ai, Aj, psi, jac, gam, e < rated)
 
 
 @inlined
@@ -634,16 +636,39 @@ def tree_multipliers(jac, residual, index, width, ints, lam):
     e the tree joint to C's parent (its rows, then in space C's Euler-parameter normalization: the rows C owns,
     ``tree.row_index``). From the leaves (the joints in reverse topological order) every child's lambda_c is known,
     and moving its terms to the right side (r_P -= (Psi_q)_P^T lambda_e, what joint e exerts on the parent P) leaves
-    in r_C the force joint e passes to C: its rows' lambda from C's columns alone (``joint_multipliers``, no matrix
-    of the whole tree). O(N), where the normal equations of all rows cost O(m^3); the same lambda as those to
-    rounding. ``index``: the rows of each body (``tree.row_index``, made once per scene); ``residual`` is worked in."""
+    in r_C the force joint e passes to C, (Psi_q)_C^T lambda_C = r_C over C's columns alone. The joint's translational
+    rows (``translational_rows``) meet C's position columns along orthogonal unit directions a, and no other row of
+    C meets them: lambda_a = a^T r_C,v, their components of the force (a revolute or spherical joint's s r_C,a; a
+    spatial prismatic joint's f_i^T and g_i^T r_C,v to rounding: A_i orthogonal, its Euler parameters unit from the
+    recursion), no solve. Their terms moved to the right side of C's rotation columns, C's other rows (a spatial
+    joint's dot-1 rows and C's normalization, at most 4 x 4; a planar prismatic joint's angle row) by least squares
+    on those columns (``_other_rows``). O(N), where the normal equations of all rows cost O(m^3); the same lambda as
+    those, or as the least squares of C's whole block, to rounding (r_C is consistent with (Psi_q)_C^T lambda = r_C
+    up to rounding, which a least squares spreads over every entry and this puts in the rotation entries alone).
+    The joint's steps are written here, not in a function of their own: a compiled call inlined in a loop still
+    counts the references of every array it is handed (~10 ns a joint: twice a planar joint's arithmetic).
+    ``index``: the rows of each body (``tree.row_index``, made once per scene); ``residual`` is worked in."""
     nb = residual.size // width
     start, mine = index[: nb + 1], index[nb + 1 :]
     G = np.empty((_most_rows(start, nb) + 1, _most_rows(start, nb)))  # the rotation rows' A A^T; A r in its last row
     for e in range(ints.shape[0] - 1, -1, -1):
         P, C = ints[e, 1], ints[e, 2]
         first, count = start[C], start[C + 1] - start[C]
-        joint_multipliers(jac, residual, 0, mine, first, count, ints[e, 0], width * C, width, G, lam)
+        at, moving = translational_rows(ints[e, 0], width)
+        o = width * C
+        position = 2 if width == 3 else 3  # C's position columns: (x, y) or r
+        for a in range(first + at, first + at + moving):
+            row, x = mine[a], 0.0
+            for c in range(o, o + position):
+                x += jac[row, c] * residual[c]
+            lam[row] = x
+        if count > moving:  # the other rows (a planar revolute joint: none)
+            for a in range(first + at, first + at + moving):  # the translational rows moved to the right side
+                for c in range(o + position, o + width):
+                    residual[c] -= lam[mine[a]] * jac[mine[a], c]
+            _other_rows(jac, residual, 0, mine, first, count, at, moving, o + position, o + width, G)
+            for a in range(count - moving):
+                lam[mine[first + (a if a < at else a + moving)]] = G[G.shape[0] - 1, a]
         if P >= 0:  # what the joint's rows exert on its parent
             for a in range(count):
                 row, x = mine[first + a], lam[mine[first + a]]
@@ -664,32 +689,6 @@ def translational_rows(kind, width):
     if width == 3:
         return 0, 2 if kind == REVOLUTE else 1
     return (2, 2) if kind == PRISMATIC else (0, 3)
-
-
-@inlined
-def joint_multipliers(jac, r, shift, mine, first, count, kind, o, width, G, lam):
-    """lambda of the rows body C owns (``mine[first : first + count]``) from (Psi_q)_C^T lambda_C = r_C, the force its
-    joint passes it, over C's columns [o, o + width) (column c's entry of r at r[c - shift]). The joint's translational
-    rows (``translational_rows``) meet C's position columns along orthogonal unit directions a, and no other row of C
-    meets them: their force's components, lambda_a = a^T r_C,v (a spherical joint's s r_C,a: the joint's force,
-    no solve; a spatial prismatic joint's f_i^T and g_i^T r_C,v to rounding: A_i orthogonal, its Euler parameters
-    unit from the recursion). Their terms moved to the right side of C's rotation columns, the other rows (a spatial
-    joint's dot-1 rows and C's normalization, at most 4 x 4; a planar prismatic joint's angle row) by least squares
-    on those columns (``_other_rows``): the same lambda as the least squares of C's whole block to rounding (r_C is
-    consistent with (Psi_q)_C^T lambda = r_C up to rounding, which that spreads over every entry and this puts in
-    the rotation entries alone)."""
-    at, moving = translational_rows(kind, width)
-    position = 2 if width == 3 else 3  # C's position columns: (x, y) or r
-    for a in range(first + at, first + at + moving):
-        row, x = mine[a], 0.0
-        for c in range(o, o + position):
-            x += jac[row, c] * r[c - shift]
-        lam[row] = x
-        for c in range(o + position, o + width):  # moved to the right side of C's rotation columns
-            r[c - shift] -= x * jac[row, c]
-    _other_rows(jac, r, shift, mine, first, count, at, moving, o + position, o + width, G)
-    for a in range(count - moving):
-        lam[mine[first + (a if a < at else a + moving)]] = G[G.shape[0] - 1, a]
 
 
 @inlined
@@ -734,23 +733,35 @@ def planar_joint_multipliers(jac, body, index, ints, lam):
 
     (a leaf: I_C A_C + M_C xi_C - Q_C = M_C q''_C - Q_C, the force its joint must add; the articulated pass folds
     each child's subtree into I^A and p^A the same way). The equations of motion M q'' + Psi_q^T lambda = Q (eq.
-    5.29) give the joint's rows' force on C as -(Psi_q)_C^T lambda_e, so (Psi_q)_C^T lambda_e = -f_e: the backward
-    pass's r_C, its children's rows already in it, nothing moved to the parent; the rows' lambda from it as there
-    (``joint_multipliers``). The same lambda as ``tree_multipliers`` to rounding (the sums in another order)."""
+    5.29) give the joint's rows' force on C as -(Psi_q)_C^T lambda_e, so (Psi_q)_C^T lambda_e = -f_e: what
+    the backward pass finds for C once its children's rows are moved to its side, here with no
+    matrix formed. A revolute joint (eq. 3.17, Psi = r_i + A_i s_i' - r_j - A_j s_j'): (Psi_q)_C = s [I, B_C s_C'],
+    s = +1 where C is the element's body i, -1 where it is body j, read from Psi_q's entry at C's x column (exactly
+    +-1), so lambda_e = -s f_v from the translational components alone (the angular one, (B_C s_C')^T lambda_e, is
+    the same equation's: the joint passes no moment about its point). A prismatic joint's two rows meet C's three
+    columns in a 2 x 3 block A: (A A^T) lambda_e = A (-f_e), least squares on C's block alone (``_other_rows``),
+    nothing moved to the parent: f_e holds what C's children pass it. The same lambda as ``tree_multipliers`` to
+    rounding (the sums in another order)."""
     IA, PA, ACC = body_rows(3)
     nb = body.shape[0] - 1
     start, mine = index[: nb + 1], index[nb + 1 :]
-    G = np.empty((_most_rows(start, nb) + 1, _most_rows(start, nb)))  # the angle rows' A A^T; A (-f) last
+    G = np.empty((3, 2))  # a prismatic joint's 2 x 2 A A^T; A (-f) in the last row
     f = np.empty(3)
     for e in range(ints.shape[0]):
         C = ints[e, 2]
+        first = start[C]
         for i in range(3):  # -f_e = -(I^A_C A_C + p^A_C)
             x = body[C, PA, i]
             for j in range(3):
                 x += body[C, IA + i, j] * body[C, ACC, j]
             f[i] = -x
-        first, count = start[C], start[C + 1] - start[C]
-        joint_multipliers(jac, f, 3 * C, mine, first, count, ints[e, 0], 3 * C, 3, G, lam)
+        if ints[e, 0] == REVOLUTE:
+            for a in range(2):
+                row = mine[first + a]
+                lam[row] = f[a] * jac[row, 3 * C + a]  # s = +-1: its own inverse
+        else:
+            _other_rows(jac, f, 3 * C, mine, first, 2, 0, 0, 3 * C, 3 * C + 3, G)
+            lam[mine[first]], lam[mine[first + 1]] = G[2, 0], G[2, 1]
 
 
 @inlined

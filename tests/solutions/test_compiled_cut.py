@@ -411,7 +411,7 @@ def _prismatic(model: dict, n: int) -> dict:
 @pytest.mark.parametrize(("n", "seed", "closed"), [(7, 7, False), (10, 8, False), (6, 4, True), (8, 5, True)])
 def test_a_spatial_prismatic_joints_lambda_equals_the_numpy_engines(n, seed, closed):
     """A spatial prismatic joint's rows (eq. 9.18) from the force its joint passes the child (``tree_kernels.
-    joint_multipliers``): the two dot-2 rows meet the child's position columns along s f_i and s g_i, read as their
+    tree_multipliers``): the two dot-2 rows meet the child's position columns along s f_i and s g_i, read as their
     components of r_C,v; the three dot-1 rows and the normalization by least squares on the Euler-parameter columns.
     Random trees whose revolute joints are all prismatic (two of three joints, the rest spherical; every other child
     first: the sign s), open (the articulated pass) and closed (the cut route), against the numpy engine's normal
