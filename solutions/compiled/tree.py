@@ -52,9 +52,14 @@ from .scene import SLOTS, Scene, packed
 
 SOURCES = ("tree_kernels.py", "articulated.py", "projection_kernels.py", "../joint_coordinates.py")
 KINDS = {"revolute": 0, "prismatic": 1, "spherical": 2}
-TREE_CALLS = {"planar_revolute": "tree_revolute(q, qd, {ints}, {floats}, psi, jac, gam, body, ncut > 0)"}
+_REVOLUTE = SLOTS.index("planar_revolute")
+TREE_CALLS = {
+    "planar_revolute": "tree_revolute(q, qd, {ints}, {floats}, psi, jac, gam, body, "
+    f"D[2][{_REVOLUTE + 1 + len(SLOTS)}] - D[2][{_REVOLUTE}] if ncut > 0 else 0)"
+}
 """The constraint kernels a tree's module calls by another form (``codegen.CONSTRAINT_CALLS``): a planar revolute
-joint's rows with the recursion's cos and sin (``tree_kernels.tree_revolute``), gamma only for the cut solve."""
+joint's rows with the recursion's cos and sin (``tree_kernels.tree_revolute``), gamma only of the cut joints (the
+slot's first, ``TreeScene.data``: its stop among the offsets after the starts), all the cut solve reads."""
 
 
 @dataclass
@@ -209,11 +214,14 @@ def _owners(system, joints) -> tuple[list[int], list[int], list[int], list[list[
     driver's: ``joint_coordinates.cut_elements``), whose multiplier comes from the augmented system
     (``cut_accelerations``); the cut rows; their elements' two bodies, row after row (``TreeScene.cut_bodies``);
     each body's rows in row order (``row_index``)), in one pass over the elements (a loop: faster than numpy's
-    repeat up to a loop chain of 16 at least), as lists."""
+    repeat up to a loop chain of 16 at least), as lists. Each body's rows checked as ``tree_kernels.tree_multipliers``
+    reads them: its joint's, then its normalization (``check_row_order``)."""
     child = {joint.name: joint.child for joint in joints}
-    if system.model.dimension == 3:  # the Euler-parameter normalizations (a planar scene has none)
-        child |= {f"{body.name}.p": b for b, body in enumerate(system.model.bodies)}
-    owners, cut, bodies, owned = [], [], [], [[] for _ in system.model.bodies]
+    normalizations = {}  # the Euler-parameter normalizations (a planar scene has none)
+    if system.model.dimension == 3:
+        normalizations = {f"{body.name}.p": b for b, body in enumerate(system.model.bodies)}
+    child |= normalizations
+    owners, cut, bodies, owned, closed = [], [], [], [[] for _ in system.model.bodies], set()
     for element, where in zip(system.elements, system.rows, strict=True):
         owner, size = child.get(element.name, -1), where.stop - where.start
         owners += [owner] * size
@@ -221,8 +229,25 @@ def _owners(system, joints) -> tuple[list[int], list[int], list[int], list[list[
             cut += range(where.start, where.stop)
             bodies += [element.i, element.j] * size
         else:
+            normalization = element.name in normalizations
+            check_row_order(system, owner, owned[owner], normalization, closed)
             owned[owner] += range(where.start, where.stop)
+            if normalization:
+                closed.add(owner)
     return owners, cut, bodies, owned
+
+
+def check_row_order(system, body: int, rows: list[int], normalization: bool, closed: set) -> None:
+    """ValueError unless a body's rows come as ``tree_kernels.tree_multipliers`` reads them: its tree joint's rows
+    first (``translational_rows``: where each kind's translational rows are among them), its Euler-parameter
+    normalization last (``spatial.build.build_elements`` puts the normalizations after every joint). Called for
+    each element the body owns before its rows join ``rows`` (the body's so far; ``normalization``: the element is
+    the body's normalization; ``closed``: the bodies whose normalization came): another order would give lambda to
+    the wrong rows, silently. Where the plan is made, a set lookup an element: never at an output time."""
+    if body in closed:
+        raise ValueError(f"body {system.model.bodies[body].name}: a row after its Euler-parameter normalization")
+    if normalization and not rows:
+        raise ValueError(f"body {system.model.bodies[body].name}: its Euler-parameter normalization before its joint")
 
 
 def row_index(rows: list[list[int]]) -> np.ndarray:
@@ -283,16 +308,10 @@ def _arrays(spatial: bool) -> list[str]:
 def _multipliers(scene: Scene) -> list[str]:
     """The lines that make q'' (``qdd``) from theta'' and lambda of every row from Psi_q^T lambda = Q - M q'' (an open
     tree's q'' from the articulated pass's body accelerations; lambda of an open planar tree from the pass's joint
-    forces (``tree_kernels.planar_joint_multipliers``: no solve), of a spatial tree by ``tree_multipliers``, each
-    body's rows from its own columns, O(N) (a spherical part's rows without a solve); with cut rows q'' = D theta''
-    + xi, the cut rows' lambda mu from the augmented system, and a planar tree's rows from the backward pass of
-    inverse dynamics with the cut rows' forces applied (``tree_kernels.planar_cut_multipliers``: no solve of a
-    revolute joint's rows))."""
-    tree_rows = (
-        "tree_multipliers(jac, residual, tree_rows, 7, joints, lam)"
-        if scene.dimension == 3
-        else "planar_cut_multipliers(jac, residual, tree_rows, joints, lam)"
-    )
+    forces (``tree_kernels.planar_joint_multipliers``: no solve), of a spatial tree, and of a tree with cut rows
+    (q'' = D theta'' + xi, the cut rows' lambda mu from the augmented system, their forces applied), from the
+    backward pass of inverse dynamics (``tree_kernels.tree_multipliers``: each body's rows from its own columns,
+    O(N), the translational rows without a solve))."""
     solve = [
         "for a in range(ncut):  # the cut rows' lambda: mu of the augmented system; the tree's from what is left",
         "    lam[dims[7 + a]] = mu[a]",
@@ -300,7 +319,7 @@ def _multipliers(scene: Scene) -> list[str]:
         "    cut_row_forces(jac, mu, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], "
         f"{7 if scene.dimension == 3 else 3}, residual)",
         "# the tree's rows body by body from the leaves, O(N)",
-        tree_rows,
+        f"tree_multipliers(jac, residual, tree_rows, {7 if scene.dimension == 3 else 3}, joints, lam)",
     ]
     if scene.dimension == 3:
         lines = [
@@ -442,8 +461,8 @@ def generate(tree: TreeScene) -> str:
     tree_imports = {f"{dimension}_motion", f"{dimension}_equations", f"{dimension}_articulated", "cut_accelerations"}
     tree_imports |= {"zero_cut_blocks", "zero_tree_blocks", "cut_row_forces", "tree_accelerations"}
     spatial_kernels = {"spatial_coordinate_accelerations", "spatial_joint_matrix", "spatial_body_accelerations"}
-    spatial_kernels |= {"tree_multipliers"}  # a planar tree's lambda: its joint forces, open or cut
-    planar_kernels = {"planar_body_accelerations", "planar_joint_multipliers", "planar_cut_multipliers"}
+    tree_imports |= {"tree_multipliers"}  # the backward pass; an open planar tree's lambda: its joint forces
+    planar_kernels = {"planar_body_accelerations", "planar_joint_multipliers"}
     planar_kernels |= {"tree_revolute"}
     tree_imports |= spatial_kernels | {"spatial_mass_residual"} if spatial else planar_kernels
     lines = [

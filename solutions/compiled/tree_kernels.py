@@ -131,14 +131,16 @@ def planar_motion(theta, rate, ints, floats, nb, k, q, qd, xi, Dm, columns, body
 
 
 @inlined
-def tree_revolute(q, qd, ints, floats, psi, jac, gam, body, rates):
+def tree_revolute(q, qd, ints, floats, psi, jac, gam, body, rated):
     """``kernels.planar_revolute`` in a planar tree's module (eq. 3.17), each body's A (eq. 2.2) from the recursion:
     cos phi and sin phi of ``body``'s row MOTION (``planar_motion``), where the kernel made both bodies' again at
-    every joint (two cos/sin pairs a joint); gamma only where ``rates`` (the cut rows' solve reads it, the outputs
-    none). The same numbers: the same cos and sin of the same angle, in the same expressions."""
+    every joint (two cos/sin pairs a joint); gamma of the first ``rated`` joints alone: the cut joints, first in the
+    slot, whose rows the cut solve reads (the tree joints' gamma is read nowhere: the integration evaluates the cut
+    joints alone, the outputs every joint). The same numbers: the same cos and sin of the same angle, in the same
+    expressions."""
     for e in range(ints.shape[0]):
         Ai, Aj = _rotation(body, ints[e, 0]), _rotation(body, ints[e, 1])
-        revolute_rows(q, qd, ints, floats, e, Ai, Aj, psi, jac, gam, rates)
+        revolute_rows(q, qd, ints, floats, e, Ai, Aj, psi, jac, gam, e < rated)
 
 
 @inlined
@@ -622,47 +624,71 @@ def spatial_joint_matrix(q, Dm, out):
 
 @inlined
 def tree_multipliers(jac, residual, index, width, ints, lam):
-    """lambda of a spatial tree's rows from Psi_q^T lambda = r (r = Q - M q'' [- Psi_c,q^T mu on the cut route]), body
-    by body from the leaves: the backward pass of inverse dynamics (Featherstone 2008, sec. 5.3, table 5.1: a body's
-    joint force is what its own equations leave once its children's joint forces are carried over), with the cut
-    rows' forces applied on the cut route (sec. 8.1-8.2). Body C's columns meet only the rows it owns (its joint to
-    its parent, then its Euler-parameter normalization, in row order: ``spatial.build.build_elements`` puts the
-    normalizations last; ``TreeScene.owners``) and its children's rows, already known and moved to the right side
-    (r_P -= (Psi_q)_P^T lambda_e: what joint e exerts on the parent P), so (Psi_q)_C^T lambda_C = r_C.
+    """lambda of a tree's rows (planar, ``width`` 3, or spatial, 7) from Psi_q^T lambda = r, r = Q - M q'' (- Psi_c,q^T
+    mu on the cut route, ``cut_row_forces``), body by body from the leaves: the backward pass of inverse dynamics
+    (Featherstone 2008, sec. 5.3, table 5.1, the recursive Newton-Euler algorithm: f_i = I_i a_i + v_i x* I_i v_i -
+    f^x_i, then f_parent += f_i carried over) with the accelerations given (q'') and, on the cut route, the
+    loop-closure forces applied as external forces (sec. 8.1-8.2: a loop closed by cut constraints is the tree with
+    those forces applied). The equations of motion M q'' + Psi_q^T lambda = Q (eq. 5.29) read on body C's columns
 
-    A spherical joint, and a revolute one (its spherical part first, then two dot-1 rows, eq. 9.16), begin with
-    the spherical rows (eq. 9.12), whose block at C's position columns is s I (s = +1 where C is the element's body
-    i, -1 where body j, read from Psi_q's entry: exactly +-1); no other row of C meets those columns (dot-1 rows and
-    the normalization hold only Euler parameters). So the position columns give lambda_a = s r_C,a (the joint's
-    force, the residual's translational part: no solve), and the rest of C's rows (the dot-1 rows and the
-    normalization: at most 3 x 4) by least squares on C's Euler-parameter columns once the spherical rows' terms
-    are moved to the right side (``_own_rows``). A prismatic joint's rows (dot-2 rows meet the position columns
-    along an axis) by least squares on C's whole block (at most 6 x 7), A A^T lambda = A r_C, whose residual is
-    zero. O(N), where the normal equations of all rows cost O(m^3); the same lambda as the whole block's least
-    squares to rounding (r_C is consistent with A^T lambda = r_C up to rounding, which the least squares spreads
-    over every entry and this puts in the Euler-parameter entries alone). ``width``: a body's columns (7);
-    ``index``: the rows of each body (``tree.row_index``, made once per scene). ``residual`` is worked in."""
+        (Psi_q)_C^T lambda_e + sum over C's children c (Psi_q)_C^T lambda_c = r_C,
+
+    e the tree joint to C's parent (its rows, then in space C's Euler-parameter normalization: the rows C owns,
+    ``tree.row_index``). From the leaves (the joints in reverse topological order) every child's lambda_c is known,
+    and moving its terms to the right side (r_P -= (Psi_q)_P^T lambda_e, what joint e exerts on the parent P) leaves
+    in r_C the force joint e passes to C, (Psi_q)_C^T lambda_C = r_C over C's columns alone. The joint's translational
+    rows (``translational_rows``) meet C's position columns along orthogonal unit directions a, and no other row of
+    C meets them: lambda_a = a^T r_C,v, their components of the force (a revolute or spherical joint's s r_C,a; a
+    spatial prismatic joint's f_i^T and g_i^T r_C,v to rounding: A_i orthogonal, its Euler parameters unit from the
+    recursion), no solve. Their terms moved to the right side of C's rotation columns, C's other rows (a spatial
+    joint's dot-1 rows and C's normalization, at most 4 x 4; a planar prismatic joint's angle row) by least squares
+    on those columns (``_other_rows``). O(N), where the normal equations of all rows cost O(m^3); the same lambda as
+    those, or as the least squares of C's whole block, to rounding (r_C is consistent with (Psi_q)_C^T lambda = r_C
+    up to rounding, which a least squares spreads over every entry and this puts in the rotation entries alone).
+    The joint's steps are written here, not in a function of their own: a compiled call inlined in a loop still
+    counts the references of every array it is handed (~10 ns a joint: twice a planar joint's arithmetic).
+    ``index``: the rows of each body (``tree.row_index``, made once per scene); ``residual`` is worked in."""
     nb = residual.size // width
     start, mine = index[: nb + 1], index[nb + 1 :]
-    G = np.empty((_most_rows(start, nb) + 1, _most_rows(start, nb)))  # A A^T of a body; A r in its last row
-    r = residual
+    G = np.empty((_most_rows(start, nb) + 1, _most_rows(start, nb)))  # the rotation rows' A A^T; A r in its last row
     for e in range(ints.shape[0] - 1, -1, -1):
         P, C = ints[e, 1], ints[e, 2]
-        first, count, o = start[C], start[C + 1] - start[C], width * C
-        point = 3 if ints[e, 0] != PRISMATIC else 0  # the spherical rows, first of C's rows
-        for a in range(point):
-            row = mine[first + a]
-            lam[row] = r[o + a] * jac[row, o + a]  # s = +-1: its own inverse
-            for c in range(o + 3, o + width):  # moved to the right side of C's Euler-parameter columns
-                r[c] -= lam[row] * jac[row, c]
-        _own_rows(jac, r, 0, mine, first + point, count - point, o + point, o + width, G)
-        for a in range(point, count):
-            lam[mine[first + a]] = G[G.shape[0] - 1, a - point]
-        if P >= 0:  # what the body's rows exert on its parent
+        first, count = start[C], start[C + 1] - start[C]
+        at, moving = translational_rows(ints[e, 0], width)
+        o = width * C
+        position = 2 if width == 3 else 3  # C's position columns: (x, y) or r
+        for a in range(first + at, first + at + moving):
+            row, x = mine[a], 0.0
+            for c in range(o, o + position):
+                x += jac[row, c] * residual[c]
+            lam[row] = x
+        if count > moving:  # the other rows (a planar revolute joint: none)
+            for a in range(first + at, first + at + moving):  # the translational rows moved to the right side
+                for c in range(o + position, o + width):
+                    residual[c] -= lam[mine[a]] * jac[mine[a], c]
+            _other_rows(jac, residual, 0, mine, first, count, at, moving, o + position, o + width, G)
+            for a in range(count - moving):
+                lam[mine[first + (a if a < at else a + moving)]] = G[G.shape[0] - 1, a]
+        if P >= 0:  # what the joint's rows exert on its parent
             for a in range(count):
                 row, x = mine[first + a], lam[mine[first + a]]
                 for c in range(width * P, width * (P + 1)):
-                    r[c] -= x * jac[row, c]
+                    residual[c] -= x * jac[row, c]
+
+
+@inlined
+def translational_rows(kind, width):
+    """(the first, how many) of a tree joint's rows that meet its child's position columns: each along one direction,
+    a unit vector, the directions orthogonal. A revolute joint's in the plane (eq. 3.17, Psi = r_i + A_i s_i' - r_j -
+    A_j s_j': at r_C, s I, s = +1 where C is the element's body i, -1 where body j), a prismatic joint's in the plane
+    its pin-in-slot row (n_i^T d, eq. 3.27; then the relative angle), a spherical joint's rows and a spatial revolute
+    joint's first three (its spherical part, eq. 9.12, 9.16: s I), and a spatial prismatic joint's two dot-2 rows
+    (eq. 9.18: dot-1(f_i, h_j), dot-1(g_i, h_j), dot-2(f_i, d), dot-2(g_i, d), dot-1(f_i, g_j); at r_C, s f_i^T and
+    s g_i^T, f_i and g_i two axes of body i's joint frame). The other rows meet only C's rotation columns (phi, or
+    the Euler parameters). ``tree.check_row_order`` checks this order where the plan is made."""
+    if width == 3:
+        return 0, 2 if kind == REVOLUTE else 1
+    return (2, 2) if kind == PRISMATIC else (0, 3)
 
 
 @inlined
@@ -675,29 +701,29 @@ def _most_rows(start, nb):
 
 
 @inlined
-def _own_rows(jac, r, shift, mine, first, count, lo, hi, G):
-    """lambda of a body's own ``count`` rows (``mine[first : first + count]``) from A^T lambda = r over its columns
-    [lo, hi) (A: those rows' block of Psi_q, full row rank; column c's entry of r at r[c - shift]) by least
-    squares, (A A^T) lambda = A r: into G's last row (its first count entries)."""
+def _other_rows(jac, r, shift, mine, first, count, at, skipped, lo, hi, G):
+    """lambda of a body's rows (``mine[first : first + count]``) but the ``skipped`` from ``at`` from A^T lambda = r
+    over the columns [lo, hi) (A: those rows' block of Psi_q, full row rank; column c's entry of r at r[c - shift])
+    by least squares, (A A^T) lambda = A r: into G's last row (its first count - skipped entries)."""
     b = G.shape[0] - 1
-    for a in range(count):  # by loops: at most 7 x 7, where a BLAS call costs more than the products
-        row = mine[first + a]
+    for a in range(count - skipped):  # by loops: at most 4 x 4, where a BLAS call costs more than the products
+        row = mine[first + (a if a < at else a + skipped)]
         total = 0.0  # sums in a local (G may alias jac for the compiler: each += would store to memory)
         for c in range(lo, hi):
             total += jac[row, c] * r[c - shift]
         G[b, a] = total
         for other in range(a + 1):  # A A^T is symmetric: the same products, in the same order, either side
-            other_row, total = mine[first + other], 0.0
+            other_row, total = mine[first + (other if other < at else other + skipped)], 0.0
             for c in range(lo, hi):
                 total += jac[row, c] * jac[other_row, c]
             G[a, other] = G[other, a] = total
-    _small_solve(G, count, b)
+    _small_solve(G, count - skipped, b)
 
 
 @inlined
 def planar_joint_multipliers(jac, body, index, ints, lam):
     """lambda of an open planar tree's rows from its articulated-body pass (``articulated``; ``body`` after
-    ``planar_articulated``: I^A_C, p^A_C and A_C of every body), without ``tree_multipliers``' solve.
+    ``planar_articulated``: I^A_C, p^A_C and A_C of every body), without the backward pass (``tree_multipliers``).
 
     The subtree of child C moves under its own applied forces and what joint e passes it, nothing else. The force
     joint e passes to C, at C's centre in global axes (Featherstone 2008, sec. 7.3 and table 7.1: the joint force
@@ -708,12 +734,12 @@ def planar_joint_multipliers(jac, body, index, ints, lam):
     (a leaf: I_C A_C + M_C xi_C - Q_C = M_C q''_C - Q_C, the force its joint must add; the articulated pass folds
     each child's subtree into I^A and p^A the same way). The equations of motion M q'' + Psi_q^T lambda = Q (eq.
     5.29) give the joint's rows' force on C as -(Psi_q)_C^T lambda_e, so (Psi_q)_C^T lambda_e = -f_e: what
-    ``tree_multipliers``' least squares finds for C once its children's rows are moved to its side, here with no
+    the backward pass finds for C once its children's rows are moved to its side, here with no
     matrix formed. A revolute joint (eq. 3.17, Psi = r_i + A_i s_i' - r_j - A_j s_j'): (Psi_q)_C = s [I, B_C s_C'],
     s = +1 where C is the element's body i, -1 where it is body j, read from Psi_q's entry at C's x column (exactly
     +-1), so lambda_e = -s f_v from the translational components alone (the angular one, (B_C s_C')^T lambda_e, is
     the same equation's: the joint passes no moment about its point). A prismatic joint's two rows meet C's three
-    columns in a 2 x 3 block A: (A A^T) lambda_e = A (-f_e), least squares on C's block alone (``_own_rows``),
+    columns in a 2 x 3 block A: (A A^T) lambda_e = A (-f_e), least squares on C's block alone (``_other_rows``),
     nothing moved to the parent: f_e holds what C's children pass it. The same lambda as ``tree_multipliers`` to
     rounding (the sums in another order)."""
     IA, PA, ACC = body_rows(3)
@@ -734,59 +760,14 @@ def planar_joint_multipliers(jac, body, index, ints, lam):
                 row = mine[first + a]
                 lam[row] = f[a] * jac[row, 3 * C + a]  # s = +-1: its own inverse
         else:
-            _own_rows(jac, f, 3 * C, mine, first, 2, 3 * C, 3 * C + 3, G)
+            _other_rows(jac, f, 3 * C, mine, first, 2, 0, 0, 3 * C, 3 * C + 3, G)
             lam[mine[first]], lam[mine[first + 1]] = G[2, 0], G[2, 1]
-
-
-@inlined
-def planar_cut_multipliers(jac, residual, index, ints, lam):
-    """lambda of a planar tree's rows on the cut route (closed loops: no articulated pass), from r = Q - M q'' -
-    Psi_c,q^T mu with q'' and the cut rows' mu of the augmented system (eq. 7.6, ``cut_accelerations``) and
-    ``cut_row_forces``: no solve of a revolute joint's rows.
-
-    This is the backward pass of inverse dynamics (Featherstone 2008, sec. 5.3, table 5.1, the recursive
-    Newton-Euler algorithm: f_i = I_i a_i + v_i x* I_i v_i - f^x_i, then f_parent += f_i carried over), with the
-    accelerations given (q'' of the cut solve) and the cut rows' forces -Psi_c,q^T mu applied as external forces
-    (Featherstone 2008, sec. 8.1-8.2: a loop closed by cut constraints is the tree with the loop-closure forces
-    applied). The equations of motion M q'' + Psi_q^T lambda = Q (eq. 5.29) read on body C's columns
-
-        (Psi_q)_C^T lambda_e + sum over C's children c (Psi_q)_C^T lambda_c = r_C,
-
-    e the tree joint to C's parent: from the leaves (the joints in reverse topological order) every child's
-    lambda_c is known, and moving its terms to the right side (r_P -= (Psi_q)_P^T lambda_e, what joint e exerts on
-    the parent P) leaves in r_C the force joint e passes to C, f_e = -r_C. A revolute joint (eq. 3.17):
-    (Psi_q)_C = s [I, B_C s_C'], s = +1 where C is the element's body i, -1 where body j, read from Psi_q's entry at
-    C's x or y column (exactly +-1), so lambda_e = s r_C,v from the translational entries alone (the angular entry
-    is the same equation's: the joint passes no moment about its point); a prismatic joint's two rows by least
-    squares on C's 2 x 3 block (``_own_rows``), as ``planar_joint_multipliers``. ``tree_multipliers`` solves
-    (A A^T) lambda_e = A r_C for every joint: the same lambda to rounding (r_C is consistent with A^T lambda = r_C
-    up to rounding, which the least squares spreads over both entries and this puts in the angular one alone).
-    ``residual`` is worked in; ``index``: the rows of each body (``tree.row_index``)."""
-    nb = residual.size // 3
-    start, mine = index[: nb + 1], index[nb + 1 :]
-    G = np.empty((_most_rows(start, nb) + 1, _most_rows(start, nb)))  # a prismatic joint's A A^T; A r last
-    for e in range(ints.shape[0] - 1, -1, -1):
-        P, C = ints[e, 1], ints[e, 2]
-        first, count = start[C], start[C + 1] - start[C]
-        if ints[e, 0] == REVOLUTE and count == 2:
-            for a in range(2):
-                row = mine[first + a]
-                lam[row] = residual[3 * C + a] * jac[row, 3 * C + a]  # s = +-1: its own inverse
-        else:
-            _own_rows(jac, residual, 0, mine, first, count, 3 * C, 3 * C + 3, G)
-            for a in range(count):
-                lam[mine[first + a]] = G[G.shape[0] - 1, a]
-        if P >= 0:  # what the joint's rows exert on its parent
-            for a in range(count):
-                row, x = mine[first + a], lam[mine[first + a]]
-                for c in range(3 * P, 3 * P + 3):
-                    residual[c] -= x * jac[row, c]
 
 
 @inlined
 def _small_solve(G, count, b):
     """x <- K^-1 x with K = G[:count, :count] and x = G[b, :count], in place: ``kernels.solve_in_place`` step for step
-    (the same pivots and operations, so the same numbers), written into ``tree_multipliers``: its call and the
+    (the same pivots and operations, so the same numbers), written into ``_other_rows``: its call and the
     views it was handed cost more than a planar body's elimination (~30 ns a body). A zero pivot gives NaN."""
     singular = False
     for c in range(count):
@@ -1127,7 +1108,6 @@ __all__ = [
     "cut_accelerations",
     "cut_row_forces",
     "planar_articulated",
-    "planar_cut_multipliers",
     "planar_equations",
     "planar_joint_multipliers",
     "planar_motion",

@@ -162,7 +162,7 @@ def _assert_outputs_equal_numpys(sides, seed: int) -> None:
 def test_a_closed_loops_lambda_equals_the_numpy_engines_on_random_loops(dimension, n, seed):
     """The outputs' lambda of random closed loops in joint coordinates (the cut route: the cut rows' mu of the
     augmented system, the tree's rows from r = Q - M q'' - Psi_c,q^T mu body by body from the leaves; a planar
-    tree's revolute rows without a solve, ``tree_kernels.planar_cut_multipliers``) against the numpy engine's (the
+    tree's revolute rows without a solve, ``tree_kernels.tree_multipliers``) against the numpy engine's (the
     dense augmented solve for q'', then the normal equations of the whole Psi_q, ``JointCoordinates.accelerations``)
     at random joint states off the constraint manifold: every row's multiplier, tree and cut, and q''. Revolute
     joints with their child as body i or j (Psi_q's sign), prismatic and spherical joints, two loops."""
@@ -389,7 +389,7 @@ def _cut_first(name: str, ints: np.ndarray, floats: np.ndarray, owners: list, cu
 def test_an_open_spatial_trees_lambda_equals_the_numpy_engines_on_random_trees(n, seed):
     """The outputs' lambda of an open spatial tree (revolute, prismatic and spherical joints, branching, every other
     joint child first: Psi_q's sign) from r = Q - M q'' body by body from the leaves (``tree_kernels.tree_multipliers``:
-    a spherical or revolute joint's spherical rows read from the residual's translational part, s r_C,v, no solve)
+    a joint's translational rows read from the residual's translational part, s r_C,v, no solve)
     against the numpy engine's (the normal equations of the whole Psi_q, ``JointCoordinates.accelerations``) at
     random joint states off the constraint manifold: every row's multiplier, and q''."""
     model = _random_tree(3, n, seed)
@@ -397,3 +397,80 @@ def test_an_open_spatial_trees_lambda_equals_the_numpy_engines_on_random_trees(n
     sides = compiled_sides(model)
     assert sides[2].scene.cut_rows.size == 0  # an open tree: the articulated pass, no cut solve
     _assert_outputs_equal_numpys(sides, seed)
+
+
+def _prismatic(model: dict, n: int) -> dict:
+    """The tree's revolute joints (the first n joints) made prismatic along their axes: one freedom either way, so a
+    random loop stays mobile."""
+    for joint in model["model"]["joints"][:n]:
+        if joint["type"] == "revolute":
+            joint["type"] = "prismatic"
+    return model
+
+
+@pytest.mark.parametrize(("n", "seed", "closed"), [(7, 7, False), (10, 8, False), (6, 4, True), (8, 5, True)])
+def test_a_spatial_prismatic_joints_lambda_equals_the_numpy_engines(n, seed, closed):
+    """A spatial prismatic joint's rows (eq. 9.18) from the force its joint passes the child (``tree_kernels.
+    tree_multipliers``): the two dot-2 rows meet the child's position columns along s f_i and s g_i, read as their
+    components of r_C,v; the three dot-1 rows and the normalization by least squares on the Euler-parameter columns.
+    Random trees whose revolute joints are all prismatic (two of three joints, the rest spherical; every other child
+    first: the sign s), open (the articulated pass) and closed (the cut route), against the numpy engine's normal
+    equations of the whole Psi_q at random states: every row's lambda, and q''."""
+    if closed:
+        model = _prismatic(_random_loops(3, n, seed), n)
+    else:
+        model = _prismatic(_random_tree(3, n, seed), n)
+        _child_first(model["model"]["joints"])
+    sides = compiled_sides(model)
+    assert sum(joint.kind == "prismatic" for joint in sides[1].joints) >= n // 2
+    assert (sides[2].scene.cut_rows.size > 0) == closed
+    _assert_outputs_equal_numpys(sides, seed)
+
+
+TRANSLATIONAL = {(2, "revolute"): ("x", "y"), (2, "prismatic"): ("n",), (3, "revolute"): ("x", "y", "z"),
+                 (3, "spherical"): ("x", "y", "z"), (3, "prismatic"): ("fi.d", "gi.d")}  # fmt: skip
+"""The rows of each tree joint that meet its child's position columns, by their labels: a revolute joint's (eq. 3.17),
+a planar prismatic joint's pin-in-slot row (eq. 3.24), a spherical part's (eq. 9.12), a spatial prismatic joint's
+dot-2 rows (eq. 9.18)."""
+
+
+@pytest.mark.parametrize(("dimension", "seed"), [(2, 3), (3, 3), (3, 4)])
+def test_each_joints_translational_rows_are_where_the_backward_pass_reads_them(dimension, seed):
+    """``tree_kernels.translational_rows`` (where among a body's rows its joint's translational rows are) against the
+    rows' labels of every joint kind, and a spatial body's normalization last of its rows (``tree.row_index``)."""
+    from solutions.compiled.tree_kernels import translational_rows
+
+    model = _random_tree(dimension, 9, seed)
+    system, _, _ = build_system(load_model(model))
+    forces = build_forces(system.model)
+    made = make_formulation("joint-coordinates", system, mass_matrix(system.model), forces)
+    tree = plan(system, made.masses, forces, "joint-coordinates", made).scene
+    labels, nb = system.labels, len(system.model.bodies)
+    start, rows = tree.row_index[: nb + 1], tree.row_index[nb + 1 :]
+    for e, joint in enumerate(made.joints):  # the tree's joints in its order (tree.ints)
+        mine = rows[start[joint.child] : start[joint.child + 1]]
+        at, count = translational_rows.py_func(tree.ints[e, 0], 3 if dimension == 2 else 7)
+        read = [labels[row].removeprefix(f"{joint.name}.") for row in mine[at : at + count]]
+        assert tuple(read) == TRANSLATIONAL[(dimension, joint.kind)], joint.name
+        if dimension == 3:
+            assert labels[mine[-1]] == f"{system.model.bodies[joint.child].name}.p"
+
+
+def test_the_plan_fails_loudly_where_a_bodys_normalization_comes_before_its_joint(monkeypatch):
+    """The backward pass reads a spatial body's rows as its joint's, then its normalization (``spatial.build.
+    build_elements`` puts the normalizations last): with the normalizations first the plan raises (``tree.
+    check_row_order``), where it would give lambda to the wrong rows."""
+    from solutions.spatial import build
+
+    made_elements = build.build_elements
+
+    def normalizations_first(model):
+        elements = made_elements(model)
+        return elements[-len(model.bodies) :] + elements[: -len(model.bodies)]
+
+    monkeypatch.setattr(build, "build_elements", normalizations_first)
+    system, _, _ = build_system(load_model(_random_tree(3, 4, 1)))
+    forces = build_forces(system.model)
+    made = make_formulation("joint-coordinates", system, mass_matrix(system.model), forces)
+    with pytest.raises(ValueError, match="normalization before its joint"):
+        plan(system, made.masses, forces, "joint-coordinates", made)
