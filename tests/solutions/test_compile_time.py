@@ -1,0 +1,89 @@
+"""What the engine compiles, and where (``mbd compile``, a first run): no function that no run calls, and no function
+compiled in two processes.
+
+- A tree's generated module (``compiled/tree.py``) is ``scene_rhs`` alone: Psi, Psi_q and Psi_t at the output times
+  come from its output pass (``loops.output_history``), also where a large Psi_q's rows reach other columns than
+  their bodies' (no blocks to keep), where the module's ``constraint_arrays`` made a second pass before.
+- ``mbd compile`` (``precompile.GROUPS``): both tree modules in one process, where their kernels (``tree_kernels``,
+  ``articulated``: not cached on disk) are compiled once, each group after the halves of the loops it imports.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from solutions.assembly import build_system
+from solutions.compiled.precompile import FORMULATIONS, GROUPS, PENDULUMS, SHARED, parts
+from solutions.dynamics import forward_dynamics
+from solutions.io import load_model
+
+pytest.importorskip("numba")
+
+
+def test_a_tree_module_is_its_right_hand_side_alone():
+    """The generated text of a tree's module defines ``scene_rhs`` and no ``constraint_arrays`` (every constraint
+    kernel linked and optimized a second time, for a pass no run makes)."""
+    from solutions import compiled
+    from solutions.compiled import tree
+    from solutions.formulations import make_formulation
+    from solutions.generalized_forces import build_forces
+    from solutions.mass_matrix import mass_matrix
+
+    system, _, _ = build_system(load_model("course/models/slider_crank.yaml"))
+    M, forces = mass_matrix(system.model), build_forces(system.model)
+    made = make_formulation("joint-coordinates", system, M, forces)
+    text = tree.generate(compiled.plan(system, M, forces, "joint-coordinates", made).scene)
+    assert "def scene_rhs(" in text and "def constraint_arrays(" not in text
+
+
+def test_a_tree_whose_rows_reach_other_columns_keeps_one_output_pass(monkeypatch):
+    """Above ``ONE_PASS_LARGEST``, a tree whose rows reach other columns than their bodies' (``row_columns`` None:
+    no blocks) takes Psi, Psi_q and Psi_t from its one output pass, dense, and they are those of the run below the
+    limit to the last bit, as are q, q'', lambda and the results (the module's ``constraint_arrays`` never called)."""
+    import solutions.compiled as compiled
+    from solutions.compiled import history, scene
+
+    system, q0, qd0 = build_system(load_model("course/models/slider_crank.yaml"))
+    made = {}
+    run = compiled.run
+
+    def keep(*args, **kwargs):
+        made["run"] = run(*args, **kwargs)
+        return made["run"]
+
+    monkeypatch.setattr(compiled, "run", keep)
+    options = dict(formulation="joint-coordinates", integrator="DOP853", rtol=1e-8, engine="compiled")
+    below = forward_dynamics(system, q0, qd0, 0.3, 12, divergence="skip", **options)
+    one = made.pop("run")
+
+    def second_pass(*args, **kwargs):
+        raise AssertionError("the constraints evaluated again after the output pass")
+
+    monkeypatch.setattr(compiled, "ONE_PASS_LARGEST", 0)
+    monkeypatch.setattr(scene, "_row_columns", lambda system: None)
+    monkeypatch.setattr(history, "constraint_arrays", second_pass)
+    system, q0, qd0 = build_system(load_model("course/models/slider_crank.yaml"))  # described anew: no blocks
+    above = forward_dynamics(system, q0, qd0, 0.3, 12, divergence="skip", **options)
+    two = made.pop("run")
+    assert isinstance(two.jac, np.ndarray) and two.jac.shape == (13, system.n_constraints, system.n_coordinates)
+    for name in ("Y", "qdd", "lam", "psi", "jac", "psit"):
+        np.testing.assert_array_equal(getattr(one, name), getattr(two, name), err_msg=name)
+    for kind in ("points", "reactions", "forces"):
+        for key, value in getattr(below, kind).items():
+            np.testing.assert_array_equal(getattr(above, kind)[key], value, err_msg=key)
+
+
+def test_mbd_compile_takes_every_module_once_both_trees_in_one_process():
+    """``GROUPS``: every generated module in exactly one group, both dimensions' tree modules (joint coordinates) in
+    the same one, and each group after the halves of the loops it imports: the kinematic modules after the
+    kinematic step loop, every other after the integrator loops."""
+    modules = [name for dimension in PENDULUMS for name, _ in parts(dimension)]
+    grouped = [name for _, names in GROUPS for name in names]
+    assert sorted(grouped) == sorted(modules) and len(grouped) == len(set(grouped))
+    trees = [f"{dimension} joint-coordinates" for dimension in PENDULUMS]
+    assert any(set(trees) <= set(names) for _, names in GROUPS)
+    for needs, names in GROUPS:
+        assert set(needs) <= set(SHARED)
+        assert all(("kinematic loops" if name.endswith("kinematic") else "integrator loops") in needs for name in names)
+    assert {name.split(" ", 1)[1] for name in grouped} == {*FORMULATIONS, "kinematic"}
