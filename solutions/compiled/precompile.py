@@ -47,14 +47,19 @@ class Part:
 
 
 def _compiled(*names: str) -> bool:
-    """Import the engine's modules ``names`` (compiled at import, or loaded from disk) and say whether none of their
-    functions was compiled (all on disk already)."""
+    """Import the engine's modules ``names`` (compiled at import, or loaded from disk; a loop compiled at its first
+    call, ``loops.AtFirstCall``, compiled here) and say whether none of their functions was compiled (all on disk
+    already)."""
     import importlib
 
     from numba.core.registry import CPUDispatcher
 
+    from .loops import AtFirstCall
+
     modules = [importlib.import_module(f"{__package__}.{name}") for name in names]
-    functions = [f for m in modules for f in vars(m).values() if isinstance(f, CPUDispatcher)]
+    found = [f for m in modules for f in vars(m).values()]
+    found += [f.compiled() for f in found if isinstance(f, AtFirstCall)]  # the loops compiled at their first call
+    functions = [f for f in found if isinstance(f, CPUDispatcher)]
     return not any(sum(f.stats.cache_misses.values()) for f in functions)
 
 
