@@ -4,6 +4,7 @@ compiled in two processes.
 - A tree's generated module (``compiled/tree.py``) is ``scene_rhs`` alone: Psi, Psi_q and Psi_t at the output times
   come from its output pass (``loops.output_history``), also where a large Psi_q's rows reach other columns than
   their bodies' (no blocks to keep), where the module's ``constraint_arrays`` made a second pass before.
+- The kernels called with constants: one version each (``kernels.typed``).
 - ``mbd compile`` (``precompile.GROUPS``): both tree modules in one process, where their kernels (``tree_kernels``,
   ``articulated``: not cached on disk) are compiled once, each group after the halves of the loops it imports.
 """
@@ -87,3 +88,13 @@ def test_mbd_compile_takes_every_module_once_both_trees_in_one_process():
         assert set(needs) <= set(SHARED)
         assert all(("kinematic loops" if name.endswith("kinematic") else "integrator loops") in needs for name in names)
     assert {name.split(" ", 1)[1] for name in grouped} == {*FORMULATIONS, "kinematic"}
+
+
+def test_the_kernels_called_with_a_constant_flag_or_body_are_compiled_once():
+    """``augmented_solve`` (spatial True or False), ``_mass_solve`` (first body 0) and ``_spatial_torque`` (body frame
+    False) under one explicit signature each (``kernels.typed``): numba converts the constant instead of compiling
+    one version per value (two, three and two versions before, each optimized again in every caller)."""
+    from solutions.compiled import kernels
+
+    for dispatcher in (kernels.augmented_solve, kernels._mass_solve, kernels._spatial_torque):
+        assert len(dispatcher.nopython_signatures) == 1 and not dispatcher._can_compile
