@@ -54,11 +54,12 @@ def _compiled(*names: str) -> bool:
 
     from numba.core.registry import CPUDispatcher
 
-    from .loops import AtFirstCall
-
     modules = [importlib.import_module(f"{__package__}.{name}") for name in names]
     found = [f for m in modules for f in vars(m).values()]
-    found += [f.compiled() for f in found if isinstance(f, AtFirstCall)]  # the loops compiled at their first call
+    if "loops" in names:  # (the kinematic half never imports the loops: it would compile them in its process too)
+        from .loops import AtFirstCall
+
+        found += [f.compiled() for f in found if isinstance(f, AtFirstCall)]  # the loops compiled at their first call
     functions = [f for f in found if isinstance(f, CPUDispatcher)]
     return not any(sum(f.stats.cache_misses.values()) for f in functions)
 
