@@ -40,39 +40,38 @@ def test_a_tree_module_is_its_right_hand_side_alone():
 
 def test_a_tree_whose_rows_reach_other_columns_keeps_one_output_pass(monkeypatch):
     """Above ``ONE_PASS_LARGEST``, a tree whose rows reach other columns than their bodies' (``row_columns`` None:
-    no blocks) takes Psi, Psi_q and Psi_t from its one output pass, dense, and they are those of the run below the
-    limit to the last bit, as are q, q'', lambda and the results (the module's ``constraint_arrays`` never called)."""
+    no blocks) takes Psi, Psi_q and Psi_t from its one output pass, dense, the same to the last bit as the run below
+    the limit, as are its results (the module's ``constraint_arrays``, which it no longer has, never asked for)."""
     import solutions.compiled as compiled
-    from solutions.compiled import history, scene
+    from solutions.compiled import history, loops, scene
 
-    system, q0, qd0 = build_system(load_model("course/models/slider_crank.yaml"))
-    made = {}
-    run = compiled.run
+    passes = []
+    output_history = loops.output_history
 
-    def keep(*args, **kwargs):
-        made["run"] = run(*args, **kwargs)
-        return made["run"]
+    def recorded(*arguments):
+        passes.append(output_history(*arguments))
+        return passes[-1]
 
-    monkeypatch.setattr(compiled, "run", keep)
-    options = dict(formulation="joint-coordinates", integrator="DOP853", rtol=1e-8, engine="compiled")
-    below = forward_dynamics(system, q0, qd0, 0.3, 12, divergence="skip", **options)
-    one = made.pop("run")
-
-    def second_pass(*args, **kwargs):
+    def second_pass(*arguments):
         raise AssertionError("the constraints evaluated again after the output pass")
 
-    monkeypatch.setattr(compiled, "ONE_PASS_LARGEST", 0)
-    monkeypatch.setattr(scene, "_row_columns", lambda system: None)
-    monkeypatch.setattr(history, "constraint_arrays", second_pass)
-    system, q0, qd0 = build_system(load_model("course/models/slider_crank.yaml"))  # described anew: no blocks
-    above = forward_dynamics(system, q0, qd0, 0.3, 12, divergence="skip", **options)
-    two = made.pop("run")
-    assert isinstance(two.jac, np.ndarray) and two.jac.shape == (13, system.n_constraints, system.n_coordinates)
-    for name in ("Y", "qdd", "lam", "psi", "jac", "psit"):
-        np.testing.assert_array_equal(getattr(one, name), getattr(two, name), err_msg=name)
+    monkeypatch.setattr(loops, "output_history", recorded)
+    options = dict(formulation="joint-coordinates", integrator="DOP853", rtol=1e-8, engine="compiled")
+    runs = []
+    for largest in (compiled.ONE_PASS_LARGEST, 0):
+        monkeypatch.setattr(compiled, "ONE_PASS_LARGEST", largest)
+        monkeypatch.setattr(scene, "_row_columns", lambda system: None)  # no blocks: rows reaching further
+        monkeypatch.setattr(history, "constraint_arrays", second_pass)
+        system, q0, qd0 = build_system(load_model("course/models/slider_crank.yaml"))  # described anew
+        runs.append(forward_dynamics(system, q0, qd0, 0.3, 12, divergence="skip", **options))
+    assert len(passes) == 2 and passes[1][2].shape == (13, system.n_constraints, system.n_coordinates)
+    for below, above in zip(*passes, strict=True):  # y' and the outputs, Psi, Psi_q, Psi_t
+        np.testing.assert_array_equal(below, above)
+    for name in ("q", "qd", "qdd", "lam"):
+        np.testing.assert_array_equal(getattr(runs[0], name), getattr(runs[1], name), err_msg=name)
     for kind in ("points", "reactions", "forces"):
-        for key, value in getattr(below, kind).items():
-            np.testing.assert_array_equal(getattr(above, kind)[key], value, err_msg=key)
+        for key, value in getattr(runs[0], kind).items():
+            np.testing.assert_array_equal(getattr(runs[1], kind)[key], value, err_msg=key)
 
 
 def test_mbd_compile_takes_every_module_once_both_trees_in_one_process():
