@@ -133,9 +133,13 @@ def parts(n: int, rounds: int) -> dict[str, float]:
     motion()  # D once, its zeros left (Dm made by np.zeros: the dense solve below reads them)
     times, states = np.zeros(1), np.ascontiguousarray(np.hstack([q, qd])[None, :])
 
+    from solutions.compiled import codegen
+
+    evaluate = codegen.load(tree.scene)[0].constraint_arrays  # the scene's module: a tree's has no second pass
+
     def constraints():
         arrays = np.zeros((1, m)), np.zeros((1, m, n_q)), np.zeros((1, m))
-        module.constraint_arrays(times, states, P, D, *arrays)
+        evaluate(times, states, P, D, *arrays)
         return arrays
 
     psi, jac, psit = (a[0] for a in constraints())

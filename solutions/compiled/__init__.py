@@ -376,7 +376,7 @@ def run(
     tree = isinstance(scene, TreeScene)  # after y': the body coordinates of the joint states, and q'', lambda there
     width = 3 * n + m if tree else m
     columns = None if m * n <= ONE_PASS_LARGEST else getattr(scene, "scene", scene).row_columns  # (a tree's scene)
-    if m * n <= ONE_PASS_LARGEST:  # and Psi, Psi_q, Psi_t from the same evaluations
+    if m * n <= ONE_PASS_LARGEST or (tree and columns is None):  # Psi, Psi_q, Psi_t from the same evaluations
         out, psi, jac, psit = loops.output_history(rhs, times, Y, P, D, width)
     elif columns is not None:  # the same, Psi_q by its rows' blocks
         out, psi, values, psit = loops.blocked_output_history(rhs, times, Y, P, D, width, columns)
@@ -390,7 +390,7 @@ def run(
         joint_states, Y = Y, np.concatenate([out[:, ny : ny + 2 * n], Y[:, scene.n_positions + scene.k :]], axis=1)
     else:  # q'' in y', lambda after it
         qdd, lam = np.ascontiguousarray(out[:, n : 2 * n]), np.ascontiguousarray(out[:, ny:])
-    if m * n > ONE_PASS_LARGEST and columns is None:
+    if m * n > ONE_PASS_LARGEST and columns is None and not tree:  # (a tree's module: scene_rhs alone, tree.py)
         from . import history
 
         psi, jac, psit = history.constraint_arrays(module, scene, times, Y)

@@ -38,8 +38,8 @@ inlined = njit(cache=True, fastmath=False, nogil=True, inline="always")
 
 def typed(signature):
     """Compiled once, at import (or loaded from disk), under this one signature: called with a constant (an order 0,
-    1 or 2, a column 0, 1 or 2) numba would otherwise compile one version per value of the constant, and every
-    generated module that calls the function would optimize each version again."""
+    1 or 2, a column 0, 1 or 2, a flag True or False, a first body 0) numba would otherwise compile one version per
+    value of the constant, and every generated module that calls the function would optimize each version again."""
     return njit(signature, cache=True, fastmath=False, nogil=True)
 
 
@@ -830,7 +830,8 @@ def _spatial_point_force(q, b, s, fx, fy, fz, Q):
     _add_l_transpose(e0, e1, e2, e3, s[1] * f2 - s[2] * f1, s[2] * f0 - s[0] * f2, s[0] * f1 - s[1] * f0, Q, o + 3)
 
 
-@jit
+@typed(types.void(types.float64[::1], types.int64, types.float64, types.float64, types.float64, types.boolean,
+                  types.float64[::1]))  # fmt: skip
 def _spatial_torque(q, b, nx, ny, nz, body_frame, Q):
     """Q_b += [0 ; 2 G^T n] (global n) or [0 ; 2 L^T n'] (body frame) (eq. 10.10)."""
     if b < 0:
@@ -1246,7 +1247,8 @@ def _block_inverse(M, o, B, L):
     return True
 
 
-@jit
+@typed(types.void(types.float64[:, ::1], types.float64[:, :, ::1], types.float64[::1], types.int64, types.int64,
+                  types.float64[::1]))  # fmt: skip
 def _mass_solve(M, B, x, first, last, out):
     """out = M^-1 x over bodies first ... last, M block-diagonal (eq. 10.4: m I, then the 4 x 4 block whose inverse
     is B[b], ``_block_inverse``)."""
@@ -1380,7 +1382,8 @@ def solve_in_place(K, x):
         x[r] = s / K[r, r]
 
 
-@jit
+@typed(types.void(types.float64[::1], types.float64[:, ::1], types.boolean, types.float64[:, ::1],
+                  *(types.float64[::1],) * 8))  # fmt: skip
 def augmented_solve(mass, M, spatial, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
     """q'' and lambda from eq. 5.30 with gamma_bar = gamma - 2 alpha (Psi_q q' + Psi_t) - beta^2 Psi (eq. 5.29);
     M is the diagonal ``mass`` (planar) or the matrix ``M`` (spatial)."""

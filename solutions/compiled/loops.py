@@ -83,6 +83,31 @@ def jit(signature):
     return njit(signature, cache=True, nogil=True)
 
 
+class AtFirstCall:
+    """``jit(signature)(function)`` compiled (or loaded from disk) at its first call, not at import: a loop that a run
+    with the default integrator and a Psi_q of at most ``ONE_PASS_LARGEST`` entries never calls (``rk4``, ``outputs``,
+    ``blocked_output_history``: ~2.5 s of CPU that a first run on a new machine paid at import). ``mbd compile``
+    compiles them all (``compiled()``): the signature is the same either way, and so is the machine code."""
+
+    def __init__(self, function, signature):
+        self.py_func, self.signature, self.dispatcher = function, signature, None
+        self.__doc__, self.__name__ = function.__doc__, function.__name__
+
+    def compiled(self):
+        """The function's dispatcher, compiled (or loaded from disk) at the first call of this."""
+        if self.dispatcher is None:
+            self.dispatcher = jit(self.signature)(self.py_func)
+        return self.dispatcher
+
+    def __call__(self, *arguments):
+        return self.compiled()(*arguments)
+
+
+def at_first_call(signature):
+    """Decorate a loop as ``AtFirstCall``: compiled under ``signature`` where it is first called."""
+    return lambda function: AtFirstCall(function, signature)
+
+
 class FirstClass:
     """A compiled function handed to a loop as a first-class function, with its numba type and the address of
     its machine code found once (numba's wrapper address protocol: ``__wrapper_address__``, and ``_numba_type_``
@@ -434,7 +459,7 @@ def _rk4_update(y, h, k1, k2, k3, k4):
     return finite
 
 
-@jit(RESULT_TYPE(_RHS, _PROJECT, _vector, _vector, types.float64, P_TYPE, D_TYPE))
+@at_first_call(RESULT_TYPE(_RHS, _PROJECT, _vector, _vector, types.float64, P_TYPE, D_TYPE))
 def rk4(scene_rhs, project, z0, t_out, step, P, D):
     """Fixed-step classical Runge-Kutta (eq. 6.12): k1 = f(t, y), k2 = f(t + h/2, y + h/2 k1), k3 = f(t + h/2,
     y + h/2 k2), k4 = f(t + h, y + h k3), y <- y + h/6 (k1 + 2 k2 + 2 k3 + k4), element by element in numpy's order
@@ -473,7 +498,7 @@ def rk4(scene_rhs, project, z0, t_out, step, P, D):
     return Y, evaluations, steps, 0, 0, t_out[-1], 0.0, nout
 
 
-@jit(_matrix(types.FunctionType(RHS_SIGNATURE), _vector, _matrix, P_TYPE, D_TYPE, types.int64))
+@at_first_call(_matrix(types.FunctionType(RHS_SIGNATURE), _vector, _matrix, P_TYPE, D_TYPE, types.int64))
 def outputs(scene_rhs, T, Y, P, D, width):
     """At every output time T[k], y' of the state Y[k] and the ``width`` outputs the right-hand side writes after it
     (body coordinates: lambda; joint coordinates: q, q', q'' and lambda)."""
@@ -521,7 +546,7 @@ BLOCKED_OUTPUT_HISTORY_TYPE = types.Tuple((_matrix, _matrix, types.float64[:, :,
 )
 
 
-@jit(BLOCKED_OUTPUT_HISTORY_TYPE)
+@at_first_call(BLOCKED_OUTPUT_HISTORY_TYPE)
 def blocked_output_history(scene_rhs, T, Y, P, D, width, columns):
     """``output_history`` with Psi_q kept by its rows' blocks (N, m, w) (``history.BlockedJacobians``): entry s of
     row r is Psi_q's entry in column ``columns[r, s]`` (-1 after the row's last: 0 there), the only columns the

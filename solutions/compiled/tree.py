@@ -25,9 +25,13 @@ joint's Euler parameters) into the arrays of ``tree_kernels.py``, and the cut ro
   in every function that calls them. Given an ``out`` of y.size + n, only q after y (the tree's forward
   kinematics: the body coordinates of a divergence check's companion run, ``dispatch.positions``; y' not
   written). A state of another size than the tree's, or an ``out`` longer than y' + n but too short for the
-  outputs, gets ``out`` filled with NaN (numba checks no bounds: it wrote past ``out``'s end);
-- ``constraint_arrays(T, Y, P, D, Psi, Psi_q, Psi_t)`` at the output times from the body coordinates, as the
-  scene's own module (``codegen.py``; ``history.py`` makes the residuals and reactions of them).
+  outputs, gets ``out`` filled with NaN (numba checks no bounds: it wrote past ``out``'s end).
+
+That one function is the whole module: Psi, Psi_q and Psi_t at the output times come from it (``loops.
+output_history``), so a tree has no ``constraint_arrays`` of its own (the scene's module has, ``codegen.py``): a
+second function calling every constraint kernel would have numba link and optimize them all a second time, the
+module's first compilation ~7 % longer (1.2 s of CPU of 16-19 s a dimension, ``mbd compile``'s compile events) for a
+function no run needs.
 
 No numba here; the generated module is cached as ``codegen.py`` caches the scene's own.
 """
@@ -471,7 +475,7 @@ def generate(tree: TreeScene) -> str:
         "from numba import njit",
         "",
         f"from solutions.compiled.kernels import {', '.join(kernels)}",
-        "from solutions.compiled.loops import CONSTRAINT_ARRAYS_SIGNATURE, RHS_SIGNATURE",
+        "from solutions.compiled.loops import RHS_SIGNATURE",
         f"from solutions.compiled.tree_kernels import {', '.join(sorted(tree_imports))}",
         "",
         "",
@@ -495,19 +499,7 @@ def generate(tree: TreeScene) -> str:
         "            out[o + i], out[o + n + i], out[o + 2 * n + i] = q[i], qd[i], qdd[i]",
         "        for i in range(m):",
         "            out[o + 3 * n + i] = lam[i]",
-        "",
-        "",
-        "@njit(CONSTRAINT_ARRAYS_SIGNATURE, cache=True, nogil=True)",
-        "def constraint_arrays(T, Y, P, D, PSI, JAC, PSIT):",
-        '    """Psi, Psi_q and Psi_t at every output time T[k] from the body coordinates Y[k] (eq. 4.1-4.3)."""',
-        "    fk, fp = P[5], P[6]",
-        "    n, m = P[8][0], P[8][1]",
-        "    gam = np.zeros(m)",
-        "    for k in range(T.size):",
-        "        t, q, qd = T[k], Y[k, :n].copy(), Y[k, n : 2 * n].copy()",
-        "        psi, psit, jac = PSI[k], PSIT[k], JAC[k]",
     ]
-    lines += constraint_calls(scene, "        ")
     return "\n".join(lines) + "\n"
 
 
