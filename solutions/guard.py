@@ -24,6 +24,9 @@ Psi_q (``square_spectra``, ``null_space_bases``), or in a compiled run the band 
 index-3 integrators make the same checks at their accepted steps (sec. 6.5, ``implicit.GuardedSteps``). A run
 makes its Guard in ``dynamics.make_guard`` (``dynamics.index3_guard``) and reports what it saw:
 ``info['closest_singularity']``, ``info['singular_positions']`` with each crossing's branch verdict.
+A compiled run, which the Guard judges at the output times, is also judged at its pauses between steps
+(``judge_pause``), where it stopped early (``judge_stop``) and where sigma_r / sigma_1 dips between output times
+(``singular_dip``: the run is made again on the numpy engine, which judges every step).
 """
 
 from __future__ import annotations
@@ -641,6 +644,57 @@ NEAR_SINGULAR for a crossing (into or out of a configuration that stays singular
 BRANCH_BLIND = 0.25
 """``branch_verdict`` cannot tell when the accelerations at the two samples allow a change of velocity over the
 interval of this fraction of the fastest body's speed (samples too far apart, or a body nearly at rest)."""
+
+
+def shallow_copy(guard: Guard) -> Guard:
+    """``copy.copy(guard)``: a new Guard with the same attributes (its lists and arrays shared), made directly (1 us,
+    not ``copy``'s protocol's 4)."""
+    copied = object.__new__(type(guard))
+    copied.__dict__.update(guard.__dict__)
+    return copied
+
+
+def singular_dip(guard: Guard, times: np.ndarray, jacobians: np.ndarray) -> tuple[float, float] | None:
+    """(t, sigma_r / sigma_1) where the ratio of the Guard's scaled Psi_q dips towards zero at an output time
+    (``diagnostics.passes_zero``: a local minimum below NEAR_SINGULAR, deep against its neighbours), else None.
+    There a run passed close to a rank loss between output times, where the numpy engine's Guard judges every
+    step and the compiled engine's only the output times: an even rank loss (one per loop of a chain of
+    parallelograms) keeps the sign of det [Psi_q; T^T], and the run may have left its branch unseen."""
+    if guard.rank == 0 or times.size < 3:
+        return None
+    ratios = guard.spectra(times, jacobians)[0]  # those of the output times' checks
+    if guard.banded:  # numba is loaded (a compiled run): passes_zero time by time in one compiled pass
+        from .compiled import branches
+
+        k = int(branches.first_dip(np.ascontiguousarray(ratios, dtype=float), NEAR_SINGULAR))
+        return None if k < 0 else (float(times[k]), float(ratios[k]))
+    # ``dips`` finds them all at once (a loop chain: 100 calls of passes_zero, 70 us); passes_zero decides the first
+    # in time and those next to a NaN, on which the two disagree
+    maybe = dips(ratios) | np.isnan(ratios[:-2]) | np.isnan(ratios[2:])
+    for k in 1 + np.flatnonzero(maybe):
+        if passes_zero(ratios[k - 1], ratios[k], ratios[k + 1]):
+            return float(times[k]), float(ratios[k])
+    return None
+
+
+def judge_pause(guard: Guard, t: float, q: np.ndarray, psi: np.ndarray, jacobian: np.ndarray) -> None:
+    """The numpy engine's check after a step, at a pause of the compiled loop between two steps (every
+    ``compiled.PAUSE_STEPS``), by ``guard``, a copy of the run's Guard that sees the pauses in time order (the run's
+    own judges the output times): SingularConfigurationError where Psi_q is about to lose rank or lost it since the
+    pause before, so that a compiled run crawling at a singular position stops there as the numpy run does."""
+    guard.check_outputs(np.array([t]), q[None, :], psi, jacobian, drift=False)
+
+
+def judge_stop(guard: Guard, compiled, times: np.ndarray, n: int) -> None:
+    """The Guard's checks over a compiled run that stopped early: the output times it reached and the state where
+    it stopped. The numpy engine's Guard judges every step on the way, so a stop next to a singular position
+    raises its SingularConfigurationError, or leaves ``guard.closest`` near zero, which makes ``auto`` run again
+    with a formulation that passes it (``restartable``), on either engine. A state that is no longer finite
+    (rk4's stop) is no configuration: the reached output times alone are judged."""
+    k, q = compiled.reached, compiled.Y[:, :n]
+    guard.check_outputs(times[:k], q[:k], compiled.psi[:k], compiled.jac[:k])
+    if np.all(np.isfinite(compiled.Y[k])):
+        guard.check_outputs(np.array([compiled.t]), q[k:], compiled.psi[k:], compiled.jac[k:], drift=False)
 
 
 def gyration_weights(system: System) -> np.ndarray:

@@ -115,7 +115,7 @@ def screen(ratios, signs, turns, near, fall, aligned):
 @njit(types.int64(_vector, types.float64), cache=True, nogil=True)
 def first_dip(ratios, near):
     """The first output time k whose ratio dips (``diagnostics.passes_zero`` of ratios[k - 1], ratios[k], ratios[k +
-    1], ``near``: NEAR_SINGULAR), or -1: ``dynamics.singular_dip`` in one pass. Python's min and max as passes_zero
+    1], ``near``: NEAR_SINGULAR), or -1: ``guard.singular_dip`` in one pass. Python's min and max as passes_zero
     takes them (the first argument kept unless the second is smaller, larger), so a NaN next to the minimum decides
     as there: one after it leaves the other neighbour, one before it no dip."""
     for k in range(1, ratios.size - 1):

@@ -416,7 +416,7 @@ def test_a_dip_between_output_times_is_found_as_passes_zero_finds_it_next_to_a_n
     """``singular_dip`` takes the first output time where sigma_r / sigma_1 dips (``diagnostics.passes_zero``,
     sample by sample: a NaN after the minimum leaves Python's min and max the other neighbour, so it still dips)."""
     from solutions.diagnostics import passes_zero
-    from solutions.dynamics import singular_dip
+    from solutions.guard import singular_dip
 
     def first_by_hand(ratios):
         return next((k for k in range(1, len(ratios) - 1) if passes_zero(*ratios[k - 1 : k + 2])), None)
