@@ -121,12 +121,21 @@ def for_students(nb, modules: Path) -> None:
 
 
 def execute_notebook(nb, folder: Path, timeout: int = 600) -> None:
-    """Run every cell of ``nb`` in ``folder`` (a fresh python3 kernel); an error stops the build."""
+    """Run every cell of ``nb`` in ``folder`` (a fresh python3 kernel); an error stops the build. Outside a running
+    event loop (a command, a test) on a loop of its own that ``asyncio.run`` closes afterwards: nbclient's ``execute``
+    would leave one open in the calling thread, which Python reports as unclosed when it is collected."""
+    import asyncio
+
     from nbclient import NotebookClient
 
     environment = dict(os.environ, MPLBACKEND="module://matplotlib_inline.backend_inline")
     client = NotebookClient(nb, timeout=timeout, kernel_name="python3", resources={"metadata": {"path": str(folder)}})
-    client.execute(env=environment)
+    try:
+        asyncio.get_running_loop()
+    except RuntimeError:  # no loop runs in this thread
+        asyncio.run(client.async_execute(env=environment))
+    else:  # inside a running loop (a notebook): nbclient's own way
+        client.execute(env=environment)
 
 
 def stage_notebook(path: Path, stage: Path, execute: bool, modules: Path | None = None) -> Page:

@@ -331,3 +331,25 @@ def test_a_statement_links_each_equation_it_cites_into_the_notes():
         "[2.5](notes/ch02_planar_body_kinematics.html#eq-2.5); "
         "eq. 99.9."
     )
+
+
+def test_executing_a_page_leaves_no_event_loop_open(tmp_path):
+    """``build.execute_notebook`` (every chapter of a kit's notes, at ``mbd release``) closes the event loop it ran
+    the kernel on: nbclient's ``execute`` left one open in the calling thread, which Python later reported as an
+    unclosed-loop ResourceWarning in whatever test ran next on that worker."""
+    import asyncio
+    import gc
+
+    import nbformat
+
+    from course.notes import build
+
+    def open_loops() -> int:
+        gc.collect()
+        return sum(isinstance(o, asyncio.AbstractEventLoop) and not o.is_closed() for o in gc.get_objects())
+
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("6 * 7")])
+    before = open_loops()
+    build.execute_notebook(nb, tmp_path)
+    assert nb.cells[0].outputs[0]["data"]["text/plain"] == "42"
+    assert open_loops() == before
