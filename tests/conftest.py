@@ -434,15 +434,9 @@ def cluster():
 
 
 def execute_notebook(client) -> None:
-    """``client.execute()`` (an nbclient NotebookClient) on an event loop of this thread's own, closed afterwards:
-    nbclient leaves one open per thread otherwise, which a later test on the worker meets as an unclosed-loop
-    ResourceWarning."""
+    """``client.execute()`` (an nbclient NotebookClient) on an event loop that ``asyncio.run`` closes afterwards:
+    nbclient's ``execute`` (jupyter_core's ``run_sync``) makes a loop of its own per thread and leaves it open, even
+    where the caller set one, which a later test on the worker meets as an unclosed-loop ResourceWarning."""
     import asyncio
 
-    loop = asyncio.new_event_loop()
-    asyncio.set_event_loop(loop)
-    try:
-        client.execute()
-    finally:
-        asyncio.set_event_loop(None)
-        loop.close()
+    asyncio.run(client.async_execute())

@@ -38,20 +38,14 @@ SKELETON_ERRORS = {"NotImplementedError", "NameError", "AssertionError"}
 
 def execute(notebook: Path, folder: Path, **env: str) -> nbformat.NotebookNode:
     """Run every cell (on to the end after an error) with ``folder`` as the working directory, on an event loop
-    of this thread's own that is closed afterwards (nbclient would leave one open per thread, and its sockets)."""
+    that ``asyncio.run`` closes afterwards (nbclient's ``execute`` would leave one open per thread, and its sockets)."""
     nb = nbformat.read(notebook, as_version=4)
     environment = {k: v for k, v in os.environ.items() if not k.startswith("NBGRADER")}
     environment.update(env)
     client = NotebookClient(
         nb, timeout=300, kernel_name="python3", allow_errors=True, resources={"metadata": {"path": str(folder)}}
     )
-    loop = asyncio.new_event_loop()
-    asyncio.set_event_loop(loop)
-    try:
-        client.execute(env=environment)
-    finally:
-        asyncio.set_event_loop(None)
-        loop.close()
+    asyncio.run(client.async_execute(env=environment))
     return nb
 
 
