@@ -24,14 +24,15 @@ The mass matrix is built once and the force loop is skipped for a scene with gra
 ``formulation="auto"`` and ``integrator="auto"`` pick the cheapest adequate method (``choose_method``).
 
 In the code, ``forward_dynamics`` runs a plan (``run_plan``) as named stages, flowing one way:
-``dynamic_model`` (M and the forces) -> ``consistent_initial_conditions`` (1) -> ``plan_method`` (the method
-and the tolerance rule, computed once; the three are ``start_motion``) -> ``ode_motion`` (the equations of
-motion and the Guard; an FMU's co-simulation, ``io/fmu.py``, advances them step by step) -> ``integrate_motion``
-(2 and 4: the numpy engine, or the compiled one where it covers the run; ``index3_run`` for the implicit index-3
-integrators) -> ``build_result`` (3) -> ``run_info`` and the warnings. When ``auto``'s method stops at a singular
-position (``SingularStop``), the run is made again from the start with the one fallback plan: a formulation that
-passes it. ``forward_dynamics`` is one run of a ``prepare``d one (``Prepared``): what does not depend on the initial
-state (M, the forces, the compiled plan and module) is made once for many runs from other initial states.
+``dynamic_model`` (M and the forces) -> ``consistent_initial_conditions`` (1; ``consistent_start``, which hands
+its Psi_q to the start's rank) -> ``plan_method`` (the method and the tolerance rule, computed once; the three are
+``start_motion``) -> ``ode_motion`` (the equations of motion and the Guard; an FMU's co-simulation, ``io/fmu.py``,
+advances them step by step) -> ``integrate_motion`` (2 and 4: the numpy engine, or the compiled one where it covers
+the run; ``index3_run`` for the implicit index-3 integrators) -> ``build_result`` (3) -> ``run_info`` and the
+warnings. When ``auto``'s method stops at a singular position (``SingularStop``), the run is made again from the
+start with the one fallback plan: a formulation that passes it. ``forward_dynamics`` is one run of a ``prepare``d
+one (``Prepared``): what does not depend on the initial state (M, the forces, the compiled plan and module) is made
+once for many runs from other initial states.
 """
 
 from __future__ import annotations
