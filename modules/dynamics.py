@@ -163,8 +163,8 @@ def consistent_start(
     report = {
         "assembly": assembly,
         "velocity_residual_before": before,
-        "velocity_correction": float(np.max(np.abs(qd - qd0), initial=0.0)),
-        "velocity_residual": float(np.max(np.abs(jacobian @ qd + psi_t), initial=0.0)),
+        "velocity_correction": largest(qd - qd0),
+        "velocity_residual": largest(jacobian @ qd + psi_t),
     }
     return q, qd, report, jacobian
 
