@@ -52,7 +52,7 @@ from solutions.io import load_model  # noqa: E402
 
 SCENES = ("double_pendulum", "slider_crank", "spatial_double_pendulum")
 STAGES = (
-    (dynamics, "consistent_initial_conditions", "initial conditions (assembly)"),
+    (dynamics, "consistent_start", "initial conditions (assembly)"),
     (dynamics, "plan_method", "plan: method and tolerance"),
     (dynamics, "motion_rate", "  motion rate (start rates: rho, q'')"),
     (dynamics, "integrate_motion", "engine: integrate_motion"),

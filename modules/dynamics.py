@@ -25,14 +25,15 @@ The mass matrix is built once and the force loop is skipped for a scene with gra
 ``formulation="auto"`` and ``integrator="auto"`` pick the cheapest adequate method (``choose_method``).
 
 In the code, ``forward_dynamics`` runs a plan (``run_plan``) as named stages, flowing one way:
-``dynamic_model`` (M and the forces) -> ``consistent_initial_conditions`` (1) -> ``plan_method`` (the method
-and the tolerance rule, computed once; the three are ``start_motion``) -> ``ode_motion`` (the equations of
-motion and the Guard; an FMU's co-simulation, ``io/fmu.py``, advances them step by step) -> ``integrate_motion``
-(2 and 4: the numpy engine, or the compiled one where it covers the run; ``index3_run`` for the implicit index-3
-integrators) -> ``build_result`` (3) -> ``run_info`` and the warnings. When ``auto``'s method stops at a singular
-position (``SingularStop``), the run is made again from the start with the one fallback plan: a formulation that
-passes it. ``forward_dynamics`` is one run of a ``prepare``d one (``Prepared``): what does not depend on the initial
-state (M, the forces, the compiled plan and module) is made once for many runs from other initial states.
+``dynamic_model`` (M and the forces) -> ``consistent_initial_conditions`` (1; ``consistent_start``, which hands
+its Psi_q to the start's rank) -> ``plan_method`` (the method and the tolerance rule, computed once; the three are
+``start_motion``) -> ``ode_motion`` (the equations of motion and the Guard; an FMU's co-simulation, ``io/fmu.py``,
+advances them step by step) -> ``integrate_motion`` (2 and 4: the numpy engine, or the compiled one where it covers
+the run; ``index3_run`` for the implicit index-3 integrators) -> ``build_result`` (3) -> ``run_info`` and the
+warnings. When ``auto``'s method stops at a singular position (``SingularStop``), the run is made again from the
+start with the one fallback plan: a formulation that passes it. ``forward_dynamics`` is one run of a ``prepare``d
+one (``Prepared``): what does not depend on the initial state (M, the forces, the compiled plan and module) is made
+once for many runs from other initial states.
 """
 
 from __future__ import annotations
@@ -54,7 +55,9 @@ from .diagnostics import (
     AnalysisError,
     RankReport,
     SingularConfigurationError,
+    full_row_rank,
     rank_at,
+    rank_report,
 )
 from .divergence import Divergence, companion_factor, departure, estimate, needed_rtol, scaled
 from .energy import driver_power, energy_history
@@ -125,6 +128,16 @@ def consistent_initial_conditions(
     solved in the least-squares sense, so redundant constraints are fine; where q0' satisfies the velocity
     constraints exactly (a mechanism released at rest), x = 0 and nothing is solved.
     """
+    return consistent_start(system, M, q0, qd0, t)[:3]
+
+
+def consistent_start(
+    system: System, M: np.ndarray, q0: np.ndarray, qd0: np.ndarray, t: float = 0.0, singular: list[int] | None = None
+) -> tuple[np.ndarray, np.ndarray, dict, np.ndarray | None]:
+    """``consistent_initial_conditions``, and Psi_q at the consistent q where the velocity correction made it (None
+    where it did not: q0' satisfies the velocity constraints and Psi_t = 0, e.g. released at rest), which the run's
+    start hands to its rank (``start_rank``) instead of making the same matrix again (a driven mechanism's start:
+    20-50 us a call). ``singular``: the model's point masses (``point_masses``) where the caller knows them."""
     q, assembly = assemble(system, q0, t)
     psi_t = system.psi_t(q, t)
     at_rest = not np.asarray(qd0).any()  # Psi_q 0 = 0: the residual is Psi_t, and Psi_q is made only to correct q0'
@@ -134,10 +147,12 @@ def consistent_initial_conditions(
     if not before:  # q0' satisfies the velocity constraints exactly (e.g. at rest): x = 0, nothing to correct
         qd = np.array(qd0, dtype=float)
         report = {"velocity_residual_before": 0.0, "velocity_correction": 0.0, "velocity_residual": 0.0}
-        return q, qd, {"assembly": assembly, **report}
+        return q, qd, {"assembly": assembly, **report}, jacobian
     if jacobian is None:  # at rest, with a Psi_t to correct (a driven mechanism released at rest)
         jacobian = system.jacobian(q, t)
-    if point_masses(system.model):  # M singular: the same minimum, from [M Psi_q^T; Psi_q 0] (eq. 5.30's matrix)
+    if singular is None:
+        singular = point_masses(system.model)
+    if singular:  # M singular: the same minimum, from [M Psi_q^T; Psi_q 0] (eq. 5.30's matrix)
         n, m = jacobian.shape[1], jacobian.shape[0]
         kkt = np.block([[mass_at(M, q), jacobian.T], [jacobian, np.zeros((m, m))]])
         qd = qd0 + np.linalg.lstsq(kkt, np.concatenate([np.zeros(n), -residual]), rcond=None)[0][:n]
@@ -148,10 +163,10 @@ def consistent_initial_conditions(
     report = {
         "assembly": assembly,
         "velocity_residual_before": before,
-        "velocity_correction": float(np.max(np.abs(qd - qd0), initial=0.0)),
-        "velocity_residual": float(np.max(np.abs(jacobian @ qd + psi_t), initial=0.0)),
+        "velocity_correction": largest(qd - qd0),
+        "velocity_residual": largest(jacobian @ qd + psi_t),
     }
-    return q, qd, report
+    return q, qd, report, jacobian
 
 
 def effort_columns(system: System, q: np.ndarray, lam: np.ndarray, t: np.ndarray) -> dict[str, np.ndarray]:
@@ -629,23 +644,30 @@ def start_motion(run: Run, formulation: str, integrator: str) -> Start:
     prepared = run.prepared
     M, forces = prepared.model() if prepared is not None else dynamic_model(run.system, run.masses, run.forces)
     notes, turns = [], None
-    if run.masses is None:  # the model's M: singular where point masses turn freely
-        singular = prepared.fixed().point_masses if prepared is not None else point_masses(run.system.model)
-    else:
-        singular = []
+    points = prepared.fixed().point_masses if prepared is not None else point_masses(run.system.model)
+    singular = points if run.masses is None else []  # the model's M: singular where point masses turn freely
     if singular:  # M singular: free turns of point masses
         run, turns, notes = nominal_inertia(run, M, assemble(run.system, run.q0)[0])
         M, forces = dynamic_model(run.system, None, run.forces)
         run = dataclasses.replace(run, prepared=None)  # its system is this run's own: nothing to share
-    q, qd, initial = consistent_initial_conditions(run.system, M, run.q0, run.qd0)  # stage 1
+        points = None  # its system's own (``consistent_start`` finds them)
+    q, qd, initial, jacobian = consistent_start(run.system, M, run.q0, run.qd0, singular=points)  # stage 1
     if turns is not None:
         qd = without_turns(turns, qd)
     settings = run.settings
     options, compiled = settings.formulation_options, settings.engine == "compiled"
     rates = StartRates(run.system, M, forces, q, qd, options, compiled, settings, run.prepared)  # engine's choice first
-    rank = rank_at(run.system, q)
+    rank = start_rank(run.system, q, jacobian)
     plan = plan_method(run, M, forces, q, qd, formulation, integrator, rates, rank)  # stage 2
     return Start(run, M, forces, q, qd, initial, plan, notes, rates, rank)
+
+
+def start_rank(system: System, q: np.ndarray, jacobian: np.ndarray | None) -> RankReport | None:
+    """Psi_q's rank at the start (``diagnostics.rank_at``), from Psi_q at q where the initial conditions made it
+    (``consistent_start``): the same certificate or SVD of the same matrix."""
+    if jacobian is None:
+        return rank_at(system, q)
+    return full_row_rank(jacobian) or rank_report(jacobian, system.row_owners)
 
 
 def ode_motion(run: Run, start: Start) -> tuple[Plan, EquationsOfMotion, Guard, list[str]]:

@@ -220,3 +220,45 @@ def test_each_call_makes_psi_q_s_rank_once_and_keeps_nothing_for_the_next(monkey
     for name in ("q", "qd", "qdd", "lam"):
         assert np.array_equal(getattr(first, name), getattr(reference, name))
         assert np.array_equal(getattr(second, name), getattr(reference, name))
+
+
+def test_a_driven_start_makes_psi_q_once_for_its_velocities_and_its_rank(monkeypatch):
+    """A driven mechanism released at rest (Psi_t != 0: the slider-crank) corrects q0' with Psi_q at the consistent q
+    (eq. 6.2), and its rank at the start is of the same matrix (``dynamics.consistent_start`` hands it to
+    ``start_rank``): Psi_q is made once at the start, not again by ``rank_at``; the start's q, q' and rank are those of
+    ``consistent_initial_conditions`` and ``rank_at``, bit for bit."""
+    system, q0, qd0 = build_system(load_model(MODELS / "slider_crank.yaml"))
+    M = dynamics.dynamic_model(system, None, None)[0]
+    q, qd, report = dynamics.consistent_initial_conditions(system, M, q0, qd0)
+    assert report["velocity_residual_before"] > 0.0  # Psi_t corrected: Psi_q made for it
+    expected = diagnostics.rank_at(system, q)
+    made, inside = [], [False]
+    jacobian = type(system).jacobian
+    monkeypatch.setattr(type(system), "jacobian", lambda self, *a: made.append(inside[0]) or jacobian(self, *a))
+    start_motion = dynamics.start_motion
+
+    def counted(*args):
+        inside[0] = True
+        try:
+            return start_motion(*args)
+        finally:
+            inside[0] = False
+
+    class Planned(Exception):
+        """Raised by the plan with what the start handed it (q, q', Psi_q's rank): the call stops there."""
+
+    def planned(run, M, forces, q, qd, formulation, integrator, rates, rank):
+        raise Planned(q, qd, rank)
+
+    monkeypatch.setattr(dynamics, "start_motion", counted)
+    monkeypatch.setattr(dynamics, "plan_method", planned)
+    with pytest.raises(Planned) as stopped:
+        dynamics.forward_dynamics(system, q0, qd0, 0.1, 2, formulation="joint-coordinates", engine="numpy")
+    assert made.count(True) == 1
+    q_start, qd_start, rank = stopped.value.args
+    assert q_start.tobytes() == q.tobytes() and qd_start.tobytes() == qd.tobytes()
+    assert (rank.rank, rank.n_redundant, rank.redundant_joints) == (
+        expected.rank,
+        expected.n_redundant,
+        expected.redundant_joints,
+    )
