@@ -57,6 +57,18 @@ def _tsda_state(q, qd, i, j, s):
     return length, (dx * ddx + dy * ddy) / length
 
 
+@inlined
+def spring_row(row, length, velocity, parameters, actuator, power):
+    """row = (f = k (l - l0) + c l' + f_a, power, V = 1/2 k (l - l0)^2, l) of a spring-damper-actuator at one time,
+    parameters (k, c, l0) (eq. 5.14, 10.12)."""
+    stiffness, damping, free = parameters[0], parameters[1], parameters[2]
+    spring = stiffness * (length - free)
+    row[0] = spring + damping * velocity + actuator
+    row[1] = power
+    row[2] = 0.5 * stiffness * (length - free) ** 2
+    row[3] = length
+
+
 @eager(VECTOR, MATRIX, MATRIX, IMATRIX, MATRIX, IVECTOR, MATRIX, CUBE)
 def planar_tsda_history(times, q, qd, ints, floats, fk, fp, out):
     """(f, power, V, l) of every spring-damper-actuator at every output time (module docstring). ints (i, j,
@@ -64,15 +76,11 @@ def planar_tsda_history(times, q, qd, ints, floats, fk, fp, out):
     Q, powers = np.zeros(q.shape[1]), np.zeros(2)
     for k in range(times.size):
         for e in range(ints.shape[0]):
-            i, j = ints[e, 0], ints[e, 1]
-            stiffness, damping, free = floats[e, 4], floats[e, 5], floats[e, 6]
+            i, j, t = ints[e, 0], ints[e, 1], times[k]
+            planar_tsda(q[k], qd[k], t, ints[e : e + 1], floats[e : e + 1], fk, fp, Q, powers)
+            power = block_power(qd[k], Q, i, 3) + block_power(qd[k], Q, j, 3)
             length, velocity = _tsda_state(q[k], qd[k], i, j, floats[e])
-            spring = stiffness * (length - free)
-            out[e, k, 0] = spring + damping * velocity + function(fk, fp, ints[e, 2], times[k], 0)
-            planar_tsda(q[k], qd[k], times[k], ints[e : e + 1], floats[e : e + 1], fk, fp, Q, powers)
-            out[e, k, 1] = block_power(qd[k], Q, i, 3) + block_power(qd[k], Q, j, 3)
-            out[e, k, 2] = 0.5 * stiffness * (length - free) ** 2
-            out[e, k, 3] = length
+            spring_row(out[e, k], length, velocity, floats[e, 4:7], function(fk, fp, ints[e, 2], t, 0), power)
 
 
 @eager(VECTOR, MATRIX, MATRIX, IMATRIX, MATRIX, IVECTOR, MATRIX, CUBE)

@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from .element_history_kernels import block_power
+from .element_history_kernels import block_power, spring_row
 from .history_kernels import CUBE, IMATRIX, IVECTOR, MATRIX, VECTOR, eager, inlined
 from .kernels import _omega, _p, _point_terms, _pq, _r, function, rotate, spatial_load, spatial_rsda, spatial_tsda
 
@@ -55,15 +55,11 @@ def spatial_tsda_history(times, q, qd, ints, floats, fk, fp, out):
     Q, powers = np.zeros(q.shape[1]), np.zeros(2)
     for k in range(times.size):
         for e in range(ints.shape[0]):
-            i, j = ints[e, 0], ints[e, 1]
-            stiffness, damping, free = floats[e, 6], floats[e, 7], floats[e, 8]
+            i, j, t = ints[e, 0], ints[e, 1], times[k]
+            spatial_tsda(q[k], qd[k], t, ints[e : e + 1], floats[e : e + 1], fk, fp, Q, powers)
+            power = block_power(qd[k], Q, i, 7) + block_power(qd[k], Q, j, 7)
             length, velocity = _tsda_state(q[k], qd[k], i, j, floats[e])
-            spring = stiffness * (length - free)
-            out[e, k, 0] = spring + damping * velocity + function(fk, fp, ints[e, 2], times[k], 0)
-            spatial_tsda(q[k], qd[k], times[k], ints[e : e + 1], floats[e : e + 1], fk, fp, Q, powers)
-            out[e, k, 1] = block_power(qd[k], Q, i, 7) + block_power(qd[k], Q, j, 7)
-            out[e, k, 2] = 0.5 * stiffness * (length - free) ** 2
-            out[e, k, 3] = length
+            spring_row(out[e, k], length, velocity, floats[e, 6:9], function(fk, fp, ints[e, 2], t, 0), power)
 
 
 @eager(VECTOR, MATRIX, MATRIX, IMATRIX, MATRIX, IVECTOR, MATRIX, CUBE)
