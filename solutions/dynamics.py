@@ -1281,7 +1281,7 @@ def build_result(run: Run, equations, guard, history, compiled, times) -> tuple[
     )
     if getattr(history, "jac", None) is None:  # a history kept without Psi at its output times (an FMU's steps)
         history.psi, history.jac, history.psit = constraint_arrays(system, times, history.q)
-    masses, kinetic = equations.formulation.masses, None
+    masses, kinetic, elements = equations.formulation.masses, None, None
     if compiled is None:
         residuals = output_history.residuals(history.psi, history.jac, history.psit, history.qd)
     else:  # over each row's nonzero columns, in compiled loops; T by the model's M (``kinetic_energy``)
@@ -1289,8 +1289,12 @@ def build_result(run: Run, equations, guard, history, compiled, times) -> tuple[
 
         residuals = compiled_history.residuals(compiled.psi, compiled.jac, compiled.psit, history.qd, system)
         kinetic = compiled_history.kinetic_energy(masses, history.q, history.qd)
+        elements = compiled_elements(equations.forces, system.model.dimension, times, history.q, history.qd)
+    columns, potential = elements if elements is not None else (None, None)
     accumulated = history.energies.T if equations.extra else ()
-    energies = energy_history(masses, equations.forces, history.q, history.qd, *accumulated, kinetic=kinetic)
+    energies = energy_history(
+        masses, equations.forces, history.q, history.qd, *accumulated, kinetic=kinetic, potential=potential
+    )
     result.points.update(residuals)
     result.points.update(energies.columns())
     for label, (body, point) in (run.points or {}).items():
@@ -1305,8 +1309,21 @@ def build_result(run: Run, equations, guard, history, compiled, times) -> tuple[
     else:  # the same, in compiled loops over an index layout made once per system
         result.reactions.update(compiled_history.joint_reactions(system, history.q, history.lam, compiled.jac))
     result.reactions.update(effort_columns(system, history.q, history.lam, times))
-    result.forces.update(element_columns(equations.forces, times, history.q, history.qd))
+    if columns is None:  # each element's per-state methods at every output time (the numpy engine's)
+        columns = element_columns(equations.forces, times, history.q, history.qd)
+    result.forces.update(columns)
     return result, energies
+
+
+def compiled_elements(forces, dimension: int, times: np.ndarray, q: np.ndarray, qd: np.ndarray) -> tuple | None:
+    """(the force elements' result columns, V) at the output times of a compiled run, in compiled loops
+    (``compiled.element_history``); None where the model has no force element (V of gravity alone is one product)
+    or one the compiled kernels do not cover."""
+    if not forces.elements:
+        return None
+    from .compiled.element_history import element_history
+
+    return element_history(forces, dimension, times, q, qd)
 
 
 def run_info(run: Run, plan: Plan, equations, guard, stats, result, energies, initial: dict) -> DynamicInfo:

@@ -101,15 +101,17 @@ def energy_history(
     applied: np.ndarray | None = None,
     drivers: np.ndarray | None = None,
     kinetic: np.ndarray | None = None,
+    potential: np.ndarray | None = None,
 ) -> EnergyHistory:
-    """The energies of a run from its q, q' histories and the accumulated D, W (zero when not given); ``kinetic``:
-    T at every output time when the caller has it already (the compiled engine's, ``compiled.history``)."""
+    """The energies of a run from its q, q' histories and the accumulated D, W (zero when not given); ``kinetic``,
+    ``potential``: T, V at every output time when the caller has them already (the compiled engine's,
+    ``compiled.history``, ``compiled.element_history``)."""
     zero = np.zeros(len(q))
     if kinetic is None:  # a spatial model's M(q) (spatial/mass.py) knows its exact T(q, q')
         kinetic = M.kinetic_energy_history(q, qd) if callable(M) else kinetic_energy(M, qd)
     return EnergyHistory(
         kinetic=kinetic,
-        potential=potential_energy(forces, q),
+        potential=potential_energy(forces, q) if potential is None else potential,
         dissipated=zero if dissipated is None else np.asarray(dissipated),
         applied=zero if applied is None else np.asarray(applied),
         drivers=zero if drivers is None else np.asarray(drivers),

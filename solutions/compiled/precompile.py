@@ -66,8 +66,10 @@ def _compiled(*names: str) -> bool:
 
 def _integrator_loops() -> bool:
     """The integrator loops and the loops over the output times (``history_kernels``, ``spatial_history_kernels``:
-    residuals, reactions, energy), which every dynamic module imports."""
-    return _compiled("loops", "history_kernels", "spatial_history_kernels")
+    residuals, reactions, energy; ``element_history_kernels``, ``spatial_element_history_kernels``: what the force
+    elements exert), which every dynamic run imports."""
+    histories = ("history_kernels", "spatial_history_kernels", "element_history_kernels")
+    return _compiled("loops", *histories, "spatial_element_history_kernels")
 
 
 def _kinematic_loops() -> bool:

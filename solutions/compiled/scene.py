@@ -359,6 +359,18 @@ def _spatial_forces(forces, functions: Functions) -> dict:
     return rows
 
 
+def force_data(forces, dimension: int) -> tuple[list[tuple[str, np.ndarray, np.ndarray]], np.ndarray, np.ndarray]:
+    """((kernel, ints, floats) of every force kernel of the dimension, the function kinds, their parameters): the force
+    rows a scene's module reads (``describe``), each kernel's rows in the elements' order, for what the elements exert
+    at the output times (``element_history``). Raises ``Unsupported`` where ``describe`` would."""
+    functions = Functions()
+    if dimension == 2:
+        kernels = scene_arrays(_planar_forces(forces, functions), PLANAR_FORCES)
+    else:
+        kernels = scene_arrays(_spatial_forces(forces, functions), SPATIAL_FORCES)
+    return kernels, *functions.arrays()
+
+
 def describe(system, M, forces, first: frozenset = frozenset()) -> Scene:
     """The scene's kernels and data (module docstring); ``unsupported`` says why it cannot be compiled. ``first``: the
     names of the elements whose rows come first in each constraint kernel's data (``Scene.first``)."""
@@ -409,4 +421,4 @@ def _row_columns(system) -> np.ndarray | None:
     return history.row_columns(system)
 
 
-__all__ = ["Scene", "Unsupported", "describe"]
+__all__ = ["Scene", "Unsupported", "describe", "force_data"]

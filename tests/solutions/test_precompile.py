@@ -48,7 +48,14 @@ for path in sorted(glob.glob("course/models/*.yaml")):
             continue
         cached = run.info.get("compiled", {}).get("cached")
         seen[f"{name}:{formulation}"] = [model.dimension, run.info["chosen"], cached]
-print(json.dumps(seen))
+from numba.core.registry import CPUDispatcher
+kernels = ("element_history_kernels", "spatial_element_history_kernels")
+histories = [sys.modules.get(f"solutions.compiled.{m}") for m in kernels]
+compiled_here = sorted(  # what the output times' element loops compiled in this process (nothing: all on disk)
+    name for module in histories if module is not None for name, f in vars(module).items()
+    if isinstance(f, CPUDispatcher) and sum(f.stats.cache_misses.values())
+)
+print(json.dumps({"runs": seen, "imported": [m is not None for m in histories], "compiled": compiled_here}))
 """
 
 
@@ -65,11 +72,12 @@ def compiled_then_run():
     assert done.returncode == 0, done.stderr
     runs = _run("-c", RUNS, *FORMULATIONS)
     assert runs.returncode == 0, runs.stderr
-    return done.stdout, json.loads(runs.stdout.strip().splitlines()[-1])
+    found = json.loads(runs.stdout.strip().splitlines()[-1])
+    return done.stdout, found["runs"], found
 
 
 def test_mbd_compile_names_every_part_and_where_it_is(compiled_then_run):
-    out, _ = compiled_then_run
+    out, _, _ = compiled_then_run
     lines = out.strip().splitlines()
     parts = ["integrator and kinematic loops"] + [
         f"{dimension} {what}" for dimension in PENDULUMS for what in (*FORMULATIONS, "kinematic")
@@ -82,7 +90,7 @@ def test_mbd_compile_names_every_part_and_where_it_is(compiled_then_run):
 def test_after_it_every_course_model_runs_on_the_cached_engine(compiled_then_run):
     """Every model of course/models in every compiled formulation it takes, and every kinematic one: the compiled
     engine, its code loaded from disk (the kernels cover every element the course's models use)."""
-    _, seen = compiled_then_run
+    _, seen, _ = compiled_then_run
     refused = sorted(key for key, (_, chosen, _) in seen.items() if chosen["engine"] == "none")
     redundant = [f"parallel_swing:{formulation}" for formulation in sorted(FORMULATIONS)]  # none takes its extra arm
     assert refused == sorted(["cylindrical:joint-coordinates", "quarter_car:joint-coordinates", *redundant])
@@ -95,3 +103,11 @@ def test_after_it_every_course_model_runs_on_the_cached_engine(compiled_then_run
     dimensions = {dimension for key, (dimension, _, _) in seen.items() if key not in refused}
     kinematic = {seen[key][0] for key in seen if key.endswith(":kinematic")}
     assert dimensions == kinematic == {2, 3} and len(seen) >= 40
+
+
+def test_the_element_loops_of_the_output_times_come_from_disk_too(compiled_then_run):
+    """The course's models with springs and loads (both dimensions) report their force elements' columns from the
+    compiled element loops (``compiled.element_history``), which ``mbd compile`` made: none compiled by a run."""
+    _, _, found = compiled_then_run
+    assert found["imported"] == [True, True]
+    assert found["compiled"] == []
