@@ -118,12 +118,13 @@ _SETTLED = types.boolean[::1](_vector, _vector, _vector, _vector, types.float64,
 _DENSE = types.Tuple((_vector, _stack, _vector))(_stack, _vector, _matrix, types.boolean)
 _BRACKETED = types.Tuple((_vector, _stack, _vector, _vector))(_stack, _vector, _matrix, types.boolean, types.float64)
 _CLOSED = _vector(_stack, _vector, _matrix, _ivector)
-"""Signatures compiled at import (and cached on disk, ``precompile``): a run never waits for them."""
+"""Signatures compiled at import (and cached on disk, ``precompile``), but ``AT_FIRST_CALL``'s: after ``mbd compile``
+a run never waits for them."""
 AT_FIRST_CALL = {"_spectra": _SPECTRA, "_ratios_at": _AT}
 """The band route's two passes, compiled (or loaded from disk) where first called, not at import: only a Psi_q
 of at least ``guard.BAND_SMALLEST`` coordinates, or a mid-size one narrow enough (``WIDEST_MID``), takes them, and a
 small closed loop's Guard, which takes the dense route (``dense_spectra``), paid for them at its first run on a new
-machine (the slider-crank's first run in joint coordinates: ``singular`` 32.8 -> 13.5-16.0 s, the run 84 -> 60-68 s of
+machine (the slider-crank's first run in joint coordinates: ``singular`` 34.5 -> 17.5 s, the run 89.5 -> 75.2 s of
 thread CPU; i29-compile's section of ``benchmarks/results/call_cost.md``). ``mbd compile`` compiles them under these
 signatures (``precompile``); a run's calls have exactly these types, so no run compiles another version of them."""
 
