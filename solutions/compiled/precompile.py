@@ -48,13 +48,16 @@ class Part:
 
 def _compiled(*names: str) -> bool:
     """Import the engine's modules ``names`` (compiled at import, or loaded from disk; a loop compiled at its first
-    call, ``loops.AtFirstCall``, compiled here) and say whether none of their functions was compiled (all on disk
-    already)."""
+    call, ``loops.AtFirstCall``, and a module's ``AT_FIRST_CALL`` functions, ``singular``'s, compiled here) and say
+    whether none of their functions was compiled (all on disk already)."""
     import importlib
 
     from numba.core.registry import CPUDispatcher
 
     modules = [importlib.import_module(f"{__package__}.{name}") for name in names]
+    for module in modules:  # the functions a module compiles at their first call, under their signatures
+        for name, signature in getattr(module, "AT_FIRST_CALL", {}).items():
+            getattr(module, name).compile(signature)
     found = [f for m in modules for f in vars(m).values()]
     if "loops" in names:  # (the kinematic half never imports the loops: it would compile them in its process too)
         from .loops import AtFirstCall

@@ -118,7 +118,15 @@ _SETTLED = types.boolean[::1](_vector, _vector, _vector, _vector, types.float64,
 _DENSE = types.Tuple((_vector, _stack, _vector))(_stack, _vector, _matrix, types.boolean)
 _BRACKETED = types.Tuple((_vector, _stack, _vector, _vector))(_stack, _vector, _matrix, types.boolean, types.float64)
 _CLOSED = _vector(_stack, _vector, _matrix, _ivector)
-"""Signatures compiled at import (and cached on disk, ``precompile``): a run never waits for them."""
+"""Signatures compiled at import (and cached on disk, ``precompile``), but ``AT_FIRST_CALL``'s: after ``mbd compile``
+a run never waits for them."""
+AT_FIRST_CALL = {"_spectra": _SPECTRA, "_ratios_at": _AT}
+"""The band route's two passes, compiled (or loaded from disk) where first called, not at import: only a Psi_q
+of at least ``guard.BAND_SMALLEST`` coordinates, or a mid-size one narrow enough (``WIDEST_MID``), takes them, and a
+small closed loop's Guard, which takes the dense route (``dense_spectra``), paid for them at its first run on a new
+machine (the slider-crank's first run in joint coordinates: ``singular`` 34.5 -> 17.5 s, the run 89.5 -> 75.2 s of
+thread CPU; i29-compile's section of ``benchmarks/results/call_cost.md``). ``mbd compile`` compiles them under these
+signatures (``precompile``); a run's calls have exactly these types, so no run compiles another version of them."""
 
 MOVING = 3.0
 """Until a first bracket settles apart from its neighbour's, ``_dense_bracketed`` brackets a ratio only where the
@@ -1435,7 +1443,7 @@ def _scale(jacobians, k, columns, norms, starts, indices, slots, J, previous, su
     return min(np.sqrt(frobenius), np.sqrt(rows * np.max(sums)))
 
 
-@njit(_SPECTRA, cache=True, nogil=True)
+@njit(cache=True, nogil=True)  # AT_FIRST_CALL
 def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, first, loose, carry, thresholds):
     """(ratios, bases, signs, the ratios' lower bounds, eigenvectors, certified steps) at every time; ``loose`` > 0:
     the ratios in brackets of that relative width where one test a bound gives them (``_bracketed_ratio``), else
@@ -1535,7 +1543,7 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
     return ratios, bases, signs, lower, vectors, steps
 
 
-@njit(_AT, cache=True, nogil=True)
+@njit(cache=True, nogil=True)  # AT_FIRST_CALL
 def _ratios_at(jacobians, columns, norms, position, keys, starts, indices, slots, bases, vectors, times):
     """The ratios closed to EXTREME_TOLERANCE (``_spectra``'s) at the output times ``times`` alone, each from the
     eigenvectors its bracket left (``vectors`` (N, 2, m): lambda_m's, lambda_1's); ``bases``: the null-space bases

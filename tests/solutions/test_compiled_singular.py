@@ -805,3 +805,24 @@ def test_null_space_turns_reads_the_signs_at_certified_steps_and_the_bases_elsew
     mixed = null_space_turns(tangents, signs, some)
     np.testing.assert_array_equal(mixed[some], (signs[:-1] * signs[1:])[some])
     np.testing.assert_array_equal(mixed[~some], turns[~some])
+
+
+def test_the_band_passes_are_compiled_at_their_first_call_under_their_signatures_alone(swing):
+    """``singular``'s band passes (``AT_FIRST_CALL``: ``_spectra``, ``_ratios_at``) are not compiled at import: a small
+    closed loop's Guard takes the dense route and paid for them at its first run on a new machine. Compiled under
+    their signatures (``mbd compile``), a band run's calls (from Python, closed figures, and from
+    ``_settled_spectra``, the settled tests) find that version: no other is compiled."""
+    import subprocess
+
+    code = "from solutions.compiled import singular as s; print(*(len(vars(s)[f].signatures) for f in s.AT_FIRST_CALL))"
+    imported = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert imported.stdout.split() == ["0", "0"]
+    for name, signature in singular.AT_FIRST_CALL.items():
+        getattr(singular, name).compile(signature)
+    system, t, qs, jacobians = swing
+    guard = Guard(system, qs[0], 1e-3, 1e-8)
+    norms = np.linalg.norm(jacobians * guard._columns, axis=-1)
+    square_spectra(jacobians, guard._columns, norms, None)  # closed figures: _spectra from Python
+    square_spectra(jacobians, guard._columns, norms, None, True, None, ((1e-8, NEAR_SINGULAR), FALL))  # settled
+    for name in singular.AT_FIRST_CALL:
+        assert len(getattr(singular, name).signatures) == 1
