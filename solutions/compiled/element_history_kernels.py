@@ -26,7 +26,7 @@ import math
 import numpy as np
 
 from .history_kernels import CUBE, IMATRIX, IVECTOR, MATRIX, VECTOR, eager, inlined
-from .kernels import _planar, _rot, function, planar_load, planar_rsda, planar_tsda
+from .kernels import body_coordinates, body_vectors, function, planar_load, planar_rsda, planar_tsda
 
 
 @inlined
@@ -45,12 +45,12 @@ def block_power(qd, Q, b, width):
 @inlined
 def _tsda_state(q, qd, i, j, s):
     """(l, l') of the spring-damper between P_i (s[0:2] on body i) and P_j (s[2:4] on body j) (eq. 5.12)."""
-    xi, yi, phii = _planar(q, i)
-    xj, yj, phij = _planar(q, j)
-    vxi, vyi, wi = _planar(qd, i)
-    vxj, vyj, wj = _planar(qd, j)
-    aix, aiy, bix, biy = _rot(phii, s[0], s[1])
-    ajx, ajy, bjx, bjy = _rot(phij, s[2], s[3])
+    xi, yi, phii = body_coordinates(q, i)
+    xj, yj, phij = body_coordinates(q, j)
+    vxi, vyi, wi = body_coordinates(qd, i)
+    vxj, vyj, wj = body_coordinates(qd, j)
+    aix, aiy, bix, biy = body_vectors(phii, s[0], s[1])
+    ajx, ajy, bjx, bjy = body_vectors(phij, s[2], s[3])
     dx, dy = xj + ajx - xi - aix, yj + ajy - yi - aiy
     length = math.sqrt(dx * dx + dy * dy)
     ddx, ddy = vxj + bjx * wj - vxi - bix * wi, vyj + bjy * wj - vyi - biy * wi
@@ -92,13 +92,13 @@ def planar_rsda_history(times, q, qd, ints, floats, fk, fp, out):
         for e in range(ints.shape[0]):
             i, j = ints[e, 0], ints[e, 1]
             stiffness, damping, free = floats[e, 0], floats[e, 1], floats[e, 2]
-            angle = _planar(q[k], j)[2] - _planar(q[k], i)[2]
-            velocity = _planar(qd[k], j)[2] - _planar(qd[k], i)[2]
+            angle = body_coordinates(q[k], j)[2] - body_coordinates(q[k], i)[2]
+            velocity = body_coordinates(qd[k], j)[2] - body_coordinates(qd[k], i)[2]
             spring = stiffness * (angle - free)
             out[e, k, 0] = spring + damping * velocity + function(fk, fp, ints[e, 2], times[k], 0)
             planar_rsda(q[k], qd[k], times[k], ints[e : e + 1], floats[e : e + 1], fk, fp, Q, powers)
             out[e, k, 1] = block_power(qd[k], Q, i, 3) + block_power(qd[k], Q, j, 3)
-            out[e, k, 2] = 0.5 * stiffness * (_planar(q[k], j)[2] - _planar(q[k], i)[2] - free) ** 2
+            out[e, k, 2] = 0.5 * stiffness * (body_coordinates(q[k], j)[2] - body_coordinates(q[k], i)[2] - free) ** 2
 
 
 @eager(VECTOR, MATRIX, MATRIX, IMATRIX, MATRIX, IVECTOR, MATRIX, CUBE)
@@ -111,7 +111,7 @@ def planar_load_history(times, q, qd, ints, floats, fk, fp, out):
             i = ints[e, 0]
             fx, fy = function(fk, fp, ints[e, 1], times[k], 0), function(fk, fp, ints[e, 2], times[k], 0)
             if ints[e, 3]:
-                fx, fy, _, _ = _rot(_planar(q[k], i)[2], fx, fy)
+                fx, fy, _, _ = body_vectors(body_coordinates(q[k], i)[2], fx, fy)
             out[e, k, 0], out[e, k, 1] = fx, fy
             out[e, k, 2] = function(fk, fp, ints[e, 4], times[k], 0)
             planar_load(q[k], qd[k], times[k], ints[e : e + 1], floats[e : e + 1], fk, fp, Q, powers)

@@ -140,7 +140,7 @@ def function(kinds, params, f, t, order):
 
 # -- planar: body states -----------------------------------------------------------------------------------
 @jit
-def _planar(x, b):
+def body_coordinates(x, b):
     """(x, y, phi) of body b in x (q or q'); ground (b < 0) is zero."""
     if b < 0:
         return 0.0, 0.0, 0.0
@@ -148,7 +148,7 @@ def _planar(x, b):
 
 
 @jit
-def _rot(phi, sx, sy):
+def body_vectors(phi, sx, sy):
     """A s' and B s' = A R90 s', R90 s' = (-s_y', s_x') (eq. 2.1, 2.5)."""
     a11, a12, a21, a22 = planar_rotation_entries_jit(phi)
     return turned(a11, a12, a21, a22, sx, sy)
@@ -156,7 +156,7 @@ def _rot(phi, sx, sy):
 
 @jit
 def turned(a11, a12, a21, a22, sx, sy):
-    """``_rot`` of A's entries (eq. 2.2, row by row): A s' and B s' = A R90 s'."""
+    """``body_vectors`` of A's entries (eq. 2.2, row by row): A s' and B s' = A R90 s'."""
     return a11 * sx + a12 * sy, a21 * sx + a22 * sy, a11 * -sy + a12 * sx, a21 * -sy + a22 * sx
 
 
@@ -172,8 +172,8 @@ def planar_revolute(q, qd, t, ints, floats, psi, jac, gam):
     gamma = A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2. ints (i, j, row), floats (s_i', s_j')."""
     for e in range(ints.shape[0]):
         i, j = ints[e, 0], ints[e, 1]
-        Ai = planar_rotation_entries_jit(_planar(q, i)[2])
-        Aj = planar_rotation_entries_jit(_planar(q, j)[2])
+        Ai = planar_rotation_entries_jit(body_coordinates(q, i)[2])
+        Aj = planar_rotation_entries_jit(body_coordinates(q, j)[2])
         revolute_rows(q, qd, ints, floats, e, Ai, Aj, psi, jac, gam, True)
 
 
@@ -184,8 +184,8 @@ def revolute_rows(q, qd, ints, floats, e, Ai, Aj, psi, jac, gam, rates):
     ``rates`` (the outputs read none). Written into its callers (a function handed five arrays costs more than a
     joint's arithmetic)."""
     i, j, row = ints[e, 0], ints[e, 1], ints[e, 2]
-    xi, yi, _ = _planar(q, i)
-    xj, yj, _ = _planar(q, j)
+    xi, yi, _ = body_coordinates(q, i)
+    xj, yj, _ = body_coordinates(q, j)
     aix, aiy, bix, biy = turned(Ai[0], Ai[1], Ai[2], Ai[3], floats[e, 0], floats[e, 1])
     ajx, ajy, bjx, bjy = turned(Aj[0], Aj[1], Aj[2], Aj[3], floats[e, 2], floats[e, 3])
     psi[row] = xi + aix - xj - ajx
@@ -199,7 +199,7 @@ def revolute_rows(q, qd, ints, floats, e, Ai, Aj, psi, jac, gam, rates):
     _jac_add(jac, row, j, 3, 2, -bjx)
     _jac_add(jac, row + 1, j, 3, 2, -bjy)
     if rates:
-        wi, wj = _planar(qd, i)[2], _planar(qd, j)[2]
+        wi, wj = body_coordinates(qd, i)[2], body_coordinates(qd, j)[2]
         gam[row] = aix * wi * wi - ajx * wj * wj
         gam[row + 1] = aiy * wi * wi - ajy * wj * wj
 
@@ -209,13 +209,13 @@ def _along(q, qd, i, j, six, siy, sjx, sjy, uix, uiy):
     """The scalar u_i^T d_ij with u_i = A_i u_i' fixed in body i (eq. 3.13), as ``joints.along_direction``:
     (value, Psi_qi row, Psi_qj row, gamma), gamma = u^T d phi_i'^2 - 2 phi_i' (B_i u_i')^T d'
     - u^T (A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2)."""
-    xi, yi, phii = _planar(q, i)
-    xj, yj, phij = _planar(q, j)
-    vxi, vyi, wi = _planar(qd, i)
-    vxj, vyj, wj = _planar(qd, j)
-    aix, aiy, bix, biy = _rot(phii, six, siy)
-    ajx, ajy, bjx, bjy = _rot(phij, sjx, sjy)
-    ux, uy, wx, wy = _rot(phii, uix, uiy)
+    xi, yi, phii = body_coordinates(q, i)
+    xj, yj, phij = body_coordinates(q, j)
+    vxi, vyi, wi = body_coordinates(qd, i)
+    vxj, vyj, wj = body_coordinates(qd, j)
+    aix, aiy, bix, biy = body_vectors(phii, six, siy)
+    ajx, ajy, bjx, bjy = body_vectors(phij, sjx, sjy)
+    ux, uy, wx, wy = body_vectors(phii, uix, uiy)
     dx, dy = xj + ajx - xi - aix, yj + ajy - yi - aiy
     value = ux * dx + uy * dy
     ddx, ddy = vxj + bjx * wj - vxi - bix * wi, vyj + bjy * wj - vyi - biy * wi
@@ -235,7 +235,9 @@ def planar_along(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
         fl = floats[e]
         value, ri0, ri1, ri2, rj0, rj1, rj2, gamma = _along(q, qd, i, j, fl[0], fl[1], fl[2], fl[3], fl[4], fl[5])
         d0, rolling = fl[6], fl[7]
-        psi[row] = value + rolling * (_planar(q, j)[2] - _planar(q, i)[2]) - d0 - function(fk, fp, f, t, 0)
+        psi[row] = (
+            value + rolling * (body_coordinates(q, j)[2] - body_coordinates(q, i)[2]) - d0 - function(fk, fp, f, t, 0)
+        )
         _jac_add(jac, row, i, 3, 0, ri0)
         _jac_add(jac, row, i, 3, 1, ri1)
         _jac_add(jac, row, i, 3, 2, ri2 - rolling)
@@ -250,12 +252,12 @@ def planar_along(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
 def _point_vectors(q, qd, i, j, six, siy, sjx, sjy):
     """d_ij, d_ij', the velocity part of d_ij'' (A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2) and B_i s_i', B_j s_j'
     (``planar/bodies.py``), each as an (x, y) pair."""
-    xi, yi, phii = _planar(q, i)
-    xj, yj, phij = _planar(q, j)
-    vxi, vyi, wi = _planar(qd, i)
-    vxj, vyj, wj = _planar(qd, j)
-    aix, aiy, bix, biy = _rot(phii, six, siy)
-    ajx, ajy, bjx, bjy = _rot(phij, sjx, sjy)
+    xi, yi, phii = body_coordinates(q, i)
+    xj, yj, phij = body_coordinates(q, j)
+    vxi, vyi, wi = body_coordinates(qd, i)
+    vxj, vyj, wj = body_coordinates(qd, j)
+    aix, aiy, bix, biy = body_vectors(phii, six, siy)
+    ajx, ajy, bjx, bjy = body_vectors(phij, sjx, sjy)
     d = (xj + ajx - xi - aix, yj + ajy - yi - aiy)
     d_dot = (vxj + bjx * wj - vxi - bix * wi, vyj + bjy * wj - vyi - biy * wi)
     quadratic = (aix * wi * wi - ajx * wj * wj, aiy * wi * wi - ajy * wj * wj)
@@ -275,7 +277,9 @@ def planar_gear(q, qd, t, ints, floats, psi, jac, gam):
         d, d_dot, a, bi, bj = _point_vectors(q, qd, i, j, fl[0], fl[1], fl[2], fl[3])
         radius_i, radius_j, sigma, c0 = fl[4], fl[5], fl[6], fl[7]
         theta = math.atan2(d[1], d[0])
-        value = radius_i * (_planar(q, i)[2] - theta) + sigma * radius_j * (_planar(q, j)[2] - theta) - c0
+        value = (
+            radius_i * (body_coordinates(q, i)[2] - theta) + sigma * radius_j * (body_coordinates(q, j)[2] - theta) - c0
+        )
         k = radius_i + sigma * radius_j
         if k != 0.0:
             x = value / k
@@ -307,7 +311,7 @@ def planar_roller_cam(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
         d, d_dot, a, bi, bj = _point_vectors(q, qd, i, j, fl[0], fl[1], fl[2], fl[3])
         length = math.hypot(d[0], d[1])
         ex, ey = d[0] / length, d[1] / length
-        theta = math.atan2(d[1], d[0]) - _planar(q, i)[2]
+        theta = math.atan2(d[1], d[0]) - body_coordinates(q, i)[2]
         rho, slope = function(fk, fp, f, theta, 0), function(fk, fp, f, theta, 1)
         curvature = function(fk, fp, f, theta, 2)
         psi[row] = length - rho
@@ -319,7 +323,7 @@ def planar_roller_cam(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
         _jac_add(jac, row, j, 3, 1, gy)
         _jac_add(jac, row, j, 3, 2, gx * bj[0] + gy * bj[1])
         beta_dot = (-ey * d_dot[0] + ex * d_dot[1]) / length
-        theta_dot = beta_dot - _planar(qd, i)[2]
+        theta_dot = beta_dot - body_coordinates(qd, i)[2]
         radial = ex * d_dot[0] + ey * d_dot[1]
         length_part = ex * a[0] + ey * a[1] + (d_dot[0] * d_dot[0] + d_dot[1] * d_dot[1] - radial**2) / length
         angle_part = (-ey * a[0] + ex * a[1] - 2.0 * beta_dot * radial) / length
@@ -336,7 +340,7 @@ def planar_flat_cam(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
         i, j, row, f = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3]
         fl = floats[e]
         value, rj0, rj1, rj2, ri0, ri1, ri2, gamma = _along(q, qd, j, i, fl[2], fl[3], fl[0], fl[1], fl[4], fl[5])
-        angle = _planar(q, j)[2] - _planar(q, i)[2] + fl[6]
+        angle = body_coordinates(q, j)[2] - body_coordinates(q, i)[2] + fl[6]
         slope = function(fk, fp, f, angle, 1)
         psi[row] = -value - function(fk, fp, f, angle, 0)
         _jac_add(jac, row, i, 3, 0, -ri0)
@@ -345,7 +349,7 @@ def planar_flat_cam(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
         _jac_add(jac, row, j, 3, 0, -rj0)
         _jac_add(jac, row, j, 3, 1, -rj1)
         _jac_add(jac, row, j, 3, 2, -rj2 - slope)
-        rate = _planar(qd, j)[2] - _planar(qd, i)[2]
+        rate = body_coordinates(qd, j)[2] - body_coordinates(qd, i)[2]
         gam[row] = -gamma + function(fk, fp, f, angle, 2) * rate**2
 
 
@@ -354,7 +358,7 @@ def planar_angle(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
     """phi_j - phi_i - phi0 - f(t) = 0 (eq. 3.21, 3.34). ints (i, j, row, function), floats (phi0)."""
     for e in range(ints.shape[0]):
         i, j, row, f = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3]
-        psi[row] = _planar(q, j)[2] - _planar(q, i)[2] - floats[e, 0] - function(fk, fp, f, t, 0)
+        psi[row] = body_coordinates(q, j)[2] - body_coordinates(q, i)[2] - floats[e, 0] - function(fk, fp, f, t, 0)
         _jac_add(jac, row, i, 3, 2, -1.0)
         _jac_add(jac, row, j, 3, 2, 1.0)
         psit[row] = -function(fk, fp, f, t, 1)
@@ -379,12 +383,12 @@ def planar_distance(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
     ints (i, j, row, function L), floats (s_i', s_j')."""
     for e in range(ints.shape[0]):
         i, j, row, f = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3]
-        xi, yi, phii = _planar(q, i)
-        xj, yj, phij = _planar(q, j)
-        vxi, vyi, wi = _planar(qd, i)
-        vxj, vyj, wj = _planar(qd, j)
-        aix, aiy, bix, biy = _rot(phii, floats[e, 0], floats[e, 1])
-        ajx, ajy, bjx, bjy = _rot(phij, floats[e, 2], floats[e, 3])
+        xi, yi, phii = body_coordinates(q, i)
+        xj, yj, phij = body_coordinates(q, j)
+        vxi, vyi, wi = body_coordinates(qd, i)
+        vxj, vyj, wj = body_coordinates(qd, j)
+        aix, aiy, bix, biy = body_vectors(phii, floats[e, 0], floats[e, 1])
+        ajx, ajy, bjx, bjy = body_vectors(phij, floats[e, 2], floats[e, 3])
         dx, dy = xj + ajx - xi - aix, yj + ajy - yi - aiy
         L, L1, L2 = function(fk, fp, f, t, 0), function(fk, fp, f, t, 1), function(fk, fp, f, t, 2)
         psi[row] = 0.5 * (dx * dx + dy * dy - L * L)
@@ -416,12 +420,12 @@ def planar_tsda(q, qd, t, ints, floats, fk, fp, Q, power):
     ints (i, j, actuator function), floats (s_i', s_j', k, c, l0)."""
     for e in range(ints.shape[0]):
         i, j, f = ints[e, 0], ints[e, 1], ints[e, 2]
-        xi, yi, phii = _planar(q, i)
-        xj, yj, phij = _planar(q, j)
-        vxi, vyi, wi = _planar(qd, i)
-        vxj, vyj, wj = _planar(qd, j)
-        aix, aiy, bix, biy = _rot(phii, floats[e, 0], floats[e, 1])
-        ajx, ajy, bjx, bjy = _rot(phij, floats[e, 2], floats[e, 3])
+        xi, yi, phii = body_coordinates(q, i)
+        xj, yj, phij = body_coordinates(q, j)
+        vxi, vyi, wi = body_coordinates(qd, i)
+        vxj, vyj, wj = body_coordinates(qd, j)
+        aix, aiy, bix, biy = body_vectors(phii, floats[e, 0], floats[e, 1])
+        ajx, ajy, bjx, bjy = body_vectors(phij, floats[e, 2], floats[e, 3])
         dx, dy = xj + ajx - xi - aix, yj + ajy - yi - aiy
         length = math.sqrt(dx * dx + dy * dy)
         ddx, ddy = vxj + bjx * wj - vxi - bix * wi, vyj + bjy * wj - vyi - biy * wi
@@ -442,8 +446,8 @@ def planar_rsda(q, qd, t, ints, floats, fk, fp, Q, power):
     theta = phi_j - phi_i; Q_i = [0, 0, f], Q_j = [0, 0, -f]. ints (i, j, actuator), floats (k, c, theta0)."""
     for e in range(ints.shape[0]):
         i, j, f = ints[e, 0], ints[e, 1], ints[e, 2]
-        angle = _planar(q, j)[2] - _planar(q, i)[2]
-        velocity = _planar(qd, j)[2] - _planar(qd, i)[2]
+        angle = body_coordinates(q, j)[2] - body_coordinates(q, i)[2]
+        velocity = body_coordinates(qd, j)[2] - body_coordinates(qd, i)[2]
         actuator = function(fk, fp, f, t, 0)
         torque = floats[e, 0] * (angle - floats[e, 2]) + floats[e, 1] * velocity + actuator
         _add3(Q, i, 0.0, 0.0, torque)
@@ -459,12 +463,12 @@ def planar_load(q, qd, t, ints, floats, fk, fp, Q, power):
     floats (s_i')."""
     for e in range(ints.shape[0]):
         i = ints[e, 0]
-        xi, yi, phii = _planar(q, i)
-        vxi, vyi, wi = _planar(qd, i)
+        xi, yi, phii = body_coordinates(q, i)
+        vxi, vyi, wi = body_coordinates(qd, i)
         fx, fy = function(fk, fp, ints[e, 1], t, 0), function(fk, fp, ints[e, 2], t, 0)
         if ints[e, 3]:
-            fx, fy, _, _ = _rot(phii, fx, fy)
-        _, _, bx, by = _rot(phii, floats[e, 0], floats[e, 1])
+            fx, fy, _, _ = body_vectors(phii, fx, fy)
+        _, _, bx, by = body_vectors(phii, floats[e, 0], floats[e, 1])
         m = bx * fx + by * fy + function(fk, fp, ints[e, 4], t, 0)
         _add3(Q, i, fx, fy, m)
         power[1] += vxi * fx + vyi * fy + wi * m
@@ -472,7 +476,7 @@ def planar_load(q, qd, t, ints, floats, fk, fp, Q, power):
 
 # -- spatial: B(p, a'), A(p) a' and the basic constraints ------------------------------------------------------
 @jit
-def _p(x, b):
+def euler_parameters(x, b):
     """(e0, e1, e2, e3) of body b in x; ground's is (1, 0, 0, 0) in q (and 0 in q': pass ground=0.0)."""
     if b < 0:
         return 0.0, 0.0, 0.0, 0.0
@@ -480,14 +484,14 @@ def _p(x, b):
 
 
 @jit
-def _pq(q, b):
+def orientation(q, b):
     if b < 0:
         return 1.0, 0.0, 0.0, 0.0
     return q[7 * b + 3], q[7 * b + 4], q[7 * b + 5], q[7 * b + 6]
 
 
 @jit
-def _r(x, b):
+def body_position(x, b):
     if b < 0:
         return 0.0, 0.0, 0.0
     return x[7 * b], x[7 * b + 1], x[7 * b + 2]
@@ -532,8 +536,8 @@ def _bvec(Bm, x0, x1, x2, x3, out):
 @jit
 def _body_vector(q, qd, b, a, A, B, Bd, dot, quad):
     """A a', B(p, a'), a_dot = B(p, a') p', and B(p', a') p' of the body-fixed vector a' of body b."""
-    e0, e1, e2, e3 = _pq(q, b)
-    d0, d1, d2, d3 = _p(qd, b)
+    e0, e1, e2, e3 = orientation(q, b)
+    d0, d1, d2, d3 = euler_parameters(qd, b)
     rotate(e0, e1, e2, e3, a, A)
     b_matrix(e0, e1, e2, e3, a[0], a[1], a[2], B)
     _bvec(B, d0, d1, d2, d3, dot)
@@ -542,12 +546,12 @@ def _body_vector(q, qd, b, a, A, B, Bd, dot, quad):
 
 
 @jit
-def _point_terms(q, qd, b, a0, a1, a2):
+def point_terms(q, qd, b, a0, a1, a2):
     """(A a', B(p, a') row by row, B(p', a') p') of the body-fixed point a' of body b (ground: p = (1, 0, 0, 0),
     p' = 0), as scalars: ``_body_vector``'s numbers (the same products in the same order) without its five arrays,
     whose writes and reads cost more than a spherical joint's arithmetic (eq. 9.1, 9.3)."""
-    e0, e1, e2, e3 = _pq(q, b)
-    d0, d1, d2, d3 = _p(qd, b)
+    e0, e1, e2, e3 = orientation(q, b)
+    d0, d1, d2, d3 = euler_parameters(qd, b)
     R = rotation_entries_jit(e0, e1, e2, e3)
     A = (
         R[0] * a0 + R[1] * a1 + R[2] * a2,
@@ -569,9 +573,9 @@ def spatial_spherical(q, qd, t, ints, floats, psi, jac, gam):
     gamma = B(p_j', s_j') p_j' - B(p_i', s_i') p_i'. ints (i, j, row), floats (s_i', s_j')."""
     for e in range(ints.shape[0]):
         i, j, row = ints[e, 0], ints[e, 1], ints[e, 2]
-        Ai, Bi, qi = _point_terms(q, qd, i, floats[e, 0], floats[e, 1], floats[e, 2])
-        Aj, Bj, qj = _point_terms(q, qd, j, floats[e, 3], floats[e, 4], floats[e, 5])
-        ri, rj = _r(q, i), _r(q, j)
+        Ai, Bi, qi = point_terms(q, qd, i, floats[e, 0], floats[e, 1], floats[e, 2])
+        Aj, Bj, qj = point_terms(q, qd, j, floats[e, 3], floats[e, 4], floats[e, 5])
+        ri, rj = body_position(q, i), body_position(q, j)
         for k in range(3):
             psi[row + k] = ri[k] + Ai[k] - rj[k] - Aj[k]
             gam[row + k] = qj[k] - qi[k]
@@ -618,7 +622,7 @@ def spatial_dot2(q, qd, t, ints, floats, psi, jac, gam):
         _body_vector(q, qd, i, floats[e, 0:3], Ai, Bi, Bdi, doti, quadi)
         _body_vector(q, qd, i, floats[e, 3:6], Si, BSi, BdSi, sdoti, squadi)
         _body_vector(q, qd, j, floats[e, 6:9], Sj, BSj, BdSj, sdotj, squadj)
-        ri, rj, vi, vj = _r(q, i), _r(q, j), _r(qd, i), _r(qd, j)
+        ri, rj, vi, vj = body_position(q, i), body_position(q, j), body_position(qd, i), body_position(qd, j)
         value = 0.0
         g = 0.0
         for k in range(3):
@@ -715,7 +719,7 @@ def spatial_distance(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
         i, j, row, f = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3]
         _body_vector(q, qd, i, floats[e, 0:3], Si, Bi, Bdi, doti, qi)
         _body_vector(q, qd, j, floats[e, 3:6], Sj, Bj, Bdj, dotj, qj)
-        ri, rj, vi, vj = _r(q, i), _r(q, j), _r(qd, i), _r(qd, j)
+        ri, rj, vi, vj = body_position(q, i), body_position(q, j), body_position(qd, i), body_position(qd, j)
         half_square = 0.0
         g = 0.0
         for k in range(3):
@@ -847,7 +851,7 @@ def _spatial_torque(q, b, nx, ny, nz, body_frame, Q):
 
 
 @jit
-def _omega(q, qd, b):
+def angular_velocity(q, qd, b):
     """omega = 2 G(p) p' (global, eq. 8.17), as three numbers (zero for ground)."""
     if b < 0:
         return 0.0, 0.0, 0.0
@@ -872,7 +876,7 @@ def spatial_tsda(q, qd, t, ints, floats, fk, fp, Q, power):
         i, j, f = ints[e, 0], ints[e, 1], ints[e, 2]
         _body_vector(q, qd, i, floats[e, 0:3], Si, Bi, Bdi, doti, qi)
         _body_vector(q, qd, j, floats[e, 3:6], Sj, Bj, Bdj, dotj, qj)
-        ri, rj, vi, vj = _r(q, i), _r(q, j), _r(qd, i), _r(qd, j)
+        ri, rj, vi, vj = body_position(q, i), body_position(q, j), body_position(qd, i), body_position(qd, j)
         for k in range(3):  # d_ij and its rate, in the buffers of the TSDA's vectors
             d[k] = rj[k] + Sj[k] - ri[k] - Si[k]
             d_dot[k] = vj[k] + dotj[k] - vi[k] - doti[k]
@@ -896,8 +900,8 @@ def spatial_rsda(q, qd, t, ints, floats, fk, fp, Q, power):
     fi, gi, hi, fj = np.empty((4, 3))
     for e in range(ints.shape[0]):
         i, j, f = ints[e, 0], ints[e, 1], ints[e, 2]
-        pi0, pi1, pi2, pi3 = _pq(q, i)
-        pj0, pj1, pj2, pj3 = _pq(q, j)
+        pi0, pi1, pi2, pi3 = orientation(q, i)
+        pj0, pj1, pj2, pj3 = orientation(q, j)
         rotate(pi0, pi1, pi2, pi3, floats[e, 0:3], fi)
         rotate(pi0, pi1, pi2, pi3, floats[e, 3:6], gi)
         rotate(pi0, pi1, pi2, pi3, floats[e, 6:9], hi)
@@ -906,8 +910,8 @@ def spatial_rsda(q, qd, t, ints, floats, fk, fp, Q, power):
         theta = math.atan2(gi[0] * fj[0] + gi[1] * fj[1] + gi[2] * fj[2], fi[0] * fj[0] + fi[1] * fj[1] + fi[2] * fj[2])
         x = theta - theta0
         angle = theta0 + (x - 2.0 * math.pi * np.round(x / (2.0 * math.pi)))  # math.remainder
-        wj0, wj1, wj2 = _omega(q, qd, j)
-        wi0, wi1, wi2 = _omega(q, qd, i)
+        wj0, wj1, wj2 = angular_velocity(q, qd, j)
+        wi0, wi1, wi2 = angular_velocity(q, qd, i)
         velocity = hi[0] * (wj0 - wi0) + hi[1] * (wj1 - wi1) + hi[2] * (wj2 - wi2)
         actuator = function(fk, fp, f, t, 0)
         torque = k * (angle - theta0) + c * velocity + actuator

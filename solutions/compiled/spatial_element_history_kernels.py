@@ -21,15 +21,26 @@ import numpy as np
 
 from .element_history_kernels import block_power, spring_row
 from .history_kernels import CUBE, IMATRIX, IVECTOR, MATRIX, VECTOR, eager, inlined
-from .kernels import _omega, _p, _point_terms, _pq, _r, function, rotate, spatial_load, spatial_rsda, spatial_tsda
+from .kernels import (
+    angular_velocity,
+    body_position,
+    euler_parameters,
+    function,
+    orientation,
+    point_terms,
+    rotate,
+    spatial_load,
+    spatial_rsda,
+    spatial_tsda,
+)
 
 
 @inlined
 def _point(q, qd, b, s):
     """(r + A s', r' + B(p, s') p') of the body point s' of body b: the point and its velocity (eq. 9.1, 9.3)."""
-    A, B, _ = _point_terms(q, qd, b, s[0], s[1], s[2])
-    r, v = _r(q, b), _r(qd, b)
-    d0, d1, d2, d3 = _p(qd, b)  # ground's p' is zero
+    A, B, _ = point_terms(q, qd, b, s[0], s[1], s[2])
+    r, v = body_position(q, b), body_position(qd, b)
+    d0, d1, d2, d3 = euler_parameters(qd, b)  # ground's p' is zero
     dot0 = B[0] * d0 + B[1] * d1 + B[2] * d2 + B[3] * d3
     dot1 = B[4] * d0 + B[5] * d1 + B[6] * d2 + B[7] * d3
     dot2 = B[8] * d0 + B[9] * d1 + B[10] * d2 + B[11] * d3
@@ -72,8 +83,8 @@ def spatial_rsda_history(times, q, qd, ints, floats, fk, fp, out):
     for k in range(times.size):
         for e in range(ints.shape[0]):
             i, j = ints[e, 0], ints[e, 1]
-            pi0, pi1, pi2, pi3 = _pq(q[k], i)
-            pj0, pj1, pj2, pj3 = _pq(q[k], j)
+            pi0, pi1, pi2, pi3 = orientation(q[k], i)
+            pj0, pj1, pj2, pj3 = orientation(q[k], j)
             rotate(pi0, pi1, pi2, pi3, floats[e, 0:3], fi)
             rotate(pi0, pi1, pi2, pi3, floats[e, 3:6], gi)
             rotate(pi0, pi1, pi2, pi3, floats[e, 6:9], hi)
@@ -84,8 +95,8 @@ def spatial_rsda_history(times, q, qd, ints, floats, fk, fp, out):
             )
             x = theta - free
             angle = free + (x - 2.0 * math.pi * np.round(x / (2.0 * math.pi)))  # math.remainder, as the kernel
-            wj0, wj1, wj2 = _omega(q[k], qd[k], j)
-            wi0, wi1, wi2 = _omega(q[k], qd[k], i)
+            wj0, wj1, wj2 = angular_velocity(q[k], qd[k], j)
+            wi0, wi1, wi2 = angular_velocity(q[k], qd[k], i)
             velocity = hi[0] * (wj0 - wi0) + hi[1] * (wj1 - wi1) + hi[2] * (wj2 - wi2)
             spring = stiffness * (angle - free)
             out[e, k, 0] = spring + damping * velocity + function(fk, fp, ints[e, 2], times[k], 0)
@@ -107,7 +118,7 @@ def spatial_load_history(times, q, qd, ints, floats, fk, fp, out):
             for c in range(3):
                 value[c] = function(fk, fp, ints[e, 3 + c], times[k], 0)
             if ints[e, 2]:
-                p0, p1, p2, p3 = _pq(q[k], i)
+                p0, p1, p2, p3 = orientation(q[k], i)
                 rotate(p0, p1, p2, p3, value, turned)
                 value[:] = turned
             out[e, k, 0:3] = value
