@@ -114,19 +114,34 @@ _SPECTRA = types.Tuple((_vector, _stack, _vector, _vector, _stack, types.boolean
     _stack, _vector, _matrix, *_PATTERN, _matrix, types.float64, types.boolean, _vector
 )
 _AT = _vector(_stack, _vector, _matrix, _ivector, _vector, _ivector, _ivector, _ivector, _stack, _stack, _ivector)
+_SETTLED_SPECTRA = types.Tuple((_vector, _stack, _vector, types.boolean[::1], _vector, _stack))(
+    _stack, _vector, _matrix, *_PATTERN, _matrix, _vector, types.float64, types.boolean
+)
 _SETTLED = types.boolean[::1](_vector, _vector, _vector, _vector, types.float64, types.boolean)
 _DENSE = types.Tuple((_vector, _stack, _vector))(_stack, _vector, _matrix, types.boolean)
 _BRACKETED = types.Tuple((_vector, _stack, _vector, _vector))(_stack, _vector, _matrix, types.boolean, types.float64)
 _CLOSED = _vector(_stack, _vector, _matrix, _ivector)
 """Signatures compiled at import (and cached on disk, ``precompile``), but ``AT_FIRST_CALL``'s: after ``mbd compile``
 a run never waits for them."""
-AT_FIRST_CALL = {"_spectra": _SPECTRA, "_ratios_at": _AT}
-"""The band route's two passes, compiled (or loaded from disk) where first called, not at import: only a Psi_q
-of at least ``guard.BAND_SMALLEST`` coordinates, or a mid-size one narrow enough (``WIDEST_MID``), takes them, and a
-small closed loop's Guard, which takes the dense route (``dense_spectra``), paid for them at its first run on a new
-machine (the slider-crank's first run in joint coordinates: ``singular`` 34.5 -> 17.5 s, the run 89.5 -> 75.2 s of
-thread CPU; i29-compile's section of ``benchmarks/results/call_cost.md``). ``mbd compile`` compiles them under these
-signatures (``precompile``); a run's calls have exactly these types, so no run compiles another version of them."""
+_imatrix = types.int64[:, ::1]
+AT_FIRST_CALL = {
+    "_spectra": _SPECTRA,
+    "_ratios_at": _AT,
+    "_settled_spectra": _SETTLED_SPECTRA,
+    "_band_start": (_stack, _ivector, _vector, _vector, _ivector, _vector, _ivector, _ivector, _matrix, types.float64),
+    "_entry_slots": (_imatrix, _ivector, _ivector),
+    "_reached_norms": (_stack, _vector, _imatrix, _imatrix),
+    "unmade": (_vector, _vector, _stack, types.boolean[::1]),
+    "quiet": (types.float64, _vector, _vector, types.float64, _vector, types.float64, types.float64),
+}
+"""The band route's functions (its two passes, ``_settled_spectra``, which calls them under the Guard's tests, and
+those the Guard calls from Python on a band), compiled (or loaded from disk) where first called, not at import: only a
+Psi_q of at least ``guard.BAND_SMALLEST`` coordinates, or a mid-size one narrow enough (``WIDEST_MID``), takes them,
+and a small closed loop's Guard, which takes the dense route (``dense_spectra``), paid for them at its first run on a
+new machine (the slider-crank's first run in joint
+coordinates: ``singular`` 34.5 -> 17.5 s, the run 89.5 -> 75.2 s of thread CPU; i29-compile's section of
+``benchmarks/results/call_cost.md``). ``mbd compile`` compiles them under these signatures (``precompile``); a run's
+calls have exactly these types, so no run compiles another version of them."""
 
 MOVING = 3.0
 """Until a first bracket settles apart from its neighbour's, ``_dense_bracketed`` brackets a ratio only where the
@@ -207,7 +222,7 @@ def spectra(
     return ratios, bases, signs, certified, brackets
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True)  # AT_FIRST_CALL
 def _settled_spectra(jacobians, columns, norms, position, keys, starts, indices, slots, first, thresholds, fall, ends):
     """``_spectra`` with each ratio in a bracket LOOSE wide or (without ``ends``) one carried over a step where that
     decides the Guard's tests (``_carried``), then closed at the times those tests (thresholds, fall, ends:
