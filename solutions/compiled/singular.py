@@ -125,9 +125,9 @@ _CLOSED = _vector(_stack, _vector, _matrix, _ivector)
 a run never waits for them."""
 _imatrix = types.int64[:, ::1]
 AT_FIRST_CALL = {
-    "_spectra": _SPECTRA,
-    "_ratios_at": _AT,
-    "_settled_spectra": _SETTLED_SPECTRA,
+    "_spectra": _SPECTRA.args,
+    "_ratios_at": _AT.args,
+    "_settled_spectra": _SETTLED_SPECTRA.args,
     "_band_start": (_stack, _ivector, _vector, _vector, _ivector, _vector, _ivector, _ivector, _matrix, types.float64),
     "_entry_slots": (_imatrix, _ivector, _ivector),
     "_reached_norms": (_stack, _vector, _imatrix, _imatrix),
@@ -140,8 +140,11 @@ Psi_q of at least ``guard.BAND_SMALLEST`` coordinates, or a mid-size one narrow 
 and a small closed loop's Guard, which takes the dense route (``dense_spectra``), paid for them at its first run on a
 new machine (the slider-crank's first run in joint
 coordinates: ``singular`` 34.5 -> 17.5 s, the run 89.5 -> 75.2 s of thread CPU; i29-compile's section of
-``benchmarks/results/call_cost.md``). ``mbd compile`` compiles them under these signatures (``precompile``); a run's
-calls have exactly these types, so no run compiles another version of them."""
+``benchmarks/results/call_cost.md``). ``mbd compile`` compiles them for these argument types (``precompile``); a run's
+calls have exactly these types, so no run compiles another version of them. Argument types alone, no return type:
+numba's disk cache files a version under the signature it was compiled for, and a call looks it up by its arguments'
+types (with ``_spectra``'s full signature, ``mbd compile``'s version was never found: each machine's first band run
+compiled it again, ~15 s)."""
 
 MOVING = 3.0
 """Until a first bracket settles apart from its neighbour's, ``_dense_bracketed`` brackets a ratio only where the
