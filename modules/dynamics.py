@@ -55,9 +55,7 @@ from .diagnostics import (
     AnalysisError,
     RankReport,
     SingularConfigurationError,
-    full_row_rank,
     rank_at,
-    rank_report,
 )
 from .divergence import Divergence, companion_factor, departure, estimate, needed_rtol, scaled
 from .energy import driver_power, energy_history
@@ -136,7 +134,7 @@ def consistent_start(
 ) -> tuple[np.ndarray, np.ndarray, dict, np.ndarray | None]:
     """``consistent_initial_conditions``, and Psi_q at the consistent q where the velocity correction made it (None
     where it did not: q0' satisfies the velocity constraints and Psi_t = 0, e.g. released at rest), which the run's
-    start hands to its rank (``start_rank``) instead of making the same matrix again (a driven mechanism's start:
+    start hands to its rank (``rank_at``) instead of making the same matrix again (a driven mechanism's start:
     20-50 us a call). ``singular``: the model's point masses (``point_masses``) where the caller knows them."""
     q, assembly = assemble(system, q0, t)
     psi_t = system.psi_t(q, t)
@@ -657,17 +655,9 @@ def start_motion(run: Run, formulation: str, integrator: str) -> Start:
     settings = run.settings
     options, compiled = settings.formulation_options, settings.engine == "compiled"
     rates = StartRates(run.system, M, forces, q, qd, options, compiled, settings, run.prepared)  # engine's choice first
-    rank = start_rank(run.system, q, jacobian)
+    rank = rank_at(run.system, q, jacobian)
     plan = plan_method(run, M, forces, q, qd, formulation, integrator, rates, rank)  # stage 2
     return Start(run, M, forces, q, qd, initial, plan, notes, rates, rank)
-
-
-def start_rank(system: System, q: np.ndarray, jacobian: np.ndarray | None) -> RankReport | None:
-    """Psi_q's rank at the start (``diagnostics.rank_at``), from Psi_q at q where the initial conditions made it
-    (``consistent_start``): the same certificate or SVD of the same matrix."""
-    if jacobian is None:
-        return rank_at(system, q)
-    return full_row_rank(jacobian) or rank_report(jacobian, system.row_owners)
 
 
 def ode_motion(run: Run, start: Start) -> tuple[Plan, EquationsOfMotion, Guard, list[str]]:

@@ -148,14 +148,16 @@ def full_row_rank(jacobian: np.ndarray) -> RankReport | None:
     return RankReport(n, m, m, None, [])
 
 
-def rank_at(system: System, q: np.ndarray) -> RankReport | None:
+def rank_at(system: System, q: np.ndarray, jacobian: np.ndarray | None = None) -> RankReport | None:
     """``rank_report`` of Psi_q at q (the singular values of the whole Jacobian), or None without constraints:
     made once per run at its start (``Start.rank``) and handed to the method's choice, the redundancy checks, the
     Guard and the divergence check. Where Psi_q has full row rank with a margin, a shifted Cholesky factorization
-    certifies the rule's verdict without the SVD (``full_row_rank``: a fifth of its cost)."""
+    certifies the rule's verdict without the SVD (``full_row_rank``: a fifth of its cost). ``jacobian``: Psi_q at q
+    where the caller made it already (the run's start, ``dynamics.consistent_start``)."""
     if not system.n_constraints:
         return None
-    jacobian = system.jacobian(q, 0.0)
+    if jacobian is None:
+        jacobian = system.jacobian(q, 0.0)
     return full_row_rank(jacobian) or rank_report(jacobian, system.row_owners)
 
 

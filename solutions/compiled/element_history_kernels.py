@@ -26,7 +26,7 @@ import math
 import numpy as np
 
 from .history_kernels import CUBE, IMATRIX, IVECTOR, MATRIX, VECTOR, eager, inlined
-from .kernels import body_coordinates, body_vectors, function, planar_load, planar_rsda, planar_tsda
+from .kernels import body_coordinates, body_vectors, function, planar_load, planar_rsda, planar_tsda, point_vectors
 
 
 @inlined
@@ -44,17 +44,11 @@ def block_power(qd, Q, b, width):
 
 @inlined
 def _tsda_state(q, qd, i, j, s):
-    """(l, l') of the spring-damper between P_i (s[0:2] on body i) and P_j (s[2:4] on body j) (eq. 5.12)."""
-    xi, yi, phii = body_coordinates(q, i)
-    xj, yj, phij = body_coordinates(q, j)
-    vxi, vyi, wi = body_coordinates(qd, i)
-    vxj, vyj, wj = body_coordinates(qd, j)
-    aix, aiy, bix, biy = body_vectors(phii, s[0], s[1])
-    ajx, ajy, bjx, bjy = body_vectors(phij, s[2], s[3])
-    dx, dy = xj + ajx - xi - aix, yj + ajy - yi - aiy
-    length = math.sqrt(dx * dx + dy * dy)
-    ddx, ddy = vxj + bjx * wj - vxi - bix * wi, vyj + bjy * wj - vyi - biy * wi
-    return length, (dx * ddx + dy * ddy) / length
+    """(l, l') of the spring-damper between P_i (s[0:2] on body i) and P_j (s[2:4] on body j) (eq. 5.12), from d_ij
+    and d_ij' (``kernels.point_vectors``)."""
+    d, d_dot, _, _, _ = point_vectors(q, qd, i, j, s[0], s[1], s[2], s[3])
+    length = math.sqrt(d[0] * d[0] + d[1] * d[1])
+    return length, (d[0] * d_dot[0] + d[1] * d_dot[1]) / length
 
 
 @inlined

@@ -249,7 +249,7 @@ def planar_along(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
 
 
 @jit
-def _point_vectors(q, qd, i, j, six, siy, sjx, sjy):
+def point_vectors(q, qd, i, j, six, siy, sjx, sjy):
     """d_ij, d_ij', the velocity part of d_ij'' (A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2) and B_i s_i', B_j s_j'
     (``planar/bodies.py``), each as an (x, y) pair."""
     xi, yi, phii = body_coordinates(q, i)
@@ -274,7 +274,7 @@ def planar_gear(q, qd, t, ints, floats, psi, jac, gam):
     for e in range(ints.shape[0]):
         i, j, row = ints[e, 0], ints[e, 1], ints[e, 2]
         fl = floats[e]
-        d, d_dot, a, bi, bj = _point_vectors(q, qd, i, j, fl[0], fl[1], fl[2], fl[3])
+        d, d_dot, a, bi, bj = point_vectors(q, qd, i, j, fl[0], fl[1], fl[2], fl[3])
         radius_i, radius_j, sigma, c0 = fl[4], fl[5], fl[6], fl[7]
         theta = math.atan2(d[1], d[0])
         value = (
@@ -308,7 +308,7 @@ def planar_roller_cam(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
     for e in range(ints.shape[0]):
         i, j, row, f = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3]
         fl = floats[e]
-        d, d_dot, a, bi, bj = _point_vectors(q, qd, i, j, fl[0], fl[1], fl[2], fl[3])
+        d, d_dot, a, bi, bj = point_vectors(q, qd, i, j, fl[0], fl[1], fl[2], fl[3])
         length = math.hypot(d[0], d[1])
         ex, ey = d[0] / length, d[1] / length
         theta = math.atan2(d[1], d[0]) - body_coordinates(q, i)[2]
