@@ -86,9 +86,11 @@ class TreeScene:
     """The tree's rows body by body (``row_index``: start (nb + 1), then the rows), made once per scene: what
     ``tree_multipliers`` and ``zero_tree_blocks`` read (P[8] after the cut rows' bodies)."""
     cut_index: np.ndarray = None
-    """The sparsity of the cut solve (``structure``), made once per scene: what ``cut_accelerations`` reads (P[8]
-    after the row index)."""
+    """The sparsity of the cut solve (``structure``), made once per system (``Topology``): what ``cut_accelerations``
+    reads (P[8] after the row index)."""
     unsupported: str | None = None
+    topology: Topology | None = field(default=None, repr=False, compare=False)
+    """The integers above as the system's tree fixes them, made once per system (``topology``)."""
     packed_data: tuple | None = field(default=None, repr=False, compare=False)  # ``data()``, made once
 
     @property
@@ -135,13 +137,17 @@ class TreeScene:
         run's parameters (``compiled.parameters``), where numba is loaded already (the engine's choice, which
         describes the tree too, loads none). An open tree has none."""
         if self.cut_index is None:
-            if self.cut_bodies.size == 0:  # no cut rows: no cut solve
-                self.cut_index = np.zeros(0, dtype=np.int64)
-            else:
+            made = None if self.topology is None else self.topology.cut_index  # an earlier run's, of the same system
+            if made is None and self.cut_bodies.size == 0:  # no cut rows: no cut solve
+                made = np.zeros(0, dtype=np.int64)
+            elif made is None:
                 from .structure import cut_structure  # imports numba
 
                 nb = self.n // (7 if self.scene.dimension == 3 else 3)
-                self.cut_index = cut_structure(self.ints, self.cut_bodies, self.k, nb)
+                made = cut_structure(self.ints, self.cut_bodies, self.k, nb)
+            self.cut_index = made
+            if self.topology is not None:
+                self.topology.cut_index = made
         return self.cut_index
 
 
@@ -176,33 +182,70 @@ def _row(joint) -> list[float]:
 def describe(scene: Scene, formulation) -> TreeScene:
     """The tree of a ``JointCoordinates`` formulation over the scene (``unsupported`` says why not compiled), a scene
     described with the tree's cut elements first (``compiled.plan``; ``scene.describe``'s ``first``: ValueError
-    otherwise, whose integration would read the wrong rows): the joints' rows built as flat lists of Python numbers
-    and made arrays once each (an array of nested lists, or of numpy scalars, costs several times as much: ~20 us
-    of a loop chain of four's start)."""
+    otherwise, whose integration would read the wrong rows): the joints' integers and rows as the system's tree fixes
+    them (``topology``, made once per system), the joints' floats made here, as flat lists of Python numbers made an
+    array once (an array of nested lists, or of numpy scalars, costs several times as much)."""
     if scene.first != cut_names(formulation):
         raise ValueError("a tree's scene is described with its cut elements first: compiled.plan describes it")
     joints, k = formulation.joints, formulation.tree.k
-    heads, floats = [], []
-    for j in joints:  # the columns of D that move the child: its parent's (inherited), then its own
+    shape = topology(formulation.system, joints, k)
+    floats = []
+    for j in joints:
+        floats += _row(j)
+    tree = TreeScene(
+        scene, shape.ints, np.array(floats, dtype=float).reshape(-1, 35), formulation.tree.n_positions, k,
+        shape.cut_rows, owners=shape.owners, cut_bodies=shape.cut_bodies, row_index=shape.row_index,
+        cut_index=shape.cut_index, topology=shape,
+    )  # fmt: skip
+    if not joints:
+        tree.unsupported = "a tree without joints"
+    return tree
+
+
+@dataclass
+class Topology:
+    """The integers of a tree scene that the system's tree fixes (``TreeScene``'s): each joint's kind, parent, child,
+    place in the state and the velocity columns that move its child (``ints``, ``tree_kernels``' joint_ints); the cut
+    rows, the rows' owners, the cut rows' bodies, the rows body by body (``_owners``, ``row_index``); the cut solve's
+    sparsity (``cut_index``, made by the first run's parameters: ``TreeScene.structure``). None of them depends on a
+    run: made once per system (``topology``), as the tree's joints (``joint_coordinates.tree_joints``) and the cut
+    system (``cut_system``) they come from, where every call described them anew (~30 us of a loop chain of four's
+    call; the joints' floats, ``_row``, stay a call's: a spatial prismatic joint's follow its initial state)."""
+
+    ints: np.ndarray
+    cut_rows: np.ndarray
+    owners: np.ndarray
+    cut_bodies: np.ndarray
+    row_index: np.ndarray
+    cut_index: np.ndarray | None = None
+
+
+def topology(system, joints, k: int) -> Topology:
+    """The ``Topology`` of ``system``'s tree (``joints``: ``joint_coordinates.tree_joints(system)``, k velocity
+    columns), made at the first call for the system and kept on it (``tree_joints``' way: the system's elements and
+    tree do not change once built)."""
+    kept = system.__dict__.get("_tree_topology")
+    if kept is None:
+        kept = system.__dict__["_tree_topology"] = _topology(system, joints, k)
+    return kept
+
+
+def _topology(system, joints, k: int) -> Topology:
+    """``topology``'s arrays: the joints' integer rows (the columns of D that move the child: its parent's, inherited,
+    then its own) and the rows' owners (``_owners``)."""
+    heads = []
+    for j in joints:
         own = j.n_velocities
         count = len(j.inherited) + own
         heads += (KINDS[j.kind], j.parent, j.child, j.position, j.velocity, count)
         heads += j.inherited
         heads += range(j.velocity, j.velocity + own)
         heads += (-1,) * (k - count)
-        floats += _row(j)
-    ints = np.array(heads, dtype=np.int64).reshape(-1, 6 + k)
-    system = formulation.system
     owners, cut, bodies, owned = _owners(system, joints)
-    tree = TreeScene(
-        scene, ints, np.array(floats, dtype=float).reshape(-1, 35), formulation.tree.n_positions, k,
-        np.array(cut, dtype=np.int64), owners=np.array(owners, dtype=np.int64),
-        cut_bodies=np.array(bodies, dtype=np.int64),
+    return Topology(
+        np.array(heads, dtype=np.int64).reshape(-1, 6 + k), np.array(cut, dtype=np.int64),
+        np.array(owners, dtype=np.int64), np.array(bodies, dtype=np.int64), row_index(owned),
     )  # fmt: skip
-    tree.row_index = row_index(owned)
-    if not joints:
-        tree.unsupported = "a tree without joints"
-    return tree
 
 
 def cut_names(formulation) -> frozenset:
