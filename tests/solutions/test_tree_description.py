@@ -94,3 +94,34 @@ def test_the_joints_a_run_never_writes_are_shared_and_a_spatial_prismatic_joint_
     for a, b, copied in zip(first, second, prismatic, strict=True):
         assert (a is not b) if copied else (a is b)
         assert vars(a) == vars(b)
+
+
+@pytest.mark.parametrize("model", MODELS, ids=lambda m: getattr(m, "stem", None) or m.get("name", "chain"))
+def test_a_second_calls_description_reuses_the_systems_topology_and_constraint_data_with_the_same_arrays(model):
+    """The tree's integers (``tree.topology``) and the scene's constraint data (``scene.constraint_data``) are made
+    once per system: a second call's plan (a new M, force model and formulation object, as ``forward_dynamics`` makes
+    them) shares them, and its P, D and every table equal those of the same model built afresh, entry for entry
+    (the cut solve's sparsity made by the first call's parameters, handed to the second)."""
+    pytest.importorskip("numba")
+    from solutions.compiled import tree as tree_module
+
+    def described(system):
+        M, forces = mass_matrix(system.model), build_forces(system.model)
+        made = make_formulation("joint-coordinates", system, M, forces)
+        tree = plan(system, M, forces, "joint-coordinates", made).scene
+        return tree, parameters(tree, 1.0, 2.0), tree.data()
+
+    system = build_system(load_model(model))[0]
+    first, P1, D1 = described(system)
+    second, P2, D2 = described(system)
+    fresh, P3, D3 = described(build_system(load_model(model))[0])
+    assert second is not first and second.topology is first.topology is tree_module.topology(system, [], 0)
+    assert second.structure() is first.structure()  # made once, by the first call's parameters
+    kernels = zip(first.scene.constraint_kernels, second.scene.constraint_kernels, strict=True)
+    assert all(a[1] is b[1] and a[2] is b[2] for a, b in kernels)  # the system's own, not made again
+    assert second.scene.first_counts == fresh.scene.first_counts
+    for a, b in [*zip(P2, P3, strict=True), *zip(D2, D3, strict=True)]:
+        assert a.dtype == b.dtype and a.shape == b.shape and np.array_equal(a, b)
+    for name in ("ints", "floats", "cut_rows", "owners", "cut_bodies", "row_index"):
+        assert np.array_equal(getattr(second, name), getattr(fresh, name)), name
+    assert np.array_equal(second.structure(), fresh.structure())
