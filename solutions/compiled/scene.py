@@ -267,30 +267,6 @@ def planar_constraints(system, functions: Functions, first: frozenset = frozense
     return leading(leading_rows, later)
 
 
-def constraint_data(system, functions: Functions, first: frozenset = frozenset()) -> tuple[list, dict]:
-    """((kernel, ints, floats) of every constraint kernel of the system's dimension, the count of the elements in
-    ``first`` in each kernel that has any: ``Scene.first_counts``), with the functions of time the constraints name
-    entered in ``functions`` first (the force elements' come after them). The constraints are the system's own
-    elements, which do not change once it is built: made once per system and ``first`` and kept on it (as
-    ``history.layout`` keeps the reactions' index arrays and ``joint_coordinates.tree_joints`` the tree), where every
-    call read every element anew (~15 us of a loop chain of four's call; ``packed`` copies the arrays into D, and
-    nothing writes them)."""
-    kept = system.__dict__.setdefault("_constraint_data", {})
-    if first not in kept:
-        made = Functions()
-        if system.model.dimension == 2:
-            rows = planar_constraints(system, made, first)
-            constraints = scene_arrays(rows, PLANAR_CONSTRAINTS)
-        else:
-            rows = spatial_constraints(system, made, first)
-            constraints = scene_arrays(rows, SPATIAL_CONSTRAINTS)
-        counts = {name: group[3] for name, group in rows.items() if group[3]}
-        kept[first] = constraints, counts, made.items
-    constraints, counts, items = kept[first]
-    functions.items += items
-    return constraints, dict(counts)
-
-
 def _planar_forces(forces, functions: Functions) -> dict:
     from ..planar import forces as pf
 
@@ -410,14 +386,16 @@ def describe(system, M, forces, first: frozenset = frozenset()) -> Scene:
             diagonal = None if callable(M) else np.diagonal(M)
             if diagonal is None or np.count_nonzero(M) != np.count_nonzero(diagonal):  # a nonzero off the diagonal
                 raise Unsupported("a planar mass matrix that is not diagonal")
-            constraints, counts = constraint_data(system, functions, first)
+            rows = planar_constraints(system, functions, first)
+            constraints = scene_arrays(rows, PLANAR_CONSTRAINTS)
             loads = scene_arrays(_planar_forces(forces, functions), PLANAR_FORCES)
             scene.mass_diagonal = diagonal.astype(float)
             scene.Q0 = np.asarray(forces.gravity, dtype=float).copy()
         else:
             if type(M).__name__ != "SpatialMassMatrix":
                 raise Unsupported("a spatial mass matrix given by the caller (masses=)")
-            constraints, counts = constraint_data(system, functions, first)
+            rows = spatial_constraints(system, functions, first)
+            constraints = scene_arrays(rows, SPATIAL_CONSTRAINTS)
             loads = scene_arrays(_spatial_forces(forces, functions), SPATIAL_FORCES)
             scene.Q0 = np.asarray(forces.gravity, dtype=float).copy()
             scene.masses = np.array([b.mass for b in model.bodies], dtype=float)
@@ -427,7 +405,7 @@ def describe(system, M, forces, first: frozenset = frozenset()) -> Scene:
         scene.unsupported = str(why)
         return scene
     scene.constraint_kernels, scene.force_kernels = constraints, loads
-    scene.first, scene.first_counts = first, counts
+    scene.first, scene.first_counts = first, {name: group[3] for name, group in rows.items() if group[3]}
     scene.function_kinds, scene.function_params = functions.arrays()
     scene.row_columns = _row_columns(system)
     return scene
@@ -443,4 +421,4 @@ def _row_columns(system) -> np.ndarray | None:
     return history.row_columns(system)
 
 
-__all__ = ["Scene", "Unsupported", "constraint_data", "describe", "force_data"]
+__all__ = ["Scene", "Unsupported", "describe", "force_data"]
