@@ -183,17 +183,15 @@ def describe(scene: Scene, formulation) -> TreeScene:
     """The tree of a ``JointCoordinates`` formulation over the scene (``unsupported`` says why not compiled), a scene
     described with the tree's cut elements first (``compiled.plan``; ``scene.describe``'s ``first``: ValueError
     otherwise, whose integration would read the wrong rows): the joints' integers and rows as the system's tree fixes
-    them (``topology``, made once per system), the joints' floats made here, as flat lists of Python numbers made an
-    array once (an array of nested lists, or of numpy scalars, costs several times as much)."""
+    them (``topology``, made once per system), and the joints' floats with them where every joint is the system's own
+    (``Topology.floats``), else made here (``joint_floats``)."""
     if scene.first != cut_names(formulation):
         raise ValueError("a tree's scene is described with its cut elements first: compiled.plan describes it")
     joints, k = formulation.joints, formulation.tree.k
     shape = topology(formulation.system, joints, k)
-    floats = []
-    for j in joints:
-        floats += _row(j)
+    floats = joint_floats(joints) if shape.floats is None else shape.floats
     tree = TreeScene(
-        scene, shape.ints, np.array(floats, dtype=float).reshape(-1, 35), formulation.tree.n_positions, k,
+        scene, shape.ints, floats, formulation.tree.n_positions, k,
         shape.cut_rows, owners=shape.owners, cut_bodies=shape.cut_bodies, row_index=shape.row_index,
         cut_index=shape.cut_index, topology=shape,
     )  # fmt: skip
@@ -204,19 +202,23 @@ def describe(scene: Scene, formulation) -> TreeScene:
 
 @dataclass
 class Topology:
-    """The integers of a tree scene that the system's tree fixes (``TreeScene``'s): each joint's kind, parent, child,
+    """What of a tree scene the system's tree fixes (``TreeScene``'s): each joint's kind, parent, child,
     place in the state and the velocity columns that move its child (``ints``, ``tree_kernels``' joint_ints); the cut
     rows, the rows' owners, the cut rows' bodies, the rows body by body (``_owners``, ``row_index``); the cut solve's
     sparsity (``cut_index``, made by the first run's parameters: ``TreeScene.structure``). None of them depends on a
     run: made once per system (``topology``), as the tree's joints (``joint_coordinates.tree_joints``) and the cut
-    system (``cut_system``) they come from, where every call described them anew (~30 us of a loop chain of four's
-    call; the joints' floats, ``_row``, stay a call's: a spatial prismatic joint's follow its initial state)."""
+    system (``cut_system``) they come from, where every call described them anew (~30-50 us of a loop chain of four's
+    call); the joints' floats too where no run changes a joint (``floats``)."""
 
     ints: np.ndarray
     cut_rows: np.ndarray
     owners: np.ndarray
     cut_bodies: np.ndarray
     row_index: np.ndarray
+    floats: np.ndarray | None
+    """The joints' floats (``joint_floats``) where no run changes a joint: every joint is then the system's own object,
+    as ``tree_joints`` hands it out, and these are its numbers; None where a spatial prismatic joint's rotation
+    follows each run's initial state (its floats made by each call)."""
     cut_index: np.ndarray | None = None
 
 
@@ -242,10 +244,21 @@ def _topology(system, joints, k: int) -> Topology:
         heads += range(j.velocity, j.velocity + own)
         heads += (-1,) * (k - count)
     owners, cut, bodies, owned = _owners(system, joints)
+    changed = system.model.dimension == 3 and any(j.kind == "prismatic" for j in joints)  # ``tree_joints``' copies
     return Topology(
         np.array(heads, dtype=np.int64).reshape(-1, 6 + k), np.array(cut, dtype=np.int64),
         np.array(owners, dtype=np.int64), np.array(bodies, dtype=np.int64), row_index(owned),
+        None if changed else joint_floats(joints),
     )  # fmt: skip
+
+
+def joint_floats(joints) -> np.ndarray:
+    """The joints' 35 floats a row (``_row``), built as one flat list of Python numbers made an array once (an array
+    of nested lists, or of numpy scalars, costs several times as much)."""
+    floats = []
+    for j in joints:
+        floats += _row(j)
+    return np.array(floats, dtype=float).reshape(-1, 35)
 
 
 def cut_names(formulation) -> frozenset:

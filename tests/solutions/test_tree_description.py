@@ -111,6 +111,8 @@ def test_a_second_calls_description_reuses_the_systems_topology_with_the_same_ar
     fresh, P3, D3 = _described(build_system(load_model(model))[0])
     assert second is not first and second.topology is first.topology is tree_module.topology(system, [], 0)
     assert second.structure() is first.structure()  # made once, by the first call's parameters
+    spatial_prismatic = system.model.dimension == 3 and any(j.kind == "prismatic" for j in tree_joints(system))
+    assert (second.floats is first.floats) != spatial_prismatic  # a spatial prismatic joint's: each call's own
     for a, b in [*zip(P2, P3, strict=True), *zip(D2, D3, strict=True)]:
         assert a.dtype == b.dtype and a.shape == b.shape and np.array_equal(a, b)
     for name in ("ints", "floats", "cut_rows", "owners", "cut_bodies", "row_index"):
