@@ -83,8 +83,8 @@ class TreeScene:
     """The two bodies of each cut row's element, row after row (-1 ground): the bodies its row of Psi_q meets
     (``tree_kernels.cut_accelerations``)."""
     row_index: np.ndarray = None
-    """The tree's rows body by body (``row_index``: start (nb + 1), then the rows), made once per scene: what
-    ``tree_multipliers`` and ``zero_tree_blocks`` read (P[8] after the cut rows' bodies)."""
+    """The tree's rows body by body (``row_index``: start (nb + 1), then the rows), made once per system
+    (``Topology``): what ``tree_multipliers`` and ``zero_tree_blocks`` read (P[8] after the cut rows' bodies)."""
     cut_index: np.ndarray = None
     """The sparsity of the cut solve (``structure``), made once per system (``Topology``): what ``cut_accelerations``
     reads (P[8] after the row index)."""
@@ -207,8 +207,8 @@ class Topology:
     rows, the rows' owners, the cut rows' bodies, the rows body by body (``_owners``, ``row_index``); the cut solve's
     sparsity (``cut_index``, made by the first run's parameters: ``TreeScene.structure``). None of them depends on a
     run: made once per system (``topology``), as the tree's joints (``joint_coordinates.tree_joints``) and the cut
-    system (``cut_system``) they come from, where every call described them anew (~30-50 us of a loop chain of four's
-    call); the joints' floats too where no run changes a joint (``floats``)."""
+    system (``cut_system``) they come from, where every call described them anew (a loop chain of four's start rates
+    -55..-61 us a call with the floats); the joints' floats too where no run changes a joint (``floats``)."""
 
     ints: np.ndarray
     cut_rows: np.ndarray
@@ -312,8 +312,8 @@ def check_row_order(system, body: int, rows: list[int], normalization: bool, clo
 
 def row_index(rows: list[list[int]]) -> np.ndarray:
     """The rows each body owns (``_owners``' lists, in row order; cut rows, owner -1, in none) as one array: start
-    (nb + 1), then the rows body by body, body b's at [nb + 1 + start[b], nb + 1 + start[b + 1]). Made once per scene
-    (``describe``), where ``tree_multipliers`` sorted them at every output time (two allocations and three passes over
+    (nb + 1), then the rows body by body, body b's at [nb + 1 + start[b], nb + 1 + start[b + 1]). Made once per system
+    (``topology``), where ``tree_multipliers`` sorted them at every output time (two allocations and three passes over
     the rows: ~0.25 us of an evaluation at two bodies); from Python lists, one array at the end (numpy's bincount,
     cumsum, argsort and concatenate cost ~20 us at a call's start against a loop chain's few dozen rows)."""
     flat, at = [0], 0
