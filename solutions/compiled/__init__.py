@@ -276,14 +276,18 @@ def is_cached(plan: Plan) -> bool:
     return scene_cached(plan.scene)
 
 
-ONE_PASS_LARGEST = 2048
+ONE_PASS_LARGEST = 1024
 """Entries of Psi_q (m n) up to which a run keeps Psi_q's history dense (N, m, n) (``loops.output_history``);
 above, by its rows' blocks (``Scene.row_columns``, ``history.BlockedJacobians``, ``loops.blocked_output_history``:
 no (N, m, n) array, whose first touch costs more than the arithmetic: a spatial chain of 64 bodies, 256 x 448, 23
 ms against 51 for the dense history). Both from the one pass of the outputs (q'', lambda). Whole call, dense against
 blocks (thread CPU, the loop chain, joint coordinates; the blocks then in a second pass): N = 2-6 (m n 210-1482) the
 same within 0.3 ms, N = 8 (2550) 10.9 -> 10.6 ms, N = 12 (5550) 16.1 -> 13.9 ms; the spatial chain of 16 (7168)
-29.0 -> 26.8 ms (benchmarks/results/call_cost.md, twenty-first session). The Guard reads either form."""
+29.0 -> 26.8 ms (benchmarks/results/call_cost.md, twenty-first session). The Guard reads either form. Since the
+blocks come from the same pass (thirtieth session; outputs, Guard and result, paired in one process, ms a call):
+loops N = 5 (1056) -0.034, N = 6 (1482) -0.044, the planar chain of 16 (1536) -0.080, the spatial chain of 8 (1792)
+-0.056; below, loops N = 2-4 (210-702), the slider-crank and the bench scenes +0.003 to +0.06 (a small dense route of
+the Guard makes the blocks dense again)."""
 INT64_MAX = int(np.iinfo(np.int64).max)
 """The largest budget of evaluations or steps: none (``np.iinfo`` made once, not 2 us a run)."""
 PAUSE_STEPS = 1000

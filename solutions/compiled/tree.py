@@ -83,12 +83,14 @@ class TreeScene:
     """The two bodies of each cut row's element, row after row (-1 ground): the bodies its row of Psi_q meets
     (``tree_kernels.cut_accelerations``)."""
     row_index: np.ndarray = None
-    """The tree's rows body by body (``row_index``: start (nb + 1), then the rows), made once per scene: what
-    ``tree_multipliers`` and ``zero_tree_blocks`` read (P[8] after the cut rows' bodies)."""
+    """The tree's rows body by body (``row_index``: start (nb + 1), then the rows), made once per system
+    (``Topology``): what ``tree_multipliers`` and ``zero_tree_blocks`` read (P[8] after the cut rows' bodies)."""
     cut_index: np.ndarray = None
-    """The sparsity of the cut solve (``structure``), made once per scene: what ``cut_accelerations`` reads (P[8]
-    after the row index)."""
+    """The sparsity of the cut solve (``structure``), made once per system (``Topology``): what ``cut_accelerations``
+    reads (P[8] after the row index)."""
     unsupported: str | None = None
+    topology: Topology | None = field(default=None, repr=False, compare=False)
+    """The integers above as the system's tree fixes them, made once per system (``topology``)."""
     packed_data: tuple | None = field(default=None, repr=False, compare=False)  # ``data()``, made once
 
     @property
@@ -135,13 +137,17 @@ class TreeScene:
         run's parameters (``compiled.parameters``), where numba is loaded already (the engine's choice, which
         describes the tree too, loads none). An open tree has none."""
         if self.cut_index is None:
-            if self.cut_bodies.size == 0:  # no cut rows: no cut solve
-                self.cut_index = np.zeros(0, dtype=np.int64)
-            else:
+            made = None if self.topology is None else self.topology.cut_index  # an earlier run's, of the same system
+            if made is None and self.cut_bodies.size == 0:  # no cut rows: no cut solve
+                made = np.zeros(0, dtype=np.int64)
+            elif made is None:
                 from .structure import cut_structure  # imports numba
 
                 nb = self.n // (7 if self.scene.dimension == 3 else 3)
-                self.cut_index = cut_structure(self.ints, self.cut_bodies, self.k, nb)
+                made = cut_structure(self.ints, self.cut_bodies, self.k, nb)
+            self.cut_index = made
+            if self.topology is not None:
+                self.topology.cut_index = made
         return self.cut_index
 
 
@@ -176,33 +182,83 @@ def _row(joint) -> list[float]:
 def describe(scene: Scene, formulation) -> TreeScene:
     """The tree of a ``JointCoordinates`` formulation over the scene (``unsupported`` says why not compiled), a scene
     described with the tree's cut elements first (``compiled.plan``; ``scene.describe``'s ``first``: ValueError
-    otherwise, whose integration would read the wrong rows): the joints' rows built as flat lists of Python numbers
-    and made arrays once each (an array of nested lists, or of numpy scalars, costs several times as much: ~20 us
-    of a loop chain of four's start)."""
+    otherwise, whose integration would read the wrong rows): the joints' integers and rows as the system's tree fixes
+    them (``topology``, made once per system), and the joints' floats with them where every joint is the system's own
+    (``Topology.floats``), else made here (``joint_floats``)."""
     if scene.first != cut_names(formulation):
         raise ValueError("a tree's scene is described with its cut elements first: compiled.plan describes it")
     joints, k = formulation.joints, formulation.tree.k
-    heads, floats = [], []
-    for j in joints:  # the columns of D that move the child: its parent's (inherited), then its own
+    shape = topology(formulation.system, joints, k)
+    floats = joint_floats(joints) if shape.floats is None else shape.floats
+    tree = TreeScene(
+        scene, shape.ints, floats, formulation.tree.n_positions, k,
+        shape.cut_rows, owners=shape.owners, cut_bodies=shape.cut_bodies, row_index=shape.row_index,
+        cut_index=shape.cut_index, topology=shape,
+    )  # fmt: skip
+    if not joints:
+        tree.unsupported = "a tree without joints"
+    return tree
+
+
+@dataclass
+class Topology:
+    """What of a tree scene the system's tree fixes (``TreeScene``'s): each joint's kind, parent, child,
+    place in the state and the velocity columns that move its child (``ints``, ``tree_kernels``' joint_ints); the cut
+    rows, the rows' owners, the cut rows' bodies, the rows body by body (``_owners``, ``row_index``); the cut solve's
+    sparsity (``cut_index``, made by the first run's parameters: ``TreeScene.structure``). None of them depends on a
+    run: made once per system (``topology``), as the tree's joints (``joint_coordinates.tree_joints``) and the cut
+    system (``cut_system``) they come from, where every call described them anew (a loop chain of four's start rates
+    -55..-61 us a call with the floats); the joints' floats too where no run changes a joint (``floats``)."""
+
+    ints: np.ndarray
+    cut_rows: np.ndarray
+    owners: np.ndarray
+    cut_bodies: np.ndarray
+    row_index: np.ndarray
+    floats: np.ndarray | None
+    """The joints' floats (``joint_floats``) where no run changes a joint: every joint is then the system's own object,
+    as ``tree_joints`` hands it out, and these are its numbers; None where a spatial prismatic joint's rotation
+    follows each run's initial state (its floats made by each call)."""
+    cut_index: np.ndarray | None = None
+
+
+def topology(system, joints, k: int) -> Topology:
+    """The ``Topology`` of ``system``'s tree (``joints``: ``joint_coordinates.tree_joints(system)``, k velocity
+    columns), made at the first call for the system and kept on it (``tree_joints``' way: the system's elements and
+    tree do not change once built)."""
+    kept = system.__dict__.get("_tree_topology")
+    if kept is None:
+        kept = system.__dict__["_tree_topology"] = _topology(system, joints, k)
+    return kept
+
+
+def _topology(system, joints, k: int) -> Topology:
+    """``topology``'s arrays: the joints' integer rows (the columns of D that move the child: its parent's, inherited,
+    then its own) and the rows' owners (``_owners``)."""
+    heads = []
+    for j in joints:
         own = j.n_velocities
         count = len(j.inherited) + own
         heads += (KINDS[j.kind], j.parent, j.child, j.position, j.velocity, count)
         heads += j.inherited
         heads += range(j.velocity, j.velocity + own)
         heads += (-1,) * (k - count)
-        floats += _row(j)
-    ints = np.array(heads, dtype=np.int64).reshape(-1, 6 + k)
-    system = formulation.system
     owners, cut, bodies, owned = _owners(system, joints)
-    tree = TreeScene(
-        scene, ints, np.array(floats, dtype=float).reshape(-1, 35), formulation.tree.n_positions, k,
-        np.array(cut, dtype=np.int64), owners=np.array(owners, dtype=np.int64),
-        cut_bodies=np.array(bodies, dtype=np.int64),
+    changed = system.model.dimension == 3 and any(j.kind == "prismatic" for j in joints)  # ``tree_joints``' copies
+    return Topology(
+        np.array(heads, dtype=np.int64).reshape(-1, 6 + k), np.array(cut, dtype=np.int64),
+        np.array(owners, dtype=np.int64), np.array(bodies, dtype=np.int64), row_index(owned),
+        None if changed else joint_floats(joints),
     )  # fmt: skip
-    tree.row_index = row_index(owned)
-    if not joints:
-        tree.unsupported = "a tree without joints"
-    return tree
+
+
+def joint_floats(joints) -> np.ndarray:
+    """The joints' 35 floats a row (``_row``), built as one flat list of Python numbers made an array once (an array
+    of nested lists, or of numpy scalars, costs several times as much)."""
+    floats = []
+    for j in joints:
+        floats += _row(j)
+    return np.array(floats, dtype=float).reshape(-1, 35)
 
 
 def cut_names(formulation) -> frozenset:
@@ -256,8 +312,8 @@ def check_row_order(system, body: int, rows: list[int], normalization: bool, clo
 
 def row_index(rows: list[list[int]]) -> np.ndarray:
     """The rows each body owns (``_owners``' lists, in row order; cut rows, owner -1, in none) as one array: start
-    (nb + 1), then the rows body by body, body b's at [nb + 1 + start[b], nb + 1 + start[b + 1]). Made once per scene
-    (``describe``), where ``tree_multipliers`` sorted them at every output time (two allocations and three passes over
+    (nb + 1), then the rows body by body, body b's at [nb + 1 + start[b], nb + 1 + start[b + 1]). Made once per system
+    (``topology``), where ``tree_multipliers`` sorted them at every output time (two allocations and three passes over
     the rows: ~0.25 us of an evaluation at two bodies); from Python lists, one array at the end (numpy's bincount,
     cumsum, argsort and concatenate cost ~20 us at a call's start against a loop chain's few dozen rows)."""
     flat, at = [0], 0

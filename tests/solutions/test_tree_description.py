@@ -94,3 +94,50 @@ def test_the_joints_a_run_never_writes_are_shared_and_a_spatial_prismatic_joint_
     for a, b, copied in zip(first, second, prismatic, strict=True):
         assert (a is not b) if copied else (a is b)
         assert vars(a) == vars(b)
+
+
+@pytest.mark.parametrize("model", MODELS, ids=lambda m: getattr(m, "stem", None) or m.get("name", "chain"))
+def test_a_second_calls_description_reuses_the_systems_topology_with_the_same_arrays(model):
+    """The tree's integers (``tree.topology``) are made once per system: a second call's plan (a new M, force model
+    and formulation object, as ``forward_dynamics`` makes them) shares them, and its P, D and every table equal those
+    of the same model built afresh, entry for entry (the cut solve's sparsity made by the first call's parameters,
+    handed to the second)."""
+    pytest.importorskip("numba")
+    from solutions.compiled import tree as tree_module
+
+    system = build_system(load_model(model))[0]
+    first, P1, D1 = _described(system)
+    second, P2, D2 = _described(system)
+    fresh, P3, D3 = _described(build_system(load_model(model))[0])
+    assert second is not first and second.topology is first.topology is tree_module.topology(system, [], 0)
+    assert second.structure() is first.structure()  # made once, by the first call's parameters
+    spatial_prismatic = system.model.dimension == 3 and any(j.kind == "prismatic" for j in tree_joints(system))
+    assert (second.floats is first.floats) != spatial_prismatic  # a spatial prismatic joint's: each call's own
+    for a, b in [*zip(P2, P3, strict=True), *zip(D2, D3, strict=True)]:
+        assert a.dtype == b.dtype and a.shape == b.shape and np.array_equal(a, b)
+    for name in ("ints", "floats", "cut_rows", "owners", "cut_bodies", "row_index"):
+        assert np.array_equal(getattr(second, name), getattr(fresh, name)), name
+    assert np.array_equal(second.structure(), fresh.structure())
+
+
+def test_a_changed_elements_data_is_read_by_the_next_calls_description():
+    """What an element holds besides the tree's structure (its points, a driver's function of time) is read at every
+    call, not kept on the system: a driver's function changed between two calls changes the next call's data."""
+    pytest.importorskip("numba")
+    from solutions.functions import Polynomial
+
+    system = build_system(load_model(ROOT / "course" / "models" / "slider_crank.yaml"))[0]
+    before = _described(system)[0].scene.function_params.copy()
+    motor = next(e for e in system.elements if getattr(e, "function", None) is not None and e.name == "drive")
+    motor.function = Polynomial((0.5, 7.0))
+    after = _described(system)[0].scene.function_params
+    assert not np.array_equal(before, after) and 7.0 in after
+
+
+def _described(system):
+    """(the joint-coordinates plan's tree, its P, its D) of a call on ``system``: a new M, force model and
+    formulation object, as ``forward_dynamics`` makes them."""
+    M, forces = mass_matrix(system.model), build_forces(system.model)
+    made = make_formulation("joint-coordinates", system, M, forces)
+    tree = plan(system, M, forces, "joint-coordinates", made).scene
+    return tree, parameters(tree, 1.0, 2.0), tree.data()
