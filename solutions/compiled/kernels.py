@@ -930,14 +930,15 @@ def spatial_load(q, qd, t, ints, floats, fk, fp, Q, power):
     for e in range(ints.shape[0]):
         i, kind, fixed = ints[e, 0], ints[e, 1], ints[e, 2]
         o = 7 * i
-        before[:] = Q[o : o + 7]
+        for k in range(7):  # loops, not slice assignments (``loops._copy``)
+            before[k] = Q[o + k]
         v = np.array(
             [function(fk, fp, ints[e, 3], t, 0), function(fk, fp, ints[e, 4], t, 0), function(fk, fp, ints[e, 5], t, 0)]
         )
         if kind == 0:
             if fixed:
                 rotate(q[o + 3], q[o + 4], q[o + 5], q[o + 6], v, A)
-                v[:] = A
+                v[0], v[1], v[2] = A[0], A[1], A[2]
             _spatial_point_force(q, i, floats[e, 0:3], v[0], v[1], v[2], Q)
         else:
             _spatial_torque(q, i, v[0], v[1], v[2], fixed != 0, Q)
@@ -1144,7 +1145,8 @@ def range_space_solve(mass, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
             force[k] -= jac[r, k] * x[r]
     for k in range(n):
         qdd[k] = force[k] / mass[k]
-    lam[:] = x
+    for r in range(m):
+        lam[r] = x[r]
     return True
 
 
@@ -1321,7 +1323,8 @@ def spatial_range_space_solve(M, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
             total -= S[r, k] * y[k]
         y[r] = total / S[r, r]
     _back_substitution(S, y, lam)  # L^T lambda = y'
-    qdd[:] = u  # q'' = M^-1 Q - X^T lambda
+    for k in range(u.size):  # q'' = M^-1 Q - X^T lambda
+        qdd[k] = u[k]
     for r in range(m):
         for k in range(7 * reach[r, 0], 7 * reach[r, 1] + 7):
             qdd[k] -= X[r, k] * lam[r]
@@ -1394,7 +1397,8 @@ def augmented_solve(mass, M, spatial, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
     m, n = jac.shape
     K = np.zeros((n + m, n + m))
     rhs = np.empty(n + m)
-    rhs[:n] = Q
+    for k in range(n):
+        rhs[k] = Q[k]
     stabilized = ab[0] != 0.0 or ab[1] != 0.0
     for r in range(m):
         psi_dot = psit[r]
@@ -1404,10 +1408,14 @@ def augmented_solve(mass, M, spatial, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
             psi_dot += jac[r, c] * qd[c]
         rhs[n + r] = gam[r] - 2.0 * ab[0] * psi_dot - ab[1] ** 2 * psi[r] if stabilized else gam[r]
     if spatial:
-        K[:n, :n] = M
+        for r in range(n):
+            for c in range(n):
+                K[r, c] = M[r, c]
     else:
         for k in range(n):
             K[k, k] = mass[k]
     x = lu_solve(K, rhs)
-    qdd[:] = x[:n]
-    lam[:] = x[n:]
+    for k in range(n):
+        qdd[k] = x[k]
+    for r in range(m):
+        lam[r] = x[n + r]

@@ -99,7 +99,8 @@ def newton_solve(A, KT, pivots, b, x):
 def lu_solve(KT, pivots, b, x):
     """x from A x = b with the factors of ``lu_factor``: the row swaps, then L y = P b and U x = y."""
     n = b.size
-    x[:] = b
+    for r in range(n):
+        x[r] = b[r]
     for c in range(n):
         p = pivots[c] - 1
         if p != c:
@@ -237,5 +238,6 @@ def steps(evaluate, q0, times, F, D, limits, start, passed, history, record):
         lu_solve(K, pivots, rhs, qd)
         evaluate(t, q, qd, F, D, psi, jac, psit, gam)
         lu_solve(K, pivots, gam, qdd)
-        Q[k], QD[k], QDD[k] = q, qd, qdd
+        for i in range(n):  # loops, not slice assignments (``loops._copy``)
+            Q[k, i], QD[k, i], QDD[k, i] = q[i], qd[i], qdd[i]
     return points, DONE
