@@ -31,6 +31,7 @@ import numpy as np
 from numba import njit, types
 
 from ..rotation_matrices import g_entries, l_entries, planar_rotation_entries, rotation_entries, unit_rotation_entries
+from .lapack import PIVOT_TYPE, lapack
 
 jit = njit(cache=True, fastmath=False, nogil=True)
 inlined = njit(cache=True, fastmath=False, nogil=True, inline="always")
@@ -1331,6 +1332,9 @@ def spatial_range_space_solve(M, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
     return True
 
 
+_GESV = lapack("dgesv", 8)
+"""LAPACK's dgesv(n, nrhs, a, lda, ipiv, b, ldb, info) (``_gesv``)."""
+
 LAPACK_SIZE = 32
 """Systems with more unknowns than this go to LAPACK's gesv (blocked LU on BLAS: 3.3x faster at 129 unknowns, 5x at
 260); smaller ones, where LAPACK's call costs more than the arithmetic (3.5x slower at 6 unknowns), are eliminated
@@ -1346,12 +1350,32 @@ def lu_solve(K, b):
     is Python's), which would end the run in a traceback instead of the message the numpy engine gives."""
     n = b.size
     if n > LAPACK_SIZE:
-        try:
-            return np.linalg.solve(K, b)
-        except Exception:  # singular: the NaN that the elimination below gives, for the loop's checks to see
-            return np.full(n, np.nan)
+        return _gesv(K, b)
     x = b.copy()
     solve_in_place(K, x)
+    return x
+
+
+@jit
+def _gesv(K, b):
+    """x from K x = b by LAPACK's gesv as ``np.linalg.solve`` calls it (K copied in column-major order, b copied:
+    the same numbers), without numba's wrapper of it (``lapack``); NaN where K or b is not finite or K is singular,
+    where ``np.linalg.solve`` raises."""
+    n = b.size
+    KT, x, pivots = np.empty((n, n)), np.empty(n), np.empty(n, PIVOT_TYPE)
+    finite = True
+    for r in range(n):
+        x[r] = b[r]
+        finite = finite and np.isfinite(b[r])
+        for c in range(n):
+            KT[c, r] = K[r, c]
+            finite = finite and np.isfinite(K[r, c])
+    sizes = np.array([n, 1, 0], dtype=PIVOT_TYPE)  # n (and lda, ldb), nrhs, info
+    if finite:
+        _GESV(sizes[0:].ctypes, sizes[1:].ctypes, KT.ctypes, sizes[0:].ctypes, pivots.ctypes, x.ctypes,
+              sizes[0:].ctypes, sizes[2:].ctypes)  # fmt: skip
+    if not finite or sizes[2] != 0:  # the NaN that the elimination gives, for the loop's checks to see
+        return np.full(n, np.nan)
     return x
 
 

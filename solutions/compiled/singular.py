@@ -75,14 +75,14 @@ import numpy as np
 from numba import njit, types
 
 from .history import BlockedJacobians, block_slots
-from .kinematic_loop import PIVOT_TYPE, lapack
+from .lapack import PIVOT_TYPE, lapack
 
 _GBBRD, _STEBZ = lapack("dgbbrd", 18), lapack("dstebz", 18)
 _GBTRF = lapack("dgbtrf", 8)
 """LAPACK's dgbbrd(vect, m, n, ncc, kl, ku, ab, ldab, d, e, q, ldq, pt, ldpt, c, ldc, work, info), dstebz(range,
 order, n, vl, vu, il, iu, abstol, d, e, m, nsplit, w, iblock, isplit, work, iwork, info), dgbtrf(m, n, kl, ku, ab,
 ldab, ipiv, info) (``_first_basis``'s n x m band, once a history): Fortran calls, every argument
-by address (``kinematic_loop.lapack``)."""
+by address (``lapack.lapack``)."""
 
 WIDEST = 8
 """The band pays where its width kl + ku + 1 is at most an eighth of the coordinates (``spectra``: None otherwise)."""
