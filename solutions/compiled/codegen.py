@@ -202,7 +202,7 @@ def _engine_fingerprint() -> bytes:
     module's machine code depends on."""
     from importlib.metadata import version
 
-    sources = ("kernels.py", "../rotation_matrices.py", "loops.py")
+    sources = ("kernels.py", "../rotation_matrices.py", "lapack.py", "loops.py")
     return b"".join((HERE / name).read_bytes() for name in sources) + version("numba").encode()
 
 
@@ -281,7 +281,7 @@ def _kinematic_sources() -> bytes:
     """What the compiled kinematic code depends on besides its text: the kernels, the loop, numba's version."""
     from importlib.metadata import version
 
-    sources = ("kernels.py", "../rotation_matrices.py", "kinematic_loop.py")
+    sources = ("kernels.py", "../rotation_matrices.py", "lapack.py", "kinematic_loop.py")
     return b"".join((HERE / name).read_bytes() for name in sources) + version("numba").encode()
 
 
