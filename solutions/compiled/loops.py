@@ -205,8 +205,9 @@ def _starting_step(scene_rhs, t, y, f, span, rtol, atol, max_step, order, P, D):
 @_inline
 def _copy(source, out):
     """out = source, entry by entry: a loop, not a slice assignment (``out[:] = source``), whose shape check numba
-    compiles with a formatted error message (strings, ~0.3-0.6 s of LLVM work in every function that assigns an
-    array, ~4.5 s of the integrator half's compilation in ``mbd compile``: call_cost.md, thirtieth session)."""
+    compiles with a formatted error message (its string code: ~3 s of a process's first compilation, and LLVM work
+    in every function with one; the integrator half of ``mbd compile`` 30.3 -> 25.8 s without it: call_cost.md,
+    thirtieth session)."""
     for i in range(out.size):
         out[i] = source[i]
 
