@@ -5,9 +5,9 @@ when that file's modification time or size changes: the function's own file only
 compiled function of another file has that callee compiled into its own machine code (numba compiles the callee
 into the caller's library), so when only the callee's file changes (an edit, a ``git pull``, a branch
 checkout), the caller's cached code still runs the old callee: ``history_kernels`` runs ``kernels``' rotation
-entries, ``kernels`` runs ``rotation_matrices``', ``singular`` runs ``kinematic_loop``'s LAPACK wrappers,
-``spatial_history_kernels`` runs ``history_kernels``' joint forces. (The
-generated modules do not have this problem: their cache names hash the files they call, ``codegen``.)
+entries, ``kernels`` runs ``rotation_matrices``', ``singular``, ``kinematic_loop`` and ``kernels`` run ``lapack``'s
+LAPACK routines, ``spatial_history_kernels`` runs ``history_kernels``' joint forces. (The generated modules do not
+have this problem: their cache names hash the files they call, ``codegen``.)
 
 So the files other files' compiled functions call (``CALLED``) leave a stamp in the cache directory, their
 modification times and sizes; where it is not the one on disk, every cached machine code of the package is
@@ -23,7 +23,7 @@ import os
 from pathlib import Path
 
 HERE = Path(__file__).parent
-CALLED = ("kernels.py", "../rotation_matrices.py", "kinematic_loop.py", "history_kernels.py")
+CALLED = ("kernels.py", "../rotation_matrices.py", "lapack.py", "history_kernels.py")
 """The files whose compiled functions other files' cached functions call (module docstring)."""
 STAMP = "mbd-called-files.stamp"
 

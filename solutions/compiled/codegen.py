@@ -172,13 +172,14 @@ def generate(scene: Scene) -> str:
             "        augmented_solve(mass, jac, False, jac, psi, psit, gam, Q, qd, ab, qdd, lam)",
         ]
     lines += [
-        "    out[:n] = qd",
-        "    out[n : 2 * n] = qdd",
+        "    for i in range(n):  # loops, not slice assignments (``loops._copy``)",
+        "        out[i], out[n + i] = qd[i], qdd[i]",
         "    if dims[2]:  # the energy balance's three powers (``parameters``: three extra states)",
         "        power[2] = lam @ psit  # the drivers' power (eq. 5.61; zero without drivers: Psi_t = 0)",
         "        out[2 * n], out[2 * n + 1], out[2 * n + 2] = power[0], power[1], power[2]",
         "    if out.size > z.size:  # the outputs: lambda of every row",
-        "        out[z.size : z.size + m] = lam",
+        "        for i in range(m):",
+        "            out[z.size + i] = lam[i]",
         "",
         "",
         "@njit(CONSTRAINT_ARRAYS_SIGNATURE, cache=True, nogil=True)",
@@ -201,7 +202,7 @@ def _engine_fingerprint() -> bytes:
     module's machine code depends on."""
     from importlib.metadata import version
 
-    sources = ("kernels.py", "../rotation_matrices.py", "loops.py")
+    sources = ("kernels.py", "../rotation_matrices.py", "lapack.py", "loops.py")
     return b"".join((HERE / name).read_bytes() for name in sources) + version("numba").encode()
 
 
@@ -280,7 +281,7 @@ def _kinematic_sources() -> bytes:
     """What the compiled kinematic code depends on besides its text: the kernels, the loop, numba's version."""
     from importlib.metadata import version
 
-    sources = ("kernels.py", "../rotation_matrices.py", "kinematic_loop.py")
+    sources = ("kernels.py", "../rotation_matrices.py", "lapack.py", "kinematic_loop.py")
     return b"".join((HERE / name).read_bytes() for name in sources) + version("numba").encode()
 
 

@@ -94,12 +94,13 @@ def blocked_constraint_arrays(constraint_arrays, T, Y, P, D, psi, values, psit, 
     one_psi, jac, one_psit = np.zeros((1, m)), np.zeros((1, m, n)), np.zeros((1, m))
     for k in range(T.size):
         one_t[0] = T[k]
-        one_y[0] = Y[k]
+        for i in range(Y.shape[1]):  # loops, not slice assignments (``loops._copy``)
+            one_y[0, i] = Y[k, i]
         one_psi[:] = 0.0
         one_psit[:] = 0.0
         constraint_arrays(one_t, one_y, P, D, one_psi, jac, one_psit)
-        psi[k] = one_psi[0]
-        psit[k] = one_psit[0]
+        for r in range(m):
+            psi[k, r], psit[k, r] = one_psi[0, r], one_psit[0, r]
         for r in range(m):
             for s in range(w):
                 column = columns[r, s]

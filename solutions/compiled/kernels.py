@@ -31,6 +31,7 @@ import numpy as np
 from numba import njit, types
 
 from ..rotation_matrices import g_entries, l_entries, planar_rotation_entries, rotation_entries, unit_rotation_entries
+from .lapack import PIVOT_TYPE, lapack
 
 jit = njit(cache=True, fastmath=False, nogil=True)
 inlined = njit(cache=True, fastmath=False, nogil=True, inline="always")
@@ -930,14 +931,15 @@ def spatial_load(q, qd, t, ints, floats, fk, fp, Q, power):
     for e in range(ints.shape[0]):
         i, kind, fixed = ints[e, 0], ints[e, 1], ints[e, 2]
         o = 7 * i
-        before[:] = Q[o : o + 7]
+        for k in range(7):  # loops, not slice assignments (``loops._copy``)
+            before[k] = Q[o + k]
         v = np.array(
             [function(fk, fp, ints[e, 3], t, 0), function(fk, fp, ints[e, 4], t, 0), function(fk, fp, ints[e, 5], t, 0)]
         )
         if kind == 0:
             if fixed:
                 rotate(q[o + 3], q[o + 4], q[o + 5], q[o + 6], v, A)
-                v[:] = A
+                v[0], v[1], v[2] = A[0], A[1], A[2]
             _spatial_point_force(q, i, floats[e, 0:3], v[0], v[1], v[2], Q)
         else:
             _spatial_torque(q, i, v[0], v[1], v[2], fixed != 0, Q)
@@ -1144,7 +1146,8 @@ def range_space_solve(mass, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
             force[k] -= jac[r, k] * x[r]
     for k in range(n):
         qdd[k] = force[k] / mass[k]
-    lam[:] = x
+    for r in range(m):
+        lam[r] = x[r]
     return True
 
 
@@ -1321,12 +1324,16 @@ def spatial_range_space_solve(M, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
             total -= S[r, k] * y[k]
         y[r] = total / S[r, r]
     _back_substitution(S, y, lam)  # L^T lambda = y'
-    qdd[:] = u  # q'' = M^-1 Q - X^T lambda
+    for k in range(u.size):  # q'' = M^-1 Q - X^T lambda
+        qdd[k] = u[k]
     for r in range(m):
         for k in range(7 * reach[r, 0], 7 * reach[r, 1] + 7):
             qdd[k] -= X[r, k] * lam[r]
     return True
 
+
+_GESV = lapack("dgesv", 8)
+"""LAPACK's dgesv(n, nrhs, a, lda, ipiv, b, ldb, info) (``_gesv``)."""
 
 LAPACK_SIZE = 32
 """Systems with more unknowns than this go to LAPACK's gesv (blocked LU on BLAS: 3.3x faster at 129 unknowns, 5x at
@@ -1343,12 +1350,32 @@ def lu_solve(K, b):
     is Python's), which would end the run in a traceback instead of the message the numpy engine gives."""
     n = b.size
     if n > LAPACK_SIZE:
-        try:
-            return np.linalg.solve(K, b)
-        except Exception:  # singular: the NaN that the elimination below gives, for the loop's checks to see
-            return np.full(n, np.nan)
+        return _gesv(K, b)
     x = b.copy()
     solve_in_place(K, x)
+    return x
+
+
+@jit
+def _gesv(K, b):
+    """x from K x = b by LAPACK's gesv as ``np.linalg.solve`` calls it (K copied in column-major order, b copied:
+    the same numbers), without numba's wrapper of it (``lapack``); NaN where K or b is not finite or K is singular,
+    where ``np.linalg.solve`` raises."""
+    n = b.size
+    KT, x, pivots = np.empty((n, n)), np.empty(n), np.empty(n, PIVOT_TYPE)
+    finite = True
+    for r in range(n):
+        x[r] = b[r]
+        finite = finite and np.isfinite(b[r])
+        for c in range(n):
+            KT[c, r] = K[r, c]
+            finite = finite and np.isfinite(K[r, c])
+    sizes = np.array([n, 1, 0], dtype=PIVOT_TYPE)  # n (and lda, ldb), nrhs, info
+    if finite:
+        _GESV(sizes[0:].ctypes, sizes[1:].ctypes, KT.ctypes, sizes[0:].ctypes, pivots.ctypes, x.ctypes,
+              sizes[0:].ctypes, sizes[2:].ctypes)  # fmt: skip
+    if not finite or sizes[2] != 0:  # the NaN that the elimination gives, for the loop's checks to see
+        return np.full(n, np.nan)
     return x
 
 
@@ -1394,7 +1421,8 @@ def augmented_solve(mass, M, spatial, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
     m, n = jac.shape
     K = np.zeros((n + m, n + m))
     rhs = np.empty(n + m)
-    rhs[:n] = Q
+    for k in range(n):
+        rhs[k] = Q[k]
     stabilized = ab[0] != 0.0 or ab[1] != 0.0
     for r in range(m):
         psi_dot = psit[r]
@@ -1404,10 +1432,14 @@ def augmented_solve(mass, M, spatial, jac, psi, psit, gam, Q, qd, ab, qdd, lam):
             psi_dot += jac[r, c] * qd[c]
         rhs[n + r] = gam[r] - 2.0 * ab[0] * psi_dot - ab[1] ** 2 * psi[r] if stabilized else gam[r]
     if spatial:
-        K[:n, :n] = M
+        for r in range(n):
+            for c in range(n):
+                K[r, c] = M[r, c]
     else:
         for k in range(n):
             K[k, k] = mass[k]
     x = lu_solve(K, rhs)
-    qdd[:] = x[:n]
-    lam[:] = x[n:]
+    for k in range(n):
+        qdd[k] = x[k]
+    for r in range(m):
+        lam[r] = x[n + r]

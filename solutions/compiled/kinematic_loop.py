@@ -17,10 +17,10 @@ meets an exact zero pivot, where the numpy loop falls back on least squares), wh
 the numpy loop takes the run over from that step, with the same state, and decides as it always does.
 """
 
-import llvmlite.binding
 import numpy as np
 from numba import njit, types
-from numba.extending import get_cython_function_address
+
+from .lapack import PIVOT_TYPE, lapack
 
 _vector, _matrix = types.float64[::1], types.float64[:, ::1]
 _ivector, _imatrix = types.int64[::1], types.int64[:, ::1]
@@ -36,15 +36,6 @@ EVALUATE_SIGNATURE = types.void(types.float64, _vector, _vector, F_TYPE, D_TYPE,
 DONE, NO_CONVERGENCE, ZERO_PIVOT, LOCKUP, SIGN_CHANGE, DIP = 0, 1, 2, 3, 4, 5
 
 
-def lapack(name: str, arguments: int) -> types.ExternalFunction:
-    """LAPACK's ``name`` from scipy's public ``scipy.linalg.cython_lapack``, found by numba's public
-    ``get_cython_function_address`` and registered with LLVM under a symbol of its own: compiled code calls it by
-    that name, so the functions that call it are cached on disk (a ctypes pointer would be a dynamic global)."""
-    symbol = f"mbd_lapack_{name}"
-    llvmlite.binding.add_symbol(symbol, get_cython_function_address("scipy.linalg.cython_lapack", name))
-    return types.ExternalFunction(symbol, types.void(*[types.voidptr] * arguments))
-
-
 _GETRF, _GESV = lapack("dgetrf", 6), lapack("dgesv", 8)
 """LAPACK's dgetrf(m, n, a, lda, ipiv, info) and dgesv(n, nrhs, a, lda, ipiv, b, ldb, info), Fortran calls (every
 argument by address, ``lapack``). They are the routines of
@@ -53,8 +44,6 @@ of q: where two candidates for a pivot are equal but for rounding (frequent in a
 between them changes U's diagonal by a factor, and a spurious dip may follow. The same routines on (nearly) the
 same numbers keep those choices, and the corrections, as the numpy engine's; a hand-written elimination departed
 from them on the chain of 64 four-bar loops and stopped at dips the numpy run never saw."""
-PIVOT_TYPE = np.int32
-"""LAPACK's integer (scipy's ``cython_lapack`` takes C ints): the type of the pivots array."""
 
 
 @njit(cache=True, nogil=True)
@@ -99,7 +88,8 @@ def newton_solve(A, KT, pivots, b, x):
 def lu_solve(KT, pivots, b, x):
     """x from A x = b with the factors of ``lu_factor``: the row swaps, then L y = P b and U x = y."""
     n = b.size
-    x[:] = b
+    for r in range(n):
+        x[r] = b[r]
     for c in range(n):
         p = pivots[c] - 1
         if p != c:
@@ -237,5 +227,6 @@ def steps(evaluate, q0, times, F, D, limits, start, passed, history, record):
         lu_solve(K, pivots, rhs, qd)
         evaluate(t, q, qd, F, D, psi, jac, psit, gam)
         lu_solve(K, pivots, gam, qdd)
-        Q[k], QD[k], QDD[k] = q, qd, qdd
+        for i in range(n):  # loops, not slice assignments (``loops._copy``)
+            Q[k, i], QD[k, i], QDD[k, i] = q[i], qd[i], qdd[i]
     return points, DONE

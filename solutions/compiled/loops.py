@@ -203,6 +203,17 @@ def _starting_step(scene_rhs, t, y, f, span, rtol, atol, max_step, order, P, D):
 
 
 @_inline
+def _copy(source, out):
+    """out = source, entry by entry: a loop, not a slice assignment (``out[:] = source``), whose shape check numba
+    compiles with a formatted error message (its string code: ~3 s of a process's first compilation, and LLVM work
+    in every function with one; the integrator half of ``mbd compile`` 30.3 -> 25.8 s without it), and which goes
+    through numba's general broadcasting at run time, where a plain loop is a block copy (an output time's four copies
+    at a loop chain of four, Psi_q's 702 entries the largest: 3.35 -> 3.1 us; call_cost.md, thirtieth session)."""
+    for i in range(out.size):
+        out[i] = source[i]
+
+
+@_inline
 def _weighted_sum(weights, K, count, out):
     """out = sum_{j < count} weights_j K_j, each component's sum in the order of the stages: the same numbers by
     either loop below. A small state (fewer than 8 components) sums each component in one scalar; a larger one goes
@@ -376,22 +387,22 @@ def embedded(
     y_new, f_new, stage = np.empty(nz), np.empty(nz), np.empty(nz)
     F = np.empty((Dd.shape[0] + 3 if dop else Pd.shape[1], nz))
     sums = np.empty((2, nz))  # the error estimates
-    Y[0] = y
+    _copy(y, Y[0])
     k, steps, rejected, info = np.int64(1), 0, 0, np.zeros(1)  # k: the next output time
     while k < nout:
         if steps >= max_steps:
-            Y[k] = y
+            _copy(y, Y[k])
             return Y, evaluations, steps, rejected, 5, t, h_abs, k
         rejected_now = False
         while True:  # steps until one is accepted
             if evaluations >= max_evaluations:
-                Y[k] = y
+                _copy(y, Y[k])
                 return Y, evaluations, steps, rejected, 2, t, h_abs, k
             h, h_abs, t_new = _step_size(t, t_end, h_abs, max_step, span, scipy_like, rejected_now)
             if h == 0.0:
-                Y[k] = y
+                _copy(y, Y[k])
                 return Y, evaluations, steps, rejected, 1, t, h_abs, k
-            K[0] = f
+            _copy(f, K[0])
             for s in range(1, stages):  # K_s = f(t + c_s h, y + h sum_{j < s} a_sj K_j)
                 _combination(y, h, A[s], K, s, stage)
                 # (*) the right-hand side is called here, not in a helper: handed on to another compiled function,
@@ -399,7 +410,7 @@ def embedded(
                 scene_rhs(t + C[s] * h, stage, P, D, K[s])
             _combination(y, h, B, K, stages, y_new)
             scene_rhs(t + h, y_new, P, D, f_new)
-            K[stages] = f_new
+            _copy(f_new, K[stages])
             evaluations += stages
             err = _error(dop, K, h, y, y_new, rtol, atol, E, E3, E5, sums)
             if err < 1.0:
@@ -415,7 +426,7 @@ def embedded(
         if not scipy_like:
             t_new = t_end if t_end - (t + h) < 1e-12 * max(1.0, abs(t_end)) else t + h
         elif h < MIN_STEP * span and t_end - t_new > MIN_STEP * span:
-            Y[k] = y_new
+            _copy(y_new, Y[k])
             return Y, evaluations, steps, rejected, 1, t_new, h, k
         if t_out[k] < t_new:  # dense output for the output times passed
             for s in range(stages + 1, K.shape[0]):  # DOP853's three extra stages (none for RK45)
@@ -424,14 +435,14 @@ def embedded(
             evaluations += K.shape[0] - stages - 1
             k = _dense((t, t_new, h), (y, y_new, f_new), K, F, Dd, Pd, dop, t_out, k, Y)
         t = t_new
-        y[:] = y_new
-        f[:] = f_new
+        _copy(y_new, y)
+        _copy(f_new, f)
         corrected = project(t, y, P, D, info)
         if corrected > 0:
-            Y[k] = y
+            _copy(y, Y[k])
             return Y, evaluations, steps, rejected, 4, t, info[0], k
         if k < nout and t_out[k] == t:
-            Y[k] = y
+            _copy(y, Y[k])
             k += 1
         h_abs = h_abs * factor if scipy_like else h * factor
         if corrected == 0 and (t < t_end or not scipy_like):  # restart from the corrected state (docstring)
@@ -470,7 +481,7 @@ def rk4(scene_rhs, project, z0, t_out, step, P, D):
     y = z0.copy()
     k1, k2, k3, k4, stage = np.empty(nz), np.empty(nz), np.empty(nz), np.empty(nz), np.empty(nz)
     info = np.zeros(1)
-    Y[0] = y
+    _copy(y, Y[0])
     evaluations = steps = 0
     for k in range(1, nout):
         t, span = t_out[k - 1], t_out[k] - t_out[k - 1]
@@ -489,12 +500,12 @@ def rk4(scene_rhs, project, z0, t_out, step, P, D):
             evaluations += 4
             steps += 1
             if not finite:
-                Y[k] = y
+                _copy(y, Y[k])
                 return Y, evaluations, steps, 0, 3, ts + h, h, k
             if project(ts + h, y, P, D, info) > 0:
-                Y[k] = y
+                _copy(y, Y[k])
                 return Y, evaluations, steps, 0, 4, ts + h, info[0], k
-        Y[k] = y
+        _copy(y, Y[k])
     return Y, evaluations, steps, 0, 0, t_out[-1], 0.0, nout
 
 
@@ -504,18 +515,9 @@ def outputs(scene_rhs, T, Y, P, D, width):
     (body coordinates: lambda; joint coordinates: q, q', q'' and lambda)."""
     out, z = np.empty((T.size, Y.shape[1] + width)), np.empty(Y.shape[1])
     for k in range(T.size):
-        z[:] = Y[k]  # a copy: the right-hand side may write into its state
+        _copy(Y[k], z)  # a copy: the right-hand side may write into its state
         scene_rhs(T[k], z, P, D, out[k])
     return out
-
-
-@_inline
-def _copy(source, start, target):
-    """target[:] = source[start : start + target.size] as one plain loop, which LLVM turns into a block copy; numba's
-    slice assignment goes through its general broadcasting (the four copies of an output time at a loop chain of four,
-    Psi_q's 702 entries the largest: 3.35 -> 3.1 us a time, ``benchmarks/results/call_cost.md``, thirtieth session)."""
-    for i in range(target.size):
-        target[i] = source[start + i]
 
 
 OUTPUT_HISTORY_TYPE = types.Tuple((_matrix, _matrix, types.float64[:, :, ::1], _matrix))(
@@ -540,14 +542,13 @@ def output_history(scene_rhs, T, Y, P, D, width):
     psi, jac, psit = np.empty((N, m)), np.empty((N, m, n)), np.empty((N, m))
     row, z = np.zeros(ny + width + 2 * m + m * n), np.empty(ny)
     o = ny + width
-    entries = jac.reshape((N, m * n))  # (a view) each time's Psi_q copied as one run of entries
     for k in range(N):
-        z[:] = Y[k]
+        _copy(Y[k], z)
         scene_rhs(T[k], z, P, D, row)
-        _copy(row, 0, out[k])
-        _copy(row, o, psi[k])
-        _copy(row, o + m, psit[k])
-        _copy(row, o + 2 * m, entries[k])
+        _copy(row, out[k])
+        _copy(row[o:], psi[k])
+        _copy(row[o + m :], psit[k])
+        _copy(row[o + 2 * m :], jac[k].reshape(m * n))
     return out, psi, jac, psit
 
 
@@ -574,11 +575,11 @@ def blocked_output_history(scene_rhs, T, Y, P, D, width, columns):
     o = ny + width
     jac = row[o + 2 * m :].reshape((m, n))
     for k in range(N):
-        z[:] = Y[k]
+        _copy(Y[k], z)
         scene_rhs(T[k], z, P, D, row)
-        _copy(row, 0, out[k])
-        _copy(row, o, psi[k])
-        _copy(row, o + m, psit[k])
+        _copy(row, out[k])
+        _copy(row[o:], psi[k])
+        _copy(row[o + m :], psit[k])
         for r in range(m):
             for s in range(w):
                 column = columns[r, s]

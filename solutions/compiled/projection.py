@@ -87,8 +87,8 @@ def generate(scene: Scene) -> str:
         "        info[0] = residual",
         "        return 1",
         f"    qd -= correction(mass_weighted(inverse, L, {spatial}, jac), jac, jac @ qd + psit)",
-        "    z[:n] = q",
-        "    z[n : 2 * n] = qd",
+        "    for i in range(n):  # loops, not slice assignments (``loops._copy``)",
+        "        z[i], z[n + i] = q[i], qd[i]",
         "    return 0",
     ]
     return "\n".join(lines) + "\n"

@@ -72,9 +72,11 @@ def mass_weighted(inverse_mass, L, spatial, jac):
     column = np.empty(n)
     for r in range(m):
         if spatial:
-            column[:] = jac[r]
+            for c in range(n):  # loops, not slice assignments (``loops._copy``)
+                column[c] = jac[r, c]
             cholesky_solve(L, column)
-            W[:, r] = column
+            for c in range(n):
+                W[c, r] = column[c]
         else:
             for c in range(n):
                 W[c, r] = jac[r, c] * inverse_mass[c]

@@ -75,14 +75,14 @@ import numpy as np
 from numba import njit, types
 
 from .history import BlockedJacobians, block_slots
-from .kinematic_loop import PIVOT_TYPE, lapack
+from .lapack import PIVOT_TYPE, lapack
 
 _GBBRD, _STEBZ = lapack("dgbbrd", 18), lapack("dstebz", 18)
 _GBTRF = lapack("dgbtrf", 8)
 """LAPACK's dgbbrd(vect, m, n, ncc, kl, ku, ab, ldab, d, e, q, ldq, pt, ldpt, c, ldc, work, info), dstebz(range,
 order, n, vl, vu, il, iu, abstol, d, e, m, nsplit, w, iblock, isplit, work, iwork, info), dgbtrf(m, n, kl, ku, ab,
 ldab, ipiv, info) (``_first_basis``'s n x m band, once a history): Fortran calls, every argument
-by address (``kinematic_loop.lapack``)."""
+by address (``lapack.lapack``)."""
 
 WIDEST = 8
 """The band pays where its width kl + ku + 1 is at most an eighth of the coordinates (``spectra``: None otherwise)."""
@@ -237,8 +237,9 @@ def _settled_spectra(jacobians, columns, norms, position, keys, starts, indices,
     ratios, bases, signs, lower, vectors, certified = _spectra(*arguments, first, LOOSE, not ends, carry)
     times = _unsettled(lower, ratios, signs, thresholds, fall, ends, ends)
     if times.size:  # closed there, each from its own vectors
-        ratios[times] = _ratios_at(*arguments, bases, vectors, times)
-        lower[times] = ratios[times]
+        closed = _ratios_at(*arguments, bases, vectors, times)
+        for a in range(times.size):  # loops, not slice assignments (``_leading``)
+            ratios[times[a]] = lower[times[a]] = closed[a]
     return ratios, bases, signs, certified, lower, vectors
 
 
@@ -381,7 +382,8 @@ def _first_basis(jacobian, columns, norms, position, keys, starts, indices):
         p = pivots[j] - 1
         taken[j], taken[p] = taken[p], taken[j]
     order = np.empty(n, dtype=np.int64)  # the coordinate at each place of the band order
-    order[position] = np.arange(n)
+    for i in range(n):  # loops, not slice assignments (``_leading``)
+        order[position[i]] = i
     chosen = np.sort(order[taken[m:]])
     slot = _layout(keys, position, chosen)
     kl, ku = _widths(slot, m, starts, indices, position, chosen, True)
@@ -610,6 +612,15 @@ def _pattern(jacobians):
 
 
 @njit(cache=True, nogil=True)
+def _leading(A, B):
+    """B = A's leading block of B's shape, entry by entry: loops, not slice assignments (``B[:, :] = A[:, :m]``), whose
+    shape check numba compiles with a formatted error message into every function that has one (``loops._copy``)."""
+    for r in range(B.shape[0]):
+        for c in range(B.shape[1]):
+            B[r, c] = A[r, c]
+
+
+@njit(cache=True, nogil=True)
 def _parity(permutation):
     """+1 or -1: the sign of a permutation (its number of even-length cycles)."""
     seen = np.zeros(permutation.size, dtype=np.bool_)
@@ -642,7 +653,7 @@ def _choose(basis, rest, direction, chosen):
     """``_independent`` into ``chosen`` (d,), sorted, with work arrays ``rest`` (n, d) and ``direction`` (d,) (made
     once per history by ``_spectra``, which asks at every output time)."""
     d = chosen.size
-    rest[:, :] = basis
+    _leading(basis, rest)
     for a in range(d):
         best, size = 0, -1.0
         for r in range(rest.shape[0]):
@@ -670,7 +681,8 @@ def _layout(keys, position, chosen):
     unit rows at their column's position)."""
     m = keys.size
     places = np.empty(m + chosen.size)
-    places[:m] = keys
+    for r in range(m):  # loops, not slice assignments (``_leading``)
+        places[r] = keys[r]
     for a in range(chosen.size):
         places[m + a] = position[chosen[a]]
     return np.argsort(places, kind="mergesort")
@@ -931,7 +943,8 @@ def _envelope(products, m, w):
     (George and Liu, ch. 4: the envelope of a matrix is its Cholesky factor's), the same sums to the last bit."""
     envelope = np.empty((2, m), dtype=np.int64)
     first, last = envelope[0], envelope[1]
-    first[:], last[:] = np.arange(m), np.arange(m)
+    for r in range(m):  # loops, not slice assignments (``_leading``)
+        first[r] = last[r] = r
     for p in range(products.shape[0]):
         i, t = products[p, 0] // (w + 1), products[p, 0] % (w + 1)
         first[i] = min(first[i], i - t)
@@ -1509,7 +1522,8 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
                 _extrapolate(low, earlier[0], y)
                 _extrapolate(high, earlier[1], y)
             else:
-                earlier[0, :], earlier[1, :] = low, high
+                for i in range(m):
+                    earlier[0, i], earlier[1, i] = low[i], high[i]
             after = carried and _away(ratios[k - 2], ratios[k - 1], smallest, thresholds)  # after a carried one
             width = WIDE if after else loose
             figure, bound = _bracketed_ratio(
@@ -1526,7 +1540,8 @@ def _spectra(jacobians, columns, norms, position, keys, starts, indices, slots, 
             chosen = _independent(before, d)  # E's rows' places along the band (their values do not matter)
             ratios[k] = _ratio(J, _layout(keys, position, chosen), m, starts, indices, position, chosen)
             lower[k] = ratios[k]
-        vectors[k, 0], vectors[k, 1] = low, high
+        for i in range(m):
+            vectors[k, 0, i], vectors[k, 1, i] = low[i], high[i]
         smallest = min(smallest, ratios[k])
         if k >= 1:
             steps[k - 1] = loose > 0.0 and certified(moved, lower[k - 1])
@@ -1728,7 +1743,7 @@ def _dense_spectra(jacobians, columns, norms, bases):
             for c in range(n):  # as ``guard.scale_rows``, to the last bit
                 J[r, c] = jacobians[k, r, c] * columns[c] / norm
         signs[k] = _householder(J, V, beta, tangents[k])
-        B[:, :] = J[:, :m]  # R^T
+        _leading(J, B)  # R^T
         ratios[k] = _jacobi_ratio(B)
     return ratios, tangents, signs
 
@@ -1776,7 +1791,8 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
     starts = np.arange(0, m * n + 1, n)
     indices = np.empty(m * n, dtype=np.int64)
     for r in range(m):
-        indices[r * n : (r + 1) * n] = np.arange(n)
+        for c in range(n):
+            indices[r * n + c] = c
     products = np.empty((0, 3), dtype=np.int64)  # for ``_iterated_ratio``, made at its first call
     made = np.empty((0, 3), dtype=np.int64)  # ``_bracketed_ratio``: G made by ``_dense_gram``
     full = _whole_band(m, m - 1)  # a full G's envelope
@@ -1792,7 +1808,7 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
                 previous[r, c] = J[r, c]
                 J[r, c] = jacobians[k, r, c] * columns[c] / norm
                 moved += (J[r, c] - previous[r, c]) ** 2
-        S[:, :] = J
+        _leading(J, S)
         signs[k] = _householder(S, V, beta, tangents[k])
         ratios[k], lower[k] = np.nan, np.nan
         moving = apart or (k >= 2 and abs(ratios[k - 1] - ratios[k - 2]) > MOVING * loose * ratios[k - 1])
@@ -1803,7 +1819,8 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
                 _extrapolate(low, earlier[0], y)
                 _extrapolate(high, earlier[1], y)
             else:
-                earlier[0, :], earlier[1, :] = low, high
+                for i in range(m):
+                    earlier[0, i], earlier[1, i] = low[i], high[i]
             _dense_gram(J, G)
             figure, bound = _bracketed_ratio(
                 J, rows, starts, indices, made, full, G, factors, low, high, y, loose, spread
@@ -1820,7 +1837,7 @@ def _dense_bracketed(jacobians, columns, norms, bases, loose):
                     products = _gram_products(rows, starts, indices, m - 1, n)
                 _iterated_ratio(J, rows, starts, indices, products, full, G, L, low, high, y)
         if not np.isfinite(lower[k]):
-            B[:, :] = S[:, :m]  # R^T
+            _leading(S, B)  # R^T
             ratios[k] = _jacobi_ratio(B)
             lower[k] = ratios[k]
     return ratios, tangents, signs, lower
@@ -1840,7 +1857,7 @@ def _closed_ratios(jacobians, columns, norms, times):
             for c in range(n):
                 J[r, c] = jacobians[k, r, c] * columns[c] / norm
         _householder(J, V, beta, T)
-        B[:, :] = J[:, :m]
+        _leading(J, B)
         ratios[a] = _jacobi_ratio(B)
     return ratios
 

@@ -120,7 +120,7 @@ def spatial_load_history(times, q, qd, ints, floats, fk, fp, out):
             if ints[e, 2]:
                 p0, p1, p2, p3 = orientation(q[k], i)
                 rotate(p0, p1, p2, p3, value, turned)
-                value[:] = turned
-            out[e, k, 0:3] = value
+                value[0], value[1], value[2] = turned[0], turned[1], turned[2]
+            out[e, k, 0], out[e, k, 1], out[e, k, 2] = value[0], value[1], value[2]
             spatial_load(q[k], qd[k], times[k], ints[e : e + 1], floats[e : e + 1], fk, fp, Q, powers)
             out[e, k, 3] = block_power(qd[k], Q, i, 7)

@@ -76,7 +76,8 @@ def cut_structure(ints, bodies, k, nb):
     out[0] = band
     o = 1
     for part in (parent, joint, row_start, column_start, support[:entries], slot, row):
-        out[o : o + part.size] = part
+        for i in range(part.size):  # a loop, not a slice assignment (``loops._copy``)
+            out[o + i] = part[i]
         o += part.size
     return out
 

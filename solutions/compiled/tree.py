@@ -493,9 +493,11 @@ def _body(tree: TreeScene) -> list[str]:
     else:
         lines.append("        Dq, xiq = Dm, xi")
     return lines + [
-        "        thdd[:] = cut_accelerations("
+        "        solved = cut_accelerations("
         "matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, dims[7 : 7 + ncut], dims[7 + ncut + m : 7 + 3 * ncut + m], "
         f"numbers[0], numbers[1], mu, joints, {7 if spatial else 3}, structure)",
+        "        for i in range(k):  # loops, not slice assignments (``loops._copy``)",
+        "            thdd[i] = solved[i]",
         "    else:  # an open tree: the articulated-body algorithm, O(N)",
         f"        {equations}_articulated({articulated}, joints, thdd, body, joint)",
         "    if full:  # lambda of every row: the outputs",

@@ -1073,7 +1073,8 @@ def cut_accelerations(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, bodie
         return np.full(k, np.nan)
     dense[:] = 0.0
     _cut_rows(Dq, xiq, jac, psi, psit, gam, qd, rows, bodies, alpha, beta, ints, width, matrix, parts, w, c, dense)
-    y[:] = rhs
+    for i in range(k):  # loops, not slice assignments (``loops._copy``)
+        y[i] = rhs[i]
     tree_back(matrix, parent, y)  # L^-T r
     for a in range(mc):  # S's lower triangle within its band zeroed (all of it beyond BAND, for LAPACK)
         for b in range(max(0, a - p) if p <= BAND else 0, a + 1 if p <= BAND else mc):
@@ -1088,12 +1089,15 @@ def cut_accelerations(matrix, rhs, Dq, xiq, jac, psi, psit, gam, qd, rows, bodie
                 S[a, at[v]] += wa * w[v]
     if p <= BAND:
         band_solve(S, p, s)
-        mu[:] = s
+        for a in range(mc):
+            mu[a] = s[a]
     else:
         for a in range(mc):
             for b in range(a):
                 S[b, a] = S[a, b]
-        mu[:] = lu_solve(S, s)
+        x = lu_solve(S, s)
+        for a in range(mc):
+            mu[a] = x[a]
     for i in range(k):  # theta'' = L^-1 d^-1 (L^-T r - W mu)
         for u in range(counts[i], counts[i + 1]):
             y[i] -= w[u] * mu[at[u]]

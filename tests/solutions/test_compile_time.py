@@ -7,9 +7,14 @@ compiled in two processes.
 - The kernels called with constants: one version each (``kernels.typed``).
 - ``mbd compile`` (``precompile.GROUPS``): both tree modules in one process, where their kernels (``tree_kernels``,
   ``articulated``: not cached on disk) are compiled once, each group after the halves of the loops it imports.
+- No compiled function assigns an array into a slice (``loops._copy``): numba compiles the shape check's formatted
+  error message (strings) into every function that does.
 """
 
 from __future__ import annotations
+
+import ast
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -97,3 +102,60 @@ def test_the_kernels_called_with_a_constant_flag_or_body_are_compiled_once():
 
     for dispatcher in (kernels.augmented_solve, kernels._mass_solve, kernels._spatial_torque):
         assert len(dispatcher.nopython_signatures) == 1 and not dispatcher._can_compile
+
+
+_COMPILED = ("jit", "njit", "inlined", "_inline", "typed", "eager", "at_first_call")
+"""The decorators of the package's compiled functions (numba's and the modules' own names for them)."""
+
+
+def _array_slice_assignments(source: str, name: str, compiled_only: bool = True) -> list[str]:
+    """``name:line`` of every assignment in ``source``'s compiled functions (all of its functions if not
+    ``compiled_only``) whose target slices an array (``a[:]``, ``a[i:j]``, ``a[:, r]``) and whose value is not a
+    number: the assignments numba compiles with its formatted shape-mismatch message."""
+    found = []
+    for function in ast.walk(ast.parse(source)):
+        if not isinstance(function, ast.FunctionDef):
+            continue
+        decorators = {ast.unparse(d).split("(")[0] for d in function.decorator_list}
+        if compiled_only and not decorators & set(_COMPILED):
+            continue
+        for node in ast.walk(function):
+            if not isinstance(node, ast.Assign):
+                continue
+            targets = [
+                t for target in node.targets for t in (target.elts if isinstance(target, ast.Tuple) else [target])
+            ]
+            sliced = any(isinstance(t, ast.Subscript) and any(isinstance(i, ast.Slice) for i in ast.walk(t.slice))
+                         for t in targets)  # fmt: skip
+            values = node.value.elts if isinstance(node.value, ast.Tuple) else [node.value]
+            numbers = all(isinstance(v, ast.Constant) or ast.unparse(v) in ("np.nan", "np.inf") for v in values)
+            if sliced and not numbers:
+                found.append(f"{name}:{node.lineno}")
+    return found
+
+
+def test_no_compiled_function_assigns_an_array_into_a_slice():
+    """The compiled modules' functions and the generated modules copy arrays by loops (``loops._copy``), not by
+    slice assignments: numba compiles a slice assignment's shape check with a formatted error message (strings,
+    integers' text, a join), ~3 s of each process's first compilation and more LLVM work in every function with one
+    (``mbd compile`` 160 -> 148 s of CPU: call_cost.md, thirtieth session). Assigning a number (``x[:] = 0.0``) is
+    not one of them."""
+    from solutions import compiled
+    from solutions.compiled import codegen, projection, tree
+    from solutions.formulations import make_formulation
+    from solutions.generalized_forces import build_forces
+    from solutions.mass_matrix import mass_matrix
+
+    package = Path(compiled.__file__).parent
+    found = [
+        hit for path in sorted(package.glob("*.py")) for hit in _array_slice_assignments(path.read_text(), path.name)
+    ]
+    for model in ("course/models/slider_crank.yaml", "course/models/spatial_double_pendulum.yaml"):
+        system, _, _ = build_system(load_model(model))
+        M, forces = mass_matrix(system.model), build_forces(system.model)
+        for formulation, generate in (("baumgarte", codegen.generate), ("projection", projection.generate),
+                                      ("joint-coordinates", tree.generate)):  # fmt: skip
+            made = make_formulation(formulation, system, M, forces)
+            text = generate(compiled.plan(system, M, forces, formulation, made).scene)
+            found += _array_slice_assignments(text, f"{model} {formulation}", compiled_only=False)
+    assert not found

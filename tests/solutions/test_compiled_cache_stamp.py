@@ -58,5 +58,5 @@ def test_the_package_stamps_the_files_its_cached_functions_call():
     spatial = sources["spatial_history_kernels.py"]  # compiled by history_kernels' eager (cache=True)
     assert "from .kernels import" in spatial and "from .history_kernels import" in spatial and "eager" in spatial
     assert "cache=True" in sources["history_kernels.py"]
-    assert "from .kinematic_loop import" in sources["singular.py"] and "cache=True" in sources["singular.py"]
+    assert "from .lapack import" in sources["singular.py"] and "cache=True" in sources["singular.py"]
     assert "from ..rotation_matrices import" in sources["kernels.py"] and "cache=True" in sources["kernels.py"]
