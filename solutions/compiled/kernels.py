@@ -210,17 +210,10 @@ def _along(q, qd, i, j, six, siy, sjx, sjy, uix, uiy):
     """The scalar u_i^T d_ij with u_i = A_i u_i' fixed in body i (eq. 3.13), as ``joints.along_direction``:
     (value, Psi_qi row, Psi_qj row, gamma), gamma = u^T d phi_i'^2 - 2 phi_i' (B_i u_i')^T d'
     - u^T (A_i s_i' phi_i'^2 - A_j s_j' phi_j'^2)."""
-    xi, yi, phii = body_coordinates(q, i)
-    xj, yj, phij = body_coordinates(q, j)
-    vxi, vyi, wi = body_coordinates(qd, i)
-    vxj, vyj, wj = body_coordinates(qd, j)
-    aix, aiy, bix, biy = body_vectors(phii, six, siy)
-    ajx, ajy, bjx, bjy = body_vectors(phij, sjx, sjy)
+    (dx, dy), (ddx, ddy), (qx, qy), (bix, biy), (bjx, bjy) = point_vectors(q, qd, i, j, six, siy, sjx, sjy)
+    phii, wi = body_coordinates(q, i)[2], body_coordinates(qd, i)[2]
     ux, uy, wx, wy = body_vectors(phii, uix, uiy)
-    dx, dy = xj + ajx - xi - aix, yj + ajy - yi - aiy
     value = ux * dx + uy * dy
-    ddx, ddy = vxj + bjx * wj - vxi - bix * wi, vyj + bjy * wj - vyi - biy * wi
-    qx, qy = aix * wi * wi - ajx * wj * wj, aiy * wi * wi - ajy * wj * wj
     gamma = value * wi * wi - 2.0 * wi * (wx * ddx + wy * ddy) - (ux * qx + uy * qy)
     row_i2 = wx * dx + wy * dy - (ux * bix + uy * biy)
     return value, -ux, -uy, row_i2, ux, uy, ux * bjx + uy * bjy, gamma
