@@ -377,13 +377,8 @@ def planar_distance(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
     ints (i, j, row, function L), floats (s_i', s_j')."""
     for e in range(ints.shape[0]):
         i, j, row, f = ints[e, 0], ints[e, 1], ints[e, 2], ints[e, 3]
-        xi, yi, phii = body_coordinates(q, i)
-        xj, yj, phij = body_coordinates(q, j)
-        vxi, vyi, wi = body_coordinates(qd, i)
-        vxj, vyj, wj = body_coordinates(qd, j)
-        aix, aiy, bix, biy = body_vectors(phii, floats[e, 0], floats[e, 1])
-        ajx, ajy, bjx, bjy = body_vectors(phij, floats[e, 2], floats[e, 3])
-        dx, dy = xj + ajx - xi - aix, yj + ajy - yi - aiy
+        fl = floats[e]
+        (dx, dy), (ddx, ddy), (qx, qy), (bix, biy), (bjx, bjy) = point_vectors(q, qd, i, j, fl[0], fl[1], fl[2], fl[3])
         L, L1, L2 = function(fk, fp, f, t, 0), function(fk, fp, f, t, 1), function(fk, fp, f, t, 2)
         psi[row] = 0.5 * (dx * dx + dy * dy - L * L)
         _jac_add(jac, row, i, 3, 0, -dx)
@@ -393,8 +388,6 @@ def planar_distance(q, qd, t, ints, floats, fk, fp, psi, jac, psit, gam):
         _jac_add(jac, row, j, 3, 1, dy)
         _jac_add(jac, row, j, 3, 2, dx * bjx + dy * bjy)
         psit[row] = -L * L1
-        ddx, ddy = vxj + bjx * wj - vxi - bix * wi, vyj + bjy * wj - vyi - biy * wi
-        qx, qy = aix * wi * wi - ajx * wj * wj, aiy * wi * wi - ajy * wj * wj
         gam[row] = -(ddx * ddx + ddy * ddy) - (dx * qx + dy * qy) + L1 * L1 + L * L2
 
 
@@ -414,15 +407,9 @@ def planar_tsda(q, qd, t, ints, floats, fk, fp, Q, power):
     ints (i, j, actuator function), floats (s_i', s_j', k, c, l0)."""
     for e in range(ints.shape[0]):
         i, j, f = ints[e, 0], ints[e, 1], ints[e, 2]
-        xi, yi, phii = body_coordinates(q, i)
-        xj, yj, phij = body_coordinates(q, j)
-        vxi, vyi, wi = body_coordinates(qd, i)
-        vxj, vyj, wj = body_coordinates(qd, j)
-        aix, aiy, bix, biy = body_vectors(phii, floats[e, 0], floats[e, 1])
-        ajx, ajy, bjx, bjy = body_vectors(phij, floats[e, 2], floats[e, 3])
-        dx, dy = xj + ajx - xi - aix, yj + ajy - yi - aiy
+        fl = floats[e]
+        (dx, dy), (ddx, ddy), _, (bix, biy), (bjx, bjy) = point_vectors(q, qd, i, j, fl[0], fl[1], fl[2], fl[3])
         length = math.sqrt(dx * dx + dy * dy)
-        ddx, ddy = vxj + bjx * wj - vxi - bix * wi, vyj + bjy * wj - vyi - biy * wi
         velocity = (dx * ddx + dy * ddy) / length
         actuator = function(fk, fp, f, t, 0)
         tension = floats[e, 4] * (length - floats[e, 6]) + floats[e, 5] * velocity + actuator
